@@ -1,0 +1,113 @@
+#include "plant/arm2.hpp"
+
+#include <cmath>
+
+namespace lagrange {
+
+PlanarChain Arm2::ToChain() const {
+  PlanarChain chain;
+  chain.g = p_.g;
+  chain.joints.push_back({JointType::kRevolute, {0.0, 0.0}, 0.0});
+  chain.joints.push_back({JointType::kRevolute, {p_.L1, 0.0}, 0.0});
+  chain.bodies.push_back({p_.m1, {0.5 * p_.L1, 0.0}, p_.m1 * p_.L1 * p_.L1 / 12.0});
+  chain.bodies.push_back({p_.m2, {0.5 * p_.L2, 0.0}, p_.m2 * p_.L2 * p_.L2 / 12.0});
+  return chain;
+}
+
+Arm2ClosedForm::Arm2ClosedForm(Arm2Params p)
+    : Dynamics({JointType::kRevolute, JointType::kRevolute}),
+      p_(p),
+      a_(p.m1 * p.L1 * p.L1 / 3.0 + p.m2 * p.L1 * p.L1 + p.m2 * p.L2 * p.L2 / 3.0),
+      b_(0.5 * p.m2 * p.L1 * p.L2),
+      d_(p.m2 * p.L2 * p.L2 / 3.0),
+      g1_((0.5 * p.m1 * p.L1 + p.m2 * p.L1) * p.g),
+      g2_(0.5 * p.m2 * p.L2 * p.g) {}
+
+void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) {
+  const double bc = b_ * std::cos(q[1]);
+  M(0, 0) = a_ + 2.0 * bc;
+  M(0, 1) = d_ + bc;
+  M(1, 0) = d_ + bc;
+  M(1, 1) = d_;
+}
+
+void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) {
+  const double h = -b_ * std::sin(q[1]);
+  C(0, 0) = h * qd[1];
+  C(0, 1) = h * (qd[0] + qd[1]);
+  C(1, 0) = -h * qd[0];
+  C(1, 1) = 0.0;
+}
+
+void Arm2ClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) {
+  const double h = -b_ * std::sin(q[1]);
+  c[0] = h * (2.0 * qd[0] + qd[1]) * qd[1];
+  c[1] = -h * qd[0] * qd[0];
+}
+
+void Arm2ClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) {
+  const double c12 = std::cos(q[0] + q[1]);
+  G[0] = g1_ * std::cos(q[0]) + g2_ * c12;
+  G[1] = g2_ * c12;
+}
+
+void Arm2ClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) {
+  dTdq[0] = 0.0;
+  dTdq[1] = -b_ * std::sin(q[1]) * (qd[0] * qd[0] + qd[0] * qd[1]);
+}
+
+double Arm2ClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) {
+  const double bc = b_ * std::cos(q[1]);
+  return 0.5 * (a_ + 2.0 * bc) * qd[0] * qd[0] + (d_ + bc) * qd[0] * qd[1] + 0.5 * d_ * qd[1] * qd[1];
+}
+
+double Arm2ClosedForm::ComputePotentialEnergy(ConstVecRef q) {
+  const double s1 = std::sin(q[0]);
+  return p_.g * (0.5 * p_.m1 * p_.L1 * s1 + p_.m2 * (p_.L1 * s1 + 0.5 * p_.L2 * std::sin(q[0] + q[1])));
+}
+
+void Arm2ClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                            DynamicsTerms terms, VecRef tau) {
+  const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
+  const double bc = b_ * c2;
+  tau[0] = (a_ + 2.0 * bc) * qdd[0] + (d_ + bc) * qdd[1];
+  tau[1] = (d_ + bc) * qdd[0] + d_ * qdd[1];
+  if (terms.coriolis) {
+    CountCoriolis();
+    const double h = -b_ * s2;
+    tau[0] += h * (2.0 * qd[0] + qd[1]) * qd[1];
+    tau[1] -= h * qd[0] * qd[0];
+  }
+  if (terms.gravity) {
+    CountGravity();
+    const double c12 = std::cos(q[0] + q[1]);
+    tau[0] += g1_ * std::cos(q[0]) + g2_ * c12;
+    tau[1] += g2_ * c12;
+  }
+}
+
+void Arm2ClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                            DynamicsTerms terms, VecRef qdd) {
+  const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
+  double r0 = tau[0], r1 = tau[1];
+  if (terms.coriolis) {
+    CountCoriolis();
+    const double h = -b_ * s2;
+    r0 -= h * (2.0 * qd[0] + qd[1]) * qd[1];
+    r1 += h * qd[0] * qd[0];
+  }
+  if (terms.gravity) {
+    CountGravity();
+    const double c12 = std::cos(q[0] + q[1]);
+    r0 -= g1_ * std::cos(q[0]) + g2_ * c12;
+    r1 -= g2_ * c12;
+  }
+  // 2x2 solve by the explicit inverse; det = (a + 2b c2) d − (d + b c2)² > 0.
+  const double bc = b_ * c2;
+  const double m00 = a_ + 2.0 * bc, m01 = d_ + bc;
+  const double inv_det = 1.0 / (m00 * d_ - m01 * m01);
+  qdd[0] = (d_ * r0 - m01 * r1) * inv_det;
+  qdd[1] = (m00 * r1 - m01 * r0) * inv_det;
+}
+
+}  // namespace lagrange

@@ -1,0 +1,83 @@
+#pragma once
+// The 2-DOF planar arm: q1 from the +x axis, q2 relative to link 1, both
+// counter-clockwise; gravity along −y; uniform rods (centre of mass at L/2,
+// inertia mL²/12 about it).
+//   p_c1 = L1/2 (cos q1, sin q1),  p_c2 = L1 (cos q1, sin q1) + L2/2 (cos q12, sin q12)
+//   T = ½ m1|ṗ_c1|² + ½ (m1 L1²/12) q̇1² + ½ m2|ṗ_c2|² + ½ (m2 L2²/12)(q̇1 + q̇2)²
+//   V = m1 g y_c1 + m2 g y_c2   (zero at the shoulder's height)
+
+#include <span>
+#include <vector>
+
+#include "plant/dynamics.hpp"
+#include "plant/planar_chain.hpp"
+
+namespace lagrange {
+
+struct Arm2Params {
+  double m1 = 1.0;  // kg
+  double m2 = 0.8;  // kg
+  double L1 = 0.6;  // m
+  double L2 = 0.5;  // m
+  double g = kStandardGravity;
+};
+
+class Arm2 {
+ public:
+  explicit Arm2(Arm2Params p) : p_(p) {}
+  const Arm2Params& params() const { return p_; }
+  std::vector<JointType> joint_types() const { return {JointType::kRevolute, JointType::kRevolute}; }
+
+  template <class S>
+  S KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
+    using std::cos;
+    using std::sin;
+    const S q12 = q[0] + q[1];
+    const S w12 = qd[0] + qd[1];
+    const double h1 = 0.5 * p_.L1, h2 = 0.5 * p_.L2;
+    const S x1d = -h1 * sin(q[0]) * qd[0];
+    const S y1d = h1 * cos(q[0]) * qd[0];
+    const S x2d = -p_.L1 * sin(q[0]) * qd[0] - h2 * sin(q12) * w12;
+    const S y2d = p_.L1 * cos(q[0]) * qd[0] + h2 * cos(q12) * w12;
+    return 0.5 * p_.m1 * (x1d * x1d + y1d * y1d) + 0.5 * (p_.m1 * p_.L1 * p_.L1 / 12.0) * qd[0] * qd[0] +
+           0.5 * p_.m2 * (x2d * x2d + y2d * y2d) + 0.5 * (p_.m2 * p_.L2 * p_.L2 / 12.0) * w12 * w12;
+  }
+  template <class S>
+  S PotentialEnergy(std::span<const S> q) const {
+    using std::sin;
+    const S y1 = 0.5 * p_.L1 * sin(q[0]);
+    const S y2 = p_.L1 * sin(q[0]) + 0.5 * p_.L2 * sin(q[0] + q[1]);
+    return p_.m1 * p_.g * y1 + p_.m2 * p_.g * y2;
+  }
+
+  PlanarChain ToChain() const;
+
+ private:
+  Arm2Params p_;
+};
+
+// M = [[a + 2b cos q2, d + b cos q2], [d + b cos q2, d]],  a = m1L1²/3 + m2L1² + m2L2²/3,
+// b = m2 L1 L2 / 2, d = m2 L2²/3;  C = h [[q̇2, q̇1 + q̇2], [−q̇1, 0]], h = −b sin q2;
+// G = [g1 cos q1 + g2 cos q12, g2 cos q12], g1 = (m1 L1/2 + m2 L1) g, g2 = m2 L2 g / 2.
+class Arm2ClosedForm final : public Dynamics {
+ public:
+  explicit Arm2ClosedForm(Arm2Params p);
+  Method method() const override { return Method::kClosedForm; }
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
+  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                              VecRef tau) override;
+  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                              VecRef qdd) override;
+
+ private:
+  Arm2Params p_;
+  double a_, b_, d_, g1_, g2_;
+};
+
+}  // namespace lagrange

@@ -1,0 +1,65 @@
+#include "plant/dynamics.hpp"
+
+#include <utility>
+
+namespace lagrange {
+
+std::string_view ToString(Method method) {
+  switch (method) {
+    case Method::kClosedForm: return "closed-form";
+    case Method::kLagrangian: return "lagrangian";
+    case Method::kRecursive: return "recursive";
+  }
+  return "?";
+}
+
+std::optional<Method> ParseMethod(std::string_view name) {
+  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    if (ToString(m) == name) return m;
+  }
+  return std::nullopt;
+}
+
+Dynamics::Dynamics(std::vector<JointType> joints)
+    : joints_(std::move(joints)),
+      M_(num_dofs(), num_dofs()),
+      term_(num_dofs()),
+      llt_(num_dofs()) {}
+
+void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                      DynamicsTerms terms, VecRef tau) {
+  ComputeMassMatrix(q, M_);
+  tau.noalias() = M_ * qdd;
+  if (terms.coriolis) {
+    CountCoriolis();
+    ComputeCoriolisForce(q, qd, term_);
+    tau += term_;
+  }
+  if (terms.gravity) {
+    CountGravity();
+    ComputeGravityForce(q, term_);
+    tau += term_;
+  }
+}
+
+void Dynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                      DynamicsTerms terms, VecRef qdd) {
+  qdd = tau;
+  if (terms.coriolis) {
+    CountCoriolis();
+    ComputeCoriolisForce(q, qd, term_);
+    qdd -= term_;
+  }
+  if (terms.gravity) {
+    CountGravity();
+    ComputeGravityForce(q, term_);
+    qdd -= term_;
+  }
+  ComputeMassMatrix(q, M_);
+  llt_.compute(M_);
+  llt_.solveInPlace(qdd);
+}
+
+double Power(ConstVecRef qd, ConstVecRef tau) { return qd.dot(tau); }
+
+}  // namespace lagrange

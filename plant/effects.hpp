@@ -1,0 +1,94 @@
+#pragma once
+// Effects a scene switches on or off. An effect that is off is never
+// evaluated: each stage returns at its top when off and counts its runs.
+//
+// The generalized force on the joints besides gravity and Coriolis terms:
+//   tau = sat(tau_cmd) + Σ pushes(t) − b∘qd − Fc∘tanh(qd/v_s) + tau_lim(q, qd)
+//
+//   sat        actuator saturation: clamp(tau_cmd, −tau_max, tau_max)
+//   pushes     external generalized force: tau_push on [start, start + duration)
+//   b          viscous joint damping, N·m·s/rad (N·s/m for prismatic joints)
+//   Fc, v_s    Coulomb friction magnitude (N·m or N) regularised by tanh with
+//              velocity scale v_s (rad/s or m/s): 76 % of Fc at |qd| = v_s,
+//              99.9 % at 4 v_s; smooth, so every integrator can take it
+//   tau_lim    joint limits as a stiff one-sided spring-damper (not a hard
+//              stop): past the upper limit, tau = min(0, −k (q − upper) − d qd),
+//              past the lower, tau = max(0, −k (q − lower) − d qd); it pushes out
+//              and never pulls the joint into the stop
+
+#include <optional>
+#include <vector>
+
+#include "plant/types.hpp"
+
+namespace lagrange {
+
+struct CoulombFriction {
+  VectorXd coulomb;              // Fc (n), >= 0
+  double velocity_scale = 0.01;  // v_s, > 0
+};
+
+struct JointLimits {
+  VectorXd lower;              // (n), rad or m; -inf for none
+  VectorXd upper;              // (n), rad or m; +inf for none
+  double stiffness = 1.0e4;    // k, N·m/rad (N/m), > 0
+  double damping = 50.0;       // d, N·m·s/rad (N·s/m), >= 0
+};
+
+struct Push {
+  double start = 0.0;     // s
+  double duration = 0.0;  // s, > 0
+  VectorXd tau;           // (n), N·m or N
+};
+
+struct EffectsConfig {
+  bool gravity = true;
+  bool coriolis = true;
+  std::optional<VectorXd> damping;       // b (n), >= 0
+  std::optional<CoulombFriction> friction;
+  std::optional<JointLimits> limits;
+  std::optional<VectorXd> saturation;    // tau_max (n), > 0
+  std::vector<Push> disturbance;         // empty: off
+
+  DynamicsTerms terms() const { return {gravity, coriolis}; }
+};
+
+// A problem with one effect key: `message` reads "expected ..., got ...".
+struct EffectsError {
+  std::string key;
+  std::string message;
+};
+
+// Checks sizes against n and every range above.
+std::optional<EffectsError> ValidateEffects(const EffectsConfig& config, int n);
+
+class Effects {
+ public:
+  Effects(EffectsConfig config, int n);
+
+  const EffectsConfig& config() const { return config_; }
+  DynamicsTerms terms() const { return config_.terms(); }
+
+  // (t, q, qd, tau_cmd) => tau, the sum above.
+  void ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau);
+
+  // The stages, each adding its term to tau (saturation writes it).
+  void Saturate(ConstVecRef tau_cmd, VecRef tau);
+  void AddDisturbance(double t, VecRef tau);
+  void AddDamping(ConstVecRef qd, VecRef tau);
+  void AddFriction(ConstVecRef qd, VecRef tau);
+  void AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau);
+
+  // Power taken out by damping, friction and the limits' dampers, W (>= 0).
+  double DissipatedPower(ConstVecRef q, ConstVecRef qd) const;
+  // Energy stored in the limit springs, J.
+  double LimitPotentialEnergy(ConstVecRef q) const;
+
+  const StageCounts& counts() const { return counts_; }
+
+ private:
+  EffectsConfig config_;
+  StageCounts counts_;
+};
+
+}  // namespace lagrange

@@ -1,0 +1,317 @@
+#include "plant/integrators.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace lagrange {
+namespace {
+
+constexpr IntegratorType kAllIntegrators[] = {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                                              IntegratorType::kRk4, IntegratorType::kDormandPrince,
+                                              IntegratorType::kVariational};
+
+class ExplicitEuler final : public Integrator {
+ public:
+  ExplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
+  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    m.ComputeAcceleration(t, q, qd, tau, qdd_);
+    q += h * qd;
+    qd += h * qdd_;
+    ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
+    return true;
+  }
+
+ private:
+  VectorXd qdd_;
+};
+
+class SemiImplicitEuler final : public Integrator {
+ public:
+  SemiImplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
+  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    m.ComputeAcceleration(t, q, qd, tau, qdd_);
+    qd += h * qdd_;
+    q += h * qd;
+    ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
+    return true;
+  }
+
+ private:
+  VectorXd qdd_;
+};
+
+class Rk4 final : public Integrator {
+ public:
+  Rk4(const IntegratorConfig& c, int n)
+      : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
+
+  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    // Stage 1 at (q, qd).
+    m.ComputeAcceleration(t, q, qd, tau, kqd_);
+    dq_ = qd;
+    dqd_ = kqd_;
+    // Stages 2 and 3 at the midpoint, stage 4 at the end.
+    kq_ = qd;
+    for (int stage = 2; stage <= 4; ++stage) {
+      const double a = stage == 4 ? h : 0.5 * h;
+      const double w = stage == 4 ? 1.0 : 2.0;
+      q1_ = q + a * kq_;
+      qd1_ = qd + a * kqd_;
+      m.ComputeAcceleration(t + a, q1_, qd1_, tau, kqd_);
+      kq_ = qd1_;
+      dq_ += w * kq_;
+      dqd_ += w * kqd_;
+    }
+    q += (h / 6.0) * dq_;
+    qd += (h / 6.0) * dqd_;
+    ++stats_.steps; ++stats_.accepted; stats_.evaluations += 4;
+    return true;
+  }
+
+ private:
+  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;
+};
+
+// Dormand–Prince 5(4) on y = (q, qd), f(y) = (qd, qdd).
+class DormandPrince final : public Integrator {
+ public:
+  DormandPrince(const IntegratorConfig& c, int n)
+      : Integrator(c, n), y_(2 * n), y1_(2 * n), yt_(2 * n), err_(2 * n) {
+    for (auto& k : k_) k.resize(2 * n);
+  }
+
+  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    ++stats_.steps;
+    y_.head(n_) = q;
+    y_.tail(n_) = qd;
+    const double t_end = t + h;
+    double dt = h_next_ > 0.0 ? h_next_ : h;  // proposed step, carried across calls
+    Derivative(m, t, y_, tau, k_[0]);
+    bool ok = true;
+    for (int taken = 0; t < t_end; ++taken) {
+      if (taken >= config_.max_steps || dt <= 1e-14 * std::max(1.0, std::abs(t))) {
+        ok = false;
+        break;
+      }
+      const double remaining = t_end - t;
+      const bool last = dt >= remaining * (1.0 - 1e-12);
+      const double step = last ? remaining : dt;
+      const double err = TryStep(m, t, step, tau);
+      if (!std::isfinite(err)) {
+        ok = false;
+        break;
+      }
+      const double factor = err == 0.0 ? 5.0 : 0.9 * std::pow(err, -0.2);
+      if (err <= 1.0) {
+        ++stats_.accepted;
+        t = last ? t_end : t + step;
+        y_ = y1_;
+        k_[0] = k_[6];  // first same as last
+        // A step cut short to land on t_end does not shrink the next proposal.
+        dt = std::max(step < dt ? dt : 0.0, step * std::clamp(factor, 0.2, 5.0));
+      } else {
+        ++stats_.rejected;
+        dt = step * std::clamp(factor, 0.2, 1.0);
+      }
+    }
+    h_next_ = dt;
+    if (!ok) ++stats_.failures;
+    q = y_.head(n_);
+    qd = y_.tail(n_);
+    return ok;
+  }
+
+ private:
+  void Derivative(PlantModel& m, double t, const VectorXd& y, ConstVecRef tau, VectorXd& dy) {
+    dy.head(n_) = y.tail(n_);
+    m.ComputeAcceleration(t, y.head(n_), y.tail(n_), tau, dy.tail(n_));
+    ++stats_.evaluations;
+  }
+
+  // One trial step from (t, y_) with k_[0] = f(y_); returns the scaled error norm
+  // and leaves the fifth-order solution in y1_ and f(y1_) in k_[6].
+  double TryStep(PlantModel& m, double t, double dt, ConstVecRef tau) {
+    static constexpr double c[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+    static constexpr double a[7][6] = {
+        {},
+        {1.0 / 5},
+        {3.0 / 40, 9.0 / 40},
+        {44.0 / 45, -56.0 / 15, 32.0 / 9},
+        {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
+        {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
+        {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84},
+    };
+    // Fifth-order minus embedded fourth-order weights.
+    static constexpr double e[7] = {71.0 / 57600, 0.0, -71.0 / 16695, 71.0 / 1920, -17253.0 / 339200,
+                                    22.0 / 525, -1.0 / 40};
+    for (int s = 1; s < 7; ++s) {
+      yt_ = y_;
+      for (int j = 0; j < s; ++j) {
+        if (a[s][j] != 0.0) yt_ += (dt * a[s][j]) * k_[j];
+      }
+      Derivative(m, t + c[s] * dt, yt_, tau, k_[s]);
+      if (s == 6) y1_ = yt_;  // the last stage's point is the fifth-order solution
+    }
+    err_.setZero();
+    for (int j = 0; j < 7; ++j) {
+      if (e[j] != 0.0) err_ += (dt * e[j]) * k_[j];
+    }
+    double sum = 0.0;
+    for (int i = 0; i < 2 * n_; ++i) {
+      const double scale = config_.atol + config_.rtol * std::max(std::abs(y_[i]), std::abs(y1_[i]));
+      const double r = err_[i] / scale;
+      sum += r * r;
+    }
+    return std::sqrt(sum / (2 * n_));
+  }
+
+  VectorXd y_, y1_, yt_, err_;
+  VectorXd k_[7];
+  double h_next_ = 0.0;
+};
+
+// Midpoint variational integrator; see the header for the equations.
+class Variational final : public Integrator {
+ public:
+  Variational(const IntegratorConfig& c, int n)
+      : Integrator(c, n), p0_(n), q1_(n), qm_(n), v_(n), x_(n), r_(n), r_trial_(n), q_trial_(n), dq_(n),
+        tmp_(n), M_(n, n), J_(n, n), lu_(n), llt_(n) {}
+
+  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    ++stats_.steps;
+    ++stats_.accepted;
+    Dynamics& dyn = m.dynamics();
+    // p0 = M(q0) qd0.
+    dyn.ComputeMassMatrix(q, M_);
+    p0_.noalias() = M_ * qd;
+    // Predictor: q1 = q0 + h qd0 + h²/2 qdd0.
+    m.ComputeAcceleration(t, q, qd, tau, tmp_);
+    ++stats_.evaluations;
+    q1_ = q + h * qd + (0.5 * h * h) * tmp_;
+
+    bool converged = false;
+    bool jacobian_fresh = false;
+    Residual(m, t, h, tau, q, q1_, r_);
+    for (int it = 0; it < config_.newton_max_iterations; ++it) {
+      if (it == 0 || (it % 4 == 0 && !jacobian_fresh)) {
+        Jacobian(m, t, h, tau, q);
+        jacobian_fresh = true;
+      } else {
+        jacobian_fresh = false;
+      }
+      dq_ = lu_.solve(r_);
+      q1_ -= dq_;
+      ++stats_.newton_iterations;
+      Residual(m, t, h, tau, q, q1_, r_);
+      if (!dq_.allFinite()) break;
+      if (dq_.lpNorm<Eigen::Infinity>() <= config_.newton_tol * (1.0 + q1_.lpNorm<Eigen::Infinity>())) {
+        converged = true;
+        break;
+      }
+    }
+    // p1 = p0 + h (∂T/∂q − G + F) at the midpoint; x_ holds that bracket from the last residual.
+    p0_ += h * x_;
+    q = q1_;
+    dyn.ComputeMassMatrix(q, M_);
+    llt_.compute(M_);
+    qd = llt_.solve(p0_);
+    if (!converged) ++stats_.failures;
+    return converged;
+  }
+
+ private:
+  // r(q1) = p0 − M(qm) v + h/2 (∂T/∂q(qm, v) − G(qm) + F(tm, qm, v)); leaves the bracket in x_.
+  void Residual(PlantModel& m, double t, double h, ConstVecRef tau, ConstVecRef q0, const VectorXd& q1,
+                VectorXd& r) {
+    Dynamics& dyn = m.dynamics();
+    qm_ = 0.5 * (q0 + q1);
+    v_ = (q1 - q0) / h;
+    dyn.ComputeKineticEnergyGradient(qm_, v_, x_);
+    if (m.effects().config().gravity) {
+      dyn.ComputeGravityForce(qm_, tmp_);
+      x_ -= tmp_;
+    }
+    m.ComputeGeneralizedForce(t + 0.5 * h, qm_, v_, tau, tmp_);
+    x_ += tmp_;
+    dyn.ComputeMassMatrix(qm_, M_);
+    r = p0_;
+    r.noalias() -= M_ * v_;
+    r += (0.5 * h) * x_;
+    ++stats_.evaluations;
+  }
+
+  // J = ∂r/∂q1 by forward differences at q1_, factorised into lu_.
+  void Jacobian(PlantModel& m, double t, double h, ConstVecRef tau, ConstVecRef q0) {
+    for (int j = 0; j < n_; ++j) {
+      const double delta = 1e-7 * std::max(1.0, std::abs(q1_[j]));
+      q_trial_ = q1_;
+      q_trial_[j] += delta;
+      Residual(m, t, h, tau, q0, q_trial_, r_trial_);
+      J_.col(j) = (r_trial_ - r_) / delta;
+    }
+    // Restore the residual's side output x_ for q1_.
+    Residual(m, t, h, tau, q0, q1_, r_);
+    lu_.compute(J_);
+  }
+
+  VectorXd p0_, q1_, qm_, v_, x_, r_, r_trial_, q_trial_, dq_, tmp_;
+  MatrixXd M_, J_;
+  Eigen::PartialPivLU<MatrixXd> lu_;
+  Eigen::LLT<MatrixXd> llt_;
+};
+
+}  // namespace
+
+std::string_view ToString(IntegratorType type) {
+  switch (type) {
+    case IntegratorType::kExplicitEuler: return "explicit-euler";
+    case IntegratorType::kSemiImplicitEuler: return "semi-implicit-euler";
+    case IntegratorType::kRk4: return "rk4";
+    case IntegratorType::kDormandPrince: return "dopri5";
+    case IntegratorType::kVariational: return "variational";
+  }
+  return "?";
+}
+
+std::optional<IntegratorType> ParseIntegratorType(std::string_view name) {
+  for (IntegratorType t : kAllIntegrators) {
+    if (ToString(t) == name) return t;
+  }
+  return std::nullopt;
+}
+
+std::string IntegratorTypeNames() {
+  std::string names;
+  for (IntegratorType t : kAllIntegrators) {
+    if (!names.empty()) names += '|';
+    names += ToString(t);
+  }
+  return names;
+}
+
+bool Integrator::Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
+  const double h = dt / config_.substeps;
+  bool ok = true;
+  for (int i = 0; i < config_.substeps; ++i) ok = Step(model, t + i * h, h, tau_cmd, q, qd) && ok;
+  return ok;
+}
+
+std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {
+  if (c.substeps < 1) throw std::invalid_argument("substeps: expected a whole number >= 1");
+  if (!(c.rtol > 0.0) || !(c.atol > 0.0)) throw std::invalid_argument("rtol, atol: expected positive numbers");
+  if (c.max_steps < 1 || c.newton_max_iterations < 1 || !(c.newton_tol > 0.0)) {
+    throw std::invalid_argument("max_steps, newton_max_iterations, newton_tol: expected positive values");
+  }
+  switch (c.type) {
+    case IntegratorType::kExplicitEuler: return std::make_unique<ExplicitEuler>(c, n);
+    case IntegratorType::kSemiImplicitEuler: return std::make_unique<SemiImplicitEuler>(c, n);
+    case IntegratorType::kRk4: return std::make_unique<Rk4>(c, n);
+    case IntegratorType::kDormandPrince: return std::make_unique<DormandPrince>(c, n);
+    case IntegratorType::kVariational: return std::make_unique<Variational>(c, n);
+  }
+  throw std::invalid_argument("unknown integrator");
+}
+
+}  // namespace lagrange

@@ -1,0 +1,93 @@
+#pragma once
+// Time integrators for PlantModel. Each advances (q, qd) over one interval h
+// with the commanded generalized force tau_cmd held constant (zero-order hold
+// from the controller), and may split a tick into equal sub-steps.
+//
+//   explicit Euler       q⁺ = q + h qd,  qd⁺ = qd + h qdd(q, qd)              order 1
+//   semi-implicit Euler  qd⁺ = qd + h qdd(q, qd),  q⁺ = q + h qd⁺            order 1
+//   RK4                  classical fourth order                              order 4
+//   Dormand–Prince 5(4)  adaptive, error per component below
+//                        atol + rtol·|y|, FSAL, statistics                   order 5
+//   variational          midpoint discrete Lagrangian
+//                        L_d(q0, q1) = h L((q0 + q1)/2, (q1 − q0)/h); the forced
+//                        discrete Euler–Lagrange equations in momentum form
+//                          p0 + D1 L_d(q0, q1) + h/2 F = 0,  p1 = D2 L_d(q0, q1) + h/2 F
+//                        with p = M(q) qd, F the effects' force at the midpoint,
+//                        solved for q1 by Newton's method.                  order 2
+//                        Symplectic in the true momenta p, so the energy error
+//                        of a conservative system stays bounded; semi-implicit
+//                        Euler on (q, qd) is not symplectic once M depends on q.
+//                        It integrates the full Lagrangian: Coriolis terms on.
+//
+// Every buffer is allocated when the integrator is made; Step allocates nothing.
+
+#include <Eigen/LU>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string_view>
+
+#include "plant/plant_model.hpp"
+
+namespace lagrange {
+
+enum class IntegratorType : std::uint8_t {
+  kExplicitEuler,
+  kSemiImplicitEuler,
+  kRk4,
+  kDormandPrince,
+  kVariational,
+};
+
+std::string_view ToString(IntegratorType type);
+std::optional<IntegratorType> ParseIntegratorType(std::string_view name);
+// "explicit-euler|semi-implicit-euler|rk4|dopri5|variational"
+std::string IntegratorTypeNames();
+
+struct IntegratorConfig {
+  IntegratorType type = IntegratorType::kRk4;
+  int substeps = 1;            // equal sub-steps per call of Advance, >= 1
+  double rtol = 1e-8;          // Dormand–Prince relative tolerance
+  double atol = 1e-10;         // Dormand–Prince absolute tolerance
+  int max_steps = 100000;      // Dormand–Prince internal steps per Step call
+  double newton_tol = 1e-13;   // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞)
+  int newton_max_iterations = 30;
+};
+
+struct IntegratorStats {
+  std::int64_t steps = 0;         // Step calls
+  std::int64_t accepted = 0;      // internal steps accepted (adaptive), = steps otherwise
+  std::int64_t rejected = 0;      // internal steps rejected (adaptive)
+  std::int64_t evaluations = 0;   // acceleration (or residual) evaluations
+  std::int64_t newton_iterations = 0;
+  std::int64_t failures = 0;      // steps that could not meet their tolerance
+};
+
+class Integrator {
+ public:
+  Integrator(const IntegratorConfig& config, int n) : config_(config), n_(n) {}
+  virtual ~Integrator() = default;
+  Integrator(const Integrator&) = delete;
+  Integrator& operator=(const Integrator&) = delete;
+
+  IntegratorType type() const { return config_.type; }
+  const IntegratorConfig& config() const { return config_; }
+  const IntegratorStats& stats() const { return stats_; }
+
+  // (t, h, q, qd, tau_cmd) => (q, qd) at t + h. False when the step failed its
+  // tolerance (the state is then the best available, and may be non-finite).
+  virtual bool Step(PlantModel& model, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd) = 0;
+
+  // One tick of length dt in config().substeps equal sub-steps.
+  bool Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd);
+
+ protected:
+  IntegratorConfig config_;
+  int n_;
+  IntegratorStats stats_;
+};
+
+// Throws std::invalid_argument for a bad config (substeps < 1, tolerances <= 0).
+std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& config, int n);
+
+}  // namespace lagrange

@@ -1,0 +1,77 @@
+#pragma once
+// Pendulum: one revolute joint, θ = 0 hanging straight down, counter-clockwise
+// positive. A point mass m at distance L, or a uniform rod of mass m and
+// length L (centre of mass at L/2, inertia mL²/12 about it).
+//   T = ½ m |ṗ_c|² + ½ I_c θ̇²,  p_c = l_c (sin θ, −cos θ)
+//   V = −m g l_c cos θ          (zero at the pivot's height)
+
+#include <numbers>
+#include <span>
+#include <vector>
+
+#include "plant/dynamics.hpp"
+#include "plant/planar_chain.hpp"
+
+namespace lagrange {
+
+enum class PendulumBody : std::uint8_t { kPointMass, kRod };
+
+struct PendulumParams {
+  double m = 1.0;  // kg
+  double L = 1.0;  // m
+  PendulumBody body = PendulumBody::kPointMass;
+  double g = kStandardGravity;
+
+  double com() const { return body == PendulumBody::kRod ? 0.5 * L : L; }            // m
+  double com_inertia() const { return body == PendulumBody::kRod ? m * L * L / 12.0 : 0.0; }
+  double pivot_inertia() const { return m * com() * com() + com_inertia(); }        // kg·m²
+};
+
+class Pendulum {
+ public:
+  explicit Pendulum(PendulumParams p) : p_(p) {}
+  const PendulumParams& params() const { return p_; }
+  std::vector<JointType> joint_types() const { return {JointType::kRevolute}; }
+
+  template <class S>
+  S KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
+    using std::cos;
+    using std::sin;
+    const double l = p_.com();
+    const S xd = l * cos(q[0]) * qd[0];
+    const S yd = l * sin(q[0]) * qd[0];
+    return 0.5 * p_.m * (xd * xd + yd * yd) + 0.5 * p_.com_inertia() * qd[0] * qd[0];
+  }
+  template <class S>
+  S PotentialEnergy(std::span<const S> q) const {
+    using std::cos;
+    return -(p_.m * p_.g * p_.com()) * cos(q[0]);
+  }
+
+  // The same pendulum as a one-joint chain whose link points along −y at θ = 0.
+  PlanarChain ToChain() const;
+
+ private:
+  PendulumParams p_;
+};
+
+class PendulumClosedForm final : public Dynamics {
+ public:
+  explicit PendulumClosedForm(PendulumParams p);
+  Method method() const override { return Method::kClosedForm; }
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
+  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                              VecRef qdd) override;
+
+ private:
+  double inertia_;  // about the pivot, kg·m²
+  double mgl_;      // m g l_c, N·m
+};
+
+}  // namespace lagrange

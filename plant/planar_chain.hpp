@@ -1,0 +1,163 @@
+#pragma once
+// Planar serial chains of revolute and prismatic joints, and their O(n)
+// recursive dynamics in 2-D spatial (Plücker) algebra.
+//
+// Frames. Body i's frame is placed in body i−1's frame (the world for i = 0)
+// by the joint: translate by `position`, rotate by `angle`, then the joint
+// motion: a revolute joint rotates by q_i about z, a prismatic joint
+// translates by q_i along its own x axis. Gravity is g along −y of the world.
+//
+// Spatial vectors are 3-vectors in body coordinates: motion (ω, vx, vy),
+// force (n_z, fx, fy). The motion subspace is S = (1, 0, 0) for a revolute
+// joint and (0, 1, 0) for a prismatic joint.
+
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "plant/dynamics.hpp"
+
+namespace lagrange {
+
+struct PlanarJoint {
+  JointType type = JointType::kRevolute;
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();  // in the parent frame, m
+  double angle = 0.0;                                  // fixed rotation before the motion, rad
+};
+
+struct PlanarBody {
+  double mass = 1.0;                              // kg, > 0
+  Eigen::Vector2d com = Eigen::Vector2d::Zero();  // centre of mass in the body frame, m
+  double inertia = 0.0;                           // about the centre of mass, kg·m², >= 0
+};
+
+struct PlanarChain {
+  std::vector<PlanarJoint> joints;  // joint i carries body i
+  std::vector<PlanarBody> bodies;
+  double g = kStandardGravity;  // m/s², along −y
+
+  int num_dofs() const { return static_cast<int>(joints.size()); }
+  std::vector<JointType> joint_types() const;
+
+  // Energies by forward kinematics, templated for the Lagrangian path.
+  template <class S>
+  S KineticEnergy(std::span<const S> q, std::span<const S> qd) const;
+  template <class S>
+  S PotentialEnergy(std::span<const S> q) const;
+};
+
+// O(n) recursive dynamics of a PlanarChain.
+//   inverse dynamics: recursive Newton–Euler (RNEA)
+//   forward dynamics: articulated-body algorithm (ABA)
+//   mass matrix: composite-rigid-body algorithm (CRBA), O(n²) to fill M
+//   Coriolis matrix: column j is the symmetric bilinear RNEA B(qd, e_j), since
+//     the Christoffel symbols are symmetric in their last two indices; O(n²)
+//   ∂T/∂q: ∂T/∂q_j = −S_jᵀ (v_{j−1} ×* Σ_{i≥j} I_i v_i), O(n)
+class RecursiveDynamics final : public Dynamics {
+ public:
+  explicit RecursiveDynamics(PlanarChain chain);
+
+  const PlanarChain& chain() const { return chain_; }
+  Method method() const override { return Method::kRecursive; }
+
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
+  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                              VecRef tau) override;
+  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                              VecRef qdd) override;
+
+  // Parent-to-child motion transform of one joint: the child frame sits at r
+  // (parent coordinates) rotated by θ; (c, s) = (cos θ, sin θ).
+  struct Xform {
+    double c = 1.0, s = 0.0;
+    Eigen::Vector2d r = Eigen::Vector2d::Zero();
+  };
+
+ private:
+  // q => X_i for every joint.
+  void ComputeTransforms(ConstVecRef q);
+  // (X, qd) => v_i, body velocities.
+  void ComputeVelocities(ConstVecRef qd);
+  // (X, v, qdd, terms) => tau by the backward RNEA pass.
+  void Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau);
+
+  PlanarChain chain_;
+  std::vector<Eigen::Matrix3d> inertia_;  // spatial inertia of each body about its frame origin
+  // Workspace (n entries each).
+  std::vector<Xform> X_;
+  std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_, vw_;
+  std::vector<Eigen::Matrix3d> IA_;
+  std::vector<double> D_, u_;
+  VectorXd zeros_;  // qd or qdd = 0 for the gravity and Coriolis passes
+};
+
+// ---- templated energies -------------------------------------------------
+
+template <class S>
+S PlanarChain::KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
+  using std::cos;
+  using std::sin;
+  S phi(0.0), phid(0.0);           // world angle of the current body and its rate
+  S ox(0.0), oy(0.0), oxd(0.0), oyd(0.0);  // world origin of the current body and its velocity
+  S T(0.0);
+  for (int i = 0; i < num_dofs(); ++i) {
+    const PlanarJoint& j = joints[i];
+    // Joint location: o + R(phi) p, moving with the parent.
+    const S cp = cos(phi), sp = sin(phi);
+    const S px = cp * j.position.x() - sp * j.position.y();
+    const S py = sp * j.position.x() + cp * j.position.y();
+    ox = ox + px;
+    oy = oy + py;
+    oxd = oxd - phid * py;
+    oyd = oyd + phid * px;
+    phi = phi + j.angle;
+    if (j.type == JointType::kRevolute) {
+      phi = phi + q[i];
+      phid = phid + qd[i];
+    } else {
+      const S ca = cos(phi), sa = sin(phi);
+      ox = ox + ca * q[i];
+      oy = oy + sa * q[i];
+      oxd = oxd + ca * qd[i] - phid * sa * q[i];
+      oyd = oyd + sa * qd[i] + phid * ca * q[i];
+    }
+    const PlanarBody& b = bodies[i];
+    const S c = cos(phi), s = sin(phi);
+    const S rx = c * b.com.x() - s * b.com.y();
+    const S ry = s * b.com.x() + c * b.com.y();
+    const S vx = oxd - phid * ry;
+    const S vy = oyd + phid * rx;
+    T = T + 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * phid * phid;
+  }
+  return T;
+}
+
+template <class S>
+S PlanarChain::PotentialEnergy(std::span<const S> q) const {
+  using std::cos;
+  using std::sin;
+  S phi(0.0), oy(0.0);
+  S V(0.0);
+  for (int i = 0; i < num_dofs(); ++i) {
+    const PlanarJoint& j = joints[i];
+    oy = oy + sin(phi) * j.position.x() + cos(phi) * j.position.y();
+    phi = phi + j.angle;
+    if (j.type == JointType::kRevolute) {
+      phi = phi + q[i];
+    } else {
+      oy = oy + sin(phi) * q[i];
+    }
+    const PlanarBody& b = bodies[i];
+    const S y = oy + sin(phi) * b.com.x() + cos(phi) * b.com.y();
+    V = V + b.mass * g * y;
+  }
+  return V;
+}
+
+}  // namespace lagrange

@@ -1,0 +1,38 @@
+#include "plant/plant_model.hpp"
+
+#include <utility>
+
+namespace lagrange {
+
+PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects)
+    : dynamics_(std::move(dynamics)), effects_(std::move(effects), dynamics_->num_dofs()),
+      tau_(dynamics_->num_dofs()) {}
+
+void PlantModel::ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
+  effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
+  dynamics_->ComputeForwardDynamics(q, qd, tau_, effects_.terms(), qdd);
+}
+
+void PlantModel::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                                         VecRef tau) {
+  effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau);
+}
+
+double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) {
+  return dynamics_->ComputeKineticEnergy(q, qd);
+}
+
+double PlantModel::PotentialEnergy(ConstVecRef q) {
+  double v = effects_.LimitPotentialEnergy(q);
+  if (effects_.config().gravity) v += dynamics_->ComputePotentialEnergy(q);
+  return v;
+}
+
+StageCounts PlantModel::counts() const {
+  StageCounts c = effects_.counts();
+  c.gravity = dynamics_->counts().gravity;
+  c.coriolis = dynamics_->counts().coriolis;
+  return c;
+}
+
+}  // namespace lagrange

@@ -1,0 +1,335 @@
+#include "plant/plant_spec.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "plant/lagrangian.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr PlantType kAllTypes[] = {PlantType::kPendulum, PlantType::kArm2, PlantType::kCartPole,
+                                   PlantType::kChain};
+
+std::string FormatNumber(double x) {
+  std::ostringstream os;
+  os.precision(17);
+  os << x;
+  return os.str();
+}
+
+enum class Range { kPositive, kNonNegative, kFinite };
+
+std::optional<SpecError> CheckRange(std::string_view key, double value, Range range, std::string_view unit) {
+  const bool ok = std::isfinite(value) && (range == Range::kFinite ||
+                                           (range == Range::kPositive && value > 0.0) ||
+                                           (range == Range::kNonNegative && value >= 0.0));
+  if (ok) return std::nullopt;
+  const char* what = range == Range::kPositive      ? "a positive number"
+                     : range == Range::kNonNegative ? "a number >= 0"
+                                                    : "a finite number";
+  return SpecError{std::string(key),
+                   "expected " + std::string(what) + " (" + std::string(unit) + "), got " + FormatNumber(value)};
+}
+
+// One numeric parameter: its name, where it lives, its range and unit.
+template <class P>
+struct Field {
+  std::string_view name;
+  double P::*member;
+  Range range;
+  std::string_view unit;
+};
+
+template <class P, std::size_t N>
+std::optional<SpecError> SetField(P& p, const Field<P> (&fields)[N], std::string_view name, double value) {
+  for (const Field<P>& f : fields) {
+    if (f.name != name) continue;
+    if (auto err = CheckRange(name, value, f.range, f.unit)) return err;
+    p.*(f.member) = value;
+    return std::nullopt;
+  }
+  return SpecError{std::string(name), "unknown parameter"};
+}
+
+constexpr Field<PendulumParams> kPendulumFields[] = {
+    {"m", &PendulumParams::m, Range::kPositive, "kg"},
+    {"L", &PendulumParams::L, Range::kPositive, "m"},
+    {"g", &PendulumParams::g, Range::kNonNegative, "m/s²"},
+};
+constexpr Field<Arm2Params> kArm2Fields[] = {
+    {"m1", &Arm2Params::m1, Range::kPositive, "kg"},
+    {"m2", &Arm2Params::m2, Range::kPositive, "kg"},
+    {"L1", &Arm2Params::L1, Range::kPositive, "m"},
+    {"L2", &Arm2Params::L2, Range::kPositive, "m"},
+    {"g", &Arm2Params::g, Range::kNonNegative, "m/s²"},
+};
+constexpr Field<CartPoleParams> kCartPoleFields[] = {
+    {"mc", &CartPoleParams::mc, Range::kPositive, "kg"},
+    {"mp", &CartPoleParams::mp, Range::kPositive, "kg"},
+    {"l", &CartPoleParams::l, Range::kPositive, "m"},
+    {"g", &CartPoleParams::g, Range::kNonNegative, "m/s²"},
+};
+
+std::optional<SpecError> SetChainParam(ChainParams& p, std::string_view name, double value, int link) {
+  if (name == "g" || name == "base_angle") {
+    if (link >= 0) return SpecError{std::string(name), "is one value for the whole chain, not per link"};
+    if (name == "g") {
+      if (auto err = CheckRange(name, value, Range::kNonNegative, "m/s²")) return err;
+      p.g = value;
+    } else {
+      if (auto err = CheckRange(name, value, Range::kFinite, "rad")) return err;
+      p.base_angle = value;
+    }
+    return std::nullopt;
+  }
+  if (link >= p.num_links()) {
+    return SpecError{std::string(name), "expected a link index below " + std::to_string(p.num_links()) +
+                                            ", got " + std::to_string(link)};
+  }
+  Range range;
+  std::string_view unit;
+  if (name == "m") { range = Range::kPositive; unit = "kg"; }
+  else if (name == "L") { range = Range::kPositive; unit = "m"; }
+  else if (name == "com") { range = Range::kFinite; unit = "m"; }
+  else if (name == "I") { range = Range::kNonNegative; unit = "kg·m²"; }
+  else return SpecError{std::string(name), "unknown parameter"};
+  if (auto err = CheckRange(name, value, range, unit)) return err;
+  const int first = link < 0 ? 0 : link;
+  const int last = link < 0 ? p.num_links() : link + 1;
+  for (int i = first; i < last; ++i) {
+    ChainLink& l = p.links[i];
+    if (name == "m") l.m = value;
+    else if (name == "L") l.L = value;
+    else if (name == "com") l.com = value;
+    else l.I = value;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string_view ToString(PlantType type) {
+  switch (type) {
+    case PlantType::kPendulum: return "pendulum";
+    case PlantType::kArm2: return "arm2";
+    case PlantType::kCartPole: return "cartpole";
+    case PlantType::kChain: return "chain";
+  }
+  return "?";
+}
+
+std::optional<PlantType> ParsePlantType(std::string_view name) {
+  for (PlantType t : kAllTypes) {
+    if (ToString(t) == name) return t;
+  }
+  return std::nullopt;
+}
+
+std::string PlantTypeNames() {
+  std::string names;
+  for (PlantType t : kAllTypes) {
+    if (!names.empty()) names += '|';
+    names += ToString(t);
+  }
+  return names;
+}
+
+int PlantSpec::num_dofs() const {
+  switch (type()) {
+    case PlantType::kPendulum: return 1;
+    case PlantType::kArm2:
+    case PlantType::kCartPole: return 2;
+    case PlantType::kChain: return std::get<ChainParams>(params).num_links();
+  }
+  return 0;
+}
+
+PlantSpec DefaultPlantSpec(PlantType type) {
+  switch (type) {
+    case PlantType::kPendulum: return {PendulumParams{}};
+    case PlantType::kArm2: return {Arm2Params{}};
+    case PlantType::kCartPole: return {CartPoleParams{}};
+    case PlantType::kChain: return {ChainParams{}};
+  }
+  return {PendulumParams{}};
+}
+
+std::vector<std::string_view> PlantParamNames(PlantType type) {
+  switch (type) {
+    case PlantType::kPendulum: return {"m", "L", "g", "body"};
+    case PlantType::kArm2: return {"m1", "m2", "L1", "L2", "g"};
+    case PlantType::kCartPole: return {"mc", "mp", "l", "I", "g"};
+    case PlantType::kChain: return {"links", "m", "L", "com", "I", "base_angle", "g"};
+  }
+  return {};
+}
+
+std::optional<double> ParseFiniteNumber(std::string_view text) {
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  double value = 0.0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+std::optional<SpecError> SetChainLinks(PlantSpec& spec, int links) {
+  auto* chain = std::get_if<ChainParams>(&spec.params);
+  if (chain == nullptr) return SpecError{"links", "only a chain has a number of links"};
+  if (links < 1 || links > kMaxDofs) {
+    return SpecError{"links", "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " +
+                                  std::to_string(links)};
+  }
+  chain->links.resize(static_cast<std::size_t>(links), chain->links.empty() ? ChainLink{} : chain->links.back());
+  return std::nullopt;
+}
+
+std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, std::string_view text, int link) {
+  const std::string key(name);
+  if (link >= 0 && spec.type() != PlantType::kChain) {
+    return SpecError{key, "per-link values are for chains only"};
+  }
+  if (spec.type() == PlantType::kPendulum && name == "body") {
+    auto& p = std::get<PendulumParams>(spec.params);
+    if (text == "point") p.body = PendulumBody::kPointMass;
+    else if (text == "rod") p.body = PendulumBody::kRod;
+    else return SpecError{key, "expected point or rod, got '" + std::string(text) + "'"};
+    return std::nullopt;
+  }
+  const std::vector<std::string_view> names = PlantParamNames(spec.type());
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
+    std::string list;
+    for (std::string_view n : names) list += (list.empty() ? "" : ", ") + std::string(n);
+    return SpecError{key, "unknown parameter for " + std::string(ToString(spec.type())) + " (expected one of " +
+                              list + ")"};
+  }
+  const std::optional<double> value = ParseFiniteNumber(text);
+  if (!value) return SpecError{key, "expected a finite number, got '" + std::string(text) + "'"};
+  if (name == "links") {
+    const double v = *value;
+    if (v != std::floor(v) || v < 1.0 || v > kMaxDofs) {
+      return SpecError{key, "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " +
+                                std::string(text)};
+    }
+    return SetChainLinks(spec, static_cast<int>(v));
+  }
+  return std::visit(
+      [&](auto& p) -> std::optional<SpecError> {
+        using P = std::decay_t<decltype(p)>;
+        if constexpr (std::is_same_v<P, PendulumParams>) {
+          return SetField(p, kPendulumFields, name, *value);
+        } else if constexpr (std::is_same_v<P, Arm2Params>) {
+          return SetField(p, kArm2Fields, name, *value);
+        } else if constexpr (std::is_same_v<P, CartPoleParams>) {
+          if (name == "I") {
+            if (auto err = CheckRange(name, *value, Range::kNonNegative, "kg·m²")) return err;
+            p.I = *value;
+            return std::nullopt;
+          }
+          return SetField(p, kCartPoleFields, name, *value);
+        } else {
+          return SetChainParam(p, name, *value, link);
+        }
+      },
+      spec.params);
+}
+
+std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
+  // Every setter already checks ranges; here are the checks across fields and
+  // those a default-constructed or hand-built spec could still fail.
+  return std::visit(
+      [](const auto& p) -> std::optional<SpecError> {
+        using P = std::decay_t<decltype(p)>;
+        if constexpr (std::is_same_v<P, PendulumParams>) {
+          for (const auto& f : kPendulumFields) {
+            if (auto err = CheckRange(f.name, p.*(f.member), f.range, f.unit)) return err;
+          }
+        } else if constexpr (std::is_same_v<P, Arm2Params>) {
+          for (const auto& f : kArm2Fields) {
+            if (auto err = CheckRange(f.name, p.*(f.member), f.range, f.unit)) return err;
+          }
+        } else if constexpr (std::is_same_v<P, CartPoleParams>) {
+          for (const auto& f : kCartPoleFields) {
+            if (auto err = CheckRange(f.name, p.*(f.member), f.range, f.unit)) return err;
+          }
+          if (auto err = CheckRange("I", p.pole_inertia(), Range::kNonNegative, "kg·m²")) return err;
+        } else {
+          if (p.num_links() < 1 || p.num_links() > kMaxDofs) {
+            return SpecError{"links", "expected 1 to " + std::to_string(kMaxDofs) + " links, got " +
+                                          std::to_string(p.num_links())};
+          }
+          if (auto err = CheckRange("g", p.g, Range::kNonNegative, "m/s²")) return err;
+          if (auto err = CheckRange("base_angle", p.base_angle, Range::kFinite, "rad")) return err;
+          for (int i = 0; i < p.num_links(); ++i) {
+            const ChainLink& l = p.links[i];
+            std::string at = std::to_string(i);  // built in place: g++ 12 warns falsely on "[" + string
+            at.insert(at.begin(), '[');
+            at.push_back(']');
+            if (auto err = CheckRange("m" + at, l.m, Range::kPositive, "kg")) return err;
+            if (auto err = CheckRange("L" + at, l.L, Range::kPositive, "m")) return err;
+            if (auto err = CheckRange("com" + at, l.com_offset(), Range::kFinite, "m")) return err;
+            if (auto err = CheckRange("I" + at, l.inertia(), Range::kNonNegative, "kg·m²")) return err;
+            if (l.inertia() == 0.0 && l.com_offset() == 0.0) {
+              return SpecError{"I" + at, "expected I > 0 or com != 0: the link has no inertia about its joint"};
+            }
+          }
+        }
+        return std::nullopt;
+      },
+      spec.params);
+}
+
+bool HasMethod(PlantType type, Method method) {
+  return method != Method::kClosedForm || type != PlantType::kChain;
+}
+
+Method FastestMethod(PlantType type) {
+  return type == PlantType::kChain ? Method::kRecursive : Method::kClosedForm;
+}
+
+PlanarChain ToPlanarChain(const PlantSpec& spec) {
+  return std::visit(
+      [](const auto& p) -> PlanarChain {
+        using P = std::decay_t<decltype(p)>;
+        if constexpr (std::is_same_v<P, PendulumParams>) return Pendulum(p).ToChain();
+        else if constexpr (std::is_same_v<P, Arm2Params>) return Arm2(p).ToChain();
+        else if constexpr (std::is_same_v<P, CartPoleParams>) return CartPole(p).ToChain();
+        else return ToPlanarChain(p);
+      },
+      spec.params);
+}
+
+std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
+  if (auto err = ValidatePlantSpec(spec)) {
+    throw std::invalid_argument(err->key + ": " + err->message);
+  }
+  if (!HasMethod(spec.type(), method)) {
+    throw std::invalid_argument("method " + std::string(ToString(method)) + " is not available for " +
+                                std::string(ToString(spec.type())) + " (use lagrangian or recursive)");
+  }
+  if (method == Method::kRecursive) return std::make_unique<RecursiveDynamics>(ToPlanarChain(spec));
+  return std::visit(
+      [method](const auto& p) -> std::unique_ptr<Dynamics> {
+        using P = std::decay_t<decltype(p)>;
+        const bool closed = method == Method::kClosedForm;
+        if constexpr (std::is_same_v<P, PendulumParams>) {
+          if (closed) return std::make_unique<PendulumClosedForm>(p);
+          return std::make_unique<LagrangianDynamics<Pendulum>>(Pendulum(p));
+        } else if constexpr (std::is_same_v<P, Arm2Params>) {
+          if (closed) return std::make_unique<Arm2ClosedForm>(p);
+          return std::make_unique<LagrangianDynamics<Arm2>>(Arm2(p));
+        } else if constexpr (std::is_same_v<P, CartPoleParams>) {
+          if (closed) return std::make_unique<CartPoleClosedForm>(p);
+          return std::make_unique<LagrangianDynamics<CartPole>>(CartPole(p));
+        } else {
+          return std::make_unique<LagrangianDynamics<PlanarChain>>(ToPlanarChain(p));
+        }
+      },
+      spec.params);
+}
+
+}  // namespace lagrange

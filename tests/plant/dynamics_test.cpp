@@ -1,0 +1,305 @@
+// The energy contract: for every plant and every method at seeded random
+// states, M is symmetric positive definite, Ṁ − 2C is skew, T = ½ qdᵀ M qd,
+// and the closed form, the Lagrangian (automatic differentiation) and the
+// recursive algorithms agree to 1e-12 relative.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <numbers>
+
+#include "plant/lagrangian.hpp"
+#include "plant/plant_spec.hpp"
+#include "tests/support/plant_cases.hpp"
+
+namespace lagrange {
+namespace {
+
+using testing::AllPlantCases;
+using testing::RandomStateFor;
+using testing::RelativeDifference;
+
+constexpr int kStates = 100;
+constexpr double kAgreeTol = 1e-12;         // between derivation methods, relative
+constexpr double kSymmetryTol = 1e-14;      // M − Mᵀ, relative to ‖M‖
+constexpr double kFiniteDifferenceTol = 1e-7;  // central differences with ε = 1e-6
+constexpr double kEps = 1e-6;
+
+std::vector<Method> MethodsFor(PlantType type) {
+  std::vector<Method> methods;
+  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    if (HasMethod(type, m)) methods.push_back(m);
+  }
+  return methods;
+}
+
+struct Terms {
+  MatrixXd M, C;
+  VectorXd c, G, dTdq, qdd, tau;
+  double T = 0.0, V = 0.0;
+};
+
+Terms Evaluate(Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& u) {
+  const int n = d.num_dofs();
+  Terms t{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n)};
+  d.ComputeMassMatrix(q, t.M);
+  d.ComputeCoriolisMatrix(q, qd, t.C);
+  d.ComputeCoriolisForce(q, qd, t.c);
+  d.ComputeGravityForce(q, t.G);
+  d.ComputeKineticEnergyGradient(q, qd, t.dTdq);
+  d.ComputeForwardDynamics(q, qd, u, DynamicsTerms{}, t.qdd);
+  d.ComputeInverseDynamics(q, qd, u, DynamicsTerms{}, t.tau);
+  t.T = d.ComputeKineticEnergy(q, qd);
+  t.V = d.ComputePotentialEnergy(q);
+  return t;
+}
+
+class EveryPlant : public ::testing::TestWithParam<testing::PlantCase> {};
+
+TEST_P(EveryPlant, MassMatrixIsSymmetricPositiveDefinite) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{42};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    const int n = d->num_dofs();
+    MatrixXd M(n, n);
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      d->ComputeMassMatrix(s.q, M);
+      ASSERT_LE((M - M.transpose()).norm(), kSymmetryTol * M.norm()) << ToString(method);
+      const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues().minCoeff();
+      ASSERT_GT(min_eig, 0.0) << ToString(method) << " at state " << k;
+    }
+  }
+}
+
+TEST_P(EveryPlant, MassMatrixRateMinusTwoCoriolisIsSkewSymmetric) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{7};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    const int n = d->num_dofs();
+    MatrixXd Mp(n, n), Mm(n, n), C(n, n);
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      d->ComputeMassMatrix(s.q + kEps * s.qd, Mp);
+      d->ComputeMassMatrix(s.q - kEps * s.qd, Mm);
+      const MatrixXd Mdot = (Mp - Mm) / (2.0 * kEps);  // Ṁ along qd
+      d->ComputeCoriolisMatrix(s.q, s.qd, C);
+      const MatrixXd N = Mdot - 2.0 * C;
+      ASSERT_LE((N + N.transpose()).norm(), kFiniteDifferenceTol * (Mp.norm() * s.qd.norm()))
+          << ToString(method) << " at state " << k;
+    }
+  }
+}
+
+TEST_P(EveryPlant, KineticEnergyIsHalfVelocityMassVelocity) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{11};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    MatrixXd M(d->num_dofs(), d->num_dofs());
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      d->ComputeMassMatrix(s.q, M);
+      const double quadratic = 0.5 * s.qd.dot(M * s.qd);
+      ASSERT_NEAR(d->ComputeKineticEnergy(s.q, s.qd), quadratic, kAgreeTol * quadratic) << ToString(method);
+    }
+  }
+}
+
+TEST_P(EveryPlant, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{13};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    const int n = d->num_dofs();
+    MatrixXd C(n, n), M(n, n);
+    VectorXd c(n), dTdq(n);
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      d->ComputeMassMatrix(s.q, M);
+      d->ComputeCoriolisMatrix(s.q, s.qd, C);
+      d->ComputeCoriolisForce(s.q, s.qd, c);
+      d->ComputeKineticEnergyGradient(s.q, s.qd, dTdq);
+      const double floor = M.norm() * s.qd.squaredNorm();
+      ASSERT_LE(RelativeDifference(c, C * s.qd, floor), kAgreeTol) << ToString(method);
+      ASSERT_LE(RelativeDifference(dTdq, C.transpose() * s.qd, floor), kAgreeTol) << ToString(method);
+    }
+  }
+}
+
+TEST_P(EveryPlant, ForwardDynamicsInvertsInverseDynamics) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{17};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    const int n = d->num_dofs();
+    VectorXd tau(n), qdd(n);
+    for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true},
+                                      DynamicsTerms{true, false}, DynamicsTerms{false, false}}) {
+      for (int k = 0; k < kStates; ++k) {
+        const auto s = RandomStateFor(d->joint_types(), rng);
+        const VectorXd qdd0 = testing::RandomVector(n, -5.0, 5.0, rng);
+        d->ComputeInverseDynamics(s.q, s.qd, qdd0, terms, tau);
+        d->ComputeForwardDynamics(s.q, s.qd, tau, terms, qdd);
+        ASSERT_LE(RelativeDifference(qdd, qdd0), 1e-10) << ToString(method) << " gravity " << terms.gravity
+                                                        << " coriolis " << terms.coriolis;
+      }
+    }
+  }
+}
+
+TEST_P(EveryPlant, AllDerivationMethodsAgree) {
+  const PlantSpec& spec = GetParam().spec;
+  auto reference = MakeDynamics(spec, Method::kLagrangian);
+  const int n = reference->num_dofs();
+  std::mt19937 rng{23};
+  for (Method method : MethodsFor(spec.type())) {
+    if (method == Method::kLagrangian) continue;
+    auto d = MakeDynamics(spec, method);
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      const VectorXd u = testing::RandomVector(n, -10.0, 10.0, rng);
+      const Terms a = Evaluate(*reference, s.q, s.qd, u);
+      const Terms b = Evaluate(*d, s.q, s.qd, u);
+      const double m = a.M.norm();
+      const double g = m * kStandardGravity;        // scale of gravity terms
+      const double v = m * s.qd.squaredNorm();      // scale of velocity-product terms
+      const char* name = ToString(method).data();
+      ASSERT_LE(RelativeDifference(a.M, b.M), kAgreeTol) << name << " M at state " << k;
+      ASSERT_LE(RelativeDifference(a.C, b.C, m * s.qd.norm()), kAgreeTol) << name << " C";
+      ASSERT_LE(RelativeDifference(a.c, b.c, v), kAgreeTol) << name << " C qd";
+      ASSERT_LE(RelativeDifference(a.G, b.G, g), kAgreeTol) << name << " G";
+      ASSERT_LE(RelativeDifference(a.dTdq, b.dTdq, v), kAgreeTol) << name << " dT/dq";
+      ASSERT_LE(RelativeDifference(a.tau, b.tau, g + v), kAgreeTol) << name << " inverse dynamics";
+      ASSERT_LE(RelativeDifference(a.qdd, b.qdd, 1.0), 1e-11) << name << " forward dynamics";
+      ASSERT_NEAR(a.T, b.T, kAgreeTol * std::max(1.0, a.T)) << name << " T";
+      ASSERT_NEAR(a.V, b.V, kAgreeTol * g) << name << " V";
+    }
+  }
+}
+
+TEST_P(EveryPlant, GravityIsTheGradientOfThePotential) {
+  const PlantSpec& spec = GetParam().spec;
+  std::mt19937 rng{29};
+  for (Method method : MethodsFor(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    const int n = d->num_dofs();
+    VectorXd G(n);
+    for (int k = 0; k < kStates; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      d->ComputeGravityForce(s.q, G);
+      for (int i = 0; i < n; ++i) {
+        VectorXd qp = s.q, qm = s.q;
+        qp[i] += kEps;
+        qm[i] -= kEps;
+        const double fd = (d->ComputePotentialEnergy(qp) - d->ComputePotentialEnergy(qm)) / (2.0 * kEps);
+        ASSERT_NEAR(G[i], fd, kFiniteDifferenceTol * std::max(1.0, G.norm())) << ToString(method);
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Plants, EveryPlant, ::testing::ValuesIn(AllPlantCases()),
+                         [](const auto& param_info) { return param_info.param.name; });
+
+// Chain equivalences: one link is the rod pendulum (link along −y at q = 0),
+// two links with the arm's parameters are the arm.
+void ExpectSameDynamics(Dynamics& a, Dynamics& b, std::uint32_t seed) {
+  std::mt19937 rng{seed};
+  const int n = a.num_dofs();
+  ASSERT_EQ(n, b.num_dofs());
+  for (int k = 0; k < kStates; ++k) {
+    const auto s = RandomStateFor(a.joint_types(), rng);
+    const VectorXd u = testing::RandomVector(n, -10.0, 10.0, rng);
+    const Terms x = Evaluate(a, s.q, s.qd, u);
+    const Terms y = Evaluate(b, s.q, s.qd, u);
+    ASSERT_LE(RelativeDifference(x.M, y.M), kAgreeTol);
+    ASSERT_LE(RelativeDifference(x.C, y.C, x.M.norm() * s.qd.norm()), kAgreeTol);
+    ASSERT_LE(RelativeDifference(x.G, y.G, x.M.norm() * kStandardGravity), kAgreeTol);
+    ASSERT_LE(RelativeDifference(x.qdd, y.qdd), 1e-11);
+    ASSERT_NEAR(x.T, y.T, kAgreeTol * std::max(1.0, x.T));
+    ASSERT_NEAR(x.V, y.V, kAgreeTol * x.M.norm() * kStandardGravity);
+  }
+}
+
+TEST(ChainEquivalence, OneLinkChainIsTheRodPendulum) {
+  PendulumParams rod;
+  rod.body = PendulumBody::kRod;
+  rod.m = 1.3;
+  rod.L = 0.9;
+  ChainParams chain;
+  chain.links = {ChainLink{.m = 1.3, .L = 0.9, .com = {}, .I = {}}};
+  chain.base_angle = -std::numbers::pi / 2;
+  for (Method method : {Method::kLagrangian, Method::kRecursive}) {
+    auto pendulum = MakeDynamics({rod}, Method::kClosedForm);
+    auto one_link = MakeDynamics({chain}, method);
+    ExpectSameDynamics(*pendulum, *one_link, 31);
+  }
+}
+
+TEST(ChainEquivalence, TwoLinkChainIsTheArm) {
+  ChainParams chain;
+  chain.links = {ChainLink{.m = 1.0, .L = 0.6, .com = {}, .I = {}}, ChainLink{.m = 0.8, .L = 0.5, .com = {}, .I = {}}};
+  for (Method method : {Method::kLagrangian, Method::kRecursive}) {
+    auto arm = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm);
+    auto two_links = MakeDynamics({chain}, method);
+    ExpectSameDynamics(*arm, *two_links, 37);
+  }
+}
+
+TEST(ClosedForm, PendulumMatchesTheTextbookEquation) {
+  // m L² θ̈ + m g L sin θ = τ for the point mass.
+  auto d = MakeDynamics(DefaultPlantSpec(PlantType::kPendulum), Method::kClosedForm);
+  VectorXd q(1), qd(1), tau(1), qdd(1);
+  q << 0.7;
+  qd << 1.1;
+  tau << 0.3;
+  d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+  EXPECT_NEAR(qdd[0], (0.3 - 1.0 * kStandardGravity * 1.0 * std::sin(0.7)) / 1.0, 1e-15);
+}
+
+TEST(ClosedForm, ArmMatchesTheArticleAtTheShoulderHorizontal) {
+  // At q = (0, 0): M11 = m1L1²/3 + m2(L1² + L1L2 + L2²/3), G1 = g(m1 L1/2 + m2(L1 + L2/2)).
+  auto d = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm);
+  VectorXd q = VectorXd::Zero(2), G(2);
+  MatrixXd M(2, 2);
+  d->ComputeMassMatrix(q, M);
+  d->ComputeGravityForce(q, G);
+  const double m1 = 1.0, m2 = 0.8, L1 = 0.6, L2 = 0.5, g = kStandardGravity;
+  EXPECT_NEAR(M(0, 0), m1 * L1 * L1 / 3 + m2 * (L1 * L1 + L1 * L2 + L2 * L2 / 3), 1e-15);
+  EXPECT_NEAR(M(0, 1), m2 * (L1 * L2 / 2 + L2 * L2 / 3), 1e-15);
+  EXPECT_NEAR(M(1, 1), m2 * L2 * L2 / 3, 1e-15);
+  EXPECT_NEAR(G[0], g * (m1 * L1 / 2 + m2 * (L1 + L2 / 2)), 1e-13);
+  EXPECT_NEAR(G[1], g * m2 * L2 / 2, 1e-14);
+}
+
+TEST(ClosedForm, ChainHasNoClosedForm) {
+  EXPECT_FALSE(HasMethod(PlantType::kChain, Method::kClosedForm));
+  EXPECT_THROW(MakeDynamics(DefaultPlantSpec(PlantType::kChain), Method::kClosedForm), std::invalid_argument);
+  EXPECT_EQ(FastestMethod(PlantType::kChain), Method::kRecursive);
+  EXPECT_EQ(FastestMethod(PlantType::kArm2), Method::kClosedForm);
+}
+
+TEST(Recursive, SixtyFourLinkChainMatchesTheLagrangianPath) {
+  ChainParams p;
+  p.links.resize(64);
+  auto recursive = MakeDynamics({p}, Method::kRecursive);
+  auto lagrangian = MakeDynamics({p}, Method::kLagrangian);
+  std::mt19937 rng{41};
+  for (int k = 0; k < 3; ++k) {
+    const auto s = RandomStateFor(recursive->joint_types(), rng);
+    const VectorXd u = testing::RandomVector(64, -1.0, 1.0, rng);
+    const Terms a = Evaluate(*lagrangian, s.q, s.qd, u);
+    const Terms b = Evaluate(*recursive, s.q, s.qd, u);
+    EXPECT_LE(RelativeDifference(a.M, b.M), 1e-12);
+    EXPECT_LE(RelativeDifference(a.C, b.C, a.M.norm() * s.qd.norm()), 1e-12);
+    EXPECT_LE(RelativeDifference(a.G, b.G, a.M.norm() * kStandardGravity), 1e-12);
+    // A 64-link M is ill-conditioned; compare accelerations through the residual M qdd − rhs.
+    EXPECT_LE((a.M * b.qdd - a.M * a.qdd).norm(), 1e-9 * (a.M.norm() * a.qdd.norm()));
+  }
+}
+
+}  // namespace
+}  // namespace lagrange

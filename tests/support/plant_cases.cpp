@@ -1,0 +1,53 @@
+#include "tests/support/plant_cases.hpp"
+
+#include <numbers>
+
+namespace lagrange::testing {
+
+std::vector<PlantCase> AllPlantCases() {
+  std::vector<PlantCase> cases;
+  cases.push_back({"pendulum_point", DefaultPlantSpec(PlantType::kPendulum)});
+  PendulumParams rod;
+  rod.body = PendulumBody::kRod;
+  rod.m = 2.0;
+  rod.L = 0.7;
+  cases.push_back({"pendulum_rod", {rod}});
+  cases.push_back({"arm2", DefaultPlantSpec(PlantType::kArm2)});
+  cases.push_back({"cartpole", DefaultPlantSpec(PlantType::kCartPole)});
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> mass(0.3, 2.0), length(0.2, 1.0), frac(0.1, 0.9);
+  for (int links : {1, 2, 3, 7}) {
+    ChainParams p;
+    p.links.resize(static_cast<std::size_t>(links));
+    for (ChainLink& l : p.links) {
+      l.m = mass(rng);
+      l.L = length(rng);
+      l.com = frac(rng) * l.L;
+      l.I = 0.5 * l.m * l.L * l.L / 12.0;
+    }
+    p.base_angle = -0.3;
+    cases.push_back({"chain" + std::to_string(links), {p}});
+  }
+  return cases;
+}
+
+VectorXd RandomVector(int n, double lo, double hi, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(lo, hi);
+  VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = u(rng);
+  return v;
+}
+
+RandomState RandomStateFor(const std::vector<JointType>& joints, std::mt19937& rng) {
+  const int n = static_cast<int>(joints.size());
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), pos(-2.0, 2.0);
+  RandomState s{VectorXd(n), RandomVector(n, -3.0, 3.0, rng)};
+  for (int i = 0; i < n; ++i) s.q[i] = joints[i] == JointType::kRevolute ? angle(rng) : pos(rng);
+  return s;
+}
+
+double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor) {
+  return (a - b).norm() / std::max({a.norm(), b.norm(), floor});
+}
+
+}  // namespace lagrange::testing

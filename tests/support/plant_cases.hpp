@@ -1,0 +1,35 @@
+#pragma once
+// Plants every physics test runs over, and seeded random states.
+
+#include <ostream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "plant/plant_spec.hpp"
+
+namespace lagrange::testing {
+
+struct PlantCase {
+  std::string name;
+  PlantSpec spec;
+};
+// GoogleTest prints a case by its name.
+inline void PrintTo(const PlantCase& c, std::ostream* os) { *os << c.name; }
+
+// Pendulum (point and rod), arm2, cart-pole, and chains of 1, 2, 3 and 7
+// links with seeded random, unequal link parameters.
+std::vector<PlantCase> AllPlantCases();
+
+// q uniform in [−π, π] for revolute joints and [−2, 2] m for prismatic ones;
+// qd uniform in [−3, 3].
+struct RandomState {
+  VectorXd q, qd;
+};
+RandomState RandomStateFor(const std::vector<JointType>& joints, std::mt19937& rng);
+VectorXd RandomVector(int n, double lo, double hi, std::mt19937& rng);
+
+// Relative difference ‖a − b‖ / max(‖a‖, ‖b‖, floor).
+double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor = 1.0);
+
+}  // namespace lagrange::testing
