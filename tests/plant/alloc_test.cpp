@@ -1,0 +1,61 @@
+// Stepping a plant allocates nothing once it is built: every plant type,
+// every derivation method, every integrator, every effect on.
+
+#include <gtest/gtest.h>
+
+#include "plant/integrators.hpp"
+#include "plant/plant_spec.hpp"
+#include "tests/support/alloc_counter.hpp"
+
+namespace lagrange {
+namespace {
+
+TEST(NoAllocation, SteppingAPlantAllocatesNothing) {
+  for (PlantType type : {PlantType::kPendulum, PlantType::kArm2, PlantType::kCartPole, PlantType::kChain}) {
+    const PlantSpec spec = DefaultPlantSpec(type);
+    const int n = spec.num_dofs();
+    EffectsConfig effects;
+    effects.damping = VectorXd::Constant(n, 0.1);
+    effects.friction = CoulombFriction{VectorXd::Constant(n, 0.1), 0.01};
+    effects.limits = JointLimits{VectorXd::Constant(n, -3.0), VectorXd::Constant(n, 3.0), 1e4, 10.0};
+    effects.saturation = VectorXd::Constant(n, 50.0);
+    effects.disturbance = {Push{0.0, 1.0, VectorXd::Constant(n, 0.5)}};
+    for (Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+      if (!HasMethod(type, method)) continue;
+      for (IntegratorType it : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                                IntegratorType::kRk4, IntegratorType::kDormandPrince,
+                                IntegratorType::kVariational}) {
+        PlantModel model(MakeDynamics(spec, method), effects);
+        IntegratorConfig config;
+        config.type = it;
+        config.substeps = 2;
+        auto integrator = MakeIntegrator(config, n);
+        VectorXd q = VectorXd::Constant(n, 0.4), qd = VectorXd::Constant(n, 0.3), tau = VectorXd::Constant(n, 0.2);
+        VectorXd M(n), scratch(n);
+        std::int64_t allocations = 0;
+        {
+          testing::AllocationCounter counter;
+          for (int k = 0; k < 50; ++k) {
+            integrator->Advance(model, k * 1e-3, 1e-3, tau, q, qd);
+            model.Energy(q, qd);
+            model.dynamics().ComputeGravityForce(q, scratch);
+          }
+          allocations = counter.count();
+        }
+        EXPECT_EQ(allocations, 0) << ToString(type) << " " << ToString(method) << " " << ToString(it);
+        EXPECT_TRUE(q.allFinite());
+      }
+    }
+  }
+}
+
+TEST(NoAllocation, TheCounterSeesEigenAndStandardAllocations) {
+  testing::AllocationCounter counter;
+  VectorXd v(1000);
+  auto p = std::make_unique<int>(3);
+  EXPECT_GE(counter.count(), 2);
+  EXPECT_EQ(v.size() + *p, 1003);
+}
+
+}  // namespace
+}  // namespace lagrange

@@ -1,0 +1,283 @@
+// Integrators against physics: the pendulum's exact period, the article's
+// gravity-compensated hold, energy behaviour over 10⁵ steps, convergence
+// orders, discrete momentum conservation, adaptive step statistics.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "plant/integrators.hpp"
+#include "plant/plant_spec.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kTick = 1e-3;  // s
+
+std::unique_ptr<PlantModel> MakeModel(const PlantSpec& spec, Method method, EffectsConfig effects = {}) {
+  return std::make_unique<PlantModel>(MakeDynamics(spec, method), std::move(effects));
+}
+
+std::unique_ptr<Integrator> MakeIntegratorOfType(IntegratorType type, int n, double rtol = 1e-8) {
+  IntegratorConfig c;
+  c.type = type;
+  c.rtol = rtol;
+  c.atol = rtol * 1e-2;
+  return MakeIntegrator(c, n);
+}
+
+// Period of a pendulum released at rest from theta0: twice the time between
+// the first and third crossings of θ = 0, located by cubic Hermite
+// interpolation between steps.
+double MeasurePeriod(const PendulumParams& p, double theta0, double h) {
+  auto model = MakeModel({p}, Method::kClosedForm);
+  auto rk4 = MakeIntegratorOfType(IntegratorType::kRk4, 1);
+  VectorXd q(1), qd(1), tau = VectorXd::Zero(1), qdd(1);
+  q << theta0;
+  qd << 0.0;
+  std::vector<double> crossings;
+  double t = 0.0;
+  while (crossings.size() < 3) {
+    const double q0 = q[0], v0 = qd[0];
+    rk4->Step(*model, t, h, tau, q, qd);
+    if ((q0 > 0.0) != (q[0] > 0.0)) {
+      // Newton on the Hermite cubic through (q0, v0) and (q1, v1) over [t, t + h].
+      const double q1 = q[0], v1 = qd[0];
+      double s = q0 / (q0 - q1);
+      for (int it = 0; it < 20; ++it) {
+        const double h00 = 2 * s * s * s - 3 * s * s + 1, h10 = s * s * s - 2 * s * s + s;
+        const double h01 = -2 * s * s * s + 3 * s * s, h11 = s * s * s - s * s;
+        const double f = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1;
+        const double df = (6 * s * s - 6 * s) * q0 + (3 * s * s - 4 * s + 1) * h * v0 +
+                          (-6 * s * s + 6 * s) * q1 + (3 * s * s - 2 * s) * h * v1;
+        s -= f / df;
+      }
+      crossings.push_back(t + s * h);
+    }
+    t += h;
+  }
+  return crossings[2] - crossings[0];
+}
+
+TEST(PendulumPeriod, SmallSwingsFollowTwoPiRootLOverG) {
+  PendulumParams p;  // point mass, L = 1
+  const double expected = 2.0 * kPi * std::sqrt(p.L / p.g);
+  EXPECT_NEAR(MeasurePeriod(p, 1e-3, 1e-4), expected, 1e-6 * expected);
+}
+
+TEST(PendulumPeriod, LargeSwingsFollowTheCompleteEllipticIntegral) {
+  for (PendulumBody body : {PendulumBody::kPointMass, PendulumBody::kRod}) {
+    PendulumParams p;
+    p.body = body;
+    p.L = 0.8;
+    // Equivalent simple-pendulum length: I_pivot / (m l_c).
+    const double length = p.pivot_inertia() / (p.m * p.com());
+    for (double degrees : {10.0, 45.0, 90.0, 135.0, 170.0, 179.0}) {
+      const double theta0 = degrees * kPi / 180.0;
+      const double expected = 4.0 * std::sqrt(length / p.g) * std::comp_ellint_1(std::sin(theta0 / 2.0));
+      EXPECT_NEAR(MeasurePeriod(p, theta0, 1e-4), expected, 1e-6 * expected) << degrees << " degrees";
+    }
+  }
+}
+
+// The article's scenario: the arm at q0 = (π/4, 0), at rest, torques equal to
+// the model's own G(q), 3 s at 1 ms: it stays at q0.
+TEST(GravityCompensation, ArmHoldsThePoseOfTheArticle) {
+  for (Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    for (IntegratorType type : {IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4,
+                                IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+      auto model = MakeModel(DefaultPlantSpec(PlantType::kArm2), method);
+      auto integrator = MakeIntegratorOfType(type, 2);
+      VectorXd q0(2), q(2), qd = VectorXd::Zero(2), tau(2);
+      q0 << kPi / 4, 0.0;
+      q = q0;
+      for (int k = 0; k < 3000; ++k) {
+        model->dynamics().ComputeGravityForce(q, tau);
+        integrator->Step(*model, k * kTick, kTick, tau, q, qd);
+      }
+      EXPECT_LE((q - q0).lpNorm<Eigen::Infinity>(), 1e-9) << ToString(method) << " " << ToString(type);
+    }
+  }
+}
+
+// Maximum |E − E0| over each tenth of a run of `steps` ticks, no torque, no damping.
+std::vector<double> EnergyErrorByDecile(const PlantSpec& spec, IntegratorType type, const VectorXd& q0,
+                                        int steps) {
+  auto model = MakeModel(spec, FastestMethod(spec.type()));
+  auto integrator = MakeIntegratorOfType(type, spec.num_dofs());
+  VectorXd q = q0, qd = VectorXd::Zero(q0.size()), tau = VectorXd::Zero(q0.size());
+  const double e0 = model->Energy(q, qd);
+  std::vector<double> worst(10, 0.0);
+  for (int k = 0; k < steps; ++k) {
+    integrator->Step(*model, k * kTick, kTick, tau, q, qd);
+    const double err = std::abs(model->Energy(q, qd) - e0);
+    double& w = worst[static_cast<std::size_t>(k * 10 / steps)];
+    w = std::isfinite(err) ? std::max(w, err) : std::numeric_limits<double>::infinity();
+  }
+  return worst;
+}
+
+double Max(const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); }
+
+class ArmEnergy : public ::testing::TestWithParam<std::pair<double, double>> {
+ protected:
+  std::vector<double> Run(IntegratorType type) {
+    VectorXd q0(2);
+    q0 << GetParam().first, GetParam().second;
+    return EnergyErrorByDecile(DefaultPlantSpec(PlantType::kArm2), type, q0, 100000);
+  }
+};
+
+TEST_P(ArmEnergy, HigherOrderMethodsKeepEnergyFarBetterThanSemiImplicitEuler) {
+  const double semi = Max(Run(IntegratorType::kSemiImplicitEuler));
+  EXPECT_LT(Max(Run(IntegratorType::kRk4)), 1e-3 * semi);
+  EXPECT_LT(Max(Run(IntegratorType::kDormandPrince)), 1e-3 * semi);
+}
+
+TEST_P(ArmEnergy, VariationalErrorStaysBoundedWhereSemiImplicitEulerGrows) {
+  const std::vector<double> semi = Run(IntegratorType::kSemiImplicitEuler);
+  const std::vector<double> vi = Run(IntegratorType::kVariational);
+  // Semi-implicit Euler on (q, qd) drifts once M depends on q ...
+  EXPECT_GT(semi.back(), 4.0 * semi.front());
+  // ... the variational integrator's error in the last tenth is no larger than early on.
+  EXPECT_LT(vi.back(), 3.0 * vi.front());
+  EXPECT_LT(Max(vi), 1e-2 * Max(semi));
+}
+
+INSTANTIATE_TEST_SUITE_P(Releases, ArmEnergy,
+                         ::testing::Values(std::pair{0.0, 0.0}, std::pair{1.0, 0.5}));
+
+TEST(PendulumEnergy, SemiImplicitEulerIsSymplecticWhenTheMassIsConstant) {
+  // With constant M, semi-implicit Euler is the symplectic Euler method: bounded
+  // energy error, where explicit Euler's grows every period.
+  VectorXd q0(1);
+  q0 << 2.0;
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kPendulum);
+  const std::vector<double> semi = EnergyErrorByDecile(spec, IntegratorType::kSemiImplicitEuler, q0, 100000);
+  const std::vector<double> euler = EnergyErrorByDecile(spec, IntegratorType::kExplicitEuler, q0, 100000);
+  EXPECT_LT(semi.back(), 1.5 * semi.front());
+  EXPECT_GT(euler.back(), 4.0 * euler.front());
+}
+
+// Error at t = 0.5 s against a Dormand–Prince reference at rtol 1e-13.
+double GlobalError(IntegratorType type, double h) {
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kArm2);
+  auto run = [&](IntegratorType t, double step, double rtol) {
+    auto model = MakeModel(spec, Method::kClosedForm);
+    auto integrator = MakeIntegratorOfType(t, 2, rtol);
+    VectorXd q(2), qd(2), tau = VectorXd::Zero(2);
+    q << 0.3, 0.8;
+    qd << 1.0, -0.5;
+    const int steps = static_cast<int>(std::lround(0.5 / step));
+    for (int k = 0; k < steps; ++k) integrator->Step(*model, k * step, step, tau, q, qd);
+    return q;
+  };
+  return (run(type, h, 1e-8) - run(IntegratorType::kDormandPrince, 0.05, 1e-13)).norm();
+}
+
+TEST(ConvergenceOrder, EachFixedStepMethodConvergesAtItsOrder) {
+  const std::pair<IntegratorType, double> expected[] = {
+      {IntegratorType::kExplicitEuler, 1.0},
+      {IntegratorType::kSemiImplicitEuler, 1.0},
+      {IntegratorType::kRk4, 4.0},
+      {IntegratorType::kVariational, 2.0},
+  };
+  for (const auto& [type, order] : expected) {
+    const double h = type == IntegratorType::kRk4 ? 1e-2 : 1e-3;
+    const double observed = std::log2(GlobalError(type, h) / GlobalError(type, h / 2));
+    EXPECT_NEAR(observed, order, 0.25) << ToString(type);
+  }
+}
+
+TEST(DormandPrince, ErrorFollowsTheToleranceAndStatisticsAddUp) {
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kArm2);
+  auto run = [&](double rtol, IntegratorStats* stats) {
+    auto model = MakeModel(spec, Method::kClosedForm);
+    auto integrator = MakeIntegratorOfType(IntegratorType::kDormandPrince, 2, rtol);
+    VectorXd q(2), qd(2), tau = VectorXd::Zero(2);
+    q << 0.3, 0.8;
+    qd << 1.0, -0.5;
+    integrator->Step(*model, 0.0, 2.0, tau, q, qd);  // one 2 s interval: the method picks its steps
+    *stats = integrator->stats();
+    return q;
+  };
+  IntegratorStats loose, tight, reference;
+  const VectorXd exact = run(1e-13, &reference);
+  const double err_loose = (run(1e-5, &loose) - exact).norm();
+  const double err_tight = (run(1e-9, &tight) - exact).norm();
+  EXPECT_LT(err_tight, 1e-2 * err_loose);
+  EXPECT_LT(err_loose, 1e-3);
+  EXPECT_GT(tight.accepted, loose.accepted);
+  // The first trial step spans the whole 2 s and is rejected.
+  EXPECT_GE(loose.rejected, 1);
+  for (const IntegratorStats& s : {loose, tight, reference}) {
+    EXPECT_EQ(s.evaluations, 1 + 6 * (s.accepted + s.rejected));  // first same as last
+    EXPECT_EQ(s.failures, 0);
+  }
+}
+
+TEST(Substeps, AdvanceSplitsATickIntoEqualSteps) {
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kCartPole);
+  IntegratorConfig c;
+  c.type = IntegratorType::kRk4;
+  c.substeps = 4;
+  auto model = MakeModel(spec, Method::kClosedForm);
+  auto split = MakeIntegrator(c, 2);
+  c.substeps = 1;
+  auto single = MakeIntegrator(c, 2);
+  VectorXd qa(2), qda(2), tau(2);
+  qa << 0.1, 2.5;
+  qda << 0.2, -1.0;
+  tau << 1.0, 0.0;
+  VectorXd qb = qa, qdb = qda;
+  split->Advance(*model, 0.0, 4 * kTick, tau, qa, qda);
+  for (int k = 0; k < 4; ++k) single->Step(*model, k * kTick, kTick, tau, qb, qdb);
+  EXPECT_EQ(split->stats().steps, 4);
+  EXPECT_NEAR((qa - qb).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((qda - qdb).norm(), 0.0, 1e-15);
+}
+
+// x is cyclic for the cart-pole, so p_x = (mc + mp) ẋ + mp l cos θ θ̇ is
+// conserved. The variational integrator conserves the discrete momentum
+// exactly (discrete Noether theorem); semi-implicit Euler does not.
+TEST(Variational, ConservesTheCartMomentumToRoundOff) {
+  const CartPoleParams p;
+  auto momentum = [&](const VectorXd& q, const VectorXd& qd) {
+    return (p.mc + p.mp) * qd[0] + p.mp * p.l * std::cos(q[1]) * qd[1];
+  };
+  auto drift = [&](IntegratorType type) {
+    auto model = MakeModel({p}, Method::kClosedForm);
+    auto integrator = MakeIntegratorOfType(type, 2);
+    VectorXd q(2), qd(2), tau = VectorXd::Zero(2);
+    q << 0.0, 2.0;
+    qd << 0.5, 3.0;
+    const double p0 = momentum(q, qd);
+    double worst = 0.0;
+    for (int k = 0; k < 10000; ++k) {
+      integrator->Step(*model, k * kTick, kTick, tau, q, qd);
+      worst = std::max(worst, std::abs(momentum(q, qd) - p0));
+    }
+    return worst;
+  };
+  EXPECT_LT(drift(IntegratorType::kVariational), 1e-12);
+  EXPECT_GT(drift(IntegratorType::kSemiImplicitEuler), 1e-6);
+}
+
+TEST(Factory, NamesRoundTripAndBadConfigsAreRefused) {
+  for (const auto type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                          IntegratorType::kRk4, IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+    EXPECT_EQ(ParseIntegratorType(ToString(type)), type);
+  }
+  EXPECT_FALSE(ParseIntegratorType("rk5"));
+  IntegratorConfig c;
+  c.substeps = 0;
+  EXPECT_THROW(MakeIntegrator(c, 2), std::invalid_argument);
+  c.substeps = 1;
+  c.rtol = -1.0;
+  EXPECT_THROW(MakeIntegrator(c, 2), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lagrange
