@@ -1,0 +1,177 @@
+#include "daemon/scene.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "daemon/yaml_reader.hpp"
+
+namespace lagrange {
+namespace {
+
+bool IsValidName(const std::string& name) {
+  if (name.empty() || name.size() > 48 || !(name[0] >= 'a' && name[0] <= 'z')) return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
+}
+
+PlantSpec ReadPlant(const YamlReader& node, Method* method) {
+  node.ExpectKeys({"type", "method", "params"});
+  const YamlReader type_node = node.Required("type");
+  const std::optional<PlantType> type = ParsePlantType(type_node.Text());
+  if (!type) type_node.Fail("expected one of " + PlantTypeNames() + ", got '" + type_node.Text() + "'");
+  PlantSpec spec = DefaultPlantSpec(*type);
+
+  if (auto params = node.Optional("params")) {
+    std::vector<std::pair<std::string, YamlReader>> entries = params->Entries();
+    // The chain's link count first, so per-link lists can be checked against it.
+    std::stable_partition(entries.begin(), entries.end(), [](const auto& e) { return e.first == "links"; });
+    for (const auto& [key, value] : entries) {
+      const std::vector<std::string_view> names = PlantParamNames(*type);
+      if (std::find(names.begin(), names.end(), key) == names.end()) {
+        std::string list;
+        for (std::string_view n : names) list += (list.empty() ? "" : ", ") + std::string(n);
+        value.Fail("unknown parameter for " + std::string(ToString(*type)) + " (expected one of: " + list + ")");
+      }
+      if (value.IsSequence()) {
+        if (*type != PlantType::kChain || key == "links" || key == "g" || key == "base_angle") {
+          value.Fail("expected a single value");
+        }
+        const int links = spec.num_dofs();
+        if (static_cast<int>(value.Size()) != links) {
+          value.Fail("expected " + std::to_string(links) + " values (one per link), got " +
+                     std::to_string(value.Size()));
+        }
+        for (int i = 0; i < links; ++i) {
+          const YamlReader item = value.At(static_cast<std::size_t>(i));
+          if (auto err = SetPlantParam(spec, key, item.Text(), i)) item.Fail(err->message);
+        }
+      } else if (auto err = SetPlantParam(spec, key, value.Text())) {
+        value.Fail(err->message);
+      }
+    }
+  }
+  if (auto err = ValidatePlantSpec(spec)) node.Fail("params." + err->key, err->message);
+
+  *method = FastestMethod(*type);
+  if (auto m = node.Optional("method")) {
+    const std::optional<Method> parsed = ParseMethod(m->Text());
+    if (!parsed) m->Fail("expected closed-form, lagrangian or recursive, got '" + m->Text() + "'");
+    if (!HasMethod(*type, *parsed)) {
+      m->Fail(std::string(ToString(*type)) + " has no " + std::string(ToString(*parsed)) +
+              " path (expected lagrangian or recursive)");
+    }
+    *method = *parsed;
+  }
+  return spec;
+}
+
+EffectsConfig ReadEffects(const YamlReader& node, int n) {
+  node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"});
+  EffectsConfig c;
+  if (auto v = node.Optional("gravity")) c.gravity = v->Bool();
+  if (auto v = node.Optional("coriolis")) c.coriolis = v->Bool();
+  if (auto v = node.Optional("damping")) {
+    c.damping = v->NumberOrVector(n);
+    if ((c.damping->array() < 0.0).any()) v->Fail("expected damping coefficients >= 0");
+  }
+  if (auto v = node.Optional("friction")) {
+    v->ExpectKeys({"coulomb", "velocity_scale"});
+    CoulombFriction f;
+    f.coulomb = v->Required("coulomb").NumberOrVector(n);
+    if (auto s = v->Optional("velocity_scale")) f.velocity_scale = s->PositiveNumber();
+    c.friction = f;
+  }
+  if (auto v = node.Optional("limits")) {
+    v->ExpectKeys({"lower", "upper", "stiffness", "damping"});
+    JointLimits l;
+    l.lower = v->Required("lower").VectorOrInfinity(n);
+    l.upper = v->Required("upper").VectorOrInfinity(n);
+    if (auto s = v->Optional("stiffness")) l.stiffness = s->PositiveNumber();
+    if (auto s = v->Optional("damping")) l.damping = s->NonNegativeNumber();
+    c.limits = l;
+  }
+  if (auto v = node.Optional("saturation")) c.saturation = v->NumberOrVector(n);
+  if (auto v = node.Optional("disturbance")) {
+    for (std::size_t i = 0; i < v->Size(); ++i) {
+      const YamlReader p = v->At(i);
+      p.ExpectKeys({"start", "duration", "tau"});
+      c.disturbance.push_back(
+          Push{p.Required("start").Number(), p.Required("duration").PositiveNumber(), p.Required("tau").Vector(n)});
+    }
+  }
+  if (auto err = ValidateEffects(c, n)) node.Fail(err->key, err->message);
+  return c;
+}
+
+IntegratorConfig ReadIntegrator(const YamlReader& node) {
+  node.ExpectKeys({"type", "substeps", "rtol", "atol", "max_steps"});
+  IntegratorConfig c;
+  if (auto v = node.Optional("type")) {
+    const std::optional<IntegratorType> t = ParseIntegratorType(v->Text());
+    if (!t) v->Fail("expected one of " + IntegratorTypeNames() + ", got '" + v->Text() + "'");
+    c.type = *t;
+  }
+  if (auto v = node.Optional("substeps")) c.substeps = v->Integer(1, 1000);
+  if (auto v = node.Optional("rtol")) c.rtol = v->PositiveNumber();
+  if (auto v = node.Optional("atol")) c.atol = v->PositiveNumber();
+  if (auto v = node.Optional("max_steps")) c.max_steps = v->Integer(1, 10000000);
+  return c;
+}
+
+InstanceConfig ReadInstance(const YamlReader& node) {
+  node.ExpectKeys({"name", "plant", "initial", "effects", "integrator"});
+  InstanceConfig inst;
+  const YamlReader name = node.Required("name");
+  inst.name = name.Text();
+  if (!IsValidName(inst.name)) {
+    name.Fail("expected a lower-case name of letters, digits and _ starting with a letter, got '" + inst.name + "'");
+  }
+  inst.plant = ReadPlant(node.Required("plant"), &inst.method);
+  const int n = inst.plant.num_dofs();
+  inst.q0 = VectorXd::Zero(n);
+  inst.qd0 = VectorXd::Zero(n);
+  if (auto init = node.Optional("initial")) {
+    init->ExpectKeys({"q", "qd"});
+    if (auto q = init->Optional("q")) inst.q0 = q->Vector(n);
+    if (auto qd = init->Optional("qd")) inst.qd0 = qd->Vector(n);
+  }
+  if (auto e = node.Optional("effects")) inst.effects = ReadEffects(*e, n);
+  if (auto i = node.Optional("integrator")) {
+    inst.integrator = ReadIntegrator(*i);
+    if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {
+      i->Required("type").Fail("the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
+    }
+  }
+  return inst;
+}
+
+Scene ReadScene(const YamlReader& root) {
+  root.ExpectKeys({"description", "period", "instances"});
+  Scene scene;
+  scene.file = root.file();
+  if (auto d = root.Optional("description")) scene.description = d->Text();
+  if (auto p = root.Optional("period")) {
+    scene.period = p->PositiveNumber();
+    if (scene.period < 1e-5 || scene.period > 1.0) p->Fail("expected a period from 1e-05 to 1 s, got " + p->Text());
+  }
+  const YamlReader instances = root.Required("instances");
+  if (instances.Size() == 0) instances.Fail("expected at least one instance");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < instances.Size(); ++i) {
+    scene.instances.push_back(ReadInstance(instances.At(i)));
+    if (!names.insert(scene.instances.back().name).second) {
+      instances.At(i).Required("name").Fail("duplicate instance name '" + scene.instances.back().name + "'");
+    }
+  }
+  return scene;
+}
+
+}  // namespace
+
+Scene LoadScene(const std::string& path) { return ReadScene(YamlReader::Load(path)); }
+
+Scene ParseScene(const std::string& yaml_text, const std::string& file_label) {
+  return ReadScene(YamlReader::Parse(yaml_text, file_label));
+}
+
+}  // namespace lagrange

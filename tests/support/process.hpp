@@ -1,0 +1,22 @@
+#pragma once
+// Running the project's programs as separate processes in tests.
+
+#include <string>
+#include <vector>
+
+namespace lagrange::testing {
+
+struct ProcessResult {
+  int exit_code = -1;  // 128 + signal if killed by a signal; -1 if it timed out
+  std::string out;
+  std::string err;
+};
+
+// Runs argv[0] with arguments, captures stdout and stderr, waits up to
+// `timeout_s` (then kills it).
+ProcessResult RunProcess(const std::vector<std::string>& argv, double timeout_s = 120.0);
+
+// Lines of `text`, without the trailing empty one.
+std::vector<std::string> Lines(const std::string& text);
+
+}  // namespace lagrange::testing

@@ -1,0 +1,132 @@
+// lagrangectl eval: the JSON it prints carries the model's M, C, G, qdd, T
+// and V; bad input is one clear line and a non-zero exit.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "plant/plant_spec.hpp"
+#include "tests/support/mini_json.hpp"
+#include "tests/support/process.hpp"
+#include "tests/tools/run_ctl.hpp"
+
+namespace lagrange {
+namespace {
+
+using testing::ParseJson;
+using testing::RunCtl;
+
+TEST(Eval, ArmAtTheArticlePoseReportsTheModelsGravityAndMassMatrix) {
+  const auto r = RunCtl({"eval", "--plant", "arm2", "--q", "0.7853981633974483,0", "--qd", "0,0"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto json = ParseJson(r.out);
+  EXPECT_EQ(json["method"].string, "closed-form");
+  const double m1 = 1.0, m2 = 0.8, L1 = 0.6, L2 = 0.5, g = 9.81, c = std::cos(std::numbers::pi / 4);
+  const std::vector<double> G = json["G"].Numbers();
+  ASSERT_EQ(G.size(), 2u);
+  EXPECT_NEAR(G[0], g * c * (m1 * L1 / 2 + m2 * (L1 + L2 / 2)), 1e-12);
+  EXPECT_NEAR(G[1], g * c * m2 * L2 / 2, 1e-12);
+  const auto M = json["M"].NumberRows();
+  EXPECT_NEAR(M[0][0], m1 * L1 * L1 / 3 + m2 * (L1 * L1 + L1 * L2 + L2 * L2 / 3), 1e-14);
+  EXPECT_NEAR(M[0][1], M[1][0], 0.0);
+  EXPECT_EQ(json["T"].number, 0.0);
+  // At rest with zero torque, M qdd = −G.
+  const std::vector<double> qdd = json["qdd"].Numbers();
+  EXPECT_NEAR(M[0][0] * qdd[0] + M[0][1] * qdd[1], -G[0], 1e-12);
+  EXPECT_NEAR(M[1][0] * qdd[0] + M[1][1] * qdd[1], -G[1], 1e-12);
+}
+
+TEST(Eval, EveryMethodPrintsTheSameDynamics) {
+  for (const std::string plant : {"pendulum", "arm2", "cartpole"}) {
+    const std::string q = plant == "pendulum" ? "0.4" : "0.3,-1.2";
+    const std::string qd = plant == "pendulum" ? "1.5" : "1.5,-0.7";
+    const std::string tau = plant == "pendulum" ? "0.2" : "0.2,-0.1";
+    std::vector<testing::Json> outputs;
+    for (const std::string method : {"closed-form", "lagrangian", "recursive"}) {
+      const auto r = RunCtl({"eval", "--plant", plant, "--q", q, "--qd", qd, "--tau", tau, "--method", method});
+      ASSERT_EQ(r.status, 0) << r.err;
+      outputs.push_back(ParseJson(r.out));
+      EXPECT_EQ(outputs.back()["method"].string, method);
+    }
+    for (const auto& o : outputs) {
+      for (const char* key : {"G", "qdd"}) {
+        const auto a = outputs[0][key].Numbers(), b = o[key].Numbers();
+        for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-11 * (1 + std::abs(a[i]))) << plant << key;
+      }
+      const auto Ca = outputs[0]["C"].NumberRows(), Cb = o["C"].NumberRows();
+      for (std::size_t i = 0; i < Ca.size(); ++i) {
+        for (std::size_t j = 0; j < Ca.size(); ++j) EXPECT_NEAR(Ca[i][j], Cb[i][j], 1e-12) << plant;
+      }
+      EXPECT_NEAR(outputs[0]["T"].number, o["T"].number, 1e-12);
+      EXPECT_NEAR(outputs[0]["V"].number, o["V"].number, 1e-12);
+    }
+  }
+}
+
+TEST(Eval, ChainParametersAndLinksShapeTheModel) {
+  // Three 0.4 m uniform rods hanging straight down (base_angle −π/2): G = 0, V = −g Σ m y.
+  const auto r = RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "L=0.4", "--param", "m=2",
+                         "--param", "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto json = ParseJson(r.out);
+  EXPECT_EQ(json["method"].string, "recursive");
+  EXPECT_EQ(json["M"].NumberRows().size(), 3u);
+  for (double g : json["G"].Numbers()) EXPECT_NEAR(g, 0.0, 1e-12);
+  EXPECT_NEAR(json["V"].number, -9.81 * 2.0 * (0.2 + 0.6 + 1.0), 1e-12);
+}
+
+TEST(Eval, ParametersChangeThePhysics) {
+  const auto heavy = ParseJson(RunCtl({"eval", "--plant", "pendulum", "--param", "m=3", "--param", "L=2",
+                                       "--q", "0.5", "--qd", "0"}).out);
+  EXPECT_NEAR(heavy["M"].NumberRows()[0][0], 3.0 * 4.0, 1e-12);
+  EXPECT_NEAR(heavy["G"].Numbers()[0], 3.0 * 9.81 * 2.0 * std::sin(0.5), 1e-12);
+  const auto rod = ParseJson(RunCtl({"eval", "--plant", "pendulum", "--param", "body=rod", "--q", "0.5", "--qd", "0"}).out);
+  EXPECT_NEAR(rod["M"].NumberRows()[0][0], 1.0 / 3.0, 1e-15);
+}
+
+struct BadEval {
+  std::vector<std::string> args;
+  std::string message;  // what the one line must say
+};
+
+TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
+  const std::vector<BadEval> cases = {
+      {{"--plant", "arm3", "--q", "0,0", "--qd", "0,0"}, "--plant: expected one of pendulum|arm2|cartpole|chain, got 'arm3'"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--method", "magic"}, "--method: expected closed-form, lagrangian or recursive, got 'magic'"},
+      {{"--plant", "chain", "--q", "0,0", "--qd", "0,0", "--method", "closed-form"}, "chain has no closed-form path"},
+      {{"--plant", "arm2", "--q", "0,0,0", "--qd", "0,0"}, "--q: expected 2 values (one per joint), got 3"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0"}, "--qd: expected 2 values (one per joint), got 1"},
+      {{"--plant", "arm2", "--q", "0,inf", "--qd", "0,0"}, "--q: expected comma-separated finite numbers, got 'inf'"},
+      {{"--plant", "arm2", "--q", "0,1x", "--qd", "0,0"}, "got '1x'"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "nan,0"}, "--tau: expected comma-separated finite numbers"},
+      {{"--plant", "arm2", "--param", "m1=-1", "--q", "0,0", "--qd", "0,0"}, "--param m1: expected a positive number (kg), got -1"},
+      {{"--plant", "arm2", "--param", "mass=1", "--q", "0,0", "--qd", "0,0"}, "--param mass: unknown parameter for arm2"},
+      {{"--plant", "arm2", "--param", "m1", "--q", "0,0", "--qd", "0,0"}, "--param: expected NAME=VALUE, got 'm1'"},
+      {{"--plant", "arm2", "--links", "3", "--q", "0,0", "--qd", "0,0"}, "--links: only a chain has links"},
+      {{"--plant", "chain", "--links", "0", "--q", "0", "--qd", "0"}, "--links: expected a whole number from 1 to 256, got 0"},
+      {{"--plant", "arm2", "--qd", "0,0"}, "--q is required"},
+  };
+  for (const BadEval& c : cases) {
+    std::vector<std::string> args = {"eval"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = RunCtl(args);
+    EXPECT_EQ(r.status, 2) << c.message;
+    EXPECT_TRUE(r.out.empty());
+    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
+  }
+}
+
+TEST(Eval, TheInstalledBinaryExitsNonZeroWithOneLineOnBadInput) {
+  const auto bad = testing::RunProcess({LAGRANGECTL_PATH, "eval", "--plant", "arm2", "--q", "0", "--qd", "0,0"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.err, "lagrangectl eval: --q: expected 2 values (one per joint), got 1\n");
+  const auto good = testing::RunProcess({LAGRANGECTL_PATH, "eval", "--plant", "pendulum", "--q", "0", "--qd", "0"});
+  EXPECT_EQ(good.exit_code, 0);
+  EXPECT_EQ(ParseJson(good.out)["G"].Numbers()[0], 0.0);
+}
+
+}  // namespace
+}  // namespace lagrange

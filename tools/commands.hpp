@@ -1,0 +1,32 @@
+#pragma once
+// lagrangectl's commands. Each registers its options as a CLI11 subcommand and
+// runs after parsing; RunLagrangectl is main() without the process, so tests
+// drive it in-process.
+
+#include <memory>
+#include <ostream>
+
+#include <CLI/CLI.hpp>
+
+namespace lagrange::cli {
+
+class Command {
+ public:
+  virtual ~Command() = default;
+  CLI::App* app() const { return app_; }
+  // Runs the command after parsing. Throws UsageError for bad arguments.
+  virtual int Run(std::ostream& out, std::ostream& err) = 0;
+
+ protected:
+  explicit Command(CLI::App* app) : app_(app) {}
+  CLI::App* app_;
+};
+
+std::unique_ptr<Command> MakeEvalCommand(CLI::App& parent);
+std::unique_ptr<Command> MakeSimulateCommand(CLI::App& parent);
+
+// Exit status: 0 success, 2 bad argument, 1 any other failure; an error is
+// one line on `err`: "lagrangectl <command>: <what is wrong>".
+int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::ostream& err);
+
+}  // namespace lagrange::cli

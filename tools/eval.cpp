@@ -1,0 +1,97 @@
+// lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON.
+
+#include <sstream>
+
+#include "plant/plant_spec.hpp"
+#include "tools/cli_support.hpp"
+#include "tools/commands.hpp"
+
+namespace lagrange::cli {
+namespace {
+
+class EvalCommand final : public Command {
+ public:
+  explicit EvalCommand(CLI::App& parent)
+      : Command(parent.add_subcommand("eval", "Evaluate M, C, G, qdd, T and V at one state (JSON)")) {
+    app_->add_option("--plant", plant_, "Plant type: " + PlantTypeNames())->required();
+    app_->add_option("--links", links_, "Number of links (chain)");
+    app_->add_option("--param", params_, "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...)");
+    app_->add_option("--q", q_, "Positions a,b,.. (rad or m)")->required();
+    app_->add_option("--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
+    app_->add_option("--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
+    app_->add_option("--method", method_, "closed-form|lagrangian|recursive; default the fastest exact path");
+  }
+
+  int Run(std::ostream& out, std::ostream&) override {
+    const std::optional<PlantType> type = ParsePlantType(plant_);
+    if (!type) throw UsageError("--plant: expected one of " + PlantTypeNames() + ", got '" + plant_ + "'");
+    PlantSpec spec = DefaultPlantSpec(*type);
+    if (links_) {
+      if (*type != PlantType::kChain) throw UsageError("--links: only a chain has links");
+      if (auto e = SetChainLinks(spec, *links_)) throw UsageError("--links: " + e->message);
+    }
+    for (const std::string& p : params_) {
+      const std::size_t eq = p.find('=');
+      if (eq == std::string::npos) throw UsageError("--param: expected NAME=VALUE, got '" + p + "'");
+      if (auto e = SetPlantParam(spec, p.substr(0, eq), p.substr(eq + 1))) {
+        throw UsageError("--param " + e->key + ": " + e->message);
+      }
+    }
+    if (auto e = ValidatePlantSpec(spec)) throw UsageError("--param " + e->key + ": " + e->message);
+
+    Method method = FastestMethod(*type);
+    if (method_) {
+      const std::optional<Method> m = ParseMethod(*method_);
+      if (!m) throw UsageError("--method: expected closed-form, lagrangian or recursive, got '" + *method_ + "'");
+      if (!HasMethod(*type, *m)) {
+        throw UsageError("--method: " + plant_ + " has no " + *method_ + " path (use lagrangian or recursive)");
+      }
+      method = *m;
+    }
+
+    const int n = spec.num_dofs();
+    const VectorXd q = ParseNumberList("--q", q_, n);
+    const VectorXd qd = ParseNumberList("--qd", qd_, n);
+    const VectorXd tau = tau_ ? ParseNumberList("--tau", *tau_, n) : VectorXd::Zero(n);
+
+    auto dynamics = MakeDynamics(spec, method);
+    MatrixXd M(n, n), C(n, n);
+    VectorXd G(n), qdd(n);
+    dynamics->ComputeMassMatrix(q, M);
+    dynamics->ComputeCoriolisMatrix(q, qd, C);
+    dynamics->ComputeGravityForce(q, G);
+    dynamics->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+    const double T = dynamics->ComputeKineticEnergy(q, qd);
+    const double V = dynamics->ComputePotentialEnergy(q);
+    if (!qdd.allFinite() || !M.allFinite() || !std::isfinite(T) || !std::isfinite(V)) {
+      throw std::runtime_error("the dynamics are not finite at this state");
+    }
+
+    std::ostringstream json;
+    json << "{\"plant\": \"" << ToString(*type) << "\", \"method\": \"" << ToString(method)
+         << "\", \"num_dofs\": " << n << ", \"M\": ";
+    WriteJsonMatrix(json, M);
+    json << ", \"C\": ";
+    WriteJsonMatrix(json, C);
+    json << ", \"G\": ";
+    WriteJsonVector(json, G);
+    json << ", \"qdd\": ";
+    WriteJsonVector(json, qdd);
+    json << ", \"T\": " << FormatDouble(T) << ", \"V\": " << FormatDouble(V) << "}\n";
+    out << json.str();
+    return 0;
+  }
+
+ private:
+  std::string plant_;
+  std::optional<int> links_;
+  std::vector<std::string> params_;
+  std::string q_, qd_;
+  std::optional<std::string> tau_, method_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeEvalCommand(CLI::App& parent) { return std::make_unique<EvalCommand>(parent); }
+
+}  // namespace lagrange::cli
