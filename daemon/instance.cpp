@@ -6,15 +6,77 @@ Instance::Instance(const InstanceConfig& config)
     : config_(config),
       model_(MakeDynamics(config.plant, config.method), config.effects),
       integrator_(MakeIntegrator(config.integrator, config.plant.num_dofs())),
+      trajectory_(MakeTrajectory(config)),
       q_(config.q0),
       qd_(config.qd0),
-      tau_(VectorXd::Zero(config.plant.num_dofs())) {}
+      qdd_(VectorXd::Zero(config.plant.num_dofs())),
+      tau_(VectorXd::Zero(config.plant.num_dofs())),
+      tau_cmd_(VectorXd::Zero(config.plant.num_dofs())),
+      q_des_(config.q0),
+      setpoint_(config.plant.num_dofs()) {
+  const VectorXd& limits = config.torque_limits.size() == num_dofs()
+                               ? config.torque_limits
+                               : VectorXd::Constant(num_dofs(), std::numeric_limits<double>::infinity());
+  controllers_.push_back(MakeController(config.controller, config.plant, limits));
+  for (const ControllerConfig& c : config.alternates) controllers_.push_back(MakeController(c, config.plant, limits));
+  if (config.controller.type != ControllerType::kNone) {
+    ControllerConfig none;
+    controllers_.push_back(MakeController(none, config.plant, limits));
+  }
+  SampleTrajectory(setpoint_);
+  q_des_ = setpoint_.q;
+  model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
+}
 
-bool Instance::Step(double dt, ConstVecRef tau_cmd) {
+void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, out); }
+
+bool Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
   const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;  // no accumulated round-off over long runs
+  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd, qdd_);
   return ok;
+}
+
+bool Instance::Step(double dt, const Setpoint& setpoint) {
+  q_des_ = setpoint.q;
+  const bool controlled = controller().Compute(t_, q_, qd_, setpoint, tau_cmd_);
+  const bool integrated = Integrate(dt, tau_cmd_);
+  return controlled && integrated;
+}
+
+bool Instance::Step(double dt) {
+  SampleTrajectory(setpoint_);
+  return Step(dt, setpoint_);
+}
+
+bool Instance::StepWithTorque(double dt, ConstVecRef tau_cmd) {
+  tau_cmd_ = tau_cmd;
+  return Integrate(dt, tau_cmd_);
+}
+
+void Instance::Freeze(double dt) {
+  t_ = static_cast<double>(++steps_) * dt;
+  tau_.setZero();
+  qdd_.setZero();
+}
+
+std::vector<std::string> Instance::controller_names() const {
+  std::vector<std::string> names;
+  for (const auto& c : controllers_) names.emplace_back(c->name());
+  return names;
+}
+
+std::optional<std::string> Instance::SelectController(std::string_view name) {
+  for (std::size_t i = 0; i < controllers_.size(); ++i) {
+    if (controllers_[i]->name() != name) continue;
+    active_ = i;
+    controllers_[i]->Reset();
+    return std::nullopt;
+  }
+  std::string list;
+  for (const auto& c : controllers_) list += (list.empty() ? "" : ", ") + std::string(c->name());
+  return "unknown controller '" + std::string(name) + "' for " + config_.name + " (available: " + list + ")";
 }
 
 void Instance::Reset() {
@@ -23,6 +85,12 @@ void Instance::Reset() {
   q_ = config_.q0;
   qd_ = config_.qd0;
   tau_.setZero();
+  tau_cmd_.setZero();
+  active_ = 0;
+  controller().Reset();
+  SampleTrajectory(setpoint_);
+  q_des_ = setpoint_.q;
+  model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
 }
 
 }  // namespace lagrange

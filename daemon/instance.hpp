@@ -1,10 +1,18 @@
 #pragma once
-// One running plant instance: its model, integrator and state, built from an
-// InstanceConfig. Everything is allocated in the constructor; Step allocates
-// nothing.
+// One running plant instance: model, integrator, controllers, its scene
+// trajectory and its state, built from an InstanceConfig. Everything is
+// allocated in the constructor; nothing after allocates.
+//
+// One step: setpoint → controller (with its torque limits) → integrate the
+// scene's sub-steps → qdd at the new state.
 
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
+#include "controllers/controller.hpp"
+#include "controllers/setpoint.hpp"
 #include "daemon/scene.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
@@ -19,14 +27,36 @@ class Instance {
   const std::string& name() const { return config_.name; }
   int num_dofs() const { return model_.num_dofs(); }
 
-  double t() const { return t_; }           // simulated time, s
+  double t() const { return t_; }                 // simulated time, s
+  std::int64_t steps() const { return steps_; }
   const VectorXd& q() const { return q_; }
   const VectorXd& qd() const { return qd_; }
-  const VectorXd& tau() const { return tau_; }  // applied generalized force (after saturation) of the last step
+  const VectorXd& qdd() const { return qdd_; }    // at the current state under the last applied tau
+  const VectorXd& tau() const { return tau_; }    // applied generalized force of the last step (after limits and saturation)
+  const VectorXd& q_des() const { return q_des_; }
 
-  // (tau_cmd) => (q, qd) at t + dt. False when the integrator failed its tolerance.
-  bool Step(double dt, ConstVecRef tau_cmd);
-  // Back to the initial state at t = 0.
+  // The scene trajectory's setpoint at the current time.
+  void SampleTrajectory(Setpoint& out) const;
+
+  // (setpoint) => control, then (q, qd) at t + dt. False when the controller
+  // faulted (non-finite law) or the integrator failed; the state is then
+  // left as the integrator produced it and the caller decides.
+  bool Step(double dt, const Setpoint& setpoint);
+  // A step under the scene's own trajectory.
+  bool Step(double dt);
+  // A step under a given commanded force, no controller (q_des unchanged).
+  bool StepWithTorque(double dt, ConstVecRef tau_cmd);
+  // A step in which the plant does not move: time advances, state is kept.
+  void Freeze(double dt);
+
+  Controller& controller() { return *controllers_[active_]; }
+  const Controller& controller() const { return *controllers_[active_]; }
+  // Names of the controllers this instance can run (the scene's, plus none).
+  std::vector<std::string> controller_names() const;
+  // Switches to a configured controller by name and resets it; no allocation.
+  std::optional<std::string> SelectController(std::string_view name);
+
+  // Back to the initial state at t = 0 with the scene's first controller.
   void Reset();
 
   double KineticEnergy() { return model_.KineticEnergy(q_, qd_); }
@@ -36,12 +66,18 @@ class Instance {
   const Integrator& integrator() const { return *integrator_; }
 
  private:
+  bool Integrate(double dt, ConstVecRef tau_cmd);
+
   InstanceConfig config_;
   PlantModel model_;
   std::unique_ptr<Integrator> integrator_;
+  std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
+  std::size_t active_ = 0;
+  std::unique_ptr<Trajectory> trajectory_;
   double t_ = 0.0;
   std::int64_t steps_ = 0;
-  VectorXd q_, qd_, tau_;
+  VectorXd q_, qd_, qdd_, tau_, tau_cmd_, q_des_;
+  Setpoint setpoint_;  // scratch for Step(dt)
 };
 
 }  // namespace lagrange

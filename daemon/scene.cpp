@@ -1,8 +1,10 @@
 #include "daemon/scene.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
+#include "daemon/scene_control.hpp"
 #include "daemon/yaml_reader.hpp"
 
 namespace lagrange {
@@ -118,8 +120,51 @@ IntegratorConfig ReadIntegrator(const YamlReader& node) {
   return c;
 }
 
+// controller, controllers, torque_limits, setpoint, setpoint_limits, setpoint_timeout, on_timeout.
+void ReadControl(const YamlReader& node, InstanceConfig& inst) {
+  const int n = inst.plant.num_dofs();
+  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant);
+  if (auto list = node.Optional("controllers")) {
+    std::set<ControllerType> seen = {inst.controller.type};
+    for (std::size_t i = 0; i < list->Size(); ++i) {
+      const YamlReader item = list->At(i);
+      inst.alternates.push_back(ReadController(item, inst.plant));
+      if (!seen.insert(inst.alternates.back().type).second) {
+        item.Required("type").Fail("a second " + std::string(ToString(inst.alternates.back().type)) +
+                                   " controller (each type once per instance)");
+      }
+    }
+  }
+  inst.torque_limits = VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  if (auto t = node.Optional("torque_limits")) {
+    inst.torque_limits = t->NumberOrVector(n);
+    if ((inst.torque_limits.array() <= 0.0).any()) t->Fail("expected positive limits (N·m or N)");
+  }
+  if (auto s = node.Optional("setpoint")) inst.setpoint = ReadTrajectory(*s, n);
+  inst.setpoint_lower = VectorXd::Constant(n, -std::numeric_limits<double>::infinity());
+  inst.setpoint_upper = VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  if (inst.effects.limits) {
+    inst.setpoint_lower = inst.effects.limits->lower;
+    inst.setpoint_upper = inst.effects.limits->upper;
+  }
+  if (auto l = node.Optional("setpoint_limits")) {
+    l->ExpectKeys({"lower", "upper"});
+    inst.setpoint_lower = l->Required("lower").VectorOrInfinity(n);
+    inst.setpoint_upper = l->Required("upper").VectorOrInfinity(n);
+    if (!(inst.setpoint_lower.array() < inst.setpoint_upper.array()).all()) l->Fail("expected lower < upper for every joint");
+  }
+  if (auto t = node.Optional("setpoint_timeout")) inst.setpoint_timeout = t->PositiveNumber();
+  if (auto b = node.Optional("on_timeout")) {
+    const std::string v = b->Text();
+    if (v == "hold-position") inst.on_timeout = TimeoutBehaviour::kHoldPosition;
+    else if (v == "zero-torque") inst.on_timeout = TimeoutBehaviour::kZeroTorque;
+    else b->Fail("expected hold-position or zero-torque, got '" + v + "'");
+  }
+}
+
 InstanceConfig ReadInstance(const YamlReader& node) {
-  node.ExpectKeys({"name", "plant", "initial", "effects", "integrator"});
+  node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
+                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();
@@ -142,6 +187,7 @@ InstanceConfig ReadInstance(const YamlReader& node) {
       i->Required("type").Fail("the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
     }
   }
+  ReadControl(node, inst);
   return inst;
 }
 
@@ -169,6 +215,23 @@ Scene ReadScene(const YamlReader& root) {
 }  // namespace
 
 Scene LoadScene(const std::string& path) { return ReadScene(YamlReader::Load(path)); }
+
+std::string_view ToString(TimeoutBehaviour behaviour) {
+  return behaviour == TimeoutBehaviour::kHoldPosition ? "hold-position" : "zero-torque";
+}
+
+std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& c) {
+  const TrajectoryConfig& t = c.setpoint;
+  const int n = c.plant.num_dofs();
+  switch (t.type) {
+    case TrajectoryConfig::Type::kHold: return MakeHold(t.q.value_or(c.q0));
+    case TrajectoryConfig::Type::kStep: return MakeStep(c.q0, t.target, t.at);
+    case TrajectoryConfig::Type::kSine: return MakeSine(t.center.value_or(c.q0), t.amplitude, t.frequency);
+    case TrajectoryConfig::Type::kMinimumJerk:
+      return MakeMinimumJerk(c.q0, c.qd0, VectorXd::Zero(n), t.target, t.duration);
+  }
+  return MakeHold(c.q0);
+}
 
 Scene ParseScene(const std::string& yaml_text, const std::string& file_label) {
   return ReadScene(YamlReader::Parse(yaml_text, file_label));

@@ -6,11 +6,31 @@
 #include <string>
 #include <vector>
 
+#include "controllers/factory.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_spec.hpp"
 
 namespace lagrange {
+
+// The scene's own setpoint source, used until (and unless) setpoints arrive
+// over LCM. Times are from the start of the run.
+struct TrajectoryConfig {
+  enum class Type : std::uint8_t { kHold, kStep, kSine, kMinimumJerk } type = Type::kHold;
+  std::optional<VectorXd> q;  // hold: the held position (default: the initial q)
+  VectorXd target;            // step, min-jerk
+  double at = 0.0;            // step: when, s
+  VectorXd amplitude;         // sine, rad or m
+  VectorXd frequency;         // sine, Hz
+  std::optional<VectorXd> center;  // sine (default: the initial q)
+  double duration = 1.0;      // min-jerk, s
+};
+
+// What an instance does when its streamed setpoints go stale.
+enum class TimeoutBehaviour : std::uint8_t {
+  kHoldPosition,  // q_d = q at the moment of the timeout, at rest; the controller keeps running
+  kZeroTorque,    // tau = 0
+};
 
 struct InstanceConfig {
   std::string name;  // [a-z][a-z0-9_]*, unique in the scene
@@ -20,6 +40,13 @@ struct InstanceConfig {
   VectorXd qd0;  // initial velocities (n)
   EffectsConfig effects;
   IntegratorConfig integrator;
+  ControllerConfig controller;               // active at start
+  std::vector<ControllerConfig> alternates;  // more controllers a command may switch to
+  VectorXd torque_limits;                    // (n), applied after every controller; +inf: none
+  TrajectoryConfig setpoint;
+  VectorXd setpoint_lower, setpoint_upper;   // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
+  double setpoint_timeout = 0.5;             // s: streamed setpoints older than this, or none for this long, time out
+  TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
 };
 
 struct Scene {
@@ -31,6 +58,9 @@ struct Scene {
 
 // Throw ConfigError (daemon/yaml_reader.hpp) naming file, line, key and reason.
 Scene LoadScene(const std::string& path);
+// The instance's initial trajectory.
+std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& config);
+std::string_view ToString(TimeoutBehaviour behaviour);
 Scene ParseScene(const std::string& yaml_text, const std::string& file_label);
 
 }  // namespace lagrange

@@ -291,6 +291,8 @@ Method FastestMethod(PlantType type) {
   return type == PlantType::kChain ? Method::kRecursive : Method::kClosedForm;
 }
 
+std::vector<JointType> JointTypesOf(const PlantSpec& spec) { return ToPlanarChain(spec).joint_types(); }
+
 PlanarChain ToPlanarChain(const PlantSpec& spec) {
   return std::visit(
       [](const auto& p) -> PlanarChain {

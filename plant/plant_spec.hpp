@@ -67,6 +67,9 @@ bool HasMethod(PlantType type, Method method);
 // The fastest exact path: closed form where one exists, else recursive.
 Method FastestMethod(PlantType type);
 
+// The joint types, base first.
+std::vector<JointType> JointTypesOf(const PlantSpec& spec);
+
 // The plant as a planar chain (the recursive path's model).
 PlanarChain ToPlanarChain(const PlantSpec& spec);
 

@@ -24,7 +24,7 @@ std::string CsvPathFor(const std::string& path, const std::string& name, bool se
 
 void WriteHeader(std::ostream& out, int n) {
   out << 't';
-  for (const char* field : {"q", "qd", "tau"}) {
+  for (const char* field : {"q", "qd", "qdes", "tau"}) {
     for (int i = 0; i < n; ++i) out << ',' << field << i;
   }
   out << ",T,V\n";
@@ -32,7 +32,7 @@ void WriteHeader(std::ostream& out, int n) {
 
 void WriteRow(std::ostream& out, Instance& inst) {
   out << FormatDouble(inst.t());
-  for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.tau()}) {
+  for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.q_des(), &inst.tau()}) {
     for (int i = 0; i < v->size(); ++i) out << ',' << FormatDouble((*v)[i]);
   }
   out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy()) << '\n';
@@ -83,7 +83,7 @@ class SimulateCommand final : public Command {
       if (!*f) throw std::runtime_error("writing the CSV failed");
     }
     if (!ok) {
-      err << "lagrangectl simulate: an instance's state became non-finite or its integrator failed; "
+      err << "lagrangectl simulate: an instance faulted (non-finite state or torque, or its integrator failed); "
              "its CSV ends there\n";
       return 1;
     }

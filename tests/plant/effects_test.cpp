@@ -212,7 +212,7 @@ TEST(EnergyBalance, EnergyRateEqualsInputPowerMinusDissipation) {
       const double rate = (e_plus - e_minus) / (2.0 * kStep);
       sat = tau_cmd.cwiseMax(-4.0).cwiseMin(4.0);
       const double expected =
-          qd.dot(sat + VectorXd::Constant(n, 0.7)) - model.effects().DissipatedPower(q, qd);
+          Power(qd, sat + VectorXd::Constant(n, 0.7)) - model.effects().DissipatedPower(q, qd);
       ASSERT_NEAR(rate, expected, 1e-5 * (1.0 + std::abs(expected))) << plant.name << " state " << k;
     }
   }

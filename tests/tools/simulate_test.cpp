@@ -66,13 +66,13 @@ TEST_F(Simulate, WritesOneRowPerStepWithStateTorqueAndEnergy) {
                          "--csv", csv.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   const Csv data = ReadCsv(csv);
-  EXPECT_EQ(data.header, (std::vector<std::string>{"t", "q0", "qd0", "tau0", "T", "V"}));
+  EXPECT_EQ(data.header, (std::vector<std::string>{"t", "q0", "qd0", "qdes0", "tau0", "T", "V"}));
   ASSERT_EQ(data.rows.size(), 2001u);  // t = 0 and 2000 steps of 1 ms
   for (std::size_t k = 0; k < data.rows.size(); ++k) EXPECT_NEAR(data.rows[k][0], k * 1e-3, 1e-12);
   // Released at 90 degrees with no torque: T + V stays at −m g L cos(π/2) = 0 (variational integrator).
   for (const auto& row : data.rows) {
-    EXPECT_EQ(row[3], 0.0);
-    EXPECT_NEAR(row[4] + row[5], 0.0, 1e-3);
+    EXPECT_EQ(row[4], 0.0);
+    EXPECT_NEAR(row[5] + row[6], 0.0, 1e-3);
   }
   EXPECT_NEAR(data.rows[0][1], std::acos(0.0), 1e-15);
   EXPECT_LT(data.rows[300][1], 1.2);  // it swings down
@@ -86,7 +86,7 @@ TEST_F(Simulate, ASceneWithSeveralInstancesWritesOneCsvEach) {
   for (const char* name : {"arm", "cartpole"}) {
     const Csv data = ReadCsv(dir_ / (std::string("run.") + name + ".csv"));
     EXPECT_EQ(data.rows.size(), 501u) << name;
-    EXPECT_EQ(data.header.size(), 9u) << name;
+    EXPECT_EQ(data.header.size(), 11u) << name;
     EXPECT_GE(data.Column("qd1"), 0);
   }
 }
@@ -104,11 +104,12 @@ instances:
   ASSERT_EQ(RunCtl({"simulate", free.string(), "--duration", "3", "--csv", (dir_ / "f.csv").string()}).status, 0);
   ASSERT_EQ(RunCtl({"simulate", damped.string(), "--duration", "3", "--csv", (dir_ / "d.csv").string()}).status, 0);
   const Csv f = ReadCsv(dir_ / "f.csv"), d = ReadCsv(dir_ / "d.csv");
-  const double e0 = f.rows[0][4] + f.rows[0][5];
-  EXPECT_NEAR(f.rows.back()[4] + f.rows.back()[5], e0, 1e-6);
+  const int T = f.Column("T"), V = f.Column("V");
+  const double e0 = f.rows[0][T] + f.rows[0][V];
+  EXPECT_NEAR(f.rows.back()[T] + f.rows.back()[V], e0, 1e-6);
   double previous = e0;
   for (const auto& row : d.rows) {
-    const double e = row[4] + row[5];
+    const double e = row[T] + row[V];
     EXPECT_LE(e, previous + 1e-12);
     previous = e;
   }

@@ -1,0 +1,75 @@
+#include "controllers/joint_controllers.hpp"
+
+#include <stdexcept>
+
+namespace lagrange {
+
+PdController::PdController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains, PdOptions options,
+                           std::unique_ptr<Dynamics> model)
+    : Controller(std::move(joints), std::move(torque_limits)),
+      gains_(std::move(gains)),
+      options_(options),
+      model_(std::move(model)),
+      M_(num_dofs(), num_dofs()),
+      e_(num_dofs()),
+      term_(num_dofs()) {
+  if (auto err = CheckJointGains(gains_, num_dofs())) throw std::invalid_argument(*err);
+  if ((options_.acceleration_feedforward || options_.gravity_compensation) && !model_) {
+    throw std::invalid_argument("PD with model terms needs a model");
+  }
+}
+
+std::string_view PdController::name() const {
+  return options_.gravity_compensation ? "gravity-compensation" : "pd";
+}
+
+std::optional<std::string> PdController::SetGains(const Gains& gains) {
+  if (auto err = CheckJointGains(gains, num_dofs())) return err;
+  gains_.kp = gains.kp;
+  gains_.kd = gains.kd;
+  return std::nullopt;
+}
+
+void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
+  for (int i = 0; i < num_dofs(); ++i) {
+    const double e = JointError(joint_types()[i], sp.q[i], q[i]);
+    const double edot = (options_.velocity_feedforward ? sp.qd[i] : 0.0) - qd[i];
+    tau[i] = gains_.kp[i] * e + gains_.kd[i] * edot;
+  }
+  if (options_.acceleration_feedforward) {
+    model_->ComputeMassMatrix(q, M_);
+    tau.noalias() += M_ * sp.qdd;
+  }
+  if (options_.gravity_compensation) {
+    model_->ComputeGravityForce(q, term_);
+    tau += term_;
+  }
+}
+
+ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits,
+                                                   Gains gains, std::unique_ptr<Dynamics> model)
+    : Controller(std::move(joints), std::move(torque_limits)),
+      gains_(std::move(gains)),
+      model_(std::move(model)),
+      a_(num_dofs()) {
+  if (auto err = CheckJointGains(gains_, num_dofs())) throw std::invalid_argument(*err);
+  if (!model_) throw std::invalid_argument("computed torque needs a model");
+}
+
+std::optional<std::string> ComputedTorqueController::SetGains(const Gains& gains) {
+  if (auto err = CheckJointGains(gains, num_dofs())) return err;
+  gains_.kp = gains.kp;
+  gains_.kd = gains.kd;
+  return std::nullopt;
+}
+
+void ComputedTorqueController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
+  // a = qdd_d + Kd ė + Kp e, then tau = M a + C qd + G by the model's inverse dynamics.
+  for (int i = 0; i < num_dofs(); ++i) {
+    const double e = JointError(joint_types()[i], sp.q[i], q[i]);
+    a_[i] = sp.qdd[i] + gains_.kd[i] * (sp.qd[i] - qd[i]) + gains_.kp[i] * e;
+  }
+  model_->ComputeInverseDynamics(q, qd, a_, DynamicsTerms{}, tau);
+}
+
+}  // namespace lagrange

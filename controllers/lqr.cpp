@@ -1,0 +1,172 @@
+#include "controllers/lqr.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <cmath>
+#include <stdexcept>
+
+namespace lagrange {
+namespace {
+
+void RequireSymmetric(const MatrixXd& X, const char* name) {
+  if (!X.allFinite() || (X - X.transpose()).norm() > 1e-10 * std::max(1.0, X.norm())) {
+    throw std::invalid_argument(std::string(name) + ": expected a finite symmetric matrix");
+  }
+}
+
+}  // namespace
+
+LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R) {
+  const Eigen::Index n = A.rows(), m = B.cols();
+  if (A.cols() != n || B.rows() != n || Q.rows() != n || Q.cols() != n || R.rows() != m || R.cols() != m) {
+    throw std::invalid_argument("LQR: expected A (n x n), B (n x m), Q (n x n), R (m x m)");
+  }
+  RequireSymmetric(Q, "Q");
+  RequireSymmetric(R, "R");
+  const Eigen::SelfAdjointEigenSolver<MatrixXd> q_eig(Q), r_eig(R);
+  if (q_eig.eigenvalues().minCoeff() < -1e-12 * std::max(1.0, Q.norm())) {
+    throw std::invalid_argument("Q: expected a positive semi-definite matrix");
+  }
+  if (r_eig.eigenvalues().minCoeff() <= 0.0) throw std::invalid_argument("R: expected a positive definite matrix");
+
+  const MatrixXd Rinv_Bt = R.ldlt().solve(B.transpose());
+  MatrixXd Z(2 * n, 2 * n);
+  Z << A, -B * Rinv_Bt, -Q, -A.transpose();
+  // Newton iteration for sign(H): Z ← (c Z + (c Z)⁻¹) / 2, c = |det Z|^(−1/2n).
+  bool converged = false;
+  for (int it = 0; it < 100; ++it) {
+    Eigen::PartialPivLU<MatrixXd> lu(Z);
+    const double logdet = lu.matrixLU().diagonal().cwiseAbs().array().log().sum();
+    if (!std::isfinite(logdet)) break;  // H has an eigenvalue on the imaginary axis
+    const double c = std::exp(-logdet / static_cast<double>(2 * n));
+    const MatrixXd next = 0.5 * (c * Z + lu.inverse() / c);
+    const double change = (next - Z).norm();
+    Z = next;
+    if (!Z.allFinite()) break;
+    if (change <= 1e-13 * Z.norm()) {
+      converged = true;
+      break;
+    }
+  }
+  if (!converged) throw std::invalid_argument("LQR: no stabilizing solution ((A, B) not stabilizable?)");
+
+  // (sign(H) + I) [I; S] = 0  =>  [W12; W22 + I] S = −[W11 + I; W21].
+  const MatrixXd I = MatrixXd::Identity(n, n);
+  MatrixXd lhs(2 * n, n), rhs(2 * n, n);
+  lhs << Z.topRightCorner(n, n), Z.bottomRightCorner(n, n) + I;
+  rhs << Z.topLeftCorner(n, n) + I, Z.bottomLeftCorner(n, n);
+  MatrixXd S = lhs.colPivHouseholderQr().solve(-rhs);
+  S = 0.5 * (S + S.transpose());
+
+  LqrResult result{Rinv_Bt * S, S};
+  const MatrixXd residual = A.transpose() * S + S * A - S * B * result.K + Q;
+  const Eigen::VectorXcd poles = (A - B * result.K).eigenvalues();
+  if (!S.allFinite() || residual.norm() > 1e-8 * std::max(1.0, S.norm() * A.norm() + Q.norm()) ||
+      poles.real().maxCoeff() >= 0.0) {
+    throw std::invalid_argument("LQR: no stabilizing solution ((A, B) not stabilizable?)");
+  }
+  return result;
+}
+
+LinearModel Linearize(Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
+  const int n = model.num_dofs();
+  const int m = static_cast<int>(actuated.size());
+  constexpr double kStep = 1e-6;
+  VectorXd G(n), qd = VectorXd::Zero(n), qdd_p(n), qdd_m(n);
+  model.ComputeGravityForce(q0, G);
+  VectorXd tau0 = VectorXd::Zero(n);
+  LinearModel lin{MatrixXd::Zero(2 * n, 2 * n), MatrixXd::Zero(2 * n, m), VectorXd(m)};
+  for (int k = 0; k < m; ++k) {
+    tau0[actuated[k]] = G[actuated[k]];
+    lin.u0[k] = G[actuated[k]];
+  }
+  for (int i = 0; i < n; ++i) {
+    const bool is_actuated = std::find(actuated.begin(), actuated.end(), i) != actuated.end();
+    if (!is_actuated && std::abs(G[i]) > 1e-9 * std::max(1.0, G.norm())) {
+      throw std::invalid_argument("the linearisation point is not an equilibrium of unactuated joint " +
+                                  std::to_string(i));
+    }
+  }
+  lin.A.topRightCorner(n, n).setIdentity();
+  VectorXd q = q0;
+  for (int j = 0; j < n; ++j) {  // ∂qdd/∂q
+    q[j] = q0[j] + kStep;
+    model.ComputeForwardDynamics(q, qd, tau0, DynamicsTerms{}, qdd_p);
+    q[j] = q0[j] - kStep;
+    model.ComputeForwardDynamics(q, qd, tau0, DynamicsTerms{}, qdd_m);
+    q[j] = q0[j];
+    lin.A.block(n, j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
+  }
+  for (int j = 0; j < n; ++j) {  // ∂qdd/∂qd
+    qd[j] = kStep;
+    model.ComputeForwardDynamics(q0, qd, tau0, DynamicsTerms{}, qdd_p);
+    qd[j] = -kStep;
+    model.ComputeForwardDynamics(q0, qd, tau0, DynamicsTerms{}, qdd_m);
+    qd[j] = 0.0;
+    lin.A.block(n, n + j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
+  }
+  for (int k = 0; k < m; ++k) {  // ∂qdd/∂u
+    VectorXd tau = tau0;
+    tau[actuated[k]] += kStep;
+    model.ComputeForwardDynamics(q0, qd, tau, DynamicsTerms{}, qdd_p);
+    tau[actuated[k]] -= 2 * kStep;
+    model.ComputeForwardDynamics(q0, qd, tau, DynamicsTerms{}, qdd_m);
+    lin.B.block(n, k, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
+  }
+  return lin;
+}
+
+StateFeedbackController::StateFeedbackController(std::string name, std::vector<JointType> joints,
+                                                 VectorXd torque_limits, std::vector<int> actuated, MatrixXd K,
+                                                 VectorXd u_eq)
+    : Controller(std::move(joints), std::move(torque_limits)),
+      name_(std::move(name)),
+      actuated_(std::move(actuated)),
+      K_(std::move(K)),
+      u_eq_(std::move(u_eq)),
+      x_(2 * num_dofs()),
+      u_(actuated_.size()) {
+  if (K_.rows() != static_cast<Eigen::Index>(actuated_.size()) || K_.cols() != 2 * num_dofs() ||
+      u_eq_.size() != K_.rows()) {
+    throw std::invalid_argument("state feedback: K must be (actuated x 2n) and u_eq (actuated)");
+  }
+}
+
+std::optional<std::string> StateFeedbackController::SetGains(const Gains& g) {
+  const int n = num_dofs();
+  if (actuated_.size() != 1 || g.kp.size() != n || g.kd.size() != n) {
+    return name_ + ": expected kp and kd with " + std::to_string(n) + " values each";
+  }
+  if (!g.kp.allFinite() || !g.kd.allFinite()) return name_ + ": expected finite gains";
+  K_.row(0) << g.kp.transpose(), g.kd.transpose();  // u = −K (x − x_d) = Kp (q_d − q) + Kd (qd_d − qd)
+  return std::nullopt;
+}
+
+Gains StateFeedbackController::gains() const {
+  const int n = num_dofs();
+  if (actuated_.size() != 1) return {};
+  return {K_.row(0).head(n).transpose(), K_.row(0).tail(n).transpose()};
+}
+
+void StateFeedbackController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
+  const int n = num_dofs();
+  for (int i = 0; i < n; ++i) {
+    x_[i] = -JointError(joint_types()[i], sp.q[i], q[i]);
+    x_[n + i] = qd[i] - sp.qd[i];
+  }
+  u_ = u_eq_;
+  u_.noalias() -= K_ * x_;
+  tau.setZero();
+  for (std::size_t k = 0; k < actuated_.size(); ++k) tau[actuated_[k]] = u_[static_cast<int>(k)];
+}
+
+std::unique_ptr<StateFeedbackController> MakeCartPolePd(std::vector<JointType> joints, VectorXd torque_limits,
+                                                        const Gains& gains) {
+  auto c = std::make_unique<StateFeedbackController>("cartpole-pd", std::move(joints), std::move(torque_limits),
+                                                     std::vector<int>{0}, MatrixXd::Zero(1, 4), VectorXd::Zero(1));
+  if (auto err = c->SetGains(gains)) throw std::invalid_argument(*err);
+  return c;
+}
+
+}  // namespace lagrange

@@ -1,0 +1,76 @@
+#pragma once
+// Linear-quadratic regulation: design-time math (free functions returning
+// result structs) and the state-feedback controller that uses it.
+
+#include <memory>
+#include <vector>
+
+#include "controllers/controller.hpp"
+
+namespace lagrange {
+
+struct LqrResult {
+  MatrixXd K;  // (m x 2n) optimal gain, u = −K x
+  MatrixXd S;  // (2n x 2n) stabilizing solution of the Riccati equation, cost-to-go xᵀ S x
+};
+
+// Continuous-time LQR for ẋ = A x + B u minimising ∫ xᵀQx + uᵀRu dt:
+//   Aᵀ S + S A − S B R⁻¹ Bᵀ S + Q = 0,   K = R⁻¹ Bᵀ S.
+// Solved by the matrix sign function of the Hamiltonian
+//   H = [[A, −B R⁻¹ Bᵀ], [−Q, −Aᵀ]]
+// (Newton iteration with determinant scaling); S spans the stable invariant
+// subspace [I; S]. Throws std::invalid_argument when sizes disagree, Q is not
+// symmetric positive semi-definite, R is not symmetric positive definite, or
+// no stabilizing solution exists (e.g. (A, B) not stabilizable).
+LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R);
+
+struct LinearModel {
+  MatrixXd A;  // (2n x 2n), state x = (q − q0, qd)
+  MatrixXd B;  // (2n x m), inputs: the actuated joints' generalized forces
+  VectorXd u0; // (m) the actuated forces that hold q0 at rest: G(q0) on those joints
+};
+
+// Linearises qdd = M⁻¹ (tau − C qd − G) at (q0, qd = 0) by central differences
+// of the model's forward dynamics (step 1e-6). `actuated` lists the joints
+// that take a force. Throws std::invalid_argument when q0 is not an
+// equilibrium of the unactuated joints.
+LinearModel Linearize(Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated);
+
+// Law:    u = u_eq − K (x − x_d),  x − x_d = (wrap(q − q_d), qd − qd_d);
+//         tau = u on the actuated joints, 0 on the others.
+// Inputs: q, qd; setpoint (q_d, qd_d); q_d should stay near the
+//         linearisation point (for a cart-pole: θ_d = π, any x_d).
+// Output: tau (n).
+// State:  none.
+// Used for LQR (K from LinearQuadraticRegulator) and for the cart-pole PD
+// (K from the user's gains).
+class StateFeedbackController final : public Controller {
+ public:
+  StateFeedbackController(std::string name, std::vector<JointType> joints, VectorXd torque_limits,
+                          std::vector<int> actuated, MatrixXd K, VectorXd u_eq);
+  std::string_view name() const override { return name_; }
+  const MatrixXd& K() const { return K_; }
+
+  // For the cart-pole PD: kp = (Kp_x, Kp_θ), kd = (Kd_x, Kd_θ), any sign; K = [kp, kd].
+  std::optional<std::string> SetGains(const Gains& gains) override;
+  Gains gains() const override;
+
+ protected:
+  void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
+
+ private:
+  std::string name_;
+  std::vector<int> actuated_;
+  MatrixXd K_;
+  VectorXd u_eq_;
+  VectorXd x_, u_;
+};
+
+// The article's cart-pole PD exercise as state feedback on the cart force:
+//   u = Kp_x (x_d − x) + Kd_x (ẋ_d − ẋ) + Kp_θ wrap(θ_d − θ) + Kd_θ (θ̇_d − θ̇).
+// Balancing upright needs Kp_θ, Kd_θ > 0 and Kp_x, Kd_x < 0: the cart first
+// moves away from its target to tip the pole back toward it.
+std::unique_ptr<StateFeedbackController> MakeCartPolePd(std::vector<JointType> joints, VectorXd torque_limits,
+                                                        const Gains& gains);
+
+}  // namespace lagrange

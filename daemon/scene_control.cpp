@@ -1,0 +1,141 @@
+#include "daemon/scene_control.hpp"
+
+#include <algorithm>
+
+namespace lagrange {
+namespace {
+
+// A square matrix of size k: a list of k numbers (its diagonal) or k lists of k.
+MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
+  const std::string shape = std::to_string(k) + " diagonal values or " + std::to_string(k) + " rows of " +
+                            std::to_string(k);
+  if (!node.IsSequence()) node.Fail("expected " + shape);
+  if (static_cast<int>(node.Size()) != k) {
+    node.Fail("expected " + shape + ", got " + std::to_string(node.Size()) + " values");
+  }
+  if (node.At(0).IsScalar()) return node.Vector(k).asDiagonal();
+  MatrixXd m(k, k);
+  for (int i = 0; i < k; ++i) m.row(i) = node.At(static_cast<std::size_t>(i)).Vector(k).transpose();
+  return m;
+}
+
+void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig& c) {
+  node.ExpectKeys({"params", "method"});
+  if (auto params = node.Optional("params")) {
+    PlantSpec model = plant;
+    for (const auto& [key, value] : params->Entries()) {
+      if (key == "links") value.Fail("the controller's model has the plant's links");
+      if (value.IsSequence()) {
+        for (std::size_t i = 0; i < value.Size(); ++i) {
+          if (auto err = SetPlantParam(model, key, value.At(i).Text(), static_cast<int>(i))) value.At(i).Fail(err->message);
+        }
+      } else if (auto err = SetPlantParam(model, key, value.Text())) {
+        value.Fail(err->message);
+      }
+    }
+    c.model = model;
+  }
+  if (auto m = node.Optional("method")) {
+    const std::optional<Method> method = ParseMethod(m->Text());
+    if (!method) m->Fail("expected closed-form, lagrangian or recursive, got '" + m->Text() + "'");
+    c.model_method = method;
+  }
+}
+
+}  // namespace
+
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) {
+  const int n = plant.num_dofs();
+  const YamlReader type_node = node.Required("type");
+  const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
+  if (!type) type_node.Fail("expected one of " + ControllerTypeNames() + ", got '" + type_node.Text() + "'");
+  ControllerConfig c;
+  c.type = *type;
+  switch (c.type) {
+    case ControllerType::kNone: node.ExpectKeys({"type"}); break;
+    case ControllerType::kPd:
+    case ControllerType::kGravityCompensation:
+      node.ExpectKeys({"type", "kp", "kd", "velocity_feedforward", "acceleration_feedforward", "model"});
+      break;
+    case ControllerType::kComputedTorque: node.ExpectKeys({"type", "kp", "kd", "model"}); break;
+    case ControllerType::kCartPolePd: node.ExpectKeys({"type", "kp", "kd"}); break;
+    case ControllerType::kLqr: node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model"}); break;
+    case ControllerType::kSwingUp:
+      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "energy_gain", "max_accel", "cart_gain",
+                       "cart_damping", "switch_angle", "switch_rate"});
+      break;
+  }
+  const bool gains_optional = c.type == ControllerType::kGravityCompensation;
+  const bool uses_gains = c.type == ControllerType::kPd || c.type == ControllerType::kGravityCompensation ||
+                          c.type == ControllerType::kComputedTorque || c.type == ControllerType::kCartPolePd;
+  if (uses_gains) {
+    for (const auto& [key, out] : {std::pair{"kp", &c.gains.kp}, std::pair{"kd", &c.gains.kd}}) {
+      if (auto g = node.Optional(key)) *out = g->NumberOrVector(n);
+      else if (gains_optional) *out = VectorXd::Zero(n);
+      else node.Fail(std::string("missing key '") + key + "'");
+    }
+  }
+  if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
+  if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
+  if (auto m = node.Optional("model")) ReadModel(*m, plant, c);
+  if (auto v = node.Optional("equilibrium")) c.lqr.equilibrium = v->Vector(n);
+  if (auto v = node.Optional("actuated")) {
+    std::vector<int> act;
+    for (std::size_t i = 0; i < v->Size(); ++i) act.push_back(v->At(i).Integer(0, n - 1));
+    c.lqr.actuated = act;
+  }
+  if (auto v = node.Optional("Q")) c.lqr.Q = ReadSquareMatrix(*v, 2 * n);
+  if (auto v = node.Optional("R")) {
+    const int m = c.lqr.actuated ? static_cast<int>(c.lqr.actuated->size())
+                                 : (plant.type() == PlantType::kCartPole ? 1 : n);
+    c.lqr.R = ReadSquareMatrix(*v, m);
+  }
+  SwingUpOptions& s = c.swing_up;
+  for (const auto& [key, out] : {std::pair{"energy_gain", &s.energy_gain}, std::pair{"max_accel", &s.max_accel},
+                                 std::pair{"switch_angle", &s.switch_angle}, std::pair{"switch_rate", &s.switch_rate}}) {
+    if (auto v = node.Optional(key)) *out = v->PositiveNumber();
+  }
+  for (const auto& [key, out] : {std::pair{"cart_gain", &s.cart_gain}, std::pair{"cart_damping", &s.cart_damping}}) {
+    if (auto v = node.Optional(key)) *out = v->NonNegativeNumber();
+  }
+  if (auto err = ValidateController(c, plant)) {
+    // "key: message" from the controller library; point at that key when it is in the file.
+    const std::size_t colon = err->find(": ");
+    const std::string key = colon == std::string::npos ? "" : err->substr(0, colon);
+    const std::string first = key.substr(0, key.find_first_of(",. "));
+    if (!key.empty() && node.Has(first)) node.Fail(key, err->substr(colon + 2));
+    node.Fail(*err);
+  }
+  return c;
+}
+
+TrajectoryConfig ReadTrajectory(const YamlReader& node, int n) {
+  TrajectoryConfig t;
+  const std::string type = node.Has("type") ? node.Required("type").Text() : "hold";
+  if (type == "hold") {
+    node.ExpectKeys({"type", "q"});
+    if (auto q = node.Optional("q")) t.q = q->Vector(n);
+  } else if (type == "step") {
+    node.ExpectKeys({"type", "target", "at"});
+    t.type = TrajectoryConfig::Type::kStep;
+    t.target = node.Required("target").Vector(n);
+    if (auto at = node.Optional("at")) t.at = at->NonNegativeNumber();
+  } else if (type == "sine") {
+    node.ExpectKeys({"type", "amplitude", "frequency", "center"});
+    t.type = TrajectoryConfig::Type::kSine;
+    t.amplitude = node.Required("amplitude").NumberOrVector(n);
+    t.frequency = node.Required("frequency").NumberOrVector(n);
+    if ((t.frequency.array() < 0.0).any()) node.Required("frequency").Fail("expected frequencies >= 0 Hz");
+    if (auto c = node.Optional("center")) t.center = c->Vector(n);
+  } else if (type == "min-jerk") {
+    node.ExpectKeys({"type", "target", "duration"});
+    t.type = TrajectoryConfig::Type::kMinimumJerk;
+    t.target = node.Required("target").Vector(n);
+    t.duration = node.Required("duration").PositiveNumber();
+  } else {
+    node.Required("type").Fail("expected hold, step, sine or min-jerk, got '" + type + "'");
+  }
+  return t;
+}
+
+}  // namespace lagrange

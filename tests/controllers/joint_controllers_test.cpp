@@ -1,0 +1,226 @@
+// Joint-space controllers against control theory: computed torque yields the
+// second-order error response its gains predict; PD + gravity compensation
+// has no steady-state error where plain PD keeps the offset G/Kp.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "controllers/factory.hpp"
+#include "tests/controllers/closed_loop.hpp"
+#include "tests/support/alloc_counter.hpp"
+
+namespace lagrange {
+namespace {
+
+using testing::ClosedLoop;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+ControllerConfig Joint(ControllerType type, double kp, double kd, int n = 2) {
+  ControllerConfig c;
+  c.type = type;
+  c.gains = {VectorXd::Constant(n, kp), VectorXd::Constant(n, kd)};
+  return c;
+}
+
+VectorXd Vec2(double a, double b) {
+  VectorXd v(2);
+  v << a, b;
+  return v;
+}
+
+// With an exact model the error obeys ë + Kd ė + Kp e = 0. Released at rest
+// from e0 with Kp = ω², Kd = 2ζω (ζ < 1): e(t) = e0 e^{−ζωt} (cos ω_d t + ζω/ω_d sin ω_d t).
+double PredictedError(double e0, double kp, double kd, double t) {
+  const double w = std::sqrt(kp), zeta = kd / (2.0 * w), wd = w * std::sqrt(1.0 - zeta * zeta);
+  return e0 * std::exp(-zeta * w * t) * (std::cos(wd * t) + zeta * w / wd * std::sin(wd * t));
+}
+
+TEST(ComputedTorque, ExactModelErrorFollowsTheSecondOrderResponseOfItsGains) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  const double kp = 100.0, kd = 8.0;  // ω = 10 rad/s, ζ = 0.4
+  // The controller holds each tick's torque; the fit to the continuous
+  // response tightens with the tick: 1 ms within 2 %, 0.1 ms within 0.2 % of e0.
+  for (const auto& [tick, tolerance] : {std::pair{1e-3, 2e-2}, std::pair{1e-4, 2e-3}}) {
+    const VectorXd target = Vec2(0.5, -0.3), e0 = Vec2(0.2, -0.15);
+    ClosedLoop loop(arm, MakeController(Joint(ControllerType::kComputedTorque, kp, kd), arm, VectorXd::Constant(2, kInf)),
+                    target - e0);
+    loop.setpoint.q = target;
+    double worst = 0.0;
+    ASSERT_TRUE(loop.Run(2.0, tick, nullptr, [&](double t) {
+      for (int i = 0; i < 2; ++i) {
+        const double e = target[i] - loop.q[i];
+        worst = std::max(worst, std::abs(e - PredictedError(e0[i], kp, kd, t)) / std::abs(e0[i]));
+      }
+    }));
+    EXPECT_LT(worst, tolerance) << "tick " << tick;
+  }
+}
+
+TEST(ComputedTorque, TenPercentMassErrorKeepsTrackingErrorBounded) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  ControllerConfig c = Joint(ControllerType::kComputedTorque, 100.0, 20.0);
+  Arm2Params wrong;  // the controller believes every mass is 10 % heavier
+  wrong.m1 *= 1.1;
+  wrong.m2 *= 1.1;
+  c.model = PlantSpec{wrong};
+  ClosedLoop loop(arm, MakeController(c, arm, VectorXd::Constant(2, kInf)), Vec2(0.3, 0.4));
+  // Track a sine on both joints for 20 s.
+  const double amplitude = 0.5, w = 2.0 * std::numbers::pi * 0.5;
+  double first_half = 0.0, second_half = 0.0;
+  ASSERT_TRUE(loop.Run(
+      20.0, 1e-3,
+      [&](double t, Setpoint& sp) {
+        sp.q = Vec2(0.3, 0.4) + VectorXd::Constant(2, amplitude * std::sin(w * t));
+        sp.qd = VectorXd::Constant(2, amplitude * w * std::cos(w * t));
+        sp.qdd = VectorXd::Constant(2, -amplitude * w * w * std::sin(w * t));
+      },
+      [&](double t) {
+        const VectorXd target = Vec2(0.3, 0.4) + VectorXd::Constant(2, amplitude * std::sin(w * t));
+        const double e = (target - loop.q).lpNorm<Eigen::Infinity>();
+        (t < 10.0 ? first_half : second_half) = std::max(t < 10.0 ? first_half : second_half, e);
+      }));
+  EXPECT_LT(second_half, 0.05);               // bounded, small next to the 0.5 rad motion
+  EXPECT_LT(second_half, 1.5 * first_half);   // and not growing
+  EXPECT_GT(second_half, 1e-5);               // the model error is felt
+}
+
+TEST(GravityCompensation, PdPlusGravityCompensationReachesAStepWithoutSteadyStateError) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  ClosedLoop loop(arm, MakeController(Joint(ControllerType::kGravityCompensation, 60.0, 8.0), arm,
+                                      VectorXd::Constant(2, kInf)),
+                  Vec2(0.0, 0.0));
+  loop.setpoint.q = Vec2(1.0, -0.5);
+  ASSERT_TRUE(loop.Run(10.0, 1e-3));
+  EXPECT_LT((loop.setpoint.q - loop.q).lpNorm<Eigen::Infinity>(), 1e-8);
+}
+
+TEST(GravityCompensation, PlainPdKeepsTheOffsetGravityOverKp) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  const double kp = 60.0;
+  ClosedLoop loop(arm, MakeController(Joint(ControllerType::kPd, kp, 8.0), arm, VectorXd::Constant(2, kInf)),
+                  Vec2(0.0, 0.0));
+  loop.setpoint.q = Vec2(1.0, -0.5);
+  ASSERT_TRUE(loop.Run(20.0, 1e-3));
+  // At rest, Kp e = G(q): the offset theory predicts, with q the settled pose.
+  auto model = MakeDynamics(arm, Method::kClosedForm);
+  VectorXd G(2);
+  model->ComputeGravityForce(loop.q, G);
+  const VectorXd offset = loop.setpoint.q - loop.q;
+  EXPECT_LT((offset - G / kp).norm(), 1e-8);
+  EXPECT_GT(offset.norm(), 0.05);  // and it is far from zero
+}
+
+TEST(GravityCompensation, GravityCompensationAloneHoldsAnyPose) {
+  const PlantSpec chain = DefaultPlantSpec(PlantType::kChain);
+  ClosedLoop loop(chain, MakeController(Joint(ControllerType::kGravityCompensation, 0.0, 0.0), chain,
+                                        VectorXd::Constant(2, kInf)),
+                  Vec2(0.7, -1.1));
+  const VectorXd q0 = loop.q;
+  ASSERT_TRUE(loop.Run(3.0, 1e-3));
+  EXPECT_LT((loop.q - q0).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+TEST(Pd, AngleErrorsAreWrappedToMinusPiPi) {
+  EXPECT_NEAR(JointError(JointType::kRevolute, std::numbers::pi - 0.1, -std::numbers::pi + 0.1), -0.2, 1e-12);
+  EXPECT_NEAR(JointError(JointType::kRevolute, 0.0, 2.0 * std::numbers::pi * 1e6 + 0.3), -0.3, 1e-6);
+  EXPECT_DOUBLE_EQ(JointError(JointType::kRevolute, std::numbers::pi, 0.0), std::numbers::pi);  // (−π, π]
+  EXPECT_DOUBLE_EQ(JointError(JointType::kPrismatic, 10.0, 1.0), 9.0);  // no wrapping for a slide
+  // A PD on an arm that has turned a full revolution does not unwind it.
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  auto pd = MakeController(Joint(ControllerType::kPd, 10.0, 0.0), arm, VectorXd::Constant(2, kInf));
+  Setpoint sp(2);
+  VectorXd tau(2);
+  ASSERT_TRUE(pd->Compute(0.0, Vec2(2.0 * std::numbers::pi, 0.0), Vec2(0.0, 0.0), sp, tau));
+  EXPECT_NEAR(tau.norm(), 0.0, 1e-12);
+}
+
+TEST(Limits, TorqueLimitsApplyAfterEveryController) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  const VectorXd limits = Vec2(2.0, 0.5);
+  for (ControllerType type : {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
+    auto c = MakeController(Joint(type, 1000.0, 100.0), arm, limits);
+    Setpoint sp(2);
+    sp.q = Vec2(3.0, -3.0);
+    VectorXd tau(2);
+    ASSERT_TRUE(c->Compute(0.0, Vec2(0.0, 0.0), Vec2(0.0, 0.0), sp, tau));
+    // Both laws ask for far more than the limits: each joint sits on its limit.
+    EXPECT_EQ(std::abs(tau[0]), 2.0) << ToString(type);
+    EXPECT_EQ(std::abs(tau[1]), 0.5) << ToString(type);
+  }
+}
+
+TEST(Faults, ANonFiniteLawReportsAFaultAndOutputsZeros) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  for (ControllerType type : {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
+    auto c = MakeController(Joint(type, 10.0, 1.0), arm, VectorXd::Constant(2, kInf));
+    Setpoint sp(2);
+    sp.qd[1] = std::numeric_limits<double>::quiet_NaN();
+    VectorXd tau = Vec2(7.0, 7.0);
+    EXPECT_FALSE(c->Compute(0.0, Vec2(0.1, 0.2), Vec2(0.0, 0.0), sp, tau)) << ToString(type);
+    EXPECT_EQ(tau, Vec2(0.0, 0.0));
+  }
+}
+
+TEST(Gains, ChangingGainsTakesEffectAndBadGainsAreRefused) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  auto pd = MakeController(Joint(ControllerType::kPd, 10.0, 1.0), arm, VectorXd::Constant(2, kInf));
+  EXPECT_FALSE(pd->SetGains({Vec2(20.0, 30.0), Vec2(2.0, 3.0)}));
+  Setpoint sp(2);
+  sp.q = Vec2(0.1, 0.1);
+  VectorXd tau(2);
+  ASSERT_TRUE(pd->Compute(0.0, Vec2(0.0, 0.0), Vec2(0.0, 0.0), sp, tau));
+  EXPECT_NEAR(tau[0], 2.0, 1e-12);
+  EXPECT_NEAR(tau[1], 3.0, 1e-12);
+  EXPECT_EQ(*pd->SetGains({VectorXd::Constant(3, 1.0), Vec2(1.0, 1.0)}), "kp: expected 2 gains (one per joint), got 3");
+  EXPECT_EQ(*pd->SetGains({Vec2(-1.0, 1.0), Vec2(1.0, 1.0)}), "kp: expected finite gains >= 0");
+  EXPECT_EQ(pd->gains().kp, Vec2(20.0, 30.0));  // unchanged by the refused ones
+  auto none = MakeController(ControllerConfig{}, arm, VectorXd::Constant(2, kInf));
+  EXPECT_EQ(*none->SetGains({Vec2(1.0, 1.0), Vec2(1.0, 1.0)}), "none has no adjustable gains");
+}
+
+TEST(Factory, ControllersRefuseConfigsThatDoNotFitThePlant) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  ControllerConfig c = Joint(ControllerType::kComputedTorque, 10.0, 1.0, 3);
+  EXPECT_EQ(*ValidateController(c, arm), "kp: expected 2 gains (one per joint), got 3");
+  c = Joint(ControllerType::kSwingUp, 1.0, 1.0);
+  EXPECT_EQ(*ValidateController(c, arm), "type: swing-up needs a cartpole plant, got arm2");
+  c = ControllerConfig{};
+  c.type = ControllerType::kLqr;
+  EXPECT_EQ(*ValidateController(c, arm),
+            "equilibrium: expected the configuration to balance about (one value per joint)");
+  EXPECT_THROW(MakeController(c, arm, VectorXd::Constant(2, kInf)), std::invalid_argument);
+}
+
+TEST(NoAllocation, EveryControllerComputesWithoutAllocating) {
+  const PlantSpec cartpole = DefaultPlantSpec(PlantType::kCartPole);
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  std::vector<std::pair<std::unique_ptr<Controller>, VectorXd>> controllers;
+  const VectorXd no_limits = VectorXd::Constant(2, kInf);
+  for (ControllerType t : {ControllerType::kNone, ControllerType::kPd, ControllerType::kGravityCompensation,
+                           ControllerType::kComputedTorque}) {
+    ControllerConfig c = Joint(t, 10.0, 1.0);
+    c.pd.acceleration_feedforward = t == ControllerType::kPd;
+    controllers.emplace_back(MakeController(c, arm, no_limits), Vec2(0.3, 0.2));
+  }
+  ControllerConfig lqr;
+  lqr.type = ControllerType::kLqr;
+  controllers.emplace_back(MakeController(lqr, cartpole, no_limits), Vec2(0.1, 3.0));
+  lqr.type = ControllerType::kSwingUp;
+  controllers.emplace_back(MakeController(lqr, cartpole, no_limits), Vec2(0.1, 0.5));
+  controllers.emplace_back(MakeController(lqr, cartpole, no_limits), Vec2(0.1, 3.1));  // balancing branch
+  controllers.emplace_back(MakeController(Joint(ControllerType::kCartPolePd, 1.0, 1.0), cartpole, no_limits),
+                           Vec2(0.1, 3.0));
+  for (auto& [controller, q] : controllers) {
+    Setpoint sp(2);
+    VectorXd tau(2);
+    const VectorXd qd = Vec2(0.5, -0.5);
+    testing::AllocationCounter counter;
+    for (int k = 0; k < 10; ++k) controller->Compute(k * 1e-3, q, qd, sp, tau);
+    EXPECT_EQ(counter.count(), 0) << controller->name();
+  }
+}
+
+}  // namespace
+}  // namespace lagrange

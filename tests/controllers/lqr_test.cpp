@@ -1,0 +1,172 @@
+// LQR: the Riccati solution against known closed forms and its own equation;
+// the cart-pole's closed loop is stable, recovers from offsets, and swings up.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "controllers/factory.hpp"
+#include "controllers/lqr.hpp"
+#include "tests/controllers/closed_loop.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+MatrixXd M(std::initializer_list<std::initializer_list<double>> rows) {
+  MatrixXd m(static_cast<int>(rows.size()), static_cast<int>(rows.begin()->size()));
+  int i = 0;
+  for (const auto& r : rows) {
+    int j = 0;
+    for (double x : r) m(i, j++) = x;
+    ++i;
+  }
+  return m;
+}
+
+TEST(Riccati, ScalarSystemMatchesTheClosedForm) {
+  // ẋ = a x + b u, cost q x² + r u²: S = r (a + √(a² + b² q / r)) / b².
+  for (double a : {-2.0, 0.0, 1.5}) {
+    const double b = 0.7, q = 3.0, r = 0.5;
+    const LqrResult res = LinearQuadraticRegulator(M({{a}}), M({{b}}), M({{q}}), M({{r}}));
+    EXPECT_NEAR(res.S(0, 0), r * (a + std::sqrt(a * a + b * b * q / r)) / (b * b), 1e-10) << a;
+  }
+}
+
+TEST(Riccati, DoubleIntegratorMatchesTheClosedForm) {
+  // q̈ = u, Q = I, R = 1: K = [1, √3].
+  const LqrResult res = LinearQuadraticRegulator(M({{0, 1}, {0, 0}}), M({{0}, {1}}), MatrixXd::Identity(2, 2), M({{1}}));
+  EXPECT_NEAR(res.K(0, 0), 1.0, 1e-10);
+  EXPECT_NEAR(res.K(0, 1), std::sqrt(3.0), 1e-10);
+}
+
+TEST(Riccati, RandomStabilizableSystemsSatisfyTheEquationWithStableClosedLoops) {
+  std::mt19937 rng{42};
+  std::normal_distribution<double> normal;
+  for (int trial = 0; trial < 50; ++trial) {
+    const int n = 2 + trial % 5, m = 1 + trial % 2;
+    MatrixXd A(n, n), B(n, m), L(n, n);
+    for (double* x : {A.data(), B.data(), L.data()}) (void)x;
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = normal(rng);
+    for (int i = 0; i < B.size(); ++i) B.data()[i] = normal(rng);
+    for (int i = 0; i < L.size(); ++i) L.data()[i] = normal(rng);
+    const MatrixXd Q = L * L.transpose() + 0.1 * MatrixXd::Identity(n, n);
+    const MatrixXd R = MatrixXd::Identity(m, m) * 0.5;
+    const LqrResult res = LinearQuadraticRegulator(A, B, Q, R);
+    const MatrixXd residual = A.transpose() * res.S + res.S * A - res.S * B * R.inverse() * B.transpose() * res.S + Q;
+    EXPECT_LT(residual.norm(), 1e-8 * std::max(1.0, res.S.norm())) << trial;
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(res.S).eigenvalues().minCoeff(), 0.0) << trial;
+    EXPECT_LT((A - B * res.K).eigenvalues().real().maxCoeff(), 0.0) << trial;
+  }
+}
+
+TEST(Riccati, RefusesWeightsThatAreNotDefiniteAndSystemsThatCannotBeStabilized) {
+  const MatrixXd A = M({{0, 1}, {0, 0}}), B = M({{0}, {1}});
+  EXPECT_THROW(LinearQuadraticRegulator(A, B, M({{1, 0}, {0, -1}}), M({{1}})), std::invalid_argument);
+  EXPECT_THROW(LinearQuadraticRegulator(A, B, MatrixXd::Identity(2, 2), M({{0}})), std::invalid_argument);
+  EXPECT_THROW(LinearQuadraticRegulator(A, B, MatrixXd::Identity(2, 2), M({{1, 0}})), std::invalid_argument);
+  // An unstable mode the input cannot reach.
+  EXPECT_THROW(LinearQuadraticRegulator(M({{1, 0}, {0, -1}}), M({{0}, {1}}), MatrixXd::Identity(2, 2), M({{1}})),
+               std::invalid_argument);
+}
+
+TEST(CartPoleLqr, LinearisationMatchesTheTextbookUprightModel) {
+  // About upright with φ = θ − π: ẍ = (mp l)² g / D · φ + Ip/D · u, φ̈ = mt mp g l / D · φ + mp l / D · u,
+  // D = mt Ip − (mp l)², Ip = mp l² + I.
+  const CartPoleParams p;
+  auto model = MakeDynamics({p}, Method::kClosedForm);
+  VectorXd q0(2);
+  q0 << 0.0, kPi;
+  const LinearModel lin = Linearize(*model, q0, {0});
+  const double ml = p.mp * p.l, Ip = p.mp * p.l * p.l + p.pole_inertia(), mt = p.mc + p.mp;
+  const double D = mt * Ip - ml * ml;
+  EXPECT_NEAR(lin.A(2, 1), ml * ml * p.g / D, 1e-6);
+  EXPECT_NEAR(lin.A(3, 1), mt * ml * p.g / D, 1e-6);
+  EXPECT_NEAR(lin.B(2, 0), Ip / D, 1e-8);
+  EXPECT_NEAR(lin.B(3, 0), ml / D, 1e-8);
+  EXPECT_NEAR(lin.A(0, 2), 1.0, 0.0);
+}
+
+std::unique_ptr<Controller> CartPoleLqr() {
+  ControllerConfig c;
+  c.type = ControllerType::kLqr;
+  return MakeController(c, DefaultPlantSpec(PlantType::kCartPole), VectorXd::Constant(2, kInf));
+}
+
+TEST(CartPoleLqr, ClosedLoopPolesAreInTheOpenLeftHalfPlane) {
+  auto model = MakeDynamics(DefaultPlantSpec(PlantType::kCartPole), Method::kClosedForm);
+  VectorXd q0(2);
+  q0 << 0.0, kPi;
+  const LinearModel lin = Linearize(*model, q0, {0});
+  auto controller = CartPoleLqr();
+  const auto& K = dynamic_cast<StateFeedbackController&>(*controller).K();
+  const Eigen::VectorXcd poles = (lin.A - lin.B * K).eigenvalues();
+  EXPECT_LT(poles.real().maxCoeff(), 0.0);
+  EXPECT_GT(lin.A.eigenvalues().real().maxCoeff(), 0.0);  // the open loop is unstable
+}
+
+TEST(CartPoleLqr, RecoversFromOffsetsUpToPointTwoRadians) {
+  const PlantSpec plant = DefaultPlantSpec(PlantType::kCartPole);
+  for (double offset : {-0.2, -0.1, 0.05, 0.1, 0.2}) {
+    for (double x0 : {0.0, 0.5}) {
+      VectorXd q0(2);
+      q0 << x0, kPi + offset;
+      testing::ClosedLoop loop(plant, CartPoleLqr(), q0);
+      loop.setpoint.q << 0.0, kPi;
+      ASSERT_TRUE(loop.Run(15.0, 1e-3));
+      EXPECT_LT(std::abs(JointError(JointType::kRevolute, kPi, loop.q[1])), 1e-3) << offset;
+      EXPECT_LT(std::abs(loop.q[0]), 1e-2) << offset << " " << x0;
+    }
+  }
+}
+
+TEST(CartPoleSwingUp, FromHangingDownReachesUprightAndStaysWithinFiveHundredthsForTenSeconds) {
+  const PlantSpec plant = DefaultPlantSpec(PlantType::kCartPole);
+  ControllerConfig c;
+  c.type = ControllerType::kSwingUp;
+  testing::ClosedLoop loop(plant, MakeController(c, plant, VectorXd::Constant(2, 30.0)), VectorXd::Zero(2));
+  loop.setpoint.q << 0.0, kPi;
+  double upright_since = -1.0;  // start of the current stretch within 0.05 rad
+  double longest = 0.0;
+  ASSERT_TRUE(loop.Run(30.0, 1e-3, nullptr, [&](double t) {
+    const bool upright = std::abs(JointError(JointType::kRevolute, kPi, loop.q[1])) < 0.05;
+    if (upright && upright_since < 0.0) upright_since = t;
+    if (!upright) upright_since = -1.0;
+    if (upright_since >= 0.0) longest = std::max(longest, t - upright_since);
+  }));
+  EXPECT_GE(longest, 10.0);
+  EXPECT_TRUE(dynamic_cast<SwingUpController&>(*loop.controller).balancing());
+}
+
+TEST(CartPolePd, TheArticlesExerciseBalancesAndTheCartMustMove) {
+  const PlantSpec plant = DefaultPlantSpec(PlantType::kCartPole);
+  ControllerConfig c;
+  c.type = ControllerType::kCartPolePd;
+  c.gains = {VectorXd(2), VectorXd(2)};
+  c.gains.kp << -1.0, 40.0;
+  c.gains.kd << -2.0, 8.0;
+  VectorXd q0(2);
+  q0 << 0.0, kPi - 0.1;
+  testing::ClosedLoop loop(plant, MakeController(c, plant, VectorXd::Constant(2, kInf)), q0);
+  loop.setpoint.q << 0.0, kPi;
+  double farthest = 0.0;
+  ASSERT_TRUE(loop.Run(20.0, 1e-3, nullptr, [&](double) { farthest = std::max(farthest, std::abs(loop.q[0])); }));
+  EXPECT_LT(std::abs(JointError(JointType::kRevolute, kPi, loop.q[1])), 1e-3);
+  EXPECT_GT(farthest, 0.1);  // the cart travels to catch the pole ...
+  EXPECT_LT(std::abs(loop.q[0]), 1e-2);  // ... and comes home
+  // Positive x gains (the intuitive sign) make the cart run away instead.
+  c.gains.kp[0] = 1.0;
+  c.gains.kd[0] = 2.0;
+  testing::ClosedLoop wrong(plant, MakeController(c, plant, VectorXd::Constant(2, kInf)), q0);
+  wrong.setpoint.q << 0.0, kPi;
+  wrong.Run(20.0, 1e-3);
+  EXPECT_FALSE(std::abs(wrong.q[0]) < 1.0 && std::abs(JointError(JointType::kRevolute, kPi, wrong.q[1])) < 0.1);
+}
+
+}  // namespace
+}  // namespace lagrange

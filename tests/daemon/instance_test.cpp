@@ -1,0 +1,129 @@
+// Instances built from the shipped scenes do what the scenes say; a step
+// allocates nothing; controllers switch by name.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "daemon/instance.hpp"
+#include "daemon/offline.hpp"
+#include "tests/support/alloc_counter.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+std::vector<Instance> Load(const std::string& scene_file, double* period) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/" + scene_file);
+  *period = scene.period;
+  std::vector<Instance> instances;
+  for (const auto& c : scene.instances) instances.emplace_back(c);
+  return instances;
+}
+
+double RunFor(std::vector<Instance>& instances, double period, double seconds, const StepObserver& observe = nullptr) {
+  EXPECT_TRUE(RunOffline(instances, period, std::llround(seconds / period),
+                         observe ? observe : [](std::size_t, Instance&) {}));
+  return seconds;
+}
+
+double OffUpright(const Instance& cartpole) { return std::abs(JointError(JointType::kRevolute, kPi, cartpole.q()[1])); }
+
+TEST(ShippedScenes, DefaultArmHoldsItsPoseAndTheCartPoleBalances) {
+  double period = 0;
+  auto instances = Load("default.yaml", &period);
+  ASSERT_EQ(instances.size(), 2u);
+  const VectorXd arm_q0 = instances[0].q();
+  double arm_drift = 0.0;
+  RunFor(instances, period, 10.0, [&](std::size_t i, Instance& inst) {
+    if (i == 0) arm_drift = std::max(arm_drift, (inst.q() - arm_q0).lpNorm<Eigen::Infinity>());
+  });
+  EXPECT_LT(arm_drift, 1e-9);
+  EXPECT_EQ(instances[0].controller().name(), "computed-torque");
+  EXPECT_EQ(instances[1].controller().name(), "lqr");
+  EXPECT_LT(OffUpright(instances[1]), 1e-3);
+  EXPECT_NEAR(instances[1].q()[0], 0.0, 0.05);
+}
+
+TEST(ShippedScenes, TheArticlesGravityCompensationHoldsTheArm) {
+  double period = 0;
+  auto instances = Load("gravity_compensation.yaml", &period);
+  const VectorXd q0 = instances[0].q();
+  RunFor(instances, period, 3.0);
+  EXPECT_LT((instances[0].q() - q0).lpNorm<Eigen::Infinity>(), 1e-9);
+}
+
+TEST(ShippedScenes, CartPoleExerciseAndSwingUpEndUpright) {
+  for (const char* file : {"cartpole_pd.yaml", "cartpole_swingup.yaml"}) {
+    double period = 0;
+    auto instances = Load(file, &period);
+    RunFor(instances, period, 20.0);
+    EXPECT_LT(OffUpright(instances[0]), 0.05) << file;
+  }
+}
+
+TEST(ShippedScenes, SevenLinkChainTracksItsMinimumJerkMove) {
+  double period = 0;
+  auto instances = Load("chain7_minjerk.yaml", &period);
+  Setpoint sp(7);
+  double worst = 0.0;
+  RunFor(instances, period, 4.0, [&](std::size_t, Instance& inst) {
+    worst = std::max(worst, (inst.q_des() - inst.q()).lpNorm<Eigen::Infinity>());
+  });
+  instances[0].SampleTrajectory(sp);
+  EXPECT_LT((sp.q - instances[0].q()).lpNorm<Eigen::Infinity>(), 1e-4);  // arrived
+  EXPECT_LT(worst, 1e-2);  // and tracked on the way
+  EXPECT_GT((sp.q - instances[0].config().q0).norm(), 1.0);  // it really moved
+}
+
+TEST(Instance, StepsAllocateNothingForEveryShippedScene) {
+  for (const char* file : {"default.yaml", "gravity_compensation.yaml", "cartpole_swingup.yaml", "chain7_minjerk.yaml",
+                           "pendulum.yaml", "effects_demo.yaml", "cartpole_pd.yaml"}) {
+    double period = 0;
+    auto instances = Load(file, &period);
+    for (Instance& inst : instances) {
+      Setpoint sp(inst.num_dofs());
+      inst.Step(period);  // first step outside: nothing is lazily allocated, but be fair to warm caches
+      testing::AllocationCounter counter;
+      for (int k = 0; k < 100; ++k) {
+        inst.SampleTrajectory(sp);
+        inst.Step(period, sp);
+      }
+      inst.Reset();
+      inst.Step(period);
+      EXPECT_EQ(counter.count(), 0) << file << " " << inst.name();
+    }
+  }
+}
+
+TEST(Instance, SwitchesBetweenItsConfiguredControllersByName) {
+  double period = 0;
+  auto instances = Load("default.yaml", &period);
+  Instance& arm = instances[0];
+  EXPECT_EQ(arm.controller_names(), (std::vector<std::string>{"computed-torque", "pd", "gravity-compensation", "none"}));
+  EXPECT_FALSE(arm.SelectController("pd"));
+  EXPECT_EQ(arm.controller().name(), "pd");
+  const auto err = arm.SelectController("lqr");
+  ASSERT_TRUE(err);
+  EXPECT_EQ(*err, "unknown controller 'lqr' for arm (available: computed-torque, pd, gravity-compensation, none)");
+  EXPECT_EQ(arm.controller().name(), "pd");
+  arm.Reset();
+  EXPECT_EQ(arm.controller().name(), "computed-torque");
+}
+
+TEST(Instance, ResetReturnsToTheInitialStateAtTimeZero) {
+  double period = 0;
+  auto instances = Load("cartpole_swingup.yaml", &period);
+  Instance& cp = instances[0];
+  for (int k = 0; k < 500; ++k) cp.Step(period);
+  EXPECT_GT(cp.q().norm(), 0.01);
+  cp.Reset();
+  EXPECT_EQ(cp.t(), 0.0);
+  EXPECT_EQ(cp.q(), cp.config().q0);
+  EXPECT_EQ(cp.qd(), cp.config().qd0);
+}
+
+}  // namespace
+}  // namespace lagrange
