@@ -27,8 +27,11 @@ bool Controller::Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint
   return true;
 }
 
-std::optional<std::string> Controller::SetGains(const Gains&) {
-  return std::string(name()) + " has no adjustable gains";
+bool Controller::SetGains(const Gains&) { return false; }
+
+bool ValidJointGains(const Gains& g, int n) {
+  return g.kp.size() == n && g.kd.size() == n && g.kp.allFinite() && g.kd.allFinite() &&
+         (g.kp.array() >= 0.0).all() && (g.kd.array() >= 0.0).all();
 }
 
 std::optional<std::string> CheckJointGains(const Gains& g, int n) {

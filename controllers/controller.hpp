@@ -49,9 +49,10 @@ class Controller {
   bool Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau);
   virtual void Reset() {}
 
-  // Replaces the gains without allocating. Returns an error when the
-  // controller has no such gains or the sizes or signs are wrong.
-  virtual std::optional<std::string> SetGains(const Gains& gains);
+  // Replaces the gains without allocating (safe in the tick). False, and
+  // nothing changed, when the controller has no gains or they do not fit;
+  // CheckGains (controllers/factory.hpp) says why, off the tick.
+  virtual bool SetGains(const Gains& gains);
   virtual Gains gains() const { return {}; }
 
  protected:
@@ -64,5 +65,7 @@ class Controller {
 
 // Checks PD gains for n joints: sizes n, finite, >= 0.
 std::optional<std::string> CheckJointGains(const Gains& gains, int n);
+// The same check without a message, and without allocating.
+bool ValidJointGains(const Gains& gains, int n);
 
 }  // namespace lagrange

@@ -118,6 +118,23 @@ std::string ControllerTypeNames() {
   return names;
 }
 
+std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains) {
+  switch (type) {
+    case ControllerType::kPd:
+    case ControllerType::kGravityCompensation:
+    case ControllerType::kComputedTorque: return CheckJointGains(gains, n);
+    case ControllerType::kCartPolePd:
+      if (gains.kp.size() != n || gains.kd.size() != n || !gains.kp.allFinite() || !gains.kd.allFinite()) {
+        return "kp, kd: expected " + std::to_string(n) + " finite gains each, (x, θ)";
+      }
+      return std::nullopt;
+    case ControllerType::kNone:
+    case ControllerType::kLqr:
+    case ControllerType::kSwingUp: break;
+  }
+  return std::string(ToString(type)) + " has no adjustable gains";
+}
+
 std::optional<std::string> ValidateController(const ControllerConfig& c, const PlantSpec& plant) {
   const int n = plant.num_dofs();
   if (IsCartPoleOnly(c.type) && plant.type() != PlantType::kCartPole) {
@@ -134,20 +151,10 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
     return std::string("model.method: ") + std::string(ToString(plant.type())) + " has no " +
            std::string(ToString(*c.model_method)) + " path";
   }
-  switch (c.type) {
-    case ControllerType::kNone:
-    case ControllerType::kLqr:
-    case ControllerType::kSwingUp: break;
-    case ControllerType::kPd:
-    case ControllerType::kGravityCompensation:
-    case ControllerType::kComputedTorque:
-      if (auto err = CheckJointGains(c.gains, n)) return err;
-      break;
-    case ControllerType::kCartPolePd:
-      if (c.gains.kp.size() != n || c.gains.kd.size() != n || !c.gains.kp.allFinite() || !c.gains.kd.allFinite()) {
-        return "kp, kd: expected " + std::to_string(n) + " finite gains each, (x, θ)";
-      }
-      break;
+  const bool has_gains = c.type == ControllerType::kPd || c.type == ControllerType::kGravityCompensation ||
+                         c.type == ControllerType::kComputedTorque || c.type == ControllerType::kCartPolePd;
+  if (has_gains) {
+    if (auto err = CheckGains(c.type, n, c.gains)) return err;
   }
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;

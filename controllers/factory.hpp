@@ -54,6 +54,10 @@ struct ControllerConfig {
 // definiteness. Returns "key: what was expected".
 std::optional<std::string> ValidateController(const ControllerConfig& config, const PlantSpec& plant);
 
+// Why `gains` cannot be given to a controller of this type on n joints, or
+// nullopt when they can (the messages for Controller::SetGains).
+std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains);
+
 // Builds the controller. Throws std::invalid_argument with the message
 // ValidateController would give. torque_limits (n), +inf for none.
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,

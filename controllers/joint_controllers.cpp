@@ -23,11 +23,11 @@ std::string_view PdController::name() const {
   return options_.gravity_compensation ? "gravity-compensation" : "pd";
 }
 
-std::optional<std::string> PdController::SetGains(const Gains& gains) {
-  if (auto err = CheckJointGains(gains, num_dofs())) return err;
+bool PdController::SetGains(const Gains& gains) {
+  if (!ValidJointGains(gains, num_dofs())) return false;
   gains_.kp = gains.kp;
   gains_.kd = gains.kd;
-  return std::nullopt;
+  return true;
 }
 
 void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
@@ -56,11 +56,11 @@ ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints
   if (!model_) throw std::invalid_argument("computed torque needs a model");
 }
 
-std::optional<std::string> ComputedTorqueController::SetGains(const Gains& gains) {
-  if (auto err = CheckJointGains(gains, num_dofs())) return err;
+bool ComputedTorqueController::SetGains(const Gains& gains) {
+  if (!ValidJointGains(gains, num_dofs())) return false;
   gains_.kp = gains.kp;
   gains_.kd = gains.kd;
-  return std::nullopt;
+  return true;
 }
 
 void ComputedTorqueController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {

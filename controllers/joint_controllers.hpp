@@ -24,7 +24,7 @@ class PdController final : public Controller {
   PdController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains, PdOptions options,
                std::unique_ptr<Dynamics> model);
   std::string_view name() const override;
-  std::optional<std::string> SetGains(const Gains& gains) override;
+  bool SetGains(const Gains& gains) override;
   Gains gains() const override { return gains_; }
 
  protected:
@@ -49,7 +49,7 @@ class ComputedTorqueController final : public Controller {
   ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains,
                            std::unique_ptr<Dynamics> model);
   std::string_view name() const override { return "computed-torque"; }
-  std::optional<std::string> SetGains(const Gains& gains) override;
+  bool SetGains(const Gains& gains) override;
   Gains gains() const override { return gains_; }
 
  protected:

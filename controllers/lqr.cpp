@@ -133,14 +133,13 @@ StateFeedbackController::StateFeedbackController(std::string name, std::vector<J
   }
 }
 
-std::optional<std::string> StateFeedbackController::SetGains(const Gains& g) {
+bool StateFeedbackController::SetGains(const Gains& g) {
   const int n = num_dofs();
-  if (actuated_.size() != 1 || g.kp.size() != n || g.kd.size() != n) {
-    return name_ + ": expected kp and kd with " + std::to_string(n) + " values each";
+  if (name_ != "cartpole-pd" || g.kp.size() != n || g.kd.size() != n || !g.kp.allFinite() || !g.kd.allFinite()) {
+    return false;
   }
-  if (!g.kp.allFinite() || !g.kd.allFinite()) return name_ + ": expected finite gains";
   K_.row(0) << g.kp.transpose(), g.kd.transpose();  // u = −K (x − x_d) = Kp (q_d − q) + Kd (qd_d − qd)
-  return std::nullopt;
+  return true;
 }
 
 Gains StateFeedbackController::gains() const {
@@ -165,7 +164,7 @@ std::unique_ptr<StateFeedbackController> MakeCartPolePd(std::vector<JointType> j
                                                         const Gains& gains) {
   auto c = std::make_unique<StateFeedbackController>("cartpole-pd", std::move(joints), std::move(torque_limits),
                                                      std::vector<int>{0}, MatrixXd::Zero(1, 4), VectorXd::Zero(1));
-  if (auto err = c->SetGains(gains)) throw std::invalid_argument(*err);
+  if (!c->SetGains(gains)) throw std::invalid_argument("cartpole-pd: expected kp and kd with 2 finite values each");
   return c;
 }
 

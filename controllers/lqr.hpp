@@ -52,7 +52,7 @@ class StateFeedbackController final : public Controller {
   const MatrixXd& K() const { return K_; }
 
   // For the cart-pole PD: kp = (Kp_x, Kp_θ), kd = (Kd_x, Kd_θ), any sign; K = [kp, kd].
-  std::optional<std::string> SetGains(const Gains& gains) override;
+  bool SetGains(const Gains& gains) override;
   Gains gains() const override;
 
  protected:
