@@ -55,10 +55,20 @@ bool Instance::StepWithTorque(double dt, ConstVecRef tau_cmd) {
   return Integrate(dt, tau_cmd_);
 }
 
-void Instance::Freeze(double dt) {
-  t_ = static_cast<double>(++steps_) * dt;
-  tau_.setZero();
+void Instance::Save(Saved& out) const {
+  out.steps = steps_;
+  out.t = t_;
+  out.q = q_;
+  out.qd = qd_;
+}
+
+void Instance::Restore(const Saved& saved) {
+  steps_ = saved.steps;
+  t_ = saved.t;
+  q_ = saved.q;
+  qd_ = saved.qd;
   qdd_.setZero();
+  tau_.setZero();
 }
 
 std::vector<std::string> Instance::controller_names() const {
@@ -67,11 +77,15 @@ std::vector<std::string> Instance::controller_names() const {
   return names;
 }
 
+void Instance::SelectController(std::size_t index) {
+  active_ = index;
+  controllers_[index]->Reset();
+}
+
 std::optional<std::string> Instance::SelectController(std::string_view name) {
   for (std::size_t i = 0; i < controllers_.size(); ++i) {
     if (controllers_[i]->name() != name) continue;
-    active_ = i;
-    controllers_[i]->Reset();
+    SelectController(i);
     return std::nullopt;
   }
   std::string list;

@@ -46,15 +46,27 @@ class Instance {
   bool Step(double dt);
   // A step under a given commanded force, no controller (q_des unchanged).
   bool StepWithTorque(double dt, ConstVecRef tau_cmd);
-  // A step in which the plant does not move: time advances, state is kept.
-  void Freeze(double dt);
+  // The state to return to after a fault: steps, q, qd.
+  struct Saved {
+    std::int64_t steps = 0;
+    double t = 0.0;
+    VectorXd q, qd;
+  };
+  Saved MakeSaved() const { return {steps_, t_, q_, qd_}; }
+  void Save(Saved& out) const;
+  // Restores a saved state with zero torque and acceleration; no allocation.
+  void Restore(const Saved& saved);
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }
   // Names of the controllers this instance can run (the scene's, plus none).
   std::vector<std::string> controller_names() const;
-  // Switches to a configured controller by name and resets it; no allocation.
+  // Switches to a configured controller by name and resets it.
   std::optional<std::string> SelectController(std::string_view name);
+  // The same by index into controller_names(); no allocation.
+  void SelectController(std::size_t index);
+  std::size_t active_controller() const { return active_; }
+  Controller& controller(std::size_t index) { return *controllers_[index]; }
 
   // Back to the initial state at t = 0 with the scene's first controller.
   void Reset();

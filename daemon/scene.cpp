@@ -160,11 +160,16 @@ void ReadControl(const YamlReader& node, InstanceConfig& inst) {
     else if (v == "zero-torque") inst.on_timeout = TimeoutBehaviour::kZeroTorque;
     else b->Fail("expected hold-position or zero-torque, got '" + v + "'");
   }
+  if (auto e = node.Optional("max_energy")) inst.max_energy = e->PositiveNumber();
+  if (auto d = node.Optional("estop_damping")) {
+    inst.estop_damping = d->NumberOrVector(n);
+    if ((inst.estop_damping->array() <= 0.0).any()) d->Fail("expected positive damping (N·m·s/rad or N·s/m)");
+  }
 }
 
 InstanceConfig ReadInstance(const YamlReader& node) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
-                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout"});
+                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();

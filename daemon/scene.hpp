@@ -47,6 +47,8 @@ struct InstanceConfig {
   VectorXd setpoint_lower, setpoint_upper;   // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
   double setpoint_timeout = 0.5;             // s: streamed setpoints older than this, or none for this long, time out
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
+  std::optional<double> max_energy;        // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
+  std::optional<VectorXd> estop_damping;   // (n) brake B during an emergency stop (default 20/s × diag M(q0))
 };
 
 struct Scene {

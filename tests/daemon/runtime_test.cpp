@@ -1,0 +1,305 @@
+// The tick's protocol: setpoints, timeouts, commands, modes and faults, and
+// a loop driven by a fake clock that allocates nothing.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "daemon/loop.hpp"
+#include "daemon/runtime.hpp"
+#include "tests/support/alloc_counter.hpp"
+#include "tests/support/fake_clock.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr Nanoseconds kMs = 1'000'000;
+
+Scene TwoInstances(const std::string& arm_extra = "") {
+  return ParseScene(R"(
+instances:
+  - name: arm
+    plant: {type: arm2}
+    initial: {q: [0.5, 0.3]}
+    controller: {type: computed-torque, kp: 100, kd: 20}
+    controllers: [{type: pd, kp: 50, kd: 5}]
+    torque_limits: [40, 15]
+    setpoint_timeout: 0.05
+)" + arm_extra + R"(
+  - name: cartpole
+    plant: {type: cartpole}
+    initial: {q: [0, 3.1]}
+    controller: {type: lqr}
+    setpoint: {q: [0, 3.141592653589793]}
+)", "inline");
+}
+
+class RuntimeTest : public ::testing::Test {
+ protected:
+  explicit RuntimeTest(const Scene& scene = TwoInstances()) : runtime(scene), record(runtime.MakeRecord()) {}
+  void Ticks(int n) {
+    for (int k = 0; k < n; ++k) {
+      now += kMs;
+      runtime.Tick(now, record);
+    }
+  }
+  void SendSetpoint(std::size_t i, std::initializer_list<double> q, bool stale = false) {
+    SetpointMessage& m = runtime.channels(i).setpoints.back();
+    int j = 0;
+    for (double x : q) m.setpoint.q[j++] = x;
+    m.setpoint.qd.setZero();
+    m.setpoint.qdd.setZero();
+    m.stale = stale;
+    runtime.channels(i).setpoints.Publish();
+  }
+  void SendCommand(std::size_t i, CommandKind kind, int controller = -1, double kp = 0, double kd = 0) {
+    CommandMessage* c = runtime.channels(i).commands.BeginPush();
+    ASSERT_NE(c, nullptr);
+    c->kind = kind;
+    c->controller = controller;
+    c->gains.kp.setConstant(kp);
+    c->gains.kd.setConstant(kd);
+    runtime.channels(i).commands.Push();
+  }
+  const InstanceRecord& Arm() const { return record.instances[0]; }
+
+  Runtime runtime;
+  TickRecord record;
+  Nanoseconds now = 0;
+};
+
+TEST_F(RuntimeTest, FollowsTheSceneTrajectoryUntilASetpointStreamsIn) {
+  Ticks(100);
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  EXPECT_NEAR(Arm().q_des[0], 0.5, 0.0);  // hold of the initial pose
+  SendSetpoint(0, {0.8, -0.2});
+  Ticks(1);
+  EXPECT_EQ(Arm().q_des[0], 0.8);
+  EXPECT_EQ(Arm().q_des[1], -0.2);
+  for (int k = 0; k < 80; ++k) {  // keep streaming within the timeout, 2 s
+    SendSetpoint(0, {0.8, -0.2});
+    Ticks(25);
+  }
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  EXPECT_NEAR(Arm().q[0], 0.8, 1e-6);
+}
+
+TEST_F(RuntimeTest, SetpointsStoppingSendTheInstanceToHoldAndTheNextResumes) {
+  SendSetpoint(0, {0.8, -0.2});
+  Ticks(50);  // taken at the first tick: 49 ms old, within the 0.05 s timeout
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  Ticks(1);  // 50 ms: not older than the timeout yet
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  Ticks(1);  // 51 ms
+  EXPECT_EQ(Arm().mode, Mode::kHold);
+  const VectorXd held = Arm().q_des;
+  EXPECT_LT((held - Arm().q).norm(), 0.05);  // holds where it was, not the old setpoint
+  Ticks(200);
+  EXPECT_EQ(Arm().mode, Mode::kHold);
+  EXPECT_EQ(Arm().q_des, held);
+  SendSetpoint(0, {0.1, 0.1});
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  EXPECT_EQ(Arm().q_des[0], 0.1);
+  EXPECT_EQ(record.instances[1].mode, Mode::kRunning);  // the other instance never noticed
+}
+
+TEST_F(RuntimeTest, AStaleSetpointIsNotAppliedAndSendsTheInstanceToHold) {
+  SendSetpoint(0, {0.8, -0.2});
+  Ticks(5);
+  SendSetpoint(0, {3.0, 3.0}, /*stale=*/true);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kHold);
+  EXPECT_NE(Arm().q_des[0], 3.0);
+}
+
+TEST(RuntimeZeroTorque, ZeroTorqueHoldAppliesNoTorque) {
+  Runtime runtime(TwoInstances("    on_timeout: zero-torque\n"));
+  TickRecord record = runtime.MakeRecord();
+  SetpointMessage& m = runtime.channels(0).setpoints.back();
+  m.setpoint.q << 0.5, 0.3;
+  runtime.channels(0).setpoints.Publish();
+  Nanoseconds now = 0;
+  for (int k = 0; k < 60; ++k) runtime.Tick(now += kMs, record);
+  EXPECT_EQ(record.instances[0].mode, Mode::kHold);
+  EXPECT_EQ(record.instances[0].tau.norm(), 0.0);
+}
+
+TEST_F(RuntimeTest, CommandsSwitchControllersAndChangeGains) {
+  SendCommand(0, CommandKind::kSwitchController, 1);
+  Ticks(1);
+  EXPECT_EQ(Arm().controller, 1);
+  EXPECT_EQ(runtime.instance(0).controller().name(), "pd");
+  EXPECT_EQ(Arm().commands_accepted, 1);
+  SendCommand(0, CommandKind::kSetGains, 1, 70.0, 7.0);
+  Ticks(1);
+  EXPECT_EQ(runtime.instance(0).controller().gains().kp[0], 70.0);
+  SendCommand(0, CommandKind::kSetGains, 1, -1.0, 7.0);  // PD gains must be >= 0: the tick refuses
+  Ticks(1);
+  EXPECT_EQ(Arm().commands_rejected, 1);
+  EXPECT_STREQ(Arm().command_error, "the gains do not fit the controller");
+  EXPECT_EQ(runtime.instance(0).controller().gains().kp[0], 70.0);
+  EXPECT_EQ(runtime.channels(0).active_controller.load(), 1);
+}
+
+TEST_F(RuntimeTest, PauseFreezesTimeAndStateAndResumeContinues) {
+  Ticks(10);
+  SendCommand(0, CommandKind::kPause);
+  Ticks(1);
+  const double t = Arm().t;
+  const VectorXd q = Arm().q;
+  Ticks(100);
+  EXPECT_EQ(Arm().mode, Mode::kPaused);
+  EXPECT_EQ(Arm().t, t);
+  EXPECT_EQ(Arm().q, q);
+  EXPECT_GT(record.instances[1].t, t + 0.09);  // the cart-pole ran on
+  SendCommand(0, CommandKind::kResume);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  EXPECT_GT(Arm().t, t);
+  SendCommand(0, CommandKind::kResume);
+  Ticks(1);
+  EXPECT_STREQ(Arm().command_error, "resume: the instance is not paused");
+}
+
+TEST_F(RuntimeTest, EmergencyStopBrakesTheJointsAndClearingHolds) {
+  SendCommand(0, CommandKind::kSwitchController, 2);  // none: the arm falls
+  Ticks(300);
+  EXPECT_GT(Arm().qd.norm(), 1.0);
+  SendCommand(0, CommandKind::kEstop);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kEstop);
+  Ticks(2000);
+  EXPECT_LT(Arm().qd.norm(), 0.2);  // braked (gravity still pulls it down slowly)
+  SendCommand(0, CommandKind::kReset);  // reset keeps the emergency stop
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kEstop);
+  EXPECT_EQ(Arm().controller, 0);
+  SendCommand(0, CommandKind::kClearEstop);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kHold);
+  const VectorXd held = Arm().q_des;
+  Ticks(1000);
+  EXPECT_LT((Arm().q - held).norm(), 1e-3);  // holding where it was cleared
+  SendCommand(0, CommandKind::kClearEstop);
+  Ticks(1);
+  EXPECT_STREQ(Arm().command_error, "clear_estop: the instance is not in an emergency stop");
+}
+
+class FaultTest : public RuntimeTest {
+ protected:
+  FaultTest() : RuntimeTest(TwoInstances("    max_energy: 8.0\n")) {}
+};
+
+TEST_F(FaultTest, EnergyOutOfBoundFaultsOnlyThatInstanceUntilReset) {
+  // A PD swinging the arm up to the vertical pours in more than 8 J (it starts at about 5 J).
+  SendCommand(0, CommandKind::kSwitchController, 1);
+  int faulted_at = -1;
+  for (int k = 0; k < 2000 && faulted_at < 0; ++k) {
+    if (k % 20 == 0) SendSetpoint(0, {1.5707963267948966, 0.0});  // streamed within the timeout
+    Ticks(1);
+    if (Arm().fault) faulted_at = k;
+  }
+  ASSERT_GE(faulted_at, 0);
+  EXPECT_STREQ(Arm().fault, "the energy left its bound (max_energy)");
+  EXPECT_EQ(Arm().mode, Mode::kFault);
+  EXPECT_LE(std::abs(Arm().kinetic_energy + Arm().potential_energy), 8.0);  // the last good state is published
+  EXPECT_EQ(Arm().tau.norm(), 0.0);
+  const VectorXd frozen = Arm().q;
+  Ticks(100);
+  EXPECT_EQ(Arm().q, frozen);
+  EXPECT_EQ(record.instances[1].mode, Mode::kRunning);
+  SendCommand(0, CommandKind::kEstop);
+  Ticks(1);
+  EXPECT_STREQ(Arm().command_error, "estop: the instance is faulted (frozen); reset it");
+  SendCommand(0, CommandKind::kReset);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kRunning);
+  EXPECT_NEAR(Arm().q[0], 0.5, 1e-3);
+}
+
+TEST(RuntimeFaults, ADivergingIntegrationIsFaultedAndNothingNonFiniteIsRecorded) {
+  // Explicit Euler on a stiff joint-limit spring at 1 ms blows up.
+  Runtime runtime(ParseScene(R"(
+instances:
+  - name: p
+    plant: {type: pendulum}
+    initial: {q: [1.2], qd: [30]}
+    effects: {limits: {lower: [-1], upper: [1], stiffness: 1.0e8, damping: 0}}
+    integrator: {type: explicit-euler}
+    max_energy: 1.0e300
+)", "inline"));
+  TickRecord record = runtime.MakeRecord();
+  Nanoseconds now = 0;
+  bool faulted = false;
+  for (int k = 0; k < 5000; ++k) {
+    runtime.Tick(now += kMs, record);
+    const InstanceRecord& r = record.instances[0];
+    ASSERT_TRUE(r.q.allFinite() && r.qd.allFinite() && r.qdd.allFinite() && r.tau.allFinite());
+    ASSERT_TRUE(std::isfinite(r.kinetic_energy) && std::isfinite(r.potential_energy));
+    faulted = faulted || r.mode == Mode::kFault;
+  }
+  EXPECT_TRUE(faulted);
+}
+
+TEST(Loop, TicksAreConsecutiveAndAFullRingDropsRecordsWithoutStopping) {
+  Runtime runtime(TwoInstances());
+  testing::FakeClock clock;
+  SpscRing<TickRecord> ring(8, runtime.MakeRecord());
+  Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
+  std::atomic<bool> stop{false};
+  loop.Run(stop, 20);
+  EXPECT_EQ(loop.ticks(), 20);
+  EXPECT_EQ(loop.records_dropped(), 12);  // nobody drained the ring
+  for (std::int64_t k = 0; k < 8; ++k) {
+    ASSERT_NE(ring.Front(), nullptr);
+    EXPECT_EQ(ring.Front()->tick, k);
+    ring.Pop();
+  }
+  EXPECT_EQ(runtime.instance(0).steps(), 20);
+}
+
+TEST(Loop, TheTickAllocatesNothingInAnyMode) {
+  Runtime runtime(TwoInstances());
+  testing::FakeClock clock;
+  SpscRing<TickRecord> ring(4096, runtime.MakeRecord());
+  Loop loop(runtime, clock, {kMs, OverrunPolicy::kCatchUp, 3}, ring);
+  std::atomic<bool> stop{false};
+  std::int64_t total = 0;
+  auto counted = [&](std::int64_t ticks) {
+    testing::AllocationCounter counter;
+    loop.Run(stop, loop.ticks() + ticks);
+    total += counter.count();
+  };
+  auto command = [&](CommandKind kind, int controller = -1) {
+    CommandMessage* c = runtime.channels(0).commands.BeginPush();
+    c->kind = kind;
+    c->controller = controller;
+    c->gains.kp.setConstant(10.0);
+    c->gains.kd.setConstant(1.0);
+    runtime.channels(0).commands.Push();
+  };
+  counted(50);  // running on the scene trajectory
+  SetpointMessage& m = runtime.channels(0).setpoints.back();
+  m.setpoint.q << 0.7, 0.1;
+  runtime.channels(0).setpoints.Publish();
+  counted(20);   // streamed setpoint
+  counted(100);  // timed out: hold
+  command(CommandKind::kSwitchController, 1);
+  command(CommandKind::kSetGains, 1);
+  command(CommandKind::kPause);
+  counted(10);
+  command(CommandKind::kResume);
+  command(CommandKind::kEstop);
+  counted(10);
+  command(CommandKind::kClearEstop);
+  command(CommandKind::kSetGains, 0);  // refused by the tick: formats nothing
+  command(CommandKind::kReset);
+  counted(10);
+  EXPECT_EQ(total, 0);
+  EXPECT_EQ(loop.ticks(), 200);
+}
+
+}  // namespace
+}  // namespace lagrange
