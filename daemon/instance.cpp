@@ -82,6 +82,13 @@ void Instance::SelectController(std::size_t index) {
   controllers_[index]->Reset();
 }
 
+std::vector<ControllerType> Instance::controller_types() const {
+  std::vector<ControllerType> types = {config_.controller.type};
+  for (const ControllerConfig& c : config_.alternates) types.push_back(c.type);
+  if (config_.controller.type != ControllerType::kNone) types.push_back(ControllerType::kNone);
+  return types;
+}
+
 std::optional<std::string> Instance::SelectController(std::string_view name) {
   for (std::size_t i = 0; i < controllers_.size(); ++i) {
     if (controllers_[i]->name() != name) continue;

@@ -59,8 +59,9 @@ class Instance {
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }
-  // Names of the controllers this instance can run (the scene's, plus none).
+  // Names and types of the controllers this instance can run (the scene's, plus none), by index.
   std::vector<std::string> controller_names() const;
+  std::vector<ControllerType> controller_types() const;
   // Switches to a configured controller by name and resets it.
   std::optional<std::string> SelectController(std::string_view name);
   // The same by index into controller_names(); no allocation.

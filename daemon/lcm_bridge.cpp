@@ -1,0 +1,346 @@
+#include "daemon/lcm_bridge.hpp"
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "controllers/factory.hpp"
+#include "daemon/wire.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr double kMaxSetpointMagnitude = 1e6;  // rad, m, and their rates: anything larger is a mistake
+
+std::string Number(double x) {
+  std::ostringstream os;
+  os.precision(6);
+  os << x;
+  return os.str();
+}
+
+// The first non-finite or out-of-range entry of a setpoint field, as a reason.
+std::string CheckField(const char* field, const std::vector<double>& v) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!std::isfinite(v[i])) return std::string("non-finite value in ") + field + "[" + std::to_string(i) + "]";
+    if (std::abs(v[i]) > kMaxSetpointMagnitude) {
+      return std::string(field) + "[" + std::to_string(i) + "] = " + Number(v[i]) + " is out of range (|x| <= 1e6)";
+    }
+  }
+  return "";
+}
+
+double Percentile(std::vector<double>& v, double p) {
+  if (v.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(std::min(k, v.size() - 1)), v.end());
+  return v[std::min(k, v.size() - 1)];
+}
+
+}  // namespace
+
+void Reason::Set(const std::string& s) {
+  const std::size_t n = std::min(s.size(), text.size() - 1);
+  std::copy_n(s.data(), n, text.data());
+  text[n] = '\0';
+}
+
+// ---- receive thread ------------------------------------------------------
+
+LcmReceiver::LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock,
+                         ReceiverStats& stats)
+    : lcm_(lcm), runtime_(runtime), clock_(clock), stats_(stats) {
+  handlers_.reserve(runtime.size());  // subscriptions keep pointers to the handlers
+  for (std::size_t i = 0; i < runtime.size(); ++i) {
+    const Instance& inst = runtime.instance(i);
+    const InstanceConfig& c = inst.config();
+    info_.push_back({inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(), c.setpoint_lower,
+                     c.setpoint_upper, c.setpoint_timeout});
+    handlers_.push_back({this, i});
+    lcm_.subscribe(channels.setpoint[i], &Handler::OnSetpoint, &handlers_.back());
+    lcm_.subscribe(channels.command[i], &Handler::OnCommand, &handlers_.back());
+  }
+}
+
+void LcmReceiver::Run(const std::atomic<bool>& stop) {
+  while (!stop.load(std::memory_order_relaxed)) lcm_.handleTimeout(20);
+}
+
+void LcmReceiver::Handler::OnSetpoint(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  self->HandleSetpoint(index, rbuf);
+}
+void LcmReceiver::Handler::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  self->HandleCommand(index, rbuf);
+}
+
+void LcmReceiver::DecodeError(const std::string& channel, const char* why) {
+  stats_.decode_errors.fetch_add(1, std::memory_order_relaxed);
+  const std::int64_t now = clock_.WallMicros();
+  if (now - last_log_us_ < 1'000'000) {
+    ++suppressed_;
+    return;
+  }
+  spdlog::warn("{}: dropped a packet that is not a valid message: {}{}", channel, why,
+               suppressed_ ? fmt::format(" ({} more dropped in the last second)", suppressed_) : "");
+  last_log_us_ = now;
+  suppressed_ = 0;
+}
+
+void LcmReceiver::RejectSetpoint(std::size_t i, const std::string& why) {
+  stats_.setpoints_rejected.fetch_add(1, std::memory_order_relaxed);
+  stats_.last_setpoint_rejection.back().Set(info_[i].name + ": " + why);
+  stats_.last_setpoint_rejection.Publish();
+  const std::int64_t now = clock_.WallMicros();
+  if (now - last_log_us_ < 1'000'000) {
+    ++suppressed_;
+    return;
+  }
+  spdlog::warn("{}: setpoint rejected: {}{}", info_[i].name, why,
+               suppressed_ ? fmt::format(" ({} more rejections in the last second)", suppressed_) : "");
+  last_log_us_ = now;
+  suppressed_ = 0;
+}
+
+void LcmReceiver::RejectCommand(std::size_t i, const std::string& why) {
+  stats_.commands_rejected.fetch_add(1, std::memory_order_relaxed);
+  stats_.last_command_error.back().Set(info_[i].name + ": " + why);
+  stats_.last_command_error.Publish();
+  spdlog::warn("{}: command rejected: {}", info_[i].name, why);
+}
+
+void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
+  const InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckSetpointPacket(rbuf->data, rbuf->data_size); w != WireCheck::kOk) {
+    DecodeError(info.name + "_SETPOINT", ToString(w));
+    return;
+  }
+  if (setpoint_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    DecodeError(info.name + "_SETPOINT", "decode failed");
+    return;
+  }
+  if (setpoint_.num_dofs != info.n) {
+    RejectSetpoint(i, "num_dofs is " + std::to_string(setpoint_.num_dofs) + ", expected " + std::to_string(info.n));
+    return;
+  }
+  for (const auto& [field, values] : {std::pair{"q", &setpoint_.q}, std::pair{"qd", &setpoint_.qd},
+                                      std::pair{"qdd", &setpoint_.qdd}}) {
+    if (std::string why = CheckField(field, *values); !why.empty()) {
+      RejectSetpoint(i, why);
+      return;
+    }
+  }
+  for (int j = 0; j < info.n; ++j) {
+    if (setpoint_.q[j] < info.lower[j] || setpoint_.q[j] > info.upper[j]) {
+      RejectSetpoint(i, "q[" + std::to_string(j) + "] = " + Number(setpoint_.q[j]) + " is outside the setpoint limits [" +
+                            Number(info.lower[j]) + ", " + Number(info.upper[j]) + "]");
+      return;
+    }
+  }
+  const double age = static_cast<double>(clock_.WallMicros() - setpoint_.utime) * 1e-6;
+  if (age > info.timeout || age < -info.timeout) {
+    // Not applied; the instance holds until a fresh setpoint comes.
+    SetpointMessage& stale = runtime_.channels(i).setpoints.back();
+    stale.stale = true;
+    runtime_.channels(i).setpoints.Publish();
+    RejectSetpoint(i, age > 0 ? "stale: sent " + Number(age) + " s ago (setpoint_timeout " + Number(info.timeout) + " s)"
+                              : "timestamp " + Number(-age) + " s in the future (clocks out of step?)");
+    return;
+  }
+  SetpointMessage& m = runtime_.channels(i).setpoints.back();
+  m.stale = false;
+  m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
+  m.setpoint.qd = Eigen::Map<const VectorXd>(setpoint_.qd.data(), info.n);
+  m.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), info.n);
+  runtime_.channels(i).setpoints.Publish();
+  stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+void LcmReceiver::HandleCommand(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
+  const InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckCommandPacket(rbuf->data, rbuf->data_size); w != WireCheck::kOk) {
+    DecodeError(info.name + "_COMMAND", ToString(w));
+    return;
+  }
+  if (command_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    DecodeError(info.name + "_COMMAND", "decode failed");
+    return;
+  }
+  if (command_.command < command_t::SWITCH_CONTROLLER || command_.command > command_t::CLEAR_ESTOP) {
+    RejectCommand(i, "unknown command " + std::to_string(command_.command));
+    return;
+  }
+  auto find_controller = [&](const std::string& name) -> int {
+    const auto it = std::find(info.controllers.begin(), info.controllers.end(), name);
+    return it == info.controllers.end() ? -1 : static_cast<int>(it - info.controllers.begin());
+  };
+  auto unknown = [&](const std::string& name) {
+    std::string list;
+    for (const std::string& c : info.controllers) list += (list.empty() ? "" : ", ") + c;
+    return "unknown controller '" + name + "' for " + info.name + " (available: " + list + ")";
+  };
+  const auto kind = static_cast<CommandKind>(command_.command);
+  int controller = -1;
+  if (kind == CommandKind::kSwitchController) {
+    controller = find_controller(command_.controller);
+    if (controller < 0) return RejectCommand(i, unknown(command_.controller));
+  }
+  if (kind == CommandKind::kSetGains) {
+    controller = command_.controller.empty() ? runtime_.channels(i).active_controller.load(std::memory_order_acquire)
+                                             : find_controller(command_.controller);
+    if (controller < 0) return RejectCommand(i, unknown(command_.controller));
+    if (command_.num_gains != info.n) {
+      return RejectCommand(i, "gains: num_gains is " + std::to_string(command_.num_gains) + ", expected " +
+                                  std::to_string(info.n));
+    }
+    const Gains g{Eigen::Map<const VectorXd>(command_.kp.data(), info.n),
+                  Eigen::Map<const VectorXd>(command_.kd.data(), info.n)};
+    if (auto err = CheckGains(info.controller_types[static_cast<std::size_t>(controller)], info.n, g)) {
+      return RejectCommand(i, "gains for " + info.controllers[static_cast<std::size_t>(controller)] + ": " + *err);
+    }
+  }
+  CommandMessage* slot = runtime_.channels(i).commands.BeginPush();
+  if (slot == nullptr) return RejectCommand(i, "the command queue is full");
+  slot->kind = kind;
+  slot->utime = command_.utime;
+  slot->controller = controller;
+  if (kind == CommandKind::kSetGains) {
+    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
+    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
+  }
+  runtime_.channels(i).commands.Push();
+  stats_.commands_forwarded.fetch_add(1, std::memory_order_relaxed);
+}
+
+// ---- publish thread ------------------------------------------------------
+
+LcmPublisher::LcmPublisher(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
+                           const Loop& loop, ReceiverStats& stats, int notify_fd)
+    : lcm_(lcm),
+      channels_(channels),
+      ring_(ring),
+      loop_(loop),
+      stats_(stats),
+      notify_fd_(notify_fd),
+      status_every_(std::max(1, static_cast<int>(std::lround(0.1 / runtime.period())))),
+      period_(runtime.period()),
+      last_(runtime.MakeRecord()) {
+  for (std::size_t i = 0; i < runtime.size(); ++i) {
+    Instance& inst = runtime.instance(i);
+    names_.push_back(inst.name());
+    controller_names_.push_back(inst.controller_names());
+    state_t s;
+    s.num_dofs = inst.num_dofs();
+    for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
+    states_.push_back(s);
+    modes_.push_back(Mode::kRunning);
+  }
+  latencies_.reserve(static_cast<std::size_t>(status_every_) * 2);
+  computes_.reserve(static_cast<std::size_t>(status_every_) * 2);
+}
+
+void LcmPublisher::Run(const std::atomic<bool>& stop) {
+  pollfd fd{notify_fd_, POLLIN, 0};
+  while (!stop.load(std::memory_order_relaxed)) {
+    if (poll(&fd, 1, 50) > 0) {
+      std::uint64_t count;
+      [[maybe_unused]] const ssize_t n = read(notify_fd_, &count, sizeof count);
+    }
+    while (TickRecord* r = ring_.Front()) {
+      Publish(*r);
+      ring_.Pop();
+    }
+  }
+}
+
+void LcmPublisher::Drain() {
+  while (TickRecord* r = ring_.Front()) {
+    Publish(*r);
+    ring_.Pop();
+  }
+  if (have_record_) PublishStatus(last_);
+}
+
+void LcmPublisher::Publish(const TickRecord& record) {
+  for (std::size_t i = 0; i < record.instances.size(); ++i) {
+    const InstanceRecord& r = record.instances[i];
+    state_t& s = states_[i];
+    s.utime = record.utime;
+    s.tick = record.tick;
+    s.t = r.t;
+    const auto n = static_cast<std::size_t>(s.num_dofs);
+    std::copy_n(r.q.data(), n, s.q.data());
+    std::copy_n(r.qd.data(), n, s.qd.data());
+    std::copy_n(r.qdd.data(), n, s.qdd.data());
+    std::copy_n(r.tau.data(), n, s.tau.data());
+    std::copy_n(r.q_des.data(), n, s.q_des.data());
+    std::copy_n(r.qd_des.data(), n, s.qd_des.data());
+    s.kinetic_energy = r.kinetic_energy;
+    s.potential_energy = r.potential_energy;
+    s.controller = controller_names_[i][static_cast<std::size_t>(r.controller)];
+    s.mode = static_cast<int8_t>(r.mode);
+    lcm_.publish(channels_.state[i], &s);
+    ++states_published_;
+  }
+  LogEvents(record);
+  latencies_.push_back(static_cast<double>(record.wake_latency) * 1e-3);
+  computes_.push_back(static_cast<double>(record.compute) * 1e-3);
+  last_.tick = record.tick;
+  last_.overruns = record.overruns;
+  for (std::size_t i = 0; i < record.instances.size(); ++i) last_.instances[i].mode = record.instances[i].mode;
+  have_record_ = true;
+  if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
+}
+
+void LcmPublisher::LogEvents(const TickRecord& record) {
+  for (std::size_t i = 0; i < record.instances.size(); ++i) {
+    const InstanceRecord& r = record.instances[i];
+    if (r.fault) spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
+    if (r.commands_rejected > 0) {
+      commands_refused_by_tick_ += r.commands_rejected;
+      last_command_error_ = names_[i] + ": " + r.command_error;
+      spdlog::warn("{}: command refused: {}", names_[i], r.command_error);
+    }
+    if (r.mode != modes_[i]) {
+      const auto level = r.mode == Mode::kFault || r.mode == Mode::kEstop ? spdlog::level::warn : spdlog::level::info;
+      spdlog::log(level, "{}: {} -> {} at t = {:.3f} s", names_[i], ToString(modes_[i]), ToString(r.mode), r.t);
+      modes_[i] = r.mode;
+    }
+  }
+}
+
+void LcmPublisher::PublishStatus(const TickRecord& last) {
+  status_t s;
+  s.utime = last.utime;
+  s.ticks = last.tick + 1;
+  s.ticks_in_window = static_cast<int32_t>(latencies_.size());
+  s.period = period_;
+  s.wake_latency_max = latencies_.empty() ? 0.0 : *std::max_element(latencies_.begin(), latencies_.end());
+  s.compute_max = computes_.empty() ? 0.0 : *std::max_element(computes_.begin(), computes_.end());
+  s.wake_latency_p50 = Percentile(latencies_, 0.50);
+  s.wake_latency_p99 = Percentile(latencies_, 0.99);
+  s.compute_p50 = Percentile(computes_, 0.50);
+  s.compute_p99 = Percentile(computes_, 0.99);
+  latencies_.clear();
+  computes_.clear();
+  s.overruns = last.overruns;
+  s.state_messages_dropped = loop_.records_dropped();
+  s.setpoints_accepted = stats_.setpoints_accepted.load(std::memory_order_relaxed);
+  s.setpoints_rejected = stats_.setpoints_rejected.load(std::memory_order_relaxed);
+  if (const Reason* r = stats_.last_setpoint_rejection.Take()) last_setpoint_rejection_ = r->text.data();
+  if (const Reason* r = stats_.last_command_error.Take()) last_command_error_ = r->text.data();
+  s.last_rejection = last_setpoint_rejection_;
+  s.commands_accepted = stats_.commands_forwarded.load(std::memory_order_relaxed) - commands_refused_by_tick_;
+  s.commands_rejected = stats_.commands_rejected.load(std::memory_order_relaxed) + commands_refused_by_tick_;
+  s.last_command_error = last_command_error_;
+  s.decode_errors = stats_.decode_errors.load(std::memory_order_relaxed);
+  s.num_instances = static_cast<int32_t>(names_.size());
+  s.instance_names = names_;
+  for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
+  lcm_.publish(channels_.status, &s);
+}
+
+}  // namespace lagrange

@@ -1,0 +1,3 @@
+#include "daemon/service.hpp"
+
+int main(int argc, char** argv) { return lagrange::RunLagranged(argc, argv); }

@@ -1,0 +1,22 @@
+#pragma once
+// Checking LCM packets before decoding them. The generated decoders trust
+// array lengths written in the packet; a crafted length could make them
+// allocate gigabytes. These functions walk the wire layout of our types and
+// accept a packet only if its fingerprint matches and its size is exactly
+// what its own length fields imply, within kMaxDofs.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace lagrange {
+
+enum class WireCheck : std::uint8_t { kOk, kTooShort, kFingerprint, kBadLength, kSizeMismatch };
+const char* ToString(WireCheck check);
+
+// setpoint_t: fingerprint, utime, num_dofs, 3 × num_dofs doubles.
+WireCheck CheckSetpointPacket(const void* data, std::size_t size);
+// command_t: fingerprint, utime, command, controller (string), num_gains, 2 × num_gains doubles.
+WireCheck CheckCommandPacket(const void* data, std::size_t size);
+
+}  // namespace lagrange

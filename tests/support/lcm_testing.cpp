@@ -1,0 +1,152 @@
+#include "tests/support/lcm_testing.hpp"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+namespace lagrange::testing {
+
+std::string TestLcmUrl(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
+
+std::int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string PrepareLoopbackMulticast(int port) {
+  if (geteuid() == 0 && std::system("ip route show 239.255.0.0/16 2>/dev/null | grep -q 'dev lo'") != 0) {
+    if (std::system("ip link set lo multicast on && ip route add 239.255.0.0/16 dev lo") != 0) {
+      return "could not add the multicast route on lo (ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo)";
+    }
+  }
+  lcm::LCM lcm(TestLcmUrl(port));
+  if (!lcm.good()) return "cannot open LCM at " + TestLcmUrl(port);
+  int received = 0;
+  struct Counter {
+    int* n;
+    void On(const lcm::ReceiveBuffer*, const std::string&) { ++*n; }
+  } counter{&received};
+  lcm.subscribe("LAGRANGE_TEST_LOOPBACK", &Counter::On, &counter);
+  for (int i = 0; i < 20 && received == 0; ++i) {
+    const char byte = 1;
+    lcm.publish("LAGRANGE_TEST_LOOPBACK", &byte, 1);
+    lcm.handleTimeout(50);
+  }
+  if (received == 0) {
+    return "LCM multicast does not loop back on this host; as root: ip link set lo multicast on; "
+           "ip route add 239.255.0.0/16 dev lo";
+  }
+  return "";
+}
+
+LcmCollector::LcmCollector(const std::string& url, const std::string& channel_regex) : lcm_(url) {
+  lcm_.subscribe(channel_regex, &LcmCollector::OnMessage, this);
+  thread_ = std::thread([this] {
+    while (!stop_) lcm_.handleTimeout(20);
+  });
+}
+
+LcmCollector::~LcmCollector() {
+  stop_ = true;
+  thread_.join();
+}
+
+void LcmCollector::OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  const auto* p = static_cast<const std::uint8_t*>(rbuf->data);
+  std::lock_guard<std::mutex> lock(mutex_);
+  messages_[channel].push_back({rbuf->recv_utime, std::vector<std::uint8_t>(p, p + rbuf->data_size)});
+}
+
+std::vector<LcmCollector::Message> LcmCollector::Messages(const std::string& channel) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return messages_[channel];
+}
+
+std::size_t LcmCollector::Count(const std::string& channel) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return messages_[channel].size();
+}
+
+bool LcmCollector::WaitFor(const std::string& channel,
+                           const std::function<bool(const std::vector<Message>&)>& predicate, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (predicate(messages_[channel])) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  return predicate(messages_[channel]);
+}
+
+BackgroundProcess::BackgroundProcess(const std::vector<std::string>& argv) {
+  char out_template[] = "/tmp/lagrange_proc_out_XXXXXX";
+  char err_template[] = "/tmp/lagrange_proc_err_XXXXXX";
+  const int out_fd = mkstemp(out_template);
+  const int err_fd = mkstemp(err_template);
+  out_path_ = out_template;
+  err_path_ = err_template;
+  pid_ = fork();
+  if (pid_ == 0) {
+    dup2(out_fd, STDOUT_FILENO);
+    dup2(err_fd, STDERR_FILENO);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  close(out_fd);
+  close(err_fd);
+}
+
+BackgroundProcess::~BackgroundProcess() {
+  if (Running()) {
+    kill(pid_, SIGKILL);
+    Wait(5.0);
+  }
+  unlink(out_path_.c_str());
+  unlink(err_path_.c_str());
+}
+
+void BackgroundProcess::Signal(int signal) { kill(pid_, signal); }
+
+bool BackgroundProcess::Running() { return Wait(0.0) < 0; }
+
+int BackgroundProcess::Wait(double timeout_s) {
+  if (status_ >= 0) return status_;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (true) {
+    int raw = 0;
+    const pid_t r = waitpid(pid_, &raw, WNOHANG);
+    if (r == pid_) {
+      status_ = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+      return status_;
+    }
+    if (std::chrono::steady_clock::now() >= deadline) return -1;
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+}
+
+std::string BackgroundProcess::Stdout() const {
+  std::ifstream in(out_path_);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string BackgroundProcess::Stderr() const {
+  std::ifstream in(err_path_);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace lagrange::testing

@@ -1,0 +1,85 @@
+#pragma once
+// LCM in tests stays on this host: udpm://239.255.76.67:PORT?ttl=0, a
+// distinct port per test, and a multicast route on the loopback interface.
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace lagrange::testing {
+
+std::string TestLcmUrl(int port);
+
+// When root and the route is missing: `ip link set lo multicast on` and
+// `ip route add 239.255.0.0/16 dev lo`. Then checks that a message published
+// on `port` comes back; returns a description of the problem, or "".
+std::string PrepareLoopbackMulticast(int port);
+
+// Records every message on the given channels (all channels when empty) of
+// one URL, on its own thread.
+class LcmCollector {
+ public:
+  struct Message {
+    std::int64_t received_us;
+    std::vector<std::uint8_t> data;
+  };
+  explicit LcmCollector(const std::string& url, const std::string& channel_regex = ".*");
+  ~LcmCollector();
+
+  std::vector<Message> Messages(const std::string& channel);
+  std::size_t Count(const std::string& channel);
+  // Waits until `predicate` holds over the messages of `channel`, up to `timeout_s`.
+  bool WaitFor(const std::string& channel, const std::function<bool(const std::vector<Message>&)>& predicate,
+               double timeout_s);
+
+  template <class T>
+  std::vector<T> Decoded(const std::string& channel) {
+    std::vector<T> out;
+    for (const Message& m : Messages(channel)) {
+      T msg;
+      if (msg.decode(m.data.data(), 0, static_cast<int>(m.data.size())) >= 0) out.push_back(msg);
+    }
+    return out;
+  }
+
+ private:
+  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  lcm::LCM lcm_;
+  std::mutex mutex_;
+  std::map<std::string, std::vector<Message>> messages_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// A program of ours running in the background, its output in files.
+class BackgroundProcess {
+ public:
+  explicit BackgroundProcess(const std::vector<std::string>& argv);
+  ~BackgroundProcess();  // kills it if still running
+  BackgroundProcess(const BackgroundProcess&) = delete;
+  BackgroundProcess& operator=(const BackgroundProcess&) = delete;
+
+  void Signal(int signal);
+  // Waits up to `timeout_s` for the exit; returns the exit status (128 + signal if
+  // killed), or -1 if it is still running.
+  int Wait(double timeout_s);
+  bool Running();
+  std::string Stdout() const;
+  std::string Stderr() const;
+
+ private:
+  int pid_ = -1;
+  int status_ = -1;
+  std::string out_path_, err_path_;
+};
+
+// Wall clock, µs since the Unix epoch (what LCM utime fields carry).
+std::int64_t WallMicros();
+
+}  // namespace lagrange::testing
