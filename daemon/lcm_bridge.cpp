@@ -10,6 +10,7 @@
 
 #include "controllers/factory.hpp"
 #include "daemon/wire.hpp"
+#include "lcmtypes/subscribe.hpp"
 
 namespace lagrange {
 namespace {
@@ -52,17 +53,17 @@ void Reason::Set(const std::string& s) {
 // ---- receive thread ------------------------------------------------------
 
 LcmReceiver::LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock,
-                         ReceiverStats& stats)
-    : lcm_(lcm), runtime_(runtime), clock_(clock), stats_(stats) {
+                         ReceiverStats& stats, SetpointAge age)
+    : lcm_(lcm), runtime_(runtime), clock_(clock), stats_(stats), age_(age) {
   handlers_.reserve(runtime.size());  // subscriptions keep pointers to the handlers
   for (std::size_t i = 0; i < runtime.size(); ++i) {
     const Instance& inst = runtime.instance(i);
     const InstanceConfig& c = inst.config();
     info_.push_back({inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(), c.setpoint_lower,
-                     c.setpoint_upper, c.setpoint_timeout});
+                     c.setpoint_upper, c.setpoint_timeout, 0, -1});
     handlers_.push_back({this, i});
-    lcm_.subscribe(channels.setpoint[i], &Handler::OnSetpoint, &handlers_.back());
-    lcm_.subscribe(channels.command[i], &Handler::OnCommand, &handlers_.back());
+    Subscribe<&Handler::OnSetpoint>(lcm_, channels.setpoint[i], &handlers_.back());
+    Subscribe<&Handler::OnCommand>(lcm_, channels.command[i], &handlers_.back());
   }
 }
 
@@ -112,8 +113,18 @@ void LcmReceiver::RejectCommand(std::size_t i, const std::string& why) {
   spdlog::warn("{}: command rejected: {}", info_[i].name, why);
 }
 
+double LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
+  const std::int64_t now = clock_.WallMicros();
+  if (age_ == SetpointAge::kWall) return static_cast<double>(now - utime) * 1e-6;
+  const std::int64_t offset = now - utime;
+  const bool new_stream = info.last_arrival < 0 || static_cast<double>(now - info.last_arrival) * 1e-6 > info.timeout;
+  info.last_arrival = now;
+  if (new_stream || offset < info.least_offset) info.least_offset = offset;
+  return static_cast<double>(offset - info.least_offset) * 1e-6;
+}
+
 void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
-  const InstanceInfo& info = info_[i];
+  InstanceInfo& info = info_[i];
   if (const WireCheck w = CheckSetpointPacket(rbuf->data, rbuf->data_size); w != WireCheck::kOk) {
     DecodeError(info.name + "_SETPOINT", ToString(w));
     return;
@@ -140,7 +151,7 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) 
       return;
     }
   }
-  const double age = static_cast<double>(clock_.WallMicros() - setpoint_.utime) * 1e-6;
+  const double age = Age(info, setpoint_.utime);
   if (age > info.timeout || age < -info.timeout) {
     // Not applied; the instance holds until a fresh setpoint comes.
     SetpointMessage& stale = runtime_.channels(i).setpoints.back();
@@ -211,8 +222,7 @@ void LcmReceiver::HandleCommand(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
     slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
     slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
   }
-  runtime_.channels(i).commands.Push();
-  stats_.commands_forwarded.fetch_add(1, std::memory_order_relaxed);
+  runtime_.channels(i).commands.Push();  // the tick applies or refuses it; its record says which
 }
 
 // ---- publish thread ------------------------------------------------------
@@ -286,6 +296,7 @@ void LcmPublisher::Publish(const TickRecord& record) {
     ++states_published_;
   }
   LogEvents(record);
+  WriteTiming(record);
   latencies_.push_back(static_cast<double>(record.wake_latency) * 1e-3);
   computes_.push_back(static_cast<double>(record.compute) * 1e-3);
   last_.tick = record.tick;
@@ -295,10 +306,24 @@ void LcmPublisher::Publish(const TickRecord& record) {
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
 }
 
+bool LcmPublisher::WriteTimingCsv(const std::string& path) {
+  timing_csv_.open(path, std::ios::out | std::ios::trunc);
+  if (!timing_csv_) return false;
+  timing_csv_ << "tick,utime_us,wake_latency_ns,compute_ns,overruns\n";
+  return true;
+}
+
+void LcmPublisher::WriteTiming(const TickRecord& record) {
+  if (!timing_csv_.is_open()) return;
+  timing_csv_ << record.tick << ',' << record.utime << ',' << record.wake_latency << ',' << record.compute << ','
+              << record.overruns << '\n';
+}
+
 void LcmPublisher::LogEvents(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
     if (r.fault) spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
+    commands_applied_ += r.commands_accepted;
     if (r.commands_rejected > 0) {
       commands_refused_by_tick_ += r.commands_rejected;
       last_command_error_ = names_[i] + ": " + r.command_error;
@@ -333,7 +358,8 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   if (const Reason* r = stats_.last_setpoint_rejection.Take()) last_setpoint_rejection_ = r->text.data();
   if (const Reason* r = stats_.last_command_error.Take()) last_command_error_ = r->text.data();
   s.last_rejection = last_setpoint_rejection_;
-  s.commands_accepted = stats_.commands_forwarded.load(std::memory_order_relaxed) - commands_refused_by_tick_;
+  // Accepted once the tick has applied it, so a status never counts a command the tick may still refuse.
+  s.commands_accepted = commands_applied_;
   s.commands_rejected = stats_.commands_rejected.load(std::memory_order_relaxed) + commands_refused_by_tick_;
   s.last_command_error = last_command_error_;
   s.decode_errors = stats_.decode_errors.load(std::memory_order_relaxed);

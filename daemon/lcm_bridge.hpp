@@ -21,6 +21,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -40,17 +41,26 @@ struct Reason {
 struct ReceiverStats {
   std::atomic<std::int64_t> setpoints_accepted{0};
   std::atomic<std::int64_t> setpoints_rejected{0};
-  std::atomic<std::int64_t> commands_forwarded{0};  // passed to the tick, which may still refuse some
-  std::atomic<std::int64_t> commands_rejected{0};
+  std::atomic<std::int64_t> commands_rejected{0};    // refused here, before reaching the tick
   std::atomic<std::int64_t> decode_errors{0};
   LatestMailbox<Reason> last_setpoint_rejection{Reason{}};
   LatestMailbox<Reason> last_command_error{Reason{}};
 };
 
+// How a setpoint's age is judged against the scene's setpoint_timeout.
+enum class SetpointAge : std::uint8_t {
+  kWall,    // now − utime: sender and daemon clocks in step (NTP, or the same host)
+  kStream,  // (arrival − utime) − the least such offset in the current stream: a message's
+            // delay relative to the stream's own timeline, whatever the clocks' offset
+            // (lcm-logplayer replaying a recorded stream, hosts whose clocks differ). A gap
+            // longer than the timeout starts a new stream.
+};
+
 class LcmReceiver {
  public:
   // Subscribes on `lcm`. Reads the runtime's immutable configuration only.
-  LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock, ReceiverStats& stats);
+  LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock, ReceiverStats& stats,
+              SetpointAge age = SetpointAge::kWall);
 
   // Handles messages until `stop` is set (checked every 20 ms).
   void Run(const std::atomic<bool>& stop);
@@ -63,7 +73,12 @@ class LcmReceiver {
     std::vector<ControllerType> controller_types;
     VectorXd lower, upper;
     double timeout = 0.5;
+    // SetpointAge::kStream: the current stream's least (arrival − utime) and last arrival, µs.
+    std::int64_t least_offset = 0;
+    std::int64_t last_arrival = -1;
   };
+  // Age of a setpoint sent at `utime` and arriving now, s.
+  double Age(InstanceInfo& info, std::int64_t utime);
   struct Handler {
     LcmReceiver* self;
     std::size_t index;
@@ -80,6 +95,7 @@ class LcmReceiver {
   Runtime& runtime_;
   Clock& clock_;
   ReceiverStats& stats_;
+  SetpointAge age_;
   std::vector<InstanceInfo> info_;
   std::vector<Handler> handlers_;
   setpoint_t setpoint_;  // decoded into; keeps its capacity
@@ -98,12 +114,18 @@ class LcmPublisher {
   // Publishes whatever is left in the ring and a final status.
   void Drain();
 
+  // For bench/: from now on also writes one CSV line per tick record,
+  // "tick,utime_us,wake_latency_ns,compute_ns,overruns", on this (the publish) thread.
+  // False when the file cannot be opened.
+  bool WriteTimingCsv(const std::string& path);
+
   std::int64_t states_published() const { return states_published_; }
 
  private:
   void Publish(const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
+  void WriteTiming(const TickRecord& record);
 
   lcm::LCM& lcm_;
   ChannelNames channels_;
@@ -118,11 +140,13 @@ class LcmPublisher {
   std::vector<state_t> states_;
   std::vector<Mode> modes_;
   std::vector<double> latencies_, computes_;  // µs, this status window
+  std::int64_t commands_applied_ = 0;   // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;
   std::string last_setpoint_rejection_, last_command_error_;
   std::int64_t states_published_ = 0;
   bool have_record_ = false;
   TickRecord last_;
+  std::ofstream timing_csv_;  // open only with --timing-csv
 };
 
 }  // namespace lagrange

@@ -32,11 +32,13 @@ struct Options {
   std::string log_file;
   std::string log_level = "info";
   std::string overrun = "skip";
+  std::string setpoint_age = "wall";
   int max_catch_up = 5;
   double duration = 0.0;  // s of ticks, then exit; 0: until a signal
   RealtimeOptions rt;
   double spin_us = 0.0;
   bool require_rt = false;
+  std::string timing_csv;  // bench/: per-tick timing, written by the publish thread
 };
 
 void SetUpLogging(const Options& o) {
@@ -86,8 +88,14 @@ int Serve(const Options& o) {
                                o.max_catch_up};
   Loop loop(*runtime, clock, timer, ring, notify_fd);
   ReceiverStats stats;
-  LcmReceiver receiver(lcm_in, channels, *runtime, clock, stats);
+  LcmReceiver receiver(lcm_in, channels, *runtime, clock, stats,
+                       o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall);
   LcmPublisher publisher(lcm_out, channels, *runtime, ring, loop, stats, notify_fd);
+  if (!o.timing_csv.empty() && !publisher.WriteTimingCsv(o.timing_csv)) {
+    spdlog::error("--timing-csv: cannot write {}", o.timing_csv);
+    close(notify_fd);
+    return 2;
+  }
 
   spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}", o.config, scene.description, names.size(),
                1.0 / scene.period, url);
@@ -172,6 +180,11 @@ int RunLagranged(int argc, char** argv) {
   app.add_option("--max-catch-up", o.max_catch_up, "Most extra ticks run to catch up after one late wake")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
+  app.add_option("--setpoint-age", o.setpoint_age,
+                 "How a setpoint's age is judged: wall (now - utime; clocks in step) or stream (its delay within "
+                 "the stream; any clock offset, e.g. replaying a log with lcm-logplayer)")
+      ->check(CLI::IsMember({"wall", "stream"}))
+      ->capture_default_str();
   app.add_option("--duration", o.duration, "Stop after this many seconds of ticks (default: run until signalled)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--mlockall", o.rt.lock_memory, "Lock the process's memory (mlockall)");
@@ -180,6 +193,9 @@ int RunLagranged(int argc, char** argv) {
   app.add_option("--spin-us", o.spin_us, "Busy-wait this long before each deadline instead of sleeping")
       ->check(CLI::Range(0.0, 1000.0));
   app.add_flag("--require-rt", o.require_rt, "Exit (status 3) if real-time set-up is not permitted");
+  app.add_option("--timing-csv", o.timing_csv,
+                 "Write every tick's wake-up latency and compute time (ns) to this CSV, from the publish thread "
+                 "(for bench/)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {

@@ -6,12 +6,17 @@
 namespace lagrange::cli {
 
 int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
-  CLI::App app{"lagrangectl: evaluate, simulate, command and watch lagrange plants"};
+  CLI::App app{"lagrangectl: evaluate and simulate plants; send, command and watch lagranged; turn logs into CSV and plots"};
   app.name("lagrangectl");
   app.require_subcommand(1);
   std::vector<std::unique_ptr<Command>> commands;
   commands.push_back(MakeEvalCommand(app));
   commands.push_back(MakeSimulateCommand(app));
+  commands.push_back(MakeSendCommand(app));
+  commands.push_back(MakeCommandCommand(app));
+  commands.push_back(MakeWatchCommand(app));
+  commands.push_back(MakeLog2CsvCommand(app));
+  commands.push_back(MakePlotCommand(app));
 
   std::string where = "lagrangectl";
   try {

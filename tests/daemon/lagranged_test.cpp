@@ -90,45 +90,10 @@ TEST_F(Lagranged, TheArmSettlesOnASetpointSentByAnotherProcessWithinTwoSeconds) 
 TEST_F(Lagranged, LcmLoggerRecordsEveryTickOfBothInstancesForFiveSeconds) {
   Prepare(7812);
   const fs::path log = fs::temp_directory_path() / "lagrange_logger_test.lcm";
-  fs::remove(log);
-  // Debian's lcm-logger 1.3.1 lists -l but accepts only the long form.
-  BackgroundProcess logger({LCM_LOGGER_PATH, "--lcm-url=" + url_, "-f", "-q", log.string()});
-  // Wait until the logger is recording: a probe shows up in its file.
-  lcm::LCM probe(url_);
-  auto probe_logged = [&] {
-    lcm::LogFile file(log.string(), "r");
-    if (!file.good()) return false;
-    while (const lcm::LogEvent* e = file.readNextEvent()) {
-      if (e->channel == "PROBE") return true;
-    }
-    return false;
-  };
-  bool recording = false;
-  for (int i = 0; i < 200 && !recording; ++i) {
-    const char byte = 0;
-    probe.publish("PROBE", &byte, 1);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    recording = probe_logged();
-  }
-  ASSERT_TRUE(recording) << "lcm-logger did not start";
-
+  testing::LcmLoggerProcess logger(url_, log.string());
   auto daemon = Start({"--duration", "5"});
   ASSERT_EQ(daemon->Wait(60.0), 0) << daemon->Stderr();
-  // Everything the daemon sent is in the file once a later probe is.
-  auto probes = [&] {
-    lcm::LogFile file(log.string(), "r");
-    int n = 0;
-    while (const lcm::LogEvent* e = file.readNextEvent()) n += e->channel == "PROBE";
-    return n;
-  };
-  const int before = probes();
-  for (int i = 0; i < 100 && probes() == before; ++i) {
-    const char byte = 0;
-    probe.publish("PROBE", &byte, 1);
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  logger.Signal(SIGINT);
-  logger.Wait(10.0);
+  logger.Stop();  // once everything the daemon sent is in the file
 
   // Read it back with LCM's log reader.
   lcm::LogFile file(log.string(), "r");

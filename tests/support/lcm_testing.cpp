@@ -6,8 +6,12 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <cstdio>
 #include <fstream>
+#include <stdexcept>
 #include <sstream>
+
+#include "lcmtypes/subscribe.hpp"
 
 namespace lagrange::testing {
 
@@ -27,11 +31,8 @@ std::string PrepareLoopbackMulticast(int port) {
   lcm::LCM lcm(TestLcmUrl(port));
   if (!lcm.good()) return "cannot open LCM at " + TestLcmUrl(port);
   int received = 0;
-  struct Counter {
-    int* n;
-    void On(const lcm::ReceiveBuffer*, const std::string&) { ++*n; }
-  } counter{&received};
-  lcm.subscribe("LAGRANGE_TEST_LOOPBACK", &Counter::On, &counter);
+  lcm.subscribeFunction(
+      "LAGRANGE_TEST_LOOPBACK", +[](const lcm::ReceiveBuffer*, const std::string&, int* n) { ++*n; }, &received);
   for (int i = 0; i < 20 && received == 0; ++i) {
     const char byte = 1;
     lcm.publish("LAGRANGE_TEST_LOOPBACK", &byte, 1);
@@ -45,7 +46,7 @@ std::string PrepareLoopbackMulticast(int port) {
 }
 
 LcmCollector::LcmCollector(const std::string& url, const std::string& channel_regex) : lcm_(url) {
-  lcm_.subscribe(channel_regex, &LcmCollector::OnMessage, this);
+  Subscribe<&LcmCollector::OnMessage>(lcm_, channel_regex, this);
   thread_ = std::thread([this] {
     while (!stop_) lcm_.handleTimeout(20);
   });
@@ -147,6 +148,51 @@ std::string BackgroundProcess::Stderr() const {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+}  // namespace lagrange::testing
+
+namespace lagrange::testing {
+
+LcmLoggerProcess::LcmLoggerProcess(const std::string& url, const std::string& path, const std::string& channel_regex)
+    : url_(url), path_(path), probe_(url) {
+  std::remove(path.c_str());
+  // Debian's lcm-logger 1.3.1 lists -l but accepts only the long form; -c takes a channel regex.
+  std::vector<std::string> argv = {LCM_LOGGER_PATH, "--lcm-url=" + url, "-f", "-q"};
+  if (!channel_regex.empty()) argv.push_back("--channel=" + channel_regex + "|LAGRANGE_TEST_PROBE");
+  argv.push_back(path);
+  logger_ = std::make_unique<BackgroundProcess>(argv);
+  for (int i = 0; i < 200 && ProbesLogged() == 0; ++i) {
+    const char byte = 0;
+    probe_.publish("LAGRANGE_TEST_PROBE", &byte, 1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (ProbesLogged() == 0) throw std::runtime_error("lcm-logger did not start recording " + url);
+}
+
+LcmLoggerProcess::~LcmLoggerProcess() {
+  if (logger_ && logger_->Running()) Stop();
+}
+
+int LcmLoggerProcess::ProbesLogged() const {
+  std::ifstream exists(path_);
+  if (!exists) return 0;  // LogFile on a missing file crashes in LCM 1.3.1
+  lcm::LogFile file(path_, "r");
+  if (!file.good()) return 0;
+  int n = 0;
+  while (const lcm::LogEvent* e = file.readNextEvent()) n += e->channel == "LAGRANGE_TEST_PROBE";
+  return n;
+}
+
+void LcmLoggerProcess::Stop() {
+  const int before = ProbesLogged();
+  for (int i = 0; i < 100 && ProbesLogged() == before; ++i) {
+    const char byte = 0;
+    probe_.publish("LAGRANGE_TEST_PROBE", &byte, 1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  logger_->Signal(SIGINT);
+  logger_->Wait(10.0);
 }
 
 }  // namespace lagrange::testing

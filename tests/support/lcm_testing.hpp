@@ -7,6 +7,7 @@
 #include <atomic>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -77,6 +78,22 @@ class BackgroundProcess {
   int pid_ = -1;
   int status_ = -1;
   std::string out_path_, err_path_;
+};
+
+// lcm-logger recording `url` into `path`: the constructor returns once it is
+// recording; Stop() returns once everything published before it is in the
+// file, then stops the logger.
+class LcmLoggerProcess {
+ public:
+  LcmLoggerProcess(const std::string& url, const std::string& path, const std::string& channel_regex = "");
+  ~LcmLoggerProcess();
+  void Stop();
+
+ private:
+  int ProbesLogged() const;
+  std::string url_, path_;
+  lcm::LCM probe_;
+  std::unique_ptr<BackgroundProcess> logger_;
 };
 
 // Wall clock, µs since the Unix epoch (what LCM utime fields carry).

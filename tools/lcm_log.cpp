@@ -1,0 +1,222 @@
+#include "tools/lcm_log.hpp"
+
+#include <lcm/lcm-cpp.hpp>
+#include <lagrange/command_t.hpp>
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <regex>
+#include <stdexcept>
+
+#include "tools/cli_support.hpp"
+
+namespace lagrange::cli {
+namespace {
+
+std::string Quote(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+void Columns(std::ostream& out, const char* name, int n) {
+  for (int i = 0; i < n; ++i) out << ',' << name << i;
+}
+
+void Values(std::ostream& out, const std::vector<double>& v) {
+  for (double x : v) out << ',' << FormatDouble(x);
+}
+
+std::string Join(const std::vector<double>& v) {
+  std::string s;
+  for (double x : v) s += (s.empty() ? "" : ";") + FormatDouble(x);
+  return s;
+}
+
+// One output CSV and how to write a message of its type.
+class Writer {
+ public:
+  virtual ~Writer() = default;
+  // False when the message does not decode or does not fit the header.
+  virtual bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) = 0;
+  virtual const char* type() const = 0;
+};
+
+class StateWriter final : public Writer {
+ public:
+  const char* type() const override { return "state_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    state_t s;
+    if (s.decode(data, 0, size) < 0) return false;
+    if (n_ < 0) {
+      n_ = s.num_dofs;
+      out << "log_utime,utime,tick,t,num_dofs";
+      for (const char* field : {"q", "qd", "qdd", "tau", "q_des", "qd_des"}) Columns(out, field, n_);
+      out << ",kinetic_energy,potential_energy,controller,mode\n";
+    }
+    if (s.num_dofs != n_) return false;
+    out << log_utime << ',' << s.utime << ',' << s.tick << ',' << FormatDouble(s.t) << ',' << s.num_dofs;
+    for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) Values(out, *v);
+    out << ',' << FormatDouble(s.kinetic_energy) << ',' << FormatDouble(s.potential_energy) << ',' << Quote(s.controller)
+        << ',' << static_cast<int>(s.mode) << '\n';
+    return true;
+  }
+
+ private:
+  int n_ = -1;
+};
+
+class SetpointWriter final : public Writer {
+ public:
+  const char* type() const override { return "setpoint_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    setpoint_t s;
+    if (s.decode(data, 0, size) < 0) return false;
+    if (n_ < 0) {
+      n_ = s.num_dofs;
+      out << "log_utime,utime,num_dofs";
+      for (const char* field : {"q", "qd", "qdd"}) Columns(out, field, n_);
+      out << '\n';
+    }
+    if (s.num_dofs != n_) return false;
+    out << log_utime << ',' << s.utime << ',' << s.num_dofs;
+    for (const auto* v : {&s.q, &s.qd, &s.qdd}) Values(out, *v);
+    out << '\n';
+    return true;
+  }
+
+ private:
+  int n_ = -1;
+};
+
+class CommandWriter final : public Writer {
+ public:
+  const char* type() const override { return "command_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    command_t c;
+    if (c.decode(data, 0, size) < 0) return false;
+    if (!header_) out << "log_utime,utime,command,controller,num_gains,kp,kd\n";
+    header_ = true;
+    out << log_utime << ',' << c.utime << ',' << static_cast<int>(c.command) << ',' << Quote(c.controller) << ','
+        << c.num_gains << ',' << Quote(Join(c.kp)) << ',' << Quote(Join(c.kd)) << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
+class StatusWriter final : public Writer {
+ public:
+  const char* type() const override { return "status_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    status_t s;
+    if (s.decode(data, 0, size) < 0) return false;
+    if (!header_) {
+      out << "log_utime,utime,ticks,ticks_in_window,period,wake_latency_p50,wake_latency_p99,wake_latency_max,"
+             "compute_p50,compute_p99,compute_max,overruns,state_messages_dropped,setpoints_accepted,"
+             "setpoints_rejected,last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
+             "instances\n";
+    }
+    header_ = true;
+    std::string instances;
+    for (int i = 0; i < s.num_instances; ++i) {
+      instances += (i ? ";" : "") + s.instance_names[static_cast<std::size_t>(i)] + "=" +
+                   std::to_string(s.instance_modes[static_cast<std::size_t>(i)]);
+    }
+    out << log_utime << ',' << s.utime << ',' << s.ticks << ',' << s.ticks_in_window << ',' << FormatDouble(s.period);
+    for (double x : {s.wake_latency_p50, s.wake_latency_p99, s.wake_latency_max, s.compute_p50, s.compute_p99,
+                     s.compute_max}) {
+      out << ',' << FormatDouble(x);
+    }
+    out << ',' << s.overruns << ',' << s.state_messages_dropped << ',' << s.setpoints_accepted << ','
+        << s.setpoints_rejected << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ','
+        << s.commands_rejected << ',' << Quote(s.last_command_error) << ',' << s.decode_errors << ','
+        << Quote(instances) << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
+std::int64_t Fingerprint(const void* data, int size) {
+  if (size < 8) return 0;
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
+}
+
+std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
+  if (fingerprint == state_t::getHash()) return std::make_unique<StateWriter>();
+  if (fingerprint == setpoint_t::getHash()) return std::make_unique<SetpointWriter>();
+  if (fingerprint == command_t::getHash()) return std::make_unique<CommandWriter>();
+  if (fingerprint == status_t::getHash()) return std::make_unique<StatusWriter>();
+  return nullptr;
+}
+
+std::string SafeFileName(const std::string& channel) {
+  std::string s = channel;
+  for (char& c : s) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.') c = '_';
+  }
+  return s;
+}
+
+}  // namespace
+
+void RequireLcmLog(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  unsigned char magic[4] = {0, 0, 0, 0};
+  in.read(reinterpret_cast<char*>(magic), 4);
+  // Every event of an LCM log starts with the sync word 0xEDA1DA01.
+  if (in.gcount() != 4 || magic[0] != 0xED || magic[1] != 0xA1 || magic[2] != 0xDA || magic[3] != 0x01) {
+    throw std::runtime_error(path + " is not an LCM log (no LCM sync word at its start)");
+  }
+}
+
+LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex) {
+  RequireLcmLog(log_path);
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) throw std::runtime_error("cannot open " + log_path + " as an LCM log");
+  std::filesystem::create_directories(dir);
+  const std::regex wanted(channel_regex.empty() ? ".*" : channel_regex);
+  struct Output {
+    std::unique_ptr<Writer> writer;
+    std::ofstream file;
+  };
+  std::map<std::string, Output> outputs;
+  LogToCsvResult result;
+  while (const lcm::LogEvent* e = log.readNextEvent()) {
+    if (!std::regex_match(e->channel, wanted)) continue;
+    auto it = outputs.find(e->channel);
+    if (it == outputs.end()) {
+      std::unique_ptr<Writer> writer = WriterFor(Fingerprint(e->data, e->datalen));
+      if (!writer) {
+        ++result.unknown[e->channel];
+        continue;
+      }
+      const std::string path = (std::filesystem::path(dir) / (SafeFileName(e->channel) + ".csv")).string();
+      Output o{std::move(writer), std::ofstream(path)};
+      if (!o.file) throw std::runtime_error("cannot write " + path);
+      result.written[e->channel] = {o.writer->type(), path, 0, 0};
+      it = outputs.emplace(e->channel, std::move(o)).first;
+    }
+    ChannelCsv& c = result.written[e->channel];
+    if (it->second.writer->Write(it->second.file, e->timestamp, e->data, e->datalen)) ++c.rows;
+    else ++c.skipped;
+  }
+  for (auto& [channel, o] : outputs) {
+    o.file.flush();
+    if (!o.file) throw std::runtime_error("writing " + result.written[channel].path + " failed");
+  }
+  return result;
+}
+
+}  // namespace lagrange::cli

@@ -1,0 +1,33 @@
+#pragma once
+// Reading lcm-logger files: identifying lagrange's message types by their
+// fingerprints and writing one CSV per channel.
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+
+namespace lagrange::cli {
+
+// Throws a one-line error when `path` cannot be read or is not an LCM log
+// (checked from its first event's magic number).
+void RequireLcmLog(const std::string& path);
+
+struct ChannelCsv {
+  std::string type;        // "state_t", ...
+  std::string path;        // the CSV written
+  std::int64_t rows = 0;
+  std::int64_t skipped = 0;  // messages that did not decode or changed num_dofs
+};
+
+struct LogToCsvResult {
+  std::map<std::string, ChannelCsv> written;           // by channel
+  std::map<std::string, std::int64_t> unknown;         // channel → messages of an unknown type
+};
+
+// Decodes every event whose channel matches `channel_regex` (all when empty)
+// into `dir`/<CHANNEL>.csv. Columns: log_utime (when the logger received it,
+// µs), then the message's fields, arrays one column per element (q0, q1, ..).
+LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex);
+
+}  // namespace lagrange::cli

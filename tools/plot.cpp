@@ -1,0 +1,108 @@
+// lagrangectl plot: a PNG of a run from a CSV or an LCM log.
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "tools/cli_support.hpp"
+#include "tools/commands.hpp"
+#include "tools/lcm_log.hpp"
+#include "tools/plot_script.hpp"
+
+namespace lagrange::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Runs python3 -c kPlotScript CSV PNG TITLE; returns (status, stderr).
+std::pair<int, std::string> RunPlotScript(const std::string& csv, const std::string& png, const std::string& title) {
+  int err_pipe[2];
+  if (pipe(err_pipe) != 0) throw std::runtime_error("pipe failed");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(err_pipe[1], STDERR_FILENO);
+    close(err_pipe[0]);
+    // Debian's interpreter first: python3-matplotlib is installed for it, not for others on PATH.
+    const char* python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+    execlp(python, "python3", "-c", kPlotScript, csv.c_str(), png.c_str(), title.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  close(err_pipe[1]);
+  std::string err;
+  char buf[1024];
+  for (ssize_t n; (n = read(err_pipe[0], buf, sizeof buf)) > 0;) err.append(buf, static_cast<std::size_t>(n));
+  close(err_pipe[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 1, err};
+}
+
+std::string LastLine(const std::string& text) {
+  std::string s = text;
+  while (!s.empty() && s.back() == '\n') s.pop_back();
+  const std::size_t nl = s.find_last_of('\n');
+  return nl == std::string::npos ? s : s.substr(nl + 1);
+}
+
+class PlotCommand final : public Command {
+ public:
+  explicit PlotCommand(CLI::App& parent)
+      : Command(parent.add_subcommand("plot", "Plot q against q_des, torques, energy and tracking error (PNG)")) {
+    app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
+    app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
+    app_->add_option("--channel", channel_, "For a log: the *_STATE channel to plot (default: the first one)");
+  }
+
+  int Run(std::ostream& out, std::ostream&) override {
+    if (!fs::exists(input_)) throw std::runtime_error("cannot read " + input_);
+    const std::string png = output_.empty() ? fs::path(input_).replace_extension(".png").string() : output_;
+    std::string csv = input_;
+    std::string title = fs::path(input_).filename().string();
+    fs::path scratch;
+    if (IsLcmLog(input_)) {
+      scratch = fs::temp_directory_path() / ("lagrangectl_plot_" + std::to_string(getpid()));
+      const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
+      const auto it = std::find_if(r.written.begin(), r.written.end(),
+                                   [](const auto& e) { return e.second.type == "state_t"; });
+      if (it == r.written.end()) {
+        fs::remove_all(scratch);
+        throw std::runtime_error("no state channel" + (channel_.empty() ? "" : " '" + channel_ + "'") + " in " + input_);
+      }
+      csv = it->second.path;
+      title += " : " + it->first;
+    } else if (!channel_.empty()) {
+      throw UsageError("--channel: only for an LCM log");
+    }
+    const auto [status, err] = RunPlotScript(csv, png, title);
+    if (!scratch.empty()) fs::remove_all(scratch);
+    if (status == 127) throw std::runtime_error("plot needs python3 with matplotlib (scripts/setup-deps installs them)");
+    if (status != 0) {
+      std::string why = LastLine(err);
+      if (why.rfind("plot: ", 0) == 0) why = why.substr(6);
+      if (why.find("No module named") != std::string::npos) why = "plot needs python3-matplotlib: " + why;
+      throw std::runtime_error(why.empty() ? "the plot script failed" : why);
+    }
+    out << png << "\n";
+    return 0;
+  }
+
+ private:
+  static bool IsLcmLog(const std::string& path) {
+    try {
+      RequireLcmLog(path);
+      return true;
+    } catch (const std::exception&) {
+      return false;
+    }
+  }
+
+  std::string input_, output_, channel_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakePlotCommand(CLI::App& parent) { return std::make_unique<PlotCommand>(parent); }
+
+}  // namespace lagrange::cli
