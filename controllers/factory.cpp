@@ -159,6 +159,9 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;
   }
+  if (c.continuous && c.type == ControllerType::kSwingUp) {
+    return std::string("continuous: swing-up keeps a mode and runs once per tick");
+  }
   if (c.type == ControllerType::kSwingUp) {
     const SwingUpOptions& s = c.swing_up;
     for (const auto& [key, v] : {std::pair{"energy_gain", s.energy_gain}, std::pair{"max_accel", s.max_accel},

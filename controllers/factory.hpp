@@ -47,6 +47,10 @@ struct ControllerConfig {
   // model error), and its derivation method (default: the fastest).
   std::optional<PlantSpec> model;
   std::optional<Method> model_method;
+  // Evaluate the law at every integrator stage (a continuous-time, analog
+  // controller) instead of once per tick with the torque held (a digital one).
+  // Not for swing-up, which keeps a mode.
+  bool continuous = false;
 };
 
 // Checks a config against the plant: the type suits the plant (cart-pole

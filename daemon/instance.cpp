@@ -18,10 +18,15 @@ Instance::Instance(const InstanceConfig& config)
                                ? config.torque_limits
                                : VectorXd::Constant(num_dofs(), std::numeric_limits<double>::infinity());
   controllers_.push_back(MakeController(config.controller, config.plant, limits));
-  for (const ControllerConfig& c : config.alternates) controllers_.push_back(MakeController(c, config.plant, limits));
+  continuous_.push_back(config.controller.continuous);
+  for (const ControllerConfig& c : config.alternates) {
+    controllers_.push_back(MakeController(c, config.plant, limits));
+    continuous_.push_back(c.continuous);
+  }
   if (config.controller.type != ControllerType::kNone) {
     ControllerConfig none;
     controllers_.push_back(MakeController(none, config.plant, limits));
+    continuous_.push_back(false);
   }
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
@@ -38,8 +43,32 @@ bool Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   return ok;
 }
 
+void Instance::StageLaw::Bind(Controller& controller, const Setpoint& setpoint) {
+  controller_ = &controller;
+  setpoint_ = &setpoint;
+  ok = true;
+}
+
+void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef tau_cmd) {
+  ok = controller_->Compute(t, q, qd, *setpoint_, tau_cmd) && ok;
+}
+
+// (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
+bool Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
+  stage_law_.Bind(controller(), setpoint);
+  model_.SetControlLaw(&stage_law_);
+  const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd_, q_, qd_);
+  t_ = static_cast<double>(++steps_) * dt;
+  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
+  model_.SetControlLaw(nullptr);
+  stage_law_.Compute(t_, q_, qd_, tau_cmd_);
+  model_.effects().Saturate(tau_cmd_, tau_);
+  return ok && stage_law_.ok;
+}
+
 bool Instance::Step(double dt, const Setpoint& setpoint) {
   q_des_ = setpoint.q;
+  if (continuous_[active_]) return IntegrateContinuous(dt, setpoint);
   const bool controlled = controller().Compute(t_, q_, qd_, setpoint, tau_cmd_);
   const bool integrated = Integrate(dt, tau_cmd_);
   return controlled && integrated;

@@ -79,13 +79,28 @@ class Instance {
   const Integrator& integrator() const { return *integrator_; }
 
  private:
+  // The active controller as a law evaluated at every integrator stage.
+  class StageLaw final : public ControlLaw {
+   public:
+    void Bind(Controller& controller, const Setpoint& setpoint);
+    void Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef tau_cmd) override;
+    bool ok = true;  // false once the law gave a non-finite torque
+
+   private:
+    Controller* controller_ = nullptr;
+    const Setpoint* setpoint_ = nullptr;
+  };
+
   bool Integrate(double dt, ConstVecRef tau_cmd);
+  bool IntegrateContinuous(double dt, const Setpoint& setpoint);
 
   InstanceConfig config_;
   PlantModel model_;
   std::unique_ptr<Integrator> integrator_;
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
+  std::vector<bool> continuous_;  // by controller index
+  StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;
   double t_ = 0.0;
   std::int64_t steps_ = 0;

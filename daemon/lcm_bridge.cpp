@@ -9,31 +9,12 @@
 #include <sstream>
 
 #include "controllers/factory.hpp"
+#include "daemon/setpoint_check.hpp"
 #include "daemon/wire.hpp"
 #include "lcmtypes/subscribe.hpp"
 
 namespace lagrange {
 namespace {
-
-constexpr double kMaxSetpointMagnitude = 1e6;  // rad, m, and their rates: anything larger is a mistake
-
-std::string Number(double x) {
-  std::ostringstream os;
-  os.precision(6);
-  os << x;
-  return os.str();
-}
-
-// The first non-finite or out-of-range entry of a setpoint field, as a reason.
-std::string CheckField(const char* field, const std::vector<double>& v) {
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    if (!std::isfinite(v[i])) return std::string("non-finite value in ") + field + "[" + std::to_string(i) + "]";
-    if (std::abs(v[i]) > kMaxSetpointMagnitude) {
-      return std::string(field) + "[" + std::to_string(i) + "] = " + Number(v[i]) + " is out of range (|x| <= 1e6)";
-    }
-  }
-  return "";
-}
 
 double Percentile(std::vector<double>& v, double p) {
   if (v.empty()) return 0.0;
@@ -59,8 +40,8 @@ LcmReceiver::LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& r
   for (std::size_t i = 0; i < runtime.size(); ++i) {
     const Instance& inst = runtime.instance(i);
     const InstanceConfig& c = inst.config();
-    info_.push_back({inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(), c.setpoint_lower,
-                     c.setpoint_upper, c.setpoint_timeout, 0, -1});
+    info_.push_back({inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                     SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout, 0, -1});
     handlers_.push_back({this, i});
     Subscribe<&Handler::OnSetpoint>(lcm_, channels.setpoint[i], &handlers_.back());
     Subscribe<&Handler::OnCommand>(lcm_, channels.command[i], &handlers_.back());
@@ -125,31 +106,14 @@ double LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
 
 void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
   InstanceInfo& info = info_[i];
-  if (const WireCheck w = CheckSetpointPacket(rbuf->data, rbuf->data_size); w != WireCheck::kOk) {
-    DecodeError(info.name + "_SETPOINT", ToString(w));
+  const SetpointVerdict verdict = CheckSetpoint(rbuf->data, rbuf->data_size, info.rules, setpoint_);
+  if (verdict.kind == SetpointVerdict::Kind::kUndecodable) {
+    DecodeError(info.name + "_SETPOINT", verdict.reason.c_str());
     return;
   }
-  if (setpoint_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
-    DecodeError(info.name + "_SETPOINT", "decode failed");
+  if (verdict.kind == SetpointVerdict::Kind::kRejected) {
+    RejectSetpoint(i, verdict.reason);
     return;
-  }
-  if (setpoint_.num_dofs != info.n) {
-    RejectSetpoint(i, "num_dofs is " + std::to_string(setpoint_.num_dofs) + ", expected " + std::to_string(info.n));
-    return;
-  }
-  for (const auto& [field, values] : {std::pair{"q", &setpoint_.q}, std::pair{"qd", &setpoint_.qd},
-                                      std::pair{"qdd", &setpoint_.qdd}}) {
-    if (std::string why = CheckField(field, *values); !why.empty()) {
-      RejectSetpoint(i, why);
-      return;
-    }
-  }
-  for (int j = 0; j < info.n; ++j) {
-    if (setpoint_.q[j] < info.lower[j] || setpoint_.q[j] > info.upper[j]) {
-      RejectSetpoint(i, "q[" + std::to_string(j) + "] = " + Number(setpoint_.q[j]) + " is outside the setpoint limits [" +
-                            Number(info.lower[j]) + ", " + Number(info.upper[j]) + "]");
-      return;
-    }
   }
   const double age = Age(info, setpoint_.utime);
   if (age > info.timeout || age < -info.timeout) {
@@ -157,8 +121,8 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) 
     SetpointMessage& stale = runtime_.channels(i).setpoints.back();
     stale.stale = true;
     runtime_.channels(i).setpoints.Publish();
-    RejectSetpoint(i, age > 0 ? "stale: sent " + Number(age) + " s ago (setpoint_timeout " + Number(info.timeout) + " s)"
-                              : "timestamp " + Number(-age) + " s in the future (clocks out of step?)");
+    RejectSetpoint(i, age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age, info.timeout)
+                              : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age));
     return;
   }
   SetpointMessage& m = runtime_.channels(i).setpoints.back();

@@ -27,6 +27,7 @@
 
 #include "daemon/channels.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/setpoint_check.hpp"
 #include "daemon/runtime.hpp"
 
 namespace lagrange {
@@ -71,7 +72,7 @@ class LcmReceiver {
     int n = 0;
     std::vector<std::string> controllers;
     std::vector<ControllerType> controller_types;
-    VectorXd lower, upper;
+    SetpointRules rules;
     double timeout = 0.5;
     // SetpointAge::kStream: the current stream's least (arrival − utime) and last arrival, µs.
     std::int64_t least_offset = 0;

@@ -52,17 +52,17 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) 
   ControllerConfig c;
   c.type = *type;
   switch (c.type) {
-    case ControllerType::kNone: node.ExpectKeys({"type"}); break;
+    case ControllerType::kNone: node.ExpectKeys({"type", "continuous"}); break;
     case ControllerType::kPd:
     case ControllerType::kGravityCompensation:
-      node.ExpectKeys({"type", "kp", "kd", "velocity_feedforward", "acceleration_feedforward", "model"});
+      node.ExpectKeys({"type", "kp", "kd", "velocity_feedforward", "acceleration_feedforward", "model", "continuous"});
       break;
-    case ControllerType::kComputedTorque: node.ExpectKeys({"type", "kp", "kd", "model"}); break;
-    case ControllerType::kCartPolePd: node.ExpectKeys({"type", "kp", "kd"}); break;
-    case ControllerType::kLqr: node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model"}); break;
+    case ControllerType::kComputedTorque: node.ExpectKeys({"type", "kp", "kd", "model", "continuous"}); break;
+    case ControllerType::kCartPolePd: node.ExpectKeys({"type", "kp", "kd", "continuous"}); break;
+    case ControllerType::kLqr: node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "continuous"}); break;
     case ControllerType::kSwingUp:
       node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "energy_gain", "max_accel", "cart_gain",
-                       "cart_damping", "switch_angle", "switch_rate"});
+                       "cart_damping", "switch_angle", "switch_rate", "continuous"});
       break;
   }
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
@@ -78,6 +78,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) 
   if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
   if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
   if (auto m = node.Optional("model")) ReadModel(*m, plant, c);
+  if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
   if (auto v = node.Optional("equilibrium")) c.lqr.equilibrium = v->Vector(n);
   if (auto v = node.Optional("actuated")) {
     std::vector<int> act;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -191,25 +192,31 @@ class Variational final : public Integrator {
     ++stats_.evaluations;
     q1_ = q + h * qd + (0.5 * h * h) * tmp_;
 
-    bool converged = false;
-    bool jacobian_fresh = false;
+    // Newton on r(q1) = 0. The Jacobian is kept from step to step and rebuilt
+    // only when the iteration stops contracting fast (or h changed).
     Residual(m, t, h, tau, q, q1_, r_);
+    if (!jacobian_valid_ || h != jacobian_h_) Jacobian(m, t, h, tau, q);
+    bool converged = false;
+    bool refreshed = false;
+    double previous = std::numeric_limits<double>::infinity();
     for (int it = 0; it < config_.newton_max_iterations; ++it) {
-      if (it == 0 || (it % 4 == 0 && !jacobian_fresh)) {
-        Jacobian(m, t, h, tau, q);
-        jacobian_fresh = true;
-      } else {
-        jacobian_fresh = false;
-      }
       dq_ = lu_.solve(r_);
       q1_ -= dq_;
       ++stats_.newton_iterations;
       Residual(m, t, h, tau, q, q1_, r_);
-      if (!dq_.allFinite()) break;
-      if (dq_.lpNorm<Eigen::Infinity>() <= config_.newton_tol * (1.0 + q1_.lpNorm<Eigen::Infinity>())) {
+      const double step = dq_.lpNorm<Eigen::Infinity>();
+      const double scale = 1.0 + q1_.lpNorm<Eigen::Infinity>();
+      if (!std::isfinite(step)) break;
+      // Converged at the tolerance, or stalled at round-off far below anything physical.
+      if (step <= config_.newton_tol * scale || (step <= kRoundOffFloor * scale && step >= 0.5 * previous)) {
         converged = true;
         break;
       }
+      if (step > kSlowContraction * previous && !refreshed) {
+        Jacobian(m, t, h, tau, q);
+        refreshed = true;
+      }
+      previous = step;
     }
     // p1 = p0 + h (∂T/∂q − G + F) at the midpoint; x_ holds that bracket from the last residual.
     p0_ += h * x_;
@@ -217,7 +224,10 @@ class Variational final : public Integrator {
     dyn.ComputeMassMatrix(q, M_);
     llt_.compute(M_);
     qd = llt_.solve(p0_);
-    if (!converged) ++stats_.failures;
+    if (!converged) {
+      ++stats_.failures;
+      jacobian_valid_ = false;
+    }
     return converged;
   }
 
@@ -254,12 +264,19 @@ class Variational final : public Integrator {
     // Restore the residual's side output x_ for q1_.
     Residual(m, t, h, tau, q0, q1_, r_);
     lu_.compute(J_);
+    jacobian_valid_ = true;
+    jacobian_h_ = h;
   }
+
+  static constexpr double kRoundOffFloor = 1e-9;    // |Δq| / (1 + |q|) below which a stall is round-off
+  static constexpr double kSlowContraction = 0.25;  // rebuild the Jacobian when |Δq| shrinks slower than this
 
   VectorXd p0_, q1_, qm_, v_, x_, r_, r_trial_, q_trial_, dq_, tmp_;
   MatrixXd M_, J_;
   Eigen::PartialPivLU<MatrixXd> lu_;
   Eigen::LLT<MatrixXd> llt_;
+  bool jacobian_valid_ = false;
+  double jacobian_h_ = 0.0;
 };
 
 }  // namespace

@@ -6,16 +6,22 @@ namespace lagrange {
 
 PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects)
     : dynamics_(std::move(dynamics)), effects_(std::move(effects), dynamics_->num_dofs()),
-      tau_(dynamics_->num_dofs()) {}
+      tau_(dynamics_->num_dofs()),
+      tau_law_(dynamics_->num_dofs()) {}
 
 void PlantModel::ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
-  effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
+  ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
   dynamics_->ComputeForwardDynamics(q, qd, tau_, effects_.terms(), qdd);
 }
 
 void PlantModel::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                          VecRef tau) {
-  effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau);
+  if (law_ == nullptr) {
+    effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau);
+    return;
+  }
+  law_->Compute(t, q, qd, tau_law_);
+  effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau);
 }
 
 double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) {

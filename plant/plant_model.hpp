@@ -16,6 +16,15 @@
 
 namespace lagrange {
 
+// A commanded generalized force evaluated at every integrator stage instead
+// of being held over the tick: a continuous-time (analog) control law.
+class ControlLaw {
+ public:
+  virtual ~ControlLaw() = default;
+  // (t, q, qd) => tau_cmd (n). Must not allocate.
+  virtual void Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef tau_cmd) = 0;
+};
+
 class PlantModel {
  public:
   PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects);
@@ -25,7 +34,8 @@ class PlantModel {
   Effects& effects() { return effects_; }
   const Effects& effects() const { return effects_; }
 
-  // (t, q, qd, tau_cmd) => qdd.
+  // (t, q, qd, tau_cmd) => qdd. With a control law set, tau_cmd is ignored and
+  // the law's output at (t, q, qd) is used instead.
   void ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd);
   // (t, q, qd, tau_cmd) => tau, the effects' generalized force.
   void ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau);
@@ -37,10 +47,15 @@ class PlantModel {
   // Gravity and Coriolis counts from the dynamics, the rest from the effects.
   StageCounts counts() const;
 
+  // Evaluate `law` at every stage from now on (null: hold tau_cmd). Not owned.
+  void SetControlLaw(ControlLaw* law) { law_ = law; }
+
  private:
   std::unique_ptr<Dynamics> dynamics_;
   Effects effects_;
-  VectorXd tau_;  // scratch (n)
+  ControlLaw* law_ = nullptr;
+  VectorXd tau_;      // scratch (n)
+  VectorXd tau_law_;  // scratch (n)
 };
 
 }  // namespace lagrange

@@ -228,5 +228,23 @@ TEST(NoAllocation, EveryControllerComputesWithoutAllocating) {
   }
 }
 
+// A PD holding a pose does not try to unwind a million turns, and its error
+// is wrapped exactly.
+TEST(HardCases, ControllersWrapErrorsAtAMillionRevolutions) {
+  const double turns = 2.0 * std::numbers::pi * 1e6;
+  ControllerConfig c;
+  c.type = ControllerType::kPd;
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  c.gains = {VectorXd::Constant(2, 50.0), VectorXd::Constant(2, 5.0)};
+  auto pd = MakeController(c, arm, VectorXd::Constant(2, std::numeric_limits<double>::infinity()));
+  Setpoint sp(2);
+  sp.q << 0.3, -0.2;
+  VectorXd q(2), tau(2);
+  q << 0.3 + turns, -0.2 - turns;
+  ASSERT_TRUE(pd->Compute(0.0, q, VectorXd::Zero(2), sp, tau));
+  EXPECT_LT(tau.norm(), 50.0 * 1e-8);  // the error is a few ulps of the large angle, not 2π·1e6
+  EXPECT_NEAR(JointError(JointType::kRevolute, 0.3, 0.3 + turns + 0.01), -0.01, 1e-8);
+}
+
 }  // namespace
 }  // namespace lagrange

@@ -132,9 +132,7 @@ TEST_F(Lagranged, BadSetpointsAreRejectedAndCountedWhileTheLoopKeepsRunning) {
   for (const auto& [sp, why] : bad) {
     const std::int64_t rejected_before = collector.Decoded<status_t>("LAGRANGE_STATUS").back().setpoints_rejected;
     sender.publish("ARM_SETPOINT", &sp);
-    ASSERT_TRUE(collector.WaitFor("LAGRANGE_STATUS", [&](const auto& m) {
-      status_t s;
-      s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
+    ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
       return s.setpoints_rejected > rejected_before;
     }, 10.0)) << why;
     const status_t s = collector.Decoded<status_t>("LAGRANGE_STATUS").back();
@@ -143,9 +141,7 @@ TEST_F(Lagranged, BadSetpointsAreRejectedAndCountedWhileTheLoopKeepsRunning) {
   // Packets that are not setpoints at all: decode errors, also counted.
   const std::uint8_t garbage[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
   sender.publish("ARM_SETPOINT", garbage, sizeof garbage);
-  ASSERT_TRUE(collector.WaitFor("LAGRANGE_STATUS", [&](const auto& m) {
-    status_t s;
-    s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
+  ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
     return s.decode_errors >= 1;
   }, 10.0));
   const auto statuses = collector.Decoded<status_t>("LAGRANGE_STATUS");
@@ -207,9 +203,7 @@ TEST_F(Lagranged, ChannelPrefixPutsEveryChannelUnderIt) {
   lcm::LCM sender(url_);
   const setpoint_t sp = Setpoint({0.2, 0.1});
   sender.publish("ROBOT7_ARM_SETPOINT", &sp);
-  ASSERT_TRUE(collector.WaitFor("ROBOT7_ARM_STATE", [&](const auto& m) {
-    state_t s;
-    s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
+  ASSERT_TRUE(collector.WaitForLatest<state_t>("ROBOT7_ARM_STATE", [&](const state_t& s) {
     return s.q_des[0] == 0.2;
   }, 10.0));
   EXPECT_EQ(collector.Count("ARM_STATE"), 0u);
@@ -233,18 +227,9 @@ TEST_F(Lagranged, CommandsSwitchControllersStopAndAreRefusedWhenTheyDoNotFit) {
     c.kd = kd;
     sender.publish("ARM_COMMAND", &c);
   };
-  auto last_state = [&](const char* channel) {
-    const auto m = collector.Messages(channel);
-    state_t s;
-    s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
-    return s;
-  };
+  auto last_state = [&](const char* channel) { return collector.Decoded<state_t>(channel).back(); };
   auto await_state = [&](const std::function<bool(const state_t&)>& p) {
-    return collector.WaitFor("ARM_STATE", [&](const auto& m) {
-      state_t s;
-      s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
-      return p(s);
-    }, 10.0);
+    return collector.WaitForLatest<state_t>("ARM_STATE", p, 10.0);
   };
   send(command_t::SWITCH_CONTROLLER, "pd");
   ASSERT_TRUE(await_state([](const state_t& s) { return s.controller == "pd"; }));
@@ -255,9 +240,7 @@ TEST_F(Lagranged, CommandsSwitchControllersStopAndAreRefusedWhenTheyDoNotFit) {
   ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_HOLD; }));
   send(command_t::SWITCH_CONTROLLER, "mpc");
   send(command_t::SET_GAINS, "", {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0});
-  ASSERT_TRUE(collector.WaitFor("LAGRANGE_STATUS", [&](const auto& m) {
-    status_t s;
-    s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
+  ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
     return s.commands_rejected >= 2;
   }, 10.0));
   const status_t status = collector.Decoded<status_t>("LAGRANGE_STATUS").back();

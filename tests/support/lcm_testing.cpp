@@ -46,7 +46,8 @@ std::string PrepareLoopbackMulticast(int port) {
 }
 
 LcmCollector::LcmCollector(const std::string& url, const std::string& channel_regex) : lcm_(url) {
-  Subscribe<&LcmCollector::OnMessage>(lcm_, channel_regex, this);
+  // A deep queue: a test flooding the bus must not make the collector itself drop messages.
+  Subscribe<&LcmCollector::OnMessage>(lcm_, channel_regex, this)->setQueueCapacity(100000);
   thread_ = std::thread([this] {
     while (!stop_) lcm_.handleTimeout(20);
   });
@@ -134,6 +135,19 @@ int BackgroundProcess::Wait(double timeout_s) {
     if (std::chrono::steady_clock::now() >= deadline) return -1;
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
+}
+
+long BackgroundProcess::ResidentKiB() const {
+  std::ifstream status("/proc/" + std::to_string(pid_) + "/status");
+  std::string key;
+  long value = -1;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      status >> value;
+      break;
+    }
+  }
+  return value;
 }
 
 std::string BackgroundProcess::Stdout() const {

@@ -39,6 +39,17 @@ class LcmCollector {
   bool WaitFor(const std::string& channel, const std::function<bool(const std::vector<Message>&)>& predicate,
                double timeout_s);
 
+  // Waits until the latest message of `channel`, decoded as T, satisfies
+  // `predicate` (false before the first message).
+  template <class T, class Predicate>
+  bool WaitForLatest(const std::string& channel, Predicate predicate, double timeout_s) {
+    return WaitFor(channel, [&](const std::vector<Message>& m) {
+      T msg;
+      return !m.empty() && msg.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size())) >= 0 &&
+             predicate(msg);
+    }, timeout_s);
+  }
+
   template <class T>
   std::vector<T> Decoded(const std::string& channel) {
     std::vector<T> out;
@@ -71,6 +82,9 @@ class BackgroundProcess {
   // killed), or -1 if it is still running.
   int Wait(double timeout_s);
   bool Running();
+  int pid() const { return pid_; }
+  // Resident memory now, KiB (from /proc/PID/status).
+  long ResidentKiB() const;
   std::string Stdout() const;
   std::string Stderr() const;
 
@@ -95,6 +109,15 @@ class LcmLoggerProcess {
   lcm::LCM probe_;
   std::unique_ptr<BackgroundProcess> logger_;
 };
+
+// AddressSanitizer keeps freed memory in quarantine and maps shadow memory, so
+// a process's resident size says nothing about leaks there: memory bounds are
+// checked in the plain build.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kResidentSizeMeaningful = false;
+#else
+inline constexpr bool kResidentSizeMeaningful = true;
+#endif
 
 // Wall clock, µs since the Unix epoch (what LCM utime fields carry).
 std::int64_t WallMicros();

@@ -135,9 +135,7 @@ TEST_F(LiveDaemon, CommandChangesControllersGainsAndModesAndSaysSo) {
            {"clear", state_t::MODE_HOLD}, {"reset", state_t::MODE_RUNNING}}) {
     r = Ctl({"command", "arm", verb});
     ASSERT_EQ(r.status, 0) << verb << ": " << r.err;
-    ASSERT_TRUE(collector_->WaitFor("ARM_STATE", [&](const auto& m) {
-      state_t s;
-      s.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size()));
+    ASSERT_TRUE(collector_->WaitForLatest<state_t>("ARM_STATE", [&](const state_t& s) {
       return s.mode == mode;
     }, 5.0)) << verb;
   }

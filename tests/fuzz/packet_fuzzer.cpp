@@ -1,0 +1,75 @@
+// libFuzzer target: what lagranged does with a packet on a setpoint or
+// command channel before anything reaches the tick: the raw layout checks,
+// decoding and the setpoint rules. Run with --write-seeds DIR to write valid
+// packets as a starting corpus.
+
+#include <lagrange/command_t.hpp>
+#include <lagrange/setpoint_t.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "daemon/setpoint_check.hpp"
+#include "daemon/wire.hpp"
+
+namespace {
+
+template <class T>
+void WriteSeed(const std::string& path, const T& msg) {
+  std::vector<char> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+  msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  std::ofstream(path, std::ios::binary).write(buf.data(), static_cast<std::streamsize>(buf.size()));
+}
+
+void WriteSeeds(const std::string& dir) {
+  lagrange::setpoint_t s;
+  s.utime = 1;
+  s.num_dofs = 2;
+  s.q = {0.5, 0.4};
+  s.qd = {0.0, 1.0};
+  s.qdd = {0.0, 0.0};
+  WriteSeed(dir + "/setpoint", s);
+  lagrange::command_t c;
+  c.utime = 1;
+  c.command = lagrange::command_t::SET_GAINS;
+  c.controller = "pd";
+  c.num_gains = 2;
+  c.kp = {1.0, 2.0};
+  c.kd = {0.1, 0.2};
+  WriteSeed(dir + "/command", c);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
+  for (int i = 1; i + 1 < *argc; ++i) {
+    if (std::strcmp((*argv)[i], "--write-seeds") == 0) {
+      WriteSeeds((*argv)[i + 1]);
+      std::exit(0);
+    }
+  }
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace lagrange;
+  static const SetpointRules rules{2, VectorXd::Constant(2, -3.1416), VectorXd::Constant(2, 3.1416)};
+  static setpoint_t setpoint;  // reused, as in the receiver
+  const SetpointVerdict v = CheckSetpoint(data, size, rules, setpoint);
+  if (v.kind == SetpointVerdict::Kind::kAccepted) {
+    // An accepted setpoint has the instance's size and finite, limited values.
+    if (setpoint.num_dofs != 2 || setpoint.q.size() != 2) __builtin_trap();
+    for (double x : setpoint.q) {
+      if (!std::isfinite(x) || std::abs(x) > 3.1416) __builtin_trap();
+    }
+  }
+  if (CheckCommandPacket(data, size) == WireCheck::kOk) {
+    command_t command;
+    if (command.decode(data, 0, static_cast<int>(size)) < 0) __builtin_trap();  // the check promised a decodable packet
+  }
+  return 0;
+}
