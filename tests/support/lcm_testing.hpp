@@ -110,10 +110,10 @@ class LcmLoggerProcess {
   std::unique_ptr<BackgroundProcess> logger_;
 };
 
-// AddressSanitizer keeps freed memory in quarantine and maps shadow memory, so
-// a process's resident size says nothing about leaks there: memory bounds are
-// checked in the plain build.
-#if defined(__SANITIZE_ADDRESS__)
+// AddressSanitizer keeps freed memory in quarantine and ThreadSanitizer grows
+// its shadow and history memory, so a process's resident size says nothing
+// about leaks under either: memory bounds are checked in the plain build.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 inline constexpr bool kResidentSizeMeaningful = false;
 #else
 inline constexpr bool kResidentSizeMeaningful = true;
