@@ -59,38 +59,39 @@ void LcmReceiver::Handler::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::
   self->HandleCommand(index, rbuf);
 }
 
-void LcmReceiver::DecodeError(const std::string& channel, const char* why) {
-  stats_.decode_errors.fetch_add(1, std::memory_order_relaxed);
+// A flood of bad packets must not become a flood of log lines.
+void LcmReceiver::WarnAtMostOncePerSecond(std::string message) {
   const std::int64_t now = clock_.WallMicros();
   if (now - last_log_us_ < 1'000'000) {
     ++suppressed_;
     return;
   }
-  spdlog::warn("{}: dropped a packet that is not a valid message: {}{}", channel, why,
-               suppressed_ ? fmt::format(" ({} more dropped in the last second)", suppressed_) : "");
+  if (suppressed_ > 0) message += fmt::format(" ({} more in the last second, not logged)", suppressed_);
+  spdlog::warn("{}", message);
   last_log_us_ = now;
   suppressed_ = 0;
+}
+
+// Counts a refusal and keeps its reason for the status.
+void LcmReceiver::Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reason>& last, std::size_t i,
+                         const std::string& why) {
+  counter.fetch_add(1, std::memory_order_relaxed);
+  last.back().Set(info_[i].name + ": " + why);
+  last.Publish();
+}
+
+void LcmReceiver::DecodeError(const std::string& channel, const char* why) {
+  stats_.decode_errors.fetch_add(1, std::memory_order_relaxed);
+  WarnAtMostOncePerSecond(channel + ": dropped a packet that is not a valid message: " + why);
 }
 
 void LcmReceiver::RejectSetpoint(std::size_t i, const std::string& why) {
-  stats_.setpoints_rejected.fetch_add(1, std::memory_order_relaxed);
-  stats_.last_setpoint_rejection.back().Set(info_[i].name + ": " + why);
-  stats_.last_setpoint_rejection.Publish();
-  const std::int64_t now = clock_.WallMicros();
-  if (now - last_log_us_ < 1'000'000) {
-    ++suppressed_;
-    return;
-  }
-  spdlog::warn("{}: setpoint rejected: {}{}", info_[i].name, why,
-               suppressed_ ? fmt::format(" ({} more rejections in the last second)", suppressed_) : "");
-  last_log_us_ = now;
-  suppressed_ = 0;
+  Refuse(stats_.setpoints_rejected, stats_.last_setpoint_rejection, i, why);
+  WarnAtMostOncePerSecond(info_[i].name + ": setpoint rejected: " + why);
 }
 
 void LcmReceiver::RejectCommand(std::size_t i, const std::string& why) {
-  stats_.commands_rejected.fetch_add(1, std::memory_order_relaxed);
-  stats_.last_command_error.back().Set(info_[i].name + ": " + why);
-  stats_.last_command_error.Publish();
+  Refuse(stats_.commands_rejected, stats_.last_command_error, i, why);
   spdlog::warn("{}: command rejected: {}", info_[i].name, why);
 }
 

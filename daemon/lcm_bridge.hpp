@@ -88,6 +88,8 @@ class LcmReceiver {
   };
   void HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf);
   void HandleCommand(std::size_t i, const lcm::ReceiveBuffer* rbuf);
+  void WarnAtMostOncePerSecond(std::string message);
+  void Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reason>& last, std::size_t i, const std::string& why);
   void RejectSetpoint(std::size_t i, const std::string& why);
   void RejectCommand(std::size_t i, const std::string& why);
   void DecodeError(const std::string& channel, const char* why);

@@ -18,6 +18,7 @@
 #include <sstream>
 #include <thread>
 
+#include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 
 namespace lagrange {
@@ -46,13 +47,7 @@ class Lagranged : public ::testing::Test {
     ASSERT_TRUE(c.WaitFor(channel, [&](const auto& m) { return m.size() >= n; }, 20.0)) << "no " << channel;
   }
   static setpoint_t Setpoint(std::vector<double> q, std::int64_t utime = WallMicros()) {
-    setpoint_t s;
-    s.utime = utime;
-    s.num_dofs = static_cast<int32_t>(q.size());
-    s.q = q;
-    s.qd.assign(q.size(), 0.0);
-    s.qdd.assign(q.size(), 0.0);
-    return s;
+    return testing::MakeSetpoint(std::move(q), utime);
   }
   int port_ = 0;
   std::string url_;

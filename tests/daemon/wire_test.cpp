@@ -10,16 +10,12 @@
 #include <vector>
 
 #include "daemon/wire.hpp"
+#include "tests/support/lcm_messages.hpp"
 
 namespace lagrange {
 namespace {
 
-template <class T>
-std::vector<std::uint8_t> Encode(const T& msg) {
-  std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
-  EXPECT_EQ(msg.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  return buf;
-}
+using testing::Encode;
 
 setpoint_t ValidSetpoint(int n) {
   setpoint_t s;

@@ -6,6 +6,7 @@
 #include "plant/integrators.hpp"
 #include "plant/plant_spec.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -14,12 +15,7 @@ TEST(NoAllocation, SteppingAPlantAllocatesNothing) {
   for (PlantType type : {PlantType::kPendulum, PlantType::kArm2, PlantType::kCartPole, PlantType::kChain}) {
     const PlantSpec spec = DefaultPlantSpec(type);
     const int n = spec.num_dofs();
-    EffectsConfig effects;
-    effects.damping = VectorXd::Constant(n, 0.1);
-    effects.friction = CoulombFriction{VectorXd::Constant(n, 0.1), 0.01};
-    effects.limits = JointLimits{VectorXd::Constant(n, -3.0), VectorXd::Constant(n, 3.0), 1e4, 10.0};
-    effects.saturation = VectorXd::Constant(n, 50.0);
-    effects.disturbance = {Push{0.0, 1.0, VectorXd::Constant(n, 0.5)}};
+    const EffectsConfig effects = testing::AllEffectsOn(n);
     for (Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
       if (!HasMethod(type, method)) continue;
       for (IntegratorType it : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,

@@ -107,16 +107,6 @@ TEST(Effects, ValidationNamesTheKeyAndWhatWasExpected) {
   EXPECT_EQ(err->key, "friction.velocity_scale");
 }
 
-// Builds a config with every effect on, sized for n joints.
-EffectsConfig EverythingOn(int n) {
-  EffectsConfig c;
-  c.damping = VectorXd::Constant(n, 0.3);
-  c.friction = CoulombFriction{VectorXd::Constant(n, 0.2), 0.1};
-  c.limits = JointLimits{VectorXd::Constant(n, -1.0), VectorXd::Constant(n, 1.0), 500.0, 5.0};
-  c.saturation = VectorXd::Constant(n, 4.0);
-  c.disturbance = {Push{0.0, 10.0, VectorXd::Constant(n, 0.7)}};
-  return c;
-}
 
 class EveryMethod : public ::testing::TestWithParam<Method> {};
 
@@ -137,7 +127,7 @@ TEST_P(EveryMethod, EffectsLeftOutAreNeverEvaluated) {
   }
 
   // Switching one effect on runs that stage, and only that stage, once per evaluation.
-  const EffectsConfig all = EverythingOn(2);
+  const EffectsConfig all = testing::AllEffectsOn(2);
   using Member = std::int64_t StageCounts::*;
   const std::pair<Member, std::function<void(EffectsConfig&)>> one_on[] = {
       {&StageCounts::gravity, [](EffectsConfig& c) { c.gravity = true; }},
@@ -197,7 +187,7 @@ TEST(EnergyBalance, EnergyRateEqualsInputPowerMinusDissipation) {
   constexpr double kStep = 1e-6;  // central difference along the flow
   for (const auto& plant : testing::AllPlantCases()) {
     const int n = plant.spec.num_dofs();
-    PlantModel model(MakeDynamics(plant.spec, FastestMethod(plant.spec.type())), EverythingOn(n));
+    PlantModel model(MakeDynamics(plant.spec, FastestMethod(plant.spec.type())), testing::AllEffectsOn(n));
     VectorXd qdd(n), sat(n);
     for (int k = 0; k < 100; ++k) {
       // Half the states past a limit, to exercise the stop's spring and damper.
@@ -220,7 +210,7 @@ TEST(EnergyBalance, EnergyRateEqualsInputPowerMinusDissipation) {
 
 TEST(EnergyBalance, DissipationIsNeverNegative) {
   std::mt19937 rng{5};
-  Effects e(EverythingOn(3), 3);
+  Effects e(testing::AllEffectsOn(3), 3);
   for (int k = 0; k < 1000; ++k) {
     const VectorXd q = testing::RandomVector(3, -2.0, 2.0, rng);
     const VectorXd qd = testing::RandomVector(3, -5.0, 5.0, rng);

@@ -46,6 +46,16 @@ RandomState RandomStateFor(const std::vector<JointType>& joints, std::mt19937& r
   return s;
 }
 
+EffectsConfig AllEffectsOn(int n) {
+  EffectsConfig c;
+  c.damping = VectorXd::Constant(n, 0.3);
+  c.friction = CoulombFriction{VectorXd::Constant(n, 0.2), 0.1};
+  c.limits = JointLimits{VectorXd::Constant(n, -1.0), VectorXd::Constant(n, 1.0), 500.0, 5.0};
+  c.saturation = VectorXd::Constant(n, 4.0);
+  c.disturbance = {Push{0.0, 10.0, VectorXd::Constant(n, 0.7)}};
+  return c;
+}
+
 double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor) {
   return (a - b).norm() / std::max({a.norm(), b.norm(), floor});
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "plant/effects.hpp"
 #include "plant/plant_spec.hpp"
 
 namespace lagrange::testing {
@@ -28,6 +29,10 @@ struct RandomState {
 };
 RandomState RandomStateFor(const std::vector<JointType>& joints, std::mt19937& rng);
 VectorXd RandomVector(int n, double lo, double hi, std::mt19937& rng);
+
+// Every effect on, sized for n joints: damping 0.3, Coulomb friction 0.2 (v_s 0.1),
+// stops at ±1 (k 500, d 5), saturation 4, and a push of 0.7 from t = 0 to 10 s.
+EffectsConfig AllEffectsOn(int n);
 
 // Relative difference ‖a − b‖ / max(‖a‖, ‖b‖, floor).
 double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor = 1.0);
