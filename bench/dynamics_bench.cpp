@@ -11,14 +11,12 @@
 //   FD   ComputeForwardDynamics      (q, qd, tau) => qdd (n), gravity and Coriolis on
 // and calib/sincos. Each call cycles through 16 seeded random states.
 
-#include <benchmark/benchmark.h>
-
-#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
 
 #include "bench/bench_plants.hpp"
+#include "bench/gbench.hpp"
 
 namespace lagrange::bench {
 namespace {
@@ -67,16 +65,6 @@ void TimeTerm(benchmark::State& bm, const PlantSpec& spec, Method method, Term t
   bm.counters["dofs"] = n;
 }
 
-// The machine baseline: one sin and one cos of a changing argument.
-void TimeSinCos(benchmark::State& bm) {
-  double x = 0.1;
-  for (auto _ : bm) {
-    benchmark::DoNotOptimize(std::sin(x) + std::cos(x));
-    x += 0.37;
-    if (x > 6.0) x -= 6.0;
-  }
-}
-
 void RegisterPlant(const NamedPlant& plant) {
   for (Method method : MethodsOf(plant.spec.type())) {
     for (Term term : {Term::kM, Term::kC, Term::kCqd, Term::kG, Term::kFD}) {
@@ -90,7 +78,6 @@ void RegisterPlant(const NamedPlant& plant) {
 }
 
 void RegisterAll() {
-  benchmark::RegisterBenchmark("calib/sincos", TimeSinCos);
   for (const NamedPlant& p : FixedPlants()) RegisterPlant(p);
   for (int links : ChainSizes()) RegisterPlant(Chain(links));
 }
@@ -98,11 +85,4 @@ void RegisterAll() {
 }  // namespace
 }  // namespace lagrange::bench
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  lagrange::bench::RegisterAll();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return lagrange::bench::RunBenchmarks(argc, argv, lagrange::bench::RegisterAll); }

@@ -2,7 +2,7 @@
 // with each effect on and off, beside a step with no effects layer at all.
 //
 // Benchmark names: effects/<plant>/<case>, case one of
-//   bare          RK4 written here against the dynamics alone: no Effects object
+//   bare          the same RK4 step on the dynamics alone: no Effects object
 //   default       PlantModel with gravity and Coriolis on, every optional effect off
 //   no-gravity    default without G;  no-coriolis  default without C qd
 //   damping, friction, limits, saturation, disturbance   default plus that one effect
@@ -13,49 +13,19 @@
 // The plant steps on from a modest state (q = 0.3 rad or m per joint, at
 // rest) under zero command and is put back there every 1000 steps (1 s).
 
-#include <benchmark/benchmark.h>
-
-#include <cmath>
 #include <memory>
 #include <string>
 
 #include "bench/bench_plants.hpp"
+#include "bench/gbench.hpp"
 #include "plant/integrators.hpp"
+#include "plant/rk4.hpp"
 
 namespace lagrange::bench {
 namespace {
 
 constexpr double kStep = 1e-3;        // s
 constexpr int kStepsPerRestart = 1000;
-
-// The classical RK4 step of plant/integrators.cpp with the same vector
-// operations, calling the dynamics directly: what a step costs with no
-// effects layer.
-class BareRk4 {
- public:
-  explicit BareRk4(int n) : q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
-  void Step(Dynamics& d, double h, const VectorXd& tau, VectorXd& q, VectorXd& qd) {
-    d.ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, kqd_);
-    dq_ = qd;
-    dqd_ = kqd_;
-    kq_ = qd;
-    for (int stage = 2; stage <= 4; ++stage) {
-      const double a = stage == 4 ? h : 0.5 * h;
-      const double w = stage == 4 ? 1.0 : 2.0;
-      q1_ = q + a * kq_;
-      qd1_ = qd + a * kqd_;
-      d.ComputeForwardDynamics(q1_, qd1_, tau, DynamicsTerms{}, kqd_);
-      kq_ = qd1_;
-      dq_ += w * kq_;
-      dqd_ += w * kqd_;
-    }
-    q += (h / 6.0) * dq_;
-    qd += (h / 6.0) * dqd_;
-  }
-
- private:
-  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;
-};
 
 enum class Case { kBare, kDefault, kNoGravity, kNoCoriolis, kDamping, kFriction, kLimits, kSaturation,
                   kDisturbance, kAll };
@@ -106,15 +76,15 @@ std::int64_t OffStageRuns(const EffectsConfig& e, const StageCounts& c) {
   return runs;
 }
 
-void TimeBare(benchmark::State& bm, const PlantSpec& spec) {
-  std::unique_ptr<Dynamics> d = MakeDynamics(spec, FastestMethod(spec.type()));
-  const int n = d->num_dofs();
-  const VectorXd q0 = VectorXd::Constant(n, 0.3), tau = VectorXd::Zero(n);
+// Times `step(t, q, qd)` (one step of kStep under zero command) from q = 0.3
+// per joint at rest, put back there every kStepsPerRestart steps.
+template <class StepFn>
+void TimeSteps(benchmark::State& bm, int n, StepFn&& step) {
+  const VectorXd q0 = VectorXd::Constant(n, 0.3);
   VectorXd q = q0, qd = VectorXd::Zero(n);
-  BareRk4 rk4(n);
   int k = 0;
   for (auto _ : bm) {
-    rk4.Step(*d, kStep, tau, q, qd);
+    step(k * kStep, q, qd);
     benchmark::DoNotOptimize(q.data());
     benchmark::ClobberMemory();
     if (++k == kStepsPerRestart) {
@@ -123,6 +93,18 @@ void TimeBare(benchmark::State& bm, const PlantSpec& spec) {
       qd.setZero();
     }
   }
+}
+
+// RK4 (plant/rk4.hpp, as the integrator uses it) on the dynamics alone.
+void TimeBare(benchmark::State& bm, const PlantSpec& spec) {
+  std::unique_ptr<Dynamics> d = MakeDynamics(spec, FastestMethod(spec.type()));
+  const int n = d->num_dofs();
+  const VectorXd tau = VectorXd::Zero(n);
+  Rk4Stepper rk4(n);
+  auto acceleration = [&](double, ConstVecRef q, ConstVecRef qd, VecRef qdd) {
+    d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+  };
+  TimeSteps(bm, n, [&](double t, VectorXd& q, VectorXd& qd) { rk4.Step(acceleration, t, kStep, q, qd); });
 }
 
 void TimeCase(benchmark::State& bm, const PlantSpec& spec, Case c) {
@@ -130,33 +112,12 @@ void TimeCase(benchmark::State& bm, const PlantSpec& spec, Case c) {
   const EffectsConfig effects = EffectsFor(c, n);
   PlantModel model(MakeDynamics(spec, FastestMethod(spec.type())), effects);
   std::unique_ptr<Integrator> rk4 = MakeIntegrator(IntegratorConfig{}, n);
-  const VectorXd q0 = VectorXd::Constant(n, 0.3), tau = VectorXd::Zero(n);
-  VectorXd q = q0, qd = VectorXd::Zero(n);
-  int k = 0;
-  for (auto _ : bm) {
-    rk4->Step(model, k * kStep, kStep, tau, q, qd);
-    benchmark::DoNotOptimize(q.data());
-    benchmark::ClobberMemory();
-    if (++k == kStepsPerRestart) {
-      k = 0;
-      q = q0;
-      qd.setZero();
-    }
-  }
+  const VectorXd tau = VectorXd::Zero(n);
+  TimeSteps(bm, n, [&](double t, VectorXd& q, VectorXd& qd) { rk4->Step(model, t, kStep, tau, q, qd); });
   bm.counters["off_stage_runs"] = static_cast<double>(OffStageRuns(effects, model.counts()));
 }
 
-void TimeSinCos(benchmark::State& bm) {
-  double x = 0.1;
-  for (auto _ : bm) {
-    benchmark::DoNotOptimize(std::sin(x) + std::cos(x));
-    x += 0.37;
-    if (x > 6.0) x -= 6.0;
-  }
-}
-
 void RegisterAll() {
-  benchmark::RegisterBenchmark("calib/sincos", TimeSinCos);
   std::vector<NamedPlant> plants = FixedPlants();
   plants.push_back(Chain(7));
   for (const NamedPlant& p : plants) {
@@ -174,11 +135,4 @@ void RegisterAll() {
 }  // namespace
 }  // namespace lagrange::bench
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  lagrange::bench::RegisterAll();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+int main(int argc, char** argv) { return lagrange::bench::RunBenchmarks(argc, argv, lagrange::bench::RegisterAll); }

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant/rk4.hpp"
+
 namespace lagrange {
 namespace {
 
@@ -45,34 +47,17 @@ class SemiImplicitEuler final : public Integrator {
 
 class Rk4 final : public Integrator {
  public:
-  Rk4(const IntegratorConfig& c, int n)
-      : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
+  Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), rk4_(n) {}
 
   bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    // Stage 1 at (q, qd).
-    m.ComputeAcceleration(t, q, qd, tau, kqd_);
-    dq_ = qd;
-    dqd_ = kqd_;
-    // Stages 2 and 3 at the midpoint, stage 4 at the end.
-    kq_ = qd;
-    for (int stage = 2; stage <= 4; ++stage) {
-      const double a = stage == 4 ? h : 0.5 * h;
-      const double w = stage == 4 ? 1.0 : 2.0;
-      q1_ = q + a * kq_;
-      qd1_ = qd + a * kqd_;
-      m.ComputeAcceleration(t + a, q1_, qd1_, tau, kqd_);
-      kq_ = qd1_;
-      dq_ += w * kq_;
-      dqd_ += w * kqd_;
-    }
-    q += (h / 6.0) * dq_;
-    qd += (h / 6.0) * dqd_;
+    rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds, VecRef qdd) { m.ComputeAcceleration(ts, qs, qds, tau, qdd); },
+              t, h, q, qd);
     ++stats_.steps; ++stats_.accepted; stats_.evaluations += 4;
     return true;
   }
 
  private:
-  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;
+  Rk4Stepper rk4_;
 };
 
 // Dormand–Prince 5(4) on y = (q, qd), f(y) = (qd, qdd).
