@@ -1,0 +1,17 @@
+#pragma once
+// Text from the bus (controller names, reasons that quote them) is printed to
+// logs, statuses and terminals only through Escape: a newline cannot forge a
+// log line and an ANSI/OSC sequence cannot reach a terminal.
+
+#include <string>
+#include <string_view>
+
+namespace lagrange {
+
+// `text` with every byte below 0x20, 0x7f (DEL) and '\\' written as a C
+// escape (\n, \t, \\, else \xHH), and cut to `max_bytes` of input with "..."
+// appended when longer. Bytes ≥ 0x80 pass unchanged (UTF-8 stays readable;
+// C1 controls in UTF-8 form are two bytes that terminals do not act on).
+std::string Escape(std::string_view text, std::size_t max_bytes = 200);
+
+}  // namespace lagrange
