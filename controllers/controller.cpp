@@ -1,6 +1,8 @@
 #include "controllers/controller.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numbers>
 
 namespace lagrange {
@@ -15,7 +17,9 @@ double JointError(JointType type, double desired, double measured) {
 }
 
 Controller::Controller(std::vector<JointType> joints, VectorXd torque_limits)
-    : joints_(std::move(joints)), torque_limits_(std::move(torque_limits)) {}
+    : joints_(std::move(joints)),
+      torque_limits_(std::move(torque_limits)),
+      gain_bounds_(GainBounds::Unbounded(num_dofs())) {}
 
 bool Controller::Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   ComputeLaw(t, q, qd, sp, tau);
@@ -27,24 +31,50 @@ bool Controller::Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint
   return true;
 }
 
-bool Controller::SetGains(const Gains&) { return false; }
-
-bool ValidJointGains(const Gains& g, int n) {
-  return g.kp.size() == n && g.kd.size() == n && g.kp.allFinite() && g.kd.allFinite() &&
-         (g.kp.array() >= 0.0).all() && (g.kd.array() >= 0.0).all();
+bool Controller::SetGains(const Gains& gains) {
+  if (!has_gains() || FindGainFault(gains, gain_bounds_)) return false;
+  ApplyGains(gains);
+  return true;
 }
 
-std::optional<std::string> CheckJointGains(const Gains& g, int n) {
-  for (const auto& [key, v] : {std::pair{"kp", &g.kp}, std::pair{"kd", &g.kd}}) {
-    if (v->size() != n) {
-      return std::string(key) + ": expected " + std::to_string(n) + " gains (one per joint), got " +
-             std::to_string(v->size());
-    }
-    if (!v->allFinite() || (v->array() < 0.0).any()) {
-      return std::string(key) + ": expected finite gains >= 0";
+GainBounds GainBounds::Unbounded(int n) {
+  const double inf = std::numeric_limits<double>::infinity();
+  return {false, VectorXd::Constant(n, inf), VectorXd::Constant(n, inf), "", ""};
+}
+
+std::optional<GainFault> FindGainFault(const Gains& g, const GainBounds& b) {
+  const int n = b.num_dofs();
+  for (const bool kd : {false, true}) {
+    const VectorXd& v = kd ? g.kd : g.kp;
+    const VectorXd& max = kd ? b.kd_max : b.kp_max;
+    if (v.size() != n) return GainFault{GainFault::Kind::kSize, kd, -1};
+    if (!v.allFinite()) return GainFault{GainFault::Kind::kNotFinite, kd, -1};
+    if (!b.any_sign && (v.array() < 0.0).any()) return GainFault{GainFault::Kind::kSign, kd, -1};
+    for (int i = 0; i < n; ++i) {
+      if (std::abs(v[i]) > max[i]) return GainFault{GainFault::Kind::kAboveBound, kd, i};
     }
   }
   return std::nullopt;
+}
+
+std::string DescribeGainFault(const GainFault& f, const Gains& g, const GainBounds& b) {
+  const std::string key = f.kd ? "kd" : "kp";
+  switch (f.kind) {
+    case GainFault::Kind::kSize:
+      return key + ": expected " + std::to_string(b.num_dofs()) + " gains (one per joint), got " +
+             std::to_string((f.kd ? g.kd : g.kp).size());
+    case GainFault::Kind::kNotFinite:
+      return key + (b.any_sign ? ": expected finite gains" : ": expected finite gains >= 0");
+    case GainFault::Kind::kSign: return key + ": expected finite gains >= 0";
+    case GainFault::Kind::kAboveBound: {
+      const double value = (f.kd ? g.kd : g.kp)[f.index], max = (f.kd ? b.kd_max : b.kp_max)[f.index];
+      char text[160];
+      std::snprintf(text, sizeof text, "[%d]: expected |gain| <= %.6g (%s), got %.6g", f.index, max,
+                    (f.kd ? b.kd_rule : b.kp_rule).c_str(), value);
+      return key + text;
+    }
+  }
+  return key + ": expected valid gains";
 }
 
 }  // namespace lagrange

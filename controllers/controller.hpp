@@ -17,8 +17,9 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 
-#include "controllers/setpoint.hpp"
+#include "controllers/trajectory.hpp"
 #include "plant/dynamics.hpp"
 
 namespace lagrange {
@@ -31,6 +32,33 @@ struct Gains {
   VectorXd kp;
   VectorXd kd;
 };
+
+// What gains a controller accepts: sizes n, finite, a sign rule, and upper
+// bounds |Kp_i| <= kp_max_i, |Kd_i| <= kd_max_i that come from the tick h
+// (a law evaluated once per h under zero-order hold cannot use more; each
+// controller's header states its rule). Computed once at configure time
+// (ComputeGainBounds, controllers/factory.hpp); +inf where there is no bound.
+struct GainBounds {
+  bool any_sign = false;  // false: every gain >= 0
+  VectorXd kp_max;        // (n), the units of Kp
+  VectorXd kd_max;        // (n), the units of Kd
+  std::string kp_rule;    // how kp_max was derived, for messages: "Kp·h² <= 1 at h = 0.001 s"
+  std::string kd_rule;
+
+  int num_dofs() const { return static_cast<int>(kp_max.size()); }
+  // Non-negative gains of any size on n joints.
+  static GainBounds Unbounded(int n);
+};
+
+// The first way `gains` break `bounds`, found without allocating.
+struct GainFault {
+  enum class Kind : std::uint8_t { kSize, kNotFinite, kSign, kAboveBound } kind;
+  bool kd;    // in kd (else kp)
+  int index;  // the offending gain (kAboveBound), else -1
+};
+std::optional<GainFault> FindGainFault(const Gains& gains, const GainBounds& bounds);
+// "kp: expected ..." for a fault FindGainFault found in `gains`.
+std::string DescribeGainFault(const GainFault& fault, const Gains& gains, const GainBounds& bounds);
 
 class Controller {
  public:
@@ -50,22 +78,27 @@ class Controller {
   virtual void Reset() {}
 
   // Replaces the gains without allocating (safe in the tick). False, and
-  // nothing changed, when the controller has no gains or they do not fit;
-  // CheckGains (controllers/factory.hpp) says why, off the tick.
-  virtual bool SetGains(const Gains& gains);
+  // nothing changed, when the controller has no gains or they break its
+  // gain_bounds(); CheckGains (controllers/factory.hpp) says why, off the tick.
+  bool SetGains(const Gains& gains);
   virtual Gains gains() const { return {}; }
+  virtual bool has_gains() const { return false; }
+
+  // The gains this controller accepts (default: non-negative, unbounded).
+  // Set once at configure time by MakeController; read-only afterwards, so
+  // another thread may read it while the loop runs.
+  const GainBounds& gain_bounds() const { return gain_bounds_; }
+  void set_gain_bounds(GainBounds bounds) { gain_bounds_ = std::move(bounds); }
 
  protected:
   virtual void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) = 0;
+  // Copies gains that passed gain_bounds() into the law, without allocating.
+  virtual void ApplyGains(const Gains&) {}
 
  private:
   std::vector<JointType> joints_;
   VectorXd torque_limits_;
+  GainBounds gain_bounds_;
 };
-
-// Checks PD gains for n joints: sizes n, finite, >= 0.
-std::optional<std::string> CheckJointGains(const Gains& gains, int n);
-// The same check without a message, and without allocating.
-bool ValidJointGains(const Gains& gains, int n);
 
 }  // namespace lagrange

@@ -1,18 +1,25 @@
 #include "controllers/factory.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 
 #include "controllers/lqr.hpp"
+#include "plant/enum_names.hpp"
 
 namespace lagrange {
 namespace {
 
-constexpr ControllerType kAllControllers[] = {
-    ControllerType::kNone,           ControllerType::kPd,         ControllerType::kGravityCompensation,
-    ControllerType::kComputedTorque, ControllerType::kCartPolePd, ControllerType::kLqr,
-    ControllerType::kSwingUp,
+constexpr EnumName<ControllerType> kControllerNames[] = {
+    {ControllerType::kNone, "none"},
+    {ControllerType::kPd, "pd"},
+    {ControllerType::kGravityCompensation, "gravity-compensation"},
+    {ControllerType::kComputedTorque, "computed-torque"},
+    {ControllerType::kCartPolePd, "cartpole-pd"},
+    {ControllerType::kLqr, "lqr"},
+    {ControllerType::kSwingUp, "swing-up"},
 };
 
 bool IsCartPoleOnly(ControllerType t) {
@@ -39,6 +46,10 @@ std::vector<int> Actuated(const LqrOptions& o, const PlantSpec& plant) {
   return all;
 }
 
+// The weights as given, identity where left out.
+MatrixXd LqrQ(const LqrOptions& o, int n) { return o.Q.size() > 0 ? o.Q : MatrixXd::Identity(2 * n, 2 * n); }
+MatrixXd LqrR(const LqrOptions& o, int m) { return o.R.size() > 0 ? o.R : MatrixXd::Identity(m, m); }
+
 std::optional<std::string> ValidateLqr(const LqrOptions& o, const PlantSpec& plant) {
   const int n = plant.num_dofs();
   if (!o.equilibrium && plant.type() != PlantType::kCartPole) {
@@ -54,25 +65,13 @@ std::optional<std::string> ValidateLqr(const LqrOptions& o, const PlantSpec& pla
     if (j < 0 || j >= n) return "actuated: expected joint indices from 0 to " + std::to_string(n - 1);
   }
   const int m = static_cast<int>(act.size());
-  if (o.Q.size() > 0) {
-    if (o.Q.rows() != 2 * n || o.Q.cols() != 2 * n) {
-      return "Q: expected " + std::to_string(2 * n) + " x " + std::to_string(2 * n) + " (state (q, qd))";
-    }
-    if ((o.Q - o.Q.transpose()).norm() > 1e-12 * o.Q.norm() ||
-        Eigen::SelfAdjointEigenSolver<MatrixXd>(o.Q).eigenvalues().minCoeff() < 0.0) {
-      return std::string("Q: expected a symmetric positive semi-definite matrix");
-    }
+  if (o.Q.size() > 0 && (o.Q.rows() != 2 * n || o.Q.cols() != 2 * n)) {
+    return "Q: expected " + std::to_string(2 * n) + " x " + std::to_string(2 * n) + " (state (q, qd))";
   }
-  if (o.R.size() > 0) {
-    if (o.R.rows() != m || o.R.cols() != m) {
-      return "R: expected " + std::to_string(m) + " x " + std::to_string(m) + " (one per actuated joint)";
-    }
-    if ((o.R - o.R.transpose()).norm() > 1e-12 * o.R.norm() ||
-        Eigen::SelfAdjointEigenSolver<MatrixXd>(o.R).eigenvalues().minCoeff() <= 0.0) {
-      return std::string("R: expected a symmetric positive definite matrix");
-    }
+  if (o.R.size() > 0 && (o.R.rows() != m || o.R.cols() != m)) {
+    return "R: expected " + std::to_string(m) + " x " + std::to_string(m) + " (one per actuated joint)";
   }
-  return std::nullopt;
+  return CheckLqrWeights(LqrQ(o, n), LqrR(o, m));
 }
 
 std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& limits) {
@@ -81,58 +80,74 @@ std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& 
   const std::vector<int> act = Actuated(c.lqr, plant);
   const int m = static_cast<int>(act.size());
   const LinearModel lin = Linearize(*model, Equilibrium(c.lqr, plant), act);
-  const MatrixXd Q = c.lqr.Q.size() > 0 ? c.lqr.Q : MatrixXd::Identity(2 * n, 2 * n);
-  const MatrixXd R = c.lqr.R.size() > 0 ? c.lqr.R : MatrixXd::Identity(m, m);
-  const LqrResult lqr = LinearQuadraticRegulator(lin.A, lin.B, Q, R);
+  const LqrResult lqr = LinearQuadraticRegulator(lin.A, lin.B, LqrQ(c.lqr, n), LqrR(c.lqr, m));
   return std::make_unique<StateFeedbackController>("lqr", model->joint_types(), limits, act, lqr.K, lin.u0);
 }
 
 }  // namespace
 
-std::string_view ToString(ControllerType type) {
-  switch (type) {
-    case ControllerType::kNone: return "none";
-    case ControllerType::kPd: return "pd";
-    case ControllerType::kGravityCompensation: return "gravity-compensation";
-    case ControllerType::kComputedTorque: return "computed-torque";
-    case ControllerType::kCartPolePd: return "cartpole-pd";
-    case ControllerType::kLqr: return "lqr";
-    case ControllerType::kSwingUp: return "swing-up";
-  }
-  return "?";
+std::string_view ToString(ControllerType type) { return NameOf(kControllerNames, type); }
+std::optional<ControllerType> ParseControllerType(std::string_view name) { return ValueOf(kControllerNames, name); }
+std::string ControllerTypeNames() { return JoinedNames(kControllerNames); }
+
+bool HasGains(ControllerType type) {
+  return type == ControllerType::kPd || type == ControllerType::kGravityCompensation ||
+         type == ControllerType::kComputedTorque || type == ControllerType::kCartPolePd;
 }
 
-std::optional<ControllerType> ParseControllerType(std::string_view name) {
-  for (ControllerType t : kAllControllers) {
-    if (ToString(t) == name) return t;
+GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const VectorXd& q0, double h) {
+  const int n = plant.num_dofs();
+  GainBounds b = GainBounds::Unbounded(n);
+  if (!HasGains(type) || !(h > 0.0)) return b;
+  char at[48];
+  std::snprintf(at, sizeof at, " at h = %.6g s", h);
+  if (type == ControllerType::kComputedTorque) {
+    b.kp_max.setConstant(1.0 / (h * h));
+    b.kd_max.setConstant(2.0 / h);
+    b.kp_rule = std::string("Kp·h² <= 1") + at;
+    b.kd_rule = std::string("Kd·h <= 2") + at;
+    return b;
   }
+  MatrixXd M(n, n);
+  MakeDynamics(plant, FastestMethod(plant.type()))->ComputeMassMatrix(q0.size() == n ? q0 : VectorXd::Zero(n), M);
+  char mass[64];
+  if (type == ControllerType::kCartPolePd) {
+    b.any_sign = true;
+    b.kp_max.setConstant(M(0, 0) / (h * h));
+    b.kd_max.setConstant(2.0 * M(0, 0) / h);
+    std::snprintf(mass, sizeof mass, " with M_xx = %.6g kg", M(0, 0));
+    b.kp_rule = std::string("|Kp|·h²/M_xx <= 1") + at + mass;
+    b.kd_rule = std::string("|Kd|·h/M_xx <= 2") + at + mass;
+    return b;
+  }
+  const double lambda = Eigen::SelfAdjointEigenSolver<MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
+  b.kp_max.setConstant(lambda / (h * h));
+  b.kd_max.setConstant(2.0 * lambda / h);
+  std::snprintf(mass, sizeof mass, " with λmin(M(q0)) = %.6g", lambda);
+  b.kp_rule = std::string("Kp·h²/λmin(M) <= 1") + at + mass;
+  b.kd_rule = std::string("Kd·h/λmin(M) <= 2") + at + mass;
+  return b;
+}
+
+GainBounds ComputeGainBounds(const ControllerConfig& c, const PlantSpec& plant) {
+  if (c.continuous) {  // not held over a tick: the integrator's stages decide (sub-steps, variational)
+    GainBounds b = GainBounds::Unbounded(plant.num_dofs());
+    b.any_sign = c.type == ControllerType::kCartPolePd;
+    return b;
+  }
+  return ComputeGainBounds(c.type, plant, c.q0, c.period);
+}
+
+std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, const GainBounds& bounds) {
+  if (!HasGains(type)) return std::string(ToString(type)) + " has no adjustable gains";
+  if (auto fault = FindGainFault(gains, bounds)) return DescribeGainFault(*fault, gains, bounds);
   return std::nullopt;
 }
 
-std::string ControllerTypeNames() {
-  std::string names;
-  for (ControllerType t : kAllControllers) {
-    if (!names.empty()) names += '|';
-    names += ToString(t);
-  }
-  return names;
-}
-
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains) {
-  switch (type) {
-    case ControllerType::kPd:
-    case ControllerType::kGravityCompensation:
-    case ControllerType::kComputedTorque: return CheckJointGains(gains, n);
-    case ControllerType::kCartPolePd:
-      if (gains.kp.size() != n || gains.kd.size() != n || !gains.kp.allFinite() || !gains.kd.allFinite()) {
-        return "kp, kd: expected " + std::to_string(n) + " finite gains each, (x, θ)";
-      }
-      return std::nullopt;
-    case ControllerType::kNone:
-    case ControllerType::kLqr:
-    case ControllerType::kSwingUp: break;
-  }
-  return std::string(ToString(type)) + " has no adjustable gains";
+  GainBounds bounds = GainBounds::Unbounded(n);
+  bounds.any_sign = type == ControllerType::kCartPolePd;
+  return CheckGains(type, gains, bounds);
 }
 
 std::optional<std::string> ValidateController(const ControllerConfig& c, const PlantSpec& plant) {
@@ -151,10 +166,12 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
     return std::string("model.method: ") + std::string(ToString(plant.type())) + " has no " +
            std::string(ToString(*c.model_method)) + " path";
   }
-  const bool has_gains = c.type == ControllerType::kPd || c.type == ControllerType::kGravityCompensation ||
-                         c.type == ControllerType::kComputedTorque || c.type == ControllerType::kCartPolePd;
-  if (has_gains) {
-    if (auto err = CheckGains(c.type, n, c.gains)) return err;
+  if (c.q0.size() != 0 && c.q0.size() != n) {
+    return "q0: expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(c.q0.size());
+  }
+  if (!(std::isfinite(c.period) && c.period > 0.0)) return std::string("period: expected a positive number of seconds");
+  if (HasGains(c.type)) {
+    if (auto err = CheckGains(c.type, c.gains, ComputeGainBounds(c, plant))) return err;
   }
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;
@@ -173,9 +190,10 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   return std::nullopt;
 }
 
-std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const PlantSpec& plant,
-                                           const VectorXd& torque_limits) {
-  if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
+namespace {
+
+// The controller for a validated config.
+std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits) {
   const std::vector<JointType> joints = JointTypesOf(plant);
   switch (c.type) {
     case ControllerType::kNone: return std::make_unique<ZeroController>(joints, torque_limits);
@@ -189,13 +207,23 @@ std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const Plan
     }
     case ControllerType::kComputedTorque:
       return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains, ControllerModel(c, plant));
-    case ControllerType::kCartPolePd: return MakeCartPolePd(joints, torque_limits, c.gains);
+    case ControllerType::kCartPolePd: return std::make_unique<CartPolePdController>(joints, torque_limits, c.gains);
     case ControllerType::kLqr: return MakeLqr(c, plant, torque_limits);
     case ControllerType::kSwingUp:
       return std::make_unique<SwingUpController>(joints, torque_limits, c.swing_up, ControllerModel(c, plant),
                                                  MakeLqr(c, plant, torque_limits));
   }
   throw std::invalid_argument("unknown controller");
+}
+
+}  // namespace
+
+std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const PlantSpec& plant,
+                                           const VectorXd& torque_limits) {
+  if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
+  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits);
+  controller->set_gain_bounds(ComputeGainBounds(c, plant));
+  return controller;
 }
 
 }  // namespace lagrange

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "controllers/cartpole_pd.hpp"
 #include "controllers/controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
@@ -51,19 +52,47 @@ struct ControllerConfig {
   // controller) instead of once per tick with the torque held (a digital one).
   // Not for swing-up, which keeps a mode.
   bool continuous = false;
+  // Where the law runs, for its gain bounds (ComputeGainBounds): the tick h,
+  // s, the law is held over, and the plant's initial q (n; empty: q = 0).
+  // The scene loader sets the scene's period and the instance's initial q.
+  double period = 1e-3;
+  VectorXd q0;
 };
 
 // Checks a config against the plant: the type suits the plant (cart-pole
-// controllers need a cart-pole), gain sizes and signs, Q and R shapes and
-// definiteness. Returns "key: what was expected".
+// controllers need a cart-pole), gain sizes, signs and bounds
+// (ComputeGainBounds), Q and R shapes and definiteness. Returns "key: what was expected".
 std::optional<std::string> ValidateController(const ControllerConfig& config, const PlantSpec& plant);
 
-// Why `gains` cannot be given to a controller of this type on n joints, or
-// nullopt when they can (the messages for Controller::SetGains).
+// The gains a controller of this type accepts on `plant`, held over a tick of
+// `period` s from the initial q0 (n): the rules in joint_controllers.hpp and
+// cartpole_pd.hpp. Types without gains get n unbounded entries.
+//   computed-torque                Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s)
+//   pd, gravity-compensation       Kp_i <= λmin(M)/h²,  Kd_i <= 2λmin(M)/h (N·m/rad, N·m·s/rad)
+//   cartpole-pd (any sign)         |Kp_j| <= M_xx/h²,   |Kd_j| <= 2M_xx/h
+// with M = M(q0) of the plant.
+GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const VectorXd& q0, double period);
+// The same from a config's own period and q0. A continuous controller (the
+// law at every integrator stage) is not held over the tick: only the sizes,
+// finiteness and signs bind it, and its stiffness is the integrator's matter
+// (sub-steps or the variational integrator; tests/daemon/stiff_cases_test.cpp).
+GainBounds ComputeGainBounds(const ControllerConfig& config, const PlantSpec& plant);
+
+// True for the types whose gains (kp, kd) a scene sets and a command may change.
+bool HasGains(ControllerType type);
+
+// Why `gains` cannot be given to a controller of this type with these bounds
+// (Controller::gain_bounds()), or nullopt when they can: the messages for a
+// refused Controller::SetGains. Above a bound the message names it, e.g.
+// "kp[0]: expected |gain| <= 1e+06 (Kp·h² <= 1 at h = 0.001 s), got 1e+07".
+std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, const GainBounds& bounds);
+// Sizes, finiteness and signs only, without the tick's bounds. Prefer the
+// overload above with the controller's gain_bounds().
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains);
 
-// Builds the controller. Throws std::invalid_argument with the message
-// ValidateController would give. torque_limits (n), +inf for none.
+// Builds the controller with its gain bounds (ComputeGainBounds(config,
+// plant)). Throws std::invalid_argument with the message ValidateController
+// would give. torque_limits (n), +inf for none.
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,
                                            const VectorXd& torque_limits);
 

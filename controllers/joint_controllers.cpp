@@ -13,7 +13,9 @@ PdController::PdController(std::vector<JointType> joints, VectorXd torque_limits
       M_(num_dofs(), num_dofs()),
       e_(num_dofs()),
       term_(num_dofs()) {
-  if (auto err = CheckJointGains(gains_, num_dofs())) throw std::invalid_argument(*err);
+  if (auto fault = FindGainFault(gains_, gain_bounds())) {
+    throw std::invalid_argument(DescribeGainFault(*fault, gains_, gain_bounds()));
+  }
   if ((options_.acceleration_feedforward || options_.gravity_compensation) && !model_) {
     throw std::invalid_argument("PD with model terms needs a model");
   }
@@ -23,11 +25,9 @@ std::string_view PdController::name() const {
   return options_.gravity_compensation ? "gravity-compensation" : "pd";
 }
 
-bool PdController::SetGains(const Gains& gains) {
-  if (!ValidJointGains(gains, num_dofs())) return false;
+void PdController::ApplyGains(const Gains& gains) {
   gains_.kp = gains.kp;
   gains_.kd = gains.kd;
-  return true;
 }
 
 void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
@@ -52,15 +52,15 @@ ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints
       gains_(std::move(gains)),
       model_(std::move(model)),
       a_(num_dofs()) {
-  if (auto err = CheckJointGains(gains_, num_dofs())) throw std::invalid_argument(*err);
+  if (auto fault = FindGainFault(gains_, gain_bounds())) {
+    throw std::invalid_argument(DescribeGainFault(*fault, gains_, gain_bounds()));
+  }
   if (!model_) throw std::invalid_argument("computed torque needs a model");
 }
 
-bool ComputedTorqueController::SetGains(const Gains& gains) {
-  if (!ValidJointGains(gains, num_dofs())) return false;
+void ComputedTorqueController::ApplyGains(const Gains& gains) {
   gains_.kp = gains.kp;
   gains_.kd = gains.kd;
-  return true;
 }
 
 void ComputedTorqueController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {

@@ -15,6 +15,16 @@ struct PdOptions {
 };
 
 // Law:    tau = Kp e + Kd ė [+ M(q) qdd_d] [+ G(q)]
+// Gains:  Kp_i N·m/rad (N/m), Kd_i N·m·s/rad (N·s/m), >= 0. Bounded by what a
+//         law held over the tick h can use (ComputeGainBounds): with λ the
+//         smallest eigenvalue of M(q0) (kg·m² or kg) at the initial state,
+//           Kp_i <= λ / h²,   Kd_i <= 2 λ / h,
+//         so every mode of M⁻¹Kp h² and M⁻¹Kd h stays within 1 and 2, the
+//         limits of the computed-torque law below. (A per-joint M_ii in place
+//         of λ is not enough: the coupling of M gives M⁻¹ diag(M) eigenvalues
+//         above 1, 7.2 for the default arm.) At the bound itself the
+//         discrete loop is marginally stable; it is where a PD stops being
+//         usable, not a tuning.
 // Inputs: q, qd; setpoint (q_d, qd_d, qdd_d).
 // Output: tau (n).
 // State:  none.
@@ -24,11 +34,12 @@ class PdController final : public Controller {
   PdController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains, PdOptions options,
                std::unique_ptr<Dynamics> model);
   std::string_view name() const override;
-  bool SetGains(const Gains& gains) override;
   Gains gains() const override { return gains_; }
+  bool has_gains() const override { return true; }
 
  protected:
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
+  void ApplyGains(const Gains& gains) override;
 
  private:
   Gains gains_;
@@ -41,6 +52,12 @@ class PdController final : public Controller {
 // Law:    tau = M(q) (qdd_d + Kd ė + Kp e) + C(q, qd) qd + G(q),
 //         evaluated as the model's inverse dynamics at the commanded acceleration.
 //         With an exact model the error obeys ë + Kd ė + Kp e = 0.
+// Gains:  Kp_i 1/s², Kd_i 1/s, >= 0. Bounded by the tick h with no plant mass
+//         (ComputeGainBounds): Kp_i h² <= 1 and Kd_i h <= 2. The error held
+//         over one tick is e⁺ = (1 − Kp h²/2) e + (1 − Kd h/2) h ė,
+//         h ė⁺ = −Kp h² e + (1 − Kd h) h ė: Kd h = 2 puts an eigenvalue at −1
+//         (the loop rings at the tick rate) and Kp h² beyond O(1) overshoots
+//         the setpoint in one tick.
 // Inputs: q, qd; setpoint (q_d, qd_d, qdd_d).
 // Output: tau (n).
 // State:  none. The model's parameters may differ from the plant's.
@@ -49,11 +66,12 @@ class ComputedTorqueController final : public Controller {
   ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains,
                            std::unique_ptr<Dynamics> model);
   std::string_view name() const override { return "computed-torque"; }
-  bool SetGains(const Gains& gains) override;
   Gains gains() const override { return gains_; }
+  bool has_gains() const override { return true; }
 
  protected:
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
+  void ApplyGains(const Gains& gains) override;
 
  private:
   Gains gains_;

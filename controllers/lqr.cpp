@@ -9,26 +9,36 @@
 namespace lagrange {
 namespace {
 
-void RequireSymmetric(const MatrixXd& X, const char* name) {
-  if (!X.allFinite() || (X - X.transpose()).norm() > 1e-10 * std::max(1.0, X.norm())) {
-    throw std::invalid_argument(std::string(name) + ": expected a finite symmetric matrix");
-  }
+bool FiniteSymmetric(const MatrixXd& X) {
+  return X.rows() == X.cols() && X.allFinite() && (X - X.transpose()).norm() <= kLqrWeightTolerance * X.norm();
+}
+
+// Smallest eigenvalue of the symmetric part; X is square.
+double MinEigenvalue(const MatrixXd& X) {
+  if (X.size() == 0) return 0.0;
+  return Eigen::SelfAdjointEigenSolver<MatrixXd>(0.5 * (X + X.transpose()), Eigen::EigenvaluesOnly)
+      .eigenvalues()
+      .minCoeff();
 }
 
 }  // namespace
+
+std::optional<std::string> CheckLqrWeights(const MatrixXd& Q, const MatrixXd& R) {
+  if (!FiniteSymmetric(Q) || MinEigenvalue(Q) < -kLqrWeightTolerance * Q.norm()) {
+    return std::string("Q: expected a symmetric positive semi-definite matrix");
+  }
+  if (R.size() == 0 || !FiniteSymmetric(R) || MinEigenvalue(R) <= kLqrWeightTolerance * R.norm()) {
+    return std::string("R: expected a symmetric positive definite matrix");
+  }
+  return std::nullopt;
+}
 
 LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R) {
   const Eigen::Index n = A.rows(), m = B.cols();
   if (A.cols() != n || B.rows() != n || Q.rows() != n || Q.cols() != n || R.rows() != m || R.cols() != m) {
     throw std::invalid_argument("LQR: expected A (n x n), B (n x m), Q (n x n), R (m x m)");
   }
-  RequireSymmetric(Q, "Q");
-  RequireSymmetric(R, "R");
-  const Eigen::SelfAdjointEigenSolver<MatrixXd> q_eig(Q), r_eig(R);
-  if (q_eig.eigenvalues().minCoeff() < -1e-12 * std::max(1.0, Q.norm())) {
-    throw std::invalid_argument("Q: expected a positive semi-definite matrix");
-  }
-  if (r_eig.eigenvalues().minCoeff() <= 0.0) throw std::invalid_argument("R: expected a positive definite matrix");
+  if (auto err = CheckLqrWeights(Q, R)) throw std::invalid_argument(*err);
 
   const MatrixXd Rinv_Bt = R.ldlt().solve(B.transpose());
   MatrixXd Z(2 * n, 2 * n);
@@ -133,15 +143,6 @@ StateFeedbackController::StateFeedbackController(std::string name, std::vector<J
   }
 }
 
-bool StateFeedbackController::SetGains(const Gains& g) {
-  const int n = num_dofs();
-  if (name_ != "cartpole-pd" || g.kp.size() != n || g.kd.size() != n || !g.kp.allFinite() || !g.kd.allFinite()) {
-    return false;
-  }
-  K_.row(0) << g.kp.transpose(), g.kd.transpose();  // u = −K (x − x_d) = Kp (q_d − q) + Kd (qd_d − qd)
-  return true;
-}
-
 Gains StateFeedbackController::gains() const {
   const int n = num_dofs();
   if (actuated_.size() != 1) return {};
@@ -158,14 +159,6 @@ void StateFeedbackController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, 
   u_.noalias() -= K_ * x_;
   tau.setZero();
   for (std::size_t k = 0; k < actuated_.size(); ++k) tau[actuated_[k]] = u_[static_cast<int>(k)];
-}
-
-std::unique_ptr<StateFeedbackController> MakeCartPolePd(std::vector<JointType> joints, VectorXd torque_limits,
-                                                        const Gains& gains) {
-  auto c = std::make_unique<StateFeedbackController>("cartpole-pd", std::move(joints), std::move(torque_limits),
-                                                     std::vector<int>{0}, MatrixXd::Zero(1, 4), VectorXd::Zero(1));
-  if (!c->SetGains(gains)) throw std::invalid_argument("cartpole-pd: expected kp and kd with 2 finite values each");
-  return c;
 }
 
 }  // namespace lagrange

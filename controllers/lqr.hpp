@@ -2,7 +2,8 @@
 // Linear-quadratic regulation: design-time math (free functions returning
 // result structs) and the state-feedback controller that uses it.
 
-#include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "controllers/controller.hpp"
@@ -14,14 +15,27 @@ struct LqrResult {
   MatrixXd S;  // (2n x 2n) stabilizing solution of the Riccati equation, cost-to-go xᵀ S x
 };
 
+// Relative tolerance of the weight checks below: an eigenvalue of Q down to
+// −kLqrWeightTolerance·‖Q‖ counts as zero, one of R must exceed
+// kLqrWeightTolerance·‖R‖, and ‖X − Xᵀ‖ <= kLqrWeightTolerance·‖X‖ is symmetric
+// (‖·‖ the Frobenius norm). Round-off leaves the zero eigenvalues of a
+// rank-deficient Q near ±1e-16·‖Q‖, far inside it.
+inline constexpr double kLqrWeightTolerance = 1e-9;
+
+// The one check of LQR weights, used by the scene validator and by
+// LinearQuadraticRegulator: Q (k x k) finite, symmetric, positive
+// semi-definite; R (m x m) finite, symmetric, positive definite. Returns
+// "Q: expected ..." or "R: expected ...", or nullopt when they fit.
+std::optional<std::string> CheckLqrWeights(const MatrixXd& Q, const MatrixXd& R);
+
 // Continuous-time LQR for ẋ = A x + B u minimising ∫ xᵀQx + uᵀRu dt:
 //   Aᵀ S + S A − S B R⁻¹ Bᵀ S + Q = 0,   K = R⁻¹ Bᵀ S.
 // Solved by the matrix sign function of the Hamiltonian
 //   H = [[A, −B R⁻¹ Bᵀ], [−Q, −Aᵀ]]
 // (Newton iteration with determinant scaling); S spans the stable invariant
-// subspace [I; S]. Throws std::invalid_argument when sizes disagree, Q is not
-// symmetric positive semi-definite, R is not symmetric positive definite, or
-// no stabilizing solution exists (e.g. (A, B) not stabilizable).
+// subspace [I; S]. Throws std::invalid_argument when sizes disagree, when
+// CheckLqrWeights refuses Q or R (with its message), or when no stabilizing
+// solution exists (e.g. (A, B) not stabilizable).
 LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R);
 
 struct LinearModel {
@@ -42,8 +56,8 @@ LinearModel Linearize(Dynamics& model, const VectorXd& q0, const std::vector<int
 //         linearisation point (for a cart-pole: θ_d = π, any x_d).
 // Output: tau (n).
 // State:  none.
-// Used for LQR (K from LinearQuadraticRegulator) and for the cart-pole PD
-// (K from the user's gains).
+// K comes from LinearQuadraticRegulator at configure time; it has no
+// adjustable gains.
 class StateFeedbackController final : public Controller {
  public:
   StateFeedbackController(std::string name, std::vector<JointType> joints, VectorXd torque_limits,
@@ -51,8 +65,7 @@ class StateFeedbackController final : public Controller {
   std::string_view name() const override { return name_; }
   const MatrixXd& K() const { return K_; }
 
-  // For the cart-pole PD: kp = (Kp_x, Kp_θ), kd = (Kd_x, Kd_θ), any sign; K = [kp, kd].
-  bool SetGains(const Gains& gains) override;
+  // With one actuated joint: K's row split as (kp, kd) = (K_q, K_qd), for reporting.
   Gains gains() const override;
 
  protected:
@@ -65,12 +78,5 @@ class StateFeedbackController final : public Controller {
   VectorXd u_eq_;
   VectorXd x_, u_;
 };
-
-// The article's cart-pole PD exercise as state feedback on the cart force:
-//   u = Kp_x (x_d − x) + Kd_x (ẋ_d − ẋ) + Kp_θ wrap(θ_d − θ) + Kd_θ (θ̇_d − θ̇).
-// Balancing upright needs Kp_θ, Kd_θ > 0 and Kp_x, Kd_x < 0: the cart first
-// moves away from its target to tip the pole back toward it.
-std::unique_ptr<StateFeedbackController> MakeCartPolePd(std::vector<JointType> joints, VectorXd torque_limits,
-                                                        const Gains& gains);
 
 }  // namespace lagrange

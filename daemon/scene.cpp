@@ -57,7 +57,7 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method) {
   *method = FastestMethod(*type);
   if (auto m = node.Optional("method")) {
     const std::optional<Method> parsed = ParseMethod(m->Text());
-    if (!parsed) m->Fail("expected closed-form, lagrangian or recursive, got '" + m->Text() + "'");
+    if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
     if (!HasMethod(*type, *parsed)) {
       m->Fail(std::string(ToString(*type)) + " has no " + std::string(ToString(*parsed)) +
               " path (expected lagrangian or recursive)");
@@ -121,14 +121,14 @@ IntegratorConfig ReadIntegrator(const YamlReader& node) {
 }
 
 // controller, controllers, torque_limits, setpoint, setpoint_limits, setpoint_timeout, on_timeout.
-void ReadControl(const YamlReader& node, InstanceConfig& inst) {
+void ReadControl(const YamlReader& node, double period, InstanceConfig& inst) {
   const int n = inst.plant.num_dofs();
-  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant);
+  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant, period, inst.q0);
   if (auto list = node.Optional("controllers")) {
     std::set<ControllerType> seen = {inst.controller.type};
     for (std::size_t i = 0; i < list->Size(); ++i) {
       const YamlReader item = list->At(i);
-      inst.alternates.push_back(ReadController(item, inst.plant));
+      inst.alternates.push_back(ReadController(item, inst.plant, period, inst.q0));
       if (!seen.insert(inst.alternates.back().type).second) {
         item.Required("type").Fail("a second " + std::string(ToString(inst.alternates.back().type)) +
                                    " controller (each type once per instance)");
@@ -167,7 +167,7 @@ void ReadControl(const YamlReader& node, InstanceConfig& inst) {
   }
 }
 
-InstanceConfig ReadInstance(const YamlReader& node) {
+InstanceConfig ReadInstance(const YamlReader& node, double period) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
                    "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping"});
   InstanceConfig inst;
@@ -192,7 +192,7 @@ InstanceConfig ReadInstance(const YamlReader& node) {
       i->Required("type").Fail("the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
     }
   }
-  ReadControl(node, inst);
+  ReadControl(node, period, inst);
   return inst;
 }
 
@@ -209,7 +209,7 @@ Scene ReadScene(const YamlReader& root) {
   if (instances.Size() == 0) instances.Fail("expected at least one instance");
   std::set<std::string> names;
   for (std::size_t i = 0; i < instances.Size(); ++i) {
-    scene.instances.push_back(ReadInstance(instances.At(i)));
+    scene.instances.push_back(ReadInstance(instances.At(i), scene.period));
     if (!names.insert(scene.instances.back().name).second) {
       instances.At(i).Required("name").Fail("duplicate instance name '" + scene.instances.back().name + "'");
     }

@@ -37,20 +37,22 @@ void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig&
   }
   if (auto m = node.Optional("method")) {
     const std::optional<Method> method = ParseMethod(m->Text());
-    if (!method) m->Fail("expected closed-form, lagrangian or recursive, got '" + m->Text() + "'");
+    if (!method) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
     c.model_method = method;
   }
 }
 
 }  // namespace
 
-ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) {
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0) {
   const int n = plant.num_dofs();
   const YamlReader type_node = node.Required("type");
   const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
   if (!type) type_node.Fail("expected one of " + ControllerTypeNames() + ", got '" + type_node.Text() + "'");
   ControllerConfig c;
   c.type = *type;
+  c.period = period;
+  c.q0 = q0;
   switch (c.type) {
     case ControllerType::kNone: node.ExpectKeys({"type", "continuous"}); break;
     case ControllerType::kPd:
@@ -66,9 +68,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) 
       break;
   }
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
-  const bool uses_gains = c.type == ControllerType::kPd || c.type == ControllerType::kGravityCompensation ||
-                          c.type == ControllerType::kComputedTorque || c.type == ControllerType::kCartPolePd;
-  if (uses_gains) {
+  if (HasGains(c.type)) {
     for (const auto& [key, out] : {std::pair{"kp", &c.gains.kp}, std::pair{"kd", &c.gains.kd}}) {
       if (auto g = node.Optional(key)) *out = g->NumberOrVector(n);
       else if (gains_optional) *out = VectorXd::Zero(n);
@@ -103,7 +103,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant) 
     // "key: message" from the controller library; point at that key when it is in the file.
     const std::size_t colon = err->find(": ");
     const std::string key = colon == std::string::npos ? "" : err->substr(0, colon);
-    const std::string first = key.substr(0, key.find_first_of(",. "));
+    const std::string first = key.substr(0, key.find_first_of(",.[ "));
     if (!key.empty() && node.Has(first)) node.Fail(key, err->substr(colon + 2));
     node.Fail(*err);
   }

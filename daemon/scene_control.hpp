@@ -6,7 +6,9 @@
 
 namespace lagrange {
 
-ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant);
+// A controller run every `period` s on `plant` starting from q0 (n): both
+// bound its gains (ComputeGainBounds).
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0);
 TrajectoryConfig ReadTrajectory(const YamlReader& node, int n);
 
 }  // namespace lagrange

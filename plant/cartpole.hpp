@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "plant/dynamics.hpp"
-#include "plant/planar_chain.hpp"
+#include "plant/recursive_dynamics.hpp"
 
 namespace lagrange {
 

@@ -8,7 +8,7 @@ PlanarChain ToPlanarChain(const ChainParams& p) {
   for (int i = 0; i < p.num_links(); ++i) {
     const ChainLink& link = p.links[i];
     const double along = i == 0 ? 0.0 : p.links[i - 1].L;
-    chain.joints.push_back({JointType::kRevolute, {along, 0.0}, i == 0 ? p.base_angle : 0.0});
+    chain.joints.push_back({link.joint, {along, 0.0}, i == 0 ? p.base_angle : 0.0});
     chain.bodies.push_back({link.m, {link.com_offset(), 0.0}, link.inertia()});
   }
   return chain;

@@ -2,23 +2,23 @@
 
 #include <utility>
 
+#include "plant/enum_names.hpp"
+
 namespace lagrange {
 
-std::string_view ToString(Method method) {
-  switch (method) {
-    case Method::kClosedForm: return "closed-form";
-    case Method::kLagrangian: return "lagrangian";
-    case Method::kRecursive: return "recursive";
-  }
-  return "?";
-}
+namespace {
 
-std::optional<Method> ParseMethod(std::string_view name) {
-  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
-    if (ToString(m) == name) return m;
-  }
-  return std::nullopt;
-}
+constexpr EnumName<Method> kMethodNames[] = {
+    {Method::kClosedForm, "closed-form"},
+    {Method::kLagrangian, "lagrangian"},
+    {Method::kRecursive, "recursive"},
+};
+
+}  // namespace
+
+std::string_view ToString(Method method) { return NameOf(kMethodNames, method); }
+std::optional<Method> ParseMethod(std::string_view name) { return ValueOf(kMethodNames, name); }
+std::string MethodNames() { return NamesInWords(kMethodNames); }
 
 Dynamics::Dynamics(std::vector<JointType> joints)
     : joints_(std::move(joints)),

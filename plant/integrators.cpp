@@ -6,14 +6,19 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant/enum_names.hpp"
 #include "plant/rk4.hpp"
 
 namespace lagrange {
 namespace {
 
-constexpr IntegratorType kAllIntegrators[] = {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
-                                              IntegratorType::kRk4, IntegratorType::kDormandPrince,
-                                              IntegratorType::kVariational};
+constexpr EnumName<IntegratorType> kIntegratorNames[] = {
+    {IntegratorType::kExplicitEuler, "explicit-euler"},
+    {IntegratorType::kSemiImplicitEuler, "semi-implicit-euler"},
+    {IntegratorType::kRk4, "rk4"},
+    {IntegratorType::kDormandPrince, "dopri5"},
+    {IntegratorType::kVariational, "variational"},
+};
 
 class ExplicitEuler final : public Integrator {
  public:
@@ -187,7 +192,6 @@ class Variational final : public Integrator {
     for (int it = 0; it < config_.newton_max_iterations; ++it) {
       dq_ = lu_.solve(r_);
       q1_ -= dq_;
-      ++stats_.newton_iterations;
       Residual(m, t, h, tau, q, q1_, r_);
       const double step = dq_.lpNorm<Eigen::Infinity>();
       const double scale = 1.0 + q1_.lpNorm<Eigen::Infinity>();
@@ -266,32 +270,9 @@ class Variational final : public Integrator {
 
 }  // namespace
 
-std::string_view ToString(IntegratorType type) {
-  switch (type) {
-    case IntegratorType::kExplicitEuler: return "explicit-euler";
-    case IntegratorType::kSemiImplicitEuler: return "semi-implicit-euler";
-    case IntegratorType::kRk4: return "rk4";
-    case IntegratorType::kDormandPrince: return "dopri5";
-    case IntegratorType::kVariational: return "variational";
-  }
-  return "?";
-}
-
-std::optional<IntegratorType> ParseIntegratorType(std::string_view name) {
-  for (IntegratorType t : kAllIntegrators) {
-    if (ToString(t) == name) return t;
-  }
-  return std::nullopt;
-}
-
-std::string IntegratorTypeNames() {
-  std::string names;
-  for (IntegratorType t : kAllIntegrators) {
-    if (!names.empty()) names += '|';
-    names += ToString(t);
-  }
-  return names;
-}
+std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames, type); }
+std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }
+std::string IntegratorTypeNames() { return JoinedNames(kIntegratorNames); }
 
 bool Integrator::Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
   const double h = dt / config_.substeps;

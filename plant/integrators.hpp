@@ -59,7 +59,6 @@ struct IntegratorStats {
   std::int64_t accepted = 0;      // internal steps accepted (adaptive), = steps otherwise
   std::int64_t rejected = 0;      // internal steps rejected (adaptive)
   std::int64_t evaluations = 0;   // acceleration (or residual) evaluations
-  std::int64_t newton_iterations = 0;
   std::int64_t failures = 0;      // steps that could not meet their tolerance
 };
 

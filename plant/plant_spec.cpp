@@ -5,14 +5,28 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
+#include "plant/enum_names.hpp"
 #include "plant/lagrangian.hpp"
 
 namespace lagrange {
 namespace {
 
-constexpr PlantType kAllTypes[] = {PlantType::kPendulum, PlantType::kArm2, PlantType::kCartPole,
-                                   PlantType::kChain};
+constexpr EnumName<PlantType> kPlantNames[] = {
+    {PlantType::kPendulum, "pendulum"},
+    {PlantType::kArm2, "arm2"},
+    {PlantType::kCartPole, "cartpole"},
+    {PlantType::kChain, "chain"},
+};
+constexpr EnumName<JointType> kJointNames[] = {
+    {JointType::kRevolute, "revolute"},
+    {JointType::kPrismatic, "prismatic"},
+};
+constexpr EnumName<PendulumBody> kBodyNames[] = {
+    {PendulumBody::kPointMass, "point"},
+    {PendulumBody::kRod, "rod"},
+};
 
 std::string FormatNumber(double x) {
   std::ostringstream os;
@@ -110,33 +124,49 @@ std::optional<SpecError> SetChainParam(ChainParams& p, std::string_view name, do
   return std::nullopt;
 }
 
-}  // namespace
-
-std::string_view ToString(PlantType type) {
-  switch (type) {
-    case PlantType::kPendulum: return "pendulum";
-    case PlantType::kArm2: return "arm2";
-    case PlantType::kCartPole: return "cartpole";
-    case PlantType::kChain: return "chain";
+// A chain link's joint by name; link -1 sets every link's.
+std::optional<SpecError> SetChainJoints(ChainParams& p, std::string_view text, int link) {
+  const std::optional<JointType> parsed = ValueOf(kJointNames, text);
+  if (!parsed) return SpecError{"joints", "expected " + NamesInWords(kJointNames) + ", got '" + std::string(text) + "'"};
+  const JointType joint = *parsed;
+  if (link >= p.num_links()) {
+    return SpecError{"joints", "expected a link index below " + std::to_string(p.num_links()) + ", got " +
+                                   std::to_string(link)};
   }
-  return "?";
-}
-
-std::optional<PlantType> ParsePlantType(std::string_view name) {
-  for (PlantType t : kAllTypes) {
-    if (ToString(t) == name) return t;
-  }
+  const int first = link < 0 ? 0 : link;
+  const int last = link < 0 ? p.num_links() : link + 1;
+  for (int i = first; i < last; ++i) p.links[i].joint = joint;
   return std::nullopt;
 }
 
-std::string PlantTypeNames() {
-  std::string names;
-  for (PlantType t : kAllTypes) {
-    if (!names.empty()) names += '|';
-    names += ToString(t);
-  }
-  return names;
+// Σ m g × the height the plant's masses can be lifted by, J: the most work its
+// gravity can do.
+double Reach(const PlantSpec& spec) {
+  return std::visit(
+      [](const auto& p) -> double {
+        using P = std::decay_t<decltype(p)>;
+        if constexpr (std::is_same_v<P, PendulumParams>) return p.m * p.g * p.L;
+        else if constexpr (std::is_same_v<P, Arm2Params>) return (p.m1 + p.m2) * p.g * (p.L1 + p.L2);
+        else if constexpr (std::is_same_v<P, CartPoleParams>) return (p.mc + p.mp) * p.g * 2.0 * p.l;
+        else {
+          double mass = 0.0, length = 0.0;
+          for (const ChainLink& l : p.links) {
+            mass += l.m;
+            length += l.L;
+          }
+          return mass * p.g * length;
+        }
+      },
+      spec.params);
 }
+
+}  // namespace
+
+std::string_view ToString(PlantType type) { return NameOf(kPlantNames, type); }
+std::optional<PlantType> ParsePlantType(std::string_view name) { return ValueOf(kPlantNames, name); }
+std::string PlantTypeNames() { return JoinedNames(kPlantNames); }
+
+double DefaultMaxEnergy(const PlantSpec& spec) { return 1000.0 * (1.0 + Reach(spec)); }
 
 int PlantSpec::num_dofs() const {
   switch (type()) {
@@ -163,7 +193,7 @@ std::vector<std::string_view> PlantParamNames(PlantType type) {
     case PlantType::kPendulum: return {"m", "L", "g", "body"};
     case PlantType::kArm2: return {"m1", "m2", "L1", "L2", "g"};
     case PlantType::kCartPole: return {"mc", "mp", "l", "I", "g"};
-    case PlantType::kChain: return {"links", "m", "L", "com", "I", "base_angle", "g"};
+    case PlantType::kChain: return {"links", "m", "L", "com", "I", "joints", "base_angle", "g"};
   }
   return {};
 }
@@ -195,10 +225,13 @@ std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, s
   }
   if (spec.type() == PlantType::kPendulum && name == "body") {
     auto& p = std::get<PendulumParams>(spec.params);
-    if (text == "point") p.body = PendulumBody::kPointMass;
-    else if (text == "rod") p.body = PendulumBody::kRod;
-    else return SpecError{key, "expected point or rod, got '" + std::string(text) + "'"};
+    const std::optional<PendulumBody> body = ValueOf(kBodyNames, text);
+    if (!body) return SpecError{key, "expected " + NamesInWords(kBodyNames) + ", got '" + std::string(text) + "'"};
+    p.body = *body;
     return std::nullopt;
+  }
+  if (spec.type() == PlantType::kChain && name == "joints") {
+    return SetChainJoints(std::get<ChainParams>(spec.params), text, link);
   }
   const std::vector<std::string_view> names = PlantParamNames(spec.type());
   if (std::find(names.begin(), names.end(), name) == names.end()) {
@@ -273,7 +306,7 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
             if (auto err = CheckRange("L" + at, l.L, Range::kPositive, "m")) return err;
             if (auto err = CheckRange("com" + at, l.com_offset(), Range::kFinite, "m")) return err;
             if (auto err = CheckRange("I" + at, l.inertia(), Range::kNonNegative, "kg·m²")) return err;
-            if (l.inertia() == 0.0 && l.com_offset() == 0.0) {
+            if (l.joint == JointType::kRevolute && l.inertia() == 0.0 && l.com_offset() == 0.0) {
               return SpecError{"I" + at, "expected I > 0 or com != 0: the link has no inertia about its joint"};
             }
           }

@@ -6,7 +6,8 @@
 //   pendulum  m, L, g, body (point | rod)
 //   arm2      m1, m2, L1, L2, g
 //   cartpole  mc, mp, l, I, g
-//   chain     links, m, L, com, I (every link, or one link), base_angle, g
+//   chain     links, m, L, com, I, joints (revolute | prismatic) (every link,
+//             or one link), base_angle, g
 
 #include <memory>
 #include <optional>
@@ -66,6 +67,10 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec);
 bool HasMethod(PlantType type, Method method);
 // The fastest exact path: closed form where one exists, else recursive.
 Method FastestMethod(PlantType type);
+
+// Default bound on |T + V| for a plant instance: 1000 × (1 J + Σ m g ×
+// reach), a few hundred times anything its gravity can supply. J.
+double DefaultMaxEnergy(const PlantSpec& spec);
 
 // The joint types, base first.
 std::vector<JointType> JointTypesOf(const PlantSpec& spec);

@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace lagrange {
@@ -41,6 +42,8 @@ enum class Method : std::uint8_t {
 
 std::string_view ToString(Method method);
 std::optional<Method> ParseMethod(std::string_view name);
+// "closed-form, lagrangian or recursive", for messages.
+std::string MethodNames();
 
 // The dynamics terms a scene evaluates. A term that is off is never computed.
 struct DynamicsTerms {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 
 #include "controllers/factory.hpp"
 #include "tests/controllers/closed_loop.hpp"
@@ -140,7 +141,7 @@ TEST(Limits, TorqueLimitsApplyAfterEveryController) {
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
   const VectorXd limits = Vec2(2.0, 0.5);
   for (ControllerType type : {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
-    auto c = MakeController(Joint(type, 1000.0, 100.0), arm, limits);
+    auto c = MakeController(Joint(type, 1000.0, 10.0), arm, limits);
     Setpoint sp(2);
     sp.q = Vec2(3.0, -3.0);
     VectorXd tau(2);
@@ -184,6 +185,72 @@ TEST(Gains, ChangingGainsTakesEffectAndBadGainsAreRefused) {
   EXPECT_FALSE(none->SetGains({Vec2(1.0, 1.0), Vec2(1.0, 1.0)}));
   EXPECT_EQ(*CheckGains(ControllerType::kNone, 2, too_many), "none has no adjustable gains");
   EXPECT_EQ(*CheckGains(ControllerType::kLqr, 2, too_many), "lqr has no adjustable gains");
+}
+
+// The tick bounds the gains (ComputeGainBounds): the largest allowed gains
+// run the arm for 2 s at 1 kHz (RK4, the instances' integrator) without a
+// fault, and gains ten times a bound are refused, by the scene check and by
+// SetGains, with a message naming the bound.
+TEST(Gains, TheLargestAllowedGainsDoNotFaultTheArmAndTenTimesTheBoundIsRefused) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  constexpr double kTick = 1e-3;
+  const VectorXd q0 = Vec2(0.7853981633974483, 0.0);  // config/default.yaml's arm
+  const double max_energy = DefaultMaxEnergy(arm);  // above it the runtime faults the instance
+  for (ControllerType type : {ControllerType::kComputedTorque, ControllerType::kPd,
+                              ControllerType::kGravityCompensation}) {
+    ControllerConfig c = Joint(type, 0.0, 0.0);
+    c.period = kTick;
+    c.q0 = q0;
+    const GainBounds bounds = ComputeGainBounds(c, arm);
+    c.gains = {bounds.kp_max, bounds.kd_max};
+    ASSERT_FALSE(ValidateController(c, arm)) << ToString(type);
+    ClosedLoop loop(arm, MakeController(c, arm, VectorXd::Constant(2, kInf)), q0);
+    loop.setpoint.q = q0 + Vec2(0.1, -0.1);
+    double peak_energy = 0.0;
+    ASSERT_TRUE(loop.Run(2.0, kTick, nullptr, [&](double) {
+      peak_energy = std::max(peak_energy, std::abs(loop.model.Energy(loop.q, loop.qd)));
+    })) << ToString(type);
+    EXPECT_TRUE(loop.q.allFinite() && loop.qd.allFinite()) << ToString(type);
+    EXPECT_LT(peak_energy, max_energy) << ToString(type);
+
+    for (const bool kd : {false, true}) {
+      Gains ten_times = {bounds.kp_max, bounds.kd_max};
+      (kd ? ten_times.kd : ten_times.kp)[1] *= 10.0;
+      const std::string rule = kd ? bounds.kd_rule : bounds.kp_rule;
+      c.gains = ten_times;
+      const std::optional<std::string> err = ValidateController(c, arm);
+      ASSERT_TRUE(err) << ToString(type);
+      EXPECT_EQ(err->rfind(kd ? "kd[1]: expected |gain| <= " : "kp[1]: expected |gain| <= ", 0), 0u) << *err;
+      EXPECT_NE(err->find(rule), std::string::npos) << *err;
+      EXPECT_NE(rule.find(type == ControllerType::kComputedTorque ? (kd ? "Kd·h <= 2" : "Kp·h² <= 1")
+                                                                  : (kd ? "Kd·h/λmin(M) <= 2" : "Kp·h²/λmin(M) <= 1")),
+                std::string::npos)
+          << rule;
+      EXPECT_EQ(CheckGains(type, ten_times, loop.controller->gain_bounds()), err);
+      EXPECT_FALSE(loop.controller->SetGains(ten_times));
+    }
+  }
+}
+
+// Why the torque-level bound uses λmin(M) and not each joint's M_ii: the
+// arm's coupling makes Kp = diag(M)/h², Kd = 2 diag(M)/h blow up within 2 s.
+TEST(Gains, PerJointMassDiagonalBoundsWouldFaultTheArm) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  constexpr double kTick = 1e-3;
+  const VectorXd q0 = Vec2(0.7853981633974483, 0.0);
+  MatrixXd M(2, 2);
+  MakeDynamics(arm, Method::kClosedForm)->ComputeMassMatrix(q0, M);
+  ControllerConfig c = Joint(ControllerType::kPd, 0.0, 0.0);
+  c.period = 1e-9;  // bounds far above: this test shows what the 1 ms bound prevents
+  c.gains = {M.diagonal() / (kTick * kTick), 2.0 * M.diagonal() / kTick};
+  ClosedLoop loop(arm, MakeController(c, arm, VectorXd::Constant(2, kInf)), q0);
+  loop.setpoint.q = q0 + Vec2(0.1, -0.1);
+  double peak_energy = 0.0;
+  loop.Run(2.0, kTick, nullptr, [&](double) {
+    if (loop.q.allFinite() && loop.qd.allFinite()) peak_energy = std::max(peak_energy, loop.model.Energy(loop.q, loop.qd));
+    else peak_energy = kInf;
+  });
+  EXPECT_GT(peak_energy, DefaultMaxEnergy(arm));
 }
 
 TEST(Factory, ControllersRefuseConfigsThatDoNotFitThePlant) {

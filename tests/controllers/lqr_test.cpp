@@ -75,6 +75,52 @@ TEST(Riccati, RefusesWeightsThatAreNotDefiniteAndSystemsThatCannotBeStabilized) 
                std::invalid_argument);
 }
 
+// The one Q/R check: the scene validator (ValidateController) and the LQR core
+// agree on every matrix, including rank-deficient Q written out in full.
+TEST(LqrWeights, ValidatorAndCoreAcceptRankOnePsdQAndRefuseIndefiniteQWithOneMessage) {
+  const PlantSpec cartpole = DefaultPlantSpec(PlantType::kCartPole);
+  ControllerConfig c;
+  c.type = ControllerType::kLqr;
+  c.lqr.R = M({{1}});
+  // A stable system: any PSD Q has a stabilizing Riccati solution.
+  const MatrixXd A = -MatrixXd::Identity(4, 4), B = M({{0}, {0}, {1}, {0.5}});
+  std::mt19937 rng{42};
+  std::normal_distribution<double> normal;
+  const auto random_vector = [&] {
+    VectorXd v(4);
+    for (int i = 0; i < 4; ++i) v[i] = normal(rng);
+    return v;
+  };
+  int accepted_by_validator = 0, accepted_by_core = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    const VectorXd v = random_vector();
+    c.lqr.Q = v * v.transpose();
+    accepted_by_validator += !ValidateController(c, cartpole).has_value();
+    accepted_by_core += !CheckLqrWeights(c.lqr.Q, c.lqr.R).has_value();
+    EXPECT_NO_THROW(LinearQuadraticRegulator(A, B, c.lqr.Q, c.lqr.R)) << trial;
+  }
+  EXPECT_EQ(accepted_by_validator, 1000);
+  EXPECT_EQ(accepted_by_core, 1000);
+
+  constexpr double kClearlyIndefinite = 0.01;  // λ_min(Q) below −1 % of ‖Q‖
+  const std::string expected = "Q: expected a symmetric positive semi-definite matrix";
+  for (int trial = 0; trial < 100; ++trial) {
+    const VectorXd v = random_vector(), w = random_vector();
+    c.lqr.Q = v * v.transpose() - w * w.transpose();
+    ASSERT_LT(Eigen::SelfAdjointEigenSolver<MatrixXd>(c.lqr.Q).eigenvalues().minCoeff(),
+              -kClearlyIndefinite * c.lqr.Q.norm());
+    const std::optional<std::string> validator = ValidateController(c, cartpole);
+    ASSERT_TRUE(validator.has_value()) << trial;
+    EXPECT_EQ(*validator, expected);
+    try {
+      LinearQuadraticRegulator(A, B, c.lqr.Q, c.lqr.R);
+      ADD_FAILURE() << "the LQR core accepted an indefinite Q, trial " << trial;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()), expected);
+    }
+  }
+}
+
 TEST(CartPoleLqr, LinearisationMatchesTheTextbookUprightModel) {
   // About upright with φ = θ − π: ẍ = (mp l)² g / D · φ + Ip/D · u, φ̈ = mt mp g l / D · φ + mp l / D · u,
   // D = mt Ip − (mp l)², Ip = mp l² + I.

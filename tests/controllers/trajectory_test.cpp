@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "controllers/setpoint.hpp"
+#include "controllers/trajectory.hpp"
 
 namespace lagrange {
 namespace {

@@ -1,4 +1,4 @@
-#include "plant/planar_chain.hpp"
+#include "plant/recursive_dynamics.hpp"
 
 #include <cmath>
 #include <utility>

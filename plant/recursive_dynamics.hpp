@@ -1,6 +1,7 @@
 #pragma once
-// Planar serial chains of revolute and prismatic joints, and their O(n)
-// recursive dynamics in 2-D spatial (Plücker) algebra.
+// Recursive dynamics: O(n) algorithms (recursive Newton–Euler, composite
+// rigid bodies) in 2-D spatial (Plücker) algebra, over a model described as
+// a PlanarChain, a serial chain of revolute and prismatic joints.
 //
 // Frames. Body i's frame is placed in body i−1's frame (the world for i = 0)
 // by the joint: translate by `position`, rotate by `angle`, then the joint

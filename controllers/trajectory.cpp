@@ -1,4 +1,4 @@
-#include "controllers/setpoint.hpp"
+#include "controllers/trajectory.hpp"
 
 #include <algorithm>
 #include <cmath>
