@@ -5,16 +5,21 @@
 
 namespace lagrange {
 
+std::string InstanceChannel(const std::string& prefix, const std::string& instance, const char* suffix) {
+  std::string upper = instance;
+  for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  return prefix + upper + suffix;
+}
+
 ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix) {
   ChannelNames c;
   for (const std::string& name : instance_names) {
-    std::string upper = name;
-    for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-    c.state.push_back(prefix + upper + "_STATE");
-    c.setpoint.push_back(prefix + upper + "_SETPOINT");
-    c.command.push_back(prefix + upper + "_COMMAND");
+    c.state.push_back(InstanceChannel(prefix, name, kStateSuffix));
+    c.setpoint.push_back(InstanceChannel(prefix, name, kSetpointSuffix));
+    c.command.push_back(InstanceChannel(prefix, name, kCommandSuffix));
+    c.reply.push_back(InstanceChannel(prefix, name, kReplySuffix));
   }
-  c.status = prefix + "LAGRANGE_STATUS";
+  c.status = prefix + kStatusChannel;
   return c;
 }
 

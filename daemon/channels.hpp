@@ -1,15 +1,25 @@
 #pragma once
-// LCM channel names: instance `arm` uses ARM_STATE, ARM_SETPOINT and
-// ARM_COMMAND; the daemon publishes LAGRANGE_STATUS. A prefix P is prepended
-// to every channel, so several daemons share one bus.
+// LCM channel names, written once for lagranged and lagrangectl: instance
+// `arm` uses ARM_STATE, ARM_SETPOINT, ARM_COMMAND and ARM_REPLY; the daemon
+// publishes LAGRANGE_STATUS. A prefix P is prepended to every channel, so
+// several daemons share one bus.
 
 #include <string>
 #include <vector>
 
 namespace lagrange {
 
+inline constexpr const char* kStateSuffix = "_STATE";
+inline constexpr const char* kSetpointSuffix = "_SETPOINT";
+inline constexpr const char* kCommandSuffix = "_COMMAND";
+inline constexpr const char* kReplySuffix = "_REPLY";
+inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
+
+// prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
+std::string InstanceChannel(const std::string& prefix, const std::string& instance, const char* suffix);
+
 struct ChannelNames {
-  std::vector<std::string> state, setpoint, command;  // one per instance
+  std::vector<std::string> state, setpoint, command, reply;  // one per instance
   std::string status;
 };
 

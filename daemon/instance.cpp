@@ -28,6 +28,7 @@ Instance::Instance(const InstanceConfig& config)
     controllers_.push_back(MakeController(none, config.plant, limits));
     continuous_.push_back(false);
   }
+  for (const auto& c : controllers_) scene_gains_.push_back(c->gains());
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
@@ -35,12 +36,12 @@ Instance::Instance(const InstanceConfig& config)
 
 void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, out); }
 
-bool Instance::Integrate(double dt, ConstVecRef tau_cmd) {
+Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
   const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;  // no accumulated round-off over long runs
   model_.ComputeAcceleration(t_, q_, qd_, tau_cmd, qdd_);
-  return ok;
+  return ok ? nullptr : kIntegratorFailed;
 }
 
 void Instance::StageLaw::Bind(Controller& controller, const Setpoint& setpoint) {
@@ -54,7 +55,7 @@ void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef
 }
 
 // (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
-bool Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
+Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
   stage_law_.Bind(controller(), setpoint);
   model_.SetControlLaw(&stage_law_);
   const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd_, q_, qd_);
@@ -63,23 +64,24 @@ bool Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
   model_.SetControlLaw(nullptr);
   stage_law_.Compute(t_, q_, qd_, tau_cmd_);
   model_.effects().Saturate(tau_cmd_, tau_);
-  return ok && stage_law_.ok;
+  if (!stage_law_.ok) return kControllerNotFinite;  // the cause, even when the integrator then failed too
+  return ok ? nullptr : kIntegratorFailed;
 }
 
-bool Instance::Step(double dt, const Setpoint& setpoint) {
+Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) {
   q_des_ = setpoint.q;
   if (continuous_[active_]) return IntegrateContinuous(dt, setpoint);
   const bool controlled = controller().Compute(t_, q_, qd_, setpoint, tau_cmd_);
-  const bool integrated = Integrate(dt, tau_cmd_);
-  return controlled && integrated;
+  const StepFailure integrated = Integrate(dt, tau_cmd_);
+  return controlled ? integrated : kControllerNotFinite;
 }
 
-bool Instance::Step(double dt) {
+Instance::StepFailure Instance::Step(double dt) {
   SampleTrajectory(setpoint_);
   return Step(dt, setpoint_);
 }
 
-bool Instance::StepWithTorque(double dt, ConstVecRef tau_cmd) {
+Instance::StepFailure Instance::StepWithTorque(double dt, ConstVecRef tau_cmd) {
   tau_cmd_ = tau_cmd;
   return Integrate(dt, tau_cmd_);
 }
@@ -136,6 +138,9 @@ void Instance::Reset() {
   qd_ = config_.qd0;
   tau_.setZero();
   tau_cmd_.setZero();
+  for (std::size_t i = 0; i < controllers_.size(); ++i) {
+    if (scene_gains_[i].kp.size() > 0) controllers_[i]->SetGains(scene_gains_[i]);
+  }
   active_ = 0;
   controller().Reset();
   SampleTrajectory(setpoint_);

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
-#include "controllers/setpoint.hpp"
+#include "controllers/trajectory.hpp"
 #include "daemon/scene.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
@@ -38,14 +38,21 @@ class Instance {
   // The scene trajectory's setpoint at the current time.
   void SampleTrajectory(Setpoint& out) const;
 
-  // (setpoint) => control, then (q, qd) at t + dt. False when the controller
-  // faulted (non-finite law) or the integrator failed; the state is then
-  // left as the integrator produced it and the caller decides.
-  bool Step(double dt, const Setpoint& setpoint);
+  // Why a step failed (static strings, so the tick can report them without
+  // formatting), or null when it did not.
+  using StepFailure = const char*;
+  static constexpr StepFailure kControllerNotFinite = "the controller's output was not finite";
+  static constexpr StepFailure kIntegratorFailed = "the integrator failed its tolerance";
+
+  // (setpoint) => control, then (q, qd) at t + dt. Non-null when the
+  // controller faulted (non-finite law) or the integrator failed, naming
+  // which; the state is then left as the integrator produced it and the
+  // caller decides.
+  StepFailure Step(double dt, const Setpoint& setpoint);
   // A step under the scene's own trajectory.
-  bool Step(double dt);
+  StepFailure Step(double dt);
   // A step under a given commanded force, no controller (q_des unchanged).
-  bool StepWithTorque(double dt, ConstVecRef tau_cmd);
+  StepFailure StepWithTorque(double dt, ConstVecRef tau_cmd);
   // The state to return to after a fault: steps, q, qd.
   struct Saved {
     std::int64_t steps = 0;
@@ -69,7 +76,8 @@ class Instance {
   std::size_t active_controller() const { return active_; }
   Controller& controller(std::size_t index) { return *controllers_[index]; }
 
-  // Back to the initial state at t = 0 with the scene's first controller.
+  // Back to the initial state at t = 0 with the scene's first controller,
+  // and every controller's gains back to the scene's.
   void Reset();
 
   double KineticEnergy() { return model_.KineticEnergy(q_, qd_); }
@@ -91,8 +99,8 @@ class Instance {
     const Setpoint* setpoint_ = nullptr;
   };
 
-  bool Integrate(double dt, ConstVecRef tau_cmd);
-  bool IntegrateContinuous(double dt, const Setpoint& setpoint);
+  StepFailure Integrate(double dt, ConstVecRef tau_cmd);
+  StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint);
 
   InstanceConfig config_;
   PlantModel model_;
@@ -100,6 +108,7 @@ class Instance {
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
   std::vector<bool> continuous_;  // by controller index
+  std::vector<Gains> scene_gains_;  // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;
   double t_ = 0.0;

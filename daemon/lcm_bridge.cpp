@@ -2,16 +2,16 @@
 
 #include <poll.h>
 #include <spdlog/spdlog.h>
+#include <sys/random.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
-#include "controllers/factory.hpp"
+#include "daemon/command_check.hpp"
+#include "daemon/escape.hpp"
 #include "daemon/setpoint_check.hpp"
-#include "daemon/wire.hpp"
-#include "lcmtypes/subscribe.hpp"
+#include "daemon/timing_csv.hpp"
 
 namespace lagrange {
 namespace {
@@ -23,7 +23,26 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
+std::int64_t ReadBigEndian64(const std::uint8_t* p) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
+}
+
+// state_t, status_t and reply_t all begin: fingerprint, utime, run_id.
+constexpr std::size_t kRunIdOffset = 16;
+
 }  // namespace
+
+std::int64_t NewRunId() {
+  std::int64_t id = 0;
+  while (id == 0) {
+    if (getrandom(&id, sizeof id, 0) != static_cast<ssize_t>(sizeof id)) {
+      throw std::runtime_error("getrandom failed: cannot make a run id");
+    }
+  }
+  return id;
+}
 
 void Reason::Set(const std::string& s) {
   const std::size_t n = std::min(s.size(), text.size() - 1);
@@ -31,45 +50,105 @@ void Reason::Set(const std::string& s) {
   text[n] = '\0';
 }
 
+bool LogThrottle::Allow(std::int64_t now_us, std::int64_t& suppressed) {
+  if (now_us - last_us_ < 1'000'000) {
+    ++held_;
+    return false;
+  }
+  suppressed = held_;
+  held_ = 0;
+  last_us_ = now_us;
+  return true;
+}
+
+bool TokenBucket::Take(std::int64_t now_us) {
+  if (last_us_ >= 0) tokens_ = std::min(burst_, tokens_ + rate_ * static_cast<double>(now_us - last_us_) * 1e-6);
+  last_us_ = now_us;
+  if (tokens_ < 1.0) return false;
+  tokens_ -= 1.0;
+  return true;
+}
+
 // ---- receive thread ------------------------------------------------------
 
-LcmReceiver::LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock,
-                         ReceiverStats& stats, SetpointAge age)
-    : lcm_(lcm), runtime_(runtime), clock_(clock), stats_(stats), age_(age) {
-  handlers_.reserve(runtime.size());  // subscriptions keep pointers to the handlers
+LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels,
+                         Runtime& runtime, Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
+    : input_(input),
+      output_listener_(output_listener),
+      replies_(replies),
+      runtime_(runtime),
+      clock_(clock),
+      stats_(stats),
+      age_(age),
+      run_id_(run_id) {
   for (std::size_t i = 0; i < runtime.size(); ++i) {
-    const Instance& inst = runtime.instance(i);
+    Instance& inst = runtime.instance(i);
     const InstanceConfig& c = inst.config();
-    info_.push_back({inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                     SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout, 0, -1});
-    handlers_.push_back({this, i});
-    Subscribe<&Handler::OnSetpoint>(lcm_, channels.setpoint[i], &handlers_.back());
-    Subscribe<&Handler::OnCommand>(lcm_, channels.command[i], &handlers_.back());
+    std::vector<GainBounds> bounds;
+    for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
+    info_.push_back({inst.name(), channels.reply[i], inst.num_dofs(),
+                     CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                                  std::move(bounds)},
+                     SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout});
+    input_.Subscribe(channels.setpoint[i], [this, i](std::string_view, const std::uint8_t* d, std::size_t n) {
+      HandleSetpoint(i, d, n);
+    });
+    input_.Subscribe(channels.command[i], [this, i](std::string_view, const std::uint8_t* d, std::size_t n) {
+      HandleCommand(i, d, n);
+    });
   }
+  if (output_listener_ != nullptr) {
+    std::vector<std::string> outputs = channels.state;
+    outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
+    outputs.push_back(channels.status);
+    for (const std::string& ch : outputs) {
+      output_listener_->Subscribe(ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) {
+        HandleOwnOutput(name, d, n);
+      });
+    }
+  }
+  reply_.run_id = run_id_;
 }
 
 void LcmReceiver::Run(const std::atomic<bool>& stop) {
-  while (!stop.load(std::memory_order_relaxed)) lcm_.handleTimeout(20);
+  while (!stop.load(std::memory_order_relaxed)) Poll(20);
 }
 
-void LcmReceiver::Handler::OnSetpoint(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-  self->HandleSetpoint(index, rbuf);
+void LcmReceiver::Poll(int timeout_ms) {
+  Bus* second = output_listener_ == &input_ ? nullptr : output_listener_;
+  pollfd fds[2];
+  nfds_t n = 0;
+  if (input_.fd() >= 0) fds[n++] = {input_.fd(), POLLIN, 0};
+  if (second != nullptr && second->fd() >= 0) fds[n++] = {second->fd(), POLLIN, 0};
+  if (n > 0) poll(fds, n, timeout_ms);
+  input_.Drain();
+  if (second != nullptr) second->Drain();
+  UpdateBusStats();
 }
-void LcmReceiver::Handler::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-  self->HandleCommand(index, rbuf);
+
+void LcmReceiver::UpdateBusStats() {
+  BusStats total = input_.stats();
+  if (output_listener_ != nullptr && output_listener_ != &input_) {
+    const BusStats out = output_listener_->stats();
+    total.kernel_drops += out.kernel_drops;
+    total.malformed += out.malformed;
+    total.oversized += out.oversized;
+    total.fragments_dropped += out.fragments_dropped;
+  }
+  stats_.datagrams_dropped_kernel.store(total.kernel_drops, std::memory_order_relaxed);
+  stats_.datagrams_malformed.store(total.malformed + total.oversized, std::memory_order_relaxed);
+  stats_.fragments_dropped.store(total.fragments_dropped, std::memory_order_relaxed);
 }
 
 // A flood of bad packets must not become a flood of log lines.
-void LcmReceiver::WarnAtMostOncePerSecond(std::string message) {
-  const std::int64_t now = clock_.WallMicros();
-  if (now - last_log_us_ < 1'000'000) {
-    ++suppressed_;
-    return;
+void LcmReceiver::Warn(const std::string& message) {
+  std::int64_t suppressed = 0;
+  if (!log_throttle_.Allow(clock_.WallMicros(), suppressed)) return;
+  if (suppressed > 0) {
+    spdlog::warn("{} ({} more refusals or decode errors since the last line, not logged)", message, suppressed);
+  } else {
+    spdlog::warn("{}", message);
   }
-  if (suppressed_ > 0) message += fmt::format(" ({} more in the last second, not logged)", suppressed_);
-  spdlog::warn("{}", message);
-  last_log_us_ = now;
-  suppressed_ = 0;
 }
 
 // Counts a refusal and keeps its reason for the status.
@@ -82,32 +161,68 @@ void LcmReceiver::Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reaso
 
 void LcmReceiver::DecodeError(const std::string& channel, const char* why) {
   stats_.decode_errors.fetch_add(1, std::memory_order_relaxed);
-  WarnAtMostOncePerSecond(channel + ": dropped a packet that is not a valid message: " + why);
+  Warn(channel + ": dropped a packet that is not a valid message: " + why);
 }
 
 void LcmReceiver::RejectSetpoint(std::size_t i, const std::string& why) {
   Refuse(stats_.setpoints_rejected, stats_.last_setpoint_rejection, i, why);
-  WarnAtMostOncePerSecond(info_[i].name + ": setpoint rejected: " + why);
+  Warn(info_[i].name + ": setpoint rejected: " + why);
 }
 
+// `why` is already escaped where it quotes the bus.
 void LcmReceiver::RejectCommand(std::size_t i, const std::string& why) {
   Refuse(stats_.commands_rejected, stats_.last_command_error, i, why);
-  spdlog::warn("{}: command rejected: {}", info_[i].name, why);
-}
-
-double LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
+  Warn(info_[i].name + ": command rejected: " + why);
   const std::int64_t now = clock_.WallMicros();
-  if (age_ == SetpointAge::kWall) return static_cast<double>(now - utime) * 1e-6;
-  const std::int64_t offset = now - utime;
-  const bool new_stream = info.last_arrival < 0 || static_cast<double>(now - info.last_arrival) * 1e-6 > info.timeout;
-  info.last_arrival = now;
-  if (new_stream || offset < info.least_offset) info.least_offset = offset;
-  return static_cast<double>(offset - info.least_offset) * 1e-6;
+  if (!reply_budget_.Take(now)) {
+    stats_.replies_suppressed.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  reply_.utime = now;
+  reply_.request_id = command_.request_id;
+  reply_.command = command_.command;
+  reply_.accepted = false;
+  reply_.reason = why;
+  replies_.PublishMessage(info_[i].reply_channel, reply_);
 }
 
-void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
+LcmReceiver::AgeVerdict LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
+  const std::int64_t now = clock_.WallMicros();
+  const auto timeout_us = static_cast<std::int64_t>(info.timeout * 1e6);
+  AgeVerdict v;
+  // Saturating: a hostile utime near ±2^63 must not overflow.
+  const std::int64_t offset =
+      utime < 0 && now > INT64_MAX + utime ? INT64_MAX : (utime > 0 && now < INT64_MIN + utime ? INT64_MIN : now - utime);
+  if (age_ == SetpointAge::kWall) {
+    v.age = static_cast<double>(offset) * 1e-6;
+    v.ok = v.age <= info.timeout && v.age >= -info.timeout;
+    return v;
+  }
+  const bool new_stream = info.last_arrival < 0 || now - info.last_arrival > timeout_us;
+  if (!new_stream && offset < info.least_offset - timeout_us) {
+    // Far ahead of the stream's timeline: one bad timestamp, unless the next
+    // packets agree with it (the sender's clock really jumped).
+    const bool agrees = info.candidate_count > 0 && std::abs(offset - info.candidate_offset) <= timeout_us;
+    info.candidate_count = agrees ? info.candidate_count + 1 : 1;
+    if (!agrees) info.candidate_offset = offset;
+    if (info.candidate_count < kStreamConfirmations) {
+      v.ok = false;
+      v.out_of_line = "timestamp out of line with its stream (ahead by more than setpoint_timeout)";
+      return v;
+    }
+    info.least_offset = offset;  // confirmed: the timeline moved
+  }
+  info.candidate_count = 0;
+  if (new_stream || offset < info.least_offset) info.least_offset = offset;
+  v.age = static_cast<double>(offset - info.least_offset) * 1e-6;
+  v.ok = v.age <= info.timeout;
+  if (v.ok) info.last_arrival = now;
+  return v;
+}
+
+void LcmReceiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size) {
   InstanceInfo& info = info_[i];
-  const SetpointVerdict verdict = CheckSetpoint(rbuf->data, rbuf->data_size, info.rules, setpoint_);
+  const SetpointVerdict verdict = CheckSetpoint(data, size, info.rules, setpoint_);
   if (verdict.kind == SetpointVerdict::Kind::kUndecodable) {
     DecodeError(info.name + "_SETPOINT", verdict.reason.c_str());
     return;
@@ -116,18 +231,15 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) 
     RejectSetpoint(i, verdict.reason);
     return;
   }
-  const double age = Age(info, setpoint_.utime);
-  if (age > info.timeout || age < -info.timeout) {
-    // Not applied; the instance holds until a fresh setpoint comes.
-    SetpointMessage& stale = runtime_.channels(i).setpoints.back();
-    stale.stale = true;
-    runtime_.channels(i).setpoints.Publish();
-    RejectSetpoint(i, age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age, info.timeout)
-                              : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age));
-    return;
+  const AgeVerdict age = Age(info, setpoint_.utime);
+  if (!age.ok) {
+    // Refused and counted; it does not send the instance to hold (only the timeout does).
+    if (age.out_of_line) return RejectSetpoint(i, age.out_of_line);
+    return RejectSetpoint(i, age.age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age.age,
+                                                       info.timeout)
+                                         : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age));
   }
   SetpointMessage& m = runtime_.channels(i).setpoints.back();
-  m.stale = false;
   m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
   m.setpoint.qd = Eigen::Map<const VectorXd>(setpoint_.qd.data(), info.n);
   m.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), info.n);
@@ -135,71 +247,56 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf) 
   stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
-void LcmReceiver::HandleCommand(std::size_t i, const lcm::ReceiveBuffer* rbuf) {
+void LcmReceiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size) {
   const InstanceInfo& info = info_[i];
-  if (const WireCheck w = CheckCommandPacket(rbuf->data, rbuf->data_size); w != WireCheck::kOk) {
-    DecodeError(info.name + "_COMMAND", ToString(w));
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  const CommandVerdict v = CheckCommand(data, size, info.command_rules, active, command_);
+  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(info.name + "_COMMAND", v.reason.c_str());
+  if (v.kind == CommandVerdict::Kind::kRejected) return RejectCommand(i, v.reason);
+  if (const std::optional<Urgent> urgent = UrgentKind(v.command)) {
+    runtime_.PostUrgent(i, *urgent, command_.request_id);  // never refused for room; the tick decides
     return;
-  }
-  if (command_.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
-    DecodeError(info.name + "_COMMAND", "decode failed");
-    return;
-  }
-  if (command_.command < command_t::SWITCH_CONTROLLER || command_.command > command_t::CLEAR_ESTOP) {
-    RejectCommand(i, "unknown command " + std::to_string(command_.command));
-    return;
-  }
-  auto find_controller = [&](const std::string& name) -> int {
-    const auto it = std::find(info.controllers.begin(), info.controllers.end(), name);
-    return it == info.controllers.end() ? -1 : static_cast<int>(it - info.controllers.begin());
-  };
-  auto unknown = [&](const std::string& name) {
-    std::string list;
-    for (const std::string& c : info.controllers) list += (list.empty() ? "" : ", ") + c;
-    return "unknown controller '" + name + "' for " + info.name + " (available: " + list + ")";
-  };
-  const auto kind = static_cast<CommandKind>(command_.command);
-  int controller = -1;
-  if (kind == CommandKind::kSwitchController) {
-    controller = find_controller(command_.controller);
-    if (controller < 0) return RejectCommand(i, unknown(command_.controller));
-  }
-  if (kind == CommandKind::kSetGains) {
-    controller = command_.controller.empty() ? runtime_.channels(i).active_controller.load(std::memory_order_acquire)
-                                             : find_controller(command_.controller);
-    if (controller < 0) return RejectCommand(i, unknown(command_.controller));
-    if (command_.num_gains != info.n) {
-      return RejectCommand(i, "gains: num_gains is " + std::to_string(command_.num_gains) + ", expected " +
-                                  std::to_string(info.n));
-    }
-    const Gains g{Eigen::Map<const VectorXd>(command_.kp.data(), info.n),
-                  Eigen::Map<const VectorXd>(command_.kd.data(), info.n)};
-    if (auto err = CheckGains(info.controller_types[static_cast<std::size_t>(controller)], info.n, g)) {
-      return RejectCommand(i, "gains for " + info.controllers[static_cast<std::size_t>(controller)] + ": " + *err);
-    }
   }
   CommandMessage* slot = runtime_.channels(i).commands.BeginPush();
   if (slot == nullptr) return RejectCommand(i, "the command queue is full");
-  slot->kind = kind;
+  slot->kind = v.command;
   slot->utime = command_.utime;
-  slot->controller = controller;
-  if (kind == CommandKind::kSetGains) {
+  slot->request_id = command_.request_id;
+  slot->controller = v.controller;
+  if (v.command == CommandKind::kSetGains) {
     slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
     slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
   }
   runtime_.channels(i).commands.Push();  // the tick applies or refuses it; its record says which
 }
 
+// A message on one of this run's output channels: ours (our own multicast,
+// looped back), or another publisher's.
+void LcmReceiver::HandleOwnOutput(std::string_view channel, const std::uint8_t* data, std::size_t size) {
+  const std::int64_t run_id = size >= kRunIdOffset + 8 ? ReadBigEndian64(data + kRunIdOffset) : 0;
+  const std::int64_t hash = size >= 8 ? ReadBigEndian64(data) : 0;
+  const bool ours_type = hash == state_t::getHash() || hash == status_t::getHash() || hash == reply_t::getHash();
+  if (ours_type && run_id == run_id_) return;
+  stats_.foreign_messages.fetch_add(1, std::memory_order_relaxed);
+  stats_.last_foreign_run_id.store(ours_type ? run_id : 0, std::memory_order_relaxed);
+  std::int64_t suppressed = 0;
+  if (!foreign_throttle_.Allow(clock_.WallMicros(), suppressed)) return;
+  spdlog::warn("another publisher on {} (run id {:016x}{}): a second lagranged or a spoofer shares this bus{}",
+               Escape(channel, 64), static_cast<std::uint64_t>(run_id), ours_type ? "" : ", not a lagrange message",
+               suppressed > 0 ? fmt::format(" ({} more such messages since the last line)", suppressed) : "");
+}
+
 // ---- publish thread ------------------------------------------------------
 
-LcmPublisher::LcmPublisher(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
-                           const Loop& loop, ReceiverStats& stats, int notify_fd)
-    : lcm_(lcm),
+LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
+                           const Loop& loop, ReceiverStats& stats, int notify_fd, std::int64_t run_id)
+    : bus_(output),
       channels_(channels),
       ring_(ring),
       loop_(loop),
       stats_(stats),
       notify_fd_(notify_fd),
+      run_id_(run_id),
       status_every_(std::max(1, static_cast<int>(std::lround(0.1 / runtime.period())))),
       period_(runtime.period()),
       last_(runtime.MakeRecord()) {
@@ -208,6 +305,7 @@ LcmPublisher::LcmPublisher(lcm::LCM& lcm, const ChannelNames& channels, Runtime&
     names_.push_back(inst.name());
     controller_names_.push_back(inst.controller_names());
     state_t s;
+    s.run_id = run_id_;
     s.num_dofs = inst.num_dofs();
     for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
     states_.push_back(s);
@@ -215,6 +313,7 @@ LcmPublisher::LcmPublisher(lcm::LCM& lcm, const ChannelNames& channels, Runtime&
   }
   latencies_.reserve(static_cast<std::size_t>(status_every_) * 2);
   computes_.reserve(static_cast<std::size_t>(status_every_) * 2);
+  reply_.run_id = run_id_;
 }
 
 void LcmPublisher::Run(const std::atomic<bool>& stop) {
@@ -257,31 +356,39 @@ void LcmPublisher::Publish(const TickRecord& record) {
     s.potential_energy = r.potential_energy;
     s.controller = controller_names_[i][static_cast<std::size_t>(r.controller)];
     s.mode = static_cast<int8_t>(r.mode);
-    lcm_.publish(channels_.state[i], &s);
+    bus_.PublishMessage(channels_.state[i], s);
     ++states_published_;
+    PublishReplies(i, r, record.utime);
   }
   LogEvents(record);
-  WriteTiming(record);
+  if (timing_ != nullptr) {
+    timing_->Offer(record.tick, record.utime, record.wake_latency, record.compute, record.overruns);
+  }
   latencies_.push_back(static_cast<double>(record.wake_latency) * 1e-3);
   computes_.push_back(static_cast<double>(record.compute) * 1e-3);
   last_.tick = record.tick;
+  last_.utime = record.utime;
   last_.overruns = record.overruns;
   for (std::size_t i = 0; i < record.instances.size(); ++i) last_.instances[i].mode = record.instances[i].mode;
   have_record_ = true;
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
 }
 
-bool LcmPublisher::WriteTimingCsv(const std::string& path) {
-  timing_csv_.open(path, std::ios::out | std::ios::trunc);
-  if (!timing_csv_) return false;
-  timing_csv_ << "tick,utime_us,wake_latency_ns,compute_ns,overruns\n";
-  return true;
-}
-
-void LcmPublisher::WriteTiming(const TickRecord& record) {
-  if (!timing_csv_.is_open()) return;
-  timing_csv_ << record.tick << ',' << record.utime << ',' << record.wake_latency << ',' << record.compute << ','
-              << record.overruns << '\n';
+// (tick verdicts) => one reply_t each, within the reply budget.
+void LcmPublisher::PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime) {
+  for (std::size_t k = 0; k < r.num_verdicts; ++k) {
+    const Verdict& v = r.verdicts[k];
+    if (!reply_budget_.Take(utime)) {
+      stats_.replies_suppressed.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    reply_.utime = utime;
+    reply_.request_id = v.request_id;
+    reply_.command = static_cast<int8_t>(v.kind);
+    reply_.accepted = v.error == nullptr;
+    reply_.reason = v.error ? v.error : "";
+    bus_.PublishMessage(channels_.reply[i], reply_);
+  }
 }
 
 void LcmPublisher::LogEvents(const TickRecord& record) {
@@ -289,10 +396,17 @@ void LcmPublisher::LogEvents(const TickRecord& record) {
     const InstanceRecord& r = record.instances[i];
     if (r.fault) spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
     commands_applied_ += r.commands_accepted;
+    if (r.commands_accepted > 0 && spdlog::should_log(spdlog::level::debug)) {
+      spdlog::debug("{}: {} command(s) applied at t = {:.3f} s", names_[i], r.commands_accepted, r.t);
+    }
     if (r.commands_rejected > 0) {
       commands_refused_by_tick_ += r.commands_rejected;
       last_command_error_ = names_[i] + ": " + r.command_error;
-      spdlog::warn("{}: command refused: {}", names_[i], r.command_error);
+      std::int64_t suppressed = 0;
+      if (refusal_throttle_.Allow(record.utime, suppressed)) {
+        spdlog::warn("{}: command refused: {}{}", names_[i], r.command_error,
+                     suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
+      }
     }
     if (r.mode != modes_[i]) {
       const auto level = r.mode == Mode::kFault || r.mode == Mode::kEstop ? spdlog::level::warn : spdlog::level::info;
@@ -305,6 +419,7 @@ void LcmPublisher::LogEvents(const TickRecord& record) {
 void LcmPublisher::PublishStatus(const TickRecord& last) {
   status_t s;
   s.utime = last.utime;
+  s.run_id = run_id_;
   s.ticks = last.tick + 1;
   s.ticks_in_window = static_cast<int32_t>(latencies_.size());
   s.period = period_;
@@ -328,10 +443,16 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   s.commands_rejected = stats_.commands_rejected.load(std::memory_order_relaxed) + commands_refused_by_tick_;
   s.last_command_error = last_command_error_;
   s.decode_errors = stats_.decode_errors.load(std::memory_order_relaxed);
+  s.datagrams_dropped_kernel = stats_.datagrams_dropped_kernel.load(std::memory_order_relaxed);
+  s.datagrams_malformed = stats_.datagrams_malformed.load(std::memory_order_relaxed);
+  s.fragments_dropped = stats_.fragments_dropped.load(std::memory_order_relaxed);
+  s.foreign_messages = stats_.foreign_messages.load(std::memory_order_relaxed);
+  s.last_foreign_run_id = stats_.last_foreign_run_id.load(std::memory_order_relaxed);
+  s.replies_suppressed = stats_.replies_suppressed.load(std::memory_order_relaxed);
   s.num_instances = static_cast<int32_t>(names_.size());
   s.instance_names = names_;
   for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
-  lcm_.publish(channels_.status, &s);
+  bus_.PublishMessage(channels_.status, s);
 }
 
 }  // namespace lagrange

@@ -1,19 +1,28 @@
 #pragma once
-// The daemon's LCM side, on two threads of its own; they meet the tick only
-// at the runtime's mailboxes and the record ring.
+// The daemon's bus side, on two threads of its own; they meet the tick only
+// at the runtime's mailboxes and the record ring. Both speak LCM's wire
+// format through daemon/bus.hpp, never through lcm::LCM (see there why).
 //
 // LcmReceiver (receive thread): for each instance it subscribes to
-// <NAME>_SETPOINT and <NAME>_COMMAND, checks every packet's raw layout before
-// decoding (daemon/wire.hpp), validates what it decodes, and hands the good
-// ones to the tick; bad ones are dropped, counted, and their reason kept.
+// <NAME>_SETPOINT and <NAME>_COMMAND on the input bus, checks every packet's
+// raw layout before decoding (daemon/wire.hpp), validates what it decodes,
+// and hands the good ones to the tick; bad ones are dropped, counted, and
+// their reason kept. It answers commands it refuses itself with a reply_t.
+// It also listens on this run's output channels (<NAME>_STATE, <NAME>_REPLY,
+// LAGRANGE_STATUS) and counts messages there from another run id: a second
+// daemon, or a spoofer.
 //
 // LcmPublisher (publish thread): waits on an eventfd the tick writes, turns
-// each tick record into one state_t per instance on <NAME>_STATE, and every
-// 0.1 s of ticks a status_t on LAGRANGE_STATUS. It also logs mode changes,
-// faults and refused commands.
+// each tick record into one state_t per instance on <NAME>_STATE, a reply_t
+// per command verdict on <NAME>_REPLY, and every 0.1 s of ticks a status_t
+// on LAGRANGE_STATUS. It also logs mode changes, faults and refused commands,
+// at most once a second per kind of line.
+//
+// Every string that came from the bus is escaped (daemon/escape.hpp) before
+// it is logged or published.
 
-#include <lcm/lcm-cpp.hpp>
 #include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -21,16 +30,22 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
-#include <fstream>
 #include <string>
 #include <vector>
 
+#include "daemon/bus.hpp"
 #include "daemon/channels.hpp"
+#include "daemon/command_check.hpp"
 #include "daemon/loop.hpp"
-#include "daemon/setpoint_check.hpp"
 #include "daemon/runtime.hpp"
+#include "daemon/setpoint_check.hpp"
 
 namespace lagrange {
+
+class TimingCsvWriter;
+
+// A random, non-zero 64-bit id for this run of lagranged (getrandom).
+std::int64_t NewRunId();
 
 // A reason, carried between threads in a mailbox (no allocation to move it).
 struct Reason {
@@ -38,12 +53,48 @@ struct Reason {
   void Set(const std::string& s);
 };
 
+// At most one line per second; counts what it held back.
+class LogThrottle {
+ public:
+  // True when a line may be written at `now_us`; `suppressed` then says how
+  // many were held back since the last one (and is reset).
+  bool Allow(std::int64_t now_us, std::int64_t& suppressed);
+
+ private:
+  std::int64_t last_us_ = -1'000'000'000;
+  std::int64_t held_ = 0;
+};
+
+// At most `rate` events per second on average, in bursts of up to `burst`.
+class TokenBucket {
+ public:
+  TokenBucket(double rate, double burst) : rate_(rate), burst_(burst), tokens_(burst) {}
+  bool Take(std::int64_t now_us);
+
+ private:
+  double rate_, burst_, tokens_;
+  std::int64_t last_us_ = -1;
+};
+
+// Replies per second the daemon sends at most, from each thread; beyond it
+// verdicts are counted (replies_suppressed) but not sent, so a flood of
+// commands cannot become a flood on the output bus.
+inline constexpr double kMaxRepliesPerSecond = 2000.0;
+
 // Counters the receive thread keeps and the publish thread reports.
 struct ReceiverStats {
   std::atomic<std::int64_t> setpoints_accepted{0};
   std::atomic<std::int64_t> setpoints_rejected{0};
   std::atomic<std::int64_t> commands_rejected{0};    // refused here, before reaching the tick
   std::atomic<std::int64_t> decode_errors{0};
+  std::atomic<std::int64_t> replies_suppressed{0};
+  // From the buses the receiver reads.
+  std::atomic<std::int64_t> datagrams_dropped_kernel{0};
+  std::atomic<std::int64_t> datagrams_malformed{0};
+  std::atomic<std::int64_t> fragments_dropped{0};
+  // Messages on this run's output channels from another run.
+  std::atomic<std::int64_t> foreign_messages{0};
+  std::atomic<std::int64_t> last_foreign_run_id{0};
   LatestMailbox<Reason> last_setpoint_rejection{Reason{}};
   LatestMailbox<Reason> last_command_error{Reason{}};
 };
@@ -54,88 +105,105 @@ enum class SetpointAge : std::uint8_t {
   kStream,  // (arrival − utime) − the least such offset in the current stream: a message's
             // delay relative to the stream's own timeline, whatever the clocks' offset
             // (lcm-logplayer replaying a recorded stream, hosts whose clocks differ). A gap
-            // longer than the timeout starts a new stream.
+            // longer than the timeout starts a new stream. A packet whose timestamp is out
+            // of line with the stream by more than the timeout is refused and does not move
+            // the timeline unless kStreamConfirmations such packets in a row agree.
 };
+inline constexpr int kStreamConfirmations = 3;
 
 class LcmReceiver {
  public:
-  // Subscribes on `lcm`. Reads the runtime's immutable configuration only.
-  LcmReceiver(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, Clock& clock, ReceiverStats& stats,
-              SetpointAge age = SetpointAge::kWall);
+  // Subscribes on `input` (setpoints, commands) and, when `output_listener`
+  // is given, on it for this run's output channels (it may be `input` itself
+  // when both directions share a bus). Refusals are answered on `replies`
+  // (a bus this thread alone publishes on). Reads the runtime's immutable
+  // configuration only.
+  LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime,
+              Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id);
 
   // Handles messages until `stop` is set (checked every 20 ms).
   void Run(const std::atomic<bool>& stop);
+  // Waits up to `timeout_ms` for traffic on either bus, handles what came, and
+  // updates the bus counters in the stats.
+  void Poll(int timeout_ms);
 
  private:
   struct InstanceInfo {
     std::string name;
+    std::string reply_channel;
     int n = 0;
-    std::vector<std::string> controllers;
-    std::vector<ControllerType> controller_types;
+    CommandRules command_rules;
     SetpointRules rules;
     double timeout = 0.5;
-    // SetpointAge::kStream: the current stream's least (arrival − utime) and last arrival, µs.
+    // SetpointAge::kStream: the current stream's least (arrival − utime), its last
+    // in-line arrival, µs; and a candidate timeline being confirmed.
     std::int64_t least_offset = 0;
     std::int64_t last_arrival = -1;
+    std::int64_t candidate_offset = 0;
+    int candidate_count = 0;
   };
-  // Age of a setpoint sent at `utime` and arriving now, s.
-  double Age(InstanceInfo& info, std::int64_t utime);
-  struct Handler {
-    LcmReceiver* self;
-    std::size_t index;
-    void OnSetpoint(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
-    void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  // A setpoint's age against its instance's timeout, or why it is refused.
+  struct AgeVerdict {
+    bool ok = true;
+    const char* out_of_line = nullptr;  // kStream: refused as out of line with its stream
+    double age = 0.0;                   // s; < 0 for a timestamp in the future
   };
-  void HandleSetpoint(std::size_t i, const lcm::ReceiveBuffer* rbuf);
-  void HandleCommand(std::size_t i, const lcm::ReceiveBuffer* rbuf);
-  void WarnAtMostOncePerSecond(std::string message);
+  AgeVerdict Age(InstanceInfo& info, std::int64_t utime);
+  void HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void HandleOwnOutput(std::string_view channel, const std::uint8_t* data, std::size_t size);
+  void Warn(const std::string& message);
   void Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reason>& last, std::size_t i, const std::string& why);
   void RejectSetpoint(std::size_t i, const std::string& why);
   void RejectCommand(std::size_t i, const std::string& why);
   void DecodeError(const std::string& channel, const char* why);
+  void UpdateBusStats();
 
-  lcm::LCM& lcm_;
+  Bus& input_;
+  Bus* output_listener_;
+  Bus& replies_;
   Runtime& runtime_;
   Clock& clock_;
   ReceiverStats& stats_;
   SetpointAge age_;
+  std::int64_t run_id_;
   std::vector<InstanceInfo> info_;
-  std::vector<Handler> handlers_;
   setpoint_t setpoint_;  // decoded into; keeps its capacity
   command_t command_;
-  std::int64_t last_log_us_ = 0;
-  std::int64_t suppressed_ = 0;
+  reply_t reply_;
+  LogThrottle log_throttle_, foreign_throttle_;
+  TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
 };
 
 class LcmPublisher {
  public:
-  LcmPublisher(lcm::LCM& lcm, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
-               const Loop& loop, ReceiverStats& stats, int notify_fd);
+  LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
+               const Loop& loop, ReceiverStats& stats, int notify_fd, std::int64_t run_id);
 
   // Publishes records as they come until `stop` is set.
   void Run(const std::atomic<bool>& stop);
   // Publishes whatever is left in the ring and a final status.
   void Drain();
 
-  // For bench/: from now on also writes one CSV line per tick record,
-  // "tick,utime_us,wake_latency_ns,compute_ns,overruns", on this (the publish) thread.
-  // False when the file cannot be opened.
-  bool WriteTimingCsv(const std::string& path);
+  // For bench/: from now on also offers every tick's timing to `writer`,
+  // which writes it to its file on a thread of its own (never this one).
+  void SetTimingWriter(TimingCsvWriter* writer) { timing_ = writer; }
 
   std::int64_t states_published() const { return states_published_; }
 
  private:
   void Publish(const TickRecord& record);
+  void PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
-  void WriteTiming(const TickRecord& record);
 
-  lcm::LCM& lcm_;
+  Bus& bus_;
   ChannelNames channels_;
   SpscRing<TickRecord>& ring_;
   const Loop& loop_;
   ReceiverStats& stats_;
   int notify_fd_;
+  std::int64_t run_id_;
   int status_every_;
   double period_;
   std::vector<std::string> names_;
@@ -149,7 +217,10 @@ class LcmPublisher {
   std::int64_t states_published_ = 0;
   bool have_record_ = false;
   TickRecord last_;
-  std::ofstream timing_csv_;  // open only with --timing-csv
+  reply_t reply_;
+  LogThrottle refusal_throttle_;
+  TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
+  TimingCsvWriter* timing_ = nullptr;
 };
 
 }  // namespace lagrange

@@ -4,10 +4,16 @@
 #include <sched.h>
 #include <sys/mman.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 namespace lagrange {
+
+ThreadPriorities PrioritiesBelow(int tick_priority) {
+  if (tick_priority <= 0) return {};
+  return {tick_priority, std::max(1, tick_priority - 1), std::max(1, tick_priority - 2)};
+}
 
 std::vector<std::string> LockMemory(const RealtimeOptions& options) {
   std::vector<std::string> problems;
@@ -17,15 +23,20 @@ std::vector<std::string> LockMemory(const RealtimeOptions& options) {
   return problems;
 }
 
-std::vector<std::string> ApplyToThisThread(const RealtimeOptions& options) {
+std::vector<std::string> SetThisThreadPriority(int priority) {
   std::vector<std::string> problems;
-  if (options.priority > 0) {
+  if (priority > 0) {
     sched_param param{};
-    param.sched_priority = options.priority;
+    param.sched_priority = priority;
     if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
-      problems.push_back("SCHED_FIFO priority " + std::to_string(options.priority) + ": " + std::strerror(err));
+      problems.push_back("SCHED_FIFO priority " + std::to_string(priority) + ": " + std::strerror(err));
     }
   }
+  return problems;
+}
+
+std::vector<std::string> ApplyToThisThread(const RealtimeOptions& options) {
+  std::vector<std::string> problems = SetThisThreadPriority(options.priority);
   if (options.cpu >= 0) {
     cpu_set_t set;
     CPU_ZERO(&set);
@@ -35,6 +46,20 @@ std::vector<std::string> ApplyToThisThread(const RealtimeOptions& options) {
     }
   }
   return problems;
+}
+
+std::string DescribeThisThreadScheduling() {
+  int policy = 0;
+  sched_param param{};
+  if (pthread_getschedparam(pthread_self(), &policy, &param) != 0) return "unknown";
+  switch (policy) {
+    case SCHED_FIFO: return "SCHED_FIFO " + std::to_string(param.sched_priority);
+    case SCHED_RR: return "SCHED_RR " + std::to_string(param.sched_priority);
+    case SCHED_OTHER: return "SCHED_OTHER";
+    case SCHED_BATCH: return "SCHED_BATCH";
+    case SCHED_IDLE: return "SCHED_IDLE";
+    default: return "policy " + std::to_string(policy);
+  }
 }
 
 }  // namespace lagrange

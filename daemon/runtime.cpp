@@ -17,7 +17,7 @@ std::string_view ToString(Mode mode) {
 
 namespace {
 
-SetpointMessage SetpointPrototype(int n) { return {Setpoint(n), false}; }
+SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }
 
 CommandMessage CommandPrototype(int n) {
   CommandMessage c;
@@ -25,28 +25,16 @@ CommandMessage CommandPrototype(int n) {
   return c;
 }
 
-double Reach(const PlantSpec& plant) {
-  return std::visit(
-      [](const auto& p) -> double {
-        using P = std::decay_t<decltype(p)>;
-        if constexpr (std::is_same_v<P, PendulumParams>) return p.m * p.g * p.L;
-        else if constexpr (std::is_same_v<P, Arm2Params>) return (p.m1 + p.m2) * p.g * (p.L1 + p.L2);
-        else if constexpr (std::is_same_v<P, CartPoleParams>) return (p.mc + p.mp) * p.g * 2.0 * p.l;
-        else {
-          double mass = 0.0, length = 0.0;
-          for (const ChainLink& l : p.links) {
-            mass += l.m;
-            length += l.L;
-          }
-          return mass * p.g * length;
-        }
-      },
-      plant.params);
-}
-
 }  // namespace
 
-double DefaultMaxEnergy(const PlantSpec& plant) { return 1000.0 * (1.0 + Reach(plant)); }
+std::optional<Urgent> UrgentKind(CommandKind kind) {
+  switch (kind) {
+    case CommandKind::kEstop: return Urgent::kEstop;
+    case CommandKind::kClearEstop: return Urgent::kClearEstop;
+    case CommandKind::kReset: return Urgent::kReset;
+    default: return std::nullopt;
+  }
+}
 
 InstanceChannels::InstanceChannels(int n, std::size_t command_capacity)
     : setpoints(SetpointPrototype(n)), commands(command_capacity, CommandPrototype(n)) {}
@@ -58,7 +46,7 @@ InstanceRecord::InstanceRecord(int n)
 struct Runtime::Slot {
   explicit Slot(const InstanceConfig& c)
       : instance(c),
-        channels(c.plant.num_dofs(), 32),
+        channels(c.plant.num_dofs(), kCommandQueueCapacity),
         streamed(c.plant.num_dofs()),
         held(c.plant.num_dofs()),
         current(c.plant.num_dofs()),
@@ -88,7 +76,10 @@ struct Runtime::Slot {
   VectorXd zero, brake, brake_torque;
   Nanoseconds timeout;
   double max_energy;
-  bool stepped_ok = true;
+  // This tick's results, computed once and read by the health check and the record.
+  Instance::StepFailure step_failure = nullptr;
+  double kinetic_energy = 0.0, potential_energy = 0.0;
+  std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
 };
 
 Runtime::Runtime(const Scene& scene) : period_(scene.period) {
@@ -113,82 +104,116 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     r.fault = nullptr;
     r.commands_accepted = r.commands_rejected = 0;
     r.command_error = nullptr;
+    r.num_verdicts = 0;
+    TakeUrgent(s, now, r);
     TakeCommands(s, now, r);
     TakeSetpoint(s, now);
     ControlAndIntegrate(s);
-    CheckHealth(s, s.stepped_ok, r);
+    CheckHealth(s, r);
     Record(s, r);
   }
 }
 
-// (commands) => mode, controller, gains, state.
+void Runtime::PostUrgent(std::size_t i, Urgent kind, std::int64_t request_id) {
+  UrgentFlags& u = slots_[i]->channels.urgent;
+  const auto k = static_cast<std::size_t>(kind);
+  u.request_id[k].store(request_id, std::memory_order_relaxed);
+  u.posted[k].store(++u.sequence, std::memory_order_release);
+}
+
+namespace {
+
+void AddVerdict(InstanceRecord& r, std::int64_t request_id, CommandKind kind, const char* error) {
+  if (error) {
+    ++r.commands_rejected;
+    r.command_error = error;
+  } else {
+    ++r.commands_accepted;
+  }
+  if (r.num_verdicts < r.verdicts.size()) r.verdicts[r.num_verdicts++] = {request_id, kind, error};
+}
+
+constexpr CommandKind kUrgentCommand[kNumUrgent] = {CommandKind::kEstop, CommandKind::kClearEstop, CommandKind::kReset};
+
+}  // namespace
+
+// (urgent flags) => estop, clear_estop, reset: each kind posted since the
+// last tick applied once, in the order the receiver posted them.
+void Runtime::TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r) {
+  UrgentFlags& u = s.channels.urgent;
+  std::uint64_t posted[kNumUrgent];
+  for (std::size_t k = 0; k < kNumUrgent; ++k) posted[k] = u.posted[k].load(std::memory_order_acquire);
+  for (;;) {
+    std::size_t next = kNumUrgent;
+    for (std::size_t k = 0; k < kNumUrgent; ++k) {
+      if (posted[k] > s.urgent_seen[k] && (next == kNumUrgent || posted[k] < posted[next])) next = k;
+    }
+    if (next == kNumUrgent) return;
+    s.urgent_seen[next] = posted[next];
+    const CommandKind kind = kUrgentCommand[next];
+    AddVerdict(r, u.request_id[next].load(std::memory_order_relaxed), kind, Apply(s, kind, -1, nullptr, now));
+  }
+}
+
+// (command queue) => mode, controller, gains, state.
 void Runtime::TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r) {
   while (CommandMessage* c = s.channels.commands.Front()) {
-    const char* error = nullptr;
-    switch (c->kind) {
-      case CommandKind::kSwitchController:
-        s.instance.SelectController(static_cast<std::size_t>(c->controller));
-        break;
-      case CommandKind::kSetGains:
-        if (!s.instance.controller(static_cast<std::size_t>(c->controller)).SetGains(c->gains)) {
-          error = "the gains do not fit the controller";
-        }
-        break;
-      case CommandKind::kReset:
-        s.instance.Reset();
-        s.instance.Save(s.good);
-        s.streaming = false;
-        if (s.mode != Mode::kEstop) s.mode = Mode::kRunning;
-        break;
-      case CommandKind::kPause:
-        if (s.mode == Mode::kRunning || s.mode == Mode::kHold) {
-          s.before_pause = s.mode;
-          s.mode = Mode::kPaused;
-        } else {
-          error = "pause: the instance is not running or holding";
-        }
-        break;
-      case CommandKind::kResume:
-        if (s.mode == Mode::kPaused) {
-          s.mode = s.before_pause;
-          s.last_setpoint = now;  // the setpoint timeout restarts
-        } else {
-          error = "resume: the instance is not paused";
-        }
-        break;
-      case CommandKind::kEstop:
-        if (s.mode == Mode::kFault) error = "estop: the instance is faulted (frozen); reset it";
-        else s.mode = Mode::kEstop;
-        break;
-      case CommandKind::kClearEstop:
-        if (s.mode == Mode::kEstop) EnterHold(s);
-        else error = "clear_estop: the instance is not in an emergency stop";
-        break;
-    }
-    if (error) {
-      ++r.commands_rejected;
-      r.command_error = error;
-    } else {
-      ++r.commands_accepted;
-    }
+    AddVerdict(r, c->request_id, c->kind, Apply(s, c->kind, c->controller, &c->gains, now));
     s.channels.commands.Pop();
   }
   s.channels.active_controller.store(static_cast<int>(s.instance.active_controller()), std::memory_order_release);
 }
 
+// Applies one command; returns why it was refused, or null.
+const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now) {
+  switch (kind) {
+    case CommandKind::kSwitchController:
+      s.instance.SelectController(static_cast<std::size_t>(controller));
+      return nullptr;
+    case CommandKind::kSetGains:
+      if (!s.instance.controller(static_cast<std::size_t>(controller)).SetGains(*gains)) {
+        return "the gains do not fit the controller";
+      }
+      return nullptr;
+    case CommandKind::kReset:
+      s.instance.Reset();
+      s.instance.Save(s.good);
+      s.streaming = false;
+      if (s.mode != Mode::kEstop) s.mode = Mode::kRunning;
+      return nullptr;
+    case CommandKind::kPause:
+      if (s.mode != Mode::kRunning && s.mode != Mode::kHold) return "pause: the instance is not running or holding";
+      s.before_pause = s.mode;
+      s.mode = Mode::kPaused;
+      return nullptr;
+    case CommandKind::kResume:
+      if (s.mode != Mode::kPaused) return "resume: the instance is not paused";
+      s.mode = s.before_pause;
+      s.last_setpoint = now;  // the setpoint timeout restarts
+      return nullptr;
+    case CommandKind::kEstop:
+      if (s.mode == Mode::kFault) return "estop: the instance is faulted (frozen); reset it";
+      s.mode = Mode::kEstop;
+      return nullptr;
+    case CommandKind::kClearEstop:
+      if (s.mode != Mode::kEstop) return "clear_estop: the instance is not in an emergency stop";
+      EnterHold(s);
+      return nullptr;
+  }
+  return "unknown command";
+}
+
 // (mailbox) => streamed setpoint, hold on staleness or timeout.
 void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
+  // Stale setpoints never get here (the receiver refuses them) and so cannot
+  // cause hold: only the timeout does, while no fresh setpoint arrives.
   if (const SetpointMessage* m = s.channels.setpoints.Take()) {
-    if (m->stale) {
-      if (s.mode == Mode::kRunning && s.streaming) EnterHold(s);
-    } else {
-      s.streamed.q = m->setpoint.q;
-      s.streamed.qd = m->setpoint.qd;
-      s.streamed.qdd = m->setpoint.qdd;
-      s.streaming = true;
-      s.last_setpoint = now;
-      if (s.mode == Mode::kHold) s.mode = Mode::kRunning;
-    }
+    s.streamed.q = m->setpoint.q;
+    s.streamed.qd = m->setpoint.qd;
+    s.streamed.qdd = m->setpoint.qdd;
+    s.streaming = true;
+    s.last_setpoint = now;
+    if (s.mode == Mode::kHold) s.mode = Mode::kRunning;
   }
   if (s.mode == Mode::kRunning && s.streaming && now - s.last_setpoint > s.timeout) EnterHold(s);
 }
@@ -207,37 +232,37 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   switch (s.mode) {
     case Mode::kRunning:
       if (!s.streaming) inst.SampleTrajectory(s.current);
-      s.stepped_ok = inst.Step(period_, s.streaming ? s.streamed : s.current);
+      s.step_failure = inst.Step(period_, s.streaming ? s.streamed : s.current);
       break;
     case Mode::kHold:
-      s.stepped_ok = c.on_timeout == TimeoutBehaviour::kHoldPosition ? inst.Step(period_, s.held)
-                                                                     : inst.StepWithTorque(period_, s.zero);
+      s.step_failure = c.on_timeout == TimeoutBehaviour::kHoldPosition ? inst.Step(period_, s.held)
+                                                                       : inst.StepWithTorque(period_, s.zero);
       break;
     case Mode::kEstop:
       s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
-      s.stepped_ok = inst.StepWithTorque(period_, s.brake_torque);
+      s.step_failure = inst.StepWithTorque(period_, s.brake_torque);
       break;
     case Mode::kPaused:
-    case Mode::kFault: s.stepped_ok = true; break;
+    case Mode::kFault: s.step_failure = nullptr; break;
   }
 }
 
-// (state) => fault, or remember it as good.
-void Runtime::CheckHealth(Slot& s, bool stepped_ok, InstanceRecord& r) {
-  if (s.mode == Mode::kFault || s.mode == Mode::kPaused) return;
+// (state) => energies; fault, or remember the state as good. The energies
+// computed here are the ones the record publishes.
+void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
   Instance& inst = s.instance;
-  if (!stepped_ok) {
-    Fault(s, inst.tau().allFinite() ? "the integrator failed its tolerance" : "the controller's output was not finite", r);
-    return;
+  if (s.mode != Mode::kFault && s.mode != Mode::kPaused) {
+    if (s.step_failure) return Fault(s, s.step_failure, r);
+    if (!inst.q().allFinite() || !inst.qd().allFinite() || !inst.qdd().allFinite()) {
+      return Fault(s, "the state became non-finite", r);
+    }
   }
-  if (!inst.q().allFinite() || !inst.qd().allFinite() || !inst.qdd().allFinite()) {
-    Fault(s, "the state became non-finite", r);
-    return;
-  }
-  const double energy = inst.KineticEnergy() + inst.PotentialEnergy();
+  s.kinetic_energy = inst.KineticEnergy();
+  s.potential_energy = inst.PotentialEnergy();
+  if (s.mode == Mode::kFault || s.mode == Mode::kPaused) return;
+  const double energy = s.kinetic_energy + s.potential_energy;
   if (!std::isfinite(energy) || std::abs(energy) > s.max_energy) {
-    Fault(s, "the energy left its bound (max_energy)", r);
-    return;
+    return Fault(s, "the energy left its bound (max_energy)", r);
   }
   inst.Save(s.good);
 }
@@ -245,6 +270,8 @@ void Runtime::CheckHealth(Slot& s, bool stepped_ok, InstanceRecord& r) {
 void Runtime::Fault(Slot& s, const char* why, InstanceRecord& r) {
   s.mode = Mode::kFault;
   s.instance.Restore(s.good);
+  s.kinetic_energy = s.instance.KineticEnergy();  // of the restored, good state
+  s.potential_energy = s.instance.PotentialEnergy();
   r.fault = why;
 }
 
@@ -259,8 +286,8 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   const Setpoint& sp = s.mode == Mode::kHold ? s.held : (s.streaming ? s.streamed : s.current);
   r.q_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.q : inst.q_des();
   r.qd_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.qd : s.zero;
-  r.kinetic_energy = inst.KineticEnergy();
-  r.potential_energy = inst.PotentialEnergy();
+  r.kinetic_energy = s.kinetic_energy;
+  r.potential_energy = s.potential_energy;
   r.controller = static_cast<int>(inst.active_controller());
   r.mode = s.mode;
 }

@@ -18,10 +18,18 @@
 //   paused   frozen: time and state stand still; resume returns to the mode before
 //   estop    the controller is bypassed and every joint braked, τ = −B q̇ within the
 //            torque limits; clear_estop enters hold. reset keeps an estop.
+//
+// Commands reach the tick two ways. estop, clear_estop and reset are urgent:
+// the receiver posts them as latest-wins flags (PostUrgent) beside the queue,
+// so no flood can crowd them out; the tick takes them first, in the order
+// they came, and applies each once however often it was sent within one tick.
+// Every other command waits in a bounded queue that refuses when full.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "controllers/controller.hpp"
@@ -35,10 +43,9 @@ namespace lagrange {
 enum class Mode : std::int8_t { kRunning = 0, kHold = 1, kFault = 2, kPaused = 3, kEstop = 4 };
 std::string_view ToString(Mode mode);
 
-// A setpoint the LCM thread has validated, or the news that a stale one came.
+// A setpoint the LCM thread has validated and found fresh.
 struct SetpointMessage {
   Setpoint setpoint;
-  bool stale = false;
 };
 
 enum class CommandKind : std::int8_t {
@@ -56,8 +63,24 @@ enum class CommandKind : std::int8_t {
 struct CommandMessage {
   CommandKind kind = CommandKind::kReset;
   std::int64_t utime = 0;
+  std::int64_t request_id = 0;  // the sender's, echoed with the verdict
   int controller = -1;  // switch: the target; set-gains: the controller the gains are for
   Gains gains;          // sized n
+};
+
+// The urgent commands, by index into UrgentFlags.
+enum class Urgent : std::uint8_t { kEstop = 0, kClearEstop = 1, kReset = 2 };
+inline constexpr std::size_t kNumUrgent = 3;
+// The urgent kind of a command, if it is one.
+std::optional<Urgent> UrgentKind(CommandKind kind);
+
+// Latest-wins flags for the urgent commands (single producer: the receive
+// thread). `posted[k]` is the receiver's sequence number of the latest
+// command of kind k (0: none yet); the tick applies a kind whose number grew.
+struct UrgentFlags {
+  std::atomic<std::uint64_t> posted[kNumUrgent] = {};
+  std::atomic<std::int64_t> request_id[kNumUrgent] = {};
+  std::uint64_t sequence = 0;  // the receiver's counter
 };
 
 // Where the LCM receive thread meets one instance.
@@ -65,8 +88,19 @@ struct InstanceChannels {
   InstanceChannels(int n, std::size_t command_capacity);
   LatestMailbox<SetpointMessage> setpoints;
   SpscRing<CommandMessage> commands;
+  UrgentFlags urgent;
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
 };
+
+// The tick's verdict on one command, for the reply the publisher sends.
+struct Verdict {
+  std::int64_t request_id = 0;
+  CommandKind kind = CommandKind::kReset;
+  const char* error = nullptr;  // null: applied
+};
+// Verdicts one tick can produce: a full command queue plus every urgent kind.
+inline constexpr std::size_t kCommandQueueCapacity = 32;
+inline constexpr std::size_t kMaxVerdictsPerTick = kCommandQueueCapacity + kNumUrgent;
 
 // One instance at one tick, as the publisher sends it.
 struct InstanceRecord {
@@ -81,6 +115,8 @@ struct InstanceRecord {
   int commands_accepted = 0;
   int commands_rejected = 0;
   const char* command_error = nullptr;
+  std::array<Verdict, kMaxVerdictsPerTick> verdicts;  // the first num_verdicts
+  std::size_t num_verdicts = 0;
 };
 
 struct TickRecord {
@@ -109,12 +145,18 @@ class Runtime {
   // One tick at monotonic time `now`: fills record.instances.
   void Tick(Nanoseconds now, TickRecord& record);
 
+  // Receive thread: posts an urgent command (estop, clear_estop, reset) for
+  // instance i; never blocks, never refused for lack of room.
+  void PostUrgent(std::size_t i, Urgent kind, std::int64_t request_id);
+
  private:
   struct Slot;
+  void TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r);
   void TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r);
+  const char* Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now);
   void TakeSetpoint(Slot& s, Nanoseconds now);
   void ControlAndIntegrate(Slot& s);
-  void CheckHealth(Slot& s, bool stepped_ok, InstanceRecord& r);
+  void CheckHealth(Slot& s, InstanceRecord& r);
   void Record(Slot& s, InstanceRecord& r);
   void EnterHold(Slot& s);
   void Fault(Slot& s, const char* why, InstanceRecord& r);
@@ -122,9 +164,5 @@ class Runtime {
   double period_;
   std::vector<std::unique_ptr<Slot>> slots_;
 };
-
-// Default energy bound of a plant: 1000 × (1 J + Σ m g × reach), a few
-// hundred times anything its gravity can supply.
-double DefaultMaxEnergy(const PlantSpec& plant);
 
 }  // namespace lagrange

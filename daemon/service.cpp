@@ -1,7 +1,7 @@
 #include "daemon/service.hpp"
 
+#include <pthread.h>
 #include <signal.h>
-#include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <sys/eventfd.h>
@@ -15,11 +15,15 @@
 #include <thread>
 
 #include "daemon/channels.hpp"
+#include "daemon/bus.hpp"
 #include "daemon/lcm_bridge.hpp"
+#include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/timing_csv.hpp"
+#include "daemon/work_bound.hpp"
 #include "daemon/yaml_reader.hpp"
 
 namespace lagrange {
@@ -28,6 +32,7 @@ namespace {
 struct Options {
   std::string config = LAGRANGE_DEFAULT_SCENE;
   std::string lcm_url;
+  std::string input_lcm_url;
   std::string channel_prefix;
   std::string log_file;
   std::string log_level = "info";
@@ -41,19 +46,80 @@ struct Options {
   std::string timing_csv;  // bench/: per-tick timing, written by the publish thread
 };
 
-void SetUpLogging(const Options& o) {
+// --log-file: the rotating log and its start-up record (daemon/log_file.hpp); null without the option.
+struct LogFiles {
+  std::shared_ptr<LogFileSink> log;
+  std::shared_ptr<LogFileSink> start;
+};
+constexpr std::size_t kLogFileSize = 5 * 1024 * 1024;
+constexpr int kLogFilesKept = 3;
+
+// Throws LogFileError when a log file cannot be opened.
+LogFiles SetUpLogging(const Options& o) {
+  LogFiles files;
   std::vector<spdlog::sink_ptr> sinks{std::make_shared<spdlog::sinks::stderr_color_sink_mt>()};
   if (!o.log_file.empty()) {
-    sinks.push_back(std::make_shared<spdlog::sinks::rotating_file_sink_mt>(o.log_file, 5 * 1024 * 1024, 3));
+    files.log = std::make_shared<LogFileSink>(o.log_file, LogFileSink::Mode::kAppend, kLogFileSize, kLogFilesKept);
+    files.start = std::make_shared<LogFileSink>(o.log_file + ".start", LogFileSink::Mode::kTruncate);
+    sinks.push_back(files.log);
+    sinks.push_back(files.start);
   }
   auto logger = std::make_shared<spdlog::logger>("lagranged", sinks.begin(), sinks.end());
   logger->set_level(spdlog::level::from_str(o.log_level));
   logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
   logger->flush_on(spdlog::level::warn);
   spdlog::set_default_logger(logger);
+  spdlog::flush_every(std::chrono::seconds(1));  // a thread of spdlog's; signals stay blocked in it
+  return files;
 }
 
-int Serve(const Options& o) {
+// Signals the main thread takes with sigtimedwait; blocked in every thread.
+//   SIGINT, SIGTERM  stop: the final status is logged, exit 0
+//   SIGHUP           reopen the log file (after logrotate renamed it)
+sigset_t HandledSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (int s : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&signals, s);
+  return signals;
+}
+
+// Signals whose default action would end the daemon and that mean nothing to
+// it: SIGPIPE (stderr or a log pipe closed by the reader: the write fails
+// with EPIPE instead), SIGUSR1, SIGUSR2, SIGALRM.
+void IgnoreStraySignals() {
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  for (int s : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM}) sigaction(s, &ignore, nullptr);
+}
+
+// SIGHUP: the log file by its name again, announced in the new file.
+void ReopenLogFile(const LogFiles& logs) {
+  if (!logs.log) {
+    spdlog::info("SIGHUP: no --log-file to reopen");
+    return;
+  }
+  if (const std::string why = logs.log->Reopen(); !why.empty()) {
+    spdlog::warn("SIGHUP: cannot reopen {}: {}; still writing the old file", logs.log->path(), why);
+  } else {
+    spdlog::info("log file {} reopened (SIGHUP)", logs.log->path());
+  }
+  spdlog::default_logger()->flush();
+}
+
+// Logs a thread's real-time outcome at debug; a refusal is warned about once per process.
+void ReportThreadRealtime(const char* thread, const std::vector<std::string>& problems, std::atomic<bool>& warned) {
+  if (problems.empty()) {
+    spdlog::debug("real-time: {} thread runs {}", thread, DescribeThisThreadScheduling());
+    return;
+  }
+  std::string all;
+  for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
+  spdlog::debug("real-time: {} thread: {}", thread, all);
+  if (!warned.exchange(true)) spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);
+}
+
+int Serve(const Options& o, const LogFiles& logs) {
   // Everything the loop needs is built and checked before it starts.
   Scene scene;
   try {
@@ -69,15 +135,36 @@ int Serve(const Options& o) {
     spdlog::error("{}: {}", o.config, e.what());
     return 2;
   }
+  // A tick must end within the period whatever the scene does (daemon/work_bound.hpp).
+  const std::vector<WorkBound> bounds = MeasureWorkBounds(scene);
+  for (const WorkBound& b : bounds) {
+    spdlog::debug("work bound: {}: worst case {} evaluations × {:.3g} µs = {:.4g} ms per tick", b.instance,
+                  b.evaluations, b.evaluation_s * 1e6, b.tick_s() * 1e3);
+  }
+  if (const auto refusal = CheckWorkBounds(scene, bounds)) {
+    spdlog::error("{}", *refusal);
+    return 2;
+  }
   std::vector<std::string> names;
   for (const auto& inst : scene.instances) names.push_back(inst.name);
   const ChannelNames channels = MakeChannelNames(names, o.channel_prefix);
+  // Outputs (state, status, replies) go to --lcm-url; inputs (setpoints,
+  // commands) come from --input-lcm-url, the same bus unless given. The
+  // receive thread also listens on the output bus for another publisher of
+  // this run's channels. Each bus object is used by one thread per direction.
   const std::string url = ResolveLcmUrl(o.lcm_url);
-  lcm::LCM lcm_in(url), lcm_out(url);
-  if (!lcm_in.good() || !lcm_out.good()) {
-    spdlog::error("cannot open LCM at {}", url);
-    return 1;
+  const std::string input_url = o.input_lcm_url.empty() ? url : o.input_lcm_url;
+  std::unique_ptr<Bus> bus_out, bus_in, bus_replies, bus_listen;
+  try {
+    bus_out = OpenBus(url);
+    bus_in = OpenBus(input_url);
+    bus_replies = OpenBus(url);
+    if (input_url != url) bus_listen = OpenBus(url);
+  } catch (const BusError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
   }
+  const std::int64_t run_id = NewRunId();
 
   std::vector<std::string> rt_problems = LockMemory(o.rt);
   const int notify_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -88,17 +175,23 @@ int Serve(const Options& o) {
                                o.max_catch_up};
   Loop loop(*runtime, clock, timer, ring, notify_fd);
   ReceiverStats stats;
-  LcmReceiver receiver(lcm_in, channels, *runtime, clock, stats,
-                       o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall);
-  LcmPublisher publisher(lcm_out, channels, *runtime, ring, loop, stats, notify_fd);
-  if (!o.timing_csv.empty() && !publisher.WriteTimingCsv(o.timing_csv)) {
-    spdlog::error("--timing-csv: cannot write {}", o.timing_csv);
-    close(notify_fd);
-    return 2;
+  LcmReceiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, channels, *runtime, clock,
+                       stats, o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
+  LcmPublisher publisher(*bus_out, channels, *runtime, ring, loop, stats, notify_fd, run_id);
+  TimingCsvWriter timing;
+  if (!o.timing_csv.empty()) {
+    if (!timing.Open(o.timing_csv)) {
+      spdlog::error("--timing-csv: cannot write {}", o.timing_csv);
+      close(notify_fd);
+      return 2;
+    }
+    timing.Start();
+    publisher.SetTimingWriter(&timing);
   }
 
-  spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}", o.config, scene.description, names.size(),
-               1.0 / scene.period, url);
+  spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}{}, run id {:016x}", o.config, scene.description,
+               names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
+               static_cast<std::uint64_t>(run_id));
   for (std::size_t i = 0; i < names.size(); ++i) {
     spdlog::info("  {}: {} with {}, {} / {} / {}", names[i], ToString(scene.instances[i].plant.type()),
                  runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i], channels.command[i]);
@@ -106,39 +199,65 @@ int Serve(const Options& o) {
 
   std::atomic<bool> stop_loop{false}, stop_io{false};
   const std::int64_t max_ticks = o.duration > 0.0 ? std::llround(o.duration / scene.period) : -1;
+  // Real-time set-up: the tick thread reports it, then runs the loop only once told to.
+  const ThreadPriorities priorities = PrioritiesBelow(o.rt.priority);
+  spdlog::debug("real-time: memory {}", !o.rt.lock_memory ? "not locked (no --mlockall)"
+                                        : rt_problems.empty() ? "locked (mlockall)" : rt_problems.front());
   std::promise<std::vector<std::string>> rt_result;
   auto rt_future = rt_result.get_future();
-  std::atomic<bool> rt_ok{true};
+  std::promise<bool> run_loop;  // false: --require-rt refused, the tick thread returns
+  auto run_loop_future = run_loop.get_future();
   std::thread tick([&] {
     rt_result.set_value(ApplyToThisThread(o.rt));
-    if (!rt_ok.load()) return;
+    if (!run_loop_future.get()) return;
     loop.Run(stop_loop, max_ticks);
   });
-  for (std::string& p : rt_future.get()) rt_problems.push_back(std::move(p));
+  pthread_setname_np(tick.native_handle(), "lagranged-tick");
+  std::vector<std::string> tick_problems = rt_future.get();
+  if (tick_problems.empty()) {
+    spdlog::debug("real-time: tick thread runs {}{}",
+                  o.rt.priority > 0 ? fmt::format("SCHED_FIFO {}", o.rt.priority) : "SCHED_OTHER (no --rt-priority)",
+                  o.rt.cpu >= 0 ? fmt::format(" on CPU {}", o.rt.cpu) : "");
+  }
+  for (std::string& p : tick_problems) rt_problems.push_back(std::move(p));
   if (!rt_problems.empty()) {
     std::string all;
     for (const std::string& p : rt_problems) all += (all.empty() ? "" : "; ") + p;
     if (o.require_rt) {
-      rt_ok = false;
+      run_loop.set_value(false);
       tick.join();
+      close(notify_fd);
       spdlog::error("--require-rt: real-time set-up not permitted: {}", all);
       return 3;
     }
     spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);  // once
   }
-  std::thread receive([&] { receiver.Run(stop_io); });
-  std::thread publish([&] { publisher.Run(stop_io); });
+  run_loop.set_value(true);
+  std::atomic<bool> rt_warned{!rt_problems.empty()};
+  std::thread receive([&] {
+    ReportThreadRealtime("receive", SetThisThreadPriority(priorities.receive), rt_warned);
+    receiver.Run(stop_io);
+  });
+  std::thread publish([&] {
+    ReportThreadRealtime("publish", SetThisThreadPriority(priorities.publish), rt_warned);
+    publisher.Run(stop_io);
+  });
+  pthread_setname_np(receive.native_handle(), "lagranged-recv");
+  pthread_setname_np(publish.native_handle(), "lagranged-pub");
+  if (logs.start) logs.start->Close();  // the start-up record ends here (daemon/log_file.hpp)
 
-  // Wait for SIGINT or SIGTERM (blocked in every thread), or for --duration to run out.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
+  // Wait for SIGINT or SIGTERM, reopen the log on SIGHUP, or stop when --duration runs out.
+  const sigset_t signals = HandledSignals();
   int signal_number = 0;
   while (max_ticks < 0 || loop.ticks() < max_ticks) {
     const timespec wait{0, 20'000'000};
-    signal_number = sigtimedwait(&signals, nullptr, &wait);
-    if (signal_number > 0) break;
+    const int got = sigtimedwait(&signals, nullptr, &wait);
+    if (got == SIGHUP) {
+      ReopenLogFile(logs);
+    } else if (got > 0) {
+      signal_number = got;
+      break;
+    }
   }
   stop_loop = true;
   tick.join();
@@ -146,6 +265,7 @@ int Serve(const Options& o) {
   receive.join();
   publish.join();
   publisher.Drain();  // the last records and a final status
+  timing.Stop();       // writes what the publisher offered
   close(notify_fd);
   spdlog::info("stopped{} after {} ticks: {} overruns, {} state messages published, {} records dropped",
                signal_number > 0 ? fmt::format(" by signal {}", signal_number) : std::string(), loop.ticks(),
@@ -157,20 +277,26 @@ int Serve(const Options& o) {
 }  // namespace
 
 int RunLagranged(int argc, char** argv) {
-  // Block the stop signals before any thread starts: the main thread waits for them.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
+  // Before any thread starts: stray signals ignored, the handled ones blocked (the main thread waits for them).
+  IgnoreStraySignals();
+  const sigset_t signals = HandledSignals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   Options o;
   CLI::App app{"lagranged: simulates and controls the plants of a scene at a fixed rate, over LCM"};
   app.name("lagranged");
+  app.set_version_flag("--version", std::string("lagranged ") + LAGRANGE_VERSION);
+  app.footer("Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
+             "SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
   app.add_option("--config", o.config, "Scene file")->capture_default_str();
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
+  app.add_option("--input-lcm-url", o.input_lcm_url,
+                 "Bus for setpoints and commands, when it should differ from --lcm-url (outputs): a flood of input "
+                 "traffic then never reaches the loggers of the state stream");
   app.add_option("--channel-prefix", o.channel_prefix, "Prepended to every channel name");
-  app.add_option("--log-file", o.log_file, "Also log to this file (rotating: 5 MiB x 3)");
+  app.add_option("--log-file", o.log_file,
+                 "Also log to this file (rotating: 5 MiB x 3; reopened on SIGHUP; flushed every second); the latest "
+                 "start's start-up lines are also kept in FILE.start, never rotated");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -188,7 +314,9 @@ int RunLagranged(int argc, char** argv) {
   app.add_option("--duration", o.duration, "Stop after this many seconds of ticks (default: run until signalled)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--mlockall", o.rt.lock_memory, "Lock the process's memory (mlockall)");
-  app.add_option("--rt-priority", o.rt.priority, "SCHED_FIFO priority of the tick thread (1-99)")->check(CLI::Range(1, 99));
+  app.add_option("--rt-priority", o.rt.priority,
+                 "SCHED_FIFO priority P of the tick thread (1-99); the publish thread runs at P-1 and the receive "
+                 "thread at P-2 (at least 1); other threads stay SCHED_OTHER")->check(CLI::Range(1, 99));
   app.add_option("--cpu", o.rt.cpu, "Pin the tick thread to this CPU")->check(CLI::NonNegativeNumber);
   app.add_option("--spin-us", o.spin_us, "Busy-wait this long before each deadline instead of sleeping")
       ->check(CLI::Range(0.0, 1000.0));
@@ -201,13 +329,25 @@ int RunLagranged(int argc, char** argv) {
   } catch (const CLI::CallForHelp&) {
     std::cout << app.help();
     return 0;
+  } catch (const CLI::CallForVersion& e) {
+    std::cout << e.what() << "\n";
+    return 0;
   } catch (const CLI::ParseError& e) {
     std::cerr << "lagranged: " << e.what() << "\n";
     return 2;
   }
-  SetUpLogging(o);
+  LogFiles logs;
   try {
-    return Serve(o);
+    logs = SetUpLogging(o);
+  } catch (const LogFileError& e) {
+    std::cerr << "lagranged: " << e.what() << "\n";
+    return 2;
+  }
+  try {
+    return Serve(o, logs);
+  } catch (const BusError& e) {  // a bad --lcm-url, or the bus could not be opened: named before the loop
+    spdlog::error("lagranged: {}", e.what());
+    return 2;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -1,7 +1,10 @@
 #include "daemon/wire.hpp"
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
 
 #include "plant/types.hpp"
 
@@ -50,7 +53,7 @@ WireCheck CheckSetpointPacket(const void* data, std::size_t size) {
 
 WireCheck CheckCommandPacket(const void* data, std::size_t size) {
   const auto* p = static_cast<const std::uint8_t*>(data);
-  std::size_t at = kHash + kInt64 + kInt8;
+  std::size_t at = kHash + 2 * kInt64 + kInt8;  // fingerprint, utime, request_id, command
   if (size < kHash) return WireCheck::kTooShort;
   if (ReadInt64(p) != command_t::getHash()) return WireCheck::kFingerprint;
   if (size < at + kInt32) return WireCheck::kTooShort;
@@ -64,6 +67,95 @@ WireCheck CheckCommandPacket(const void* data, std::size_t size) {
   at += kInt32;
   if (size != at + 2 * kDouble * static_cast<std::size_t>(g)) return WireCheck::kSizeMismatch;
   return WireCheck::kOk;
+}
+
+// lagrangectl's side: packets the daemon publishes, walked field by field.
+namespace {
+
+constexpr std::int32_t kMaxStatusString = 4096;  // bytes with the NUL: reasons quote escaped input
+
+// Reads a packet front to back, never past its end; the first failure sticks.
+class PacketWalker {
+ public:
+  PacketWalker(const void* data, std::size_t size, std::int64_t hash)
+      : p_(static_cast<const std::uint8_t*>(data)), size_(size) {
+    if (size_ < kHash) result_ = WireCheck::kTooShort;
+    else if (ReadInt64(p_) != hash) result_ = WireCheck::kFingerprint;
+    else at_ = kHash;
+  }
+  void Skip(std::size_t bytes) {
+    if (result_ != WireCheck::kOk) return;
+    if (size_ - at_ < bytes) result_ = WireCheck::kTooShort;
+    else at_ += bytes;
+  }
+  // An int32 length in [0, max]; 0 after a failure.
+  std::int32_t Length(std::int32_t max) {
+    if (result_ != WireCheck::kOk) return 0;
+    if (size_ - at_ < kInt32) {
+      result_ = WireCheck::kTooShort;
+      return 0;
+    }
+    const std::int32_t n = ReadInt32(p_ + at_);
+    at_ += kInt32;
+    if (n < 0 || n > max) {
+      result_ = WireCheck::kBadLength;
+      return 0;
+    }
+    return n;
+  }
+  // An LCM string: int32 length including the NUL (1..max), the bytes, the NUL.
+  void String(std::int32_t max) {
+    const std::int32_t len = Length(max);
+    if (result_ != WireCheck::kOk) return;
+    if (len < 1) {
+      result_ = WireCheck::kBadLength;
+      return;
+    }
+    Skip(static_cast<std::size_t>(len));
+    if (result_ == WireCheck::kOk && p_[at_ - 1] != 0) result_ = WireCheck::kBadLength;
+  }
+  WireCheck Finish() const {
+    if (result_ != WireCheck::kOk) return result_;
+    return at_ == size_ ? WireCheck::kOk : WireCheck::kSizeMismatch;
+  }
+
+ private:
+  const std::uint8_t* p_;
+  std::size_t size_;
+  std::size_t at_ = 0;
+  WireCheck result_ = WireCheck::kOk;
+};
+
+}  // namespace
+
+WireCheck CheckStatePacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, state_t::getHash());
+  w.Skip(3 * kInt64 + kDouble);  // utime, run_id, tick, t
+  const std::int32_t n = w.Length(kMaxDofs);
+  w.Skip(6 * kDouble * static_cast<std::size_t>(n) + 2 * kDouble);  // q .. qd_des, T, V
+  w.String(kMaxString);                                             // controller
+  w.Skip(kInt8);                                                    // mode
+  return w.Finish();
+}
+
+WireCheck CheckStatusPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, status_t::getHash());
+  w.Skip(3 * kInt64 + kInt32 + 7 * kDouble + 4 * kInt64);  // utime .. ticks_in_window, period .. compute_max, overruns .. setpoints_rejected
+  w.String(kMaxStatusString);                              // last_rejection
+  w.Skip(2 * kInt64);                                      // commands_accepted, commands_rejected
+  w.String(kMaxStatusString);                              // last_command_error
+  w.Skip(7 * kInt64);                                      // decode_errors .. replies_suppressed
+  const std::int32_t n = w.Length(kMaxStatusInstances);
+  for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_names
+  w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_modes
+  return w.Finish();
+}
+
+WireCheck CheckReplyPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, reply_t::getHash());
+  w.Skip(3 * kInt64 + 2 * kInt8);  // utime, run_id, request_id, command, accepted
+  w.String(kMaxStatusString);      // reason
+  return w.Finish();
 }
 
 }  // namespace lagrange

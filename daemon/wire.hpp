@@ -16,7 +16,16 @@ const char* ToString(WireCheck check);
 
 // setpoint_t: fingerprint, utime, num_dofs, 3 × num_dofs doubles.
 WireCheck CheckSetpointPacket(const void* data, std::size_t size);
-// command_t: fingerprint, utime, command, controller (string), num_gains, 2 × num_gains doubles.
+// command_t: fingerprint, utime, request_id, command, controller (string), num_gains, 2 × num_gains doubles.
 WireCheck CheckCommandPacket(const void* data, std::size_t size);
+
+// What lagrangectl receives, checked the same way before decoding.
+// state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
+WireCheck CheckStatePacket(const void* data, std::size_t size);
+// status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names and modes.
+inline constexpr std::int32_t kMaxStatusInstances = 1024;
+WireCheck CheckStatusPacket(const void* data, std::size_t size);
+// reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
+WireCheck CheckReplyPacket(const void* data, std::size_t size);
 
 }  // namespace lagrange

@@ -125,5 +125,48 @@ TEST(Instance, ResetReturnsToTheInitialStateAtTimeZero) {
   EXPECT_EQ(cp.qd(), cp.config().qd0);
 }
 
+// A scene's arm under PD with the given integrator and `continuous` flag.
+Instance ArmUnderPd(const std::string& integrator, bool continuous) {
+  const std::string yaml = "period: 0.001\ninstances:\n  - name: arm\n    plant: {type: arm2}\n"
+                           "    integrator: {type: " + integrator + "}\n"
+                           "    controller: {type: pd, kp: [50, 50], kd: [5, 5], continuous: " +
+                           (continuous ? "true" : "false") + "}\n";
+  const Scene scene = ParseScene(yaml, "test");
+  return Instance(scene.instances.at(0));
+}
+
+TEST(Instance, AFaultNamesTheControllerWhenItsOutputWasNotFinite) {
+  // A non-finite setpoint makes the law non-finite; dopri5 then also fails its
+  // tolerance, but the cause reported is the controller, where it began.
+  for (const char* integrator : {"rk4", "dopri5"}) {
+    for (const bool continuous : {false, true}) {
+      Instance arm = ArmUnderPd(integrator, continuous);
+      Setpoint sp(2);
+      sp.q << std::nan(""), 0.0;
+      EXPECT_STREQ(arm.Step(0.001, sp), Instance::kControllerNotFinite) << integrator << " continuous " << continuous;
+    }
+  }
+}
+
+TEST(Instance, AHealthyStepReportsNoFailure) {
+  Instance arm = ArmUnderPd("dopri5", false);
+  Setpoint sp(2);
+  sp.q << 0.1, -0.1;
+  EXPECT_EQ(arm.Step(0.001, sp), nullptr);
+}
+
+TEST(Instance, ResetRestoresTheScenesGainsChangedAtRunTime) {
+  Instance arm = ArmUnderPd("rk4", false);
+  const Gains scene = arm.controller().gains();
+  Gains changed = scene;
+  changed.kp *= 2.0;
+  changed.kd *= 3.0;
+  ASSERT_TRUE(arm.controller().SetGains(changed));
+  ASSERT_NE(arm.controller().gains().kp, scene.kp);
+  arm.Reset();
+  EXPECT_EQ(arm.controller().gains().kp, scene.kp);
+  EXPECT_EQ(arm.controller().gains().kd, scene.kd);
+}
+
 }  // namespace
 }  // namespace lagrange

@@ -81,13 +81,13 @@ TEST(Wire, CommandsAreCheckedThroughTheirStringAndArrays) {
   EXPECT_EQ(CheckCommandPacket(buf.data(), buf.size()), WireCheck::kOk);
   for (std::size_t len = 0; len < buf.size(); ++len) EXPECT_NE(CheckCommandPacket(buf.data(), len), WireCheck::kOk) << len;
   auto huge_string = buf;
-  WriteInt32(huge_string, 17, 0x7fffffff);
+  WriteInt32(huge_string, 25, 0x7fffffff);  // after fingerprint, utime, request_id, command
   EXPECT_EQ(CheckCommandPacket(huge_string.data(), huge_string.size()), WireCheck::kBadLength);
   auto huge_gains = buf;
-  WriteInt32(huge_gains, 17 + 4 + 3, 0x7fffffff);  // after "pd\0"
+  WriteInt32(huge_gains, 25 + 4 + 3, 0x7fffffff);  // after "pd\0"
   EXPECT_EQ(CheckCommandPacket(huge_gains.data(), huge_gains.size()), WireCheck::kBadLength);
   auto unterminated = buf;
-  unterminated[17 + 4 + 2] = 'x';  // the string's NUL
+  unterminated[25 + 4 + 2] = 'x';  // the string's NUL
   EXPECT_EQ(CheckCommandPacket(unterminated.data(), unterminated.size()), WireCheck::kBadLength);
 }
 

@@ -1,6 +1,6 @@
 // libFuzzer target: what lagranged does with a packet on a setpoint or
 // command channel before anything reaches the tick: the raw layout checks,
-// decoding and the setpoint rules. Run with --write-seeds DIR to write valid
+// decoding, the setpoint rules and the command rules (CheckCommand). Run with --write-seeds DIR to write valid
 // packets as a starting corpus.
 
 #include <lagrange/command_t.hpp>
@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/command_check.hpp"
 #include "daemon/setpoint_check.hpp"
 #include "daemon/wire.hpp"
 
@@ -35,6 +36,7 @@ void WriteSeeds(const std::string& dir) {
   WriteSeed(dir + "/setpoint", s);
   lagrange::command_t c;
   c.utime = 1;
+  c.request_id = 42;
   c.command = lagrange::command_t::SET_GAINS;
   c.controller = "pd";
   c.num_gains = 2;
@@ -70,6 +72,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (CheckCommandPacket(data, size) == WireCheck::kOk) {
     command_t command;
     if (command.decode(data, 0, static_cast<int>(size)) < 0) __builtin_trap();  // the check promised a decodable packet
+  }
+  static const CommandRules command_rules{
+      "arm", 2, {"pd", "none"}, {ControllerType::kPd, ControllerType::kNone},
+      {GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}}};
+  static command_t command;  // reused, as in the receiver
+  const CommandVerdict c = CheckCommand(data, size, command_rules, 0, command);
+  if (c.kind == CommandVerdict::Kind::kAccepted) {
+    // An accepted command names a known code and, where it needs one, a known controller.
+    if (command.command < command_t::SWITCH_CONTROLLER || command.command > command_t::CLEAR_ESTOP) __builtin_trap();
+    const bool needs_controller =
+        c.command == CommandKind::kSwitchController || c.command == CommandKind::kSetGains;
+    if (needs_controller && (c.controller < 0 || c.controller > 1)) __builtin_trap();
+  }
+  for (const char ch : c.reason) {
+    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) __builtin_trap();  // reasons are escaped
   }
   return 0;
 }

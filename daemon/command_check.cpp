@@ -1,0 +1,55 @@
+#include "daemon/command_check.hpp"
+
+#include <algorithm>
+
+#include "controllers/factory.hpp"
+#include "daemon/escape.hpp"
+#include "daemon/wire.hpp"
+
+namespace lagrange {
+namespace {
+
+CommandVerdict Reject(std::string why) { return {CommandVerdict::Kind::kRejected, std::move(why)}; }
+
+int FindController(const CommandRules& rules, const std::string& name) {
+  const auto it = std::find(rules.controllers.begin(), rules.controllers.end(), name);
+  return it == rules.controllers.end() ? -1 : static_cast<int>(it - rules.controllers.begin());
+}
+
+std::string Unknown(const CommandRules& rules, const std::string& name) {
+  std::string list;
+  for (const std::string& c : rules.controllers) list += (list.empty() ? "" : ", ") + c;
+  return "unknown controller '" + Escape(name, 64) + "' for " + rules.instance + " (available: " + list + ")";
+}
+
+}  // namespace
+
+CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRules& rules, int active, command_t& out) {
+  if (const WireCheck w = CheckCommandPacket(data, size); w != WireCheck::kOk) {
+    return {CommandVerdict::Kind::kUndecodable, ToString(w)};
+  }
+  if (out.decode(data, 0, static_cast<int>(size)) < 0) return {CommandVerdict::Kind::kUndecodable, "decode failed"};
+  if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::CLEAR_ESTOP) {
+    return Reject("unknown command " + std::to_string(out.command));
+  }
+  CommandVerdict v{CommandVerdict::Kind::kAccepted, "", static_cast<CommandKind>(out.command)};
+  if (v.command == CommandKind::kSwitchController) {
+    v.controller = FindController(rules, out.controller);
+    if (v.controller < 0) return Reject(Unknown(rules, out.controller));
+  }
+  if (v.command == CommandKind::kSetGains) {
+    v.controller = out.controller.empty() ? active : FindController(rules, out.controller);
+    if (v.controller < 0) return Reject(Unknown(rules, out.controller));
+    if (out.num_gains != rules.n) {
+      return Reject("gains: num_gains is " + std::to_string(out.num_gains) + ", expected " + std::to_string(rules.n));
+    }
+    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), rules.n), Eigen::Map<const VectorXd>(out.kd.data(), rules.n)};
+    const auto c = static_cast<std::size_t>(v.controller);
+    if (auto err = CheckGains(rules.controller_types[c], g, rules.gain_bounds[c])) {
+      return Reject("gains for " + rules.controllers[c] + ": " + *err);
+    }
+  }
+  return v;
+}
+
+}  // namespace lagrange
