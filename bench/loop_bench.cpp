@@ -1,40 +1,43 @@
 // The loop (issue 6, item 5): the real lagranged on a scene (the default:
 // config/default.yaml) at its period for a fixed time on a private LCM URL,
-// with, in this process and at the same time,
-//   - a bare absolute-deadline timer loop: the daemon's own LoopTimer and
-//     MonotonicClock at 1 kHz doing no work, so its wake-up latency is what
-//     the machine gives any sleeper under the same load; it also runs alone
-//     for a while before the daemon starts, and once more alone with the
-//     thread's timer slack at 1 ns instead of Linux's default 50 µs for
-//     SCHED_OTHER threads (SCHED_FIFO threads have none), to show what the
-//     slack contributes;
+// with, at the same time,
+//   - cyclictest (Debian rt-tests), the latency baseline: a 1 kHz
+//     absolute-deadline clock_nanosleep loop doing no work, so its wake-up
+//     latency is what the machine gives any sleeper under the same load. It
+//     runs at the tick's policy (SCHED_OTHER here; SCHED_FIFO one priority
+//     above the tick with --rt-priority, on the same CPU with --cpu), with
+//     --default-system so that it does not lower the machine's wake-up
+//     latency (/dev/cpu_dma_latency) for the daemon too. It also runs alone
+//     for a while before the daemon starts, and once more alone with its
+//     timer slack at 1 ns instead of Linux's default 50 µs for SCHED_OTHER
+//     threads (SCHED_FIFO threads have none), to show what the slack
+//     contributes;
 //   - a setpoint prober: a new arm setpoint every 100 ms (+ up to 1 ms of
 //     seeded jitter, so it does not lock to the tick's phase), timed from just
-//     before lcm.publish to the first ARM_STATE whose q_des carries it.
+//     before lcm.publish to the first ARM_STATE whose q_des carries it;
+//   - Debian's lcm-logger recording ARM_STATE, CARTPOLE_STATE and
+//     LAGRANGE_STATUS: the states it logged against the ticks the daemon ran
+//     (its final status) are the delivery figure.
 // The daemon writes every tick's wake-up latency and compute time with
-// --timing-csv (from its publish thread). Its CPU time comes from /proc over
+// --timing-csv (from a writer thread). Its CPU time comes from /proc over
 // the steady window (from 2 s after its first state to 1 s before the end)
 // and from wait4's rusage over the whole run.
 //
-// With --rt-priority N the daemon runs with the service's real-time options
-// (--mlockall --rt-priority N: SCHED_FIFO tick thread) and the bare loop
-// thread runs SCHED_FIFO at N + 1: on a shared CPU (--cpu) two 1 kHz loops of
-// equal priority would queue behind each other whenever their deadlines came
-// close, so the bare loop, whose own work is a clock read, goes first.
+// With --sigterm-runs N it then starts lagranged N times more, and sends each
+// SIGTERM 0.3 s after its first state: the time to its exit (pidfd).
 //
-// Files in --out: loop_ticks.csv (the daemon's), bare_loop.csv,
-// setpoint_latency.csv, loop_summary.csv, loop_threads.csv, loop_noise.csv,
-// lagranged.log; with --tag T each name ends in _T (loop_ticks_T.csv, ...).
+// Files in --out: loop_ticks.csv (the daemon's), cyclictest_<phase>.json
+// (alone, alone-slack-1ns, concurrent), setpoint_latency.csv,
+// loop_summary.csv, loop_threads.csv, loop_noise.csv, lagranged.log,
+// sigterm.csv; with --tag T each name ends in _T (loop_ticks_T.csv, ...).
 // The report script computes the percentiles.
 
-#include <fcntl.h>
-#include <pthread.h>
-#include <sched.h>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+#include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
-#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -52,9 +55,9 @@
 #include <random>
 #include <thread>
 
+#include "bench/harness.hpp"
 #include "bench/proc_stats.hpp"
-#include "daemon/clock.hpp"
-#include "daemon/loop_timer.hpp"
+#include "daemon/bus.hpp"
 
 namespace lagrange::bench {
 namespace {
@@ -67,11 +70,12 @@ struct Options {
   std::string config;
   std::string out = "bench/results";
   int port = 7901;
-  double duration = 60.0;    // s of daemon ticks
-  double bare_alone = 10.0;  // s of the bare loop before the daemon starts (0: none)
-  int rt_priority = 0;       // > 0: SCHED_FIFO for the daemon's tick and the bare loop
-  int cpu = -1;              // >= 0: the daemon's tick and the bare loop pinned to this CPU
-  std::string tag;           // appended to every file name
+  double duration = 60.0;  // s of daemon ticks
+  double alone = 10.0;     // s of cyclictest alone before the daemon, twice (0: none)
+  int rt_priority = 0;     // > 0: SCHED_FIFO for the daemon's tick, one more for cyclictest
+  int cpu = -1;            // >= 0: the daemon's tick and cyclictest pinned to this CPU
+  int sigterm_runs = 0;    // daemons started afterwards to time SIGTERM → exit
+  std::string tag;         // appended to every file name
 
   // out/<stem>[_tag].<ext>
   fs::path File(const std::string& stem, const std::string& ext = ".csv") const {
@@ -79,83 +83,26 @@ struct Options {
   }
 };
 
-std::string Url(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
+// The channels lcm-logger records.
+const std::vector<std::string> kLoggedStates = {"ARM_STATE", "CARTPOLE_STATE"};
+constexpr const char* kLoggedChannels = "ARM_STATE|CARTPOLE_STATE|LAGRANGE_STATUS";
 
-std::int64_t MonotonicNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+// ---- cyclictest ---------------------------------------------------------------------
+
+// Runs cyclictest for `seconds` (whole) in phase `phase` (file cyclictest_<phase>.json); returns its pid.
+pid_t StartCyclictest(const Options& o, const std::string& phase, int seconds, bool beside_daemon,
+                      unsigned long timer_slack_ns = 0) {
+  const bool rt = beside_daemon && o.rt_priority > 0;
+  return Spawn(CyclictestArgs(seconds, o.File("cyclictest_" + phase, ".json"), rt ? o.rt_priority + 1 : 0,
+                              beside_daemon ? o.cpu : -1, rt),
+               o.File("cyclictest_" + phase, ".log"), timer_slack_ns);
 }
 
-std::int64_t WallMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+void RunCyclictestAlone(const Options& o, const std::string& phase, unsigned long timer_slack_ns = 0) {
+  const int seconds = std::max(1, static_cast<int>(std::lround(o.alone)));
+  const Exit e = WaitExit(StartCyclictest(o, phase, seconds, false, timer_slack_ns), seconds + 30.0);
+  if (e.status != 0) std::cerr << "loop_bench: cyclictest (" << phase << ") ended with " << DescribeExit(e.status) << "\n";
 }
-
-// "" when a message published on `url` comes back to this process.
-std::string CheckLoopback(const std::string& url) {
-  lcm::LCM lcm(url);
-  if (!lcm.good()) return "cannot open LCM at " + url;
-  int received = 0;
-  struct Counter {
-    int* n;
-    void On(const lcm::ReceiveBuffer*, const std::string&) { ++*n; }
-  } counter{&received};
-  lcm.subscribe("LAGRANGE_BENCH_LOOPBACK", &Counter::On, &counter);
-  for (int i = 0; i < 20 && received == 0; ++i) {
-    const char byte = 1;
-    lcm.publish("LAGRANGE_BENCH_LOOPBACK", &byte, 1);
-    lcm.handleTimeout(50);
-  }
-  if (received > 0) return "";
-  return "LCM multicast does not loop back; as root: ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo";
-}
-
-// ---- the bare timer loop ------------------------------------------------------
-
-struct BareWake {
-  std::int64_t wall_us;  // wall clock at the wake, µs since the Unix epoch
-  Nanoseconds latency;
-};
-
-// How a bare loop's thread is set up.
-struct ThreadSetup {
-  unsigned long timer_slack_ns = 0;  // > 0: PR_SET_TIMERSLACK
-  int fifo_priority = 0;             // > 0: SCHED_FIFO at this priority
-  int cpu = -1;                      // >= 0: pinned to this CPU
-};
-
-void ApplyToThisThread(const ThreadSetup& setup) {
-  if (setup.cpu >= 0) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(setup.cpu, &set);
-    if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) != 0) std::cerr << "loop_bench: cannot pin\n";
-  }
-  if (setup.timer_slack_ns > 0) prctl(PR_SET_TIMERSLACK, setup.timer_slack_ns, 0, 0, 0);
-  if (setup.fifo_priority > 0) {
-    sched_param param{};
-    param.sched_priority = setup.fifo_priority;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      std::cerr << "loop_bench: SCHED_FIFO not permitted for the bare loop\n";
-    }
-  }
-}
-
-// Wake-ups of a 1 kHz absolute-deadline loop doing nothing, on this thread set
-// up by `setup`, until `ticks` wakes or `stop`.
-std::vector<BareWake> BareLoop(std::int64_t ticks, const std::atomic<bool>& stop, const ThreadSetup& setup = {}) {
-  ApplyToThisThread(setup);
-  MonotonicClock clock;
-  LoopTimer timer(clock, LoopTimerOptions{});
-  std::vector<BareWake> wakes;
-  wakes.reserve(static_cast<std::size_t>(ticks));
-  timer.Start();
-  while (static_cast<std::int64_t>(wakes.size()) < ticks && !stop.load(std::memory_order_relaxed)) {
-    const Nanoseconds latency = timer.WaitForNextTick().latency;
-    wakes.push_back({clock.WallMicros(), latency});
-  }
-  return wakes;
-}
-
 // ---- the setpoint prober --------------------------------------------------------
 
 // Sends arm setpoints on one LCM and matches them in ARM_STATE on another.
@@ -163,6 +110,7 @@ class SetpointProbe {
  public:
   SetpointProbe(const std::string& url) : in_(url), out_(url) {
     in_.subscribe("ARM_STATE", &SetpointProbe::OnState, this);
+    in_.subscribe("LAGRANGE_STATUS", &SetpointProbe::OnStatus, this);
   }
 
   // Handles ARM_STATE until `stop`.
@@ -174,15 +122,19 @@ class SetpointProbe {
 
   std::int64_t states() const { return states_.load(); }
   std::int64_t gaps() const { return gaps_; }
+  std::int64_t run_id() const { return run_id_.load(); }
+  // Ticks the daemon ran, from the latest status (its final one once it exited).
+  std::int64_t ticks_run() const { return ticks_run_.load(); }
   // (sent, latency ns) of every setpoint; latency < 0: never seen in a state.
   std::vector<std::pair<std::int64_t, std::int64_t>> results() const;
 
  private:
   static double Value(std::int64_t k) { return std::numbers::pi / 4 + 1e-4 * static_cast<double>(k); }  // rad
   void OnState(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void OnStatus(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
 
   lcm::LCM in_, out_;
-  std::atomic<std::int64_t> states_{0};
+  std::atomic<std::int64_t> states_{0}, run_id_{0}, ticks_run_{0};
   std::int64_t gaps_ = 0, last_tick_ = -1;
   mutable std::mutex mutex_;
   std::int64_t pending_ = -1;                  // the setpoint not yet seen in a state
@@ -217,6 +169,7 @@ void SetpointProbe::OnState(const lcm::ReceiveBuffer* rbuf, const std::string&) 
   state_t s;
   if (s.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
   states_.fetch_add(1);
+  run_id_.store(s.run_id);
   if (last_tick_ >= 0 && s.tick != last_tick_ + 1) ++gaps_;
   last_tick_ = s.tick;
   std::lock_guard<std::mutex> lock(mutex_);
@@ -226,53 +179,17 @@ void SetpointProbe::OnState(const lcm::ReceiveBuffer* rbuf, const std::string&) 
   }
 }
 
+void SetpointProbe::OnStatus(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  status_t s;
+  if (s.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+  ticks_run_.store(std::max(ticks_run_.load(), s.ticks));
+}
+
 std::vector<std::pair<std::int64_t, std::int64_t>> SetpointProbe::results() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<std::pair<std::int64_t, std::int64_t>> r;
   for (std::size_t k = 0; k < sent_.size(); ++k) r.emplace_back(sent_[k], latency_[k]);
   return r;
-}
-
-// ---- the daemon process ---------------------------------------------------------
-
-// Starts argv[0] with its output in `log`; returns its pid.
-pid_t Spawn(const std::vector<std::string>& argv, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  dup2(fd, STDOUT_FILENO);
-  dup2(fd, STDERR_FILENO);
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  execv(args[0], args.data());
-  _exit(127);
-}
-
-struct Exit {
-  int status = -1;   // exit code, 128 + signal, or -1 if it had to be killed
-  double cpu = 0.0;  // s, user + system over the whole run
-};
-
-// Waits up to `timeout_s` for `pid`, then kills it.
-Exit WaitExit(pid_t pid, double timeout_s) {
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-  int status = 0;
-  rusage usage{};
-  pid_t done = 0;
-  while ((done = wait4(pid, &status, WNOHANG, &usage)) == 0 && Clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  Exit e;
-  if (done == 0) {
-    kill(pid, SIGKILL);
-    wait4(pid, &status, 0, &usage);
-  } else {
-    e.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  e.cpu = seconds(usage.ru_utime) + seconds(usage.ru_stime);
-  return e;
 }
 
 // ---- the run --------------------------------------------------------------------------
@@ -290,25 +207,23 @@ Snapshot Take(pid_t pid) {
           ThreadCpuSeconds(pid), ReadMachineCpu()};
 }
 
-std::string LoadAverage() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  in >> one >> five >> fifteen;
-  return one + " " + five + " " + fifteen;
-}
-
 struct Measured {
-  std::vector<BareWake> bare_alone, bare_slack, bare_concurrent;
   Snapshot a, b;
-  Exit exit;
+  Exit exit, cyclictest, logger;
+  bool logger_ready = false;
+  std::map<std::string, std::vector<std::int64_t>> logged;  // channel => ticks lcm-logger recorded
   double wall = 0.0;  // s, spawn to exit
   std::string load_before, load_after;
   std::vector<std::pair<std::string, double>> top;
   std::map<pid_t, std::map<std::string, int>> thread_states;  // tid => (state => times seen)
+  std::map<pid_t, std::string> thread_names;
 };
 
 void SampleThreadStates(pid_t pid, Measured& m) {
-  for (const auto& [tid, cpu] : ThreadCpuSeconds(pid)) ++m.thread_states[tid][ThreadState(pid, tid)];
+  for (const auto& [tid, cpu] : ThreadCpuSeconds(pid)) {
+    ++m.thread_states[tid][ThreadState(pid, tid)];
+    if (m.thread_names[tid].empty()) m.thread_names[tid] = ThreadName(pid, tid);
+  }
 }
 
 // The system call a thread was seen blocked in most often ("running" if never blocked).
@@ -353,10 +268,18 @@ void Observe(const Options& o, pid_t pid, Measured& m) {
   m.top = tracker.Top(8);
 }
 
-int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Measured& m) {
-  std::vector<std::string> argv = {o.lagranged, "--lcm-url", url, "--duration", std::to_string(o.duration),
-                                   "--timing-csv", o.File("loop_ticks").string(), "--log-level", "warn"};
+std::vector<std::string> DaemonArgs(const Options& o, const std::string& url) {
+  std::vector<std::string> argv = {o.lagranged, "--lcm-url", url, "--log-level", "warn"};
   if (!o.config.empty()) argv.insert(argv.end(), {"--config", o.config});
+  return argv;
+}
+
+int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Measured& m) {
+  LcmLogger logger(url, kLoggedChannels, o.File("loop_states", ".lcmlog"), o.File("lcm_logger", ".log"));
+  m.logger_ready = logger.AwaitReady();
+  if (!m.logger_ready) std::cerr << "loop_bench: lcm-logger did not start; no delivery figure\n";
+  std::vector<std::string> argv = DaemonArgs(o, url);
+  argv.insert(argv.end(), {"--duration", std::to_string(o.duration), "--timing-csv", o.File("loop_ticks").string()});
   if (o.rt_priority > 0) argv.insert(argv.end(), {"--mlockall", "--rt-priority", std::to_string(o.rt_priority)});
   if (o.cpu >= 0) argv.insert(argv.end(), {"--cpu", std::to_string(o.cpu)});
   m.load_before = LoadAverage();
@@ -371,10 +294,10 @@ int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Me
     WaitExit(pid, 1.0);
     return 1;
   }
-  std::atomic<bool> stop_bare{false}, stop_send{false};
-  const ThreadSetup bare_setup{.fifo_priority = o.rt_priority > 0 ? o.rt_priority + 1 : 0, .cpu = o.cpu};
-  const std::int64_t bare_ticks = std::llround((o.duration - 1.5) * 1000.0);
-  std::thread bare([&] { m.bare_concurrent = BareLoop(bare_ticks, stop_bare, bare_setup); });
+  // cyclictest ends before the daemon does (whole seconds, -D).
+  const pid_t cyclictest =
+      StartCyclictest(o, "concurrent", std::max(1, static_cast<int>(std::floor(o.duration - 2.0))), true);
+  std::atomic<bool> stop_send{false};
   std::thread send([&] { probe.Send(stop_send); });
   Observe(o, pid, m);
   stop_send = true;  // 1 s before the daemon's end: every setpoint sent can still show in a state
@@ -382,23 +305,50 @@ int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Me
   m.exit = WaitExit(pid, 30.0);
   m.wall = std::chrono::duration<double>(Clock::now() - spawned).count();
   m.load_after = LoadAverage();
+  m.cyclictest = WaitExit(cyclictest, 10.0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the final status reaches the logger and the probe
   stop = true;
-  stop_bare = true;
-  bare.join();
   receive.join();
+  m.logger = logger.Stop();
+  m.logged = ReadStateTicks(o.File("loop_states", ".lcmlog"), kLoggedStates, probe.run_id());
+  fs::remove(o.File("loop_states", ".lcmlog"));
+  if (m.cyclictest.status != 0) std::cerr << "loop_bench: cyclictest ended with " << DescribeExit(m.cyclictest.status) << "\n";
   return m.exit.status == 0 ? 0 : 1;
 }
 
-// ---- output -----------------------------------------------------------------------------
+// ---- SIGTERM to exit ----------------------------------------------------------------------
 
-void WriteBare(const fs::path& path, const Measured& m) {
-  std::ofstream csv(path);
-  csv << "phase,wall_us,latency_ns\n";
-  for (const auto& [phase, wakes] : {std::pair{"alone", &m.bare_alone}, std::pair{"concurrent", &m.bare_concurrent},
-                                     std::pair{"alone-slack-1ns", &m.bare_slack}}) {
-    for (const BareWake& w : *wakes) csv << phase << ',' << w.wall_us << ',' << w.latency << '\n';
+struct Shutdown {
+  double exit_ms = -1.0;  // SIGTERM sent → the process gone (its pidfd readable); < 0: not measured
+  int status = -1;
+};
+
+// Starts the daemon, waits for its first state and 0.3 s more, sends SIGTERM
+// and times it until it has exited.
+Shutdown TimeSigterm(const Options& o, const std::string& url, int run) {
+  std::unique_ptr<Bus> bus = OpenBus(url);
+  std::atomic<bool> seen{false};
+  bus->Subscribe("ARM_STATE", [&](std::string_view, const std::uint8_t*, std::size_t) { seen = true; });
+  const pid_t pid = Spawn(DaemonArgs(o, url), o.File("lagranged_sigterm_" + std::to_string(run), ".log"));
+  const auto deadline = Clock::now() + std::chrono::seconds(20);
+  while (!seen && Clock::now() < deadline && waitpid(pid, nullptr, WNOHANG) == 0) bus->Handle(20);
+  Shutdown s;
+  if (!seen) {
+    s.status = WaitExit(pid, 0.1).status;
+    return s;
   }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
+  const std::int64_t sent = MonotonicNs();
+  kill(pid, SIGTERM);
+  pollfd p{pidfd, POLLIN, 0};
+  if (pidfd >= 0 && poll(&p, 1, 10'000) == 1) s.exit_ms = 1e-6 * static_cast<double>(MonotonicNs() - sent);
+  if (pidfd >= 0) close(pidfd);
+  s.status = WaitExit(pid, 1.0).status;
+  return s;
 }
+
+// ---- output -----------------------------------------------------------------------------
 
 void WriteSetpoints(const fs::path& path, const SetpointProbe& probe) {
   std::ofstream csv(path);
@@ -409,13 +359,15 @@ void WriteSetpoints(const fs::path& path, const SetpointProbe& probe) {
 
 void WriteThreads(const fs::path& path, const Measured& m) {
   std::ofstream csv(path);
-  csv << "thread,tid,usually_in,cpu_s,percent_of_one_core\n";
+  csv << "thread,tid,name,usually_in,cpu_s,percent_of_one_core\n";
   const double window = m.b.t - m.a.t;
   int index = 0;
   for (const auto& [tid, after] : m.b.threads) {
     const auto it = m.a.threads.find(tid);
     const double used = after - (it == m.a.threads.end() ? 0.0 : it->second);
-    csv << index++ << ',' << tid << ',' << UsualState(m, tid) << ',' << used << ',' << 100.0 * used / window << '\n';
+    const auto name = m.thread_names.find(tid);
+    csv << index++ << ',' << tid << ",\"" << (name == m.thread_names.end() ? "" : name->second) << "\","
+        << UsualState(m, tid) << ',' << used << ',' << 100.0 * used / window << '\n';
   }
 }
 
@@ -424,6 +376,14 @@ void WriteNoise(const fs::path& path, const Measured& m) {
   csv << "process,cpu_s,percent_of_one_core\n";
   const double window = m.b.t - m.a.t + 2.0;  // the tracker started at the first state
   for (const auto& [name, s] : m.top) csv << '"' << name << "\"," << s << ',' << 100.0 * s / window << '\n';
+}
+
+// Ticks missing from `ticks` in [0, run): never logged (or logged twice: counted as extra).
+std::int64_t Missing(std::vector<std::int64_t> ticks, std::int64_t run) {
+  std::sort(ticks.begin(), ticks.end());
+  ticks.erase(std::unique(ticks.begin(), ticks.end()), ticks.end());
+  const auto in_run = std::count_if(ticks.begin(), ticks.end(), [&](std::int64_t t) { return t >= 0 && t < run; });
+  return run - in_run;
 }
 
 void WriteSummary(const fs::path& path, const Options& o, const Measured& m, const SetpointProbe& probe) {
@@ -446,24 +406,36 @@ void WriteSummary(const fs::path& path, const Options& o, const Measured& m, con
       << "load_average_after,\"" << m.load_after << "\"\n"
       << "arm_states_received," << probe.states() << '\n'
       << "arm_state_tick_gaps," << probe.gaps() << '\n'
-      << "bare_alone_s," << o.bare_alone << '\n'
+      << "ticks_run," << probe.ticks_run() << '\n'
+      << "logger_ready," << (m.logger_ready ? 1 : 0) << '\n'
+      << "logger_exit,\"" << DescribeExit(m.logger.status) << "\"\n";
+  for (const auto& [channel, ticks] : m.logged) {
+    csv << "logger_states_" << channel << ',' << ticks.size() << '\n'
+        << "logger_missing_" << channel << ',' << Missing(ticks, probe.ticks_run()) << '\n';
+  }
+  csv << "cyclictest_exit,\"" << DescribeExit(m.cyclictest.status) << "\"\n"
+      << "alone_s," << o.alone << '\n'
       << "rt_priority," << o.rt_priority << '\n'
       << "cpu," << o.cpu << '\n';
 }
 
 int Main(int argc, char** argv) {
   Options o;
-  CLI::App app{"loop_bench: lagranged on a scene beside a bare timer loop, with setpoint round trips"};
+  CLI::App app{"loop_bench: lagranged on a scene beside cyclictest, with setpoint round trips and lcm-logger"};
   app.add_option("--lagranged", o.lagranged, "The daemon to run")->required()->check(CLI::ExistingFile);
   app.add_option("--config", o.config, "Scene (default: the daemon's default scene)");
   app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
   app.add_option("--port", o.port, "Private LCM port on udpm://239.255.76.67")->capture_default_str();
   app.add_option("--duration", o.duration, "Seconds of daemon ticks")->check(CLI::Range(5.0, 3600.0))->capture_default_str();
-  app.add_option("--bare-alone", o.bare_alone, "Seconds of the bare loop alone, before the daemon")->capture_default_str();
+  app.add_option("--alone", o.alone,
+                 "Seconds of cyclictest alone before the daemon, twice: default timer slack, then 1 ns (0: none)")
+      ->capture_default_str();
   app.add_option("--rt-priority", o.rt_priority,
-                 "SCHED_FIFO priority for the daemon's tick (with --mlockall); the bare loop gets one more")
+                 "SCHED_FIFO priority for the daemon's tick (with --mlockall); cyclictest gets one more")
       ->check(CLI::Range(1, 98));
-  app.add_option("--cpu", o.cpu, "Pin the daemon's tick thread and the bare loop to this CPU")->check(CLI::NonNegativeNumber);
+  app.add_option("--cpu", o.cpu, "Pin the daemon's tick thread and cyclictest to this CPU")->check(CLI::NonNegativeNumber);
+  app.add_option("--sigterm-runs", o.sigterm_runs, "Afterwards, time SIGTERM to exit over this many daemon starts")
+      ->check(CLI::Range(0, 1000));
   app.add_option("--tag", o.tag, "Appended to every output file name");
   CLI11_PARSE(app, argc, argv);
   fs::create_directories(o.out);
@@ -472,20 +444,27 @@ int Main(int argc, char** argv) {
     std::cerr << "loop_bench: " << problem << "\n";
     return 1;
   }
-  Measured m;
-  const std::atomic<bool> never{false};
-  if (o.bare_alone > 0.0) {
-    m.bare_alone = BareLoop(std::llround(o.bare_alone * 1000.0), never);
-    std::thread slack([&] { m.bare_slack = BareLoop(std::llround(o.bare_alone * 1000.0), never, {.timer_slack_ns = 1}); });
-    slack.join();
+  if (o.alone > 0.0) {
+    RunCyclictestAlone(o, "alone");
+    RunCyclictestAlone(o, "alone-slack-1ns", 1);
   }
+  Measured m;
   SetpointProbe probe(url);
-  const int status = RunDaemon(o, url, probe, m);
-  WriteBare(o.File("bare_loop"), m);
+  int status = RunDaemon(o, url, probe, m);
   WriteSetpoints(o.File("setpoint_latency"), probe);
   WriteThreads(o.File("loop_threads"), m);
   WriteNoise(o.File("loop_noise"), m);
   WriteSummary(o.File("loop_summary"), o, m, probe);
+  if (o.sigterm_runs > 0) {
+    std::ofstream csv(o.File("sigterm"));
+    csv << "run,exit_ms,exit_status\n";
+    for (int run = 0; run < o.sigterm_runs; ++run) {
+      const Shutdown s = TimeSigterm(o, url, run);
+      csv << run << ',' << s.exit_ms << ',' << s.status << '\n';
+      if (s.exit_ms < 0.0 || s.status != 0) status = 1;
+      if (s.status == 0) fs::remove(o.File("lagranged_sigterm_" + std::to_string(run), ".log"));
+    }
+  }
   return status;
 }
 

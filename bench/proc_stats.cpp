@@ -46,6 +46,27 @@ bool IsNumber(const std::string& s) {
 
 double ProcessCpuSeconds(pid_t pid) { return ReadStat(fs::path("/proc") / std::to_string(pid) / "stat").seconds; }
 
+std::string ThreadName(pid_t pid, pid_t tid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/task/" + std::to_string(tid) + "/comm");
+  std::string name;
+  std::getline(in, name);
+  return name;
+}
+
+long VmRssKiB(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  while (in >> key) {
+    if (key == "VmRSS:") {
+      long kib = -1;
+      in >> kib;
+      return kib;
+    }
+    in.ignore(4096, '\n');
+  }
+  return -1;
+}
+
 std::map<pid_t, double> ThreadCpuSeconds(pid_t pid) {
   std::map<pid_t, double> threads;
   std::error_code ec;

@@ -17,6 +17,12 @@ double ProcessCpuSeconds(pid_t pid);
 // The threads of `pid` (ids ascending, i.e. in creation order) and their CPU, s.
 std::map<pid_t, double> ThreadCpuSeconds(pid_t pid);
 
+// VmRSS of `pid`, KiB (/proc/<pid>/status); -1 when it cannot be read (the process is gone).
+long VmRssKiB(pid_t pid);
+
+// A thread's name (/proc/<pid>/task/<tid>/comm, as pthread_setname_np set it); "" when gone.
+std::string ThreadName(pid_t pid, pid_t tid);
+
 // Where a thread is now: the name of the system call it is blocked in
 // ("clock_nanosleep", "poll", ...), "running", or the call's number.
 std::string ThreadState(pid_t pid, pid_t tid);

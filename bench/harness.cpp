@@ -1,0 +1,173 @@
+#include "bench/harness.hpp"
+
+#include <fcntl.h>
+#include <lagrange/state_t.hpp>
+#include <signal.h>
+#include <string.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <thread>
+
+#include "daemon/bus.hpp"
+
+namespace lagrange::bench {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::string Url(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
+
+std::int64_t MonotonicNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
+std::int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string CheckLoopback(const std::string& url) {
+  std::unique_ptr<Bus> in, out;
+  try {
+    in = OpenBus(url);
+    out = OpenBus(url);
+  } catch (const BusError& e) {
+    return e.what();
+  }
+  int received = 0;
+  in->Subscribe("LAGRANGE_BENCH_LOOPBACK", [&](std::string_view, const std::uint8_t*, std::size_t) { ++received; });
+  for (int i = 0; i < 20 && received == 0; ++i) {
+    const char byte = 1;
+    out->Publish("LAGRANGE_BENCH_LOOPBACK", &byte, 1);
+    in->Handle(50);
+  }
+  if (received > 0) return "";
+  return "LCM multicast does not loop back; as root: ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo";
+}
+
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string one, five, fifteen;
+  in >> one >> five >> fifteen;
+  return one + " " + five + " " + fifteen;
+}
+
+pid_t Spawn(const std::vector<std::string>& argv, const fs::path& log, unsigned long timer_slack_ns) {
+  // Everything the child needs is built before fork: the parent has threads.
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const std::string log_path = log.empty() ? "/dev/null" : log.string();
+  const pid_t pid = fork();
+  if (pid != 0) return pid;
+  const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  dup2(fd, STDOUT_FILENO);
+  dup2(fd, STDERR_FILENO);
+  if (timer_slack_ns > 0) prctl(PR_SET_TIMERSLACK, timer_slack_ns, 0, 0, 0);
+  execvp(args[0], args.data());
+  _exit(127);
+}
+
+Exit WaitExit(pid_t pid, double timeout_s) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  rusage usage{};
+  pid_t done = 0;
+  while ((done = wait4(pid, &status, WNOHANG, &usage)) == 0 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  Exit e;
+  if (done == 0) {
+    kill(pid, SIGKILL);
+    wait4(pid, &status, 0, &usage);
+  } else if (done == pid) {
+    e.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  e.cpu = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  return e;
+}
+
+std::string DescribeExit(int status) {
+  if (status < 0) return "killed (did not exit)";
+  if (status > 128) {
+    const char* name = sigabbrev_np(status - 128);
+    return "signal " + std::to_string(status - 128) + (name ? std::string(" (SIG") + name + ")" : "");
+  }
+  return "exit " + std::to_string(status);
+}
+
+// ---- lcm-logger -------------------------------------------------------------------
+
+namespace {
+constexpr const char* kMarkChannel = "LAGRANGE_BENCH_MARK";
+}
+
+LcmLogger::LcmLogger(const std::string& url, const std::string& channels, const fs::path& file, const fs::path& log)
+    : url_(url), file_(file) {
+  fs::remove(file);
+  pid_ = Spawn({"lcm-logger", "--quiet", "--force", "--lcm-url=" + url, "--channel=(" + channels + "|" + kMarkChannel + ")",
+                file.string()},
+               log);
+}
+
+LcmLogger::~LcmLogger() {
+  if (!stopped_) Stop();
+}
+
+bool LcmLogger::AwaitReady(double timeout_s) {
+  std::unique_ptr<Bus> bus = OpenBus(url_);
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (Clock::now() < deadline) {
+    if (waitpid(pid_, nullptr, WNOHANG) != 0) return false;
+    const char byte = 1;
+    bus->Publish(kMarkChannel, &byte, 1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    std::error_code error;
+    if (fs::file_size(file_, error) > 0 && !error) return true;
+  }
+  return false;
+}
+
+Exit LcmLogger::Stop() {
+  stopped_ = true;
+  kill(pid_, SIGINT);
+  return WaitExit(pid_, 5.0);
+}
+
+std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& file,
+                                                                const std::vector<std::string>& channels,
+                                                                std::int64_t run_id) {
+  std::map<std::string, std::vector<std::int64_t>> ticks;
+  for (const std::string& c : channels) ticks[c];
+  lcm::LogFile log(file.string(), "r");
+  if (!log.good()) return ticks;
+  state_t s;
+  while (const lcm::LogEvent* event = log.readNextEvent()) {
+    const auto it = ticks.find(event->channel);
+    if (it == ticks.end()) continue;
+    if (s.decode(event->data, 0, event->datalen) < 0) continue;
+    if (run_id != 0 && s.run_id != run_id) continue;
+    it->second.push_back(s.tick);
+  }
+  return ticks;
+}
+
+std::vector<std::string> CyclictestArgs(int seconds, const fs::path& json, int fifo_priority, int cpu, bool mlockall,
+                                        int histogram_us) {
+  std::vector<std::string> argv = {"cyclictest", "-t1", "-i1000", "-D" + std::to_string(seconds), "-q",
+                                   "-h" + std::to_string(histogram_us), "--histfile=/dev/null", "--default-system",
+                                   "--json=" + json.string()};
+  if (fifo_priority > 0) argv.push_back("-p" + std::to_string(fifo_priority));
+  if (cpu >= 0) argv.push_back("-a" + std::to_string(cpu));
+  if (mlockall) argv.push_back("-m");
+  return argv;
+}
+
+}  // namespace lagrange::bench
