@@ -1,6 +1,7 @@
 #include "tools/cli_support.hpp"
 
 #include <charconv>
+#include <cstdio>
 #include <vector>
 
 #include "plant/plant_spec.hpp"
@@ -27,6 +28,49 @@ VectorXd ParseNumberList(std::string_view option, std::string_view text, int exp
                      std::to_string(values.size()));
   }
   return Eigen::Map<const VectorXd>(values.data(), static_cast<int>(values.size()));
+}
+
+namespace {
+
+CLI::Validator NumberCheck(std::string description, bool (*ok)(double, double), double max, std::string expected) {
+  return CLI::Validator(
+      [ok, max, expected](std::string& text) -> std::string {
+        const std::optional<double> v = ParseFiniteNumber(text);
+        if (!v || !ok(*v, max)) return "expected " + expected + ", got '" + text + "'";
+        return "";
+      },
+      std::move(description));
+}
+
+}  // namespace
+
+CLI::Validator FiniteNumber() {
+  return NumberCheck("NUMBER", [](double, double) { return true; }, 0.0, "comma-separated finite numbers");
+}
+
+CLI::Validator NonNegativeNumber() {
+  return NumberCheck("NUMBER >= 0", [](double v, double) { return v >= 0.0; }, 0.0, "finite numbers >= 0");
+}
+
+CLI::Validator PositiveNumber(double max) {
+  return NumberCheck("NUMBER > 0", [](double v, double m) { return v > 0.0 && v <= m; }, max,
+                     max < 1e300 ? "a number in (0, " + FormatDouble(max) + "]" : std::string("a positive number"));
+}
+
+VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok) {
+  if (scalar_ok && values.size() == 1) return VectorXd::Constant(n, values[0]);
+  if (static_cast<int>(values.size()) != n) {
+    throw UsageError(std::string(option) + ": expected " + std::to_string(n) + (n == 1 ? " value" : " values") +
+                     (scalar_ok && n > 1 ? " (one for every joint, or one per joint)" : " (one per joint)") + ", got " +
+                     std::to_string(values.size()));
+  }
+  return Eigen::Map<const VectorXd>(values.data(), n);
+}
+
+std::string RunIdText(std::int64_t id) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(static_cast<std::uint64_t>(id)));
+  return buf;
 }
 
 std::string FormatDouble(double x) {

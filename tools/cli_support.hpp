@@ -2,10 +2,13 @@
 // Shared pieces of lagrangectl's commands: usage errors, strict number lists,
 // JSON and CSV number formatting.
 
+#include <CLI/CLI.hpp>
+#include <cstdint>
 #include <ostream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "plant/types.hpp"
 
@@ -19,6 +22,19 @@ class UsageError : public std::runtime_error {
 
 // "a,b,c" => (a, b, c): every item a finite number; `expected` > 0 checks the count.
 VectorXd ParseNumberList(std::string_view option, std::string_view text, int expected);
+
+// CLI11 validators, each with a message that names what was expected. Used
+// on every item of a ->delimiter(',') list.
+CLI::Validator FiniteNumber();          // any finite number
+CLI::Validator NonNegativeNumber();     // finite, >= 0
+CLI::Validator PositiveNumber(double max = 1e300);  // finite, in (0, max]
+
+// `values` (already validated finite) as one per joint: exactly `n`, or one
+// value for every joint when `scalar_ok`.
+VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok = false);
+
+// A run id or request id as lagrangectl prints it: 16 hex digits.
+std::string RunIdText(std::int64_t id);
 
 // Shortest text that reads back to the same double.
 std::string FormatDouble(double x);

@@ -1,110 +1,118 @@
 // lagrangectl command: switch controller, change gains, reset, pause, resume,
-// emergency stop and clear it; confirmed by the daemon's status.
+// emergency stop and clear it. Done only when lagranged says so: a reply_t
+// from the one run publishing the instance's state, carrying this command's
+// own request_id.
 
 #include <lagrange/command_t.hpp>
 
-#include "plant/plant_spec.hpp"
+#include "daemon/channels.hpp"
+#include "daemon/clock.hpp"
+#include "daemon/escape.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/lcm_client.hpp"
+#include "tools/daemon_link.hpp"
 
 namespace lagrange::cli {
 namespace {
 
-// "Kp=1,2,Kd=3,4" or "Kp=1,2 Kd=3,4" => (kp, kd).
-std::pair<VectorXd, VectorXd> ParseGains(const std::vector<std::string>& words, int n) {
-  std::string joined;
-  for (const std::string& w : words) joined += (joined.empty() ? "" : ",") + w;
-  std::string kp, kd, *current = nullptr;
-  std::size_t start = 0;
-  while (start <= joined.size()) {
-    const std::size_t comma = joined.find(',', start);
-    std::string item = joined.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    if (item.rfind("Kp=", 0) == 0 || item.rfind("kp=", 0) == 0) {
-      current = &kp;
-      item = item.substr(3);
-    } else if (item.rfind("Kd=", 0) == 0 || item.rfind("kd=", 0) == 0) {
-      current = &kd;
-      item = item.substr(3);
-    }
-    if (current == nullptr) throw UsageError("gains: expected Kp=a,b,.. Kd=c,d,.., got '" + joined + "'");
-    *current += (current->empty() ? "" : ",") + item;
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  if (kp.empty() || kd.empty()) throw UsageError("gains: expected both Kp=.. and Kd=.., got '" + joined + "'");
-  return {ParseNumberList("gains Kp", kp, n), ParseNumberList("gains Kd", kd, n)};
-}
+struct Action {
+  const char* verb;
+  std::int8_t code;
+  bool takes_name;  // controller NAME
+};
+
+constexpr Action kActions[] = {
+    {"controller", command_t::SWITCH_CONTROLLER, true}, {"gains", command_t::SET_GAINS, false},
+    {"reset", command_t::RESET, false},                 {"pause", command_t::PAUSE, false},
+    {"resume", command_t::RESUME, false},               {"estop", command_t::ESTOP, false},
+    {"clear", command_t::CLEAR_ESTOP, false}};
 
 class CommandCommand final : public Command {
  public:
   explicit CommandCommand(CLI::App& parent)
       : Command(parent.add_subcommand(
-            "command", "Command an instance: controller NAME | gains Kp=..,Kd=.. | reset | pause | resume | estop | clear")) {
+            "command", "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | resume | estop | clear")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
-    app_->add_option("action", action_, "controller NAME, gains Kp=..,Kd=.., reset, pause, resume, estop or clear")
+    app_->add_option("action", action_, "controller NAME, gains, reset, pause, resume, estop or clear")
         ->required()
         ->expected(1, -1);
+    app_->add_option("--kp", kp_, "gains: proportional gains, one for every joint or one per joint (a or a,b,..)")
+        ->delimiter(',')
+        ->allow_extra_args(false)
+        ->check(NonNegativeNumber());
+    app_->add_option("--kd", kd_, "gains: derivative gains, one for every joint or one per joint (a or a,b,..)")
+        ->delimiter(',')
+        ->allow_extra_args(false)
+        ->check(NonNegativeNumber());
     bus_.AddTo(*app_);
   }
 
   int Run(std::ostream& out, std::ostream&) override {
-    command_t c;
-    c.controller = "";
-    c.num_gains = 0;
-    const std::string& verb = action_[0];
-    const std::vector<std::string> args(action_.begin() + 1, action_.end());
-    static const std::pair<const char*, int8_t> kSimple[] = {
-        {"reset", command_t::RESET}, {"pause", command_t::PAUSE}, {"resume", command_t::RESUME},
-        {"estop", command_t::ESTOP}, {"clear", command_t::CLEAR_ESTOP}};
-    bool known = false;
-    for (const auto& [name, code] : kSimple) {
-      if (verb != name) continue;
-      if (!args.empty()) throw UsageError(verb + ": takes no arguments");
-      c.command = code;
-      known = true;
-    }
+    command_t c = Parse();
     DaemonLink link(bus_, instance_);
-    const int n = link.AwaitState().num_dofs;
-    if (verb == "controller") {
-      if (args.size() != 1) throw UsageError("controller: expected one controller name");
-      c.command = command_t::SWITCH_CONTROLLER;
-      c.controller = args[0];
-      known = true;
-    } else if (verb == "gains") {
-      const auto [kp, kd] = ParseGains(args, n);
-      c.command = command_t::SET_GAINS;
+    const std::int64_t run = link.AwaitOneRun();
+    if (c.command == command_t::SET_GAINS) {
+      const int n = link.state().num_dofs;
+      const VectorXd kp = JointValues("--kp", kp_, n, true);
+      const VectorXd kd = JointValues("--kd", kd_, n, true);
       c.num_gains = n;
       c.kp.assign(kp.data(), kp.data() + n);
       c.kd.assign(kd.data(), kd.data() + n);
-      known = true;
     }
-    if (!known) {
-      throw UsageError("unknown action '" + verb + "' (expected controller, gains, reset, pause, resume, estop or clear)");
+    c.request_id = NewRequestId();
+    link.ExpectReply(c.request_id);
+    c.utime = MonotonicClock().WallMicros();
+    if (!link.bus().PublishMessage(bus_.Channel(instance_, kCommandSuffix), c)) {
+      throw std::runtime_error("could not send the command on " + bus_.Channel(instance_, kCommandSuffix));
     }
-    const status_t before = link.AwaitStatus();
-    c.utime = WallMicros();
-    link.lcm().publish(bus_.Channel(instance_, "_COMMAND"), &c);
-    const bool answered = link.PumpUntil(
-        [&] {
-          const status_t& s = *link.status();
-          return s.commands_accepted > before.commands_accepted || s.commands_rejected > before.commands_rejected;
-        },
-        bus_.wait);
-    if (!answered) throw std::runtime_error("no answer from lagranged within " + FormatDouble(bus_.wait) + " s");
-    const status_t& after = *link.status();
-    if (after.commands_rejected > before.commands_rejected) throw std::runtime_error(after.last_command_error);
-    link.PumpUntil([&] { return link.state()->utime > after.utime; }, 0.5);
-    static const char* kModes[] = {"running", "hold", "fault", "paused", "estop"};
-    const state_t& s = *link.state();
-    out << instance_ << ": " << verb << (args.empty() || verb == "gains" ? "" : " " + args[0]) << " done; now "
-        << (s.mode >= 0 && s.mode < 5 ? kModes[s.mode] : "?") << " with " << s.controller << "\n";
+    if (!link.PumpUntil([&] { return link.reply().has_value(); }, bus_.wait)) {
+      throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " + FormatDouble(bus_.wait) +
+                               " s");
+    }
+    link.RequireOneRun("refusing to trust the verdict");
+    const reply_t& reply = *link.reply();
+    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason));
+    // The tick applied it before the reply went out: the next state shows the result.
+    const auto replied = std::chrono::steady_clock::now();
+    link.PumpUntil([&] { return link.state_received_at() > replied; }, 0.5);
+    const state_t& s = link.state();
+    out << instance_ << ": " << action_[0] << (action_[0] == "controller" ? " " + Escape(action_[1]) : "")
+        << " done; now " << ModeName(s.mode) << " with " << Escape(s.controller) << "\n";
     return 0;
   }
 
  private:
+  // The command from the arguments, before anything goes on the bus (gains
+  // are sized once the instance's num_dofs is known).
+  command_t Parse() const {
+    const std::string& verb = action_[0];
+    const Action* action = nullptr;
+    for (const Action& a : kActions) action = verb == a.verb ? &a : action;
+    if (!action) {
+      throw UsageError("unknown action '" + verb + "' (expected controller, gains, reset, pause, resume, estop or clear)");
+    }
+    const std::size_t args = action_.size() - 1;
+    if (action->takes_name && args != 1) throw UsageError("controller: expected one controller name");
+    if (!action->takes_name && args != 0) {
+      if (verb == "gains") {
+        throw UsageError("gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
+                         action_[1] + "'");
+      }
+      throw UsageError(verb + ": takes no arguments");
+    }
+    const bool gains = action->code == command_t::SET_GAINS;
+    if (gains && (kp_.empty() || kd_.empty())) throw UsageError("gains: needs both --kp and --kd");
+    if (!gains && (!kp_.empty() || !kd_.empty())) throw UsageError("--kp, --kd: only for gains");
+    command_t c;
+    c.command = action->code;
+    c.controller = action->takes_name ? action_[1] : "";
+    c.num_gains = 0;
+    return c;
+  }
+
   std::string instance_;
   std::vector<std::string> action_;
+  std::vector<double> kp_, kd_;
   BusOptions bus_;
 };
 

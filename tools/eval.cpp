@@ -1,5 +1,6 @@
 // lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON.
 
+#include <algorithm>
 #include <sstream>
 
 #include "plant/plant_spec.hpp"
@@ -9,13 +10,48 @@
 namespace lagrange::cli {
 namespace {
 
+// "a,b,c" => {"a", "b", "c"}
+std::vector<std::string> SplitCommas(const std::string& text) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  for (std::size_t comma; (comma = text.find(',', start)) != std::string::npos; start = comma + 1) {
+    items.push_back(text.substr(start, comma - start));
+  }
+  items.push_back(text.substr(start));
+  return items;
+}
+
+// --param NAME=VALUE; for a chain, VALUE may be a comma-separated list with one value per link.
+void SetParam(PlantSpec& spec, const std::string& name, const std::string& value) {
+  if (spec.type() != PlantType::kChain || value.find(',') == std::string::npos) {
+    if (auto e = SetPlantParam(spec, name, value)) throw UsageError("--param " + e->key + ": " + e->message);
+    return;
+  }
+  if (name == "links" || name == "g" || name == "base_angle") {
+    throw UsageError("--param " + name + ": expected a single value, got '" + value + "'");
+  }
+  const std::vector<std::string> items = SplitCommas(value);
+  const int links = spec.num_dofs();
+  if (static_cast<int>(items.size()) != links) {
+    throw UsageError("--param " + name + ": expected " + std::to_string(links) + " values (one per link), got " +
+                     std::to_string(items.size()));
+  }
+  for (int i = 0; i < links; ++i) {
+    if (auto e = SetPlantParam(spec, name, items[static_cast<std::size_t>(i)], i)) {
+      throw UsageError("--param " + e->key + "[" + std::to_string(i) + "]: " + e->message);
+    }
+  }
+}
+
 class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
       : Command(parent.add_subcommand("eval", "Evaluate M, C, G, qdd, T and V at one state (JSON)")) {
     app_->add_option("--plant", plant_, "Plant type: " + PlantTypeNames())->required();
     app_->add_option("--links", links_, "Number of links (chain)");
-    app_->add_option("--param", params_, "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...)");
+    app_->add_option("--param", params_,
+                     "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...); a chain's m, L, com, I "
+                     "and joints (revolute|prismatic) take one value for every link or a list: m=1,0.8,0.5");
     app_->add_option("--q", q_, "Positions a,b,.. (rad or m)")->required();
     app_->add_option("--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
     app_->add_option("--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
@@ -30,12 +66,13 @@ class EvalCommand final : public Command {
       if (*type != PlantType::kChain) throw UsageError("--links: only a chain has links");
       if (auto e = SetChainLinks(spec, *links_)) throw UsageError("--links: " + e->message);
     }
-    for (const std::string& p : params_) {
+    // The chain's link count first, so per-link lists are checked against it (as a scene does).
+    std::vector<std::string> params = params_;
+    std::stable_partition(params.begin(), params.end(), [](const std::string& p) { return p.starts_with("links="); });
+    for (const std::string& p : params) {
       const std::size_t eq = p.find('=');
       if (eq == std::string::npos) throw UsageError("--param: expected NAME=VALUE, got '" + p + "'");
-      if (auto e = SetPlantParam(spec, p.substr(0, eq), p.substr(eq + 1))) {
-        throw UsageError("--param " + e->key + ": " + e->message);
-      }
+      SetParam(spec, p.substr(0, eq), p.substr(eq + 1));
     }
     if (auto e = ValidatePlantSpec(spec)) throw UsageError("--param " + e->key + ": " + e->message);
 

@@ -1,14 +1,56 @@
+#include <algorithm>
 #include <vector>
 
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
 namespace lagrange::cli {
+namespace {
+
+// Levenshtein distance: insertions, deletions and substitutions.
+std::size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// "unknown command 'evl'; did you mean 'eval'?" when the first argument names
+// no subcommand (empty when it does, or is an option).
+std::string UnknownCommand(const CLI::App& app, int argc, const char* const* argv) {
+  if (argc < 2 || argv[1][0] == '-') return "";
+  const std::string word = argv[1];
+  std::string best, names;
+  std::size_t best_distance = 3;  // suggest only a name within two edits
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    const std::string& name = sub->get_name();
+    if (name == word) return "";
+    names += (names.empty() ? "" : ", ") + name;
+    const std::size_t d = EditDistance(word, name);
+    if (d < best_distance && d < word.size()) {
+      best = name;
+      best_distance = d;
+    }
+  }
+  const std::string shown = word.size() > 40 ? word.substr(0, 40) + "..." : word;
+  return "unknown command '" + shown + "'" + (best.empty() ? " (expected one of " + names + ")" : "; did you mean '" + best + "'?");
+}
+
+}  // namespace
 
 int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CLI::App app{"lagrangectl: evaluate and simulate plants; send, command and watch lagranged; turn logs into CSV and plots"};
   app.name("lagrangectl");
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("lagrangectl ") + LAGRANGE_VERSION);
   std::vector<std::unique_ptr<Command>> commands;
   commands.push_back(MakeEvalCommand(app));
   commands.push_back(MakeSimulateCommand(app));
@@ -19,6 +61,10 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
   commands.push_back(MakePlotCommand(app));
 
   std::string where = "lagrangectl";
+  if (const std::string unknown = UnknownCommand(app, argc, argv); !unknown.empty()) {
+    err << where << ": " << unknown << "\n";
+    return 2;
+  }
   try {
     app.parse(argc, argv);
     for (const auto& command : commands) {
@@ -29,6 +75,9 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
     return 2;
   } catch (const CLI::CallForHelp&) {
     out << app.help();
+    return 0;
+  } catch (const CLI::CallForVersion& e) {
+    out << e.what() << "\n";
     return 0;
   } catch (const CLI::ParseError& e) {
     for (const auto& command : commands) {

@@ -2,6 +2,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 #include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -12,15 +13,26 @@
 #include <regex>
 #include <stdexcept>
 
+#include "daemon/escape.hpp"
+#include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 
 namespace lagrange::cli {
 namespace {
 
+// A string from the bus as one CSV field: control characters escaped (a
+// recorded message cannot break a line or reach a terminal), quotes doubled.
 std::string Quote(const std::string& s) {
   std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  for (char c : Escape(s)) q += c == '"' ? std::string("\"\"") : std::string(1, c);
   return q + "\"";
+}
+
+// Decodes a message only after its wire check: a recorded packet is as
+// untrusted as a live one.
+template <class Message>
+bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), const void* data, int size) {
+  return size >= 0 && check(data, static_cast<std::size_t>(size)) == WireCheck::kOk && m.decode(data, 0, size) == size;
 }
 
 void Columns(std::ostream& out, const char* name, int n) {
@@ -51,15 +63,16 @@ class StateWriter final : public Writer {
   const char* type() const override { return "state_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     state_t s;
-    if (s.decode(data, 0, size) < 0) return false;
+    if (!CheckedDecode(s, CheckStatePacket, data, size)) return false;
     if (n_ < 0) {
       n_ = s.num_dofs;
-      out << "log_utime,utime,tick,t,num_dofs";
+      out << "log_utime,utime,run_id,tick,t,num_dofs";
       for (const char* field : {"q", "qd", "qdd", "tau", "q_des", "qd_des"}) Columns(out, field, n_);
       out << ",kinetic_energy,potential_energy,controller,mode\n";
     }
     if (s.num_dofs != n_) return false;
-    out << log_utime << ',' << s.utime << ',' << s.tick << ',' << FormatDouble(s.t) << ',' << s.num_dofs;
+    out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.tick << ',' << FormatDouble(s.t) << ','
+        << s.num_dofs;
     for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) Values(out, *v);
     out << ',' << FormatDouble(s.kinetic_energy) << ',' << FormatDouble(s.potential_energy) << ',' << Quote(s.controller)
         << ',' << static_cast<int>(s.mode) << '\n';
@@ -75,7 +88,7 @@ class SetpointWriter final : public Writer {
   const char* type() const override { return "setpoint_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     setpoint_t s;
-    if (s.decode(data, 0, size) < 0) return false;
+    if (!CheckedDecode(s, CheckSetpointPacket, data, size)) return false;
     if (n_ < 0) {
       n_ = s.num_dofs;
       out << "log_utime,utime,num_dofs";
@@ -98,10 +111,10 @@ class CommandWriter final : public Writer {
   const char* type() const override { return "command_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     command_t c;
-    if (c.decode(data, 0, size) < 0) return false;
-    if (!header_) out << "log_utime,utime,command,controller,num_gains,kp,kd\n";
+    if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
+    if (!header_) out << "log_utime,utime,request_id,command,controller,num_gains,kp,kd\n";
     header_ = true;
-    out << log_utime << ',' << c.utime << ',' << static_cast<int>(c.command) << ',' << Quote(c.controller) << ','
+    out << log_utime << ',' << c.utime << ',' << RunIdText(c.request_id) << ',' << static_cast<int>(c.command) << ',' << Quote(c.controller) << ','
         << c.num_gains << ',' << Quote(Join(c.kp)) << ',' << Quote(Join(c.kd)) << '\n';
     return true;
   }
@@ -115,20 +128,22 @@ class StatusWriter final : public Writer {
   const char* type() const override { return "status_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     status_t s;
-    if (s.decode(data, 0, size) < 0) return false;
+    if (!CheckedDecode(s, CheckStatusPacket, data, size)) return false;
     if (!header_) {
-      out << "log_utime,utime,ticks,ticks_in_window,period,wake_latency_p50,wake_latency_p99,wake_latency_max,"
+      out << "log_utime,utime,run_id,ticks,ticks_in_window,period,wake_latency_p50,wake_latency_p99,wake_latency_max,"
              "compute_p50,compute_p99,compute_max,overruns,state_messages_dropped,setpoints_accepted,"
              "setpoints_rejected,last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
+             "datagrams_dropped_kernel,datagrams_malformed,fragments_dropped,foreign_messages,last_foreign_run_id,"
+             "replies_suppressed,"
              "instances\n";
     }
     header_ = true;
     std::string instances;
     for (int i = 0; i < s.num_instances; ++i) {
-      instances += (i ? ";" : "") + s.instance_names[static_cast<std::size_t>(i)] + "=" +
+      instances += (i ? ";" : "") + Escape(s.instance_names[static_cast<std::size_t>(i)]) + "=" +
                    std::to_string(s.instance_modes[static_cast<std::size_t>(i)]);
     }
-    out << log_utime << ',' << s.utime << ',' << s.ticks << ',' << s.ticks_in_window << ',' << FormatDouble(s.period);
+    out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.ticks << ',' << s.ticks_in_window << ',' << FormatDouble(s.period);
     for (double x : {s.wake_latency_p50, s.wake_latency_p99, s.wake_latency_max, s.compute_p50, s.compute_p99,
                      s.compute_max}) {
       out << ',' << FormatDouble(x);
@@ -136,7 +151,26 @@ class StatusWriter final : public Writer {
     out << ',' << s.overruns << ',' << s.state_messages_dropped << ',' << s.setpoints_accepted << ','
         << s.setpoints_rejected << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ','
         << s.commands_rejected << ',' << Quote(s.last_command_error) << ',' << s.decode_errors << ','
+        << s.datagrams_dropped_kernel << ',' << s.datagrams_malformed << ',' << s.fragments_dropped << ','
+        << s.foreign_messages << ',' << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ','
         << Quote(instances) << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
+class ReplyWriter final : public Writer {
+ public:
+  const char* type() const override { return "reply_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    reply_t r;
+    if (!CheckedDecode(r, CheckReplyPacket, data, size)) return false;
+    if (!header_) out << "log_utime,utime,run_id,request_id,command,accepted,reason\n";
+    header_ = true;
+    out << log_utime << ',' << r.utime << ',' << RunIdText(r.run_id) << ',' << RunIdText(r.request_id) << ','
+        << static_cast<int>(r.command) << ',' << (r.accepted ? 1 : 0) << ',' << Quote(r.reason) << '\n';
     return true;
   }
 
@@ -157,6 +191,7 @@ std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
   if (fingerprint == setpoint_t::getHash()) return std::make_unique<SetpointWriter>();
   if (fingerprint == command_t::getHash()) return std::make_unique<CommandWriter>();
   if (fingerprint == status_t::getHash()) return std::make_unique<StatusWriter>();
+  if (fingerprint == reply_t::getHash()) return std::make_unique<ReplyWriter>();
   return nullptr;
 }
 

@@ -5,6 +5,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -16,12 +18,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Runs python3 -c kPlotScript CSV PNG TITLE; returns (status, stderr).
+// Runs python3 -c kPlotScript CSV PNG TITLE; returns (status, its stdout and stderr together).
 std::pair<int, std::string> RunPlotScript(const std::string& csv, const std::string& png, const std::string& title) {
   int err_pipe[2];
   if (pipe(err_pipe) != 0) throw std::runtime_error("pipe failed");
   const pid_t pid = fork();
   if (pid == 0) {
+    dup2(err_pipe[1], STDOUT_FILENO);
     dup2(err_pipe[1], STDERR_FILENO);
     close(err_pipe[0]);
     // Debian's interpreter first: python3-matplotlib is installed for it, not for others on PATH.
@@ -46,10 +49,23 @@ std::string LastLine(const std::string& text) {
   return nl == std::string::npos ? s : s.substr(nl + 1);
 }
 
+// The script's summary, "N rows in K segments" (the last line that says so;
+// matplotlib may warn before it).
+std::string Summary(const std::string& output) {
+  static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
+  std::string found;
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    if (std::regex_match(line, kSummary)) found = line;
+  }
+  return found;
+}
+
 class PlotCommand final : public Command {
  public:
   explicit PlotCommand(CLI::App& parent)
-      : Command(parent.add_subcommand("plot", "Plot q against q_des, torques, energy and tracking error (PNG)")) {
+      : Command(parent.add_subcommand("plot", "Plot q against q_des, torques, energy and tracking error (PNG); "
+                                              "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
     app_->add_option("--channel", channel_, "For a log: the *_STATE channel to plot (default: the first one)");
@@ -84,7 +100,8 @@ class PlotCommand final : public Command {
       if (why.find("No module named") != std::string::npos) why = "plot needs python3-matplotlib: " + why;
       throw std::runtime_error(why.empty() ? "the plot script failed" : why);
     }
-    out << png << "\n";
+    const std::string summary = Summary(err);
+    out << png << (summary.empty() ? "" : ": " + summary) << "\n";
     return 0;
   }
 

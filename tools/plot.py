@@ -1,11 +1,12 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE`. The PNG records what it drew in its
-'lagrange:series' text chunk (JSON: source, rows, and per series its points,
-min and max), so a test can check the picture came from the data."""
+`python3 -c <this> CSV PNG TITLE`. A reset or restart (the simulated time
+t goes backwards, the tick does not follow on, or the run id changes) starts
+a new segment: the lines break there instead of drawing back to t = 0. On
+success it prints one line to stdout: "N rows in K segment(s)"."""
 import csv
-import json
+import math
 import re
 import sys
 
@@ -51,6 +52,29 @@ def indexed(header, pattern):
     return [name for _, name in sorted(found)]
 
 
+def segment_starts(columns, t, path):
+    """Rows that begin a new segment (row 0 always does)."""
+    tick = numbers(columns, "tick", path) if "tick" in columns else None
+    run = columns.get("run_id")
+    starts = [0]
+    for k in range(1, len(t)):
+        if (t[k] < t[k - 1] or (tick is not None and tick[k] != tick[k - 1] + 1)
+                or (run is not None and run[k] != run[k - 1])):
+            starts.append(k)
+    return starts
+
+
+def with_gaps(values, starts):
+    """values with a NaN before every segment but the first: matplotlib breaks the line there."""
+    out = []
+    bounds = starts + [len(values)]
+    for i in range(len(starts)):
+        if i:
+            out.append(math.nan)
+        out.extend(values[bounds[i]:bounds[i + 1]])
+    return out
+
+
 def main():
     if len(sys.argv) != 4:
         fail("usage: plot.py CSV PNG TITLE")
@@ -73,11 +97,11 @@ def main():
     import matplotlib.pyplot as plt
 
     t = numbers(columns, "t", path)
-    drawn = {}
+    starts = segment_starts(columns, t, path)
+    t_gapped = with_gaps(t, starts)
 
     def draw(axis, name, values, **style):
-        axis.plot(t, values, label=name, linewidth=1.2, **style)
-        drawn[name] = {"points": len(values), "min": min(values), "max": max(values)}
+        axis.plot(t_gapped, with_gaps(values, starts), label=name, linewidth=1.2, **style)
 
     fig, axes = plt.subplots(4, 1, sharex=True, figsize=(10, 11))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -109,11 +133,11 @@ def main():
         axis.legend(loc="upper right", fontsize="small", ncol=4)
     fig.suptitle(title)
     fig.tight_layout()
-    record = json.dumps({"source": path, "rows": len(t), "series": drawn}, sort_keys=True)
     try:
-        fig.savefig(png, dpi=80, metadata={"lagrange:series": record})
+        fig.savefig(png, dpi=80)
     except OSError as e:
         fail("cannot write %s: %s" % (png, e.strerror))
+    print("%d rows in %d segment%s" % (len(t), len(starts), "" if len(starts) == 1 else "s"))
 
 
 try:

@@ -1,10 +1,13 @@
 // lagrangectl simulate: run a scene offline and write one CSV row per step.
+// An instance that fails lagranged's health check (daemon/health.hpp) stops at
+// its last healthy row, with one line saying why, and the exit status is 1.
 
 #include <cmath>
 #include <fstream>
 #include <iostream>
 #include <memory>
 
+#include "daemon/health.hpp"
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
 #include "tools/cli_support.hpp"
@@ -36,6 +39,13 @@ void WriteRow(std::ostream& out, Instance& inst) {
     for (int i = 0; i < v->size(); ++i) out << ',' << FormatDouble((*v)[i]);
   }
   out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy()) << '\n';
+}
+
+// One line for a fault: which instance, when, why, and where its CSV stops.
+std::string FaultLine(Instance& inst, const OfflineFault& f) {
+  std::string line = "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
+  if (f.reason == kEnergyOutOfBound) line += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
+  return line + "; its CSV ends at t = " + FormatDouble(inst.t()) + " s, the last healthy step";
 }
 
 class SimulateCommand final : public Command {
@@ -76,18 +86,14 @@ class SimulateCommand final : public Command {
     for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i].num_dofs());
 
     const auto steps = static_cast<std::int64_t>(std::llround(*duration / scene.period));
-    const bool ok = RunOffline(instances, scene.period, steps,
-                               [&](std::size_t i, Instance& inst) { WriteRow(*streams[i], inst); });
+    const std::vector<OfflineFault> faults = RunOfflineChecked(
+        instances, scene.period, steps, [&](std::size_t i, Instance& inst) { WriteRow(*streams[i], inst); });
     for (auto& f : files) {
       f->flush();
       if (!*f) throw std::runtime_error("writing the CSV failed");
     }
-    if (!ok) {
-      err << "lagrangectl simulate: an instance faulted (non-finite state or torque, or its integrator failed); "
-             "its CSV ends there\n";
-      return 1;
-    }
-    return 0;
+    for (const OfflineFault& f : faults) err << FaultLine(instances[f.index], f) << "\n";
+    return faults.empty() ? 0 : 1;
   }
 
  private:

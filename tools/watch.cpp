@@ -1,4 +1,7 @@
-// lagrangectl watch: a live terminal view of every instance and the loop's timing.
+// lagrangectl watch: a live terminal view of every instance and the loop's
+// timing. Each daemon and instance is shown with its run id; one whose latest
+// message is older than kStale is marked STALE, and every string from the bus
+// is escaped.
 
 #include <poll.h>
 #include <termios.h>
@@ -6,23 +9,26 @@
 
 #include <cstdio>
 #include <map>
-#include <regex>
+#include <set>
 #include <sstream>
 
-#include "plant/plant_spec.hpp"
+#include "daemon/channels.hpp"
+#include "daemon/escape.hpp"
+#include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
+#include "tools/daemon_link.hpp"
 #include "tools/interrupt.hpp"
-#include "lcmtypes/subscribe.hpp"
-#include "tools/lcm_client.hpp"
 
 namespace lagrange::cli {
 namespace {
 
-const char* ModeName(int8_t mode) {
-  static const char* kModes[] = {"running", "hold", "fault", "paused", "estop"};
-  return mode >= 0 && mode < 5 ? kModes[mode] : "?";
-}
+using SteadyTime = std::chrono::steady_clock::time_point;
+
+constexpr double kStale = 0.5;                // s without a message: STALE (status is sent at 10 Hz, states at 1 kHz)
+constexpr std::size_t kMaxRunsShown = 4;      // run ids kept per channel
+constexpr std::size_t kMaxInstances = 64;     // instance channels subscribed from status names
+constexpr std::size_t kMaxInstanceName = 64;  // longer names in a status are not subscribed
 
 // Puts the terminal in non-canonical, no-echo mode while alive (only on a tty).
 class RawTerminal {
@@ -60,113 +66,210 @@ std::string F(double x, int precision = 4) {
   return buf;
 }
 
+double Age(SteadyTime received, SteadyTime now) { return std::chrono::duration<double>(now - received).count(); }
+
+// A scene's instance name ([a-z][a-z0-9_]*): only such names from a status are subscribed.
+bool PlausibleInstanceName(const std::string& name) {
+  if (name.empty() || name.size() > kMaxInstanceName || name[0] < 'a' || name[0] > 'z') return false;
+  for (char c : name) {
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  }
+  return true;
+}
+
+// The latest message of each run id on one channel (at most kMaxRunsShown runs).
+template <class Message>
+class ByRun {
+ public:
+  struct Entry {
+    Message message;
+    SteadyTime received;
+  };
+  void Add(Message&& message, SteadyTime now) {
+    auto it = entries_.find(message.run_id);
+    if (it == entries_.end()) {
+      if (entries_.size() >= kMaxRunsShown) {  // forget the run heard from least recently
+        auto oldest = entries_.begin();
+        for (auto e = entries_.begin(); e != entries_.end(); ++e) oldest = e->second.received < oldest->second.received ? e : oldest;
+        entries_.erase(oldest);
+      }
+      it = entries_.emplace(message.run_id, Entry{}).first;
+    }
+    it->second = Entry{std::move(message), now};
+  }
+  // Most recently heard first.
+  std::vector<const Entry*> Latest() const {
+    std::vector<const Entry*> v;
+    for (const auto& [id, e] : entries_) v.push_back(&e);
+    std::sort(v.begin(), v.end(), [](const Entry* a, const Entry* b) { return a->received > b->received; });
+    return v;
+  }
+  bool empty() const { return entries_.empty(); }
+
+ private:
+  std::map<std::int64_t, Entry> entries_;
+};
+
 class WatchCommand final : public Command {
  public:
   explicit WatchCommand(CLI::App& parent)
       : Command(parent.add_subcommand("watch", "Live view of every instance and the loop's timing (q or Ctrl-C quits)")) {
     app_->add_option("--instance", only_, "Show only these instances (repeatable)");
-    app_->add_option("--rate", rate_, "Refreshes per second")->capture_default_str();
-    app_->add_option("--frames", frames_, "Draw this many frames and exit (default: until q or Ctrl-C)");
+    app_->add_option("--rate", rate_, "Refreshes per second")->check(PositiveNumber(50.0))->capture_default_str();
+    app_->add_option("--frames", frames_, "Draw this many frames and exit (default: until q or Ctrl-C)")
+        ->check(CLI::PositiveNumber);
     app_->add_flag("--plain", plain_, "No screen clearing (the default when stdout is not a terminal)");
     bus_.AddTo(*app_);
   }
 
   int Run(std::ostream& out, std::ostream&) override {
-    const std::optional<double> rate = ParseFiniteNumber(rate_);
-    if (!rate || *rate <= 0.0 || *rate > 50.0) throw UsageError("--rate: expected refreshes per second in (0, 50], got '" + rate_ + "'");
-    if (frames_ && *frames_ < 1) throw UsageError("--frames: expected a whole number >= 1");
-    lcm::LCM lcm(bus_.Url());
-    if (!lcm.good()) throw std::runtime_error("cannot open LCM at " + bus_.Url());
-    Subscribe<&WatchCommand::OnState>(
-        lcm, std::regex_replace(bus_.channel_prefix, std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") + ".*_STATE", this);
-    Subscribe<&WatchCommand::OnStatus>(lcm, bus_.StatusChannel(), this);
+    bus_handle_ = bus_.Open();
+    bus_handle_->Subscribe(bus_.StatusChannel(),
+                           [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+    for (const std::string& name : only_) SubscribeInstance(name);
 
     // Wait for the daemon (and any instance asked for by name).
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(bus_.wait);
     auto ready = [&] {
-      if (!status_) return false;
+      if (statuses_.empty()) return false;
       for (const std::string& name : only_) {
-        if (!states_.count(bus_.Channel(name, "_STATE"))) return false;
+        if (instances_.at(name).empty()) return false;
       }
       return true;
     };
-    while (!ready() && std::chrono::steady_clock::now() < give_up) lcm.handleTimeout(10);
-    if (!status_) throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) + " s (no lagranged on " + bus_.Url() + "?)");
+    while (!ready() && std::chrono::steady_clock::now() < give_up) Handle(10);
+    if (statuses_.empty()) {
+      throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) +
+                               " s (no lagranged on " + bus_.Url() + "?)");
+    }
     for (const std::string& name : only_) {
-      if (!states_.count(bus_.Channel(name, "_STATE"))) {
-        throw std::runtime_error("no state from instance '" + name + "' on " + bus_.Channel(name, "_STATE") + " (unknown instance?)");
+      if (instances_.at(name).empty()) {
+        throw std::runtime_error("no state from instance '" + name + "' on " + bus_.Channel(name, kStateSuffix) +
+                                 " (unknown instance?)");
       }
     }
 
     CatchInterrupt();
     RawTerminal terminal;
     const bool clear = !plain_ && isatty(STDOUT_FILENO) == 1;
-    const auto period = std::chrono::duration<double>(1.0 / *rate);
+    const auto period = std::chrono::duration<double>(1.0 / rate_);
     for (int frame = 0; !frames_ || frame < *frames_; ++frame) {
       const auto next = std::chrono::steady_clock::now() + period;
       while (std::chrono::steady_clock::now() < next) {
-        lcm.handleTimeout(5);
+        Handle(5);
         if (Interrupted() || terminal.QuitPressed()) return 0;
       }
-      out << (clear ? "\x1b[H\x1b[2J" : "") << Frame() << (clear ? "" : "\n");
+      out << (clear ? "\x1b[H\x1b[2J" : "") << Frame(std::chrono::steady_clock::now()) << (clear ? "" : "\n");
       out.flush();
     }
     return 0;
   }
 
  private:
-  void OnState(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    state_t msg;
-    if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) >= 0) states_[channel] = std::move(msg);
-  }
-  void OnStatus(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-    status_t msg;
-    if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) >= 0) status_ = std::move(msg);
+  // Handles messages, then subscribes to instances a status named (never from inside a handler).
+  void Handle(int timeout_ms) {
+    bus_handle_->Handle(timeout_ms);
+    for (const auto* e : statuses_.Latest()) {
+      for (const std::string& name : e->message.instance_names) {
+        if (only_.empty() && !instances_.count(name) && instances_.size() < kMaxInstances && PlausibleInstanceName(name)) {
+          SubscribeInstance(name);
+        }
+      }
+    }
   }
 
-  std::string Frame() const {
-    std::ostringstream f;
-    const status_t& s = *status_;
-    f << "lagranged on " << bus_.Url() << "   ticks " << s.ticks << " at " << F(1.0 / s.period, 0) << " Hz   overruns "
-      << s.overruns << "   state drops " << s.state_messages_dropped << "\n";
+  void SubscribeInstance(const std::string& name) {
+    if (instances_.count(name)) return;
+    ByRun<state_t>* runs = &instances_[name];
+    bus_handle_->Subscribe(bus_.Channel(name, kStateSuffix), [runs](std::string_view, const std::uint8_t* d, std::size_t n) {
+      state_t msg;
+      if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n)) return;
+      runs->Add(std::move(msg), std::chrono::steady_clock::now());
+    });
+  }
+
+  void OnStatus(const std::uint8_t* data, std::size_t size) {
+    status_t msg;
+    if (CheckStatusPacket(data, size) != WireCheck::kOk || msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+      return;
+    }
+    statuses_.Add(std::move(msg), std::chrono::steady_clock::now());
+  }
+
+  void DaemonLines(std::ostream& f, const status_t& s, double age) const {
+    f << "lagranged run " << RunIdText(s.run_id) << " on " << Escape(bus_.Url()) << "   ";
+    if (age > kStale) f << "STALE: no status for " << F(age, 1) << " s (stopped?)   ";
+    f << "ticks " << s.ticks << " at " << F(s.period > 0.0 ? 1.0 / s.period : 0.0, 0) << " Hz   overruns " << s.overruns
+      << "   state drops " << s.state_messages_dropped << "\n";
     f << "wake latency us  p50 " << F(s.wake_latency_p50, 1) << "  p99 " << F(s.wake_latency_p99, 1) << "  max "
       << F(s.wake_latency_max, 1) << "    compute us  p50 " << F(s.compute_p50, 1) << "  p99 " << F(s.compute_p99, 1)
       << "  max " << F(s.compute_max, 1) << "\n";
     f << "setpoints " << s.setpoints_accepted << " accepted, " << s.setpoints_rejected << " rejected"
-      << (s.last_rejection.empty() ? "" : " (last: " + s.last_rejection + ")") << "\n";
+      << (s.last_rejection.empty() ? "" : " (last: " + Escape(s.last_rejection) + ")") << "\n";
     f << "commands  " << s.commands_accepted << " accepted, " << s.commands_rejected << " rejected"
-      << (s.last_command_error.empty() ? "" : " (last: " + s.last_command_error + ")") << "   decode errors "
+      << (s.last_command_error.empty() ? "" : " (last: " + Escape(s.last_command_error) + ")") << "   decode errors "
       << s.decode_errors << "\n";
-    for (const auto& [channel, st] : states_) {
-      if (!only_.empty()) {
-        bool wanted = false;
-        for (const std::string& name : only_) wanted = wanted || channel == bus_.Channel(name, "_STATE");
-        if (!wanted) continue;
-      }
-      std::string name = channel.substr(bus_.channel_prefix.size(), channel.size() - bus_.channel_prefix.size() - 6);
-      for (const std::string& n : s.instance_names) {
-        if (bus_.Channel(n, "_STATE") == channel) name = n;  // the scene's spelling
-      }
-      f << "\n" << name << "   " << ModeName(st.mode) << "   " << st.controller << "   t " << F(st.t, 3) << " s   T "
-        << F(st.kinetic_energy) << " J   V " << F(st.potential_energy) << " J   E "
-        << F(st.kinetic_energy + st.potential_energy) << " J\n";
+    f << "bus       kernel drops " << s.datagrams_dropped_kernel << "   malformed " << s.datagrams_malformed
+      << "   fragments dropped " << s.fragments_dropped << "   foreign messages " << s.foreign_messages
+      << (s.foreign_messages > 0 ? " (last from run " + RunIdText(s.last_foreign_run_id) + ")" : "")
+      << "   replies suppressed " << s.replies_suppressed << "\n";
+  }
+
+  void InstanceLines(std::ostream& f, const std::string& name, const ByRun<state_t>& runs, SteadyTime now) const {
+    const auto latest = runs.Latest();
+    std::vector<std::string> live;
+    for (const auto* e : latest) {
+      if (Age(e->received, now) <= kStale) live.push_back(RunIdText(e->message.run_id));
+    }
+    if (live.size() > 1) {
+      f << "\n" << bus_.Channel(name, kStateSuffix) << ": " << live.size() << " lagranged runs publish it (ids";
+      for (const std::string& id : live) f << " " << id;
+      f << "): which is which cannot be told\n";
+    }
+    for (const auto* e : latest) {
+      const state_t& st = e->message;
+      const double age = Age(e->received, now);
+      if (age > kStale && e != latest.front()) continue;  // an old run superseded by another
+      f << "\n" << Escape(name) << "   ";
+      if (age > kStale) f << "STALE (no state for " << F(age, 1) << " s; was " << ModeName(st.mode) << ")";
+      else f << ModeName(st.mode);
+      f << "   " << Escape(st.controller) << "   t " << F(st.t, 3) << " s   T " << F(st.kinetic_energy) << " J   V "
+        << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
+        << RunIdText(st.run_id) << "\n";
       f << "  joint          q        q_des          tau\n";
       for (int j = 0; j < st.num_dofs; ++j) {
         char line[128];
-        std::snprintf(line, sizeof line, "  %5d %10.4f   %10.4f   %10.4f\n", j, st.q[j], st.q_des[j], st.tau[j]);
+        std::snprintf(line, sizeof line, "  %5d %10.4f   %10.4f   %10.4f\n", j, st.q[static_cast<std::size_t>(j)],
+                      st.q_des[static_cast<std::size_t>(j)], st.tau[static_cast<std::size_t>(j)]);
         f << line;
       }
+    }
+  }
+
+  std::string Frame(SteadyTime now) const {
+    std::ostringstream f;
+    const auto statuses = statuses_.Latest();
+    for (const auto* e : statuses) {
+      const double age = Age(e->received, now);
+      if (age > kStale && e != statuses.front()) continue;  // a dead run after a restart: shown only while nothing newer speaks
+      DaemonLines(f, e->message, age);
+    }
+    for (const auto& [name, runs] : instances_) {
+      if (runs.empty()) continue;
+      if (!only_.empty() && std::find(only_.begin(), only_.end(), name) == only_.end()) continue;
+      InstanceLines(f, name, runs, now);
     }
     return f.str();
   }
 
   std::vector<std::string> only_;
-  std::string rate_ = "4";
+  double rate_ = 4.0;
   std::optional<int> frames_;
   bool plain_ = false;
   BusOptions bus_;
-  std::map<std::string, state_t> states_;
-  std::optional<status_t> status_;
+  std::unique_ptr<Bus> bus_handle_;
+  ByRun<status_t> statuses_;
+  std::map<std::string, ByRun<state_t>> instances_;  // by instance name; node-based, so handlers keep their pointer
 };
 
 }  // namespace

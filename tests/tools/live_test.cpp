@@ -1,15 +1,23 @@
 // lagrangectl send, command and watch against a running lagranged on a
-// private LCM port, including bad input to each.
+// private LCM port, including bad input to each; and against a fake
+// publisher with no daemon, which lagrangectl must not believe.
 
 #include <gtest/gtest.h>
+#include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
 #include <signal.h>
 
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <thread>
 
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
+#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {
@@ -17,6 +25,14 @@ namespace {
 using testing::BackgroundProcess;
 using testing::LcmCollector;
 using testing::RunCtl;
+
+// One line on stderr that names the command and contains `what`.
+void ExpectOneLine(const testing::CtlResult& r, const std::string& command, int status, const std::string& what) {
+  EXPECT_EQ(r.status, status) << r.err;
+  ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+  EXPECT_EQ(r.err.rfind("lagrangectl " + command + ": ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(what), std::string::npos) << "got: " << r.err << "expected: " << what;
+}
 
 class LiveDaemon : public ::testing::Test {
  protected:
@@ -45,14 +61,6 @@ class LiveDaemon : public ::testing::Test {
     EXPECT_FALSE(states.empty());
     return states.empty() ? state_t{} : states.back();
   }
-  // One line on stderr that names the command and contains `what`.
-  static void ExpectOneLine(const testing::CtlResult& r, const std::string& command, int status, const std::string& what) {
-    EXPECT_EQ(r.status, status) << r.err;
-    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
-    EXPECT_EQ(r.err.rfind("lagrangectl " + command + ": ", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << "got: " << r.err << "expected: " << what;
-  }
-
   std::string url_;
   std::unique_ptr<LcmCollector> collector_;
   std::unique_ptr<BackgroundProcess> daemon_;
@@ -107,18 +115,61 @@ TEST_F(LiveDaemon, SendSineOscillatesAroundItsCenter) {
   EXPECT_NEAR(hi, 0.1 + 0.2, 1e-3);
 }
 
+// The two numbers of "lagranged rejected R of N setpoints".
+std::pair<long, long> RejectedOf(const std::string& err) {
+  long rejected = -1, of = -1;
+  const std::size_t at = err.find("lagranged rejected ");
+  if (at != std::string::npos) std::sscanf(err.c_str() + at, "lagranged rejected %ld of %ld", &rejected, &of);
+  return {rejected, of};
+}
+
 TEST_F(LiveDaemon, SendRefusesBadInputWithOneLine) {
   Start(7824);
   ExpectOneLine(Ctl({"send", "robot", "--q", "1,2", "--wait", "0.5"}), "send", 1,
                 "no state from instance 'robot' on ROBOT_STATE within 0.5 s");
   ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,abc"}), "send", 2, "--q: expected comma-separated finite numbers, got 'abc'");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,nan"}), "send", 2, "--q: expected comma-separated finite numbers, got 'nan'");
   ExpectOneLine(Ctl({"send", "arm", "--q", "1,2,3"}), "send", 2, "--q: expected 2 values (one per joint), got 3");
-  ExpectOneLine(Ctl({"send", "arm", "--q", "9,0", "--once"}), "send", 1,
-                "lagranged rejected 1 of 1 setpoints: arm: q[0] = 9 is outside the setpoint limits");
   ExpectOneLine(Ctl({"send", "arm", "--min-jerk", "2"}), "send", 2, "--min-jerk: needs the target --q");
-  ExpectOneLine(Ctl({"send", "arm", "--q", "1,1", "--rate", "0"}), "send", 2, "--rate: expected setpoints per second");
-  ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2"}), "send", 2, "--sine: expected 2 values");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "1,1", "--rate", "0"}), "send", 2, "--rate: expected a number in (0, 10000], got '0'");
+  ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2"}), "send", 2, "--sine: expected AMPLITUDE,FREQ (2 numbers");
   ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2,1", "--min-jerk", "1"}), "send", 2, "excludes");
+  ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2,1", "--qd", "1,1"}), "send", 2,
+                "--qd: only for a fixed setpoint (--sine sets its own velocities");
+  ExpectOneLine(Ctl({"send", "arm", "--min-jerk", "1", "--q", "1,1", "--qdd", "1,1"}), "send", 2,
+                "--qdd: only for a fixed setpoint (--min-jerk sets its own velocities");
+}
+
+TEST_F(LiveDaemon, SendCountsRejectionsFromTheDaemonsOwnTotals) {
+  Start(7928);
+  // Every setpoint lies outside the limits: whatever arrived was rejected, so both counts agree.
+  const auto r = Ctl({"send", "arm", "--q", "9,0", "--for", "0.3"});
+  ExpectOneLine(r, "send", 1, "arm: q[0] = 9 is outside the setpoint limits");
+  const auto [rejected, of] = RejectedOf(r.err);
+  EXPECT_GT(rejected, 0) << r.err;
+  EXPECT_EQ(rejected, of) << r.err;
+}
+
+TEST_F(LiveDaemon, SendFailsWhenTheInstanceDoesNotFollow) {
+  Start(7920);
+  ASSERT_EQ(Ctl({"command", "arm", "estop"}).status, 0);
+  const auto r = Ctl({"send", "arm", "--q", "0.5,0.4", "--for", "0.3"});
+  ExpectOneLine(r, "send", 1, "arm is in estop mode, not running");
+  EXPECT_EQ(r.out, "");
+}
+
+TEST(LiveOneJoint, SendSineDrivesAOneJointPlant) {
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(7921), "");
+  const std::string url = testing::TestLcmUrl(7921);
+  LcmCollector collector(url, "PENDULUM_STATE");
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config",
+                            std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml"});
+  ASSERT_TRUE(collector.WaitFor("PENDULUM_STATE", [](const auto& m) { return !m.empty(); }, 20.0));
+  const auto r = RunCtl({"send", "pendulum", "--sine", "0.2,1", "--for", "0.5", "--lcm-url", url});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("(sine 0.2 at 1 Hz) to PENDULUM_SETPOINT"), std::string::npos) << r.out;
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0) << daemon.Stderr();
 }
 
 TEST_F(LiveDaemon, CommandChangesControllersGainsAndModesAndSaysSo) {
@@ -126,9 +177,10 @@ TEST_F(LiveDaemon, CommandChangesControllersGainsAndModesAndSaysSo) {
   auto r = Ctl({"command", "arm", "controller", "pd"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "arm: controller pd done; now running with pd\n");
-  r = Ctl({"command", "arm", "gains", "Kp=70,30", "Kd=7,3"});
+  r = Ctl({"command", "arm", "gains", "--kp", "200", "--kd", "30"});  // one value for every joint
   ASSERT_EQ(r.status, 0) << r.err;
-  r = Ctl({"command", "arm", "gains", "Kp=70,30,Kd=7,3"});  // one argument works too
+  EXPECT_EQ(r.out, "arm: gains done; now running with pd\n");
+  r = Ctl({"command", "arm", "gains", "--kp", "70,30", "--kd", "7,3"});  // one per joint
   ASSERT_EQ(r.status, 0) << r.err;
   for (const auto& [verb, mode] : std::vector<std::pair<std::string, int>>{
            {"pause", state_t::MODE_PAUSED}, {"resume", state_t::MODE_RUNNING}, {"estop", state_t::MODE_ESTOP},
@@ -144,25 +196,42 @@ TEST_F(LiveDaemon, CommandChangesControllersGainsAndModesAndSaysSo) {
 
 TEST_F(LiveDaemon, CommandRefusesBadInputWithOneLine) {
   Start(7826);
-  ExpectOneLine(Ctl({"command", "arm", "controller", "mpc"}), "command", 1,
-                "arm: unknown controller 'mpc' for arm (available: computed-torque, pd, gravity-compensation, none)");
-  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=1,x", "Kd=1,1"}), "command", 2,
-                "gains Kp: expected comma-separated finite numbers, got 'x'");
-  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=1,2,3", "Kd=1,1"}), "command", 2, "gains Kp: expected 2 values");
-  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=-1,2", "Kd=1,1"}), "command", 1, "kp: expected finite gains >= 0");
-  ExpectOneLine(Ctl({"command", "arm", "resume"}), "command", 1, "arm: resume: the instance is not paused");
+  auto r = Ctl({"command", "arm", "controller", "mpc"});
+  ExpectOneLine(r, "command", 1, "refused: ");
+  EXPECT_NE(r.err.find("unknown controller 'mpc'"), std::string::npos) << r.err;
+  r = Ctl({"command", "arm", "resume"});  // not paused
+  ExpectOneLine(r, "command", 1, "refused: ");
+  EXPECT_NE(r.err.find("not paused"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out, "");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1,x", "--kd", "1,1"}), "command", 2,
+                "--kp: expected finite numbers >= 0, got 'x'");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1,-2", "--kd", "1,1"}), "command", 2,
+                "--kp: expected finite numbers >= 0, got '-2'");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1,2,3", "--kd", "1"}), "command", 2,
+                "--kp: expected 2 values (one for every joint, or one per joint), got 3");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1"}), "command", 2, "gains: needs both --kp and --kd");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=200,Kd=30"}), "command", 2, "gains: expected --kp A[,B..] --kd C[,D..]");
+  ExpectOneLine(Ctl({"command", "arm", "pause", "--kp", "1"}), "command", 2, "--kp, --kd: only for gains");
   ExpectOneLine(Ctl({"command", "arm", "fly"}), "command", 2, "unknown action 'fly'");
   ExpectOneLine(Ctl({"command", "robot", "reset", "--wait", "0.5"}), "command", 1, "no state from instance 'robot'");
+  ExpectOneLine(RunCtl({"command", "arm", "reset", "--lcm-url", "udpm://239.255.76.67"}), "command", 2,
+                "udpm://239.255.76.67");
 }
 
-TEST_F(LiveDaemon, WatchShowsEveryInstanceAndTheLoopsTiming) {
+TEST_F(LiveDaemon, WatchShowsEveryInstanceRunIdsAndTheLoopsTiming) {
   Start(7827);
   auto r = Ctl({"watch", "--frames", "2", "--rate", "10"});
   ASSERT_EQ(r.status, 0) << r.err;
-  for (const char* text : {"lagranged on " , "wake latency us", "compute us", "setpoints ", "\narm   running   computed-torque",
-                           "\ncartpole   running   lqr", "joint          q        q_des          tau"}) {
+  for (const char* text : {"lagranged run ", "wake latency us", "compute us", "setpoints ", "\narm   running   computed-torque",
+                           "\ncartpole   running   lqr", "joint          q        q_des          tau", "kernel drops ",
+                           "fragments dropped ", "foreign messages "}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
+  EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
+  // The run id in the header is the one on every state.
+  const std::string run = cli::RunIdText(LastState("ARM_STATE").run_id);
+  EXPECT_NE(r.out.find("lagranged run " + run), std::string::npos) << run << "\n" << r.out;
+  EXPECT_NE(r.out.find("run " + run + "\n"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("\x1b["), std::string::npos);  // no screen control codes when not on a terminal
   r = Ctl({"watch", "--frames", "1", "--instance", "cartpole"});
   ASSERT_EQ(r.status, 0) << r.err;
@@ -170,9 +239,203 @@ TEST_F(LiveDaemon, WatchShowsEveryInstanceAndTheLoopsTiming) {
   EXPECT_NE(r.out.find("\ncartpole"), std::string::npos);
   ExpectOneLine(Ctl({"watch", "--frames", "1", "--instance", "robot", "--wait", "0.5"}), "watch", 1,
                 "no state from instance 'robot' on ROBOT_STATE");
-  ExpectOneLine(Ctl({"watch", "--rate", "fast"}), "watch", 2, "--rate: expected refreshes per second");
+  ExpectOneLine(Ctl({"watch", "--rate", "fast"}), "watch", 2, "--rate: expected a number in (0, 50], got 'fast'");
   ExpectOneLine(RunCtl({"watch", "--frames", "1", "--wait", "0.3", "--lcm-url", testing::TestLcmUrl(7899)}), "watch", 1,
                 "no LAGRANGE_STATUS within 0.3 s");
+}
+
+TEST(LiveStale, WatchMarksADaemonThatStoppedAsStale) {
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(7929), "");
+  const std::string url = testing::TestLcmUrl(7929);
+  LcmCollector collector(url, "LAGRANGE_STATUS");
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--duration", "1.5"});
+  ASSERT_TRUE(collector.WaitFor("LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
+  // Frames for 5 s: the daemon stops 1.5 s of ticks after it started, so the last frames come long after.
+  const auto r = RunCtl({"watch", "--frames", "15", "--rate", "3", "--lcm-url", url});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(daemon.Wait(30.0), 0) << daemon.Stderr();
+  const std::size_t last = r.out.rfind("lagranged run ");
+  ASSERT_NE(last, std::string::npos) << r.out;
+  const std::string final_frame = r.out.substr(last);
+  EXPECT_NE(final_frame.find("STALE: no status for"), std::string::npos) << final_frame;
+  EXPECT_NE(final_frame.find("\narm   STALE (no state for"), std::string::npos) << final_frame;
+  EXPECT_EQ(final_frame.find("   running   "), std::string::npos) << final_frame;
+}
+
+// A publisher of ARM_STATE and LAGRANGE_STATUS with made-up run ids and no
+// daemon behind it; optionally it answers commands with a reply_t of its choosing.
+class FakeDaemon {
+ public:
+  struct Config {
+    std::vector<std::int64_t> run_ids = {0x1234};  // states alternate between these
+    std::string controller = "pd";
+    bool answer = false;              // reply to every command
+    std::int64_t reply_run_id = 0;    // 0: the first run id
+    bool wrong_request_id = false;    // answer with another request_id than the command's
+    bool accept = true;
+    std::string reason;
+  };
+  FakeDaemon(const std::string& url, Config config) : lcm_(url), config_(std::move(config)) {
+    lcm_.subscribeFunction("ARM_COMMAND", &FakeDaemon::OnCommand, this);
+    lcm_.subscribeFunction("ARM_SETPOINT", &FakeDaemon::OnSetpoint, this);
+    thread_ = std::thread([this] { Loop(); });
+  }
+  ~FakeDaemon() {
+    stop_ = true;
+    thread_.join();
+  }
+  int commands() const { return commands_.load(); }
+  int setpoints() const { return setpoints_.load(); }
+
+ private:
+  static void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string&, FakeDaemon* self) {
+    ++self->commands_;
+    command_t c;
+    if (!self->config_.answer || c.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+    reply_t r;
+    r.utime = testing::WallMicros();
+    r.run_id = self->config_.reply_run_id ? self->config_.reply_run_id : self->config_.run_ids.front();
+    r.request_id = self->config_.wrong_request_id ? c.request_id + 1 : c.request_id;
+    r.command = c.command;
+    r.accepted = self->config_.accept;
+    r.reason = self->config_.reason;
+    self->lcm_.publish("ARM_REPLY", &r);
+  }
+  static void OnSetpoint(const lcm::ReceiveBuffer*, const std::string&, FakeDaemon* self) { ++self->setpoints_; }
+  void Loop() {
+    std::int64_t tick = 0;
+    while (!stop_) {
+      state_t s{};
+      s.utime = testing::WallMicros();
+      s.run_id = config_.run_ids[static_cast<std::size_t>(tick) % config_.run_ids.size()];
+      s.tick = tick++;
+      s.t = 0.005 * static_cast<double>(tick);
+      s.num_dofs = 2;
+      for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.1);
+      s.controller = config_.controller;
+      s.mode = state_t::MODE_RUNNING;
+      lcm_.publish("ARM_STATE", &s);
+      if (tick % 10 == 0) {
+        status_t st{};
+        st.utime = s.utime;
+        st.run_id = config_.run_ids.front();
+        st.ticks = tick;
+        st.period = 0.001;
+        st.last_rejection = "";
+        st.last_command_error = "";
+        st.datagrams_dropped_kernel = 7;
+        st.datagrams_malformed = 8;
+        st.fragments_dropped = 9;
+        st.foreign_messages = 11;
+        st.last_foreign_run_id = 0xbad;
+        st.num_instances = 1;
+        st.instance_names = {"arm"};
+        st.instance_modes = {state_t::MODE_RUNNING};
+        lcm_.publish("LAGRANGE_STATUS", &st);
+      }
+      lcm_.handleTimeout(5);
+    }
+  }
+
+  lcm::LCM lcm_;
+  Config config_;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> commands_{0}, setpoints_{0};
+  std::thread thread_;
+};
+
+std::string Url(int port) {
+  EXPECT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  return testing::TestLcmUrl(port);
+}
+
+TEST(BelievesNobody, CommandFailsWhenNothingAnswersThoughStateAndStatusFlow) {
+  const std::string url = Url(7922);
+  FakeDaemon fake(url, {});
+  const auto r = RunCtl({"command", "arm", "estop", "--wait", "1", "--lcm-url", url});
+  ExpectOneLine(r, "command", 1, "no verdict from lagranged (run 0000000000001234) within 1 s");
+  EXPECT_EQ(r.out.find("done"), std::string::npos) << r.out;
+}
+
+TEST(BelievesNobody, AReplyFromAnotherRunOrWithAnotherRequestIdProvesNothing) {
+  const std::string url = Url(7923);
+  for (const bool other_run : {true, false}) {
+    FakeDaemon::Config config;
+    config.answer = true;
+    if (other_run) config.reply_run_id = 0x5678;  // not the run publishing ARM_STATE
+    else config.wrong_request_id = true;           // the right run, answering another command
+    FakeDaemon fake(url, config);
+    const auto r = RunCtl({"command", "arm", "estop", "--wait", "1", "--lcm-url", url});
+    ExpectOneLine(r, "command", 1, "no verdict from lagranged (run 0000000000001234) within 1 s");
+    EXPECT_EQ(r.out, "");
+  }
+}
+
+TEST(BelievesNobody, ARefusalIsReportedWithItsReasonEscaped) {
+  const std::string url = Url(7924);
+  FakeDaemon::Config config;
+  config.answer = true;
+  config.accept = false;
+  config.reason = "nope\x1b[2J\nlagrangectl command: forged";
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"command", "arm", "pause", "--wait", "2", "--lcm-url", url});
+  ExpectOneLine(r, "command", 1, "refused: nope\\x1b[2J\\nlagrangectl command: forged");
+  EXPECT_EQ(r.err.find('\x1b'), std::string::npos);
+}
+
+TEST(BelievesNobody, AnAnswerFromTheOneRunWithItsOwnRequestIdIsSuccessPrintedEscaped) {
+  const std::string url = Url(7925);
+  FakeDaemon::Config config;
+  config.answer = true;
+  config.controller = "pd\x07\x1b]0;owned\x07";
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"command", "arm", "pause", "--wait", "2", "--lcm-url", url});
+  ASSERT_EQ(r.status, 0) << r.err;  // a consistent publisher that answers is all lagrangectl can check
+  EXPECT_EQ(r.out, "arm: pause done; now running with pd\\x07\\x1b]0;owned\\x07\n");
+}
+
+TEST(BelievesNobody, TwoRunsOnOneStateChannelMakeSendAndCommandRefuseToAct) {
+  const std::string url = Url(7926);
+  FakeDaemon::Config config;
+  config.run_ids = {0xaa, 0xbb};
+  config.answer = true;
+  FakeDaemon fake(url, config);
+  const std::string two = "two lagranged runs publish ARM_STATE (ids 00000000000000aa and 00000000000000bb): refusing to act";
+  auto r = RunCtl({"command", "arm", "estop", "--lcm-url", url});
+  ExpectOneLine(r, "command", 1, two);
+  r = RunCtl({"send", "arm", "--min-jerk", "1", "--q", "0.3,0.3", "--lcm-url", url});
+  ExpectOneLine(r, "send", 1, two);
+  EXPECT_EQ(fake.commands(), 0);   // nothing was sent
+  EXPECT_EQ(fake.setpoints(), 0);
+}
+
+TEST(BelievesNobody, WatchEscapesBusStringsAndShowsTheStatusCounters) {
+  const std::string url = Url(7927);
+  FakeDaemon::Config config;
+  config.controller = "evil\x1b]0;title\x07\nforged line";
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"watch", "--frames", "1", "--lcm-url", url});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find('\x1b'), std::string::npos);
+  EXPECT_EQ(r.out.find('\x07'), std::string::npos);
+  for (const char* text : {"evil\\x1b]0;title\\x07\\nforged line", "run 0000000000001234", "kernel drops 7",
+                           "malformed 8", "fragments dropped 9", "foreign messages 11 (last from run 0000000000000bad)"}) {
+    EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
+  }
+}
+
+TEST(Lagrangectl, SuggestsTheNearestCommandAndPrintsItsVersion) {
+  auto r = RunCtl({"evl"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "lagrangectl: unknown command 'evl'; did you mean 'eval'?\n");
+  r = RunCtl({"watc"});
+  EXPECT_EQ(r.err, "lagrangectl: unknown command 'watc'; did you mean 'watch'?\n");
+  r = RunCtl({"frobnicate"});
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("unknown command 'frobnicate' (expected one of eval, simulate, send"), std::string::npos) << r.err;
+  r = RunCtl({"--version"});
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.out, std::string("lagrangectl ") + LAGRANGE_VERSION + "\n");
 }
 
 }  // namespace

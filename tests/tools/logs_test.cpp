@@ -1,19 +1,27 @@
 // lagrangectl on recorded runs: log2csv and plot; replaying a setpoint log
-// with lcm-logplayer; several daemons on one bus; the lcm-spy types jar.
+// with lcm-logplayer; several daemons on one bus; the lcm-spy types jar; the
+// packet checks lagrangectl applies before decoding anything.
+//
+// Multicast may drop a datagram on a loaded machine, so nothing here counts
+// on every message arriving or on when it arrives: the checks are on what
+// the files hold (columns, consistent values, finite numbers).
 
 #include <gtest/gtest.h>
+#include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <signal.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
+#include "daemon/wire.hpp"
 #include "tests/support/lcm_testing.hpp"
-#include "tests/support/mini_json.hpp"
-#include "tests/support/png.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 
@@ -36,6 +44,12 @@ struct Csv {
     std::vector<double> v;
     const int c = Column(name);
     for (const auto& r : rows) v.push_back(std::stod(r.at(static_cast<std::size_t>(c))));
+    return v;
+  }
+  std::vector<std::string> Texts(const std::string& name) const {
+    std::vector<std::string> v;
+    const int c = Column(name);
+    for (const auto& r : rows) v.push_back(r.at(static_cast<std::size_t>(c)));
     return v;
   }
 };
@@ -73,18 +87,27 @@ class Logs : public ::testing::Test {
     argv.insert(argv.end(), extra.begin(), extra.end());
     return std::make_unique<BackgroundProcess>(argv);
   }
-  // Two seconds of the default scene with a setpoint stream and a foreign message, recorded.
+  // The default scene recorded while lagrangectl streams a setpoint, switches
+  // the arm's controller (a command and its reply) and resets it (its t goes
+  // back to 0), plus a message of a foreign type.
   fs::path RecordRun(int port) {
     const std::string url = Url(port);
     const fs::path log = dir_ / "run.lcm";
     testing::LcmLoggerProcess logger(url, log.string());
-    auto daemon = Daemon(url, {"--duration", "2"});
+    auto daemon = Daemon(url, {});
     LcmCollector status(url, "LAGRANGE_STATUS");
     EXPECT_TRUE(status.WaitFor("LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
-    EXPECT_EQ(RunCtl({"send", "arm", "--q", "0.5,0.4", "--for", "0.5", "--lcm-url", url}).status, 0);
+    const auto sent = RunCtl({"send", "arm", "--q", "0.5,0.4", "--for", "0.5", "--lcm-url", url});
+    EXPECT_EQ(sent.status, 0) << sent.err;
+    const auto switched = RunCtl({"command", "arm", "controller", "pd", "--lcm-url", url});
+    EXPECT_EQ(switched.status, 0) << switched.err;
+    const auto reset = RunCtl({"command", "arm", "reset", "--lcm-url", url});
+    EXPECT_EQ(reset.status, 0) << reset.err;
+    status.WaitFor("LAGRANGE_STATUS", [](const auto&) { return false; }, 0.3);  // some states after the reset
     lcm::LCM other(url);
     const char bytes[] = "not a lagrange message";
     other.publish("OTHER", bytes, sizeof bytes);
+    daemon->Signal(SIGTERM);
     EXPECT_EQ(daemon->Wait(60.0), 0) << daemon->Stderr();
     logger.Stop();
     return log;
@@ -92,25 +115,65 @@ class Logs : public ::testing::Test {
   fs::path dir_;
 };
 
+// Every cell of the columns that hold numbers is a finite number.
+void ExpectFiniteNumbers(const Csv& csv, const std::vector<std::string>& text_columns, const std::string& what) {
+  for (std::size_t c = 0; c < csv.header.size(); ++c) {
+    if (std::find(text_columns.begin(), text_columns.end(), csv.header[c]) != text_columns.end()) continue;
+    for (const auto& row : csv.rows) {
+      ASSERT_EQ(row.size(), csv.header.size()) << what;
+      std::size_t used = 0;
+      const double v = std::stod(row[c], &used);
+      ASSERT_EQ(used, row[c].size()) << what << " " << csv.header[c] << ": " << row[c];
+      ASSERT_TRUE(std::isfinite(v)) << what << " " << csv.header[c] << ": " << row[c];
+    }
+  }
+}
+
 TEST_F(Logs, Log2CsvWritesOneCsvPerChannelAndSkipsForeignTypes) {
   const fs::path log = RecordRun(7831);
   const fs::path out = dir_ / "csv";
   const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("skipped OTHER: 1 message of a type that is not lagrange's"), std::string::npos) << r.err;
+  std::string run;
   for (const char* channel : {"ARM_STATE", "CARTPOLE_STATE"}) {
     const Csv states = ReadCsv(out / (std::string(channel) + ".csv"));
-    ASSERT_EQ(states.rows.size(), 2000u) << channel;
-    const std::vector<double> tick = states.Numbers("tick");
-    for (std::size_t k = 0; k < tick.size(); ++k) ASSERT_EQ(tick[k], static_cast<double>(k));
-    for (const char* column : {"log_utime", "t", "q0", "q1", "q_des1", "tau0", "kinetic_energy", "mode"}) {
+    ASSERT_GT(states.rows.size(), 0u) << channel;
+    for (const char* column : {"log_utime", "run_id", "tick", "t", "q0", "q1", "q_des1", "tau0", "kinetic_energy", "mode"}) {
       EXPECT_GE(states.Column(column), 0) << column;
     }
+    ExpectFiniteNumbers(states, {"run_id", "controller"}, channel);  // lagranged never publishes a non-finite value
+    const std::vector<double> tick = states.Numbers("tick");
+    for (std::size_t k = 1; k < tick.size(); ++k) ASSERT_GT(tick[k], tick[k - 1]) << channel;  // one run: ticks only grow
+    for (const std::string& id : states.Texts("run_id")) {
+      if (run.empty()) run = id;
+      ASSERT_EQ(id, run) << channel;  // one run id, on every instance
+    }
   }
+  ASSERT_EQ(run.size(), 16u);
   const Csv setpoints = ReadCsv(out / "ARM_SETPOINT.csv");
-  EXPECT_GT(setpoints.rows.size(), 100u);
-  EXPECT_EQ(setpoints.Numbers("q0").front(), 0.5);
-  EXPECT_GE(ReadCsv(out / "LAGRANGE_STATUS.csv").rows.size(), 19u);
+  ASSERT_GT(setpoints.rows.size(), 0u);
+  for (double q0 : setpoints.Numbers("q0")) ASSERT_EQ(q0, 0.5);
+  const Csv status = ReadCsv(out / "LAGRANGE_STATUS.csv");
+  ASSERT_GT(status.rows.size(), 0u);
+  for (const char* column : {"run_id", "datagrams_dropped_kernel", "fragments_dropped", "foreign_messages", "instances"}) {
+    EXPECT_GE(status.Column(column), 0) << column;
+  }
+  for (const std::string& id : status.Texts("run_id")) ASSERT_EQ(id, run);
+  // Each command lagrangectl sent has its own request id, and lagranged's replies echo them from its run.
+  const Csv commands = ReadCsv(out / "ARM_COMMAND.csv");
+  const Csv replies = ReadCsv(out / "ARM_REPLY.csv");
+  EXPECT_EQ(replies.header, (std::vector<std::string>{"log_utime", "utime", "run_id", "request_id", "command", "accepted",
+                                                       "reason"}));
+  const std::vector<std::string> requests = commands.Texts("request_id");
+  ASSERT_GT(requests.size(), 0u);
+  for (std::size_t k = 1; k < requests.size(); ++k) EXPECT_NE(requests[k], requests[k - 1]);  // fresh ids
+  ASSERT_GT(replies.rows.size(), 0u);
+  for (std::size_t k = 0; k < replies.rows.size(); ++k) {
+    EXPECT_NE(std::find(requests.begin(), requests.end(), replies.Texts("request_id")[k]), requests.end());
+    EXPECT_EQ(replies.Texts("run_id")[k], run);
+    EXPECT_EQ(replies.Numbers("accepted")[k], 1.0);
+  }
   EXPECT_FALSE(fs::exists(out / "OTHER.csv"));
 
   const fs::path only = dir_ / "only";
@@ -138,50 +201,65 @@ TEST_F(Logs, Log2CsvRefusesWhatIsNotALogWithOneLine) {
   }
 }
 
-// Checks a PNG made by lagrangectl plot: a valid image, drawn from the
-// expected series of `csv` (q, q_des, tau, T, V, E and the tracking error).
-void ExpectPlotOf(const fs::path& png, const Csv& csv, const char* kinetic, const char* qdes) {
-  const testing::PngInfo info = testing::ReadPng(png.string());
-  ASSERT_TRUE(info.valid) << info.error;
-  EXPECT_GE(info.width, 400u);
-  EXPECT_GE(info.height, 400u);
-  ASSERT_TRUE(info.text.count("lagrange:series"));
-  const testing::Json record = testing::ParseJson(info.text.at("lagrange:series"));
-  EXPECT_EQ(record["rows"].number, static_cast<double>(csv.rows.size()));
-  const std::vector<std::string> expected = {"E", "T", "V", "e0", "e1", "q0", "q1", "qdes0", "qdes1", "tau0", "tau1"};
-  std::vector<std::string> drawn;
-  for (const auto& [name, _] : record["series"].object) drawn.push_back(name);
-  EXPECT_EQ(drawn, expected);
-  for (const auto& [name, column] : std::vector<std::pair<std::string, std::string>>{
-           {"q0", "q0"}, {"qdes1", std::string(qdes) + "1"}, {"tau0", "tau0"}, {"T", kinetic}}) {
-    const std::vector<double> v = csv.Numbers(column);
-    const testing::Json& s = record["series"][name];
-    EXPECT_EQ(s["points"].number, static_cast<double>(v.size())) << name;
-    EXPECT_NEAR(s["min"].number, *std::min_element(v.begin(), v.end()), 1e-12) << name;
-    EXPECT_NEAR(s["max"].number, *std::max_element(v.begin(), v.end()), 1e-12) << name;
-  }
+// The PNG decodes as an image (by matplotlib, as a user's viewer would) at least 400 × 400 pixels.
+void ExpectImage(const fs::path& png) {
+  const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+  const auto r = testing::RunProcess(
+      {python, "-c", "import sys, matplotlib.image; a = matplotlib.image.imread(sys.argv[1]); print(a.shape[0], a.shape[1])",
+       png.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  int height = 0, width = 0;
+  std::istringstream(r.out) >> height >> width;
+  EXPECT_GE(width, 400);
+  EXPECT_GE(height, 400);
 }
 
-TEST_F(Logs, PlotDrawsTheExpectedSeriesFromASimulationCsvAndFromALog) {
-  const fs::path csv = dir_ / "sim.csv";
-  ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/chain7_minjerk.yaml", "--duration", "1",
-                    "--csv", csv.string()}).status, 0);
-  // A chain has 7 joints; plot the arm run instead for a compact check of series names.
+// Where the plot must break its lines: rows where t goes back, the tick does
+// not follow on, or the run changes. Returns the number of segments.
+std::size_t Segments(const Csv& csv) {
+  const std::vector<double> t = csv.Numbers("t");
+  const bool ticks = csv.Column("tick") >= 0;
+  const std::vector<double> tick = ticks ? csv.Numbers("tick") : std::vector<double>(t.size(), 0.0);
+  const std::vector<std::string> run = csv.Column("run_id") >= 0 ? csv.Texts("run_id") : std::vector<std::string>(t.size());
+  std::size_t segments = t.empty() ? 0 : 1;
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    segments += t[k] < t[k - 1] || (ticks && tick[k] != tick[k - 1] + 1) || run[k] != run[k - 1];
+  }
+  return segments;
+}
+
+std::string PlotLine(const fs::path& png, const Csv& csv) {
+  const std::size_t segments = Segments(csv);
+  return png.string() + ": " + std::to_string(csv.rows.size()) + " rows in " + std::to_string(segments) + " segment" +
+         (segments == 1 ? "" : "s") + "\n";
+}
+
+TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   const fs::path arm = dir_ / "arm.csv";
   ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/gravity_compensation.yaml", "--duration",
                     "1", "--csv", arm.string()}).status, 0);
   const fs::path png = dir_ / "arm.png";
   auto r = RunCtl({"plot", arm.string(), "-o", png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out, png.string() + "\n");
-  ExpectPlotOf(png, ReadCsv(arm), "T", "qdes");
+  const Csv simulated = ReadCsv(arm);
+  EXPECT_EQ(r.out, PlotLine(png, simulated));
+  EXPECT_EQ(Segments(simulated), 1u);  // one run, no reset: one unbroken line per series
+  ExpectImage(png);
 
+  // The recorded run has a reset: the arm's t goes back to 0, and the plot starts a new segment there.
   const fs::path log = RecordRun(7835);
   const fs::path log_png = dir_ / "log.png";
   r = RunCtl({"plot", log.string(), "--channel", "ARM_STATE", "-o", log_png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   ASSERT_EQ(RunCtl({"log2csv", log.string(), "--channel", "ARM_STATE", "-o", (dir_ / "c").string()}).status, 0);
-  ExpectPlotOf(log_png, ReadCsv(dir_ / "c" / "ARM_STATE.csv"), "kinetic_energy", "q_des");
+  const Csv recorded = ReadCsv(dir_ / "c" / "ARM_STATE.csv");
+  EXPECT_EQ(r.out, PlotLine(log_png, recorded));  // drawn from the same rows log2csv writes
+  const std::vector<double> t = recorded.Numbers("t");
+  bool went_back = false;
+  for (std::size_t k = 1; k < t.size(); ++k) went_back = went_back || t[k] < t[k - 1];
+  EXPECT_TRUE(went_back);
+  EXPECT_GE(Segments(recorded), 2u);
+  ExpectImage(log_png);
 }
 
 TEST_F(Logs, PlotRefusesBadInputWithOneLine) {
@@ -248,39 +326,28 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
   daemon_b->Signal(SIGTERM);
   ASSERT_EQ(daemon_b->Wait(10.0), 0);
   const auto status_b = states_b.Decoded<status_t>("LAGRANGE_STATUS").back();
-  EXPECT_GT(status_b.setpoints_accepted, 2500);
-  EXPECT_EQ(status_b.setpoints_rejected, 0);
+  EXPECT_GT(status_b.setpoints_accepted, 0);
+  EXPECT_EQ(status_b.setpoints_rejected, 0);  // replayed with their own timing, none counts as stale
 
-  // Same trajectory: every state of run B lies on run A's path in (q0, q1), and the
-  // motion lasts as long. (Compared as paths, not tick by tick: replay timing moves
-  // each setpoint by a few ticks on a loaded machine, which shifts the motion in time only.)
+  // Same trajectory: every state of run B lies on run A's path in (q0, q1).
+  // (Compared as paths, not tick by tick or in time: replay timing moves each
+  // setpoint by some ticks on a loaded machine, and a state may be lost.)
   const auto a = MotionAfterFirstSetpoint(run_a);
   const auto b = MotionAfterFirstSetpoint(states_b.Decoded<state_t>("ARM_STATE"));
-  ASSERT_GT(a.size(), 2900u);
-  ASSERT_GT(b.size(), 2900u);
+  ASSERT_GT(a.size(), 100u);
+  ASSERT_GT(b.size(), 100u);
   double worst = 0.0, lo = 1e9, hi = -1e9;
-  for (std::size_t k = 0; k < 2900; k += 5) {
+  for (const auto& qa : a) {
+    lo = std::min(lo, qa[1]);
+    hi = std::max(hi, qa[1]);
+  }
+  for (std::size_t k = 0; k < b.size(); k += 5) {
     double nearest = 1e9;
-    for (std::size_t j = 0; j < a.size(); ++j) {
-      nearest = std::min(nearest, std::hypot(a[j][0] - b[k][0], a[j][1] - b[k][1]));
-    }
+    for (const auto& qa : a) nearest = std::min(nearest, std::hypot(qa[0] - b[k][0], qa[1] - b[k][1]));
     worst = std::max(worst, nearest);
-    lo = std::min(lo, a[k][1]);
-    hi = std::max(hi, a[k][1]);
   }
   EXPECT_GT(hi - lo, 0.5);   // a real motion ...
   EXPECT_LT(worst, 5e-3);    // ... along the same path
-  auto moving_ticks = [](const std::vector<state_t>& states) {  // from the first to the last streamed change of q_des
-    std::size_t first = 0, last = 0;
-    for (std::size_t k = 1; k < states.size(); ++k) {
-      if (states[k].mode == state_t::MODE_RUNNING && states[k].q_des[0] != states[k - 1].q_des[0]) {
-        if (first == 0) first = k;
-        last = k;
-      }
-    }
-    return static_cast<double>(last - first);
-  };
-  EXPECT_NEAR(moving_ticks(states_b.Decoded<state_t>("ARM_STATE")), moving_ticks(run_a), 100.0);  // within 0.1 s of 3 s
 }
 
 TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemAll) {
@@ -297,11 +364,19 @@ TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemA
   }
   const fs::path out = dir_ / "csv";
   ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", out.string()}).status, 0);
+  std::map<std::string, std::string> run_of;  // channel → its run id
   for (const char* channel : {"LEFT_ARM_STATE", "LEFT_CARTPOLE_STATE", "RIGHT_PENDULUM_STATE"}) {
-    const std::vector<double> tick = ReadCsv(out / (std::string(channel) + ".csv")).Numbers("tick");
-    ASSERT_EQ(tick.size(), 2000u) << channel;
-    for (std::size_t k = 0; k < tick.size(); ++k) ASSERT_EQ(tick[k], static_cast<double>(k)) << channel;
+    const Csv states = ReadCsv(out / (std::string(channel) + ".csv"));
+    const std::vector<double> tick = states.Numbers("tick");
+    ASSERT_GT(tick.size(), 0u) << channel;
+    for (std::size_t k = 1; k < tick.size(); ++k) ASSERT_GT(tick[k], tick[k - 1]) << channel;
+    const std::vector<std::string> runs = states.Texts("run_id");
+    for (const std::string& id : runs) ASSERT_EQ(id, runs.front()) << channel;
+    ExpectFiniteNumbers(states, {"run_id", "controller"}, channel);
+    run_of[channel] = runs.front();
   }
+  EXPECT_EQ(run_of["LEFT_ARM_STATE"], run_of["LEFT_CARTPOLE_STATE"]);  // one daemon, one run id ...
+  EXPECT_NE(run_of["LEFT_ARM_STATE"], run_of["RIGHT_PENDULUM_STATE"]);  // ... another daemon, another
   EXPECT_TRUE(fs::exists(out / "LEFT_LAGRANGE_STATUS.csv"));
   EXPECT_TRUE(fs::exists(out / "RIGHT_LAGRANGE_STATUS.csv"));
   EXPECT_FALSE(fs::exists(out / "ARM_STATE.csv"));
@@ -312,13 +387,95 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   if (jar.empty()) GTEST_SKIP() << "no JDK at configure time: the jar is not built";
   const auto list = testing::RunProcess({JAR_PATH, "tf", jar});
   ASSERT_EQ(list.exit_code, 0) << list.err;
-  for (const char* type : {"state_t", "setpoint_t", "command_t", "status_t"}) {
+  for (const char* type : {"state_t", "setpoint_t", "command_t", "status_t", "reply_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
     const auto javap = testing::RunProcess({JAVAP_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar,
                                             std::string("lagrange.") + type});
     EXPECT_NE(javap.out.find("implements lcm.lcm.LCMEncodable"), std::string::npos) << javap.out << javap.err;
   }
+}
+
+// Encodes an LCM message.
+template <class Message>
+std::vector<std::uint8_t> Encode(const Message& m) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+  EXPECT_EQ(m.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+void PutInt32(std::vector<std::uint8_t>& bytes, std::size_t at, std::int32_t v) {
+  for (int i = 0; i < 4; ++i) bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(v) >> (24 - 8 * i));
+}
+
+state_t SomeState() {
+  state_t s{};
+  s.run_id = 0x1234;
+  s.num_dofs = 2;
+  for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.25);
+  s.controller = "pd";
+  return s;
+}
+
+// What lagrangectl decodes from the bus or a log passes these checks first.
+TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
+  status_t status{};
+  status.last_rejection = "why";
+  status.last_command_error = "";
+  status.num_instances = 2;
+  status.instance_names = {"arm", "cartpole"};
+  status.instance_modes = {0, 4};
+  reply_t reply{};
+  reply.reason = "not paused";
+  const std::vector<std::pair<std::vector<std::uint8_t>, WireCheck (*)(const void*, std::size_t)>> packets = {
+      {Encode(SomeState()), CheckStatePacket}, {Encode(status), CheckStatusPacket}, {Encode(reply), CheckReplyPacket}};
+  for (const auto& [bytes, check] : packets) {
+    EXPECT_EQ(check(bytes.data(), bytes.size()), WireCheck::kOk);
+    for (std::size_t size = 0; size < bytes.size(); ++size) ASSERT_NE(check(bytes.data(), size), WireCheck::kOk) << size;
+    std::vector<std::uint8_t> longer = bytes;
+    longer.push_back(0);
+    EXPECT_EQ(check(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  }
+  EXPECT_EQ(CheckStatePacket(packets[1].first.data(), packets[1].first.size()), WireCheck::kFingerprint);
+
+  // A state declaring 2^31 - 1 joints, a negative string length, a status declaring 2^31 - 1 instances.
+  std::vector<std::uint8_t> state = Encode(SomeState());
+  const std::size_t num_dofs_at = 8 + 4 * 8;
+  PutInt32(state, num_dofs_at, 0x7fffffff);
+  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
+  state = Encode(SomeState());
+  PutInt32(state, state.size() - 1 - 3 - 4, -5);  // the controller's length ("pd" + NUL, then mode)
+  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
+  std::vector<std::uint8_t> lying = Encode(status);
+  const std::size_t names_at = lying.size() - 2 - (4 + 4) - (4 + 9) - 4;  // num_instances precedes the names and modes
+  PutInt32(lying, names_at, 0x7fffffff);
+  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
+}
+
+TEST_F(Logs, Log2CsvSkipsARecordedStateWhoseLengthsLie) {
+  const fs::path log = dir_ / "lying.lcm";
+  {
+    lcm::LogFile file(log.string(), "w");
+    std::vector<std::uint8_t> good = Encode(SomeState());
+    std::vector<std::uint8_t> bad = good;
+    PutInt32(bad, 8 + 4 * 8, 0x7fffffff);  // num_dofs: would make the generated decoder allocate 96 GiB
+    std::int64_t n = 0;
+    for (auto* bytes : {&good, &bad, &good}) {
+      lcm::LogEvent e{};
+      e.eventnum = n;
+      e.timestamp = 1000 * ++n;
+      e.channel = "ARM_STATE";
+      e.datalen = static_cast<int32_t>(bytes->size());
+      e.data = bytes->data();
+      ASSERT_EQ(file.writeEvent(&e), 0);
+    }
+  }
+  const auto r = RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("2 rows of state_t (1 skipped"), std::string::npos) << r.out;
+  const Csv states = ReadCsv(dir_ / "csv" / "ARM_STATE.csv");
+  EXPECT_EQ(states.rows.size(), 2u);
+  EXPECT_EQ(states.Texts("run_id").front(), "0000000000001234");
 }
 
 }  // namespace
