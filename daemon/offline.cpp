@@ -1,22 +1,41 @@
 #include "daemon/offline.hpp"
 
-#include <algorithm>
+#include "daemon/health.hpp"
 
 namespace lagrange {
 
-bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe) {
+std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, double period, std::int64_t steps,
+                                            const StepObserver& observe) {
+  std::vector<OfflineFault> faults;
   std::vector<bool> healthy(instances.size(), true);
-  for (std::size_t i = 0; i < instances.size(); ++i) observe(i, instances[i]);
+  std::vector<Instance::Saved> good;
+  std::vector<double> max_energy;
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    good.push_back(instances[i].MakeSaved());
+    max_energy.push_back(MaxEnergy(instances[i].config()));
+    observe(i, instances[i]);
+  }
+  StepEnergies energies;
   for (std::int64_t k = 0; k < steps; ++k) {
     for (std::size_t i = 0; i < instances.size(); ++i) {
       if (!healthy[i]) continue;
       Instance& inst = instances[i];
-      const bool ok = inst.Step(period);
-      healthy[i] = ok && inst.q().allFinite() && inst.qd().allFinite();
+      const Instance::StepFailure step = inst.Step(period);
+      if (const char* why = CheckStepHealth(inst, step, max_energy[i], energies)) {
+        faults.push_back({i, inst.t(), why, max_energy[i]});
+        healthy[i] = false;
+        inst.Restore(good[i]);
+        continue;
+      }
+      inst.Save(good[i]);
       observe(i, inst);
     }
   }
-  return std::all_of(healthy.begin(), healthy.end(), [](bool h) { return h; });
+  return faults;
+}
+
+bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe) {
+  return RunOfflineChecked(instances, period, steps, observe).empty();
 }
 
 }  // namespace lagrange

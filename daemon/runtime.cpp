@@ -1,5 +1,7 @@
 #include "daemon/runtime.hpp"
 
+#include "daemon/health.hpp"
+
 #include <cmath>
 
 namespace lagrange {
@@ -54,7 +56,8 @@ struct Runtime::Slot {
         zero(VectorXd::Zero(c.plant.num_dofs())),
         brake_torque(VectorXd::Zero(c.plant.num_dofs())),
         timeout(static_cast<Nanoseconds>(c.setpoint_timeout * 1e9)),
-        max_energy(c.max_energy.value_or(DefaultMaxEnergy(c.plant))) {
+        max_energy(MaxEnergy(c)),
+        energies{instance.KineticEnergy(), instance.PotentialEnergy()} {
     const int n = c.plant.num_dofs();
     if (c.estop_damping) {
       brake = *c.estop_damping;
@@ -78,7 +81,7 @@ struct Runtime::Slot {
   double max_energy;
   // This tick's results, computed once and read by the health check and the record.
   Instance::StepFailure step_failure = nullptr;
-  double kinetic_energy = 0.0, potential_energy = 0.0;
+  StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
 };
 
@@ -247,31 +250,19 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   }
 }
 
-// (state) => energies; fault, or remember the state as good. The energies
-// computed here are the ones the record publishes.
+// (step, state) => energies; fault (daemon/health.hpp's rule), or remember
+// the state as good. The energies computed here are the ones the record publishes.
 void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
   Instance& inst = s.instance;
-  if (s.mode != Mode::kFault && s.mode != Mode::kPaused) {
-    if (s.step_failure) return Fault(s, s.step_failure, r);
-    if (!inst.q().allFinite() || !inst.qd().allFinite() || !inst.qdd().allFinite()) {
-      return Fault(s, "the state became non-finite", r);
-    }
-  }
-  s.kinetic_energy = inst.KineticEnergy();
-  s.potential_energy = inst.PotentialEnergy();
-  if (s.mode == Mode::kFault || s.mode == Mode::kPaused) return;
-  const double energy = s.kinetic_energy + s.potential_energy;
-  if (!std::isfinite(energy) || std::abs(energy) > s.max_energy) {
-    return Fault(s, "the energy left its bound (max_energy)", r);
-  }
+  if (s.mode == Mode::kFault || s.mode == Mode::kPaused) return;  // nothing moved; the energies stand
+  if (const char* fault = CheckStepHealth(inst, s.step_failure, s.max_energy, s.energies)) return Fault(s, fault, r);
   inst.Save(s.good);
 }
 
 void Runtime::Fault(Slot& s, const char* why, InstanceRecord& r) {
   s.mode = Mode::kFault;
   s.instance.Restore(s.good);
-  s.kinetic_energy = s.instance.KineticEnergy();  // of the restored, good state
-  s.potential_energy = s.instance.PotentialEnergy();
+  s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};  // of the restored, good state
   r.fault = why;
 }
 
@@ -286,8 +277,8 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   const Setpoint& sp = s.mode == Mode::kHold ? s.held : (s.streaming ? s.streamed : s.current);
   r.q_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.q : inst.q_des();
   r.qd_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.qd : s.zero;
-  r.kinetic_energy = s.kinetic_energy;
-  r.potential_energy = s.potential_energy;
+  r.kinetic_energy = s.energies.kinetic;
+  r.potential_energy = s.energies.potential;
   r.controller = static_cast<int>(inst.active_controller());
   r.mode = s.mode;
 }

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "daemon/channels.hpp"
+#include "daemon/default_scene.hpp"
 #include "daemon/bus.hpp"
 #include "daemon/lcm_bridge.hpp"
 #include "daemon/log_file.hpp"
@@ -30,7 +31,7 @@ namespace lagrange {
 namespace {
 
 struct Options {
-  std::string config = LAGRANGE_DEFAULT_SCENE;
+  std::string config = DefaultScenePath();
   std::string lcm_url;
   std::string input_lcm_url;
   std::string channel_prefix;

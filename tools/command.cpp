@@ -27,6 +27,8 @@ constexpr Action kActions[] = {
     {"resume", command_t::RESUME, false},               {"estop", command_t::ESTOP, false},
     {"clear", command_t::CLEAR_ESTOP, false}};
 
+constexpr std::chrono::milliseconds kEstopResend{20};
+
 class CommandCommand final : public Command {
  public:
   explicit CommandCommand(CLI::App& parent)
@@ -61,11 +63,27 @@ class CommandCommand final : public Command {
     }
     c.request_id = NewRequestId();
     link.ExpectReply(c.request_id);
-    c.utime = MonotonicClock().WallMicros();
-    if (!link.bus().PublishMessage(bus_.Channel(instance_, kCommandSuffix), c)) {
-      throw std::runtime_error("could not send the command on " + bus_.Channel(instance_, kCommandSuffix));
-    }
-    if (!link.PumpUntil([&] { return link.reply().has_value(); }, bus_.wait)) {
+    const std::string channel = bus_.Channel(instance_, kCommandSuffix);
+    auto send = [&] {
+      c.utime = MonotonicClock().WallMicros();
+      if (!link.bus().PublishMessage(channel, c)) throw std::runtime_error("could not send the command on " + channel);
+    };
+    send();
+    // An emergency stop is sent again every kEstopResend until its verdict
+    // comes: under a flood the kernel may drop a datagram before lagranged
+    // reads it, and a repeated estop is applied once (it is latest-wins).
+    // Other commands are sent once: a repeat could apply twice.
+    const bool resend = c.command == command_t::ESTOP;
+    auto next_send = std::chrono::steady_clock::now() + kEstopResend;
+    if (!link.PumpUntil(
+            [&] {
+              if (resend && std::chrono::steady_clock::now() >= next_send) {
+                send();
+                next_send += kEstopResend;
+              }
+              return link.reply().has_value();
+            },
+            bus_.wait)) {
       throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " + FormatDouble(bus_.wait) +
                                " s");
     }

@@ -10,6 +10,7 @@
 #include "tests/support/mini_json.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
+#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {
@@ -76,6 +77,50 @@ TEST(Eval, ChainParametersAndLinksShapeTheModel) {
   EXPECT_NEAR(json["V"].number, -9.81 * 2.0 * (0.2 + 0.6 + 1.0), 1e-12);
 }
 
+TEST(Eval, ChainParametersTakeOneValuePerLinkAsScenesDo) {
+  // Three 0.4 m uniform rods of 1, 2 and 3 kg hanging straight down: V = −g Σ m y_com.
+  const auto r = RunCtl({"eval", "--plant", "chain", "--param", "m=1,2,3", "--param", "L=0.4", "--param", "links=3",
+                         "--param", "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NEAR(ParseJson(r.out)["V"].number, -9.81 * (1.0 * 0.2 + 2.0 * 0.6 + 3.0 * 1.0), 1e-12);
+  // A list of equal values is the single value.
+  const auto list = ParseJson(RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "m=2,2,2", "--param",
+                                      "I=0.01,0.01,0.01", "--q", "0.1,0.2,0.3", "--qd", "1,2,3"}).out);
+  const auto one = ParseJson(RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "m=2", "--param", "I=0.01",
+                                     "--q", "0.1,0.2,0.3", "--qd", "1,2,3"}).out);
+  EXPECT_EQ(list["M"].NumberRows(), one["M"].NumberRows());
+  EXPECT_EQ(list["qdd"].Numbers(), one["qdd"].Numbers());
+}
+
+TEST(Eval, AChainWithAPrismaticFirstJointIsTheCartPole) {
+  // A slider along +x (1 kg) carrying a 1 m uniform rod of 0.1 kg: the cart-pole's defaults,
+  // with the rod's angle from +x, so θ = q1 + π/2. Both chain methods agree with the closed form.
+  const double q1 = 0.63;
+  const std::string q = "0.3," + cli::FormatDouble(q1), qd = "0.5,-1.3";
+  const auto cartpole = ParseJson(RunCtl({"eval", "--plant", "cartpole", "--q",
+                                          "0.3," + cli::FormatDouble(q1 + std::numbers::pi / 2), "--qd", qd,
+                                          "--tau", "0.4,-0.05"}).out);
+  for (const std::string method : {"recursive", "lagrangian"}) {
+    const auto r = RunCtl({"eval", "--plant", "chain", "--param", "joints=prismatic,revolute", "--param", "m=1,0.1",
+                           "--param", "L=0.5,1", "--q", q, "--qd", qd, "--tau", "0.4,-0.05", "--method", method});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto chain = ParseJson(r.out);
+    constexpr double kSame = 1e-12;
+    for (const char* key : {"G", "qdd"}) {
+      const auto a = chain[key].Numbers(), b = cartpole[key].Numbers();
+      for (std::size_t i = 0; i < 2; ++i) EXPECT_NEAR(a[i], b[i], kSame) << method << " " << key << i;
+    }
+    for (const char* key : {"M", "C"}) {
+      const auto a = chain[key].NumberRows(), b = cartpole[key].NumberRows();
+      for (std::size_t i = 0; i < 2; ++i) {
+        for (std::size_t j = 0; j < 2; ++j) EXPECT_NEAR(a[i][j], b[i][j], kSame) << method << " " << key;
+      }
+    }
+    EXPECT_NEAR(chain["T"].number, cartpole["T"].number, kSame);
+    EXPECT_NEAR(chain["V"].number, cartpole["V"].number, kSame);
+  }
+}
+
 TEST(Eval, ParametersChangeThePhysics) {
   const auto heavy = ParseJson(RunCtl({"eval", "--plant", "pendulum", "--param", "m=3", "--param", "L=2",
                                        "--q", "0.5", "--qd", "0"}).out);
@@ -106,6 +151,16 @@ TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
       {{"--plant", "arm2", "--links", "3", "--q", "0,0", "--qd", "0,0"}, "--links: only a chain has links"},
       {{"--plant", "chain", "--links", "0", "--q", "0", "--qd", "0"}, "--links: expected a whole number from 1 to 256, got 0"},
       {{"--plant", "arm2", "--qd", "0,0"}, "--q is required"},
+      {{"--plant", "chain", "--links", "3", "--param", "m=1,2", "--q", "0,0,0", "--qd", "0,0,0"},
+       "--param m: expected 3 values (one per link), got 2"},
+      {{"--plant", "chain", "--param", "m=1,-2", "--q", "0,0", "--qd", "0,0"},
+       "--param m[1]: expected a positive number (kg), got -2"},
+      {{"--plant", "chain", "--param", "g=9.81,9.81", "--q", "0,0", "--qd", "0,0"},
+       "--param g: expected a single value, got '9.81,9.81'"},
+      {{"--plant", "chain", "--param", "joints=revolute,hinge", "--q", "0,0", "--qd", "0,0"},
+       "--param joints[1]: expected revolute or prismatic, got 'hinge'"},
+      {{"--plant", "arm2", "--param", "m1=1,2", "--q", "0,0", "--qd", "0,0"},
+       "--param m1: expected a finite number, got '1,2'"},
   };
   for (const BadEval& c : cases) {
     std::vector<std::string> args = {"eval"};

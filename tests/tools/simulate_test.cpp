@@ -1,5 +1,6 @@
 // lagrangectl simulate: one CSV row per step with t, q, qd, tau, T, V, from
-// a scene file; bad scenes and arguments are one line and a non-zero exit.
+// a scene file; bad scenes and arguments are one line and a non-zero exit; an
+// instance that fails lagranged's health check stops at its last healthy row.
 
 #include <gtest/gtest.h>
 
@@ -8,8 +9,10 @@
 #include <fstream>
 #include <sstream>
 
+#include "daemon/scene.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
+#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {
@@ -114,6 +117,175 @@ instances:
     previous = e;
   }
   EXPECT_LT(previous, e0 - 1.0);
+}
+
+// The shipped effects demo, without the line of one effect (each sits on its own line).
+std::string DemoWithout(const std::string& effect) {
+  std::ifstream in(std::string(LAGRANGE_SOURCE_DIR) + "/config/effects_demo.yaml");
+  std::string text, line;
+  bool dropped = false;
+  while (std::getline(in, line)) {
+    const std::size_t start = line.find_first_not_of(' ');
+    if (start != std::string::npos && line.compare(start, effect.size() + 1, effect + ":") == 0) {
+      dropped = true;
+      continue;
+    }
+    text += line + "\n";
+  }
+  EXPECT_TRUE(dropped) << effect;
+  return text;
+}
+
+double LargestDifference(const Csv& a, const Csv& b, int n, std::size_t first_row = 0) {
+  double largest = 0.0;
+  for (std::size_t k = first_row; k < std::min(a.rows.size(), b.rows.size()); ++k) {
+    for (int i = 0; i < n; ++i) {
+      const int c = a.Column("q" + std::to_string(i));
+      largest = std::max(largest, std::abs(a.rows[k][c] - b.rows[k][c]));
+    }
+  }
+  return largest;
+}
+
+TEST_F(Simulate, TheEffectsDemoExercisesEveryEffectItLists) {
+  const std::string file = std::string(LAGRANGE_SOURCE_DIR) + "/config/effects_demo.yaml";
+  const EffectsConfig effects = LoadScene(file).instances.at(0).effects;
+  ASSERT_TRUE(effects.damping && effects.friction && effects.limits && effects.saturation);
+  ASSERT_EQ(effects.disturbance.size(), 1u);
+  const double duration = 8.0;
+  const fs::path csv = dir_ / "demo.csv";
+  const auto r = RunCtl({"simulate", file, "--duration", std::to_string(duration), "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv data = ReadCsv(csv);
+  const int n = 3;
+  const JointLimits& limits = *effects.limits;
+  for (int i = 0; i < n; ++i) {
+    const std::string j = std::to_string(i);
+    const int q = data.Column("q" + j), qd = data.Column("qd" + j), tau = data.Column("tau" + j);
+    bool clipped = false, held_above = false, held_below = false, full_friction = false;
+    for (const auto& row : data.rows) {
+      // Saturation: the applied torque sits at its bound.
+      clipped = clipped || std::abs(row[tau]) >= (*effects.saturation)[i] * (1.0 - 1e-12);
+      // Limits: the joint is past a stop and the stop's spring-damper pushes it back.
+      const double above = row[q] - limits.upper[i], below = row[q] - limits.lower[i];
+      held_above = held_above || (above > 0.0 && -limits.stiffness * above - limits.damping * row[qd] < 0.0);
+      held_below = held_below || (below < 0.0 && -limits.stiffness * below - limits.damping * row[qd] > 0.0);
+      // Friction: past 4 velocity scales, at more than 99.9 % of its Coulomb force.
+      full_friction = full_friction || std::abs(row[qd]) > 4.0 * effects.friction->velocity_scale;
+    }
+    EXPECT_TRUE(clipped) << "joint " << i << " never reached its saturation bound";
+    EXPECT_TRUE(held_above) << "joint " << i << " never went past its upper stop";
+    EXPECT_TRUE(held_below) << "joint " << i << " never went past its lower stop";
+    EXPECT_TRUE(full_friction) << "joint " << i;
+  }
+  // Each effect matters: the same run without it goes elsewhere. The push
+  // changes nothing before it starts.
+  const double push = effects.disturbance[0].start;
+  for (const std::string effect : {"damping", "friction", "limits", "saturation", "disturbance"}) {
+    const fs::path without = Write("without_" + effect + ".yaml", DemoWithout(effect));
+    const fs::path other_csv = dir_ / ("without_" + effect + ".csv");
+    ASSERT_EQ(RunCtl({"simulate", without.string(), "--duration", std::to_string(duration), "--csv",
+                      other_csv.string()}).status, 0) << effect;
+    const Csv other = ReadCsv(other_csv);
+    ASSERT_EQ(other.rows.size(), data.rows.size()) << effect;
+    EXPECT_GT(LargestDifference(data, other, n), 1e-2) << "without " << effect;
+    if (effect == "disturbance") {
+      const auto first_push_row = static_cast<std::size_t>(std::llround(push / 1e-3));
+      Csv before = data, other_before = other;
+      before.rows.resize(first_push_row);
+      other_before.rows.resize(first_push_row);
+      EXPECT_EQ(LargestDifference(before, other_before, n), 0.0);
+      EXPECT_GT(LargestDifference(data, other, n, first_push_row), 1e-2);
+    }
+  }
+}
+
+bool AllFinite(const Csv& csv) {
+  for (const auto& row : csv.rows) {
+    for (double x : row) {
+      if (!std::isfinite(x)) return false;
+    }
+  }
+  return true;
+}
+
+TEST_F(Simulate, ADivergingInstanceStopsAtItsLastHealthyRowWithOneLineAndStatusOne) {
+  // The elbow hits a stiff stop at 60 rad/s; RK4 at 1 ms is unstable in contact and the
+  // energy runs away (lagranged faults the same instance: tests/daemon/stiff_cases_test.cpp).
+  // The pendulum beside it runs to the end.
+  const fs::path scene = Write("diverging.yaml", R"(
+instances:
+  - name: arm
+    plant: {type: arm2}
+    initial: {q: [0.0, 0.0], qd: [0.0, 60.0]}
+    effects: {gravity: false, limits: {lower: [-10, -1.0], upper: [10, 1.0], stiffness: 1.0e6, damping: 20}}
+    integrator: {type: rk4}
+  - name: pendulum
+    plant: {type: pendulum}
+    initial: {q: [1.0]}
+)");
+  const auto r = RunCtl({"simulate", scene.string(), "--duration", "1", "--csv", (dir_ / "run.csv").string()});
+  EXPECT_EQ(r.status, 1);
+  const std::vector<std::string> lines = testing::Lines(r.err);
+  ASSERT_EQ(lines.size(), 3u) << r.err;  // the two "NAME -> FILE" lines and the fault
+  EXPECT_EQ(lines[2].rfind("lagrangectl simulate: arm faulted at t = ", 0), 0u) << lines[2];
+  EXPECT_NE(lines[2].find("the energy left its bound (max_energy), |T + V| > "), std::string::npos) << lines[2];
+  const Csv arm = ReadCsv(dir_ / "run.arm.csv"), pendulum = ReadCsv(dir_ / "run.pendulum.csv");
+  EXPECT_TRUE(AllFinite(arm));
+  EXPECT_GT(arm.rows.size(), 10u);
+  EXPECT_LT(arm.rows.size(), 1001u);
+  EXPECT_NE(lines[2].find("its CSV ends at t = " + cli::FormatDouble(arm.rows.back()[0]) + " s"), std::string::npos)
+      << lines[2];
+  EXPECT_EQ(pendulum.rows.size(), 1001u);
+  EXPECT_TRUE(AllFinite(pendulum));
+}
+
+TEST_F(Simulate, TheEnergyBoundIsTheScenesMaxEnergyAsInLagranged) {
+  // |T + V| = m g L cos(1) = 5.3 J at once, above max_energy: faulted at the first step,
+  // so the CSV holds only t = 0.
+  const fs::path scene = Write("bounded.yaml", R"(
+instances:
+  - name: p
+    plant: {type: pendulum}
+    initial: {q: [1.0]}
+    max_energy: 0.1
+)");
+  const auto r = RunCtl({"simulate", scene.string(), "--duration", "1", "--csv", (dir_ / "p.csv").string()});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err,
+            "lagrangectl simulate: p faulted at t = 0.001 s: the energy left its bound (max_energy), |T + V| > 0.1 J; "
+            "its CSV ends at t = 0 s, the last healthy step\n");
+  EXPECT_EQ(ReadCsv(dir_ / "p.csv").rows.size(), 1u);
+}
+
+TEST_F(Simulate, AChainWithAPrismaticJointUnderAPendulumMovesAsTheCartPole) {
+  // A slider along +x carrying a 1 m uniform rod of 0.1 kg is the cart-pole (θ = q1 + π/2).
+  const fs::path chain = Write("chain.yaml", R"(
+instances:
+  - name: c
+    plant: {type: chain, params: {links: 2, joints: [prismatic, revolute], m: [1.0, 0.1], L: [0.5, 1.0]}}
+    initial: {q: [0.0, 0.0], qd: [0.3, 0.0]}
+    effects: {damping: [0.2, 0.01]}
+    integrator: {type: rk4}
+)");
+  const fs::path cartpole = Write("cartpole.yaml", R"(
+instances:
+  - name: c
+    plant: {type: cartpole}
+    initial: {q: [0.0, 1.5707963267948966], qd: [0.3, 0.0]}
+    effects: {damping: [0.2, 0.01]}
+    integrator: {type: rk4}
+)");
+  ASSERT_EQ(RunCtl({"simulate", chain.string(), "--duration", "2", "--csv", (dir_ / "chain.csv").string()}).status, 0);
+  ASSERT_EQ(RunCtl({"simulate", cartpole.string(), "--duration", "2", "--csv", (dir_ / "cp.csv").string()}).status, 0);
+  const Csv a = ReadCsv(dir_ / "chain.csv"), b = ReadCsv(dir_ / "cp.csv");
+  ASSERT_EQ(a.rows.size(), b.rows.size());
+  constexpr double kSameMotion = 1e-9;
+  for (std::size_t k = 0; k < a.rows.size(); ++k) {
+    EXPECT_NEAR(a.rows[k][a.Column("q0")], b.rows[k][b.Column("q0")], kSameMotion) << k;
+    EXPECT_NEAR(a.rows[k][a.Column("q1")] + std::acos(0.0), b.rows[k][b.Column("q1")], kSameMotion) << k;
+  }
+  EXPECT_GT(std::abs(a.rows.back()[a.Column("q1")]), 0.5);  // the pole swung
 }
 
 TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {

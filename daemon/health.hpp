@@ -1,0 +1,45 @@
+#pragma once
+// The health rule of one step, in one place for the tick (daemon/runtime.cpp)
+// and the offline runner (daemon/offline.cpp, lagrangectl simulate). A step is
+// a fault, named by the first rule it breaks, when
+//   1. the step itself failed: the controller's output was not finite, or the
+//      integrator failed its tolerance (Instance::StepFailure);
+//   2. q, q̇ or q̈ is not finite;
+//   3. T + V is not finite or |T + V| > max_energy (J).
+// The reasons are static strings, so the tick reports them without formatting.
+
+#include <cmath>
+
+#include "daemon/instance.hpp"
+#include "plant/plant_spec.hpp"
+
+namespace lagrange {
+
+inline constexpr const char* kStateNotFinite = "the state became non-finite";
+inline constexpr const char* kEnergyOutOfBound = "the energy left its bound (max_energy)";
+
+// J: an instance's bound on |T + V|: the scene's max_energy, else DefaultMaxEnergy.
+inline double MaxEnergy(const InstanceConfig& config) {
+  return config.max_energy.value_or(DefaultMaxEnergy(config.plant));
+}
+
+// The energies the check computes, for the caller to record (computed once per step).
+struct StepEnergies {
+  double kinetic = 0.0;    // J
+  double potential = 0.0;  // J, including the joint limits' springs
+};
+
+// (step outcome, q, q̇, q̈, T + V) => the fault, or null when the step is healthy.
+// Fills `energies` whenever the state is finite.
+inline const char* CheckStepHealth(Instance& instance, Instance::StepFailure step, double max_energy,
+                                   StepEnergies& energies) {
+  if (step != nullptr) return step;
+  if (!instance.q().allFinite() || !instance.qd().allFinite() || !instance.qdd().allFinite()) return kStateNotFinite;
+  energies.kinetic = instance.KineticEnergy();
+  energies.potential = instance.PotentialEnergy();
+  const double energy = energies.kinetic + energies.potential;
+  if (!std::isfinite(energy) || std::abs(energy) > max_energy) return kEnergyOutOfBound;
+  return nullptr;
+}
+
+}  // namespace lagrange

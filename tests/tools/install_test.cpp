@@ -1,0 +1,155 @@
+// `cmake --install` into a fresh prefix gives an installation that works on
+// its own: the programs, their default scene under the prefix, every shipped
+// scene, the .lcm files, the generated headers, the lcm-spy jar when built,
+// and a pkg-config file and a CMake package that a user's own LCM client
+// compiles against.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "tests/support/process.hpp"
+
+namespace lagrange {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunProcess;
+
+// A client of the installed types: encodes a state_t and decodes it back.
+constexpr const char* kClient = R"(#include <lagrange/state_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <vector>
+int main() {
+  lagrange::state_t s{};
+  s.num_dofs = 2;
+  s.q = {0.5, -0.25};
+  s.qd = s.qdd = s.tau = s.q_des = s.qd_des = std::vector<double>(2, 0.0);
+  std::vector<unsigned char> buffer(s.getEncodedSize());
+  if (s.encode(buffer.data(), 0, static_cast<int>(buffer.size())) < 0) return 1;
+  lagrange::state_t back;
+  if (back.decode(buffer.data(), 0, static_cast<int>(buffer.size())) < 0) return 2;
+  return back.num_dofs == 2 && back.q[1] == -0.25 ? 0 : 3;
+}
+)";
+
+// Runs a shell command line; its output on failure.
+testing::ProcessResult Shell(const std::string& command) { return RunProcess({"/bin/sh", "-c", command}, 120.0); }
+
+std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
+
+class Install : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    prefix_ = fs::temp_directory_path() / ("lagrange_install_" + std::to_string(::getpid()));
+    fs::remove_all(prefix_);
+    const auto r = RunProcess({CMAKE_COMMAND, "--install", LAGRANGE_BINARY_DIR, "--prefix", prefix_.string()}, 120.0);
+    install_status_ = r.exit_code;
+    install_output_ = r.out + r.err;
+  }
+  static void TearDownTestSuite() { fs::remove_all(prefix_); }
+  void SetUp() override { ASSERT_EQ(install_status_, 0) << install_output_; }
+
+  static fs::path prefix_;
+  static int install_status_;
+  static std::string install_output_;
+};
+
+fs::path Install::prefix_;
+int Install::install_status_ = -1;
+std::string Install::install_output_;
+
+TEST_F(Install, LagrangedRunsItsDefaultSceneFromUnderThePrefix) {
+  const fs::path lagranged = prefix_ / "bin/lagranged";
+  const auto help = RunProcess({lagranged.string(), "--help"});
+  ASSERT_EQ(help.exit_code, 0) << help.err;
+  const fs::path scene = prefix_ / "share/lagrange/config/default.yaml";
+  std::string config_line;
+  for (const std::string& line : testing::Lines(help.out)) {
+    if (line.find("--config") != std::string::npos) config_line = line;
+  }
+  EXPECT_NE(config_line.find(scene.string()), std::string::npos) << help.out;
+  EXPECT_EQ(config_line.find(LAGRANGE_SOURCE_DIR), std::string::npos) << config_line;
+  // And runs it: a few ticks on the in-process transport, no network needed.
+  const auto run = RunProcess({lagranged.string(), "--lcm-url", "inprocess://", "--duration", "0.05"}, 60.0);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find(scene.string()), std::string::npos) << run.err;
+}
+
+TEST_F(Install, EveryShippedSceneIsInstalledAndRuns) {
+  std::vector<fs::path> scenes;
+  for (const auto& entry : fs::directory_iterator(fs::path(LAGRANGE_SOURCE_DIR) / "config")) {
+    if (entry.path().extension() == ".yaml") scenes.push_back(entry.path().filename());
+  }
+  ASSERT_GE(scenes.size(), 7u);
+  for (const fs::path& name : scenes) {
+    const fs::path installed = prefix_ / "share/lagrange/config" / name;
+    ASSERT_TRUE(fs::is_regular_file(installed)) << name << " is not in the top-level CMakeLists.txt's install list";
+    const auto r = RunProcess({(prefix_ / "bin/lagrangectl").string(), "simulate", installed.string(), "--duration",
+                               "0.01", "--csv", (prefix_ / "run.csv").string()});
+    EXPECT_EQ(r.exit_code, 0) << name << ": " << r.err;
+  }
+  EXPECT_TRUE(fs::is_regular_file(prefix_ / "lib/systemd/system/lagranged.service"));
+  EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/doc/lagrange/README.md"));
+}
+
+TEST_F(Install, TheLcmTypesAreInstalledAsDefinitionsHeadersAndJar) {
+  int types = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(LAGRANGE_SOURCE_DIR) / "lcmtypes")) {
+    if (entry.path().extension() != ".lcm") continue;
+    ++types;
+    const std::string name = entry.path().stem().string();
+    EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/lagrange/lcmtypes" / entry.path().filename())) << name;
+    EXPECT_TRUE(fs::is_regular_file(prefix_ / "include/lagrange" / (name + ".hpp"))) << name;
+  }
+  EXPECT_GE(types, 4);
+  if (std::string(LAGRANGE_LCM_JAR).empty()) GTEST_SKIP() << "built without a JDK: no lcm-spy jar to install";
+  EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/java/lagrange_lcmtypes.jar"));
+}
+
+TEST_F(Install, AClientCompilesAgainstTheInstalledHeadersWithPkgConfig) {
+  const fs::path dir = prefix_ / "pkg_client";
+  fs::create_directories(dir);
+  std::ofstream(dir / "client.cpp") << kClient;
+  const std::string env = "PKG_CONFIG_PATH=" + Quote(prefix_ / "share/pkgconfig") + " ";
+  const auto flags = Shell(env + "pkg-config --cflags --libs lagrange-lcmtypes");
+  ASSERT_EQ(flags.exit_code, 0) << flags.err;
+  // Cflags: the installed headers (the .pc file is relocatable: the path goes through its own directory).
+  const std::size_t include = flags.out.find("-I");
+  ASSERT_NE(include, std::string::npos) << flags.out;
+  const std::string include_dir = flags.out.substr(include + 2, flags.out.find(' ', include) - include - 2);
+  EXPECT_EQ(fs::canonical(include_dir), fs::canonical(prefix_ / "include")) << flags.out;
+  EXPECT_NE(flags.out.find("-llcm"), std::string::npos) << flags.out;
+  const auto build = Shell(std::string(CXX_COMPILER) + " -std=c++17 -o " + Quote(dir / "client") + " " +
+                           Quote(dir / "client.cpp") + " $(" + env + "pkg-config --cflags --libs lagrange-lcmtypes)");
+  ASSERT_EQ(build.exit_code, 0) << build.err;
+  const auto run = RunProcess({(dir / "client").string()});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+}
+
+TEST_F(Install, AClientBuildsWithFindPackageLagrange) {
+  const fs::path dir = prefix_ / "cmake_client";
+  fs::create_directories(dir);
+  std::ofstream(dir / "client.cpp") << kClient;
+  std::ofstream(dir / "CMakeLists.txt") << "cmake_minimum_required(VERSION 3.16)\n"
+                                           "project(client LANGUAGES CXX)\n"
+                                           "find_package(lagrange 0.1 REQUIRED)\n"
+                                           "add_executable(client client.cpp)\n"
+                                           "target_compile_features(client PRIVATE cxx_std_17)\n"
+                                           "target_link_libraries(client PRIVATE lagrange::lcmtypes)\n";
+  const auto configure =
+      RunProcess({CMAKE_COMMAND, "-S", dir.string(), "-B", (dir / "build").string(),
+                  "-DCMAKE_PREFIX_PATH=" + prefix_.string(), "-DCMAKE_CXX_COMPILER=" CXX_COMPILER}, 120.0);
+  ASSERT_EQ(configure.exit_code, 0) << configure.out << configure.err;
+  const auto build = RunProcess({CMAKE_COMMAND, "--build", (dir / "build").string()}, 120.0);
+  ASSERT_EQ(build.exit_code, 0) << build.out << build.err;
+  const auto run = RunProcess({(dir / "build/client").string()});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+}
+
+}  // namespace
+}  // namespace lagrange
