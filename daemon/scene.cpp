@@ -221,10 +221,6 @@ Scene ReadScene(const YamlReader& root) {
 
 Scene LoadScene(const std::string& path) { return ReadScene(YamlReader::Load(path)); }
 
-std::string_view ToString(TimeoutBehaviour behaviour) {
-  return behaviour == TimeoutBehaviour::kHoldPosition ? "hold-position" : "zero-torque";
-}
-
 std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& c) {
   const TrajectoryConfig& t = c.setpoint;
   const int n = c.plant.num_dofs();

@@ -62,7 +62,6 @@ struct Scene {
 Scene LoadScene(const std::string& path);
 // The instance's initial trajectory.
 std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& config);
-std::string_view ToString(TimeoutBehaviour behaviour);
 Scene ParseScene(const std::string& yaml_text, const std::string& file_label);
 
 }  // namespace lagrange

@@ -21,8 +21,6 @@ std::string JoinPath(const std::string& parent, std::string_view key) {
   return parent.empty() ? std::string(key) : parent + "." + std::string(key);
 }
 
-}  // namespace
-
 std::string FormatConfigError(const std::string& file, int line, int column, const std::string& key,
                               const std::string& message) {
   std::string s = file;
@@ -34,12 +32,10 @@ std::string FormatConfigError(const std::string& file, int line, int column, con
   return s.append(message);
 }
 
+}  // namespace
+
 ConfigError::ConfigError(std::string file, int line, int column, std::string key, std::string message)
-    : std::runtime_error(FormatConfigError(file, line, column, key, message)),
-      file_(std::move(file)),
-      line_(line),
-      key_(std::move(key)),
-      message_(std::move(message)) {}
+    : std::runtime_error(FormatConfigError(file, line, column, key, message)), file_(std::move(file)) {}
 
 YamlReader::YamlReader(YAML::Node node, std::string path, std::shared_ptr<const std::string> file)
     : node_(std::move(node)), path_(std::move(path)), file_(std::move(file)) {}

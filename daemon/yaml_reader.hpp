@@ -22,15 +22,9 @@ class ConfigError : public std::runtime_error {
  public:
   ConfigError(std::string file, int line, int column, std::string key, std::string message);
   const std::string& file() const { return file_; }
-  int line() const { return line_; }
-  const std::string& key() const { return key_; }
-  const std::string& message() const { return message_; }
 
  private:
   std::string file_;
-  int line_;
-  std::string key_;
-  std::string message_;
 };
 
 class YamlReader {
@@ -44,10 +38,8 @@ class YamlReader {
   YamlReader(const YamlReader&) = default;
   YamlReader& operator=(const YamlReader& other);
 
-  const std::string& path() const { return path_; }
   const std::string& file() const { return *file_; }
 
-  bool IsMap() const { return node_.IsMap(); }
   bool IsSequence() const { return node_.IsSequence(); }
   bool IsScalar() const { return node_.IsScalar(); }
 

@@ -1,10 +1,9 @@
 #pragma once
-// Shared pieces of lagrangectl's commands: usage errors, strict number lists,
-// JSON and CSV number formatting.
+// Shared pieces of lagrangectl's commands: usage errors, number validators,
+// per-joint values, number formatting.
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
-#include <ostream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -20,14 +19,15 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// "a,b,c" => (a, b, c): every item a finite number; `expected` > 0 checks the count.
-VectorXd ParseNumberList(std::string_view option, std::string_view text, int expected);
-
 // CLI11 validators, each with a message that names what was expected. Used
 // on every item of a ->delimiter(',') list.
 CLI::Validator FiniteNumber();          // any finite number
 CLI::Validator NonNegativeNumber();     // finite, >= 0
 CLI::Validator PositiveNumber(double max = 1e300);  // finite, in (0, max]
+
+// --NAME a,b,..: a comma list, every item a FiniteNumber(), in one argument.
+CLI::Option* AddNumberList(CLI::App& app, const std::string& name, std::vector<double>& values,
+                           const std::string& help);
 
 // `values` (already validated finite) as one per joint: exactly `n`, or one
 // value for every joint when `scalar_ok`.
@@ -38,8 +38,5 @@ std::string RunIdText(std::int64_t id);
 
 // Shortest text that reads back to the same double.
 std::string FormatDouble(double x);
-
-void WriteJsonVector(std::ostream& out, const VectorXd& v);
-void WriteJsonMatrix(std::ostream& out, const MatrixXd& m);
 
 }  // namespace lagrange::cli

@@ -1,7 +1,7 @@
 // lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON.
 
 #include <algorithm>
-#include <sstream>
+#include <nlohmann/json.hpp>
 
 #include "plant/plant_spec.hpp"
 #include "tools/cli_support.hpp"
@@ -43,6 +43,16 @@ void SetParam(PlantSpec& spec, const std::string& name, const std::string& value
   }
 }
 
+// A vector as a list of numbers.
+std::vector<double> JsonList(const VectorXd& v) { return {v.begin(), v.end()}; }
+
+// A matrix as a list of rows.
+std::vector<std::vector<double>> JsonRows(const MatrixXd& m) {
+  std::vector<std::vector<double>> rows;
+  for (int i = 0; i < m.rows(); ++i) rows.push_back(JsonList(m.row(i).transpose()));
+  return rows;
+}
+
 class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
@@ -52,9 +62,9 @@ class EvalCommand final : public Command {
     app_->add_option("--param", params_,
                      "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...); a chain's m, L, com, I "
                      "and joints (revolute|prismatic) take one value for every link or a list: m=1,0.8,0.5");
-    app_->add_option("--q", q_, "Positions a,b,.. (rad or m)")->required();
-    app_->add_option("--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
-    app_->add_option("--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
+    AddNumberList(*app_, "--q", q_, "Positions a,b,.. (rad or m)")->required();
+    AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
+    AddNumberList(*app_, "--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
     app_->add_option("--method", method_, "closed-form|lagrangian|recursive; default the fastest exact path");
   }
 
@@ -87,9 +97,9 @@ class EvalCommand final : public Command {
     }
 
     const int n = spec.num_dofs();
-    const VectorXd q = ParseNumberList("--q", q_, n);
-    const VectorXd qd = ParseNumberList("--qd", qd_, n);
-    const VectorXd tau = tau_ ? ParseNumberList("--tau", *tau_, n) : VectorXd::Zero(n);
+    const VectorXd q = JointValues("--q", q_, n);
+    const VectorXd qd = JointValues("--qd", qd_, n);
+    const VectorXd tau = tau_.empty() ? VectorXd::Zero(n) : JointValues("--tau", tau_, n);
 
     auto dynamics = MakeDynamics(spec, method);
     MatrixXd M(n, n), C(n, n);
@@ -100,22 +110,23 @@ class EvalCommand final : public Command {
     dynamics->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
     const double T = dynamics->ComputeKineticEnergy(q, qd);
     const double V = dynamics->ComputePotentialEnergy(q);
-    if (!qdd.allFinite() || !M.allFinite() || !std::isfinite(T) || !std::isfinite(V)) {
+    // Every value printed is finite (JSON has no inf or nan).
+    if (!M.allFinite() || !C.allFinite() || !G.allFinite() || !qdd.allFinite() || !std::isfinite(T) ||
+        !std::isfinite(V)) {
       throw std::runtime_error("the dynamics are not finite at this state");
     }
 
-    std::ostringstream json;
-    json << "{\"plant\": \"" << ToString(*type) << "\", \"method\": \"" << ToString(method)
-         << "\", \"num_dofs\": " << n << ", \"M\": ";
-    WriteJsonMatrix(json, M);
-    json << ", \"C\": ";
-    WriteJsonMatrix(json, C);
-    json << ", \"G\": ";
-    WriteJsonVector(json, G);
-    json << ", \"qdd\": ";
-    WriteJsonVector(json, qdd);
-    json << ", \"T\": " << FormatDouble(T) << ", \"V\": " << FormatDouble(V) << "}\n";
-    out << json.str();
+    // ordered_json keeps the keys in the order written; dump() prints the shortest text that reads back to each double.
+    const nlohmann::ordered_json json = {{"plant", ToString(*type)},
+                                         {"method", ToString(method)},
+                                         {"num_dofs", n},
+                                         {"M", JsonRows(M)},
+                                         {"C", JsonRows(C)},
+                                         {"G", JsonList(G)},
+                                         {"qdd", JsonList(qdd)},
+                                         {"T", T},
+                                         {"V", V}};
+    out << json.dump() << "\n";
     return 0;
   }
 
@@ -123,8 +134,8 @@ class EvalCommand final : public Command {
   std::string plant_;
   std::optional<int> links_;
   std::vector<std::string> params_;
-  std::string q_, qd_;
-  std::optional<std::string> tau_, method_;
+  std::vector<double> q_, qd_, tau_;
+  std::optional<std::string> method_;
 };
 
 }  // namespace

@@ -53,17 +53,13 @@ class SimulateCommand final : public Command {
   explicit SimulateCommand(CLI::App& parent)
       : Command(parent.add_subcommand("simulate", "Run a scene offline, as fast as possible, into CSV")) {
     app_->add_option("scene", scene_, "Scene file (YAML)")->required();
-    app_->add_option("--duration", duration_, "Simulated time, s")->required();
+    app_->add_option("--duration", duration_, "Simulated time, s")->required()->check(PositiveNumber());
     app_->add_option("--csv", csv_,
                      "Output CSV ('-' for stdout); a scene with several instances writes FILE.NAME.csv for each")
         ->required();
   }
 
   int Run(std::ostream& out, std::ostream& err) override {
-    const std::optional<double> duration = ParseFiniteNumber(duration_);
-    if (!duration || *duration <= 0.0) {
-      throw UsageError("--duration: expected a positive number of seconds, got '" + duration_ + "'");
-    }
     const Scene scene = LoadScene(scene_);
     std::vector<Instance> instances;
     instances.reserve(scene.instances.size());
@@ -85,7 +81,7 @@ class SimulateCommand final : public Command {
     }
     for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i].num_dofs());
 
-    const auto steps = static_cast<std::int64_t>(std::llround(*duration / scene.period));
+    const auto steps = static_cast<std::int64_t>(std::llround(duration_ / scene.period));
     const std::vector<OfflineFault> faults = RunOfflineChecked(
         instances, scene.period, steps, [&](std::size_t i, Instance& inst) { WriteRow(*streams[i], inst); });
     for (auto& f : files) {
@@ -98,7 +94,7 @@ class SimulateCommand final : public Command {
 
  private:
   std::string scene_;
-  std::string duration_;
+  double duration_ = 0.0;
   std::string csv_;
 };
 

@@ -4,10 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "plant/plant_spec.hpp"
-#include "tests/support/mini_json.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 #include "tools/cli_support.hpp"
@@ -15,27 +15,58 @@
 namespace lagrange {
 namespace {
 
-using testing::ParseJson;
+using nlohmann::json;
 using testing::RunCtl;
+
+using Rows = std::vector<std::vector<double>>;
+using Numbers = std::vector<double>;
+
+// What `lagrangectl eval ARGS...` prints, parsed.
+json Eval(std::vector<std::string> args) {
+  args.insert(args.begin(), "eval");
+  return json::parse(RunCtl(std::move(args)).out);
+}
 
 TEST(Eval, ArmAtTheArticlePoseReportsTheModelsGravityAndMassMatrix) {
   const auto r = RunCtl({"eval", "--plant", "arm2", "--q", "0.7853981633974483,0", "--qd", "0,0"});
   ASSERT_EQ(r.status, 0) << r.err;
-  const auto json = ParseJson(r.out);
-  EXPECT_EQ(json["method"].string, "closed-form");
+  const json out = json::parse(r.out);
+  EXPECT_EQ(out.at("method").get<std::string>(), "closed-form");
   const double m1 = 1.0, m2 = 0.8, L1 = 0.6, L2 = 0.5, g = 9.81, c = std::cos(std::numbers::pi / 4);
-  const std::vector<double> G = json["G"].Numbers();
+  const std::vector<double> G = out.at("G").get<Numbers>();
   ASSERT_EQ(G.size(), 2u);
   EXPECT_NEAR(G[0], g * c * (m1 * L1 / 2 + m2 * (L1 + L2 / 2)), 1e-12);
   EXPECT_NEAR(G[1], g * c * m2 * L2 / 2, 1e-12);
-  const auto M = json["M"].NumberRows();
+  const auto M = out.at("M").get<Rows>();
   EXPECT_NEAR(M[0][0], m1 * L1 * L1 / 3 + m2 * (L1 * L1 + L1 * L2 + L2 * L2 / 3), 1e-14);
   EXPECT_NEAR(M[0][1], M[1][0], 0.0);
-  EXPECT_EQ(json["T"].number, 0.0);
+  EXPECT_EQ(out.at("T").get<double>(), 0.0);
   // At rest with zero torque, M qdd = −G.
-  const std::vector<double> qdd = json["qdd"].Numbers();
+  const std::vector<double> qdd = out.at("qdd").get<Numbers>();
   EXPECT_NEAR(M[0][0] * qdd[0] + M[0][1] * qdd[1], -G[0], 1e-12);
   EXPECT_NEAR(M[1][0] * qdd[0] + M[1][1] * qdd[1], -G[1], 1e-12);
+}
+
+TEST(Eval, EveryPrintedNumberReadsBackToTheModelsDouble) {
+  // Exact equality is the property: the JSON must carry each double, not a rounding of it.
+  const json out = Eval({"--plant", "arm2", "--q", "0.3,-1.2", "--qd", "1e-7,3e5"});
+  const auto dynamics = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm);
+  const VectorXd qv = (VectorXd(2) << 0.3, -1.2).finished(), qdv = (VectorXd(2) << 1e-7, 3e5).finished();
+  MatrixXd M(2, 2), C(2, 2);
+  VectorXd G(2);
+  dynamics->ComputeMassMatrix(qv, M);
+  dynamics->ComputeCoriolisMatrix(qv, qdv, C);
+  dynamics->ComputeGravityForce(qv, G);
+  const auto Mj = out.at("M").get<Rows>(), Cj = out.at("C").get<Rows>();
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(out.at("G").get<Numbers>()[i], G[i]);
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_EQ(Mj[i][j], M(i, j));
+      EXPECT_EQ(Cj[i][j], C(i, j));
+    }
+  }
+  EXPECT_EQ(out.at("T").get<double>(), dynamics->ComputeKineticEnergy(qv, qdv));
+  EXPECT_EQ(out.at("V").get<double>(), dynamics->ComputePotentialEnergy(qv));
 }
 
 TEST(Eval, EveryMethodPrintsTheSameDynamics) {
@@ -43,24 +74,24 @@ TEST(Eval, EveryMethodPrintsTheSameDynamics) {
     const std::string q = plant == "pendulum" ? "0.4" : "0.3,-1.2";
     const std::string qd = plant == "pendulum" ? "1.5" : "1.5,-0.7";
     const std::string tau = plant == "pendulum" ? "0.2" : "0.2,-0.1";
-    std::vector<testing::Json> outputs;
+    std::vector<json> outputs;
     for (const std::string method : {"closed-form", "lagrangian", "recursive"}) {
       const auto r = RunCtl({"eval", "--plant", plant, "--q", q, "--qd", qd, "--tau", tau, "--method", method});
       ASSERT_EQ(r.status, 0) << r.err;
-      outputs.push_back(ParseJson(r.out));
-      EXPECT_EQ(outputs.back()["method"].string, method);
+      outputs.push_back(json::parse(r.out));
+      EXPECT_EQ(outputs.back().at("method").get<std::string>(), method);
     }
     for (const auto& o : outputs) {
       for (const char* key : {"G", "qdd"}) {
-        const auto a = outputs[0][key].Numbers(), b = o[key].Numbers();
+        const auto a = outputs[0].at(key).get<Numbers>(), b = o.at(key).get<Numbers>();
         for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-11 * (1 + std::abs(a[i]))) << plant << key;
       }
-      const auto Ca = outputs[0]["C"].NumberRows(), Cb = o["C"].NumberRows();
+      const auto Ca = outputs[0].at("C").get<Rows>(), Cb = o.at("C").get<Rows>();
       for (std::size_t i = 0; i < Ca.size(); ++i) {
         for (std::size_t j = 0; j < Ca.size(); ++j) EXPECT_NEAR(Ca[i][j], Cb[i][j], 1e-12) << plant;
       }
-      EXPECT_NEAR(outputs[0]["T"].number, o["T"].number, 1e-12);
-      EXPECT_NEAR(outputs[0]["V"].number, o["V"].number, 1e-12);
+      EXPECT_NEAR(outputs[0].at("T").get<double>(), o.at("T").get<double>(), 1e-12);
+      EXPECT_NEAR(outputs[0].at("V").get<double>(), o.at("V").get<double>(), 1e-12);
     }
   }
 }
@@ -70,11 +101,11 @@ TEST(Eval, ChainParametersAndLinksShapeTheModel) {
   const auto r = RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "L=0.4", "--param", "m=2",
                          "--param", "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
   ASSERT_EQ(r.status, 0) << r.err;
-  const auto json = ParseJson(r.out);
-  EXPECT_EQ(json["method"].string, "recursive");
-  EXPECT_EQ(json["M"].NumberRows().size(), 3u);
-  for (double g : json["G"].Numbers()) EXPECT_NEAR(g, 0.0, 1e-12);
-  EXPECT_NEAR(json["V"].number, -9.81 * 2.0 * (0.2 + 0.6 + 1.0), 1e-12);
+  const json out = json::parse(r.out);
+  EXPECT_EQ(out.at("method").get<std::string>(), "recursive");
+  EXPECT_EQ(out.at("M").get<Rows>().size(), 3u);
+  for (double g : out.at("G").get<Numbers>()) EXPECT_NEAR(g, 0.0, 1e-12);
+  EXPECT_NEAR(out.at("V").get<double>(), -9.81 * 2.0 * (0.2 + 0.6 + 1.0), 1e-12);
 }
 
 TEST(Eval, ChainParametersTakeOneValuePerLinkAsScenesDo) {
@@ -82,14 +113,14 @@ TEST(Eval, ChainParametersTakeOneValuePerLinkAsScenesDo) {
   const auto r = RunCtl({"eval", "--plant", "chain", "--param", "m=1,2,3", "--param", "L=0.4", "--param", "links=3",
                          "--param", "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NEAR(ParseJson(r.out)["V"].number, -9.81 * (1.0 * 0.2 + 2.0 * 0.6 + 3.0 * 1.0), 1e-12);
+  EXPECT_NEAR(json::parse(r.out).at("V").get<double>(), -9.81 * (1.0 * 0.2 + 2.0 * 0.6 + 3.0 * 1.0), 1e-12);
   // A list of equal values is the single value.
-  const auto list = ParseJson(RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "m=2,2,2", "--param",
-                                      "I=0.01,0.01,0.01", "--q", "0.1,0.2,0.3", "--qd", "1,2,3"}).out);
-  const auto one = ParseJson(RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "m=2", "--param", "I=0.01",
-                                     "--q", "0.1,0.2,0.3", "--qd", "1,2,3"}).out);
-  EXPECT_EQ(list["M"].NumberRows(), one["M"].NumberRows());
-  EXPECT_EQ(list["qdd"].Numbers(), one["qdd"].Numbers());
+  const json list = Eval({"--plant", "chain", "--links", "3", "--param", "m=2,2,2", "--param", "I=0.01,0.01,0.01",
+                          "--q", "0.1,0.2,0.3", "--qd", "1,2,3"});
+  const json one = Eval({"--plant", "chain", "--links", "3", "--param", "m=2", "--param", "I=0.01", "--q",
+                         "0.1,0.2,0.3", "--qd", "1,2,3"});
+  EXPECT_EQ(list.at("M").get<Rows>(), one.at("M").get<Rows>());
+  EXPECT_EQ(list.at("qdd").get<Numbers>(), one.at("qdd").get<Numbers>());
 }
 
 TEST(Eval, AChainWithAPrismaticFirstJointIsTheCartPole) {
@@ -97,37 +128,35 @@ TEST(Eval, AChainWithAPrismaticFirstJointIsTheCartPole) {
   // with the rod's angle from +x, so θ = q1 + π/2. Both chain methods agree with the closed form.
   const double q1 = 0.63;
   const std::string q = "0.3," + cli::FormatDouble(q1), qd = "0.5,-1.3";
-  const auto cartpole = ParseJson(RunCtl({"eval", "--plant", "cartpole", "--q",
-                                          "0.3," + cli::FormatDouble(q1 + std::numbers::pi / 2), "--qd", qd,
-                                          "--tau", "0.4,-0.05"}).out);
+  const json cartpole = Eval({"--plant", "cartpole", "--q", "0.3," + cli::FormatDouble(q1 + std::numbers::pi / 2),
+                              "--qd", qd, "--tau", "0.4,-0.05"});
   for (const std::string method : {"recursive", "lagrangian"}) {
     const auto r = RunCtl({"eval", "--plant", "chain", "--param", "joints=prismatic,revolute", "--param", "m=1,0.1",
                            "--param", "L=0.5,1", "--q", q, "--qd", qd, "--tau", "0.4,-0.05", "--method", method});
     ASSERT_EQ(r.status, 0) << r.err;
-    const auto chain = ParseJson(r.out);
+    const json chain = json::parse(r.out);
     constexpr double kSame = 1e-12;
     for (const char* key : {"G", "qdd"}) {
-      const auto a = chain[key].Numbers(), b = cartpole[key].Numbers();
+      const auto a = chain.at(key).get<Numbers>(), b = cartpole.at(key).get<Numbers>();
       for (std::size_t i = 0; i < 2; ++i) EXPECT_NEAR(a[i], b[i], kSame) << method << " " << key << i;
     }
     for (const char* key : {"M", "C"}) {
-      const auto a = chain[key].NumberRows(), b = cartpole[key].NumberRows();
+      const auto a = chain.at(key).get<Rows>(), b = cartpole.at(key).get<Rows>();
       for (std::size_t i = 0; i < 2; ++i) {
         for (std::size_t j = 0; j < 2; ++j) EXPECT_NEAR(a[i][j], b[i][j], kSame) << method << " " << key;
       }
     }
-    EXPECT_NEAR(chain["T"].number, cartpole["T"].number, kSame);
-    EXPECT_NEAR(chain["V"].number, cartpole["V"].number, kSame);
+    EXPECT_NEAR(chain.at("T").get<double>(), cartpole.at("T").get<double>(), kSame);
+    EXPECT_NEAR(chain.at("V").get<double>(), cartpole.at("V").get<double>(), kSame);
   }
 }
 
 TEST(Eval, ParametersChangeThePhysics) {
-  const auto heavy = ParseJson(RunCtl({"eval", "--plant", "pendulum", "--param", "m=3", "--param", "L=2",
-                                       "--q", "0.5", "--qd", "0"}).out);
-  EXPECT_NEAR(heavy["M"].NumberRows()[0][0], 3.0 * 4.0, 1e-12);
-  EXPECT_NEAR(heavy["G"].Numbers()[0], 3.0 * 9.81 * 2.0 * std::sin(0.5), 1e-12);
-  const auto rod = ParseJson(RunCtl({"eval", "--plant", "pendulum", "--param", "body=rod", "--q", "0.5", "--qd", "0"}).out);
-  EXPECT_NEAR(rod["M"].NumberRows()[0][0], 1.0 / 3.0, 1e-15);
+  const json heavy = Eval({"--plant", "pendulum", "--param", "m=3", "--param", "L=2", "--q", "0.5", "--qd", "0"});
+  EXPECT_NEAR(heavy.at("M").get<Rows>()[0][0], 3.0 * 4.0, 1e-12);
+  EXPECT_NEAR(heavy.at("G").get<Numbers>()[0], 3.0 * 9.81 * 2.0 * std::sin(0.5), 1e-12);
+  const json rod = Eval({"--plant", "pendulum", "--param", "body=rod", "--q", "0.5", "--qd", "0"});
+  EXPECT_NEAR(rod.at("M").get<Rows>()[0][0], 1.0 / 3.0, 1e-15);
 }
 
 struct BadEval {
@@ -145,6 +174,7 @@ TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
       {{"--plant", "arm2", "--q", "0,inf", "--qd", "0,0"}, "--q: expected comma-separated finite numbers, got 'inf'"},
       {{"--plant", "arm2", "--q", "0,1x", "--qd", "0,0"}, "got '1x'"},
       {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "nan,0"}, "--tau: expected comma-separated finite numbers"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "0"}, "--tau: expected 2 values (one per joint), got 1"},
       {{"--plant", "arm2", "--param", "m1=-1", "--q", "0,0", "--qd", "0,0"}, "--param m1: expected a positive number (kg), got -1"},
       {{"--plant", "arm2", "--param", "mass=1", "--q", "0,0", "--qd", "0,0"}, "--param mass: unknown parameter for arm2"},
       {{"--plant", "arm2", "--param", "m1", "--q", "0,0", "--qd", "0,0"}, "--param: expected NAME=VALUE, got 'm1'"},
@@ -180,7 +210,7 @@ TEST(Eval, TheInstalledBinaryExitsNonZeroWithOneLineOnBadInput) {
   EXPECT_EQ(bad.err, "lagrangectl eval: --q: expected 2 values (one per joint), got 1\n");
   const auto good = testing::RunProcess({LAGRANGECTL_PATH, "eval", "--plant", "pendulum", "--q", "0", "--qd", "0"});
   EXPECT_EQ(good.exit_code, 0);
-  EXPECT_EQ(ParseJson(good.out)["G"].Numbers()[0], 0.0);
+  EXPECT_EQ(json::parse(good.out).at("G").get<Numbers>()[0], 0.0);
 }
 
 }  // namespace

@@ -302,7 +302,7 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
       {{"simulate", negative.string(), "--duration", "1", "--csv", out}, 1,
        "negative.yaml:3:38: instances[0].plant.params.m2: expected a positive number (kg), got -0.8"},
       {{"simulate", broken.string(), "--duration", "1", "--csv", out}, 1, "broken.yaml:2:1: invalid YAML"},
-      {{"simulate", negative.string(), "--duration", "-1", "--csv", out}, 2, "--duration: expected a positive number of seconds, got '-1'"},
+      {{"simulate", negative.string(), "--duration", "-1", "--csv", out}, 2, "--duration: expected a positive number, got '-1'"},
       {{"simulate", negative.string(), "--duration", "soon", "--csv", out}, 2, "got 'soon'"},
       {{"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml", "--duration", "1", "--csv",
         (dir_ / "no/such/dir.csv").string()}, 1, "cannot write"},
