@@ -79,7 +79,7 @@ LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const M
   return result;
 }
 
-LinearModel Linearize(Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
+LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
   const int n = model.num_dofs();
   const int m = static_cast<int>(actuated.size());
   constexpr double kStep = 1e-6;

@@ -48,7 +48,7 @@ struct LinearModel {
 // of the model's forward dynamics (step 1e-6). `actuated` lists the joints
 // that take a force. Throws std::invalid_argument when q0 is not an
 // equilibrium of the unactuated joints.
-LinearModel Linearize(Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated);
+LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated);
 
 // Law:    u = u_eq − K (x − x_d),  x − x_d = (wrap(q − q_d), qd − qd_d);
 //         tau = u on the actuated joints, 0 on the others.

@@ -57,11 +57,9 @@ void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef
 // (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
 Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
   stage_law_.Bind(controller(), setpoint);
-  model_.SetControlLaw(&stage_law_);
-  const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd_, q_, qd_);
+  const bool ok = integrator_->Advance(model_, &stage_law_, t_, dt, tau_cmd_, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;
-  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
-  model_.SetControlLaw(nullptr);
+  model_.ComputeAcceleration(&stage_law_, t_, q_, qd_, tau_cmd_, qdd_);
   stage_law_.Compute(t_, q_, qd_, tau_cmd_);
   model_.effects().Saturate(tau_cmd_, tau_);
   if (!stage_law_.ok) return kControllerNotFinite;  // the cause, even when the integrator then failed too

@@ -80,8 +80,8 @@ class Instance {
   // and every controller's gains back to the scene's.
   void Reset();
 
-  double KineticEnergy() { return model_.KineticEnergy(q_, qd_); }
-  double PotentialEnergy() { return model_.PotentialEnergy(q_); }
+  double KineticEnergy() const { return model_.KineticEnergy(q_, qd_); }
+  double PotentialEnergy() const { return model_.PotentialEnergy(q_); }
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }

@@ -23,7 +23,8 @@ Arm2ClosedForm::Arm2ClosedForm(Arm2Params p)
       g1_((0.5 * p.m1 * p.L1 + p.m2 * p.L1) * p.g),
       g2_(0.5 * p.m2 * p.L2 * p.g) {}
 
-void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) {
+void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
+  AssertSizes(q, M);
   const double bc = b_ * std::cos(q[1]);
   M(0, 0) = a_ + 2.0 * bc;
   M(0, 1) = d_ + bc;
@@ -31,7 +32,8 @@ void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) {
   M(1, 1) = d_;
 }
 
-void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) {
+void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  AssertSizes(q, qd, C);
   const double h = -b_ * std::sin(q[1]);
   C(0, 0) = h * qd[1];
   C(0, 1) = h * (qd[0] + qd[1]);
@@ -39,35 +41,41 @@ void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef
   C(1, 1) = 0.0;
 }
 
-void Arm2ClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) {
+void Arm2ClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  AssertSizes(q, qd, c);
   const double h = -b_ * std::sin(q[1]);
   c[0] = h * (2.0 * qd[0] + qd[1]) * qd[1];
   c[1] = -h * qd[0] * qd[0];
 }
 
-void Arm2ClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) {
+void Arm2ClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) const {
+  AssertSizes(q, G);
   const double c12 = std::cos(q[0] + q[1]);
   G[0] = g1_ * std::cos(q[0]) + g2_ * c12;
   G[1] = g2_ * c12;
 }
 
-void Arm2ClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) {
+void Arm2ClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  AssertSizes(q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -b_ * std::sin(q[1]) * (qd[0] * qd[0] + qd[0] * qd[1]);
 }
 
-double Arm2ClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) {
+double Arm2ClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
+  AssertSizes(q, qd);
   const double bc = b_ * std::cos(q[1]);
   return 0.5 * (a_ + 2.0 * bc) * qd[0] * qd[0] + (d_ + bc) * qd[0] * qd[1] + 0.5 * d_ * qd[1] * qd[1];
 }
 
-double Arm2ClosedForm::ComputePotentialEnergy(ConstVecRef q) {
+double Arm2ClosedForm::ComputePotentialEnergy(ConstVecRef q) const {
+  AssertSizes(q);
   const double s1 = std::sin(q[0]);
   return p_.g * (0.5 * p_.m1 * p_.L1 * s1 + p_.m2 * (p_.L1 * s1 + 0.5 * p_.L2 * std::sin(q[0] + q[1])));
 }
 
-void Arm2ClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
-                                            DynamicsTerms terms, VecRef tau) {
+void Arm2ClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                                            VecRef tau) const {
+  AssertSizes(q, qd, qdd, tau);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   const double bc = b_ * c2;
   tau[0] = (a_ + 2.0 * bc) * qdd[0] + (d_ + bc) * qdd[1];
@@ -86,8 +94,9 @@ void Arm2ClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, Const
   }
 }
 
-void Arm2ClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                                            DynamicsTerms terms, VecRef qdd) {
+void Arm2ClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                                            VecRef qdd) const {
+  AssertSizes(q, qd, tau, qdd);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];
   if (terms.coriolis) {

@@ -63,17 +63,17 @@ class Arm2ClosedForm final : public Dynamics {
  public:
   explicit Arm2ClosedForm(Arm2Params p);
   Method method() const override { return Method::kClosedForm; }
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
-  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(ConstVecRef q) const override;
   void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                              VecRef tau) override;
+                              VecRef tau) const override;
   void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                              VecRef qdd) override;
+                              VecRef qdd) const override;
 
  private:
   Arm2Params p_;

@@ -22,7 +22,8 @@ CartPoleClosedForm::CartPoleClosedForm(CartPoleParams p)
       Ip_(p.mp * p.l * p.l + p.pole_inertia()),
       mgl_(p.mp * p.g * p.l) {}
 
-void CartPoleClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) {
+void CartPoleClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
+  AssertSizes(q, M);
   const double m01 = ml_ * std::cos(q[1]);
   M(0, 0) = mt_;
   M(0, 1) = m01;
@@ -30,34 +31,43 @@ void CartPoleClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) {
   M(1, 1) = Ip_;
 }
 
-void CartPoleClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) {
+void CartPoleClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  AssertSizes(q, qd, C);
   C.setZero();
   C(0, 1) = -ml_ * std::sin(q[1]) * qd[1];
 }
 
-void CartPoleClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) {
+void CartPoleClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  AssertSizes(q, qd, c);
   c[0] = -ml_ * std::sin(q[1]) * qd[1] * qd[1];
   c[1] = 0.0;
 }
 
-void CartPoleClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) {
+void CartPoleClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) const {
+  AssertSizes(q, G);
   G[0] = 0.0;
   G[1] = mgl_ * std::sin(q[1]);
 }
 
-void CartPoleClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) {
+void CartPoleClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  AssertSizes(q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -ml_ * std::sin(q[1]) * qd[0] * qd[1];
 }
 
-double CartPoleClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) {
+double CartPoleClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
+  AssertSizes(q, qd);
   return 0.5 * mt_ * qd[0] * qd[0] + ml_ * std::cos(q[1]) * qd[0] * qd[1] + 0.5 * Ip_ * qd[1] * qd[1];
 }
 
-double CartPoleClosedForm::ComputePotentialEnergy(ConstVecRef q) { return -mgl_ * std::cos(q[1]); }
+double CartPoleClosedForm::ComputePotentialEnergy(ConstVecRef q) const {
+  AssertSizes(q);
+  return -mgl_ * std::cos(q[1]);
+}
 
-void CartPoleClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
-                                                DynamicsTerms terms, VecRef tau) {
+void CartPoleClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                                                VecRef tau) const {
+  AssertSizes(q, qd, qdd, tau);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   tau[0] = mt_ * qdd[0] + ml_ * c * qdd[1];
   tau[1] = ml_ * c * qdd[0] + Ip_ * qdd[1];
@@ -71,8 +81,9 @@ void CartPoleClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, C
   }
 }
 
-void CartPoleClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                                                DynamicsTerms terms, VecRef qdd) {
+void CartPoleClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                                                VecRef qdd) const {
+  AssertSizes(q, qd, tau, qdd);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];
   if (terms.coriolis) {

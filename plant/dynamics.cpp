@@ -26,8 +26,9 @@ Dynamics::Dynamics(std::vector<JointType> joints)
       term_(num_dofs()),
       llt_(num_dofs()) {}
 
-void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
-                                      DynamicsTerms terms, VecRef tau) {
+void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                                      VecRef tau) const {
+  AssertSizes(q, qd, qdd, tau);
   ComputeMassMatrix(q, M_);
   tau.noalias() = M_ * qdd;
   if (terms.coriolis) {
@@ -42,8 +43,9 @@ void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef
   }
 }
 
-void Dynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                                      DynamicsTerms terms, VecRef qdd) {
+void Dynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                                      VecRef qdd) const {
+  AssertSizes(q, qd, tau, qdd);
   qdd = tau;
   if (terms.coriolis) {
     CountCoriolis();

@@ -23,8 +23,8 @@ constexpr EnumName<IntegratorType> kIntegratorNames[] = {
 class ExplicitEuler final : public Integrator {
  public:
   ExplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
-  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    m.ComputeAcceleration(t, q, qd, tau, qdd_);
+  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     q += h * qd;
     qd += h * qdd_;
     ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
@@ -38,8 +38,8 @@ class ExplicitEuler final : public Integrator {
 class SemiImplicitEuler final : public Integrator {
  public:
   SemiImplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
-  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    m.ComputeAcceleration(t, q, qd, tau, qdd_);
+  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     qd += h * qdd_;
     q += h * qd;
     ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
@@ -54,8 +54,9 @@ class Rk4 final : public Integrator {
  public:
   Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), rk4_(n) {}
 
-  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds, VecRef qdd) { m.ComputeAcceleration(ts, qs, qds, tau, qdd); },
+  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds,
+                  VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
               t, h, q, qd);
     ++stats_.steps; ++stats_.accepted; stats_.evaluations += 4;
     return true;
@@ -73,13 +74,13 @@ class DormandPrince final : public Integrator {
     for (auto& k : k_) k.resize(2 * n);
   }
 
-  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     ++stats_.steps;
     y_.head(n_) = q;
     y_.tail(n_) = qd;
     const double t_end = t + h;
     double dt = h_next_ > 0.0 ? h_next_ : h;  // proposed step, carried across calls
-    Derivative(m, t, y_, tau, k_[0]);
+    Derivative(m, law, t, y_, tau, k_[0]);
     bool ok = true;
     for (int taken = 0; t < t_end; ++taken) {
       if (taken >= config_.max_steps || dt <= 1e-14 * std::max(1.0, std::abs(t))) {
@@ -89,7 +90,7 @@ class DormandPrince final : public Integrator {
       const double remaining = t_end - t;
       const bool last = dt >= remaining * (1.0 - 1e-12);
       const double step = last ? remaining : dt;
-      const double err = TryStep(m, t, step, tau);
+      const double err = TryStep(m, law, t, step, tau);
       if (!std::isfinite(err)) {
         ok = false;
         break;
@@ -115,15 +116,15 @@ class DormandPrince final : public Integrator {
   }
 
  private:
-  void Derivative(PlantModel& m, double t, const VectorXd& y, ConstVecRef tau, VectorXd& dy) {
+  void Derivative(PlantModel& m, ControlLaw* law, double t, const VectorXd& y, ConstVecRef tau, VectorXd& dy) {
     dy.head(n_) = y.tail(n_);
-    m.ComputeAcceleration(t, y.head(n_), y.tail(n_), tau, dy.tail(n_));
+    m.ComputeAcceleration(law, t, y.head(n_), y.tail(n_), tau, dy.tail(n_));
     ++stats_.evaluations;
   }
 
   // One trial step from (t, y_) with k_[0] = f(y_); returns the scaled error norm
   // and leaves the fifth-order solution in y1_ and f(y1_) in k_[6].
-  double TryStep(PlantModel& m, double t, double dt, ConstVecRef tau) {
+  double TryStep(PlantModel& m, ControlLaw* law, double t, double dt, ConstVecRef tau) {
     static constexpr double c[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
     static constexpr double a[7][6] = {
         {},
@@ -142,7 +143,7 @@ class DormandPrince final : public Integrator {
       for (int j = 0; j < s; ++j) {
         if (a[s][j] != 0.0) yt_ += (dt * a[s][j]) * k_[j];
       }
-      Derivative(m, t + c[s] * dt, yt_, tau, k_[s]);
+      Derivative(m, law, t + c[s] * dt, yt_, tau, k_[s]);
       if (s == 6) y1_ = yt_;  // the last stage's point is the fifth-order solution
     }
     err_.setZero();
@@ -170,29 +171,29 @@ class Variational final : public Integrator {
       : Integrator(c, n), p0_(n), q1_(n), qm_(n), v_(n), x_(n), r_(n), r_trial_(n), q_trial_(n), dq_(n),
         tmp_(n), M_(n, n), J_(n, n), lu_(n), llt_(n) {}
 
-  bool Step(PlantModel& m, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     ++stats_.steps;
     ++stats_.accepted;
-    Dynamics& dyn = m.dynamics();
+    const Dynamics& dyn = m.dynamics();
     // p0 = M(q0) qd0.
     dyn.ComputeMassMatrix(q, M_);
     p0_.noalias() = M_ * qd;
     // Predictor: q1 = q0 + h qd0 + h²/2 qdd0.
-    m.ComputeAcceleration(t, q, qd, tau, tmp_);
+    m.ComputeAcceleration(law, t, q, qd, tau, tmp_);
     ++stats_.evaluations;
     q1_ = q + h * qd + (0.5 * h * h) * tmp_;
 
     // Newton on r(q1) = 0. The Jacobian is kept from step to step and rebuilt
     // only when the iteration stops contracting fast (or h changed).
-    Residual(m, t, h, tau, q, q1_, r_);
-    if (!jacobian_valid_ || h != jacobian_h_) Jacobian(m, t, h, tau, q);
+    Residual(m, law, t, h, tau, q, q1_, r_);
+    if (!jacobian_valid_ || h != jacobian_h_) Jacobian(m, law, t, h, tau, q);
     bool converged = false;
     bool refreshed = false;
     double previous = std::numeric_limits<double>::infinity();
     for (int it = 0; it < config_.newton_max_iterations; ++it) {
       dq_ = lu_.solve(r_);
       q1_ -= dq_;
-      Residual(m, t, h, tau, q, q1_, r_);
+      Residual(m, law, t, h, tau, q, q1_, r_);
       const double step = dq_.lpNorm<Eigen::Infinity>();
       const double scale = 1.0 + q1_.lpNorm<Eigen::Infinity>();
       if (!std::isfinite(step)) break;
@@ -202,7 +203,7 @@ class Variational final : public Integrator {
         break;
       }
       if (step > kSlowContraction * previous && !refreshed) {
-        Jacobian(m, t, h, tau, q);
+        Jacobian(m, law, t, h, tau, q);
         refreshed = true;
       }
       previous = step;
@@ -222,9 +223,9 @@ class Variational final : public Integrator {
 
  private:
   // r(q1) = p0 − M(qm) v + h/2 (∂T/∂q(qm, v) − G(qm) + F(tm, qm, v)); leaves the bracket in x_.
-  void Residual(PlantModel& m, double t, double h, ConstVecRef tau, ConstVecRef q0, const VectorXd& q1,
+  void Residual(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, ConstVecRef q0, const VectorXd& q1,
                 VectorXd& r) {
-    Dynamics& dyn = m.dynamics();
+    const Dynamics& dyn = m.dynamics();
     qm_ = 0.5 * (q0 + q1);
     v_ = (q1 - q0) / h;
     dyn.ComputeKineticEnergyGradient(qm_, v_, x_);
@@ -232,7 +233,7 @@ class Variational final : public Integrator {
       dyn.ComputeGravityForce(qm_, tmp_);
       x_ -= tmp_;
     }
-    m.ComputeGeneralizedForce(t + 0.5 * h, qm_, v_, tau, tmp_);
+    m.ComputeGeneralizedForce(law, t + 0.5 * h, qm_, v_, tau, tmp_);
     x_ += tmp_;
     dyn.ComputeMassMatrix(qm_, M_);
     r = p0_;
@@ -242,16 +243,16 @@ class Variational final : public Integrator {
   }
 
   // J = ∂r/∂q1 by forward differences at q1_, factorised into lu_.
-  void Jacobian(PlantModel& m, double t, double h, ConstVecRef tau, ConstVecRef q0) {
+  void Jacobian(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, ConstVecRef q0) {
     for (int j = 0; j < n_; ++j) {
       const double delta = 1e-7 * std::max(1.0, std::abs(q1_[j]));
       q_trial_ = q1_;
       q_trial_[j] += delta;
-      Residual(m, t, h, tau, q0, q_trial_, r_trial_);
+      Residual(m, law, t, h, tau, q0, q_trial_, r_trial_);
       J_.col(j) = (r_trial_ - r_) / delta;
     }
     // Restore the residual's side output x_ for q1_.
-    Residual(m, t, h, tau, q0, q1_, r_);
+    Residual(m, law, t, h, tau, q0, q1_, r_);
     lu_.compute(J_);
     jacobian_valid_ = true;
     jacobian_h_ = h;
@@ -274,10 +275,11 @@ std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames,
 std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }
 std::string IntegratorTypeNames() { return JoinedNames(kIntegratorNames); }
 
-bool Integrator::Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
+bool Integrator::Advance(PlantModel& model, ControlLaw* law, double t, double dt, ConstVecRef tau_cmd, VecRef q,
+                         VecRef qd) {
   const double h = dt / config_.substeps;
   bool ok = true;
-  for (int i = 0; i < config_.substeps; ++i) ok = Step(model, t + i * h, h, tau_cmd, q, qd) && ok;
+  for (int i = 0; i < config_.substeps; ++i) ok = Step(model, law, t + i * h, h, tau_cmd, q, qd) && ok;
   return ok;
 }
 

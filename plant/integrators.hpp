@@ -1,7 +1,8 @@
 #pragma once
 // Time integrators for PlantModel. Each advances (q, qd) over one interval h
 // with the commanded generalized force tau_cmd held constant (zero-order hold
-// from the controller), and may split a tick into equal sub-steps.
+// from the controller), or with a ControlLaw passed as an argument and
+// evaluated at every stage, and may split a tick into equal sub-steps.
 //
 //   explicit Euler       q⁺ = q + h qd,  qd⁺ = qd + h qdd(q, qd)              order 1
 //   semi-implicit Euler  qd⁺ = qd + h qdd(q, qd),  q⁺ = q + h qd⁺            order 1
@@ -73,12 +74,23 @@ class Integrator {
   const IntegratorConfig& config() const { return config_; }
   const IntegratorStats& stats() const { return stats_; }
 
-  // (t, h, q, qd, tau_cmd) => (q, qd) at t + h. False when the step failed its
-  // tolerance (the state is then the best available, and may be non-finite).
-  virtual bool Step(PlantModel& model, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd) = 0;
+  // (law, t, h, q, qd, tau_cmd) => (q, qd) at t + h. `law` null: tau_cmd is
+  // held; otherwise tau_cmd is ignored and the law is evaluated at every stage.
+  // False when the step failed its tolerance (the state is then the best
+  // available, and may be non-finite).
+  virtual bool Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
+                    VecRef qd) = 0;
+  // The same with tau_cmd held.
+  bool Step(PlantModel& model, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
+    return Step(model, nullptr, t, h, tau_cmd, q, qd);
+  }
 
-  // One tick of length dt in config().substeps equal sub-steps.
-  bool Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd);
+  // One tick of length dt in config().substeps equal sub-steps; `law` as in Step.
+  bool Advance(PlantModel& model, ControlLaw* law, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd);
+  // The same with tau_cmd held.
+  bool Advance(PlantModel& model, double t, double dt, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
+    return Advance(model, nullptr, t, dt, tau_cmd, q, qd);
+  }
 
  protected:
   IntegratorConfig config_;

@@ -45,7 +45,8 @@ class LagrangianDynamics final : public Dynamics {
   const Plant& plant() const { return plant_; }
   Method method() const override { return Method::kLagrangian; }
 
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) override {
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override {
+    AssertSizes(q, M);
     const int n = num_dofs();
     for (int k = 0; k < n; ++k) {
       q2_[k] = Dual2(q[k]);
@@ -64,7 +65,8 @@ class LagrangianDynamics final : public Dynamics {
     }
   }
 
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override {
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override {
+    AssertSizes(q, qd, C);
     const int n = num_dofs();
     // Ṁ_ij: ε3 moves q along qd, ε1 and ε2 pick qd_i and qd_j.
     for (int k = 0; k < n; ++k) {
@@ -98,7 +100,8 @@ class LagrangianDynamics final : public Dynamics {
     }
   }
 
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override {
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override {
+    AssertSizes(q, qd, c);
     const int n = num_dofs();
     // (Ṁ qd)_i: ε2 moves q along qd, ε1 picks ∂/∂qd_i.
     for (int k = 0; k < n; ++k) {
@@ -114,7 +117,8 @@ class LagrangianDynamics final : public Dynamics {
     c -= dTdq_;
   }
 
-  void ComputeGravityForce(ConstVecRef q, VecRef G) override {
+  void ComputeGravityForce(ConstVecRef q, VecRef G) const override {
+    AssertSizes(q, G);
     const int n = num_dofs();
     for (int k = 0; k < n; ++k) q1_[k] = Dual1(q[k]);
     for (int i = 0; i < n; ++i) {
@@ -124,7 +128,8 @@ class LagrangianDynamics final : public Dynamics {
     }
   }
 
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override {
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override {
+    AssertSizes(q, qd, dTdq);
     const int n = num_dofs();
     for (int k = 0; k < n; ++k) {
       q1_[k] = Dual1(q[k]);
@@ -137,12 +142,14 @@ class LagrangianDynamics final : public Dynamics {
     }
   }
 
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override {
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override {
+    AssertSizes(q, qd);
     return plant_.template KineticEnergy<double>(std::span<const double>(q.data(), q.size()),
                                                  std::span<const double>(qd.data(), qd.size()));
   }
 
-  double ComputePotentialEnergy(ConstVecRef q) override {
+  double ComputePotentialEnergy(ConstVecRef q) const override {
+    AssertSizes(q);
     return plant_.template PotentialEnergy<double>(std::span<const double>(q.data(), q.size()));
   }
 
@@ -150,7 +157,7 @@ class LagrangianDynamics final : public Dynamics {
   Dual2 T2() const { return plant_.template KineticEnergy<Dual2>(q2_, qd2_); }
   Dual3 T3() const { return plant_.template KineticEnergy<Dual3>(q3_, qd3_); }
 
-  void ResetSeeds2(ConstVecRef q, ConstVecRef qd) {
+  void ResetSeeds2(ConstVecRef q, ConstVecRef qd) const {
     for (int k = 0; k < num_dofs(); ++k) {
       q2_[k] = Dual2(q[k]);
       qd2_[k] = Dual2(qd[k]);
@@ -158,10 +165,12 @@ class LagrangianDynamics final : public Dynamics {
   }
 
   Plant plant_;
-  std::vector<Dual1> q1_, qd1_;
-  std::vector<Dual2> q2_, qd2_;
-  std::vector<Dual3> q3_, qd3_;
-  VectorXd dTdq_;
+  // Seeds and scratch, mutable: the const queries write them, and they are
+  // this object's own (Dynamics objects are not shared between threads).
+  mutable std::vector<Dual1> q1_, qd1_;
+  mutable std::vector<Dual2> q2_, qd2_;
+  mutable std::vector<Dual3> q3_, qd3_;
+  mutable VectorXd dTdq_;
 };
 
 }  // namespace lagrange

@@ -59,15 +59,15 @@ class PendulumClosedForm final : public Dynamics {
  public:
   explicit PendulumClosedForm(PendulumParams p);
   Method method() const override { return Method::kClosedForm; }
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
-  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(ConstVecRef q) const override;
   void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                              VecRef qdd) override;
+                              VecRef qdd) const override;
 
  private:
   double inertia_;  // about the pivot, kg·m²

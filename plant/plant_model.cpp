@@ -9,26 +9,25 @@ PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects
       tau_(dynamics_->num_dofs()),
       tau_law_(dynamics_->num_dofs()) {}
 
-void PlantModel::ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
-  ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
+void PlantModel::ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                                     VecRef qdd) {
+  ComputeGeneralizedForce(law, t, q, qd, tau_cmd, tau_);
   dynamics_->ComputeForwardDynamics(q, qd, tau_, effects_.terms(), qdd);
 }
 
-void PlantModel::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+void PlantModel::ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                          VecRef tau) {
-  if (law_ == nullptr) {
+  if (law == nullptr) {
     effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau);
     return;
   }
-  law_->Compute(t, q, qd, tau_law_);
+  law->Compute(t, q, qd, tau_law_);
   effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau);
 }
 
-double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) {
-  return dynamics_->ComputeKineticEnergy(q, qd);
-}
+double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) const { return dynamics_->ComputeKineticEnergy(q, qd); }
 
-double PlantModel::PotentialEnergy(ConstVecRef q) {
+double PlantModel::PotentialEnergy(ConstVecRef q) const {
   double v = effects_.LimitPotentialEnergy(q);
   if (effects_.config().gravity) v += dynamics_->ComputePotentialEnergy(q);
   return v;

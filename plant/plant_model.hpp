@@ -17,7 +17,8 @@
 namespace lagrange {
 
 // A commanded generalized force evaluated at every integrator stage instead
-// of being held over the tick: a continuous-time (analog) control law.
+// of being held over the tick: a continuous-time (analog) control law. It may
+// keep state (a controller's), so it is passed as a non-const pointer.
 class ControlLaw {
  public:
   virtual ~ControlLaw() = default;
@@ -31,29 +32,31 @@ class PlantModel {
 
   int num_dofs() const { return dynamics_->num_dofs(); }
   Dynamics& dynamics() { return *dynamics_; }
+  const Dynamics& dynamics() const { return *dynamics_; }
   Effects& effects() { return effects_; }
   const Effects& effects() const { return effects_; }
 
-  // (t, q, qd, tau_cmd) => qdd. With a control law set, tau_cmd is ignored and
-  // the law's output at (t, q, qd) is used instead.
-  void ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd);
-  // (t, q, qd, tau_cmd) => tau, the effects' generalized force.
-  void ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau);
+  // (law, t, q, qd, tau_cmd) => qdd. `law` null: tau_cmd is held; otherwise
+  // tau_cmd is ignored and the law's output at (t, q, qd) is used instead.
+  void ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd);
+  // (t, q, qd, tau_cmd) => qdd with tau_cmd held.
+  void ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
+    ComputeAcceleration(nullptr, t, q, qd, tau_cmd, qdd);
+  }
+  // (law, t, q, qd, tau_cmd) => tau, the effects' generalized force; `law` as above.
+  void ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                               VecRef tau);
 
-  double KineticEnergy(ConstVecRef q, ConstVecRef qd);
-  double PotentialEnergy(ConstVecRef q);
-  double Energy(ConstVecRef q, ConstVecRef qd) { return KineticEnergy(q, qd) + PotentialEnergy(q); }
+  double KineticEnergy(ConstVecRef q, ConstVecRef qd) const;
+  double PotentialEnergy(ConstVecRef q) const;
+  double Energy(ConstVecRef q, ConstVecRef qd) const { return KineticEnergy(q, qd) + PotentialEnergy(q); }
 
   // Gravity and Coriolis counts from the dynamics, the rest from the effects.
   StageCounts counts() const;
 
-  // Evaluate `law` at every stage from now on (null: hold tau_cmd). Not owned.
-  void SetControlLaw(ControlLaw* law) { law_ = law; }
-
  private:
   std::unique_ptr<Dynamics> dynamics_;
   Effects effects_;
-  ControlLaw* law_ = nullptr;
   VectorXd tau_;      // scratch (n)
   VectorXd tau_law_;  // scratch (n)
 };

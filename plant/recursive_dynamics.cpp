@@ -74,7 +74,7 @@ RecursiveDynamics::RecursiveDynamics(PlanarChain chain)
   zeros_ = VectorXd::Zero(num_dofs());
 }
 
-void RecursiveDynamics::ComputeTransforms(ConstVecRef q) {
+void RecursiveDynamics::ComputeTransforms(ConstVecRef q) const {
   for (int i = 0; i < num_dofs(); ++i) {
     const PlanarJoint& j = chain_.joints[i];
     Xform& X = X_[i];
@@ -90,7 +90,7 @@ void RecursiveDynamics::ComputeTransforms(ConstVecRef q) {
   }
 }
 
-void RecursiveDynamics::ComputeVelocities(ConstVecRef qd) {
+void RecursiveDynamics::ComputeVelocities(ConstVecRef qd) const {
   Vector3d v_parent = Vector3d::Zero();
   for (int i = 0; i < num_dofs(); ++i) {
     v_[i] = ApplyX(X_[i], v_parent);
@@ -100,7 +100,7 @@ void RecursiveDynamics::ComputeVelocities(ConstVecRef qd) {
 }
 
 // (X, qd, qdd) => tau = M qdd + [C qd] + [G].
-void RecursiveDynamics::Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) {
+void RecursiveDynamics::Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const {
   const int n = num_dofs();
   if (terms.coriolis) ComputeVelocities(qd);
   Vector3d a_parent(0.0, 0.0, terms.gravity ? chain_.g : 0.0);  // −a_gravity, world frame
@@ -123,16 +123,18 @@ void RecursiveDynamics::Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms term
   }
 }
 
-void RecursiveDynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
-                                               DynamicsTerms terms, VecRef tau) {
+void RecursiveDynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                                               VecRef tau) const {
+  AssertSizes(q, qd, qdd, tau);
   if (terms.gravity) CountGravity();
   if (terms.coriolis) CountCoriolis();
   ComputeTransforms(q);
   Rnea(qd, qdd, terms, tau);
 }
 
-void RecursiveDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                                               DynamicsTerms terms, VecRef qdd) {
+void RecursiveDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                                               VecRef qdd) const {
+  AssertSizes(q, qd, tau, qdd);
   const int n = num_dofs();
   ComputeTransforms(q);
   // Pass 1: velocity-product terms c_i = v_i × S qd_i and bias forces p_i = v_i ×* I v_i.
@@ -181,7 +183,8 @@ void RecursiveDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, Co
   }
 }
 
-void RecursiveDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) {
+void RecursiveDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
+  AssertSizes(q, M);
   const int n = num_dofs();
   ComputeTransforms(q);
   for (int i = 0; i < n; ++i) IA_[i] = inertia_[i];  // composite inertias
@@ -201,17 +204,20 @@ void RecursiveDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) {
   }
 }
 
-void RecursiveDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) {
+void RecursiveDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  AssertSizes(q, qd, c);
   ComputeTransforms(q);
   Rnea(qd, zeros_, DynamicsTerms{.gravity = false, .coriolis = true}, c);
 }
 
-void RecursiveDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) {
+void RecursiveDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
+  AssertSizes(q, G);
   ComputeTransforms(q);
   Rnea(zeros_, zeros_, DynamicsTerms{.gravity = true, .coriolis = false}, G);
 }
 
-void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) {
+void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  AssertSizes(q, qd, C);
   const int n = num_dofs();
   ComputeTransforms(q);
   ComputeVelocities(qd);
@@ -244,7 +250,8 @@ void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, Mat
   }
 }
 
-void RecursiveDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) {
+void RecursiveDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  AssertSizes(q, qd, dTdq);
   const int n = num_dofs();
   ComputeTransforms(q);
   ComputeVelocities(qd);
@@ -259,7 +266,8 @@ void RecursiveDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef 
   }
 }
 
-double RecursiveDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) {
+double RecursiveDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
+  AssertSizes(q, qd);
   ComputeTransforms(q);
   ComputeVelocities(qd);
   double T = 0.0;
@@ -267,7 +275,8 @@ double RecursiveDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) {
   return T;
 }
 
-double RecursiveDynamics::ComputePotentialEnergy(ConstVecRef q) {
+double RecursiveDynamics::ComputePotentialEnergy(ConstVecRef q) const {
+  AssertSizes(q);
   return chain_.PotentialEnergy<double>(std::span<const double>(q.data(), q.size()));
 }
 

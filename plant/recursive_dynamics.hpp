@@ -61,17 +61,17 @@ class RecursiveDynamics final : public Dynamics {
   const PlanarChain& chain() const { return chain_; }
   Method method() const override { return Method::kRecursive; }
 
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) override;
-  double ComputePotentialEnergy(ConstVecRef q) override;
+  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(ConstVecRef q) const override;
   void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                              VecRef tau) override;
+                              VecRef tau) const override;
   void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                              VecRef qdd) override;
+                              VecRef qdd) const override;
 
   // Parent-to-child motion transform of one joint: the child frame sits at r
   // (parent coordinates) rotated by θ; (c, s) = (cos θ, sin θ).
@@ -82,19 +82,20 @@ class RecursiveDynamics final : public Dynamics {
 
  private:
   // q => X_i for every joint.
-  void ComputeTransforms(ConstVecRef q);
+  void ComputeTransforms(ConstVecRef q) const;
   // (X, qd) => v_i, body velocities.
-  void ComputeVelocities(ConstVecRef qd);
+  void ComputeVelocities(ConstVecRef qd) const;
   // (X, v, qdd, terms) => tau by the backward RNEA pass.
-  void Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau);
+  void Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
 
   PlanarChain chain_;
   std::vector<Eigen::Matrix3d> inertia_;  // spatial inertia of each body about its frame origin
-  // Workspace (n entries each).
-  std::vector<Xform> X_;
-  std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_, vw_;
-  std::vector<Eigen::Matrix3d> IA_;
-  std::vector<double> D_, u_;
+  // Workspace (n entries each), mutable: the const queries write it, and it
+  // is this object's own (Dynamics objects are not shared between threads).
+  mutable std::vector<Xform> X_;
+  mutable std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_, vw_;
+  mutable std::vector<Eigen::Matrix3d> IA_;
+  mutable std::vector<double> D_, u_;
   VectorXd zeros_;  // qd or qdd = 0 for the gravity and Coriolis passes
 };
 

@@ -30,7 +30,7 @@ class SendCommand final : public Command {
       : Command(parent.add_subcommand("send", "Stream setpoints to an instance (fixed, step, sine or minimum jerk)")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
     auto list = [&](const char* name, std::vector<double>& values, const char* help) {
-      return app_->add_option(name, values, help)->delimiter(',')->allow_extra_args(false)->check(FiniteNumber());
+      return AddNumberList(*app_, name, values, help);
     };
     list("--q", q_, "Target positions a,b,.. (rad or m); the sine's center if given");
     auto* qd = list("--qd", qd_, "Velocities (fixed setpoint only; default zeros)");

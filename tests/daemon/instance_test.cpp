@@ -148,6 +148,20 @@ TEST(Instance, AFaultNamesTheControllerWhenItsOutputWasNotFinite) {
   }
 }
 
+TEST(Instance, ContinuousControlAllocatesNothing) {
+  for (const char* integrator : {"explicit-euler", "semi-implicit-euler", "rk4", "dopri5", "variational"}) {
+    Instance arm = ArmUnderPd(integrator, true);
+    Setpoint sp(2);
+    sp.q << 0.1, -0.1;
+    arm.Step(0.001, sp);
+    int failures = 0;
+    testing::AllocationCounter counter;
+    for (int k = 0; k < 100; ++k) failures += arm.Step(0.001, sp) != nullptr;
+    EXPECT_EQ(counter.count(), 0) << integrator;
+    EXPECT_EQ(failures, 0) << integrator;
+  }
+}
+
 TEST(Instance, AHealthyStepReportsNoFailure) {
   Instance arm = ArmUnderPd("dopri5", false);
   Setpoint sp(2);

@@ -39,7 +39,7 @@ struct Terms {
   double T = 0.0, V = 0.0;
 };
 
-Terms Evaluate(Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& u) {
+Terms Evaluate(const Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& u) {
   const int n = d.num_dofs();
   Terms t{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n)};
   d.ComputeMassMatrix(q, t.M);
@@ -300,6 +300,24 @@ TEST(Recursive, SixtyFourLinkChainMatchesTheLagrangianPath) {
     EXPECT_LE((a.M * b.qdd - a.M * a.qdd).norm(), 1e-9 * (a.M.norm() * a.qdd.norm()));
   }
 }
+
+#ifndef NDEBUG
+// Debug builds check argument sizes at the top of every query; NDEBUG compiles the checks out.
+TEST(SizeChecks, DebugBuildsRejectMisSizedArguments) {
+  for (Method method : MethodsFor(PlantType::kArm2)) {
+    const auto d = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), method);
+    const VectorXd q2 = VectorXd::Zero(2), q3 = VectorXd::Zero(3);
+    MatrixXd M2(2, 2), M3(3, 3);
+    VectorXd out2(2), out3(3);
+    EXPECT_DEATH(d->ComputeMassMatrix(q3, M2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeMassMatrix(q2, M3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeCoriolisForce(q2, q3, out2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeGravityForce(q2, out3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeForwardDynamics(q2, q2, q3, DynamicsTerms{}, out2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeInverseDynamics(q2, q2, q2, DynamicsTerms{}, out3), "HasDofSize") << ToString(method);
+  }
+}
+#endif
 
 }  // namespace
 }  // namespace lagrange

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <utility>
 
 #include "plant/integrators.hpp"
 #include "plant/plant_spec.hpp"
@@ -277,6 +279,44 @@ TEST(Factory, NamesRoundTripAndBadConfigsAreRefused) {
   c.substeps = 1;
   c.rtol = -1.0;
   EXPECT_THROW(MakeIntegrator(c, 2), std::invalid_argument);
+}
+
+// A law that returns a fixed torque and counts its evaluations.
+class ConstantLaw final : public ControlLaw {
+ public:
+  explicit ConstantLaw(VectorXd tau) : tau_(std::move(tau)) {}
+  void Compute(double, ConstVecRef, ConstVecRef, VecRef tau_cmd) override {
+    tau_cmd = tau_;
+    ++calls;
+  }
+  std::int64_t calls = 0;
+
+ private:
+  VectorXd tau_;
+};
+
+TEST(ControlLawArgument, AConstantLawStepsLikeItsHeldTorqueAndRunsAtEveryEvaluation) {
+  constexpr double kSameArithmeticTol = 1e-15;  // the same operations in the same order
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kArm2);
+  const VectorXd tau = (VectorXd(2) << 0.3, -0.2).finished();
+  const VectorXd ignored = VectorXd::Constant(2, std::nan(""));  // tau_cmd is not read when a law is passed
+  for (IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4,
+                              IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+    auto held_model = MakeModel(spec, Method::kClosedForm);
+    auto law_model = MakeModel(spec, Method::kClosedForm);
+    auto held = MakeIntegratorOfType(type, 2);
+    auto with_law = MakeIntegratorOfType(type, 2);
+    ConstantLaw law(tau);
+    VectorXd qa = (VectorXd(2) << 0.4, -0.3).finished(), qda = (VectorXd(2) << 0.2, 0.1).finished();
+    VectorXd qb = qa, qdb = qda;
+    for (int k = 0; k < 20; ++k) {
+      held->Advance(*held_model, k * kTick, kTick, tau, qa, qda);
+      with_law->Advance(*law_model, &law, k * kTick, kTick, ignored, qb, qdb);
+    }
+    EXPECT_LE((qa - qb).lpNorm<Eigen::Infinity>(), kSameArithmeticTol) << ToString(type);
+    EXPECT_LE((qda - qdb).lpNorm<Eigen::Infinity>(), kSameArithmeticTol) << ToString(type);
+    EXPECT_EQ(law.calls, with_law->stats().evaluations) << ToString(type);
+  }
 }
 
 }  // namespace
