@@ -12,6 +12,7 @@
 #include "daemon/escape.hpp"
 #include "daemon/setpoint_check.hpp"
 #include "daemon/timing_csv.hpp"
+#include "daemon/wire.hpp"
 
 namespace lagrange {
 namespace {
@@ -23,14 +24,7 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
-std::int64_t ReadBigEndian64(const std::uint8_t* p) {
-  std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
-  return static_cast<std::int64_t>(v);
-}
 
-// state_t, status_t and reply_t all begin: fingerprint, utime, run_id.
-constexpr std::size_t kRunIdOffset = 16;
 
 }  // namespace
 
@@ -120,7 +114,11 @@ void LcmReceiver::Poll(int timeout_ms) {
   nfds_t n = 0;
   if (input_.fd() >= 0) fds[n++] = {input_.fd(), POLLIN, 0};
   if (second != nullptr && second->fd() >= 0) fds[n++] = {second->fd(), POLLIN, 0};
-  if (n > 0) poll(fds, n, timeout_ms);
+  if (n > 0) {
+    poll(fds, n, timeout_ms);
+  } else if (timeout_ms > 0) {
+    usleep(static_cast<useconds_t>(timeout_ms) * 1000);  // in-process buses: nothing to wait on, and no spinning
+  }
   input_.Drain();
   if (second != nullptr) second->Drain();
   UpdateBusStats();
@@ -273,9 +271,9 @@ void LcmReceiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::si
 // A message on one of this run's output channels: ours (our own multicast,
 // looped back), or another publisher's.
 void LcmReceiver::HandleOwnOutput(std::string_view channel, const std::uint8_t* data, std::size_t size) {
-  const std::int64_t run_id = size >= kRunIdOffset + 8 ? ReadBigEndian64(data + kRunIdOffset) : 0;
-  const std::int64_t hash = size >= 8 ? ReadBigEndian64(data) : 0;
-  const bool ours_type = hash == state_t::getHash() || hash == status_t::getHash() || hash == reply_t::getHash();
+  const std::optional<std::int64_t> id = RunIdOf(data, size);
+  const bool ours_type = id.has_value();
+  const std::int64_t run_id = id.value_or(0);
   if (ours_type && run_id == run_id_) return;
   stats_.foreign_messages.fetch_add(1, std::memory_order_relaxed);
   stats_.last_foreign_run_id.store(ours_type ? run_id : 0, std::memory_order_relaxed);

@@ -17,6 +17,11 @@ std::string_view ToString(Mode mode) {
   return "?";
 }
 
+const char* ModeName(std::int8_t wire_mode) {
+  if (wire_mode < static_cast<std::int8_t>(Mode::kRunning) || wire_mode > static_cast<std::int8_t>(Mode::kEstop)) return "?";
+  return ToString(static_cast<Mode>(wire_mode)).data();  // the names are string literals
+}
+
 namespace {
 
 SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }

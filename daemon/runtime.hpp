@@ -42,6 +42,9 @@ namespace lagrange {
 
 enum class Mode : std::int8_t { kRunning = 0, kHold = 1, kFault = 2, kPaused = 3, kEstop = 4 };
 std::string_view ToString(Mode mode);
+// The name of a state_t.mode / status_t.instance_modes value as it came off
+// the wire: ToString of the mode, or "?" out of range.
+const char* ModeName(std::int8_t wire_mode);
 
 // A setpoint the LCM thread has validated and found fresh.
 struct SetpointMessage {

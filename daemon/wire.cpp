@@ -28,6 +28,17 @@ constexpr std::int32_t kMaxString = 256;  // bytes, including the terminating NU
 
 }  // namespace
 
+std::int64_t Fingerprint(const void* data, std::size_t size) {
+  return size < kHash ? 0 : ReadInt64(static_cast<const std::uint8_t*>(data));
+}
+
+std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
+  const std::int64_t hash = Fingerprint(data, size);
+  if (hash != state_t::getHash() && hash != status_t::getHash() && hash != reply_t::getHash()) return std::nullopt;
+  if (size < kHash + 2 * kInt64) return std::nullopt;
+  return ReadInt64(static_cast<const std::uint8_t*>(data) + kHash + kInt64);
+}
+
 const char* ToString(WireCheck check) {
   switch (check) {
     case WireCheck::kOk: return "ok";

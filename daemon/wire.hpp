@@ -7,11 +7,18 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace lagrange {
 
 enum class WireCheck : std::uint8_t { kOk, kTooShort, kFingerprint, kBadLength, kSizeMismatch };
+
+// A packet's LCM fingerprint (its first 8 bytes, big-endian); 0 when shorter.
+std::int64_t Fingerprint(const void* data, std::size_t size);
+// The run id of a state_t, status_t or reply_t packet (each begins:
+// fingerprint, utime, run_id); nullopt for another type or a short packet.
+std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
 const char* ToString(WireCheck check);
 
 // setpoint_t: fingerprint, utime, num_dofs, 3 × num_dofs doubles.

@@ -48,11 +48,6 @@ std::int64_t NewRequestId() {
   return static_cast<std::int64_t>(id);
 }
 
-const char* ModeName(std::int8_t mode) {
-  static const char* kModes[] = {"running", "hold", "fault", "paused", "estop"};
-  return mode >= 0 && mode < 5 ? kModes[mode] : "?";
-}
-
 DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)
     : options_(bus), instance_(instance), state_channel_(bus.Channel(instance, kStateSuffix)), bus_(bus.Open()) {
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });

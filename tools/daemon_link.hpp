@@ -22,6 +22,7 @@
 #include <string>
 
 #include "daemon/bus.hpp"
+#include "daemon/runtime.hpp"  // ModeName
 
 namespace lagrange::cli {
 
@@ -41,8 +42,6 @@ struct BusOptions {
 
 // A fresh random non-zero id for a command.
 std::int64_t NewRequestId();
-// state_t::MODE_* as a word ("running", ..., "?" for an unknown code).
-const char* ModeName(std::int8_t mode);
 
 // How long lagrangectl listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.

@@ -7,6 +7,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -178,14 +179,6 @@ class ReplyWriter final : public Writer {
   bool header_ = false;
 };
 
-std::int64_t Fingerprint(const void* data, int size) {
-  if (size < 8) return 0;
-  const auto* p = static_cast<const std::uint8_t*>(data);
-  std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
-  return static_cast<std::int64_t>(v);
-}
-
 std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
   if (fingerprint == state_t::getHash()) return std::make_unique<StateWriter>();
   if (fingerprint == setpoint_t::getHash()) return std::make_unique<SetpointWriter>();
@@ -232,7 +225,7 @@ LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, con
     if (!std::regex_match(e->channel, wanted)) continue;
     auto it = outputs.find(e->channel);
     if (it == outputs.end()) {
-      std::unique_ptr<Writer> writer = WriterFor(Fingerprint(e->data, e->datalen));
+      std::unique_ptr<Writer> writer = WriterFor(Fingerprint(e->data, static_cast<std::size_t>(std::max(e->datalen, 0))));
       if (!writer) {
         ++result.unknown[e->channel];
         continue;
