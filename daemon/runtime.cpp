@@ -86,6 +86,7 @@ struct Runtime::Slot {
   double max_energy;
   // This tick's results, computed once and read by the health check and the record.
   Instance::StepFailure step_failure = nullptr;
+  const Setpoint* in_use = nullptr;  // the setpoint this tick followed (running, hold), decided once for the record
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
 };
@@ -237,12 +238,15 @@ void Runtime::EnterHold(Slot& s) {
 void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
   const InstanceConfig& c = inst.config();
+  s.in_use = nullptr;
   switch (s.mode) {
     case Mode::kRunning:
       if (!s.streaming) inst.SampleTrajectory(s.current);
-      s.step_failure = inst.Step(period_, s.streaming ? s.streamed : s.current);
+      s.in_use = s.streaming ? &s.streamed : &s.current;
+      s.step_failure = inst.Step(period_, *s.in_use);
       break;
     case Mode::kHold:
+      s.in_use = &s.held;  // also published under zero-torque: where hold began
       s.step_failure = c.on_timeout == TimeoutBehaviour::kHoldPosition ? inst.Step(period_, s.held)
                                                                        : inst.StepWithTorque(period_, s.zero);
       break;
@@ -266,6 +270,7 @@ void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
 
 void Runtime::Fault(Slot& s, const char* why, InstanceRecord& r) {
   s.mode = Mode::kFault;
+  s.in_use = nullptr;
   s.instance.Restore(s.good);
   s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};  // of the restored, good state
   r.fault = why;
@@ -279,9 +284,8 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.qd = inst.qd();
   r.qdd = inst.qdd();
   r.tau = inst.tau();
-  const Setpoint& sp = s.mode == Mode::kHold ? s.held : (s.streaming ? s.streamed : s.current);
-  r.q_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.q : inst.q_des();
-  r.qd_des = s.mode == Mode::kRunning || s.mode == Mode::kHold ? sp.qd : s.zero;
+  r.q_des = s.in_use ? s.in_use->q : inst.q_des();
+  r.qd_des = s.in_use ? s.in_use->qd : s.zero;
   r.kinetic_energy = s.energies.kinetic;
   r.potential_energy = s.energies.potential;
   r.controller = static_cast<int>(inst.active_controller());
