@@ -1,19 +1,27 @@
-// lagranged as a separate process on a private LCM port: tracking a setpoint
-// sent by another process, lcm-logger recording every tick, bad setpoints
-// counted, clean and prompt shutdown, bad configs refused.
+// lagranged as a separate process on a private LCM port: it starts, obeys (a
+// setpoint sent by another process moves the arm there), refuses what does
+// not fit with a reason, never publishes a non-finite value, and stops with
+// exit 0. Only what a slow or loaded machine cannot break is asserted: UDP
+// may lose a message, so a test resends until it sees the effect and never
+// counts messages; the exact counts and protocol facts are in bridge_test.cpp.
 
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <signal.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
+#include <map>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -28,6 +36,46 @@ namespace fs = std::filesystem;
 using testing::BackgroundProcess;
 using testing::LcmCollector;
 using testing::WallMicros;
+
+constexpr double kWait = 30.0;      // s: bound on waiting for an effect; a pass takes far less
+constexpr double kSettled = 1e-3;   // rad: the arm at its setpoint
+
+bool Finite(const state_t& s) {
+  bool ok = std::isfinite(s.t) && std::isfinite(s.kinetic_energy) && std::isfinite(s.potential_energy);
+  for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) {
+    for (const double x : *v) ok = ok && std::isfinite(x);
+  }
+  return ok;
+}
+
+// Every state received: finite, from one run, tick numbers increasing.
+void ExpectWellFormedStream(const std::vector<state_t>& states, const std::string& channel) {
+  ASSERT_FALSE(states.empty()) << channel;
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    ASSERT_TRUE(Finite(states[k])) << channel << " tick " << states[k].tick;
+    ASSERT_NE(states[k].run_id, 0) << channel;
+    ASSERT_EQ(states[k].run_id, states[0].run_id) << channel;
+    if (k > 0) {
+      ASSERT_GT(states[k].tick, states[k - 1].tick) << channel;
+    }
+  }
+}
+
+// "stopped ... after N ticks: ... P state messages published, D records dropped": (N, P, D).
+struct StopLine {
+  long ticks = -1, published = -1, dropped = -1;
+};
+StopLine ParseStopLine(const std::string& log) {
+  std::smatch m;
+  StopLine s;
+  if (std::regex_search(log, m, std::regex("stopped.* after ([0-9]+) ticks: [0-9]+ overruns, ([0-9]+) state messages "
+                                           "published, ([0-9]+) records dropped"))) {
+    s.ticks = std::stol(m[1]);
+    s.published = std::stol(m[2]);
+    s.dropped = std::stol(m[3]);
+  }
+  return s;
+}
 
 class Lagranged : public ::testing::Test {
  protected:
@@ -44,7 +92,7 @@ class Lagranged : public ::testing::Test {
   }
   // Waits until the daemon publishes on `channel`.
   static void AwaitMessages(LcmCollector& c, const std::string& channel, std::size_t n = 10) {
-    ASSERT_TRUE(c.WaitFor(channel, [&](const auto& m) { return m.size() >= n; }, 20.0)) << "no " << channel;
+    ASSERT_TRUE(c.WaitFor(channel, [&](const auto& m) { return m.size() >= n; }, kWait)) << "no " << channel;
   }
   static setpoint_t Setpoint(std::vector<double> q, std::int64_t utime = WallMicros()) {
     return testing::MakeSetpoint(std::move(q), utime);
@@ -53,44 +101,48 @@ class Lagranged : public ::testing::Test {
   std::string url_;
 };
 
-TEST_F(Lagranged, TheArmSettlesOnASetpointSentByAnotherProcessWithinTwoSeconds) {
+TEST_F(Lagranged, TheArmSettlesOnASetpointSentByAnotherProcess) {
   Prepare(7811);
   LcmCollector states(url_, "ARM_STATE");
   auto daemon = Start();
   AwaitMessages(states, "ARM_STATE");
-  lcm::LCM sender(url_);
   const std::vector<double> target = {0.5, 0.4};
-  const auto start = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(3500)) {
-    const setpoint_t sp = Setpoint(target);
-    sender.publish("ARM_SETPOINT", &sp);
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  std::atomic<bool> done{false};
+  std::thread stream([&] {  // 50 Hz, within the 0.5 s setpoint timeout
+    lcm::LCM sender(url_);
+    while (!done) {
+      const setpoint_t sp = Setpoint(target);
+      sender.publish("ARM_SETPOINT", &sp);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  const bool settled = states.WaitForLatest<state_t>("ARM_STATE", [&](const state_t& s) {
+    return s.mode == state_t::MODE_RUNNING && s.q_des == target && std::abs(s.q[0] - target[0]) < kSettled &&
+           std::abs(s.q[1] - target[1]) < kSettled && std::abs(s.qd[0]) < kSettled && std::abs(s.qd[1]) < kSettled;
+  }, kWait);
+  done = true;
+  stream.join();
+  EXPECT_TRUE(settled);
   daemon->Signal(SIGTERM);
-  ASSERT_EQ(daemon->Wait(10.0), 0) << daemon->Stderr();
-  const auto all = states.Decoded<state_t>("ARM_STATE");
-  // The first tick that used the setpoint, then every state from 2 s of simulated time later.
-  const auto first = std::find_if(all.begin(), all.end(), [&](const state_t& s) { return s.q_des[0] == target[0]; });
-  ASSERT_NE(first, all.end());
-  std::size_t checked = 0;
-  for (auto it = first; it != all.end(); ++it) {
-    EXPECT_EQ(it->mode, state_t::MODE_RUNNING);
-    if (it->t < first->t + 2.0) continue;
-    ++checked;
-    for (int j = 0; j < 2; ++j) ASSERT_LT(std::abs(it->q[j] - target[j]), 1e-3) << "t = " << it->t;
-  }
-  EXPECT_GT(checked, 1000u);  // more than a second of settled states
+  ASSERT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+  ExpectWellFormedStream(states.Decoded<state_t>("ARM_STATE"), "ARM_STATE");
 }
 
-TEST_F(Lagranged, LcmLoggerRecordsEveryTickOfBothInstancesForFiveSeconds) {
+TEST_F(Lagranged, LcmLoggerRecordsTheStateStreamOfBothInstances) {
   Prepare(7812);
-  const fs::path log = fs::temp_directory_path() / "lagrange_logger_test.lcm";
+  const fs::path log = fs::temp_directory_path() / ("lagrange_logger_test_" + std::to_string(getpid()) + ".lcm");
   testing::LcmLoggerProcess logger(url_, log.string());
-  auto daemon = Start({"--duration", "5"});
+  auto daemon = Start({"--duration", "2"});
   ASSERT_EQ(daemon->Wait(60.0), 0) << daemon->Stderr();
-  logger.Stop();  // once everything the daemon sent is in the file
+  logger.Stop();
+  // 2 s of ticks is 2000 ticks however long they took; each tick's record was
+  // published (two states) or counted as dropped.
+  const StopLine stop = ParseStopLine(daemon->Stderr());
+  ASSERT_EQ(stop.ticks, 2000) << daemon->Stderr();
+  EXPECT_EQ(stop.published, 2 * (stop.ticks - stop.dropped));
 
-  // Read it back with LCM's log reader.
+  // Read it back with LCM's log reader: what arrived is well formed, and each
+  // state's simulated time is its tick's (t = (tick + 1) × period).
   lcm::LogFile file(log.string(), "r");
   ASSERT_TRUE(file.good());
   std::map<std::string, std::vector<state_t>> states;
@@ -102,12 +154,13 @@ TEST_F(Lagranged, LcmLoggerRecordsEveryTickOfBothInstancesForFiveSeconds) {
   }
   for (const char* channel : {"ARM_STATE", "CARTPOLE_STATE"}) {
     const auto& v = states[channel];
-    ASSERT_EQ(v.size(), 5000u) << channel;  // 5 s at 1 kHz: 1000 messages per simulated second
-    for (std::size_t k = 0; k < v.size(); ++k) {
-      ASSERT_EQ(v[k].tick, static_cast<std::int64_t>(k)) << channel << ": a gap";
-      ASSERT_NEAR(v[k].t, static_cast<double>(k + 1) * 1e-3, 1e-9) << channel;
+    ExpectWellFormedStream(v, channel);
+    for (const state_t& s : v) {
+      ASSERT_LT(s.tick, stop.ticks) << channel;
+      ASSERT_NEAR(s.t, static_cast<double>(s.tick + 1) * 1e-3, 1e-9) << channel;
     }
   }
+  EXPECT_EQ(states["ARM_STATE"].front().run_id, states["CARTPOLE_STATE"].front().run_id);
   fs::remove(log);
 }
 
@@ -117,59 +170,54 @@ TEST_F(Lagranged, BadSetpointsAreRejectedAndCountedWhileTheLoopKeepsRunning) {
   auto daemon = Start();
   AwaitMessages(collector, "LAGRANGE_STATUS", 2);
   lcm::LCM sender(url_);
+  auto last_status = [&] { return collector.Decoded<status_t>("LAGRANGE_STATUS").back(); };
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const std::vector<std::pair<setpoint_t, std::string>> bad = {
-      {Setpoint({0.1, nan}), "arm: non-finite value in q[1]"},
-      {Setpoint({0.1, 0.2, 0.3}), "arm: num_dofs is 3, expected 2"},
-      {Setpoint({0.1, 0.2}, WallMicros() - 10'000'000), "arm: stale: sent 10"},
-      {Setpoint({10.0, 0.2}), "arm: q[0] = 10 is outside the setpoint limits [-3.1416, 3.1416]"},
+  const std::vector<std::pair<std::function<setpoint_t()>, std::string>> bad = {
+      {[&] { return Setpoint({0.1, nan}); }, "arm: non-finite value in q[1]"},
+      {[&] { return Setpoint({0.1, 0.2, 0.3}); }, "arm: num_dofs is 3, expected 2"},
+      {[&] { return Setpoint({0.1, 0.2}, WallMicros() - 10'000'000); }, "arm: stale: sent 10"},
+      {[&] { return Setpoint({10.0, 0.2}); }, "arm: q[0] = 10 is outside the setpoint limits [-3.1416, 3.1416]"},
   };
-  for (const auto& [sp, why] : bad) {
-    const std::int64_t rejected_before = collector.Decoded<status_t>("LAGRANGE_STATUS").back().setpoints_rejected;
-    sender.publish("ARM_SETPOINT", &sp);
-    ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-      return s.setpoints_rejected > rejected_before;
-    }, 10.0)) << why;
-    const status_t s = collector.Decoded<status_t>("LAGRANGE_STATUS").back();
-    EXPECT_EQ(s.last_rejection.rfind(why, 0), 0u) << s.last_rejection;
+  for (const auto& [make, why] : bad) {
+    // Resent until a status shows it refused, with this reason.
+    ASSERT_TRUE(testing::SendUntil([&] {
+      const setpoint_t sp = make();
+      sender.publish("ARM_SETPOINT", &sp);
+    }, [&] { return last_status().last_rejection.rfind(why, 0) == 0; }, kWait)) << why << ": " << last_status().last_rejection;
   }
   // Packets that are not setpoints at all: decode errors, also counted.
   const std::uint8_t garbage[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
-  sender.publish("ARM_SETPOINT", garbage, sizeof garbage);
-  ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-    return s.decode_errors >= 1;
-  }, 10.0));
+  ASSERT_TRUE(testing::SendUntil([&] { sender.publish("ARM_SETPOINT", garbage, sizeof garbage); },
+                                 [&] { return last_status().decode_errors >= 1; }, kWait));
   const auto statuses = collector.Decoded<status_t>("LAGRANGE_STATUS");
   const status_t& last = statuses.back();
   EXPECT_EQ(last.setpoints_accepted, 0);
-  EXPECT_EQ(last.setpoints_rejected, 4);
+  EXPECT_GE(last.setpoints_rejected, 4);
   EXPECT_GT(last.ticks, statuses.front().ticks);  // the loop kept running
   EXPECT_EQ(last.instance_modes, (std::vector<int8_t>{state_t::MODE_RUNNING, state_t::MODE_RUNNING}));
-  const auto arm = collector.Decoded<state_t>("ARM_STATE");
-  for (std::size_t k = 1; k < arm.size(); ++k) ASSERT_EQ(arm[k].tick, arm[k - 1].tick + 1);
+  ExpectWellFormedStream(collector.Decoded<state_t>("ARM_STATE"), "ARM_STATE");
   daemon->Signal(SIGTERM);
-  EXPECT_EQ(daemon->Wait(10.0), 0);
+  EXPECT_EQ(daemon->Wait(kWait), 0);
 }
 
-TEST_F(Lagranged, SigtermStopsItWithinTwoHundredMillisecondsAfterSendingEveryState) {
+TEST_F(Lagranged, SigtermStopsItWithExitZeroAfterPublishingEveryTick) {
   Prepare(7814);
   LcmCollector collector(url_);
   auto daemon = Start();
   AwaitMessages(collector, "ARM_STATE", 500);
-  const auto signalled = std::chrono::steady_clock::now();
   daemon->Signal(SIGTERM);
-  const int status = daemon->Wait(5.0);
-  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
-  EXPECT_EQ(status, 0);
-  EXPECT_LT(elapsed, 0.2);
-  // The log was flushed, and every tick's state went out before the exit.
-  std::smatch m;
+  ASSERT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+  // The log was flushed, and every tick's record went out (or was counted as dropped) before the exit.
   const std::string err = daemon->Stderr();
-  ASSERT_TRUE(std::regex_search(err, m, std::regex("stopped by signal 15 after ([0-9]+) ticks"))) << err;
-  const std::size_t ticks = std::stoul(m[1]);
-  ASSERT_TRUE(collector.WaitFor("CARTPOLE_STATE", [&](const auto& v) { return v.size() >= ticks; }, 5.0));
-  EXPECT_EQ(collector.Count("ARM_STATE"), ticks);
-  EXPECT_EQ(collector.Count("CARTPOLE_STATE"), ticks);
+  ASSERT_NE(err.find("stopped by signal 15 after "), std::string::npos) << err;
+  const StopLine stop = ParseStopLine(err);
+  ASSERT_GE(stop.ticks, 500) << err;
+  EXPECT_EQ(stop.published, 2 * (stop.ticks - stop.dropped)) << err;
+  for (const char* channel : {"ARM_STATE", "CARTPOLE_STATE"}) {
+    const auto states = collector.Decoded<state_t>(channel);
+    ExpectWellFormedStream(states, channel);
+    EXPECT_LT(states.back().tick, stop.ticks) << channel;
+  }
 }
 
 TEST_F(Lagranged, ABadSceneIsRefusedBeforeTheLoopNamingFileKeyAndReason) {
@@ -178,7 +226,7 @@ TEST_F(Lagranged, ABadSceneIsRefusedBeforeTheLoopNamingFileKeyAndReason) {
   std::ofstream(scene) << "instances:\n  - name: arm\n    plant: {type: arm2, params: {m1: -1}}\n";
   LcmCollector collector(url_);
   auto daemon = Start({"--config", scene.string()});
-  EXPECT_EQ(daemon->Wait(10.0), 2);
+  EXPECT_EQ(daemon->Wait(kWait), 2);
   EXPECT_NE(daemon->Stderr().find(scene.string() +
                                   ":3:38: instances[0].plant.params.m1: expected a positive number (kg), got -1"),
             std::string::npos)
@@ -186,7 +234,7 @@ TEST_F(Lagranged, ABadSceneIsRefusedBeforeTheLoopNamingFileKeyAndReason) {
   EXPECT_EQ(collector.Count("ARM_STATE"), 0u);
   fs::remove(scene);
   auto bad_option = Start({"--overrun", "sometimes"});
-  EXPECT_EQ(bad_option->Wait(10.0), 2);
+  EXPECT_EQ(bad_option->Wait(kWait), 2);
 }
 
 TEST_F(Lagranged, ChannelPrefixPutsEveryChannelUnderIt) {
@@ -196,55 +244,75 @@ TEST_F(Lagranged, ChannelPrefixPutsEveryChannelUnderIt) {
   AwaitMessages(collector, "ROBOT7_ARM_STATE");
   AwaitMessages(collector, "ROBOT7_LAGRANGE_STATUS", 1);
   lcm::LCM sender(url_);
-  const setpoint_t sp = Setpoint({0.2, 0.1});
-  sender.publish("ROBOT7_ARM_SETPOINT", &sp);
-  ASSERT_TRUE(collector.WaitForLatest<state_t>("ROBOT7_ARM_STATE", [&](const state_t& s) {
-    return s.q_des[0] == 0.2;
-  }, 10.0));
+  ASSERT_TRUE(testing::SendUntil([&] {
+    const setpoint_t sp = Setpoint({0.2, 0.1});
+    sender.publish("ROBOT7_ARM_SETPOINT", &sp);
+  }, [&] {
+    const auto states = collector.Decoded<state_t>("ROBOT7_ARM_STATE");
+    return !states.empty() && states.back().q_des[0] == 0.2;
+  }, kWait));
   EXPECT_EQ(collector.Count("ARM_STATE"), 0u);
   daemon->Signal(SIGINT);
-  EXPECT_EQ(daemon->Wait(10.0), 0);
+  EXPECT_EQ(daemon->Wait(kWait), 0);
 }
 
-TEST_F(Lagranged, CommandsSwitchControllersStopAndAreRefusedWhenTheyDoNotFit) {
+TEST_F(Lagranged, CommandsAreAnsweredWithTheirRequestIdSwitchStopAndAreRefusedWhenTheyDoNotFit) {
   Prepare(7817);
   LcmCollector collector(url_);
   auto daemon = Start();
   AwaitMessages(collector, "LAGRANGE_STATUS", 1);
   lcm::LCM sender(url_);
-  auto send = [&](int8_t kind, const std::string& controller = "", std::vector<double> kp = {}, std::vector<double> kd = {}) {
+  std::int64_t next_id = 0x7817000;
+  auto find_reply = [&](std::int64_t id) -> std::optional<reply_t> {
+    for (const reply_t& r : collector.Decoded<reply_t>("ARM_REPLY")) {
+      if (r.request_id == id) return r;
+    }
+    return std::nullopt;
+  };
+  // Sends a command (again, under the same request id, while no reply came) and returns the first reply.
+  auto request = [&](int8_t kind, const std::string& controller = "", std::vector<double> kp = {},
+                     std::vector<double> kd = {}) {
     command_t c;
     c.utime = WallMicros();
+    c.request_id = ++next_id;
     c.command = kind;
     c.controller = controller;
     c.num_gains = static_cast<int32_t>(kp.size());
     c.kp = kp;
     c.kd = kd;
-    sender.publish("ARM_COMMAND", &c);
+    EXPECT_TRUE(testing::SendUntil([&] { sender.publish("ARM_COMMAND", &c); },
+                                   [&] { return find_reply(c.request_id).has_value(); }, kWait))
+        << "no reply to command " << static_cast<int>(kind);
+    return find_reply(c.request_id).value_or(reply_t{});
   };
-  auto last_state = [&](const char* channel) { return collector.Decoded<state_t>(channel).back(); };
   auto await_state = [&](const std::function<bool(const state_t&)>& p) {
-    return collector.WaitForLatest<state_t>("ARM_STATE", p, 10.0);
+    return collector.WaitForLatest<state_t>("ARM_STATE", p, kWait);
   };
-  send(command_t::SWITCH_CONTROLLER, "pd");
+  EXPECT_TRUE(request(command_t::SWITCH_CONTROLLER, "pd").accepted);
   ASSERT_TRUE(await_state([](const state_t& s) { return s.controller == "pd"; }));
-  send(command_t::ESTOP);
+  EXPECT_TRUE(request(command_t::ESTOP).accepted);
   ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_ESTOP; }));
-  EXPECT_EQ(last_state("CARTPOLE_STATE").mode, state_t::MODE_RUNNING);  // the other instance runs on
-  send(command_t::CLEAR_ESTOP);
+  EXPECT_EQ(collector.Decoded<state_t>("CARTPOLE_STATE").back().mode, state_t::MODE_RUNNING);  // the other runs on
+  request(command_t::CLEAR_ESTOP);
   ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_HOLD; }));
-  send(command_t::SWITCH_CONTROLLER, "mpc");
-  send(command_t::SET_GAINS, "", {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0});
-  ASSERT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-    return s.commands_rejected >= 2;
-  }, 10.0));
-  const status_t status = collector.Decoded<status_t>("LAGRANGE_STATUS").back();
-  EXPECT_EQ(status.commands_accepted, 3);
-  EXPECT_EQ(status.last_command_error, "arm: gains: num_gains is 3, expected 2");
-  send(command_t::RESET);
-  ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_RUNNING && s.controller == "computed-torque"; }));
+  const reply_t unknown = request(command_t::SWITCH_CONTROLLER, "mpc");
+  EXPECT_FALSE(unknown.accepted);
+  EXPECT_EQ(unknown.reason.rfind("unknown controller 'mpc' for arm", 0), 0u) << unknown.reason;
+  const reply_t gains = request(command_t::SET_GAINS, "", {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0});
+  EXPECT_FALSE(gains.accepted);
+  EXPECT_EQ(gains.reason, "gains: num_gains is 3, expected 2");
+  EXPECT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
+    return s.last_command_error == "arm: gains: num_gains is 3, expected 2" && s.commands_rejected >= 2;
+  }, kWait));
+  request(command_t::RESET);
+  ASSERT_TRUE(await_state([](const state_t& s) {
+    return s.mode == state_t::MODE_RUNNING && s.controller == "computed-torque";
+  }));
+  for (const reply_t& r : collector.Decoded<reply_t>("ARM_REPLY")) {
+    EXPECT_EQ(r.run_id, collector.Decoded<state_t>("ARM_STATE").back().run_id);
+  }
   daemon->Signal(SIGTERM);
-  EXPECT_EQ(daemon->Wait(10.0), 0);
+  EXPECT_EQ(daemon->Wait(kWait), 0);
 }
 
 TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
@@ -271,7 +339,7 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
     argv.push_back(extra);
   }
   BackgroundProcess daemon(argv);
-  EXPECT_EQ(daemon.Wait(20.0), 0) << daemon.Stderr();
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
   std::ifstream in(log);
   std::stringstream text;
   text << in.rdbuf();

@@ -44,13 +44,12 @@ class RuntimeTest : public ::testing::Test {
       runtime.Tick(now, record);
     }
   }
-  void SendSetpoint(std::size_t i, std::initializer_list<double> q, bool stale = false) {
+  void SendSetpoint(std::size_t i, std::initializer_list<double> q) {
     SetpointMessage& m = runtime.channels(i).setpoints.back();
     int j = 0;
     for (double x : q) m.setpoint.q[j++] = x;
     m.setpoint.qd.setZero();
     m.setpoint.qdd.setZero();
-    m.stale = stale;
     runtime.channels(i).setpoints.Publish();
   }
   void SendCommand(std::size_t i, CommandKind kind, int controller = -1, double kp = 0, double kd = 0) {
@@ -105,14 +104,8 @@ TEST_F(RuntimeTest, SetpointsStoppingSendTheInstanceToHoldAndTheNextResumes) {
   EXPECT_EQ(record.instances[1].mode, Mode::kRunning);  // the other instance never noticed
 }
 
-TEST_F(RuntimeTest, AStaleSetpointIsNotAppliedAndSendsTheInstanceToHold) {
-  SendSetpoint(0, {0.8, -0.2});
-  Ticks(5);
-  SendSetpoint(0, {3.0, 3.0}, /*stale=*/true);
-  Ticks(1);
-  EXPECT_EQ(Arm().mode, Mode::kHold);
-  EXPECT_NE(Arm().q_des[0], 3.0);
-}
+// A stale setpoint never reaches the tick (the receiver refuses it without
+// sending the instance to hold): tests/daemon/bridge_test.cpp.
 
 TEST(RuntimeZeroTorque, ZeroTorqueHoldAppliesNoTorque) {
   Runtime runtime(TwoInstances("    on_timeout: zero-torque\n"));
@@ -291,9 +284,9 @@ TEST(Loop, TheTickAllocatesNothingInAnyMode) {
   command(CommandKind::kPause);
   counted(10);
   command(CommandKind::kResume);
-  command(CommandKind::kEstop);
+  runtime.PostUrgent(0, Urgent::kEstop, 5);  // the urgent path, as the receiver posts it
   counted(10);
-  command(CommandKind::kClearEstop);
+  runtime.PostUrgent(0, Urgent::kClearEstop, 6);
   command(CommandKind::kSetGains, 0);  // refused by the tick: formats nothing
   command(CommandKind::kReset);
   counted(10);

@@ -15,11 +15,30 @@
 
 namespace lagrange::testing {
 
-std::string TestLcmUrl(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
+std::string TestLcmUrl(int port) { return std::string("udpm://") + kTestLcmGroup + ":" + std::to_string(port) + "?ttl=0"; }
 
 std::int64_t WallMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+bool WaitUntil(const std::function<bool()>& done, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+bool SendUntil(const std::function<void()>& send, const std::function<bool()>& done, double timeout_s,
+               double every_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    send();
+    if (WaitUntil(done, every_s)) return true;
+  }
+  return done();
 }
 
 std::string PrepareLoopbackMulticast(int port) {

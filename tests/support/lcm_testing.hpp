@@ -15,6 +15,8 @@
 
 namespace lagrange::testing {
 
+// The multicast group of every test URL.
+inline constexpr const char* kTestLcmGroup = "239.255.76.67";
 std::string TestLcmUrl(int port);
 
 // When root and the route is missing: `ip link set lo multicast on` and
@@ -121,5 +123,14 @@ inline constexpr bool kResidentSizeMeaningful = true;
 
 // Wall clock, µs since the Unix epoch (what LCM utime fields carry).
 std::int64_t WallMicros();
+
+// Calls `send`, then waits up to `every_s` for `done`; again and again until
+// `done` holds or `timeout_s` has passed. True if it held. For messages UDP
+// may lose (a loaded machine, a flood): a loss then only delays the test.
+bool SendUntil(const std::function<void()>& send, const std::function<bool()>& done, double timeout_s,
+               double every_s = 0.25);
+
+// Polls `done` every 10 ms up to `timeout_s`; true if it held.
+bool WaitUntil(const std::function<bool()>& done, double timeout_s);
 
 }  // namespace lagrange::testing
