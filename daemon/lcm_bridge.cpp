@@ -80,7 +80,7 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
     const InstanceConfig& c = inst.config();
     std::vector<GainBounds> bounds;
     for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
-    info_.push_back({inst.name(), channels.reply[i], inst.num_dofs(),
+    info_.push_back({inst.name(), channels.setpoint[i], channels.command[i], channels.reply[i], inst.num_dofs(),
                      CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
                                   std::move(bounds)},
                      SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout});
@@ -184,28 +184,44 @@ void LcmReceiver::RejectCommand(std::size_t i, const std::string& why) {
   replies_.PublishMessage(info_[i].reply_channel, reply_);
 }
 
+namespace {
+
+// a − b, saturating: hostile timestamps near ±2^63 must not overflow.
+std::int64_t SaturatingSub(std::int64_t a, std::int64_t b) {
+  if (b < 0 && a > INT64_MAX + b) return INT64_MAX;
+  if (b > 0 && a < INT64_MIN + b) return INT64_MIN;
+  return a - b;
+}
+
+}  // namespace
+
 LcmReceiver::AgeVerdict LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
   const std::int64_t now = clock_.WallMicros();
   const auto timeout_us = static_cast<std::int64_t>(info.timeout * 1e6);
+  const std::int64_t offset = SaturatingSub(now, utime);
   AgeVerdict v;
-  // Saturating: a hostile utime near ±2^63 must not overflow.
-  const std::int64_t offset =
-      utime < 0 && now > INT64_MAX + utime ? INT64_MAX : (utime > 0 && now < INT64_MIN + utime ? INT64_MIN : now - utime);
   if (age_ == SetpointAge::kWall) {
     v.age = static_cast<double>(offset) * 1e-6;
     v.ok = v.age <= info.timeout && v.age >= -info.timeout;
     return v;
   }
   const bool new_stream = info.last_arrival < 0 || now - info.last_arrival > timeout_us;
-  if (!new_stream && offset < info.least_offset - timeout_us) {
-    // Far ahead of the stream's timeline: one bad timestamp, unless the next
-    // packets agree with it (the sender's clock really jumped).
-    const bool agrees = info.candidate_count > 0 && std::abs(offset - info.candidate_offset) <= timeout_us;
+  const std::int64_t behind = SaturatingSub(offset, info.least_offset);  // < 0: ahead of the timeline
+  if (!new_stream && (behind > timeout_us || behind < -timeout_us)) {
+    // Out of line with the stream's timeline by more than the timeout: one bad
+    // timestamp, a stale packet, or a timeline that really moved (the sender's
+    // clock jumped; a forged first packet set the timeline). It moves the
+    // timeline only when kStreamConfirmations such packets in a row agree with
+    // one another, with no in-line packet between them.
+    const bool agrees = info.candidate_count > 0 &&
+                        std::abs(static_cast<double>(SaturatingSub(offset, info.candidate_offset))) <=
+                            static_cast<double>(timeout_us);
     info.candidate_count = agrees ? info.candidate_count + 1 : 1;
     if (!agrees) info.candidate_offset = offset;
     if (info.candidate_count < kStreamConfirmations) {
       v.ok = false;
-      v.out_of_line = "timestamp out of line with its stream (ahead by more than setpoint_timeout)";
+      if (behind < 0) v.out_of_line = "timestamp out of line with its stream (ahead by more than setpoint_timeout)";
+      v.age = static_cast<double>(behind) * 1e-6;
       return v;
     }
     info.least_offset = offset;  // confirmed: the timeline moved
@@ -222,7 +238,7 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::s
   InstanceInfo& info = info_[i];
   const SetpointVerdict verdict = CheckSetpoint(data, size, info.rules, setpoint_);
   if (verdict.kind == SetpointVerdict::Kind::kUndecodable) {
-    DecodeError(info.name + "_SETPOINT", verdict.reason.c_str());
+    DecodeError(info.setpoint_channel, verdict.reason.c_str());
     return;
   }
   if (verdict.kind == SetpointVerdict::Kind::kRejected) {
@@ -249,7 +265,7 @@ void LcmReceiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::si
   const InstanceInfo& info = info_[i];
   const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
   const CommandVerdict v = CheckCommand(data, size, info.command_rules, active, command_);
-  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(info.name + "_COMMAND", v.reason.c_str());
+  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(info.command_channel, v.reason.c_str());
   if (v.kind == CommandVerdict::Kind::kRejected) return RejectCommand(i, v.reason);
   if (const std::optional<Urgent> urgent = UrgentKind(v.command)) {
     runtime_.PostUrgent(i, *urgent, command_.request_id);  // never refused for room; the tick decides

@@ -106,8 +106,9 @@ enum class SetpointAge : std::uint8_t {
             // delay relative to the stream's own timeline, whatever the clocks' offset
             // (lcm-logplayer replaying a recorded stream, hosts whose clocks differ). A gap
             // longer than the timeout starts a new stream. A packet whose timestamp is out
-            // of line with the stream by more than the timeout is refused and does not move
-            // the timeline unless kStreamConfirmations such packets in a row agree.
+            // of line with the stream by more than the timeout (ahead, or stale) is refused
+            // and does not move the timeline unless kStreamConfirmations such packets in a
+            // row agree with one another.
 };
 inline constexpr int kStreamConfirmations = 3;
 
@@ -130,7 +131,7 @@ class LcmReceiver {
  private:
   struct InstanceInfo {
     std::string name;
-    std::string reply_channel;
+    std::string setpoint_channel, command_channel, reply_channel;
     int n = 0;
     CommandRules command_rules;
     SetpointRules rules;

@@ -126,8 +126,9 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
 void Runtime::PostUrgent(std::size_t i, Urgent kind, std::int64_t request_id) {
   UrgentFlags& u = slots_[i]->channels.urgent;
   const auto k = static_cast<std::size_t>(kind);
-  u.request_id[k].store(request_id, std::memory_order_relaxed);
-  u.posted[k].store(++u.sequence, std::memory_order_release);
+  const std::uint64_t number = ++u.sequence;
+  u.request_id[k][number % UrgentFlags::kIdSlots].store(request_id, std::memory_order_relaxed);
+  u.posted[k].store(number, std::memory_order_release);
 }
 
 namespace {
@@ -160,7 +161,8 @@ void Runtime::TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r) {
     if (next == kNumUrgent) return;
     s.urgent_seen[next] = posted[next];
     const CommandKind kind = kUrgentCommand[next];
-    AddVerdict(r, u.request_id[next].load(std::memory_order_relaxed), kind, Apply(s, kind, -1, nullptr, now));
+    const std::int64_t id = u.request_id[next][posted[next] % UrgentFlags::kIdSlots].load(std::memory_order_relaxed);
+    AddVerdict(r, id, kind, Apply(s, kind, -1, nullptr, now));
   }
 }
 

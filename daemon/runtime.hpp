@@ -22,7 +22,8 @@
 // Commands reach the tick two ways. estop, clear_estop and reset are urgent:
 // the receiver posts them as latest-wins flags (PostUrgent) beside the queue,
 // so no flood can crowd them out; the tick takes them first, in the order
-// they came, and applies each once however often it was sent within one tick.
+// they came, and applies each once however often it was sent within one tick
+// (the verdict then carries the latest request id; the earlier ones get none).
 // Every other command waits in a bounded queue that refuses when full.
 
 #include <array>
@@ -80,9 +81,14 @@ std::optional<Urgent> UrgentKind(CommandKind kind);
 // Latest-wins flags for the urgent commands (single producer: the receive
 // thread). `posted[k]` is the receiver's sequence number of the latest
 // command of kind k (0: none yet); the tick applies a kind whose number grew.
+// The request id of post number p is in request_id[k][p % kIdSlots], written
+// before `posted` is released, so the tick reads the id that belongs to the
+// number it read; it could only be overwritten by kIdSlots more posts of the
+// same kind between two adjacent loads in the tick.
 struct UrgentFlags {
+  static constexpr std::size_t kIdSlots = 8;
   std::atomic<std::uint64_t> posted[kNumUrgent] = {};
-  std::atomic<std::int64_t> request_id[kNumUrgent] = {};
+  std::atomic<std::int64_t> request_id[kNumUrgent][kIdSlots] = {};
   std::uint64_t sequence = 0;  // the receiver's counter
 };
 

@@ -355,26 +355,46 @@ TEST_F(StreamBridge, ASenderWhoseClockJumpedIsFollowedFromItsThirdAgreeingPacket
   EXPECT_EQ(runtime_.mode(0), Mode::kRunning);
 }
 
-// A stream's first packet sets its timeline (stream mode accepts any clock
-// offset), so a future-dated first packet is accepted and the genuine packets
-// behind it look stale; they are followed again once setpoint_timeout has
-// passed without an in-line packet, never later.
-TEST_F(StreamBridge, AFutureDatedFirstPacketHoldsTheStreamOffForAtMostOneTimeout) {
+// A new stream's first packet sets its timeline, so a future-dated first
+// packet is accepted and the genuine packets behind it look stale; the
+// genuine stream takes the timeline back from its kStreamConfirmations-th
+// packet, since those agree with one another and nothing in line comes between.
+TEST_F(StreamBridge, AFutureDatedFirstPacketHoldsTheStreamOffForOnlyAFewPackets) {
   SendSetpoint({0.5, 0.4}, clock_.WallMicros() + 1'000'000'000'000);
   Ticks(1);
-  const Nanoseconds future_taken = clock_.Now();
   EXPECT_EQ(stats_.setpoints_accepted.load(), 1);
-  const std::int64_t first_fresh = stats_.setpoints_accepted.load();
-  Nanoseconds resumed = -1;
-  for (int k = 0; k < 100 && resumed < 0; ++k) {
+  int sent = 0;
+  while (stats_.setpoints_accepted.load() == 1 && sent < 100) {
+    SendFresh({0.3, 0.2});
+    ++sent;
+    Ticks(1);
+  }
+  EXPECT_EQ(sent, kStreamConfirmations);
+  Ticks(1);
+  EXPECT_EQ(runtime_.mode(0), Mode::kRunning);
+  EXPECT_EQ(last_state_.q_des, (std::vector<double>{0.3, 0.2}));
+}
+
+// A forger who repeats a future-dated setpoint every 0.4 s (inside the
+// timeout, so the stream never ends) cannot hold a genuine 1 kHz stream off:
+// after the first few genuine packets every forged one is refused.
+TEST_F(StreamBridge, AForgerRepeatingAFutureDatedSetpointCannotLockOutTheGenuineStream) {
+  const std::int64_t ahead = 1'000'000'000'000;
+  SendSetpoint({0.5, 0.4}, clock_.WallMicros() + ahead);
+  Ticks(1);
+  constexpr int kGenuine = 2000;
+  int forged = 0;
+  for (int ms = 1; ms <= kGenuine; ++ms) {
+    if (ms % 400 == 0) {
+      SendSetpoint({0.5, 0.4}, clock_.WallMicros() + ahead);
+      ++forged;
+    }
     SendFresh({0.3, 0.2});
     Ticks(1);
-    if (stats_.setpoints_accepted.load() > first_fresh) resumed = clock_.Now();
-    Ticks(9);
   }
-  ASSERT_GE(resumed, 0);
-  EXPECT_LE(resumed - future_taken, static_cast<Nanoseconds>(0.5e9) + 20 * kMs);
-  Ticks(1);
+  // Refused: the first kStreamConfirmations − 1 genuine packets and every forged repeat.
+  EXPECT_EQ(stats_.setpoints_rejected.load(), kStreamConfirmations - 1 + forged);
+  EXPECT_EQ(stats_.setpoints_accepted.load(), 1 + kGenuine - (kStreamConfirmations - 1));
   EXPECT_EQ(runtime_.mode(0), Mode::kRunning);
   EXPECT_EQ(last_state_.q_des, (std::vector<double>{0.3, 0.2}));
 }
