@@ -70,9 +70,8 @@ void RegisterPlant(const NamedPlant& plant) {
     for (Term term : {Term::kM, Term::kC, Term::kCqd, Term::kG, Term::kFD}) {
       const std::string name =
           "derive/" + plant.name + "/" + std::string(lagrange::ToString(method)) + "/" + std::string(ToString(term));
-      benchmark::RegisterBenchmark(name.c_str(), [spec = plant.spec, method, term](benchmark::State& bm) {
-        TimeTerm(bm, spec, method, term);
-      });
+      benchmark::RegisterBenchmark(
+          name.c_str(), [spec = plant.spec, method, term](benchmark::State& bm) { TimeTerm(bm, spec, method, term); });
     }
   }
 }

@@ -24,14 +24,24 @@
 namespace lagrange::bench {
 namespace {
 
-constexpr double kStep = 1e-3;        // s
+constexpr double kStep = 1e-3;  // s
 constexpr int kStepsPerRestart = 1000;
 
-enum class Case { kBare, kDefault, kNoGravity, kNoCoriolis, kDamping, kFriction, kLimits, kSaturation,
-                  kDisturbance, kAll };
+enum class Case {
+  kBare,
+  kDefault,
+  kNoGravity,
+  kNoCoriolis,
+  kDamping,
+  kFriction,
+  kLimits,
+  kSaturation,
+  kDisturbance,
+  kAll
+};
 
-constexpr Case kAllCases[] = {Case::kBare, Case::kDefault, Case::kNoGravity, Case::kNoCoriolis, Case::kDamping,
-                              Case::kFriction, Case::kLimits, Case::kSaturation, Case::kDisturbance, Case::kAll};
+constexpr Case kAllCases[] = {Case::kBare,     Case::kDefault, Case::kNoGravity,  Case::kNoCoriolis,  Case::kDamping,
+                              Case::kFriction, Case::kLimits,  Case::kSaturation, Case::kDisturbance, Case::kAll};
 
 std::string_view ToString(Case c) {
   switch (c) {
@@ -57,7 +67,8 @@ EffectsConfig EffectsFor(Case c, int n) {
   if (c == Case::kNoCoriolis) e.coriolis = false;
   if (all || c == Case::kDamping) e.damping = VectorXd::Constant(n, 0.1);
   if (all || c == Case::kFriction) e.friction = CoulombFriction{VectorXd::Constant(n, 0.2), 0.01};
-  if (all || c == Case::kLimits) e.limits = JointLimits{VectorXd::Constant(n, -2.5), VectorXd::Constant(n, 2.5), 1e4, 50};
+  if (all || c == Case::kLimits)
+    e.limits = JointLimits{VectorXd::Constant(n, -2.5), VectorXd::Constant(n, 2.5), 1e4, 50};
   if (all || c == Case::kSaturation) e.saturation = VectorXd::Constant(n, 5.0);
   if (all || c == Case::kDisturbance) e.disturbance.push_back({0.5, 0.05, VectorXd::Ones(n)});
   return e;

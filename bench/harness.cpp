@@ -1,13 +1,13 @@
 #include "bench/harness.hpp"
 
 #include <fcntl.h>
-#include <lagrange/state_t.hpp>
 #include <signal.h>
 #include <string.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <lagrange/state_t.hpp>
 
 #include <chrono>
 #include <fstream>
@@ -112,8 +112,8 @@ constexpr const char* kMarkChannel = "LAGRANGE_BENCH_MARK";
 LcmLogger::LcmLogger(const std::string& url, const std::string& channels, const fs::path& file, const fs::path& log)
     : url_(url), file_(file) {
   fs::remove(file);
-  pid_ = Spawn({"lcm-logger", "--quiet", "--force", "--lcm-url=" + url, "--channel=(" + channels + "|" + kMarkChannel + ")",
-                file.string()},
+  pid_ = Spawn({"lcm-logger", "--quiet", "--force", "--lcm-url=" + url,
+                "--channel=(" + channels + "|" + kMarkChannel + ")", file.string()},
                log);
 }
 
@@ -161,8 +161,14 @@ std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& 
 
 std::vector<std::string> CyclictestArgs(int seconds, const fs::path& json, int fifo_priority, int cpu, bool mlockall,
                                         int histogram_us) {
-  std::vector<std::string> argv = {"cyclictest", "-t1", "-i1000", "-D" + std::to_string(seconds), "-q",
-                                   "-h" + std::to_string(histogram_us), "--histfile=/dev/null", "--default-system",
+  std::vector<std::string> argv = {"cyclictest",
+                                   "-t1",
+                                   "-i1000",
+                                   "-D" + std::to_string(seconds),
+                                   "-q",
+                                   "-h" + std::to_string(histogram_us),
+                                   "--histfile=/dev/null",
+                                   "--default-system",
                                    "--json=" + json.string()};
   if (fifo_priority > 0) argv.push_back("-p" + std::to_string(fifo_priority));
   if (cpu >= 0) argv.push_back("-a" + std::to_string(cpu));

@@ -44,16 +44,16 @@
 // lagranged_hostile_<bus>.log. The report script computes the percentiles.
 
 #include <arpa/inet.h>
-#include <lagrange/command_t.hpp>
-#include <lagrange/reply_t.hpp>
-#include <lagrange/setpoint_t.hpp>
-#include <lagrange/state_t.hpp>
-#include <lagrange/status_t.hpp>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <lagrange/command_t.hpp>
+#include <lagrange/reply_t.hpp>
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -107,10 +107,10 @@ struct Options {
   std::string lagranged;
   std::string config;
   std::string out = "bench/results";
-  int port = 7990;              // outputs (and inputs on the shared bus); inputs on port + 1 when separate
-  double seconds = 10.0;        // per case
-  bool quick = false;           // 2 s per case
-  int rt_priority = 0;          // > 0: the daemon with --mlockall --rt-priority
+  int port = 7990;        // outputs (and inputs on the shared bus); inputs on port + 1 when separate
+  double seconds = 10.0;  // per case
+  bool quick = false;     // 2 s per case
+  int rt_priority = 0;    // > 0: the daemon with --mlockall --rt-priority
 };
 
 // The default scene's channels: instance 0 is the arm, 1 the cart-pole.
@@ -204,8 +204,7 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
   const std::int64_t now = WallMicros();
   const double hold = std::numbers::pi / 4;
   switch (c) {
-    case Case::kQuiet:
-      break;
+    case Case::kQuiet: break;
     case Case::kSetpoints:
       t.remake = true;
       t.datagrams.push_back(Lc02(1, setpoint, Encode(Setpoint(now, {hold, 0.0}))));
@@ -259,7 +258,8 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
       shorter.resize(18);                                // ... cut to 18
       t.datagrams = {first, Lc03(7, 4096, 0xfffffff0u, 1, 2, "", 64, 0xab), first, shorter,
                      Lc03(8, 1u << 28, 0, 0, 0x1001, channel, 16, 0x22)};
-      for (std::uint16_t k = 1; k <= 4; ++k) t.datagrams.push_back(Lc03(8, 1u << 28, k * 1400u, k, 0x1001, "", 1400, 0x33));
+      for (std::uint16_t k = 1; k <= 4; ++k)
+        t.datagrams.push_back(Lc03(8, 1u << 28, k * 1400u, k, 0x1001, "", 1400, 0x33));
       break;
     }
     case Case::kForeign: {
@@ -340,11 +340,14 @@ FloodResult Flood(Case c, int port, const std::atomic<bool>& stop) {
 class Observer {
  public:
   explicit Observer(const std::string& url) : bus_(OpenBus(WithReceiveBuffer(url))) {
-    bus_->Subscribe(kChannels.status, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-    bus_->Subscribe(kChannels.state[kArm], [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnArm(d, n); });
+    bus_->Subscribe(kChannels.status,
+                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+    bus_->Subscribe(kChannels.state[kArm],
+                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnArm(d, n); });
     bus_->Subscribe(kChannels.state[kCartpole],
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnCartpole(d, n); });
-    bus_->Subscribe(kChannels.reply[kArm], [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
+    bus_->Subscribe(kChannels.reply[kArm],
+                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
   }
 
   void Run(const std::atomic<bool>& stop) {
@@ -544,7 +547,7 @@ struct CaseResult {
   double seconds = 0.0;
   FloodResult flood;
   bool have_status = false;
-  status_t a, b;  // the statuses at the window's ends
+  status_t a, b;                             // the statuses at the window's ends
   std::map<std::string, std::int64_t> lost;  // state channel => ticks not logged
   std::string logger_exit;
   bool daemon_alive = false;
@@ -565,7 +568,8 @@ std::vector<std::string> DaemonArgs(const Options& o, const std::string& url, co
 bool StartDaemon(const Options& o, const std::string& url, const std::string& input_url, const fs::path& log,
                  Observer& observer, Daemon& d) {
   observer.Reset();
-  d.pid = Spawn(DaemonArgs(o, url, input_url), d.starts == 0 ? log : fs::path(log.string() + ".restart" + std::to_string(d.starts)));
+  d.pid = Spawn(DaemonArgs(o, url, input_url),
+                d.starts == 0 ? log : fs::path(log.string() + ".restart" + std::to_string(d.starts)));
   ++d.starts;
   if (!observer.StatusAfter(0, 20.0)) return false;
   if (d.rss_first_kib < 0) d.rss_first_kib = VmRssKiB(d.pid);
@@ -578,8 +582,9 @@ std::int64_t Lost(std::vector<std::int64_t> ticks, std::int64_t from, std::int64
   return (to - from) - std::count_if(ticks.begin(), ticks.end(), [&](std::int64_t t) { return t >= from && t < to; });
 }
 
-CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::string& url, const std::string& input_url,
-                   int input_port, const fs::path& scratch, Observer& observer, Daemon& d, std::int64_t& next_id) {
+CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::string& url,
+                   const std::string& input_url, int input_port, const fs::path& scratch, Observer& observer, Daemon& d,
+                   std::int64_t& next_id) {
   CaseResult r;
   r.bus = bus;
   r.c = c;
@@ -647,9 +652,8 @@ void WriteCases(const fs::path& path, const std::vector<CaseResult>& results) {
         << (r.have_status ? 1 : 0) << ',' << delta(&status_t::ticks) << ',' << lost(kArm) << ',' << lost(kCartpole)
         << ",\"" << r.logger_exit << "\"," << (r.daemon_alive ? 1 : 0) << ',' << delta(&status_t::overruns) << ','
         << (r.have_status ? r.b.state_messages_dropped : -1) << ',' << r.rss_start << ',' << r.rss_end << ','
-        << r.rss_peak << ',' << r.estops.size() << ','
-        << count([](const Estop& e) { return e.state_latency_ns >= 0; }) << ','
-        << count([](const Estop& e) { return e.reply == 1; }) << ','
+        << r.rss_peak << ',' << r.estops.size() << ',' << count([](const Estop& e) { return e.state_latency_ns >= 0; })
+        << ',' << count([](const Estop& e) { return e.reply == 1; }) << ','
         << count([](const Estop& e) { return e.state_latency_ns >= 0 || e.reply == 1; }) << ',' << r.probes.size()
         << ',' << std::count_if(r.probes.begin(), r.probes.end(), [](std::int64_t l) { return l >= 0; }) << ','
         << delta(&status_t::setpoints_accepted) << ',' << delta(&status_t::setpoints_rejected) << ','
@@ -667,8 +671,10 @@ void WriteEstops(const fs::path& path, const std::vector<CaseResult>& results) {
     int k = 0;
     for (const Estop& e : r.estops) {
       csv << r.bus << ',' << Name(r.c) << ',' << k++ << ',' << e.sent_ns << ',' << e.state_latency_ns << ','
-          << (e.reply == 1 ? "accepted" : e.reply == 0 ? "refused" : "none") << ',' << e.clears << ',' << e.sends
-          << '\n';
+          << (e.reply == 1   ? "accepted"
+              : e.reply == 0 ? "refused"
+                             : "none")
+          << ',' << e.clears << ',' << e.sends << '\n';
     }
   }
 }
@@ -740,7 +746,8 @@ int Main(int argc, char** argv) {
                       ->check(CLI::Range(1.0, 600.0))
                       ->capture_default_str();
   app.add_flag("--quick", o.quick, "2 s per case (unless --seconds-per-case)");
-  app.add_option("--rt-priority", o.rt_priority, "Run the daemon with --mlockall --rt-priority N")->check(CLI::Range(1, 99));
+  app.add_option("--rt-priority", o.rt_priority, "Run the daemon with --mlockall --rt-priority N")
+      ->check(CLI::Range(1, 99));
   CLI11_PARSE(app, argc, argv);
   if (o.quick && seconds->count() == 0) o.seconds = 2.0;
   fs::create_directories(o.out);
@@ -763,7 +770,8 @@ int Main(int argc, char** argv) {
   WriteProbes(fs::path(o.out) / "hostile_probe.csv", results);
   std::ofstream summary(fs::path(o.out) / "hostile_summary.csv");
   summary << "key,value\nseconds_per_case," << o.seconds << "\nport," << o.port << "\ninput_port_separate,"
-          << o.port + 1 << "\nrt_priority," << o.rt_priority << "\ncores," << std::thread::hardware_concurrency() << '\n';
+          << o.port + 1 << "\nrt_priority," << o.rt_priority << "\ncores," << std::thread::hardware_concurrency()
+          << '\n';
   int status = 0;
   for (const BusRun& r : runs) {
     summary << r.bus << "_daemon_starts," << r.starts << '\n'

@@ -32,14 +32,14 @@
 // sigterm.csv; with --tag T each name ends in _T (loop_ticks_T.csv, ...).
 // The report script computes the percentiles.
 
-#include <lagrange/setpoint_t.hpp>
-#include <lagrange/state_t.hpp>
-#include <lagrange/status_t.hpp>
 #include <poll.h>
 #include <signal.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -101,7 +101,8 @@ pid_t StartCyclictest(const Options& o, const std::string& phase, int seconds, b
 void RunCyclictestAlone(const Options& o, const std::string& phase, unsigned long timer_slack_ns = 0) {
   const int seconds = std::max(1, static_cast<int>(std::lround(o.alone)));
   const Exit e = WaitExit(StartCyclictest(o, phase, seconds, false, timer_slack_ns), seconds + 30.0);
-  if (e.status != 0) std::cerr << "loop_bench: cyclictest (" << phase << ") ended with " << DescribeExit(e.status) << "\n";
+  if (e.status != 0)
+    std::cerr << "loop_bench: cyclictest (" << phase << ") ended with " << DescribeExit(e.status) << "\n";
 }
 // ---- the setpoint prober --------------------------------------------------------
 
@@ -137,8 +138,8 @@ class SetpointProbe {
   std::atomic<std::int64_t> states_{0}, run_id_{0}, ticks_run_{0};
   std::int64_t gaps_ = 0, last_tick_ = -1;
   mutable std::mutex mutex_;
-  std::int64_t pending_ = -1;                  // the setpoint not yet seen in a state
-  std::vector<std::int64_t> sent_, latency_;   // ns, per setpoint
+  std::int64_t pending_ = -1;                 // the setpoint not yet seen in a state
+  std::vector<std::int64_t> sent_, latency_;  // ns, per setpoint
 };
 
 void SetpointProbe::Send(const std::atomic<bool>& stop) {
@@ -212,7 +213,7 @@ struct Measured {
   Exit exit, cyclictest, logger;
   bool logger_ready = false;
   std::map<std::string, std::vector<std::int64_t>> logged;  // channel => ticks lcm-logger recorded
-  double wall = 0.0;  // s, spawn to exit
+  double wall = 0.0;                                        // s, spawn to exit
   std::string load_before, load_after;
   std::vector<std::pair<std::string, double>> top;
   std::map<pid_t, std::map<std::string, int>> thread_states;  // tid => (state => times seen)
@@ -312,7 +313,8 @@ int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Me
   m.logger = logger.Stop();
   m.logged = ReadStateTicks(o.File("loop_states", ".lcmlog"), kLoggedStates, probe.run_id());
   fs::remove(o.File("loop_states", ".lcmlog"));
-  if (m.cyclictest.status != 0) std::cerr << "loop_bench: cyclictest ended with " << DescribeExit(m.cyclictest.status) << "\n";
+  if (m.cyclictest.status != 0)
+    std::cerr << "loop_bench: cyclictest ended with " << DescribeExit(m.cyclictest.status) << "\n";
   return m.exit.status == 0 ? 0 : 1;
 }
 
@@ -426,14 +428,17 @@ int Main(int argc, char** argv) {
   app.add_option("--config", o.config, "Scene (default: the daemon's default scene)");
   app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
   app.add_option("--port", o.port, "Private LCM port on udpm://239.255.76.67")->capture_default_str();
-  app.add_option("--duration", o.duration, "Seconds of daemon ticks")->check(CLI::Range(5.0, 3600.0))->capture_default_str();
+  app.add_option("--duration", o.duration, "Seconds of daemon ticks")
+      ->check(CLI::Range(5.0, 3600.0))
+      ->capture_default_str();
   app.add_option("--alone", o.alone,
                  "Seconds of cyclictest alone before the daemon, twice: default timer slack, then 1 ns (0: none)")
       ->capture_default_str();
   app.add_option("--rt-priority", o.rt_priority,
                  "SCHED_FIFO priority for the daemon's tick (with --mlockall); cyclictest gets one more")
       ->check(CLI::Range(1, 98));
-  app.add_option("--cpu", o.cpu, "Pin the daemon's tick thread and cyclictest to this CPU")->check(CLI::NonNegativeNumber);
+  app.add_option("--cpu", o.cpu, "Pin the daemon's tick thread and cyclictest to this CPU")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--sigterm-runs", o.sigterm_runs, "Afterwards, time SIGTERM to exit over this many daemon starts")
       ->check(CLI::Range(0, 1000));
   app.add_option("--tag", o.tag, "Appended to every output file name");

@@ -80,11 +80,19 @@ std::map<pid_t, double> ThreadCpuSeconds(pid_t pid) {
 }
 
 std::string ThreadState(pid_t pid, pid_t tid) {
-  static const std::map<std::string, std::string> kNames = {
-      {"0", "read"},          {"7", "poll"},           {"23", "select"},   {"45", "recvfrom"},
-      {"47", "recvmsg"},      {"61", "wait4"},         {"128", "rt_sigtimedwait"}, {"202", "futex"},
-      {"230", "clock_nanosleep"}, {"232", "epoll_wait"}, {"270", "pselect6"}, {"271", "ppoll"},
-      {"281", "epoll_pwait"}};
+  static const std::map<std::string, std::string> kNames = {{"0", "read"},
+                                                            {"7", "poll"},
+                                                            {"23", "select"},
+                                                            {"45", "recvfrom"},
+                                                            {"47", "recvmsg"},
+                                                            {"61", "wait4"},
+                                                            {"128", "rt_sigtimedwait"},
+                                                            {"202", "futex"},
+                                                            {"230", "clock_nanosleep"},
+                                                            {"232", "epoll_wait"},
+                                                            {"270", "pselect6"},
+                                                            {"271", "ppoll"},
+                                                            {"281", "epoll_pwait"}};
   std::ifstream in(fs::path("/proc") / std::to_string(pid) / "task" / std::to_string(tid) / "syscall");
   std::string first;
   if (!(in >> first)) return "?";

@@ -50,9 +50,9 @@ struct Problem {
   std::string name;
   PlantSpec spec;
   VectorXd q0, qd0;
-  double t_final = 0.0;      // s
-  VectorXd q_ref, qd_ref;    // the final state: exact, or the reference's
-  std::string reference;     // how q_ref was obtained
+  double t_final = 0.0;    // s
+  VectorXd q_ref, qd_ref;  // the final state: exact, or the reference's
+  std::string reference;   // how q_ref was obtained
 };
 
 struct Run {
@@ -150,7 +150,8 @@ void CheckPendulumReference(const Problem& p, std::ofstream& csv) {
   double energy = 0.0;
   for (int i = 1; i <= 1000; ++i) {
     const auto [theta, theta_dot] = exact.At(p.t_final * i / 1000.0);
-    energy = std::max(energy, std::abs(model.Energy(VectorXd::Constant(1, theta), VectorXd::Constant(1, theta_dot)) - e0));
+    energy =
+        std::max(energy, std::abs(model.Energy(VectorXd::Constant(1, theta), VectorXd::Constant(1, theta_dot)) - e0));
   }
   csv << p.name << ",exact solution after one period 4K/omega0 against (theta0 0),"
       << std::max(std::abs(theta_T - p.q0[0]), std::abs(theta_dot_T)) << ",\n";
@@ -182,8 +183,7 @@ Problem CartPoleProblem() {
 // ---- one run ----------------------------------------------------------------
 
 // (problem, config, steps of h) => final (q, qd); the energy error when asked.
-bool Integrate(const Problem& p, const IntegratorConfig& c, std::int64_t steps, double h, Run& run,
-               bool track_energy) {
+bool Integrate(const Problem& p, const IntegratorConfig& c, std::int64_t steps, double h, Run& run, bool track_energy) {
   PlantModel model = MakeModel(p.spec);
   std::unique_ptr<Integrator> integrator = MakeIntegrator(c, model.num_dofs());
   const VectorXd tau = VectorXd::Zero(model.num_dofs());
@@ -305,8 +305,8 @@ void WriteRun(std::ofstream& csv, const Problem& p, const Run& r) {
 }
 
 void SweepProblem(const Problem& p, const Settings& s, std::ofstream& csv) {
-  for (IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
-                              IntegratorType::kRk4, IntegratorType::kVariational}) {
+  for (IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4,
+                              IntegratorType::kVariational}) {
     for (double h : s.steps) WriteRun(csv, p, FixedStepRun(p, type, h, s.min_timed));
     std::cerr << "work_precision: " << p.name << " " << ToString(type) << " done\n";
   }
@@ -370,8 +370,10 @@ int Main(int argc, char** argv) {
   refs << "plant,check,max_state_difference,estimated_error_of_check\n";
   std::vector<Problem> problems{PendulumProblem(), ArmProblem(), CartPoleProblem()};
   for (Problem& p : problems) {
-    if (p.q_ref.size() == 0) SetReference(p, quick ? 1e-4 : 4e-6, refs);
-    else CheckPendulumReference(p, refs);
+    if (p.q_ref.size() == 0)
+      SetReference(p, quick ? 1e-4 : 4e-6, refs);
+    else
+      CheckPendulumReference(p, refs);
   }
   std::ofstream runs(fs::path(out) / "work_precision.csv");
   runs.precision(17);

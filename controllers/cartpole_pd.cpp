@@ -9,7 +9,8 @@ CartPolePdController::CartPolePdController(std::vector<JointType> joints, Vector
   GainBounds any_sign = GainBounds::Unbounded(num_dofs());
   any_sign.any_sign = true;
   if (num_dofs() != 2) throw std::invalid_argument("cartpole-pd: expected a cart-pole (2 joints)");
-  if (auto fault = FindGainFault(gains_, any_sign)) throw std::invalid_argument(DescribeGainFault(*fault, gains_, any_sign));
+  if (auto fault = FindGainFault(gains_, any_sign))
+    throw std::invalid_argument(DescribeGainFault(*fault, gains_, any_sign));
   set_gain_bounds(std::move(any_sign));
 }
 

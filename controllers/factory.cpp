@@ -22,9 +22,7 @@ constexpr EnumName<ControllerType> kControllerNames[] = {
     {ControllerType::kSwingUp, "swing-up"},
 };
 
-bool IsCartPoleOnly(ControllerType t) {
-  return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp;
-}
+bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
 
 std::unique_ptr<Dynamics> ControllerModel(const ControllerConfig& c, const PlantSpec& plant) {
   const PlantSpec& spec = c.model ? *c.model : plant;

@@ -32,17 +32,17 @@ std::optional<ControllerType> ParseControllerType(std::string_view name);
 std::string ControllerTypeNames();  // "none|pd|gravity-compensation|..."
 
 struct LqrOptions {
-  std::optional<VectorXd> equilibrium;  // q0; default: the cart-pole's upright (0, π)
+  std::optional<VectorXd> equilibrium;       // q0; default: the cart-pole's upright (0, π)
   std::optional<std::vector<int>> actuated;  // default: the cart for a cart-pole, else every joint
-  MatrixXd Q;  // (2n x 2n); empty: identity
-  MatrixXd R;  // (m x m); empty: identity
+  MatrixXd Q;                                // (2n x 2n); empty: identity
+  MatrixXd R;                                // (m x m); empty: identity
 };
 
 struct ControllerConfig {
   ControllerType type = ControllerType::kNone;
-  Gains gains;            // kp, kd (n each); empty where a type does not use them
-  PdOptions pd;           // pd and gravity-compensation
-  LqrOptions lqr;         // lqr and swing-up's balancer
+  Gains gains;     // kp, kd (n each); empty where a type does not use them
+  PdOptions pd;    // pd and gravity-compensation
+  LqrOptions lqr;  // lqr and swing-up's balancer
   SwingUpOptions swing_up;
   // The controller's own model: the plant's spec with these changes (a
   // model error), and its derivation method (default: the fastest).

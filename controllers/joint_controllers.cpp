@@ -21,9 +21,7 @@ PdController::PdController(std::vector<JointType> joints, VectorXd torque_limits
   }
 }
 
-std::string_view PdController::name() const {
-  return options_.gravity_compensation ? "gravity-compensation" : "pd";
-}
+std::string_view PdController::name() const { return options_.gravity_compensation ? "gravity-compensation" : "pd"; }
 
 void PdController::ApplyGains(const Gains& gains) {
   gains_.kp = gains.kp;
@@ -46,8 +44,8 @@ void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpo
   }
 }
 
-ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits,
-                                                   Gains gains, std::unique_ptr<Dynamics> model)
+ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains,
+                                                   std::unique_ptr<Dynamics> model)
     : Controller(std::move(joints), std::move(torque_limits)),
       gains_(std::move(gains)),
       model_(std::move(model)),

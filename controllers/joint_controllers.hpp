@@ -9,9 +9,9 @@
 namespace lagrange {
 
 struct PdOptions {
-  bool velocity_feedforward = true;      // ė = qd_d − qd (else −qd: pure damping)
-  bool acceleration_feedforward = false; // add M(q) qdd_d from the controller's model
-  bool gravity_compensation = false;     // add G(q) from the controller's model
+  bool velocity_feedforward = true;       // ė = qd_d − qd (else −qd: pure damping)
+  bool acceleration_feedforward = false;  // add M(q) qdd_d from the controller's model
+  bool gravity_compensation = false;      // add G(q) from the controller's model
 };
 
 // Law:    tau = Kp e + Kd ė [+ M(q) qdd_d] [+ G(q)]

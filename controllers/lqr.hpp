@@ -39,9 +39,9 @@ std::optional<std::string> CheckLqrWeights(const MatrixXd& Q, const MatrixXd& R)
 LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R);
 
 struct LinearModel {
-  MatrixXd A;  // (2n x 2n), state x = (q − q0, qd)
-  MatrixXd B;  // (2n x m), inputs: the actuated joints' generalized forces
-  VectorXd u0; // (m) the actuated forces that hold q0 at rest: G(q0) on those joints
+  MatrixXd A;   // (2n x 2n), state x = (q − q0, qd)
+  MatrixXd B;   // (2n x m), inputs: the actuated joints' generalized forces
+  VectorXd u0;  // (m) the actuated forces that hold q0 at rest: G(q0) on those joints
 };
 
 // Linearises qdd = M⁻¹ (tau − C qd − G) at (q0, qd = 0) by central differences

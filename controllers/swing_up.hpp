@@ -23,12 +23,12 @@
 namespace lagrange {
 
 struct SwingUpOptions {
-  double energy_gain = 20.0;   // k_E, 1/(J·s)·m/s² scale: ẍ per joule of energy error
-  double max_accel = 8.0;      // a_max, m/s²
-  double cart_gain = 0.5;      // k_x, 1/s²
-  double cart_damping = 1.0;   // k_v, 1/s
-  double switch_angle = 0.3;   // rad
-  double switch_rate = 2.0;    // rad/s
+  double energy_gain = 20.0;  // k_E, 1/(J·s)·m/s² scale: ẍ per joule of energy error
+  double max_accel = 8.0;     // a_max, m/s²
+  double cart_gain = 0.5;     // k_x, 1/s²
+  double cart_damping = 1.0;  // k_v, 1/s
+  double switch_angle = 0.3;  // rad
+  double switch_rate = 2.0;   // rad/s
 };
 
 class SwingUpController final : public Controller {

@@ -19,8 +19,8 @@ namespace {
 
 constexpr std::uint32_t kShortMagic = 0x4c433032;     // "LC02": one whole message
 constexpr std::uint32_t kFragmentMagic = 0x4c433033;  // "LC03": one fragment of a long message
-constexpr std::size_t kHeaderSize = 8;                 // magic + seqno
-constexpr std::size_t kMaxChannelLength = 63;          // LCM_MAX_CHANNEL_NAME_LENGTH
+constexpr std::size_t kHeaderSize = 8;                // magic + seqno
+constexpr std::size_t kMaxChannelLength = 63;         // LCM_MAX_CHANNEL_NAME_LENGTH
 // The longest LC02 datagram we accept or write: header, channel, NUL, payload.
 constexpr std::size_t kMaxDatagramSize = kHeaderSize + kMaxChannelLength + 1 + kMaxMessageSize;
 // Larger than any UDP payload (65 507 bytes over IPv4), so the kernel never
@@ -241,7 +241,8 @@ int UdpmBus::Drain(int max) {
     }
     ++read;
     for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
-      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL && c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+          c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
         std::uint32_t drops = 0;  // cumulative for this socket
         std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
         counters_.kernel_drops.store(drops, std::memory_order_relaxed);

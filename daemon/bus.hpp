@@ -43,10 +43,10 @@ struct BusError : std::runtime_error {
 
 // A parsed udpm:// URL.
 struct UdpmUrl {
-  std::string group;            // dotted IPv4 multicast address
+  std::string group;  // dotted IPv4 multicast address
   std::uint16_t port = 0;
-  int ttl = 0;                  // 0: this host only
-  int recv_buf_size = 0;        // SO_RCVBUF request, bytes; 0: the system default
+  int ttl = 0;            // 0: this host only
+  int recv_buf_size = 0;  // SO_RCVBUF request, bytes; 0: the system default
 };
 // Parses `url`; throws BusError ("LCM URL 'X': <what is wrong>; expected udpm://GROUP:PORT?ttl=0..255...").
 // Strict: decimal digits only, no default port; a missing ttl is 0 (LCM's default);
@@ -55,13 +55,13 @@ UdpmUrl ParseUdpmUrl(const std::string& url);
 
 // What a bus dropped or could not do, totals since it opened.
 struct BusStats {
-  std::int64_t received = 0;          // datagrams read
-  std::int64_t delivered = 0;         // messages handed to a handler
-  std::int64_t fragments_dropped = 0; // LC03 fragments (never reassembled)
-  std::int64_t malformed = 0;         // not an LCM datagram: short, bad magic, channel not terminated or too long
-  std::int64_t oversized = 0;         // datagrams over kMaxMessageSize (truncated by the kernel into our buffer)
-  std::int64_t kernel_drops = 0;      // datagrams the kernel dropped for a full receive buffer (SO_RXQ_OVFL)
-  std::int64_t send_failures = 0;     // Publish calls that sent nothing (too large, would block, error)
+  std::int64_t received = 0;           // datagrams read
+  std::int64_t delivered = 0;          // messages handed to a handler
+  std::int64_t fragments_dropped = 0;  // LC03 fragments (never reassembled)
+  std::int64_t malformed = 0;          // not an LCM datagram: short, bad magic, channel not terminated or too long
+  std::int64_t oversized = 0;          // datagrams over kMaxMessageSize (truncated by the kernel into our buffer)
+  std::int64_t kernel_drops = 0;       // datagrams the kernel dropped for a full receive buffer (SO_RXQ_OVFL)
+  std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
 };
 
 class Bus {
@@ -96,7 +96,8 @@ class Bus {
   template <class Message>
   bool PublishMessage(std::string_view channel, const Message& message) {
     const int size = message.getEncodedSize();
-    if (size < 0 || static_cast<std::size_t>(size) > kMaxMessageSize) return Publish(channel, nullptr, kMaxMessageSize + 1);
+    if (size < 0 || static_cast<std::size_t>(size) > kMaxMessageSize)
+      return Publish(channel, nullptr, kMaxMessageSize + 1);
     encode_buffer_.resize(static_cast<std::size_t>(size));
     if (message.encode(encode_buffer_.data(), 0, size) != size) return Publish(channel, nullptr, kMaxMessageSize + 1);
     return Publish(channel, encode_buffer_.data(), encode_buffer_.size());

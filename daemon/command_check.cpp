@@ -43,7 +43,8 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
     if (out.num_gains != rules.n) {
       return Reject("gains: num_gains is " + std::to_string(out.num_gains) + ", expected " + std::to_string(rules.n));
     }
-    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), rules.n), Eigen::Map<const VectorXd>(out.kd.data(), rules.n)};
+    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), rules.n),
+                  Eigen::Map<const VectorXd>(out.kd.data(), rules.n)};
     const auto c = static_cast<std::size_t>(v.controller);
     if (auto err = CheckGains(rules.controller_types[c], g, rules.gain_bounds[c])) {
       return Reject("gains for " + rules.controllers[c] + ": " + *err);

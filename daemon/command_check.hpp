@@ -16,18 +16,18 @@
 namespace lagrange {
 
 struct CommandRules {
-  std::string instance;                        // for messages
-  int n = 0;                                   // the instance's num_dofs
-  std::vector<std::string> controllers;        // names, by index
+  std::string instance;                  // for messages
+  int n = 0;                             // the instance's num_dofs
+  std::vector<std::string> controllers;  // names, by index
   std::vector<ControllerType> controller_types;
-  std::vector<GainBounds> gain_bounds;         // what each controller can use at the scene's period
+  std::vector<GainBounds> gain_bounds;  // what each controller can use at the scene's period
 };
 
 struct CommandVerdict {
   enum class Kind : std::uint8_t { kAccepted, kRejected, kUndecodable } kind = Kind::kUndecodable;
-  std::string reason;      // why, for kRejected and kUndecodable; bus text in it is escaped
+  std::string reason;  // why, for kRejected and kUndecodable; bus text in it is escaped
   CommandKind command = CommandKind::kReset;
-  int controller = -1;     // switch: the target; set-gains: the controller the gains are for
+  int controller = -1;  // switch: the target; set-gains: the controller the gains are for
 };
 
 // Checks `data` (size bytes) as a command_t for an instance with `rules`,

@@ -27,12 +27,14 @@ class Instance {
   const std::string& name() const { return config_.name; }
   int num_dofs() const { return model_.num_dofs(); }
 
-  double t() const { return t_; }                 // simulated time, s
+  double t() const { return t_; }  // simulated time, s
   std::int64_t steps() const { return steps_; }
   const VectorXd& q() const { return q_; }
   const VectorXd& qd() const { return qd_; }
-  const VectorXd& qdd() const { return qdd_; }    // at the current state under the last applied tau
-  const VectorXd& tau() const { return tau_; }    // applied generalized force of the last step (after limits and saturation)
+  const VectorXd& qdd() const { return qdd_; }  // at the current state under the last applied tau
+  const VectorXd& tau() const {
+    return tau_;
+  }  // applied generalized force of the last step (after limits and saturation)
   const VectorXd& q_des() const { return q_des_; }
 
   // The scene trajectory's setpoint at the current time.
@@ -107,7 +109,7 @@ class Instance {
   std::unique_ptr<Integrator> integrator_;
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
-  std::vector<bool> continuous_;  // by controller index
+  std::vector<bool> continuous_;    // by controller index
   std::vector<Gains> scene_gains_;  // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;

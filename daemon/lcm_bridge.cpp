@@ -24,8 +24,6 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
-
-
 }  // namespace
 
 std::int64_t NewRunId() {
@@ -65,8 +63,8 @@ bool TokenBucket::Take(std::int64_t now_us) {
 
 // ---- receive thread ------------------------------------------------------
 
-LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels,
-                         Runtime& runtime, Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
+LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime,
+                         Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
     : input_(input),
       output_listener_(output_listener),
       replies_(replies),
@@ -84,21 +82,18 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
                      CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
                                   std::move(bounds)},
                      SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout});
-    input_.Subscribe(channels.setpoint[i], [this, i](std::string_view, const std::uint8_t* d, std::size_t n) {
-      HandleSetpoint(i, d, n);
-    });
-    input_.Subscribe(channels.command[i], [this, i](std::string_view, const std::uint8_t* d, std::size_t n) {
-      HandleCommand(i, d, n);
-    });
+    input_.Subscribe(channels.setpoint[i],
+                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
+    input_.Subscribe(channels.command[i],
+                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
   }
   if (output_listener_ != nullptr) {
     std::vector<std::string> outputs = channels.state;
     outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
     outputs.push_back(channels.status);
     for (const std::string& ch : outputs) {
-      output_listener_->Subscribe(ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) {
-        HandleOwnOutput(name, d, n);
-      });
+      output_listener_->Subscribe(
+          ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) { HandleOwnOutput(name, d, n); });
     }
   }
   reply_.run_id = run_id_;
@@ -213,9 +208,9 @@ LcmReceiver::AgeVerdict LcmReceiver::Age(InstanceInfo& info, std::int64_t utime)
     // clock jumped; a forged first packet set the timeline). It moves the
     // timeline only when kStreamConfirmations such packets in a row agree with
     // one another, with no in-line packet between them.
-    const bool agrees = info.candidate_count > 0 &&
-                        std::abs(static_cast<double>(SaturatingSub(offset, info.candidate_offset))) <=
-                            static_cast<double>(timeout_us);
+    const bool agrees =
+        info.candidate_count > 0 &&
+        std::abs(static_cast<double>(SaturatingSub(offset, info.candidate_offset))) <= static_cast<double>(timeout_us);
     info.candidate_count = agrees ? info.candidate_count + 1 : 1;
     if (!agrees) info.candidate_offset = offset;
     if (info.candidate_count < kStreamConfirmations) {
@@ -249,9 +244,9 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::s
   if (!age.ok) {
     // Refused and counted; it does not send the instance to hold (only the timeout does).
     if (age.out_of_line) return RejectSetpoint(i, age.out_of_line);
-    return RejectSetpoint(i, age.age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age.age,
-                                                       info.timeout)
-                                         : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age));
+    return RejectSetpoint(
+        i, age.age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age.age, info.timeout)
+                       : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age));
   }
   SetpointMessage& m = runtime_.channels(i).setpoints.back();
   m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
@@ -408,7 +403,8 @@ void LcmPublisher::PublishReplies(std::size_t i, const InstanceRecord& r, std::i
 void LcmPublisher::LogEvents(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
-    if (r.fault) spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
+    if (r.fault)
+      spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
     commands_applied_ += r.commands_accepted;
     if (r.commands_accepted > 0 && spdlog::should_log(spdlog::level::debug)) {
       spdlog::debug("{}: {} command(s) applied at t = {:.3f} s", names_[i], r.commands_accepted, r.t);
@@ -418,8 +414,9 @@ void LcmPublisher::LogEvents(const TickRecord& record) {
       last_command_error_ = names_[i] + ": " + r.command_error;
       std::int64_t suppressed = 0;
       if (refusal_throttle_.Allow(record.utime, suppressed)) {
-        spdlog::warn("{}: command refused: {}{}", names_[i], r.command_error,
-                     suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
+        spdlog::warn(
+            "{}: command refused: {}{}", names_[i], r.command_error,
+            suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
       }
     }
     if (r.mode != modes_[i]) {

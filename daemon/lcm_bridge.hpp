@@ -85,7 +85,7 @@ inline constexpr double kMaxRepliesPerSecond = 2000.0;
 struct ReceiverStats {
   std::atomic<std::int64_t> setpoints_accepted{0};
   std::atomic<std::int64_t> setpoints_rejected{0};
-  std::atomic<std::int64_t> commands_rejected{0};    // refused here, before reaching the tick
+  std::atomic<std::int64_t> commands_rejected{0};  // refused here, before reaching the tick
   std::atomic<std::int64_t> decode_errors{0};
   std::atomic<std::int64_t> replies_suppressed{0};
   // From the buses the receiver reads.
@@ -212,7 +212,7 @@ class LcmPublisher {
   std::vector<state_t> states_;
   std::vector<Mode> modes_;
   std::vector<double> latencies_, computes_;  // µs, this status window
-  std::int64_t commands_applied_ = 0;   // by the tick, from its records
+  std::int64_t commands_applied_ = 0;         // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;
   std::string last_setpoint_rejection_, last_command_error_;
   std::int64_t states_published_ = 0;

@@ -5,7 +5,11 @@
 namespace lagrange {
 
 Loop::Loop(Runtime& runtime, Clock& clock, LoopTimerOptions options, SpscRing<TickRecord>& out, int notify_fd)
-    : runtime_(runtime), clock_(clock), timer_(clock, options), out_(out), notify_fd_(notify_fd),
+    : runtime_(runtime),
+      clock_(clock),
+      timer_(clock, options),
+      out_(out),
+      notify_fd_(notify_fd),
       spare_(runtime.MakeRecord()) {}
 
 void Loop::Run(const std::atomic<bool>& stop, std::int64_t max_ticks) {

@@ -20,7 +20,9 @@ class LatestMailbox {
 
   // Producer: fill back(), then Publish().
   T& back() { return slots_[back_]; }
-  void Publish() { back_ = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel) & kIndex; }
+  void Publish() {
+    back_ = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel) & kIndex;
+  }
 
   // Consumer: the newest published value if there is one not taken yet, else null.
   // The pointer stays valid until the next Take().
@@ -34,9 +36,9 @@ class LatestMailbox {
   static constexpr std::uint8_t kIndex = 0x3;
   static constexpr std::uint8_t kFresh = 0x4;
   std::array<T, 3> slots_;
-  std::uint8_t back_ = 0;                 // producer's
-  std::atomic<std::uint8_t> middle_{1};   // shared
-  std::uint8_t front_ = 2;                // consumer's
+  std::uint8_t back_ = 0;                // producer's
+  std::atomic<std::uint8_t> middle_{1};  // shared
+  std::uint8_t front_ = 2;               // consumer's
 };
 
 // A bounded first-in first-out ring. A full ring refuses a push (the producer

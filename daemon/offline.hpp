@@ -16,10 +16,10 @@ using StepObserver = std::function<void(std::size_t index, Instance& instance)>;
 
 // An instance that failed the health check.
 struct OfflineFault {
-  std::size_t index = 0;        // the instance
-  double t = 0.0;               // s: the time the failed step reached
-  const char* reason = nullptr; // as lagranged reports it (static string)
-  double max_energy = 0.0;      // J: the instance's bound on |T + V|
+  std::size_t index = 0;         // the instance
+  double t = 0.0;                // s: the time the failed step reached
+  const char* reason = nullptr;  // as lagranged reports it (static string)
+  double max_energy = 0.0;       // J: the instance's bound on |T + V|
 };
 
 // Runs `steps` steps of `period`. After every step the daemon's health check

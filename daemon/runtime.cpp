@@ -18,7 +18,8 @@ std::string_view ToString(Mode mode) {
 }
 
 const char* ModeName(std::int8_t wire_mode) {
-  if (wire_mode < static_cast<std::int8_t>(Mode::kRunning) || wire_mode > static_cast<std::int8_t>(Mode::kEstop)) return "?";
+  if (wire_mode < static_cast<std::int8_t>(Mode::kRunning) || wire_mode > static_cast<std::int8_t>(Mode::kEstop))
+    return "?";
   return ToString(static_cast<Mode>(wire_mode)).data();  // the names are string literals
 }
 
@@ -47,8 +48,12 @@ InstanceChannels::InstanceChannels(int n, std::size_t command_capacity)
     : setpoints(SetpointPrototype(n)), commands(command_capacity, CommandPrototype(n)) {}
 
 InstanceRecord::InstanceRecord(int n)
-    : q(VectorXd::Zero(n)), qd(VectorXd::Zero(n)), qdd(VectorXd::Zero(n)), tau(VectorXd::Zero(n)),
-      q_des(VectorXd::Zero(n)), qd_des(VectorXd::Zero(n)) {}
+    : q(VectorXd::Zero(n)),
+      qd(VectorXd::Zero(n)),
+      qdd(VectorXd::Zero(n)),
+      tau(VectorXd::Zero(n)),
+      q_des(VectorXd::Zero(n)),
+      qd_des(VectorXd::Zero(n)) {}
 
 struct Runtime::Slot {
   explicit Slot(const InstanceConfig& c)
@@ -77,10 +82,10 @@ struct Runtime::Slot {
   InstanceChannels channels;
   Mode mode = Mode::kRunning;
   Mode before_pause = Mode::kRunning;
-  bool streaming = false;           // a streamed setpoint has been accepted since start or reset
-  Nanoseconds last_setpoint = 0;    // when it was
+  bool streaming = false;         // a streamed setpoint has been accepted since start or reset
+  Nanoseconds last_setpoint = 0;  // when it was
   Setpoint streamed, held, current;
-  Instance::Saved good;             // the last state that passed the health check
+  Instance::Saved good;  // the last state that passed the health check
   VectorXd zero, brake, brake_torque;
   Nanoseconds timeout;
   double max_energy;

@@ -68,8 +68,8 @@ struct CommandMessage {
   CommandKind kind = CommandKind::kReset;
   std::int64_t utime = 0;
   std::int64_t request_id = 0;  // the sender's, echoed with the verdict
-  int controller = -1;  // switch: the target; set-gains: the controller the gains are for
-  Gains gains;          // sized n
+  int controller = -1;          // switch: the target; set-gains: the controller the gains are for
+  Gains gains;                  // sized n
 };
 
 // The urgent commands, by index into UrgentFlags.
@@ -130,10 +130,10 @@ struct InstanceRecord {
 
 struct TickRecord {
   std::int64_t tick = 0;
-  std::int64_t utime = 0;        // wall clock, µs
+  std::int64_t utime = 0;  // wall clock, µs
   Nanoseconds wake_latency = 0;
   Nanoseconds compute = 0;
-  std::int64_t overruns = 0;     // total so far
+  std::int64_t overruns = 0;  // total so far
   std::vector<InstanceRecord> instances;
 };
 

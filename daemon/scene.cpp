@@ -151,14 +151,18 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst) {
     l->ExpectKeys({"lower", "upper"});
     inst.setpoint_lower = l->Required("lower").VectorOrInfinity(n);
     inst.setpoint_upper = l->Required("upper").VectorOrInfinity(n);
-    if (!(inst.setpoint_lower.array() < inst.setpoint_upper.array()).all()) l->Fail("expected lower < upper for every joint");
+    if (!(inst.setpoint_lower.array() < inst.setpoint_upper.array()).all())
+      l->Fail("expected lower < upper for every joint");
   }
   if (auto t = node.Optional("setpoint_timeout")) inst.setpoint_timeout = t->PositiveNumber();
   if (auto b = node.Optional("on_timeout")) {
     const std::string v = b->Text();
-    if (v == "hold-position") inst.on_timeout = TimeoutBehaviour::kHoldPosition;
-    else if (v == "zero-torque") inst.on_timeout = TimeoutBehaviour::kZeroTorque;
-    else b->Fail("expected hold-position or zero-torque, got '" + v + "'");
+    if (v == "hold-position")
+      inst.on_timeout = TimeoutBehaviour::kHoldPosition;
+    else if (v == "zero-torque")
+      inst.on_timeout = TimeoutBehaviour::kZeroTorque;
+    else
+      b->Fail("expected hold-position or zero-torque, got '" + v + "'");
   }
   if (auto e = node.Optional("max_energy")) inst.max_energy = e->PositiveNumber();
   if (auto d = node.Optional("estop_damping")) {
@@ -189,7 +193,8 @@ InstanceConfig ReadInstance(const YamlReader& node, double period) {
   if (auto i = node.Optional("integrator")) {
     inst.integrator = ReadIntegrator(*i);
     if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {
-      i->Required("type").Fail("the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
+      i->Required("type").Fail(
+          "the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
     }
   }
   ReadControl(node, period, inst);

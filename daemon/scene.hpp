@@ -17,13 +17,13 @@ namespace lagrange {
 // over LCM. Times are from the start of the run.
 struct TrajectoryConfig {
   enum class Type : std::uint8_t { kHold, kStep, kSine, kMinimumJerk } type = Type::kHold;
-  std::optional<VectorXd> q;  // hold: the held position (default: the initial q)
-  VectorXd target;            // step, min-jerk
-  double at = 0.0;            // step: when, s
-  VectorXd amplitude;         // sine, rad or m
-  VectorXd frequency;         // sine, Hz
+  std::optional<VectorXd> q;       // hold: the held position (default: the initial q)
+  VectorXd target;                 // step, min-jerk
+  double at = 0.0;                 // step: when, s
+  VectorXd amplitude;              // sine, rad or m
+  VectorXd frequency;              // sine, Hz
   std::optional<VectorXd> center;  // sine (default: the initial q)
-  double duration = 1.0;      // min-jerk, s
+  double duration = 1.0;           // min-jerk, s
 };
 
 // What an instance does when its streamed setpoints go stale.
@@ -44,11 +44,11 @@ struct InstanceConfig {
   std::vector<ControllerConfig> alternates;  // more controllers a command may switch to
   VectorXd torque_limits;                    // (n), applied after every controller; +inf: none
   TrajectoryConfig setpoint;
-  VectorXd setpoint_lower, setpoint_upper;   // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
-  double setpoint_timeout = 0.5;             // s: streamed setpoints older than this, or none for this long, time out
+  VectorXd setpoint_lower, setpoint_upper;  // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
+  double setpoint_timeout = 0.5;            // s: streamed setpoints older than this, or none for this long, time out
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
-  std::optional<double> max_energy;        // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
-  std::optional<VectorXd> estop_damping;   // (n) brake B during an emergency stop (default 20/s × diag M(q0))
+  std::optional<double> max_energy;       // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
+  std::optional<VectorXd> estop_damping;  // (n) brake B during an emergency stop (default 20/s × diag M(q0))
 };
 
 struct Scene {

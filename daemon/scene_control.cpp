@@ -7,8 +7,8 @@ namespace {
 
 // A square matrix of size k: a list of k numbers (its diagonal) or k lists of k.
 MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
-  const std::string shape = std::to_string(k) + " diagonal values or " + std::to_string(k) + " rows of " +
-                            std::to_string(k);
+  const std::string shape =
+      std::to_string(k) + " diagonal values or " + std::to_string(k) + " rows of " + std::to_string(k);
   if (!node.IsSequence()) node.Fail("expected " + shape);
   if (static_cast<int>(node.Size()) != k) {
     node.Fail("expected " + shape + ", got " + std::to_string(node.Size()) + " values");
@@ -27,7 +27,8 @@ void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig&
       if (key == "links") value.Fail("the controller's model has the plant's links");
       if (value.IsSequence()) {
         for (std::size_t i = 0; i < value.Size(); ++i) {
-          if (auto err = SetPlantParam(model, key, value.At(i).Text(), static_cast<int>(i))) value.At(i).Fail(err->message);
+          if (auto err = SetPlantParam(model, key, value.At(i).Text(), static_cast<int>(i)))
+            value.At(i).Fail(err->message);
         }
       } else if (auto err = SetPlantParam(model, key, value.Text())) {
         value.Fail(err->message);
@@ -61,7 +62,9 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
       break;
     case ControllerType::kComputedTorque: node.ExpectKeys({"type", "kp", "kd", "model", "continuous"}); break;
     case ControllerType::kCartPolePd: node.ExpectKeys({"type", "kp", "kd", "continuous"}); break;
-    case ControllerType::kLqr: node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "continuous"}); break;
+    case ControllerType::kLqr:
+      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "continuous"});
+      break;
     case ControllerType::kSwingUp:
       node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "energy_gain", "max_accel", "cart_gain",
                        "cart_damping", "switch_angle", "switch_rate", "continuous"});
@@ -70,9 +73,12 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
   if (HasGains(c.type)) {
     for (const auto& [key, out] : {std::pair{"kp", &c.gains.kp}, std::pair{"kd", &c.gains.kd}}) {
-      if (auto g = node.Optional(key)) *out = g->NumberOrVector(n);
-      else if (gains_optional) *out = VectorXd::Zero(n);
-      else node.Fail(std::string("missing key '") + key + "'");
+      if (auto g = node.Optional(key))
+        *out = g->NumberOrVector(n);
+      else if (gains_optional)
+        *out = VectorXd::Zero(n);
+      else
+        node.Fail(std::string("missing key '") + key + "'");
     }
   }
   if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
@@ -87,13 +93,14 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   }
   if (auto v = node.Optional("Q")) c.lqr.Q = ReadSquareMatrix(*v, 2 * n);
   if (auto v = node.Optional("R")) {
-    const int m = c.lqr.actuated ? static_cast<int>(c.lqr.actuated->size())
-                                 : (plant.type() == PlantType::kCartPole ? 1 : n);
+    const int m =
+        c.lqr.actuated ? static_cast<int>(c.lqr.actuated->size()) : (plant.type() == PlantType::kCartPole ? 1 : n);
     c.lqr.R = ReadSquareMatrix(*v, m);
   }
   SwingUpOptions& s = c.swing_up;
-  for (const auto& [key, out] : {std::pair{"energy_gain", &s.energy_gain}, std::pair{"max_accel", &s.max_accel},
-                                 std::pair{"switch_angle", &s.switch_angle}, std::pair{"switch_rate", &s.switch_rate}}) {
+  for (const auto& [key, out] :
+       {std::pair{"energy_gain", &s.energy_gain}, std::pair{"max_accel", &s.max_accel},
+        std::pair{"switch_angle", &s.switch_angle}, std::pair{"switch_rate", &s.switch_rate}}) {
     if (auto v = node.Optional(key)) *out = v->PositiveNumber();
   }
   for (const auto& [key, out] : {std::pair{"cart_gain", &s.cart_gain}, std::pair{"cart_damping", &s.cart_damping}}) {

@@ -14,9 +14,9 @@
 #include <iostream>
 #include <thread>
 
+#include "daemon/bus.hpp"
 #include "daemon/channels.hpp"
 #include "daemon/default_scene.hpp"
-#include "daemon/bus.hpp"
 #include "daemon/lcm_bridge.hpp"
 #include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
@@ -195,15 +195,17 @@ int Serve(const Options& o, const LogFiles& logs) {
                static_cast<std::uint64_t>(run_id));
   for (std::size_t i = 0; i < names.size(); ++i) {
     spdlog::info("  {}: {} with {}, {} / {} / {}", names[i], ToString(scene.instances[i].plant.type()),
-                 runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i], channels.command[i]);
+                 runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i],
+                 channels.command[i]);
   }
 
   std::atomic<bool> stop_loop{false}, stop_io{false};
   const std::int64_t max_ticks = o.duration > 0.0 ? std::llround(o.duration / scene.period) : -1;
   // Real-time set-up: the tick thread reports it, then runs the loop only once told to.
   const ThreadPriorities priorities = PrioritiesBelow(o.rt.priority);
-  spdlog::debug("real-time: memory {}", !o.rt.lock_memory ? "not locked (no --mlockall)"
-                                        : rt_problems.empty() ? "locked (mlockall)" : rt_problems.front());
+  spdlog::debug("real-time: memory {}", !o.rt.lock_memory     ? "not locked (no --mlockall)"
+                                        : rt_problems.empty() ? "locked (mlockall)"
+                                                              : rt_problems.front());
   std::promise<std::vector<std::string>> rt_result;
   auto rt_future = rt_result.get_future();
   std::promise<bool> run_loop;  // false: --require-rt refused, the tick thread returns
@@ -266,7 +268,7 @@ int Serve(const Options& o, const LogFiles& logs) {
   receive.join();
   publish.join();
   publisher.Drain();  // the last records and a final status
-  timing.Stop();       // writes what the publisher offered
+  timing.Stop();      // writes what the publisher offered
   close(notify_fd);
   spdlog::info("stopped{} after {} ticks: {} overruns, {} state messages published, {} records dropped",
                signal_number > 0 ? fmt::format(" by signal {}", signal_number) : std::string(), loop.ticks(),
@@ -287,10 +289,12 @@ int RunLagranged(int argc, char** argv) {
   CLI::App app{"lagranged: simulates and controls the plants of a scene at a fixed rate, over LCM"};
   app.name("lagranged");
   app.set_version_flag("--version", std::string("lagranged ") + LAGRANGE_VERSION);
-  app.footer("Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
-             "SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
+  app.footer(
+      "Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
+      "SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
   app.add_option("--config", o.config, "Scene file")->capture_default_str();
-  app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
+  app.add_option("--lcm-url", o.lcm_url,
+                 "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
   app.add_option("--input-lcm-url", o.input_lcm_url,
                  "Bus for setpoints and commands, when it should differ from --lcm-url (outputs): a flood of input "
                  "traffic then never reaches the loggers of the state stream");
@@ -317,7 +321,8 @@ int RunLagranged(int argc, char** argv) {
   app.add_flag("--mlockall", o.rt.lock_memory, "Lock the process's memory (mlockall)");
   app.add_option("--rt-priority", o.rt.priority,
                  "SCHED_FIFO priority P of the tick thread (1-99); the publish thread runs at P-1 and the receive "
-                 "thread at P-2 (at least 1); other threads stay SCHED_OTHER")->check(CLI::Range(1, 99));
+                 "thread at P-2 (at least 1); other threads stay SCHED_OTHER")
+      ->check(CLI::Range(1, 99));
   app.add_option("--cpu", o.rt.cpu, "Pin the tick thread to this CPU")->check(CLI::NonNegativeNumber);
   app.add_option("--spin-us", o.spin_us, "Busy-wait this long before each deadline instead of sleeping")
       ->check(CLI::Range(0.0, 1000.0));

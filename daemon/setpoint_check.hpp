@@ -12,8 +12,8 @@
 namespace lagrange {
 
 struct SetpointRules {
-  int n = 0;               // the instance's num_dofs
-  VectorXd lower, upper;   // setpoint limits on q (n), ±inf for none
+  int n = 0;              // the instance's num_dofs
+  VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
 };
 
 struct SetpointVerdict {

@@ -24,10 +24,10 @@ namespace lagrange {
 
 struct TimingRow {
   std::int64_t tick = 0;
-  std::int64_t utime = 0;            // wall clock, µs
+  std::int64_t utime = 0;  // wall clock, µs
   std::int64_t wake_latency_ns = 0;
   std::int64_t compute_ns = 0;
-  std::int64_t overruns = 0;         // total so far
+  std::int64_t overruns = 0;  // total so far
 };
 
 class TimingCsvWriter {

@@ -90,14 +90,19 @@ class PacketWalker {
  public:
   PacketWalker(const void* data, std::size_t size, std::int64_t hash)
       : p_(static_cast<const std::uint8_t*>(data)), size_(size) {
-    if (size_ < kHash) result_ = WireCheck::kTooShort;
-    else if (ReadInt64(p_) != hash) result_ = WireCheck::kFingerprint;
-    else at_ = kHash;
+    if (size_ < kHash)
+      result_ = WireCheck::kTooShort;
+    else if (ReadInt64(p_) != hash)
+      result_ = WireCheck::kFingerprint;
+    else
+      at_ = kHash;
   }
   void Skip(std::size_t bytes) {
     if (result_ != WireCheck::kOk) return;
-    if (size_ - at_ < bytes) result_ = WireCheck::kTooShort;
-    else at_ += bytes;
+    if (size_ - at_ < bytes)
+      result_ = WireCheck::kTooShort;
+    else
+      at_ += bytes;
   }
   // An int32 length in [0, max]; 0 after a failure.
   std::int32_t Length(std::int32_t max) {
@@ -151,11 +156,12 @@ WireCheck CheckStatePacket(const void* data, std::size_t size) {
 
 WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   PacketWalker w(data, size, status_t::getHash());
-  w.Skip(3 * kInt64 + kInt32 + 7 * kDouble + 4 * kInt64);  // utime .. ticks_in_window, period .. compute_max, overruns .. setpoints_rejected
-  w.String(kMaxStatusString);                              // last_rejection
-  w.Skip(2 * kInt64);                                      // commands_accepted, commands_rejected
-  w.String(kMaxStatusString);                              // last_command_error
-  w.Skip(7 * kInt64);                                      // decode_errors .. replies_suppressed
+  w.Skip(3 * kInt64 + kInt32 + 7 * kDouble +
+         4 * kInt64);          // utime .. ticks_in_window, period .. compute_max, overruns .. setpoints_rejected
+  w.String(kMaxStatusString);  // last_rejection
+  w.Skip(2 * kInt64);          // commands_accepted, commands_rejected
+  w.String(kMaxStatusString);  // last_command_error
+  w.Skip(7 * kInt64);          // decode_errors .. replies_suppressed
   const std::int32_t n = w.Length(kMaxStatusInstances);
   for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_names
   w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_modes

@@ -65,8 +65,8 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
 std::vector<WorkBound> MeasureWorkBounds(const Scene& scene) {
   std::vector<WorkBound> bounds;
   for (const InstanceConfig& inst : scene.instances) {
-    bounds.push_back({inst.name, WorstCaseEvaluations(inst.integrator, inst.plant.num_dofs()),
-                      MeasureEvaluationSeconds(inst)});
+    bounds.push_back(
+        {inst.name, WorstCaseEvaluations(inst.integrator, inst.plant.num_dofs()), MeasureEvaluationSeconds(inst)});
   }
   return bounds;
 }

@@ -81,9 +81,7 @@ void YamlReader::ExpectKind(bool ok, const char* expected) const {
   if (!ok) Fail(std::string("expected ") + expected + ", got " + Describe(node_));
 }
 
-bool YamlReader::Has(std::string_view key) const {
-  return node_.IsMap() && node_[std::string(key)].IsDefined();
-}
+bool YamlReader::Has(std::string_view key) const { return node_.IsMap() && node_[std::string(key)].IsDefined(); }
 
 YamlReader YamlReader::Required(std::string_view key) const {
   ExpectKind(node_.IsMap(), "a map");
@@ -145,7 +143,8 @@ double YamlReader::ParseNumber(bool allow_infinity) const {
     if (s == "-.inf" || s == "-.Inf") return -std::numeric_limits<double>::infinity();
   }
   const std::optional<double> v = ParseFiniteNumber(s);
-  if (!v) Fail(std::string("expected ") + (allow_infinity ? "a number or .inf" : "a finite number") + ", got '" + s + "'");
+  if (!v)
+    Fail(std::string("expected ") + (allow_infinity ? "a number or .inf" : "a finite number") + ", got '" + s + "'");
   return *v;
 }
 
@@ -182,7 +181,8 @@ bool YamlReader::Bool() const {
 }
 
 VectorXd YamlReader::Vector(int n) const {
-  ExpectKind(node_.IsSequence(), n >= 0 ? ("a list of " + std::to_string(n) + " numbers").c_str() : "a list of numbers");
+  ExpectKind(node_.IsSequence(),
+             n >= 0 ? ("a list of " + std::to_string(n) + " numbers").c_str() : "a list of numbers");
   if (n >= 0 && static_cast<int>(node_.size()) != n) {
     Fail("expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(node_.size()));
   }

@@ -16,9 +16,9 @@
 namespace lagrange {
 
 struct CartPoleParams {
-  double mc = 1.0;  // cart mass, kg
-  double mp = 0.1;  // pole mass, kg
-  double l = 0.5;   // pivot to pole centre of mass, m
+  double mc = 1.0;          // cart mass, kg
+  double mp = 0.1;          // pole mass, kg
+  double l = 0.5;           // pivot to pole centre of mass, m
   std::optional<double> I;  // pole inertia about its centre of mass, kg·m²; default: uniform rod of length 2l
   double g = kStandardGravity;
 
@@ -37,8 +37,7 @@ class CartPole {
     using std::sin;
     const S xd = qd[0] + p_.l * cos(q[1]) * qd[1];
     const S yd = p_.l * sin(q[1]) * qd[1];
-    return 0.5 * p_.mc * qd[0] * qd[0] + 0.5 * p_.mp * (xd * xd + yd * yd) +
-           0.5 * p_.pole_inertia() * qd[1] * qd[1];
+    return 0.5 * p_.mc * qd[0] * qd[0] + 0.5 * p_.mp * (xd * xd + yd * yd) + 0.5 * p_.pole_inertia() * qd[1] * qd[1];
   }
   template <class S>
   S PotentialEnergy(std::span<const S> q) const {

@@ -17,10 +17,10 @@
 namespace lagrange {
 
 struct ChainLink {
-  double m = 1.0;               // kg
-  double L = 0.5;               // m
-  std::optional<double> com;    // m from the joint along the link; default L/2
-  std::optional<double> I;      // kg·m² about the centre of mass; default m L²/12
+  double m = 1.0;                          // kg
+  double L = 0.5;                          // m
+  std::optional<double> com;               // m from the joint along the link; default L/2
+  std::optional<double> I;                 // kg·m² about the centre of mass; default m L²/12
   JointType joint = JointType::kRevolute;  // the joint that carries this link
 
   double com_offset() const { return com.value_or(0.5 * L); }

@@ -26,14 +26,22 @@ using Dual2 = Dual<Dual1>;
 using Dual3 = Dual<Dual2>;
 
 template <class T>
-constexpr Dual<T> operator-(const Dual<T>& a) { return {-a.v, -a.d}; }
+constexpr Dual<T> operator-(const Dual<T>& a) {
+  return {-a.v, -a.d};
+}
 
 template <class T>
-constexpr Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) { return {a.v + b.v, a.d + b.d}; }
+constexpr Dual<T> operator+(const Dual<T>& a, const Dual<T>& b) {
+  return {a.v + b.v, a.d + b.d};
+}
 template <class T>
-constexpr Dual<T> operator-(const Dual<T>& a, const Dual<T>& b) { return {a.v - b.v, a.d - b.d}; }
+constexpr Dual<T> operator-(const Dual<T>& a, const Dual<T>& b) {
+  return {a.v - b.v, a.d - b.d};
+}
 template <class T>
-constexpr Dual<T> operator*(const Dual<T>& a, const Dual<T>& b) { return {a.v * b.v, a.v * b.d + a.d * b.v}; }
+constexpr Dual<T> operator*(const Dual<T>& a, const Dual<T>& b) {
+  return {a.v * b.v, a.v * b.d + a.d * b.v};
+}
 template <class T>
 constexpr Dual<T> operator/(const Dual<T>& a, const Dual<T>& b) {
   const T inv = 1.0 / b.v;
@@ -41,32 +49,58 @@ constexpr Dual<T> operator/(const Dual<T>& a, const Dual<T>& b) {
 }
 
 template <class T>
-constexpr Dual<T> operator+(const Dual<T>& a, double s) { return {a.v + s, a.d}; }
+constexpr Dual<T> operator+(const Dual<T>& a, double s) {
+  return {a.v + s, a.d};
+}
 template <class T>
-constexpr Dual<T> operator+(double s, const Dual<T>& a) { return {s + a.v, a.d}; }
+constexpr Dual<T> operator+(double s, const Dual<T>& a) {
+  return {s + a.v, a.d};
+}
 template <class T>
-constexpr Dual<T> operator-(const Dual<T>& a, double s) { return {a.v - s, a.d}; }
+constexpr Dual<T> operator-(const Dual<T>& a, double s) {
+  return {a.v - s, a.d};
+}
 template <class T>
-constexpr Dual<T> operator-(double s, const Dual<T>& a) { return {s - a.v, -a.d}; }
+constexpr Dual<T> operator-(double s, const Dual<T>& a) {
+  return {s - a.v, -a.d};
+}
 template <class T>
-constexpr Dual<T> operator*(const Dual<T>& a, double s) { return {a.v * s, a.d * s}; }
+constexpr Dual<T> operator*(const Dual<T>& a, double s) {
+  return {a.v * s, a.d * s};
+}
 template <class T>
-constexpr Dual<T> operator*(double s, const Dual<T>& a) { return {s * a.v, s * a.d}; }
+constexpr Dual<T> operator*(double s, const Dual<T>& a) {
+  return {s * a.v, s * a.d};
+}
 template <class T>
-constexpr Dual<T> operator/(const Dual<T>& a, double s) { return {a.v / s, a.d / s}; }
+constexpr Dual<T> operator/(const Dual<T>& a, double s) {
+  return {a.v / s, a.d / s};
+}
 template <class T>
-constexpr Dual<T> operator/(double s, const Dual<T>& a) { return Dual<T>(s) / a; }
+constexpr Dual<T> operator/(double s, const Dual<T>& a) {
+  return Dual<T>(s) / a;
+}
 
 template <class T>
-constexpr Dual<T>& operator+=(Dual<T>& a, const Dual<T>& b) { return a = a + b; }
+constexpr Dual<T>& operator+=(Dual<T>& a, const Dual<T>& b) {
+  return a = a + b;
+}
 template <class T>
-constexpr Dual<T>& operator-=(Dual<T>& a, const Dual<T>& b) { return a = a - b; }
+constexpr Dual<T>& operator-=(Dual<T>& a, const Dual<T>& b) {
+  return a = a - b;
+}
 template <class T>
-constexpr Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) { return a = a * b; }
+constexpr Dual<T>& operator*=(Dual<T>& a, const Dual<T>& b) {
+  return a = a * b;
+}
 template <class T>
-constexpr Dual<T>& operator+=(Dual<T>& a, double s) { return a = a + s; }
+constexpr Dual<T>& operator+=(Dual<T>& a, double s) {
+  return a = a + s;
+}
 template <class T>
-constexpr Dual<T>& operator*=(Dual<T>& a, double s) { return a = a * s; }
+constexpr Dual<T>& operator*=(Dual<T>& a, double s) {
+  return a = a * s;
+}
 
 template <class T>
 Dual<T> sin(const Dual<T>& a) {

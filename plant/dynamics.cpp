@@ -21,10 +21,7 @@ std::optional<Method> ParseMethod(std::string_view name) { return ValueOf(kMetho
 std::string MethodNames() { return NamesInWords(kMethodNames); }
 
 Dynamics::Dynamics(std::vector<JointType> joints)
-    : joints_(std::move(joints)),
-      M_(num_dofs(), num_dofs()),
-      term_(num_dofs()),
-      llt_(num_dofs()) {}
+    : joints_(std::move(joints)), M_(num_dofs(), num_dofs()), term_(num_dofs()), llt_(num_dofs()) {}
 
 void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                                       VecRef tau) const {

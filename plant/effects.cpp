@@ -10,8 +10,8 @@ namespace {
 
 std::optional<EffectsError> CheckVector(const std::string& key, const VectorXd& v, int n, bool strictly_positive) {
   if (v.size() != n) {
-    return EffectsError{key, "expected " + std::to_string(n) + " values (one per joint), got " +
-                                 std::to_string(v.size())};
+    return EffectsError{key,
+                        "expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(v.size())};
   }
   for (int i = 0; i < n; ++i) {
     const bool ok = std::isfinite(v[i]) && (strictly_positive ? v[i] > 0.0 : v[i] >= 0.0);
@@ -60,8 +60,8 @@ std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
     const JointLimits& l = *c.limits;
     for (const auto& [key, v] : {std::pair{"limits.lower", &l.lower}, std::pair{"limits.upper", &l.upper}}) {
       if (v->size() != n) {
-        return EffectsError{key, "expected " + std::to_string(n) + " values (one per joint), got " +
-                                     std::to_string(v->size())};
+        return EffectsError{
+            key, "expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(v->size())};
       }
     }
     for (int i = 0; i < n; ++i) {

@@ -29,10 +29,10 @@ struct CoulombFriction {
 };
 
 struct JointLimits {
-  VectorXd lower;              // (n), rad or m; -inf for none
-  VectorXd upper;              // (n), rad or m; +inf for none
-  double stiffness = 1.0e4;    // k, N·m/rad (N/m), > 0
-  double damping = 50.0;       // d, N·m·s/rad (N·s/m), >= 0
+  VectorXd lower;            // (n), rad or m; -inf for none
+  VectorXd upper;            // (n), rad or m; +inf for none
+  double stiffness = 1.0e4;  // k, N·m/rad (N/m), > 0
+  double damping = 50.0;     // d, N·m·s/rad (N·s/m), >= 0
 };
 
 struct Push {
@@ -44,11 +44,11 @@ struct Push {
 struct EffectsConfig {
   bool gravity = true;
   bool coriolis = true;
-  std::optional<VectorXd> damping;       // b (n), >= 0
+  std::optional<VectorXd> damping;  // b (n), >= 0
   std::optional<CoulombFriction> friction;
   std::optional<JointLimits> limits;
-  std::optional<VectorXd> saturation;    // tau_max (n), > 0
-  std::vector<Push> disturbance;         // empty: off
+  std::optional<VectorXd> saturation;  // tau_max (n), > 0
+  std::vector<Push> disturbance;       // empty: off
 
   DynamicsTerms terms() const { return {gravity, coriolis}; }
 };

@@ -27,7 +27,9 @@ class ExplicitEuler final : public Integrator {
     m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     q += h * qd;
     qd += h * qdd_;
-    ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
+    ++stats_.steps;
+    ++stats_.accepted;
+    ++stats_.evaluations;
     return true;
   }
 
@@ -42,7 +44,9 @@ class SemiImplicitEuler final : public Integrator {
     m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     qd += h * qdd_;
     q += h * qd;
-    ++stats_.steps; ++stats_.accepted; ++stats_.evaluations;
+    ++stats_.steps;
+    ++stats_.accepted;
+    ++stats_.evaluations;
     return true;
   }
 
@@ -58,7 +62,9 @@ class Rk4 final : public Integrator {
     rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds,
                   VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
               t, h, q, qd);
-    ++stats_.steps; ++stats_.accepted; stats_.evaluations += 4;
+    ++stats_.steps;
+    ++stats_.accepted;
+    stats_.evaluations += 4;
     return true;
   }
 
@@ -69,8 +75,7 @@ class Rk4 final : public Integrator {
 // Dormand–Prince 5(4) on y = (q, qd), f(y) = (qd, qdd).
 class DormandPrince final : public Integrator {
  public:
-  DormandPrince(const IntegratorConfig& c, int n)
-      : Integrator(c, n), y_(2 * n), y1_(2 * n), yt_(2 * n), err_(2 * n) {
+  DormandPrince(const IntegratorConfig& c, int n) : Integrator(c, n), y_(2 * n), y1_(2 * n), yt_(2 * n), err_(2 * n) {
     for (auto& k : k_) k.resize(2 * n);
   }
 
@@ -136,8 +141,8 @@ class DormandPrince final : public Integrator {
         {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84},
     };
     // Fifth-order minus embedded fourth-order weights.
-    static constexpr double e[7] = {71.0 / 57600, 0.0, -71.0 / 16695, 71.0 / 1920, -17253.0 / 339200,
-                                    22.0 / 525, -1.0 / 40};
+    static constexpr double e[7] = {71.0 / 57600,      0.0,        -71.0 / 16695, 71.0 / 1920,
+                                    -17253.0 / 339200, 22.0 / 525, -1.0 / 40};
     for (int s = 1; s < 7; ++s) {
       yt_ = y_;
       for (int j = 0; j < s; ++j) {
@@ -168,8 +173,21 @@ class DormandPrince final : public Integrator {
 class Variational final : public Integrator {
  public:
   Variational(const IntegratorConfig& c, int n)
-      : Integrator(c, n), p0_(n), q1_(n), qm_(n), v_(n), x_(n), r_(n), r_trial_(n), q_trial_(n), dq_(n),
-        tmp_(n), M_(n, n), J_(n, n), lu_(n), llt_(n) {}
+      : Integrator(c, n),
+        p0_(n),
+        q1_(n),
+        qm_(n),
+        v_(n),
+        x_(n),
+        r_(n),
+        r_trial_(n),
+        q_trial_(n),
+        dq_(n),
+        tmp_(n),
+        M_(n, n),
+        J_(n, n),
+        lu_(n),
+        llt_(n) {}
 
   bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     ++stats_.steps;

@@ -47,20 +47,20 @@ std::string IntegratorTypeNames();
 
 struct IntegratorConfig {
   IntegratorType type = IntegratorType::kRk4;
-  int substeps = 1;            // equal sub-steps per call of Advance, >= 1
-  double rtol = 1e-8;          // Dormand–Prince relative tolerance
-  double atol = 1e-10;         // Dormand–Prince absolute tolerance
-  int max_steps = 100000;      // Dormand–Prince internal steps per Step call
-  double newton_tol = 1e-13;   // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞)
+  int substeps = 1;           // equal sub-steps per call of Advance, >= 1
+  double rtol = 1e-8;         // Dormand–Prince relative tolerance
+  double atol = 1e-10;        // Dormand–Prince absolute tolerance
+  int max_steps = 100000;     // Dormand–Prince internal steps per Step call
+  double newton_tol = 1e-13;  // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞)
   int newton_max_iterations = 30;
 };
 
 struct IntegratorStats {
-  std::int64_t steps = 0;         // Step calls
-  std::int64_t accepted = 0;      // internal steps accepted (adaptive), = steps otherwise
-  std::int64_t rejected = 0;      // internal steps rejected (adaptive)
-  std::int64_t evaluations = 0;   // acceleration (or residual) evaluations
-  std::int64_t failures = 0;      // steps that could not meet their tolerance
+  std::int64_t steps = 0;        // Step calls
+  std::int64_t accepted = 0;     // internal steps accepted (adaptive), = steps otherwise
+  std::int64_t rejected = 0;     // internal steps rejected (adaptive)
+  std::int64_t evaluations = 0;  // acceleration (or residual) evaluations
+  std::int64_t failures = 0;     // steps that could not meet their tolerance
 };
 
 class Integrator {

@@ -33,12 +33,14 @@ namespace lagrange {
 template <class Plant>
 class LagrangianDynamics final : public Dynamics {
  public:
-  explicit LagrangianDynamics(Plant plant)
-      : Dynamics(plant.joint_types()), plant_(std::move(plant)) {
+  explicit LagrangianDynamics(Plant plant) : Dynamics(plant.joint_types()), plant_(std::move(plant)) {
     const auto n = static_cast<std::size_t>(num_dofs());
-    q1_.resize(n); qd1_.resize(n);
-    q2_.resize(n); qd2_.resize(n);
-    q3_.resize(n); qd3_.resize(n);
+    q1_.resize(n);
+    qd1_.resize(n);
+    q2_.resize(n);
+    qd2_.resize(n);
+    q3_.resize(n);
+    qd3_.resize(n);
     dTdq_.resize(num_dofs());
   }
 

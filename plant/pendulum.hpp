@@ -22,9 +22,9 @@ struct PendulumParams {
   PendulumBody body = PendulumBody::kPointMass;
   double g = kStandardGravity;
 
-  double com() const { return body == PendulumBody::kRod ? 0.5 * L : L; }            // m
+  double com() const { return body == PendulumBody::kRod ? 0.5 * L : L; }  // m
   double com_inertia() const { return body == PendulumBody::kRod ? m * L * L / 12.0 : 0.0; }
-  double pivot_inertia() const { return m * com() * com() + com_inertia(); }        // kg·m²
+  double pivot_inertia() const { return m * com() * com() + com_inertia(); }  // kg·m²
 };
 
 class Pendulum {

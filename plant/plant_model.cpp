@@ -5,7 +5,8 @@
 namespace lagrange {
 
 PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects)
-    : dynamics_(std::move(dynamics)), effects_(std::move(effects), dynamics_->num_dofs()),
+    : dynamics_(std::move(dynamics)),
+      effects_(std::move(effects), dynamics_->num_dofs()),
       tau_(dynamics_->num_dofs()),
       tau_law_(dynamics_->num_dofs()) {}
 

@@ -38,8 +38,7 @@ std::string FormatNumber(double x) {
 enum class Range { kPositive, kNonNegative, kFinite };
 
 std::optional<SpecError> CheckRange(std::string_view key, double value, Range range, std::string_view unit) {
-  const bool ok = std::isfinite(value) && (range == Range::kFinite ||
-                                           (range == Range::kPositive && value > 0.0) ||
+  const bool ok = std::isfinite(value) && (range == Range::kFinite || (range == Range::kPositive && value > 0.0) ||
                                            (range == Range::kNonNegative && value >= 0.0));
   if (ok) return std::nullopt;
   const char* what = range == Range::kPositive      ? "a positive number"
@@ -75,10 +74,8 @@ constexpr Field<PendulumParams> kPendulumFields[] = {
     {"g", &PendulumParams::g, Range::kNonNegative, "m/s²"},
 };
 constexpr Field<Arm2Params> kArm2Fields[] = {
-    {"m1", &Arm2Params::m1, Range::kPositive, "kg"},
-    {"m2", &Arm2Params::m2, Range::kPositive, "kg"},
-    {"L1", &Arm2Params::L1, Range::kPositive, "m"},
-    {"L2", &Arm2Params::L2, Range::kPositive, "m"},
+    {"m1", &Arm2Params::m1, Range::kPositive, "kg"},    {"m2", &Arm2Params::m2, Range::kPositive, "kg"},
+    {"L1", &Arm2Params::L1, Range::kPositive, "m"},     {"L2", &Arm2Params::L2, Range::kPositive, "m"},
     {"g", &Arm2Params::g, Range::kNonNegative, "m/s²"},
 };
 constexpr Field<CartPoleParams> kCartPoleFields[] = {
@@ -101,25 +98,38 @@ std::optional<SpecError> SetChainParam(ChainParams& p, std::string_view name, do
     return std::nullopt;
   }
   if (link >= p.num_links()) {
-    return SpecError{std::string(name), "expected a link index below " + std::to_string(p.num_links()) +
-                                            ", got " + std::to_string(link)};
+    return SpecError{std::string(name),
+                     "expected a link index below " + std::to_string(p.num_links()) + ", got " + std::to_string(link)};
   }
   Range range;
   std::string_view unit;
-  if (name == "m") { range = Range::kPositive; unit = "kg"; }
-  else if (name == "L") { range = Range::kPositive; unit = "m"; }
-  else if (name == "com") { range = Range::kFinite; unit = "m"; }
-  else if (name == "I") { range = Range::kNonNegative; unit = "kg·m²"; }
-  else return SpecError{std::string(name), "unknown parameter"};
+  if (name == "m") {
+    range = Range::kPositive;
+    unit = "kg";
+  } else if (name == "L") {
+    range = Range::kPositive;
+    unit = "m";
+  } else if (name == "com") {
+    range = Range::kFinite;
+    unit = "m";
+  } else if (name == "I") {
+    range = Range::kNonNegative;
+    unit = "kg·m²";
+  } else
+    return SpecError{std::string(name), "unknown parameter"};
   if (auto err = CheckRange(name, value, range, unit)) return err;
   const int first = link < 0 ? 0 : link;
   const int last = link < 0 ? p.num_links() : link + 1;
   for (int i = first; i < last; ++i) {
     ChainLink& l = p.links[i];
-    if (name == "m") l.m = value;
-    else if (name == "L") l.L = value;
-    else if (name == "com") l.com = value;
-    else l.I = value;
+    if (name == "m")
+      l.m = value;
+    else if (name == "L")
+      l.L = value;
+    else if (name == "com")
+      l.com = value;
+    else
+      l.I = value;
   }
   return std::nullopt;
 }
@@ -127,11 +137,12 @@ std::optional<SpecError> SetChainParam(ChainParams& p, std::string_view name, do
 // A chain link's joint by name; link -1 sets every link's.
 std::optional<SpecError> SetChainJoints(ChainParams& p, std::string_view text, int link) {
   const std::optional<JointType> parsed = ValueOf(kJointNames, text);
-  if (!parsed) return SpecError{"joints", "expected " + NamesInWords(kJointNames) + ", got '" + std::string(text) + "'"};
+  if (!parsed)
+    return SpecError{"joints", "expected " + NamesInWords(kJointNames) + ", got '" + std::string(text) + "'"};
   const JointType joint = *parsed;
   if (link >= p.num_links()) {
-    return SpecError{"joints", "expected a link index below " + std::to_string(p.num_links()) + ", got " +
-                                   std::to_string(link)};
+    return SpecError{"joints",
+                     "expected a link index below " + std::to_string(p.num_links()) + ", got " + std::to_string(link)};
   }
   const int first = link < 0 ? 0 : link;
   const int last = link < 0 ? p.num_links() : link + 1;
@@ -145,9 +156,12 @@ double Reach(const PlantSpec& spec) {
   return std::visit(
       [](const auto& p) -> double {
         using P = std::decay_t<decltype(p)>;
-        if constexpr (std::is_same_v<P, PendulumParams>) return p.m * p.g * p.L;
-        else if constexpr (std::is_same_v<P, Arm2Params>) return (p.m1 + p.m2) * p.g * (p.L1 + p.L2);
-        else if constexpr (std::is_same_v<P, CartPoleParams>) return (p.mc + p.mp) * p.g * 2.0 * p.l;
+        if constexpr (std::is_same_v<P, PendulumParams>)
+          return p.m * p.g * p.L;
+        else if constexpr (std::is_same_v<P, Arm2Params>)
+          return (p.m1 + p.m2) * p.g * (p.L1 + p.L2);
+        else if constexpr (std::is_same_v<P, CartPoleParams>)
+          return (p.mc + p.mp) * p.g * 2.0 * p.l;
         else {
           double mass = 0.0, length = 0.0;
           for (const ChainLink& l : p.links) {
@@ -211,8 +225,8 @@ std::optional<SpecError> SetChainLinks(PlantSpec& spec, int links) {
   auto* chain = std::get_if<ChainParams>(&spec.params);
   if (chain == nullptr) return SpecError{"links", "only a chain has a number of links"};
   if (links < 1 || links > kMaxDofs) {
-    return SpecError{"links", "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " +
-                                  std::to_string(links)};
+    return SpecError{
+        "links", "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " + std::to_string(links)};
   }
   chain->links.resize(static_cast<std::size_t>(links), chain->links.empty() ? ChainLink{} : chain->links.back());
   return std::nullopt;
@@ -237,16 +251,16 @@ std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, s
   if (std::find(names.begin(), names.end(), name) == names.end()) {
     std::string list;
     for (std::string_view n : names) list += (list.empty() ? "" : ", ") + std::string(n);
-    return SpecError{key, "unknown parameter for " + std::string(ToString(spec.type())) + " (expected one of " +
-                              list + ")"};
+    return SpecError{key,
+                     "unknown parameter for " + std::string(ToString(spec.type())) + " (expected one of " + list + ")"};
   }
   const std::optional<double> value = ParseFiniteNumber(text);
   if (!value) return SpecError{key, "expected a finite number, got '" + std::string(text) + "'"};
   if (name == "links") {
     const double v = *value;
     if (v != std::floor(v) || v < 1.0 || v > kMaxDofs) {
-      return SpecError{key, "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " +
-                                std::string(text)};
+      return SpecError{key,
+                       "expected a whole number from 1 to " + std::to_string(kMaxDofs) + ", got " + std::string(text)};
     }
     return SetChainLinks(spec, static_cast<int>(v));
   }
@@ -292,8 +306,8 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
           if (auto err = CheckRange("I", p.pole_inertia(), Range::kNonNegative, "kg·m²")) return err;
         } else {
           if (p.num_links() < 1 || p.num_links() > kMaxDofs) {
-            return SpecError{"links", "expected 1 to " + std::to_string(kMaxDofs) + " links, got " +
-                                          std::to_string(p.num_links())};
+            return SpecError{
+                "links", "expected 1 to " + std::to_string(kMaxDofs) + " links, got " + std::to_string(p.num_links())};
           }
           if (auto err = CheckRange("g", p.g, Range::kNonNegative, "m/s²")) return err;
           if (auto err = CheckRange("base_angle", p.base_angle, Range::kFinite, "rad")) return err;
@@ -316,13 +330,9 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
       spec.params);
 }
 
-bool HasMethod(PlantType type, Method method) {
-  return method != Method::kClosedForm || type != PlantType::kChain;
-}
+bool HasMethod(PlantType type, Method method) { return method != Method::kClosedForm || type != PlantType::kChain; }
 
-Method FastestMethod(PlantType type) {
-  return type == PlantType::kChain ? Method::kRecursive : Method::kClosedForm;
-}
+Method FastestMethod(PlantType type) { return type == PlantType::kChain ? Method::kRecursive : Method::kClosedForm; }
 
 std::vector<JointType> JointTypesOf(const PlantSpec& spec) { return ToPlanarChain(spec).joint_types(); }
 
@@ -330,10 +340,14 @@ PlanarChain ToPlanarChain(const PlantSpec& spec) {
   return std::visit(
       [](const auto& p) -> PlanarChain {
         using P = std::decay_t<decltype(p)>;
-        if constexpr (std::is_same_v<P, PendulumParams>) return Pendulum(p).ToChain();
-        else if constexpr (std::is_same_v<P, Arm2Params>) return Arm2(p).ToChain();
-        else if constexpr (std::is_same_v<P, CartPoleParams>) return CartPole(p).ToChain();
-        else return ToPlanarChain(p);
+        if constexpr (std::is_same_v<P, PendulumParams>)
+          return Pendulum(p).ToChain();
+        else if constexpr (std::is_same_v<P, Arm2Params>)
+          return Arm2(p).ToChain();
+        else if constexpr (std::is_same_v<P, CartPoleParams>)
+          return CartPole(p).ToChain();
+        else
+          return ToPlanarChain(p);
       },
       spec.params);
 }

@@ -54,8 +54,7 @@ std::vector<std::string_view> PlantParamNames(PlantType type);
 // Sets one parameter from its text. `link` selects one chain link (0-based);
 // -1 sets it on every link. Unknown names, malformed or non-finite numbers and
 // out-of-range values are refused and leave the spec unchanged.
-std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, std::string_view text,
-                                       int link = -1);
+std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, std::string_view text, int link = -1);
 
 // Sets the chain's number of links (1..kMaxDofs), keeping existing links.
 std::optional<SpecError> SetChainLinks(PlantSpec& spec, int links);

@@ -26,9 +26,7 @@ Vector3d ApplyXT(const Xform& X, const Vector3d& f) {
 
 Matrix3d XMatrix(const Xform& X) {
   Matrix3d m;
-  m << 1.0, 0.0, 0.0,
-       -X.c * X.r.y() + X.s * X.r.x(), X.c, X.s,
-       X.s * X.r.y() + X.c * X.r.x(), -X.s, X.c;
+  m << 1.0, 0.0, 0.0, -X.c * X.r.y() + X.s * X.r.x(), X.c, X.s, X.s * X.r.y() + X.c * X.r.x(), -X.s, X.c;
   return m;
 }
 
@@ -48,9 +46,7 @@ int SubspaceIndex(JointType type) { return type == JointType::kRevolute ? 0 : 1;
 Matrix3d SpatialInertia(const PlanarBody& b) {
   const double m = b.mass, cx = b.com.x(), cy = b.com.y();
   Matrix3d I;
-  I << b.inertia + m * (cx * cx + cy * cy), -m * cy, m * cx,
-       -m * cy, m, 0.0,
-       m * cx, 0.0, m;
+  I << b.inertia + m * (cx * cx + cy * cy), -m * cy, m * cx, -m * cy, m, 0.0, m * cx, 0.0, m;
   return I;
 }
 
@@ -63,14 +59,20 @@ std::vector<JointType> PlanarChain::joint_types() const {
   return types;
 }
 
-RecursiveDynamics::RecursiveDynamics(PlanarChain chain)
-    : Dynamics(chain.joint_types()), chain_(std::move(chain)) {
+RecursiveDynamics::RecursiveDynamics(PlanarChain chain) : Dynamics(chain.joint_types()), chain_(std::move(chain)) {
   const auto n = static_cast<std::size_t>(num_dofs());
   for (const PlanarBody& b : chain_.bodies) inertia_.push_back(SpatialInertia(b));
   X_.resize(n);
-  v_.resize(n); a_.resize(n); f_.resize(n); c_.resize(n); pA_.resize(n); U_.resize(n); vw_.resize(n);
+  v_.resize(n);
+  a_.resize(n);
+  f_.resize(n);
+  c_.resize(n);
+  pA_.resize(n);
+  U_.resize(n);
+  vw_.resize(n);
   IA_.resize(n);
-  D_.resize(n); u_.resize(n);
+  D_.resize(n);
+  u_.resize(n);
   zeros_ = VectorXd::Zero(num_dofs());
 }
 
@@ -232,8 +234,8 @@ void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, Mat
       } else {
         vw_[i] = ApplyX(X_[i], vw_[i - 1]);
       }
-      Vector3d s_w = Vector3d::Zero();   // S_i w_i
-      Vector3d s_u = Vector3d::Zero();   // S_i qd_i
+      Vector3d s_w = Vector3d::Zero();  // S_i w_i
+      Vector3d s_u = Vector3d::Zero();  // S_i qd_i
       if (i == j) s_w[k] = 1.0;
       s_u[k] = qd[i];
       const Vector3d ci = 0.5 * (CrossMotion(v_[i], s_w) + CrossMotion(vw_[i], s_u));

@@ -105,7 +105,7 @@ template <class S>
 S PlanarChain::KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
   using std::cos;
   using std::sin;
-  S phi(0.0), phid(0.0);           // world angle of the current body and its rate
+  S phi(0.0), phid(0.0);                   // world angle of the current body and its rate
   S ox(0.0), oy(0.0), oxd(0.0), oyd(0.0);  // world origin of the current body and its velocity
   S T(0.0);
   for (int i = 0; i < num_dofs(); ++i) {

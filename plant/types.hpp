@@ -29,7 +29,7 @@ using ConstVecRef = const Eigen::Ref<const VectorXd>&;
 using MatRef = Eigen::Ref<MatrixXd>;
 
 inline constexpr double kStandardGravity = 9.81;  // m/s², along −y
-inline constexpr int kMaxDofs = 256;               // tested up to 64
+inline constexpr int kMaxDofs = 256;              // tested up to 64
 
 enum class JointType : std::uint8_t { kRevolute, kPrismatic };
 

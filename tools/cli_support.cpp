@@ -22,16 +22,19 @@ CLI::Validator NumberCheck(std::string description, bool (*ok)(double, double), 
 }  // namespace
 
 CLI::Validator FiniteNumber() {
-  return NumberCheck("NUMBER", [](double, double) { return true; }, 0.0, "comma-separated finite numbers");
+  return NumberCheck(
+      "NUMBER", [](double, double) { return true; }, 0.0, "comma-separated finite numbers");
 }
 
 CLI::Validator NonNegativeNumber() {
-  return NumberCheck("NUMBER >= 0", [](double v, double) { return v >= 0.0; }, 0.0, "finite numbers >= 0");
+  return NumberCheck(
+      "NUMBER >= 0", [](double v, double) { return v >= 0.0; }, 0.0, "finite numbers >= 0");
 }
 
 CLI::Validator PositiveNumber(double max) {
-  return NumberCheck("NUMBER > 0", [](double v, double m) { return v > 0.0 && v <= m; }, max,
-                     max < 1e300 ? "a number in (0, " + FormatDouble(max) + "]" : std::string("a positive number"));
+  return NumberCheck(
+      "NUMBER > 0", [](double v, double m) { return v > 0.0 && v <= m; }, max,
+      max < 1e300 ? "a number in (0, " + FormatDouble(max) + "]" : std::string("a positive number"));
 }
 
 CLI::Option* AddNumberList(CLI::App& app, const std::string& name, std::vector<double>& values,

@@ -21,8 +21,8 @@ class UsageError : public std::runtime_error {
 
 // CLI11 validators, each with a message that names what was expected. Used
 // on every item of a ->delimiter(',') list.
-CLI::Validator FiniteNumber();          // any finite number
-CLI::Validator NonNegativeNumber();     // finite, >= 0
+CLI::Validator FiniteNumber();                      // any finite number
+CLI::Validator NonNegativeNumber();                 // finite, >= 0
 CLI::Validator PositiveNumber(double max = 1e300);  // finite, in (0, max]
 
 // --NAME a,b,..: a comma list, every item a FiniteNumber(), in one argument.

@@ -21,11 +21,13 @@ struct Action {
   bool takes_name;  // controller NAME
 };
 
-constexpr Action kActions[] = {
-    {"controller", command_t::SWITCH_CONTROLLER, true}, {"gains", command_t::SET_GAINS, false},
-    {"reset", command_t::RESET, false},                 {"pause", command_t::PAUSE, false},
-    {"resume", command_t::RESUME, false},               {"estop", command_t::ESTOP, false},
-    {"clear", command_t::CLEAR_ESTOP, false}};
+constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, true},
+                               {"gains", command_t::SET_GAINS, false},
+                               {"reset", command_t::RESET, false},
+                               {"pause", command_t::PAUSE, false},
+                               {"resume", command_t::RESUME, false},
+                               {"estop", command_t::ESTOP, false},
+                               {"clear", command_t::CLEAR_ESTOP, false}};
 
 constexpr std::chrono::milliseconds kEstopResend{20};
 
@@ -33,7 +35,8 @@ class CommandCommand final : public Command {
  public:
   explicit CommandCommand(CLI::App& parent)
       : Command(parent.add_subcommand(
-            "command", "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | resume | estop | clear")) {
+            "command",
+            "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | resume | estop | clear")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
     app_->add_option("action", action_, "controller NAME, gains, reset, pause, resume, estop or clear")
         ->required()
@@ -84,8 +87,8 @@ class CommandCommand final : public Command {
               return link.reply().has_value();
             },
             bus_.wait)) {
-      throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " + FormatDouble(bus_.wait) +
-                               " s");
+      throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " +
+                               FormatDouble(bus_.wait) + " s");
     }
     link.RequireOneRun("refusing to trust the verdict");
     const reply_t& reply = *link.reply();
@@ -107,14 +110,16 @@ class CommandCommand final : public Command {
     const Action* action = nullptr;
     for (const Action& a : kActions) action = verb == a.verb ? &a : action;
     if (!action) {
-      throw UsageError("unknown action '" + verb + "' (expected controller, gains, reset, pause, resume, estop or clear)");
+      throw UsageError("unknown action '" + verb +
+                       "' (expected controller, gains, reset, pause, resume, estop or clear)");
     }
     const std::size_t args = action_.size() - 1;
     if (action->takes_name && args != 1) throw UsageError("controller: expected one controller name");
     if (!action->takes_name && args != 0) {
       if (verb == "gains") {
-        throw UsageError("gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
-                         action_[1] + "'");
+        throw UsageError(
+            "gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
+            action_[1] + "'");
       }
       throw UsageError(verb + ": takes no arguments");
     }

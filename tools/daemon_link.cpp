@@ -53,7 +53,8 @@ DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
   bus_->Subscribe(bus.Channel(instance, kReplySuffix),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
-  bus_->Subscribe(bus.StatusChannel(), [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+  bus_->Subscribe(bus.StatusChannel(),
+                  [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {

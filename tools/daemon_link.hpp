@@ -116,7 +116,7 @@ class DaemonLink {
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
   std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
   bool have_run_ = false;
-  std::optional<status_t> status_;     // the run's latest
+  std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;
   std::int64_t request_id_ = 0;
   std::optional<reply_t> reply_;

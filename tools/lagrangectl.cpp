@@ -41,13 +41,15 @@ std::string UnknownCommand(const CLI::App& app, int argc, const char* const* arg
     }
   }
   const std::string shown = word.size() > 40 ? word.substr(0, 40) + "..." : word;
-  return "unknown command '" + shown + "'" + (best.empty() ? " (expected one of " + names + ")" : "; did you mean '" + best + "'?");
+  return "unknown command '" + shown + "'" +
+         (best.empty() ? " (expected one of " + names + ")" : "; did you mean '" + best + "'?");
 }
 
 }  // namespace
 
 int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
-  CLI::App app{"lagrangectl: evaluate and simulate plants; send, command and watch lagranged; turn logs into CSV and plots"};
+  CLI::App app{
+      "lagrangectl: evaluate and simulate plants; send, command and watch lagranged; turn logs into CSV and plots"};
   app.name("lagrangectl");
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("lagrangectl ") + LAGRANGE_VERSION);

@@ -1,11 +1,11 @@
 #include "tools/lcm_log.hpp"
 
-#include <lcm/lcm-cpp.hpp>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
 #include <filesystem>
@@ -75,8 +75,8 @@ class StateWriter final : public Writer {
     out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.tick << ',' << FormatDouble(s.t) << ','
         << s.num_dofs;
     for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) Values(out, *v);
-    out << ',' << FormatDouble(s.kinetic_energy) << ',' << FormatDouble(s.potential_energy) << ',' << Quote(s.controller)
-        << ',' << static_cast<int>(s.mode) << '\n';
+    out << ',' << FormatDouble(s.kinetic_energy) << ',' << FormatDouble(s.potential_energy) << ','
+        << Quote(s.controller) << ',' << static_cast<int>(s.mode) << '\n';
     return true;
   }
 
@@ -115,8 +115,8 @@ class CommandWriter final : public Writer {
     if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
     if (!header_) out << "log_utime,utime,request_id,command,controller,num_gains,kp,kd\n";
     header_ = true;
-    out << log_utime << ',' << c.utime << ',' << RunIdText(c.request_id) << ',' << static_cast<int>(c.command) << ',' << Quote(c.controller) << ','
-        << c.num_gains << ',' << Quote(Join(c.kp)) << ',' << Quote(Join(c.kd)) << '\n';
+    out << log_utime << ',' << c.utime << ',' << RunIdText(c.request_id) << ',' << static_cast<int>(c.command) << ','
+        << Quote(c.controller) << ',' << c.num_gains << ',' << Quote(Join(c.kp)) << ',' << Quote(Join(c.kd)) << '\n';
     return true;
   }
 
@@ -144,9 +144,10 @@ class StatusWriter final : public Writer {
       instances += (i ? ";" : "") + Escape(s.instance_names[static_cast<std::size_t>(i)]) + "=" +
                    std::to_string(s.instance_modes[static_cast<std::size_t>(i)]);
     }
-    out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.ticks << ',' << s.ticks_in_window << ',' << FormatDouble(s.period);
-    for (double x : {s.wake_latency_p50, s.wake_latency_p99, s.wake_latency_max, s.compute_p50, s.compute_p99,
-                     s.compute_max}) {
+    out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.ticks << ',' << s.ticks_in_window
+        << ',' << FormatDouble(s.period);
+    for (double x :
+         {s.wake_latency_p50, s.wake_latency_p99, s.wake_latency_max, s.compute_p50, s.compute_p99, s.compute_max}) {
       out << ',' << FormatDouble(x);
     }
     out << ',' << s.overruns << ',' << s.state_messages_dropped << ',' << s.setpoints_accepted << ','
@@ -225,7 +226,8 @@ LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, con
     if (!std::regex_match(e->channel, wanted)) continue;
     auto it = outputs.find(e->channel);
     if (it == outputs.end()) {
-      std::unique_ptr<Writer> writer = WriterFor(Fingerprint(e->data, static_cast<std::size_t>(std::max(e->datalen, 0))));
+      std::unique_ptr<Writer> writer =
+          WriterFor(Fingerprint(e->data, static_cast<std::size_t>(std::max(e->datalen, 0))));
       if (!writer) {
         ++result.unknown[e->channel];
         continue;
@@ -237,8 +239,10 @@ LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, con
       it = outputs.emplace(e->channel, std::move(o)).first;
     }
     ChannelCsv& c = result.written[e->channel];
-    if (it->second.writer->Write(it->second.file, e->timestamp, e->data, e->datalen)) ++c.rows;
-    else ++c.skipped;
+    if (it->second.writer->Write(it->second.file, e->timestamp, e->data, e->datalen))
+      ++c.rows;
+    else
+      ++c.skipped;
   }
   for (auto& [channel, o] : outputs) {
     o.file.flush();

@@ -14,15 +14,15 @@ namespace lagrange::cli {
 void RequireLcmLog(const std::string& path);
 
 struct ChannelCsv {
-  std::string type;        // "state_t", ...
-  std::string path;        // the CSV written
+  std::string type;  // "state_t", ...
+  std::string path;  // the CSV written
   std::int64_t rows = 0;
   std::int64_t skipped = 0;  // messages that did not decode or changed num_dofs
 };
 
 struct LogToCsvResult {
-  std::map<std::string, ChannelCsv> written;           // by channel
-  std::map<std::string, std::int64_t> unknown;         // channel → messages of an unknown type
+  std::map<std::string, ChannelCsv> written;    // by channel
+  std::map<std::string, std::int64_t> unknown;  // channel → messages of an unknown type
 };
 
 // Decodes every event whose channel matches `channel_regex` (all when empty)

@@ -23,8 +23,8 @@ class Log2CsvCommand final : public Command {
           << " of a type that is not lagrange's\n";
     }
     if (r.written.empty()) {
-      throw std::runtime_error("no lagrange messages" + (channel_.empty() ? "" : " on channels matching '" + channel_ + "'") +
-                               " in " + log_);
+      throw std::runtime_error("no lagrange messages" +
+                               (channel_.empty() ? "" : " on channels matching '" + channel_ + "'") + " in " + log_);
     }
     for (const auto& [channel, c] : r.written) {
       out << c.path << ": " << c.rows << " rows of " << c.type;

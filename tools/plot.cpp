@@ -64,8 +64,9 @@ std::string Summary(const std::string& output) {
 class PlotCommand final : public Command {
  public:
   explicit PlotCommand(CLI::App& parent)
-      : Command(parent.add_subcommand("plot", "Plot q against q_des, torques, energy and tracking error (PNG); "
-                                              "lines break at a reset, a restart or a lost message")) {
+      : Command(parent.add_subcommand("plot",
+                                      "Plot q against q_des, torques, energy and tracking error (PNG); "
+                                      "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
     app_->add_option("--channel", channel_, "For a log: the *_STATE channel to plot (default: the first one)");
@@ -80,11 +81,12 @@ class PlotCommand final : public Command {
     if (IsLcmLog(input_)) {
       scratch = fs::temp_directory_path() / ("lagrangectl_plot_" + std::to_string(getpid()));
       const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
-      const auto it = std::find_if(r.written.begin(), r.written.end(),
-                                   [](const auto& e) { return e.second.type == "state_t"; });
+      const auto it =
+          std::find_if(r.written.begin(), r.written.end(), [](const auto& e) { return e.second.type == "state_t"; });
       if (it == r.written.end()) {
         fs::remove_all(scratch);
-        throw std::runtime_error("no state channel" + (channel_.empty() ? "" : " '" + channel_ + "'") + " in " + input_);
+        throw std::runtime_error("no state channel" + (channel_.empty() ? "" : " '" + channel_ + "'") + " in " +
+                                 input_);
       }
       csv = it->second.path;
       title += " : " + it->first;
@@ -93,7 +95,8 @@ class PlotCommand final : public Command {
     }
     const auto [status, err] = RunPlotScript(csv, png, title);
     if (!scratch.empty()) fs::remove_all(scratch);
-    if (status == 127) throw std::runtime_error("plot needs python3 with matplotlib (scripts/setup-deps installs them)");
+    if (status == 127)
+      throw std::runtime_error("plot needs python3 with matplotlib (scripts/setup-deps installs them)");
     if (status != 0) {
       std::string why = LastLine(err);
       if (why.rfind("plot: ", 0) == 0) why = why.substr(6);

@@ -95,8 +95,8 @@ class SendCommand final : public Command {
     // The second status after the stream was made at least one status period
     // after the last setpoint arrived, so it counts all of them.
     const std::int64_t statuses_at_end = link.statuses_received();
-    const bool counted = link.PumpUntil([&] { return link.statuses_received() >= statuses_at_end + 2; },
-                                        std::max(bus_.wait, 0.5));
+    const bool counted =
+        link.PumpUntil([&] { return link.statuses_received() >= statuses_at_end + 2; }, std::max(bus_.wait, 0.5));
     if (!counted) {
       throw std::runtime_error("sent " + std::to_string(sent) + " setpoints, but no status from lagranged (run " +
                                RunIdText(link.run_id()) + ") came within " + FormatDouble(std::max(bus_.wait, 0.5)) +
@@ -115,8 +115,9 @@ class SendCommand final : public Command {
                                std::to_string(sent) + " setpoints sent on " + channel);
     }
     if (state.mode != state_t::MODE_RUNNING) {
-      throw std::runtime_error(instance_ + " is in " + ModeName(state.mode) + " mode, not running: lagranged accepted " +
-                               std::to_string(accepted) + " setpoints but does not follow them" +
+      throw std::runtime_error(instance_ + " is in " + ModeName(state.mode) +
+                               " mode, not running: lagranged accepted " + std::to_string(accepted) +
+                               " setpoints but does not follow them" +
                                (state.mode == state_t::MODE_ESTOP    ? " (command " + instance_ + " clear)"
                                 : state.mode == state_t::MODE_PAUSED ? " (command " + instance_ + " resume)"
                                 : state.mode == state_t::MODE_FAULT  ? " (command " + instance_ + " reset)"
@@ -156,7 +157,8 @@ class SendCommand final : public Command {
     setpoint_t msg;
     msg.num_dofs = n;
     const auto start = std::chrono::steady_clock::now();
-    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate_));
+    const auto period =
+        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate_));
     std::int64_t sent = 0;
     for (auto next = start; !Interrupted(); next += period) {
       const double t = std::chrono::duration<double>(next - start).count();

@@ -43,7 +43,8 @@ void WriteRow(std::ostream& out, Instance& inst) {
 
 // One line for a fault: which instance, when, why, and where its CSV stops.
 std::string FaultLine(Instance& inst, const OfflineFault& f) {
-  std::string line = "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
+  std::string line =
+      "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
   if (f.reason == kEnergyOutOfBound) line += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
   return line + "; its CSV ends at t = " + FormatDouble(inst.t()) + " s, the last healthy step";
 }

@@ -90,7 +90,8 @@ class ByRun {
     if (it == entries_.end()) {
       if (entries_.size() >= kMaxRunsShown) {  // forget the run heard from least recently
         auto oldest = entries_.begin();
-        for (auto e = entries_.begin(); e != entries_.end(); ++e) oldest = e->second.received < oldest->second.received ? e : oldest;
+        for (auto e = entries_.begin(); e != entries_.end(); ++e)
+          oldest = e->second.received < oldest->second.received ? e : oldest;
         entries_.erase(oldest);
       }
       it = entries_.emplace(message.run_id, Entry{}).first;
@@ -113,7 +114,8 @@ class ByRun {
 class WatchCommand final : public Command {
  public:
   explicit WatchCommand(CLI::App& parent)
-      : Command(parent.add_subcommand("watch", "Live view of every instance and the loop's timing (q or Ctrl-C quits)")) {
+      : Command(
+            parent.add_subcommand("watch", "Live view of every instance and the loop's timing (q or Ctrl-C quits)")) {
     app_->add_option("--instance", only_, "Show only these instances (repeatable)");
     app_->add_option("--rate", rate_, "Refreshes per second")->check(PositiveNumber(50.0))->capture_default_str();
     app_->add_option("--frames", frames_, "Draw this many frames and exit (default: until q or Ctrl-C)")
@@ -171,7 +173,8 @@ class WatchCommand final : public Command {
     bus_handle_->Handle(timeout_ms);
     for (const auto* e : statuses_.Latest()) {
       for (const std::string& name : e->message.instance_names) {
-        if (only_.empty() && !instances_.count(name) && instances_.size() < kMaxInstances && PlausibleInstanceName(name)) {
+        if (only_.empty() && !instances_.count(name) && instances_.size() < kMaxInstances &&
+            PlausibleInstanceName(name)) {
           SubscribeInstance(name);
         }
       }
@@ -181,16 +184,19 @@ class WatchCommand final : public Command {
   void SubscribeInstance(const std::string& name) {
     if (instances_.count(name)) return;
     ByRun<state_t>* runs = &instances_[name];
-    bus_handle_->Subscribe(bus_.Channel(name, kStateSuffix), [runs](std::string_view, const std::uint8_t* d, std::size_t n) {
-      state_t msg;
-      if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n)) return;
-      runs->Add(std::move(msg), std::chrono::steady_clock::now());
-    });
+    bus_handle_->Subscribe(
+        bus_.Channel(name, kStateSuffix), [runs](std::string_view, const std::uint8_t* d, std::size_t n) {
+          state_t msg;
+          if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
+            return;
+          runs->Add(std::move(msg), std::chrono::steady_clock::now());
+        });
   }
 
   void OnStatus(const std::uint8_t* data, std::size_t size) {
     status_t msg;
-    if (CheckStatusPacket(data, size) != WireCheck::kOk || msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+    if (CheckStatusPacket(data, size) != WireCheck::kOk ||
+        msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
       return;
     }
     statuses_.Add(std::move(msg), std::chrono::steady_clock::now());
@@ -231,8 +237,10 @@ class WatchCommand final : public Command {
       const double age = Age(e->received, now);
       if (age > kStale && e != latest.front()) continue;  // an old run superseded by another
       f << "\n" << Escape(name) << "   ";
-      if (age > kStale) f << "STALE (no state for " << F(age, 1) << " s; was " << ModeName(st.mode) << ")";
-      else f << ModeName(st.mode);
+      if (age > kStale)
+        f << "STALE (no state for " << F(age, 1) << " s; was " << ModeName(st.mode) << ")";
+      else
+        f << ModeName(st.mode);
       f << "   " << Escape(st.controller) << "   t " << F(st.t, 3) << " s   T " << F(st.kinetic_energy) << " J   V "
         << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
         << RunIdText(st.run_id) << "\n";
@@ -251,7 +259,8 @@ class WatchCommand final : public Command {
     const auto statuses = statuses_.Latest();
     for (const auto* e : statuses) {
       const double age = Age(e->received, now);
-      if (age > kStale && e != statuses.front()) continue;  // a dead run after a restart: shown only while nothing newer speaks
+      if (age > kStale && e != statuses.front())
+        continue;  // a dead run after a restart: shown only while nothing newer speaks
       DaemonLines(f, e->message, age);
     }
     for (const auto& [name, runs] : instances_) {

@@ -13,8 +13,8 @@
 namespace lagrange::testing {
 
 struct ClosedLoop {
-  ClosedLoop(const PlantSpec& plant, std::unique_ptr<Controller> c, const VectorXd& q0,
-             EffectsConfig effects = {}, int substeps = 1)
+  ClosedLoop(const PlantSpec& plant, std::unique_ptr<Controller> c, const VectorXd& q0, EffectsConfig effects = {},
+             int substeps = 1)
       : model(MakeDynamics(plant, FastestMethod(plant.type())), std::move(effects)),
         controller(std::move(c)),
         q(q0),

@@ -45,7 +45,8 @@ TEST(ComputedTorque, ExactModelErrorFollowsTheSecondOrderResponseOfItsGains) {
   // response tightens with the tick: 1 ms within 2 %, 0.1 ms within 0.2 % of e0.
   for (const auto& [tick, tolerance] : {std::pair{1e-3, 2e-2}, std::pair{1e-4, 2e-3}}) {
     const VectorXd target = Vec2(0.5, -0.3), e0 = Vec2(0.2, -0.15);
-    ClosedLoop loop(arm, MakeController(Joint(ControllerType::kComputedTorque, kp, kd), arm, VectorXd::Constant(2, kInf)),
+    ClosedLoop loop(arm,
+                    MakeController(Joint(ControllerType::kComputedTorque, kp, kd), arm, VectorXd::Constant(2, kInf)),
                     target - e0);
     loop.setpoint.q = target;
     double worst = 0.0;
@@ -82,16 +83,16 @@ TEST(ComputedTorque, TenPercentMassErrorKeepsTrackingErrorBounded) {
         const double e = std::max(std::abs(0.3 + s - loop.q[0]), std::abs(0.4 + s - loop.q[1]));
         (t < 10.0 ? first_half : second_half) = std::max(t < 10.0 ? first_half : second_half, e);
       }));
-  EXPECT_LT(second_half, 0.05);               // bounded, small next to the 0.5 rad motion
-  EXPECT_LT(second_half, 1.5 * first_half);   // and not growing
-  EXPECT_GT(second_half, 1e-5);               // the model error is felt
+  EXPECT_LT(second_half, 0.05);              // bounded, small next to the 0.5 rad motion
+  EXPECT_LT(second_half, 1.5 * first_half);  // and not growing
+  EXPECT_GT(second_half, 1e-5);              // the model error is felt
 }
 
 TEST(GravityCompensation, PdPlusGravityCompensationReachesAStepWithoutSteadyStateError) {
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
-  ClosedLoop loop(arm, MakeController(Joint(ControllerType::kGravityCompensation, 60.0, 8.0), arm,
-                                      VectorXd::Constant(2, kInf)),
-                  Vec2(0.0, 0.0));
+  ClosedLoop loop(
+      arm, MakeController(Joint(ControllerType::kGravityCompensation, 60.0, 8.0), arm, VectorXd::Constant(2, kInf)),
+      Vec2(0.0, 0.0));
   loop.setpoint.q = Vec2(1.0, -0.5);
   ASSERT_TRUE(loop.Run(10.0, 1e-3));
   EXPECT_LT((loop.setpoint.q - loop.q).lpNorm<Eigen::Infinity>(), 1e-8);
@@ -115,9 +116,9 @@ TEST(GravityCompensation, PlainPdKeepsTheOffsetGravityOverKp) {
 
 TEST(GravityCompensation, GravityCompensationAloneHoldsAnyPose) {
   const PlantSpec chain = DefaultPlantSpec(PlantType::kChain);
-  ClosedLoop loop(chain, MakeController(Joint(ControllerType::kGravityCompensation, 0.0, 0.0), chain,
-                                        VectorXd::Constant(2, kInf)),
-                  Vec2(0.7, -1.1));
+  ClosedLoop loop(
+      chain, MakeController(Joint(ControllerType::kGravityCompensation, 0.0, 0.0), chain, VectorXd::Constant(2, kInf)),
+      Vec2(0.7, -1.1));
   const VectorXd q0 = loop.q;
   ASSERT_TRUE(loop.Run(3.0, 1e-3));
   EXPECT_LT((loop.q - q0).lpNorm<Eigen::Infinity>(), 1e-9);
@@ -140,7 +141,8 @@ TEST(Pd, AngleErrorsAreWrappedToMinusPiPi) {
 TEST(Limits, TorqueLimitsApplyAfterEveryController) {
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
   const VectorXd limits = Vec2(2.0, 0.5);
-  for (ControllerType type : {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
+  for (ControllerType type :
+       {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
     auto c = MakeController(Joint(type, 1000.0, 10.0), arm, limits);
     Setpoint sp(2);
     sp.q = Vec2(3.0, -3.0);
@@ -154,7 +156,8 @@ TEST(Limits, TorqueLimitsApplyAfterEveryController) {
 
 TEST(Faults, ANonFiniteLawReportsAFaultAndOutputsZeros) {
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
-  for (ControllerType type : {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
+  for (ControllerType type :
+       {ControllerType::kPd, ControllerType::kGravityCompensation, ControllerType::kComputedTorque}) {
     auto c = MakeController(Joint(type, 10.0, 1.0), arm, VectorXd::Constant(2, kInf));
     Setpoint sp(2);
     sp.qd[1] = std::numeric_limits<double>::quiet_NaN();
@@ -195,9 +198,9 @@ TEST(Gains, TheLargestAllowedGainsDoNotFaultTheArmAndTenTimesTheBoundIsRefused) 
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
   constexpr double kTick = 1e-3;
   const VectorXd q0 = Vec2(0.7853981633974483, 0.0);  // config/default.yaml's arm
-  const double max_energy = DefaultMaxEnergy(arm);  // above it the runtime faults the instance
-  for (ControllerType type : {ControllerType::kComputedTorque, ControllerType::kPd,
-                              ControllerType::kGravityCompensation}) {
+  const double max_energy = DefaultMaxEnergy(arm);    // above it the runtime faults the instance
+  for (ControllerType type :
+       {ControllerType::kComputedTorque, ControllerType::kPd, ControllerType::kGravityCompensation}) {
     ControllerConfig c = Joint(type, 0.0, 0.0);
     c.period = kTick;
     c.q0 = q0;
@@ -247,8 +250,10 @@ TEST(Gains, PerJointMassDiagonalBoundsWouldFaultTheArm) {
   loop.setpoint.q = q0 + Vec2(0.1, -0.1);
   double peak_energy = 0.0;
   loop.Run(2.0, kTick, nullptr, [&](double) {
-    if (loop.q.allFinite() && loop.qd.allFinite()) peak_energy = std::max(peak_energy, loop.model.Energy(loop.q, loop.qd));
-    else peak_energy = kInf;
+    if (loop.q.allFinite() && loop.qd.allFinite())
+      peak_energy = std::max(peak_energy, loop.model.Energy(loop.q, loop.qd));
+    else
+      peak_energy = kInf;
   });
   EXPECT_GT(peak_energy, DefaultMaxEnergy(arm));
 }

@@ -40,7 +40,8 @@ TEST(Riccati, ScalarSystemMatchesTheClosedForm) {
 
 TEST(Riccati, DoubleIntegratorMatchesTheClosedForm) {
   // q̈ = u, Q = I, R = 1: K = [1, √3].
-  const LqrResult res = LinearQuadraticRegulator(M({{0, 1}, {0, 0}}), M({{0}, {1}}), MatrixXd::Identity(2, 2), M({{1}}));
+  const LqrResult res =
+      LinearQuadraticRegulator(M({{0, 1}, {0, 0}}), M({{0}, {1}}), MatrixXd::Identity(2, 2), M({{1}}));
   EXPECT_NEAR(res.K(0, 0), 1.0, 1e-10);
   EXPECT_NEAR(res.K(0, 1), std::sqrt(3.0), 1e-10);
 }
@@ -203,7 +204,7 @@ TEST(CartPolePd, TheArticlesExerciseBalancesAndTheCartMustMove) {
   double farthest = 0.0;
   ASSERT_TRUE(loop.Run(20.0, 1e-3, nullptr, [&](double) { farthest = std::max(farthest, std::abs(loop.q[0])); }));
   EXPECT_LT(std::abs(JointError(JointType::kRevolute, kPi, loop.q[1])), 1e-3);
-  EXPECT_GT(farthest, 0.1);  // the cart travels to catch the pole ...
+  EXPECT_GT(farthest, 0.1);              // the cart travels to catch the pole ...
   EXPECT_LT(std::abs(loop.q[0]), 1e-2);  // ... and comes home
   // Positive x gains (the intuitive sign) make the cart run away instead.
   c.gains.kp[0] = 1.0;

@@ -9,13 +9,13 @@
 // with a bound, and nothing counts messages or measures time.
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
-#include <signal.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -101,10 +101,12 @@ class BusCollector {
   template <class T>
   bool WaitForLatest(const std::string& channel, const std::function<bool(const T&)>& predicate,
                      double timeout_s = kWait) {
-    return testing::WaitUntil([&] {
-      const std::optional<T> m = Latest<T>(channel);
-      return m && predicate(*m);
-    }, timeout_s);
+    return testing::WaitUntil(
+        [&] {
+          const std::optional<T> m = Latest<T>(channel);
+          return m && predicate(*m);
+        },
+        timeout_s);
   }
   BusStats stats() const { return bus_->stats(); }
 
@@ -264,7 +266,8 @@ TEST_F(Attack, A256MiBFragmentPinsNoMemory) {
   const long rss_after = daemon_->ResidentKiB();
   EXPECT_TRUE(daemon_->Running());
   if (testing::kResidentSizeMeaningful) {
-    EXPECT_LT(rss_after - rss_before, kMemoryGrowthKiB) << "KiB resident before " << rss_before << ", after " << rss_after;
+    EXPECT_LT(rss_after - rss_before, kMemoryGrowthKiB)
+        << "KiB resident before " << rss_before << ", after " << rss_after;
   }
   Stop();
 }
@@ -305,17 +308,23 @@ TEST_F(AttackFlood, EstopLandsUnderCommandFlood) {
   for (int round = 0; round < 5 || std::chrono::steady_clock::now() - flood_start < std::chrono::seconds(2); ++round) {
     command_t clear = Command(command_t::CLEAR_ESTOP);
     clear.request_id = ++next_request_id_;
-    ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_COMMAND", clear); }, [&] {
-      const auto s = outputs_->Latest<state_t>("ARM_STATE");
-      return s && s->mode != state_t::MODE_ESTOP;
-    }, kWait)) << "round " << round;
+    ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_COMMAND", clear); },
+                                   [&] {
+                                     const auto s = outputs_->Latest<state_t>("ARM_STATE");
+                                     return s && s->mode != state_t::MODE_ESTOP;
+                                   },
+                                   kWait))
+        << "round " << round;
     command_t estop = Command(command_t::ESTOP);
     estop.request_id = ++next_request_id_;
     estops.push_back(estop.request_id);
-    ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_COMMAND", estop); }, [&] {
-      const auto s = outputs_->Latest<state_t>("ARM_STATE");
-      return s && s->mode == state_t::MODE_ESTOP;
-    }, kWait)) << "estop " << round << " did not land";
+    ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_COMMAND", estop); },
+                                   [&] {
+                                     const auto s = outputs_->Latest<state_t>("ARM_STATE");
+                                     return s && s->mode == state_t::MODE_ESTOP;
+                                   },
+                                   kWait))
+        << "estop " << round << " did not land";
   }
   flooding = false;
   flood.join();
@@ -328,7 +337,8 @@ TEST_F(AttackFlood, EstopLandsUnderCommandFlood) {
     EXPECT_EQ(r.reason.find("queue is full"), std::string::npos) << r.request_id << ": " << r.reason;
   }
   std::int64_t queue_full = 0;
-  for (const reply_t& r : outputs_->Decoded<reply_t>("ARM_REPLY")) queue_full += r.reason == "the command queue is full";
+  for (const reply_t& r : outputs_->Decoded<reply_t>("ARM_REPLY"))
+    queue_full += r.reason == "the command queue is full";
   RecordProperty("queue_full_replies", static_cast<int>(queue_full));
   RecordProperty("estops", static_cast<int>(estops.size()));
   RecordProperty("estop_replies_received", static_cast<int>(estop_replies));
@@ -344,10 +354,13 @@ TEST_F(Attack, ForeignPublisherIsCounted) {
   spoof.run_id = kForeignRunId;
   spoof.num_dofs = 0;
   spoof.controller = "pd";
-  ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_STATE", spoof); }, [&] {
-    const status_t s = LastStatus();
-    return s.foreign_messages > 0 && s.last_foreign_run_id == kForeignRunId;
-  }, kWait)) << "foreign_messages " << LastStatus().foreign_messages;
+  ASSERT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_STATE", spoof); },
+                                 [&] {
+                                   const status_t s = LastStatus();
+                                   return s.foreign_messages > 0 && s.last_foreign_run_id == kForeignRunId;
+                                 },
+                                 kWait))
+      << "foreign_messages " << LastStatus().foreign_messages;
   // And its own messages are not: everything counted came from this test.
   const std::int64_t run_id = outputs_->Latest<state_t>("ARM_STATE").value_or(state_t{}).run_id;
   EXPECT_NE(run_id, kForeignRunId);
@@ -411,7 +424,8 @@ TEST_F(AttackFlood, CommandRefusalFloodKeepsTheStartupLines) {
   const std::string text = LogText(log);
   EXPECT_NE(text.find("instance(s) at 1000 Hz"), std::string::npos);
   std::int64_t refusal_lines = 0;
-  for (const std::string& line : testing::Lines(text)) refusal_lines += line.find("command rejected") != std::string::npos;
+  for (const std::string& line : testing::Lines(text))
+    refusal_lines += line.find("command rejected") != std::string::npos;
   EXPECT_GE(refusal_lines, 1);
   EXPECT_LE(refusal_lines, static_cast<std::int64_t>(seconds) + 2) << "over " << seconds << " s";
   fs::remove(log);
@@ -428,12 +442,13 @@ TEST_F(Attack, SeparateInputBusKeepsOutputsClean) {
   std::unique_ptr<Bus> input = OpenBus(in_url);
   // A setpoint on the input bus moves the arm (its state on the output bus).
   const std::vector<double> target = {0.5, 0.4};
-  EXPECT_TRUE(testing::SendUntil([&] { input->PublishMessage("ARM_SETPOINT", testing::MakeSetpoint(target, WallMicros())); },
-                                 [&] {
-                                   const auto s = outputs.Latest<state_t>("ARM_STATE");
-                                   return s && std::abs(s->q[0] - target[0]) < 1e-3 && std::abs(s->q[1] - target[1]) < 1e-3;
-                                 },
-                                 kWait, 0.1));
+  EXPECT_TRUE(
+      testing::SendUntil([&] { input->PublishMessage("ARM_SETPOINT", testing::MakeSetpoint(target, WallMicros())); },
+                         [&] {
+                           const auto s = outputs.Latest<state_t>("ARM_STATE");
+                           return s && std::abs(s->q[0] - target[0]) < 1e-3 && std::abs(s->q[1] - target[1]) < 1e-3;
+                         },
+                         kWait, 0.1));
   // A malformed flood on the input bus: not LCM at all, LC02 garbage on our channels, bad setpoints.
   testing::RawUdpSender raw(testing::kTestLcmGroup, 7947);
   std::mt19937 rng{42};
@@ -448,9 +463,8 @@ TEST_F(Attack, SeparateInputBusKeepsOutputsClean) {
     }
     if (k % 50 == 49) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  EXPECT_TRUE(outputs.WaitForLatest<status_t>("LAGRANGE_STATUS", [](const status_t& s) {
-    return s.decode_errors > 0 && s.datagrams_malformed > 0;
-  }));
+  EXPECT_TRUE(outputs.WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return s.decode_errors > 0 && s.datagrams_malformed > 0; }));
   daemon.Signal(SIGTERM);
   EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
   // Every datagram on the output bus was a message on one of lagranged's own channels.

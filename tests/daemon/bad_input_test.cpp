@@ -7,12 +7,12 @@
 // counts live in bridge_test.cpp, timing in bench/.
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
-#include <signal.h>
 
 #include <chrono>
 #include <cmath>
@@ -50,9 +50,8 @@ status_t LastStatus(LcmCollector& c) { return c.Decoded<status_t>("LAGRANGE_STAT
 
 // Waits for a status published after `after_us` (wall clock).
 status_t StatusAfter(LcmCollector& c, std::int64_t after_us) {
-  EXPECT_TRUE(c.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-    return s.utime > after_us;
-  }, kWait));
+  EXPECT_TRUE(c.WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [&](const status_t& s) { return s.utime > after_us; }, kWait));
   return LastStatus(c);
 }
 
@@ -100,11 +99,13 @@ class BadInput : public ::testing::Test {
     collector_ = std::make_unique<LcmCollector>(url_, ".*_STATE|.*_REPLY|LAGRANGE_STATUS");
     // Run as in service: the tick thread above the receive thread (lagranged warns and runs
     // on where real-time scheduling is not permitted).
-    std::vector<std::string> argv = {LAGRANGED_PATH, "--lcm-url", url_, "--log-level", "error", "--rt-priority",
-                                     std::to_string(kRtPriority), "--mlockall"};
+    std::vector<std::string> argv = {
+        LAGRANGED_PATH, "--lcm-url", url_, "--log-level", "error", "--rt-priority", std::to_string(kRtPriority),
+        "--mlockall"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     daemon_ = std::make_unique<BackgroundProcess>(argv);
-    ASSERT_TRUE(collector_->WaitFor("LAGRANGE_STATUS", [](const auto& m) { return m.size() >= 2; }, kWait));
+    ASSERT_TRUE(collector_->WaitFor(
+        "LAGRANGE_STATUS", [](const auto& m) { return m.size() >= 2; }, kWait));
     sender_ = std::make_unique<lcm::LCM>(url_);
   }
   void TearDown() override {
@@ -128,8 +129,15 @@ TEST_F(BadInput, BadValuesMalformedPacketsAndRandomBytesAreRefusedAndHarmless) {
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   const double snan = std::numeric_limits<double>::signaling_NaN();
   const std::vector<setpoint_t> bad_values = {
-      Setpoint({nan, 0.1}), Setpoint({inf, 0.1}), Setpoint({0.1, 0.2}, {-inf, 0.0}), Setpoint({0.1, 0.2}, {}, {0.0, snan}),
-      Setpoint({1e300, 0.1}), Setpoint({0.1, 0.2}, {1e300, 0.0}), Setpoint({0.1, 0.2, 0.3}), Setpoint({0.1}), Setpoint({}),
+      Setpoint({nan, 0.1}),
+      Setpoint({inf, 0.1}),
+      Setpoint({0.1, 0.2}, {-inf, 0.0}),
+      Setpoint({0.1, 0.2}, {}, {0.0, snan}),
+      Setpoint({1e300, 0.1}),
+      Setpoint({0.1, 0.2}, {1e300, 0.0}),
+      Setpoint({0.1, 0.2, 0.3}),
+      Setpoint({0.1}),
+      Setpoint({}),
   };
   for (const setpoint_t& s : bad_values) Send("ARM_SETPOINT", Encode(s));
 
@@ -158,9 +166,8 @@ TEST_F(BadInput, BadValuesMalformedPacketsAndRandomBytesAreRefusedAndHarmless) {
     Send(channel, Encode(state));
   }
   // Refused and counted (how many arrived is UDP's business; bridge_test counts them exactly).
-  EXPECT_TRUE(collector_->WaitForLatest<status_t>("LAGRANGE_STATUS", [](const status_t& s) {
-    return s.setpoints_rejected > 0 && s.decode_errors > 0;
-  }, kWait));
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return s.setpoints_rejected > 0 && s.decode_errors > 0; }, kWait));
   status_t s = LastStatus(*collector_);
   EXPECT_EQ(s.setpoints_accepted, 0);
   EXPECT_EQ(s.commands_accepted, 0);
@@ -213,9 +220,10 @@ TEST_F(BadInput, AFloodOf50000SetpointsPerSecondChangesNothingButTheSetpoint) {
     EXPECT_LT(daemon_->ResidentKiB() - rss_before, kMemoryGrowthKiB);
   }
   // It followed the setpoint (then holds there once the stream stopped).
-  EXPECT_TRUE(collector_->WaitForLatest<state_t>("ARM_STATE", [](const state_t& s) {
-    return std::abs(s.q[0] - 0.6) < 1e-3 && std::abs(s.q[1] - 0.3) < 1e-3;
-  }, kWait)) << "arm at " << collector_->Decoded<state_t>("ARM_STATE").back().q[0];
+  EXPECT_TRUE(collector_->WaitForLatest<state_t>(
+      "ARM_STATE", [](const state_t& s) { return std::abs(s.q[0] - 0.6) < 1e-3 && std::abs(s.q[1] - 0.3) < 1e-3; },
+      kWait))
+      << "arm at " << collector_->Decoded<state_t>("ARM_STATE").back().q[0];
   ExpectWellFormed(*collector_, "ARM_STATE");
   ExpectCartPoleUndisturbed(*collector_);
 }
@@ -251,17 +259,24 @@ class BadCommands : public BadInput {
   // Sends `c` (again, every 0.25 s) until the latest state of `instance` satisfies `predicate`.
   void SendUntilState(const std::string& instance, command_t c, const std::function<bool(const state_t&)>& predicate) {
     c.request_id = ++next_request_id_;
-    EXPECT_TRUE(testing::SendUntil([&] { Send(instance + "_COMMAND", Encode(c)); }, [&] {
-      const auto states = collector_->Decoded<state_t>(instance + "_STATE");
-      return !states.empty() && predicate(states.back());
-    }, kWait)) << instance << ": command " << static_cast<int>(c.command) << " had no effect";
+    EXPECT_TRUE(testing::SendUntil([&] { Send(instance + "_COMMAND", Encode(c)); },
+                                   [&] {
+                                     const auto states = collector_->Decoded<state_t>(instance + "_STATE");
+                                     return !states.empty() && predicate(states.back());
+                                   },
+                                   kWait))
+        << instance << ": command " << static_cast<int>(c.command) << " had no effect";
   }
   state_t AwaitState(const std::string& channel, const std::function<bool(const state_t&)>& predicate) {
     state_t found;
-    EXPECT_TRUE(collector_->WaitForLatest<state_t>(channel, [&](const state_t& s) {
-      found = s;
-      return predicate(s);
-    }, kWait)) << channel << ": last seen mode " << static_cast<int>(found.mode) << " t " << found.t;
+    EXPECT_TRUE(collector_->WaitForLatest<state_t>(
+        channel,
+        [&](const state_t& s) {
+          found = s;
+          return predicate(s);
+        },
+        kWait))
+        << channel << ": last seen mode " << static_cast<int>(found.mode) << " t " << found.t;
     return found;
   }
   std::int64_t next_request_id_ = 0x7843000;
@@ -280,7 +295,8 @@ TEST_F(BadCommands, UnknownControllersAndBadGainsAreRefusedWithReasons) {
       {"ARM", Command(command_t::SET_GAINS, "", {-5.0, 2.0}, {1.0, 1.0}),
        "gains for computed-torque: kp: expected finite gains >= 0"},
       {"ARM", Command(command_t::SET_GAINS, "lqr", {1.0, 2.0}, {1.0, 1.0}), "unknown controller 'lqr'"},
-      {"CARTPOLE", Command(command_t::SET_GAINS, "", {1.0, 2.0}, {1.0, 1.0}), "gains for lqr: lqr has no adjustable gains"},
+      {"CARTPOLE", Command(command_t::SET_GAINS, "", {1.0, 2.0}, {1.0, 1.0}),
+       "gains for lqr: lqr has no adjustable gains"},
       {"ARM", Command(42), "unknown command 42"},
   };
   for (const Case& c : cases) {
@@ -290,9 +306,10 @@ TEST_F(BadCommands, UnknownControllersAndBadGainsAreRefusedWithReasons) {
     // The status names the instance and the same reason.
     std::string instance = c.instance;
     for (char& ch : instance) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    EXPECT_TRUE(collector_->WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-      return s.last_command_error.rfind(instance + ": " + c.why, 0) == 0;
-    }, kWait)) << LastStatus(*collector_).last_command_error;
+    EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+        "LAGRANGE_STATUS",
+        [&](const status_t& s) { return s.last_command_error.rfind(instance + ": " + c.why, 0) == 0; }, kWait))
+        << LastStatus(*collector_).last_command_error;
   }
   EXPECT_EQ(LastStatus(*collector_).commands_accepted, 0);
   EXPECT_EQ(AwaitState("ARM_STATE", [](const state_t&) { return true; }).controller, "computed-torque");
@@ -312,7 +329,8 @@ TEST_F(BadCommands, EmergencyStopDuringSwingUpBrakesTheCartPoleAndClears) {
     ASSERT_NE(s.mode, state_t::MODE_FAULT);
     ASSERT_TRUE(std::isfinite(s.q[0] + s.q[1] + s.qd[0] + s.qd[1] + s.tau[0]));
   }
-  SendUntilState("CARTPOLE", Command(command_t::CLEAR_ESTOP), [](const state_t& s) { return s.mode == state_t::MODE_HOLD; });
+  SendUntilState("CARTPOLE", Command(command_t::CLEAR_ESTOP),
+                 [](const state_t& s) { return s.mode == state_t::MODE_HOLD; });
 }
 
 TEST_F(BadCommands, ResetClearsAFaultedInstanceAndTheOtherRunsThrough) {
@@ -346,13 +364,18 @@ instances:
       state_t s;
       if (s.decode(m.data.data(), 0, static_cast<int>(m.data.size())) < 0) continue;
       if (s.mode == state_t::MODE_FAULT) faulted_before = true;
-      if (faulted_before && s.mode == state_t::MODE_RUNNING && s.t <= 0.005 && std::abs(s.q[0] - 0.5) < 1e-2) return true;
+      if (faulted_before && s.mode == state_t::MODE_RUNNING && s.t <= 0.005 && std::abs(s.q[0] - 0.5) < 1e-2)
+        return true;
     }
     return false;
   };
-  EXPECT_TRUE(collector_->WaitForLatest<status_t>("LAGRANGE_STATUS", [](const status_t& s) {
-    return s.last_command_error == "arm: estop: the instance is faulted (frozen); reset it";
-  }, kWait)) << LastStatus(*collector_).last_command_error;
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS",
+      [](const status_t& s) {
+        return s.last_command_error == "arm: estop: the instance is faulted (frozen); reset it";
+      },
+      kWait))
+      << LastStatus(*collector_).last_command_error;
   const command_t reset = Command(command_t::RESET);
   EXPECT_TRUE(testing::SendUntil([&] { Send("ARM_COMMAND", Encode(reset)); },
                                  [&] { return restarted(collector_->Messages("ARM_STATE")); }, kWait));

@@ -165,7 +165,8 @@ class Bridge : public ::testing::Test {
     }
     EXPECT_EQ(stats_.setpoints_rejected.load(), bad);
     EXPECT_EQ(stats_.setpoints_accepted.load(), 200);
-    for (int j = 0; j < 2; ++j) EXPECT_NEAR(last_state_.q[static_cast<std::size_t>(j)], target[static_cast<std::size_t>(j)], kSettled);
+    for (int j = 0; j < 2; ++j)
+      EXPECT_NEAR(last_state_.q[static_cast<std::size_t>(j)], target[static_cast<std::size_t>(j)], kSettled);
   }
 
   // 10 000 commands ahead of whatever comes next (the queue holds 32; the rest are refused).
@@ -211,8 +212,8 @@ TEST_F(Bridge, EveryTruncationOfASetpointOrCommandIsExactlyOneDecodeError) {
   std::int64_t expected = 0;
   const Bytes setpoint = Encode(testing::MakeSetpoint({0.1, 0.2}, clock_.WallMicros()));
   const Bytes command = Encode(SetGainsCommand());
-  for (const auto& [channel, whole] : {std::pair{std::string("ARM_SETPOINT"), setpoint},
-                                       std::pair{std::string("ARM_COMMAND"), command}}) {
+  for (const auto& [channel, whole] :
+       {std::pair{std::string("ARM_SETPOINT"), setpoint}, std::pair{std::string("ARM_COMMAND"), command}}) {
     for (std::size_t len = 0; len < whole.size(); ++len) {
       Send(channel, Bytes(whole.begin(), whole.begin() + static_cast<long>(len)));
       ++expected;
@@ -310,13 +311,9 @@ TEST_F(Bridge, AStaleSetpointIsRefusedAndDoesNotSendTheInstanceToHold) {
   EXPECT_EQ(runtime_.mode(0), Mode::kHold);
 }
 
-TEST_F(Bridge, StalePacketsInterleavedWithAFreshStreamNeverCauseHold) {
-  StreamWithBadPacketsInterleaved();
-}
+TEST_F(Bridge, StalePacketsInterleavedWithAFreshStreamNeverCauseHold) { StreamWithBadPacketsInterleaved(); }
 
-TEST_F(StreamBridge, StalePacketsInterleavedWithAFreshStreamNeverCauseHold) {
-  StreamWithBadPacketsInterleaved();
-}
+TEST_F(StreamBridge, StalePacketsInterleavedWithAFreshStreamNeverCauseHold) { StreamWithBadPacketsInterleaved(); }
 
 TEST_F(StreamBridge, AFutureDatedSetpointMidStreamDoesNotLockOutTheStreamThatFollows) {
   for (int k = 0; k < 20; ++k) {
@@ -443,7 +440,7 @@ TEST_F(Bridge, EveryCommandGetsExactlyOneReplyWithItsRequestId) {
     }
   }
   EXPECT_EQ(last_state_.controller, "computed-torque");  // the reset
-  EXPECT_EQ(stats_.foreign_messages.load(), 0);  // our own replies, states and statuses are not foreign
+  EXPECT_EQ(stats_.foreign_messages.load(), 0);          // our own replies, states and statuses are not foreign
 }
 
 TEST_F(Bridge, ControlCharactersInAControllerNameAreEscapedInTheReplyAndTheStatus) {
@@ -471,7 +468,7 @@ TEST_F(Bridge, ControlCharactersInAControllerNameAreEscapedInTheReplyAndTheStatu
 
 TEST_F(Bridge, AnotherRunsMessageOnOurOutputChannelsIsCountedAndOursAreNot) {
   SendCommand(Command(command_t::SWITCH_CONTROLLER, 7, "mpc"));  // a reply from the receiver too
-  Ticks(300);  // 600 states, 3 statuses, a reply: all ours
+  Ticks(300);                                                    // 600 states, 3 statuses, a reply: all ours
   Receive();
   EXPECT_GT(states_, 0);
   EXPECT_EQ(stats_.foreign_messages.load(), 0);

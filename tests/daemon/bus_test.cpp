@@ -53,8 +53,8 @@ Bytes ShortDatagram(const std::string& channel, const Bytes& payload, std::uint3
 // first fragment then carries the channel and its NUL, then data.
 constexpr std::uint32_t kAttackSeqno = 7;
 constexpr std::uint32_t kAttackSize = 4096;
-Bytes FragmentDatagram(std::uint32_t msg_size, std::uint32_t offset, std::uint16_t fragment_no,
-                       std::uint16_t fragments, const std::string& channel, std::size_t data_size) {
+Bytes FragmentDatagram(std::uint32_t msg_size, std::uint32_t offset, std::uint16_t fragment_no, std::uint16_t fragments,
+                       const std::string& channel, std::size_t data_size) {
   Bytes out;
   PutBigEndian32(out, kFragmentMagic);
   PutBigEndian32(out, kAttackSeqno);

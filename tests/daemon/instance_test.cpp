@@ -24,8 +24,8 @@ std::vector<Instance> Load(const std::string& scene_file, double* period) {
 }
 
 double RunFor(std::vector<Instance>& instances, double period, double seconds, const StepObserver& observe = nullptr) {
-  EXPECT_TRUE(RunOffline(instances, period, std::llround(seconds / period),
-                         observe ? observe : [](std::size_t, Instance&) {}));
+  EXPECT_TRUE(RunOffline(
+      instances, period, std::llround(seconds / period), observe ? observe : [](std::size_t, Instance&) {}));
   return seconds;
 }
 
@@ -74,8 +74,8 @@ TEST(ShippedScenes, SevenLinkChainTracksItsMinimumJerkMove) {
   });
   instances[0].SampleTrajectory(sp);
   EXPECT_LT((sp.q - instances[0].q()).lpNorm<Eigen::Infinity>(), 1e-4);  // arrived
-  EXPECT_LT(worst, 1e-2);  // and tracked on the way
-  EXPECT_GT((sp.q - instances[0].config().q0).norm(), 1.0);  // it really moved
+  EXPECT_LT(worst, 1e-2);                                                // and tracked on the way
+  EXPECT_GT((sp.q - instances[0].config().q0).norm(), 1.0);              // it really moved
 }
 
 TEST(Instance, StepsAllocateNothingForEveryShippedScene) {
@@ -102,7 +102,8 @@ TEST(Instance, SwitchesBetweenItsConfiguredControllersByName) {
   double period = 0;
   auto instances = Load("default.yaml", &period);
   Instance& arm = instances[0];
-  EXPECT_EQ(arm.controller_names(), (std::vector<std::string>{"computed-torque", "pd", "gravity-compensation", "none"}));
+  EXPECT_EQ(arm.controller_names(),
+            (std::vector<std::string>{"computed-torque", "pd", "gravity-compensation", "none"}));
   EXPECT_FALSE(arm.SelectController("pd"));
   EXPECT_EQ(arm.controller().name(), "pd");
   const auto err = arm.SelectController("lqr");
@@ -127,10 +128,13 @@ TEST(Instance, ResetReturnsToTheInitialStateAtTimeZero) {
 
 // A scene's arm under PD with the given integrator and `continuous` flag.
 Instance ArmUnderPd(const std::string& integrator, bool continuous) {
-  const std::string yaml = "period: 0.001\ninstances:\n  - name: arm\n    plant: {type: arm2}\n"
-                           "    integrator: {type: " + integrator + "}\n"
-                           "    controller: {type: pd, kp: [50, 50], kd: [5, 5], continuous: " +
-                           (continuous ? "true" : "false") + "}\n";
+  const std::string yaml =
+      "period: 0.001\ninstances:\n  - name: arm\n    plant: {type: arm2}\n"
+      "    integrator: {type: " +
+      integrator +
+      "}\n"
+      "    controller: {type: pd, kp: [50, 50], kd: [5, 5], continuous: " +
+      (continuous ? "true" : "false") + "}\n";
   const Scene scene = ParseScene(yaml, "test");
   return Instance(scene.instances.at(0));
 }

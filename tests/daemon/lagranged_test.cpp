@@ -6,12 +6,12 @@
 // counts messages; the exact counts and protocol facts are in bridge_test.cpp.
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
-#include <signal.h>
 
 #include <atomic>
 #include <chrono>
@@ -37,8 +37,8 @@ using testing::BackgroundProcess;
 using testing::LcmCollector;
 using testing::WallMicros;
 
-constexpr double kWait = 30.0;      // s: bound on waiting for an effect; a pass takes far less
-constexpr double kSettled = 1e-3;   // rad: the arm at its setpoint
+constexpr double kWait = 30.0;     // s: bound on waiting for an effect; a pass takes far less
+constexpr double kSettled = 1e-3;  // rad: the arm at its setpoint
 
 bool Finite(const state_t& s) {
   bool ok = std::isfinite(s.t) && std::isfinite(s.kinetic_energy) && std::isfinite(s.potential_energy);
@@ -68,8 +68,9 @@ struct StopLine {
 StopLine ParseStopLine(const std::string& log) {
   std::smatch m;
   StopLine s;
-  if (std::regex_search(log, m, std::regex("stopped.* after ([0-9]+) ticks: [0-9]+ overruns, ([0-9]+) state messages "
-                                           "published, ([0-9]+) records dropped"))) {
+  if (std::regex_search(log, m,
+                        std::regex("stopped.* after ([0-9]+) ticks: [0-9]+ overruns, ([0-9]+) state messages "
+                                   "published, ([0-9]+) records dropped"))) {
     s.ticks = std::stol(m[1]);
     s.published = std::stol(m[2]);
     s.dropped = std::stol(m[3]);
@@ -92,7 +93,9 @@ class Lagranged : public ::testing::Test {
   }
   // Waits until the daemon publishes on `channel`.
   static void AwaitMessages(LcmCollector& c, const std::string& channel, std::size_t n = 10) {
-    ASSERT_TRUE(c.WaitFor(channel, [&](const auto& m) { return m.size() >= n; }, kWait)) << "no " << channel;
+    ASSERT_TRUE(c.WaitFor(
+        channel, [&](const auto& m) { return m.size() >= n; }, kWait))
+        << "no " << channel;
   }
   static setpoint_t Setpoint(std::vector<double> q, std::int64_t utime = WallMicros()) {
     return testing::MakeSetpoint(std::move(q), utime);
@@ -116,10 +119,13 @@ TEST_F(Lagranged, TheArmSettlesOnASetpointSentByAnotherProcess) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   });
-  const bool settled = states.WaitForLatest<state_t>("ARM_STATE", [&](const state_t& s) {
-    return s.mode == state_t::MODE_RUNNING && s.q_des == target && std::abs(s.q[0] - target[0]) < kSettled &&
-           std::abs(s.q[1] - target[1]) < kSettled && std::abs(s.qd[0]) < kSettled && std::abs(s.qd[1]) < kSettled;
-  }, kWait);
+  const bool settled = states.WaitForLatest<state_t>(
+      "ARM_STATE",
+      [&](const state_t& s) {
+        return s.mode == state_t::MODE_RUNNING && s.q_des == target && std::abs(s.q[0] - target[0]) < kSettled &&
+               std::abs(s.q[1] - target[1]) < kSettled && std::abs(s.qd[0]) < kSettled && std::abs(s.qd[1]) < kSettled;
+      },
+      kWait);
   done = true;
   stream.join();
   EXPECT_TRUE(settled);
@@ -173,17 +179,32 @@ TEST_F(Lagranged, BadSetpointsAreRejectedAndCountedWhileTheLoopKeepsRunning) {
   auto last_status = [&] { return collector.Decoded<status_t>("LAGRANGE_STATUS").back(); };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<std::pair<std::function<setpoint_t()>, std::string>> bad = {
-      {[&] { return Setpoint({0.1, nan}); }, "arm: non-finite value in q[1]"},
-      {[&] { return Setpoint({0.1, 0.2, 0.3}); }, "arm: num_dofs is 3, expected 2"},
-      {[&] { return Setpoint({0.1, 0.2}, WallMicros() - 10'000'000); }, "arm: stale: sent 10"},
-      {[&] { return Setpoint({10.0, 0.2}); }, "arm: q[0] = 10 is outside the setpoint limits [-3.1416, 3.1416]"},
+      {[&] {
+         return Setpoint({0.1, nan});
+       },
+       "arm: non-finite value in q[1]"},
+      {[&] {
+         return Setpoint({0.1, 0.2, 0.3});
+       },
+       "arm: num_dofs is 3, expected 2"},
+      {[&] {
+         return Setpoint({0.1, 0.2}, WallMicros() - 10'000'000);
+       },
+       "arm: stale: sent 10"},
+      {[&] {
+         return Setpoint({10.0, 0.2});
+       },
+       "arm: q[0] = 10 is outside the setpoint limits [-3.1416, 3.1416]"},
   };
   for (const auto& [make, why] : bad) {
     // Resent until a status shows it refused, with this reason.
-    ASSERT_TRUE(testing::SendUntil([&] {
-      const setpoint_t sp = make();
-      sender.publish("ARM_SETPOINT", &sp);
-    }, [&] { return last_status().last_rejection.rfind(why, 0) == 0; }, kWait)) << why << ": " << last_status().last_rejection;
+    ASSERT_TRUE(testing::SendUntil(
+        [&] {
+          const setpoint_t sp = make();
+          sender.publish("ARM_SETPOINT", &sp);
+        },
+        [&] { return last_status().last_rejection.rfind(why, 0) == 0; }, kWait))
+        << why << ": " << last_status().last_rejection;
   }
   // Packets that are not setpoints at all: decode errors, also counted.
   const std::uint8_t garbage[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
@@ -244,13 +265,16 @@ TEST_F(Lagranged, ChannelPrefixPutsEveryChannelUnderIt) {
   AwaitMessages(collector, "ROBOT7_ARM_STATE");
   AwaitMessages(collector, "ROBOT7_LAGRANGE_STATUS", 1);
   lcm::LCM sender(url_);
-  ASSERT_TRUE(testing::SendUntil([&] {
-    const setpoint_t sp = Setpoint({0.2, 0.1});
-    sender.publish("ROBOT7_ARM_SETPOINT", &sp);
-  }, [&] {
-    const auto states = collector.Decoded<state_t>("ROBOT7_ARM_STATE");
-    return !states.empty() && states.back().q_des[0] == 0.2;
-  }, kWait));
+  ASSERT_TRUE(testing::SendUntil(
+      [&] {
+        const setpoint_t sp = Setpoint({0.2, 0.1});
+        sender.publish("ROBOT7_ARM_SETPOINT", &sp);
+      },
+      [&] {
+        const auto states = collector.Decoded<state_t>("ROBOT7_ARM_STATE");
+        return !states.empty() && states.back().q_des[0] == 0.2;
+      },
+      kWait));
   EXPECT_EQ(collector.Count("ARM_STATE"), 0u);
   daemon->Signal(SIGINT);
   EXPECT_EQ(daemon->Wait(kWait), 0);
@@ -301,13 +325,15 @@ TEST_F(Lagranged, CommandsAreAnsweredWithTheirRequestIdSwitchStopAndAreRefusedWh
   const reply_t gains = request(command_t::SET_GAINS, "", {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0});
   EXPECT_FALSE(gains.accepted);
   EXPECT_EQ(gains.reason, "gains: num_gains is 3, expected 2");
-  EXPECT_TRUE(collector.WaitForLatest<status_t>("LAGRANGE_STATUS", [&](const status_t& s) {
-    return s.last_command_error == "arm: gains: num_gains is 3, expected 2" && s.commands_rejected >= 2;
-  }, kWait));
+  EXPECT_TRUE(collector.WaitForLatest<status_t>(
+      "LAGRANGE_STATUS",
+      [&](const status_t& s) {
+        return s.last_command_error == "arm: gains: num_gains is 3, expected 2" && s.commands_rejected >= 2;
+      },
+      kWait));
   request(command_t::RESET);
-  ASSERT_TRUE(await_state([](const state_t& s) {
-    return s.mode == state_t::MODE_RUNNING && s.controller == "computed-torque";
-  }));
+  ASSERT_TRUE(await_state(
+      [](const state_t& s) { return s.mode == state_t::MODE_RUNNING && s.controller == "computed-torque"; }));
   for (const reply_t& r : collector.Decoded<reply_t>("ARM_REPLY")) {
     EXPECT_EQ(r.run_id, collector.Decoded<state_t>("ARM_STATE").back().run_id);
   }
@@ -329,9 +355,12 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
   std::vector<std::string> argv;
   std::istringstream words(exec);
   for (std::string w; words >> w;) {
-    if (w == "/usr/local/bin/lagranged") w = LAGRANGED_PATH;
-    else if (w == "/usr/local/share/lagrange/config/default.yaml") w = std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml";
-    else if (w == "/var/log/lagrange/lagranged.log") w = log.string();
+    if (w == "/usr/local/bin/lagranged")
+      w = LAGRANGED_PATH;
+    else if (w == "/usr/local/share/lagrange/config/default.yaml")
+      w = std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml";
+    else if (w == "/var/log/lagrange/lagranged.log")
+      w = log.string();
     argv.push_back(w);
   }
   ASSERT_EQ(argv.front(), LAGRANGED_PATH);

@@ -32,7 +32,8 @@ instances:
     initial: {q: [0, 3.1]}
     controller: {type: lqr}
     setpoint: {q: [0, 3.141592653589793]}
-)", "inline");
+)",
+                    "inline");
 }
 
 class RuntimeTest : public ::testing::Test {
@@ -164,7 +165,7 @@ TEST_F(RuntimeTest, EmergencyStopBrakesTheJointsAndClearingHolds) {
   Ticks(1);
   EXPECT_EQ(Arm().mode, Mode::kEstop);
   Ticks(2000);
-  EXPECT_LT(Arm().qd.norm(), 0.2);  // braked (gravity still pulls it down slowly)
+  EXPECT_LT(Arm().qd.norm(), 0.2);      // braked (gravity still pulls it down slowly)
   SendCommand(0, CommandKind::kReset);  // reset keeps the emergency stop
   Ticks(1);
   EXPECT_EQ(Arm().mode, Mode::kEstop);
@@ -222,7 +223,8 @@ instances:
     effects: {limits: {lower: [-1], upper: [1], stiffness: 1.0e8, damping: 0}}
     integrator: {type: explicit-euler}
     max_energy: 1.0e300
-)", "inline"));
+)",
+                             "inline"));
   TickRecord record = runtime.MakeRecord();
   Nanoseconds now = 0;
   bool faulted = false;

@@ -64,7 +64,9 @@ TEST(InvalidScenes, EveryFixtureIsRefusedWithItsExpectedMessage) {
       const std::string what = e.what();
       EXPECT_EQ(e.file(), file.string());
       EXPECT_NE(what.find(expected), std::string::npos) << "got: " << what << "\nexpected: " << expected;
-      const bool positioned = std::regex_search(what, std::regex("^" + std::regex_replace(file.string(), std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") + ":[0-9]+:[0-9]+: "));
+      const bool positioned = std::regex_search(
+          what, std::regex("^" + std::regex_replace(file.string(), std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") +
+                           ":[0-9]+:[0-9]+: "));
       if (file.stem() != "empty") {
         EXPECT_TRUE(positioned) << what;
       }
@@ -98,7 +100,8 @@ instances:
     plant:
       type: chain
       params: {m: [1.0, 2.0, 3.0], L: 0.4, base_angle: -1.5, com: [0.1, 0.2, 0.3], links: 3}
-)", "inline");
+)",
+                                 "inline");
   const auto& chain = std::get<ChainParams>(scene.instances[0].plant.params);
   ASSERT_EQ(chain.num_links(), 3);
   EXPECT_EQ(chain.links[2].m, 3.0);
@@ -121,7 +124,8 @@ instances:
       limits: {lower: [-.inf, -1], upper: [.inf, 1], stiffness: 500}
       disturbance: [{start: 1, duration: 0.1, tau: [1, 0]}]
     integrator: {type: dopri5, substeps: 2, rtol: 1.0e-6, atol: 1.0e-9}
-)", "inline");
+)",
+                                 "inline");
   const InstanceConfig& arm = scene.instances[0];
   EXPECT_EQ(scene.period, 0.002);
   EXPECT_EQ(arm.method, Method::kLagrangian);

@@ -17,9 +17,9 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <tuple>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
@@ -31,8 +31,8 @@ namespace fs = std::filesystem;
 using testing::BackgroundProcess;
 using testing::LcmCollector;
 
-constexpr double kExitWait = 10.0;   // s: generous, for "it ended at all"
-constexpr double kAppearWait = 10.0; // s: for a line or a file to appear
+constexpr double kExitWait = 10.0;    // s: generous, for "it ended at all"
+constexpr double kAppearWait = 10.0;  // s: for a line or a file to appear
 
 std::string ReadFile(const fs::path& path) {
   std::ifstream in(path);
@@ -64,9 +64,8 @@ class Service : public ::testing::Test {
     sigemptyset(&signals);
     for (int s : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGHUP, SIGTERM, SIGINT}) sigaddset(&signals, s);
     pthread_sigmask(SIG_UNBLOCK, &signals, nullptr);
-    dir_ = fs::temp_directory_path() /
-           ("lagrange_service_" + std::to_string(getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("lagrange_service_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -84,7 +83,9 @@ class Service : public ::testing::Test {
     return std::make_unique<BackgroundProcess>(Argv(std::move(extra)));
   }
   static void AwaitStates(LcmCollector& c, std::size_t n = 10) {
-    ASSERT_TRUE(c.WaitFor("ARM_STATE", [&](const auto& m) { return m.size() >= n; }, 20.0)) << "no ARM_STATE";
+    ASSERT_TRUE(c.WaitFor(
+        "ARM_STATE", [&](const auto& m) { return m.size() >= n; }, 20.0))
+        << "no ARM_STATE";
   }
   static std::string Scene(const std::string& name) { return std::string(LAGRANGE_SOURCE_DIR) + "/config/" + name; }
 
@@ -115,10 +116,9 @@ TEST_F(Service, BadLcmUrlsAndOptionsExitTwoWithOneLine) {
     const auto r = testing::RunProcess({LAGRANGED_PATH, "--lcm-url", url, "--duration", "0.1"}, 60.0);
     ExpectOneLineRefusal(r, "'" + url + "'");
   }
-  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--overrun", "sometimes"},
-                                              std::vector<std::string>{"--rt-priority", "0"},
-                                              std::vector<std::string>{"--log-level", "loud"},
-                                              std::vector<std::string>{"--no-such-option"}}) {
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--overrun", "sometimes"}, std::vector<std::string>{"--rt-priority", "0"},
+        std::vector<std::string>{"--log-level", "loud"}, std::vector<std::string>{"--no-such-option"}}) {
     std::vector<std::string> argv = {LAGRANGED_PATH};
     argv.insert(argv.end(), bad.begin(), bad.end());
     ExpectOneLineRefusal(testing::RunProcess(argv, 60.0), "lagranged: ");
@@ -186,7 +186,7 @@ TEST_F(Service, SighupReopensTheLogFileAfterLogrotateRenamedIt) {
   daemon->Signal(SIGTERM);
   ASSERT_EQ(daemon->Wait(kExitWait), 0) << daemon->Stderr();
   EXPECT_NE(ReadFile(log).find("stopped by signal 15"), std::string::npos) << ReadFile(log);  // the new file
-  EXPECT_NE(ReadFile(rotated).find("scene "), std::string::npos);                                // the old one kept
+  EXPECT_NE(ReadFile(rotated).find("scene "), std::string::npos);                             // the old one kept
   EXPECT_EQ(ReadFile(rotated).find("stopped by signal"), std::string::npos);
 }
 

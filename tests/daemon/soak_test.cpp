@@ -36,7 +36,8 @@ TEST(Soak, RunsItsWholeDurationWithFlatMemoryAndNoFault) {
   const std::string url = testing::TestLcmUrl(7846);
   LcmCollector collector(url, ".*_STATE");
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--duration", std::to_string(seconds)});
-  ASSERT_TRUE(collector.WaitFor("ARM_STATE", [](const auto& m) { return !m.empty(); }, 60.0));
+  ASSERT_TRUE(collector.WaitFor(
+      "ARM_STATE", [](const auto& m) { return !m.empty(); }, 60.0));
 
   // A sine stream on the arm at 100 Hz for the whole run.
   std::atomic<bool> done{false};

@@ -50,7 +50,8 @@ instances:
     initial: {q: [0.5, 0.3]}
     controller: {type: pd, kp: 2.0e5, kd: 20, continuous: true}
     setpoint: {q: [0.6, 0.2]}
-    integrator: )" + integrator + "\n";
+    integrator: )" +
+         integrator + "\n";
 }
 
 TEST(StiffCases, StiffContinuousPdFaultsExplicitIntegratorsAtOneMillisecond) {
@@ -88,7 +89,8 @@ instances:
     plant: {type: arm2}
     initial: {q: [0.0, 0.0], qd: [0.0, 60.0]}
     effects: {gravity: false, limits: {lower: [-10, -1.0], upper: [10, 1.0], stiffness: 1.0e6, damping: 20}}
-    integrator: )" + integrator + "\n";
+    integrator: )" +
+         integrator + "\n";
 }
 
 // The energy E = T + V, where V is the stop's spring energy ½ k (q − limit)² (gravity is off):
@@ -138,8 +140,8 @@ TEST(StiffCases, AJointLimitStopHitAtHighSpeedBouncesBackWithFiniteState) {
   for (const Case& c : {Case{"{type: rk4, substeps: 10}", 1e-9, 1e-9}, Case{"{type: dopri5}", 1e-9, 1e-9},
                         Case{"{type: variational, substeps: 4}", 0.06, 0.02}}) {
     const StopRun run = RunIntoTheStop(c.integrator);
-    EXPECT_LT(run.deepest, 0.1) << c.integrator;                   // the stop held: at most 0.1 rad into it
-    EXPECT_LE(run.worst_energy, c.energy_gain) << c.integrator;    // at every tick, not only the last
+    EXPECT_LT(run.deepest, 0.1) << c.integrator;                 // the stop held: at most 0.1 rad into it
+    EXPECT_LE(run.worst_energy, c.energy_gain) << c.integrator;  // at every tick, not only the last
     EXPECT_LE(run.worst_after, c.gain_after) << c.integrator;
     EXPECT_LT(std::abs(run.final_q), 1.0 + 1e-3) << c.integrator;  // bounced back out
   }

@@ -22,9 +22,8 @@ namespace fs = std::filesystem;
 class TimingCsv : public ::testing::Test {
  protected:
   void SetUp() override {
-    path_ = fs::temp_directory_path() /
-            ("lagrange_timing_" + std::to_string(getpid()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".csv");
+    path_ = fs::temp_directory_path() / ("lagrange_timing_" + std::to_string(getpid()) + "_" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".csv");
   }
   void TearDown() override { fs::remove(path_); }
   std::vector<std::string> ReadLines() const {

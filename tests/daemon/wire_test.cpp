@@ -79,7 +79,8 @@ TEST(Wire, AnotherTypesPacketFailsTheFingerprint) {
 TEST(Wire, CommandsAreCheckedThroughTheirStringAndArrays) {
   const auto buf = Encode(ValidCommand());
   EXPECT_EQ(CheckCommandPacket(buf.data(), buf.size()), WireCheck::kOk);
-  for (std::size_t len = 0; len < buf.size(); ++len) EXPECT_NE(CheckCommandPacket(buf.data(), len), WireCheck::kOk) << len;
+  for (std::size_t len = 0; len < buf.size(); ++len)
+    EXPECT_NE(CheckCommandPacket(buf.data(), len), WireCheck::kOk) << len;
   auto huge_string = buf;
   WriteInt32(huge_string, 25, 0x7fffffff);  // after fingerprint, utime, request_id, command
   EXPECT_EQ(CheckCommandPacket(huge_string.data(), huge_string.size()), WireCheck::kBadLength);

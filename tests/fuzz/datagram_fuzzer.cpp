@@ -79,8 +79,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // Reformatting gives the same bytes (the seqno is carried, not checked).
     Bytes again(input.size());
     std::size_t written = 0;
-    const std::uint32_t seqno = (std::uint32_t{begin[4]} << 24) | (std::uint32_t{begin[5]} << 16) |
-                                (std::uint32_t{begin[6]} << 8) | begin[7];
+    const std::uint32_t seqno =
+        (std::uint32_t{begin[4]} << 24) | (std::uint32_t{begin[5]} << 16) | (std::uint32_t{begin[6]} << 8) | begin[7];
     if (!FormatDatagram(seqno, d.channel, d.payload, d.payload_size, again.data(), again.size(), written) ||
         written != input.size() || again != input) {
       __builtin_trap();

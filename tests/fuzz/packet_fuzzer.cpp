@@ -74,15 +74,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (command.decode(data, 0, static_cast<int>(size)) < 0) __builtin_trap();  // the check promised a decodable packet
   }
   static const CommandRules command_rules{
-      "arm", 2, {"pd", "none"}, {ControllerType::kPd, ControllerType::kNone},
+      "arm",
+      2,
+      {"pd", "none"},
+      {ControllerType::kPd, ControllerType::kNone},
       {GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}}};
   static command_t command;  // reused, as in the receiver
   const CommandVerdict c = CheckCommand(data, size, command_rules, 0, command);
   if (c.kind == CommandVerdict::Kind::kAccepted) {
     // An accepted command names a known code and, where it needs one, a known controller.
     if (command.command < command_t::SWITCH_CONTROLLER || command.command > command_t::CLEAR_ESTOP) __builtin_trap();
-    const bool needs_controller =
-        c.command == CommandKind::kSwitchController || c.command == CommandKind::kSetGains;
+    const bool needs_controller = c.command == CommandKind::kSwitchController || c.command == CommandKind::kSetGains;
     if (needs_controller && (c.controller < 0 || c.controller > 1)) __builtin_trap();
   }
   for (const char ch : c.reason) {

@@ -25,8 +25,7 @@ TEST(NoAllocation, SteppingAPlantAllocatesNothing) {
     for (Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
       if (!HasMethod(type, method)) continue;
       for (IntegratorType it : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
-                                IntegratorType::kRk4, IntegratorType::kDormandPrince,
-                                IntegratorType::kVariational}) {
+                                IntegratorType::kRk4, IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
         PlantModel model(MakeDynamics(spec, method), effects);
         IntegratorConfig config;
         config.type = it;

@@ -20,8 +20,8 @@ using testing::RandomStateFor;
 using testing::RelativeDifference;
 
 constexpr int kStates = 100;
-constexpr double kAgreeTol = 1e-12;         // between derivation methods, relative
-constexpr double kSymmetryTol = 1e-14;      // M − Mᵀ, relative to ‖M‖
+constexpr double kAgreeTol = 1e-12;            // between derivation methods, relative
+constexpr double kSymmetryTol = 1e-14;         // M − Mᵀ, relative to ‖M‖
 constexpr double kFiniteDifferenceTol = 1e-7;  // central differences with ε = 1e-6
 constexpr double kEps = 1e-6;
 
@@ -136,15 +136,15 @@ TEST_P(EveryPlant, ForwardDynamicsInvertsInverseDynamics) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     VectorXd tau(n), qdd(n);
-    for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true},
-                                      DynamicsTerms{true, false}, DynamicsTerms{false, false}}) {
+    for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true}, DynamicsTerms{true, false},
+                                      DynamicsTerms{false, false}}) {
       for (int k = 0; k < kStates; ++k) {
         const auto s = RandomStateFor(d->joint_types(), rng);
         const VectorXd qdd0 = testing::RandomVector(n, -5.0, 5.0, rng);
         d->ComputeInverseDynamics(s.q, s.qd, qdd0, terms, tau);
         d->ComputeForwardDynamics(s.q, s.qd, tau, terms, qdd);
-        ASSERT_LE(RelativeDifference(qdd, qdd0), 1e-10) << ToString(method) << " gravity " << terms.gravity
-                                                        << " coriolis " << terms.coriolis;
+        ASSERT_LE(RelativeDifference(qdd, qdd0), 1e-10)
+            << ToString(method) << " gravity " << terms.gravity << " coriolis " << terms.coriolis;
       }
     }
   }
@@ -164,8 +164,8 @@ TEST_P(EveryPlant, AllDerivationMethodsAgree) {
       const Terms a = Evaluate(*reference, s.q, s.qd, u);
       const Terms b = Evaluate(*d, s.q, s.qd, u);
       const double m = a.M.norm();
-      const double g = m * kStandardGravity;        // scale of gravity terms
-      const double v = m * s.qd.squaredNorm();      // scale of velocity-product terms
+      const double g = m * kStandardGravity;    // scale of gravity terms
+      const double v = m * s.qd.squaredNorm();  // scale of velocity-product terms
       const char* name = ToString(method).data();
       ASSERT_LE(RelativeDifference(a.M, b.M), kAgreeTol) << name << " M at state " << k;
       ASSERT_LE(RelativeDifference(a.C, b.C, m * s.qd.norm()), kAgreeTol) << name << " C";

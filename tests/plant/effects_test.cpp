@@ -107,7 +107,6 @@ TEST(Effects, ValidationNamesTheKeyAndWhatWasExpected) {
   EXPECT_EQ(err->key, "friction.velocity_scale");
 }
 
-
 class EveryMethod : public ::testing::TestWithParam<Method> {};
 
 TEST_P(EveryMethod, EffectsLeftOutAreNeverEvaluated) {
@@ -121,8 +120,8 @@ TEST_P(EveryMethod, EffectsLeftOutAreNeverEvaluated) {
   PlantModel bare(MakeDynamics(spec, GetParam()), none);
   for (int k = 0; k < kEvaluations; ++k) bare.ComputeAcceleration(0.0, q, qd, tau, qdd);
   const StageCounts zero = bare.counts();
-  for (std::int64_t count : {zero.gravity, zero.coriolis, zero.damping, zero.friction, zero.limits,
-                             zero.saturation, zero.disturbance}) {
+  for (std::int64_t count :
+       {zero.gravity, zero.coriolis, zero.damping, zero.friction, zero.limits, zero.saturation, zero.disturbance}) {
     EXPECT_EQ(count, 0);
   }
 
@@ -138,8 +137,8 @@ TEST_P(EveryMethod, EffectsLeftOutAreNeverEvaluated) {
       {&StageCounts::saturation, [&](EffectsConfig& c) { c.saturation = all.saturation; }},
       {&StageCounts::disturbance, [&](EffectsConfig& c) { c.disturbance = all.disturbance; }},
   };
-  const Member members[] = {&StageCounts::gravity, &StageCounts::coriolis, &StageCounts::damping,
-                            &StageCounts::friction, &StageCounts::limits, &StageCounts::saturation,
+  const Member members[] = {&StageCounts::gravity,    &StageCounts::coriolis, &StageCounts::damping,
+                            &StageCounts::friction,   &StageCounts::limits,   &StageCounts::saturation,
                             &StageCounts::disturbance};
   for (const auto& [on, enable] : one_on) {
     EffectsConfig c = none;
@@ -161,8 +160,8 @@ TEST_P(EveryMethod, GravityAndCoriolisOffLeaveExactlyTheirTermsOut) {
   reference->ComputeMassMatrix(q, M);
   reference->ComputeCoriolisForce(q, qd, c);
   reference->ComputeGravityForce(q, G);
-  for (const DynamicsTerms terms : {DynamicsTerms{false, true}, DynamicsTerms{true, false},
-                                    DynamicsTerms{false, false}}) {
+  for (const DynamicsTerms terms :
+       {DynamicsTerms{false, true}, DynamicsTerms{true, false}, DynamicsTerms{false, false}}) {
     const StageCounts before = d->counts();
     d->ComputeForwardDynamics(q, qd, tau, terms, qdd);
     const VectorXd expected =
@@ -201,8 +200,7 @@ TEST(EnergyBalance, EnergyRateEqualsInputPowerMinusDissipation) {
       const double e_minus = model.Energy(q - kStep * qd, qd - kStep * qdd);
       const double rate = (e_plus - e_minus) / (2.0 * kStep);
       sat = tau_cmd.cwiseMax(-4.0).cwiseMin(4.0);
-      const double expected =
-          Power(qd, sat + VectorXd::Constant(n, 0.7)) - model.effects().DissipatedPower(q, qd);
+      const double expected = Power(qd, sat + VectorXd::Constant(n, 0.7)) - model.effects().DissipatedPower(q, qd);
       ASSERT_NEAR(rate, expected, 1e-5 * (1.0 + std::abs(expected))) << plant.name << " state " << k;
     }
   }

@@ -36,7 +36,7 @@ struct Simulation {
 };
 
 Simulation Make(const PlantSpec& spec, IntegratorType type, int substeps = 1, EffectsConfig effects = {},
-         Method method = Method::kClosedForm) {
+                Method method = Method::kClosedForm) {
   const int n = spec.num_dofs();
   IntegratorConfig c;
   c.type = type;
@@ -52,9 +52,10 @@ Simulation Make(const PlantSpec& spec, IntegratorType type, int substeps = 1, Ef
 // energy error of 1e-12 J into an O(1) change of the distance from upright.)
 TEST(HardCases, PendulumReleasedAMicroradianFromUprightKeepsTheEllipticQuarterPeriod) {
   const PendulumParams p;
-  for (const auto& [delta, type, h, bound] :
-       {std::tuple{1e-6, IntegratorType::kRk4, 1e-3, 1e-8}, std::tuple{1e-6, IntegratorType::kDormandPrince, 1e-3, 1e-8},
-        std::tuple{1e-6, IntegratorType::kVariational, 1e-4, 1e-7}, std::tuple{1e-3, IntegratorType::kRk4, 1e-3, 1e-10}}) {
+  for (const auto& [delta, type, h, bound] : {std::tuple{1e-6, IntegratorType::kRk4, 1e-3, 1e-8},
+                                              std::tuple{1e-6, IntegratorType::kDormandPrince, 1e-3, 1e-8},
+                                              std::tuple{1e-6, IntegratorType::kVariational, 1e-4, 1e-7},
+                                              std::tuple{1e-3, IntegratorType::kRk4, 1e-3, 1e-10}}) {
     Simulation r = Make({p}, type);
     r.q[0] = kPi - delta;
     double t = 0.0, crossing = -1.0;
@@ -100,7 +101,7 @@ TEST(HardCases, ArmFullyFoldedAndFullyStretchedStaysWellPosed) {
 // 100 rad/s on both joints (about 2 kJ): energy error after 2 s, relative.
 TEST(HardCases, HundredRadiansPerSecondConserveEnergy) {
   const std::tuple<IntegratorType, int, double> cases[] = {
-      {IntegratorType::kRk4, 1, 1e-3},          {IntegratorType::kRk4, 10, 1e-8},
+      {IntegratorType::kRk4, 1, 1e-3},           {IntegratorType::kRk4, 10, 1e-8},
       {IntegratorType::kDormandPrince, 1, 1e-7}, {IntegratorType::kVariational, 1, 1e-2},
       {IntegratorType::kVariational, 10, 1e-4},
   };
@@ -166,8 +167,10 @@ TEST(HardCases, ExtremeMassRatiosKeepAPositiveDefiniteMassMatrixAndEnergy) {
   ChainParams ratios;
   ratios.links = {ChainLink{.m = 1e-6, .L = 0.5, .com = {}, .I = {}}, ChainLink{.m = 1.0, .L = 0.5, .com = {}, .I = {}},
                   ChainLink{.m = 1e6, .L = 0.5, .com = {}, .I = {}}};
-  const std::vector<Case> cases = {{"arm m2/m1 = 1e-6", {light_tip}}, {"arm m2/m1 = 1e6", {heavy_tip}},
-                                   {"cartpole mp/mc = 1e-6", {light_pole}}, {"cartpole mc/mp = 1e-6", {light_cart}},
+  const std::vector<Case> cases = {{"arm m2/m1 = 1e-6", {light_tip}},
+                                   {"arm m2/m1 = 1e6", {heavy_tip}},
+                                   {"cartpole mp/mc = 1e-6", {light_pole}},
+                                   {"cartpole mc/mp = 1e-6", {light_cart}},
                                    {"chain 1e-6 : 1 : 1e6", {ratios}}};
   for (const Case& c : cases) {
     const int n = c.spec.num_dofs();

@@ -52,8 +52,8 @@ double MeasurePeriod(const PendulumParams& p, double theta0, double h) {
         const double h00 = 2 * s * s * s - 3 * s * s + 1, h10 = s * s * s - 2 * s * s + s;
         const double h01 = -2 * s * s * s + 3 * s * s, h11 = s * s * s - s * s;
         const double f = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1;
-        const double df = (6 * s * s - 6 * s) * q0 + (3 * s * s - 4 * s + 1) * h * v0 +
-                          (-6 * s * s + 6 * s) * q1 + (3 * s * s - 2 * s) * h * v1;
+        const double df = (6 * s * s - 6 * s) * q0 + (3 * s * s - 4 * s + 1) * h * v0 + (-6 * s * s + 6 * s) * q1 +
+                          (3 * s * s - 2 * s) * h * v1;
         s -= f / df;
       }
       crossings.push_back(t + s * h);
@@ -105,8 +105,7 @@ TEST(GravityCompensation, ArmHoldsThePoseOfTheArticle) {
 }
 
 // Maximum |E − E0| over each tenth of a run of `steps` ticks, no torque, no damping.
-std::vector<double> EnergyErrorByDecile(const PlantSpec& spec, IntegratorType type, const VectorXd& q0,
-                                        int steps) {
+std::vector<double> EnergyErrorByDecile(const PlantSpec& spec, IntegratorType type, const VectorXd& q0, int steps) {
   auto model = MakeModel(spec, FastestMethod(spec.type()));
   auto integrator = MakeIntegratorOfType(type, spec.num_dofs());
   VectorXd q = q0, qd = VectorXd::Zero(q0.size()), tau = VectorXd::Zero(q0.size());
@@ -148,8 +147,7 @@ TEST_P(ArmEnergy, VariationalErrorStaysBoundedWhereSemiImplicitEulerGrows) {
   EXPECT_LT(Max(vi), 1e-2 * Max(semi));
 }
 
-INSTANTIATE_TEST_SUITE_P(Releases, ArmEnergy,
-                         ::testing::Values(std::pair{0.0, 0.0}, std::pair{1.0, 0.5}));
+INSTANTIATE_TEST_SUITE_P(Releases, ArmEnergy, ::testing::Values(std::pair{0.0, 0.0}, std::pair{1.0, 0.5}));
 
 TEST(PendulumEnergy, SemiImplicitEulerIsSymplecticWhenTheMassIsConstant) {
   // With constant M, semi-implicit Euler is the symplectic Euler method: bounded
@@ -268,8 +266,8 @@ TEST(Variational, ConservesTheCartMomentumToRoundOff) {
 }
 
 TEST(Factory, NamesRoundTripAndBadConfigsAreRefused) {
-  for (const auto type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
-                          IntegratorType::kRk4, IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+  for (const auto type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4,
+                          IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
     EXPECT_EQ(ParseIntegratorType(ToString(type)), type);
   }
   EXPECT_FALSE(ParseIntegratorType("rk5"));

@@ -5,17 +5,19 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
-#include <stdexcept>
 #include <sstream>
+#include <stdexcept>
 
 #include "lcmtypes/subscribe.hpp"
 
 namespace lagrange::testing {
 
-std::string TestLcmUrl(int port) { return std::string("udpm://") + kTestLcmGroup + ":" + std::to_string(port) + "?ttl=0"; }
+std::string TestLcmUrl(int port) {
+  return std::string("udpm://") + kTestLcmGroup + ":" + std::to_string(port) + "?ttl=0";
+}
 
 std::int64_t WallMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -31,8 +33,7 @@ bool WaitUntil(const std::function<bool()>& done, double timeout_s) {
   return true;
 }
 
-bool SendUntil(const std::function<void()>& send, const std::function<bool()>& done, double timeout_s,
-               double every_s) {
+bool SendUntil(const std::function<void()>& send, const std::function<bool()>& done, double timeout_s, double every_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < deadline) {
     send();
@@ -44,7 +45,8 @@ bool SendUntil(const std::function<void()>& send, const std::function<bool()>& d
 std::string PrepareLoopbackMulticast(int port) {
   if (geteuid() == 0 && std::system("ip route show 239.255.0.0/16 2>/dev/null | grep -q 'dev lo'") != 0) {
     if (std::system("ip link set lo multicast on && ip route add 239.255.0.0/16 dev lo") != 0) {
-      return "could not add the multicast route on lo (ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo)";
+      return "could not add the multicast route on lo (ip link set lo multicast on; ip route add 239.255.0.0/16 dev "
+             "lo)";
     }
   }
   lcm::LCM lcm(TestLcmUrl(port));

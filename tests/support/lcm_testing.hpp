@@ -45,11 +45,14 @@ class LcmCollector {
   // `predicate` (false before the first message).
   template <class T, class Predicate>
   bool WaitForLatest(const std::string& channel, Predicate predicate, double timeout_s) {
-    return WaitFor(channel, [&](const std::vector<Message>& m) {
-      T msg;
-      return !m.empty() && msg.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size())) >= 0 &&
-             predicate(msg);
-    }, timeout_s);
+    return WaitFor(
+        channel,
+        [&](const std::vector<Message>& m) {
+          T msg;
+          return !m.empty() && msg.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size())) >= 0 &&
+                 predicate(msg);
+        },
+        timeout_s);
   }
 
   template <class T>

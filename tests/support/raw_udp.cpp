@@ -28,8 +28,7 @@ bool RawUdpSender::Send(const std::vector<std::uint8_t>& bytes) {
   to.sin_family = AF_INET;
   to.sin_port = htons(static_cast<std::uint16_t>(port_));
   if (inet_pton(AF_INET, group_.c_str(), &to.sin_addr) != 1) return false;
-  const ssize_t sent =
-      sendto(fd_, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+  const ssize_t sent = sendto(fd_, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
   return sent == static_cast<ssize_t>(bytes.size());
 }
 

@@ -84,7 +84,8 @@ TEST(Eval, EveryMethodPrintsTheSameDynamics) {
     for (const auto& o : outputs) {
       for (const char* key : {"G", "qdd"}) {
         const auto a = outputs[0].at(key).get<Numbers>(), b = o.at(key).get<Numbers>();
-        for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-11 * (1 + std::abs(a[i]))) << plant << key;
+        for (std::size_t i = 0; i < a.size(); ++i)
+          EXPECT_NEAR(a[i], b[i], 1e-11 * (1 + std::abs(a[i]))) << plant << key;
       }
       const auto Ca = outputs[0].at("C").get<Rows>(), Cb = o.at("C").get<Rows>();
       for (std::size_t i = 0; i < Ca.size(); ++i) {
@@ -98,8 +99,8 @@ TEST(Eval, EveryMethodPrintsTheSameDynamics) {
 
 TEST(Eval, ChainParametersAndLinksShapeTheModel) {
   // Three 0.4 m uniform rods hanging straight down (base_angle −π/2): G = 0, V = −g Σ m y.
-  const auto r = RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "L=0.4", "--param", "m=2",
-                         "--param", "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
+  const auto r = RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "L=0.4", "--param", "m=2", "--param",
+                         "base_angle=-1.5707963267948966", "--q", "0,0,0", "--qd", "0,0,0"});
   ASSERT_EQ(r.status, 0) << r.err;
   const json out = json::parse(r.out);
   EXPECT_EQ(out.at("method").get<std::string>(), "recursive");
@@ -166,20 +167,27 @@ struct BadEval {
 
 TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
   const std::vector<BadEval> cases = {
-      {{"--plant", "arm3", "--q", "0,0", "--qd", "0,0"}, "--plant: expected one of pendulum|arm2|cartpole|chain, got 'arm3'"},
-      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--method", "magic"}, "--method: expected closed-form, lagrangian or recursive, got 'magic'"},
+      {{"--plant", "arm3", "--q", "0,0", "--qd", "0,0"},
+       "--plant: expected one of pendulum|arm2|cartpole|chain, got 'arm3'"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--method", "magic"},
+       "--method: expected closed-form, lagrangian or recursive, got 'magic'"},
       {{"--plant", "chain", "--q", "0,0", "--qd", "0,0", "--method", "closed-form"}, "chain has no closed-form path"},
       {{"--plant", "arm2", "--q", "0,0,0", "--qd", "0,0"}, "--q: expected 2 values (one per joint), got 3"},
       {{"--plant", "arm2", "--q", "0,0", "--qd", "0"}, "--qd: expected 2 values (one per joint), got 1"},
       {{"--plant", "arm2", "--q", "0,inf", "--qd", "0,0"}, "--q: expected comma-separated finite numbers, got 'inf'"},
       {{"--plant", "arm2", "--q", "0,1x", "--qd", "0,0"}, "got '1x'"},
-      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "nan,0"}, "--tau: expected comma-separated finite numbers"},
-      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "0"}, "--tau: expected 2 values (one per joint), got 1"},
-      {{"--plant", "arm2", "--param", "m1=-1", "--q", "0,0", "--qd", "0,0"}, "--param m1: expected a positive number (kg), got -1"},
-      {{"--plant", "arm2", "--param", "mass=1", "--q", "0,0", "--qd", "0,0"}, "--param mass: unknown parameter for arm2"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "nan,0"},
+       "--tau: expected comma-separated finite numbers"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--tau", "0"},
+       "--tau: expected 2 values (one per joint), got 1"},
+      {{"--plant", "arm2", "--param", "m1=-1", "--q", "0,0", "--qd", "0,0"},
+       "--param m1: expected a positive number (kg), got -1"},
+      {{"--plant", "arm2", "--param", "mass=1", "--q", "0,0", "--qd", "0,0"},
+       "--param mass: unknown parameter for arm2"},
       {{"--plant", "arm2", "--param", "m1", "--q", "0,0", "--qd", "0,0"}, "--param: expected NAME=VALUE, got 'm1'"},
       {{"--plant", "arm2", "--links", "3", "--q", "0,0", "--qd", "0,0"}, "--links: only a chain has links"},
-      {{"--plant", "chain", "--links", "0", "--q", "0", "--qd", "0"}, "--links: expected a whole number from 1 to 256, got 0"},
+      {{"--plant", "chain", "--links", "0", "--q", "0", "--qd", "0"},
+       "--links: expected a whole number from 1 to 256, got 0"},
       {{"--plant", "arm2", "--qd", "0,0"}, "--q is required"},
       {{"--plant", "chain", "--links", "3", "--param", "m=1,2", "--q", "0,0,0", "--qd", "0,0,0"},
        "--param m: expected 3 values (one per link), got 2"},

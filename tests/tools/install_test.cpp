@@ -141,9 +141,9 @@ TEST_F(Install, AClientBuildsWithFindPackageLagrange) {
                                            "add_executable(client client.cpp)\n"
                                            "target_compile_features(client PRIVATE cxx_std_17)\n"
                                            "target_link_libraries(client PRIVATE lagrange::lcmtypes)\n";
-  const auto configure =
-      RunProcess({CMAKE_COMMAND, "-S", dir.string(), "-B", (dir / "build").string(),
-                  "-DCMAKE_PREFIX_PATH=" + prefix_.string(), "-DCMAKE_CXX_COMPILER=" CXX_COMPILER}, 120.0);
+  const auto configure = RunProcess({CMAKE_COMMAND, "-S", dir.string(), "-B", (dir / "build").string(),
+                                     "-DCMAKE_PREFIX_PATH=" + prefix_.string(), "-DCMAKE_CXX_COMPILER=" CXX_COMPILER},
+                                    120.0);
   ASSERT_EQ(configure.exit_code, 0) << configure.out << configure.err;
   const auto build = RunProcess({CMAKE_COMMAND, "--build", (dir / "build").string()}, 120.0);
   ASSERT_EQ(build.exit_code, 0) << build.out << build.err;

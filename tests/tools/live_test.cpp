@@ -3,11 +3,11 @@
 // publisher with no daemon, which lagrangectl must not believe.
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
-#include <signal.h>
 
 #include <atomic>
 #include <cmath>
@@ -43,7 +43,8 @@ class LiveDaemon : public ::testing::Test {
     std::vector<std::string> argv = {LAGRANGED_PATH, "--lcm-url", url_, "--log-level", "warn"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     daemon_ = std::make_unique<BackgroundProcess>(argv);
-    ASSERT_TRUE(collector_->WaitFor("LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
+    ASSERT_TRUE(collector_->WaitFor(
+        "LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
   }
   void TearDown() override {
     if (daemon_) {
@@ -88,7 +89,8 @@ TEST_F(LiveDaemon, SendMinimumJerkStartsFromTheCurrentStateAndEndsOnTheTarget) {
   // The streamed setpoints leave from where the arm was, move monotonically, and end on the target.
   std::vector<double> q0_des;
   for (std::size_t k = skip; k < states.size(); ++k) {
-    if (states[k].mode == state_t::MODE_RUNNING && states[k].q_des[0] != before.q_des[0]) q0_des.push_back(states[k].q_des[0]);
+    if (states[k].mode == state_t::MODE_RUNNING && states[k].q_des[0] != before.q_des[0])
+      q0_des.push_back(states[k].q_des[0]);
   }
   ASSERT_GT(q0_des.size(), 500u);
   EXPECT_NEAR(q0_des.front(), before.q[0], 1e-3);
@@ -127,11 +129,14 @@ TEST_F(LiveDaemon, SendRefusesBadInputWithOneLine) {
   Start(7824);
   ExpectOneLine(Ctl({"send", "robot", "--q", "1,2", "--wait", "0.5"}), "send", 1,
                 "no state from instance 'robot' on ROBOT_STATE within 0.5 s");
-  ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,abc"}), "send", 2, "--q: expected comma-separated finite numbers, got 'abc'");
-  ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,nan"}), "send", 2, "--q: expected comma-separated finite numbers, got 'nan'");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,abc"}), "send", 2,
+                "--q: expected comma-separated finite numbers, got 'abc'");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "0.5,nan"}), "send", 2,
+                "--q: expected comma-separated finite numbers, got 'nan'");
   ExpectOneLine(Ctl({"send", "arm", "--q", "1,2,3"}), "send", 2, "--q: expected 2 values (one per joint), got 3");
   ExpectOneLine(Ctl({"send", "arm", "--min-jerk", "2"}), "send", 2, "--min-jerk: needs the target --q");
-  ExpectOneLine(Ctl({"send", "arm", "--q", "1,1", "--rate", "0"}), "send", 2, "--rate: expected a number in (0, 10000], got '0'");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "1,1", "--rate", "0"}), "send", 2,
+                "--rate: expected a number in (0, 10000], got '0'");
   ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2"}), "send", 2, "--sine: expected AMPLITUDE,FREQ (2 numbers");
   ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2,1", "--min-jerk", "1"}), "send", 2, "excludes");
   ExpectOneLine(Ctl({"send", "arm", "--sine", "0.2,1", "--qd", "1,1"}), "send", 2,
@@ -164,7 +169,8 @@ TEST(LiveOneJoint, SendSineDrivesAOneJointPlant) {
   LcmCollector collector(url, "PENDULUM_STATE");
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config",
                             std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml"});
-  ASSERT_TRUE(collector.WaitFor("PENDULUM_STATE", [](const auto& m) { return !m.empty(); }, 20.0));
+  ASSERT_TRUE(collector.WaitFor(
+      "PENDULUM_STATE", [](const auto& m) { return !m.empty(); }, 20.0));
   const auto r = RunCtl({"send", "pendulum", "--sine", "0.2,1", "--for", "0.5", "--lcm-url", url});
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("(sine 0.2 at 1 Hz) to PENDULUM_SETPOINT"), std::string::npos) << r.out;
@@ -182,14 +188,16 @@ TEST_F(LiveDaemon, CommandChangesControllersGainsAndModesAndSaysSo) {
   EXPECT_EQ(r.out, "arm: gains done; now running with pd\n");
   r = Ctl({"command", "arm", "gains", "--kp", "70,30", "--kd", "7,3"});  // one per joint
   ASSERT_EQ(r.status, 0) << r.err;
-  for (const auto& [verb, mode] : std::vector<std::pair<std::string, int>>{
-           {"pause", state_t::MODE_PAUSED}, {"resume", state_t::MODE_RUNNING}, {"estop", state_t::MODE_ESTOP},
-           {"clear", state_t::MODE_HOLD}, {"reset", state_t::MODE_RUNNING}}) {
+  for (const auto& [verb, mode] : std::vector<std::pair<std::string, int>>{{"pause", state_t::MODE_PAUSED},
+                                                                           {"resume", state_t::MODE_RUNNING},
+                                                                           {"estop", state_t::MODE_ESTOP},
+                                                                           {"clear", state_t::MODE_HOLD},
+                                                                           {"reset", state_t::MODE_RUNNING}}) {
     r = Ctl({"command", "arm", verb});
     ASSERT_EQ(r.status, 0) << verb << ": " << r.err;
-    ASSERT_TRUE(collector_->WaitForLatest<state_t>("ARM_STATE", [&](const state_t& s) {
-      return s.mode == mode;
-    }, 5.0)) << verb;
+    ASSERT_TRUE(collector_->WaitForLatest<state_t>(
+        "ARM_STATE", [&](const state_t& s) { return s.mode == mode; }, 5.0))
+        << verb;
   }
   EXPECT_EQ(LastState("ARM_STATE").controller, "computed-torque");  // reset restores the scene's controller
 }
@@ -210,7 +218,8 @@ TEST_F(LiveDaemon, CommandRefusesBadInputWithOneLine) {
   ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1,2,3", "--kd", "1"}), "command", 2,
                 "--kp: expected 2 values (one for every joint, or one per joint), got 3");
   ExpectOneLine(Ctl({"command", "arm", "gains", "--kp", "1"}), "command", 2, "gains: needs both --kp and --kd");
-  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=200,Kd=30"}), "command", 2, "gains: expected --kp A[,B..] --kd C[,D..]");
+  ExpectOneLine(Ctl({"command", "arm", "gains", "Kp=200,Kd=30"}), "command", 2,
+                "gains: expected --kp A[,B..] --kd C[,D..]");
   ExpectOneLine(Ctl({"command", "arm", "pause", "--kp", "1"}), "command", 2, "--kp, --kd: only for gains");
   ExpectOneLine(Ctl({"command", "arm", "fly"}), "command", 2, "unknown action 'fly'");
   ExpectOneLine(Ctl({"command", "robot", "reset", "--wait", "0.5"}), "command", 1, "no state from instance 'robot'");
@@ -222,9 +231,10 @@ TEST_F(LiveDaemon, WatchShowsEveryInstanceRunIdsAndTheLoopsTiming) {
   Start(7827);
   auto r = Ctl({"watch", "--frames", "2", "--rate", "10"});
   ASSERT_EQ(r.status, 0) << r.err;
-  for (const char* text : {"lagranged run ", "wake latency us", "compute us", "setpoints ", "\narm   running   computed-torque",
-                           "\ncartpole   running   lqr", "joint          q        q_des          tau", "kernel drops ",
-                           "fragments dropped ", "foreign messages "}) {
+  for (const char* text :
+       {"lagranged run ", "wake latency us", "compute us", "setpoints ", "\narm   running   computed-torque",
+        "\ncartpole   running   lqr", "joint          q        q_des          tau", "kernel drops ",
+        "fragments dropped ", "foreign messages "}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
   EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
@@ -249,7 +259,8 @@ TEST(LiveStale, WatchMarksADaemonThatStoppedAsStale) {
   const std::string url = testing::TestLcmUrl(7929);
   LcmCollector collector(url, "LAGRANGE_STATUS");
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--duration", "1.5"});
-  ASSERT_TRUE(collector.WaitFor("LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
+  ASSERT_TRUE(collector.WaitFor(
+      "LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
   // Frames for 5 s: the daemon stops 1.5 s of ticks after it started, so the last frames come long after.
   const auto r = RunCtl({"watch", "--frames", "15", "--rate", "3", "--lcm-url", url});
   ASSERT_EQ(r.status, 0) << r.err;
@@ -269,9 +280,9 @@ class FakeDaemon {
   struct Config {
     std::vector<std::int64_t> run_ids = {0x1234};  // states alternate between these
     std::string controller = "pd";
-    bool answer = false;              // reply to every command
-    std::int64_t reply_run_id = 0;    // 0: the first run id
-    bool wrong_request_id = false;    // answer with another request_id than the command's
+    bool answer = false;            // reply to every command
+    std::int64_t reply_run_id = 0;  // 0: the first run id
+    bool wrong_request_id = false;  // answer with another request_id than the command's
     bool accept = true;
     std::string reason;
   };
@@ -362,8 +373,10 @@ TEST(BelievesNobody, AReplyFromAnotherRunOrWithAnotherRequestIdProvesNothing) {
   for (const bool other_run : {true, false}) {
     FakeDaemon::Config config;
     config.answer = true;
-    if (other_run) config.reply_run_id = 0x5678;  // not the run publishing ARM_STATE
-    else config.wrong_request_id = true;           // the right run, answering another command
+    if (other_run)
+      config.reply_run_id = 0x5678;  // not the run publishing ARM_STATE
+    else
+      config.wrong_request_id = true;  // the right run, answering another command
     FakeDaemon fake(url, config);
     const auto r = RunCtl({"command", "arm", "estop", "--wait", "1", "--lcm-url", url});
     ExpectOneLine(r, "command", 1, "no verdict from lagranged (run 0000000000001234) within 1 s");
@@ -400,12 +413,13 @@ TEST(BelievesNobody, TwoRunsOnOneStateChannelMakeSendAndCommandRefuseToAct) {
   config.run_ids = {0xaa, 0xbb};
   config.answer = true;
   FakeDaemon fake(url, config);
-  const std::string two = "two lagranged runs publish ARM_STATE (ids 00000000000000aa and 00000000000000bb): refusing to act";
+  const std::string two =
+      "two lagranged runs publish ARM_STATE (ids 00000000000000aa and 00000000000000bb): refusing to act";
   auto r = RunCtl({"command", "arm", "estop", "--lcm-url", url});
   ExpectOneLine(r, "command", 1, two);
   r = RunCtl({"send", "arm", "--min-jerk", "1", "--q", "0.3,0.3", "--lcm-url", url});
   ExpectOneLine(r, "send", 1, two);
-  EXPECT_EQ(fake.commands(), 0);   // nothing was sent
+  EXPECT_EQ(fake.commands(), 0);  // nothing was sent
   EXPECT_EQ(fake.setpoints(), 0);
 }
 
@@ -418,8 +432,9 @@ TEST(BelievesNobody, WatchEscapesBusStringsAndShowsTheStatusCounters) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos);
   EXPECT_EQ(r.out.find('\x07'), std::string::npos);
-  for (const char* text : {"evil\\x1b]0;title\\x07\\nforged line", "run 0000000000001234", "kernel drops 7",
-                           "malformed 8", "fragments dropped 9", "foreign messages 11 (last from run 0000000000000bad)"}) {
+  for (const char* text :
+       {"evil\\x1b]0;title\\x07\\nforged line", "run 0000000000001234", "kernel drops 7", "malformed 8",
+        "fragments dropped 9", "foreign messages 11 (last from run 0000000000000bad)"}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
 }
@@ -432,7 +447,8 @@ TEST(Lagrangectl, SuggestsTheNearestCommandAndPrintsItsVersion) {
   EXPECT_EQ(r.err, "lagrangectl: unknown command 'watc'; did you mean 'watch'?\n");
   r = RunCtl({"frobnicate"});
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("unknown command 'frobnicate' (expected one of eval, simulate, send"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("unknown command 'frobnicate' (expected one of eval, simulate, send"), std::string::npos)
+      << r.err;
   r = RunCtl({"--version"});
   EXPECT_EQ(r.status, 0);
   EXPECT_EQ(r.out, std::string("lagrangectl ") + LAGRANGE_VERSION + "\n");

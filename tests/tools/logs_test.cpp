@@ -7,12 +7,12 @@
 // the files hold (columns, consistent values, finite numbers).
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
-#include <signal.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -96,14 +96,16 @@ class Logs : public ::testing::Test {
     testing::LcmLoggerProcess logger(url, log.string());
     auto daemon = Daemon(url, {});
     LcmCollector status(url, "LAGRANGE_STATUS");
-    EXPECT_TRUE(status.WaitFor("LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
+    EXPECT_TRUE(status.WaitFor(
+        "LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
     const auto sent = RunCtl({"send", "arm", "--q", "0.5,0.4", "--for", "0.5", "--lcm-url", url});
     EXPECT_EQ(sent.status, 0) << sent.err;
     const auto switched = RunCtl({"command", "arm", "controller", "pd", "--lcm-url", url});
     EXPECT_EQ(switched.status, 0) << switched.err;
     const auto reset = RunCtl({"command", "arm", "reset", "--lcm-url", url});
     EXPECT_EQ(reset.status, 0) << reset.err;
-    status.WaitFor("LAGRANGE_STATUS", [](const auto&) { return false; }, 0.3);  // some states after the reset
+    status.WaitFor(
+        "LAGRANGE_STATUS", [](const auto&) { return false; }, 0.3);  // some states after the reset
     lcm::LCM other(url);
     const char bytes[] = "not a lagrange message";
     other.publish("OTHER", bytes, sizeof bytes);
@@ -139,12 +141,14 @@ TEST_F(Logs, Log2CsvWritesOneCsvPerChannelAndSkipsForeignTypes) {
   for (const char* channel : {"ARM_STATE", "CARTPOLE_STATE"}) {
     const Csv states = ReadCsv(out / (std::string(channel) + ".csv"));
     ASSERT_GT(states.rows.size(), 0u) << channel;
-    for (const char* column : {"log_utime", "run_id", "tick", "t", "q0", "q1", "q_des1", "tau0", "kinetic_energy", "mode"}) {
+    for (const char* column :
+         {"log_utime", "run_id", "tick", "t", "q0", "q1", "q_des1", "tau0", "kinetic_energy", "mode"}) {
       EXPECT_GE(states.Column(column), 0) << column;
     }
     ExpectFiniteNumbers(states, {"run_id", "controller"}, channel);  // lagranged never publishes a non-finite value
     const std::vector<double> tick = states.Numbers("tick");
-    for (std::size_t k = 1; k < tick.size(); ++k) ASSERT_GT(tick[k], tick[k - 1]) << channel;  // one run: ticks only grow
+    for (std::size_t k = 1; k < tick.size(); ++k)
+      ASSERT_GT(tick[k], tick[k - 1]) << channel;  // one run: ticks only grow
     for (const std::string& id : states.Texts("run_id")) {
       if (run.empty()) run = id;
       ASSERT_EQ(id, run) << channel;  // one run id, on every instance
@@ -156,15 +160,16 @@ TEST_F(Logs, Log2CsvWritesOneCsvPerChannelAndSkipsForeignTypes) {
   for (double q0 : setpoints.Numbers("q0")) ASSERT_EQ(q0, 0.5);
   const Csv status = ReadCsv(out / "LAGRANGE_STATUS.csv");
   ASSERT_GT(status.rows.size(), 0u);
-  for (const char* column : {"run_id", "datagrams_dropped_kernel", "fragments_dropped", "foreign_messages", "instances"}) {
+  for (const char* column :
+       {"run_id", "datagrams_dropped_kernel", "fragments_dropped", "foreign_messages", "instances"}) {
     EXPECT_GE(status.Column(column), 0) << column;
   }
   for (const std::string& id : status.Texts("run_id")) ASSERT_EQ(id, run);
   // Each command lagrangectl sent has its own request id, and lagranged's replies echo them from its run.
   const Csv commands = ReadCsv(out / "ARM_COMMAND.csv");
   const Csv replies = ReadCsv(out / "ARM_REPLY.csv");
-  EXPECT_EQ(replies.header, (std::vector<std::string>{"log_utime", "utime", "run_id", "request_id", "command", "accepted",
-                                                       "reason"}));
+  EXPECT_EQ(replies.header,
+            (std::vector<std::string>{"log_utime", "utime", "run_id", "request_id", "command", "accepted", "reason"}));
   const std::vector<std::string> requests = commands.Texts("request_id");
   ASSERT_GT(requests.size(), 0u);
   for (std::size_t k = 1; k < requests.size(); ++k) EXPECT_NE(requests[k], requests[k - 1]);  // fresh ids
@@ -205,7 +210,8 @@ TEST_F(Logs, Log2CsvRefusesWhatIsNotALogWithOneLine) {
 void ExpectImage(const fs::path& png) {
   const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
   const auto r = testing::RunProcess(
-      {python, "-c", "import sys, matplotlib.image; a = matplotlib.image.imread(sys.argv[1]); print(a.shape[0], a.shape[1])",
+      {python, "-c",
+       "import sys, matplotlib.image; a = matplotlib.image.imread(sys.argv[1]); print(a.shape[0], a.shape[1])",
        png.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   int height = 0, width = 0;
@@ -220,7 +226,8 @@ std::size_t Segments(const Csv& csv) {
   const std::vector<double> t = csv.Numbers("t");
   const bool ticks = csv.Column("tick") >= 0;
   const std::vector<double> tick = ticks ? csv.Numbers("tick") : std::vector<double>(t.size(), 0.0);
-  const std::vector<std::string> run = csv.Column("run_id") >= 0 ? csv.Texts("run_id") : std::vector<std::string>(t.size());
+  const std::vector<std::string> run =
+      csv.Column("run_id") >= 0 ? csv.Texts("run_id") : std::vector<std::string>(t.size());
   std::size_t segments = t.empty() ? 0 : 1;
   for (std::size_t k = 1; k < t.size(); ++k) {
     segments += t[k] < t[k - 1] || (ticks && tick[k] != tick[k - 1] + 1) || run[k] != run[k - 1];
@@ -237,7 +244,9 @@ std::string PlotLine(const fs::path& png, const Csv& csv) {
 TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   const fs::path arm = dir_ / "arm.csv";
   ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/gravity_compensation.yaml", "--duration",
-                    "1", "--csv", arm.string()}).status, 0);
+                    "1", "--csv", arm.string()})
+                .status,
+            0);
   const fs::path png = dir_ / "arm.png";
   auto r = RunCtl({"plot", arm.string(), "-o", png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
@@ -307,8 +316,10 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
     testing::LcmLoggerProcess logger(url_a, log.string(), "ARM_SETPOINT");
     LcmCollector states(url_a, "ARM_STATE");
     auto daemon = Daemon(url_a, {});
-    ASSERT_TRUE(states.WaitFor("ARM_STATE", [](const auto& m) { return m.size() > 100; }, 20.0));
-    ASSERT_EQ(RunCtl({"send", "arm", "--sine", "0.3,0.5", "--q", "0.6,0.2", "--for", "3", "--lcm-url", url_a}).status, 0);
+    ASSERT_TRUE(states.WaitFor(
+        "ARM_STATE", [](const auto& m) { return m.size() > 100; }, 20.0));
+    ASSERT_EQ(RunCtl({"send", "arm", "--sine", "0.3,0.5", "--q", "0.6,0.2", "--for", "3", "--lcm-url", url_a}).status,
+              0);
     daemon->Signal(SIGTERM);
     ASSERT_EQ(daemon->Wait(10.0), 0);
     logger.Stop();
@@ -319,10 +330,12 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
   const std::string url_b = Url(7833);
   LcmCollector states_b(url_b, "ARM_STATE|LAGRANGE_STATUS");
   auto daemon_b = Daemon(url_b, {"--setpoint-age", "stream"});
-  ASSERT_TRUE(states_b.WaitFor("ARM_STATE", [](const auto& m) { return m.size() > 100; }, 20.0));
+  ASSERT_TRUE(states_b.WaitFor(
+      "ARM_STATE", [](const auto& m) { return m.size() > 100; }, 20.0));
   BackgroundProcess player({LCM_LOGPLAYER_PATH, "--lcm-url=" + url_b, "--regexp=ARM_SETPOINT", log.string()});
   ASSERT_EQ(player.Wait(30.0), 0) << player.Stderr();
-  states_b.WaitFor("ARM_STATE", [](const auto&) { return false; }, 0.5);  // the last setpoints settle
+  states_b.WaitFor(
+      "ARM_STATE", [](const auto&) { return false; }, 0.5);  // the last setpoints settle
   daemon_b->Signal(SIGTERM);
   ASSERT_EQ(daemon_b->Wait(10.0), 0);
   const auto status_b = states_b.Decoded<status_t>("LAGRANGE_STATUS").back();
@@ -346,8 +359,8 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
     for (const auto& qa : a) nearest = std::min(nearest, std::hypot(qa[0] - b[k][0], qa[1] - b[k][1]));
     worst = std::max(worst, nearest);
   }
-  EXPECT_GT(hi - lo, 0.5);   // a real motion ...
-  EXPECT_LT(worst, 5e-3);    // ... along the same path
+  EXPECT_GT(hi - lo, 0.5);  // a real motion ...
+  EXPECT_LT(worst, 5e-3);   // ... along the same path
 }
 
 TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemAll) {
@@ -375,7 +388,7 @@ TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemA
     ExpectFiniteNumbers(states, {"run_id", "controller"}, channel);
     run_of[channel] = runs.front();
   }
-  EXPECT_EQ(run_of["LEFT_ARM_STATE"], run_of["LEFT_CARTPOLE_STATE"]);  // one daemon, one run id ...
+  EXPECT_EQ(run_of["LEFT_ARM_STATE"], run_of["LEFT_CARTPOLE_STATE"]);   // one daemon, one run id ...
   EXPECT_NE(run_of["LEFT_ARM_STATE"], run_of["RIGHT_PENDULUM_STATE"]);  // ... another daemon, another
   EXPECT_TRUE(fs::exists(out / "LEFT_LAGRANGE_STATUS.csv"));
   EXPECT_TRUE(fs::exists(out / "RIGHT_LAGRANGE_STATUS.csv"));
@@ -390,8 +403,8 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   for (const char* type : {"state_t", "setpoint_t", "command_t", "status_t", "reply_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
-    const auto javap = testing::RunProcess({JAVAP_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar,
-                                            std::string("lagrange.") + type});
+    const auto javap = testing::RunProcess(
+        {JAVAP_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar, std::string("lagrange.") + type});
     EXPECT_NE(javap.out.find("implements lcm.lcm.LCMEncodable"), std::string::npos) << javap.out << javap.err;
   }
 }
@@ -405,7 +418,8 @@ std::vector<std::uint8_t> Encode(const Message& m) {
 }
 
 void PutInt32(std::vector<std::uint8_t>& bytes, std::size_t at, std::int32_t v) {
-  for (int i = 0; i < 4; ++i) bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(v) >> (24 - 8 * i));
+  for (int i = 0; i < 4; ++i)
+    bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(v) >> (24 - 8 * i));
 }
 
 state_t SomeState() {
@@ -431,7 +445,8 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
       {Encode(SomeState()), CheckStatePacket}, {Encode(status), CheckStatusPacket}, {Encode(reply), CheckReplyPacket}};
   for (const auto& [bytes, check] : packets) {
     EXPECT_EQ(check(bytes.data(), bytes.size()), WireCheck::kOk);
-    for (std::size_t size = 0; size < bytes.size(); ++size) ASSERT_NE(check(bytes.data(), size), WireCheck::kOk) << size;
+    for (std::size_t size = 0; size < bytes.size(); ++size)
+      ASSERT_NE(check(bytes.data(), size), WireCheck::kOk) << size;
     std::vector<std::uint8_t> longer = bytes;
     longer.push_back(0);
     EXPECT_EQ(check(longer.data(), longer.size()), WireCheck::kSizeMismatch);

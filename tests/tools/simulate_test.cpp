@@ -184,8 +184,11 @@ TEST_F(Simulate, TheEffectsDemoExercisesEveryEffectItLists) {
   for (const std::string effect : {"damping", "friction", "limits", "saturation", "disturbance"}) {
     const fs::path without = Write("without_" + effect + ".yaml", DemoWithout(effect));
     const fs::path other_csv = dir_ / ("without_" + effect + ".csv");
-    ASSERT_EQ(RunCtl({"simulate", without.string(), "--duration", std::to_string(duration), "--csv",
-                      other_csv.string()}).status, 0) << effect;
+    ASSERT_EQ(
+        RunCtl({"simulate", without.string(), "--duration", std::to_string(duration), "--csv", other_csv.string()})
+            .status,
+        0)
+        << effect;
     const Csv other = ReadCsv(other_csv);
     ASSERT_EQ(other.rows.size(), data.rows.size()) << effect;
     EXPECT_GT(LargestDifference(data, other, n), 1e-2) << "without " << effect;
@@ -289,7 +292,8 @@ instances:
 }
 
 TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
-  const fs::path negative = Write("negative.yaml", "instances:\n  - name: arm\n    plant: {type: arm2, params: {m2: -0.8}}\n");
+  const fs::path negative =
+      Write("negative.yaml", "instances:\n  - name: arm\n    plant: {type: arm2, params: {m2: -0.8}}\n");
   const fs::path broken = Write("broken.yaml", "instances: [\n");
   const std::string out = (dir_ / "x.csv").string();
   struct Case {
@@ -298,14 +302,21 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
     std::string message;
   };
   const std::vector<Case> cases = {
-      {{"simulate", (dir_ / "missing.yaml").string(), "--duration", "1", "--csv", out}, 1, "missing.yaml: cannot read the file"},
-      {{"simulate", negative.string(), "--duration", "1", "--csv", out}, 1,
+      {{"simulate", (dir_ / "missing.yaml").string(), "--duration", "1", "--csv", out},
+       1,
+       "missing.yaml: cannot read the file"},
+      {{"simulate", negative.string(), "--duration", "1", "--csv", out},
+       1,
        "negative.yaml:3:38: instances[0].plant.params.m2: expected a positive number (kg), got -0.8"},
       {{"simulate", broken.string(), "--duration", "1", "--csv", out}, 1, "broken.yaml:2:1: invalid YAML"},
-      {{"simulate", negative.string(), "--duration", "-1", "--csv", out}, 2, "--duration: expected a positive number, got '-1'"},
+      {{"simulate", negative.string(), "--duration", "-1", "--csv", out},
+       2,
+       "--duration: expected a positive number, got '-1'"},
       {{"simulate", negative.string(), "--duration", "soon", "--csv", out}, 2, "got 'soon'"},
       {{"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml", "--duration", "1", "--csv",
-        (dir_ / "no/such/dir.csv").string()}, 1, "cannot write"},
+        (dir_ / "no/such/dir.csv").string()},
+       1,
+       "cannot write"},
   };
   for (const Case& c : cases) {
     const auto r = RunCtl(c.args);
