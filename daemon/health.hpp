@@ -15,8 +15,11 @@
 
 namespace lagrange {
 
-inline constexpr const char* kStateNotFinite = "the state became non-finite";
-inline constexpr const char* kEnergyOutOfBound = "the energy left its bound (max_energy)";
+// Arrays, not pointers to literals: one object each in every translation
+// unit, so a reason can be compared by address (identical literals need not
+// share one, and do not under AddressSanitizer).
+inline constexpr char kStateNotFinite[] = "the state became non-finite";
+inline constexpr char kEnergyOutOfBound[] = "the energy left its bound (max_energy)";
 
 // J: an instance's bound on |T + V|: the scene's max_energy, else DefaultMaxEnergy.
 inline double MaxEnergy(const InstanceConfig& config) {

@@ -43,8 +43,9 @@ class Instance {
   // Why a step failed (static strings, so the tick can report them without
   // formatting), or null when it did not.
   using StepFailure = const char*;
-  static constexpr StepFailure kControllerNotFinite = "the controller's output was not finite";
-  static constexpr StepFailure kIntegratorFailed = "the integrator failed its tolerance";
+  // Arrays (one object each), so a failure can be compared by address.
+  static constexpr char kControllerNotFinite[] = "the controller's output was not finite";
+  static constexpr char kIntegratorFailed[] = "the integrator failed its tolerance";
 
   // (setpoint) => control, then (q, qd) at t + dt. Non-null when the
   // controller faulted (non-finite law) or the integrator failed, naming

@@ -378,12 +378,16 @@ TEST_F(Attack, BusStringsAreEscapedInTheLog) {
       {"\x1b]0;pwned\x07", "\\x1b]0;pwned\\x07"},
   };
   for (const auto& [name, escaped] : names) {
-    // Refusals are logged at most once a second: resend until this one is in the log.
+    // Refusals are logged at most once a second, and a reply may be lost on the
+    // way: resend until this one is in the log and its reply has come.
     command_t c = Command(command_t::SWITCH_CONTROLLER, name);
     c.request_id = ++next_request_id_;
     EXPECT_TRUE(testing::SendUntil([&] { sender_->PublishMessage("ARM_COMMAND", c); },
-                                   [&] { return LogText(log).find("'" + escaped + "'") != std::string::npos; }, kWait,
-                                   1.2))
+                                   [&] {
+                                     return LogText(log).find("'" + escaped + "'") != std::string::npos &&
+                                            FindReply(c.request_id).has_value();
+                                   },
+                                   kWait, 1.2))
         << LogText(log);
     const std::optional<reply_t> reply = FindReply(c.request_id);
     ASSERT_TRUE(reply.has_value());
