@@ -11,7 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "lcmtypes/subscribe.hpp"
+#include "tests/support/lcm_subscribe.hpp"
 
 namespace lagrange::testing {
 
