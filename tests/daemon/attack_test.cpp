@@ -120,32 +120,10 @@ class BusCollector {
 
 // ---------------------------------------------------------------- LC03 fragments
 
-void PutBigEndian32(Bytes& out, std::uint32_t v) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<std::uint8_t>(v >> shift));
-}
-void PutBigEndian16(Bytes& out, std::uint16_t v) {
-  out.push_back(static_cast<std::uint8_t>(v >> 8));
-  out.push_back(static_cast<std::uint8_t>(v));
-}
-
-// LC03 as LCM 1.3.1 lays it out: magic, msg_seqno, msg_size, fragment_offset
-// (u32 BE), fragment_no, fragments_in_msg (u16 BE); the first fragment then
-// carries the channel and its NUL; then data.
+// LC03 datagrams (tests/support/raw_udp.hpp lays them out).
 Bytes Fragment(std::uint32_t seqno, std::uint32_t msg_size, std::uint32_t offset, std::uint16_t fragment_no,
                std::uint16_t fragments, const std::string& channel, std::size_t data_size) {
-  Bytes out;
-  PutBigEndian32(out, 0x4c433033);
-  PutBigEndian32(out, seqno);
-  PutBigEndian32(out, msg_size);
-  PutBigEndian32(out, offset);
-  PutBigEndian16(out, fragment_no);
-  PutBigEndian16(out, fragments);
-  if (fragment_no == 0) {
-    out.insert(out.end(), channel.begin(), channel.end());
-    out.push_back(0);
-  }
-  out.insert(out.end(), data_size, 0xAB);
-  return out;
+  return testing::LcmFragment(seqno, msg_size, offset, fragment_no, fragments, channel, data_size);
 }
 
 // ---------------------------------------------------------------- the daemon

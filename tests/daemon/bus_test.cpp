@@ -27,15 +27,8 @@ namespace {
 using Bytes = std::vector<std::uint8_t>;
 
 constexpr std::uint32_t kShortMagic = 0x4c433032;
-constexpr std::uint32_t kFragmentMagic = 0x4c433033;
 
-void PutBigEndian32(Bytes& out, std::uint32_t v) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<std::uint8_t>(v >> shift));
-}
-void PutBigEndian16(Bytes& out, std::uint16_t v) {
-  out.push_back(static_cast<std::uint8_t>(v >> 8));
-  out.push_back(static_cast<std::uint8_t>(v));
-}
+using testing::PutBigEndian32;
 
 // LC02: magic, seqno, channel, NUL, payload.
 Bytes ShortDatagram(const std::string& channel, const Bytes& payload, std::uint32_t seqno = 7) {
@@ -48,26 +41,12 @@ Bytes ShortDatagram(const std::string& channel, const Bytes& payload, std::uint3
   return out;
 }
 
-// LC03 as LCM 1.3.1 lays it out: magic, msg_seqno, msg_size, fragment_offset
-// (u32 BE each), fragment_no, fragments_in_msg (u16 BE each): 20 bytes; the
-// first fragment then carries the channel and its NUL, then data.
+// LC03 datagrams from one sender (tests/support/raw_udp.hpp lays them out).
 constexpr std::uint32_t kAttackSeqno = 7;
 constexpr std::uint32_t kAttackSize = 4096;
 Bytes FragmentDatagram(std::uint32_t msg_size, std::uint32_t offset, std::uint16_t fragment_no, std::uint16_t fragments,
                        const std::string& channel, std::size_t data_size) {
-  Bytes out;
-  PutBigEndian32(out, kFragmentMagic);
-  PutBigEndian32(out, kAttackSeqno);
-  PutBigEndian32(out, msg_size);
-  PutBigEndian32(out, offset);
-  PutBigEndian16(out, fragment_no);
-  PutBigEndian16(out, fragments);
-  if (fragment_no == 0) {
-    out.insert(out.end(), channel.begin(), channel.end());
-    out.push_back(0);
-  }
-  out.insert(out.end(), data_size, 0xAB);
-  return out;
+  return testing::LcmFragment(kAttackSeqno, msg_size, offset, fragment_no, fragments, channel, data_size);
 }
 
 // The datagrams of docs/lcm-fragment-bug.md. LCM 1.3.1 keeps a fragment

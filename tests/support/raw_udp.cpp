@@ -11,6 +11,33 @@
 
 namespace lagrange::testing {
 
+void PutBigEndian32(std::vector<std::uint8_t>& out, std::uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<std::uint8_t>(v >> shift));
+}
+
+void PutBigEndian16(std::vector<std::uint8_t>& out, std::uint16_t v) {
+  out.push_back(static_cast<std::uint8_t>(v >> 8));
+  out.push_back(static_cast<std::uint8_t>(v));
+}
+
+std::vector<std::uint8_t> LcmFragment(std::uint32_t seqno, std::uint32_t msg_size, std::uint32_t offset,
+                                      std::uint16_t fragment_no, std::uint16_t fragments, const std::string& channel,
+                                      std::size_t data_size) {
+  std::vector<std::uint8_t> out;
+  PutBigEndian32(out, 0x4c433033);  // "LC03"
+  PutBigEndian32(out, seqno);
+  PutBigEndian32(out, msg_size);
+  PutBigEndian32(out, offset);
+  PutBigEndian16(out, fragment_no);
+  PutBigEndian16(out, fragments);
+  if (fragment_no == 0) {
+    out.insert(out.end(), channel.begin(), channel.end());
+    out.push_back(0);
+  }
+  out.insert(out.end(), data_size, 0xAB);
+  return out;
+}
+
 RawUdpSender::RawUdpSender(const std::string& group, int port) : group_(group), port_(port) {
   fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd_ < 0) throw std::runtime_error(std::string("RawUdpSender: socket: ") + std::strerror(errno));
