@@ -129,20 +129,10 @@ TEST_F(Service, BadLcmUrlsAndOptionsExitTwoWithOneLine) {
 pid_t StartWithClosedStderr(const std::vector<std::string>& argv) {
   int fds[2];
   if (pipe2(fds, O_CLOEXEC) != 0) return -1;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    close(fds[0]);  // no reader from the first byte on
-    dup2(fds[1], STDERR_FILENO);
-    const int null = open("/dev/null", O_WRONLY);
-    dup2(null, STDOUT_FILENO);
-    signal(SIGPIPE, SIG_DFL);  // the default action, as a service manager leaves it
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  close(fds[0]);
+  close(fds[0]);  // no reader from the first byte on
+  const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  const pid_t pid = testing::Spawn(argv, null, fds[1]);
+  close(null);
   close(fds[1]);
   return pid;
 }

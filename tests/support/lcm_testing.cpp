@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "tests/support/lcm_subscribe.hpp"
+#include "tests/support/process.hpp"
 
 namespace lagrange::testing {
 
@@ -116,16 +117,7 @@ BackgroundProcess::BackgroundProcess(const std::vector<std::string>& argv) {
   const int err_fd = mkstemp(err_template);
   out_path_ = out_template;
   err_path_ = err_template;
-  pid_ = fork();
-  if (pid_ == 0) {
-    dup2(out_fd, STDOUT_FILENO);
-    dup2(err_fd, STDERR_FILENO);
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    execv(args[0], args.data());
-    _exit(127);
-  }
+  pid_ = Spawn(argv, out_fd, err_fd);
   close(out_fd);
   close(err_fd);
 }

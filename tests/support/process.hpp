@@ -1,6 +1,8 @@
 #pragma once
 // Running the project's programs as separate processes in tests.
 
+#include <sys/types.h>
+
 #include <string>
 #include <vector>
 
@@ -11,6 +13,11 @@ struct ProcessResult {
   std::string out;
   std::string err;
 };
+
+// Starts argv[0] with arguments, its stdout and stderr on `stdout_fd` and
+// `stderr_fd` (−1: this process's), SIGPIPE at its default action; returns
+// its pid (throws when fork fails). The tests' one fork and exec.
+pid_t Spawn(const std::vector<std::string>& argv, int stdout_fd = -1, int stderr_fd = -1);
 
 // Runs argv[0] with arguments, captures stdout and stderr, waits up to
 // `timeout_s` (then kills it).
