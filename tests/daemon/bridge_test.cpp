@@ -195,23 +195,12 @@ class StreamBridge : public Bridge {
   StreamBridge() : Bridge(SetpointAge::kStream) {}
 };
 
-command_t SetGainsCommand() {
-  command_t c;
-  c.request_id = 1;
-  c.command = command_t::SET_GAINS;
-  c.controller = "pd";
-  c.num_gains = 2;
-  c.kp = {1.0, 2.0};
-  c.kd = {0.1, 0.2};
-  return c;
-}
-
 // ------------------------------------------------------------------ packets
 
 TEST_F(Bridge, EveryTruncationOfASetpointOrCommandIsExactlyOneDecodeError) {
   std::int64_t expected = 0;
   const Bytes setpoint = Encode(testing::MakeSetpoint({0.1, 0.2}, clock_.WallMicros()));
-  const Bytes command = Encode(SetGainsCommand());
+  const Bytes command = Encode(testing::MakeSetGainsCommand());
   for (const auto& [channel, whole] :
        {std::pair{std::string("ARM_SETPOINT"), setpoint}, std::pair{std::string("ARM_COMMAND"), command}}) {
     for (std::size_t len = 0; len < whole.size(); ++len) {

@@ -27,17 +27,6 @@ setpoint_t ValidSetpoint(int n) {
   return s;
 }
 
-command_t ValidCommand() {
-  command_t c;
-  c.utime = 5;
-  c.command = command_t::SET_GAINS;
-  c.controller = "pd";
-  c.num_gains = 2;
-  c.kp = {1.0, 2.0};
-  c.kd = {0.1, 0.2};
-  return c;
-}
-
 // Overwrites a big-endian int32 field inside an encoded packet.
 void WriteInt32(std::vector<std::uint8_t>& buf, std::size_t at, std::int32_t v) {
   ASSERT_LE(at + 4, buf.size());
@@ -77,7 +66,7 @@ TEST(Wire, AnotherTypesPacketFailsTheFingerprint) {
 }
 
 TEST(Wire, CommandsAreCheckedThroughTheirStringAndArrays) {
-  const auto buf = Encode(ValidCommand());
+  const auto buf = Encode(testing::MakeSetGainsCommand());
   EXPECT_EQ(CheckCommandPacket(buf.data(), buf.size()), WireCheck::kOk);
   for (std::size_t len = 0; len < buf.size(); ++len)
     EXPECT_NE(CheckCommandPacket(buf.data(), len), WireCheck::kOk) << len;

@@ -1,6 +1,7 @@
 #pragma once
 // Building and encoding lagrange messages in tests.
 
+#include <lagrange/command_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 
 #include <cstdint>
@@ -27,6 +28,20 @@ inline setpoint_t MakeSetpoint(std::vector<double> q, std::int64_t utime, std::v
   s.qdd = qdd.empty() ? std::vector<double>(q.size(), 0.0) : std::move(qdd);
   s.q = std::move(q);
   return s;
+}
+
+// A well-formed command with every field in use: set-gains for "pd" on two
+// joints (a string and two arrays, the layout the wire checks walk).
+inline command_t MakeSetGainsCommand() {
+  command_t c;
+  c.utime = 5;
+  c.request_id = 1;
+  c.command = command_t::SET_GAINS;
+  c.controller = "pd";
+  c.num_gains = 2;
+  c.kp = {1.0, 2.0};
+  c.kd = {0.1, 0.2};
+  return c;
 }
 
 }  // namespace lagrange::testing
