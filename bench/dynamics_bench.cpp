@@ -1,6 +1,6 @@
 // Derivation cost (issue 6, item 3): time per evaluation of M, C, C qd, G and
 // forward dynamics by each method, for the pendulum, the arm, the cart-pole
-// and chains of 2 to 50 links; plus the machine baseline every figure is
+// and chains of 2 to 64 links; plus the machine baseline every figure is
 // compared with in the report (one sin and one cos).
 //
 // Benchmark names: derive/<plant>/<method>/<term>, term one of

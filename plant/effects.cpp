@@ -1,7 +1,9 @@
 #include "plant/effects.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -91,7 +93,11 @@ std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
   return std::nullopt;
 }
 
-Effects::Effects(EffectsConfig config, int n) : config_(std::move(config)) {
+Effects::Effects(EffectsConfig config, int n)
+    : config_(std::move(config)),
+      terms_(config_.terms()),
+      passes_command_through_(!config_.saturation && config_.disturbance.empty() && !config_.damping &&
+                              !config_.friction && !config_.limits) {
   if (auto e = ValidateEffects(config_, n)) throw std::invalid_argument(e->key + ": " + e->message);
 }
 
@@ -103,28 +109,34 @@ void Effects::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, C
   AddLimits(q, qd, tau);
 }
 
+// The stages loop over the joints by index: n is small (1 to a few tens), where
+// Eigen's vectorised loops cost more in set-up than they save.
 void Effects::Saturate(ConstVecRef tau_cmd, VecRef tau) {
+  const int n = static_cast<int>(tau.size());
   if (!config_.saturation) {
-    tau = tau_cmd;
+    for (int i = 0; i < n; ++i) tau[i] = tau_cmd[i];
     return;
   }
   ++counts_.saturation;
   const VectorXd& max = *config_.saturation;
-  tau = tau_cmd.cwiseMax(-max).cwiseMin(max);
+  for (int i = 0; i < n; ++i) tau[i] = std::min(std::max(tau_cmd[i], -max[i]), max[i]);
 }
 
 void Effects::AddDisturbance(double t, VecRef tau) {
   if (config_.disturbance.empty()) return;
   ++counts_.disturbance;
   for (const Push& p : config_.disturbance) {
-    if (t >= p.start && t < p.start + p.duration) tau += p.tau;
+    if (t >= p.start && t < p.start + p.duration) {
+      for (int i = 0; i < tau.size(); ++i) tau[i] += p.tau[i];
+    }
   }
 }
 
 void Effects::AddDamping(ConstVecRef qd, VecRef tau) {
   if (!config_.damping) return;
   ++counts_.damping;
-  tau -= config_.damping->cwiseProduct(qd);
+  const VectorXd& b = *config_.damping;
+  for (int i = 0; i < tau.size(); ++i) tau[i] -= b[i] * qd[i];
 }
 
 void Effects::AddFriction(ConstVecRef qd, VecRef tau) {

@@ -67,7 +67,10 @@ class Effects {
   Effects(EffectsConfig config, int n);
 
   const EffectsConfig& config() const { return config_; }
-  DynamicsTerms terms() const { return config_.terms(); }
+  DynamicsTerms terms() const { return terms_; }
+  // True when no stage below is on (no saturation, pushes, damping, friction
+  // or limits): tau = tau_cmd exactly, and nothing here needs to run.
+  bool passes_command_through() const { return passes_command_through_; }
 
   // (t, q, qd, tau_cmd) => tau, the sum above.
   void ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau);
@@ -88,6 +91,8 @@ class Effects {
 
  private:
   EffectsConfig config_;
+  DynamicsTerms terms_;  // config_.terms(), resolved once
+  bool passes_command_through_;
   StageCounts counts_;
 };
 

@@ -10,9 +10,18 @@ PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects
       tau_(dynamics_->num_dofs()),
       tau_law_(dynamics_->num_dofs()) {}
 
-void PlantModel::ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
-                                     VecRef qdd) {
-  ComputeGeneralizedForce(law, t, q, qd, tau_cmd, tau_);
+void PlantModel::ComputeAccelerationWithEffects(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd,
+                                                ConstVecRef tau_cmd, VecRef qdd) {
+  if (law == nullptr) {
+    effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
+  } else {
+    law->Compute(t, q, qd, tau_law_);
+    if (effects_.passes_command_through()) {  // tau is the law's output as it is
+      dynamics_->ComputeForwardDynamics(q, qd, tau_law_, effects_.terms(), qdd);
+      return;
+    }
+    effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau_);
+  }
   dynamics_->ComputeForwardDynamics(q, qd, tau_, effects_.terms(), qdd);
 }
 

@@ -38,7 +38,16 @@ class PlantModel {
 
   // (law, t, q, qd, tau_cmd) => qdd. `law` null: tau_cmd is held; otherwise
   // tau_cmd is ignored and the law's output at (t, q, qd) is used instead.
-  void ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd);
+  // Inline: with no law and no force effect on (Effects::passes_command_through)
+  // tau = tau_cmd, handed to the dynamics as it is; an integrator calls this
+  // at every stage.
+  void ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
+    if (law == nullptr && effects_.passes_command_through()) {
+      dynamics_->ComputeForwardDynamics(q, qd, tau_cmd, effects_.terms(), qdd);
+      return;
+    }
+    ComputeAccelerationWithEffects(law, t, q, qd, tau_cmd, qdd);
+  }
   // (t, q, qd, tau_cmd) => qdd with tau_cmd held.
   void ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
     ComputeAcceleration(nullptr, t, q, qd, tau_cmd, qdd);
@@ -55,6 +64,10 @@ class PlantModel {
   StageCounts counts() const;
 
  private:
+  // ComputeAcceleration through the law and the effects' stages.
+  void ComputeAccelerationWithEffects(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                                      VecRef qdd);
+
   std::unique_ptr<Dynamics> dynamics_;
   Effects effects_;
   VectorXd tau_;      // scratch (n)

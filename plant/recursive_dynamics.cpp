@@ -69,7 +69,11 @@ RecursiveDynamics::RecursiveDynamics(PlanarChain chain) : Dynamics(chain.joint_t
   c_.resize(n);
   pA_.resize(n);
   U_.resize(n);
-  vw_.resize(n);
+  ov_.resize(n);
+  com_.resize(n);
+  axes_.resize(n, 3);
+  P_.resize(n, 3);
+  Q_.resize(n, 3);
   IA_.resize(n);
   D_.resize(n);
   u_.resize(n);
@@ -218,37 +222,81 @@ void RecursiveDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
   Rnea(zeros_, zeros_, DynamicsTerms{.gravity = true, .coriolis = false}, G);
 }
 
+// (X, qd) => base-frame joint axes J_j, body velocities v_j and centres of mass.
+void RecursiveDynamics::ComputeBaseFrameMotion(ConstVecRef qd) const {
+  double c = 1.0, s = 0.0;  // rotation of body j's frame in the base frame
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  Vector3d v = Vector3d::Zero();
+  for (int j = 0; j < num_dofs(); ++j) {
+    const Xform& X = X_[j];
+    p += Eigen::Vector2d(c * X.r.x() - s * X.r.y(), s * X.r.x() + c * X.r.y());
+    const double cj = c * X.c - s * X.s;
+    s = s * X.c + c * X.s;
+    c = cj;
+    const Vector3d J =
+        chain_.joints[j].type == JointType::kRevolute ? Vector3d(1.0, p.y(), -p.x()) : Vector3d(0.0, c, s);
+    v += qd[j] * J;
+    axes_.row(j) = J;
+    ov_[j] = v;
+    const PlanarBody& b = chain_.bodies[j];
+    com_[j] = p + Eigen::Vector2d(c * b.com.x() - s * b.com.y(), s * b.com.x() + c * b.com.y());
+  }
+}
+
+// (q, qd) => C in one forward and one backward pass, in base coordinates
+// (Pinocchio's computeCoriolisMatrix in 2-D). With J_j the base-frame joint
+// axis, J̇_j = v_j × J_j, and over the subtree j..n−1 the composite inertia
+// Ic_j, its rate İc_j and momentum h_j, Bc_j = ½ (İc_j + h_j ×̄*) (m ↦ m ×* h_j):
+//   C_ij = J_iᵀ (Ic_k J̇_j + Bc_k J_j),  k = max(i, j),
+// i.e. C_ij = J_i · F_j for i <= j, F_j = Ic_j J̇_j + Bc_j J_j, and
+// C_ij = P_i · J̇_j + Q_i · J_j for i > j, P_i = Ic_i J_i, Q_i = Bc_iᵀ J_i.
+// The Christoffel symbols ∂C_ij/∂qd_k are symmetric in (j, k), so this is the
+// Christoffel C: Ṁ − 2C is skew and C qd is the RNEA's.
 void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
   AssertSizes(q, qd, C);
   const int n = num_dofs();
+  if (n == 1) {  // the one body's M = S_0ᵀ I_0 S_0 in its own frame does not depend on q
+    C(0, 0) = 0.0;
+    return;
+  }
   ComputeTransforms(q);
-  ComputeVelocities(qd);
-  // Column j = B(qd, e_j), B the symmetric bilinear form with B(qd, qd) = C(q, qd) qd.
-  for (int j = 0; j < n; ++j) {
-    Vector3d a_parent = Vector3d::Zero();
-    for (int i = j; i < n; ++i) {
-      const int k = SubspaceIndex(chain_.joints[i].type);
-      if (i == j) {
-        vw_[i].setZero();
-        vw_[i][k] = 1.0;
-      } else {
-        vw_[i] = ApplyX(X_[i], vw_[i - 1]);
-      }
-      Vector3d s_w = Vector3d::Zero();  // S_i w_i
-      Vector3d s_u = Vector3d::Zero();  // S_i qd_i
-      if (i == j) s_w[k] = 1.0;
-      s_u[k] = qd[i];
-      const Vector3d ci = 0.5 * (CrossMotion(v_[i], s_w) + CrossMotion(vw_[i], s_u));
-      a_[i] = ApplyX(X_[i], a_parent) + ci;
-      f_[i] = inertia_[i] * a_[i] +
-              0.5 * (CrossForce(v_[i], inertia_[i] * vw_[i]) + CrossForce(vw_[i], inertia_[i] * v_[i]));
-      a_parent = a_[i];
-    }
-    for (int i = 0; i < j; ++i) f_[i].setZero();
-    for (int i = n - 1; i >= 0; --i) {
-      C(i, j) = f_[i][SubspaceIndex(chain_.joints[i].type)];
-      if (i > 0) f_[i - 1] += ApplyXT(X_[i], f_[i]);
-    }
+  ComputeBaseFrameMotion(qd);
+  double m = 0.0, hx = 0.0, hy = 0.0, I = 0.0;          // Ic = [[I, −hy, hx], [−hy, m, 0], [hx, 0, m]]
+  double dI = 0.0, dhx = 0.0, dhy = 0.0;                // İc, the same shape with zero mass
+  Vector3d h = Vector3d::Zero();                        // Σ I_b v_b
+  const auto ic = [&](const Vector3d& x) -> Vector3d {  // Ic x
+    return {I * x[0] - hy * x[1] + hx * x[2], -hy * x[0] + m * x[1], hx * x[0] + m * x[2]};
+  };
+  const auto bc = [&](const Vector3d& x, double sign) -> Vector3d {  // Bc x (sign 1) or Bcᵀ x (sign −1)
+    return 0.5 * Vector3d(dI * x[0] + (sign * h[2] - dhy) * x[1] + (dhx - sign * h[1]) * x[2],
+                          (-dhy - sign * h[2]) * x[0], (dhx + sign * h[1]) * x[0]);
+  };
+  const double *J0 = axes_.col(0).data(), *J1 = axes_.col(1).data(), *J2 = axes_.col(2).data();
+  const double *P1 = P_.col(1).data(), *P2 = P_.col(2).data();
+  const double *Q0 = Q_.col(0).data(), *Q1 = Q_.col(1).data(), *Q2 = Q_.col(2).data();
+  for (int j = n - 1; j >= 0; --j) {
+    // Add body j to the subtree's composites.
+    const PlanarBody& b = chain_.bodies[j];
+    const Vector3d& vj = ov_[j];
+    const double bm = b.mass, bhx = bm * com_[j].x(), bhy = bm * com_[j].y();
+    const double bI = b.inertia + bm * com_[j].squaredNorm();
+    h += Vector3d(bI * vj[0] - bhy * vj[1] + bhx * vj[2], -bhy * vj[0] + bm * vj[1], bhx * vj[0] + bm * vj[2]);
+    dI += 2.0 * (bhx * vj[1] + bhy * vj[2]);
+    dhx += bm * vj[1] - vj[0] * bhy;
+    dhy += bm * vj[2] + vj[0] * bhx;
+    m += bm;
+    hx += bhx;
+    hy += bhy;
+    I += bI;
+    // Column j: rows i <= j from F_j, rows i > j from P_i, Q_i made on the way down.
+    const Vector3d J = axes_.row(j).transpose();
+    const Vector3d dJ = CrossMotion(vj, J);  // J̇_j; its angular part is 0
+    const Vector3d F = ic(dJ) + bc(J, 1.0);
+    P_.row(j) = ic(J);
+    Q_.row(j) = bc(J, -1.0);
+    double* col = &C(0, j);
+    for (int i = 0; i <= j; ++i) col[i] = J0[i] * F[0] + J1[i] * F[1] + J2[i] * F[2];
+    for (int i = j + 1; i < n; ++i) col[i] = P1[i] * dJ[1] + P2[i] * dJ[2] + Q0[i] * J[0] + Q1[i] * J[1] + Q2[i] * J[2];
   }
 }
 

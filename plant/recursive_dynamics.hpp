@@ -51,8 +51,9 @@ struct PlanarChain {
 //   inverse dynamics: recursive Newton–Euler (RNEA)
 //   forward dynamics: articulated-body algorithm (ABA)
 //   mass matrix: composite-rigid-body algorithm (CRBA), O(n²) to fill M
-//   Coriolis matrix: column j is the symmetric bilinear RNEA B(qd, e_j), since
-//     the Christoffel symbols are symmetric in their last two indices; O(n²)
+//   Coriolis matrix: one forward and one backward pass over base-frame
+//     composite inertias, their rates and momenta (Pinocchio's
+//     computeCoriolisMatrix); O(n) passes, O(n²) to fill C
 //   ∂T/∂q: ∂T/∂q_j = −S_jᵀ (v_{j−1} ×* Σ_{i≥j} I_i v_i), O(n)
 class RecursiveDynamics final : public Dynamics {
  public:
@@ -85,6 +86,9 @@ class RecursiveDynamics final : public Dynamics {
   void ComputeTransforms(ConstVecRef q) const;
   // (X, qd) => v_i, body velocities.
   void ComputeVelocities(ConstVecRef qd) const;
+  // (X, qd) => axes_, ov_, com_: joint axes, body velocities and centres of
+  // mass in base coordinates, for the Coriolis matrix.
+  void ComputeBaseFrameMotion(ConstVecRef qd) const;
   // (X, v, qdd, terms) => tau by the backward RNEA pass.
   void Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
 
@@ -93,7 +97,12 @@ class RecursiveDynamics final : public Dynamics {
   // Workspace (n entries each), mutable: the const queries write it, and it
   // is this object's own (Dynamics objects are not shared between threads).
   mutable std::vector<Xform> X_;
-  mutable std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_, vw_;
+  mutable std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_;
+  // Coriolis matrix, in base coordinates: body velocities and centres of
+  // mass, and one row per joint of the joint axes J_j and the factors P_j, Q_j.
+  mutable std::vector<Eigen::Vector3d> ov_;
+  mutable std::vector<Eigen::Vector2d> com_;
+  mutable Eigen::Matrix<double, Eigen::Dynamic, 3> axes_, P_, Q_;
   mutable std::vector<Eigen::Matrix3d> IA_;
   mutable std::vector<double> D_, u_;
   VectorXd zeros_;  // qd or qdd = 0 for the gravity and Coriolis passes
