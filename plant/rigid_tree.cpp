@@ -1,0 +1,201 @@
+#include "plant/rigid_tree.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace lagrange {
+
+std::vector<JointType> RigidTree::joint_types() const {
+  std::vector<JointType> types;
+  types.reserve(joints.size());
+  for (const TreeJoint& j : joints) types.push_back(j.type);
+  return types;
+}
+
+std::vector<std::string> RigidTree::joint_names() const {
+  std::vector<std::string> names;
+  names.reserve(joints.size());
+  for (const TreeJoint& j : joints) names.push_back(j.name);
+  return names;
+}
+
+namespace {
+
+// Tolerances of the checks, relative to the quantity's own scale.
+constexpr double kUnitTol = 1e-9;     // |‖axis‖ − 1|, ‖RᵀR − 1‖
+constexpr double kInertiaTol = 1e-9;  // asymmetry, negative eigenvalues, triangle violations, × trace
+constexpr double kPivotTol = 1e-12;   // Cholesky pivot of M(0), × the largest diagonal entry
+
+std::string Num(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
+
+std::string Str(const Eigen::Vector3d& v) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(%.6g, %.6g, %.6g)", v.x(), v.y(), v.z());
+  return buf;
+}
+
+std::string Str(const Eigen::Matrix3d& m) {
+  std::string s = "[";
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) s += Num(m(r, c)) + (c < 2 ? " " : (r < 2 ? "; " : "]"));
+  }
+  return s;
+}
+
+std::string Key(const char* list, int i, const char* field) {
+  return std::string(list) + "[" + std::to_string(i) + "]." + field;
+}
+
+std::string Bad(const std::string& key, const std::string& expected, const std::string& got) {
+  return key + ": expected " + expected + ", got " + got;
+}
+
+std::optional<std::string> CheckJoint(const TreeJoint& j, int i) {
+  if (j.parent < -1 || j.parent >= i) {
+    return Bad(Key("joints", i, "parent"), "-1 (the world) to " + std::to_string(i - 1) + " (parents come first)",
+               std::to_string(j.parent));
+  }
+  if (!j.position.allFinite()) return Bad(Key("joints", i, "position"), "finite numbers", Str(j.position));
+  if (!j.rotation.allFinite()) return Bad(Key("joints", i, "rotation"), "finite numbers", Str(j.rotation));
+  const double orth = (j.rotation.transpose() * j.rotation - Eigen::Matrix3d::Identity()).norm();
+  if (orth > kUnitTol || j.rotation.determinant() <= 0.0) {
+    return Bad(Key("joints", i, "rotation"), "a proper rotation (RᵀR = 1, det R = +1)", Str(j.rotation));
+  }
+  if (!j.axis.allFinite()) return Bad(Key("joints", i, "axis"), "finite numbers", Str(j.axis));
+  if (std::abs(j.axis.norm() - 1.0) > kUnitTol) {
+    return Bad(Key("joints", i, "axis"), "a unit vector", Str(j.axis) + " of norm " + Num(j.axis.norm()));
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> CheckBody(const RigidBody& b, int i) {
+  if (!std::isfinite(b.mass) || b.mass < 0.0) return Bad(Key("bodies", i, "mass"), "a finite mass >= 0", Num(b.mass));
+  if (!b.com.allFinite()) return Bad(Key("bodies", i, "com"), "finite numbers", Str(b.com));
+  const Eigen::Matrix3d& I = b.inertia;
+  const std::string key = Key("bodies", i, "inertia");
+  if (!I.allFinite()) return Bad(key, "finite numbers", Str(I));
+  const double scale = std::max(std::abs(I.trace()), I.cwiseAbs().maxCoeff());
+  if ((I - I.transpose()).cwiseAbs().maxCoeff() > kInertiaTol * scale) return Bad(key, "a symmetric matrix", Str(I));
+  const Eigen::Vector3d moments =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I, Eigen::EigenvaluesOnly).eigenvalues();
+  if (moments[0] < -kInertiaTol * scale) {
+    return Bad(key, "positive semi-definite", Str(I) + " with principal moment " + Num(moments[0]));
+  }
+  // Principal moments ascend: the one triangle inequality that can fail is I3 <= I1 + I2.
+  if (moments[2] > moments[0] + moments[1] + kInertiaTol * scale) {
+    return Bad(key, "principal moments obeying the triangle inequality (each <= the sum of the other two)",
+               "moments " + Str(moments));
+  }
+  return std::nullopt;
+}
+
+// M(0) by the composite-rigid-body algorithm in world coordinates at q = 0,
+// written here so the check needs no dynamics object: with J_i joint i's
+// world motion axis and Ic_i the world spatial inertia of its subtree,
+// M_ij = J_iᵀ Ic_i J_j for j an ancestor of i or i itself.
+Eigen::MatrixXd MassMatrixAtZero(const RigidTree& tree) {
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  using Matrix6d = Eigen::Matrix<double, 6, 6>;
+  const int n = tree.num_dofs();
+  std::vector<Eigen::Matrix3d> R(n);
+  std::vector<Eigen::Vector3d> o(n);
+  std::vector<Vector6d> J(n);
+  std::vector<Matrix6d> Ic(n);
+  auto skew = [](const Eigen::Vector3d& v) {
+    Eigen::Matrix3d S;
+    S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+    return S;
+  };
+  for (int i = 0; i < n; ++i) {
+    const TreeJoint& j = tree.joints[i];
+    const Eigen::Matrix3d Rp = j.parent < 0 ? Eigen::Matrix3d::Identity() : R[j.parent];
+    const Eigen::Vector3d op = j.parent < 0 ? Eigen::Vector3d::Zero() : o[j.parent];
+    R[i] = Rp * j.rotation;
+    o[i] = op + Rp * j.position;
+    const Eigen::Vector3d a = R[i] * j.axis;
+    if (j.type == JointType::kRevolute) {
+      J[i] << a, o[i].cross(a);
+    } else {
+      J[i] << Eigen::Vector3d::Zero(), a;
+    }
+    // Spatial inertia about the world origin: [[I_c − m[c]×², m[c]×], [−m[c]×, m 1]].
+    const RigidBody& b = tree.bodies[i];
+    const Eigen::Vector3d c = o[i] + R[i] * b.com;
+    const Eigen::Matrix3d C = skew(c);
+    Ic[i].topLeftCorner<3, 3>() = R[i] * b.inertia * R[i].transpose() - b.mass * C * C;
+    Ic[i].topRightCorner<3, 3>() = b.mass * C;
+    Ic[i].bottomLeftCorner<3, 3>() = -b.mass * C;
+    Ic[i].bottomRightCorner<3, 3>() = b.mass * Eigen::Matrix3d::Identity();
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    if (tree.joints[i].parent >= 0) Ic[tree.joints[i].parent] += Ic[i];
+  }
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) {
+    const Vector6d F = Ic[i] * J[i];
+    for (int j = i; j >= 0; j = tree.joints[j].parent) {
+      M(i, j) = J[j].dot(F);
+      M(j, i) = M(i, j);
+    }
+  }
+  return M;
+}
+
+// The first joint at which M(0) stops being positive definite, by Cholesky
+// in joint order; −1 if none.
+int FirstSingularJoint(Eigen::MatrixXd M) {
+  const int n = static_cast<int>(M.rows());
+  const double scale = M.diagonal().cwiseAbs().maxCoeff();
+  for (int k = 0; k < n; ++k) {
+    const double d = M(k, k) - M.row(k).head(k).squaredNorm();
+    if (!(d > kPivotTol * scale)) return k;
+    M(k, k) = std::sqrt(d);
+    for (int r = k + 1; r < n; ++r) M(r, k) = (M(r, k) - M.row(r).head(k).dot(M.row(k).head(k))) / M(k, k);
+  }
+  return -1;
+}
+
+bool MovesNothing(const RigidTree& tree, int i) {
+  const RigidBody& b = tree.bodies[i];
+  if (b.mass > 0.0 || b.inertia.cwiseAbs().maxCoeff() > 0.0) return false;
+  for (int c = i + 1; c < tree.num_dofs(); ++c) {
+    if (tree.joints[c].parent == i) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
+  const int n = tree.num_dofs();
+  if (n < 1 || n > kMaxDofs) {
+    return Bad("joints", "1 to " + std::to_string(kMaxDofs) + " joints", std::to_string(n));
+  }
+  if (tree.bodies.size() != tree.joints.size()) {
+    return Bad("bodies", std::to_string(n) + " bodies (one per joint)", std::to_string(tree.bodies.size()));
+  }
+  if (!tree.gravity.allFinite()) return Bad("gravity", "finite numbers", Str(tree.gravity));
+  for (int i = 0; i < n; ++i) {
+    if (auto e = CheckJoint(tree.joints[i], i)) return e;
+  }
+  for (int i = 0; i < n; ++i) {
+    if (auto e = CheckBody(tree.bodies[i], i)) return e;
+  }
+  const int k = FirstSingularJoint(MassMatrixAtZero(tree));
+  if (k < 0) return std::nullopt;
+  if (MovesNothing(tree, k)) {
+    return Bad(Key("bodies", k, "mass"), "mass or inertia on a leaf body (M(0) positive definite)",
+               "a massless leaf: joints[" + std::to_string(k) + "] moves nothing");
+  }
+  return Bad("joints[" + std::to_string(k) + "]",
+             "a joint that moves mass or inertia of its own (M(0) positive definite)",
+             "a singular mass matrix at this joint");
+}
+
+}  // namespace lagrange

@@ -1,0 +1,73 @@
+#pragma once
+// A kinematic tree of rigid bodies in 3-D, fixed base: the model behind every
+// URDF plant (plant/urdf.hpp builds it), evaluated by the recursive spatial
+// algorithms (plant/spatial_dynamics.hpp) and, through the templated
+// energies below, by the Lagrangian path (plant/lagrangian.hpp).
+//
+// Frames. The world is the root link's frame. Joint i's frame is placed in
+// its parent body's frame (the world for a root joint) by a fixed transform:
+//   p_parent = position + rotation · p_joint       (URDF <origin xyz rpy>)
+// Body i's frame is joint i's frame after the joint's motion: a revolute joint
+// rotates it by q_i about `axis`, a prismatic joint translates it by q_i·axis.
+// Gravity is the vector `gravity` in the world frame (URDF/ROS: (0, 0, −9.81)).
+//
+// Energies (SI units), with p_c, v_c the world position and velocity of body
+// i's centre of mass, ω its angular velocity and I its inertia about the centre
+// of mass, all in world axes:
+//   T(q, qd) = Σ ½ (m ‖v_c‖² + ωᵀ I ω)
+//   V(q)     = −Σ m gravityᵀ p_c           (zero with every centre of mass at the world origin)
+
+#include <Eigen/Core>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "plant/types.hpp"
+
+namespace lagrange {
+
+struct RigidBody {
+  double mass = 0.0;                                  // kg, >= 0
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();      // centre of mass in the body frame, m
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();  // about the centre of mass, body axes, kg·m²
+};
+
+struct TreeJoint {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  int parent = -1;                                     // index of the joint carrying the parent body; −1: the world
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // joint frame origin in the parent body frame, m
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // joint frame axes in the parent body frame
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();         // unit motion axis in the joint frame
+};
+
+struct RigidTree {
+  std::vector<TreeJoint> joints;  // joint i carries body i; parents come first: joints[i].parent < i
+  std::vector<RigidBody> bodies;  // one per joint
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity);  // m/s², world frame
+
+  int num_dofs() const { return static_cast<int>(joints.size()); }
+  std::vector<JointType> joint_types() const;
+  std::vector<std::string> joint_names() const;
+
+  // Energies by forward kinematics, templated over the scalar for the
+  // Lagrangian path (double and every Dual of plant/dual.hpp).
+  template <class S>
+  S KineticEnergy(std::span<const S> q, std::span<const S> qd) const;
+  template <class S>
+  S PotentialEnergy(std::span<const S> q) const;
+};
+
+// Why `tree` is not a valid model, as "KEY: expected ..., got ...", or nullopt:
+// sizes agree, 1..kMaxDofs joints, parents come first, rotations are proper
+// orthonormal, axes unit, all numbers finite, masses >= 0, inertias symmetric,
+// positive semi-definite and obeying the triangle inequality (physically
+// realisable), and M(0) positive definite (no massless leaf, no joint that
+// moves nothing).
+std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
+
+}  // namespace lagrange
+
+// Template definitions of the energies.
+#include "plant/rigid_tree_energy.hpp"

@@ -1,0 +1,721 @@
+#include "plant/spatial_dynamics.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "plant/spatial_algebra.hpp"
+#include "plant/spatial_sincos.hpp"
+
+namespace lagrange {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using spatial::ArticulatedInertia;
+using spatial::Cross;
+using spatial::CrossStar;
+using spatial::Dot;
+using spatial::Force;
+using spatial::Inertia;
+using spatial::Motion;
+using spatial::Xform;
+
+// A rotation whose third column is the unit vector a: a joint's folding.
+Matrix3d RotationTakingZTo(const Vector3d& a) {
+  // Start from the coordinate axis least aligned with a.
+  Vector3d h = Vector3d::Zero();
+  int k = 0;
+  a.cwiseAbs().minCoeff(&k);
+  h[k] = 1.0;
+  const Vector3d x = (h - h.dot(a) * a).normalized();
+  Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = Cross(a, x);
+  R.col(2) = a;
+  return R;
+}
+
+}  // namespace
+
+// The folded model (constant after construction). Frames are the folded body
+// frames: body i's axes turned so that its joint axis is z.
+struct SpatialModel {
+  int n = 0;
+  bool chain = true;  // parent[i] = i − 1 for all i: every entry of M and C is on a path
+  bool deep = false;  // more than kDeepTreeMeanAncestors ancestors per joint on average
+  std::vector<int> parent;
+  std::vector<char> revolute;
+  // Joint i's fixed placement in its parent's frame: the joint frame's
+  // coordinates are E0 (x − r); the joint moves the body frame by Rz(q) or q z.
+  std::vector<Matrix3d> E0;
+  std::vector<Vector3d> r;
+  std::vector<Inertia> inertia;       // body inertia about the body origin, body axes
+  std::vector<Vector3d> com;          // centre of mass, body frame, m
+  std::vector<Matrix3d> inertia_com;  // rotational inertia about the centre of mass, body axes, kg·m²
+  std::vector<double> subtree_mass;   // kg
+  Vector3d gravity = Vector3d::Zero();
+};
+
+// What the sweeps write, n entries each (H n x n), sized once.
+struct SpatialScratch {
+  // Local frames: X[i] takes parent coordinates to body i's.
+  std::vector<double> cq, sq;  // cos q, sin q
+  std::vector<Xform> X;
+  std::vector<Motion> v, a, c;
+  std::vector<Force> f;
+  std::vector<Vector3d> g, h;  // gravity and subtree first moments in body frames
+  std::vector<Inertia> Ic;     // composite inertias
+  // World frame (C matrix, ABA): body axes R, origin o, joint motion axis J, J̇ = v × J.
+  std::vector<Matrix3d> R;
+  std::vector<Vector3d> o;
+  std::vector<Motion> J, dJ;
+  std::vector<Inertia> Idot;  // İ (mass part zero)
+  std::vector<Force> hc;      // subtree momenta
+  std::vector<ArticulatedInertia> IA;
+  std::vector<Force> pA, U;
+  std::vector<double> D, u;  // D: 1/D in the ABA
+  std::vector<double> H;     // M's lower triangle, row-major n x n, then its Lᵀ D L factors
+};
+
+struct SpatialDynamics::Workspace {
+  SpatialModel model;
+  SpatialScratch s;
+};
+
+namespace {
+
+SpatialModel Fold(const RigidTree& tree) {
+  SpatialModel m;
+  m.n = tree.num_dofs();
+  m.gravity = tree.gravity;
+  std::vector<Matrix3d> fold(m.n);  // body frame → folded body frame: x_body = fold · x_folded
+  for (int i = 0; i < m.n; ++i) {
+    const TreeJoint& j = tree.joints[i];
+    const RigidBody& b = tree.bodies[i];
+    const Matrix3d Fp = j.parent < 0 ? Matrix3d::Identity() : fold[j.parent];
+    fold[i] = RotationTakingZTo(j.axis);
+    m.parent.push_back(j.parent);
+    m.chain = m.chain && j.parent == i - 1;
+    m.revolute.push_back(j.type == JointType::kRevolute ? 1 : 0);
+    // Joint frame axes in the folded parent frame: Fpᵀ rotation fold.
+    m.E0.push_back((Fp.transpose() * j.rotation * fold[i]).transpose());
+    m.r.push_back(Fp.transpose() * j.position);
+    const Matrix3d& F = fold[i];
+    m.com.push_back(F.transpose() * b.com);
+    const Matrix3d I = F.transpose() * b.inertia * F;
+    m.inertia_com.push_back(0.5 * (I + I.transpose()));  // the part the kinetic energy sees
+    m.inertia.push_back(spatial::InertiaFromCom(b.mass, m.com.back(), m.inertia_com.back()));
+  }
+  int ancestors = 0;
+  for (int i = 0; i < m.n; ++i) {
+    for (int j = m.parent[i]; j >= 0; j = m.parent[j]) ++ancestors;
+  }
+  m.deep = ancestors > SpatialDynamics::kDeepTreeMeanAncestors * m.n;
+  m.subtree_mass.assign(m.n, 0.0);
+  for (int i = m.n - 1; i >= 0; --i) {
+    m.subtree_mass[i] += m.inertia[i].m;
+    if (m.parent[i] >= 0) m.subtree_mass[m.parent[i]] += m.subtree_mass[i];
+  }
+  return m;
+}
+
+void Size(SpatialScratch& s, int n) {
+  const auto N = static_cast<std::size_t>(n);
+  s.cq.resize(N);
+  s.sq.resize(N);
+  s.X.resize(N);
+  s.v.resize(N);
+  s.a.resize(N);
+  s.c.resize(N);
+  s.f.resize(N);
+  s.g.resize(N);
+  s.h.resize(N);
+  s.Ic.resize(N);
+  s.R.resize(N);
+  s.o.resize(N);
+  s.J.resize(N);
+  s.dJ.resize(N);
+  s.Idot.resize(N);
+  s.hc.resize(N);
+  s.IA.resize(N);
+  s.pA.resize(N);
+  s.U.resize(N);
+  s.D.resize(N);
+  s.u.resize(N);
+  s.H.assign(N * N, 0.0);
+}
+
+// Motion subspace S = (z, 0) for a revolute joint, (0, z) for a prismatic one:
+// S_iᵀ f picks one component.
+double SubspaceDot(const SpatialModel& m, int i, const Force& f) { return m.revolute[i] ? f.n.z() : f.f.z(); }
+
+// ---- kinematics ---------------------------------------------------------
+
+// q => X_i = (Rz(q)ᵀ E0, r) for a revolute joint, (E0, r + q E0ᵀ z) for a prismatic one.
+void Transforms(const SpatialModel& m, SpatialScratch& s, const double* q) {
+  spatial::SinCos(q, s.cq.data(), s.sq.data(), m.n);
+  for (int i = 0; i < m.n; ++i) {
+    const Matrix3d& E0 = m.E0[i];
+    Xform& X = s.X[i];
+    if (m.revolute[i]) {
+      const double cq = s.cq[i], sq = s.sq[i];
+      for (int c = 0; c < 3; ++c) {
+        X.E(0, c) = cq * E0(0, c) + sq * E0(1, c);
+        X.E(1, c) = cq * E0(1, c) - sq * E0(0, c);
+        X.E(2, c) = E0(2, c);
+      }
+      X.p = m.r[i];
+    } else {
+      X.E = E0;
+      X.p = m.r[i] + q[i] * Vector3d(E0(2, 0), E0(2, 1), E0(2, 2));
+    }
+  }
+}
+
+// (X, qd) => v_i = X_i v_λ(i) + S_i qd_i.
+void Velocities(const SpatialModel& m, SpatialScratch& s, const double* qd) {
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    Motion& v = s.v[i];
+    v = p >= 0 ? s.X[i].Apply(s.v[p]) : Motion{};
+    if (m.revolute[i]) {
+      v.w.z() += qd[i];
+    } else {
+      v.v.z() += qd[i];
+    }
+  }
+}
+
+// (X) => world axes R_i, origins o_i and joint motion axes J_i.
+void WorldPlacements(const SpatialModel& m, SpatialScratch& s) {
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    const Xform& X = s.X[i];
+    if (p >= 0) {
+      s.R[i] = spatial::MulABt(s.R[p], X.E);
+      s.o[i] = s.o[p] + spatial::Mul(s.R[p], X.p);
+    } else {
+      s.R[i] = X.E.transpose();
+      s.o[i] = X.p;
+    }
+    const Vector3d z = s.R[i].col(2);
+    s.J[i] = m.revolute[i] ? Motion{z, Cross(s.o[i], z)} : Motion{Vector3d::Zero(), z};
+  }
+}
+
+// Body i's inertia in world coordinates, about the world origin: rotate by R,
+// shift by o (as Xform::ApplyTransposed with E = Rᵀ, p = o).
+LAGRANGE_SPATIAL_INLINE Inertia WorldInertia(const Inertia& I, const Matrix3d& R, const Vector3d& o) {
+  const Vector3d ho = spatial::Mul(R, I.h);
+  const Vector3d k = ho + 0.5 * I.m * o;
+  const Matrix3d T = spatial::MulAB(R, I.Ib);
+  const double d = 2.0 * (o.x() * k.x() + o.y() * k.y() + o.z() * k.z());
+  Matrix3d Ib;
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r <= c; ++r) {
+      Ib(r, c) = T(r, 0) * R(c, 0) + T(r, 1) * R(c, 1) + T(r, 2) * R(c, 2) - (k[r] * o[c] + o[r] * k[c]);
+      Ib(c, r) = Ib(r, c);
+    }
+    Ib(c, c) += d;
+  }
+  return {I.m, ho + I.m * o, Ib};
+}
+
+// ---- recursive Newton–Euler ---------------------------------------------
+
+// The net force on a body, f = I a + v ×* I v, by Newton and Euler at its
+// centre of mass c (fewer products than the spatial form): with the spatial
+// acceleration a = (ω̇, a_o), the centre of mass accelerates at
+// a_c = a_o + ω̇ × c + ω × (v_o + ω × c), F = m a_c, and n = I_c ω̇ + ω × I_c ω + c × F.
+template <bool kVelocity>
+LAGRANGE_SPATIAL_INLINE Force NetForce(double mass, const Vector3d& c, const Matrix3d& Ic, const Motion& v,
+                                       const Motion& a) {
+  using spatial::Mul;
+  Vector3d ac = a.v + Cross(a.w, c);
+  Vector3d n = Mul(Ic, a.w);
+  if (kVelocity) {
+    ac += Cross(v.w, v.v + Cross(v.w, c));
+    n += Cross(v.w, Mul(Ic, v.w));
+  }
+  const Vector3d F = mass * ac;
+  return {n + Cross(c, F), F};
+}
+
+// (X, qd, qdd) => f_i = I_i a_i [+ v_i ×* I_i v_i], each body's own net force,
+// with a_i = X_i a_λ(i) + [S_i qdd_i] [+ v_i × S_i qd_i] and a_root = [−gravity].
+template <bool kGravity, bool kVelocity, bool kAccel>
+void RneaForward(const SpatialModel& m, SpatialScratch& s, const double* qd, const double* qdd) {
+  const Motion root{Vector3d::Zero(), kGravity ? Vector3d(-m.gravity) : Vector3d::Zero()};
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    const Xform& X = s.X[i];
+    Motion& a = s.a[i];
+    a = X.Apply(p >= 0 ? s.a[p] : root);
+    if (kVelocity) {
+      Motion& v = s.v[i];
+      v = p >= 0 ? X.Apply(s.v[p]) : Motion{};
+      // a += v × S qd (v without its own joint term gives the same product):
+      // x × z qd = (x.y, −x.x, 0) qd.
+      const double qdi = qd[i];
+      if (m.revolute[i]) {
+        a.w.x() += v.w.y() * qdi;
+        a.w.y() -= v.w.x() * qdi;
+        a.v.x() += v.v.y() * qdi;
+        a.v.y() -= v.v.x() * qdi;
+        v.w.z() += qdi;
+      } else {
+        a.v.x() += v.w.y() * qdi;
+        a.v.y() -= v.w.x() * qdi;
+        v.v.z() += qdi;
+      }
+    }
+    if (kAccel) {
+      if (m.revolute[i]) {
+        a.w.z() += qdd[i];
+      } else {
+        a.v.z() += qdd[i];
+      }
+    }
+    s.f[i] = NetForce<kVelocity>(m.inertia[i].m, m.com[i], m.inertia_com[i], s.v[i], a);
+  }
+}
+
+// (X, f) => tau_i = S_iᵀ Σ_{subtree} f, accumulating each f into its parent's.
+void RneaBackward(const SpatialModel& m, SpatialScratch& s, double* tau) {
+  for (int i = m.n - 1; i >= 0; --i) {
+    tau[i] = SubspaceDot(m, i, s.f[i]);
+    if (m.parent[i] >= 0) s.f[m.parent[i]] += s.X[i].ApplyTransposed(s.f[i]);
+  }
+}
+
+// Forward pass of tau = M qdd [+ C qd] [+ G], the terms by `terms`.
+void RneaForwardGated(const SpatialModel& m, SpatialScratch& s, const double* qd, const double* qdd,
+                      DynamicsTerms terms) {
+  if (terms.gravity && terms.coriolis) {
+    RneaForward<true, true, true>(m, s, qd, qdd);
+  } else if (terms.gravity) {
+    RneaForward<true, false, true>(m, s, qd, qdd);
+  } else if (terms.coriolis) {
+    RneaForward<false, true, true>(m, s, qd, qdd);
+  } else {
+    RneaForward<false, false, true>(m, s, qd, qdd);
+  }
+}
+
+// ---- mass matrix ----------------------------------------------------------
+
+// Composite inertias Ic_i of every subtree, in body i's frame (needs X).
+void CompositeInertias(const SpatialModel& m, SpatialScratch& s) {
+  for (int i = 0; i < m.n; ++i) s.Ic[i] = m.inertia[i];
+  for (int i = m.n - 1; i >= 0; --i) {
+    if (m.parent[i] >= 0) s.Ic[m.parent[i]] += s.X[i].ApplyTransposed(s.Ic[i]);
+  }
+}
+
+// Row i of M on its path: M_ij for j = i and each ancestor j, handed to
+// add(j, M_ij). F = Ic_i S_i is carried to each ancestor as a force (Xᵀ F) and
+// M_ij = S_jᵀ F. Scalars, not vectors: the chain is serial, and vector
+// spills and reloads stall it.
+template <class Add>
+LAGRANGE_SPATIAL_INLINE void MassMatrixRow(const SpatialModel& m, const SpatialScratch& s, int i, Add&& add) {
+  const Inertia& Ic = s.Ic[i];
+  double nx, ny, nz, fx, fy, fz;
+  if (m.revolute[i]) {  // Ic (z, 0) = (Ib z, −h × z)
+    nx = Ic.Ib(0, 2), ny = Ic.Ib(1, 2), nz = Ic.Ib(2, 2);
+    fx = -Ic.h.y(), fy = Ic.h.x(), fz = 0.0;
+    add(i, nz);
+  } else {  // Ic (0, z) = (h × z, m z)
+    nx = Ic.h.y(), ny = -Ic.h.x(), nz = 0.0;
+    fx = 0.0, fy = 0.0, fz = Ic.m;
+    add(i, fz);
+  }
+  for (int j = i; m.parent[j] >= 0;) {
+    const Matrix3d& E = s.X[j].E;
+    const Vector3d& p = s.X[j].p;
+    const double gx = E(0, 0) * fx + E(1, 0) * fy + E(2, 0) * fz;
+    const double gy = E(0, 1) * fx + E(1, 1) * fy + E(2, 1) * fz;
+    const double gz = E(0, 2) * fx + E(1, 2) * fy + E(2, 2) * fz;
+    const double mx = E(0, 0) * nx + E(1, 0) * ny + E(2, 0) * nz + p.y() * gz - p.z() * gy;
+    const double my = E(0, 1) * nx + E(1, 1) * ny + E(2, 1) * nz + p.z() * gx - p.x() * gz;
+    const double mz = E(0, 2) * nx + E(1, 2) * ny + E(2, 2) * nz + p.x() * gy - p.y() * gx;
+    nx = mx, ny = my, nz = mz, fx = gx, fy = gy, fz = gz;
+    j = m.parent[j];
+    add(j, m.revolute[j] ? nz : fz);
+  }
+}
+
+// Row i of M by world coordinates: F = Ic_i S_i taken to the world once,
+// then M_ij = J_j · F for each ancestor j, independent products instead of a
+// serial chain of transforms (needs WorldPlacements).
+template <class Add>
+LAGRANGE_SPATIAL_INLINE void MassMatrixRowWorld(const SpatialModel& m, const SpatialScratch& s, int i, Add&& add) {
+  const Inertia& Ic = s.Ic[i];
+  Force F;
+  if (m.revolute[i]) {
+    F = Force{Ic.Ib.col(2), Vector3d(-Ic.h.y(), Ic.h.x(), 0.0)};
+  } else {
+    F = Force{Vector3d(Ic.h.y(), -Ic.h.x(), 0.0), Vector3d(0.0, 0.0, Ic.m)};
+  }
+  add(i, SubspaceDot(m, i, F));
+  const Matrix3d& R = s.R[i];
+  const Vector3d f = spatial::Mul(R, F.f);
+  const Force Fw{spatial::Mul(R, F.n) + Cross(s.o[i], f), f};
+  for (int j = m.parent[i]; j >= 0; j = m.parent[j]) add(j, Dot(s.J[j], Fw));
+}
+
+// ---- forward dynamics by composite rigid bodies -----------------------------
+
+// (X, f, tau) => qdd = M⁻¹ (tau − bias), in one backward and one forward sweep.
+// Backward, at each k (all of k's descendants done): the bias RNEA step
+// (x_k += tau_k − S_kᵀ f_k, f into the parent), k's composite inertia into its
+// parent's, row k of M added to H (which holds the updates of the rows below),
+// then step k of Featherstone's LTDL factorisation H = Lᵀ D L (no fill-in on a
+// tree) and of the solve Lᵀ y = x. Each step's division overlaps the next
+// row's arithmetic. Forward: x = L⁻¹ D⁻¹ y. kBias: f holds the bias forces.
+template <bool kBias>
+void CompositeForwardDynamics(const SpatialModel& m, SpatialScratch& s, const double* tau, double* x) {
+  const int n = m.n;
+  double* H = s.H.data();
+  double* Dinv = s.D.data();
+  for (int i = 0; i < n; ++i) {
+    x[i] = 0.0;
+    s.Ic[i] = m.inertia[i];
+    for (int j = 0; j <= i; ++j) H[i * n + j] = 0.0;
+  }
+  for (int k = n - 1; k >= 0; --k) {
+    const int p = m.parent[k];
+    const Xform& X = s.X[k];
+    x[k] += tau[k];
+    if (kBias) {
+      x[k] -= SubspaceDot(m, k, s.f[k]);
+      if (p >= 0) s.f[p] += X.ApplyTransposed(s.f[k]);
+    }
+    if (p >= 0) s.Ic[p] += X.ApplyTransposed(s.Ic[k]);
+    double* Hk = H + k * n;
+    MassMatrixRow(m, s, k, [Hk](int j, double Mkj) { Hk[j] += Mkj; });
+    const double inv = 1.0 / Hk[k];
+    Dinv[k] = inv;
+    if (m.chain) {
+      for (int i = k - 1; i >= 0; --i) {
+        const double a = Hk[i] * inv;
+        double* Hi = H + i * n;
+        for (int j = 0; j <= i; ++j) Hi[j] -= a * Hk[j];
+        Hk[i] = a;
+        x[i] -= a * x[k];
+      }
+    } else {
+      for (int i = p; i >= 0; i = m.parent[i]) {
+        const double a = Hk[i] * inv;
+        double* Hi = H + i * n;
+        for (int j = i; j >= 0; j = m.parent[j]) Hi[j] -= a * Hk[j];
+        Hk[i] = a;
+        x[i] -= a * x[k];
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    const double* Hi = H + i * n;
+    double xi = x[i] * Dinv[i];
+    if (m.chain) {
+      for (int j = 0; j < i; ++j) xi -= Hi[j] * x[j];
+    } else {
+      for (int j = m.parent[i]; j >= 0; j = m.parent[j]) xi -= Hi[j] * x[j];
+    }
+    x[i] = xi;
+  }
+}
+
+// ---- forward dynamics by articulated bodies -----------------------------------
+
+// (X, qd, tau) => qdd by the articulated-body algorithm in world coordinates,
+// where no inertia needs transforming between bodies: a subtree's
+// articulated inertia is a plain sum. Forward: world velocities, the bias
+// acceleration c = v × J qd and force pA = v ×* I v. Backward: U = IA J,
+// D = Jᵀ U, u = tau − Jᵀ pA, then IA − U Uᵀ/D and pA + Ia c + U u/D into the
+// parent. Forward: qdd = (u − Uᵀ (a_λ + c))/D, a = a_λ + c + J qdd.
+void Aba(const SpatialModel& m, SpatialScratch& s, const double* qd, const double* tau, DynamicsTerms terms,
+         double* qdd) {
+  using spatial::Mul;
+  using spatial::MulT;
+  WorldPlacements(m, s);
+  ArticulatedInertia* IA = s.IA.data();
+  for (int i = 0; i < m.n; ++i) {
+    const Inertia I = WorldInertia(m.inertia[i], s.R[i], s.o[i]);
+    const Vector3d& h = I.h;
+    IA[i].A = I.Ib;
+    IA[i].B << 0.0, -h.z(), h.y(), h.z(), 0.0, -h.x(), -h.y(), h.x(), 0.0;
+    IA[i].C = I.m * Matrix3d::Identity();
+    if (terms.coriolis) {
+      const int p = m.parent[i];
+      s.v[i] = (p >= 0 ? s.v[p] : Motion{}) + qd[i] * s.J[i];
+      s.c[i] = qd[i] * Cross(s.v[i], s.J[i]);
+      s.pA[i] = CrossStar(s.v[i], I * s.v[i]);
+    } else {
+      s.c[i] = Motion{};
+      s.pA[i] = Force{};
+    }
+  }
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Motion& J = s.J[i];
+    const ArticulatedInertia& Ii = IA[i];
+    const Force U{Mul(Ii.A, J.w) + Mul(Ii.B, J.v), MulT(Ii.B, J.w) + Mul(Ii.C, J.v)};
+    const double Dinv = 1.0 / Dot(J, U);
+    s.U[i] = U;
+    s.D[i] = Dinv;
+    s.u[i] = tau[i] - Dot(J, s.pA[i]);
+    const int p = m.parent[i];
+    if (p < 0) continue;
+    // Ia = IA − U Uᵀ/D into the parent's, block by block.
+    const Vector3d un = Dinv * U.n, uf = Dinv * U.f;
+    ArticulatedInertia& Ip = IA[p];
+    for (int c = 0; c < 3; ++c) {
+      for (int r = 0; r <= c; ++r) {
+        const double a = Ii.A(r, c) - un[r] * U.n[c];
+        const double cc = Ii.C(r, c) - uf[r] * U.f[c];
+        Ip.A(r, c) += a;
+        Ip.C(r, c) += cc;
+        if (r != c) {
+          Ip.A(c, r) += a;
+          Ip.C(c, r) += cc;
+        }
+      }
+      for (int r = 0; r < 3; ++r) Ip.B(r, c) += Ii.B(r, c) - un[r] * U.f[c];
+    }
+    // pa = pA + Ia c + U u/D, with Ia c = IA c − U (Uᵀ c)/D.
+    const Motion& c = s.c[i];
+    const double k = s.u[i] * Dinv - (Dinv * Dot(c, U));
+    s.pA[p] += s.pA[i] + Force{Mul(Ii.A, c.w) + Mul(Ii.B, c.v) + k * U.n, MulT(Ii.B, c.w) + Mul(Ii.C, c.v) + k * U.f};
+  }
+  const Motion root{Vector3d::Zero(), terms.gravity ? Vector3d(-m.gravity) : Vector3d::Zero()};
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    const Motion a = (p >= 0 ? s.a[p] : root) + s.c[i];
+    qdd[i] = (s.u[i] - Dot(a, s.U[i])) * s.D[i];
+    s.a[i] = a + qdd[i] * s.J[i];
+  }
+}
+
+}  // namespace
+
+SpatialDynamics::SpatialDynamics(RigidTree tree)
+    : Dynamics(tree.joint_types()), tree_(std::move(tree)), ws_(std::make_unique<Workspace>()) {
+  if (auto error = ValidateRigidTree(tree_)) throw std::invalid_argument("SpatialDynamics: " + *error);
+  ws_->model = Fold(tree_);
+  Size(ws_->s, num_dofs());
+  forward_ = ws_->model.deep ? ForwardAlgorithm::kArticulatedBody : ForwardAlgorithm::kCompositeRigidBody;
+}
+
+SpatialDynamics::~SpatialDynamics() = default;
+
+void SpatialDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
+  AssertSizes(q, M);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  if (!m.chain) M.setZero();
+  Transforms(m, s, q.data());
+  if (m.deep) {
+    CompositeInertias(m, s);
+    WorldPlacements(m, s);
+    for (int i = 0; i < m.n; ++i) {
+      MassMatrixRowWorld(m, s, i, [&M, i](int j, double Mij) {
+        M(i, j) = Mij;
+        M(j, i) = Mij;
+      });
+    }
+    return;
+  }
+  CompositeInertias(m, s);
+  for (int i = 0; i < m.n; ++i) {
+    MassMatrixRow(m, s, i, [&M, i](int j, double Mij) {
+      M(i, j) = Mij;
+      M(j, i) = Mij;
+    });
+  }
+}
+
+// World coordinates. With, for each body b, İ_b = v_b ×* I_b − I_b v_b× and
+// the Christoffel operator B_b = ½ (İ_b + (I_b v_b)×̄*), where (h×̄*) u = u ×* h,
+// C = Σ_b J_bᵀ (I_b J̇_b + B_b J_b) (Echeandia & Wensing 2021; Pinocchio's
+// computeCoriolisMatrix). Summed over subtrees, entry by entry:
+//   C_ki = J_k · (Ic_i J̇_i + Bc_i J_i)            k = i or an ancestor of i
+//   C_ik = J̇_k · (Ic_i J_i) + J_k · (Bc_iᵀ J_i)     k an ancestor of i
+// with Bc J = ½ İc J + ½ J ×* hc and Bcᵀ J = ½ İc J − ½ J ×* hc (İc symmetric,
+// hc the subtree's momentum): one forward sweep (I, İ, I v per body), one
+// backward sweep accumulating Ic, İc, hc and filling row and column i.
+void SpatialDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  AssertSizes(q, qd, C);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  if (!m.chain) C.setZero();
+  Transforms(m, s, q.data());
+  WorldPlacements(m, s);
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    const Motion& J = s.J[i];
+    s.v[i] = (p >= 0 ? s.v[p] : Motion{}) + qd[i] * J;
+    const Motion& v = s.v[i];
+    s.dJ[i] = Cross(v, J);
+    const Inertia I = WorldInertia(m.inertia[i], s.R[i], s.o[i]);
+    s.Ic[i] = I;
+    s.hc[i] = I * v;
+    // İ = (D, ḣ): ḣ = ω × h + m v, D = A + Aᵀ − (h vᵀ + v hᵀ) + 2 (v · h) 1 with A = [ω]× Ib.
+    Matrix3d A;
+    for (int k = 0; k < 3; ++k) A.col(k) = Cross(v.w, Vector3d(I.Ib.col(k)));
+    Matrix3d D;
+    const double vh = 2.0 * (v.v.x() * I.h.x() + v.v.y() * I.h.y() + v.v.z() * I.h.z());
+    for (int c = 0; c < 3; ++c) {
+      for (int r = 0; r <= c; ++r) {
+        D(r, c) = A(r, c) + A(c, r) - I.h[r] * v.v[c] - v.v[r] * I.h[c];
+        D(c, r) = D(r, c);
+      }
+      D(c, c) += vh;
+    }
+    s.Idot[i] = Inertia{0.0, Cross(v.w, I.h) + I.m * v.v, D};
+  }
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Motion& J = s.J[i];
+    const Force P = s.Ic[i] * J;
+    const Force Y = 0.5 * (s.Idot[i] * J);
+    const Force Z = 0.5 * CrossStar(J, s.hc[i]);
+    const Force F = s.Ic[i] * s.dJ[i] + Y + Z;
+    const Force Q = Y - Z;
+    C(i, i) = Dot(J, F);
+    for (int k = m.parent[i]; k >= 0; k = m.parent[k]) {
+      C(k, i) = Dot(s.J[k], F);
+      C(i, k) = Dot(s.dJ[k], P) + Dot(s.J[k], Q);
+    }
+    const int p = m.parent[i];
+    if (p >= 0) {
+      s.Ic[p] += s.Ic[i];
+      s.Idot[p] += s.Idot[i];
+      s.hc[p] += s.hc[i];
+    }
+  }
+}
+
+void SpatialDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  AssertSizes(q, qd, c);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  RneaForward<false, true, false>(m, s, qd.data(), nullptr);
+  RneaBackward(m, s, c.data());
+}
+
+// G_i = −S_iᵀ (subtree gravity wrench about joint i): −z · (h_i × g_i) for a
+// revolute joint, −m_i z · g_i for a prismatic one, with h_i, m_i the
+// subtree's first moment and mass and g_i gravity in body i's frame.
+void SpatialDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
+  AssertSizes(q, G);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    s.g[i] = spatial::Mul(s.X[i].E, p >= 0 ? s.g[p] : m.gravity);
+    s.h[i] = m.inertia[i].h;
+  }
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Vector3d& h = s.h[i];
+    const Vector3d& g = s.g[i];
+    G[i] = m.revolute[i] ? h.y() * g.x() - h.x() * g.y() : -m.subtree_mass[i] * g.z();
+    const int p = m.parent[i];
+    if (p >= 0) s.h[p] += spatial::MulT(s.X[i].E, h) + m.subtree_mass[i] * s.X[i].p;
+  }
+}
+
+// ∂T/∂q_i = (v_i × S_i) · H_i with H_i the subtree's momentum in body i's frame.
+void SpatialDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  AssertSizes(q, qd, dTdq);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  Velocities(m, s, qd.data());
+  for (int i = 0; i < m.n; ++i) s.f[i] = m.inertia[i] * s.v[i];
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Vector3d& w = s.v[i].w;
+    const Vector3d& v = s.v[i].v;
+    const Force& H = s.f[i];
+    // v × S: revolute ((w.y, −w.x, 0), (v.y, −v.x, 0)), prismatic (0, (w.y, −w.x, 0)).
+    dTdq[i] = m.revolute[i] ? w.y() * H.n.x() - w.x() * H.n.y() + v.y() * H.f.x() - v.x() * H.f.y()
+                            : w.y() * H.f.x() - w.x() * H.f.y();
+    const int p = m.parent[i];
+    if (p >= 0) s.f[p] += s.X[i].ApplyTransposed(H);
+  }
+}
+
+double SpatialDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
+  AssertSizes(q, qd);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  Velocities(m, s, qd.data());
+  double T = 0.0;
+  for (int i = 0; i < m.n; ++i) T += Dot(s.v[i], m.inertia[i] * s.v[i]);
+  return 0.5 * T;
+}
+
+// V = −gravity · Σ m c: the subtree first moments carried to the world origin.
+double SpatialDynamics::ComputePotentialEnergy(ConstVecRef q) const {
+  AssertSizes(q);
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  for (int i = 0; i < m.n; ++i) s.h[i] = m.inertia[i].h;
+  Vector3d world = Vector3d::Zero();
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Vector3d h = spatial::MulT(s.X[i].E, s.h[i]) + m.subtree_mass[i] * s.X[i].p;
+    if (m.parent[i] >= 0) {
+      s.h[m.parent[i]] += h;
+    } else {
+      world += h;
+    }
+  }
+  return -m.gravity.dot(world);
+}
+
+void SpatialDynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                                             VecRef tau) const {
+  AssertSizes(q, qd, qdd, tau);
+  if (terms.gravity) CountGravity();
+  if (terms.coriolis) CountCoriolis();
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  RneaForwardGated(m, s, qd.data(), qdd.data(), terms);
+  RneaBackward(m, s, tau.data());
+}
+
+void SpatialDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                                             VecRef qdd) const {
+  ComputeForwardDynamics(forward_, q, qd, tau, terms, qdd);
+}
+
+void SpatialDynamics::ComputeForwardDynamics(ForwardAlgorithm algorithm, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                             DynamicsTerms terms, VecRef qdd) const {
+  AssertSizes(q, qd, tau, qdd);
+  if (terms.gravity) CountGravity();
+  if (terms.coriolis) CountCoriolis();
+  const SpatialModel& m = ws_->model;
+  SpatialScratch& s = ws_->s;
+  Transforms(m, s, q.data());
+  if (algorithm == ForwardAlgorithm::kArticulatedBody) {
+    Aba(m, s, qd.data(), tau.data(), terms, qdd.data());
+    return;
+  }
+  // Bias forces [C qd] + [G] by the RNEA forward pass with qdd = 0.
+  if (terms.gravity && terms.coriolis) {
+    RneaForward<true, true, false>(m, s, qd.data(), nullptr);
+  } else if (terms.gravity) {
+    RneaForward<true, false, false>(m, s, qd.data(), nullptr);
+  } else if (terms.coriolis) {
+    RneaForward<false, true, false>(m, s, qd.data(), nullptr);
+  } else {
+    CompositeForwardDynamics<false>(m, s, tau.data(), qdd.data());
+    return;
+  }
+  CompositeForwardDynamics<true>(m, s, tau.data(), qdd.data());
+}
+
+}  // namespace lagrange

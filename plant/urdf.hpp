@@ -1,0 +1,106 @@
+#pragma once
+// Loading a robot from URDF (Debian's liburdfdom, urdf_parser) into a
+// RigidTree (plant/rigid_tree.hpp). Library lagrange_urdf: it reads files,
+// so it lives beside the math-only lagrange_plant, not in it.
+//
+// What is read:
+//   joints     revolute, continuous (revolute without position limits),
+//              prismatic, fixed; floating, planar and mimic joints are refused
+//   origins    <origin xyz rpy> of joints and of each link's <inertial>; rpy is
+//              URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
+//   axes       <axis xyz> in any direction, normalised (absent: URDF's x; zero refused)
+//   inertias   full tensors (ixx ixy ixz iyy iyz izz) given in the <inertial>
+//              <origin> frame, turned into link axes, about the centre of mass
+//   properties <limit lower upper effort velocity>, <dynamics damping friction>
+//
+// The tree. Joint order is depth-first from the root link, a link's child
+// joints in the order they appear in the file (urdfdom keeps them sorted by
+// name; the order is read from the XML). Moving joints take indices 0..n−1,
+// parents first. Body i is joint i's child link, plus every link hanging from
+// it through fixed joints (chains of them too), merged by the parallel-axis
+// theorem; a moving joint below such a link is re-based onto body i's frame
+// (its origin composed with the fixed joints' origins). The base is fixed: the
+// root link's inertia, and that of links fixed to it, is ignored, and joints
+// below them start at the world (parent −1). Gravity is (0, 0, −9.81) (the
+// URDF/ROS convention, z up); set `tree.gravity` to change it.
+//
+// Properties are what the file says: an attribute it does not give is
+// nullopt (urdfdom would read an absent lower/upper as 0; a revolute joint
+// whose <limit> gives only effort and velocity has no position limits here).
+// A continuous joint has no lower/upper even if its <limit> gives them.
+// urdfdom requires effort and velocity in every <limit>, so they are present
+// exactly when <limit> is. Refused: effort, velocity, damping or friction < 0,
+// lower > upper.
+//
+// Checks, each a one-line UrdfError "FILE: ELEMENT: reason" (the caller picks
+// the exit code), in this order:
+//   the file      unreadable, over 16 MiB, a NUL byte, elements nested over 64 deep
+//                 (tinyxml would overflow the stack), malformed XML (line, column)
+//   the XML       no <robot> or no name; an element without a name; a joint type
+//                 that is not revolute/continuous/prismatic/fixed; <mimic>; any
+//                 number we use that is not finite (nan, inf, overflow); a link
+//                 or joint defined twice; a joint naming an undefined link or
+//                 the same link as parent and child; a link with two parents;
+//                 no root, several roots, links not reachable from the root
+//   urdfdom       whatever urdf::parseURDF refuses that the above does not
+//                 (a revolute or prismatic joint without <limit>, an <inertial>
+//                 without <mass> or <inertia>, a version other than 1.0, ...):
+//                 "FILE: robot 'r': urdfdom refused it: <its messages>". urdfdom
+//                 reports through console_bridge's process-wide output handler;
+//                 the loader swaps in a capturing handler for the call (under a
+//                 lock of its own) and restores it, so nothing is printed. Any
+//                 error refuses, even when urdfdom still returns a model (it
+//                 does so for a bad <inertial>, zeroing the link's mass).
+//   the physics   a negative mass; an inertia that is not positive
+//                 semi-definite or whose principal moments violate the triangle
+//                 inequality (no rigid body has them), both to 1e-9 of its
+//                 largest moment; no moving joint, or more than kMaxDofs; a
+//                 joint that moves no inertia at q = 0 (a massless leaf, or a
+//                 revolute joint whose subtree lies on its axis: its row of M is
+//                 zero); last, ValidateRigidTree (which also requires M(0)
+//                 positive definite, catching e.g. two joints on one axis line
+//                 with nothing between them), its message prefixed by the file.
+// For example:
+//   "arm.urdf: joint 'j3': type 'floating' is not supported (a fixed-base tree: revolute, continuous, prismatic,
+//   fixed)" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)"
+//   "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint 'j7' moves nothing)"
+// Names from the file are quoted with control characters escaped.
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "plant/rigid_tree.hpp"
+
+namespace lagrange {
+
+// What a URDF says of one moving joint beyond its kinematics; absent entries
+// are nullopt (see "Properties" above). SI units, revolute / prismatic.
+struct UrdfJointProperties {
+  std::optional<double> lower, upper;  // position limits, rad or m (never for continuous joints)
+  std::optional<double> effort;        // |tau| limit, N·m or N
+  std::optional<double> velocity;      // |qd| limit, rad/s or m/s
+  std::optional<double> damping;       // viscous, N·m·s/rad or N·s/m
+  std::optional<double> friction;      // Coulomb, N·m or N
+};
+
+struct UrdfRobot {
+  std::string name;                             // <robot name="...">
+  std::string file;                             // the path it was read from (ParseUrdf: its `file`)
+  RigidTree tree;                               // moving joints in depth-first order, fixed joints merged
+  std::vector<UrdfJointProperties> properties;  // one per moving joint
+};
+
+class UrdfError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Reads and checks a URDF file. Throws UrdfError with the one-line message above.
+UrdfRobot LoadUrdf(const std::string& path);
+// The same from text; `file` names it in messages.
+UrdfRobot ParseUrdf(std::string_view xml, const std::string& file);
+
+}  // namespace lagrange

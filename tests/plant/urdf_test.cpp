@@ -1,0 +1,480 @@
+// Loading robots from URDF: the shipped robots as cited, the tree's order and
+// frames, fixed-joint merging, the properties, every refusal in one line, and
+// a planar URDF equal to the planar `chain` plant.
+#include "plant/urdf.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "plant/lagrangian.hpp"
+#include "plant/plant_spec.hpp"
+#include "plant/spatial_dynamics.hpp"
+#include "tests/support/plant_cases.hpp"
+
+namespace lagrange {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RandomStateFor;
+using testing::RelativeDifference;
+
+constexpr double kExact = 1e-15;     // numbers the loader copies or turns by a quarter turn
+constexpr double kMergeTol = 1e-12;  // against a hand-merged robot, relative
+constexpr double kAgreeTol = 1e-12;  // between dynamics derivations, relative
+constexpr int kStates = 20;
+constexpr double kPi = std::numbers::pi;
+
+fs::path SourceDir() { return LAGRANGE_SOURCE_DIR; }
+std::string Fixture(const std::string& name) { return (SourceDir() / "tests/fixtures/urdf" / name).string(); }
+std::string Robot(const std::string& name) { return (SourceDir() / "config/robots" / name).string(); }
+
+Eigen::Matrix3d Rpy(double roll, double pitch, double yaw) {
+  using Eigen::AngleAxisd;
+  return (AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+          AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+// A property the file states, read as written.
+void ExpectValue(const std::optional<double>& actual, double expected) {
+  ASSERT_TRUE(actual.has_value());
+  EXPECT_DOUBLE_EQ(*actual, expected);
+}
+
+struct Limits {
+  double lower, upper, velocity, effort;
+};
+
+void ExpectLimits(const UrdfRobot& robot, const std::vector<Limits>& limits) {
+  ASSERT_EQ(robot.properties.size(), limits.size());
+  for (std::size_t i = 0; i < limits.size(); ++i) {
+    const UrdfJointProperties& p = robot.properties[i];
+    ASSERT_TRUE(p.lower && p.upper && p.velocity && p.effort) << i;
+    EXPECT_DOUBLE_EQ(*p.lower, limits[i].lower) << i;
+    EXPECT_DOUBLE_EQ(*p.upper, limits[i].upper) << i;
+    EXPECT_DOUBLE_EQ(*p.velocity, limits[i].velocity) << i;
+    EXPECT_DOUBLE_EQ(*p.effort, limits[i].effort) << i;
+    EXPECT_FALSE(p.damping || p.friction) << i << ": no <dynamics> is published";
+  }
+}
+
+// M symmetric positive definite, and the Lagrangian and recursive paths agree.
+void ExpectPhysicalMassMatrix(const RigidTree& tree, std::mt19937& rng) {
+  const LagrangianDynamics<RigidTree> lagrangian(tree);
+  const SpatialDynamics spatial(tree);
+  const int n = tree.num_dofs();
+  MatrixXd Ml(n, n), Ms(n, n);
+  VectorXd Gl(n), Gs(n);
+  for (int k = 0; k < kStates; ++k) {
+    const auto [q, qd] = RandomStateFor(tree.joint_types(), rng);
+    lagrangian.ComputeMassMatrix(q, Ml);
+    spatial.ComputeMassMatrix(q, Ms);
+    lagrangian.ComputeGravityForce(q, Gl);
+    spatial.ComputeGravityForce(q, Gs);
+    EXPECT_LT(RelativeDifference(Ml, Ml.transpose()), kAgreeTol);
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(Ml).eigenvalues().minCoeff(), 0.0);
+    EXPECT_LT(RelativeDifference(Ml, Ms), kAgreeTol);
+    EXPECT_LT(RelativeDifference(Gl, Gs), kAgreeTol);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// The robots we ship.
+
+TEST(ShippedRobots, PandaLoadsSevenJointsInFrankaOrderWithCitedLimitsAndMasses) {
+  const UrdfRobot panda = LoadUrdf(Robot("panda.urdf"));
+  EXPECT_EQ(panda.name, "panda");
+  ASSERT_EQ(panda.tree.num_dofs(), 7);
+  EXPECT_EQ(panda.tree.joint_names(),
+            (std::vector<std::string>{"panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5",
+                                      "panda_joint6", "panda_joint7"}));
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(panda.tree.joints[i].parent, i - 1);
+    EXPECT_EQ(panda.tree.joints[i].type, JointType::kRevolute);
+  }
+  // Franka, "Limits for Panda": q_min, q_max (rad), dq_max (rad/s), tau_j_max (N·m).
+  ExpectLimits(panda, {{-2.8973, 2.8973, 2.1750, 87},
+                       {-1.7628, 1.7628, 2.1750, 87},
+                       {-2.8973, 2.8973, 2.1750, 87},
+                       {-3.0718, -0.0698, 2.1750, 87},
+                       {-2.8973, 2.8973, 2.6100, 12},
+                       {-0.0175, 3.7525, 2.6100, 12},
+                       {-2.8973, 2.8973, 2.6100, 12}});
+  // Gaz et al., RA-L 2019: link masses (kg); the flange adds none.
+  const std::vector<double> masses{4.970684, 0.646926, 3.228604, 3.587895, 1.225946, 1.666555, 0.735522};
+  for (int i = 0; i < 7; ++i) EXPECT_DOUBLE_EQ(panda.tree.bodies[i].mass, masses[i]) << i;
+  // Franka's DH: joint 3 sits d3 = 0.316 m along link 2's −y; joint 5 at (−0.0825, 0.384, 0) in link 4.
+  EXPECT_LT((panda.tree.joints[2].position - Eigen::Vector3d(0, -0.316, 0)).norm(), kExact);
+  EXPECT_LT((panda.tree.joints[4].position - Eigen::Vector3d(-0.0825, 0.384, 0)).norm(), kExact);
+  EXPECT_LT((panda.tree.joints[1].rotation - Rpy(-kPi / 2, 0, 0)).norm(), kExact);
+}
+
+TEST(ShippedRobots, Ur5LoadsSixJointsInOrderWithCitedLimitsAndMasses) {
+  const UrdfRobot ur5 = LoadUrdf(Robot("ur5.urdf"));
+  EXPECT_EQ(ur5.name, "ur5");
+  ASSERT_EQ(ur5.tree.num_dofs(), 6);
+  EXPECT_EQ(ur5.tree.joint_names(),
+            (std::vector<std::string>{"shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+                                      "wrist_2_joint", "wrist_3_joint"}));
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(ur5.tree.joints[i].parent, i - 1);
+  // UR5 manual and UR's "Max. joint torques": ±360°, 180°/s, 150 / 28 N·m.
+  const double t = 2.0 * kPi;
+  ExpectLimits(
+      ur5,
+      {{-t, t, kPi, 150}, {-t, t, kPi, 150}, {-t, t, kPi, 150}, {-t, t, kPi, 28}, {-t, t, kPi, 28}, {-t, t, kPi, 28}});
+  // UR's DH page: link masses (kg); the flange adds none.
+  const std::vector<double> masses{3.7, 8.393, 2.33, 1.219, 1.219, 0.1879};
+  for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(ur5.tree.bodies[i].mass, masses[i]) << i;
+  // Centre of mass of the upper arm: UR's (0.2125, 0, 0.11336) in DH frame 2, a2 = −0.425 from link 2's frame.
+  EXPECT_LT((ur5.tree.bodies[1].com - Eigen::Vector3d(-0.2125, 0, 0.11336)).norm(), kExact);
+}
+
+TEST(ShippedRobots, MassMatricesArePositiveDefiniteAndBothDerivationsAgree) {
+  std::mt19937 rng{42};
+  for (const char* name : {"panda.urdf", "ur5.urdf"}) {
+    SCOPED_TRACE(name);
+    ExpectPhysicalMassMatrix(LoadUrdf(Robot(name)).tree, rng);
+  }
+}
+
+// At UR's DH zero the arm lies along −x at shoulder height, so the gravity
+// torque on the shoulder-lift joint (axis −y) is g Σ m_i x_i over links 2..6
+// and on the elbow g Σ m_i (x_i + 0.425) over links 3..6, with x_i from UR's
+// DH table and centres of mass: a check of the DH-to-URDF conversion.
+TEST(ShippedRobots, Ur5GravityAtZeroMatchesUrsTables) {
+  const UrdfRobot ur5 = LoadUrdf(Robot("ur5.urdf"));
+  const double a2 = -0.425, a3 = -0.39225, g = 9.81;
+  const double wrist_mass = 1.219 + 1.219 + 0.1879;  // links 4–6, all on the wrist line x = a2 + a3
+  const double shoulder = g * (8.393 * (a2 + 0.2125) + 2.33 * (a2 + a3 + 0.15) + wrist_mass * (a2 + a3));
+  const double elbow = g * (2.33 * (a3 + 0.15) + wrist_mass * a3);
+  std::vector<std::unique_ptr<Dynamics>> derivations;
+  derivations.push_back(std::make_unique<LagrangianDynamics<RigidTree>>(ur5.tree));
+  derivations.push_back(std::make_unique<SpatialDynamics>(ur5.tree));
+  for (const auto& d : derivations) {
+    SCOPED_TRACE(ToString(d->method()));
+    VectorXd G(6);
+    d->ComputeGravityForce(VectorXd::Zero(6), G);
+    EXPECT_NEAR(G[0], 0.0, 1e-12);
+    EXPECT_NEAR(G[1], shoulder, 1e-12 * std::abs(shoulder));
+    EXPECT_NEAR(G[2], elbow, 1e-12 * std::abs(elbow));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Order, frames, inertias, properties.
+
+TEST(UrdfOrder, DepthFirstFromTheRootWithChildrenInFileOrder) {
+  const UrdfRobot robot = LoadUrdf(Fixture("branching.urdf"));
+  EXPECT_EQ(robot.tree.joint_names(), (std::vector<std::string>{"zeta", "alpha", "beta", "gamma", "delta"}));
+  const std::vector<int> parents{-1, 0, 0, 2, -1};
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(robot.tree.joints[i].parent, parents[i]) << i;
+  EXPECT_EQ(robot.tree.joints[1].type, JointType::kPrismatic);
+  EXPECT_EQ(robot.tree.joints[3].type, JointType::kRevolute);  // continuous
+}
+
+TEST(UrdfOrder, AJointBehindAFixedJointIsRebasedOntoTheBodyFrame) {
+  const UrdfRobot robot = LoadUrdf(Fixture("branching.urdf"));
+  // alpha hangs from mount, fixed to arm at (0, 0.1, 0) turned π/2 about z; alpha's own origin is (0.05, 0, 0).
+  const TreeJoint& alpha = robot.tree.joints[1];
+  EXPECT_LT((alpha.position - Eigen::Vector3d(0.0, 0.15, 0.0)).norm(), kExact);
+  EXPECT_LT((alpha.rotation - Rpy(0, 0, kPi / 2)).norm(), kExact);
+  // arm's body carries mount's 0.1 kg at (0, 0.1, 0): 1.1 kg, centre of mass (0, 0.1 · 0.1/1.1, 0).
+  const RigidBody& arm = robot.tree.bodies[0];
+  EXPECT_NEAR(arm.mass, 1.1, kExact);
+  EXPECT_LT((arm.com - Eigen::Vector3d(0.0, 0.01 / 1.1, 0.0)).norm(), kExact);
+  // Parallel axis: Σ I_i + m_i d_i², the offsets d_i along y, so nothing is added about y.
+  const double d_arm = 0.01 / 1.1, d_mount = 0.1 - d_arm;
+  const double shift = 1.0 * d_arm * d_arm + 0.1 * d_mount * d_mount;
+  EXPECT_NEAR(arm.inertia(0, 0), 0.011 + shift, kExact);
+  EXPECT_NEAR(arm.inertia(1, 1), 0.011, kExact);
+  EXPECT_NEAR(arm.inertia(2, 2), 0.011 + shift, kExact);
+}
+
+TEST(UrdfOrder, LinksFixedToTheRootAreIgnoredAndTheirJointsStartAtTheWorld) {
+  const std::string xml = R"(<robot name="r">
+    <link name="world"><inertial><mass value="50"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+    <link name="pedestal"><inertial><mass value="20"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+    <link name="arm"><inertial><mass value="2"/><origin xyz="0.3 0 0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+    <joint name="weld" type="fixed"><parent link="world"/><child link="pedestal"/><origin xyz="0 0 1" rpy="0 0 1"/></joint>
+    <joint name="j" type="continuous"><parent link="pedestal"/><child link="arm"/><origin xyz="0.5 0 0"/></joint>
+  </robot>)";
+  const UrdfRobot robot = ParseUrdf(xml, "inline.urdf");
+  ASSERT_EQ(robot.tree.num_dofs(), 1);
+  EXPECT_EQ(robot.tree.joints[0].parent, -1);
+  EXPECT_LT((robot.tree.joints[0].position - Eigen::Vector3d(0.5 * std::cos(1.0), 0.5 * std::sin(1.0), 1.0)).norm(),
+            kExact);
+  EXPECT_LT((robot.tree.joints[0].rotation - Rpy(0, 0, 1.0)).norm(), kExact);
+  EXPECT_DOUBLE_EQ(robot.tree.bodies[0].mass, 2.0);
+  // No <axis>: URDF's default, x.
+  EXPECT_LT((robot.tree.joints[0].axis - Eigen::Vector3d::UnitX()).norm(), kExact);
+}
+
+TEST(UrdfFrames, OriginRpyIsFixedAxisRollPitchYawAndAxesAreNormalised) {
+  const UrdfRobot robot = LoadUrdf(Fixture("rpy_inertia.urdf"));
+  const TreeJoint& j = robot.tree.joints[0];
+  EXPECT_LT((j.rotation - Rpy(0.1, 0.2, 0.3)).norm(), kExact);
+  EXPECT_LT((j.position - Eigen::Vector3d(0.1, -0.2, 0.3)).norm(), kExact);
+  EXPECT_LT((j.axis - Eigen::Vector3d(0.0, 0.6, 0.8)).norm(), kExact);
+  EXPECT_LT((robot.tree.gravity - Eigen::Vector3d(0, 0, -9.81)).norm(), kExact);
+}
+
+TEST(UrdfInertia, FullTensorIsTurnedFromTheInertialOriginIntoTheLinkFrame) {
+  const UrdfRobot robot = LoadUrdf(Fixture("rpy_inertia.urdf"));
+  const RigidBody& body = robot.tree.bodies[0];
+  Eigen::Matrix3d expected;  // hand-computed in the fixture's comment
+  expected << 0.2, -0.01, -0.03, -0.01, 0.3, 0.02, -0.03, 0.02, 0.25;
+  EXPECT_LT((body.inertia - expected).norm(), kExact);
+  EXPECT_LT((body.com - Eigen::Vector3d(0.1, 0.2, 0.3)).norm(), kExact);
+  EXPECT_DOUBLE_EQ(body.mass, 1.5);
+}
+
+TEST(UrdfFixedJoints, AChainOfFixedJointsMergesLikeTheHandMergedRobot) {
+  const RigidTree loaded = LoadUrdf(Fixture("fixed_chain.urdf")).tree;
+  const RigidTree merged = LoadUrdf(Fixture("fixed_chain_merged.urdf")).tree;
+  ASSERT_EQ(loaded.num_dofs(), 2);
+  ASSERT_EQ(merged.num_dofs(), 2);
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(loaded.joints[i].parent, merged.joints[i].parent);
+    EXPECT_LT((loaded.joints[i].position - merged.joints[i].position).norm(), kMergeTol);
+    EXPECT_LT((loaded.joints[i].rotation - merged.joints[i].rotation).norm(), kMergeTol);
+    EXPECT_LT((loaded.joints[i].axis - merged.joints[i].axis).norm(), kMergeTol);
+    EXPECT_NEAR(loaded.bodies[i].mass, merged.bodies[i].mass, kMergeTol * merged.bodies[i].mass);
+    EXPECT_LT((loaded.bodies[i].com - merged.bodies[i].com).norm(), kMergeTol);
+    EXPECT_LT(RelativeDifference(loaded.bodies[i].inertia, merged.bodies[i].inertia, 0.0), kMergeTol);
+  }
+}
+
+TEST(UrdfFixedJoints, MergedRobotHasTheSameMassMatrixAndGravity) {
+  const RigidTree loaded = LoadUrdf(Fixture("fixed_chain.urdf")).tree;
+  const RigidTree merged = LoadUrdf(Fixture("fixed_chain_merged.urdf")).tree;
+  std::mt19937 rng{42};
+  const LagrangianDynamics<RigidTree> lagrangian(loaded), lagrangian_merged(merged);
+  const SpatialDynamics spatial(loaded), spatial_merged(merged);
+  MatrixXd M(2, 2), Mm(2, 2);
+  VectorXd G(2), Gm(2);
+  for (int k = 0; k < kStates; ++k) {
+    const VectorXd q = RandomStateFor(loaded.joint_types(), rng).q;
+    for (const auto& [d, dm] :
+         {std::pair<const Dynamics*, const Dynamics*>{&lagrangian, &lagrangian_merged}, {&spatial, &spatial_merged}}) {
+      d->ComputeMassMatrix(q, M);
+      dm->ComputeMassMatrix(q, Mm);
+      d->ComputeGravityForce(q, G);
+      dm->ComputeGravityForce(q, Gm);
+      EXPECT_LT(RelativeDifference(M, Mm, 0.0), kMergeTol);
+      EXPECT_LT(RelativeDifference(G, Gm, 0.0), kMergeTol);
+    }
+  }
+}
+
+TEST(UrdfProperties, AbsentAttributesStayAbsentAndContinuousJointsHaveNoPositionLimits) {
+  const UrdfRobot robot = LoadUrdf(Fixture("properties.urdf"));
+  ASSERT_EQ(robot.tree.joint_names(), (std::vector<std::string>{"bounded", "unbounded", "spinner", "free", "slide"}));
+  const auto& p = robot.properties;
+  ExpectValue(p[0].lower, -1.5);
+  ExpectValue(p[0].upper, 2.5);
+  ExpectValue(p[0].effort, 40.0);
+  ExpectValue(p[0].velocity, 3.0);
+  ExpectValue(p[0].damping, 0.7);
+  ExpectValue(p[0].friction, 0.2);
+  // urdfdom reads an absent lower/upper as 0; the file did not say 0.
+  EXPECT_FALSE(p[1].lower || p[1].upper);
+  ExpectValue(p[1].effort, 0.0);  // said, and zero
+  ExpectValue(p[1].damping, 0.5);
+  EXPECT_FALSE(p[1].friction);
+  // Continuous: the <limit>'s lower/upper are ignored, effort and velocity kept.
+  EXPECT_FALSE(p[2].lower || p[2].upper);
+  ExpectValue(p[2].effort, 12.0);
+  ExpectValue(p[2].velocity, 6.0);
+  EXPECT_EQ(robot.tree.joints[2].type, JointType::kRevolute);
+  EXPECT_FALSE(p[3].lower || p[3].upper || p[3].effort || p[3].velocity || p[3].damping || p[3].friction);
+  EXPECT_EQ(robot.tree.joints[4].type, JointType::kPrismatic);
+  ExpectValue(p[4].lower, 0.0);
+  ExpectValue(p[4].upper, 0.3);
+  EXPECT_FALSE(p[4].damping);
+  ExpectValue(p[4].friction, 1.5);
+}
+
+// ---------------------------------------------------------------------------
+// Refusals: one line, "FILE: ELEMENT: reason".
+
+void ExpectOneLineNamingFile(const std::string& what, const std::string& file) {
+  EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  EXPECT_EQ(what.rfind(file + ": ", 0), 0u) << what;
+}
+
+// Each fixture's first line is "<!-- expect: ELEMENT: reason -->".
+TEST(UrdfRefusals, EveryInvalidFixtureIsRefusedInOneLineNamingFileElementAndReason) {
+  const fs::path dir = SourceDir() / "tests/fixtures/urdf/invalid";
+  std::set<std::string> seen;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.path().extension() != ".urdf") continue;
+    const std::string file = entry.path().string();
+    seen.insert(entry.path().stem().string());
+    std::ifstream in(file);
+    std::string first;
+    std::getline(in, first);
+    const std::string open = "<!-- expect: ", close = " -->";
+    ASSERT_EQ(first.rfind(open, 0), 0u) << file << " has no '<!-- expect:' line";
+    const std::string expected = first.substr(open.size(), first.size() - open.size() - close.size());
+    try {
+      LoadUrdf(file);
+      ADD_FAILURE() << file << " was accepted";
+    } catch (const UrdfError& e) {
+      ExpectOneLineNamingFile(e.what(), file);
+      EXPECT_EQ(std::string(e.what()).find(file + ": " + expected), 0u)
+          << "got: " << e.what() << "\nexpected: " << expected;
+    }
+  }
+  for (const char* required : {"floating", "planar", "unknown_type", "zero_axis", "negative_mass", "not_psd",
+                               "triangle_inequality", "massless_leaf", "mass_on_axis", "malformed", "non_finite",
+                               "overflow", "two_roots", "loop", "no_moving_joint"}) {
+    EXPECT_TRUE(seen.contains(required)) << required << ".urdf is missing";
+  }
+}
+
+TEST(UrdfRefusals, MissingFileIsNamedWithTheSystemsReason) {
+  const std::string path = Fixture("no_such_robot.urdf");
+  try {
+    LoadUrdf(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    ExpectOneLineNamingFile(e.what(), path);
+    EXPECT_EQ(std::string(e.what()), path + ": file: cannot be opened (No such file or directory)");
+  }
+}
+
+TEST(UrdfRefusals, EmptyTextIsMalformedXml) {
+  try {
+    ParseUrdf("", "empty.urdf");
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    ExpectOneLineNamingFile(e.what(), "empty.urdf");
+    EXPECT_NE(std::string(e.what()).find("malformed XML"), std::string::npos) << e.what();
+  }
+}
+
+TEST(UrdfRefusals, MoreThanMaxDofsMovingJointsIsRefused) {
+  std::ostringstream xml;
+  xml << "<robot name=\"long\"><link name=\"l0\"/>";
+  for (int i = 1; i <= kMaxDofs + 1; ++i) {
+    xml << "<link name=\"l" << i << "\"><inertial><origin xyz=\"0.1 0 0\"/><mass value=\"1\"/>"
+        << "<inertia ixx=\"0.01\" ixy=\"0\" ixz=\"0\" iyy=\"0.01\" iyz=\"0\" izz=\"0.01\"/></inertial></link>"
+        << "<joint name=\"j" << i << "\" type=\"continuous\"><parent link=\"l" << i - 1 << "\"/><child link=\"l" << i
+        << "\"/><axis xyz=\"0 0 1\"/></joint>";
+  }
+  xml << "</robot>";
+  try {
+    ParseUrdf(xml.str(), "long.urdf");
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "long.urdf: robot 'long': more than " + std::to_string(kMaxDofs) + " moving joints");
+  }
+}
+
+// Two joints on one axis line with nothing between them: each moves inertia,
+// but M(0) is singular. The loader leaves that to ValidateRigidTree and names the file.
+TEST(UrdfRefusals, ASingularMassMatrixFoundByValidateRigidTreeNamesTheFile) {
+  const std::string xml = R"(<robot name="r"><link name="base"/><link name="hub"/>
+    <link name="arm"><inertial><origin xyz="0.3 0 0"/><mass value="1"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+    <joint name="j1" type="continuous"><parent link="base"/><child link="hub"/><axis xyz="0 0 1"/></joint>
+    <joint name="j2" type="continuous"><parent link="hub"/><child link="arm"/><axis xyz="0 0 1"/></joint>
+  </robot>)";
+  try {
+    ParseUrdf(xml, "coaxial.urdf");
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    ExpectOneLineNamingFile(e.what(), "coaxial.urdf");
+    EXPECT_NE(std::string(e.what()).find("M(0) positive definite"), std::string::npos) << e.what();
+  }
+}
+
+TEST(UrdfRefusals, NamesAreEscapedSoTheMessageStaysOneLine) {
+  const std::string xml =
+      "<robot name=\"r\"><link name=\"base\"/><link name=\"a\"/>"
+      "<joint name=\"bad&#10;name\" type=\"ball\"><parent link=\"base\"/><child link=\"a\"/>"
+      "</joint></robot>";
+  try {
+    ParseUrdf(xml, "escape.urdf");
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    ExpectOneLineNamingFile(e.what(), "escape.urdf");
+    EXPECT_NE(std::string(e.what()).find("joint 'bad\\x0Aname'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(UrdfRefusals, UrdfdomsOwnMessagesAreCapturedNotPrinted) {
+  ::testing::internal::CaptureStderr();
+  EXPECT_THROW(LoadUrdf(Fixture("invalid/revolute_without_limit.urdf")), UrdfError);
+  EXPECT_THROW(LoadUrdf(Fixture("invalid/inertial_without_mass.urdf")), UrdfError);
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+}
+
+// ---------------------------------------------------------------------------
+// A planar URDF is the planar chain plant.
+
+ChainParams PlanarChainOfTheFixture() {
+  ChainParams p;
+  p.base_angle = 0.3;
+  p.links = {{1.2, 0.5, 0.2, 0.03, JointType::kRevolute},
+             {0.8, 0.4, 0.2, 0.011, JointType::kRevolute},
+             {0.5, 0.3, 0.1, 0.004, JointType::kPrismatic},
+             {0.3, 0.25, 0.125, 0.002, JointType::kRevolute}};
+  return p;
+}
+
+struct Evaluated {
+  MatrixXd M, C;
+  VectorXd G, qdd;
+};
+
+Evaluated Evaluate(const Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& tau) {
+  const int n = d.num_dofs();
+  Evaluated e{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n)};
+  d.ComputeMassMatrix(q, e.M);
+  d.ComputeCoriolisMatrix(q, qd, e.C);
+  d.ComputeGravityForce(q, e.G);
+  d.ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, e.qdd);
+  return e;
+}
+
+TEST(UrdfPlanar, PlanarUrdfEqualsTheChainPlantByEveryDerivation) {
+  RigidTree tree = LoadUrdf(Fixture("planar_chain.urdf")).tree;
+  tree.gravity = Eigen::Vector3d(0.0, -kStandardGravity, 0.0);
+  const PlantSpec spec{PlanarChainOfTheFixture()};
+  ASSERT_EQ(tree.joint_types(), JointTypesOf(spec));
+  const std::vector<std::shared_ptr<const Dynamics>> chains{MakeDynamics(spec, Method::kRecursive),
+                                                            MakeDynamics(spec, Method::kLagrangian)};
+  const std::vector<std::shared_ptr<const Dynamics>> urdfs{std::make_shared<LagrangianDynamics<RigidTree>>(tree),
+                                                           std::make_shared<SpatialDynamics>(tree)};
+  std::mt19937 rng{42};
+  for (int k = 0; k < kStates; ++k) {
+    const auto [q, qd] = RandomStateFor(tree.joint_types(), rng);
+    const VectorXd tau = testing::RandomVector(tree.num_dofs(), -5.0, 5.0, rng);
+    for (const auto& chain : chains) {
+      const Evaluated c = Evaluate(*chain, q, qd, tau);
+      for (const auto& urdf : urdfs) {
+        SCOPED_TRACE(std::string(ToString(chain->method())) + " chain vs " + std::string(ToString(urdf->method())) +
+                     " urdf");
+        const Evaluated u = Evaluate(*urdf, q, qd, tau);
+        EXPECT_LT(RelativeDifference(u.M, c.M, 0.0), kAgreeTol);
+        EXPECT_LT(RelativeDifference(u.C, c.C), kAgreeTol);
+        EXPECT_LT(RelativeDifference(u.G, c.G, 0.0), kAgreeTol);
+        EXPECT_LT(RelativeDifference(u.qdd, c.qdd, 0.0), kAgreeTol);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace lagrange
