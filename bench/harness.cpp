@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <string.h>
-#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,6 +14,7 @@
 #include <thread>
 
 #include "daemon/bus.hpp"
+#include "daemon/spawn.hpp"
 
 namespace lagrange::bench {
 
@@ -59,19 +59,19 @@ std::string LoadAverage() {
 }
 
 pid_t Spawn(const std::vector<std::string>& argv, const fs::path& log, unsigned long timer_slack_ns) {
-  // Everything the child needs is built before fork: the parent has threads.
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
+  // The log is opened here, before fork, close-on-exec (no other child
+  // inherits it); the child gets it as stdout and stderr. If it cannot be
+  // opened the child keeps this process's, as it did when the child opened it.
   const std::string log_path = log.empty() ? "/dev/null" : log.string();
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  dup2(fd, STDOUT_FILENO);
-  dup2(fd, STDERR_FILENO);
-  if (timer_slack_ns > 0) prctl(PR_SET_TIMERSLACK, timer_slack_ns, 0, 0, 0);
-  execvp(args[0], args.data());
-  _exit(127);
+  const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  SpawnOptions options;
+  options.stdout_fd = fd;
+  options.stderr_fd = fd;
+  options.search_path = true;
+  options.timer_slack_ns = timer_slack_ns;
+  const pid_t pid = lagrange::Spawn(argv, options);
+  if (fd >= 0) close(fd);
+  return pid;
 }
 
 Exit WaitExit(pid_t pid, double timeout_s) {

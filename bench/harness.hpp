@@ -30,7 +30,8 @@ std::string LoadAverage();
 // Starts `argv` (argv[0] looked up in PATH when it has no '/') with stdout
 // and stderr in `log` (nothing when empty); returns its pid. With
 // `timer_slack_ns` > 0 the child sets its timer slack first (inherited by its
-// threads and kept across exec).
+// threads and kept across exec). Returns -1 when fork fails. lagrange::Spawn
+// (daemon/spawn.hpp) does the fork and exec.
 pid_t Spawn(const std::vector<std::string>& argv, const std::filesystem::path& log, unsigned long timer_slack_ns = 0);
 
 struct Exit {

@@ -1,5 +1,6 @@
 // lagrangectl plot: a PNG of a run from a CSV or an LCM log.
 
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -8,6 +9,7 @@
 #include <regex>
 #include <sstream>
 
+#include "daemon/spawn.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/lcm_log.hpp"
@@ -20,26 +22,27 @@ namespace fs = std::filesystem;
 
 // Runs python3 -c kPlotScript CSV PNG TITLE; returns (status, its stdout and stderr together).
 std::pair<int, std::string> RunPlotScript(const std::string& csv, const std::string& png, const std::string& title) {
-  int err_pipe[2];
-  if (pipe(err_pipe) != 0) throw std::runtime_error("pipe failed");
-  const pid_t pid = fork();
-  if (pid == 0) {
-    dup2(err_pipe[1], STDOUT_FILENO);
-    dup2(err_pipe[1], STDERR_FILENO);
-    close(err_pipe[0]);
-    // Debian's interpreter first: python3-matplotlib is installed for it, not for others on PATH.
-    const char* python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
-    execlp(python, "python3", "-c", kPlotScript, csv.c_str(), png.c_str(), title.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
+  int out_pipe[2];
+  if (pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
+  SpawnOptions options;
+  // Debian's interpreter first: python3-matplotlib is installed for it, not for others on PATH.
+  options.file = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+  options.search_path = true;
+  options.stdout_fd = out_pipe[1];
+  options.stderr_fd = out_pipe[1];
+  const pid_t pid = Spawn({"python3", "-c", kPlotScript, csv, png, title}, options);
+  close(out_pipe[1]);
+  if (pid < 0) {
+    close(out_pipe[0]);
+    throw std::runtime_error("fork failed");
   }
-  close(err_pipe[1]);
-  std::string err;
+  std::string output;
   char buf[1024];
-  for (ssize_t n; (n = read(err_pipe[0], buf, sizeof buf)) > 0;) err.append(buf, static_cast<std::size_t>(n));
-  close(err_pipe[0]);
+  for (ssize_t n; (n = read(out_pipe[0], buf, sizeof buf)) > 0;) output.append(buf, static_cast<std::size_t>(n));
+  close(out_pipe[0]);
   int status = 0;
   waitpid(pid, &status, 0);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 1, err};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 1, output};
 }
 
 std::string LastLine(const std::string& text) {

@@ -9,21 +9,17 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "daemon/spawn.hpp"
+
 namespace lagrange::testing {
 
 pid_t Spawn(const std::vector<std::string>& argv, int stdout_fd, int stderr_fd) {
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  const pid_t pid = fork();
+  SpawnOptions options;
+  options.stdout_fd = stdout_fd;
+  options.stderr_fd = stderr_fd;
+  options.default_sigpipe = true;  // the default action, as a service manager leaves it
+  const pid_t pid = lagrange::Spawn(argv, options);
   if (pid < 0) throw std::runtime_error("fork failed");
-  if (pid == 0) {
-    if (stdout_fd >= 0) dup2(stdout_fd, STDOUT_FILENO);
-    if (stderr_fd >= 0) dup2(stderr_fd, STDERR_FILENO);
-    signal(SIGPIPE, SIG_DFL);  // the default action, as a service manager leaves it
-    execv(args[0], args.data());
-    _exit(127);
-  }
   return pid;
 }
 

@@ -14,9 +14,10 @@ struct ProcessResult {
   std::string err;
 };
 
-// Starts argv[0] with arguments, its stdout and stderr on `stdout_fd` and
-// `stderr_fd` (−1: this process's), SIGPIPE at its default action; returns
-// its pid (throws when fork fails). The tests' one fork and exec.
+// Starts argv[0] (a path: no PATH search) with arguments, its stdout and
+// stderr on `stdout_fd` and `stderr_fd` (−1: this process's), SIGPIPE at its
+// default action; returns its pid (throws when fork fails). lagrange::Spawn
+// (daemon/spawn.hpp) does the fork and exec.
 pid_t Spawn(const std::vector<std::string>& argv, int stdout_fd = -1, int stderr_fd = -1);
 
 // Runs argv[0] with arguments, captures stdout and stderr, waits up to
