@@ -37,9 +37,25 @@ bool Controller::SetGains(const Gains& gains) {
   return true;
 }
 
+namespace {
+
+// The first |v_i| above max_i, or -1; a box left empty (no second box) has every gain above it.
+int FirstAbove(const VectorXd& v, const VectorXd& max) {
+  if (max.size() != v.size()) return 0;
+  for (int i = 0; i < v.size(); ++i) {
+    if (std::abs(v[i]) > max[i]) return i;
+  }
+  return -1;
+}
+
+}  // namespace
+
 GainBounds GainBounds::Unbounded(int n) {
   const double inf = std::numeric_limits<double>::infinity();
-  return {false, VectorXd::Constant(n, inf), VectorXd::Constant(n, inf), "", ""};
+  GainBounds bounds;
+  bounds.kp_max = VectorXd::Constant(n, inf);
+  bounds.kd_max = VectorXd::Constant(n, inf);
+  return bounds;
 }
 
 std::optional<GainFault> FindGainFault(const Gains& g, const GainBounds& b) {
@@ -50,8 +66,9 @@ std::optional<GainFault> FindGainFault(const Gains& g, const GainBounds& b) {
     if (v.size() != n) return GainFault{GainFault::Kind::kSize, kd, -1};
     if (!v.allFinite()) return GainFault{GainFault::Kind::kNotFinite, kd, -1};
     if (!b.any_sign && (v.array() < 0.0).any()) return GainFault{GainFault::Kind::kSign, kd, -1};
-    for (int i = 0; i < n; ++i) {
-      if (std::abs(v[i]) > max[i]) return GainFault{GainFault::Kind::kAboveBound, kd, i};
+    const int above = FirstAbove(v, max);
+    if (above >= 0 && FirstAbove(v, kd ? b.kd_max_per_joint : b.kp_max_per_joint) >= 0) {
+      return GainFault{GainFault::Kind::kAboveBound, kd, above};
     }
   }
   return std::nullopt;
@@ -67,11 +84,21 @@ std::string DescribeGainFault(const GainFault& f, const Gains& g, const GainBoun
       return key + (b.any_sign ? ": expected finite gains" : ": expected finite gains >= 0");
     case GainFault::Kind::kSign: return key + ": expected finite gains >= 0";
     case GainFault::Kind::kAboveBound: {
-      const double value = (f.kd ? g.kd : g.kp)[f.index], max = (f.kd ? b.kd_max : b.kp_max)[f.index];
-      char text[160];
+      const VectorXd& v = f.kd ? g.kd : g.kp;
+      const double max = (f.kd ? b.kd_max : b.kp_max)[f.index];
+      char text[512];
       std::snprintf(text, sizeof text, "[%d]: expected |gain| <= %.6g (%s), got %.6g", f.index, max,
-                    (f.kd ? b.kd_rule : b.kp_rule).c_str(), value);
-      return key + text;
+                    (f.kd ? b.kd_rule : b.kp_rule).c_str(), v[f.index]);
+      std::string message = key + text;
+      const VectorXd& per_joint = f.kd ? b.kd_max_per_joint : b.kp_max_per_joint;
+      if (per_joint.size() == v.size()) {  // beyond the second box too: say where
+        const int i = FirstAbove(v, per_joint);
+        std::snprintf(text, sizeof text, "; or every %s within its joint's bound (%s), but %s[%d] = %.6g > %.6g",
+                      key.c_str(), (f.kd ? b.kd_rule_per_joint : b.kp_rule_per_joint).c_str(), key.c_str(), i, v[i],
+                      per_joint[i]);
+        message += text;
+      }
+      return message;
     }
   }
   return key + ": expected valid gains";

@@ -38,12 +38,20 @@ struct Gains {
 // (a law evaluated once per h under zero-order hold cannot use more; each
 // controller's header states its rule). Computed once at configure time
 // (ComputeGainBounds, controllers/factory.hpp); +inf where there is no bound.
+//
+// A rule may give a second box, per joint (PD on a robot whose joints' inertias
+// differ widely, see ComputeGainBounds): kp is accepted within either box, and
+// so is kd, each on its own.
 struct GainBounds {
   bool any_sign = false;  // false: every gain >= 0
   VectorXd kp_max;        // (n), the units of Kp
   VectorXd kd_max;        // (n), the units of Kd
   std::string kp_rule;    // how kp_max was derived, for messages: "Kp·h² <= 1 at h = 0.001 s"
   std::string kd_rule;
+  VectorXd kp_max_per_joint;  // (n) the second box; empty: none
+  VectorXd kd_max_per_joint;  // (n)
+  std::string kp_rule_per_joint;
+  std::string kd_rule_per_joint;
 
   int num_dofs() const { return static_cast<int>(kp_max.size()); }
   // Non-negative gains of any size on n joints.

@@ -118,12 +118,27 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
     b.kd_rule = std::string("|Kd|·h/M_xx <= 2") + at + mass;
     return b;
   }
+  // Two boxes keep every mode of M⁻¹Kp h² within 1 (and of M⁻¹Kd h within 2),
+  // and gains within either are accepted: the same bound λmin(M) on every
+  // joint, or bounds in proportion to each joint's own M_ii, w = diag(M)/c
+  // with c = λmax(M⁻¹ diag M) (ρ(M⁻¹ diag(k)) grows with every k_i, so the
+  // corner of each box is its worst point). The second is what lets a
+  // robot's heavy shoulder take more than its light wrist.
   const double lambda = Eigen::SelfAdjointEigenSolver<MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
   b.kp_max.setConstant(lambda / (h * h));
   b.kd_max.setConstant(2.0 * lambda / h);
   std::snprintf(mass, sizeof mass, " with λmin(M(q0)) = %.6g", lambda);
   b.kp_rule = std::string("Kp·h²/λmin(M) <= 1") + at + mass;
   b.kd_rule = std::string("Kd·h/λmin(M) <= 2") + at + mass;
+  if (n < 2) return b;  // one joint: the two boxes are one
+  const VectorXd diag = M.diagonal();
+  const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * M.inverse() * diag.cwiseSqrt().asDiagonal();
+  const double c = Eigen::SelfAdjointEigenSolver<MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  b.kp_max_per_joint = diag / (c * h * h);
+  b.kd_max_per_joint = 2.0 * diag / (c * h);
+  std::snprintf(mass, sizeof mass, " with c = λmax(M⁻¹diag(M)) = %.6g", c);
+  b.kp_rule_per_joint = std::string("Kp_i·h²·c/M_ii <= 1") + at + mass;
+  b.kd_rule_per_joint = std::string("Kd_i·h·c/M_ii <= 2") + at + mass;
   return b;
 }
 
@@ -157,6 +172,9 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   if (c.model) {
     if (c.model->type() != plant.type() || c.model->num_dofs() != n) {
       return std::string("model: expected the plant's type and size");
+    }
+    if (JointTypesOf(*c.model) != JointTypesOf(plant)) {
+      return std::string("model: expected the plant's joint types in order (revolute or prismatic)");
     }
     if (auto err = ValidatePlantSpec(*c.model)) return "model.params." + err->key + ": " + err->message;
   }

@@ -68,7 +68,9 @@ std::optional<std::string> ValidateController(const ControllerConfig& config, co
 // `period` s from the initial q0 (n): the rules in joint_controllers.hpp and
 // cartpole_pd.hpp. Types without gains get n unbounded entries.
 //   computed-torque                Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s)
-//   pd, gravity-compensation       Kp_i <= λmin(M)/h²,  Kd_i <= 2λmin(M)/h (N·m/rad, N·m·s/rad)
+//   pd, gravity-compensation       Kp_i <= w_i/h²,      Kd_i <= 2 w_i/h    (N·m/rad, N·m·s/rad)
+//                                  with w_i = λmin(M) for every joint, or (the per-joint box, for
+//                                  n >= 2) w_i = M_ii/λmax(M⁻¹ diag M): kp within either, kd within either
 //   cartpole-pd (any sign)         |Kp_j| <= M_xx/h²,   |Kd_j| <= 2M_xx/h
 // with M = M(q0) of the plant.
 GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const VectorXd& q0, double period);

@@ -16,15 +16,17 @@ struct PdOptions {
 
 // Law:    tau = Kp e + Kd ė [+ M(q) qdd_d] [+ G(q)]
 // Gains:  Kp_i N·m/rad (N/m), Kd_i N·m·s/rad (N·s/m), >= 0. Bounded by what a
-//         law held over the tick h can use (ComputeGainBounds): with λ the
-//         smallest eigenvalue of M(q0) (kg·m² or kg) at the initial state,
-//           Kp_i <= λ / h²,   Kd_i <= 2 λ / h,
+//         law held over the tick h can use (ComputeGainBounds): with w_i
+//         either λ, the smallest eigenvalue of M(q0) (kg·m² or kg) at the
+//         initial state, for every joint, or M_ii(q0) / λmax(M⁻¹ diag M)
+//         per joint (gains within either box are accepted),
+//           Kp_i <= w_i / h²,   Kd_i <= 2 w_i / h,
 //         so every mode of M⁻¹Kp h² and M⁻¹Kd h stays within 1 and 2, the
-//         limits of the computed-torque law below. (A per-joint M_ii in place
-//         of λ is not enough: the coupling of M gives M⁻¹ diag(M) eigenvalues
-//         above 1, 7.2 for the default arm.) At the bound itself the
-//         discrete loop is marginally stable; it is where a PD stops being
-//         usable, not a tuning.
+//         limits of the computed-torque law below. (A per-joint M_ii alone
+//         is not enough: the coupling of M gives M⁻¹ diag(M) eigenvalues
+//         above 1, 6.9 for the default arm at (π/4, 0).) At the bound itself
+//         the discrete loop is marginally stable; it is where a PD stops
+//         being usable, not a tuning.
 // Inputs: q, qd; setpoint (q_d, qd_d, qdd_d).
 // Output: tau (n).
 // State:  none.

@@ -24,6 +24,26 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
+// Bytes of a joint name kept in a status (before escaping): a URDF's names are
+// the file's, of any length.
+constexpr std::size_t kMaxJointNameBytes = 60;
+
+// True when a status carrying these instances and joint names, with both of
+// its reasons at the longest they can be, fits in one datagram.
+bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
+                const std::vector<std::string>& joints) {
+  status_t s{};
+  s.last_rejection.assign(Reason{}.text.size() * 4, 'x');  // an escaped reason at its longest
+  s.last_command_error = s.last_rejection;
+  s.num_instances = static_cast<std::int32_t>(instances.size());
+  s.instance_names = instances;
+  s.instance_modes.assign(instances.size(), 0);
+  s.instance_dofs = dofs;
+  s.num_joints = static_cast<std::int32_t>(joints.size());
+  s.joint_names = joints;
+  return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
+}
+
 }  // namespace
 
 std::int64_t NewRunId() {
@@ -319,6 +339,15 @@ LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& r
     for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
     states_.push_back(s);
     modes_.push_back(Mode::kRunning);
+    dofs_.push_back(inst.num_dofs());
+    for (const std::string& joint : JointNamesOf(inst.config().plant)) {
+      joint_names_.push_back(Escape(joint, kMaxJointNameBytes));
+    }
+  }
+  if (!StatusFits(names_, dofs_, joint_names_)) {
+    spdlog::warn("the {} joint names do not fit in a {} status datagram: statuses carry none (num_joints = 0)",
+                 joint_names_.size(), channels_.status);
+    joint_names_.clear();
   }
   latencies_.reserve(static_cast<std::size_t>(status_every_) * 2);
   computes_.reserve(static_cast<std::size_t>(status_every_) * 2);
@@ -463,6 +492,9 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   s.num_instances = static_cast<int32_t>(names_.size());
   s.instance_names = names_;
   for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
+  s.instance_dofs = dofs_;
+  s.num_joints = static_cast<int32_t>(joint_names_.size());
+  s.joint_names = joint_names_;
   bus_.PublishMessage(channels_.status, s);
 }
 

@@ -15,8 +15,9 @@
 // LcmPublisher (publish thread): waits on an eventfd the tick writes, turns
 // each tick record into one state_t per instance on <NAME>_STATE, a reply_t
 // per command verdict on <NAME>_REPLY, and every 0.1 s of ticks a status_t
-// on LAGRANGE_STATUS. It also logs mode changes, faults and refused commands,
-// at most once a second per kind of line.
+// on LAGRANGE_STATUS (with every instance's joint names, from
+// JointNamesOf, escaped). It also logs mode changes, faults and refused
+// commands, at most once a second per kind of line.
 //
 // Every string that came from the bus is escaped (daemon/escape.hpp) before
 // it is logged or published.
@@ -208,6 +209,8 @@ class LcmPublisher {
   int status_every_;
   double period_;
   std::vector<std::string> names_;
+  std::vector<std::int32_t> dofs_;        // each instance's n
+  std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
   std::vector<std::vector<std::string>> controller_names_;
   std::vector<state_t> states_;
   std::vector<Mode> modes_;

@@ -4,6 +4,7 @@
 #include <limits>
 #include <set>
 
+#include "daemon/escape.hpp"
 #include "daemon/scene_control.hpp"
 #include "daemon/yaml_reader.hpp"
 
@@ -16,14 +17,31 @@ bool IsValidName(const std::string& name) {
                      [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
 }
 
-PlantSpec ReadPlant(const YamlReader& node, Method* method) {
-  node.ExpectKeys({"type", "method", "params"});
+// plant: {type: urdf, file: PATH, gravity: [gx, gy, gz], params: {mass_scale: s}}
+PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf) {
+  PlantSpec spec = UrdfPlantSpec(urdf.Load(node.Required("file")));
+  if (auto g = node.Optional("gravity")) SetUrdfParam(spec, "gravity", *g);
+  if (auto params = node.Optional("params")) {
+    for (const auto& [key, value] : params->Entries()) {
+      if (key == "gravity") value.Fail("a urdf plant's gravity is plant.gravity: [gx, gy, gz]");
+      SetUrdfParam(spec, key, value);
+    }
+  }
+  return spec;
+}
+
+PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf) {
   const YamlReader type_node = node.Required("type");
   const std::optional<PlantType> type = ParsePlantType(type_node.Text());
   if (!type) type_node.Fail("expected one of " + PlantTypeNames() + ", got '" + type_node.Text() + "'");
-  PlantSpec spec = DefaultPlantSpec(*type);
+  const bool is_urdf = *type == PlantType::kUrdf;
+  if (is_urdf)
+    node.ExpectKeys({"type", "file", "gravity", "method", "params"});
+  else
+    node.ExpectKeys({"type", "method", "params"});
+  PlantSpec spec = is_urdf ? ReadUrdfPlant(node, urdf) : DefaultPlantSpec(*type);
 
-  if (auto params = node.Optional("params")) {
+  if (auto params = node.Optional("params"); params && !is_urdf) {
     std::vector<std::pair<std::string, YamlReader>> entries = params->Entries();
     // The chain's link count first, so per-link lists can be checked against it.
     std::stable_partition(entries.begin(), entries.end(), [](const auto& e) { return e.first == "links"; });
@@ -52,7 +70,9 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method) {
       }
     }
   }
-  if (auto err = ValidatePlantSpec(spec)) node.Fail("params." + err->key, err->message);
+  if (auto err = ValidatePlantSpec(spec)) {
+    node.Fail(is_urdf && (err->key == "file" || err->key == "gravity") ? err->key : "params." + err->key, err->message);
+  }
 
   *method = FastestMethod(*type);
   if (auto m = node.Optional("method")) {
@@ -67,32 +87,87 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method) {
   return spec;
 }
 
-EffectsConfig ReadEffects(const YamlReader& node, int n) {
-  node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"});
+// `off` (false, no) written for an effect: switch it off, whatever a URDF said.
+bool IsOff(const YamlReader& node) {
+  if (!node.IsScalar()) return false;
+  const std::string text = node.Text();
+  return text == "off" || text == "false" || text == "no";
+}
+
+// The effects a URDF gives its joints, each on only where the file gives it:
+// stops at <limit lower upper> (±inf for joints without, the default
+// stiffness and damping), damping and Coulomb friction from <dynamics
+// damping friction> when some joint's is positive (0 for the others).
+EffectsConfig UrdfEffects(const UrdfRobot& robot) {
   EffectsConfig c;
+  const int n = robot.tree.num_dofs();
+  const double inf = std::numeric_limits<double>::infinity();
+  JointLimits limits;
+  limits.lower = VectorXd::Constant(n, -inf);
+  limits.upper = VectorXd::Constant(n, inf);
+  VectorXd damping = VectorXd::Zero(n), friction = VectorXd::Zero(n);
+  bool any_limit = false;
+  for (int i = 0; i < n; ++i) {
+    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(i)];
+    if (p.lower && p.upper) {
+      limits.lower[i] = *p.lower;
+      limits.upper[i] = *p.upper;
+      any_limit = true;
+    }
+    damping[i] = p.damping.value_or(0.0);
+    friction[i] = p.friction.value_or(0.0);
+  }
+  if (any_limit) c.limits = limits;
+  if ((damping.array() > 0.0).any()) c.damping = damping;
+  if ((friction.array() > 0.0).any()) c.friction = CoulombFriction{friction};
+  return c;
+}
+
+// The scene's effects over `c` (a URDF's, or none): a key the scene writes
+// replaces what was there (inside friction and limits, key by key); `off`
+// switches an effect off.
+EffectsConfig ReadEffects(const YamlReader& node, int n, EffectsConfig c) {
+  node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"});
   if (auto v = node.Optional("gravity")) c.gravity = v->Bool();
   if (auto v = node.Optional("coriolis")) c.coriolis = v->Bool();
   if (auto v = node.Optional("damping")) {
-    c.damping = v->NumberOrVector(n);
-    if ((c.damping->array() < 0.0).any()) v->Fail("expected damping coefficients >= 0");
+    if (IsOff(*v)) {
+      c.damping.reset();
+    } else {
+      c.damping = v->NumberOrVector(n);
+      if ((c.damping->array() < 0.0).any()) v->Fail("expected damping coefficients >= 0");
+    }
   }
   if (auto v = node.Optional("friction")) {
-    v->ExpectKeys({"coulomb", "velocity_scale"});
-    CoulombFriction f;
-    f.coulomb = v->Required("coulomb").NumberOrVector(n);
-    if (auto s = v->Optional("velocity_scale")) f.velocity_scale = s->PositiveNumber();
-    c.friction = f;
+    if (IsOff(*v)) {
+      c.friction.reset();
+    } else {
+      v->ExpectKeys({"coulomb", "velocity_scale"});
+      CoulombFriction f = c.friction.value_or(CoulombFriction{});
+      if (!c.friction || v->Has("coulomb")) f.coulomb = v->Required("coulomb").NumberOrVector(n);
+      if (auto s = v->Optional("velocity_scale")) f.velocity_scale = s->PositiveNumber();
+      c.friction = f;
+    }
   }
   if (auto v = node.Optional("limits")) {
-    v->ExpectKeys({"lower", "upper", "stiffness", "damping"});
-    JointLimits l;
-    l.lower = v->Required("lower").VectorOrInfinity(n);
-    l.upper = v->Required("upper").VectorOrInfinity(n);
-    if (auto s = v->Optional("stiffness")) l.stiffness = s->PositiveNumber();
-    if (auto s = v->Optional("damping")) l.damping = s->NonNegativeNumber();
-    c.limits = l;
+    if (IsOff(*v)) {
+      c.limits.reset();
+    } else {
+      v->ExpectKeys({"lower", "upper", "stiffness", "damping"});
+      JointLimits l = c.limits.value_or(JointLimits{});
+      if (!c.limits || v->Has("lower")) l.lower = v->Required("lower").VectorOrInfinity(n);
+      if (!c.limits || v->Has("upper")) l.upper = v->Required("upper").VectorOrInfinity(n);
+      if (auto s = v->Optional("stiffness")) l.stiffness = s->PositiveNumber();
+      if (auto s = v->Optional("damping")) l.damping = s->NonNegativeNumber();
+      c.limits = l;
+    }
   }
-  if (auto v = node.Optional("saturation")) c.saturation = v->NumberOrVector(n);
+  if (auto v = node.Optional("saturation")) {
+    if (IsOff(*v))
+      c.saturation.reset();
+    else
+      c.saturation = v->NumberOrVector(n);
+  }
   if (auto v = node.Optional("disturbance")) {
     for (std::size_t i = 0; i < v->Size(); ++i) {
       const YamlReader p = v->At(i);
@@ -120,15 +195,27 @@ IntegratorConfig ReadIntegrator(const YamlReader& node) {
   return c;
 }
 
+// |tau| bounds from a URDF's <limit effort> (+inf where it gives none, or 0,
+// which some files write for "unspecified").
+VectorXd UrdfTorqueLimits(const UrdfRobot& robot) {
+  const int n = robot.tree.num_dofs();
+  VectorXd limits = VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  for (int i = 0; i < n; ++i) {
+    const std::optional<double>& effort = robot.properties[static_cast<std::size_t>(i)].effort;
+    if (effort && *effort > 0.0) limits[i] = *effort;
+  }
+  return limits;
+}
+
 // controller, controllers, torque_limits, setpoint, setpoint_limits, setpoint_timeout, on_timeout.
-void ReadControl(const YamlReader& node, double period, InstanceConfig& inst) {
+void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, UrdfFiles& urdf) {
   const int n = inst.plant.num_dofs();
-  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant, period, inst.q0);
+  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant, period, inst.q0, urdf);
   if (auto list = node.Optional("controllers")) {
     std::set<ControllerType> seen = {inst.controller.type};
     for (std::size_t i = 0; i < list->Size(); ++i) {
       const YamlReader item = list->At(i);
-      inst.alternates.push_back(ReadController(item, inst.plant, period, inst.q0));
+      inst.alternates.push_back(ReadController(item, inst.plant, period, inst.q0, urdf));
       if (!seen.insert(inst.alternates.back().type).second) {
         item.Required("type").Fail("a second " + std::string(ToString(inst.alternates.back().type)) +
                                    " controller (each type once per instance)");
@@ -136,6 +223,7 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst) {
     }
   }
   inst.torque_limits = VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  if (const auto* p = std::get_if<UrdfParams>(&inst.plant.params)) inst.torque_limits = UrdfTorqueLimits(*p->robot);
   if (auto t = node.Optional("torque_limits")) {
     inst.torque_limits = t->NumberOrVector(n);
     if ((inst.torque_limits.array() <= 0.0).any()) t->Fail("expected positive limits (N·m or N)");
@@ -171,7 +259,7 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst) {
   }
 }
 
-InstanceConfig ReadInstance(const YamlReader& node, double period) {
+InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
                    "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping"});
   InstanceConfig inst;
@@ -180,7 +268,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period) {
   if (!IsValidName(inst.name)) {
     name.Fail("expected a lower-case name of letters, digits and _ starting with a letter, got '" + inst.name + "'");
   }
-  inst.plant = ReadPlant(node.Required("plant"), &inst.method);
+  inst.plant = ReadPlant(node.Required("plant"), &inst.method, urdf);
   const int n = inst.plant.num_dofs();
   inst.q0 = VectorXd::Zero(n);
   inst.qd0 = VectorXd::Zero(n);
@@ -189,7 +277,13 @@ InstanceConfig ReadInstance(const YamlReader& node, double period) {
     if (auto q = init->Optional("q")) inst.q0 = q->Vector(n);
     if (auto qd = init->Optional("qd")) inst.qd0 = qd->Vector(n);
   }
-  if (auto e = node.Optional("effects")) inst.effects = ReadEffects(*e, n);
+  if (const auto* p = std::get_if<UrdfParams>(&inst.plant.params)) {
+    inst.effects = UrdfEffects(*p->robot);
+    if (auto err = ValidateEffects(inst.effects, n)) {
+      node.Required("plant").Fail("file", Escape(p->file) + ": its joints' " + err->key + ": " + err->message);
+    }
+  }
+  if (auto e = node.Optional("effects")) inst.effects = ReadEffects(*e, n, inst.effects);
   if (auto i = node.Optional("integrator")) {
     inst.integrator = ReadIntegrator(*i);
     if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {
@@ -197,7 +291,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period) {
           "the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
     }
   }
-  ReadControl(node, period, inst);
+  ReadControl(node, period, inst, urdf);
   return inst;
 }
 
@@ -213,8 +307,9 @@ Scene ReadScene(const YamlReader& root) {
   const YamlReader instances = root.Required("instances");
   if (instances.Size() == 0) instances.Fail("expected at least one instance");
   std::set<std::string> names;
+  UrdfFiles urdf(scene.file);
   for (std::size_t i = 0; i < instances.Size(); ++i) {
-    scene.instances.push_back(ReadInstance(instances.At(i), scene.period));
+    scene.instances.push_back(ReadInstance(instances.At(i), scene.period, urdf));
     if (!names.insert(scene.instances.back().name).second) {
       instances.At(i).Required("name").Fail("duplicate instance name '" + scene.instances.back().name + "'");
     }

@@ -1,9 +1,21 @@
 #include "daemon/scene_control.hpp"
 
 #include <algorithm>
+#include <charconv>
+#include <filesystem>
+#include <fstream>
+
+#include "daemon/escape.hpp"
 
 namespace lagrange {
 namespace {
+
+// Shortest text that reads back to the same double.
+std::string ShortestText(double x) {
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
+  return std::string(buf, ec == std::errc() ? end : buf);
+}
 
 // A square matrix of size k: a list of k numbers (its diagonal) or k lists of k.
 MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
@@ -19,9 +31,36 @@ MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
   return m;
 }
 
-void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig& c) {
-  node.ExpectKeys({"params", "method"});
+// A urdf plant's model: its robot, or another file's with the same joints, then params.
+PlantSpec ReadUrdfModel(const YamlReader& node, const PlantSpec& plant, UrdfFiles& urdf) {
+  PlantSpec model = plant;
+  if (auto file = node.Optional("file")) {
+    auto& p = std::get<UrdfParams>(model.params);
+    p.robot = urdf.Load(*file);
+    p.file = p.robot->file;
+    const int n = plant.num_dofs(), m = model.num_dofs();
+    if (m != n) {
+      file->Fail(Escape(p.file) + " has " + std::to_string(m) + (m == 1 ? " moving joint" : " moving joints") +
+                 "; expected " + std::to_string(n) + " like the plant's");
+    }
+    if (JointTypesOf(model) != JointTypesOf(plant)) {
+      file->Fail(Escape(p.file) + ": expected the plant's joint types in order (revolute or prismatic)");
+    }
+  }
   if (auto params = node.Optional("params")) {
+    for (const auto& [key, value] : params->Entries()) SetUrdfParam(model, key, value);
+  }
+  return model;
+}
+
+void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig& c, UrdfFiles& urdf) {
+  if (plant.type() == PlantType::kUrdf) {
+    node.ExpectKeys({"file", "params", "method"});
+    if (node.Has("file") || node.Has("params")) c.model = ReadUrdfModel(node, plant, urdf);
+  } else {
+    node.ExpectKeys({"params", "method"});
+  }
+  if (auto params = node.Optional("params"); params && plant.type() != PlantType::kUrdf) {
     PlantSpec model = plant;
     for (const auto& [key, value] : params->Entries()) {
       if (key == "links") value.Fail("the controller's model has the plant's links");
@@ -45,7 +84,42 @@ void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig&
 
 }  // namespace
 
-ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0) {
+UrdfFiles::UrdfFiles(const std::string& scene_file) : dir_(std::filesystem::path(scene_file).parent_path().string()) {}
+
+std::shared_ptr<const UrdfRobot> UrdfFiles::Load(const YamlReader& node) {
+  const std::string name = node.Text();
+  if (name.empty()) node.Fail("expected the path of a URDF file, got ''");
+  const std::filesystem::path path = std::filesystem::path(dir_) / name;  // an absolute name replaces dir_
+  const std::string resolved = path.lexically_normal().string();
+  if (auto it = loaded_.find(resolved); it != loaded_.end()) return it->second;
+  if (!std::ifstream(resolved) || std::filesystem::is_directory(path)) {
+    node.Fail("cannot read the URDF file " + Escape(resolved) + " (a relative path is from the scene's directory)");
+  }
+  try {
+    auto robot = std::make_shared<const UrdfRobot>(LoadUrdf(resolved));
+    loaded_.emplace(resolved, robot);
+    return robot;
+  } catch (const std::exception& e) {  // UrdfError, or anything the parser below it throws
+    node.Fail(Escape(e.what(), 400));
+  }
+}
+
+void SetUrdfParam(PlantSpec& spec, const std::string& key, const YamlReader& value) {
+  std::string text;
+  if (key == "gravity") {
+    if (!value.IsSequence() || value.Size() != 3) value.Fail("expected [gx, gy, gz] (three finite numbers, m/s²)");
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (i > 0) text += ',';
+      text += ShortestText(value.At(i).Number());
+    }
+  } else {
+    text = value.Text();
+  }
+  if (auto err = SetPlantParam(spec, key, text)) value.Fail(err->message);
+}
+
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
+                                UrdfFiles& urdf) {
   const int n = plant.num_dofs();
   const YamlReader type_node = node.Required("type");
   const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
@@ -83,7 +157,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   }
   if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
   if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
-  if (auto m = node.Optional("model")) ReadModel(*m, plant, c);
+  if (auto m = node.Optional("model")) ReadModel(*m, plant, c, urdf);
   if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
   if (auto v = node.Optional("equilibrium")) c.lqr.equilibrium = v->Vector(n);
   if (auto v = node.Optional("actuated")) {

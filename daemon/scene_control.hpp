@@ -1,14 +1,41 @@
 #pragma once
-// Reading the control parts of a scene: controllers and setpoint trajectories.
+// Reading the control parts of a scene: controllers and setpoint trajectories;
+// and the URDF files a scene names.
+
+#include <map>
+#include <memory>
+#include <string>
 
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/urdf.hpp"
 
 namespace lagrange {
 
+// The robots one scene reads from URDF files (plant.file, a controller's
+// model.file), each file read once. A relative path is relative to the
+// scene file's directory.
+class UrdfFiles {
+ public:
+  explicit UrdfFiles(const std::string& scene_file);
+  // The robot in the file `node` names. Fails at `node` with LoadUrdf's
+  // one-line message (the scene file, the key, then "URDF: ELEMENT: reason").
+  std::shared_ptr<const UrdfRobot> Load(const YamlReader& node);
+
+ private:
+  std::string dir_;
+  std::map<std::string, std::shared_ptr<const UrdfRobot>> loaded_;  // by resolved path
+};
+
 // A controller run every `period` s on `plant` starting from q0 (n): both
-// bound its gains (ComputeGainBounds).
-ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0);
+// bound its gains (ComputeGainBounds). A urdf plant's `model: {file: ...}`
+// is read through `urdf`.
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
+                                UrdfFiles& urdf);
 TrajectoryConfig ReadTrajectory(const YamlReader& node, int n);
+
+// Sets a urdf spec's parameter from YAML: gravity: [gx, gy, gz] (m/s²) or
+// mass_scale: a positive factor. Fails at `value` otherwise.
+void SetUrdfParam(PlantSpec& spec, const std::string& key, const YamlReader& value);
 
 }  // namespace lagrange

@@ -165,6 +165,9 @@ WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   const std::int32_t n = w.Length(kMaxStatusInstances);
   for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_names
   w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_modes
+  w.Skip(static_cast<std::size_t>(n) * kInt32);               // instance_dofs
+  const std::int32_t j = w.Length(kMaxStatusJoints);          // num_joints
+  for (std::int32_t i = 0; i < j; ++i) w.String(kMaxString);  // joint_names
   return w.Finish();
 }
 

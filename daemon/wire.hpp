@@ -29,8 +29,10 @@ WireCheck CheckCommandPacket(const void* data, std::size_t size);
 // What lagrangectl receives, checked the same way before decoding.
 // state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
 WireCheck CheckStatePacket(const void* data, std::size_t size);
-// status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names and modes.
+// status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
+// joint counts, num_joints (≤ kMaxStatusJoints) joint names.
 inline constexpr std::int32_t kMaxStatusInstances = 1024;
+inline constexpr std::int32_t kMaxStatusJoints = 4096;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);
 // reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
 WireCheck CheckReplyPacket(const void* data, std::size_t size);

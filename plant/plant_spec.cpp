@@ -9,15 +9,14 @@
 
 #include "plant/enum_names.hpp"
 #include "plant/lagrangian.hpp"
+#include "plant/spatial_dynamics.hpp"
 
 namespace lagrange {
 namespace {
 
 constexpr EnumName<PlantType> kPlantNames[] = {
-    {PlantType::kPendulum, "pendulum"},
-    {PlantType::kArm2, "arm2"},
-    {PlantType::kCartPole, "cartpole"},
-    {PlantType::kChain, "chain"},
+    {PlantType::kPendulum, "pendulum"}, {PlantType::kArm2, "arm2"}, {PlantType::kCartPole, "cartpole"},
+    {PlantType::kChain, "chain"},       {PlantType::kUrdf, "urdf"},
 };
 constexpr EnumName<JointType> kJointNames[] = {
     {JointType::kRevolute, "revolute"},
@@ -150,6 +149,68 @@ std::optional<SpecError> SetChainJoints(ChainParams& p, std::string_view text, i
   return std::nullopt;
 }
 
+// A urdf plant's gravity ("gx,gy,gz") or mass_scale.
+std::optional<SpecError> SetUrdfParam(UrdfParams& p, std::string_view name, std::string_view text) {
+  const std::string key(name);
+  if (name == "gravity") {
+    // Three comma-separated finite numbers, nothing else.
+    Eigen::Vector3d g;
+    std::string_view rest = text;
+    bool ok = true;
+    for (int k = 0; k < 3 && ok; ++k) {
+      const std::size_t comma = k < 2 ? rest.find(',') : rest.size();
+      const std::optional<double> v =
+          comma == std::string_view::npos ? std::nullopt : ParseFiniteNumber(rest.substr(0, comma));
+      ok = v.has_value() && (k < 2 || rest.find(',') == std::string_view::npos);
+      if (ok) g[k] = *v;
+      rest.remove_prefix(std::min(rest.size(), comma + 1));
+    }
+    if (!ok) {
+      return SpecError{key,
+                       "expected gx,gy,gz (three finite numbers, m/s², world frame), got '" + std::string(text) + "'"};
+    }
+    p.gravity = g;
+    return std::nullopt;
+  }
+  if (name == "mass_scale") {
+    const std::optional<double> v = ParseFiniteNumber(text);
+    if (!v) return SpecError{key, "expected a finite number, got '" + std::string(text) + "'"};
+    if (auto err = CheckRange(name, *v, Range::kPositive, "a factor")) return err;
+    p.mass_scale = *v;
+    return std::nullopt;
+  }
+  return SpecError{key, "unknown parameter for urdf (expected one of gravity, mass_scale)"};
+}
+
+std::optional<SpecError> ValidateUrdf(const UrdfParams& p) {
+  if (!p.robot) {
+    return SpecError{"file", "expected a robot loaded from a URDF file (a urdf plant has no default robot)"};
+  }
+  if (!p.gravity.allFinite()) return SpecError{"gravity", "expected three finite numbers (m/s²)"};
+  if (auto err = CheckRange("mass_scale", p.mass_scale, Range::kPositive, "a factor")) return err;
+  const std::string& file = p.file.empty() ? p.robot->file : p.file;
+  if (p.robot->properties.size() != p.robot->tree.joints.size()) {
+    return SpecError{"file", file + ": expected one set of joint properties per moving joint"};
+  }
+  if (auto err = ValidateRigidTree(p.robot->tree)) return SpecError{"file", file + ": " + *err};
+  return std::nullopt;
+}
+
+// How far body i's centre of mass can be from the world origin, m: the joint
+// offsets from the root to it, its centre-of-mass offset, and each prismatic
+// joint's travel (its largest |limit|, 1 m without one).
+double BodyReach(const UrdfRobot& robot, int i) {
+  const RigidTree& tree = robot.tree;
+  double reach = tree.bodies[static_cast<std::size_t>(i)].com.norm();
+  for (int j = i; j >= 0; j = tree.joints[static_cast<std::size_t>(j)].parent) {
+    reach += tree.joints[static_cast<std::size_t>(j)].position.norm();
+    if (tree.joints[static_cast<std::size_t>(j)].type != JointType::kPrismatic) continue;
+    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(j)];
+    reach += p.lower && p.upper ? std::max(std::abs(*p.lower), std::abs(*p.upper)) : 1.0;
+  }
+  return reach;
+}
+
 // Σ m g × the height the plant's masses can be lifted by, J: the most work its
 // gravity can do.
 double Reach(const PlantSpec& spec) {
@@ -162,7 +223,14 @@ double Reach(const PlantSpec& spec) {
           return (p.m1 + p.m2) * p.g * (p.L1 + p.L2);
         else if constexpr (std::is_same_v<P, CartPoleParams>)
           return (p.mc + p.mp) * p.g * 2.0 * p.l;
-        else {
+        else if constexpr (std::is_same_v<P, UrdfParams>) {
+          if (!p.robot) return 0.0;
+          double work = 0.0;
+          for (int i = 0; i < p.robot->tree.num_dofs(); ++i) {
+            work += p.robot->tree.bodies[static_cast<std::size_t>(i)].mass * BodyReach(*p.robot, i);
+          }
+          return work * p.mass_scale * p.gravity.norm();
+        } else {
           double mass = 0.0, length = 0.0;
           for (const ChainLink& l : p.links) {
             mass += l.m;
@@ -188,6 +256,10 @@ int PlantSpec::num_dofs() const {
     case PlantType::kArm2:
     case PlantType::kCartPole: return 2;
     case PlantType::kChain: return std::get<ChainParams>(params).num_links();
+    case PlantType::kUrdf: {
+      const auto& robot = std::get<UrdfParams>(params).robot;
+      return robot ? robot->tree.num_dofs() : 0;
+    }
   }
   return 0;
 }
@@ -198,8 +270,16 @@ PlantSpec DefaultPlantSpec(PlantType type) {
     case PlantType::kArm2: return {Arm2Params{}};
     case PlantType::kCartPole: return {CartPoleParams{}};
     case PlantType::kChain: return {ChainParams{}};
+    case PlantType::kUrdf: return {UrdfParams{}};
   }
   return {PendulumParams{}};
+}
+
+PlantSpec UrdfPlantSpec(std::shared_ptr<const UrdfRobot> robot) {
+  UrdfParams p;
+  p.file = robot ? robot->file : std::string();
+  p.robot = std::move(robot);
+  return {p};
 }
 
 std::vector<std::string_view> PlantParamNames(PlantType type) {
@@ -208,6 +288,7 @@ std::vector<std::string_view> PlantParamNames(PlantType type) {
     case PlantType::kArm2: return {"m1", "m2", "L1", "L2", "g"};
     case PlantType::kCartPole: return {"mc", "mp", "l", "I", "g"};
     case PlantType::kChain: return {"links", "m", "L", "com", "I", "joints", "base_angle", "g"};
+    case PlantType::kUrdf: return {"gravity", "mass_scale"};
   }
   return {};
 }
@@ -247,6 +328,7 @@ std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, s
   if (spec.type() == PlantType::kChain && name == "joints") {
     return SetChainJoints(std::get<ChainParams>(spec.params), text, link);
   }
+  if (spec.type() == PlantType::kUrdf) return SetUrdfParam(std::get<UrdfParams>(spec.params), name, text);
   const std::vector<std::string_view> names = PlantParamNames(spec.type());
   if (std::find(names.begin(), names.end(), name) == names.end()) {
     std::string list;
@@ -278,8 +360,10 @@ std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, s
             return std::nullopt;
           }
           return SetField(p, kCartPoleFields, name, *value);
-        } else {
+        } else if constexpr (std::is_same_v<P, ChainParams>) {
           return SetChainParam(p, name, *value, link);
+        } else {
+          return SpecError{std::string(name), "unknown parameter"};  // urdf: handled above
         }
       },
       spec.params);
@@ -304,6 +388,8 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
             if (auto err = CheckRange(f.name, p.*(f.member), f.range, f.unit)) return err;
           }
           if (auto err = CheckRange("I", p.pole_inertia(), Range::kNonNegative, "kg·m²")) return err;
+        } else if constexpr (std::is_same_v<P, UrdfParams>) {
+          return ValidateUrdf(p);
         } else {
           if (p.num_links() < 1 || p.num_links() > kMaxDofs) {
             return SpecError{
@@ -330,11 +416,42 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
       spec.params);
 }
 
-bool HasMethod(PlantType type, Method method) { return method != Method::kClosedForm || type != PlantType::kChain; }
+namespace {
+bool HasClosedForm(PlantType type) {
+  return type == PlantType::kPendulum || type == PlantType::kArm2 || type == PlantType::kCartPole;
+}
+}  // namespace
 
-Method FastestMethod(PlantType type) { return type == PlantType::kChain ? Method::kRecursive : Method::kClosedForm; }
+bool HasMethod(PlantType type, Method method) { return method != Method::kClosedForm || HasClosedForm(type); }
 
-std::vector<JointType> JointTypesOf(const PlantSpec& spec) { return ToPlanarChain(spec).joint_types(); }
+Method FastestMethod(PlantType type) { return HasClosedForm(type) ? Method::kClosedForm : Method::kRecursive; }
+
+std::vector<JointType> JointTypesOf(const PlantSpec& spec) {
+  if (const auto* urdf = std::get_if<UrdfParams>(&spec.params)) {
+    return urdf->robot ? urdf->robot->tree.joint_types() : std::vector<JointType>{};
+  }
+  return ToPlanarChain(spec).joint_types();
+}
+
+std::vector<std::string> JointNamesOf(const PlantSpec& spec) {
+  switch (spec.type()) {
+    case PlantType::kPendulum: return {"theta"};
+    case PlantType::kCartPole: return {"x", "theta"};
+    case PlantType::kUrdf: {
+      const auto& robot = std::get<UrdfParams>(spec.params).robot;
+      return robot ? robot->tree.joint_names() : std::vector<std::string>{};
+    }
+    case PlantType::kArm2:
+    case PlantType::kChain: break;
+  }
+  std::vector<std::string> names;
+  for (int i = 1; i <= spec.num_dofs(); ++i) {
+    std::string name = std::to_string(i);  // built in place: g++ 12 warns falsely on "q" + string
+    name.insert(name.begin(), 'q');
+    names.push_back(std::move(name));
+  }
+  return names;
+}
 
 PlanarChain ToPlanarChain(const PlantSpec& spec) {
   return std::visit(
@@ -346,10 +463,23 @@ PlanarChain ToPlanarChain(const PlantSpec& spec) {
           return Arm2(p).ToChain();
         else if constexpr (std::is_same_v<P, CartPoleParams>)
           return CartPole(p).ToChain();
+        else if constexpr (std::is_same_v<P, UrdfParams>)
+          throw std::invalid_argument("a urdf plant is a 3-D tree, not a planar chain");
         else
           return ToPlanarChain(p);
       },
       spec.params);
+}
+
+RigidTree MakeRigidTree(const UrdfParams& p) {
+  if (!p.robot) throw std::invalid_argument("file: no URDF robot loaded");
+  RigidTree tree = p.robot->tree;
+  tree.gravity = p.gravity;
+  for (RigidBody& b : tree.bodies) {
+    b.mass *= p.mass_scale;
+    b.inertia *= p.mass_scale;
+  }
+  return tree;
 }
 
 std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
@@ -359,6 +489,10 @@ std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
   if (!HasMethod(spec.type(), method)) {
     throw std::invalid_argument("method " + std::string(ToString(method)) + " is not available for " +
                                 std::string(ToString(spec.type())) + " (use lagrangian or recursive)");
+  }
+  if (const auto* urdf = std::get_if<UrdfParams>(&spec.params)) {
+    if (method == Method::kRecursive) return std::make_unique<SpatialDynamics>(MakeRigidTree(*urdf));
+    return std::make_unique<LagrangianDynamics<RigidTree>>(MakeRigidTree(*urdf));
   }
   if (method == Method::kRecursive) return std::make_unique<RecursiveDynamics>(ToPlanarChain(spec));
   return std::visit(
@@ -374,8 +508,10 @@ std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
         } else if constexpr (std::is_same_v<P, CartPoleParams>) {
           if (closed) return std::make_unique<CartPoleClosedForm>(p);
           return std::make_unique<LagrangianDynamics<CartPole>>(CartPole(p));
-        } else {
+        } else if constexpr (std::is_same_v<P, ChainParams>) {
           return std::make_unique<LagrangianDynamics<PlanarChain>>(ToPlanarChain(p));
+        } else {
+          return nullptr;  // urdf: handled above
         }
       },
       spec.params);

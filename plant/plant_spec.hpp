@@ -8,6 +8,9 @@
 //   cartpole  mc, mp, l, I, g
 //   chain     links, m, L, com, I, joints (revolute | prismatic) (every link,
 //             or one link), base_angle, g
+//   urdf      gravity ("gx,gy,gz", m/s², world frame), mass_scale; the robot
+//             itself is loaded from its file by the scene reader or
+//             lagrangectl (plant/urdf.hpp, library lagrange_urdf), never here
 
 #include <memory>
 #include <optional>
@@ -21,17 +24,31 @@
 #include "plant/chain.hpp"
 #include "plant/dynamics.hpp"
 #include "plant/pendulum.hpp"
+#include "plant/rigid_tree.hpp"
+#include "plant/urdf.hpp"  // the UrdfRobot data only: lagrange_plant never reads a file
 
 namespace lagrange {
 
-enum class PlantType : std::uint8_t { kPendulum, kArm2, kCartPole, kChain };
+enum class PlantType : std::uint8_t { kPendulum, kArm2, kCartPole, kChain, kUrdf };
 
 std::string_view ToString(PlantType type);
 std::optional<PlantType> ParsePlantType(std::string_view name);
-// "pendulum|arm2|cartpole|chain"
+// "pendulum|arm2|cartpole|chain|urdf"
 std::string PlantTypeNames();
 
-using PlantParams = std::variant<PendulumParams, Arm2Params, CartPoleParams, ChainParams>;
+// A robot read from a URDF file (plant/urdf.hpp), as a plant. The robot is
+// loaded once, by whoever reads files (the scene reader, lagrangectl), and
+// shared read-only by every spec made from it (a plant and its controllers'
+// models). There is no default robot: DefaultPlantSpec(kUrdf) has none, and
+// ValidatePlantSpec refuses it until one is set.
+struct UrdfParams {
+  std::string file;                        // where the robot was read from, for messages
+  std::shared_ptr<const UrdfRobot> robot;  // null: none loaded
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity);  // m/s², world (root link) frame
+  double mass_scale = 1.0;  // > 0: every link's mass and inertia × this (a model error for controllers)
+};
+
+using PlantParams = std::variant<PendulumParams, Arm2Params, CartPoleParams, ChainParams, UrdfParams>;
 
 struct PlantSpec {
   PlantParams params;
@@ -46,14 +63,21 @@ struct SpecError {
   std::string message;
 };
 
+// The default parameters of a plant type. A urdf spec has no robot (its
+// num_dofs() is 0, and ValidatePlantSpec says a robot must be loaded): use
+// UrdfPlantSpec.
 PlantSpec DefaultPlantSpec(PlantType type);
+
+// A urdf plant of `robot` (non-null) with the default gravity and mass scale.
+PlantSpec UrdfPlantSpec(std::shared_ptr<const UrdfRobot> robot);
 
 // The parameter names a plant type accepts, in documentation order.
 std::vector<std::string_view> PlantParamNames(PlantType type);
 
 // Sets one parameter from its text. `link` selects one chain link (0-based);
-// -1 sets it on every link. Unknown names, malformed or non-finite numbers and
-// out-of-range values are refused and leave the spec unchanged.
+// -1 sets it on every link. A urdf plant's gravity is "gx,gy,gz". Unknown
+// names, malformed or non-finite numbers and out-of-range values are refused
+// and leave the spec unchanged.
 std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, std::string_view text, int link = -1);
 
 // Sets the chain's number of links (1..kMaxDofs), keeping existing links.
@@ -63,22 +87,39 @@ std::optional<SpecError> SetChainLinks(PlantSpec& spec, int links);
 // definite mass matrix at every configuration.
 std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec);
 
+// Closed forms exist for pendulum, arm2 and cartpole; every plant has the
+// lagrangian and recursive paths.
 bool HasMethod(PlantType type, Method method);
 // The fastest exact path: closed form where one exists, else recursive.
 Method FastestMethod(PlantType type);
 
 // Default bound on |T + V| for a plant instance: 1000 × (1 J + Σ m g ×
-// reach), a few hundred times anything its gravity can supply. J.
+// reach), a few hundred times anything its gravity can supply. J. For a urdf
+// plant the sum runs over its bodies, each with |gravity| and the farthest its
+// centre of mass can be from the world origin (the lengths of the joint
+// offsets from the root to it, plus its centre-of-mass offset, plus the
+// largest |limit| of each prismatic joint on the way, 1 m when it has none).
 double DefaultMaxEnergy(const PlantSpec& spec);
 
 // The joint types, base first.
 std::vector<JointType> JointTypesOf(const PlantSpec& spec);
 
-// The plant as a planar chain (the recursive path's model).
+// The joints' names, in q order: a urdf plant's from its file; planar plants
+// have generated ones: pendulum "theta", arm2 "q1", "q2", cartpole "x",
+// "theta", chain "q1" .. "qn".
+std::vector<std::string> JointNamesOf(const PlantSpec& spec);
+
+// The plant as a planar chain (the recursive path's model). Throws
+// std::invalid_argument for a urdf plant, which is a 3-D tree (MakeRigidTree).
 PlanarChain ToPlanarChain(const PlantSpec& spec);
 
-// Builds the plant's dynamics by `method`. Throws std::invalid_argument when
-// the spec is invalid or the plant has no such method.
+// A urdf plant's tree as simulated: the robot's, with the spec's gravity and
+// every mass and inertia × mass_scale. Throws std::invalid_argument without a robot.
+RigidTree MakeRigidTree(const UrdfParams& params);
+
+// Builds the plant's dynamics by `method`: a urdf plant's are SpatialDynamics
+// (recursive) or LagrangianDynamics<RigidTree> of MakeRigidTree. Throws
+// std::invalid_argument when the spec is invalid or the plant has no such method.
 std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method);
 
 // Strict number parsing shared by every front end: the whole text must be a

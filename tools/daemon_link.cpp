@@ -3,6 +3,7 @@
 #include <random>
 
 #include "daemon/channels.hpp"
+#include "daemon/escape.hpp"
 #include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 
@@ -46,6 +47,28 @@ std::int64_t NewRequestId() {
   std::uint64_t id = 0;
   while (id == 0) id = (static_cast<std::uint64_t>(device()) << 32) ^ device();
   return static_cast<std::int64_t>(id);
+}
+
+std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance) {
+  const auto instances = static_cast<std::size_t>(std::max(status.num_instances, 0));
+  if (status.instance_names.size() != instances || status.instance_dofs.size() != instances ||
+      status.joint_names.size() != static_cast<std::size_t>(std::max(status.num_joints, 0))) {
+    return {};
+  }
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < instances; ++i) {
+    const std::int32_t n = status.instance_dofs[i];
+    if (n < 0 || first + static_cast<std::size_t>(n) > status.joint_names.size()) return {};
+    if (status.instance_names[i] == instance) {
+      std::vector<std::string> names;
+      for (std::size_t j = first; j < first + static_cast<std::size_t>(n); ++j) {
+        names.push_back(Escape(status.joint_names[j], 80));
+      }
+      return names;
+    }
+    first += static_cast<std::size_t>(n);
+  }
+  return {};
 }
 
 DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)

@@ -43,6 +43,12 @@ struct BusOptions {
 // A fresh random non-zero id for a command.
 std::int64_t NewRequestId();
 
+// The joint names a status gives for `instance` (status_t.joint_names: every
+// instance's, instance after instance, instance_dofs[i] each), escaped for
+// printing; empty when the status names no such instance, carries no names,
+// or its counts do not add up.
+std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance);
+
 // How long lagrangectl listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state

@@ -1,9 +1,12 @@
-// lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON.
+// lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON:
+// a built-in plant (--plant) or a robot from a URDF file (--urdf).
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
+#include "daemon/escape.hpp"
 #include "plant/plant_spec.hpp"
+#include "plant/urdf.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
@@ -57,11 +60,19 @@ class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
       : Command(parent.add_subcommand("eval", "Evaluate M, C, G, qdd, T and V at one state (JSON)")) {
-    app_->add_option("--plant", plant_, "Plant type: " + PlantTypeNames())->required();
+    auto* plant = app_->add_option("--plant", plant_, "Plant type: pendulum|arm2|cartpole|chain (or --urdf)");
+    auto* urdf = app_->add_option("--urdf", urdf_, "A robot from a URDF file instead of --plant");
+    plant->excludes(urdf);
+    app_->add_option("--gravity", gravity_,
+                     "With --urdf: gravity gx,gy,gz in the root link's frame (m/s²); default 0,0,-9.81")
+        ->delimiter(',')
+        ->allow_extra_args(false)
+        ->check(FiniteNumber());
     app_->add_option("--links", links_, "Number of links (chain)");
     app_->add_option("--param", params_,
-                     "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...); a chain's m, L, com, I "
-                     "and joints (revolute|prismatic) take one value for every link or a list: m=1,0.8,0.5");
+                     "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...; mass_scale with --urdf); a "
+                     "chain's m, L, com, I and joints (revolute|prismatic) take one value for every link or a list: "
+                     "m=1,0.8,0.5");
     AddNumberList(*app_, "--q", q_, "Positions a,b,.. (rad or m)")->required();
     AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
     AddNumberList(*app_, "--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
@@ -69,29 +80,16 @@ class EvalCommand final : public Command {
   }
 
   int Run(std::ostream& out, std::ostream&) override {
-    const std::optional<PlantType> type = ParsePlantType(plant_);
-    if (!type) throw UsageError("--plant: expected one of " + PlantTypeNames() + ", got '" + plant_ + "'");
-    PlantSpec spec = DefaultPlantSpec(*type);
-    if (links_) {
-      if (*type != PlantType::kChain) throw UsageError("--links: only a chain has links");
-      if (auto e = SetChainLinks(spec, *links_)) throw UsageError("--links: " + e->message);
-    }
-    // The chain's link count first, so per-link lists are checked against it (as a scene does).
-    std::vector<std::string> params = params_;
-    std::stable_partition(params.begin(), params.end(), [](const std::string& p) { return p.starts_with("links="); });
-    for (const std::string& p : params) {
-      const std::size_t eq = p.find('=');
-      if (eq == std::string::npos) throw UsageError("--param: expected NAME=VALUE, got '" + p + "'");
-      SetParam(spec, p.substr(0, eq), p.substr(eq + 1));
-    }
-    if (auto e = ValidatePlantSpec(spec)) throw UsageError("--param " + e->key + ": " + e->message);
+    PlantSpec spec = Spec();
+    const PlantType type = spec.type();
+    const std::string what = type == PlantType::kUrdf ? "a urdf robot" : plant_;
 
-    Method method = FastestMethod(*type);
+    Method method = FastestMethod(type);
     if (method_) {
       const std::optional<Method> m = ParseMethod(*method_);
       if (!m) throw UsageError("--method: expected closed-form, lagrangian or recursive, got '" + *method_ + "'");
-      if (!HasMethod(*type, *m)) {
-        throw UsageError("--method: " + plant_ + " has no " + *method_ + " path (use lagrangian or recursive)");
+      if (!HasMethod(type, *m)) {
+        throw UsageError("--method: " + what + " has no " + *method_ + " path (use lagrangian or recursive)");
       }
       method = *m;
     }
@@ -117,21 +115,80 @@ class EvalCommand final : public Command {
     }
 
     // ordered_json keeps the keys in the order written; dump() prints the shortest text that reads back to each double.
-    const nlohmann::ordered_json json = {{"plant", ToString(*type)},
+    const nlohmann::ordered_json json = {{"plant", ToString(type)},
                                          {"method", ToString(method)},
                                          {"num_dofs", n},
+                                         {"joints", JointNamesOf(spec)},
                                          {"M", JsonRows(M)},
                                          {"C", JsonRows(C)},
                                          {"G", JsonList(G)},
                                          {"qdd", JsonList(qdd)},
                                          {"T", T},
                                          {"V", V}};
-    out << json.dump() << "\n";
+    // A URDF's names are the file's bytes: JSON escapes control characters, and replaces invalid UTF-8.
+    out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
     return 0;
   }
 
  private:
-  std::string plant_;
+  // The plant from --urdf, or from --plant, --links and --param.
+  PlantSpec Spec() const {
+    if (urdf_.empty() && plant_.empty()) throw UsageError("expected --plant TYPE or --urdf FILE");
+    if (!urdf_.empty()) return UrdfSpec();
+    if (!gravity_.empty()) throw UsageError("--gravity: only with --urdf (a planar plant's gravity is --param g=..)");
+    const std::optional<PlantType> type = ParsePlantType(plant_);
+    if (!type || *type == PlantType::kUrdf) {
+      throw UsageError("--plant: expected one of pendulum|arm2|cartpole|chain, got '" + plant_ + "' (or --urdf FILE)");
+    }
+    PlantSpec spec = DefaultPlantSpec(*type);
+    if (links_) {
+      if (*type != PlantType::kChain) throw UsageError("--links: only a chain has links");
+      if (auto e = SetChainLinks(spec, *links_)) throw UsageError("--links: " + e->message);
+    }
+    // The chain's link count first, so per-link lists are checked against it (as a scene does).
+    std::vector<std::string> params = params_;
+    std::stable_partition(params.begin(), params.end(), [](const std::string& p) { return p.starts_with("links="); });
+    for (const std::string& p : params) {
+      const std::size_t eq = p.find('=');
+      if (eq == std::string::npos) throw UsageError("--param: expected NAME=VALUE, got '" + p + "'");
+      SetParam(spec, p.substr(0, eq), p.substr(eq + 1));
+    }
+    if (auto e = ValidatePlantSpec(spec)) throw UsageError("--param " + e->key + ": " + e->message);
+    return spec;
+  }
+
+  // --urdf FILE [--gravity gx,gy,gz] [--param mass_scale=S]; the file's problems are bad input.
+  PlantSpec UrdfSpec() const {
+    if (links_) throw UsageError("--links: a urdf robot has the joints its file gives");
+    PlantSpec spec;
+    try {
+      spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(urdf_)));
+    } catch (const std::exception& e) {
+      throw UsageError("--urdf: " + Escape(e.what(), 400));
+    }
+    if (!gravity_.empty()) {
+      if (gravity_.size() != 3) {
+        throw UsageError("--gravity: expected gx,gy,gz (3 numbers, m/s²), got " + std::to_string(gravity_.size()));
+      }
+      std::string text;
+      for (double g : gravity_) text += (text.empty() ? "" : ",") + FormatDouble(g);
+      if (auto e = SetPlantParam(spec, "gravity", text)) throw UsageError("--gravity: " + e->message);
+    }
+    for (const std::string& p : params_) {
+      const std::size_t eq = p.find('=');
+      if (eq == std::string::npos) throw UsageError("--param: expected NAME=VALUE, got '" + p + "'");
+      if (p.substr(0, eq) == "gravity")
+        throw UsageError("--param gravity: a urdf robot's gravity is --gravity gx,gy,gz");
+      if (auto e = SetPlantParam(spec, p.substr(0, eq), p.substr(eq + 1))) {
+        throw UsageError("--param " + e->key + ": " + e->message);
+      }
+    }
+    if (auto e = ValidatePlantSpec(spec)) throw UsageError("--urdf: " + Escape(e->message, 400));
+    return spec;
+  }
+
+  std::string plant_, urdf_;
+  std::vector<double> gravity_;
   std::optional<int> links_;
   std::vector<std::string> params_;
   std::vector<double> q_, qd_, tau_;

@@ -21,13 +21,16 @@
 namespace lagrange::cli {
 namespace {
 
-// A string from the bus as one CSV field: control characters escaped (a
-// recorded message cannot break a line or reach a terminal), quotes doubled.
-std::string Quote(const std::string& s) {
+// Text already escaped, as one CSV field: quotes doubled.
+std::string QuoteEscaped(const std::string& escaped) {
   std::string q = "\"";
-  for (char c : Escape(s)) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  for (char c : escaped) q += c == '"' ? std::string("\"\"") : std::string(1, c);
   return q + "\"";
 }
+
+// A string from the bus as one CSV field: control characters escaped (a
+// recorded message cannot break a line or reach a terminal), quotes doubled.
+std::string Quote(const std::string& s) { return QuoteEscaped(Escape(s)); }
 
 // Decodes a message only after its wire check: a recorded packet is as
 // untrusted as a live one.
@@ -136,13 +139,19 @@ class StatusWriter final : public Writer {
              "setpoints_rejected,last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
              "datagrams_dropped_kernel,datagrams_malformed,fragments_dropped,foreign_messages,last_foreign_run_id,"
              "replies_suppressed,"
-             "instances\n";
+             "instances,joints\n";
     }
     header_ = true;
-    std::string instances;
+    std::string instances, joints;
+    std::size_t joint = 0;
     for (int i = 0; i < s.num_instances; ++i) {
-      instances += (i ? ";" : "") + Escape(s.instance_names[static_cast<std::size_t>(i)]) + "=" +
-                   std::to_string(s.instance_modes[static_cast<std::size_t>(i)]);
+      const auto k = static_cast<std::size_t>(i);
+      instances += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + std::to_string(s.instance_modes[k]);
+      // NAME=j1,j2,..: this instance's share of joint_names (none when the status carries none).
+      joints += (i ? ";" : "") + Escape(s.instance_names[k]) + "=";
+      for (std::int32_t j = 0; j < s.instance_dofs[k] && joint < s.joint_names.size(); ++j, ++joint) {
+        joints += (j ? "," : "") + Escape(s.joint_names[joint], 80);
+      }
     }
     out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.ticks << ',' << s.ticks_in_window
         << ',' << FormatDouble(s.period);
@@ -155,7 +164,7 @@ class StatusWriter final : public Writer {
         << s.commands_rejected << ',' << Quote(s.last_command_error) << ',' << s.decode_errors << ','
         << s.datagrams_dropped_kernel << ',' << s.datagrams_malformed << ',' << s.fragments_dropped << ','
         << s.foreign_messages << ',' << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ','
-        << Quote(instances) << '\n';
+        << Quote(instances) << ',' << QuoteEscaped(joints) << '\n';
     return true;
   }
 

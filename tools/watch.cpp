@@ -29,6 +29,7 @@ constexpr double kStale = 0.5;                // s without a message: STALE (sta
 constexpr std::size_t kMaxRunsShown = 4;      // run ids kept per channel
 constexpr std::size_t kMaxInstances = 64;     // instance channels subscribed from status names
 constexpr std::size_t kMaxInstanceName = 64;  // longer names in a status are not subscribed
+constexpr std::size_t kNameColumn = 24;       // joint names longer than this are cut
 
 // Puts the terminal in non-canonical, no-echo mode while alive (only on a tty).
 class RawTerminal {
@@ -244,14 +245,32 @@ class WatchCommand final : public Command {
       f << "   " << Escape(st.controller) << "   t " << F(st.t, 3) << " s   T " << F(st.kinetic_energy) << " J   V "
         << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
         << RunIdText(st.run_id) << "\n";
-      f << "  joint          q        q_des          tau\n";
+      // Joint names from this run's status (URDF names, or q1.. for planar plants), cut to one column.
+      const std::vector<std::string> joints = JointNamesOf(name, st.run_id, st.num_dofs);
+      int width = 4;
+      for (const std::string& j : joints) width = std::max(width, static_cast<int>(std::min(j.size(), kNameColumn)));
+      char line[192];
+      std::snprintf(line, sizeof line, "  %5s  %-*s %10s   %10s   %10s\n", "joint", width, "name", "q", "q_des", "tau");
+      f << line;
       for (int j = 0; j < st.num_dofs; ++j) {
-        char line[128];
-        std::snprintf(line, sizeof line, "  %5d %10.4f   %10.4f   %10.4f\n", j, st.q[static_cast<std::size_t>(j)],
-                      st.q_des[static_cast<std::size_t>(j)], st.tau[static_cast<std::size_t>(j)]);
+        const auto k = static_cast<std::size_t>(j);
+        std::string joint = joints.empty() ? std::string("?") : joints[k];
+        if (joint.size() > kNameColumn) joint = joint.substr(0, kNameColumn - 3) + "...";
+        std::snprintf(line, sizeof line, "  %5d  %-*s %10.4f   %10.4f   %10.4f\n", j, width, joint.c_str(), st.q[k],
+                      st.q_des[k], st.tau[k]);
         f << line;
       }
     }
+  }
+
+  // An instance's joint names from the latest status of run `run_id`, if it gives n of them.
+  std::vector<std::string> JointNamesOf(const std::string& instance, std::int64_t run_id, int n) const {
+    for (const auto* e : statuses_.Latest()) {
+      if (e->message.run_id != run_id) continue;
+      std::vector<std::string> names = JointNamesIn(e->message, instance);
+      if (static_cast<int>(names.size()) == n) return names;
+    }
+    return {};
   }
 
   std::string Frame(SteadyTime now) const {

@@ -215,9 +215,20 @@ TEST(Gains, TheLargestAllowedGainsDoNotFaultTheArmAndTenTimesTheBoundIsRefused) 
     })) << ToString(type);
     EXPECT_TRUE(loop.q.allFinite() && loop.qd.allFinite()) << ToString(type);
     EXPECT_LT(peak_energy, max_energy) << ToString(type);
+    if (type != ControllerType::kComputedTorque) {  // the PD's second box: its corner runs the arm too
+      ASSERT_EQ(bounds.kp_max_per_joint.size(), 2);
+      c.gains = {bounds.kp_max_per_joint, bounds.kd_max_per_joint};
+      ASSERT_FALSE(ValidateController(c, arm)) << ToString(type);
+      ClosedLoop per_joint(arm, MakeController(c, arm, VectorXd::Constant(2, kInf)), q0);
+      per_joint.setpoint.q = q0 + Vec2(0.1, -0.1);
+      ASSERT_TRUE(per_joint.Run(2.0, kTick, nullptr, [&](double) {
+        peak_energy = std::max(peak_energy, std::abs(per_joint.model.Energy(per_joint.q, per_joint.qd)));
+      })) << ToString(type);
+      EXPECT_LT(peak_energy, max_energy) << ToString(type);
+    }
 
     for (const bool kd : {false, true}) {
-      Gains ten_times = {bounds.kp_max, bounds.kd_max};
+      Gains ten_times = {bounds.kp_max, bounds.kd_max};  // beyond both boxes (the arm's per-joint M_22 box is lower)
       (kd ? ten_times.kd : ten_times.kp)[1] *= 10.0;
       const std::string rule = kd ? bounds.kd_rule : bounds.kp_rule;
       c.gains = ten_times;
@@ -235,8 +246,9 @@ TEST(Gains, TheLargestAllowedGainsDoNotFaultTheArmAndTenTimesTheBoundIsRefused) 
   }
 }
 
-// Why the torque-level bound uses λmin(M) and not each joint's M_ii: the
-// arm's coupling makes Kp = diag(M)/h², Kd = 2 diag(M)/h blow up within 2 s.
+// Why the bounds use λmin(M), or each joint's M_ii divided by
+// c = λmax(M⁻¹ diag M), and not M_ii itself: the arm's coupling makes
+// Kp = diag(M)/h², Kd = 2 diag(M)/h blow up within 2 s.
 TEST(Gains, PerJointMassDiagonalBoundsWouldFaultTheArm) {
   const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
   constexpr double kTick = 1e-3;

@@ -16,6 +16,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -451,6 +452,50 @@ TEST_F(Bridge, ControlCharactersInAControllerNameAreEscapedInTheReplyAndTheStatu
     EXPECT_NE(last_status_.last_command_error.find(escaped), std::string::npos) << last_status_.last_command_error;
     ++id;
   }
+}
+
+// ------------------------------------------------------------------ joint names
+
+// Every status names each instance's joints, instance after instance, after
+// its joint count: the default scene's are generated.
+TEST_F(Bridge, TheStatusNamesEveryInstancesJointsAfterItsJointCount) {
+  Ticks(100);
+  EXPECT_EQ(last_status_.instance_names, (std::vector<std::string>{"arm", "cartpole"}));
+  EXPECT_EQ(last_status_.instance_dofs, (std::vector<std::int32_t>{2, 2}));
+  EXPECT_EQ(last_status_.num_joints, 4);
+  EXPECT_EQ(last_status_.joint_names, (std::vector<std::string>{"q1", "q2", "x", "theta"}));
+}
+
+// Names that would not fit in one datagram are left out (num_joints = 0), and
+// the status still goes out: eight 256-link chains name 2048 joints.
+TEST(BridgeJointNames, NamesTooLongForOneStatusDatagramAreLeftOutAndTheStatusStillGoesOut) {
+  std::string text = "instances:\n";
+  for (int i = 0; i < 8; ++i) {
+    text += "  - {name: chain" + std::to_string(i) + ", plant: {type: chain, params: {links: 256}}}\n";
+  }
+  Runtime runtime(ParseScene(text, "inline"));
+  const ChannelNames channels =
+      MakeChannelNames({"chain0", "chain1", "chain2", "chain3", "chain4", "chain5", "chain6", "chain7"}, "");
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  InProcessBus output;
+  SpscRing<TickRecord> ring(256, runtime.MakeRecord());
+  Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
+  LcmPublisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
+  std::optional<status_t> status;
+  output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    status_t s;
+    if (Decode(d, n, s)) status = s;
+  });
+  std::atomic<bool> stop{false};
+  loop.Run(stop, 100);
+  publisher.Drain();
+  while (output.Drain() > 0) {
+  }
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->instance_dofs, std::vector<std::int32_t>(8, 256));
+  EXPECT_EQ(status->num_joints, 0);
+  EXPECT_TRUE(status->joint_names.empty());
 }
 
 // ------------------------------------------------------------------ other publishers

@@ -258,6 +258,60 @@ TEST_F(Lagranged, ABadSceneIsRefusedBeforeTheLoopNamingFileKeyAndReason) {
   EXPECT_EQ(bad_option->Wait(kWait), 2);
 }
 
+// A URDF robot is a plant like the others: the 7-joint Panda's state goes out
+// every tick, finite, and the status names its joints (panda_joint1..7, from
+// the file) after its instance's joint count; a 7-value setpoint is taken.
+TEST_F(Lagranged, APandaScenePublishesSevenJointStatesAndItsJointNamesInTheStatus) {
+  Prepare(7935);
+  LcmCollector collector(url_);
+  auto daemon = Start({"--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_minjerk.yaml"});
+  AwaitMessages(collector, "PANDA_STATE", 200);
+  AwaitMessages(collector, "LAGRANGE_STATUS", 2);
+  const status_t status = collector.Decoded<status_t>("LAGRANGE_STATUS").back();
+  EXPECT_EQ(status.instance_names, std::vector<std::string>{"panda"});
+  EXPECT_EQ(status.instance_dofs, std::vector<std::int32_t>{7});
+  ASSERT_EQ(status.num_joints, 7);
+  for (int j = 0; j < 7; ++j) {
+    EXPECT_EQ(status.joint_names[static_cast<std::size_t>(j)], "panda_joint" + std::to_string(j + 1));
+  }
+  // Within the Panda's limits (they are its setpoint limits): accepted, and followed.
+  const std::vector<double> target = {0.2, -0.6, 0.1, -2.1, 0.0, 1.7, 0.5};
+  lcm::LCM sender(url_);
+  ASSERT_TRUE(testing::SendUntil(
+      [&] {
+        const setpoint_t sp = Setpoint(target);
+        sender.publish("PANDA_SETPOINT", &sp);
+      },
+      [&] {
+        const auto states = collector.Decoded<state_t>("PANDA_STATE");
+        return !states.empty() && states.back().q_des == target;
+      },
+      kWait));
+  const std::vector<state_t> states = collector.Decoded<state_t>("PANDA_STATE");
+  ExpectWellFormedStream(states, "PANDA_STATE");
+  for (const state_t& s : states) {
+    ASSERT_EQ(s.num_dofs, 7);
+    ASSERT_EQ(s.q.size(), 7u);
+    ASSERT_EQ(s.mode, state_t::MODE_RUNNING);
+    ASSERT_EQ(s.controller, "computed-torque");
+  }
+  daemon->Signal(SIGTERM);
+  EXPECT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+}
+
+TEST_F(Lagranged, AUrdfSceneWithAMissingRobotIsRefusedWithOneLine) {
+  Prepare(7936);
+  const fs::path scene = fs::temp_directory_path() / ("lagrange_bad_urdf_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(scene) << "instances:\n  - name: robot\n    plant: {type: urdf, file: robots/none.urdf}\n";
+  auto daemon = Start({"--config", scene.string()});
+  EXPECT_EQ(daemon->Wait(kWait), 2);
+  const std::string expected = scene.string() + ":3:31: instances[0].plant.file: cannot read the URDF file " +
+                               (scene.parent_path() / "robots/none.urdf").string() +
+                               " (a relative path is from the scene's directory)\n";
+  EXPECT_NE(daemon->Stderr().find(expected), std::string::npos) << daemon->Stderr();
+  fs::remove(scene);
+}
+
 TEST_F(Lagranged, ChannelPrefixPutsEveryChannelUnderIt) {
   Prepare(7816);
   LcmCollector collector(url_);

@@ -296,5 +296,73 @@ TEST(Loop, TheTickAllocatesNothingInAnyMode) {
   EXPECT_EQ(loop.ticks(), 200);
 }
 
+// A URDF robot's tick allocates nothing either: the Panda by both of its
+// derivations, under each controller a command can switch to (computed torque,
+// PD with gravity compensation, PD with acceleration feed-forward, LQR about a
+// pose), in every mode.
+TEST(Loop, TheTickOfAUrdfRobotAllocatesNothingInAnyMode) {
+  const std::string panda = std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf";
+  const std::string pose = "[0.3, -0.5, -0.2, -2.0, 0.1, 1.6, 0.6]";
+  std::string text = "instances:\n";
+  for (const char* method : {"recursive", "lagrangian"}) {
+    text += std::string("  - name: panda_") + method + "\n    plant: {type: urdf, file: " + panda +
+            ", method: " + method + "}\n    initial: {q: " + pose + "}\n" +
+            "    effects: {limits: {stiffness: 2000, damping: 2}, damping: 0.1, friction: {coulomb: 0.05}}\n"
+            "    controller: {type: computed-torque, kp: 100, kd: 20}\n"
+            "    controllers:\n"
+            "      - {type: gravity-compensation, kp: 50, kd: 1}\n"
+            "      - {type: pd, kp: 20, kd: 1, acceleration_feedforward: true}\n"
+            "      - {type: lqr, equilibrium: " +
+            pose +
+            "}\n"
+            "    setpoint_timeout: 0.05\n";
+  }
+  Runtime runtime(ParseScene(text, "inline"));
+  testing::FakeClock clock;
+  SpscRing<TickRecord> ring(4096, runtime.MakeRecord());
+  Loop loop(runtime, clock, {kMs, OverrunPolicy::kCatchUp, 3}, ring);
+  std::atomic<bool> stop{false};
+  std::int64_t total = 0;
+  auto counted = [&](std::int64_t ticks) {
+    testing::AllocationCounter counter;
+    loop.Run(stop, loop.ticks() + ticks);
+    total += counter.count();
+  };
+  auto command = [&](std::size_t i, CommandKind kind, int controller = -1) {
+    CommandMessage* c = runtime.channels(i).commands.BeginPush();
+    c->kind = kind;
+    c->controller = controller;
+    c->gains.kp.setConstant(10.0);
+    c->gains.kd.setConstant(1.0);
+    runtime.channels(i).commands.Push();
+  };
+  counted(20);  // computed torque on the scene trajectory
+  for (std::size_t i = 0; i < 2; ++i) {
+    SetpointMessage& m = runtime.channels(i).setpoints.back();
+    m.setpoint.q[0] += 0.1;
+    runtime.channels(i).setpoints.Publish();
+  }
+  counted(10);  // streamed setpoint
+  for (int controller = 1; controller <= 3; ++controller) {
+    for (std::size_t i = 0; i < 2; ++i) command(i, CommandKind::kSwitchController, controller);
+    counted(10);
+  }
+  counted(60);  // timed out: hold, under LQR
+  for (std::size_t i = 0; i < 2; ++i) {
+    command(i, CommandKind::kSwitchController, 1);
+    command(i, CommandKind::kSetGains, 1);
+    runtime.PostUrgent(i, Urgent::kEstop, 7);
+  }
+  counted(10);
+  for (std::size_t i = 0; i < 2; ++i) {
+    runtime.PostUrgent(i, Urgent::kClearEstop, 8);
+    command(i, CommandKind::kReset);
+  }
+  counted(10);
+  EXPECT_EQ(total, 0);
+  EXPECT_EQ(loop.ticks(), 140);
+  for (std::size_t i = 0; i < 2; ++i) EXPECT_NE(runtime.mode(i), Mode::kFault) << runtime.instance(i).name();
+}
+
 }  // namespace
 }  // namespace lagrange

@@ -3,7 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 
@@ -15,6 +20,7 @@
 namespace lagrange {
 namespace {
 
+namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::RunCtl;
 
@@ -210,6 +216,121 @@ TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
     EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
   }
+}
+
+// A robot from URDF: the same JSON, with its joints' names in q order.
+const std::string kPanda = std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf";
+const std::string kPandaPose = "0.3,-0.5,-0.2,-2,0.1,1.6,0.6";
+const std::string kPandaVelocity = "0.4,-0.3,0.2,0.5,-0.6,0.7,-0.8";
+
+TEST(EvalUrdf, PrintsTheJointNamesInOrderAndASymmetricPositiveDefiniteMassMatrix) {
+  const auto r = RunCtl({"eval", "--urdf", kPanda, "--q", kPandaPose, "--qd", kPandaVelocity});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json out = json::parse(r.out);
+  EXPECT_EQ(out.at("plant").get<std::string>(), "urdf");
+  EXPECT_EQ(out.at("method").get<std::string>(), "recursive");
+  EXPECT_EQ(out.at("num_dofs").get<int>(), 7);
+  const auto joints = out.at("joints").get<std::vector<std::string>>();
+  ASSERT_EQ(joints.size(), 7u);
+  for (std::size_t j = 0; j < 7; ++j) EXPECT_EQ(joints[j], "panda_joint" + std::to_string(j + 1));
+  const auto rows = out.at("M").get<Rows>();
+  ASSERT_EQ(rows.size(), 7u);
+  MatrixXd M(7, 7);
+  for (int i = 0; i < 7; ++i) {
+    ASSERT_EQ(rows[static_cast<std::size_t>(i)].size(), 7u);
+    for (int j = 0; j < 7; ++j) M(i, j) = rows[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+  }
+  EXPECT_LE((M - M.transpose()).norm(), 1e-14 * M.norm());
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues().minCoeff(), 0.0);
+  // T = ½ qdᵀ M qd.
+  const VectorXd qd = (VectorXd(7) << 0.4, -0.3, 0.2, 0.5, -0.6, 0.7, -0.8).finished();
+  EXPECT_NEAR(out.at("T").get<double>(), 0.5 * qd.dot(M * qd), 1e-12 * out.at("T").get<double>());
+}
+
+TEST(EvalUrdf, TheLagrangianAndRecursivePathsAgree) {
+  std::vector<json> outputs;
+  for (const std::string method : {"recursive", "lagrangian"}) {
+    const auto r = RunCtl({"eval", "--urdf", kPanda, "--q", kPandaPose, "--qd", kPandaVelocity, "--tau",
+                           "1,2,3,4,0.5,0.6,0.7", "--method", method});
+    ASSERT_EQ(r.status, 0) << r.err;
+    outputs.push_back(json::parse(r.out));
+  }
+  const auto Ga = outputs[0].at("G").get<Numbers>(), Gb = outputs[1].at("G").get<Numbers>();
+  ASSERT_EQ(Ga.size(), 7u);
+  double scale = 0.0;
+  for (double g : Ga) scale = std::max(scale, std::abs(g));
+  for (std::size_t i = 0; i < 7; ++i) EXPECT_NEAR(Ga[i], Gb[i], 1e-12 * scale) << i;
+  const auto Ma = outputs[0].at("M").get<Rows>(), Mb = outputs[1].at("M").get<Rows>();
+  for (std::size_t i = 0; i < 7; ++i) {
+    for (std::size_t j = 0; j < 7; ++j) EXPECT_NEAR(Ma[i][j], Mb[i][j], 1e-12) << i << "," << j;
+  }
+  EXPECT_NEAR(outputs[0].at("T").get<double>(), outputs[1].at("T").get<double>(), 1e-12);
+  EXPECT_NEAR(outputs[0].at("V").get<double>(), outputs[1].at("V").get<double>(),
+              1e-12 * std::abs(outputs[0].at("V").get<double>()));
+}
+
+TEST(EvalUrdf, GravityIsTheOptionsVectorAndMassScaleScalesTheRobot) {
+  const json standard = Eval({"--urdf", kPanda, "--q", kPandaPose, "--qd", "0,0,0,0,0,0,0"});
+  const json weightless = Eval({"--urdf", kPanda, "--gravity", "0,0,0", "--q", kPandaPose, "--qd", "0,0,0,0,0,0,0"});
+  const json doubled = Eval({"--urdf", kPanda, "--gravity", "0,0,-19.62", "--param", "mass_scale=1.5", "--q",
+                             kPandaPose, "--qd", "0,0,0,0,0,0,0"});
+  const auto G = standard.at("G").get<Numbers>();
+  for (std::size_t i = 0; i < 7; ++i) {
+    EXPECT_EQ(weightless.at("G").get<Numbers>()[i], 0.0) << i;
+    EXPECT_NEAR(doubled.at("G").get<Numbers>()[i], 3.0 * G[i], 1e-12 * (1.0 + std::abs(G[i]))) << i;
+    EXPECT_NEAR(doubled.at("M").get<Rows>()[i][i], 1.5 * standard.at("M").get<Rows>()[i][i], 1e-12) << i;
+  }
+  // At rest under zero torque the robot falls: M qdd = −G.
+  EXPECT_GT(std::abs(standard.at("qdd").get<Numbers>()[1]), 0.1);
+}
+
+TEST(EvalUrdf, PlanarPlantsHaveGeneratedJointNames) {
+  EXPECT_EQ(Eval({"--plant", "arm2", "--q", "0,0", "--qd", "0,0"}).at("joints"), json({"q1", "q2"}));
+  EXPECT_EQ(Eval({"--plant", "cartpole", "--q", "0,0", "--qd", "0,0"}).at("joints"), json({"x", "theta"}));
+  EXPECT_EQ(Eval({"--plant", "pendulum", "--q", "0", "--qd", "0"}).at("joints"), json({"theta"}));
+  EXPECT_EQ(Eval({"--plant", "chain", "--links", "3", "--q", "0,0,0", "--qd", "0,0,0"}).at("joints"),
+            json({"q1", "q2", "q3"}));
+}
+
+TEST(EvalUrdf, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
+  const fs::path dir = fs::temp_directory_path() / ("lagrange_eval_urdf_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path floating = dir / "floating.urdf";
+  std::ofstream(floating) << R"(<robot name="f"><link name="a"/><joint name="free" type="floating">)"
+                             R"(<parent link="a"/><child link="b"/></joint><link name="b"><inertial><mass value="1"/>)"
+                             R"(<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link></robot>)";
+  const std::string zeros = "0,0,0,0,0,0,0";
+  const std::vector<BadEval> cases = {
+      {{"--urdf", (dir / "none.urdf").string(), "--q", "0", "--qd", "0"}, "--urdf: " + (dir / "none.urdf").string()},
+      {{"--urdf", floating.string(), "--q", "0", "--qd", "0"}, "--urdf: " + floating.string() + ": "},
+      {{"--urdf", kPanda, "--plant", "arm2", "--q", "0", "--qd", "0"}, "--plant excludes --urdf"},
+      {{"--q", "0", "--qd", "0"}, "expected --plant TYPE or --urdf FILE"},
+      {{"--urdf", kPanda, "--gravity", "0,-9.81", "--q", zeros, "--qd", zeros},
+       "--gravity: expected gx,gy,gz (3 numbers, m/s²), got 2"},
+      {{"--urdf", kPanda, "--gravity", "0,0,down", "--q", zeros, "--qd", zeros}, "got 'down'"},
+      {{"--plant", "arm2", "--gravity", "0,0,-9.81", "--q", "0,0", "--qd", "0,0"}, "--gravity: only with --urdf"},
+      {{"--urdf", kPanda, "--links", "3", "--q", zeros, "--qd", zeros}, "--links: a urdf robot has the joints"},
+      {{"--urdf", kPanda, "--param", "mass_scale=-1", "--q", zeros, "--qd", zeros},
+       "--param mass_scale: expected a positive number"},
+      {{"--urdf", kPanda, "--param", "m1=2", "--q", zeros, "--qd", zeros},
+       "--param m1: unknown parameter for urdf (expected one of gravity, mass_scale)"},
+      {{"--urdf", kPanda, "--q", "0,0,0,0,0,0", "--qd", zeros}, "--q: expected 7 values (one per joint), got 6"},
+      {{"--urdf", kPanda, "--q", zeros, "--qd", zeros, "--method", "closed-form"},
+       "--method: a urdf robot has no closed-form path"},
+      {{"--plant", "urdf", "--q", "0", "--qd", "0"},
+       "--plant: expected one of pendulum|arm2|cartpole|chain, got 'urdf'"},
+  };
+  for (const BadEval& c : cases) {
+    std::vector<std::string> args = {"eval"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = RunCtl(args);
+    EXPECT_EQ(r.status, 2) << c.message << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty());
+    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
+  }
+  fs::remove_all(dir);
 }
 
 TEST(Eval, TheInstalledBinaryExitsNonZeroWithOneLineOnBadInput) {

@@ -233,8 +233,8 @@ TEST_F(LiveDaemon, WatchShowsEveryInstanceRunIdsAndTheLoopsTiming) {
   ASSERT_EQ(r.status, 0) << r.err;
   for (const char* text :
        {"lagranged run ", "wake latency us", "compute us", "setpoints ", "\narm   running   computed-torque",
-        "\ncartpole   running   lqr", "joint          q        q_des          tau", "kernel drops ",
-        "fragments dropped ", "foreign messages "}) {
+        "\ncartpole   running   lqr", "joint  name          q        q_des          tau", "\n      0  q1  ",
+        "\n      1  theta ", "kernel drops ", "fragments dropped ", "foreign messages "}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
   EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
@@ -252,6 +252,39 @@ TEST_F(LiveDaemon, WatchShowsEveryInstanceRunIdsAndTheLoopsTiming) {
   ExpectOneLine(Ctl({"watch", "--rate", "fast"}), "watch", 2, "--rate: expected a number in (0, 50], got 'fast'");
   ExpectOneLine(RunCtl({"watch", "--frames", "1", "--wait", "0.3", "--lcm-url", testing::TestLcmUrl(7899)}), "watch", 1,
                 "no LAGRANGE_STATUS within 0.3 s");
+}
+
+// A 7-joint robot from URDF, live: watch names its joints, send takes seven
+// values (and refuses six), gains take one value or seven.
+TEST_F(LiveDaemon, SendCommandAndWatchWorkWithTheSevenJointPanda) {
+  Start(7938, {"--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_minjerk.yaml"});
+  auto r = Ctl({"watch", "--frames", "1", "--instance", "panda"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (int j = 0; j < 7; ++j) {
+    EXPECT_NE(r.out.find("\n      " + std::to_string(j) + "  panda_joint" + std::to_string(j + 1) + " "),
+              std::string::npos)
+        << r.out;
+  }
+  const std::vector<double> target = {0.6, -0.3, -0.4, -1.9, 0.5, 2.1, 0.3};
+  r = Ctl({"send", "panda", "--q", "0.6,-0.3,-0.4,-1.9,0.5,2.1,0.3", "--for", "1.5"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("to PANDA_SETPOINT; lagranged accepted "), std::string::npos) << r.out;
+  const state_t s = LastState("PANDA_STATE");
+  ASSERT_EQ(s.num_dofs, 7);
+  for (std::size_t j = 0; j < 7; ++j) EXPECT_NEAR(s.q[j], target[j], 1e-3) << j;
+  ExpectOneLine(Ctl({"send", "panda", "--q", "0,0,0,0,0,0"}), "send", 2,
+                "--q: expected 7 values (one per joint), got 6");
+  r = Ctl({"command", "panda", "gains", "--kp", "300", "--kd", "30"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = Ctl({"command", "panda", "gains", "--kp", "400,400,400,400,300,300,200", "--kd", "40,40,40,40,30,30,20"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  ExpectOneLine(Ctl({"command", "panda", "gains", "--kp", "1,2", "--kd", "1,2"}), "command", 2,
+                "--kp: expected 7 values (one for every joint, or one per joint), got 2");
+  r = Ctl({"command", "panda", "controller", "gravity-compensation"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  // Running, or holding where the stream left it once its setpoint timed out.
+  EXPECT_EQ(r.out.rfind("panda: controller gravity-compensation done; now ", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find(" with gravity-compensation\n"), std::string::npos) << r.out;
 }
 
 TEST(LiveStale, WatchMarksADaemonThatStoppedAsStale) {
@@ -342,6 +375,9 @@ class FakeDaemon {
         st.num_instances = 1;
         st.instance_names = {"arm"};
         st.instance_modes = {state_t::MODE_RUNNING};
+        st.instance_dofs = {2};
+        st.num_joints = 2;
+        st.joint_names = {"q1", "q2"};
         lcm_.publish("LAGRANGE_STATUS", &st);
       }
       lcm_.handleTimeout(5);

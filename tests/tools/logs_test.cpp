@@ -161,10 +161,17 @@ TEST_F(Logs, Log2CsvWritesOneCsvPerChannelAndSkipsForeignTypes) {
   const Csv status = ReadCsv(out / "LAGRANGE_STATUS.csv");
   ASSERT_GT(status.rows.size(), 0u);
   for (const char* column :
-       {"run_id", "datagrams_dropped_kernel", "fragments_dropped", "foreign_messages", "instances"}) {
+       {"run_id", "datagrams_dropped_kernel", "fragments_dropped", "foreign_messages", "instances", "joints"}) {
     EXPECT_GE(status.Column(column), 0) << column;
   }
   for (const std::string& id : status.Texts("run_id")) ASSERT_EQ(id, run);
+  {  // The last column names each instance's joints: the default scene's are generated.
+    std::ifstream in(out / "LAGRANGE_STATUS.csv");
+    std::string line, last;
+    while (std::getline(in, line)) last = line;
+    const std::string joints = "\"arm=q1,q2;cartpole=x,theta\"";
+    EXPECT_EQ(last.substr(last.size() - std::min(last.size(), joints.size())), joints) << last;
+  }
   // Each command lagrangectl sent has its own request id, and lagranged's replies echo them from its run.
   const Csv commands = ReadCsv(out / "ARM_COMMAND.csv");
   const Csv replies = ReadCsv(out / "ARM_REPLY.csv");
@@ -395,6 +402,50 @@ TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemA
   EXPECT_FALSE(fs::exists(out / "ARM_STATE.csv"));
 }
 
+// A 7-joint robot from URDF, recorded: log2csv writes its seven joints' columns
+// and the status's joint names, and plot draws the log and a simulate CSV.
+TEST_F(Logs, Log2CsvAndPlotTakeASevenJointRobotsRun) {
+  const std::string url = Url(7937);
+  const fs::path log = dir_ / "panda.lcm";
+  {
+    testing::LcmLoggerProcess logger(url, log.string());
+    auto daemon =
+        Daemon(url, {"--duration", "1", "--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_minjerk.yaml"});
+    ASSERT_EQ(daemon->Wait(60.0), 0) << daemon->Stderr();
+    logger.Stop();
+  }
+  const fs::path out = dir_ / "csv";
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", out.string()}).status, 0);
+  const Csv states = ReadCsv(out / "PANDA_STATE.csv");
+  ASSERT_GT(states.rows.size(), 0u);
+  for (const char* column : {"q0", "q6", "qd6", "tau6", "q_des6", "qd_des6"})
+    EXPECT_GE(states.Column(column), 0) << column;
+  EXPECT_LT(states.Column("q7"), 0);
+  ExpectFiniteNumbers(states, {"run_id", "controller"}, "PANDA_STATE");
+  std::ifstream in(out / "LAGRANGE_STATUS.csv");
+  std::string line, last;
+  while (std::getline(in, line)) last = line;
+  const std::string joints =
+      "\"panda=panda_joint1,panda_joint2,panda_joint3,panda_joint4,panda_joint5,panda_joint6,"
+      "panda_joint7\"";
+  EXPECT_EQ(last.substr(last.size() - std::min(last.size(), joints.size())), joints) << last;
+
+  const fs::path log_png = dir_ / "panda_log.png";
+  auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, PlotLine(log_png, states));
+  ExpectImage(log_png);
+  const fs::path csv = dir_ / "panda.csv", png = dir_ / "panda.png";
+  ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_pd_gravity.yaml", "--duration", "1",
+                    "--csv", csv.string()})
+                .status,
+            0);
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, png.string() + ": 1001 rows in 1 segment\n");
+  ExpectImage(png);
+}
+
 TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   const std::string jar = LAGRANGE_LCM_JAR;
   if (jar.empty()) GTEST_SKIP() << "no JDK at configure time: the jar is not built";
@@ -439,6 +490,9 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
   status.num_instances = 2;
   status.instance_names = {"arm", "cartpole"};
   status.instance_modes = {0, 4};
+  status.instance_dofs = {2, 2};
+  status.num_joints = 4;
+  status.joint_names = {"q1", "q2", "x", "theta"};
   reply_t reply{};
   reply.reason = "not paused";
   const std::vector<std::pair<std::vector<std::uint8_t>, WireCheck (*)(const void*, std::size_t)>> packets = {
@@ -461,9 +515,14 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
   state = Encode(SomeState());
   PutInt32(state, state.size() - 1 - 3 - 4, -5);  // the controller's length ("pd" + NUL, then mode)
   EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
+  // The tail: num_instances, names, modes, dofs, num_joints, joint names.
+  const std::size_t joint_names = (4 + 3) + (4 + 3) + (4 + 2) + (4 + 6);
   std::vector<std::uint8_t> lying = Encode(status);
-  const std::size_t names_at = lying.size() - 2 - (4 + 4) - (4 + 9) - 4;  // num_instances precedes the names and modes
+  const std::size_t names_at = lying.size() - joint_names - 4 - 2 * 4 - 2 - (4 + 9) - (4 + 4) - 4;
   PutInt32(lying, names_at, 0x7fffffff);
+  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
+  lying = Encode(status);  // a status declaring 2^31 - 1 joint names
+  PutInt32(lying, lying.size() - joint_names - 4, 0x7fffffff);
   EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
 }
 
