@@ -4,11 +4,13 @@ CSV files and PNG plots (issue 6). Run by scripts/bench; usage:
 
     bench/report.py RESULTS_DIR
 
-Reads dynamics.json, effects.json, tick.json (Google Benchmark), the CSV files
-of work_precision, loop_bench and hostile_bench, cyclictest's JSON files
+Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json
+and kdl.json (Google Benchmark), kdl_agreement.csv, the CSV files of
+work_precision, loop_bench and hostile_bench, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
 are CPU time per call (the median of the repetitions); every one is also given
-as a multiple of calib/sincos, one sin and one cos measured in the same run.
+as a multiple of calib/sincos, one sin and one cos measured in the same run
+(the same program's run: each JSON file has its own).
 """
 
 import csv
@@ -28,8 +30,15 @@ INTEGRATORS = ["explicit-euler", "semi-implicit-euler", "rk4", "dopri5", "variat
 PLANTS = ["pendulum", "arm2", "cartpole"]
 METHODS = ["closed-form", "lagrangian", "recursive"]
 TERMS = ["M", "C", "Cqd", "G", "FD"]
-CHAIN_SIZES = [2, 4, 7, 12, 20, 30, 50]
+CHAIN_SIZES = [2, 4, 7, 12, 20, 30, 50, 64]  # bench/dynamics_bench.cpp registers these chains
 FIT_FROM_LINKS = 7  # growth exponents fitted over chains of this many links and more
+ROBOTS = ["panda", "ur5"]  # config/robots/*.urdf
+TREE_METHODS = ["lagrangian", "recursive"]  # the methods a RigidTree has
+SPATIAL_TERMS = ["M", "C", "Cqd", "G", "dTdq", "ID", "FD"]
+SPATIAL_SIZES = CHAIN_SIZES  # bench_plants.cpp SpatialChainSizes()
+KDL_TERMS = ["M", "G", "Cqd", "ID", "FD"]  # the terms Orocos KDL has
+KDL_RATIO_LIMIT = 0.3  # lagrange / KDL per call
+TICK_P99_LIMIT_US = 20.0
 EFFECT_CASES = ["bare", "default", "no-gravity", "no-coriolis", "damping", "friction", "limits",
                 "saturation", "disturbance", "all"]
 
@@ -49,12 +58,14 @@ def read_benchmarks(path):
     repetitions = max([int(b.get("repetitions", 1)) for b in data["benchmarks"]] + [1])
     data.setdefault("context", {})["repetitions"] = repetitions
     for b in data["benchmarks"]:
+        if b.get("error_occurred"):  # skipped (e.g. a scene not there): no figure
+            continue
         aggregate = b.get("aggregate_name")
         if b.get("run_type") == "aggregate" and aggregate != "median":
             continue
         name = b.get("run_name", b["name"]).split("/iterations:")[0].split("/manual_time")[0]
         row = {"cpu_ns": b["cpu_time"] * scale[b["time_unit"]], "real_ns": b["real_time"] * scale[b["time_unit"]]}
-        for key in ("dofs", "off_stage_runs"):
+        for key in ("dofs", "off_stage_runs", "p50_ns", "p99_ns", "max_ns"):
             if key in b:
                 row[key] = b[key]
         if aggregate == "median" or name not in runs:
@@ -211,15 +222,22 @@ def long_horizon_section(out):
 
 # ---- 3. derivation cost ---------------------------------------------------------------------
 
-def derivation_rows(runs):
+def links_of(plant, family):
+    """n of a sized plant name ("chain30", "spatial7") of that family, else None."""
+    rest = plant[len(family):] if plant.startswith(family) else ""
+    return int(rest) if rest.isdigit() else None
+
+
+def derivation_rows(runs, family="chain", calib=None):
+    """derive/<plant>/<method>/<term> rows; links set for plants named <family><n>."""
     rows = []
     for name, r in runs.items():
         parts = name.split("/")
         if parts[0] != "derive":
             continue
         plant, method, term = parts[1], parts[2], parts[3]
-        links = int(plant[5:]) if plant.startswith("chain") else None
-        rows.append({"plant": plant, "links": links, "method": method, "term": term, **r})
+        rows.append({"plant": plant, "links": links_of(plant, family), "method": method, "term": term,
+                     "x_sincos": r["cpu_ns"] / calib if calib else math.nan, **r})
     return rows
 
 
@@ -232,9 +250,9 @@ def fit_exponent(rows, method, term, first):
     return float(np.polyfit(n, t, 1)[0])
 
 
-def plot_derivation(out, rows):
-    fig, axes = plt.subplots(1, len(TERMS), figsize=(18, 4.2), sharey=True)
-    for ax, term in zip(axes, TERMS):
+def plot_derivation(out, rows, terms=TERMS, title="Derivation cost on n-link chains", file="derivation_cost.png"):
+    fig, axes = plt.subplots(1, len(terms), figsize=(2.6 * len(terms) + 5, 4.2), sharey=True)
+    for ax, term in zip(axes, terms):
         for method in ("lagrangian", "recursive"):
             pts = sorted((r["links"], r["cpu_ns"]) for r in rows
                          if r["links"] and r["method"] == method and r["term"] == term)
@@ -245,9 +263,9 @@ def plot_derivation(out, rows):
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("CPU time per call (ns)")
     axes[0].legend()
-    fig.suptitle("Derivation cost on n-link chains")
+    fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(out / "derivation_cost.png", dpi=110)
+    fig.savefig(out / file, dpi=110)
     plt.close(fig)
 
 
@@ -256,11 +274,33 @@ def median_of(context):
     return f"median of {n} repetitions" if n > 1 else "one repetition"
 
 
-def derivation_section(out, runs, calib, context):
-    rows = derivation_rows(runs)
+def exponent_cells(rows, methods, terms):
+    """'b (b_all)' per method and term: fitted from n >= FIT_FROM_LINKS, in brackets from every n."""
+    return [[m] + [f"{fit_exponent(rows, m, t, FIT_FROM_LINKS):.2f} ({fit_exponent(rows, m, t, 1):.2f})"
+                   for t in terms] for m in methods]
+
+
+def exponent_csv_rows(family, rows, methods, terms):
+    return [[family, m, t, f"{fit_exponent(rows, m, t, FIT_FROM_LINKS):.3f}", f"{fit_exponent(rows, m, t, 1):.3f}"]
+            for m in methods for t in terms]
+
+
+def times_sincos(x, calib):
+    """'1.2 µs (34×)': a time and its multiple of the same run's sin + cos."""
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    k = x / calib
+    return f"{ns(x)} ({k:.3g}×)" if k < 1000 else f"{ns(x)} ({k:,.0f}×)"
+
+
+def derivation_section(out, runs, calib, context, spatial=None):
+    """Planar plants and chains from dynamics_bench; with `spatial` = (runs, calib, context) of
+    spatial_cost, the URDF robots and random spatial chains too."""
+    rows = derivation_rows(runs, "chain", calib)
+    srows = derivation_rows(spatial[0], "spatial", spatial[1]) if spatial else []
     write_csv(out / "derivation_cost.csv", ["plant", "links", "method", "term", "cpu_ns", "real_ns", "x_sincos"],
               [[r["plant"], r["links"] or "", r["method"], r["term"], f"{r['cpu_ns']:.4g}", f"{r['real_ns']:.4g}",
-                f"{r['cpu_ns'] / calib:.3g}"] for r in rows])
+                f"{r['x_sincos']:.3g}"] for r in rows + srows])
     plot_derivation(out, rows)
     get = {(r["plant"], r["method"], r["term"]): r["cpu_ns"] for r in rows}
     md = ["## 3. Derivation cost\n",
@@ -282,14 +322,90 @@ def derivation_section(out, runs, calib, context):
     md.append(table(["plant", "method"] + TERMS, body))
     md.append(f"\nFitted growth exponent b in time ∝ n^b (least squares on log-log, chains n ≥ {FIT_FROM_LINKS}; "
               "in brackets over every n from 2):\n")
-    body = [[m] + [f"{fit_exponent(rows, m, t, FIT_FROM_LINKS):.2f} ({fit_exponent(rows, m, t, 1):.2f})"
-                   for t in TERMS] for m in ("lagrangian", "recursive")]
-    md.append(table(["method"] + TERMS, body))
-    write_csv(out / "derivation_exponents.csv", ["method", "term", f"exponent_n_ge_{FIT_FROM_LINKS}", "exponent_all_n"],
-              [[m, t, f"{fit_exponent(rows, m, t, FIT_FROM_LINKS):.3f}", f"{fit_exponent(rows, m, t, 1):.3f}"]
-               for m in ("lagrangian", "recursive") for t in TERMS])
+    md.append(table(["method"] + TERMS, exponent_cells(rows, ("lagrangian", "recursive"), TERMS)))
+    exponents = exponent_csv_rows("chain", rows, ("lagrangian", "recursive"), TERMS)
     md.append("\n![derivation cost](derivation_cost.png)\n")
+    if srows:
+        md.append(spatial_subsection(out, srows, spatial[1], spatial[2]))
+        exponents += exponent_csv_rows("spatial", srows, TREE_METHODS, SPATIAL_TERMS)
+    write_csv(out / "derivation_exponents.csv",
+              ["family", "method", "term", f"exponent_n_ge_{FIT_FROM_LINKS}", "exponent_all_n"], exponents)
     return "\n".join(md), get
+
+
+def spatial_subsection(out, rows, calib, context):
+    get = {(r["plant"], r["method"], r["term"]): r["cpu_ns"] for r in rows}
+    plot_derivation(out, rows, SPATIAL_TERMS, "Derivation cost on random spatial chains of n links",
+                    "derivation_cost_spatial.png")
+    md = ["### 3-D robots (URDF) and random spatial chains\n",
+          f"`spatial_cost`, a separate run: CPU time per call, {median_of(context)}, and in brackets its multiple "
+          f"of that run's sin + cos ({ns(calib)}). Both methods a `RigidTree` has: lagrangian "
+          "(`LagrangianDynamics<RigidTree>`, automatic differentiation of T and V) and recursive "
+          "(`SpatialDynamics`: CRBA, RNEA, ABA). dTdq: ∂T/∂q; ID: inverse dynamics τ = M q̈ + C q̇ + G; FD as "
+          "above. Robots from `config/robots/*.urdf` (fixed joints merged):\n"]
+    body = [[robot, method] + [times_sincos(get.get((robot, method, t)), calib) for t in SPATIAL_TERMS]
+            for robot in ROBOTS for method in TREE_METHODS if (robot, method, "M") in get]
+    md.append(table(["robot", "method"] + SPATIAL_TERMS, body))
+    md.append("\nRandom spatial chains (`RandomRigidTree` of plant/random_tree.hpp as a chain, seed 42: revolute "
+              "joints with random origins within ±0.5 m and random axes, bodies of 0.2–3 kg with full random "
+              "inertias, gravity in a random direction), time per call:\n")
+    body = [[f"spatial{n}", method] + [ns(get.get((f"spatial{n}", method, t), math.nan)) for t in SPATIAL_TERMS]
+            for method in TREE_METHODS for n in SPATIAL_SIZES]
+    md.append(table(["plant", "method"] + SPATIAL_TERMS, body))
+    md.append(f"\nFitted growth exponent b in time ∝ n^b on the random spatial chains (n ≥ {FIT_FROM_LINKS}; in "
+              "brackets over every n from 2); all in `derivation_exponents.csv`:\n")
+    md.append(table(["method"] + SPATIAL_TERMS, exponent_cells(rows, TREE_METHODS, SPATIAL_TERMS)))
+    md.append("\n![derivation cost, spatial](derivation_cost_spatial.png)\n")
+    return "\n".join(md)
+
+
+def kdl_subsection(out, runs, calib, context):
+    """Orocos KDL beside lagrange's recursive method on the URDF robots (kdl_bench); returns the markdown
+    and {robot: (worst ratio, its term)}."""
+    get = {}
+    for name, r in runs.items():
+        parts = name.split("/")
+        if parts[0] == "kdl":
+            get[(parts[1], parts[2], parts[3])] = r["cpu_ns"]
+    rows, worst = [], {}
+    for robot in ROBOTS:
+        for term in KDL_TERMS:
+            kdl, ours = get.get((robot, "kdl", term)), get.get((robot, "lagrange", term))
+            if kdl is None or ours is None:
+                continue
+            rows.append([robot, term, kdl, ours, ours / kdl])
+            if robot not in worst or ours / kdl > worst[robot][0]:
+                worst[robot] = (ours / kdl, term)
+    write_csv(out / "kdl_ratios.csv", ["robot", "term", "kdl_ns", "lagrange_ns", "ratio", "kdl_x_sincos",
+                                       "lagrange_x_sincos"],
+              [[r[0], r[1], f"{r[2]:.4g}", f"{r[3]:.4g}", f"{r[4]:.3f}", f"{r[2] / calib:.3g}", f"{r[3] / calib:.3g}"]
+               for r in rows])
+    md = ["### 3-D robots against Orocos KDL\n",
+          f"`kdl_bench`, a separate run: Orocos KDL {context.get('kdl_version', '?')} (Debian `liborocos-kdl-dev`) "
+          "on the same URDF numbers, the `RigidTree` converted to a `KDL::Chain`, beside lagrange's recursive method "
+          f"(`SpatialDynamics`). CPU time per call, {median_of(context)}; in brackets the multiple of that run's "
+          f"sin + cos ({ns(calib)}). M: `ChainDynParam::JntToMass` / `ComputeMassMatrix`; G: `JntToGravity` / "
+          "`ComputeGravityForce`; Cqd: `JntToCoriolis` / `ComputeCoriolisForce`; ID: `ChainIdSolver_RNE` / "
+          "`ComputeInverseDynamics`; FD: `ChainFdSolver_RNE` (M by KDL's CRBA, then an LDLᵀ solve) / "
+          f"`ComputeForwardDynamics`. Target: lagrange / KDL ≤ {KDL_RATIO_LIMIT}.\n",
+          table(["robot", "term", "KDL", "lagrange", "lagrange / KDL", "met"],
+                [[r[0], r[1], times_sincos(r[2], calib), times_sincos(r[3], calib), f"{r[4]:.3f}",
+                  yes(r[4] <= KDL_RATIO_LIMIT)] for r in rows])]
+    agreement = out / "kdl_agreement.csv"
+    if agreement.exists():
+        arows = read_csv(agreement)
+        limit = float(arows[0]["limit_rel"]) if arows else math.nan
+        md.append(f"\nBefore timing, `kdl_bench` checks that the two agree on 8 seeded random states per robot "
+                  "(and on a random 12-link chain with prismatic joints, which the robots lack), for both of "
+                  "lagrange's methods; it times nothing if any difference, relative to 1 + max |KDL's value|, is "
+                  f"above {limit:.0e}. Largest differences (`kdl_agreement.csv`; N·m, N, kg·m² or rad/s²):\n")
+        by = {(r["robot"], r["method"], r["term"]): r for r in arows}
+        robots = list(dict.fromkeys(r["robot"] for r in arows))
+        body = [[robot, method] + [f"{float(by[(robot, method, t)]['max_abs_diff']):.1e}"
+                                   if (robot, method, t) in by else "n/a" for t in KDL_TERMS]
+                for robot in robots for method in ("recursive", "lagrangian")]
+        md.append(table(["robot", "lagrange method"] + KDL_TERMS, body))
+    return "\n".join(md), worst
 
 
 # ---- 4. effects cost -----------------------------------------------------------------------------
@@ -502,6 +618,7 @@ def loop_section(out, d, tick_runs):
           "lagranged and cyclictest share.\n",
           "lagranged's threads over the steady window (role from the name lagranged gave the thread, else from "
           "the system call it was seen blocked in most):\n"]
+    md.insert(-1, tick_subsection(tick_runs))
     trows = [[t["thread"], t.get("name", ""), t["usually_in"], f"{float(t['percent_of_one_core']):.2f} %",
               thread_role(t)] for t in d["threads"]]
     md.append(table(["thread (creation order)", "name", "usually blocked in", "CPU, % of one core", "role"], trows))
@@ -513,6 +630,44 @@ def loop_section(out, d, tick_runs):
     if (out / "loop_ticks_rt.csv").exists():
         md.append(loop_rt_section(loop_data(out, "rt")))
     return "\n".join(md)
+
+
+TICK_SCENES = {"default": "config/default.yaml: arm2 under computed torque, cart-pole under LQR",
+               "panda": "config/panda_minjerk.yaml: 7-DOF Panda (URDF) under computed torque, min-jerk move"}
+
+
+def tick_subsection(tick_runs):
+    """tick_bench's scenes: the tick outside the daemon, with its distribution after a sleep."""
+    body = []
+    for scene, what in TICK_SCENES.items():
+        hot, slept = tick_runs.get(f"tick/{scene}/hot"), tick_runs.get(f"tick/{scene}/after-sleep")
+        if not slept:
+            body.append([scene, what, "not measured", "", "", "", ""])
+            continue
+        body.append([scene, what, ns(hot["cpu_ns"]) if hot else "n/a", ns(slept["real_ns"]),
+                     ns(slept.get("p50_ns", math.nan)), ns(slept.get("p99_ns", math.nan)),
+                     ns(slept.get("max_ns", math.nan))])
+    return "\n".join([
+        "\nThe tick outside the daemon, by scene (`tick_bench`; RK4, 1 kHz): `hot` is the mean CPU time of ticks "
+        "back to back; `after sleep` ticks once per absolute 1 ms deadline and times each from the wake to the end of "
+        "`Runtime::Tick`, as lagranged times its compute (daemon/loop.cpp: a clock read after the wake and one "
+        "after the tick, written to the timing CSV), with no LCM threads beside it: its mean, and the "
+        "percentiles of its ticks (the median of each over the repetitions). The loop above runs only the "
+        "default scene in lagranged.\n",
+        table(["scene", "what", "hot (mean CPU)", "after sleep (mean)", "p50", "p99", "max"], body)]) + "\n"
+
+
+def tick_target(tick_runs):
+    slept = tick_runs.get("tick/panda/after-sleep")
+    p99 = slept.get("p99_ns", math.nan) / 1e3 if slept else math.nan
+    return ["7-DOF scene (Panda, computed torque, RK4), tick compute p99 (tick_bench, after a 1 ms sleep)",
+            f"≤ {TICK_P99_LIMIT_US:.0f} µs", us(p99) if slept else "not measured",
+            yes(p99 <= TICK_P99_LIMIT_US)]
+
+
+def kdl_targets(worst):
+    return [[f"lagrange / KDL per call, {robot} (worst of {', '.join(KDL_TERMS)})", f"≤ {KDL_RATIO_LIMIT}",
+             f"{ratio:.3f} ({term})", yes(ratio <= KDL_RATIO_LIMIT)] for robot, (ratio, term) in worst.items()]
 
 
 def loop_rt_section(d):
@@ -826,11 +981,22 @@ def main(out):
     effects_runs, _ = read_benchmarks(out / "effects.json")
     tick_runs, _ = read_benchmarks(out / "tick.json")
     calib = derive_runs["calib/sincos"]["cpu_ns"]
+    spatial = None
+    if (out / "spatial_cost.json").exists():
+        spatial_runs, spatial_context = read_benchmarks(out / "spatial_cost.json")
+        spatial = (spatial_runs, spatial_runs["calib/sincos"]["cpu_ns"], spatial_context)
     wp_rows = work_precision(out)
-    deriv_md, derive = derivation_section(out, derive_runs, calib, context)
+    deriv_md, derive = derivation_section(out, derive_runs, calib, context, spatial)
+    kdl_worst = {}
+    if (out / "kdl.json").exists():
+        kdl_runs, kdl_context = read_benchmarks(out / "kdl.json")
+        kdl_md, kdl_worst = kdl_subsection(out, kdl_runs, kdl_runs["calib/sincos"]["cpu_ns"], kdl_context)
+        deriv_md += "\n" + kdl_md
     effects_md, effects = effects_section(out, effects_runs, calib)
     loop = loop_data(out)
     target_rows = targets(derive, effects, loop, calib, effects_runs["calib/sincos"]["cpu_ns"])
+    target_rows += kdl_targets(kdl_worst)
+    target_rows.append(tick_target(tick_runs))
     hostile = hostile_data(out) if (out / "hostile_cases.csv").exists() else None
     if hostile:
         target_rows += hostile_targets(hostile)

@@ -1,0 +1,334 @@
+// Orocos KDL (Debian liborocos-kdl-dev) as a same-run peer for the 3-D robots:
+// the shipped URDF robots (config/robots/panda.urdf, ur5.urdf) loaded by
+// LoadUrdf, converted to a KDL::Chain, and the same dynamics timed by both
+// libraries, with the machine baseline (calib/sincos) in the same run.
+//
+//   term  KDL                                  lagrange (SpatialDynamics, recursive)
+//   M     ChainDynParam::JntToMass             ComputeMassMatrix
+//   G     ChainDynParam::JntToGravity          ComputeGravityForce
+//   Cqd   ChainDynParam::JntToCoriolis         ComputeCoriolisForce
+//   ID    ChainIdSolver_RNE::CartToJnt         ComputeInverseDynamics (gravity and Coriolis on)
+//   FD    ChainFdSolver_RNE::CartToJnt         ComputeForwardDynamics (gravity and Coriolis on)
+//
+// Benchmark names: kdl/<robot>/<library>/<term>, library kdl or lagrange.
+// Each call cycles through 16 seeded random states (bench/bench_plants.hpp),
+// converted to KDL's JntArray before timing.
+//
+// Before timing, both libraries evaluate every term on 8 seeded random states
+// of each robot and of a random 12-link chain with prismatic joints (which the
+// robots lack), and lagrange's two methods (recursive and Lagrangian) are each
+// compared with KDL: the largest difference, absolute and relative to
+// 1 + max |KDL's value|, goes to stderr (and to --agreement_csv=FILE). Above
+// kAgreement relative the program exits 1 without timing: a conversion
+// mistake on either side, or a wrong algorithm, shows there.
+
+#include <kdl/config.h>
+#include <kdl/chain.hpp>
+#include <kdl/chaindynparam.hpp>
+#include <kdl/chainfdsolver_recursive_newton_euler.hpp>
+#include <kdl/chainidsolver_recursive_newton_euler.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "bench/bench_plants.hpp"
+#include "bench/gbench.hpp"
+#include "plant/lagrangian.hpp"
+#include "plant/spatial_dynamics.hpp"
+
+namespace lagrange::bench {
+namespace {
+
+constexpr int kStates = 16;          // states cycled through while timing
+constexpr int kCheckStates = 8;      // states the agreement check compares
+constexpr double kAgreement = 1e-9;  // largest |lagrange − KDL| / (1 + max |KDL|) accepted
+
+// The terms both libraries have.
+constexpr DynamicsTerm kPeerTerms[] = {DynamicsTerm::kM, DynamicsTerm::kG, DynamicsTerm::kCqd, DynamicsTerm::kID,
+                                       DynamicsTerm::kFD};
+
+KDL::Vector ToKdl(const Eigen::Vector3d& v) { return KDL::Vector(v.x(), v.y(), v.z()); }
+
+// A serial RigidTree as a KDL chain, one segment per joint. KDL's conventions:
+// a segment's joint sits in the parent segment's tip frame with its origin and
+// axis given there (a revolute joint turns about the line through the origin
+// along the axis); the segment's tip frame is the joint's pose times f_tip, so
+// f_tip is the joint frame's fixed placement; the segment's inertia is given
+// in its tip frame (the body frame) as (mass, centre of mass, rotational
+// inertia about the centre of mass) by RigidBodyInertia's 3-argument
+// constructor, which shifts it to the frame origin itself.
+KDL::Chain ToKdlChain(const RigidTree& tree) {
+  KDL::Chain chain;
+  for (int i = 0; i < tree.num_dofs(); ++i) {
+    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
+    if (j.parent != i - 1) {
+      throw std::invalid_argument("ToKdlChain: joint '" + j.name + "' does not continue a serial chain");
+    }
+    const Eigen::Matrix3d& R = j.rotation;
+    const KDL::Frame placement(
+        KDL::Rotation(R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)),
+        ToKdl(j.position));
+    const KDL::Joint joint(j.name, placement.p, ToKdl(R * j.axis),
+                           j.type == JointType::kRevolute ? KDL::Joint::RotAxis : KDL::Joint::TransAxis);
+    const RigidBody& b = tree.bodies[static_cast<std::size_t>(i)];
+    const Eigen::Matrix3d& I = b.inertia;
+    const KDL::RigidBodyInertia inertia(b.mass, ToKdl(b.com),
+                                        KDL::RotationalInertia(I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)));
+    chain.addSegment(KDL::Segment(j.name, joint, placement, inertia));
+  }
+  return chain;
+}
+
+// KDL's solvers for one chain, and their scratch. The solvers keep a
+// reference to the chain, so a KdlPeer never moves.
+class KdlPeer {
+ public:
+  explicit KdlPeer(const RigidTree& tree)
+      : chain_(ToKdlChain(tree)),
+        gravity_(ToKdl(tree.gravity)),
+        dyn_(chain_, gravity_),
+        id_(chain_, gravity_),
+        fd_(chain_, gravity_),
+        H_(chain_.getNrOfJoints()),
+        f_ext_(chain_.getNrOfSegments(), KDL::Wrench::Zero()) {}
+  KdlPeer(const KdlPeer&) = delete;
+  KdlPeer& operator=(const KdlPeer&) = delete;
+
+  unsigned int num_joints() const { return chain_.getNrOfJoints(); }
+
+  // One call of `term`; a matrix lands in H (n x n), a vector in out (n). KDL's error code.
+  int Evaluate(DynamicsTerm term, const KDL::JntArray& q, const KDL::JntArray& qd, const KDL::JntArray& qdd,
+               const KDL::JntArray& tau, KDL::JntSpaceInertiaMatrix& H, KDL::JntArray& out) {
+    switch (term) {
+      case DynamicsTerm::kM: return dyn_.JntToMass(q, H);
+      case DynamicsTerm::kG: return dyn_.JntToGravity(q, out);
+      case DynamicsTerm::kCqd: return dyn_.JntToCoriolis(q, qd, out);
+      case DynamicsTerm::kID: return id_.CartToJnt(q, qd, qdd, f_ext_, out);
+      case DynamicsTerm::kFD: return fd_.CartToJnt(q, qd, tau, f_ext_, out);
+      default: throw std::logic_error("KDL has no " + std::string(TermName(term)));
+    }
+  }
+  KDL::JntSpaceInertiaMatrix& H() { return H_; }
+
+ private:
+  KDL::Chain chain_;  // first: the solvers below refer to it
+  KDL::Vector gravity_;
+  KDL::ChainDynParam dyn_;
+  KDL::ChainIdSolver_RNE id_;
+  KDL::ChainFdSolver_RNE fd_;
+  KDL::JntSpaceInertiaMatrix H_;
+  KDL::Wrenches f_ext_;  // no external wrenches
+};
+
+// A State as KDL's joint arrays.
+struct KdlState {
+  KDL::JntArray q, qd, qdd, tau;
+};
+
+KDL::JntArray ToJntArray(const VectorXd& v) {
+  KDL::JntArray a(static_cast<unsigned int>(v.size()));
+  a.data = v;
+  return a;
+}
+
+std::vector<KdlState> ToKdl(const std::vector<State>& states) {
+  std::vector<KdlState> out;
+  for (const State& s : states)
+    out.push_back({ToJntArray(s.q), ToJntArray(s.qd), ToJntArray(s.qdd), ToJntArray(s.tau)});
+  return out;
+}
+
+// ---- agreement ---------------------------------------------------------------
+
+struct Difference {
+  double absolute = 0.0;  // max |lagrange − KDL|, in the term's units
+  double relative = 0.0;  // max |lagrange − KDL| / (1 + max |KDL|)
+};
+
+struct AgreementRow {
+  std::string robot, method, term;
+  Difference diff;
+};
+
+Difference Compare(const MatrixXd& ours, const MatrixXd& theirs) {
+  const double gap = (ours - theirs).cwiseAbs().maxCoeff();
+  return {gap, gap / (1.0 + theirs.cwiseAbs().maxCoeff())};
+}
+
+// Every peer term of `tree` by lagrange's `method` against KDL, over kCheckStates states.
+std::vector<AgreementRow> CheckAgreement(const NamedTree& robot, Method method) {
+  std::unique_ptr<Dynamics> d;
+  if (method == Method::kLagrangian) {
+    d = std::make_unique<LagrangianDynamics<RigidTree>>(robot.tree);
+  } else {
+    d = std::make_unique<SpatialDynamics>(robot.tree);
+  }
+  KdlPeer kdl(robot.tree);
+  std::mt19937 rng{7};
+  const std::vector<State> states = RandomStates(robot.tree.joint_types(), kCheckStates, rng);
+  const std::vector<KdlState> kstates = ToKdl(states);
+  const int n = d->num_dofs();
+  if (static_cast<int>(kdl.num_joints()) != n) throw std::logic_error("ToKdlChain lost joints");
+  std::vector<AgreementRow> rows;
+  for (DynamicsTerm term : kPeerTerms) {
+    Difference worst;
+    for (int k = 0; k < kCheckStates; ++k) {
+      MatrixXd M(n, n);
+      VectorXd v(n);
+      EvaluateTerm(*d, term, states[k], M, v);
+      KDL::JntArray out(static_cast<unsigned int>(n));
+      const KdlState& s = kstates[k];
+      const int rc = kdl.Evaluate(term, s.q, s.qd, s.qdd, s.tau, kdl.H(), out);
+      if (rc != 0) throw std::runtime_error("KDL " + std::string(TermName(term)) + ": error " + std::to_string(rc));
+      const Difference diff = term == DynamicsTerm::kM ? Compare(M, kdl.H().data) : Compare(v, out.data);
+      worst.absolute = std::max(worst.absolute, diff.absolute);
+      worst.relative = std::max(worst.relative, diff.relative);
+    }
+    rows.push_back({robot.name, std::string(ToString(method)), std::string(TermName(term)), worst});
+  }
+  return rows;
+}
+
+// The robots both libraries are compared on: the shipped ones and a random
+// chain with prismatic joints.
+std::vector<NamedTree> CheckedRobots() {
+  std::vector<NamedTree> robots;
+  for (const std::string& name : ShippedRobotNames()) robots.push_back(LoadShippedRobot(name));
+  NamedTree mixed = RandomSpatialChain(12, 42, 0.3);
+  mixed.name += "-prismatic";
+  robots.push_back(std::move(mixed));
+  return robots;
+}
+
+// Prints the agreement table to stderr (and CSV to `csv_path` if not empty); false if any row is off.
+bool Agree(const std::string& csv_path) {
+  std::vector<AgreementRow> rows;
+  for (const NamedTree& robot : CheckedRobots()) {
+    for (Method method : {Method::kRecursive, Method::kLagrangian}) {
+      for (AgreementRow& row : CheckAgreement(robot, method)) rows.push_back(std::move(row));
+    }
+  }
+  bool ok = true;
+  std::fprintf(stderr, "kdl_bench: lagrange against KDL, %d random states each (limit %.0e relative)\n", kCheckStates,
+               kAgreement);
+  std::fprintf(stderr, "  %-20s %-11s %-4s %12s %12s\n", "robot", "method", "term", "max |diff|", "relative");
+  for (const AgreementRow& r : rows) {
+    const bool good = r.diff.relative <= kAgreement;  // false for NaN too
+    ok = ok && good;
+    std::fprintf(stderr, "  %-20s %-11s %-4s %12.3e %12.3e%s\n", r.robot.c_str(), r.method.c_str(), r.term.c_str(),
+                 r.diff.absolute, r.diff.relative, good ? "" : "  DISAGREE");
+  }
+  if (!csv_path.empty()) {
+    std::ofstream csv(csv_path);
+    csv << "robot,method,term,max_abs_diff,max_rel_diff,limit_rel\n";
+    csv.precision(4);
+    for (const AgreementRow& r : rows) {
+      csv << r.robot << ',' << r.method << ',' << r.term << ',' << std::scientific << r.diff.absolute << ','
+          << r.diff.relative << ',' << kAgreement << '\n';
+    }
+    if (!csv) throw std::runtime_error("kdl_bench: cannot write " + csv_path);
+  }
+  return ok;
+}
+
+// ---- timing ------------------------------------------------------------------
+
+void TimeKdl(benchmark::State& bm, const RigidTree& tree, DynamicsTerm term) {
+  KdlPeer kdl(tree);
+  std::mt19937 rng{42};
+  const std::vector<KdlState> states = ToKdl(RandomStates(tree.joint_types(), kStates, rng));
+  KDL::JntSpaceInertiaMatrix H(kdl.num_joints());
+  KDL::JntArray out(kdl.num_joints());
+  int k = 0;
+  for (auto _ : bm) {
+    const KdlState& s = states[k];
+    int rc = kdl.Evaluate(term, s.q, s.qd, s.qdd, s.tau, H, out);
+    benchmark::DoNotOptimize(rc);
+    benchmark::DoNotOptimize(H.data.data());
+    benchmark::DoNotOptimize(out.data.data());
+    benchmark::ClobberMemory();
+    k = (k + 1) % kStates;
+  }
+  bm.counters["dofs"] = kdl.num_joints();
+}
+
+void TimeLagrange(benchmark::State& bm, const RigidTree& tree, DynamicsTerm term) {
+  const SpatialDynamics d(tree);
+  std::mt19937 rng{42};
+  const std::vector<State> states = RandomStates(tree.joint_types(), kStates, rng);
+  const int n = d.num_dofs();
+  MatrixXd M(n, n);
+  VectorXd v(n);
+  int k = 0;
+  for (auto _ : bm) {
+    EvaluateTerm(d, term, states[k], M, v);
+    benchmark::DoNotOptimize(M.data());
+    benchmark::DoNotOptimize(v.data());
+    benchmark::ClobberMemory();
+    k = (k + 1) % kStates;
+  }
+  bm.counters["dofs"] = n;
+}
+
+// kdl/<robot>/<library>/<term>
+std::string BenchmarkName(const std::string& robot, std::string_view library, DynamicsTerm term) {
+  std::string name = "kdl/";
+  for (std::string_view part : {std::string_view(robot), library, TermName(term)}) name.append(part).append("/");
+  name.pop_back();
+  return name;
+}
+
+void RegisterAll() {
+  for (const std::string& robot : ShippedRobotNames()) {
+    const RigidTree tree = LoadShippedRobot(robot).tree;
+    for (DynamicsTerm term : kPeerTerms) {
+      benchmark::RegisterBenchmark(BenchmarkName(robot, "kdl", term).c_str(),
+                                   [tree, term](benchmark::State& bm) { TimeKdl(bm, tree, term); });
+      benchmark::RegisterBenchmark(BenchmarkName(robot, "lagrange", term).c_str(),
+                                   [tree, term](benchmark::State& bm) { TimeLagrange(bm, tree, term); });
+    }
+  }
+}
+
+// Removes --agreement_csv=FILE from the command line (Google Benchmark refuses
+// flags it does not know) and returns FILE.
+std::string TakeAgreementFlag(int& argc, char** argv) {
+  constexpr std::string_view kFlag = "--agreement_csv=";
+  std::string path;
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg.starts_with(kFlag)) {
+      path = std::string(arg.substr(kFlag.size()));
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  return path;
+}
+
+}  // namespace
+}  // namespace lagrange::bench
+
+int main(int argc, char** argv) {
+  using namespace lagrange::bench;
+  const std::string csv = TakeAgreementFlag(argc, argv);
+  try {
+    if (!Agree(csv)) {
+      std::fprintf(stderr, "kdl_bench: lagrange and KDL disagree; not timing\n");
+      return 1;
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kdl_bench: %s\n", e.what());
+    return 1;
+  }
+  benchmark::AddCustomContext("kdl_version", KDL_VERSION_STRING);
+  return RunBenchmarks(argc, argv, RegisterAll);
+}
