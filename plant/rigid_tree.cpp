@@ -24,9 +24,8 @@ std::vector<std::string> RigidTree::joint_names() const {
 namespace {
 
 // Tolerances of the checks, relative to the quantity's own scale.
-constexpr double kUnitTol = 1e-9;     // |‖axis‖ − 1|, ‖RᵀR − 1‖
-constexpr double kInertiaTol = 1e-9;  // asymmetry, negative eigenvalues, triangle violations, × trace
-constexpr double kPivotTol = 1e-12;   // Cholesky pivot of M(0), × the largest diagonal entry
+constexpr double kUnitTol = 1e-9;    // |‖axis‖ − 1|, ‖RᵀR − 1‖
+constexpr double kPivotTol = 1e-12;  // Cholesky pivot of M(0), × the largest diagonal entry
 
 std::string Num(double x) {
   char buf[32];
@@ -80,17 +79,9 @@ std::optional<std::string> CheckBody(const RigidBody& b, int i) {
   const Eigen::Matrix3d& I = b.inertia;
   const std::string key = Key("bodies", i, "inertia");
   if (!I.allFinite()) return Bad(key, "finite numbers", Str(I));
-  const double scale = std::max(std::abs(I.trace()), I.cwiseAbs().maxCoeff());
-  if ((I - I.transpose()).cwiseAbs().maxCoeff() > kInertiaTol * scale) return Bad(key, "a symmetric matrix", Str(I));
-  const Eigen::Vector3d moments =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I, Eigen::EigenvaluesOnly).eigenvalues();
-  if (moments[0] < -kInertiaTol * scale) {
-    return Bad(key, "positive semi-definite", Str(I) + " with principal moment " + Num(moments[0]));
-  }
-  // Principal moments ascend: the one triangle inequality that can fail is I3 <= I1 + I2.
-  if (moments[2] > moments[0] + moments[1] + kInertiaTol * scale) {
-    return Bad(key, "principal moments obeying the triangle inequality (each <= the sum of the other two)",
-               "moments " + Str(moments));
+  if (const auto why = CheckRotationalInertia(I)) {
+    return Bad(key, "a rigid body's rotational inertia (symmetric, positive semi-definite, triangle inequality)",
+               Str(I) + ": " + *why);
   }
   return std::nullopt;
 }
@@ -171,6 +162,23 @@ bool MovesNothing(const RigidTree& tree, int i) {
 }
 
 }  // namespace
+
+std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I) {
+  if (!I.allFinite()) return "inertia has an entry that is not a finite number";
+  const Eigen::Matrix3d symmetric = 0.5 * (I + I.transpose());
+  const Eigen::Vector3d l =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(symmetric, Eigen::EigenvaluesOnly).eigenvalues();  // ascending
+  const double tolerance = kInertiaTolerance * l.cwiseAbs().maxCoeff();
+  if ((I - I.transpose()).cwiseAbs().maxCoeff() > tolerance) return "inertia is not symmetric";
+  if (l[0] < -tolerance) return "inertia is not positive semi-definite (eigenvalue " + Num(l[0]) + " kg·m²)";
+  // Ascending: the one triangle inequality that can fail is l2 <= l0 + l1.
+  if (l[2] > l[0] + l[1] + tolerance) {
+    return "principal moments " + Num(l[0]) + ", " + Num(l[1]) + ", " + Num(l[2]) +
+           " kg·m² violate the triangle inequality (" + Num(l[0]) + " + " + Num(l[1]) + " < " + Num(l[2]) +
+           "): no rigid body has them";
+  }
+  return std::nullopt;
+}
 
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
   const int n = tree.num_dofs();

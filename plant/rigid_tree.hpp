@@ -59,11 +59,20 @@ struct RigidTree {
   S PotentialEnergy(std::span<const S> q) const;
 };
 
+// Why I (3 x 3, kg·m², about the centre of mass) is not a rigid body's
+// rotational inertia, or nullopt. It must be finite, symmetric, positive
+// semi-definite, and its principal moments must obey the triangle inequality
+// (each <= the sum of the other two); each to kInertiaTolerance times its
+// largest principal moment in magnitude, for rounding in a file. The reason
+// reads "inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)".
+// The one check for ValidateRigidTree and the URDF loader.
+inline constexpr double kInertiaTolerance = 1e-9;
+std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
+
 // Why `tree` is not a valid model, as "KEY: expected ..., got ...", or nullopt:
 // sizes agree, 1..kMaxDofs joints, parents come first, rotations are proper
-// orthonormal, axes unit, all numbers finite, masses >= 0, inertias symmetric,
-// positive semi-definite and obeying the triangle inequality (physically
-// realisable), and M(0) positive definite (no massless leaf, no joint that
+// orthonormal, axes unit, all numbers finite, masses >= 0, inertias passing
+// CheckRotationalInertia (physically realisable), and M(0) positive definite (no massless leaf, no joint that
 // moves nothing).
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
 

@@ -32,7 +32,7 @@
 // types, no virtual dispatch, one branch on the joint type.
 //
 // Accuracy. Sines and cosines of all joint angles come from one vectorised
-// loop (plant/spatial_sincos.hpp, ≤ 1 ulp); every result agrees with the
+// loop (plant/spatial_sincos.hpp, within 2 ulp of the C library); every result agrees with the
 // Lagrangian path (LagrangianDynamics<RigidTree>) to 1e-12 relative
 // (tests/plant/rigid_tree_test.cpp).
 //

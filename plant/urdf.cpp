@@ -4,7 +4,6 @@
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
@@ -19,32 +18,49 @@
 #include <sstream>
 #include <system_error>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 namespace lagrange {
 namespace {
 
-constexpr std::size_t kMaxUrdfBytes = 16u << 20;  // a real robot's URDF is well under 1 MiB
-constexpr std::size_t kMaxNameChars = 64;         // of a name quoted in a message
-constexpr std::size_t kMaxMessageChars = 240;     // of one urdfdom message relayed
-constexpr int kMaxXmlDepth = 64;                  // element nesting; a URDF needs about 5
-constexpr double kMinAxisNorm = 1e-12;            // below this an <axis> has no direction
-// Inertia checks allow rounding in the file: 1e-9 of the largest principal moment.
-constexpr double kInertiaTolerance = 1e-9;
+constexpr std::size_t kMaxUrdfBytes = 2u << 20;  // a real robot's URDF is well under 1 MiB
+constexpr std::size_t kMaxNameChars = 64;        // of a name quoted in a message
+constexpr std::size_t kMaxMessageChars = 240;    // of one urdfdom message relayed
+constexpr int kMaxXmlDepth = 64;                 // element nesting; a URDF needs about 5
+// Elements, links and joints: two DOMs of a big file cost gigabytes, and
+// urdfdom frees a long chain of links recursively.
+constexpr std::size_t kMaxXmlElements = 65536;
+constexpr std::size_t kMaxLinks = 4096;
+constexpr std::size_t kMaxJoints = 4096;
+constexpr double kMinAxisNorm = 1e-12;  // below this an <axis> has no direction
 // A joint "moves nothing" when the inertia its motion meets is below this
 // fraction of its subtree's inertia about the joint origin.
 constexpr double kMotionInertiaTolerance = 1e-12;
 
-// Text from the file, made safe for a one-line message: control characters
-// escaped, at most `max_bytes` bytes (cut at a UTF-8 character boundary).
+// Text from the file, made safe for a one-line message as daemon/escape.hpp
+// does (callers print the message as it is): bytes below 0x20, 0x7f and '\'
+// written as C escapes (\n, \r, \t, \\, else \xhh), at most `max_bytes`
+// bytes of input (cut at a UTF-8 character boundary) with "..." when cut.
 std::string Printable(std::string_view text, std::size_t max_bytes = kMaxNameChars) {
+  static constexpr char kHex[] = "0123456789abcdef";
   std::size_t end = std::min(text.size(), max_bytes);
   while (end < text.size() && end > 0 && (static_cast<unsigned char>(text[end]) & 0xC0) == 0x80) --end;
   std::string out;
   for (const char ch : text.substr(0, end)) {
     const auto c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '\n': out += "\\n"; continue;
+      case '\r': out += "\\r"; continue;
+      case '\t': out += "\\t"; continue;
+      case '\\': out += "\\\\"; continue;
+      default: break;
+    }
     if (c < 0x20 || c == 0x7F) {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "\\x%02X", c);
-      out += hex;
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xF];
     } else {
       out += ch;
     }
@@ -65,54 +81,159 @@ std::string Number(double x) {
   return out.str();
 }
 
-// tinyxml (and urdfdom with it) parses nested elements recursively: a file of
-// a million nested tags overflows the stack. A URDF nests five deep or so;
-// count before parsing. Returns the 1-based line of the first element deeper
-// than kMaxXmlDepth, or 0. Comments, CDATA, declarations and quoted attribute
-// values are skipped; anything malformed is left to tinyxml.
-int LineTooDeep(std::string_view text) {
-  int depth = 0, line = 1;
-  std::size_t i = 0;
-  const auto skip_past = [&](std::string_view end) {
-    const std::size_t at = text.find(end, i);
-    const std::size_t stop = at == std::string_view::npos ? text.size() : at + end.size();
-    for (; i < stop; ++i) line += text[i] == '\n';
+// tinyxml 2.6.2 (ours, and urdfdom's) parses nested elements recursively: a file of a million
+// nested tags overflows the stack. A URDF nests five deep or so; the text is
+// scanned first the way tinyxml tokenises it, so its depth here is never below
+// tinyxml's while tinyxml goes on parsing (where tinyxml stops at an error,
+// what follows does not matter). With valid UTF-8 and no U+FEFF, U+FFFE or
+// U+FFFF after the start (checked before), tinyxml's UTF-8 and legacy modes
+// split the text at the same bytes:
+//   "<?xml" (any case)  a declaration: to a '>' outside the quoted values of
+//                       its version, encoding and standalone attributes
+//   "<!--"              to the next "-->" after it
+//   "<![CDATA["         to the next "]]>" after it
+//   "</"                an end tag, to '>': depth − 1, never below 0 (at the
+//                       top level tinyxml reads it as an unknown node)
+//   "<" letter, '_' or a byte >= 0x7f   a start tag, to a '>' outside quoted
+//                       values: depth + 1 unless it ends "/>"
+//   "<" anything else   an unknown node ("<!DOCTYPE", "<?pi", "<1"), to '>'
+bool IsXmlSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
+bool StartsXmlName(unsigned char c) { return c >= 0x7F || std::isalpha(c) || c == '_'; }
+bool InXmlName(unsigned char c) { return StartsXmlName(c) || std::isdigit(c) || c == '-' || c == '.' || c == ':'; }
+
+bool StartsWithNoCase(std::string_view text, std::string_view prefix) {
+  return text.size() >= prefix.size() && std::equal(prefix.begin(), prefix.end(), text.begin(), [](char a, char b) {
+           return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+         });
+}
+
+// Past tinyxml's declaration whose "<?xml" ends before `i`; text.size() where tinyxml stops.
+std::size_t PastDeclaration(std::string_view t, std::size_t i) {
+  const std::size_t n = t.size();
+  const auto skip_space = [&] {
+    while (i < n && IsXmlSpace(t[i])) ++i;
   };
-  while (i < text.size()) {
-    if (text[i] == '\n') ++line;
-    if (text[i] != '<') {
+  while (i < n) {
+    if (t[i] == '>') return i + 1;
+    skip_space();
+    const std::string_view rest = t.substr(i);
+    if (StartsWithNoCase(rest, "version") || StartsWithNoCase(rest, "encoding") ||
+        StartsWithNoCase(rest, "standalone")) {
+      while (i < n && InXmlName(static_cast<unsigned char>(t[i]))) ++i;
+      skip_space();
+      if (i == n || t[i] != '=') return n;
       ++i;
-      continue;
-    }
-    const std::string_view rest = text.substr(i);
-    if (rest.starts_with("<!--")) {
-      skip_past("-->");
-    } else if (rest.starts_with("<![CDATA[")) {
-      skip_past("]]>");
-    } else if (rest.starts_with("<?")) {
-      skip_past("?>");
-    } else if (rest.starts_with("<!")) {
-      skip_past(">");
-    } else if (rest.starts_with("</")) {
-      --depth;
-      skip_past(">");
-    } else {  // a start tag: find its '>' outside quoted values
-      const int at_line = line;
-      char quote = 0, last = 0;
-      for (++i; i < text.size() && (quote || text[i] != '>'); ++i) {
-        line += text[i] == '\n';
-        if (quote) {
-          quote = text[i] == quote ? 0 : quote;
-        } else if (text[i] == '"' || text[i] == '\'') {
-          quote = text[i];
+      skip_space();
+      if (i < n && (t[i] == '"' || t[i] == '\'')) {
+        const std::size_t close = t.find(t[i], i + 1);
+        if (close == std::string_view::npos) return n;
+        i = close + 1;
+      } else {
+        for (; i < n && !IsXmlSpace(t[i]) && t[i] != '/' && t[i] != '>'; ++i) {
+          if (t[i] == '"' || t[i] == '\'') return n;
         }
-        last = text[i];
       }
-      ++i;
-      if (last != '/' && ++depth > kMaxXmlDepth) return at_line;
+    } else {
+      while (i < n && t[i] != '>' && !IsXmlSpace(t[i])) ++i;
     }
   }
-  return 0;
+  return n;
+}
+
+struct XmlShape {
+  std::size_t too_deep_at = std::string_view::npos;  // offset of the first element deeper than kMaxXmlDepth
+  std::size_t elements = 0;                          // start tags
+};
+
+XmlShape ScanXml(std::string_view t) {
+  XmlShape shape;
+  int depth = 0;
+  const auto past = [&](std::size_t from, std::string_view end) {
+    const std::size_t at = t.find(end, from);
+    return at == std::string_view::npos ? t.size() : at + end.size();
+  };
+  for (std::size_t i = t.find('<'); i != std::string_view::npos; i = t.find('<', i)) {
+    const std::string_view rest = t.substr(i);
+    if (StartsWithNoCase(rest, "<?xml")) {
+      i = PastDeclaration(t, i + 5);
+    } else if (rest.starts_with("<!--")) {
+      i = past(i + 4, "-->");
+    } else if (rest.starts_with("<![CDATA[")) {
+      i = past(i + 9, "]]>");
+    } else if (rest.starts_with("</")) {
+      depth = std::max(depth - 1, 0);
+      i = past(i + 2, ">");
+    } else if (rest.size() > 1 && StartsXmlName(static_cast<unsigned char>(rest[1]))) {
+      std::size_t end = i + 1;
+      for (char quote = 0; end < t.size() && (quote || t[end] != '>'); ++end) {
+        if (quote) {
+          quote = t[end] == quote ? 0 : quote;
+        } else if (t[end] == '"' || t[end] == '\'') {
+          quote = t[end];
+        }
+      }
+      ++shape.elements;
+      if (end < t.size() && t[end - 1] != '/' && ++depth > kMaxXmlDepth) {
+        shape.too_deep_at = i;
+        return shape;
+      }
+      i = std::min(end + 1, t.size());
+    } else {
+      i = past(i + 1, ">");
+    }
+  }
+  return shape;
+}
+
+// The offset of the first byte that does not belong to valid UTF-8, or npos.
+std::size_t InvalidUtf8At(std::string_view t) {
+  for (std::size_t i = 0; i < t.size();) {
+    const auto c = static_cast<unsigned char>(t[i]);
+    const int length = c < 0x80                 ? 1
+                       : c >= 0xC2 && c <= 0xDF ? 2
+                       : c >= 0xE0 && c <= 0xEF ? 3
+                       : c >= 0xF0 && c <= 0xF4 ? 4
+                                                : 0;
+    if (length == 0 || i + length > t.size()) return i;
+    for (int k = 1; k < length; ++k) {
+      if ((static_cast<unsigned char>(t[i + k]) & 0xC0) != 0x80) return i;
+    }
+    const auto c1 = static_cast<unsigned char>(t[i + 1 < t.size() ? i + 1 : i]);
+    if ((c == 0xE0 && c1 < 0xA0) || (c == 0xED && c1 >= 0xA0) || (c == 0xF0 && c1 < 0x90) ||
+        (c == 0xF4 && c1 >= 0x90)) {
+      return i;  // overlong, a surrogate, or above U+10FFFF
+    }
+    i += length;
+  }
+  return std::string_view::npos;
+}
+
+std::string LineOf(std::string_view t, std::size_t at) {
+  return "line " + std::to_string(1 + std::count(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+}
+
+// What must hold before tinyxml sees the text (see ScanXml).
+void CheckXmlText(std::string_view t, const std::string& file) {
+  if (t.size() > kMaxUrdfBytes) Fail(file, "file", "larger than " + std::to_string(kMaxUrdfBytes >> 20) + " MiB");
+  if (t.find('\0') != std::string_view::npos) Fail(file, "file", "contains a NUL byte: not an XML text file");
+  if (const std::size_t at = InvalidUtf8At(t); at != std::string_view::npos) {
+    char byte[8];
+    std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(t[at]));
+    Fail(file, LineOf(t, at), std::string("not UTF-8 text (byte ") + byte + ")");
+  }
+  for (const char* bom : {"\xEF\xBB\xBF", "\xEF\xBF\xBE", "\xEF\xBF\xBF"}) {
+    if (const std::size_t at = t.find(bom, 1); at != std::string_view::npos) {
+      Fail(file, LineOf(t, at),
+           "U+FEFF, U+FFFE or U+FFFF after the start of the file (tinyxml takes it for white space)");
+    }
+  }
+  const XmlShape shape = ScanXml(t);
+  if (shape.too_deep_at != std::string_view::npos) {
+    Fail(file, LineOf(t, shape.too_deep_at), "elements nested deeper than " + std::to_string(kMaxXmlDepth));
+  }
+  if (shape.elements > kMaxXmlElements) {
+    Fail(file, "file", std::to_string(shape.elements) + " XML elements, more than " + std::to_string(kMaxXmlElements));
+  }
 }
 
 // ---------------------------------------------------------------------------
@@ -120,8 +241,10 @@ int LineTooDeep(std::string_view text) {
 // attributes are present), and checks whose messages should name the element.
 
 struct XmlJoint {
-  const TiXmlElement* element;
   std::string name, type, parent, child;
+  // Which of <limit lower upper> and <dynamics damping friction> the file
+  // gives: urdfdom reads an absent one as 0.
+  bool limit = false, lower = false, upper = false, dynamics = false, damping = false, friction = false;
 };
 
 struct XmlRobot {
@@ -194,7 +317,8 @@ std::string LinkOf(const TiXmlElement* joint, const char* role, const std::strin
 }
 
 XmlJoint ReadJoint(const TiXmlElement* e, int index, const std::string& file) {
-  XmlJoint j{e, RequiredName(e, "joint", index, file), "", "", ""};
+  XmlJoint j;
+  j.name = RequiredName(e, "joint", index, file);
   const std::string where = JointElement(j.name);
   const char* type = e->Attribute("type");
   if (type == nullptr) Fail(file, where, "no type attribute");
@@ -212,14 +336,35 @@ XmlJoint ReadJoint(const TiXmlElement* e, int index, const std::string& file) {
   CheckNumbers(e, kJointNumbers, file, where);
   j.parent = LinkOf(e, "parent", j.name, file);
   j.child = LinkOf(e, "child", j.name, file);
+  if (const TiXmlElement* limit = e->FirstChildElement("limit")) {
+    j.limit = true;
+    j.lower = limit->Attribute("lower") != nullptr;
+    j.upper = limit->Attribute("upper") != nullptr;
+  }
+  if (const TiXmlElement* dynamics = e->FirstChildElement("dynamics")) {
+    j.dynamics = true;
+    j.damping = dynamics->Attribute("damping") != nullptr;
+    j.friction = dynamics->Attribute("friction") != nullptr;
+  }
   return j;
 }
 
-XmlRobot ReadXml(const TiXmlDocument& doc, const std::string& file) {
+void CheckCount(const TiXmlElement* robot, const char* kind, std::size_t limit, const std::string& file,
+                const std::string& name) {
+  std::size_t count = 0;
+  for (const TiXmlElement* e = robot->FirstChildElement(kind); e; e = e->NextSiblingElement(kind)) ++count;
+  if (count > limit) {
+    Fail(file, "robot " + Quoted(name), std::to_string(count) + " " + kind + "s, more than " + std::to_string(limit));
+  }
+}
+
+XmlRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) Fail(file, "<robot>", "no <robot> element at the top level");
   const char* name = robot->Attribute("name");
   if (name == nullptr) Fail(file, "<robot>", "no name attribute");
+  CheckCount(robot, "link", kMaxLinks, file, name);
+  CheckCount(robot, "joint", kMaxJoints, file, name);
   XmlRobot xml{name, {}, {}};
   int index = 0;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"), ++index) {
@@ -233,6 +378,17 @@ XmlRobot ReadXml(const TiXmlDocument& doc, const std::string& file) {
     xml.joints.push_back(ReadJoint(e, index, file));
   }
   return xml;
+}
+
+// Our DOM lives only here: what we need is copied out before urdfdom builds its own.
+XmlRobot ReadXml(const std::string& text, const std::string& file) {
+  TiXmlDocument doc;
+  doc.Parse(text.c_str());
+  if (doc.Error()) {
+    Fail(file, "line " + std::to_string(doc.ErrorRow()) + ", column " + std::to_string(doc.ErrorCol()),
+         "malformed XML (" + Printable(doc.ErrorDesc()) + ")");
+  }
+  return ReadRobot(doc, file);
 }
 
 // A tree: unique names, joints between defined links, one parent per link,
@@ -368,20 +524,6 @@ MassProps Combined(const MassProps& a, const MassProps& b) {
   return {m, c, a.I + a.m * Steiner(a.c - c) + b.I + b.m * Steiner(b.c - c)};
 }
 
-// Why a symmetric inertia is not a rigid body's (about its centre of mass), or nullopt.
-std::optional<std::string> InertiaProblem(const Eigen::Matrix3d& I) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(I, Eigen::EigenvaluesOnly);
-  const Eigen::Vector3d l = solver.eigenvalues();  // ascending
-  const double tolerance = kInertiaTolerance * l.cwiseAbs().maxCoeff();
-  if (l[0] < -tolerance) return "inertia is not positive semi-definite (eigenvalue " + Number(l[0]) + " kg·m²)";
-  if (l[0] + l[1] < l[2] - tolerance) {
-    return "principal moments " + Number(l[0]) + ", " + Number(l[1]) + ", " + Number(l[2]) +
-           " kg·m² violate the triangle inequality (" + Number(l[0]) + " + " + Number(l[1]) + " < " + Number(l[2]) +
-           "): no rigid body has them";
-  }
-  return std::nullopt;
-}
-
 // A link's <inertial> in its own frame: centre of mass at <origin xyz>, the
 // tensor (given in the <origin> frame) turned into link axes.
 MassProps LinkMassProps(const urdf::Link& link, const std::string& file) {
@@ -391,7 +533,7 @@ MassProps LinkMassProps(const urdf::Link& link, const std::string& file) {
   if (in.mass < 0.0) Fail(file, where + " <mass>", "mass must be >= 0 kg, got " + Number(in.mass));
   Eigen::Matrix3d I;
   I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  if (const auto why = InertiaProblem(I)) Fail(file, where + " <inertia>", *why);
+  if (const auto why = CheckRotationalInertia(I)) Fail(file, where + " <inertia>", *why);
   const Frame f = ToFrame(in.origin);
   return {in.mass, f.p, f.R * I * f.R.transpose()};
 }
@@ -402,13 +544,13 @@ MassProps LinkMassProps(const urdf::Link& link, const std::string& file) {
 UrdfJointProperties JointProperties(const XmlJoint& xml, const urdf::Joint& joint, const std::string& file) {
   UrdfJointProperties p;
   const std::string where = JointElement(xml.name);
-  if (const TiXmlElement* limit = xml.element->FirstChildElement("limit"); limit && joint.limits) {
+  if (xml.limit && joint.limits) {
     // urdfdom requires effort and velocity in <limit> and reads absent lower/upper as 0.
     p.effort = joint.limits->effort;
     p.velocity = joint.limits->velocity;
     if (joint.type != urdf::Joint::CONTINUOUS) {
-      if (limit->Attribute("lower") != nullptr) p.lower = joint.limits->lower;
-      if (limit->Attribute("upper") != nullptr) p.upper = joint.limits->upper;
+      if (xml.lower) p.lower = joint.limits->lower;
+      if (xml.upper) p.upper = joint.limits->upper;
     }
     if (*p.effort < 0.0) Fail(file, where + " <limit>", "effort must be >= 0, got " + Number(*p.effort));
     if (*p.velocity < 0.0) Fail(file, where + " <limit>", "velocity must be >= 0, got " + Number(*p.velocity));
@@ -416,9 +558,9 @@ UrdfJointProperties JointProperties(const XmlJoint& xml, const urdf::Joint& join
       Fail(file, where + " <limit>", "lower " + Number(*p.lower) + " is above upper " + Number(*p.upper));
     }
   }
-  if (const TiXmlElement* dynamics = xml.element->FirstChildElement("dynamics"); dynamics && joint.dynamics) {
-    if (dynamics->Attribute("damping") != nullptr) p.damping = joint.dynamics->damping;
-    if (dynamics->Attribute("friction") != nullptr) p.friction = joint.dynamics->friction;
+  if (xml.dynamics && joint.dynamics) {
+    if (xml.damping) p.damping = joint.dynamics->damping;
+    if (xml.friction) p.friction = joint.dynamics->friction;
     if (p.damping && *p.damping < 0.0) {
       Fail(file, where + " <dynamics>", "damping must be >= 0, got " + Number(*p.damping));
     }
@@ -553,18 +695,9 @@ void CheckEveryJointMovesInertia(const RigidTree& tree, const std::vector<std::s
 }  // namespace
 
 UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
-  if (xml.find('\0') != std::string_view::npos) Fail(file, "file", "contains a NUL byte: not an XML text file");
-  if (const int line = LineTooDeep(xml)) {
-    Fail(file, "line " + std::to_string(line), "elements nested deeper than " + std::to_string(kMaxXmlDepth));
-  }
+  CheckXmlText(xml, file);
   const std::string text(xml);
-  TiXmlDocument doc;
-  doc.Parse(text.c_str());
-  if (doc.Error()) {
-    Fail(file, "line " + std::to_string(doc.ErrorRow()) + ", column " + std::to_string(doc.ErrorCol()),
-         "malformed XML (" + Printable(doc.ErrorDesc()) + ")");
-  }
-  const XmlRobot robot_xml = ReadXml(doc, file);
+  const XmlRobot robot_xml = ReadXml(text, file);
   const std::string root = CheckTree(robot_xml, file);
   const urdf::ModelInterfaceSharedPtr model = ParseWithUrdfdom(text, file, robot_xml.name);
   TreeBuilder builder(robot_xml, *model, file);
@@ -578,17 +711,61 @@ UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
   return robot;
 }
 
+namespace {
+
+std::string FileKind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a file";
+}
+
+class FileDescriptor {
+ public:
+  explicit FileDescriptor(int fd) : fd_(fd) {}
+  FileDescriptor(const FileDescriptor&) = delete;
+  FileDescriptor& operator=(const FileDescriptor&) = delete;
+  ~FileDescriptor() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
+std::string SystemReason(int error) { return std::generic_category().message(error); }
+
+}  // namespace
+
 UrdfRobot LoadUrdf(const std::string& path) {
-  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) Fail(path, "file", "cannot be opened (" + std::generic_category().message(errno) + ")");
+  // Non-blocking: opening a FIFO for reading would wait for a writer. Only a regular file is read.
+  const FileDescriptor fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC));
+  if (fd.get() < 0) {
+    const int error = errno;
+    Fail(path, "file", "cannot be opened (" + SystemReason(error) + ")");
+  }
+  struct stat status {};
+  if (::fstat(fd.get(), &status) != 0) {
+    const int error = errno;
+    Fail(path, "file", "cannot be read (" + SystemReason(error) + ")");
+  }
+  if (!S_ISREG(status.st_mode)) Fail(path, "file", "not a regular file (" + FileKind(status.st_mode) + ")");
   std::string text;
   char buffer[1 << 16];
-  std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, f.get())) > 0) {
-    text.append(buffer, n);
+  while (true) {
+    const ssize_t n = ::read(fd.get(), buffer, sizeof buffer);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int error = errno;
+      Fail(path, "file", "cannot be read (" + SystemReason(error) + ")");
+    }
+    if (n == 0) break;
+    text.append(buffer, static_cast<std::size_t>(n));
     if (text.size() > kMaxUrdfBytes) Fail(path, "file", "larger than " + std::to_string(kMaxUrdfBytes >> 20) + " MiB");
   }
-  if (std::ferror(f.get())) Fail(path, "file", "cannot be read (" + std::generic_category().message(errno) + ")");
   return ParseUrdf(text, path);
 }
 

@@ -34,8 +34,12 @@
 //
 // Checks, each a one-line UrdfError "FILE: ELEMENT: reason" (the caller picks
 // the exit code), in this order:
-//   the file      unreadable, over 16 MiB, a NUL byte, elements nested over 64 deep
-//                 (tinyxml would overflow the stack), malformed XML (line, column)
+//   the file      unreadable or not a regular file (a FIFO or device would block
+//                 or never end), over 2 MiB, a NUL byte, not UTF-8, U+FEFF/U+FFFE/
+//                 U+FFFF after the start; elements nested over 64 deep as tinyxml
+//                 tokenises them (it would overflow the stack) or more than 65536
+//                 elements; malformed XML (line, column); more than 4096 links or
+//                 4096 joints (urdfdom frees a chain of links recursively)
 //   the XML       no <robot> or no name; an element without a name; a joint type
 //                 that is not revolute/continuous/prismatic/fixed; <mimic>; any
 //                 number we use that is not finite (nan, inf, overflow); a link
@@ -51,10 +55,9 @@
 //                 lock of its own) and restores it, so nothing is printed. Any
 //                 error refuses, even when urdfdom still returns a model (it
 //                 does so for a bad <inertial>, zeroing the link's mass).
-//   the physics   a negative mass; an inertia that is not positive
-//                 semi-definite or whose principal moments violate the triangle
-//                 inequality (no rigid body has them), both to 1e-9 of its
-//                 largest moment; no moving joint, or more than kMaxDofs; a
+//   the physics   a negative mass; an inertia refused by CheckRotationalInertia
+//                 (plant/rigid_tree.hpp: not positive semi-definite, or principal
+//                 moments violating the triangle inequality); no moving joint, or more than kMaxDofs; a
 //                 joint that moves no inertia at q = 0 (a massless leaf, or a
 //                 revolute joint whose subtree lies on its axis: its row of M is
 //                 zero); last, ValidateRigidTree (which also requires M(0)
@@ -64,7 +67,9 @@
 //   "arm.urdf: joint 'j3': type 'floating' is not supported (a fixed-base tree: revolute, continuous, prismatic,
 //   fixed)" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)"
 //   "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint 'j7' moves nothing)"
-// Names from the file are quoted with control characters escaped.
+// Names and urdfdom's messages are quoted escaped as daemon/escape.hpp does
+// (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
+// name: the message is one line, safe to print as it is; do not escape it again.
 
 #include <optional>
 #include <stdexcept>

@@ -411,6 +411,33 @@ TEST(ValidateRigidTree, RefusesAnAsymmetricInertia) {
   ExpectRefused(tree, "bodies[0].inertia");
 }
 
+// One tolerance, kInertiaTolerance of the largest principal moment, at any
+// scale: rounding just inside it is accepted, just outside refused, for a
+// gram-millimetre body as for a tonne-metre one.
+TEST(CheckRotationalInertia, ToleranceIsRelativeToTheLargestPrincipalMomentAtAnyScale) {
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  for (const double scale : {1e-9, 1.0, 1e6}) {
+    SCOPED_TRACE(scale);
+    const auto turned = [&](double a, double b, double c) {
+      return Eigen::Matrix3d(scale * R * Eigen::Vector3d(a, b, c).asDiagonal() * R.transpose());
+    };
+    EXPECT_EQ(CheckRotationalInertia(turned(0.5, 0.5, 1.0)), std::nullopt);  // a thin disc: the triangle's edge
+    EXPECT_EQ(CheckRotationalInertia(turned(0.0, 1.0, 1.0)), std::nullopt);  // a thin rod
+    EXPECT_EQ(CheckRotationalInertia(turned(-0.5 * kInertiaTolerance, 1.0, 1.0)), std::nullopt);
+    EXPECT_EQ(CheckRotationalInertia(turned(0.5, 0.5, 1.0 + 0.5 * kInertiaTolerance)), std::nullopt);
+    const auto negative = CheckRotationalInertia(turned(-2.0 * kInertiaTolerance, 1.0, 1.0));
+    ASSERT_TRUE(negative.has_value());
+    EXPECT_NE(negative->find("not positive semi-definite"), std::string::npos) << *negative;
+    const auto triangle = CheckRotationalInertia(turned(0.5, 0.5, 1.0 + 2.0 * kInertiaTolerance));
+    ASSERT_TRUE(triangle.has_value());
+    EXPECT_NE(triangle->find("triangle inequality"), std::string::npos) << *triangle;
+    Eigen::Matrix3d asymmetric = turned(1.0, 1.0, 1.0);
+    asymmetric(0, 1) += 2.0 * kInertiaTolerance * scale;
+    EXPECT_NE(CheckRotationalInertia(asymmetric), std::nullopt);
+  }
+  EXPECT_NE(CheckRotationalInertia(Eigen::Matrix3d::Constant(std::nan(""))), std::nullopt);
+}
+
 TEST(ValidateRigidTree, RefusesAMasslessLeaf) {
   RigidTree tree = ValidTree();
   tree.joints.push_back(TreeJoint{.name = "tip", .type = JointType::kRevolute, .parent = 4});

@@ -1,0 +1,32 @@
+// libFuzzer target: the URDF loader. Any text is either refused with a
+// one-line UrdfError or becomes a robot that ValidateRigidTree accepts and
+// whose mass matrix at q = 0 is finite; nothing else may escape, crash,
+// overflow the stack or trip a sanitizer. Seeded by scripts/fuzz with the
+// shipped robots and every URDF fixture.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "plant/spatial_dynamics.hpp"
+#include "plant/urdf.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace lagrange;
+  UrdfRobot robot;
+  try {
+    robot = ParseUrdf(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.urdf");
+  } catch (const UrdfError& e) {
+    if (std::string_view(e.what()).find('\n') != std::string_view::npos) __builtin_trap();  // one line
+    return 0;
+  }
+  if (ValidateRigidTree(robot.tree)) __builtin_trap();  // the loader returns only valid trees
+  if (robot.properties.size() != robot.tree.joints.size()) __builtin_trap();
+  const SpatialDynamics dynamics(robot.tree);
+  const int n = robot.tree.num_dofs();
+  MatrixXd M(n, n);
+  dynamics.ComputeMassMatrix(VectorXd::Zero(n), M);
+  if (!M.allFinite()) __builtin_trap();
+  return 0;
+}
