@@ -22,7 +22,7 @@ void CartPolePdController::ApplyGains(const Gains& gains) {
 void CartPolePdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   double u = 0.0;
   for (int i = 0; i < 2; ++i) {
-    u += gains_.kp[i] * JointError(joint_types()[i], sp.q[i], q[i]) + gains_.kd[i] * (sp.qd[i] - qd[i]);
+    u += gains_.kp[i] * Error(i, sp.q[i], q[i]) + gains_.kd[i] * (sp.qd[i] - qd[i]);
   }
   tau[0] = u;
   tau[1] = 0.0;

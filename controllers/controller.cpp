@@ -4,22 +4,46 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 namespace lagrange {
 
-double JointError(JointType type, double desired, double measured) {
+double JointError(bool wrap, double desired, double measured) {
   const double e = desired - measured;
-  if (type != JointType::kRevolute) return e;
+  if (!wrap) return e;
   // Wrap to (−π, π]; exact for |e| within a few turns, and correct at any size.
   double w = std::remainder(e, 2.0 * std::numbers::pi);
   if (w <= -std::numbers::pi) w += 2.0 * std::numbers::pi;
   return w;
 }
 
+double JointError(JointType type, double desired, double measured) {
+  return JointError(type == JointType::kRevolute, desired, measured);
+}
+
+std::vector<bool> WrappedJoints(const std::vector<JointType>& joints, const std::optional<JointLimits>& limits) {
+  std::vector<bool> wrap(joints.size());
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const int j = static_cast<int>(i);
+    const bool stopped = limits && j < limits->lower.size() && j < limits->upper.size() &&
+                         (std::isfinite(limits->lower[j]) || std::isfinite(limits->upper[j]));
+    wrap[i] = joints[i] == JointType::kRevolute && !stopped;
+  }
+  return wrap;
+}
+
 Controller::Controller(std::vector<JointType> joints, VectorXd torque_limits)
     : joints_(std::move(joints)),
+      wrap_(WrappedJoints(joints_, std::nullopt)),
       torque_limits_(std::move(torque_limits)),
       gain_bounds_(GainBounds::Unbounded(num_dofs())) {}
+
+void Controller::set_wrapped_joints(std::vector<bool> wrap) {
+  if (static_cast<int>(wrap.size()) != num_dofs()) {
+    throw std::invalid_argument("wrapped joints: expected " + std::to_string(num_dofs()) + " flags (one per joint)");
+  }
+  wrap_ = std::move(wrap);
+}
 
 bool Controller::Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   ComputeLaw(t, q, qd, sp, tau);
@@ -39,11 +63,12 @@ bool Controller::SetGains(const Gains& gains) {
 
 namespace {
 
-// The first |v_i| above max_i, or -1; a box left empty (no second box) has every gain above it.
+// The first |v_i| not within max_i, or -1; a box left empty (no second box)
+// has every gain above it, and a NaN bound admits nothing (fails closed).
 int FirstAbove(const VectorXd& v, const VectorXd& max) {
   if (max.size() != v.size()) return 0;
   for (int i = 0; i < v.size(); ++i) {
-    if (std::abs(v[i]) > max[i]) return i;
+    if (!(std::abs(v[i]) <= max[i])) return i;
   }
   return -1;
 }

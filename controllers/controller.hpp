@@ -21,11 +21,23 @@
 
 #include "controllers/trajectory.hpp"
 #include "plant/dynamics.hpp"
+#include "plant/effects.hpp"
 
 namespace lagrange {
 
-// Angle error wrapped to (−π, π] for revolute joints; plain difference for prismatic ones.
+// e = desired − measured, wrapped to (−π, π] when `wrap` (a joint that turns
+// freely: the short way round is the right way), else the plain difference.
+double JointError(bool wrap, double desired, double measured);
+// The same with wrap = (type is revolute): the error of a joint without stops.
 double JointError(JointType type, double desired, double measured);
+
+// Which joints' errors wrap (n): a revolute joint whose stops `limits` leave
+// unbounded on both sides (lower = −inf and upper = +inf, or no limits at
+// all) turns freely and wraps; a revolute joint with a finite stop on either
+// side, and every prismatic joint, does not: its setpoint is reached the way
+// the stops allow, however far (a Panda's ±2.9 rad joint from −2 to +2 goes
+// through 0, not through the stop at −2.9).
+std::vector<bool> WrappedJoints(const std::vector<JointType>& joints, const std::optional<JointLimits>& limits);
 
 // Proportional and derivative gains, one per joint (or per state for LQR-family controllers).
 struct Gains {
@@ -78,6 +90,11 @@ class Controller {
 
   int num_dofs() const { return static_cast<int>(joints_.size()); }
   const std::vector<JointType>& joint_types() const { return joints_; }
+  // Which joints' errors wrap to (−π, π] (WrappedJoints); default: the
+  // revolute ones. Set once at configure time by MakeController (from
+  // ControllerConfig::wrap); throws std::invalid_argument unless n entries.
+  const std::vector<bool>& wrapped_joints() const { return wrap_; }
+  void set_wrapped_joints(std::vector<bool> wrap);
   const VectorXd& torque_limits() const { return torque_limits_; }
   virtual std::string_view name() const = 0;
 
@@ -102,9 +119,14 @@ class Controller {
   virtual void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) = 0;
   // Copies gains that passed gain_bounds() into the law, without allocating.
   virtual void ApplyGains(const Gains&) {}
+  // Joint i's error q_d − q under wrapped_joints().
+  double Error(int i, double desired, double measured) const {
+    return JointError(static_cast<bool>(wrap_[static_cast<std::size_t>(i)]), desired, measured);
+  }
 
  private:
   std::vector<JointType> joints_;
+  std::vector<bool> wrap_;  // (n)
   VectorXd torque_limits_;
   GainBounds gain_bounds_;
 };

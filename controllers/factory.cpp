@@ -1,5 +1,6 @@
 #include "controllers/factory.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
@@ -132,8 +133,11 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
   b.kd_rule = std::string("Kd·h/λmin(M) <= 2") + at + mass;
   if (n < 2) return b;  // one joint: the two boxes are one
   const VectorXd diag = M.diagonal();
-  const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * M.inverse() * diag.cwiseSqrt().asDiagonal();
+  const Eigen::LLT<MatrixXd> llt(M);
+  if (llt.info() != Eigen::Success || !(diag.array() > 0.0).all()) return b;  // M(q0) not positive definite
+  const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * llt.solve(MatrixXd(diag.cwiseSqrt().asDiagonal()));
   const double c = Eigen::SelfAdjointEigenSolver<MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  if (!(std::isfinite(c) && c > 0.0)) return b;
   b.kp_max_per_joint = diag / (c * h * h);
   b.kd_max_per_joint = 2.0 * diag / (c * h);
   std::snprintf(mass, sizeof mass, " with c = λmax(M⁻¹diag(M)) = %.6g", c);
@@ -182,6 +186,9 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
     return std::string("model.method: ") + std::string(ToString(plant.type())) + " has no " +
            std::string(ToString(*c.model_method)) + " path";
   }
+  if (!c.wrap.empty() && static_cast<int>(c.wrap.size()) != n) {
+    return "wrap: expected " + std::to_string(n) + " flags (one per joint), got " + std::to_string(c.wrap.size());
+  }
   if (c.q0.size() != 0 && c.q0.size() != n) {
     return "q0: expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(c.q0.size());
   }
@@ -225,9 +232,12 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
       return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains, ControllerModel(c, plant));
     case ControllerType::kCartPolePd: return std::make_unique<CartPolePdController>(joints, torque_limits, c.gains);
     case ControllerType::kLqr: return MakeLqr(c, plant, torque_limits);
-    case ControllerType::kSwingUp:
+    case ControllerType::kSwingUp: {
+      std::unique_ptr<Controller> balancer = MakeLqr(c, plant, torque_limits);
+      if (!c.wrap.empty()) balancer->set_wrapped_joints(c.wrap);
       return std::make_unique<SwingUpController>(joints, torque_limits, c.swing_up, ControllerModel(c, plant),
-                                                 MakeLqr(c, plant, torque_limits));
+                                                 std::move(balancer));
+    }
   }
   throw std::invalid_argument("unknown controller");
 }
@@ -239,6 +249,7 @@ std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const Plan
   if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
   std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits);
   controller->set_gain_bounds(ComputeGainBounds(c, plant));
+  if (!c.wrap.empty()) controller->set_wrapped_joints(c.wrap);
   return controller;
 }
 

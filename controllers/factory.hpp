@@ -57,6 +57,11 @@ struct ControllerConfig {
   // The scene loader sets the scene's period and the instance's initial q.
   double period = 1e-3;
   VectorXd q0;
+  // Which joints' errors wrap to (−π, π] (WrappedJoints, controllers/
+  // controller.hpp), n flags; empty: every revolute joint's. The instance
+  // sets it from its plant's joints and its effects.limits (Instance), so a
+  // joint with a stop is driven the way the stop allows.
+  std::vector<bool> wrap;
 };
 
 // Checks a config against the plant: the type suits the plant (cart-pole
@@ -72,7 +77,11 @@ std::optional<std::string> ValidateController(const ControllerConfig& config, co
 //                                  with w_i = λmin(M) for every joint, or (the per-joint box, for
 //                                  n >= 2) w_i = M_ii/λmax(M⁻¹ diag M): kp within either, kd within either
 //   cartpole-pd (any sign)         |Kp_j| <= M_xx/h²,   |Kd_j| <= 2M_xx/h
-// with M = M(q0) of the plant.
+// with M = M(q0) of the plant: both PD boxes are evaluated at q0 only (the
+// instance's initial q, or 0), and M changes with q, so they are exact there
+// and approximate elsewhere; the per-joint box is the more pose-sensitive.
+// The per-joint box is left out (empty) when M(q0) is not positive definite
+// (its Cholesky factorisation fails) or c is not finite and positive.
 GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const VectorXd& q0, double period);
 // The same from a config's own period and q0. A continuous controller (the
 // law at every integrator stage) is not held over the tick: only the sizes,
@@ -93,7 +102,7 @@ std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, c
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains);
 
 // Builds the controller with its gain bounds (ComputeGainBounds(config,
-// plant)). Throws std::invalid_argument with the message ValidateController
+// plant)) and its wrapped joints (config.wrap). Throws std::invalid_argument with the message ValidateController
 // would give. torque_limits (n), +inf for none.
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,
                                            const VectorXd& torque_limits);

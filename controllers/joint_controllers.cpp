@@ -30,7 +30,7 @@ void PdController::ApplyGains(const Gains& gains) {
 
 void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   for (int i = 0; i < num_dofs(); ++i) {
-    const double e = JointError(joint_types()[i], sp.q[i], q[i]);
+    const double e = Error(i, sp.q[i], q[i]);
     const double edot = (options_.velocity_feedforward ? sp.qd[i] : 0.0) - qd[i];
     tau[i] = gains_.kp[i] * e + gains_.kd[i] * edot;
   }
@@ -64,7 +64,7 @@ void ComputedTorqueController::ApplyGains(const Gains& gains) {
 void ComputedTorqueController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   // a = qdd_d + Kd ė + Kp e, then tau = M a + C qd + G by the model's inverse dynamics.
   for (int i = 0; i < num_dofs(); ++i) {
-    const double e = JointError(joint_types()[i], sp.q[i], q[i]);
+    const double e = Error(i, sp.q[i], q[i]);
     a_[i] = sp.qdd[i] + gains_.kd[i] * (sp.qd[i] - qd[i]) + gains_.kp[i] * e;
   }
   model_->ComputeInverseDynamics(q, qd, a_, DynamicsTerms{}, tau);

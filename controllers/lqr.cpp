@@ -152,7 +152,7 @@ Gains StateFeedbackController::gains() const {
 void StateFeedbackController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   const int n = num_dofs();
   for (int i = 0; i < n; ++i) {
-    x_[i] = -JointError(joint_types()[i], sp.q[i], q[i]);
+    x_[i] = -Error(i, sp.q[i], q[i]);
     x_[n + i] = qd[i] - sp.qd[i];
   }
   u_ = u_eq_;

@@ -5,7 +5,13 @@ namespace lagrange {
 std::string Escape(std::string_view text, std::size_t max_bytes) {
   static constexpr char kHex[] = "0123456789abcdef";
   const bool cut = text.size() > max_bytes;
-  if (cut) text = text.substr(0, max_bytes);
+  if (cut) {
+    // Cut before the character that crosses max_bytes, not inside it: back
+    // over UTF-8 continuation bytes (10xxxxxx) to that character's first byte.
+    std::size_t end = max_bytes;
+    while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xc0) == 0x80) --end;
+    text = text.substr(0, end);
+  }
   std::string out;
   out.reserve(text.size() + 8);
   for (const char ch : text) {

@@ -9,8 +9,9 @@
 namespace lagrange {
 
 // `text` with every byte below 0x20, 0x7f (DEL) and '\\' written as a C
-// escape (\n, \t, \\, else \xHH), and cut to `max_bytes` of input with "..."
-// appended when longer. Bytes ≥ 0x80 pass unchanged (UTF-8 stays readable;
+// escape (\n, \t, \\, else \xHH), and cut to at most `max_bytes` of input
+// with "..." appended when longer; the cut falls on a character boundary
+// (never inside a UTF-8 sequence), so valid UTF-8 stays valid. Bytes ≥ 0x80 pass unchanged (UTF-8 stays readable;
 // C1 controls in UTF-8 form are two bytes that terminals do not act on).
 std::string Escape(std::string_view text, std::size_t max_bytes = 200);
 

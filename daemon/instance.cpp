@@ -17,15 +17,20 @@ Instance::Instance(const InstanceConfig& config)
   const VectorXd& limits = config.torque_limits.size() == num_dofs()
                                ? config.torque_limits
                                : VectorXd::Constant(num_dofs(), std::numeric_limits<double>::infinity());
-  controllers_.push_back(MakeController(config.controller, config.plant, limits));
+  // A joint with a stop is driven the way the stop allows; only free revolute joints wrap.
+  const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), config.effects.limits);
+  const auto make = [&](ControllerConfig c) {
+    c.wrap = wrap;
+    return MakeController(c, config.plant, limits);
+  };
+  controllers_.push_back(make(config.controller));
   continuous_.push_back(config.controller.continuous);
   for (const ControllerConfig& c : config.alternates) {
-    controllers_.push_back(MakeController(c, config.plant, limits));
+    controllers_.push_back(make(c));
     continuous_.push_back(c.continuous);
   }
   if (config.controller.type != ControllerType::kNone) {
-    ControllerConfig none;
-    controllers_.push_back(MakeController(none, config.plant, limits));
+    controllers_.push_back(make(ControllerConfig{}));
     continuous_.push_back(false);
   }
   for (const auto& c : controllers_) scene_gains_.push_back(c->gains());

@@ -33,7 +33,10 @@ constexpr std::size_t kMaxJointNameBytes = 60;
 bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
                 const std::vector<std::string>& joints) {
   status_t s{};
-  s.last_rejection.assign(Reason{}.text.size() * 4, 'x');  // an escaped reason at its longest
+  // A reason at its longest: a Reason holds at most text.size() − 1 bytes
+  // (199, written escaped, then NUL); a tick's command error, an instance
+  // name (<= 48 bytes) + ": " + one of the tick's short static reasons, is shorter.
+  s.last_rejection.assign(Reason{}.text.size() - 1, 'x');
   s.last_command_error = s.last_rejection;
   s.num_instances = static_cast<std::int32_t>(instances.size());
   s.instance_names = instances;

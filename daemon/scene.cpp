@@ -96,8 +96,10 @@ bool IsOff(const YamlReader& node) {
 
 // The effects a URDF gives its joints, each on only where the file gives it:
 // stops at <limit lower upper> (±inf for joints without, the default
-// stiffness and damping), damping and Coulomb friction from <dynamics
-// damping friction> when some joint's is positive (0 for the others).
+// stiffness and damping; none either for a locked joint, lower == upper: a
+// stop of zero width is not one a spring of finite stiffness can hold, so
+// that joint moves freely unless the scene's effects.limits give it a stop), damping and Coulomb friction from
+// <dynamics damping friction> when some joint's is positive (0 for the others).
 EffectsConfig UrdfEffects(const UrdfRobot& robot) {
   EffectsConfig c;
   const int n = robot.tree.num_dofs();
@@ -109,7 +111,7 @@ EffectsConfig UrdfEffects(const UrdfRobot& robot) {
   bool any_limit = false;
   for (int i = 0; i < n; ++i) {
     const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(i)];
-    if (p.lower && p.upper) {
+    if (p.lower && p.upper && *p.lower < *p.upper) {
       limits.lower[i] = *p.lower;
       limits.upper[i] = *p.upper;
       any_limit = true;
@@ -126,7 +128,29 @@ EffectsConfig UrdfEffects(const UrdfRobot& robot) {
 // The scene's effects over `c` (a URDF's, or none): a key the scene writes
 // replaces what was there (inside friction and limits, key by key); `off`
 // switches an effect off.
-EffectsConfig ReadEffects(const YamlReader& node, int n, EffectsConfig c) {
+// The first joint whose stops are not lower < upper, named: "limits: expected
+// lower < upper for joint 'elbow', got 1 and 1".
+std::optional<EffectsError> CheckStops(const EffectsConfig& c, const std::vector<std::string>& names) {
+  if (!c.limits) return std::nullopt;
+  const JointLimits& l = *c.limits;
+  const auto size = static_cast<Eigen::Index>(names.size());
+  if (l.lower.size() != size || l.upper.size() != size) return std::nullopt;  // ValidateEffects says so
+  for (Eigen::Index i = 0; i < size; ++i) {
+    if (!(l.lower[i] < l.upper[i])) {
+      return EffectsError{"limits", "expected lower < upper for joint '" + Escape(names[static_cast<std::size_t>(i)]) +
+                                        "', got " + ShortestText(l.lower[i]) + " and " + ShortestText(l.upper[i])};
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<EffectsError> CheckEffects(const EffectsConfig& c, const std::vector<std::string>& names) {
+  if (auto err = CheckStops(c, names)) return err;
+  return ValidateEffects(c, static_cast<int>(names.size()));
+}
+
+EffectsConfig ReadEffects(const YamlReader& node, const std::vector<std::string>& names, EffectsConfig c) {
+  const int n = static_cast<int>(names.size());
   node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"});
   if (auto v = node.Optional("gravity")) c.gravity = v->Bool();
   if (auto v = node.Optional("coriolis")) c.coriolis = v->Bool();
@@ -176,7 +200,7 @@ EffectsConfig ReadEffects(const YamlReader& node, int n, EffectsConfig c) {
           Push{p.Required("start").Number(), p.Required("duration").PositiveNumber(), p.Required("tau").Vector(n)});
     }
   }
-  if (auto err = ValidateEffects(c, n)) node.Fail(err->key, err->message);
+  if (auto err = CheckEffects(c, names)) node.Fail(err->key, err->message);
   return c;
 }
 
@@ -277,13 +301,15 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     if (auto q = init->Optional("q")) inst.q0 = q->Vector(n);
     if (auto qd = init->Optional("qd")) inst.qd0 = qd->Vector(n);
   }
-  if (const auto* p = std::get_if<UrdfParams>(&inst.plant.params)) {
-    inst.effects = UrdfEffects(*p->robot);
-    if (auto err = ValidateEffects(inst.effects, n)) {
-      node.Required("plant").Fail("file", Escape(p->file) + ": its joints' " + err->key + ": " + err->message);
-    }
+  // A URDF's effects, then the scene's keys over them; the merged result is what is validated.
+  const auto* urdf_params = std::get_if<UrdfParams>(&inst.plant.params);
+  if (urdf_params) inst.effects = UrdfEffects(*urdf_params->robot);
+  const std::vector<std::string> names = JointNamesOf(inst.plant);
+  if (auto e = node.Optional("effects")) {
+    inst.effects = ReadEffects(*e, names, inst.effects);
+  } else if (auto err = urdf_params ? CheckEffects(inst.effects, names) : std::nullopt) {
+    node.Required("plant").Fail("file", Escape(urdf_params->file) + ": its joints' " + err->key + ": " + err->message);
   }
-  if (auto e = node.Optional("effects")) inst.effects = ReadEffects(*e, n, inst.effects);
   if (auto i = node.Optional("integrator")) {
     inst.integrator = ReadIntegrator(*i);
     if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {

@@ -3,19 +3,18 @@
 #include <algorithm>
 #include <charconv>
 #include <filesystem>
-#include <fstream>
 
 #include "daemon/escape.hpp"
 
 namespace lagrange {
-namespace {
 
-// Shortest text that reads back to the same double.
 std::string ShortestText(double x) {
   char buf[32];
   const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
   return std::string(buf, ec == std::errc() ? end : buf);
 }
+
+namespace {
 
 // A square matrix of size k: a list of k numbers (its diagonal) or k lists of k.
 MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
@@ -31,13 +30,15 @@ MatrixXd ReadSquareMatrix(const YamlReader& node, int k) {
   return m;
 }
 
-// A urdf plant's model: its robot, or another file's with the same joints, then params.
+// A urdf plant's model: its robot, or another file's with the same joints (the
+// plant's gravity, its own masses: mass_scale 1), then params.
 PlantSpec ReadUrdfModel(const YamlReader& node, const PlantSpec& plant, UrdfFiles& urdf) {
   PlantSpec model = plant;
   if (auto file = node.Optional("file")) {
     auto& p = std::get<UrdfParams>(model.params);
     p.robot = urdf.Load(*file);
     p.file = p.robot->file;
+    p.mass_scale = 1.0;  // another file's own masses; only the plant's gravity carries over
     const int n = plant.num_dofs(), m = model.num_dofs();
     if (m != n) {
       file->Fail(Escape(p.file) + " has " + std::to_string(m) + (m == 1 ? " moving joint" : " moving joints") +
@@ -92,14 +93,13 @@ std::shared_ptr<const UrdfRobot> UrdfFiles::Load(const YamlReader& node) {
   const std::filesystem::path path = std::filesystem::path(dir_) / name;  // an absolute name replaces dir_
   const std::string resolved = path.lexically_normal().string();
   if (auto it = loaded_.find(resolved); it != loaded_.end()) return it->second;
-  if (!std::ifstream(resolved) || std::filesystem::is_directory(path)) {
-    node.Fail("cannot read the URDF file " + Escape(resolved) + " (a relative path is from the scene's directory)");
-  }
   try {
     auto robot = std::make_shared<const UrdfRobot>(LoadUrdf(resolved));
     loaded_.emplace(resolved, robot);
     return robot;
-  } catch (const std::exception& e) {  // UrdfError, or anything the parser below it throws
+  } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
+    node.Fail(e.what());
+  } catch (const std::exception& e) {  // anything the parser below it throws
     node.Fail(Escape(e.what(), 400));
   }
 }

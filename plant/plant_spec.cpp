@@ -149,6 +149,27 @@ std::optional<SpecError> SetChainJoints(ChainParams& p, std::string_view text, i
   return std::nullopt;
 }
 
+// The tree the dynamics get (MakeRigidTree) is valid: a mass_scale can
+// overflow the inertias (1e308) or lose them to underflow, which only the
+// scaled tree shows. Reported under mass_scale.
+std::optional<SpecError> CheckScaledTree(const UrdfParams& p) {
+  if (!p.robot || p.mass_scale == 1.0) return std::nullopt;
+  if (auto err = ValidateRigidTree(MakeRigidTree(p))) {
+    return SpecError{"mass_scale", "expected a factor that leaves every link's mass and inertia valid, got " +
+                                       FormatNumber(p.mass_scale) + " (" + *err + ")"};
+  }
+  return std::nullopt;
+}
+
+// mass_scale within [1e-6, 1e6]: a factor for a model
+// error or a change of units, never one that takes a robot's inertias near
+// overflow (1e308) or its energies to inf.
+constexpr double kMinMassScale = 1e-6, kMaxMassScale = 1e6;
+std::optional<SpecError> CheckMassScaleRange(double scale) {
+  if (scale >= kMinMassScale && scale <= kMaxMassScale) return std::nullopt;
+  return SpecError{"mass_scale", "expected a factor from 1e-06 to 1e+06, got " + FormatNumber(scale)};
+}
+
 // A urdf plant's gravity ("gx,gy,gz") or mass_scale.
 std::optional<SpecError> SetUrdfParam(UrdfParams& p, std::string_view name, std::string_view text) {
   const std::string key(name);
@@ -176,6 +197,10 @@ std::optional<SpecError> SetUrdfParam(UrdfParams& p, std::string_view name, std:
     const std::optional<double> v = ParseFiniteNumber(text);
     if (!v) return SpecError{key, "expected a finite number, got '" + std::string(text) + "'"};
     if (auto err = CheckRange(name, *v, Range::kPositive, "a factor")) return err;
+    if (auto err = CheckMassScaleRange(*v)) return err;
+    UrdfParams scaled = p;
+    scaled.mass_scale = *v;
+    if (auto err = CheckScaledTree(scaled)) return err;
     p.mass_scale = *v;
     return std::nullopt;
   }
@@ -188,12 +213,13 @@ std::optional<SpecError> ValidateUrdf(const UrdfParams& p) {
   }
   if (!p.gravity.allFinite()) return SpecError{"gravity", "expected three finite numbers (m/s²)"};
   if (auto err = CheckRange("mass_scale", p.mass_scale, Range::kPositive, "a factor")) return err;
+  if (auto err = CheckMassScaleRange(p.mass_scale)) return err;
   const std::string& file = p.file.empty() ? p.robot->file : p.file;
   if (p.robot->properties.size() != p.robot->tree.joints.size()) {
     return SpecError{"file", file + ": expected one set of joint properties per moving joint"};
   }
   if (auto err = ValidateRigidTree(p.robot->tree)) return SpecError{"file", file + ": " + *err};
-  return std::nullopt;
+  return CheckScaledTree(p);
 }
 
 // How far body i's centre of mass can be from the world origin, m: the joint

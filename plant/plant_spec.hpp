@@ -83,8 +83,12 @@ std::optional<SpecError> SetPlantParam(PlantSpec& spec, std::string_view name, s
 // Sets the chain's number of links (1..kMaxDofs), keeping existing links.
 std::optional<SpecError> SetChainLinks(PlantSpec& spec, int links);
 
-// Checks that the parameters describe a physical plant with a positive
-// definite mass matrix at every configuration.
+// Checks that the parameters describe a physical plant. For the built-in
+// plants (positive masses, lengths and inertias) that makes M(q) positive
+// definite at every configuration. For a urdf plant it checks the tree the
+// dynamics get (after mass_scale): finite, positive masses, physical
+// inertias, and M positive definite at q = 0 only (ValidateRigidTree); other
+// configurations are not checked.
 std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec);
 
 // Closed forms exist for pendulum, arm2 and cartpole; every plant has the

@@ -49,24 +49,32 @@ std::int64_t NewRequestId() {
   return static_cast<std::int64_t>(id);
 }
 
-std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance) {
+std::vector<std::vector<std::string>> JointNamesByInstance(const status_t& status) {
   const auto instances = static_cast<std::size_t>(std::max(status.num_instances, 0));
   if (status.instance_names.size() != instances || status.instance_dofs.size() != instances ||
       status.joint_names.size() != static_cast<std::size_t>(std::max(status.num_joints, 0))) {
     return {};
   }
+  std::size_t total = 0;
+  for (const std::int32_t n : status.instance_dofs) {
+    if (n < 0) return {};
+    total += static_cast<std::size_t>(n);
+  }
+  if (total != status.joint_names.size()) return {};  // names that cannot be attributed are not attributed
+  std::vector<std::vector<std::string>> names(instances);
   std::size_t first = 0;
   for (std::size_t i = 0; i < instances; ++i) {
-    const std::int32_t n = status.instance_dofs[i];
-    if (n < 0 || first + static_cast<std::size_t>(n) > status.joint_names.size()) return {};
-    if (status.instance_names[i] == instance) {
-      std::vector<std::string> names;
-      for (std::size_t j = first; j < first + static_cast<std::size_t>(n); ++j) {
-        names.push_back(Escape(status.joint_names[j], 80));
-      }
-      return names;
-    }
-    first += static_cast<std::size_t>(n);
+    const auto n = static_cast<std::size_t>(status.instance_dofs[i]);
+    for (std::size_t j = first; j < first + n; ++j) names[i].push_back(Escape(status.joint_names[j], 80));
+    first += n;
+  }
+  return names;
+}
+
+std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance) {
+  std::vector<std::vector<std::string>> names = JointNamesByInstance(status);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (status.instance_names[i] == instance) return std::move(names[i]);
   }
   return {};
 }

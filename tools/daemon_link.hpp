@@ -43,10 +43,15 @@ struct BusOptions {
 // A fresh random non-zero id for a command.
 std::int64_t NewRequestId();
 
-// The joint names a status gives for `instance` (status_t.joint_names: every
-// instance's, instance after instance, instance_dofs[i] each), escaped for
-// printing; empty when the status names no such instance, carries no names,
-// or its counts do not add up.
+// Every instance's joint names from a status (status_t.joint_names: instance
+// after instance, instance_dofs[i] each), escaped for printing, one list per
+// instance; empty (no lists) when the status carries no names or its counts
+// do not add up (Σ instance_dofs ≠ num_joints, sizes that disagree with
+// their counts): names are never attributed to the wrong instance.
+std::vector<std::vector<std::string>> JointNamesByInstance(const status_t& status);
+// The joint names a status gives for `instance` (JointNamesByInstance); empty
+// when the status names no such instance, carries no names, or its counts do
+// not add up.
 std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance);
 
 // How long lagrangectl listens to an instance before acting, so that a second

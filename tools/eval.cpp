@@ -163,7 +163,9 @@ class EvalCommand final : public Command {
     PlantSpec spec;
     try {
       spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(urdf_)));
-    } catch (const std::exception& e) {
+    } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
+      throw UsageError("--urdf: " + std::string(e.what()));
+    } catch (const std::exception& e) {  // anything the parser below it throws
       throw UsageError("--urdf: " + Escape(e.what(), 400));
     }
     if (!gravity_.empty()) {

@@ -17,6 +17,7 @@
 #include "daemon/escape.hpp"
 #include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
+#include "tools/daemon_link.hpp"
 
 namespace lagrange::cli {
 namespace {
@@ -143,15 +144,15 @@ class StatusWriter final : public Writer {
     }
     header_ = true;
     std::string instances, joints;
-    std::size_t joint = 0;
+    // NAME=j1,j2,..: each instance's share of joint_names (none when the
+    // status carries none or its counts do not add up: JointNamesByInstance).
+    const std::vector<std::vector<std::string>> names = JointNamesByInstance(s);
     for (int i = 0; i < s.num_instances; ++i) {
       const auto k = static_cast<std::size_t>(i);
       instances += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + std::to_string(s.instance_modes[k]);
-      // NAME=j1,j2,..: this instance's share of joint_names (none when the status carries none).
       joints += (i ? ";" : "") + Escape(s.instance_names[k]) + "=";
-      for (std::int32_t j = 0; j < s.instance_dofs[k] && joint < s.joint_names.size(); ++j, ++joint) {
-        joints += (j ? "," : "") + Escape(s.joint_names[joint], 80);
-      }
+      if (k >= names.size()) continue;
+      for (std::size_t j = 0; j < names[k].size(); ++j) joints += (j ? "," : "") + names[k][j];
     }
     out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.ticks << ',' << s.ticks_in_window
         << ',' << FormatDouble(s.period);

@@ -8,6 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <numbers>
 
 #include "controllers/factory.hpp"
 #include "plant/urdf.hpp"
@@ -166,6 +167,112 @@ TEST(UrdfControllers, CartPoleControllersRefuseARobotAndLqrNeedsAnEquilibrium) {
   c.model = Robot("ur5");
   c.lqr.equilibrium = PandaPose();
   EXPECT_EQ(*ValidateController(c, panda), "model: expected the plant's type and size");
+}
+
+}  // namespace
+}  // namespace lagrange
+
+namespace lagrange {
+namespace {
+
+// The stops a URDF's <limit lower upper> gives (as a scene's effects.limits would).
+JointLimits UrdfStops(const PlantSpec& plant) {
+  const UrdfRobot& robot = *std::get<UrdfParams>(plant.params).robot;
+  const int n = plant.num_dofs();
+  JointLimits l;
+  l.lower = VectorXd::Constant(n, -kInf);
+  l.upper = VectorXd::Constant(n, kInf);
+  for (int i = 0; i < n; ++i) {
+    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(i)];
+    if (p.lower && p.upper) {
+      l.lower[i] = *p.lower;
+      l.upper[i] = *p.upper;
+    }
+  }
+  return l;
+}
+
+// Panda joint 1 has stops at ±2.8973 rad: a step from −2 to +2 is 4 rad the
+// way the stops allow (through 0), and −2.28 rad the short way round, which
+// runs into the −2.8973 stop. With the stops, its error is not wrapped, and
+// computed torque (critically damped, no overshoot) takes joint 1 up through
+// 0 to +2 without going below −2.
+TEST(UrdfControllers, APandaJointWithStopsReachesASetpointMoreThanPiAwayTheWayItsStopsAllow) {
+  const PlantSpec panda = Robot("panda");
+  const JointLimits stops = UrdfStops(panda);
+  ASSERT_NEAR(stops.lower[0], -2.8973, 1e-9);
+  ControllerConfig c =
+      Config(ControllerType::kComputedTorque, VectorXd::Constant(7, 100.0), VectorXd::Constant(7, 20.0), PandaPose());
+  c.wrap = WrappedJoints(JointTypesOf(panda), stops);
+  EXPECT_EQ(c.wrap, std::vector<bool>(7, false));
+  EffectsConfig effects;
+  effects.limits = stops;
+  VectorXd q0 = PandaPose();
+  q0[0] = -2.0;
+  ClosedLoop loop(panda, MakeController(c, panda, VectorXd::Constant(7, kInf)), q0, effects);
+  loop.setpoint.q = q0;
+  loop.setpoint.q[0] = 2.0;
+  double lowest = q0[0];
+  ASSERT_TRUE(loop.Run(3.0, kTick, nullptr, [&](double) { lowest = std::min(lowest, loop.q[0]); }));
+  EXPECT_NEAR(loop.q[0], 2.0, 1e-3);
+  EXPECT_GE(lowest, -2.0 - 1e-9);  // never towards the −2.8973 stop
+  EXPECT_LT((loop.q - loop.setpoint.q).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// A revolute joint without stops (continuous) still takes the short way: a
+// pendulum from 3.0 to −3.0 rad goes up through π (0.28 rad) to −3 + 2π,
+// not down through 0 (6 rad).
+TEST(UrdfControllers, AJointWithoutStopsStillTakesTheShortWayRound) {
+  const PlantSpec pendulum = DefaultPlantSpec(PlantType::kPendulum);
+  ControllerConfig c = Config(ControllerType::kComputedTorque, VectorXd::Constant(1, 100.0),
+                              VectorXd::Constant(1, 20.0), VectorXd::Constant(1, 3.0));
+  c.wrap = WrappedJoints(JointTypesOf(pendulum), std::nullopt);
+  EXPECT_EQ(c.wrap, std::vector<bool>{true});
+  ClosedLoop loop(pendulum, MakeController(c, pendulum, VectorXd::Constant(1, kInf)), VectorXd::Constant(1, 3.0));
+  loop.setpoint.q[0] = -3.0;
+  double lowest = 3.0;
+  ASSERT_TRUE(loop.Run(3.0, kTick, nullptr, [&](double) { lowest = std::min(lowest, loop.q[0]); }));
+  EXPECT_NEAR(loop.q[0], -3.0 + 2.0 * std::numbers::pi, 1e-3);
+  EXPECT_GE(lowest, 3.0 - 1e-9);
+}
+
+// The rule: a revolute joint wraps only when unbounded on both sides; one
+// finite stop is enough to stop wrapping; a prismatic joint never wraps.
+TEST(UrdfControllers, OnlyRevoluteJointsWithoutStopsWrap) {
+  const std::vector<JointType> joints = {JointType::kRevolute, JointType::kRevolute, JointType::kRevolute,
+                                         JointType::kPrismatic};
+  JointLimits l;
+  l.lower = (VectorXd(4) << -kInf, -1.0, -kInf, -kInf).finished();
+  l.upper = (VectorXd(4) << kInf, 1.0, 0.5, kInf).finished();
+  EXPECT_EQ(WrappedJoints(joints, l), (std::vector<bool>{true, false, false, false}));
+  EXPECT_EQ(WrappedJoints(joints, std::nullopt), (std::vector<bool>{true, true, true, false}));
+  EXPECT_NEAR(JointError(false, 2.0, -2.0), 4.0, 1e-15);
+  EXPECT_NEAR(JointError(true, 2.0, -2.0), 4.0 - 2.0 * std::numbers::pi, 1e-12);
+}
+
+// A gain bound that is not a number (M(q0) singular gives inf/NaN) accepts
+// no gain: the check fails closed, in either box.
+TEST(UrdfControllers, AGainBoundThatIsNotANumberAcceptsNoGain) {
+  GainBounds b = GainBounds::Unbounded(2);
+  b.kp_max.setConstant(std::numeric_limits<double>::quiet_NaN());
+  b.kp_max_per_joint = VectorXd::Constant(2, std::numeric_limits<double>::quiet_NaN());
+  b.kd_max_per_joint = VectorXd::Constant(2, kInf);
+  const Gains g{VectorXd::Constant(2, 1.0), VectorXd::Constant(2, 1.0)};
+  const auto fault = FindGainFault(g, b);
+  ASSERT_TRUE(fault);
+  EXPECT_EQ(fault->kind, GainFault::Kind::kAboveBound);
+  EXPECT_FALSE(fault->kd);
+}
+
+// The per-joint box is exact at q0 and left out where M(q0) gives no finite
+// scale; the λmin box is always there.
+TEST(UrdfControllers, PdGainBoundsAreFiniteAndPositiveAtTheInitialPose) {
+  const GainBounds b = ComputeGainBounds(ControllerType::kPd, Robot("panda"), PandaPose(), kTick);
+  ASSERT_EQ(b.kp_max_per_joint.size(), 7);
+  EXPECT_TRUE(b.kp_max.allFinite());
+  EXPECT_TRUE((b.kp_max.array() > 0.0).all());
+  EXPECT_TRUE(b.kp_max_per_joint.allFinite());
+  EXPECT_TRUE((b.kp_max_per_joint.array() > 0.0).all());
 }
 
 }  // namespace

@@ -438,6 +438,30 @@ TEST(BusEscape, EscapesControlsBackslashAndDel) {
   EXPECT_EQ(Escape("caf\xc3\xa9"), "caf\xc3\xa9");  // UTF-8 passes
 }
 
+// A cut at max_bytes that would fall inside a multi-byte character falls
+// before it: "é" is 2 bytes, "€" 3, "😀" 4; the result is whole characters.
+TEST(BusEscape, CutsOnACharacterBoundarySoUtf8StaysValid) {
+  EXPECT_EQ(Escape("ab\xc3\xa9"
+                   "cd",
+                   3),
+            "ab...");  // inside é: before it
+  EXPECT_EQ(Escape("ab\xc3\xa9"
+                   "cd",
+                   4),
+            "ab\xc3\xa9...");                     // after é: kept whole
+  EXPECT_EQ(Escape("a\xe2\x82\xac", 2), "a...");  // inside €
+  EXPECT_EQ(Escape("a\xe2\x82\xac", 3), "a...");
+  EXPECT_EQ(Escape("\xf0\x9f\x98\x80\xf0\x9f\x98\x80", 6), "\xf0\x9f\x98\x80...");  // inside the second 😀
+  // A joint name of 2-byte characters cut at the status's 60 bytes: 30 whole characters.
+  std::string name;
+  for (int i = 0; i < 40; ++i) name += "\xc3\xa9";
+  std::string expected;
+  for (int i = 0; i < 30; ++i) expected += "\xc3\xa9";
+  EXPECT_EQ(Escape(name, 60), expected + "...");
+  std::string odd = "x" + name;  // shifted by a byte: the cut falls inside the 30th é, so 29 are kept
+  EXPECT_EQ(Escape(odd, 60), "x" + expected.substr(0, 58) + "...");
+}
+
 TEST(BusEscape, TruncatesLongTextWithAnEllipsis) {
   EXPECT_EQ(Escape(std::string(300, 'x')), std::string(200, 'x') + "...");
   EXPECT_EQ(Escape(std::string(200, 'x')), std::string(200, 'x'));

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 
+#include "daemon/instance.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
 
@@ -263,8 +264,9 @@ TEST_F(UrdfScene, AMissingOrInvalidUrdfIsTheScenesErrorAtItsFileKey) {
       Write("scenes/missing.yaml", "instances:\n  - {name: r, plant: {type: urdf, file: nope.urdf}}\n");
   std::string what = ErrorOf(missing);
   EXPECT_EQ(what.rfind(missing.string() + ":2:", 0), 0u) << what;
-  EXPECT_NE(what.find(": instances[0].plant.file: cannot read the URDF file " + (dir_ / "scenes/nope.urdf").string() +
-                      " (a relative path is from the scene's directory)"),
+  // LoadUrdf's own line, with the reason the file could not be opened.
+  EXPECT_NE(what.find(": instances[0].plant.file: " + (dir_ / "scenes/nope.urdf").string() +
+                      ": file: cannot be opened (No such file or directory)"),
             std::string::npos)
       << what;
 
@@ -276,7 +278,7 @@ TEST_F(UrdfScene, AMissingOrInvalidUrdfIsTheScenesErrorAtItsFileKey) {
   EXPECT_NE(what.find(": instances[0].plant.file: " + (dir_ / "robots/floating.urdf").string() + ": "),
             std::string::npos)
       << what;
-  EXPECT_NE(what.find("floating"), std::string::npos) << what;
+  EXPECT_NE(what.find("type 'floating' is not supported"), std::string::npos) << what;
   EXPECT_EQ(what.find('\n'), std::string::npos) << what;
 
   const fs::path no_file = Write("scenes/no_file.yaml", "instances:\n  - {name: r, plant: {type: urdf}}\n");
@@ -288,4 +290,81 @@ TEST_F(UrdfScene, AMissingOrInvalidUrdfIsTheScenesErrorAtItsFileKey) {
 }
 
 }  // namespace
+// A locked joint (lower == upper, which the loader accepts) gets no stop: a
+// stop of zero width is not one a finite spring can hold. The scene's own
+// stops are applied before the merged limits are checked, and a bad pair
+// names its joint.
+TEST_F(UrdfScene, ALockedJointGetsNoStopAndTheScenesLimitsApplyBeforeTheCheck) {
+  std::string locked = kTwoJoints;
+  const std::string stops = R"(lower="-1.5" upper="1.5")";
+  locked.replace(locked.find(stops), stops.size(), R"(lower="0.2" upper="0.2")");
+  Write("robots/locked.urdf", locked);
+  const auto scene = [&](const std::string& extra) {
+    return Write("scenes/locked.yaml",
+                 "instances:\n  - name: robot\n    plant: {type: urdf, file: ../robots/locked.urdf}\n" + extra);
+  };
+  InstanceConfig robot = LoadScene(scene("").string()).instances[0];
+  EXPECT_FALSE(robot.effects.limits);  // j1 locked, j2 continuous: no stops at all
+  robot = LoadScene(scene("    effects: {limits: off}\n").string()).instances[0];
+  EXPECT_FALSE(robot.effects.limits);
+  robot = LoadScene(scene("    effects: {limits: {lower: [0.1, -.inf], upper: [0.3, .inf]}}\n").string()).instances[0];
+  ASSERT_TRUE(robot.effects.limits);
+  EXPECT_EQ(robot.effects.limits->lower[0], 0.1);
+  EXPECT_EQ(robot.effects.limits->upper[0], 0.3);
+  const std::string what = ErrorOf(scene("    effects: {limits: {lower: [0.1, 0.5], upper: [0.3, 0.5]}}\n"));
+  EXPECT_NE(what.find("effects.limits: expected lower < upper for joint 'j2', got 0.5 and 0.5"), std::string::npos)
+      << what;
+  EXPECT_EQ(what.find("index"), std::string::npos) << what;
+}
+
+// A mass_scale that overflows the inertias is refused at its own key, not
+// later when the dynamics are built.
+TEST_F(UrdfScene, AMassScaleThatOverflowsTheInertiasIsRefusedAtItsKey) {
+  const std::string what = ErrorOf(Scene(", params: {mass_scale: 1e308}"));
+  EXPECT_NE(what.find("instances[0].plant.params.mass_scale: expected a factor from 1e-06 to 1e+06, got 1e+308"),
+            std::string::npos)
+      << what;
+  const std::string model = ErrorOf(Scene("",
+                                          "    controller: {type: gravity-compensation, model: {params: "
+                                          "{mass_scale: 1e308}}}\n"));
+  EXPECT_NE(model.find("model.params.mass_scale: expected a factor from 1e-06 to 1e+06, got 1e+308"), std::string::npos)
+      << model;
+}
+
+// `model: {file: ...}` takes the plant's gravity, not its mass_scale: the
+// other file's own masses unless the model's params scale them.
+TEST_F(UrdfScene, AModelFileInheritsThePlantsGravityButNotItsMassScale) {
+  const InstanceConfig robot = LoadScene(Scene(", gravity: [0, -9.81, 0], params: {mass_scale: 2}", R"(    controller:
+      type: gravity-compensation
+      model: {file: ../robots/two.urdf}
+    controllers:
+      - {type: computed-torque, kp: 100, kd: 20, model: {file: ../robots/two.urdf, params: {mass_scale: 3}}}
+)")
+                                             .string())
+                                   .instances[0];
+  const auto& plant = std::get<UrdfParams>(robot.plant.params);
+  ASSERT_EQ(plant.mass_scale, 2.0);
+  const auto& own = std::get<UrdfParams>(robot.controller.model->params);
+  EXPECT_EQ(own.mass_scale, 1.0);
+  EXPECT_EQ(own.gravity, plant.gravity);
+  EXPECT_EQ(std::get<UrdfParams>(robot.alternates[0].model->params).mass_scale, 3.0);
+  // The model's G is half the plant's (the file's masses, not twice them).
+  const VectorXd q = (VectorXd(2) << 0.3, -0.4).finished();
+  VectorXd G(2), Gm(2);
+  MakeDynamics(robot.plant, Method::kRecursive)->ComputeGravityForce(q, G);
+  MakeDynamics(*robot.controller.model, Method::kRecursive)->ComputeGravityForce(q, Gm);
+  EXPECT_LE((2.0 * Gm - G).norm(), 1e-12 * G.norm());
+}
+
+// The instance's controllers wrap only the joints its stops leave free: on
+// two.urdf j1 (stops at ±1.5) is driven the plain difference, j2
+// (continuous) the short way; `limits: off` frees j1 too.
+TEST_F(UrdfScene, TheInstancesControllersWrapOnlyJointsWithoutStops) {
+  const std::string control = "    controller: {type: pd, kp: 1, kd: 0.1}\n";
+  Instance stopped(LoadScene(Scene("", control).string()).instances[0]);
+  EXPECT_EQ(stopped.controller().wrapped_joints(), (std::vector<bool>{false, true}));
+  Instance free(LoadScene(Scene("", control + "    effects: {limits: off}\n").string()).instances[0]);
+  EXPECT_EQ(free.controller().wrapped_joints(), (std::vector<bool>{true, true}));
+}
+
 }  // namespace lagrange

@@ -312,6 +312,8 @@ TEST(EvalUrdf, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
       {{"--urdf", kPanda, "--links", "3", "--q", zeros, "--qd", zeros}, "--links: a urdf robot has the joints"},
       {{"--urdf", kPanda, "--param", "mass_scale=-1", "--q", zeros, "--qd", zeros},
        "--param mass_scale: expected a positive number"},
+      {{"--urdf", kPanda, "--param", "mass_scale=1e308", "--q", zeros, "--qd", zeros},
+       "--param mass_scale: expected a factor from 1e-06 to 1e+06, got 1e+308"},
       {{"--urdf", kPanda, "--param", "m1=2", "--q", zeros, "--qd", zeros},
        "--param m1: unknown parameter for urdf (expected one of gravity, mass_scale)"},
       {{"--urdf", kPanda, "--q", "0,0,0,0,0,0", "--qd", zeros}, "--q: expected 7 values (one per joint), got 6"},

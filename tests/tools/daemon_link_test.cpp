@@ -1,0 +1,47 @@
+// Joint names from a status: each instance's share of status_t.joint_names,
+// or none at all when the counts do not add up (never misattributed).
+
+#include "tools/daemon_link.hpp"
+
+#include <gtest/gtest.h>
+#include <lagrange/status_t.hpp>
+
+namespace lagrange::cli {
+namespace {
+
+status_t Status(std::vector<std::string> instances, std::vector<std::int32_t> dofs, std::vector<std::string> joints) {
+  status_t s{};
+  s.num_instances = static_cast<std::int32_t>(instances.size());
+  s.instance_names = std::move(instances);
+  s.instance_modes.assign(s.instance_names.size(), 0);
+  s.instance_dofs = std::move(dofs);
+  s.num_joints = static_cast<std::int32_t>(joints.size());
+  s.joint_names = std::move(joints);
+  return s;
+}
+
+TEST(JointNames, EachInstanceGetsItsShareInOrder) {
+  const status_t s = Status({"arm", "pole"}, {2, 1}, {"shoulder", "elbow", "hinge"});
+  EXPECT_EQ(JointNamesByInstance(s), (std::vector<std::vector<std::string>>{{"shoulder", "elbow"}, {"hinge"}}));
+  EXPECT_EQ(JointNamesIn(s, "pole"), std::vector<std::string>{"hinge"});
+  EXPECT_TRUE(JointNamesIn(s, "other").empty());
+}
+
+// Σ instance_dofs ≠ num_joints: which names belong to which instance is not
+// known, so none are given (rather than the first instance's taking them).
+TEST(JointNames, CountsThatDoNotAddUpAttributeNoNames) {
+  EXPECT_TRUE(JointNamesByInstance(Status({"arm", "pole"}, {2, 1}, {"a", "b", "c", "d"})).empty());
+  EXPECT_TRUE(JointNamesByInstance(Status({"arm", "pole"}, {2, 2}, {"a", "b", "c"})).empty());
+  EXPECT_TRUE(JointNamesIn(Status({"arm", "pole"}, {1, 1}, {"a", "b", "c"}), "arm").empty());
+  EXPECT_TRUE(JointNamesByInstance(Status({"arm"}, {-1}, {})).empty());
+  status_t wrong_count = Status({"arm"}, {1}, {"a"});
+  wrong_count.num_joints = 2;
+  EXPECT_TRUE(JointNamesByInstance(wrong_count).empty());
+}
+
+TEST(JointNames, NamesAreEscapedForPrinting) {
+  EXPECT_EQ(JointNamesIn(Status({"arm"}, {1}, {"bad\nname"}), "arm"), std::vector<std::string>{"bad\\nname"});
+}
+
+}  // namespace
+}  // namespace lagrange::cli
