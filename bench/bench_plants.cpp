@@ -92,4 +92,22 @@ void EvaluateTerm(const Dynamics& d, DynamicsTerm term, const State& s, MatrixXd
   }
 }
 
+void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term) {
+  constexpr int kStates = 16;
+  std::mt19937 rng{42};
+  const std::vector<State> states = RandomStates(d.joint_types(), kStates, rng);
+  const int n = d.num_dofs();
+  MatrixXd M(n, n);
+  VectorXd v(n);
+  int k = 0;
+  for (auto _ : bm) {
+    EvaluateTerm(d, term, states[k], M, v);
+    benchmark::DoNotOptimize(M.data());
+    benchmark::DoNotOptimize(v.data());
+    benchmark::ClobberMemory();
+    k = (k + 1) % kStates;
+  }
+  bm.counters["dofs"] = n;
+}
+
 }  // namespace lagrange::bench

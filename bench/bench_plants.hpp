@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include <benchmark/benchmark.h>
+
 #include "plant/effects.hpp"
 #include "plant/plant_spec.hpp"
 #include "plant/rigid_tree.hpp"
@@ -81,5 +83,8 @@ inline constexpr DynamicsTerm kAllDynamicsTerms[] = {DynamicsTerm::kM, DynamicsT
 std::string_view TermName(DynamicsTerm term);
 // One call of `term` on state s; a matrix lands in M (n x n), a vector in v (n).
 void EvaluateTerm(const Dynamics& d, DynamicsTerm term, const State& s, MatrixXd& M, VectorXd& v);
+// Times `term` of `d` under Google Benchmark, cycling through 16 seeded random
+// states so no call sees a constant input; sets the counter "dofs".
+void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term);
 
 }  // namespace lagrange::bench

@@ -21,57 +21,20 @@
 namespace lagrange::bench {
 namespace {
 
-constexpr int kStates = 16;  // states cycled through, so no call sees a constant input
-
-enum class Term { kM, kC, kCqd, kG, kFD };
-
-std::string_view ToString(Term term) {
-  switch (term) {
-    case Term::kM: return "M";
-    case Term::kC: return "C";
-    case Term::kCqd: return "Cqd";
-    case Term::kG: return "G";
-    case Term::kFD: return "FD";
-  }
-  return "?";
-}
-
-// One call of `term` on state s; results land in M or v.
-void Evaluate(Dynamics& d, Term term, const State& s, MatrixXd& M, VectorXd& v) {
-  switch (term) {
-    case Term::kM: d.ComputeMassMatrix(s.q, M); break;
-    case Term::kC: d.ComputeCoriolisMatrix(s.q, s.qd, M); break;
-    case Term::kCqd: d.ComputeCoriolisForce(s.q, s.qd, v); break;
-    case Term::kG: d.ComputeGravityForce(s.q, v); break;
-    case Term::kFD: d.ComputeForwardDynamics(s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
-  }
-}
-
-void TimeTerm(benchmark::State& bm, const PlantSpec& spec, Method method, Term term) {
-  std::unique_ptr<Dynamics> d = MakeDynamics(spec, method);
-  std::mt19937 rng{42};
-  const std::vector<State> states = RandomStates(d->joint_types(), kStates, rng);
-  const int n = d->num_dofs();
-  MatrixXd M(n, n);
-  VectorXd v(n);
-  int k = 0;
-  for (auto _ : bm) {
-    Evaluate(*d, term, states[k], M, v);
-    benchmark::DoNotOptimize(M.data());
-    benchmark::DoNotOptimize(v.data());
-    benchmark::ClobberMemory();
-    k = (k + 1) % kStates;
-  }
-  bm.counters["dofs"] = n;
+void TimePlantTerm(benchmark::State& bm, const PlantSpec& spec, Method method, DynamicsTerm term) {
+  const std::unique_ptr<Dynamics> d = MakeDynamics(spec, method);
+  TimeTerm(bm, *d, term);
 }
 
 void RegisterPlant(const NamedPlant& plant) {
   for (Method method : MethodsOf(plant.spec.type())) {
-    for (Term term : {Term::kM, Term::kC, Term::kCqd, Term::kG, Term::kFD}) {
+    for (DynamicsTerm term :
+         {DynamicsTerm::kM, DynamicsTerm::kC, DynamicsTerm::kCqd, DynamicsTerm::kG, DynamicsTerm::kFD}) {
       const std::string name =
-          "derive/" + plant.name + "/" + std::string(lagrange::ToString(method)) + "/" + std::string(ToString(term));
-      benchmark::RegisterBenchmark(
-          name.c_str(), [spec = plant.spec, method, term](benchmark::State& bm) { TimeTerm(bm, spec, method, term); });
+          "derive/" + plant.name + "/" + std::string(lagrange::ToString(method)) + "/" + std::string(TermName(term));
+      benchmark::RegisterBenchmark(name.c_str(), [spec = plant.spec, method, term](benchmark::State& bm) {
+        TimePlantTerm(bm, spec, method, term);
+      });
     }
   }
 }

@@ -22,29 +22,14 @@
 namespace lagrange::bench {
 namespace {
 
-constexpr int kStates = 16;  // states cycled through, so no call sees a constant input
-
 std::unique_ptr<Dynamics> MakeTreeDynamics(const RigidTree& tree, Method method) {
   if (method == Method::kLagrangian) return std::make_unique<LagrangianDynamics<RigidTree>>(tree);
   return std::make_unique<SpatialDynamics>(tree);
 }
 
-void TimeTerm(benchmark::State& bm, const RigidTree& tree, Method method, DynamicsTerm term) {
+void TimeTreeTerm(benchmark::State& bm, const RigidTree& tree, Method method, DynamicsTerm term) {
   const std::unique_ptr<Dynamics> d = MakeTreeDynamics(tree, method);
-  std::mt19937 rng{42};
-  const std::vector<State> states = RandomStates(d->joint_types(), kStates, rng);
-  const int n = d->num_dofs();
-  MatrixXd M(n, n);
-  VectorXd v(n);
-  int k = 0;
-  for (auto _ : bm) {
-    EvaluateTerm(*d, term, states[k], M, v);
-    benchmark::DoNotOptimize(M.data());
-    benchmark::DoNotOptimize(v.data());
-    benchmark::ClobberMemory();
-    k = (k + 1) % kStates;
-  }
-  bm.counters["dofs"] = n;
+  TimeTerm(bm, *d, term);
 }
 
 void RegisterTree(const NamedTree& robot) {
@@ -52,8 +37,9 @@ void RegisterTree(const NamedTree& robot) {
     for (DynamicsTerm term : kAllDynamicsTerms) {
       const std::string name =
           "derive/" + robot.name + "/" + std::string(ToString(method)) + "/" + std::string(TermName(term));
-      benchmark::RegisterBenchmark(
-          name.c_str(), [tree = robot.tree, method, term](benchmark::State& bm) { TimeTerm(bm, tree, method, term); });
+      benchmark::RegisterBenchmark(name.c_str(), [tree = robot.tree, method, term](benchmark::State& bm) {
+        TimeTreeTerm(bm, tree, method, term);
+      });
     }
   }
 }

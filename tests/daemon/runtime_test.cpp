@@ -255,44 +255,62 @@ TEST(Loop, TicksAreConsecutiveAndAFullRingDropsRecordsWithoutStopping) {
   EXPECT_EQ(runtime.instance(0).steps(), 20);
 }
 
-TEST(Loop, TheTickAllocatesNothingInAnyMode) {
-  Runtime runtime(TwoInstances());
-  testing::FakeClock clock;
-  SpscRing<TickRecord> ring(4096, runtime.MakeRecord());
-  Loop loop(runtime, clock, {kMs, OverrunPolicy::kCatchUp, 3}, ring);
-  std::atomic<bool> stop{false};
-  std::int64_t total = 0;
-  auto counted = [&](std::int64_t ticks) {
+// A loop on a fake clock that counts the heap allocations of the ticks it
+// runs, and posts commands to an instance as the receiver would.
+class CountedLoop {
+ public:
+  explicit CountedLoop(Runtime& runtime)
+      : runtime_(runtime),
+        ring_(4096, runtime.MakeRecord()),
+        loop_(runtime, clock_, {kMs, OverrunPolicy::kCatchUp, 3}, ring_) {}
+
+  // Runs `ticks` more ticks, adding their allocations to allocations().
+  void Run(std::int64_t ticks) {
     testing::AllocationCounter counter;
-    loop.Run(stop, loop.ticks() + ticks);
-    total += counter.count();
-  };
-  auto command = [&](CommandKind kind, int controller = -1) {
-    CommandMessage* c = runtime.channels(0).commands.BeginPush();
+    loop_.Run(stop_, loop_.ticks() + ticks);
+    allocations_ += counter.count();
+  }
+  void Command(std::size_t instance, CommandKind kind, int controller = -1) {
+    CommandMessage* c = runtime_.channels(instance).commands.BeginPush();
     c->kind = kind;
     c->controller = controller;
     c->gains.kp.setConstant(10.0);
     c->gains.kd.setConstant(1.0);
-    runtime.channels(0).commands.Push();
-  };
-  counted(50);  // running on the scene trajectory
+    runtime_.channels(instance).commands.Push();
+  }
+  std::int64_t allocations() const { return allocations_; }
+  std::int64_t ticks() const { return loop_.ticks(); }
+
+ private:
+  Runtime& runtime_;
+  testing::FakeClock clock_;
+  SpscRing<TickRecord> ring_;
+  Loop loop_;
+  std::atomic<bool> stop_{false};
+  std::int64_t allocations_ = 0;
+};
+
+TEST(Loop, TheTickAllocatesNothingInAnyMode) {
+  Runtime runtime(TwoInstances());
+  CountedLoop loop(runtime);
+  loop.Run(50);  // running on the scene trajectory
   SetpointMessage& m = runtime.channels(0).setpoints.back();
   m.setpoint.q << 0.7, 0.1;
   runtime.channels(0).setpoints.Publish();
-  counted(20);   // streamed setpoint
-  counted(100);  // timed out: hold
-  command(CommandKind::kSwitchController, 1);
-  command(CommandKind::kSetGains, 1);
-  command(CommandKind::kPause);
-  counted(10);
-  command(CommandKind::kResume);
+  loop.Run(20);   // streamed setpoint
+  loop.Run(100);  // timed out: hold
+  loop.Command(0, CommandKind::kSwitchController, 1);
+  loop.Command(0, CommandKind::kSetGains, 1);
+  loop.Command(0, CommandKind::kPause);
+  loop.Run(10);
+  loop.Command(0, CommandKind::kResume);
   runtime.PostUrgent(0, Urgent::kEstop, 5);  // the urgent path, as the receiver posts it
-  counted(10);
+  loop.Run(10);
   runtime.PostUrgent(0, Urgent::kClearEstop, 6);
-  command(CommandKind::kSetGains, 0);  // refused by the tick: formats nothing
-  command(CommandKind::kReset);
-  counted(10);
-  EXPECT_EQ(total, 0);
+  loop.Command(0, CommandKind::kSetGains, 0);  // refused by the tick: formats nothing
+  loop.Command(0, CommandKind::kReset);
+  loop.Run(10);
+  EXPECT_EQ(loop.allocations(), 0);
   EXPECT_EQ(loop.ticks(), 200);
 }
 
@@ -318,48 +336,31 @@ TEST(Loop, TheTickOfAUrdfRobotAllocatesNothingInAnyMode) {
             "    setpoint_timeout: 0.05\n";
   }
   Runtime runtime(ParseScene(text, "inline"));
-  testing::FakeClock clock;
-  SpscRing<TickRecord> ring(4096, runtime.MakeRecord());
-  Loop loop(runtime, clock, {kMs, OverrunPolicy::kCatchUp, 3}, ring);
-  std::atomic<bool> stop{false};
-  std::int64_t total = 0;
-  auto counted = [&](std::int64_t ticks) {
-    testing::AllocationCounter counter;
-    loop.Run(stop, loop.ticks() + ticks);
-    total += counter.count();
-  };
-  auto command = [&](std::size_t i, CommandKind kind, int controller = -1) {
-    CommandMessage* c = runtime.channels(i).commands.BeginPush();
-    c->kind = kind;
-    c->controller = controller;
-    c->gains.kp.setConstant(10.0);
-    c->gains.kd.setConstant(1.0);
-    runtime.channels(i).commands.Push();
-  };
-  counted(20);  // computed torque on the scene trajectory
+  CountedLoop loop(runtime);
+  loop.Run(20);  // computed torque on the scene trajectory
   for (std::size_t i = 0; i < 2; ++i) {
     SetpointMessage& m = runtime.channels(i).setpoints.back();
     m.setpoint.q[0] += 0.1;
     runtime.channels(i).setpoints.Publish();
   }
-  counted(10);  // streamed setpoint
+  loop.Run(10);  // streamed setpoint
   for (int controller = 1; controller <= 3; ++controller) {
-    for (std::size_t i = 0; i < 2; ++i) command(i, CommandKind::kSwitchController, controller);
-    counted(10);
+    for (std::size_t i = 0; i < 2; ++i) loop.Command(i, CommandKind::kSwitchController, controller);
+    loop.Run(10);
   }
-  counted(60);  // timed out: hold, under LQR
+  loop.Run(60);  // timed out: hold, under LQR
   for (std::size_t i = 0; i < 2; ++i) {
-    command(i, CommandKind::kSwitchController, 1);
-    command(i, CommandKind::kSetGains, 1);
+    loop.Command(i, CommandKind::kSwitchController, 1);
+    loop.Command(i, CommandKind::kSetGains, 1);
     runtime.PostUrgent(i, Urgent::kEstop, 7);
   }
-  counted(10);
+  loop.Run(10);
   for (std::size_t i = 0; i < 2; ++i) {
     runtime.PostUrgent(i, Urgent::kClearEstop, 8);
-    command(i, CommandKind::kReset);
+    loop.Command(i, CommandKind::kReset);
   }
-  counted(10);
-  EXPECT_EQ(total, 0);
+  loop.Run(10);
+  EXPECT_EQ(loop.allocations(), 0);
   EXPECT_EQ(loop.ticks(), 140);
   for (std::size_t i = 0; i < 2; ++i) EXPECT_NE(runtime.mode(i), Mode::kFault) << runtime.instance(i).name();
 }
