@@ -45,7 +45,7 @@
 namespace lagrange::bench {
 namespace {
 
-constexpr int kStates = 16;          // states cycled through while timing
+constexpr int kStates = 16;          // states cycled through while timing, as bench_plants.hpp TimeTerm does
 constexpr int kCheckStates = 8;      // states the agreement check compares
 constexpr double kAgreement = 1e-9;  // largest |lagrange − KDL| / (1 + max |KDL|) accepted
 
@@ -258,22 +258,10 @@ void TimeKdl(benchmark::State& bm, const RigidTree& tree, DynamicsTerm term) {
   bm.counters["dofs"] = kdl.num_joints();
 }
 
+// The same states as TimeKdl's (TimeTerm: 16 states from seed 42).
 void TimeLagrange(benchmark::State& bm, const RigidTree& tree, DynamicsTerm term) {
   const SpatialDynamics d(tree);
-  std::mt19937 rng{42};
-  const std::vector<State> states = RandomStates(tree.joint_types(), kStates, rng);
-  const int n = d.num_dofs();
-  MatrixXd M(n, n);
-  VectorXd v(n);
-  int k = 0;
-  for (auto _ : bm) {
-    EvaluateTerm(d, term, states[k], M, v);
-    benchmark::DoNotOptimize(M.data());
-    benchmark::DoNotOptimize(v.data());
-    benchmark::ClobberMemory();
-    k = (k + 1) % kStates;
-  }
-  bm.counters["dofs"] = n;
+  TimeTerm(bm, d, term);
 }
 
 // kdl/<robot>/<library>/<term>
