@@ -232,15 +232,7 @@ class BadCommands : public BadInput {
  protected:
   static command_t Command(int8_t kind, const std::string& controller = "", std::vector<double> kp = {},
                            std::vector<double> kd = {}) {
-    command_t c;
-    c.utime = WallMicros();
-    c.request_id = 0;
-    c.command = kind;
-    c.controller = controller;
-    c.num_gains = static_cast<int32_t>(kp.size());
-    c.kp = std::move(kp);
-    c.kd = std::move(kd);
-    return c;
+    return testing::MakeCommand(kind, 0, WallMicros(), controller, std::move(kp), std::move(kd));
   }
   std::optional<reply_t> FindReply(const std::string& instance, std::int64_t request_id) {
     for (const reply_t& r : collector_->Decoded<reply_t>(instance + "_REPLY")) {

@@ -123,15 +123,7 @@ class Bridge : public ::testing::Test {
   void SendFresh(std::vector<double> q) { SendSetpoint(std::move(q), clock_.WallMicros()); }
   static command_t Command(int8_t kind, std::int64_t request_id, const std::string& controller = "",
                            std::vector<double> kp = {}, std::vector<double> kd = {}) {
-    command_t c;
-    c.utime = 0;
-    c.request_id = request_id;
-    c.command = kind;
-    c.controller = controller;
-    c.num_gains = static_cast<int32_t>(kp.size());
-    c.kp = std::move(kp);
-    c.kd = std::move(kd);
-    return c;
+    return testing::MakeCommand(kind, request_id, 0, controller, std::move(kp), std::move(kd));
   }
   void SendCommand(const command_t& c) { input_.PublishMessage("ARM_COMMAND", c); }
 

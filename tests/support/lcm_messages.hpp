@@ -5,6 +5,7 @@
 #include <lagrange/setpoint_t.hpp>
 
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -28,6 +29,22 @@ inline setpoint_t MakeSetpoint(std::vector<double> q, std::int64_t utime, std::v
   s.qdd = qdd.empty() ? std::vector<double>(q.size(), 0.0) : std::move(qdd);
   s.q = std::move(q);
   return s;
+}
+
+// A command of `kind` (command_t's constants) sent at `utime` (µs); kd has
+// kp's size in a well-formed SET_GAINS, but a test may make them differ.
+inline command_t MakeCommand(int8_t kind, std::int64_t request_id, std::int64_t utime,
+                             const std::string& controller = "", std::vector<double> kp = {},
+                             std::vector<double> kd = {}) {
+  command_t c;
+  c.utime = utime;
+  c.request_id = request_id;
+  c.command = kind;
+  c.controller = controller;
+  c.num_gains = static_cast<int32_t>(kp.size());
+  c.kp = std::move(kp);
+  c.kd = std::move(kd);
+  return c;
 }
 
 // A well-formed command with every field in use: set-gains for "pd" on two
