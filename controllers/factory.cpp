@@ -21,6 +21,7 @@ constexpr EnumName<ControllerType> kControllerNames[] = {
     {ControllerType::kCartPolePd, "cartpole-pd"},
     {ControllerType::kLqr, "lqr"},
     {ControllerType::kSwingUp, "swing-up"},
+    {ControllerType::kExternal, "external"},
 };
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
@@ -199,6 +200,12 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;
   }
+  if (c.type == ControllerType::kExternal) {
+    if (!(std::isfinite(c.external.torque_timeout) && c.external.torque_timeout > 0.0)) {
+      return std::string("torque_timeout: expected a positive number of seconds");
+    }
+    if (c.continuous) return std::string("continuous: an external controller's torque is held over the tick");
+  }
   if (c.continuous && c.type == ControllerType::kSwingUp) {
     return std::string("continuous: swing-up keeps a mode and runs once per tick");
   }
@@ -238,6 +245,10 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
       return std::make_unique<SwingUpController>(joints, torque_limits, c.swing_up, ControllerModel(c, plant),
                                                  std::move(balancer));
     }
+    case ControllerType::kExternal:
+      return std::make_unique<ExternalController>(
+          joints, torque_limits, c.external.compensate_gravity ? ControllerModel(c, plant) : nullptr,
+          c.external.compensate_gravity);
   }
   throw std::invalid_argument("unknown controller");
 }

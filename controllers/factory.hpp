@@ -11,6 +11,7 @@
 
 #include "controllers/cartpole_pd.hpp"
 #include "controllers/controller.hpp"
+#include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
 #include "plant/plant_spec.hpp"
@@ -25,6 +26,7 @@ enum class ControllerType : std::uint8_t {
   kCartPolePd,           // the article's cart-pole PD on the cart force
   kLqr,                  // LQR about an equilibrium (cart-pole: upright)
   kSwingUp,              // energy swing-up handing over to LQR
+  kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
 };
 
 std::string_view ToString(ControllerType type);
@@ -38,12 +40,26 @@ struct LqrOptions {
   MatrixXd R;                                // (m x m); empty: identity
 };
 
+// An external controller: torques come over LCM from a program of the user's.
+struct ExternalOptions {
+  double torque_timeout = 0.05;  // s: no fresh torque for this long sends the instance to hold
+  std::string torque_channel;    // as written in the scene; "" for <PREFIX><NAME>_TORQUE
+  // Who holds the instance in hold-position: a configured controller's name,
+  // or "brake" (τ = −B q̇, the emergency-stop brake); nullopt: the first
+  // configured gravity-compensation or computed-torque controller, else brake.
+  std::optional<std::string> fallback;
+  // Add G(q) from the controller's model to the streamed torque, as Franka's
+  // FCI does: the client then commands the torque beyond gravity.
+  bool compensate_gravity = false;
+};
+
 struct ControllerConfig {
   ControllerType type = ControllerType::kNone;
   Gains gains;     // kp, kd (n each); empty where a type does not use them
   PdOptions pd;    // pd and gravity-compensation
   LqrOptions lqr;  // lqr and swing-up's balancer
   SwingUpOptions swing_up;
+  ExternalOptions external;
   // The controller's own model: the plant's spec with these changes (a
   // model error), and its derivation method (default: the fastest).
   std::optional<PlantSpec> model;

@@ -1,5 +1,8 @@
 #include "daemon/channels.hpp"
 
+#include "daemon/escape.hpp"
+#include "daemon/scene.hpp"
+
 #include <cctype>
 #include <cstdlib>
 
@@ -19,8 +22,83 @@ ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, co
     c.command.push_back(InstanceChannel(prefix, name, kCommandSuffix));
     c.reply.push_back(InstanceChannel(prefix, name, kReplySuffix));
   }
+  c.torque_in.assign(instance_names.size(), "");
+  c.measured_in.assign(instance_names.size(), "");
+  c.torque_out.assign(instance_names.size(), "");
   c.status = prefix + kStatusChannel;
   return c;
+}
+
+ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix) {
+  std::vector<std::string> names;
+  for (const InstanceConfig& inst : scene.instances) names.push_back(inst.name);
+  ChannelNames c = MakeChannelNames(names, prefix);
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    const InstanceConfig& inst = scene.instances[i];
+    std::vector<const ControllerConfig*> all = {&inst.controller};
+    for (const ControllerConfig& a : inst.alternates) all.push_back(&a);
+    for (const ControllerConfig* k : all) {
+      if (k->type != ControllerType::kExternal) continue;
+      c.torque_in[i] = k->external.torque_channel.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix)
+                                                          : k->external.torque_channel;
+    }
+    if (inst.external) {
+      c.measured_in[i] = inst.external->state_channel;
+      c.torque_out[i] = inst.external->torque_channel;
+    }
+  }
+  return c;
+}
+
+std::string CheckChannelName(const std::string& channel) {
+  if (channel.empty() || channel.size() > 63) {
+    return "expected an LCM channel name of 1 to 63 bytes, got " + std::to_string(channel.size());
+  }
+  for (const char ch : channel) {
+    if (ch <= ' ' || ch > '~') {
+      return "expected an LCM channel name of printable ASCII without spaces, got '" + Escape(channel, 64) + "'";
+    }
+  }
+  return "";
+}
+
+std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::string>& names) {
+  // Every output, with who publishes it.
+  std::vector<std::pair<std::string, std::string>> outputs;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    outputs.emplace_back(c.state[i], names[i] + "'s state");
+    outputs.emplace_back(c.reply[i], names[i] + "'s replies");
+    if (!c.torque_out[i].empty()) outputs.emplace_back(c.torque_out[i], names[i] + "'s torque_channel");
+  }
+  outputs.emplace_back(c.status, "the status");
+  for (std::size_t a = 0; a < outputs.size(); ++a) {
+    for (std::size_t b = a + 1; b < outputs.size(); ++b) {
+      if (outputs[a].first == outputs[b].first) {
+        return "channel " + outputs[a].first + " would carry both " + outputs[a].second + " and " +
+               outputs[b].second;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::pair<const std::string*, const char*> inputs[] = {
+        {&c.setpoint[i], "setpoints"}, {&c.command[i], "commands"}, {&c.torque_in[i], "torques"},
+        {&c.measured_in[i], "state_channel"}};
+    for (const auto& [channel, what] : inputs) {
+      if (channel->empty()) continue;
+      for (const auto& [out, who] : outputs) {
+        if (*channel == out) {
+          return names[i] + " reads its " + what + " from " + out + ", which this lagranged publishes (" + who +
+                 "): give it another --channel-prefix";
+        }
+      }
+    }
+    for (std::size_t j = i + 1; j < names.size(); ++j) {
+      if (!c.torque_in[i].empty() && c.torque_in[i] == c.torque_in[j]) {
+        return names[i] + " and " + names[j] + " would both take torques from " + c.torque_in[i];
+      }
+    }
+  }
+  return "";
 }
 
 std::string ResolveLcmUrl(const std::string& option) {

@@ -13,6 +13,7 @@ inline constexpr const char* kStateSuffix = "_STATE";
 inline constexpr const char* kSetpointSuffix = "_SETPOINT";
 inline constexpr const char* kCommandSuffix = "_COMMAND";
 inline constexpr const char* kReplySuffix = "_REPLY";
+inline constexpr const char* kTorqueSuffix = "_TORQUE";
 inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
 
 // prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
@@ -20,10 +21,26 @@ std::string InstanceChannel(const std::string& prefix, const std::string& instan
 
 struct ChannelNames {
   std::vector<std::string> state, setpoint, command, reply;  // one per instance
+  // One per instance, "" where the instance has none:
+  std::vector<std::string> torque_in;     // an external controller's torques (derived, or as the scene wrote it)
+  std::vector<std::string> measured_in;   // an external plant's measured state (as written)
+  std::vector<std::string> torque_out;    // an external plant's torque command (as written)
   std::string status;
 };
 
+// The derived names only (torque_in, measured_in, torque_out all "").
 ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix);
+
+struct Scene;
+// Every channel of a scene: the derived ones with the prefix, the ones the
+// scene writes as written.
+ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix);
+// Why this set of channels cannot work (an input that is one of this run's
+// outputs, an output two instances share), or "" when it can.
+std::string CheckChannelNames(const ChannelNames& channels, const std::vector<std::string>& instance_names);
+// A channel name a scene may write: 1-63 bytes of printable ASCII without
+// spaces. "" when valid, else what was expected.
+std::string CheckChannelName(const std::string& channel);
 
 // The default LCM URL when neither --lcm-url nor LCM_DEFAULT_URL is given.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";

@@ -4,6 +4,7 @@ namespace lagrange {
 
 Instance::Instance(const InstanceConfig& config)
     : config_(config),
+      external_(config.external.has_value()),
       model_(MakeDynamics(config.plant, config.method), config.effects),
       integrator_(MakeIntegrator(config.integrator, config.plant.num_dofs())),
       trajectory_(MakeTrajectory(config)),
@@ -33,7 +34,10 @@ Instance::Instance(const InstanceConfig& config)
     controllers_.push_back(make(ControllerConfig{}));
     continuous_.push_back(false);
   }
-  for (const auto& c : controllers_) scene_gains_.push_back(c->gains());
+  for (const auto& c : controllers_) {
+    scene_gains_.push_back(c->gains());
+    externals_.push_back(dynamic_cast<ExternalController*>(c.get()));
+  }
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
@@ -43,7 +47,7 @@ void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, o
 
 Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
-  const bool ok = integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
+  const bool ok = external_ || integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;  // no accumulated round-off over long runs
   model_.ComputeAcceleration(t_, q_, qd_, tau_cmd, qdd_);
   return ok ? nullptr : kIntegratorFailed;
@@ -60,8 +64,8 @@ void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef
 }
 
 // (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
-Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint) {
-  stage_law_.Bind(controller(), setpoint);
+Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law) {
+  stage_law_.Bind(law, setpoint);
   const bool ok = integrator_->Advance(model_, &stage_law_, t_, dt, tau_cmd_, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;
   model_.ComputeAcceleration(&stage_law_, t_, q_, qd_, tau_cmd_, qdd_);
@@ -71,10 +75,12 @@ Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& s
   return ok ? nullptr : kIntegratorFailed;
 }
 
-Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) {
+Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) { return Step(dt, setpoint, active_); }
+
+Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint, std::size_t index) {
   q_des_ = setpoint.q;
-  if (continuous_[active_]) return IntegrateContinuous(dt, setpoint);
-  const bool controlled = controller().Compute(t_, q_, qd_, setpoint, tau_cmd_);
+  if (continuous_[index] && !external_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
+  const bool controlled = controllers_[index]->Compute(t_, q_, qd_, setpoint, tau_cmd_);
   const StepFailure integrated = Integrate(dt, tau_cmd_);
   return controlled ? integrated : kControllerNotFinite;
 }

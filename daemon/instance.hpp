@@ -47,15 +47,26 @@ class Instance {
   static constexpr char kControllerNotFinite[] = "the controller's output was not finite";
   static constexpr char kIntegratorFailed[] = "the integrator failed its tolerance";
 
-  // (setpoint) => control, then (q, qd) at t + dt. Non-null when the
+  // (setpoint) => control, then (q, qd) at t + dt (an external plant: the
+  // control only, (q, qd) stay the measured ones). Non-null when the
   // controller faulted (non-finite law) or the integrator failed, naming
   // which; the state is then left as the integrator produced it and the
   // caller decides.
   StepFailure Step(double dt, const Setpoint& setpoint);
+  // The same under the controller at `index` instead of the active one (a fallback).
+  StepFailure Step(double dt, const Setpoint& setpoint, std::size_t index);
   // A step under the scene's own trajectory.
   StepFailure Step(double dt);
   // A step under a given commanded force, no controller (q_des unchanged).
   StepFailure StepWithTorque(double dt, ConstVecRef tau_cmd);
+  // An external plant's measured state (n each); no allocation.
+  void SetMeasured(ConstVecRef q, ConstVecRef qd) {
+    q_ = q;
+    qd_ = qd;
+  }
+  bool external_plant() const { return external_; }
+  // The external controller at `index`, or null for another type.
+  ExternalController* external_controller(std::size_t index) { return externals_[index]; }
   // The state to return to after a fault: steps, q, qd.
   struct Saved {
     std::int64_t steps = 0;
@@ -103,14 +114,16 @@ class Instance {
   };
 
   StepFailure Integrate(double dt, ConstVecRef tau_cmd);
-  StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint);
+  StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
 
   InstanceConfig config_;
+  bool external_;  // the plant is outside: nothing is integrated
   PlantModel model_;
   std::unique_ptr<Integrator> integrator_;
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
   std::vector<bool> continuous_;    // by controller index
+  std::vector<ExternalController*> externals_;  // by controller index, null for other types
   std::vector<Gains> scene_gains_;  // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;

@@ -24,6 +24,10 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
+// The longest reason a status can carry for one instance's mode (the tick's
+// static reasons and faults are shorter).
+constexpr std::size_t kLongestModeReason = 64;
+
 // Bytes of a joint name kept in a status (before escaping): a URDF's names are
 // the file's, of any length.
 constexpr std::size_t kMaxJointNameBytes = 60;
@@ -42,6 +46,7 @@ bool StatusFits(const std::vector<std::string>& instances, const std::vector<std
   s.instance_names = instances;
   s.instance_modes.assign(instances.size(), 0);
   s.instance_dofs = dofs;
+  s.instance_reasons.assign(instances.size(), std::string(kLongestModeReason, 'x'));
   s.num_joints = static_cast<std::int32_t>(joints.size());
   s.joint_names = joints;
   return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
@@ -101,18 +106,40 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
     const InstanceConfig& c = inst.config();
     std::vector<GainBounds> bounds;
     for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
-    info_.push_back({inst.name(), channels.setpoint[i], channels.command[i], channels.reply[i], inst.num_dofs(),
-                     CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                                  std::move(bounds)},
-                     SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout});
+    InstanceInfo info{inst.name(), channels.setpoint[i], channels.command[i], channels.reply[i], inst.num_dofs(),
+                      CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                                   std::move(bounds)},
+                      SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout};
+    std::vector<const ControllerConfig*> configs = {&c.controller};
+    for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
+    for (std::size_t k = 0; k < configs.size(); ++k) {
+      if (configs[k]->type != ControllerType::kExternal) continue;
+      info.external_controller = static_cast<int>(k);
+      info.torque_timeout = configs[k]->external.torque_timeout;
+    }
+    if (channels.torque_in.size() > i) info.torque_channel = channels.torque_in[i];
+    if (channels.measured_in.size() > i) info.measured_channel = channels.measured_in[i];
+    if (c.external) info.state_timeout = c.external->state_timeout;
+    info_.push_back(std::move(info));
     input_.Subscribe(channels.setpoint[i],
                      [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
     input_.Subscribe(channels.command[i],
                      [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
+    if (!info_[i].torque_channel.empty() && info_[i].external_controller >= 0) {
+      input_.Subscribe(info_[i].torque_channel,
+                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleTorque(i, d, n); });
+    }
+    if (!info_[i].measured_channel.empty()) {
+      input_.Subscribe(info_[i].measured_channel,
+                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleMeasured(i, d, n); });
+    }
   }
   if (output_listener_ != nullptr) {
     std::vector<std::string> outputs = channels.state;
     outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
+    for (const std::string& ch : channels.torque_out) {
+      if (!ch.empty()) outputs.push_back(ch);
+    }
     outputs.push_back(channels.status);
     for (const std::string& ch : outputs) {
       output_listener_->Subscribe(
@@ -213,14 +240,14 @@ std::int64_t SaturatingSub(std::int64_t a, std::int64_t b) {
 
 }  // namespace
 
-LcmReceiver::AgeVerdict LcmReceiver::Age(InstanceInfo& info, std::int64_t utime) {
+LcmReceiver::AgeVerdict LcmReceiver::Age(Timeline& info, double timeout, std::int64_t utime) {
   const std::int64_t now = clock_.WallMicros();
-  const auto timeout_us = static_cast<std::int64_t>(info.timeout * 1e6);
+  const auto timeout_us = static_cast<std::int64_t>(timeout * 1e6);
   const std::int64_t offset = SaturatingSub(now, utime);
   AgeVerdict v;
   if (age_ == SetpointAge::kWall) {
     v.age = static_cast<double>(offset) * 1e-6;
-    v.ok = v.age <= info.timeout && v.age >= -info.timeout;
+    v.ok = v.age <= timeout && v.age >= -timeout;
     return v;
   }
   const bool new_stream = info.last_arrival < 0 || now - info.last_arrival > timeout_us;
@@ -247,7 +274,7 @@ LcmReceiver::AgeVerdict LcmReceiver::Age(InstanceInfo& info, std::int64_t utime)
   info.candidate_count = 0;
   if (new_stream || offset < info.least_offset) info.least_offset = offset;
   v.age = static_cast<double>(offset - info.least_offset) * 1e-6;
-  v.ok = v.age <= info.timeout;
+  v.ok = v.age <= timeout;
   if (v.ok) info.last_arrival = now;
   return v;
 }
@@ -263,13 +290,10 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::s
     RejectSetpoint(i, verdict.reason);
     return;
   }
-  const AgeVerdict age = Age(info, setpoint_.utime);
+  const AgeVerdict age = Age(info.setpoints, info.timeout, setpoint_.utime);
   if (!age.ok) {
     // Refused and counted; it does not send the instance to hold (only the timeout does).
-    if (age.out_of_line) return RejectSetpoint(i, age.out_of_line);
-    return RejectSetpoint(
-        i, age.age > 0 ? fmt::format("stale: sent {:.6g} s ago (setpoint_timeout {:.6g} s)", age.age, info.timeout)
-                       : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age));
+    return RejectSetpoint(i, AgeReason(age, "setpoint_timeout", info.timeout));
   }
   SetpointMessage& m = runtime_.channels(i).setpoints.back();
   m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
@@ -277,6 +301,133 @@ void LcmReceiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::s
   m.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), info.n);
   runtime_.channels(i).setpoints.Publish();
   stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+std::string LcmReceiver::AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout) {
+  if (age.out_of_line) return age.out_of_line;
+  return age.age > 0 ? fmt::format("stale: sent {:.6g} s ago ({} {:.6g} s)", age.age, timeout_name, timeout)
+                     : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age);
+}
+
+void LcmReceiver::RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what,
+                              const std::string& why) {
+  Refuse(counter, stats_.last_setpoint_rejection, i, std::string(what) + ": " + why);
+  Warn(info_[i].name + ": " + what + " rejected: " + why);
+}
+
+// The first problem since the tick last looked stays: a good state after a bad one cannot hide it.
+void LcmReceiver::Trip(std::size_t i, MeasuredProblem problem, const std::string& why) {
+  std::uint8_t none = 0;
+  runtime_.channels(i).measured_problem.compare_exchange_strong(none, static_cast<std::uint8_t>(problem),
+                                                                std::memory_order_acq_rel);
+  RejectInput(i, stats_.measured_rejected, "measured state", why);
+}
+
+namespace {
+
+// The first non-finite or out-of-range value of `v` (|x| <= bound), as a reason; "" when none.
+std::string CheckValues(const char* field, const std::vector<double>& v, double bound) {
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!std::isfinite(v[k])) return fmt::format("non-finite value in {}[{}]", field, k);
+    if (std::abs(v[k]) > bound) return fmt::format("{}[{}] = {:.6g} is out of range (|x| <= {:.0e})", field, k, v[k], bound);
+  }
+  return "";
+}
+
+}  // namespace
+
+// (torque_t) => the external controller's mailbox: checked like a setpoint
+// (layout, size, finite, |tau| <= 1e6, age), and one sender at a time whose
+// sequence grows.
+void LcmReceiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckTorquePacket(data, size); w != WireCheck::kOk) {
+    return DecodeError(info.torque_channel, ToString(w));
+  }
+  if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(info.torque_channel, "decode failed");
+  std::atomic<std::int64_t>& rejected = stats_.torques_rejected;
+  if (torque_.num_dofs != info.n) {
+    return RejectInput(i, rejected, "torque",
+                       fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, info.n));
+  }
+  if (std::string why = CheckValues("tau", torque_.tau, kMaxSetpointMagnitude); !why.empty()) {
+    return RejectInput(i, rejected, "torque", why);
+  }
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  if (active != info.external_controller) {
+    return RejectInput(i, rejected, "torque",
+                       "the instance is not running its external controller (active: " +
+                           info.command_rules.controllers[static_cast<std::size_t>(active)] + ")");
+  }
+  if (torque_.run_id == 0) return RejectInput(i, rejected, "torque", "run_id 0: expected the sender's non-zero id");
+  // One sender at a time: while the current stream is fresh (a torque within
+  // torque_timeout), another run_id is refused and the sequence must grow;
+  // once it has lapsed, any sender starts a new stream.
+  const std::int64_t now = clock_.WallMicros();
+  const bool current_fresh = info.torque_source != 0 &&
+                             now - info.torque_last_us <= static_cast<std::int64_t>(info.torque_timeout * 1e6);
+  if (current_fresh && torque_.run_id != info.torque_source) {
+    return RejectInput(i, rejected, "torque",
+                       fmt::format("from a second sender (run_id {:016x}) while {:016x} streams",
+                                   static_cast<std::uint64_t>(torque_.run_id),
+                                   static_cast<std::uint64_t>(info.torque_source)));
+  }
+  if (current_fresh && torque_.sequence <= info.torque_sequence) {
+    return RejectInput(i, rejected, "torque",
+                       fmt::format("sequence {} does not grow (last {}): a duplicate or reordered packet",
+                                   torque_.sequence, info.torque_sequence));
+  }
+  const AgeVerdict age = Age(info.torques, info.torque_timeout, torque_.utime);
+  if (!age.ok) return RejectInput(i, rejected, "torque", AgeReason(age, "torque_timeout", info.torque_timeout));
+  info.torque_source = torque_.run_id;
+  info.torque_sequence = torque_.sequence;
+  info.torque_last_us = now;
+  TorqueMessage& m = runtime_.channels(i).torques.back();
+  m.tau = Eigen::Map<const VectorXd>(torque_.tau.data(), info.n);
+  runtime_.channels(i).torques.Publish();
+  stats_.torques_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+// (state_t) => an external plant's measured state, or a watchdog trip: the
+// wrong size, a non-finite (or |x| > 1e6) q or qd, or a run id other than the
+// previous packet's trip it; a stale one is refused and counted (its absence
+// trips the watchdog once state_timeout passes without a fresh one).
+void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckStatePacket(data, size); w != WireCheck::kOk) {
+    return DecodeError(info.measured_channel, ToString(w));
+  }
+  if (measured_.decode(data, 0, static_cast<int>(size)) < 0) {
+    return DecodeError(info.measured_channel, "decode failed");
+  }
+  if (measured_.num_dofs != info.n) {
+    return Trip(i, MeasuredProblem::kWrongSize,
+                fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, info.n));
+  }
+  for (const auto& [field, values] : {std::pair{"q", &measured_.q}, std::pair{"qd", &measured_.qd}}) {
+    if (std::string why = CheckValues(field, *values, kMaxSetpointMagnitude); !why.empty()) {
+      return Trip(i, MeasuredProblem::kNotFinite, why);
+    }
+  }
+  const std::int64_t previous = info.measured_source;
+  info.measured_source = measured_.run_id;
+  if (previous != 0 && measured_.run_id != previous) {
+    return Trip(i, MeasuredProblem::kSecondSource,
+                fmt::format("from run_id {:016x} after {:016x}: a second source, or the plant restarted",
+                            static_cast<std::uint64_t>(measured_.run_id), static_cast<std::uint64_t>(previous)));
+  }
+  const AgeVerdict age = Age(info.measured, info.state_timeout, measured_.utime);
+  if (!age.ok) {
+    return RejectInput(i, stats_.measured_rejected, "measured state",
+                       AgeReason(age, "state_timeout", info.state_timeout));
+  }
+  MeasuredMessage& m = runtime_.channels(i).measured.back();
+  m.q = Eigen::Map<const VectorXd>(measured_.q.data(), info.n);
+  m.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), info.n);
+  m.tick = measured_.tick;
+  m.run_id = measured_.run_id;
+  runtime_.channels(i).measured.Publish();
+  stats_.measured_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
 void LcmReceiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size) {
@@ -341,7 +492,14 @@ LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& r
     s.num_dofs = inst.num_dofs();
     for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
     states_.push_back(s);
+    torque_t tq;
+    tq.run_id = run_id_;
+    tq.sequence = 0;
+    tq.num_dofs = inst.num_dofs();
+    tq.tau.resize(static_cast<std::size_t>(tq.num_dofs));
+    torques_.push_back(tq);
     modes_.push_back(Mode::kRunning);
+    reasons_.push_back(nullptr);
     dofs_.push_back(inst.num_dofs());
     for (const std::string& joint : JointNamesOf(inst.config().plant)) {
       joint_names_.push_back(Escape(joint, kMaxJointNameBytes));
@@ -382,6 +540,7 @@ void LcmPublisher::Drain() {
 void LcmPublisher::Publish(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
+    if (r.publish_torque) PublishTorque(i, r, record.utime);  // first: the external plant waits for it
     state_t& s = states_[i];
     s.utime = record.utime;
     s.tick = record.tick;
@@ -410,9 +569,22 @@ void LcmPublisher::Publish(const TickRecord& record) {
   last_.tick = record.tick;
   last_.utime = record.utime;
   last_.overruns = record.overruns;
-  for (std::size_t i = 0; i < record.instances.size(); ++i) last_.instances[i].mode = record.instances[i].mode;
+  for (std::size_t i = 0; i < record.instances.size(); ++i) {
+    last_.instances[i].mode = record.instances[i].mode;
+    last_.instances[i].reason = record.instances[i].reason;
+  }
   have_record_ = true;
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
+}
+
+// (record) => torque_t on an external plant's torque_channel.
+void LcmPublisher::PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime) {
+  torque_t& t = torques_[i];
+  t.utime = utime;
+  ++t.sequence;
+  t.state_tick = r.state_tick;
+  std::copy_n(r.tau.data(), t.tau.size(), t.tau.data());
+  bus_.PublishMessage(channels_.torque_out[i], t);
 }
 
 // (tick verdicts) => one reply_t each, within the reply budget.
@@ -451,10 +623,12 @@ void LcmPublisher::LogEvents(const TickRecord& record) {
             suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
       }
     }
-    if (r.mode != modes_[i]) {
-      const auto level = r.mode == Mode::kFault || r.mode == Mode::kEstop ? spdlog::level::warn : spdlog::level::info;
-      spdlog::log(level, "{}: {} -> {} at t = {:.3f} s", names_[i], ToString(modes_[i]), ToString(r.mode), r.t);
+    if (r.mode != modes_[i] || r.reason != reasons_[i]) {
+      const bool alarm = r.mode == Mode::kFault || r.mode == Mode::kEstop || r.mode == Mode::kStopped;
+      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}", names_[i],
+                  ToString(modes_[i]), ToString(r.mode), r.t, r.reason ? fmt::format(" ({})", r.reason) : "");
       modes_[i] = r.mode;
+      reasons_[i] = r.reason;
     }
   }
 }
@@ -478,6 +652,10 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   s.state_messages_dropped = loop_.records_dropped();
   s.setpoints_accepted = stats_.setpoints_accepted.load(std::memory_order_relaxed);
   s.setpoints_rejected = stats_.setpoints_rejected.load(std::memory_order_relaxed);
+  s.torques_accepted = stats_.torques_accepted.load(std::memory_order_relaxed);
+  s.torques_rejected = stats_.torques_rejected.load(std::memory_order_relaxed);
+  s.measured_accepted = stats_.measured_accepted.load(std::memory_order_relaxed);
+  s.measured_rejected = stats_.measured_rejected.load(std::memory_order_relaxed);
   if (const Reason* r = stats_.last_setpoint_rejection.Take()) last_setpoint_rejection_ = r->text.data();
   if (const Reason* r = stats_.last_command_error.Take()) last_command_error_ = r->text.data();
   s.last_rejection = last_setpoint_rejection_;
@@ -496,6 +674,7 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   s.instance_names = names_;
   for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
   s.instance_dofs = dofs_;
+  for (const InstanceRecord& r : last.instances) s.instance_reasons.emplace_back(r.reason ? r.reason : "");
   s.num_joints = static_cast<int32_t>(joint_names_.size());
   s.joint_names = joint_names_;
   bus_.PublishMessage(channels_.status, s);

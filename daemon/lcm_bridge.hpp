@@ -4,7 +4,8 @@
 // format through daemon/bus.hpp, never through lcm::LCM (see there why).
 //
 // LcmReceiver (receive thread): for each instance it subscribes to
-// <NAME>_SETPOINT and <NAME>_COMMAND on the input bus, checks every packet's
+// <NAME>_SETPOINT and <NAME>_COMMAND on the input bus (and an external
+// controller's torque channel, an external plant's state_channel), checks every packet's
 // raw layout before decoding (daemon/wire.hpp), validates what it decodes,
 // and hands the good ones to the tick; bad ones are dropped, counted, and
 // their reason kept. It answers commands it refuses itself with a reply_t.
@@ -13,7 +14,8 @@
 // daemon, or a spoofer.
 //
 // LcmPublisher (publish thread): waits on an eventfd the tick writes, turns
-// each tick record into one state_t per instance on <NAME>_STATE, a reply_t
+// each tick record into a torque_t on an external plant's torque_channel
+// (first: it is the latency that counts), one state_t per instance on <NAME>_STATE, a reply_t
 // per command verdict on <NAME>_REPLY, and every 0.1 s of ticks a status_t
 // on LAGRANGE_STATUS (with every instance's joint names, from
 // JointNamesOf, escaped). It also logs mode changes, faults and refused
@@ -27,6 +29,7 @@
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include <array>
 #include <atomic>
@@ -86,6 +89,10 @@ inline constexpr double kMaxRepliesPerSecond = 2000.0;
 struct ReceiverStats {
   std::atomic<std::int64_t> setpoints_accepted{0};
   std::atomic<std::int64_t> setpoints_rejected{0};
+  std::atomic<std::int64_t> torques_accepted{0};
+  std::atomic<std::int64_t> torques_rejected{0};
+  std::atomic<std::int64_t> measured_accepted{0};
+  std::atomic<std::int64_t> measured_rejected{0};
   std::atomic<std::int64_t> commands_rejected{0};  // refused here, before reaching the tick
   std::atomic<std::int64_t> decode_errors{0};
   std::atomic<std::int64_t> replies_suppressed{0};
@@ -96,11 +103,12 @@ struct ReceiverStats {
   // Messages on this run's output channels from another run.
   std::atomic<std::int64_t> foreign_messages{0};
   std::atomic<std::int64_t> last_foreign_run_id{0};
-  LatestMailbox<Reason> last_setpoint_rejection{Reason{}};
+  LatestMailbox<Reason> last_setpoint_rejection{Reason{}};  // setpoints, torques and measured states
   LatestMailbox<Reason> last_command_error{Reason{}};
 };
 
-// How a setpoint's age is judged against the scene's setpoint_timeout.
+// How a setpoint's age is judged against the scene's setpoint_timeout (and a
+// torque's against torque_timeout, a measured state's against state_timeout).
 enum class SetpointAge : std::uint8_t {
   kWall,    // now − utime: sender and daemon clocks in step (NTP, or the same host)
   kStream,  // (arrival − utime) − the least such offset in the current stream: a message's
@@ -130,6 +138,14 @@ class LcmReceiver {
   void Poll(int timeout_ms);
 
  private:
+  // SetpointAge::kStream: one stream's least (arrival − utime), its last
+  // in-line arrival, µs; and a candidate timeline being confirmed.
+  struct Timeline {
+    std::int64_t least_offset = 0;
+    std::int64_t last_arrival = -1;
+    std::int64_t candidate_offset = 0;
+    int candidate_count = 0;
+  };
   struct InstanceInfo {
     std::string name;
     std::string setpoint_channel, command_channel, reply_channel;
@@ -137,12 +153,21 @@ class LcmReceiver {
     CommandRules command_rules;
     SetpointRules rules;
     double timeout = 0.5;
-    // SetpointAge::kStream: the current stream's least (arrival − utime), its last
-    // in-line arrival, µs; and a candidate timeline being confirmed.
-    std::int64_t least_offset = 0;
-    std::int64_t last_arrival = -1;
-    std::int64_t candidate_offset = 0;
-    int candidate_count = 0;
+    Timeline setpoints;
+    // An external controller's torques ("" channel: none): its timeout, the
+    // stream's sender and its last sequence number, and when it last sent.
+    std::string torque_channel;
+    int external_controller = -1;  // its controller index
+    double torque_timeout = 0.05;
+    Timeline torques;
+    std::int64_t torque_source = 0;
+    std::int64_t torque_sequence = 0;
+    std::int64_t torque_last_us = 0;
+    // An external plant's measured state ("" channel: none).
+    std::string measured_channel;
+    double state_timeout = 0.01;
+    Timeline measured;
+    std::int64_t measured_source = 0;  // the previous packet's run id (0: none yet)
   };
   // A setpoint's age against its instance's timeout, or why it is refused.
   struct AgeVerdict {
@@ -150,8 +175,14 @@ class LcmReceiver {
     const char* out_of_line = nullptr;  // kStream: refused as out of line with its stream
     double age = 0.0;                   // s; < 0 for a timestamp in the future
   };
-  AgeVerdict Age(InstanceInfo& info, std::int64_t utime);
+  AgeVerdict Age(Timeline& line, double timeout, std::int64_t utime);
+  // "stale: sent X s ago (NAME X s)" or "timestamp X s in the future ...".
+  static std::string AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout);
   void HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what, const std::string& why);
+  void Trip(std::size_t i, MeasuredProblem problem, const std::string& why);
   void HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size);
   void HandleOwnOutput(std::string_view channel, const std::uint8_t* data, std::size_t size);
   void Warn(const std::string& message);
@@ -172,6 +203,8 @@ class LcmReceiver {
   std::vector<InstanceInfo> info_;
   setpoint_t setpoint_;  // decoded into; keeps its capacity
   command_t command_;
+  torque_t torque_;
+  state_t measured_;
   reply_t reply_;
   LogThrottle log_throttle_, foreign_throttle_;
   TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
@@ -196,6 +229,7 @@ class LcmPublisher {
  private:
   void Publish(const TickRecord& record);
   void PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime);
+  void PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
 
@@ -213,7 +247,9 @@ class LcmPublisher {
   std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
   std::vector<std::vector<std::string>> controller_names_;
   std::vector<state_t> states_;
+  std::vector<torque_t> torques_;  // external plants' commands, by instance
   std::vector<Mode> modes_;
+  std::vector<const char*> reasons_;  // each instance's latest record's reason
   std::vector<double> latencies_, computes_;  // µs, this status window
   std::int64_t commands_applied_ = 0;         // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;

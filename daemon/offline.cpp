@@ -34,6 +34,14 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
   return faults;
 }
 
+const char* OfflineRefusal(const InstanceConfig& c) {
+  if (c.external) return "its plant is external (measured over LCM): only lagranged runs it";
+  if (c.controller.type == ControllerType::kExternal) {
+    return "its controller is external (torques over LCM): only lagranged runs it";
+  }
+  return nullptr;
+}
+
 bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe) {
   return RunOfflineChecked(instances, period, steps, observe).empty();
 }

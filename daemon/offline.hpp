@@ -22,6 +22,10 @@ struct OfflineFault {
   double max_energy = 0.0;       // J: the instance's bound on |T + V|
 };
 
+// Why an instance cannot run offline (null when it can): an external plant
+// or an external controller needs the bus, so only lagranged runs them.
+const char* OfflineRefusal(const InstanceConfig& config);
+
 // Runs `steps` steps of `period`. After every step the daemon's health check
 // runs (non-finite torque or state, a failed integrator, |T + V| > max_energy);
 // an instance that fails it is never observed again: it is put back to its last

@@ -13,12 +13,14 @@ std::string_view ToString(Mode mode) {
     case Mode::kFault: return "fault";
     case Mode::kPaused: return "paused";
     case Mode::kEstop: return "estop";
+    case Mode::kStopped: return "stopped";
+    case Mode::kWaiting: return "waiting";
   }
   return "?";
 }
 
 const char* ModeName(std::int8_t wire_mode) {
-  if (wire_mode < static_cast<std::int8_t>(Mode::kRunning) || wire_mode > static_cast<std::int8_t>(Mode::kEstop))
+  if (wire_mode < static_cast<std::int8_t>(Mode::kRunning) || wire_mode > static_cast<std::int8_t>(Mode::kWaiting))
     return "?";
   return ToString(static_cast<Mode>(wire_mode)).data();  // the names are string literals
 }
@@ -26,6 +28,8 @@ const char* ModeName(std::int8_t wire_mode) {
 namespace {
 
 SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }
+TorqueMessage TorquePrototype(int n) { return {VectorXd::Zero(n)}; }
+MeasuredMessage MeasuredPrototype(int n) { return {VectorXd::Zero(n), VectorXd::Zero(n)}; }
 
 CommandMessage CommandPrototype(int n) {
   CommandMessage c;
@@ -45,7 +49,10 @@ std::optional<Urgent> UrgentKind(CommandKind kind) {
 }
 
 InstanceChannels::InstanceChannels(int n, std::size_t command_capacity)
-    : setpoints(SetpointPrototype(n)), commands(command_capacity, CommandPrototype(n)) {}
+    : setpoints(SetpointPrototype(n)),
+      torques(TorquePrototype(n)),
+      measured(MeasuredPrototype(n)),
+      commands(command_capacity, CommandPrototype(n)) {}
 
 InstanceRecord::InstanceRecord(int n)
     : q(VectorXd::Zero(n)),
@@ -67,8 +74,21 @@ struct Runtime::Slot {
         brake_torque(VectorXd::Zero(c.plant.num_dofs())),
         timeout(static_cast<Nanoseconds>(c.setpoint_timeout * 1e9)),
         max_energy(MaxEnergy(c)),
-        energies{instance.KineticEnergy(), instance.PotentialEnergy()} {
+        energies{instance.KineticEnergy(), instance.PotentialEnergy()},
+        state_timeout(c.external ? static_cast<Nanoseconds>(c.external->state_timeout * 1e9) : 0) {
     const int n = c.plant.num_dofs();
+    const std::vector<ControllerType> types = instance.controller_types();
+    std::vector<const ControllerConfig*> configs = {&c.controller};
+    for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
+    for (std::size_t k = 0; k < types.size(); ++k) {
+      const bool external = types[k] == ControllerType::kExternal;
+      torque_timeout.push_back(external ? static_cast<Nanoseconds>(configs[k]->external.torque_timeout * 1e9) : 0);
+      fallback.push_back(external ? Fallback(types, configs[k]->external.fallback) : -1);
+    }
+    if (c.external) {
+      mode = Mode::kWaiting;
+      reason = kWaitingForState;
+    }
     if (c.estop_damping) {
       brake = *c.estop_damping;
     } else {
@@ -82,6 +102,7 @@ struct Runtime::Slot {
   InstanceChannels channels;
   Mode mode = Mode::kRunning;
   Mode before_pause = Mode::kRunning;
+  const char* paused_reason = nullptr;  // the reason before the pause
   bool streaming = false;         // a streamed setpoint has been accepted since start or reset
   Nanoseconds last_setpoint = 0;  // when it was
   Setpoint streamed, held, current;
@@ -94,10 +115,39 @@ struct Runtime::Slot {
   const Setpoint* in_use = nullptr;  // the setpoint this tick followed (running, hold), decided once for the record
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
+  const char* reason = nullptr;                // why the mode is not running
+  // External controllers, by controller index: torque_timeout (0: not external)
+  // and the fallback's index in hold (-1: the brake).
+  std::vector<Nanoseconds> torque_timeout;
+  std::vector<int> fallback;
+  Nanoseconds last_torque = 0;  // when the active external controller last got one (or became active)
+  // External plant.
+  Nanoseconds state_timeout;
+  Nanoseconds last_measured = 0;
+  std::int64_t measured_tick = -1;
+  std::int64_t source = 0;       // the run id the watchdog locked onto (0: none yet)
+  bool send_zero_once = false;  // fault or stopped: command zero torque in this tick's record, once
+
+  bool external_active() const { return torque_timeout[instance.active_controller()] > 0; }
+
+  // The fallback of an external controller: the named one, "brake" (-1), or
+  // the first gravity-compensation or computed-torque controller, else the brake.
+  static int Fallback(const std::vector<ControllerType>& types, const std::optional<std::string>& name) {
+    for (std::size_t k = 0; k < types.size(); ++k) {
+      const bool named = name && *name != "brake" && ToString(types[k]) == *name;
+      const bool model_based =
+          !name && (types[k] == ControllerType::kGravityCompensation || types[k] == ControllerType::kComputedTorque);
+      if (named || model_based) return static_cast<int>(k);
+    }
+    return -1;
+  }
 };
 
 Runtime::Runtime(const Scene& scene) : period_(scene.period) {
-  for (const InstanceConfig& c : scene.instances) slots_.push_back(std::make_unique<Slot>(c));
+  for (const InstanceConfig& c : scene.instances) {
+    slots_.push_back(std::make_unique<Slot>(c));
+    if (slots_.back()->external_active()) EnterHold(*slots_.back(), kNoTorqueYet);  // until the first torque
+  }
 }
 
 Runtime::~Runtime() = default;
@@ -121,7 +171,9 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     r.num_verdicts = 0;
     TakeUrgent(s, now, r);
     TakeCommands(s, now, r);
+    if (s.instance.external_plant()) TakeMeasured(s, now);
     TakeSetpoint(s, now);
+    TakeTorque(s, now);
     ControlAndIntegrate(s);
     CheckHealth(s, r);
     Record(s, r);
@@ -182,63 +234,170 @@ void Runtime::TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r) {
 
 // Applies one command; returns why it was refused, or null.
 const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now) {
+  Instance& inst = s.instance;
   switch (kind) {
-    case CommandKind::kSwitchController:
-      s.instance.SelectController(static_cast<std::size_t>(controller));
+    case CommandKind::kSwitchController: {
+      const bool torque_hold = s.mode == Mode::kHold && (s.reason == kTorquesTimedOut || s.reason == kNoTorqueYet);
+      inst.SelectController(static_cast<std::size_t>(controller));
+      if (s.external_active()) {
+        Activated(s, now);
+      } else if (torque_hold) {
+        s.mode = Mode::kRunning;  // the torque stream no longer matters: follow the setpoints
+        s.reason = nullptr;
+        s.last_setpoint = now;
+      }
       return nullptr;
+    }
     case CommandKind::kSetGains:
-      if (!s.instance.controller(static_cast<std::size_t>(controller)).SetGains(*gains)) {
+      if (!inst.controller(static_cast<std::size_t>(controller)).SetGains(*gains)) {
         return "the gains do not fit the controller";
       }
       return nullptr;
     case CommandKind::kReset:
-      s.instance.Reset();
-      s.instance.Save(s.good);
+      inst.Reset();
+      inst.Save(s.good);
       s.streaming = false;
-      if (s.mode != Mode::kEstop) s.mode = Mode::kRunning;
+      s.source = 0;
+      if (s.mode == Mode::kEstop) return nullptr;  // reset keeps an estop
+      s.mode = Mode::kRunning;
+      s.reason = nullptr;
+      if (inst.external_plant()) {
+        s.mode = Mode::kWaiting;
+        s.reason = kWaitingForState;
+      } else if (s.external_active()) {
+        Activated(s, now);
+      }
       return nullptr;
     case CommandKind::kPause:
+      if (inst.external_plant()) return "pause: an external plant keeps moving and cannot be frozen (estop brakes it)";
       if (s.mode != Mode::kRunning && s.mode != Mode::kHold) return "pause: the instance is not running or holding";
       s.before_pause = s.mode;
       s.mode = Mode::kPaused;
+      s.paused_reason = s.reason;
+      s.reason = kPausedByCommand;
       return nullptr;
     case CommandKind::kResume:
       if (s.mode != Mode::kPaused) return "resume: the instance is not paused";
       s.mode = s.before_pause;
-      s.last_setpoint = now;  // the setpoint timeout restarts
+      s.reason = s.paused_reason;
+      s.last_setpoint = now;  // the timeouts restart
+      s.last_torque = now;
       return nullptr;
     case CommandKind::kEstop:
       if (s.mode == Mode::kFault) return "estop: the instance is faulted (frozen); reset it";
+      if (s.mode == Mode::kStopped || s.mode == Mode::kWaiting) {
+        return "estop: the instance commands nothing (its watchdog has it stopped or waiting)";
+      }
       s.mode = Mode::kEstop;
+      s.reason = kEstopped;
       return nullptr;
     case CommandKind::kClearEstop:
+      if (s.mode == Mode::kStopped) {  // an external plant's watchdog, re-armed
+        s.mode = Mode::kWaiting;
+        s.reason = kWaitingForState;
+        s.source = 0;
+        return nullptr;
+      }
       if (s.mode != Mode::kEstop) return "clear_estop: the instance is not in an emergency stop";
-      EnterHold(s);
+      EnterHold(s, kLeftEstop);
       return nullptr;
   }
   return "unknown command";
 }
 
+// (an external controller became active) => hold until its first torque.
+void Runtime::Activated(Slot& s, Nanoseconds now) {
+  s.last_torque = now;
+  if (s.mode == Mode::kRunning || s.mode == Mode::kHold) EnterHold(s, kNoTorqueYet);
+}
+
+// (measured mailbox, watchdog) => an external plant's (q, qd), or stopped.
+void Runtime::TakeMeasured(Slot& s, Nanoseconds now) {
+  const auto problem = static_cast<MeasuredProblem>(s.channels.measured_problem.exchange(0, std::memory_order_acq_rel));
+  const MeasuredMessage* m = s.channels.measured.Take();
+  if (s.mode == Mode::kStopped || s.mode == Mode::kFault) return;
+  switch (problem) {
+    case MeasuredProblem::kNone: break;
+    case MeasuredProblem::kNotFinite: return Stop(s, kMeasuredNotFinite);
+    case MeasuredProblem::kWrongSize: return Stop(s, kMeasuredWrongSize);
+    case MeasuredProblem::kSecondSource:
+      if (s.mode != Mode::kWaiting) return Stop(s, kMeasuredSecondSource);  // nothing is locked while waiting
+      break;
+  }
+  if (m != nullptr) {
+    if (s.source != 0 && m->run_id != s.source) return Stop(s, kMeasuredSecondSource);
+    s.source = m->run_id;
+    s.instance.SetMeasured(m->q, m->qd);
+    s.measured_tick = m->tick;
+    s.last_measured = now;
+    if (s.mode == Mode::kWaiting) {
+      s.mode = Mode::kRunning;
+      s.reason = nullptr;
+      s.last_setpoint = now;
+    }
+  }
+  if (s.mode != Mode::kWaiting && now - s.last_measured > s.state_timeout) Stop(s, kMeasuredTimedOut);
+}
+
+// (watchdog) => stopped: the last good state is kept, zero torque is commanded once.
+void Runtime::Stop(Slot& s, const char* why) {
+  s.mode = Mode::kStopped;
+  s.reason = why;
+  s.in_use = nullptr;
+  s.instance.Restore(s.good);
+  s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};
+  s.send_zero_once = true;
+}
+
 // (mailbox) => streamed setpoint, hold on staleness or timeout.
 void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
   // Stale setpoints never get here (the receiver refuses them) and so cannot
-  // cause hold: only the timeout does, while no fresh setpoint arrives.
+  // cause hold: only the timeout does, while no fresh setpoint arrives. Under
+  // an external controller the torques decide running and hold instead.
+  const bool torques_decide = s.external_active();
   if (const SetpointMessage* m = s.channels.setpoints.Take()) {
     s.streamed.q = m->setpoint.q;
     s.streamed.qd = m->setpoint.qd;
     s.streamed.qdd = m->setpoint.qdd;
     s.streaming = true;
     s.last_setpoint = now;
-    if (s.mode == Mode::kHold) s.mode = Mode::kRunning;
+    if (s.mode == Mode::kHold && !torques_decide) {
+      s.mode = Mode::kRunning;
+      s.reason = nullptr;
+    }
   }
-  if (s.mode == Mode::kRunning && s.streaming && now - s.last_setpoint > s.timeout) EnterHold(s);
+  if (!torques_decide && s.mode == Mode::kRunning && s.streaming && now - s.last_setpoint > s.timeout) {
+    EnterHold(s, kSetpointsTimedOut);
+  }
 }
 
-void Runtime::EnterHold(Slot& s) {
+// (mailbox) => the external controller's torque; hold on timeout.
+void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
+  const TorqueMessage* m = s.channels.torques.Take();  // taken even when unused, so an old one never applies later
+  if (!s.external_active()) return;
+  if (m != nullptr) {
+    s.instance.external_controller(s.instance.active_controller())->SetTorque(m->tau);
+    s.last_torque = now;
+    if (s.mode == Mode::kHold) {
+      s.mode = Mode::kRunning;
+      s.reason = nullptr;
+    }
+  }
+  if (s.mode == Mode::kRunning && now - s.last_torque > s.torque_timeout[s.instance.active_controller()]) {
+    EnterHold(s, kTorquesTimedOut);
+  }
+}
+
+void Runtime::EnterHold(Slot& s, const char* why) {
   s.mode = Mode::kHold;
+  s.reason = why;
   s.held.q = s.instance.q();
   s.held.qd.setZero();
   s.held.qdd.setZero();
+  if (s.external_active()) {
+    const int fallback = s.fallback[s.instance.active_controller()];
+    if (fallback >= 0) s.instance.controller(static_cast<std::size_t>(fallback)).Reset();
+  }
 }
 
 // (mode, setpoint) => control, integrate.
@@ -246,23 +405,33 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
   const InstanceConfig& c = inst.config();
   s.in_use = nullptr;
+  const auto brake = [&] {
+    s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
+    return inst.StepWithTorque(period_, s.brake_torque);
+  };
   switch (s.mode) {
     case Mode::kRunning:
       if (!s.streaming) inst.SampleTrajectory(s.current);
       s.in_use = s.streaming ? &s.streamed : &s.current;
       s.step_failure = inst.Step(period_, *s.in_use);
       break;
-    case Mode::kHold:
+    case Mode::kHold: {
       s.in_use = &s.held;  // also published under zero-torque: where hold began
-      s.step_failure = c.on_timeout == TimeoutBehaviour::kHoldPosition ? inst.Step(period_, s.held)
-                                                                       : inst.StepWithTorque(period_, s.zero);
+      if (c.on_timeout == TimeoutBehaviour::kZeroTorque) {
+        s.step_failure = inst.StepWithTorque(period_, s.zero);
+        break;
+      }
+      const int fallback = s.external_active() ? s.fallback[inst.active_controller()] : -2;
+      s.step_failure = fallback == -1  ? brake()
+                       : fallback >= 0 ? inst.Step(period_, s.held, static_cast<std::size_t>(fallback))
+                                       : inst.Step(period_, s.held);
       break;
-    case Mode::kEstop:
-      s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
-      s.step_failure = inst.StepWithTorque(period_, s.brake_torque);
-      break;
+    }
+    case Mode::kEstop: s.step_failure = brake(); break;
     case Mode::kPaused:
-    case Mode::kFault: s.step_failure = nullptr; break;
+    case Mode::kFault:
+    case Mode::kStopped:
+    case Mode::kWaiting: s.step_failure = nullptr; break;
   }
 }
 
@@ -270,16 +439,20 @@ void Runtime::ControlAndIntegrate(Slot& s) {
 // the state as good. The energies computed here are the ones the record publishes.
 void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
   Instance& inst = s.instance;
-  if (s.mode == Mode::kFault || s.mode == Mode::kPaused) return;  // nothing moved; the energies stand
+  if (s.mode == Mode::kFault || s.mode == Mode::kPaused || s.mode == Mode::kStopped || s.mode == Mode::kWaiting) {
+    return;  // nothing moved (or nothing was measured); the energies stand
+  }
   if (const char* fault = CheckStepHealth(inst, s.step_failure, s.max_energy, s.energies)) return Fault(s, fault, r);
   inst.Save(s.good);
 }
 
 void Runtime::Fault(Slot& s, const char* why, InstanceRecord& r) {
   s.mode = Mode::kFault;
+  s.reason = why;
   s.in_use = nullptr;
   s.instance.Restore(s.good);
   s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};  // of the restored, good state
+  s.send_zero_once = s.instance.external_plant();
   r.fault = why;
 }
 
@@ -297,6 +470,11 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.potential_energy = s.energies.potential;
   r.controller = static_cast<int>(inst.active_controller());
   r.mode = s.mode;
+  r.reason = s.reason;
+  const bool commanding = s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop;
+  r.publish_torque = inst.external_plant() && (commanding || s.send_zero_once);
+  r.state_tick = s.measured_tick;
+  s.send_zero_once = false;
 }
 
 }  // namespace lagrange

@@ -8,16 +8,32 @@
 //   control and integrate (by mode) → check health → record for the publisher
 //
 // Modes (state_t.MODE_*):
-//   running  follows the streamed setpoint, or the scene trajectory until one arrives
+//   running  follows the streamed setpoint, or the scene trajectory until one arrives;
+//            under an external controller, applies the latest streamed torque
 //   hold     streamed setpoints went stale or stopped: on_timeout behaviour
 //            (hold-position: q_d = q when it began, at rest; zero-torque: τ = 0);
-//            the next valid setpoint resumes running
+//            the next valid setpoint resumes running. Under an external
+//            controller: no torque yet since it became active, or none for
+//            torque_timeout; hold-position is then kept by its fallback (a
+//            configured controller, or the brake τ = −B q̇), and the next
+//            valid torque resumes running
+//   stopped  external plant: the watchdog tripped (measured state older than
+//            state_timeout, non-finite, of the wrong size, or from a second
+//            run id): zero torque is commanded once, then nothing; reset or
+//            clear_estop re-arm it into waiting, never the state itself
+//   waiting  external plant, armed: no measured state since start, reset or
+//            clear; the first fresh one starts running
 //   fault    the controller's law, the integrator, the state or the energy
 //            (|T + V| > max_energy) failed: the last good state is kept, τ = 0,
 //            nothing moves; reset clears it
 //   paused   frozen: time and state stand still; resume returns to the mode before
 //   estop    the controller is bypassed and every joint braked, τ = −B q̇ within the
 //            torque limits; clear_estop enters hold. reset keeps an estop.
+//
+// An external plant's instance is not integrated: each tick its (q, q̇) are
+// the latest measured ones, its controller runs on them, and the record asks
+// the publisher to send the torque (fault and stopped: zero once, then nothing;
+// waiting and paused never happen to command).
 //
 // Commands reach the tick two ways. estop, clear_estop and reset are urgent:
 // the receiver posts them as latest-wins flags (PostUrgent) beside the queue,
@@ -41,7 +57,15 @@
 
 namespace lagrange {
 
-enum class Mode : std::int8_t { kRunning = 0, kHold = 1, kFault = 2, kPaused = 3, kEstop = 4 };
+enum class Mode : std::int8_t {
+  kRunning = 0,
+  kHold = 1,
+  kFault = 2,
+  kPaused = 3,
+  kEstop = 4,
+  kStopped = 5,  // external plant: the watchdog stopped commanding
+  kWaiting = 6,  // external plant: armed, no measured state yet
+};
 std::string_view ToString(Mode mode);
 // The name of a state_t.mode / status_t.instance_modes value as it came off
 // the wire: ToString of the mode, or "?" out of range.
@@ -51,6 +75,22 @@ const char* ModeName(std::int8_t wire_mode);
 struct SetpointMessage {
   Setpoint setpoint;
 };
+
+// A torque for an external controller, validated and fresh (daemon/lcm_bridge.hpp).
+struct TorqueMessage {
+  VectorXd tau;  // (n) N·m or N
+};
+
+// An external plant's measured state, validated (size, finite, bounded) and fresh.
+struct MeasuredMessage {
+  VectorXd q, qd;            // (n)
+  std::int64_t tick = -1;    // the sender's state_t.tick
+  std::int64_t run_id = 0;   // the sender's state_t.run_id
+};
+
+// What the receiver found wrong with an external plant's measured state: each
+// trips the watchdog (the instance stops commanding).
+enum class MeasuredProblem : std::uint8_t { kNone = 0, kNotFinite, kWrongSize, kSecondSource };
 
 enum class CommandKind : std::int8_t {
   kSwitchController = 1,
@@ -96,10 +136,28 @@ struct UrgentFlags {
 struct InstanceChannels {
   InstanceChannels(int n, std::size_t command_capacity);
   LatestMailbox<SetpointMessage> setpoints;
+  LatestMailbox<TorqueMessage> torques;
+  LatestMailbox<MeasuredMessage> measured;
+  // The first MeasuredProblem since the tick last looked (the receiver sets it
+  // only from kNone, so a good state after a bad one cannot hide it).
+  std::atomic<std::uint8_t> measured_problem{0};
   SpscRing<CommandMessage> commands;
   UrgentFlags urgent;
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
 };
+
+// Why an instance is not running (static strings, published in the status).
+inline constexpr char kSetpointsTimedOut[] = "streamed setpoints timed out (setpoint_timeout)";
+inline constexpr char kTorquesTimedOut[] = "streamed torques timed out (torque_timeout)";
+inline constexpr char kNoTorqueYet[] = "no torque yet on the external controller's channel";
+inline constexpr char kLeftEstop[] = "cleared from an emergency stop";
+inline constexpr char kEstopped[] = "emergency stop";
+inline constexpr char kPausedByCommand[] = "paused by command";
+inline constexpr char kWaitingForState[] = "waiting for the measured state (state_channel)";
+inline constexpr char kMeasuredTimedOut[] = "the measured state timed out (state_timeout)";
+inline constexpr char kMeasuredNotFinite[] = "a measured state was not finite or out of range";
+inline constexpr char kMeasuredWrongSize[] = "a measured state had the wrong num_dofs";
+inline constexpr char kMeasuredSecondSource[] = "a measured state came from a second source (run_id)";
 
 // The tick's verdict on one command, for the reply the publisher sends.
 struct Verdict {
@@ -126,6 +184,11 @@ struct InstanceRecord {
   const char* command_error = nullptr;
   std::array<Verdict, kMaxVerdictsPerTick> verdicts;  // the first num_verdicts
   std::size_t num_verdicts = 0;
+  const char* reason = nullptr;  // why the mode is not running (one of the k* reasons or a fault); null when running
+  // External plant: publish tau on the torque channel this tick (it then
+  // answers the measured state of tick state_tick).
+  bool publish_torque = false;
+  std::int64_t state_tick = -1;
 };
 
 struct TickRecord {
@@ -163,11 +226,15 @@ class Runtime {
   void TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r);
   void TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r);
   const char* Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now);
+  void TakeMeasured(Slot& s, Nanoseconds now);
   void TakeSetpoint(Slot& s, Nanoseconds now);
+  void TakeTorque(Slot& s, Nanoseconds now);
   void ControlAndIntegrate(Slot& s);
   void CheckHealth(Slot& s, InstanceRecord& r);
   void Record(Slot& s, InstanceRecord& r);
-  void EnterHold(Slot& s);
+  void EnterHold(Slot& s, const char* why);
+  void Activated(Slot& s, Nanoseconds now);
+  void Stop(Slot& s, const char* why);
   void Fault(Slot& s, const char* why, InstanceRecord& r);
 
   double period_;

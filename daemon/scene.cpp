@@ -4,6 +4,7 @@
 #include <limits>
 #include <set>
 
+#include "daemon/channels.hpp"
 #include "daemon/escape.hpp"
 #include "daemon/scene_control.hpp"
 #include "daemon/yaml_reader.hpp"
@@ -283,6 +284,77 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, Ur
   }
 }
 
+// plant: {type: external, model: {...}, state_channel: CH, torque_channel: CH2, state_timeout: s}
+bool IsExternalPlant(const YamlReader& plant) {
+  return plant.IsMap() && plant.Has("type") && plant.Required("type").Text() == "external";
+}
+
+std::string ReadChannel(const YamlReader& node) {
+  std::string channel = node.Text();
+  if (const std::string why = CheckChannelName(channel); !why.empty()) node.Fail(why);
+  return channel;
+}
+
+ExternalPlantConfig ReadExternalPlant(const YamlReader& node, double period) {
+  node.ExpectKeys({"type", "model", "state_channel", "torque_channel", "state_timeout"});
+  ExternalPlantConfig e;
+  e.state_channel = ReadChannel(node.Required("state_channel"));
+  e.torque_channel = ReadChannel(node.Required("torque_channel"));
+  if (e.state_channel == e.torque_channel) {
+    node.Required("torque_channel").Fail("expected a channel other than state_channel");
+  }
+  if (auto t = node.Optional("state_timeout")) {
+    e.state_timeout = t->PositiveNumber();
+    if (e.state_timeout < 2.0 * period) {
+      t->Fail("expected at least two ticks (" + ShortestText(2.0 * period) + " s): a state arrives once per tick");
+    }
+  }
+  return e;
+}
+
+// The YAML node of each controller, in the order of InstanceConfig's controller, alternates.
+std::vector<YamlReader> ControllerNodes(const YamlReader& node) {
+  std::vector<YamlReader> nodes;
+  if (auto c = node.Optional("controller")) nodes.push_back(*c);
+  if (auto list = node.Optional("controllers")) {
+    for (std::size_t i = 0; i < list->Size(); ++i) nodes.push_back(list->At(i));
+  }
+  return nodes;
+}
+
+// External controllers' fallbacks name a controller the instance configures;
+// an external plant's controllers run here, once per tick.
+void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
+  std::vector<const ControllerConfig*> all;
+  if (node.Has("controller")) all.push_back(&inst.controller);
+  for (const ControllerConfig& c : inst.alternates) all.push_back(&c);
+  const std::vector<YamlReader> nodes = ControllerNodes(node);
+  std::string holders;
+  for (const ControllerConfig* c : all) {
+    if (c->type != ControllerType::kExternal && c->type != ControllerType::kNone)
+      holders += ", " + std::string(ToString(c->type));
+  }
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    const ControllerConfig& c = *all[k];
+    if (inst.external && c.type == ControllerType::kExternal) {
+      nodes[k].Required("type").Fail("an external plant's controller runs in lagranged (expected another type)");
+    }
+    if (inst.external && c.continuous) {
+      nodes[k].Required("continuous").Fail("an external plant's controller runs once per tick on the measured state");
+    }
+    if (c.type != ControllerType::kExternal || !c.external.fallback) continue;
+    const std::string& f = *c.external.fallback;
+    bool found = f == "brake";
+    for (const ControllerConfig* other : all) {
+      found = found || (other->type != ControllerType::kExternal && other->type != ControllerType::kNone &&
+                        ToString(other->type) == f);
+    }
+    if (!found) {
+      nodes[k].Required("fallback").Fail("expected brake" + (holders.empty() ? "" : " or one of this instance's controllers (" + holders.substr(2) + ")") + ", got '" + Escape(f) + "'");
+    }
+  }
+}
+
 InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
                    "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping"});
@@ -292,7 +364,13 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   if (!IsValidName(inst.name)) {
     name.Fail("expected a lower-case name of letters, digits and _ starting with a letter, got '" + inst.name + "'");
   }
-  inst.plant = ReadPlant(node.Required("plant"), &inst.method, urdf);
+  const YamlReader plant_node = node.Required("plant");
+  if (IsExternalPlant(plant_node)) {
+    inst.external = ReadExternalPlant(plant_node, period);
+    inst.plant = ReadPlant(plant_node.Required("model"), &inst.method, urdf);
+  } else {
+    inst.plant = ReadPlant(plant_node, &inst.method, urdf);
+  }
   const int n = inst.plant.num_dofs();
   inst.q0 = VectorXd::Zero(n);
   inst.qd0 = VectorXd::Zero(n);
@@ -311,6 +389,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     node.Required("plant").Fail("file", Escape(urdf_params->file) + ": its joints' " + err->key + ": " + err->message);
   }
   if (auto i = node.Optional("integrator")) {
+    if (inst.external) i->Fail("an external plant is not integrated by lagranged (its state is measured)");
     inst.integrator = ReadIntegrator(*i);
     if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {
       i->Required("type").Fail(
@@ -318,6 +397,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     }
   }
   ReadControl(node, period, inst, urdf);
+  CheckExternalControl(node, inst);
   return inst;
 }
 

@@ -32,6 +32,17 @@ enum class TimeoutBehaviour : std::uint8_t {
   kZeroTorque,    // tau = 0
 };
 
+// A plant outside lagranged (a robot driver, another simulator, another
+// lagranged): its measured state comes in as state_t on state_channel, the
+// controller's torque goes out as torque_t on torque_channel, each used
+// exactly as written (never prefixed). The instance's plant spec is then the
+// model the controller and the published energies use.
+struct ExternalPlantConfig {
+  std::string state_channel;
+  std::string torque_channel;
+  double state_timeout = 0.01;  // s: no fresh measured state for this long stops the instance (watchdog)
+};
+
 struct InstanceConfig {
   std::string name;  // [a-z][a-z0-9_]*, unique in the scene
   PlantSpec plant;
@@ -49,6 +60,7 @@ struct InstanceConfig {
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
   std::optional<double> max_energy;       // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
   std::optional<VectorXd> estop_damping;  // (n) brake B during an emergency stop (default 20/s × diag M(q0))
+  std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
 };
 
 struct Scene {

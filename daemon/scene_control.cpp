@@ -1,5 +1,7 @@
 #include "daemon/scene_control.hpp"
 
+#include "daemon/channels.hpp"
+
 #include <algorithm>
 #include <charconv>
 #include <filesystem>
@@ -143,6 +145,9 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
       node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "energy_gain", "max_accel", "cart_gain",
                        "cart_damping", "switch_angle", "switch_rate", "continuous"});
       break;
+    case ControllerType::kExternal:
+      node.ExpectKeys({"type", "torque_timeout", "torque_channel", "fallback", "compensate_gravity", "model"});
+      break;
   }
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
   if (HasGains(c.type)) {
@@ -180,6 +185,18 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   for (const auto& [key, out] : {std::pair{"cart_gain", &s.cart_gain}, std::pair{"cart_damping", &s.cart_damping}}) {
     if (auto v = node.Optional(key)) *out = v->NonNegativeNumber();
   }
+  if (auto v = node.Optional("torque_timeout")) {
+    c.external.torque_timeout = v->PositiveNumber();
+    if (c.external.torque_timeout < 2.0 * period) {
+      v->Fail("expected at least two ticks (" + ShortestText(2.0 * period) + " s): a torque is held over a tick");
+    }
+  }
+  if (auto v = node.Optional("torque_channel")) {
+    c.external.torque_channel = v->Text();
+    if (const std::string why = CheckChannelName(c.external.torque_channel); !why.empty()) v->Fail(why);
+  }
+  if (auto v = node.Optional("fallback")) c.external.fallback = v->Text();
+  if (auto v = node.Optional("compensate_gravity")) c.external.compensate_gravity = v->Bool();
   if (auto err = ValidateController(c, plant)) {
     // "key: message" from the controller library; point at that key when it is in the file.
     const std::size_t colon = err->find(": ");

@@ -148,7 +148,11 @@ int Serve(const Options& o, const LogFiles& logs) {
   }
   std::vector<std::string> names;
   for (const auto& inst : scene.instances) names.push_back(inst.name);
-  const ChannelNames channels = MakeChannelNames(names, o.channel_prefix);
+  const ChannelNames channels = SceneChannelNames(scene, o.channel_prefix);
+  if (const std::string why = CheckChannelNames(channels, names); !why.empty()) {
+    spdlog::error("{}: {}", o.config, why);
+    return 2;
+  }
   // Outputs (state, status, replies) go to --lcm-url; inputs (setpoints,
   // commands) come from --input-lcm-url, the same bus unless given. The
   // receive thread also listens on the output bus for another publisher of
@@ -194,9 +198,14 @@ int Serve(const Options& o, const LogFiles& logs) {
                names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
                static_cast<std::uint64_t>(run_id));
   for (std::size_t i = 0; i < names.size(); ++i) {
-    spdlog::info("  {}: {} with {}, {} / {} / {}", names[i], ToString(scene.instances[i].plant.type()),
-                 runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i],
-                 channels.command[i]);
+    const InstanceConfig& inst = scene.instances[i];
+    spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", names[i], inst.external ? "external plant, model " : "",
+                 ToString(inst.plant.type()), runtime->instance(i).controller().name(), channels.state[i],
+                 channels.setpoint[i], channels.command[i],
+                 channels.torque_in[i].empty() ? "" : ", torques from " + channels.torque_in[i],
+                 inst.external ? ", measured state from " + channels.measured_in[i] + ", torque to " +
+                                     channels.torque_out[i]
+                               : "");
   }
 
   std::atomic<bool> stop_loop{false}, stop_io{false};

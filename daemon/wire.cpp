@@ -5,6 +5,7 @@
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include "plant/types.hpp"
 
@@ -34,7 +35,9 @@ std::int64_t Fingerprint(const void* data, std::size_t size) {
 
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
   const std::int64_t hash = Fingerprint(data, size);
-  if (hash != state_t::getHash() && hash != status_t::getHash() && hash != reply_t::getHash()) return std::nullopt;
+  if (hash != state_t::getHash() && hash != status_t::getHash() && hash != reply_t::getHash() &&
+      hash != torque_t::getHash())
+    return std::nullopt;
   if (size < kHash + 2 * kInt64) return std::nullopt;
   return ReadInt64(static_cast<const std::uint8_t*>(data) + kHash + kInt64);
 }
@@ -77,6 +80,18 @@ WireCheck CheckCommandPacket(const void* data, std::size_t size) {
   if (g < 0 || g > kMaxDofs) return WireCheck::kBadLength;
   at += kInt32;
   if (size != at + 2 * kDouble * static_cast<std::size_t>(g)) return WireCheck::kSizeMismatch;
+  return WireCheck::kOk;
+}
+
+WireCheck CheckTorquePacket(const void* data, std::size_t size) {
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  constexpr std::size_t header = kHash + 4 * kInt64 + kInt32;
+  if (size < kHash) return WireCheck::kTooShort;
+  if (ReadInt64(p) != torque_t::getHash()) return WireCheck::kFingerprint;
+  if (size < header) return WireCheck::kTooShort;
+  const std::int32_t n = ReadInt32(p + kHash + 4 * kInt64);
+  if (n < 0 || n > kMaxDofs) return WireCheck::kBadLength;
+  if (size != header + kDouble * static_cast<std::size_t>(n)) return WireCheck::kSizeMismatch;
   return WireCheck::kOk;
 }
 
@@ -157,7 +172,7 @@ WireCheck CheckStatePacket(const void* data, std::size_t size) {
 WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   PacketWalker w(data, size, status_t::getHash());
   w.Skip(3 * kInt64 + kInt32 + 7 * kDouble +
-         4 * kInt64);          // utime .. ticks_in_window, period .. compute_max, overruns .. setpoints_rejected
+         8 * kInt64);          // utime .. ticks_in_window, period .. compute_max, overruns .. measured_rejected
   w.String(kMaxStatusString);  // last_rejection
   w.Skip(2 * kInt64);          // commands_accepted, commands_rejected
   w.String(kMaxStatusString);  // last_command_error
@@ -166,6 +181,7 @@ WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_names
   w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_modes
   w.Skip(static_cast<std::size_t>(n) * kInt32);               // instance_dofs
+  for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_reasons
   const std::int32_t j = w.Length(kMaxStatusJoints);          // num_joints
   for (std::int32_t i = 0; i < j; ++i) w.String(kMaxString);  // joint_names
   return w.Finish();

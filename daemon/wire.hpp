@@ -16,7 +16,7 @@ enum class WireCheck : std::uint8_t { kOk, kTooShort, kFingerprint, kBadLength, 
 
 // A packet's LCM fingerprint (its first 8 bytes, big-endian); 0 when shorter.
 std::int64_t Fingerprint(const void* data, std::size_t size);
-// The run id of a state_t, status_t or reply_t packet (each begins:
+// The run id of a state_t, status_t, reply_t or torque_t packet (each begins:
 // fingerprint, utime, run_id); nullopt for another type or a short packet.
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
 const char* ToString(WireCheck check);
@@ -25,12 +25,14 @@ const char* ToString(WireCheck check);
 WireCheck CheckSetpointPacket(const void* data, std::size_t size);
 // command_t: fingerprint, utime, request_id, command, controller (string), num_gains, 2 × num_gains doubles.
 WireCheck CheckCommandPacket(const void* data, std::size_t size);
+// torque_t: fingerprint, utime, run_id, sequence, state_tick, num_dofs (<= kMaxDofs), num_dofs doubles.
+WireCheck CheckTorquePacket(const void* data, std::size_t size);
 
 // What lagrangectl receives, checked the same way before decoding.
 // state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
 WireCheck CheckStatePacket(const void* data, std::size_t size);
 // status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
-// joint counts, num_joints (≤ kMaxStatusJoints) joint names.
+// joint counts and reasons, num_joints (≤ kMaxStatusJoints) joint names.
 inline constexpr std::int32_t kMaxStatusInstances = 1024;
 inline constexpr std::int32_t kMaxStatusJoints = 4096;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);

@@ -42,6 +42,7 @@ class YamlReader {
 
   bool IsSequence() const { return node_.IsSequence(); }
   bool IsScalar() const { return node_.IsScalar(); }
+  bool IsMap() const { return node_.IsMap(); }
 
   // Map access. Required() fails with "missing key" when absent.
   bool Has(std::string_view key) const;

@@ -15,6 +15,7 @@ status_t Status(std::vector<std::string> instances, std::vector<std::int32_t> do
   s.instance_names = std::move(instances);
   s.instance_modes.assign(s.instance_names.size(), 0);
   s.instance_dofs = std::move(dofs);
+  s.instance_reasons.assign(s.instance_names.size(), "");
   s.num_joints = static_cast<std::int32_t>(joints.size());
   s.joint_names = std::move(joints);
   return s;

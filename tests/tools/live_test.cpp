@@ -376,6 +376,7 @@ class FakeDaemon {
         st.instance_names = {"arm"};
         st.instance_modes = {state_t::MODE_RUNNING};
         st.instance_dofs = {2};
+        st.instance_reasons = {""};
         st.num_joints = 2;
         st.joint_names = {"q1", "q2"};
         lcm_.publish("LAGRANGE_STATUS", &st);

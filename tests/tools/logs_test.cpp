@@ -491,6 +491,7 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
   status.instance_names = {"arm", "cartpole"};
   status.instance_modes = {0, 4};
   status.instance_dofs = {2, 2};
+  status.instance_reasons = {"", "emergency stop"};
   status.num_joints = 4;
   status.joint_names = {"q1", "q2", "x", "theta"};
   reply_t reply{};
