@@ -1,11 +1,17 @@
 #pragma once
 // Time for the loop, injectable so tests can drive it.
 
+#include <cmath>
 #include <cstdint>
 
 namespace lagrange {
 
 using Nanoseconds = std::int64_t;
+
+// s → ns and s → µs, rounded to the nearest (a truncation makes 0.00026 s
+// 259999 ns, and a two-tick timeout one tick short).
+inline Nanoseconds ToNanoseconds(double seconds) { return std::llround(seconds * 1e9); }
+inline std::int64_t ToMicroseconds(double seconds) { return std::llround(seconds * 1e6); }
 
 class Clock {
  public:

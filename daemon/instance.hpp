@@ -29,6 +29,13 @@ class Instance {
 
   double t() const { return t_; }  // simulated time, s
   std::int64_t steps() const { return steps_; }
+  // Moves the step count (and t) forward to `steps` if it is behind: an
+  // external plant's time is the wall's, skipped ticks included.
+  void CatchUp(std::int64_t steps, double dt) {
+    if (steps <= steps_) return;
+    steps_ = steps;
+    t_ = static_cast<double>(steps_) * dt;
+  }
   const VectorXd& q() const { return q_; }
   const VectorXd& qd() const { return qd_; }
   const VectorXd& qdd() const { return qdd_; }  // at the current state under the last applied tau

@@ -106,10 +106,16 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
     const InstanceConfig& c = inst.config();
     std::vector<GainBounds> bounds;
     for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
-    InstanceInfo info{inst.name(), channels.setpoint[i], channels.command[i], channels.reply[i], inst.num_dofs(),
-                      CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                                   std::move(bounds)},
-                      SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper}, c.setpoint_timeout};
+    InstanceInfo info;
+    info.name = inst.name();
+    info.setpoint_channel = channels.setpoint[i];
+    info.command_channel = channels.command[i];
+    info.reply_channel = channels.reply[i];
+    info.n = inst.num_dofs();
+    info.command_rules = CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                                      std::move(bounds)};
+    info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
+    info.timeout = c.setpoint_timeout;
     std::vector<const ControllerConfig*> configs = {&c.controller};
     for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
     for (std::size_t k = 0; k < configs.size(); ++k) {
@@ -242,7 +248,7 @@ std::int64_t SaturatingSub(std::int64_t a, std::int64_t b) {
 
 LcmReceiver::AgeVerdict LcmReceiver::Age(Timeline& info, double timeout, std::int64_t utime) {
   const std::int64_t now = clock_.WallMicros();
-  const auto timeout_us = static_cast<std::int64_t>(timeout * 1e6);
+  const std::int64_t timeout_us = ToMicroseconds(timeout);
   const std::int64_t offset = SaturatingSub(now, utime);
   AgeVerdict v;
   if (age_ == SetpointAge::kWall) {
@@ -365,7 +371,7 @@ void LcmReceiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::siz
   // once it has lapsed, any sender starts a new stream.
   const std::int64_t now = clock_.WallMicros();
   const bool current_fresh = info.torque_source != 0 &&
-                             now - info.torque_last_us <= static_cast<std::int64_t>(info.torque_timeout * 1e6);
+                             now - info.torque_last_us <= ToMicroseconds(info.torque_timeout);
   if (current_fresh && torque_.run_id != info.torque_source) {
     return RejectInput(i, rejected, "torque",
                        fmt::format("from a second sender (run_id {:016x}) while {:016x} streams",
@@ -384,14 +390,16 @@ void LcmReceiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::siz
   info.torque_last_us = now;
   TorqueMessage& m = runtime_.channels(i).torques.back();
   m.tau = Eigen::Map<const VectorXd>(torque_.tau.data(), info.n);
+  m.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
   runtime_.channels(i).torques.Publish();
   stats_.torques_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
 // (state_t) => an external plant's measured state, or a watchdog trip: the
 // wrong size, a non-finite (or |x| > 1e6) q or qd, or a run id other than the
-// previous packet's trip it; a stale one is refused and counted (its absence
-// trips the watchdog once state_timeout passes without a fresh one).
+// previous packet's trip it; a stale one, or one whose tick does not grow (a
+// duplicate, a reordered packet), is refused and counted (the absence of
+// fresh ones trips the watchdog once state_timeout passes).
 void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size) {
   InstanceInfo& info = info_[i];
   if (const WireCheck w = CheckStatePacket(data, size); w != WireCheck::kOk) {
@@ -416,16 +424,28 @@ void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::s
                 fmt::format("from run_id {:016x} after {:016x}: a second source, or the plant restarted",
                             static_cast<std::uint64_t>(measured_.run_id), static_cast<std::uint64_t>(previous)));
   }
+  // Within one fresh stream the tick must grow; after a lapse of state_timeout any tick starts a new one.
+  const std::int64_t arrival = clock_.WallMicros();
+  const bool fresh_stream =
+      info.measured_last_us >= 0 && arrival - info.measured_last_us <= ToMicroseconds(info.state_timeout);
+  if (fresh_stream && previous == measured_.run_id && measured_.tick <= info.measured_tick) {
+    return RejectInput(i, stats_.measured_rejected, "measured state",
+                       fmt::format("tick {} does not grow (last {}): a duplicate or reordered state", measured_.tick,
+                                   info.measured_tick));
+  }
   const AgeVerdict age = Age(info.measured, info.state_timeout, measured_.utime);
   if (!age.ok) {
     return RejectInput(i, stats_.measured_rejected, "measured state",
                        AgeReason(age, "state_timeout", info.state_timeout));
   }
+  info.measured_tick = measured_.tick;
+  info.measured_last_us = arrival;
   MeasuredMessage& m = runtime_.channels(i).measured.back();
   m.q = Eigen::Map<const VectorXd>(measured_.q.data(), info.n);
   m.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), info.n);
   m.tick = measured_.tick;
   m.run_id = measured_.run_id;
+  m.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
   runtime_.channels(i).measured.Publish();
   stats_.measured_accepted.fetch_add(1, std::memory_order_relaxed);
 }
@@ -492,7 +512,7 @@ LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& r
     s.num_dofs = inst.num_dofs();
     for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
     states_.push_back(s);
-    torque_t tq;
+    torque_t tq{};
     tq.run_id = run_id_;
     tq.sequence = 0;
     tq.num_dofs = inst.num_dofs();
@@ -540,7 +560,9 @@ void LcmPublisher::Drain() {
 void LcmPublisher::Publish(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
-    if (r.publish_torque) PublishTorque(i, r, record.utime);  // first: the external plant waits for it
+    if (r.publish_torque && !channels_.torque_out[i].empty()) {
+      PublishTorque(i, r, record.utime);  // first: the external plant waits for it
+    }
     state_t& s = states_[i];
     s.utime = record.utime;
     s.tick = record.tick;

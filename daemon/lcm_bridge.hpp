@@ -168,6 +168,8 @@ class LcmReceiver {
     double state_timeout = 0.01;
     Timeline measured;
     std::int64_t measured_source = 0;  // the previous packet's run id (0: none yet)
+    std::int64_t measured_tick = 0;    // the last accepted state's tick (from measured_source)
+    std::int64_t measured_last_us = -1;  // when it was accepted, wall clock µs
   };
   // A setpoint's age against its instance's timeout, or why it is refused.
   struct AgeVerdict {

@@ -72,17 +72,17 @@ struct Runtime::Slot {
         good(instance.MakeSaved()),
         zero(VectorXd::Zero(c.plant.num_dofs())),
         brake_torque(VectorXd::Zero(c.plant.num_dofs())),
-        timeout(static_cast<Nanoseconds>(c.setpoint_timeout * 1e9)),
+        timeout(ToNanoseconds(c.setpoint_timeout)),
         max_energy(MaxEnergy(c)),
         energies{instance.KineticEnergy(), instance.PotentialEnergy()},
-        state_timeout(c.external ? static_cast<Nanoseconds>(c.external->state_timeout * 1e9) : 0) {
+        state_timeout(c.external ? ToNanoseconds(c.external->state_timeout) : 0) {
     const int n = c.plant.num_dofs();
     const std::vector<ControllerType> types = instance.controller_types();
     std::vector<const ControllerConfig*> configs = {&c.controller};
     for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
     for (std::size_t k = 0; k < types.size(); ++k) {
       const bool external = types[k] == ControllerType::kExternal;
-      torque_timeout.push_back(external ? static_cast<Nanoseconds>(configs[k]->external.torque_timeout * 1e9) : 0);
+      torque_timeout.push_back(external ? ToNanoseconds(configs[k]->external.torque_timeout) : 0);
       fallback.push_back(external ? Fallback(types, configs[k]->external.fallback) : -1);
     }
     if (c.external) {
@@ -116,6 +116,7 @@ struct Runtime::Slot {
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
   const char* reason = nullptr;                // why the mode is not running
+  bool estop_latched = false;  // an estop not yet cleared: survives a fault, the watchdog and reset
   // External controllers, by controller index: torque_timeout (0: not external)
   // and the fallback's index in hold (-1: the brake).
   std::vector<Nanoseconds> torque_timeout;
@@ -126,6 +127,7 @@ struct Runtime::Slot {
   Nanoseconds last_measured = 0;
   std::int64_t measured_tick = -1;
   std::int64_t source = 0;       // the run id the watchdog locked onto (0: none yet)
+  Nanoseconds clock_origin = -1;  // monotonic time of step 0 (-1: set at the next step)
   bool send_zero_once = false;  // fault or stopped: command zero torque in this tick's record, once
 
   bool external_active() const { return torque_timeout[instance.active_controller()] > 0; }
@@ -174,6 +176,7 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     if (s.instance.external_plant()) TakeMeasured(s, now);
     TakeSetpoint(s, now);
     TakeTorque(s, now);
+    if (s.instance.external_plant()) KeepPlantTime(s, now);
     ControlAndIntegrate(s);
     CheckHealth(s, r);
     Record(s, r);
@@ -258,14 +261,17 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       inst.Save(s.good);
       s.streaming = false;
       s.source = 0;
-      if (s.mode == Mode::kEstop) return nullptr;  // reset keeps an estop
-      s.mode = Mode::kRunning;
-      s.reason = nullptr;
-      if (inst.external_plant()) {
+      if (inst.external_plant()) {  // re-armed; the first fresh state runs it (or brakes it, estop latched)
+        s.clock_origin = -1;
         s.mode = Mode::kWaiting;
         s.reason = kWaitingForState;
-      } else if (s.external_active()) {
-        Activated(s, now);
+      } else if (s.estop_latched) {  // reset keeps an estop, also one a fault interrupted
+        s.mode = Mode::kEstop;
+        s.reason = kEstopped;
+      } else {
+        s.mode = Mode::kRunning;
+        s.reason = nullptr;
+        if (s.external_active()) Activated(s, now);
       }
       return nullptr;
     case CommandKind::kPause:
@@ -285,20 +291,28 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       return nullptr;
     case CommandKind::kEstop:
       if (s.mode == Mode::kFault) return "estop: the instance is faulted (frozen); reset it";
-      if (s.mode == Mode::kStopped || s.mode == Mode::kWaiting) {
-        return "estop: the instance commands nothing (its watchdog has it stopped or waiting)";
-      }
+      s.estop_latched = true;
+      // An external plant that commands nothing keeps its mode; its first
+      // fresh state after re-arming then brakes instead of running.
+      if (s.mode == Mode::kStopped || s.mode == Mode::kWaiting) return nullptr;
       s.mode = Mode::kEstop;
       s.reason = kEstopped;
       return nullptr;
     case CommandKind::kClearEstop:
       if (s.mode == Mode::kStopped) {  // an external plant's watchdog, re-armed
+        s.clock_origin = -1;  // its trajectory resumes where it stopped
+        s.estop_latched = false;
         s.mode = Mode::kWaiting;
         s.reason = kWaitingForState;
         s.source = 0;
         return nullptr;
       }
+      if (s.mode == Mode::kWaiting && s.estop_latched) {
+        s.estop_latched = false;
+        return nullptr;
+      }
       if (s.mode != Mode::kEstop) return "clear_estop: the instance is not in an emergency stop";
+      s.estop_latched = false;
       EnterHold(s, kLeftEstop);
       return nullptr;
   }
@@ -329,14 +343,28 @@ void Runtime::TakeMeasured(Slot& s, Nanoseconds now) {
     s.source = m->run_id;
     s.instance.SetMeasured(m->q, m->qd);
     s.measured_tick = m->tick;
-    s.last_measured = now;
+    s.last_measured = std::min(now, m->sent);
     if (s.mode == Mode::kWaiting) {
-      s.mode = Mode::kRunning;
-      s.reason = nullptr;
+      s.mode = s.estop_latched ? Mode::kEstop : Mode::kRunning;
+      s.reason = s.estop_latched ? kEstopped : nullptr;
       s.last_setpoint = now;
     }
   }
   if (s.mode != Mode::kWaiting && now - s.last_measured > s.state_timeout) Stop(s, kMeasuredTimedOut);
+}
+
+// (now) => an external plant's step count: the plant is real, so its time is
+// the wall's, ticks the loop skipped included, while it is commanded; a
+// stopped or waiting instance's clock stands, and resumes from there.
+void Runtime::KeepPlantTime(Slot& s, Nanoseconds now) {
+  const bool commanding = s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop;
+  const Nanoseconds period = ToNanoseconds(period_);
+  if (!commanding || period <= 0) {
+    s.clock_origin = -1;
+    return;
+  }
+  if (s.clock_origin < 0) s.clock_origin = now - s.instance.steps() * period;
+  s.instance.CatchUp((now - s.clock_origin) / period, period_);
 }
 
 // (watchdog) => stopped: the last good state is kept, zero torque is commanded once.
@@ -377,7 +405,7 @@ void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
   if (!s.external_active()) return;
   if (m != nullptr) {
     s.instance.external_controller(s.instance.active_controller())->SetTorque(m->tau);
-    s.last_torque = now;
+    s.last_torque = std::min(now, m->sent);
     if (s.mode == Mode::kHold) {
       s.mode = Mode::kRunning;
       s.reason = nullptr;

@@ -28,7 +28,10 @@
 //            nothing moves; reset clears it
 //   paused   frozen: time and state stand still; resume returns to the mode before
 //   estop    the controller is bypassed and every joint braked, τ = −B q̇ within the
-//            torque limits; clear_estop enters hold. reset keeps an estop.
+//            torque limits; clear_estop enters hold. An estop is latched until
+//            clear_estop: reset keeps it (also after a fault or the watchdog
+//            interrupted it), and an external plant stopped or waiting takes it
+//            and brakes from its first fresh state instead of running.
 //
 // An external plant's instance is not integrated: each tick its (q, q̇) are
 // the latest measured ones, its controller runs on them, and the record asks
@@ -45,6 +48,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -77,8 +81,14 @@ struct SetpointMessage {
 };
 
 // A torque for an external controller, validated and fresh (daemon/lcm_bridge.hpp).
+// `sent`: when it was sent on the monotonic clock, as the receiver judged
+// its age (arrival − age): the timeouts count from there, so a torque or
+// state is never used once older than its timeout, however long it waited.
+// kSentUnknown: from when the tick takes it.
+inline constexpr Nanoseconds kSentUnknown = std::numeric_limits<Nanoseconds>::max();
 struct TorqueMessage {
   VectorXd tau;  // (n) N·m or N
+  Nanoseconds sent = kSentUnknown;
 };
 
 // An external plant's measured state, validated (size, finite, bounded) and fresh.
@@ -86,6 +96,7 @@ struct MeasuredMessage {
   VectorXd q, qd;            // (n)
   std::int64_t tick = -1;    // the sender's state_t.tick
   std::int64_t run_id = 0;   // the sender's state_t.run_id
+  Nanoseconds sent = kSentUnknown;
 };
 
 // What the receiver found wrong with an external plant's measured state: each
@@ -234,6 +245,7 @@ class Runtime {
   void Record(Slot& s, InstanceRecord& r);
   void EnterHold(Slot& s, const char* why);
   void Activated(Slot& s, Nanoseconds now);
+  void KeepPlantTime(Slot& s, Nanoseconds now);
   void Stop(Slot& s, const char* why);
   void Fault(Slot& s, const char* why, InstanceRecord& r);
 

@@ -175,7 +175,7 @@ int Serve(const Options& o, const LogFiles& logs) {
   const int notify_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   MonotonicClock clock(static_cast<Nanoseconds>(o.spin_us * 1e3));
   SpscRing<TickRecord> ring(1024, runtime->MakeRecord());
-  const LoopTimerOptions timer{static_cast<Nanoseconds>(std::llround(scene.period * 1e9)),
+  const LoopTimerOptions timer{ToNanoseconds(scene.period),
                                o.overrun == "catch-up" ? OverrunPolicy::kCatchUp : OverrunPolicy::kSkip,
                                o.max_catch_up};
   Loop loop(*runtime, clock, timer, ring, notify_fd);
