@@ -1,5 +1,6 @@
 // lagrangectl command: switch controller, change gains, reset, pause, resume,
-// emergency stop and clear it. Done only when lagranged says so: a reply_t
+// emergency stop and clear it (clear also re-arms an external plant stopped
+// by its watchdog). Done only when lagranged says so: a reply_t
 // from the one run publishing the instance's state, carrying this command's
 // own request_id.
 
@@ -38,7 +39,9 @@ class CommandCommand final : public Command {
             "command",
             "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | resume | estop | clear")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
-    app_->add_option("action", action_, "controller NAME, gains, reset, pause, resume, estop or clear")
+    app_->add_option("action", action_,
+                     "controller NAME, gains, reset, pause, resume, estop or clear (leaves an estop into hold, and "
+                     "re-arms an external plant its watchdog stopped into waiting)")
         ->required()
         ->expected(1, -1);
     app_->add_option("--kp", kp_, "gains: proportional gains, one for every joint or one per joint (a or a,b,..)")

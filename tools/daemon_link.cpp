@@ -1,5 +1,6 @@
 #include "tools/daemon_link.hpp"
 
+#include <algorithm>
 #include <random>
 
 #include "daemon/channels.hpp"
@@ -77,6 +78,17 @@ std::vector<std::string> JointNamesIn(const status_t& status, const std::string&
     if (status.instance_names[i] == instance) return std::move(names[i]);
   }
   return {};
+}
+
+std::string ModeReasonIn(const status_t& status, const std::string& instance, std::int8_t mode) {
+  const std::size_t count =
+      std::min({status.instance_names.size(), status.instance_modes.size(), status.instance_reasons.size()});
+  for (std::size_t i = 0; i < count; ++i) {
+    if (status.instance_names[i] == instance) {
+      return status.instance_modes[i] == mode ? Escape(status.instance_reasons[i]) : "";
+    }
+  }
+  return "";
 }
 
 DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)

@@ -54,6 +54,11 @@ std::vector<std::vector<std::string>> JointNamesByInstance(const status_t& statu
 // not add up.
 std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance);
 
+// Why a status says `instance` is in `mode` (status_t.instance_reasons),
+// escaped; "" when the status names no such instance, gives it another mode
+// (a status is sent at 10 Hz, a state every tick), or gives no reason.
+std::string ModeReasonIn(const status_t& status, const std::string& instance, std::int8_t mode);
+
 // How long lagrangectl listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state

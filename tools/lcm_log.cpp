@@ -5,6 +5,7 @@
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/torque_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
@@ -111,6 +112,30 @@ class SetpointWriter final : public Writer {
   int n_ = -1;
 };
 
+class TorqueWriter final : public Writer {
+ public:
+  const char* type() const override { return "torque_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    torque_t t;
+    if (!CheckedDecode(t, CheckTorquePacket, data, size)) return false;
+    if (n_ < 0) {
+      n_ = t.num_dofs;
+      out << "log_utime,utime,run_id,sequence,state_tick,num_dofs";
+      Columns(out, "tau", n_);
+      out << '\n';
+    }
+    if (t.num_dofs != n_) return false;
+    out << log_utime << ',' << t.utime << ',' << RunIdText(t.run_id) << ',' << t.sequence << ',' << t.state_tick << ','
+        << t.num_dofs;
+    Values(out, t.tau);
+    out << '\n';
+    return true;
+  }
+
+ private:
+  int n_ = -1;
+};
+
 class CommandWriter final : public Writer {
  public:
   const char* type() const override { return "command_t"; }
@@ -137,19 +162,21 @@ class StatusWriter final : public Writer {
     if (!header_) {
       out << "log_utime,utime,run_id,ticks,ticks_in_window,period,wake_latency_p50,wake_latency_p99,wake_latency_max,"
              "compute_p50,compute_p99,compute_max,overruns,state_messages_dropped,setpoints_accepted,"
-             "setpoints_rejected,last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
+             "setpoints_rejected,torques_accepted,torques_rejected,measured_accepted,measured_rejected,"
+             "last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
              "datagrams_dropped_kernel,datagrams_malformed,fragments_dropped,foreign_messages,last_foreign_run_id,"
              "replies_suppressed,"
-             "instances,joints\n";
+             "instances,reasons,joints\n";
     }
     header_ = true;
-    std::string instances, joints;
+    std::string instances, reasons, joints;
     // NAME=j1,j2,..: each instance's share of joint_names (none when the
     // status carries none or its counts do not add up: JointNamesByInstance).
     const std::vector<std::vector<std::string>> names = JointNamesByInstance(s);
     for (int i = 0; i < s.num_instances; ++i) {
       const auto k = static_cast<std::size_t>(i);
       instances += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + std::to_string(s.instance_modes[k]);
+      reasons += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + Escape(s.instance_reasons[k]);
       joints += (i ? ";" : "") + Escape(s.instance_names[k]) + "=";
       if (k >= names.size()) continue;
       for (std::size_t j = 0; j < names[k].size(); ++j) joints += (j ? "," : "") + names[k][j];
@@ -160,12 +187,16 @@ class StatusWriter final : public Writer {
          {s.wake_latency_p50, s.wake_latency_p99, s.wake_latency_max, s.compute_p50, s.compute_p99, s.compute_max}) {
       out << ',' << FormatDouble(x);
     }
-    out << ',' << s.overruns << ',' << s.state_messages_dropped << ',' << s.setpoints_accepted << ','
-        << s.setpoints_rejected << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ','
-        << s.commands_rejected << ',' << Quote(s.last_command_error) << ',' << s.decode_errors << ','
-        << s.datagrams_dropped_kernel << ',' << s.datagrams_malformed << ',' << s.fragments_dropped << ','
-        << s.foreign_messages << ',' << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ','
-        << Quote(instances) << ',' << QuoteEscaped(joints) << '\n';
+    out << ',' << s.overruns << ',' << s.state_messages_dropped;
+    for (std::int64_t x : {s.setpoints_accepted, s.setpoints_rejected, s.torques_accepted, s.torques_rejected,
+                           s.measured_accepted, s.measured_rejected}) {
+      out << ',' << x;
+    }
+    out << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ',' << s.commands_rejected << ','
+        << Quote(s.last_command_error) << ',' << s.decode_errors << ',' << s.datagrams_dropped_kernel << ','
+        << s.datagrams_malformed << ',' << s.fragments_dropped << ',' << s.foreign_messages << ','
+        << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ',' << QuoteEscaped(instances) << ','
+        << QuoteEscaped(reasons) << ',' << QuoteEscaped(joints) << '\n';
     return true;
   }
 
@@ -193,6 +224,7 @@ class ReplyWriter final : public Writer {
 std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
   if (fingerprint == state_t::getHash()) return std::make_unique<StateWriter>();
   if (fingerprint == setpoint_t::getHash()) return std::make_unique<SetpointWriter>();
+  if (fingerprint == torque_t::getHash()) return std::make_unique<TorqueWriter>();
   if (fingerprint == command_t::getHash()) return std::make_unique<CommandWriter>();
   if (fingerprint == status_t::getHash()) return std::make_unique<StatusWriter>();
   if (fingerprint == reply_t::getHash()) return std::make_unique<ReplyWriter>();

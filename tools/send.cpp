@@ -1,18 +1,22 @@
 // lagrangectl send: stream setpoints to an instance, a fixed one or a trajectory
-// from the instance's current state. Success means the one lagranged run
-// publishing the instance counted the setpoints as accepted and the instance
-// was running them.
+// from the instance's current state; or stream a fixed torque (torque_t) to an
+// instance running its external controller. Success means the one lagranged
+// run publishing the instance counted what was sent as accepted, rejected
+// none, and the instance was running it.
 
 #include <lagrange/setpoint_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include <cmath>
 #include <memory>
 #include <thread>
 
+#include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
 #include "daemon/channels.hpp"
 #include "daemon/clock.hpp"
 #include "daemon/escape.hpp"
+#include "daemon/lcm_bridge.hpp"  // NewRunId
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"
@@ -21,30 +25,64 @@
 namespace lagrange::cli {
 namespace {
 
-// How long after the stream a state shows what the instance made of it.
+// How long after the stream a state shows what the instance made of it
+// (well within any setpoint or torque timeout).
 constexpr double kSettle = 0.02;  // s
+
+// What lagranged made of a stream: the instance's state just after it, and
+// the daemon's counters in a status that counts every message of it.
+struct Outcome {
+  state_t state;
+  status_t status;
+};
+
+// "1 torque", "3 torques".
+std::string Count(std::int64_t n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
+// The command that leaves a mode ("" when there is none to give).
+std::string LeaveCommand(const std::string& instance, std::int8_t mode) {
+  switch (mode) {
+    case state_t::MODE_ESTOP: return "command " + instance + " clear";
+    case state_t::MODE_STOPPED: return "command " + instance + " clear";  // re-arms an external plant
+    case state_t::MODE_PAUSED: return "command " + instance + " resume";
+    case state_t::MODE_FAULT: return "command " + instance + " reset";
+    default: return "";
+  }
+}
 
 class SendCommand final : public Command {
  public:
   explicit SendCommand(CLI::App& parent)
-      : Command(parent.add_subcommand("send", "Stream setpoints to an instance (fixed, step, sine or minimum jerk)")) {
+      : Command(parent.add_subcommand("send",
+                                      "Stream setpoints to an instance (fixed, step, sine or minimum jerk), or a "
+                                      "fixed torque to its external controller (--tau)")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
     auto list = [&](const char* name, std::vector<double>& values, const char* help) {
       return AddNumberList(*app_, name, values, help);
     };
-    list("--q", q_, "Target positions a,b,.. (rad or m); the sine's center if given");
+    auto* q = list("--q", q_, "Target positions a,b,.. (rad or m); the sine's center if given");
     auto* qd = list("--qd", qd_, "Velocities (fixed setpoint only; default zeros)");
     auto* qdd = list("--qdd", qdd_, "Accelerations (fixed setpoint only; default zeros)");
     auto* step = app_->add_flag("--step", step_, "Jump to --q and hold it (the default)");
     auto* sine = list("--sine", sine_, "AMPLITUDE,FREQ: q_d = center + A sin(2π f t) on every joint");
     auto* jerk = app_->add_option("--min-jerk", min_jerk_, "SECONDS: minimum-jerk move from the current state to --q")
                      ->check(PositiveNumber());
+    auto* tau =
+        list("--tau", tau_, "Torques a or a,b,.. (N·m or N): a torque_t stream to the instance's external controller");
     step->excludes(sine)->excludes(jerk);
     sine->excludes(jerk);
-    app_->add_option("--rate", rate_, "Setpoints per second")->check(PositiveNumber(10000.0))->capture_default_str();
+    for (CLI::Option* setpoint : {q, qd, qdd, step, sine, jerk}) tau->excludes(setpoint);
+    app_->add_option("--torque-channel", torque_channel_,
+                     "--tau: the channel to send on (default: <PREFIX><INSTANCE>_TORQUE; a scene may name another)")
+        ->needs(tau);
+    app_->add_option("--rate", rate_, "Setpoints or torques per second")
+        ->check(PositiveNumber(10000.0))
+        ->capture_default_str();
     app_->add_option("--for", for_, "Seconds to stream (default: 2, or the move's duration + 1, or 5 for a sine)")
         ->check(PositiveNumber());
-    auto* once = app_->add_flag("--once", once_, "Send one setpoint and exit (fixed setpoint only)");
+    auto* once = app_->add_flag("--once", once_, "Send one setpoint or torque and exit (not with a trajectory)");
     once->excludes(sine)->excludes(jerk);
     qd_option_ = qd;
     qdd_option_ = qdd;
@@ -55,6 +93,37 @@ class SendCommand final : public Command {
     CheckArguments();
     DaemonLink link(bus_, instance_);
     link.AwaitOneRun();
+    return tau_.empty() ? SendSetpoints(link, out) : SendTorques(link, out);
+  }
+
+ private:
+  // Combinations that make no sense, refused before anything goes on the bus.
+  void CheckArguments() const {
+    if (torque_channel_) {
+      if (const std::string why = CheckChannelName(*torque_channel_); !why.empty()) {
+        throw UsageError("--torque-channel: " + why);
+      }
+    }
+    if (!tau_.empty()) return;  // CLI11 refused every setpoint option beside --tau
+    const bool moving = !sine_.empty() || min_jerk_;
+    if (moving && (qd_option_->count() > 0 || qdd_option_->count() > 0)) {
+      throw UsageError(std::string(qd_option_->count() > 0 ? "--qd" : "--qdd") + ": only for a fixed setpoint (" +
+                       (sine_.empty() ? "--min-jerk" : "--sine") + " sets its own velocities and accelerations)");
+    }
+    if (!sine_.empty()) {
+      if (sine_.size() != 2) {
+        throw UsageError("--sine: expected AMPLITUDE,FREQ (2 numbers, the same for every joint), got " +
+                         std::to_string(sine_.size()));
+      }
+      if (sine_[1] < 0.0) throw UsageError("--sine: expected a frequency >= 0 Hz, got " + FormatDouble(sine_[1]));
+    } else if (min_jerk_) {
+      if (q_.empty()) throw UsageError("--min-jerk: needs the target --q");
+    } else if (q_.empty()) {
+      throw UsageError("--q or --tau is required");
+    }
+  }
+
+  int SendSetpoints(DaemonLink& link, std::ostream& out) {
     const state_t now = link.state();
     const int n = now.num_dofs;
     const VectorXd q_now = Eigen::Map<const VectorXd>(now.q.data(), n);
@@ -85,68 +154,90 @@ class SendCommand final : public Command {
     const status_t before = link.AwaitStatus();
     const std::string channel = bus_.Channel(instance_, kSetpointSuffix);
     const std::int64_t sent = Stream(link, *trajectory, n, channel, once_ ? 0.0 : duration);
-    const auto ended = std::chrono::steady_clock::now();
-    // What the instance made of them: its mode just after the stream (before any setpoint timeout).
-    link.PumpUntil([&] { return link.state_received_at() > ended + std::chrono::duration<double>(kSettle); },
-                   std::max(bus_.wait, 0.5));
-    const state_t state = link.state();
-    link.RequireOneRun("refusing to trust its counts");
-
-    // The second status after the stream was made at least one status period
-    // after the last setpoint arrived, so it counts all of them.
-    const std::int64_t statuses_at_end = link.statuses_received();
-    const bool counted =
-        link.PumpUntil([&] { return link.statuses_received() >= statuses_at_end + 2; }, std::max(bus_.wait, 0.5));
-    if (!counted) {
-      throw std::runtime_error("sent " + std::to_string(sent) + " setpoints, but no status from lagranged (run " +
-                               RunIdText(link.run_id()) + ") came within " + FormatDouble(std::max(bus_.wait, 0.5)) +
-                               " s to count them");
-    }
-    const status_t& after = *link.status();
-    const std::int64_t accepted = after.setpoints_accepted - before.setpoints_accepted;
-    const std::int64_t rejected = after.setpoints_rejected - before.setpoints_rejected;
+    const Outcome o = AwaitOutcome(link, sent, "setpoint");
+    const std::int64_t accepted = o.status.setpoints_accepted - before.setpoints_accepted;
+    const std::int64_t rejected = o.status.setpoints_rejected - before.setpoints_rejected;
     if (rejected > 0) {
       throw std::runtime_error("lagranged rejected " + std::to_string(rejected) + " of " +
-                               std::to_string(accepted + rejected) + " setpoints it received (" + std::to_string(sent) +
-                               " sent): " + Escape(after.last_rejection));
+                               Count(accepted + rejected, "setpoint") + " it received (" + std::to_string(sent) +
+                               " sent): " + Escape(o.status.last_rejection));
     }
     if (accepted == 0) {
       throw std::runtime_error("lagranged (run " + RunIdText(link.run_id()) + ") received none of the " +
-                               std::to_string(sent) + " setpoints sent on " + channel);
+                               Count(sent, "setpoint") + " sent on " + channel);
     }
-    if (state.mode != state_t::MODE_RUNNING) {
-      throw std::runtime_error(instance_ + " is in " + ModeName(state.mode) +
-                               " mode, not running: lagranged accepted " + std::to_string(accepted) +
-                               " setpoints but does not follow them" +
-                               (state.mode == state_t::MODE_ESTOP    ? " (command " + instance_ + " clear)"
-                                : state.mode == state_t::MODE_PAUSED ? " (command " + instance_ + " resume)"
-                                : state.mode == state_t::MODE_FAULT  ? " (command " + instance_ + " reset)"
-                                                                     : std::string()));
-    }
-    out << "sent " << sent << " setpoint" << (sent == 1 ? "" : "s") << " (" << what << ") to " << channel
-        << "; lagranged accepted " << accepted << "\n";
+    RequireRunning(o, Count(accepted, "setpoint"), "does not follow them");
+    out << "sent " << Count(sent, "setpoint") << " (" << what << ") to " << channel << "; lagranged accepted "
+        << accepted << "\n";
     return 0;
   }
 
- private:
-  // Combinations that make no sense, refused before anything goes on the bus.
-  void CheckArguments() const {
-    const bool moving = !sine_.empty() || min_jerk_;
-    if (moving && (qd_option_->count() > 0 || qdd_option_->count() > 0)) {
-      throw UsageError(std::string(qd_option_->count() > 0 ? "--qd" : "--qdd") + ": only for a fixed setpoint (" +
-                       (sine_.empty() ? "--min-jerk" : "--sine") + " sets its own velocities and accelerations)");
+  // A fixed torque for `--for` seconds (or once), as one sender: a fresh
+  // run_id, the sequence growing from 1, no measured state (state_tick -1).
+  int SendTorques(DaemonLink& link, std::ostream& out) {
+    const int n = link.state().num_dofs;
+    const VectorXd tau = JointValues("--tau", tau_, n, true);
+    std::string what;
+    for (int j = 0; j < n; ++j) what += (j ? "," : "") + FormatDouble(tau[j]);
+
+    const status_t before = link.AwaitStatus();
+    const std::string channel = torque_channel_.value_or(bus_.Channel(instance_, kTorqueSuffix));
+    const std::int64_t sent = StreamTorque(link, tau, channel, once_ ? 0.0 : for_.value_or(2.0));
+    const Outcome o = AwaitOutcome(link, sent, "torque");
+    const std::int64_t accepted = o.status.torques_accepted - before.torques_accepted;
+    const std::int64_t rejected = o.status.torques_rejected - before.torques_rejected;
+    const std::string external(ToString(ControllerType::kExternal));
+    const bool external_active = o.state.controller == external;
+    const std::string switch_hint =
+        external_active ? "" : "; switch with `lagrangectl command " + instance_ + " controller " + external + "`";
+    if (rejected > 0) {
+      throw std::runtime_error("lagranged rejected " + std::to_string(rejected) + " of " +
+                               Count(accepted + rejected, "torque") + " it received (" + std::to_string(sent) +
+                               " sent): " + Escape(o.status.last_rejection) + switch_hint);
     }
-    if (!sine_.empty()) {
-      if (sine_.size() != 2) {
-        throw UsageError("--sine: expected AMPLITUDE,FREQ (2 numbers, the same for every joint), got " +
-                         std::to_string(sine_.size()));
-      }
-      if (sine_[1] < 0.0) throw UsageError("--sine: expected a frequency >= 0 Hz, got " + FormatDouble(sine_[1]));
-    } else if (min_jerk_) {
-      if (q_.empty()) throw UsageError("--min-jerk: needs the target --q");
-    } else if (q_.empty()) {
-      throw UsageError("--q is required");
+    if (accepted == 0) {
+      // Only an instance whose scene lists an external controller listens for torques.
+      throw std::runtime_error(
+          "lagranged (run " + RunIdText(link.run_id()) + ") counted none of the " + Count(sent, "torque") +
+          " sent on " + channel + ": " +
+          (external_active ? "does the scene name another torque channel? (--torque-channel)"
+                           : "no " + external + " controller of " + instance_ + " listens there (" + instance_ +
+                                 " runs " + Escape(o.state.controller) + "; its scene lists no " + external +
+                                 " controller, or names another torque channel: --torque-channel)"));
     }
+    RequireRunning(o, Count(accepted, "torque"), "does not apply them");
+    out << "sent " << Count(sent, "torque") << " (tau " << what << ") to " << channel << "; lagranged accepted "
+        << accepted << "\n";
+    return 0;
+  }
+
+  // The state kSettle after the stream (before any timeout sends the instance
+  // to hold) and the second status after it, which was made at least one
+  // status period after the last message arrived, so it counts all of them.
+  Outcome AwaitOutcome(DaemonLink& link, std::int64_t sent, const std::string& what) {
+    const auto ended = std::chrono::steady_clock::now();
+    const double wait = std::max(bus_.wait, 0.5);
+    link.PumpUntil([&] { return link.state_received_at() > ended + std::chrono::duration<double>(kSettle); }, wait);
+    const state_t state = link.state();
+    link.RequireOneRun("refusing to trust its counts");
+    const std::int64_t statuses_at_end = link.statuses_received();
+    if (!link.PumpUntil([&] { return link.statuses_received() >= statuses_at_end + 2; }, wait)) {
+      throw std::runtime_error("sent " + Count(sent, what) + ", but no status from lagranged (run " +
+                               RunIdText(link.run_id()) + ") came within " + FormatDouble(wait) + " s to count them");
+    }
+    return {state, *link.status()};
+  }
+
+  // `accepted`: "3 setpoints"; `consequence`: what the instance does not do with them.
+  void RequireRunning(const Outcome& o, const std::string& accepted, const char* consequence) const {
+    if (o.state.mode == state_t::MODE_RUNNING) return;
+    // (REASON; command NAME ACTION), with what of the two there is.
+    const std::string why = ModeReasonIn(o.status, instance_, o.state.mode);
+    const std::string leave = LeaveCommand(instance_, o.state.mode);
+    const std::string notes = why + (!why.empty() && !leave.empty() ? "; " : "") + leave;
+    throw std::runtime_error(instance_ + " is in " + ModeName(o.state.mode) +
+                             " mode, not running: lagranged accepted " + accepted + " but " + consequence +
+                             (notes.empty() ? "" : " (" + notes + ")"));
   }
 
   std::int64_t Stream(DaemonLink& link, const Trajectory& trajectory, int n, const std::string& channel,
@@ -157,8 +248,7 @@ class SendCommand final : public Command {
     setpoint_t msg;
     msg.num_dofs = n;
     const auto start = std::chrono::steady_clock::now();
-    const auto period =
-        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate_));
+    const auto period = Period();
     std::int64_t sent = 0;
     for (auto next = start; !Interrupted(); next += period) {
       const double t = std::chrono::duration<double>(next - start).count();
@@ -187,9 +277,37 @@ class SendCommand final : public Command {
     return sent;
   }
 
+  std::int64_t StreamTorque(DaemonLink& link, const VectorXd& tau, const std::string& channel, double duration) {
+    CatchInterrupt();
+    MonotonicClock clock;
+    torque_t msg;
+    msg.run_id = NewRunId();
+    msg.sequence = 0;
+    msg.state_tick = -1;
+    msg.num_dofs = static_cast<std::int32_t>(tau.size());
+    msg.tau.assign(tau.data(), tau.data() + tau.size());
+    const auto start = std::chrono::steady_clock::now();
+    const auto period = Period();
+    std::int64_t sent = 0;
+    for (auto next = start; !Interrupted(); next += period) {
+      if (std::chrono::duration<double>(next - start).count() > duration + 1e-9 && sent > 0) break;
+      ++msg.sequence;  // grows even when a publish fails: lagranged sees a gap, not a repeat
+      msg.utime = clock.WallMicros();
+      sent += link.bus().PublishMessage(channel, msg) ? 1 : 0;
+      std::this_thread::sleep_until(next + period);
+      link.bus().Drain();
+    }
+    return sent;
+  }
+
+  std::chrono::steady_clock::duration Period() const {
+    return std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate_));
+  }
+
   std::string instance_;
-  std::vector<double> q_, qd_, qdd_, sine_;
+  std::vector<double> q_, qd_, qdd_, sine_, tau_;
   std::optional<double> min_jerk_, for_;
+  std::optional<std::string> torque_channel_;
   bool step_ = false, once_ = false;
   double rate_ = 1000.0;  // the loop's rate: no staircase in a moving setpoint
   BusOptions bus_;

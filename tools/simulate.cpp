@@ -1,4 +1,5 @@
 // lagrangectl simulate: run a scene offline and write one CSV row per step.
+// A scene with an external plant or controller is refused: it needs the bus.
 // An instance that fails lagranged's health check (daemon/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
 
@@ -62,6 +63,11 @@ class SimulateCommand final : public Command {
 
   int Run(std::ostream& out, std::ostream& err) override {
     const Scene scene = LoadScene(scene_);
+    for (const InstanceConfig& c : scene.instances) {
+      if (const char* why = OfflineRefusal(c)) {
+        throw std::runtime_error(scene_ + ": instance " + c.name + " cannot run offline: " + why);
+      }
+    }
     std::vector<Instance> instances;
     instances.reserve(scene.instances.size());
     for (const InstanceConfig& c : scene.instances) instances.emplace_back(c);

@@ -211,7 +211,9 @@ class WatchCommand final : public Command {
     f << "wake latency us  p50 " << F(s.wake_latency_p50, 1) << "  p99 " << F(s.wake_latency_p99, 1) << "  max "
       << F(s.wake_latency_max, 1) << "    compute us  p50 " << F(s.compute_p50, 1) << "  p99 " << F(s.compute_p99, 1)
       << "  max " << F(s.compute_max, 1) << "\n";
-    f << "setpoints " << s.setpoints_accepted << " accepted, " << s.setpoints_rejected << " rejected"
+    f << "setpoints " << s.setpoints_accepted << " accepted, " << s.setpoints_rejected << " rejected   torques "
+      << s.torques_accepted << " accepted, " << s.torques_rejected << " rejected   measured states "
+      << s.measured_accepted << " accepted, " << s.measured_rejected << " rejected"
       << (s.last_rejection.empty() ? "" : " (last: " + Escape(s.last_rejection) + ")") << "\n";
     f << "commands  " << s.commands_accepted << " accepted, " << s.commands_rejected << " rejected"
       << (s.last_command_error.empty() ? "" : " (last: " + Escape(s.last_command_error) + ")") << "   decode errors "
@@ -241,7 +243,7 @@ class WatchCommand final : public Command {
       if (age > kStale)
         f << "STALE (no state for " << F(age, 1) << " s; was " << ModeName(st.mode) << ")";
       else
-        f << ModeName(st.mode);
+        f << ModeName(st.mode) << ReasonOf(name, st);
       f << "   " << Escape(st.controller) << "   t " << F(st.t, 3) << " s   T " << F(st.kinetic_energy) << " J   V "
         << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
         << RunIdText(st.run_id) << "\n";
@@ -261,6 +263,17 @@ class WatchCommand final : public Command {
         f << line;
       }
     }
+  }
+
+  // " (why)" when the latest status of the state's run gives a reason for the
+  // instance in the state's mode ("" when running, or when the two disagree).
+  std::string ReasonOf(const std::string& instance, const state_t& st) const {
+    for (const auto* e : statuses_.Latest()) {
+      if (e->message.run_id != st.run_id) continue;
+      const std::string why = ModeReasonIn(e->message, instance, st.mode);
+      return why.empty() ? "" : " (" + why + ")";
+    }
+    return "";
   }
 
   // An instance's joint names from the latest status of run `run_id`, if it gives n of them.

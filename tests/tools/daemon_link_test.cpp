@@ -1,5 +1,6 @@
 // Joint names from a status: each instance's share of status_t.joint_names,
-// or none at all when the counts do not add up (never misattributed).
+// or none at all when the counts do not add up (never misattributed). An
+// instance's reason for its mode, only for the mode it is given with.
 
 #include "tools/daemon_link.hpp"
 
@@ -42,6 +43,20 @@ TEST(JointNames, CountsThatDoNotAddUpAttributeNoNames) {
 
 TEST(JointNames, NamesAreEscapedForPrinting) {
   EXPECT_EQ(JointNamesIn(Status({"arm"}, {1}, {"bad\nname"}), "arm"), std::vector<std::string>{"bad\\nname"});
+}
+
+// A status is sent at 10 Hz, a state every tick: a reason is shown only
+// beside the mode the status gives it for, and escaped.
+TEST(ModeReasons, AReasonIsGivenOnlyForItsOwnModeAndEscaped) {
+  status_t s = Status({"arm", "plant"}, {2, 2}, {});
+  s.instance_modes = {state_t::MODE_HOLD, state_t::MODE_STOPPED};
+  s.instance_reasons = {"streamed torques timed out (torque_timeout)", "late\x1b[2J"};
+  EXPECT_EQ(ModeReasonIn(s, "arm", state_t::MODE_HOLD), "streamed torques timed out (torque_timeout)");
+  EXPECT_EQ(ModeReasonIn(s, "arm", state_t::MODE_RUNNING), "");  // the state has moved on
+  EXPECT_EQ(ModeReasonIn(s, "plant", state_t::MODE_STOPPED), "late\\x1b[2J");
+  EXPECT_EQ(ModeReasonIn(s, "other", state_t::MODE_HOLD), "");
+  s.instance_reasons.pop_back();  // fewer reasons than instances: none made up
+  EXPECT_EQ(ModeReasonIn(s, "plant", state_t::MODE_STOPPED), "");
 }
 
 }  // namespace

@@ -7,11 +7,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "daemon/offline.hpp"
+#include "daemon/scene.hpp"
 #include "tests/support/process.hpp"
 
 namespace lagrange {
@@ -89,8 +92,15 @@ TEST_F(Install, EveryShippedSceneIsInstalledAndRuns) {
   for (const fs::path& name : scenes) {
     const fs::path installed = prefix_ / "share/lagrange/config" / name;
     ASSERT_TRUE(fs::is_regular_file(installed)) << name << " is not in the top-level CMakeLists.txt's install list";
-    const auto r = RunProcess({(prefix_ / "bin/lagrangectl").string(), "simulate", installed.string(), "--duration",
-                               "0.01", "--csv", (prefix_ / "run.csv").string()});
+    // A scene with an external plant or controller needs the bus: lagranged runs it, on the in-process transport.
+    const Scene scene = LoadScene(installed.string());
+    const bool offline = std::none_of(scene.instances.begin(), scene.instances.end(),
+                                      [](const InstanceConfig& c) { return OfflineRefusal(c) != nullptr; });
+    const auto r = offline ? RunProcess({(prefix_ / "bin/lagrangectl").string(), "simulate", installed.string(),
+                                         "--duration", "0.01", "--csv", (prefix_ / "run.csv").string()})
+                           : RunProcess({(prefix_ / "bin/lagranged").string(), "--lcm-url", "inprocess://", "--config",
+                                         installed.string(), "--duration", "0.05"},
+                                        60.0);
     EXPECT_EQ(r.exit_code, 0) << name << ": " << r.err;
   }
   EXPECT_TRUE(fs::is_regular_file(prefix_ / "lib/systemd/system/lagranged.service"));

@@ -8,12 +8,14 @@
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <thread>
 
+#include "daemon/runtime.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
@@ -143,6 +145,15 @@ TEST_F(LiveDaemon, SendRefusesBadInputWithOneLine) {
                 "--qd: only for a fixed setpoint (--sine sets its own velocities");
   ExpectOneLine(Ctl({"send", "arm", "--min-jerk", "1", "--q", "1,1", "--qdd", "1,1"}), "send", 2,
                 "--qdd: only for a fixed setpoint (--min-jerk sets its own velocities");
+  ExpectOneLine(Ctl({"send", "arm"}), "send", 2, "--q or --tau is required");
+  ExpectOneLine(Ctl({"send", "arm", "--tau", "1,x"}), "send", 2,
+                "--tau: expected comma-separated finite numbers, got 'x'");
+  ExpectOneLine(Ctl({"send", "arm", "--tau", "1", "--q", "1,1"}), "send", 2, "--q excludes --tau");
+  ExpectOneLine(Ctl({"send", "arm", "--tau", "1", "--sine", "0.2,1"}), "send", 2, "--sine excludes --tau");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "1,1", "--torque-channel", "MY_TORQUE"}), "send", 2,
+                "--torque-channel requires --tau");
+  ExpectOneLine(Ctl({"send", "arm", "--tau", "1", "--torque-channel", "MY TORQUE"}), "send", 2,
+                "--torque-channel: expected an LCM channel name of printable ASCII without spaces, got 'MY TORQUE'");
 }
 
 TEST_F(LiveDaemon, SendCountsRejectionsFromTheDaemonsOwnTotals) {
@@ -160,7 +171,112 @@ TEST_F(LiveDaemon, SendFailsWhenTheInstanceDoesNotFollow) {
   ASSERT_EQ(Ctl({"command", "arm", "estop"}).status, 0);
   const auto r = Ctl({"send", "arm", "--q", "0.5,0.4", "--for", "0.3"});
   ExpectOneLine(r, "send", 1, "arm is in estop mode, not running");
+  EXPECT_NE(r.err.find(std::string(" (") + kEstopped + "; command arm clear)"), std::string::npos) << r.err;
   EXPECT_EQ(r.out, "");
+}
+
+std::string SceneFile(const char* name) { return std::string(LAGRANGE_SOURCE_DIR) + "/config/" + name; }
+
+std::string JoinNumbers(const std::vector<double>& v) {
+  std::string s;
+  for (double x : v) s += (s.empty() ? "" : ",") + cli::FormatDouble(x);
+  return s;
+}
+
+// The arm of arm_external_controller.yaml holds under gravity compensation
+// until a torque comes, so at rest its torque is G(q). `send --tau` streams
+// G(q) + (lift, 0): applied exactly as sent, it lifts the shoulder, for at
+// rest M q̈ = τ − G = (lift, 0) and M⁻¹ has a positive diagonal. A torque of
+// the wrong size never leaves lagrangectl.
+TEST_F(LiveDaemon, SendTauStreamsATorqueTheArmIsDrivenByUnderItsExternalController) {
+  Start(7710, {"--config", SceneFile("arm_external_controller.yaml")});
+  ASSERT_TRUE(collector_->WaitForLatest<state_t>(
+      "ARM_STATE", [](const state_t& s) { return s.mode == state_t::MODE_HOLD; }, 5.0));
+  ExpectOneLine(Ctl({"send", "arm", "--tau", "1,2,3"}), "send", 2,
+                "--tau: expected 2 values (one for every joint, or one per joint), got 3");
+  const state_t held = LastState("ARM_STATE");
+  constexpr double kLift = 4.0;  // N·m beyond gravity on the shoulder
+  const std::vector<double> tau = {held.tau[0] + kLift, held.tau[1]};
+  const auto r = Ctl({"send", "arm", "--tau", JoinNumbers(tau), "--for", "0.3"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("sent ", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find(" (tau " + JoinNumbers(tau) + ") to ARM_TORQUE; lagranged accepted "), std::string::npos)
+      << r.out;
+
+  // One sender: one non-zero run_id, a growing sequence, no measured state, the torque as given.
+  const auto torques = collector_->Decoded<torque_t>("ARM_TORQUE");
+  ASSERT_FALSE(torques.empty());
+  for (std::size_t k = 0; k < torques.size(); ++k) {
+    EXPECT_NE(torques[k].run_id, 0);
+    EXPECT_EQ(torques[k].run_id, torques.front().run_id);
+    if (k > 0) {
+      EXPECT_GT(torques[k].sequence, torques[k - 1].sequence);
+    }
+    EXPECT_EQ(torques[k].state_tick, -1);
+    ASSERT_EQ(torques[k].num_dofs, 2);
+    EXPECT_EQ(torques[k].tau, tau);
+  }
+  EXPECT_GE(torques.front().sequence, 1);
+
+  std::vector<state_t> driven;
+  for (const state_t& s : collector_->Decoded<state_t>("ARM_STATE")) {
+    if (s.mode == state_t::MODE_RUNNING && s.controller == "external") driven.push_back(s);
+  }
+  ASSERT_FALSE(driven.empty());
+  constexpr double kExact = 1e-12;
+  for (const state_t& s : driven) {
+    EXPECT_NEAR(s.tau[0], tau[0], kExact);  // within the torque limits: applied as sent
+    EXPECT_NEAR(s.tau[1], tau[1], kExact);
+  }
+  EXPECT_GT(driven.back().q[0], held.q[0] + 0.02) << "the shoulder did not rise";
+
+  // The stream over, the torque times out: back in hold, and nothing was rejected.
+  EXPECT_TRUE(collector_->WaitForLatest<state_t>(
+      "ARM_STATE", [](const state_t& s) { return s.mode == state_t::MODE_HOLD; }, 5.0));
+  const std::size_t statuses = collector_->Count("LAGRANGE_STATUS");
+  ASSERT_TRUE(collector_->WaitFor(
+      "LAGRANGE_STATUS", [&](const auto& m) { return m.size() >= statuses + 2; }, 5.0));
+  const status_t status = collector_->Decoded<status_t>("LAGRANGE_STATUS").back();
+  EXPECT_GT(status.torques_accepted, 0);
+  EXPECT_EQ(status.torques_rejected, 0) << status.last_rejection;
+}
+
+TEST_F(LiveDaemon, SendTauIsRefusedUnlessTheExternalControllerIsActiveAndSaysHowToSwitch) {
+  Start(7711, {"--config", SceneFile("arm_external_controller.yaml")});
+  ASSERT_EQ(Ctl({"command", "arm", "controller", "gravity-compensation"}).status, 0);
+  auto r = Ctl({"send", "arm", "--tau", "1", "--for", "0.2"});
+  ExpectOneLine(r, "send", 1,
+                "arm: torque: the instance is not running its external controller (active: gravity-compensation); "
+                "switch with `lagrangectl command arm controller external`");
+  EXPECT_NE(r.err.find("lagranged rejected "), std::string::npos) << r.err;
+  EXPECT_EQ(r.out, "");
+  // As the message says: switched back, the same instance takes torques (here about G(q) at rest).
+  ASSERT_EQ(Ctl({"command", "arm", "controller", "external"}).status, 0);
+  const state_t s = LastState("ARM_STATE");
+  r = Ctl({"send", "arm", "--tau", JoinNumbers({s.tau[0], s.tau[1]}), "--for", "0.2"});
+  EXPECT_EQ(r.status, 0) << r.err;
+}
+
+TEST_F(LiveDaemon, SendTauToAnInstanceWhoseSceneHasNoExternalControllerSaysSo) {
+  Start(7712);
+  const auto r = Ctl({"send", "arm", "--tau", "1,1", "--for", "0.2"});
+  ExpectOneLine(r, "send", 1, "counted none of the ");
+  EXPECT_NE(r.err.find(" sent on ARM_TORQUE: no external controller of arm listens there (arm runs computed-torque; "
+                       "its scene lists no external controller"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.out, "");
+}
+
+// An external plant's controller waits for a measured state nobody sends.
+TEST_F(LiveDaemon, WatchShowsANewModeWithItsReasonAndTheTorqueAndMeasuredCounters) {
+  Start(7713, {"--config", SceneFile("arm_external_plant.yaml")});
+  const auto r = Ctl({"watch", "--frames", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find(std::string("\narm_controller   waiting (") + kWaitingForState + ")   computed-torque   t "),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find(" rejected   torques 0 accepted, 0 rejected   measured states "), std::string::npos) << r.out;
 }
 
 TEST(LiveOneJoint, SendSineDrivesAOneJointPlant) {
@@ -313,6 +429,8 @@ class FakeDaemon {
   struct Config {
     std::vector<std::int64_t> run_ids = {0x1234};  // states alternate between these
     std::string controller = "pd";
+    std::int8_t mode = state_t::MODE_RUNNING;
+    std::string mode_reason;        // the status's instance_reasons
     bool answer = false;            // reply to every command
     std::int64_t reply_run_id = 0;  // 0: the first run id
     bool wrong_request_id = false;  // answer with another request_id than the command's
@@ -357,7 +475,7 @@ class FakeDaemon {
       s.num_dofs = 2;
       for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.1);
       s.controller = config_.controller;
-      s.mode = state_t::MODE_RUNNING;
+      s.mode = config_.mode;
       lcm_.publish("ARM_STATE", &s);
       if (tick % 10 == 0) {
         status_t st{};
@@ -374,9 +492,9 @@ class FakeDaemon {
         st.last_foreign_run_id = 0xbad;
         st.num_instances = 1;
         st.instance_names = {"arm"};
-        st.instance_modes = {state_t::MODE_RUNNING};
+        st.instance_modes = {config_.mode};
         st.instance_dofs = {2};
-        st.instance_reasons = {""};
+        st.instance_reasons = {config_.mode_reason};
         st.num_joints = 2;
         st.joint_names = {"q1", "q2"};
         lcm_.publish("LAGRANGE_STATUS", &st);
@@ -464,14 +582,17 @@ TEST(BelievesNobody, WatchEscapesBusStringsAndShowsTheStatusCounters) {
   const std::string url = Url(7927);
   FakeDaemon::Config config;
   config.controller = "evil\x1b]0;title\x07\nforged line";
+  config.mode = state_t::MODE_HOLD;
+  config.mode_reason = "stuck\x1b[2J\nlagrangectl: forged";
   FakeDaemon fake(url, config);
   const auto r = RunCtl({"watch", "--frames", "1", "--lcm-url", url});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos);
   EXPECT_EQ(r.out.find('\x07'), std::string::npos);
   for (const char* text :
-       {"evil\\x1b]0;title\\x07\\nforged line", "run 0000000000001234", "kernel drops 7", "malformed 8",
-        "fragments dropped 9", "foreign messages 11 (last from run 0000000000000bad)"}) {
+       {"evil\\x1b]0;title\\x07\\nforged line", "\narm   hold (stuck\\x1b[2J\\nlagrangectl: forged)   evil",
+        "run 0000000000001234", "kernel drops 7", "malformed 8", "fragments dropped 9",
+        "foreign messages 11 (last from run 0000000000000bad)"}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
 }

@@ -13,6 +13,7 @@
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -20,6 +21,7 @@
 #include <map>
 #include <sstream>
 
+#include "daemon/runtime.hpp"
 #include "daemon/wire.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
@@ -551,6 +553,90 @@ TEST_F(Logs, Log2CsvSkipsARecordedStateWhoseLengthsLie) {
   const Csv states = ReadCsv(dir_ / "csv" / "ARM_STATE.csv");
   EXPECT_EQ(states.rows.size(), 2u);
   EXPECT_EQ(states.Texts("run_id").front(), "0000000000001234");
+}
+
+// Writes `events` (channel, encoded message) to an LCM log, 1 ms apart.
+void WriteLog(const fs::path& path, const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& events) {
+  lcm::LogFile file(path.string(), "w");
+  std::int64_t n = 0;
+  for (const auto& [channel, bytes] : events) {
+    std::vector<std::uint8_t> data = bytes;
+    lcm::LogEvent e{};
+    e.eventnum = n;
+    e.timestamp = 1000 * ++n;
+    e.channel = channel;
+    e.datalen = static_cast<int32_t>(data.size());
+    e.data = data.data();
+    ASSERT_EQ(file.writeEvent(&e), 0);
+  }
+}
+
+torque_t SomeTorque(std::int64_t sequence, double tau0, double tau1) {
+  torque_t t{};
+  t.utime = 1'700'000'000'000'000 + sequence;
+  t.run_id = 0xabc;
+  t.sequence = sequence;
+  t.state_tick = sequence == 1 ? -1 : 40 + sequence;
+  t.num_dofs = 2;
+  t.tau = {tau0, tau1};
+  return t;
+}
+
+// A torque channel becomes a CSV of the sender's fields and one tau column per
+// joint, checked like every packet (one whose num_dofs lies is skipped); the
+// status CSV carries the torque and measured-state counters and each
+// instance's reason.
+TEST_F(Logs, Log2CsvWritesTorquesOneColumnPerJointAndTheStatusCountersAndReasons) {
+  std::vector<std::uint8_t> lying = Encode(SomeTorque(3, 0.0, 0.0));
+  PutInt32(lying, 8 + 4 * 8, 0x7fffffff);  // num_dofs, after utime, run_id, sequence, state_tick
+  status_t status{};
+  status.run_id = 0x1234;
+  status.torques_accepted = 17;
+  status.torques_rejected = 2;
+  status.measured_accepted = 5;
+  status.measured_rejected = 1;
+  status.last_rejection = "arm: torque: run_id 0: expected the sender's non-zero id";
+  status.last_command_error = "";
+  status.num_instances = 2;
+  status.instance_names = {"arm", "probe"};
+  status.instance_modes = {state_t::MODE_HOLD, state_t::MODE_RUNNING};
+  status.instance_dofs = {2, 1};
+  status.instance_reasons = {kTorquesTimedOut, ""};
+  status.num_joints = 3;
+  status.joint_names = {"q1", "q2", "theta"};
+  const fs::path log = dir_ / "torques.lcm";
+  WriteLog(log, {{"ARM_TORQUE", Encode(SomeTorque(1, 1.5, -0.25))},
+                 {"ARM_TORQUE", Encode(SomeTorque(2, 2.5, 1e-3))},
+                 {"ARM_TORQUE", lying},
+                 {"ARM_TORQUE", Encode(SomeTorque(4, -40.0, 15.0))},
+                 {"LAGRANGE_STATUS", Encode(status)}});
+  const fs::path out = dir_ / "csv";
+  const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("ARM_TORQUE.csv: 3 rows of torque_t (1 skipped"), std::string::npos) << r.out;
+
+  const Csv torques = ReadCsv(out / "ARM_TORQUE.csv");
+  EXPECT_EQ(torques.header, (std::vector<std::string>{"log_utime", "utime", "run_id", "sequence", "state_tick",
+                                                      "num_dofs", "tau0", "tau1"}));
+  ASSERT_EQ(torques.rows.size(), 3u);
+  EXPECT_EQ(torques.Numbers("sequence"), (std::vector<double>{1, 2, 4}));
+  EXPECT_EQ(torques.Numbers("state_tick"), (std::vector<double>{-1, 42, 44}));
+  EXPECT_EQ(torques.Numbers("tau0"), (std::vector<double>{1.5, 2.5, -40.0}));  // shortest round-trip text: exact
+  EXPECT_EQ(torques.Numbers("tau1"), (std::vector<double>{-0.25, 1e-3, 15.0}));
+  EXPECT_EQ(torques.Texts("run_id"), std::vector<std::string>(3, "0000000000000abc"));
+  EXPECT_EQ(torques.Texts("utime").front(), "1700000000000001");
+
+  const Csv statuses = ReadCsv(out / "LAGRANGE_STATUS.csv");
+  ASSERT_EQ(statuses.rows.size(), 1u);
+  for (const auto& [column, value] : std::vector<std::pair<std::string, double>>{
+           {"torques_accepted", 17}, {"torques_rejected", 2}, {"measured_accepted", 5}, {"measured_rejected", 1}}) {
+    ASSERT_GE(statuses.Column(column), 0) << column;
+    EXPECT_EQ(statuses.Numbers(column).front(), value) << column;
+  }
+  EXPECT_EQ(statuses.Texts("last_rejection").front(), "\"arm: torque: run_id 0: expected the sender's non-zero id\"");
+  EXPECT_EQ(statuses.Texts("instances").front(), "\"arm=1;probe=0\"");
+  EXPECT_EQ(statuses.Texts("reasons").front(), std::string("\"arm=") + kTorquesTimedOut + ";probe=\"");
+  EXPECT_EQ(statuses.header.back(), "joints");
 }
 
 }  // namespace

@@ -327,5 +327,32 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
   }
 }
 
+// An external plant or controller lives on the bus: simulate says which
+// instance of which file cannot run offline, and writes nothing.
+TEST_F(Simulate, RefusesASceneThatNeedsTheBusNamingTheFileAndTheInstance) {
+  const std::string config = std::string(LAGRANGE_SOURCE_DIR) + "/config/";
+  struct Case {
+    std::string scene, instance, reason;
+  };
+  const std::vector<Case> cases = {
+      {config + "arm_external_controller.yaml", "arm", "its controller is external"},
+      {config + "arm_impedance_client.yaml", "arm", "its controller is external"},
+      {config + "arm_external_plant.yaml", "arm_controller", "its plant is external"},
+  };
+  for (const Case& c : cases) {
+    const fs::path csv = dir_ / "run.csv";
+    const auto r = RunCtl({"simulate", c.scene, "--duration", "1", "--csv", csv.string()});
+    EXPECT_EQ(r.status, 1) << r.err;
+    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+    EXPECT_EQ(
+        r.err.rfind(
+            "lagrangectl simulate: " + c.scene + ": instance " + c.instance + " cannot run offline: " + c.reason, 0),
+        0u)
+        << r.err;
+    EXPECT_EQ(r.out, "");
+    EXPECT_FALSE(fs::exists(csv)) << c.scene;
+  }
+}
+
 }  // namespace
 }  // namespace lagrange
