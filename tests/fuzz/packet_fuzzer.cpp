@@ -1,10 +1,12 @@
-// libFuzzer target: what lagranged does with a packet on a setpoint or
-// command channel before anything reaches the tick: the raw layout checks,
-// decoding, the setpoint rules and the command rules (CheckCommand). Run with --write-seeds DIR to write valid
+// libFuzzer target: what lagranged does with a packet on a setpoint, command,
+// torque or measured-state channel before anything reaches the tick: the raw
+// layout checks, decoding, the setpoint rules and the command rules (CheckCommand). Run with --write-seeds DIR to write valid
 // packets as a starting corpus.
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/torque_t.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -43,6 +45,19 @@ void WriteSeeds(const std::string& dir) {
   c.kp = {1.0, 2.0};
   c.kd = {0.1, 0.2};
   WriteSeed(dir + "/command", c);
+  lagrange::torque_t t;
+  t.utime = 1;
+  t.run_id = 7;
+  t.sequence = 1;
+  t.state_tick = 3;
+  t.num_dofs = 2;
+  t.tau = {1.0, -0.5};
+  WriteSeed(dir + "/torque", t);
+  lagrange::state_t st{};
+  st.num_dofs = 2;
+  for (auto* v : {&st.q, &st.qd, &st.qdd, &st.tau, &st.q_des, &st.qd_des}) v->assign(2, 0.25);
+  st.controller = "computed-torque";
+  WriteSeed(dir + "/state", st);
 }
 
 }  // namespace
@@ -72,6 +87,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (CheckCommandPacket(data, size) == WireCheck::kOk) {
     command_t command;
     if (command.decode(data, 0, static_cast<int>(size)) < 0) __builtin_trap();  // the check promised a decodable packet
+  }
+  // Torques (an external controller's) and measured states (an external plant's): the check
+  // promises a packet that decodes to exactly its own size. (lcm-gen's decoders leave a
+  // zero-length array's vector as it was: the receiver reads none, for it refuses any
+  // num_dofs but the instance's n >= 1.)
+  if (CheckTorquePacket(data, size) == WireCheck::kOk) {
+    static torque_t torque;
+    if (torque.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
+    if (torque.num_dofs < 0 || (torque.num_dofs > 0 && static_cast<std::size_t>(torque.num_dofs) != torque.tau.size()))
+      __builtin_trap();
+  }
+  if (CheckStatePacket(data, size) == WireCheck::kOk) {
+    static state_t state;
+    if (state.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
+    if (state.num_dofs < 0 || (state.num_dofs > 0 && static_cast<std::size_t>(state.num_dofs) != state.q.size()))
+      __builtin_trap();
   }
   static const CommandRules command_rules{
       "arm",
