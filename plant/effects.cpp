@@ -96,6 +96,10 @@ std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
 Effects::Effects(EffectsConfig config, int n)
     : config_(std::move(config)),
       terms_(config_.terms()),
+      flags_{config_.gravity,     config_.coriolis,
+             config_.damping.has_value(), config_.friction.has_value(),
+             config_.limits.has_value(),  !config_.disturbance.empty(),
+             config_.saturation.has_value()},
       passes_command_through_(!config_.saturation && config_.disturbance.empty() && !config_.damping &&
                               !config_.friction && !config_.limits) {
   if (auto e = ValidateEffects(config_, n)) throw std::invalid_argument(e->key + ": " + e->message);
@@ -150,6 +154,15 @@ void Effects::AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau) {
   if (!config_.limits) return;
   ++counts_.limits;
   for (int i = 0; i < tau.size(); ++i) tau[i] += LimitForce(*config_.limits, i, q[i], qd[i]);
+}
+
+void Effects::AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau, VecRef springs) {
+  if (!config_.limits) return;
+  ++counts_.limits;
+  for (int i = 0; i < tau.size(); ++i) {
+    tau[i] += LimitForce(*config_.limits, i, q[i], qd[i]);
+    springs[i] += LimitSpring(*config_.limits, i, q[i]);
+  }
 }
 
 double Effects::DissipatedPower(ConstVecRef q, ConstVecRef qd) const {

@@ -53,6 +53,17 @@ struct EffectsConfig {
   DynamicsTerms terms() const { return {gravity, coriolis}; }
 };
 
+// Which stages of a scene run, resolved once from its EffectsConfig.
+struct EffectFlags {
+  bool gravity = false;      // G(q)
+  bool coriolis = false;     // C(q, qd) qd
+  bool damping = false;      // −b∘qd
+  bool friction = false;     // −Fc∘tanh(qd/v_s)
+  bool limits = false;       // tau_lim(q, qd)
+  bool disturbance = false;  // pushes configured (whether one acts depends on t)
+  bool saturation = false;   // sat(tau_cmd); off: tau_cmd passes as it is
+};
+
 // A problem with one effect key: `message` reads "expected ..., got ...".
 struct EffectsError {
   std::string key;
@@ -68,6 +79,7 @@ class Effects {
 
   const EffectsConfig& config() const { return config_; }
   DynamicsTerms terms() const { return terms_; }
+  const EffectFlags& flags() const { return flags_; }
   // True when no stage below is on (no saturation, pushes, damping, friction
   // or limits): tau = tau_cmd exactly, and nothing here needs to run.
   bool passes_command_through() const { return passes_command_through_; }
@@ -81,6 +93,10 @@ class Effects {
   void AddDamping(ConstVecRef qd, VecRef tau);
   void AddFriction(ConstVecRef qd, VecRef tau);
   void AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau);
+  // The same, also adding the limits' spring part, −k × penetration past a
+  // stop (the force whose energy LimitPotentialEnergy is), to `springs`.
+  // tau_lim − spring is what the one-sided damper does: it never adds energy.
+  void AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau, VecRef springs);
 
   // Power taken out by damping, friction and the limits' dampers, W (>= 0).
   double DissipatedPower(ConstVecRef q, ConstVecRef qd) const;
@@ -92,6 +108,7 @@ class Effects {
  private:
   EffectsConfig config_;
   DynamicsTerms terms_;  // config_.terms(), resolved once
+  EffectFlags flags_;    // resolved once
   bool passes_command_through_;
   StageCounts counts_;
 };

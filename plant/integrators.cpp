@@ -23,13 +23,13 @@ constexpr EnumName<IntegratorType> kIntegratorNames[] = {
 class ExplicitEuler final : public Integrator {
  public:
   ExplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
-  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     q += h * qd;
     qd += h * qdd_;
-    ++stats_.steps;
-    ++stats_.accepted;
-    ++stats_.evaluations;
+    ++work_.accepted;
+    ++work_.evaluations;
+    work_.step = h;
     return true;
   }
 
@@ -40,13 +40,13 @@ class ExplicitEuler final : public Integrator {
 class SemiImplicitEuler final : public Integrator {
  public:
   SemiImplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
-  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
     qd += h * qdd_;
     q += h * qd;
-    ++stats_.steps;
-    ++stats_.accepted;
-    ++stats_.evaluations;
+    ++work_.accepted;
+    ++work_.evaluations;
+    work_.step = h;
     return true;
   }
 
@@ -58,13 +58,13 @@ class Rk4 final : public Integrator {
  public:
   Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), rk4_(n) {}
 
-  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds,
                   VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
               t, h, q, qd);
-    ++stats_.steps;
-    ++stats_.accepted;
-    stats_.evaluations += 4;
+    ++work_.accepted;
+    work_.evaluations += 4;
+    work_.step = h;
     return true;
   }
 
@@ -79,8 +79,7 @@ class DormandPrince final : public Integrator {
     for (auto& k : k_) k.resize(2 * n);
   }
 
-  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    ++stats_.steps;
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     y_.head(n_) = q;
     y_.tail(n_) = qd;
     const double t_end = t + h;
@@ -102,19 +101,20 @@ class DormandPrince final : public Integrator {
       }
       const double factor = err == 0.0 ? 5.0 : 0.9 * std::pow(err, -0.2);
       if (err <= 1.0) {
-        ++stats_.accepted;
+        ++work_.accepted;
+        work_.error_estimate = err;
+        work_.step = step;
         t = last ? t_end : t + step;
         y_ = y1_;
         k_[0] = k_[6];  // first same as last
         // A step cut short to land on t_end does not shrink the next proposal.
         dt = std::max(step < dt ? dt : 0.0, step * std::clamp(factor, 0.2, 5.0));
       } else {
-        ++stats_.rejected;
+        ++work_.rejected;
         dt = step * std::clamp(factor, 0.2, 1.0);
       }
     }
     h_next_ = dt;
-    if (!ok) ++stats_.failures;
     q = y_.head(n_);
     qd = y_.tail(n_);
     return ok;
@@ -124,7 +124,7 @@ class DormandPrince final : public Integrator {
   void Derivative(PlantModel& m, ControlLaw* law, double t, const VectorXd& y, ConstVecRef tau, VectorXd& dy) {
     dy.head(n_) = y.tail(n_);
     m.ComputeAcceleration(law, t, y.head(n_), y.tail(n_), tau, dy.tail(n_));
-    ++stats_.evaluations;
+    ++work_.evaluations;
   }
 
   // One trial step from (t, y_) with k_[0] = f(y_); returns the scaled error norm
@@ -189,16 +189,16 @@ class Variational final : public Integrator {
         lu_(n),
         llt_(n) {}
 
-  bool Step(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    ++stats_.steps;
-    ++stats_.accepted;
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
+    ++work_.accepted;
+    work_.step = h;
     const Dynamics& dyn = m.dynamics();
     // p0 = M(q0) qd0.
     dyn.ComputeMassMatrix(q, M_);
     p0_.noalias() = M_ * qd;
     // Predictor: q1 = q0 + h qd0 + h²/2 qdd0.
     m.ComputeAcceleration(law, t, q, qd, tau, tmp_);
-    ++stats_.evaluations;
+    ++work_.evaluations;
     q1_ = q + h * qd + (0.5 * h * h) * tmp_;
 
     // Newton on r(q1) = 0. The Jacobian is kept from step to step and rebuilt
@@ -209,6 +209,7 @@ class Variational final : public Integrator {
     bool refreshed = false;
     double previous = std::numeric_limits<double>::infinity();
     for (int it = 0; it < config_.newton_max_iterations; ++it) {
+      ++work_.newton_iterations;
       dq_ = lu_.solve(r_);
       q1_ -= dq_;
       Residual(m, law, t, h, tau, q, q1_, r_);
@@ -232,10 +233,7 @@ class Variational final : public Integrator {
     dyn.ComputeMassMatrix(q, M_);
     llt_.compute(M_);
     qd = llt_.solve(p0_);
-    if (!converged) {
-      ++stats_.failures;
-      jacobian_valid_ = false;
-    }
+    if (!converged) jacobian_valid_ = false;
     return converged;
   }
 
@@ -257,7 +255,7 @@ class Variational final : public Integrator {
     r = p0_;
     r.noalias() -= M_ * v_;
     r += (0.5 * h) * x_;
-    ++stats_.evaluations;
+    ++work_.evaluations;
   }
 
   // J = ∂r/∂q1 by forward differences at q1_, factorised into lu_.
@@ -293,12 +291,39 @@ std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames,
 std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }
 std::string IntegratorTypeNames() { return JoinedNames(kIntegratorNames); }
 
+bool Integrator::Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
+                      VecRef qd) {
+  work_ = IntegratorWork{};
+  const bool ok = CountedStep(model, law, t, h, tau_cmd, q, qd);
+  AddWorkToStats();
+  return ok;
+}
+
 bool Integrator::Advance(PlantModel& model, ControlLaw* law, double t, double dt, ConstVecRef tau_cmd, VecRef q,
                          VecRef qd) {
+  work_ = IntegratorWork{};
   const double h = dt / config_.substeps;
   bool ok = true;
-  for (int i = 0; i < config_.substeps; ++i) ok = Step(model, law, t + i * h, h, tau_cmd, q, qd) && ok;
+  for (int i = 0; i < config_.substeps; ++i) ok = CountedStep(model, law, t + i * h, h, tau_cmd, q, qd) && ok;
+  AddWorkToStats();
   return ok;
+}
+
+bool Integrator::CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
+                             VecRef qd) {
+  ++work_.steps;
+  const bool ok = DoStep(model, law, t, h, tau_cmd, q, qd);
+  if (!ok) ++work_.failures;
+  return ok;
+}
+
+void Integrator::AddWorkToStats() {
+  stats_.steps += work_.steps;
+  stats_.accepted += work_.accepted;
+  stats_.rejected += work_.rejected;
+  stats_.evaluations += work_.evaluations;
+  stats_.newton_iterations += work_.newton_iterations;
+  stats_.failures += work_.failures;
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {

@@ -24,6 +24,7 @@
 
 #include <Eigen/LU>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string_view>
@@ -55,12 +56,51 @@ struct IntegratorConfig {
   int newton_max_iterations = 30;
 };
 
+// Cumulative counts over the integrator's life: the sum of every call's IntegratorWork.
 struct IntegratorStats {
-  std::int64_t steps = 0;        // Step calls
-  std::int64_t accepted = 0;     // internal steps accepted (adaptive), = steps otherwise
-  std::int64_t rejected = 0;     // internal steps rejected (adaptive)
-  std::int64_t evaluations = 0;  // acceleration (or residual) evaluations
-  std::int64_t failures = 0;     // steps that could not meet their tolerance
+  std::int64_t steps = 0;              // sub-steps taken (Step calls, or substeps per Advance)
+  std::int64_t accepted = 0;           // internal steps accepted (adaptive), = steps otherwise
+  std::int64_t rejected = 0;           // internal steps rejected (adaptive)
+  std::int64_t evaluations = 0;        // acceleration (or residual) evaluations
+  std::int64_t newton_iterations = 0;  // variational: Newton iterations
+  std::int64_t failures = 0;           // sub-steps that could not meet their tolerance
+};
+
+// The work of the last call of Step or Advance alone: reset at the call's
+// start, complete when it returns. Counts as in IntegratorStats, for that call:
+//   steps              1 for Step, config().substeps for Advance
+//   evaluations        explicit Euler and semi-implicit Euler 1 per sub-step,
+//                      RK4 4 per sub-step, dopri5 1 per sub-step + 6 per
+//                      trial step, accepted or rejected (first same as last),
+//                      variational 2 per sub-step (the predictor and the first
+//                      residual) + 1 per Newton iteration + (n + 1) per
+//                      Jacobian rebuild (forward differences)
+//   accepted/rejected  dopri5's internal steps; fixed-step methods accept
+//                      every sub-step and reject none
+//   newton_iterations  variational, summed over the sub-steps; 0 otherwise
+//   error_estimate     dopri5: the scaled error norm
+//                        sqrt(mean_i (err_i / (atol + rtol·max(|y_i|, |y1_i|)))²)
+//                      of the last accepted internal step, y = (q, qd); <= 1
+//                      by construction (a step above 1 is rejected). NaN for
+//                      the fixed-step methods, which estimate nothing (0 would
+//                      read as "exact"), and for a dopri5 call that accepted
+//                      no step. Test it with std::isnan, not against a number.
+//   step               s: dopri5 the last accepted internal step (the one that
+//                      lands on the end of the interval, so possibly shorter
+//                      than the proposal it carries to the next call; 0 if
+//                      none was accepted); the others h = dt / substeps
+// A separate struct rather than deltas of IntegratorStats: error_estimate and
+// step are per-call values with no cumulative meaning, and a reader of one
+// tick's figures should not have to keep the previous totals.
+struct IntegratorWork {
+  std::int64_t steps = 0;
+  std::int64_t evaluations = 0;
+  std::int64_t accepted = 0;
+  std::int64_t rejected = 0;
+  std::int64_t newton_iterations = 0;
+  std::int64_t failures = 0;
+  double error_estimate = std::numeric_limits<double>::quiet_NaN();
+  double step = 0.0;  // s
 };
 
 class Integrator {
@@ -72,14 +112,16 @@ class Integrator {
 
   IntegratorType type() const { return config_.type; }
   const IntegratorConfig& config() const { return config_; }
+  // Totals over every call so far.
   const IntegratorStats& stats() const { return stats_; }
+  // The last call of Step or Advance alone (see IntegratorWork).
+  const IntegratorWork& work() const { return work_; }
 
   // (law, t, h, q, qd, tau_cmd) => (q, qd) at t + h. `law` null: tau_cmd is
   // held; otherwise tau_cmd is ignored and the law is evaluated at every stage.
   // False when the step failed its tolerance (the state is then the best
   // available, and may be non-finite).
-  virtual bool Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
-                    VecRef qd) = 0;
+  bool Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd);
   // The same with tau_cmd held.
   bool Step(PlantModel& model, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd) {
     return Step(model, nullptr, t, h, tau_cmd, q, qd);
@@ -93,8 +135,22 @@ class Integrator {
   }
 
  protected:
+  // One sub-step of length h, as Step. Adds its evaluations, accepted and
+  // rejected steps and Newton iterations to work_ and sets work_.step (and
+  // work_.error_estimate when it has one); the caller counts steps and failures.
+  virtual bool DoStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
+                      VecRef qd) = 0;
+
   IntegratorConfig config_;
   int n_;
+  IntegratorWork work_;
+
+ private:
+  // DoStep with the call's step and failure counted.
+  bool CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd);
+  // Adds work_ to stats_ at the end of a call.
+  void AddWorkToStats();
+
   IntegratorStats stats_;
 };
 

@@ -10,6 +10,23 @@ PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects
       tau_(dynamics_->num_dofs()),
       tau_law_(dynamics_->num_dofs()) {}
 
+EffectForces::EffectForces(int n)
+    : gravity(VectorXd::Zero(n)),
+      coriolis(VectorXd::Zero(n)),
+      damping(VectorXd::Zero(n)),
+      friction(VectorXd::Zero(n)),
+      limits(VectorXd::Zero(n)),
+      limit_springs(VectorXd::Zero(n)),
+      disturbance(VectorXd::Zero(n)),
+      tau_cmd(VectorXd::Zero(n)),
+      tau_applied(VectorXd::Zero(n)) {}
+
+void EffectForces::NetForce(VecRef out) const {
+  for (int i = 0; i < out.size(); ++i) {
+    out[i] = tau_applied[i] + disturbance[i] + damping[i] + friction[i] + limits[i] - coriolis[i] - gravity[i];
+  }
+}
+
 void PlantModel::ComputeAccelerationWithEffects(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd,
                                                 ConstVecRef tau_cmd, VecRef qdd) {
   if (law == nullptr) {
@@ -35,6 +52,40 @@ void PlantModel::ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef 
   effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau);
 }
 
+// (law, t, q, qd, tau_cmd) => (G, C qd, each effect's force, tau_cmd, sat(tau_cmd)).
+void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                                     EffectForces& out) {
+  eigen_assert(out.tau_applied.size() == num_dofs());
+  const EffectFlags& on = effects_.flags();
+  out.active = on;
+  if (law == nullptr) {
+    out.tau_cmd = tau_cmd;
+  } else {
+    law->Compute(t, q, qd, out.tau_cmd);
+  }
+  effects_.Saturate(out.tau_cmd, out.tau_applied);
+  out.gravity.setZero();
+  if (on.gravity) {
+    dynamics_->ComputeGravityForce(q, out.gravity);
+    ++term_counts_.gravity;
+  }
+  out.coriolis.setZero();
+  if (on.coriolis) {
+    dynamics_->ComputeCoriolisForce(q, qd, out.coriolis);
+    ++term_counts_.coriolis;
+  }
+  // The effects' stages add to a zero term and return at their top when off.
+  out.disturbance.setZero();
+  effects_.AddDisturbance(t, out.disturbance);
+  out.damping.setZero();
+  effects_.AddDamping(qd, out.damping);
+  out.friction.setZero();
+  effects_.AddFriction(qd, out.friction);
+  out.limits.setZero();
+  out.limit_springs.setZero();
+  effects_.AddLimits(q, qd, out.limits, out.limit_springs);
+}
+
 double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) const { return dynamics_->ComputeKineticEnergy(q, qd); }
 
 double PlantModel::PotentialEnergy(ConstVecRef q) const {
@@ -45,8 +96,8 @@ double PlantModel::PotentialEnergy(ConstVecRef q) const {
 
 StageCounts PlantModel::counts() const {
   StageCounts c = effects_.counts();
-  c.gravity = dynamics_->counts().gravity;
-  c.coriolis = dynamics_->counts().coriolis;
+  c.gravity = dynamics_->counts().gravity + term_counts_.gravity;
+  c.coriolis = dynamics_->counts().coriolis + term_counts_.coriolis;
   return c;
 }
 

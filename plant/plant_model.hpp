@@ -26,6 +26,39 @@ class ControlLaw {
   virtual void Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef tau_cmd) = 0;
 };
 
+// Each term of the equation of motion at one (t, q, qd, tau_cmd), separately,
+// every vector (n) in N·m (revolute) or N (prismatic). Signed as the terms
+// act on the joints, so that
+//
+//   M(q) qdd = tau_applied + disturbance + damping + friction + limits − coriolis − gravity
+//
+// which NetForce sums. `gravity` and `coriolis` keep the signs of the
+// dynamics contract (G = ∂V/∂q, C qd; plant/dynamics.hpp), so they enter
+// with a minus sign; every other term is the force itself:
+//   gravity        G(q)
+//   coriolis       C(q, qd) qd
+//   damping        −b∘qd
+//   friction       −Fc∘tanh(qd/v_s)
+//   limits         tau_lim(q, qd), the stops' one-sided spring-damper
+//   limit_springs  its spring part, −k × penetration (its energy is in V);
+//                  limits − limit_springs is the stops' damping, power <= 0
+//   disturbance    Σ pushes acting at t
+//   tau_cmd        the command: as given, or the ControlLaw's output
+//   tau_applied    sat(tau_cmd); tau_cmd itself when saturation is off
+// A term whose effect is off (see `active`) is zero and was not computed;
+// tau_cmd and tau_applied are always filled. Sized by the constructor, so
+// filling it allocates nothing.
+struct EffectForces {
+  explicit EffectForces(int n);
+
+  // (this) => M qdd (n), the sum above.
+  void NetForce(VecRef out) const;
+
+  VectorXd gravity, coriolis, damping, friction, limits, limit_springs, disturbance;
+  VectorXd tau_cmd, tau_applied;
+  EffectFlags active;  // the plant's Effects::flags() at the last fill
+};
+
 class PlantModel {
  public:
   PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects);
@@ -56,11 +89,25 @@ class PlantModel {
   void ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                VecRef tau);
 
+  // (law, t, q, qd, tau_cmd) => out, every term of the equation of motion
+  // separately (see EffectForces); `law` as in ComputeAcceleration. Runs each
+  // active stage once, counted in counts(); an effect that is off is not
+  // evaluated and its term is set to zero. Allocates nothing; `out` must be
+  // sized for this plant. A law is called once more, at (t, q, qd): one with
+  // state sees that call.
+  void ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                           EffectForces& out);
+  // The same with tau_cmd held.
+  void ComputeEffectForces(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, EffectForces& out) {
+    ComputeEffectForces(nullptr, t, q, qd, tau_cmd, out);
+  }
+
   double KineticEnergy(ConstVecRef q, ConstVecRef qd) const;
   double PotentialEnergy(ConstVecRef q) const;
   double Energy(ConstVecRef q, ConstVecRef qd) const { return KineticEnergy(q, qd) + PotentialEnergy(q); }
 
-  // Gravity and Coriolis counts from the dynamics, the rest from the effects.
+  // Gravity and Coriolis counts from the dynamics (and ComputeEffectForces),
+  // the rest from the effects.
   StageCounts counts() const;
 
  private:
@@ -72,6 +119,7 @@ class PlantModel {
   Effects effects_;
   VectorXd tau_;      // scratch (n)
   VectorXd tau_law_;  // scratch (n)
+  StageCounts term_counts_;  // gravity and Coriolis terms ComputeEffectForces evaluated
 };
 
 }  // namespace lagrange

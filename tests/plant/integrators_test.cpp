@@ -11,6 +11,7 @@
 
 #include "plant/integrators.hpp"
 #include "plant/plant_spec.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -314,6 +315,127 @@ TEST(ControlLawArgument, AConstantLawStepsLikeItsHeldTorqueAndRunsAtEveryEvaluat
     EXPECT_LE((qa - qb).lpNorm<Eigen::Infinity>(), kSameArithmeticTol) << ToString(type);
     EXPECT_LE((qda - qdb).lpNorm<Eigen::Infinity>(), kSameArithmeticTol) << ToString(type);
     EXPECT_EQ(law.calls, with_law->stats().evaluations) << ToString(type);
+  }
+}
+
+
+// ----- Work per call (IntegratorWork) -----
+
+constexpr IntegratorType kEveryIntegrator[] = {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                                               IntegratorType::kRk4, IntegratorType::kDormandPrince,
+                                               IntegratorType::kVariational};
+
+std::unique_ptr<Integrator> MakeWithSubsteps(IntegratorType type, int n, int substeps, double rtol = 1e-8) {
+  IntegratorConfig c;
+  c.type = type;
+  c.substeps = substeps;
+  c.rtol = rtol;
+  c.atol = rtol * 1e-2;
+  return MakeIntegrator(c, n);
+}
+
+// A pendulum released from rest at theta0, no torque.
+struct PendulumRun {
+  explicit PendulumRun(double theta0)
+      : model(MakeModel(DefaultPlantSpec(PlantType::kPendulum), Method::kClosedForm)),
+        q(VectorXd::Constant(1, theta0)),
+        qd(VectorXd::Zero(1)),
+        tau(VectorXd::Zero(1)) {}
+  std::unique_ptr<PlantModel> model;
+  VectorXd q, qd, tau;
+};
+
+TEST(IntegratorWork, FixedStepMethodsCountTheirEvaluationsPerSubStep) {
+  const std::pair<IntegratorType, int> per_substep[] = {
+      {IntegratorType::kExplicitEuler, 1}, {IntegratorType::kSemiImplicitEuler, 1}, {IntegratorType::kRk4, 4}};
+  for (const auto& [type, evaluations] : per_substep) {
+    for (int substeps : {1, 2, 3, 8}) {
+      PendulumRun run(1.0);
+      auto integrator = MakeWithSubsteps(type, 1, substeps);
+      for (int k = 0; k < 3; ++k) {  // every call reports its own work, not the running total
+        integrator->Advance(*run.model, k * kTick, kTick, run.tau, run.q, run.qd);
+        const IntegratorWork& w = integrator->work();
+        EXPECT_EQ(w.evaluations, evaluations * substeps) << ToString(type) << " substeps " << substeps;
+        EXPECT_EQ(w.steps, substeps);
+        EXPECT_EQ(w.accepted, substeps);
+        EXPECT_EQ(w.rejected, 0);
+        EXPECT_EQ(w.newton_iterations, 0);
+        EXPECT_EQ(w.failures, 0);
+        EXPECT_TRUE(std::isnan(w.error_estimate));  // no estimate, not "exact"
+        EXPECT_DOUBLE_EQ(w.step, kTick / substeps);
+      }
+    }
+  }
+}
+
+TEST(IntegratorWork, DormandPrinceTakesFewStepsAtALooseToleranceAndMoreAtATightOne) {
+  constexpr double kInterval = 0.1;  // s per call: long enough for the tolerance to choose the steps
+  constexpr int kCalls = 10;
+  auto run = [&](double rtol) {
+    PendulumRun pendulum(1.0);
+    auto integrator = MakeWithSubsteps(IntegratorType::kDormandPrince, 1, 1, rtol);
+    std::int64_t most_accepted = 0;
+    for (int k = 0; k < kCalls; ++k) {
+      integrator->Advance(*pendulum.model, k * kInterval, kInterval, pendulum.tau, pendulum.q, pendulum.qd);
+      const IntegratorWork& w = integrator->work();
+      EXPECT_TRUE(w.error_estimate > 0.0 && w.error_estimate <= 1.0) << "rtol " << rtol << ": " << w.error_estimate;
+      EXPECT_EQ(w.evaluations, 1 + 6 * (w.accepted + w.rejected));  // first same as last
+      EXPECT_GT(w.step, 0.0);
+      EXPECT_LE(w.step, kInterval * (1.0 + 1e-12));  // t_end − t: the interval up to round-off
+      EXPECT_EQ(w.failures, 0);
+      if (k > 0) most_accepted = std::max(most_accepted, w.accepted);  // the first call finds its step size
+    }
+    return most_accepted;
+  };
+  const std::int64_t loose = run(1e-4);
+  const std::int64_t tight = run(1e-11);
+  EXPECT_LE(loose, 3);
+  EXPECT_GE(tight, 4 * loose);
+}
+
+TEST(IntegratorWork, VariationalIteratesNewtonAtLeastOncePerSubStepAndOnlyAFewTimesNearRest) {
+  constexpr int kSubsteps = 2;
+  constexpr std::int64_t kHandful = 3;  // Newton iterations per sub-step near rest (measured: 1, 2 with a Jacobian rebuild)
+  PendulumRun run(1e-3);
+  auto integrator = MakeWithSubsteps(IntegratorType::kVariational, 1, kSubsteps);
+  for (int k = 0; k < 100; ++k) {
+    integrator->Advance(*run.model, k * kTick, kTick, run.tau, run.q, run.qd);
+    const IntegratorWork& w = integrator->work();
+    EXPECT_GE(w.newton_iterations, kSubsteps);
+    EXPECT_LE(w.newton_iterations, kHandful * kSubsteps) << "call " << k;
+    // Per sub-step the predictor, the first residual and one per iteration, plus n + 1 = 2 per Jacobian rebuild.
+    const std::int64_t rebuild_evaluations = w.evaluations - 2 * kSubsteps - w.newton_iterations;
+    EXPECT_GE(rebuild_evaluations, 0);
+    EXPECT_EQ(rebuild_evaluations % 2, 0);
+    EXPECT_LE(rebuild_evaluations, k == 0 ? 2 * 2 * kSubsteps : 2 * kSubsteps);  // the first call builds it
+    EXPECT_DOUBLE_EQ(w.step, kTick / kSubsteps);
+    EXPECT_EQ(w.failures, 0);
+  }
+}
+
+TEST(IntegratorWork, IsPerCallAndAddsUpToTheCumulativeStatistics) {
+  for (IntegratorType type : kEveryIntegrator) {
+    auto model = MakeModel(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm, testing::AllEffectsOn(2));
+    auto integrator = MakeWithSubsteps(type, 2, 3);
+    VectorXd q = (VectorXd(2) << 0.4, -0.3).finished(), qd = (VectorXd(2) << 0.2, 0.1).finished();
+    const VectorXd tau = (VectorXd(2) << 0.3, -0.2).finished();
+    for (int k = 0; k < 20; ++k) {
+      const IntegratorStats before = integrator->stats();
+      if (k % 2 == 0) {
+        integrator->Advance(*model, k * kTick, kTick, tau, q, qd);
+      } else {
+        integrator->Step(*model, k * kTick, kTick, tau, q, qd);  // a Step call is a call too
+      }
+      const IntegratorWork& w = integrator->work();
+      const IntegratorStats& after = integrator->stats();
+      EXPECT_EQ(w.steps, k % 2 == 0 ? 3 : 1) << ToString(type);
+      EXPECT_EQ(after.steps - before.steps, w.steps) << ToString(type);
+      EXPECT_EQ(after.evaluations - before.evaluations, w.evaluations) << ToString(type);
+      EXPECT_EQ(after.accepted - before.accepted, w.accepted) << ToString(type);
+      EXPECT_EQ(after.rejected - before.rejected, w.rejected) << ToString(type);
+      EXPECT_EQ(after.newton_iterations - before.newton_iterations, w.newton_iterations) << ToString(type);
+      EXPECT_EQ(after.failures - before.failures, w.failures) << ToString(type);
+    }
   }
 }
 
