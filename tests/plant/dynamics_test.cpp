@@ -28,14 +28,6 @@ constexpr double kSymmetryTol = 1e-14;         // M − Mᵀ, relative to ‖M�
 constexpr double kFiniteDifferenceTol = 1e-7;  // central differences with ε = 1e-6
 constexpr double kEps = 1e-6;
 
-std::vector<Method> MethodsFor(PlantType type) {
-  std::vector<Method> methods;
-  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
-    if (HasMethod(type, m)) methods.push_back(m);
-  }
-  return methods;
-}
-
 struct Terms {
   MatrixXd M, C;
   VectorXd c, G, dTdq, qdd, tau;
@@ -62,7 +54,7 @@ class EveryPlant : public ::testing::TestWithParam<testing::PlantCase> {};
 TEST_P(EveryPlant, MassMatrixIsSymmetricPositiveDefinite) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{42};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     MatrixXd M(n, n);
@@ -79,7 +71,7 @@ TEST_P(EveryPlant, MassMatrixIsSymmetricPositiveDefinite) {
 TEST_P(EveryPlant, MassMatrixRateMinusTwoCoriolisIsSkewSymmetric) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{7};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     MatrixXd Mp(n, n), Mm(n, n), C(n, n);
@@ -99,7 +91,7 @@ TEST_P(EveryPlant, MassMatrixRateMinusTwoCoriolisIsSkewSymmetric) {
 TEST_P(EveryPlant, KineticEnergyIsHalfVelocityMassVelocity) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{11};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     MatrixXd M(d->num_dofs(), d->num_dofs());
     for (int k = 0; k < kStates; ++k) {
@@ -114,7 +106,7 @@ TEST_P(EveryPlant, KineticEnergyIsHalfVelocityMassVelocity) {
 TEST_P(EveryPlant, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{13};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     MatrixXd C(n, n), M(n, n);
@@ -135,7 +127,7 @@ TEST_P(EveryPlant, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix) {
 TEST_P(EveryPlant, ForwardDynamicsInvertsInverseDynamics) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{17};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     VectorXd tau(n), qdd(n);
@@ -158,7 +150,7 @@ TEST_P(EveryPlant, AllDerivationMethodsAgree) {
   auto reference = MakeDynamics(spec, Method::kLagrangian);
   const int n = reference->num_dofs();
   std::mt19937 rng{23};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     if (method == Method::kLagrangian) continue;
     auto d = MakeDynamics(spec, method);
     for (int k = 0; k < kStates; ++k) {
@@ -186,7 +178,7 @@ TEST_P(EveryPlant, AllDerivationMethodsAgree) {
 TEST_P(EveryPlant, GravityIsTheGradientOfThePotential) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{29};
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     VectorXd G(n);
@@ -211,7 +203,7 @@ TEST_P(EveryPlant, EnergyChangesAtThePowerOfTheAppliedForce) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{43};
   constexpr double kStep = 1e-5;
-  for (Method method : MethodsFor(spec.type())) {
+  for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
     const int n = d->num_dofs();
     VectorXd qdd(n);
@@ -277,7 +269,7 @@ TEST(Robots, GravityAndMassScaleScaleGravityAndMassMatrix) {
   const VectorXd q = (VectorXd(7) << 0.3, -0.5, -0.2, -2.0, 0.1, 1.6, 0.6).finished();
   MatrixXd M(7, 7), Mh(7, 7);
   VectorXd G(7), Gh(7);
-  for (Method method : MethodsFor(PlantType::kUrdf)) {
+  for (Method method : testing::MethodsOf(PlantType::kUrdf)) {
     auto d = MakeDynamics(panda, method), h = MakeDynamics(heavier, method);
     d->ComputeMassMatrix(q, M);
     h->ComputeMassMatrix(q, Mh);
@@ -392,7 +384,7 @@ TEST(Recursive, SixtyFourLinkChainMatchesTheLagrangianPath) {
 #ifndef NDEBUG
 // Debug builds check argument sizes at the top of every query; NDEBUG compiles the checks out.
 TEST(SizeChecks, DebugBuildsRejectMisSizedArguments) {
-  for (Method method : MethodsFor(PlantType::kArm2)) {
+  for (Method method : testing::MethodsOf(PlantType::kArm2)) {
     const auto d = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), method);
     const VectorXd q2 = VectorXd::Zero(2), q3 = VectorXd::Zero(3);
     MatrixXd M2(2, 2), M3(3, 3);

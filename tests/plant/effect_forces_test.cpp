@@ -41,14 +41,6 @@ std::vector<testing::PlantCase> Plants() {
   return cases;
 }
 
-std::vector<Method> MethodsOf(PlantType type) {
-  std::vector<Method> methods;
-  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
-    if (HasMethod(type, m)) methods.push_back(m);
-  }
-  return methods;
-}
-
 // One effect: its flag, its stage counter, its term, and how to switch it off.
 struct Effect {
   std::string name;
@@ -98,7 +90,7 @@ TEST(EffectForces, TermsAddUpToMassTimesTheIntegratedAcceleration) {
   std::mt19937 rng{42};
   for (const testing::PlantCase& plant : Plants()) {
     const int n = plant.spec.num_dofs();
-    for (Method method : MethodsOf(plant.spec.type())) {
+    for (Method method : testing::MethodsOf(plant.spec.type())) {
       for (const auto& [config_name, config] : Configs(n)) {
         PlantModel model(MakeDynamics(plant.spec, method), config);
         EffectForces forces(n);

@@ -4,6 +4,14 @@
 
 namespace lagrange::testing {
 
+std::vector<Method> MethodsOf(PlantType type) {
+  std::vector<Method> methods;
+  for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    if (HasMethod(type, m)) methods.push_back(m);
+  }
+  return methods;
+}
+
 std::vector<PlantCase> AllPlantCases() {
   std::vector<PlantCase> cases;
   cases.push_back({"pendulum_point", DefaultPlantSpec(PlantType::kPendulum)});

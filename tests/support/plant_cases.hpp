@@ -22,6 +22,9 @@ inline void PrintTo(const PlantCase& c, std::ostream* os) { *os << c.name; }
 // links with seeded random, unequal link parameters.
 std::vector<PlantCase> AllPlantCases();
 
+// The derivation methods a plant type has (closed-form, lagrangian, recursive), in that order.
+std::vector<Method> MethodsOf(PlantType type);
+
 // q uniform in [−π, π] for revolute joints and [−2, 2] m for prismatic ones;
 // qd uniform in [−3, 3].
 struct RandomState {
