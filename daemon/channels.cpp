@@ -79,23 +79,36 @@ std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::stri
       }
     }
   }
+  // Every input, with the instance that reads it.
+  struct Input {
+    const std::string* channel;
+    std::size_t instance;
+    std::string_view what;
+  };
+  std::vector<Input> inputs;
   for (std::size_t i = 0; i < names.size(); ++i) {
-    const std::pair<const std::string*, const char*> inputs[] = {
-        {&c.setpoint[i], "setpoints"}, {&c.command[i], "commands"}, {&c.torque_in[i], "torques"},
-        {&c.measured_in[i], "state_channel"}};
-    for (const auto& [channel, what] : inputs) {
-      if (channel->empty()) continue;
-      for (const auto& [out, who] : outputs) {
-        if (*channel == out) {
-          return names[i] + " reads its " + what + " from " + out + ", which this lagranged publishes (" + who +
-                 "): give it another --channel-prefix";
-        }
+    for (const auto& [channel, what] : {std::pair{&c.setpoint[i], "setpoints"}, std::pair{&c.command[i], "commands"},
+                                        std::pair{&c.torque_in[i], "torques"},
+                                        std::pair{&c.measured_in[i], "state_channel"}}) {
+      if (!channel->empty()) inputs.push_back({channel, i, what});
+    }
+  }
+  for (const Input& in : inputs) {
+    for (const auto& [out, who] : outputs) {
+      if (*in.channel == out) {
+        return names[in.instance] + " reads its " + std::string(in.what) + " from " + out +
+               ", which this lagranged publishes (" + who + "): give it another --channel-prefix";
       }
     }
-    for (std::size_t j = i + 1; j < names.size(); ++j) {
-      if (!c.torque_in[i].empty() && c.torque_in[i] == c.torque_in[j]) {
-        return names[i] + " and " + names[j] + " would both take torques from " + c.torque_in[i];
-      }
+  }
+  // One channel, one kind of message for one instance; two external plants may share a measured state.
+  for (std::size_t a = 0; a < inputs.size(); ++a) {
+    for (std::size_t b = a + 1; b < inputs.size(); ++b) {
+      const Input& x = inputs[a];
+      const Input& y = inputs[b];
+      if (*x.channel != *y.channel || (x.what == "state_channel" && y.what == "state_channel")) continue;
+      return names[x.instance] + " reads its " + std::string(x.what) + " and " + names[y.instance] + " its " +
+             std::string(y.what) + " from the same channel " + *x.channel;
     }
   }
   return "";

@@ -417,6 +417,10 @@ void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::s
       return Trip(i, MeasuredProblem::kNotFinite, why);
     }
   }
+  if (measured_.run_id == 0) {  // the watchdog locks onto a source by its id: 0 would lock onto nothing
+    return RejectInput(i, stats_.measured_rejected, "measured state",
+                       "run_id 0: expected the sender's non-zero id");
+  }
   const std::int64_t previous = info.measured_source;
   info.measured_source = measured_.run_id;
   if (previous != 0 && measured_.run_id != previous) {

@@ -117,6 +117,7 @@ struct Runtime::Slot {
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
   const char* reason = nullptr;                // why the mode is not running
   bool estop_latched = false;  // an estop not yet cleared: survives a fault, the watchdog and reset
+  bool hold_on_arrival = false;  // external plant waiting after clear_estop: its first state holds
   // External controllers, by controller index: torque_timeout (0: not external)
   // and the fallback's index in hold (-1: the brake).
   std::vector<Nanoseconds> torque_timeout;
@@ -245,9 +246,7 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       if (s.external_active()) {
         Activated(s, now);
       } else if (torque_hold) {
-        s.mode = Mode::kRunning;  // the torque stream no longer matters: follow the setpoints
-        s.reason = nullptr;
-        s.last_setpoint = now;
+        RunOrHold(s, now);  // the torque stream no longer matters: the setpoints decide
       }
       return nullptr;
     }
@@ -263,8 +262,9 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       s.source = 0;
       if (inst.external_plant()) {  // re-armed; the first fresh state runs it (or brakes it, estop latched)
         s.clock_origin = -1;
+        s.hold_on_arrival = false;
         s.mode = Mode::kWaiting;
-        s.reason = kWaitingForState;
+        s.reason = s.estop_latched ? kWaitingEstopLatched : kWaitingForState;
       } else if (s.estop_latched) {  // reset keeps an estop, also one a fault interrupted
         s.mode = Mode::kEstop;
         s.reason = kEstopped;
@@ -286,29 +286,35 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       if (s.mode != Mode::kPaused) return "resume: the instance is not paused";
       s.mode = s.before_pause;
       s.reason = s.paused_reason;
-      s.last_setpoint = now;  // the timeouts restart
-      s.last_torque = now;
+      s.last_setpoint = now;  // the setpoint timeout restarts; a torque's age never does (it is never
+                              // applied once older than torque_timeout: TakeTorque holds this tick)
       return nullptr;
     case CommandKind::kEstop:
       if (s.mode == Mode::kFault) return "estop: the instance is faulted (frozen); reset it";
       s.estop_latched = true;
+      s.hold_on_arrival = false;
       // An external plant that commands nothing keeps its mode; its first
       // fresh state after re-arming then brakes instead of running.
-      if (s.mode == Mode::kStopped || s.mode == Mode::kWaiting) return nullptr;
+      if (s.mode == Mode::kStopped) return nullptr;
+      if (s.mode == Mode::kWaiting) {
+        s.reason = kWaitingEstopLatched;
+        return nullptr;
+      }
       s.mode = Mode::kEstop;
       s.reason = kEstopped;
       return nullptr;
     case CommandKind::kClearEstop:
-      if (s.mode == Mode::kStopped) {  // an external plant's watchdog, re-armed
-        s.clock_origin = -1;  // its trajectory resumes where it stopped
-        s.estop_latched = false;
+      if (s.mode == Mode::kStopped) {  // an external plant's watchdog, re-armed; a latched estop stays
+        s.clock_origin = -1;           // its trajectory resumes where it stopped
         s.mode = Mode::kWaiting;
-        s.reason = kWaitingForState;
+        s.reason = s.estop_latched ? kWaitingEstopLatched : kWaitingForState;
         s.source = 0;
         return nullptr;
       }
-      if (s.mode == Mode::kWaiting && s.estop_latched) {
+      if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
         s.estop_latched = false;
+        s.hold_on_arrival = true;
+        s.reason = kWaitingForState;
         return nullptr;
       }
       if (s.mode != Mode::kEstop) return "clear_estop: the instance is not in an emergency stop";
@@ -317,6 +323,14 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       return nullptr;
   }
   return "unknown command";
+}
+
+// (leaving a mode that ignored the setpoints) => running, or hold when the
+// streamed setpoint it would follow has already timed out.
+void Runtime::RunOrHold(Slot& s, Nanoseconds now) {
+  if (s.streaming && now - s.last_setpoint > s.timeout) return EnterHold(s, kSetpointsTimedOut);
+  s.mode = Mode::kRunning;
+  s.reason = nullptr;
 }
 
 // (an external controller became active) => hold until its first torque.
@@ -345,9 +359,15 @@ void Runtime::TakeMeasured(Slot& s, Nanoseconds now) {
     s.measured_tick = m->tick;
     s.last_measured = std::min(now, m->sent);
     if (s.mode == Mode::kWaiting) {
-      s.mode = s.estop_latched ? Mode::kEstop : Mode::kRunning;
-      s.reason = s.estop_latched ? kEstopped : nullptr;
-      s.last_setpoint = now;
+      if (s.estop_latched) {
+        s.mode = Mode::kEstop;
+        s.reason = kEstopped;
+      } else if (s.hold_on_arrival) {
+        EnterHold(s, kLeftEstop);
+      } else {
+        RunOrHold(s, now);
+      }
+      s.hold_on_arrival = false;
     }
   }
   if (s.mode != Mode::kWaiting && now - s.last_measured > s.state_timeout) Stop(s, kMeasuredTimedOut);

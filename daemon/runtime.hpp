@@ -165,6 +165,7 @@ inline constexpr char kLeftEstop[] = "cleared from an emergency stop";
 inline constexpr char kEstopped[] = "emergency stop";
 inline constexpr char kPausedByCommand[] = "paused by command";
 inline constexpr char kWaitingForState[] = "waiting for the measured state (state_channel)";
+inline constexpr char kWaitingEstopLatched[] = "waiting for the measured state; estop latched";
 inline constexpr char kMeasuredTimedOut[] = "the measured state timed out (state_timeout)";
 inline constexpr char kMeasuredNotFinite[] = "a measured state was not finite or out of range";
 inline constexpr char kMeasuredWrongSize[] = "a measured state had the wrong num_dofs";
@@ -245,6 +246,7 @@ class Runtime {
   void Record(Slot& s, InstanceRecord& r);
   void EnterHold(Slot& s, const char* why);
   void Activated(Slot& s, Nanoseconds now);
+  void RunOrHold(Slot& s, Nanoseconds now);
   void KeepPlantTime(Slot& s, Nanoseconds now);
   void Stop(Slot& s, const char* why);
   void Fault(Slot& s, const char* why, InstanceRecord& r);

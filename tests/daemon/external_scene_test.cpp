@@ -202,6 +202,37 @@ TEST(ExternalChannels, AnInputEqualToAnOwnOutputIsRefusedUntilAPrefixSeparatesTh
   EXPECT_EQ(CheckChannelNames(SceneChannelNames(scene, "CTRL_"), names), "");
 }
 
+// Torques on another instance's setpoint channel, or a measured state on its
+// command channel, would only ever be decode errors: refused before the loop.
+// Two external plants may read one measured state.
+TEST(ExternalChannels, TwoInputsOnOneChannelAreRefusedUnlessBothAreMeasuredStates) {
+  const auto check = [](const std::string& arm_controller, const std::string& ext_state) {
+    const Scene scene = ParseScene(R"(
+period: 0.001
+instances:
+  - name: arm
+    plant: {type: arm2}
+    controller: )" + arm_controller + R"(
+  - name: leg
+    plant: {type: arm2}
+    controller: {type: pd, kp: 10, kd: 1}
+  - name: ext
+    plant: {type: external, model: {type: arm2}, state_channel: )" + ext_state + R"(, torque_channel: OUT_A}
+    controller: {type: pd, kp: 10, kd: 1}
+  - name: ext2
+    plant: {type: external, model: {type: arm2}, state_channel: ROBOT_STATE, torque_channel: OUT_B}
+    controller: {type: pd, kp: 10, kd: 1}
+)",
+                                   kFile);
+    return CheckChannelNames(SceneChannelNames(scene, ""), {"arm", "leg", "ext", "ext2"});
+  };
+  EXPECT_EQ(check("{type: external, torque_channel: LEG_SETPOINT}", "ROBOT_STATE"),
+            "arm reads its torques and leg its setpoints from the same channel LEG_SETPOINT");
+  EXPECT_EQ(check("{type: external}", "LEG_COMMAND"),
+            "leg reads its commands and ext its state_channel from the same channel LEG_COMMAND");
+  EXPECT_EQ(check("{type: external}", "ROBOT_STATE"), "");  // ext and ext2 share one measured state
+}
+
 TEST(ExternalChannels, TheShippedTwoProcessScenesFitTogetherAsTheirCommentsSay) {
   const std::string dir = std::string(LAGRANGE_SOURCE_DIR) + "/config/";
   const Scene plant = LoadScene(dir + "arm_external_controller.yaml");

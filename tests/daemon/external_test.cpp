@@ -451,7 +451,9 @@ TEST_F(ExternalControllerLoop, ASecondSenderIsRefusedWhileTheFirstStreamsAndAcce
     arm_.Ticks(1);
     ASSERT_EQ(arm_.stats().torques_rejected.load(), ms);
     // Applied until it is torque_timeout old (counted from its send at W), then the fallback holds.
-    if (ms < kTimeoutTicks) ASSERT_LT((Tau() - Vec({1.0, 0.5})).cwiseAbs().maxCoeff(), kExact);
+    if (ms < kTimeoutTicks) {
+      ASSERT_LT((Tau() - Vec({1.0, 0.5})).cwiseAbs().maxCoeff(), kExact);
+    }
   }
   EXPECT_EQ(arm_.runtime().mode(0), Mode::kHold);
   EXPECT_EQ(arm_.status().last_rejection.rfind("arm: torque: from a second sender (run_id 0000000000c11e48) while "
@@ -470,6 +472,44 @@ TEST_F(ExternalControllerLoop, ASecondSenderIsRefusedWhileTheFirstStreamsAndAcce
   arm_.Ticks(1);
   EXPECT_EQ(arm_.stats().torques_rejected.load(), kTimeoutTicks + 1);
   EXPECT_LT((Tau() - Vec({-2.0, 1.0})).cwiseAbs().maxCoeff(), kExact);
+}
+
+// A pause does not make an old torque young: after a resume the instance
+// holds at once rather than apply a torque older than torque_timeout.
+TEST_F(ExternalControllerLoop, ResumeNeverAppliesATorqueOlderThanTheTimeout) {
+  SendTorque({5.0, 2.0});
+  arm_.Ticks(1);
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kRunning);
+  arm_.SendCommand(command_t::PAUSE, 1);
+  arm_.Ticks(1);
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kPaused);
+  arm_.Ticks(2000);  // the client is long gone
+  arm_.SendCommand(command_t::RESUME, 2);
+  arm_.Ticks(1);
+  EXPECT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  EXPECT_EQ(arm_.reason(), kTorquesTimedOut);
+  EXPECT_GT((Tau() - Vec({5.0, 2.0})).cwiseAbs().maxCoeff(), 0.1);
+}
+
+// Switching from a torque hold to a setpoint controller whose streamed
+// setpoints timed out long ago holds; it does not run to the old setpoint.
+TEST_F(ExternalControllerLoop, SwitchingAwayFromATorqueHoldHoldsWhenTheSetpointsHadTimedOut) {
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 1, "gravity-compensation");
+  arm_.Ticks(1);
+  arm_.input().PublishMessage(arm_.channels().setpoint[0], testing::MakeSetpoint({0.0, 1.5}, arm_.WallMicros()));
+  arm_.Ticks(3000);  // setpoint_timeout (0.5 s) long past: hold
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  const VectorXd held = Vec(arm_.states().back().q_des);
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 2, "external");
+  arm_.Ticks(1);
+  ASSERT_EQ(arm_.reason(), kNoTorqueYet);
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 3, "gravity-compensation");
+  arm_.Ticks(1);
+  EXPECT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  EXPECT_EQ(arm_.reason(), kSetpointsTimedOut);
+  EXPECT_LT((Vec(arm_.states().back().q_des) - held).cwiseAbs().maxCoeff(), 1e-3);  // still where it held
+  arm_.Ticks(1000);
+  EXPECT_EQ(arm_.runtime().mode(0), Mode::kHold);  // an old setpoint is never taken up again
 }
 
 TEST_F(ExternalControllerLoop, ATorqueWhoseSequenceDoesNotGrowIsRefused) {
@@ -803,6 +843,71 @@ TEST_F(ExternalPlantWatchdog, AStaleStateIsRefusedAndCountedButOnlyTheTimeoutSto
   EXPECT_EQ(ModeNow(), Mode::kStopped);
   EXPECT_EQ(controller_.reason(), kMeasuredTimedOut);
   EXPECT_EQ(controller_.stats().measured_accepted.load(), 1);
+}
+
+// An estop taken while running survives the watchdog: clear re-arms the plant
+// with the estop still latched, so its first state brakes; a second clear
+// then holds, as clear_estop does everywhere. Never straight to running.
+TEST_F(ExternalPlantWatchdog, AnEstopTheWatchdogInterruptedBrakesAfterClearAndASecondClearHolds) {
+  SendState(1);
+  controller_.Ticks(1);
+  controller_.SendCommand(command_t::ESTOP, 1);
+  controller_.Ticks(1);
+  ASSERT_EQ(ModeNow(), Mode::kEstop);
+  controller_.Ticks(kTimeoutTicks + 2);
+  ASSERT_EQ(ModeNow(), Mode::kStopped);
+  controller_.SendCommand(command_t::CLEAR_ESTOP, 2);
+  controller_.Ticks(1);
+  EXPECT_EQ(ModeNow(), Mode::kWaiting);
+  EXPECT_EQ(controller_.reason(), kWaitingEstopLatched);
+  SendState(500);
+  controller_.Ticks(1);
+  EXPECT_EQ(ModeNow(), Mode::kEstop);
+  controller_.SendCommand(command_t::CLEAR_ESTOP, 3);
+  SendState(501);
+  controller_.Ticks(1);
+  EXPECT_EQ(ModeNow(), Mode::kHold);
+  EXPECT_EQ(controller_.reason(), kLeftEstop);
+}
+
+// Re-armed after the watchdog, an instance whose streamed setpoints timed out
+// holds where the plant is; it does not run to the old setpoint.
+TEST_F(ExternalPlantWatchdog, ClearAfterTheWatchdogHoldsWhenTheSetpointsHadTimedOut) {
+  std::int64_t tick = 1;
+  SendState(tick++);
+  controller_.Ticks(1);
+  controller_.input().PublishMessage(controller_.channels().setpoint[0],
+                                     testing::MakeSetpoint({0.0, 1.5}, controller_.WallMicros()));
+  for (int k = 0; k < 700; ++k) {  // past setpoint_timeout (0.5 s): hold
+    SendState(tick++);
+    controller_.Ticks(1);
+  }
+  ASSERT_EQ(ModeNow(), Mode::kHold);
+  controller_.Ticks(kTimeoutTicks + 2);
+  ASSERT_EQ(ModeNow(), Mode::kStopped);
+  controller_.SendCommand(command_t::CLEAR_ESTOP, 1);
+  controller_.Ticks(1);
+  SendState(tick++);
+  controller_.Ticks(1);
+  EXPECT_EQ(ModeNow(), Mode::kHold);
+  EXPECT_EQ(controller_.reason(), kSetpointsTimedOut);
+  EXPECT_LT((Vec(controller_.states().back().q_des) - Vec(controller_.states().back().q)).cwiseAbs().maxCoeff(),
+            kExact);  // held where the plant is
+}
+
+// The watchdog locks onto a source by its run_id: a state with run_id 0 is
+// refused and counted, so a second sender can never hide behind 0.
+TEST_F(ExternalPlantWatchdog, AMeasuredStateWithRunIdZeroIsRefusedAndNeverApplied) {
+  SendState(1);
+  controller_.Ticks(1);
+  ASSERT_EQ(ModeNow(), Mode::kRunning);
+  const std::int64_t rejected = controller_.stats().measured_rejected.load();
+  controller_.SendState(MakeState({2.0, 2.0}, {0.0, 0.0}, 2, controller_.WallMicros(), 0));
+  controller_.Ticks(1);
+  EXPECT_EQ(controller_.stats().measured_rejected.load(), rejected + 1);
+  EXPECT_EQ(controller_.status().last_rejection,
+            "arm_controller: measured state: run_id 0: expected the sender's non-zero id");
+  EXPECT_GT((Vec(controller_.states().back().q) - Vec({2.0, 2.0})).cwiseAbs().maxCoeff(), 0.5);
 }
 
 TEST_F(ExternalPlantWatchdog, PauseIsRefusedForAnExternalPlant) {

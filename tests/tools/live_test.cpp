@@ -179,7 +179,10 @@ std::string SceneFile(const char* name) { return std::string(LAGRANGE_SOURCE_DIR
 
 std::string JoinNumbers(const std::vector<double>& v) {
   std::string s;
-  for (double x : v) s += (s.empty() ? "" : ",") + cli::FormatDouble(x);
+  for (double x : v) {
+    if (!s.empty()) s += ',';
+    s += cli::FormatDouble(x);
+  }
   return s;
 }
 
