@@ -35,12 +35,9 @@ ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix) {
   ChannelNames c = MakeChannelNames(names, prefix);
   for (std::size_t i = 0; i < scene.instances.size(); ++i) {
     const InstanceConfig& inst = scene.instances[i];
-    std::vector<const ControllerConfig*> all = {&inst.controller};
-    for (const ControllerConfig& a : inst.alternates) all.push_back(&a);
-    for (const ControllerConfig* k : all) {
-      if (k->type != ControllerType::kExternal) continue;
-      c.torque_in[i] = k->external.torque_channel.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix)
-                                                          : k->external.torque_channel;
+    if (const ExternalControllerRef external = ExternalControllerOf(inst); external.config != nullptr) {
+      const std::string& written = external.config->external.torque_channel;
+      c.torque_in[i] = written.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix) : written;
     }
     if (inst.external) {
       c.measured_in[i] = inst.external->state_channel;

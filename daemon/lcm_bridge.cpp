@@ -116,12 +116,9 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
                                       std::move(bounds)};
     info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
     info.timeout = c.setpoint_timeout;
-    std::vector<const ControllerConfig*> configs = {&c.controller};
-    for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
-    for (std::size_t k = 0; k < configs.size(); ++k) {
-      if (configs[k]->type != ControllerType::kExternal) continue;
-      info.external_controller = static_cast<int>(k);
-      info.torque_timeout = configs[k]->external.torque_timeout;
+    if (const ExternalControllerRef external = ExternalControllerOf(c); external.config != nullptr) {
+      info.external_controller = external.index;
+      info.torque_timeout = external.config->external.torque_timeout;
     }
     if (channels.torque_in.size() > i) info.torque_channel = channels.torque_in[i];
     if (channels.measured_in.size() > i) info.measured_channel = channels.measured_in[i];

@@ -78,8 +78,7 @@ struct Runtime::Slot {
         state_timeout(c.external ? ToNanoseconds(c.external->state_timeout) : 0) {
     const int n = c.plant.num_dofs();
     const std::vector<ControllerType> types = instance.controller_types();
-    std::vector<const ControllerConfig*> configs = {&c.controller};
-    for (const ControllerConfig& a : c.alternates) configs.push_back(&a);
+    const std::vector<const ControllerConfig*> configs = ControllerConfigs(c);
     for (std::size_t k = 0; k < types.size(); ++k) {
       const bool external = types[k] == ControllerType::kExternal;
       torque_timeout.push_back(external ? ToNanoseconds(configs[k]->external.torque_timeout) : 0);

@@ -325,9 +325,8 @@ std::vector<YamlReader> ControllerNodes(const YamlReader& node) {
 // External controllers' fallbacks name a controller the instance configures;
 // an external plant's controllers run here, once per tick.
 void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
-  std::vector<const ControllerConfig*> all;
-  if (node.Has("controller")) all.push_back(&inst.controller);
-  for (const ControllerConfig& c : inst.alternates) all.push_back(&c);
+  std::vector<const ControllerConfig*> all = ControllerConfigs(inst);
+  if (!node.Has("controller")) all.erase(all.begin());  // the default `none`: no node of its own
   const std::vector<YamlReader> nodes = ControllerNodes(node);
   std::string holders;
   for (const ControllerConfig* c : all) {
@@ -426,6 +425,20 @@ Scene ReadScene(const YamlReader& root) {
 }  // namespace
 
 Scene LoadScene(const std::string& path) { return ReadScene(YamlReader::Load(path)); }
+
+std::vector<const ControllerConfig*> ControllerConfigs(const InstanceConfig& config) {
+  std::vector<const ControllerConfig*> all = {&config.controller};
+  for (const ControllerConfig& c : config.alternates) all.push_back(&c);
+  return all;
+}
+
+ExternalControllerRef ExternalControllerOf(const InstanceConfig& config) {
+  const std::vector<const ControllerConfig*> all = ControllerConfigs(config);
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    if (all[k]->type == ControllerType::kExternal) return {static_cast<int>(k), all[k]};
+  }
+  return {};
+}
 
 std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& c) {
   const TrajectoryConfig& t = c.setpoint;

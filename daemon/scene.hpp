@@ -70,6 +70,16 @@ struct Scene {
   std::vector<InstanceConfig> instances;
 };
 
+// The instance's configured controllers in controller-index order: the
+// scene's `controller`, then its `controllers` (Instance adds `none` after them).
+std::vector<const ControllerConfig*> ControllerConfigs(const InstanceConfig& config);
+// The instance's external controller, if it configures one (each type at most once).
+struct ExternalControllerRef {
+  int index = -1;  // its controller index; -1: none
+  const ControllerConfig* config = nullptr;
+};
+ExternalControllerRef ExternalControllerOf(const InstanceConfig& config);
+
 // Throw ConfigError (daemon/yaml_reader.hpp) naming file, line, key and reason.
 Scene LoadScene(const std::string& path);
 // The instance's initial trajectory.
