@@ -1042,9 +1042,10 @@ def external_section(e):
           f"`external` controller, applying the latest torque_t from {st['channels']['torque']}) and lagranged #2 on "
           f"config/{st['scenes']['controller']} with `--channel-prefix CTRL_` (computed torque on the measured "
           f"{st['channels']['state']}), both with `--timing-csv`, #2 in {st['segments']} segments, each a new "
-          "process ended by SIGKILL. Two free-running 1 kHz loops keep the phase between their ticks for as long "
-          "as they run, and that phase decides whether a torque makes the plant's next tick: each segment draws a "
-          "new one. The benchmark timestamps every state and torque it receives with the wall clock (the clock of "
+          "process ended by SIGKILL. Two free-running 1 kHz loops would keep the phase between their ticks for as "
+          "long as they run, and that phase decides whether a torque makes the plant's next tick, so each segment "
+          "starts at a new one; the controller scene's `phase_lock` then moves #2's deadlines (at most 50 µs a "
+          "tick) until each tick starts `phase_lag` (0.2 ms) after the state it answers arrived. The benchmark timestamps every state and torque it receives with the wall clock (the clock of "
           "the messages' utime). A torque computed from state k counts as applied at the first plant state j > k "
           "whose tau is bit-equal to it; in one process j − k = 1, so the loop adds j − k − 1 ticks. Windows open "
           f"{st['settle_s']:g} s after a controller's first torque is applied. {external_scheduling(st)}The issue's "
@@ -1053,8 +1054,8 @@ def external_section(e):
           "application, and the time from the state's tick to its torque on the bus. That time is the state's "
           "publication, the wait for the controller's next tick (the phase: up to one tick) and the torque's "
           "publication; each publication is a tick's compute, the hand-off to the daemon's publish thread and one "
-          "way on the bus, so the second reading exceeds 1 tick + RTT by the two hand-offs whenever a segment "
-          "draws a phase near a whole tick. Per-torque rows: `external_torques.csv`.\n",
+          "way on the bus, so without the phase lock the second reading exceeds 1 tick + RTT by the two hand-offs "
+          "whenever a segment draws a phase near a whole tick. Per-torque rows: `external_torques.csv`.\n",
           table(["target", "limit", "measured", "met"], external_target_rows(e)),
           table(["figure", "samples", "p50", "p99", "max", "note"], rows),
           f"- Torques from the windows' states: {t['torques']}; applied {t['applied']}, never applied "
@@ -1078,7 +1079,8 @@ def external_section(e):
           f"{t['controller_timing']['overruns']}. Load average before {st['load_average_before']}, after "
           f"{st['load_average_after']} ({st['cores']} cores).\n",
           "Per segment (a new controller process, a new phase):\n"]
-    md.append("The phase decides: a controller tick that begins before state k has reached it uses state k − 1 "
+    md.append("The phase decides (until the lock has settled, within the first 20 ticks): a controller tick that "
+              "begins before state k has reached it uses state k − 1 "
               "(the phase column then reads a tick more), and a torque that reaches the plant after its next tick "
               "began waits one more tick.\n")
     seg_rows = [[s["segment"], amount(s.get("controller_tick_after_state_us_p50"), "µs", 0),

@@ -446,7 +446,8 @@ void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::s
   m.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), info.n);
   m.tick = measured_.tick;
   m.run_id = measured_.run_id;
-  m.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
+  m.arrived = clock_.Now();
+  m.sent = m.arrived - ToNanoseconds(std::max(age.age, 0.0));
   runtime_.channels(i).measured.Publish();
   stats_.measured_accepted.fetch_add(1, std::memory_order_relaxed);
 }

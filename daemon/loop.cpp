@@ -17,6 +17,7 @@ void Loop::Run(const std::atomic<bool>& stop, std::int64_t max_ticks) {
   while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || ticks() < max_ticks)) {
     const Wake wake = timer_.WaitForNextTick();
     for (int k = 0; k < wake.ticks; ++k) RunOneTick(wake, k == 0 ? wake.woke : clock_.Now());
+    timer_.Shift(runtime_.PhaseShift());  // 0 unless an external plant locks the phase
   }
 }
 

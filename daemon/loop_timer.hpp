@@ -44,6 +44,10 @@ class LoopTimer {
   // Sleeps until the next deadline and accounts for lateness.
   Wake WaitForNextTick();
 
+  // Moves the next deadline (and every one after it) by `delta`: a phase
+  // adjustment, bounded by the caller (Runtime::PhaseShift).
+  void Shift(Nanoseconds delta) { next_ += delta; }
+
   std::int64_t overruns() const { return overruns_; }
   const LoopTimerOptions& options() const { return options_; }
 

@@ -2,6 +2,7 @@
 
 #include "daemon/health.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace lagrange {
@@ -164,6 +165,7 @@ TickRecord Runtime::MakeRecord() const {
 }
 
 void Runtime::Tick(Nanoseconds now, TickRecord& record) {
+  phase_shift_ = 0;
   for (std::size_t i = 0; i < slots_.size(); ++i) {
     Slot& s = *slots_[i];
     InstanceRecord& r = record.instances[i];
@@ -354,6 +356,7 @@ void Runtime::TakeMeasured(Slot& s, Nanoseconds now) {
   if (m != nullptr) {
     if (s.source != 0 && m->run_id != s.source) return Stop(s, kMeasuredSecondSource);
     s.source = m->run_id;
+    LockPhase(s, now, m->arrived);
     s.instance.SetMeasured(m->q, m->qd);
     s.measured_tick = m->tick;
     s.last_measured = std::min(now, m->sent);
@@ -384,6 +387,20 @@ void Runtime::KeepPlantTime(Slot& s, Nanoseconds now) {
   }
   if (s.clock_origin < 0) s.clock_origin = now - s.instance.steps() * period;
   s.instance.CatchUp((now - s.clock_origin) / period, period_);
+}
+
+// (how long the state this tick takes had waited) => the loop's phase shift:
+// a state that waited longer than phase_lag moves the next deadline earlier,
+// one that waited less moves it later, by a quarter of the difference and at
+// most kMaxPhaseStep a tick, so the loop settles phase_lag after the plant's
+// states. A wait beyond a period (a late tick, a gap) is not a phase: ignored.
+void Runtime::LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived) {
+  const ExternalPlantConfig& e = *s.instance.config().external;
+  const Nanoseconds period = ToNanoseconds(period_);
+  const Nanoseconds wait = now - arrived;
+  if (!e.phase_lock || phase_shift_ != 0 || arrived == kSentUnknown || wait < 0 || wait > period) return;
+  const Nanoseconds error = wait - ToNanoseconds(e.phase_lag);
+  phase_shift_ = std::clamp<Nanoseconds>(-error / 4, -kMaxPhaseStep, kMaxPhaseStep);
 }
 
 // (watchdog) => stopped: the last good state is kept, zero torque is commanded once.

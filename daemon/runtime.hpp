@@ -97,6 +97,7 @@ struct MeasuredMessage {
   std::int64_t tick = -1;    // the sender's state_t.tick
   std::int64_t run_id = 0;   // the sender's state_t.run_id
   Nanoseconds sent = kSentUnknown;
+  Nanoseconds arrived = kSentUnknown;  // when the receiver took it (monotonic), for the phase lock
 };
 
 // What the receiver found wrong with an external plant's measured state: each
@@ -229,6 +230,13 @@ class Runtime {
   // One tick at monotonic time `now`: fills record.instances.
   void Tick(Nanoseconds now, TickRecord& record);
 
+  // The loop's phase correction after this tick, ns (0: none): set by the
+  // first external plant with phase_lock that took a measured state this
+  // tick, −(wait − phase_lag)/4 clamped to ±kMaxPhaseStep, where wait is how
+  // long that state had been waiting; the loop moves its next deadline by it.
+  Nanoseconds PhaseShift() const { return phase_shift_; }
+  static constexpr Nanoseconds kMaxPhaseStep = 50'000;
+
   // Receive thread: posts an urgent command (estop, clear_estop, reset) for
   // instance i; never blocks, never refused for lack of room.
   void PostUrgent(std::size_t i, Urgent kind, std::int64_t request_id);
@@ -248,11 +256,13 @@ class Runtime {
   void Activated(Slot& s, Nanoseconds now);
   void RunOrHold(Slot& s, Nanoseconds now);
   void KeepPlantTime(Slot& s, Nanoseconds now);
+  void LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived);
   void Stop(Slot& s, const char* why);
   void Fault(Slot& s, const char* why, InstanceRecord& r);
 
   double period_;
   std::vector<std::unique_ptr<Slot>> slots_;
+  Nanoseconds phase_shift_ = 0;
 };
 
 }  // namespace lagrange

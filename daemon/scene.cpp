@@ -296,12 +296,17 @@ std::string ReadChannel(const YamlReader& node) {
 }
 
 ExternalPlantConfig ReadExternalPlant(const YamlReader& node, double period) {
-  node.ExpectKeys({"type", "model", "state_channel", "torque_channel", "state_timeout"});
+  node.ExpectKeys({"type", "model", "state_channel", "torque_channel", "state_timeout", "phase_lock", "phase_lag"});
   ExternalPlantConfig e;
   e.state_channel = ReadChannel(node.Required("state_channel"));
   e.torque_channel = ReadChannel(node.Required("torque_channel"));
   if (e.state_channel == e.torque_channel) {
     node.Required("torque_channel").Fail("expected a channel other than state_channel");
+  }
+  if (auto v = node.Optional("phase_lock")) e.phase_lock = v->Bool();
+  if (auto v = node.Optional("phase_lag")) {
+    e.phase_lag = v->PositiveNumber();
+    if (e.phase_lag >= period) v->Fail("expected less than the period (" + ShortestText(period) + " s)");
   }
   if (auto t = node.Optional("state_timeout")) {
     e.state_timeout = t->PositiveNumber();

@@ -41,6 +41,11 @@ struct ExternalPlantConfig {
   std::string state_channel;
   std::string torque_channel;
   double state_timeout = 0.01;  // s: no fresh measured state for this long stops the instance (watchdog)
+  // Lock the loop's phase to the measured state's arrival: each tick then
+  // starts phase_lag after the state it answers arrived (the deadline moves
+  // by at most kMaxPhaseStep per tick), instead of anywhere within a period.
+  bool phase_lock = false;
+  double phase_lag = 2e-4;  // s
 };
 
 struct InstanceConfig {

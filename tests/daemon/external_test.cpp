@@ -33,6 +33,7 @@
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/yaml_reader.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
@@ -1156,6 +1157,67 @@ instances:
   EXPECT_EQ(runtime.mode(0), Mode::kRunning);
   runtime.Tick(now += kOddTick, record);
   EXPECT_EQ(runtime.mode(0), Mode::kStopped);
+}
+
+// ------------------------------------------------------------------ phase lock
+
+// An external plant with phase_lock, fed states that arrive on their own 1 kHz
+// grid at an arbitrary phase: the loop (as Loop::Run does it: the next deadline
+// one period on, moved by PhaseShift) settles each tick phase_lag after its
+// state arrived, moving at most kMaxPhaseStep a tick; without phase_lock it
+// stays where it started.
+std::vector<Nanoseconds> WaitsOfALoopFedOnAGrid(bool phase_lock) {
+  const std::string scene = std::string(R"(
+period: 0.001
+instances:
+  - name: arm_controller
+    plant: {type: external, model: {type: arm2}, state_channel: ARM_STATE, torque_channel: ARM_TORQUE, state_timeout: 0.05, phase_lock: )") +
+                            (phase_lock ? "true" : "false") + R"(}
+    controller: {type: pd, kp: 10, kd: 1}
+)";
+  Runtime runtime(ParseScene(scene, "inline"));
+  TickRecord record = runtime.MakeRecord();
+  constexpr Nanoseconds kPeriod = 1'000'000;
+  const Nanoseconds grid = 123'456;  // the plant's states arrive at grid + k·period
+  std::vector<Nanoseconds> waits;
+  Nanoseconds deadline = 50 * kPeriod;
+  for (int k = 0; k < 200; ++k) {
+    const Nanoseconds arrived = grid + ((deadline - grid) / kPeriod) * kPeriod;  // the latest state by now
+    MeasuredMessage& m = runtime.channels(0).measured.back();
+    m.q << 0.1, 0.2;
+    m.qd << 0.0, 0.0;
+    m.tick = k + 1;
+    m.run_id = kPlantRunId;
+    m.sent = arrived;
+    m.arrived = arrived;
+    runtime.channels(0).measured.Publish();
+    runtime.Tick(deadline, record);
+    EXPECT_LE(std::abs(runtime.PhaseShift()), Runtime::kMaxPhaseStep);
+    waits.push_back(deadline - arrived);
+    deadline += kPeriod + runtime.PhaseShift();
+  }
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+  return waits;
+}
+
+TEST(ExternalPhaseLock, TheLoopSettlesPhaseLagAfterEachMeasuredState) {
+  const std::vector<Nanoseconds> locked = WaitsOfALoopFedOnAGrid(true);
+  EXPECT_GT(locked.front(), 800'000);  // started 876.5 µs after the state
+  for (std::size_t k = 100; k < locked.size(); ++k) EXPECT_NEAR(locked[k], 200'000, 1'000) << k;
+  const std::vector<Nanoseconds> free = WaitsOfALoopFedOnAGrid(false);
+  for (const Nanoseconds w : free) EXPECT_EQ(w, free.front());
+}
+
+TEST(ExternalPhaseLock, APhaseLagOfAPeriodOrMoreIsRefused) {
+  EXPECT_THROW(ParseScene(R"(
+period: 0.001
+instances:
+  - name: arm_controller
+    plant: {type: external, model: {type: arm2}, state_channel: S, torque_channel: T, phase_lock: true, phase_lag: 0.001}
+    controller: {type: pd, kp: 10, kd: 1}
+)",
+                          "inline"),
+               ConfigError);
 }
 
 // ------------------------------------------------------------------ D. the ticks allocate nothing

@@ -27,6 +27,18 @@ TEST(LoopTimer, DeadlinesStayOnTheGridWhateverTheWakeLatency) {
   EXPECT_EQ(timer.overruns(), 0);
 }
 
+// A phase shift moves the next deadline and every one after it, on the same grid.
+TEST(LoopTimer, AShiftMovesEveryLaterDeadlineByIt) {
+  testing::FakeClock clock;
+  LoopTimer timer(clock, {1'000'000, OverrunPolicy::kSkip, 5});
+  timer.Start();
+  const Nanoseconds first = timer.WaitForNextTick().deadline;
+  timer.Shift(-50'000);
+  EXPECT_EQ(timer.WaitForNextTick().deadline, first + 1'000'000 - 50'000);
+  EXPECT_EQ(timer.WaitForNextTick().deadline, first + 2'000'000 - 50'000);
+  EXPECT_EQ(timer.overruns(), 0);
+}
+
 TEST(LoopTimer, SkipPolicyCountsMissedPeriodsAndRunsOneTick) {
   testing::FakeClock clock;
   LoopTimer timer(clock, {kPeriod, OverrunPolicy::kSkip, 5});
