@@ -1107,6 +1107,35 @@ constexpr double kOddPeriod = 0.00013;           // s
 constexpr Nanoseconds kOddTick = 130'000;        // ns, llround(kOddPeriod × 1e9) as service.cpp
 constexpr const char* kTwoOddTicks = "0.00026";  // s, = 2 × kOddPeriod in doubles
 
+// Puts a measured state of the plant kPlantRunId straight into an external
+// plant's mailbox, as the receiver would: (q, qd), the sender's tick, and when
+// it was sent and arrived (monotonic; kSentUnknown: when the tick takes it).
+void PostMeasured(Runtime& runtime, const VectorXd& q, const VectorXd& qd, std::int64_t tick,
+                  Nanoseconds arrived = kSentUnknown) {
+  MeasuredMessage& m = runtime.channels(0).measured.back();
+  m.q = q;
+  m.qd = qd;
+  m.tick = tick;
+  m.run_id = kPlantRunId;
+  m.sent = arrived;
+  m.arrived = arrived;
+  runtime.channels(0).measured.Publish();
+}
+
+// The tick that takes a message at T, then ticks of kOddTick: running while
+// now − T <= 260000 ns (the two-tick timeout), `after` at the first tick past it.
+void ExpectTwoOddTicksThen(Runtime& runtime, TickRecord& record, Mode after) {
+  Nanoseconds now = 0;
+  runtime.Tick(now += kOddTick, record);  // takes it at T
+  ASSERT_EQ(runtime.mode(0), Mode::kRunning);
+  runtime.Tick(now += kOddTick, record);
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+  runtime.Tick(now += kOddTick, record);  // now − T = 260000 ns: not more than the timeout
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+  runtime.Tick(now += kOddTick, record);
+  EXPECT_EQ(runtime.mode(0), after);
+}
+
 TEST(ExternalTimeouts, ATorqueTimeoutOfTwoTicksLastsTwoTicksWhateverTheRoundOff) {
   Runtime runtime(ParseScene(std::string(R"(
 period: 0.00013
@@ -1118,17 +1147,9 @@ instances:
                              "inline"));
   ASSERT_NEAR(runtime.period(), kOddPeriod, 1e-18);
   TickRecord record = runtime.MakeRecord();
-  Nanoseconds now = 0;
   runtime.channels(0).torques.back().tau << 1.0, 0.5;
   runtime.channels(0).torques.Publish();
-  runtime.Tick(now += kOddTick, record);  // takes it at T
-  ASSERT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);
-  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);  // now − T = 260000 ns: not more than the timeout
-  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);
-  EXPECT_EQ(runtime.mode(0), Mode::kHold);
+  ExpectTwoOddTicksThen(runtime, record, Mode::kHold);
 }
 
 TEST(ExternalTimeouts, AStateTimeoutOfTwoTicksLastsTwoTicksWhateverTheRoundOff) {
@@ -1142,21 +1163,8 @@ instances:
 )",
                              "inline"));
   TickRecord record = runtime.MakeRecord();
-  Nanoseconds now = 0;
-  MeasuredMessage& m = runtime.channels(0).measured.back();
-  m.q << 0.1, 0.2;
-  m.qd << 0.0, 0.0;
-  m.tick = 1;
-  m.run_id = kPlantRunId;
-  runtime.channels(0).measured.Publish();
-  runtime.Tick(now += kOddTick, record);  // takes it at T
-  ASSERT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);
-  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);  // now − T = 260000 ns: not more than the timeout
-  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
-  runtime.Tick(now += kOddTick, record);
-  EXPECT_EQ(runtime.mode(0), Mode::kStopped);
+  PostMeasured(runtime, Vec({0.1, 0.2}), Vec({0.0, 0.0}), 1);
+  ExpectTwoOddTicksThen(runtime, record, Mode::kStopped);
 }
 
 // ------------------------------------------------------------------ phase lock
@@ -1183,14 +1191,7 @@ instances:
   Nanoseconds deadline = 50 * kPeriod;
   for (int k = 0; k < 200; ++k) {
     const Nanoseconds arrived = grid + ((deadline - grid) / kPeriod) * kPeriod;  // the latest state by now
-    MeasuredMessage& m = runtime.channels(0).measured.back();
-    m.q << 0.1, 0.2;
-    m.qd << 0.0, 0.0;
-    m.tick = k + 1;
-    m.run_id = kPlantRunId;
-    m.sent = arrived;
-    m.arrived = arrived;
-    runtime.channels(0).measured.Publish();
+    PostMeasured(runtime, Vec({0.1, 0.2}), Vec({0.0, 0.0}), k + 1, arrived);
     runtime.Tick(deadline, record);
     EXPECT_LE(std::abs(runtime.PhaseShift()), Runtime::kMaxPhaseStep);
     waits.push_back(deadline - arrived);
@@ -1267,13 +1268,11 @@ TEST(ExternalTickAllocation, AControllerTickAllocatesNothingRunningOrStopped) {
   TickRecord record = runtime.MakeRecord();
   Nanoseconds now = 0;
   const auto none = [](int) {};
+  const VectorXd qd = Vec({0.2, -0.1});
+  VectorXd q = Vec({0.8, 0.1});
   const auto measure = [&](int k) {
-    MeasuredMessage& m = runtime.channels(0).measured.back();
-    m.q << 0.8 + 0.001 * k, 0.1;
-    m.qd << 0.2, -0.1;
-    m.tick = k;
-    m.run_id = kPlantRunId;
-    runtime.channels(0).measured.Publish();
+    q[0] = 0.8 + 0.001 * k;
+    PostMeasured(runtime, q, qd, k);
   };
   std::int64_t allocations = TickAllocations(runtime, record, now, 20, none);  // waiting
   ASSERT_EQ(runtime.mode(0), Mode::kWaiting);
