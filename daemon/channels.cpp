@@ -21,6 +21,8 @@ ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, co
     c.setpoint.push_back(InstanceChannel(prefix, name, kSetpointSuffix));
     c.command.push_back(InstanceChannel(prefix, name, kCommandSuffix));
     c.reply.push_back(InstanceChannel(prefix, name, kReplySuffix));
+    c.telemetry.push_back(InstanceChannel(prefix, name, kTelemetrySuffix));
+    c.forces.push_back(InstanceChannel(prefix, name, kForcesSuffix));
   }
   c.torque_in.assign(instance_names.size(), "");
   c.measured_in.assign(instance_names.size(), "");
@@ -65,6 +67,8 @@ std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::stri
   for (std::size_t i = 0; i < names.size(); ++i) {
     outputs.emplace_back(c.state[i], names[i] + "'s state");
     outputs.emplace_back(c.reply[i], names[i] + "'s replies");
+    if (i < c.telemetry.size()) outputs.emplace_back(c.telemetry[i], names[i] + "'s telemetry");
+    if (i < c.forces.size()) outputs.emplace_back(c.forces[i], names[i] + "'s forces");
     if (!c.torque_out[i].empty()) outputs.emplace_back(c.torque_out[i], names[i] + "'s torque_channel");
   }
   outputs.emplace_back(c.status, "the status");

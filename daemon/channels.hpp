@@ -1,6 +1,7 @@
 #pragma once
 // LCM channel names, written once for lagranged and lagrangectl: instance
-// `arm` uses ARM_STATE, ARM_SETPOINT, ARM_COMMAND and ARM_REPLY; the daemon
+// `arm` uses ARM_STATE, ARM_SETPOINT, ARM_COMMAND, ARM_REPLY, ARM_TELEMETRY
+// and ARM_FORCES; the daemon
 // publishes LAGRANGE_STATUS. A prefix P is prepended to every channel, so
 // several daemons share one bus.
 
@@ -14,6 +15,8 @@ inline constexpr const char* kSetpointSuffix = "_SETPOINT";
 inline constexpr const char* kCommandSuffix = "_COMMAND";
 inline constexpr const char* kReplySuffix = "_REPLY";
 inline constexpr const char* kTorqueSuffix = "_TORQUE";
+inline constexpr const char* kTelemetrySuffix = "_TELEMETRY";
+inline constexpr const char* kForcesSuffix = "_FORCES";
 inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
 
 // prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
@@ -21,6 +24,7 @@ std::string InstanceChannel(const std::string& prefix, const std::string& instan
 
 struct ChannelNames {
   std::vector<std::string> state, setpoint, command, reply;  // one per instance
+  std::vector<std::string> telemetry, forces;                // one per instance (outputs)
   // One per instance, "" where the instance has none:
   std::vector<std::string> torque_in;     // an external controller's torques (derived, or as the scene wrote it)
   std::vector<std::string> measured_in;   // an external plant's measured state (as written)

@@ -1,10 +1,12 @@
 #include "daemon/wire.hpp"
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include "plant/types.hpp"
@@ -36,7 +38,7 @@ std::int64_t Fingerprint(const void* data, std::size_t size) {
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
   const std::int64_t hash = Fingerprint(data, size);
   if (hash != state_t::getHash() && hash != status_t::getHash() && hash != reply_t::getHash() &&
-      hash != torque_t::getHash())
+      hash != torque_t::getHash() && hash != telemetry_t::getHash() && hash != forces_t::getHash())
     return std::nullopt;
   if (size < kHash + 2 * kInt64) return std::nullopt;
   return ReadInt64(static_cast<const std::uint8_t*>(data) + kHash + kInt64);
@@ -78,8 +80,15 @@ WireCheck CheckCommandPacket(const void* data, std::size_t size) {
   if (p[at - 1] != 0) return WireCheck::kBadLength;  // the string must end in its NUL
   const std::int32_t g = ReadInt32(p + at);
   if (g < 0 || g > kMaxDofs) return WireCheck::kBadLength;
-  at += kInt32;
-  if (size != at + 2 * kDouble * static_cast<std::size_t>(g)) return WireCheck::kSizeMismatch;
+  at += kInt32 + 2 * kDouble * static_cast<std::size_t>(g);  // kp, kd
+  if (size < at + kInt32) return WireCheck::kTooShort;
+  const std::int32_t setting = ReadInt32(p + at);  // the setting's name, with its NUL
+  if (setting < 1 || setting > kMaxString) return WireCheck::kBadLength;
+  at += kInt32 + static_cast<std::size_t>(setting);
+  if (size < at) return WireCheck::kTooShort;
+  if (p[at - 1] != 0) return WireCheck::kBadLength;
+  // substeps, rtol, atol, max_steps, on
+  if (size != at + 2 * kInt32 + 2 * kDouble + kInt8) return WireCheck::kSizeMismatch;
   return WireCheck::kOk;
 }
 
@@ -182,8 +191,30 @@ WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_modes
   w.Skip(static_cast<std::size_t>(n) * kInt32);               // instance_dofs
   for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_reasons
+  for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_integrators
+  for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_methods
+  for (std::int32_t i = 0; i < n; ++i) w.String(kMaxString);  // instance_effects
+  w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_forces
   const std::int32_t j = w.Length(kMaxStatusJoints);          // num_joints
   for (std::int32_t i = 0; i < j; ++i) w.String(kMaxString);  // joint_names
+  return w.Finish();
+}
+
+WireCheck CheckTelemetryPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, telemetry_t::getHash());
+  w.Skip(3 * kInt64 + kDouble + kInt8 + 5 * kDouble);  // utime, run_id, tick, t, mode, energy .. power
+  w.String(kMaxString);                                // integrator
+  w.Skip(kInt32);                                      // substeps
+  w.String(kMaxString);                                // method
+  w.Skip(5 * kInt32 + 3 * kDouble);                    // evaluations .. failures, error_estimate, step, compute_us
+  return w.Finish();
+}
+
+WireCheck CheckForcesPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, forces_t::getHash());
+  w.Skip(3 * kInt64 + kDouble + 7 * kInt8);  // utime, run_id, tick, t, the seven *_on
+  const std::int32_t n = w.Length(kMaxDofs);
+  w.Skip(8 * kDouble * static_cast<std::size_t>(n));  // gravity .. tau_applied
   return w.Finish();
 }
 

@@ -23,7 +23,8 @@ const char* ToString(WireCheck check);
 
 // setpoint_t: fingerprint, utime, num_dofs, 3 × num_dofs doubles.
 WireCheck CheckSetpointPacket(const void* data, std::size_t size);
-// command_t: fingerprint, utime, request_id, command, controller (string), num_gains, 2 × num_gains doubles.
+// command_t: fingerprint, utime, request_id, command, controller (string), num_gains, 2 × num_gains doubles,
+// setting (string), substeps, rtol, atol, max_steps, on.
 WireCheck CheckCommandPacket(const void* data, std::size_t size);
 // torque_t: fingerprint, utime, run_id, sequence, state_tick, num_dofs (<= kMaxDofs), num_dofs doubles.
 WireCheck CheckTorquePacket(const void* data, std::size_t size);
@@ -32,11 +33,15 @@ WireCheck CheckTorquePacket(const void* data, std::size_t size);
 // state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
 WireCheck CheckStatePacket(const void* data, std::size_t size);
 // status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
-// joint counts and reasons, num_joints (≤ kMaxStatusJoints) joint names.
+// joint counts, reasons, integrators, methods, effects and forces flags, num_joints (≤ kMaxStatusJoints) joint names.
 inline constexpr std::int32_t kMaxStatusInstances = 1024;
 inline constexpr std::int32_t kMaxStatusJoints = 4096;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);
 // reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
+// telemetry_t: every fixed field and its two strings.
+WireCheck CheckTelemetryPacket(const void* data, std::size_t size);
+// forces_t: the fixed fields, num_dofs (≤ kMaxDofs), 8 × num_dofs doubles.
+WireCheck CheckForcesPacket(const void* data, std::size_t size);
 WireCheck CheckReplyPacket(const void* data, std::size_t size);
 
 }  // namespace lagrange

@@ -41,6 +41,14 @@ struct Push {
   VectorXd tau;           // (n), N·m or N
 };
 
+// The effects by name, for run-time switching (Effects::SetEnabled) and the wire.
+enum class EffectKind : std::uint8_t { kGravity, kCoriolis, kDamping, kFriction, kLimits, kSaturation, kDisturbance };
+inline constexpr int kNumEffectKinds = 7;
+std::string_view ToString(EffectKind kind);  // "gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"
+std::optional<EffectKind> ParseEffectKind(std::string_view name);
+// "gravity|coriolis|damping|friction|limits|saturation|disturbance"
+std::string EffectKindNames();
+
 struct EffectsConfig {
   bool gravity = true;
   bool coriolis = true;
@@ -49,6 +57,9 @@ struct EffectsConfig {
   std::optional<JointLimits> limits;
   std::optional<VectorXd> saturation;  // tau_max (n), > 0
   std::vector<Push> disturbance;       // empty: off
+  // Effects whose parameters are given above but which start off; a command
+  // (Effects::SetEnabled) may turn them on. Scene key effects.off.
+  std::vector<EffectKind> off;
 
   DynamicsTerms terms() const { return {gravity, coriolis}; }
 };
@@ -62,6 +73,8 @@ struct EffectFlags {
   bool limits = false;       // tau_lim(q, qd)
   bool disturbance = false;  // pushes configured (whether one acts depends on t)
   bool saturation = false;   // sat(tau_cmd); off: tau_cmd passes as it is
+
+  bool on(EffectKind kind) const;
 };
 
 // A problem with one effect key: `message` reads "expected ..., got ...".
@@ -78,8 +91,18 @@ class Effects {
   Effects(EffectsConfig config, int n);
 
   const EffectsConfig& config() const { return config_; }
+  // What is on now: the config's effects, less config().off, as switched since.
   DynamicsTerms terms() const { return terms_; }
   const EffectFlags& flags() const { return flags_; }
+
+  // Whether `kind` can be switched on: gravity and Coriolis always; the
+  // others when the config gives their parameters (disturbance: a push).
+  bool Configured(EffectKind kind) const;
+  // Turns one effect on or off at run time: flags(), terms() and
+  // passes_command_through() follow, and every stage, DissipatedPower and
+  // LimitPotentialEnergy obey the new flags. Allocates nothing. False, with
+  // nothing changed, when turning on an effect that is not Configured.
+  bool SetEnabled(EffectKind kind, bool on);
   // True when no stage below is on (no saturation, pushes, damping, friction
   // or limits): tau = tau_cmd exactly, and nothing here needs to run.
   bool passes_command_through() const { return passes_command_through_; }

@@ -56,6 +56,17 @@ struct IntegratorConfig {
   int newton_max_iterations = 30;
 };
 
+// Why a config cannot be used (a static string), or null: substeps 1..1000,
+// rtol and atol finite and > 0, max_steps 1..10000000, newton_tol finite and
+// > 0, newton_max_iterations 1..1000. The scene reader and the run-time
+// integrator command apply it alike.
+const char* CheckIntegratorConfig(const IntegratorConfig& config);
+
+// The variational integrator integrates the full Lagrangian: a scene or a
+// command that would run it with effects.coriolis off is refused with this.
+inline constexpr char kVariationalNeedsCoriolis[] =
+    "the variational integrator integrates the full Lagrangian; it needs effects.coriolis on";
+
 // Cumulative counts over the integrator's life: the sum of every call's IntegratorWork.
 struct IntegratorStats {
   std::int64_t steps = 0;              // sub-steps taken (Step calls, or substeps per Advance)
@@ -116,6 +127,12 @@ class Integrator {
   const IntegratorStats& stats() const { return stats_; }
   // The last call of Step or Advance alone (see IntegratorWork).
   const IntegratorWork& work() const { return work_; }
+
+  // Takes new numbers (substeps, rtol, atol, max_steps, Newton settings) for
+  // this integrator; config.type must be type(). Allocates nothing: every
+  // buffer depends on n only. Returns why it was refused (CheckIntegratorConfig,
+  // or a type mismatch; nothing changed), or null.
+  const char* Reconfigure(const IntegratorConfig& config);
 
   // (law, t, h, q, qd, tau_cmd) => (q, qd) at t + h. `law` null: tau_cmd is
   // held; otherwise tau_cmd is ignored and the law is evaluated at every stage.

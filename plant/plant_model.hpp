@@ -64,6 +64,16 @@ class PlantModel {
   PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects);
 
   int num_dofs() const { return dynamics_->num_dofs(); }
+  // The method of the dynamics in use.
+  Method method() const { return dynamics_->method(); }
+  // Adds the same plant's dynamics by another method (built before the loop),
+  // for SelectMethod. Throws std::invalid_argument when its num_dofs differs
+  // or its method is already held.
+  void AddDynamics(std::unique_ptr<Dynamics> dynamics);
+  bool HasMethod(Method method) const;
+  // Switches to the held dynamics of `method`; allocation-free. False, with
+  // nothing changed, when none is held.
+  bool SelectMethod(Method method);
   Dynamics& dynamics() { return *dynamics_; }
   const Dynamics& dynamics() const { return *dynamics_; }
   Effects& effects() { return effects_; }
@@ -95,8 +105,10 @@ class PlantModel {
   // evaluated and its term is set to zero. Allocates nothing; `out` must be
   // sized for this plant. A law is called once more, at (t, q, qd): one with
   // state sees that call.
+  // `conservative` false: gravity and coriolis are not evaluated (left zero)
+  // even when on: what the energy balance needs (NonConservativePower).
   void ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
-                           EffectForces& out);
+                           EffectForces& out, bool conservative = true);
   // The same with tau_cmd held.
   void ComputeEffectForces(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, EffectForces& out) {
     ComputeEffectForces(nullptr, t, q, qd, tau_cmd, out);
@@ -115,7 +127,8 @@ class PlantModel {
   void ComputeAccelerationWithEffects(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                       VecRef qdd);
 
-  std::unique_ptr<Dynamics> dynamics_;
+  Dynamics* dynamics_;  // the one in use, one of all_
+  std::vector<std::unique_ptr<Dynamics>> all_;
   Effects effects_;
   VectorXd tau_;      // scratch (n)
   VectorXd tau_law_;  // scratch (n)
