@@ -14,6 +14,7 @@
 #include "controllers/controller.hpp"
 #include "controllers/trajectory.hpp"
 #include "daemon/scene.hpp"
+#include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
 
@@ -107,6 +108,34 @@ class Instance {
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }
 
+  // Run-time switching, between steps. Every integrator type and every method
+  // the plant has were built in the constructor, so none of these allocates.
+  // Each returns why it was refused (a static string, the scene reader's
+  // wording where it has the same rule; nothing changed), or null.
+  //   SetIntegrator  an external plant's (not integrated), kVariationalNeedsCoriolis,
+  //                  CheckIntegratorConfig; the integrator keeps nothing between
+  //                  ticks except dopri5's step proposal, which restarts
+  //   SetEffect      an effect whose parameters the scene does not give,
+  //                  coriolis off under the variational integrator; the energy
+  //                  balance is re-based so ε runs on continuously (V may jump)
+  //   SetMethod      a method the plant does not have
+  const char* SetIntegrator(const IntegratorConfig& config);
+  const char* SetEffect(EffectKind kind, bool on);
+  const char* SetMethod(Method method);
+  Method method() const { return model_.method(); }
+
+  // The energy balance (plant/energy_balance.hpp) over every step since
+  // start or Reset: each step adds its tick with the non-conservative power
+  // at its start and end under its command. Kept when `accounting` (the
+  // scene's telemetry) is on; it then costs one ComputeEffectForces without
+  // gravity and Coriolis terms per step. An external plant keeps none.
+  bool accounting() const { return accounting_; }
+  const EnergyBalance& energy_balance() const { return balance_; }
+  double power() const { return power_end_; }  // W, at the last step's end under its command
+  // Every effect's force at the current state under the last step's command
+  // (what <NAME>_FORCES carries); `out` sized for this plant. No allocation.
+  void ComputeForces(EffectForces& out);
+
  private:
   // The active controller as a law evaluated at every integrator stage.
   class StageLaw final : public ControlLaw {
@@ -121,12 +150,18 @@ class Instance {
   };
 
   StepFailure Integrate(double dt, ConstVecRef tau_cmd);
+  // After a step of length dt from velocity qd_start_ under tau_cmd_ (held):
+  // adds the tick to the balance.
+  void Account(double dt);
+  // Restarts the balance at the current state.
+  void ResetBalance();
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
 
   InstanceConfig config_;
   bool external_;  // the plant is outside: nothing is integrated
   PlantModel model_;
-  std::unique_ptr<Integrator> integrator_;
+  Integrator* integrator_;  // the one in use, one of integrators_
+  std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
   std::vector<bool> continuous_;    // by controller index
@@ -138,6 +173,13 @@ class Instance {
   std::int64_t steps_ = 0;
   VectorXd q_, qd_, qdd_, tau_, tau_cmd_, q_des_;
   Setpoint setpoint_;  // scratch for Step(dt)
+  // Energy balance.
+  bool accounting_;
+  EnergyBalance balance_;
+  EffectForces forces_;      // scratch: the effects at a step's end
+  VectorXd qd_start_;        // scratch: qd at a step's start
+  double rest_power_ = 0.0;  // the non-command power at the last step's end (power_end_ − qdᵀ tau_applied)
+  double power_end_ = 0.0;
 };
 
 }  // namespace lagrange

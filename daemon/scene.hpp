@@ -66,6 +66,8 @@ struct InstanceConfig {
   std::optional<double> max_energy;       // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
   std::optional<VectorXd> estop_damping;  // (n) brake B during an emergency stop (default 20/s × diag M(q0))
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
+  bool telemetry = true;  // keep the energy balance and publish <NAME>_TELEMETRY every tick
+  bool forces = false;    // publish <NAME>_FORCES from the start (a command may turn it on or off)
 };
 
 struct Scene {
