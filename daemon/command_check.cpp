@@ -29,7 +29,7 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
     return {CommandVerdict::Kind::kUndecodable, ToString(w)};
   }
   if (out.decode(data, 0, static_cast<int>(size)) < 0) return {CommandVerdict::Kind::kUndecodable, "decode failed"};
-  if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::CLEAR_ESTOP) {
+  if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::SET_FORCES) {
     return Reject("unknown command " + std::to_string(out.command));
   }
   CommandVerdict v{CommandVerdict::Kind::kAccepted, "", static_cast<CommandKind>(out.command)};
@@ -49,6 +49,32 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
     if (auto err = CheckGains(rules.controller_types[c], g, rules.gain_bounds[c])) {
       return Reject("gains for " + rules.controllers[c] + ": " + *err);
     }
+  }
+  v.on = out.on;
+  const std::string setting = Escape(out.setting, 64);
+  if (v.command == CommandKind::kSetIntegrator) {
+    const std::optional<IntegratorType> type = ParseIntegratorType(out.setting);
+    if (!type) return Reject("unknown integrator '" + setting + "' (expected " + IntegratorTypeNames() + ")");
+    IntegratorConfig c = rules.integrator;  // its Newton settings
+    const IntegratorConfig defaults;
+    c.type = *type;
+    c.substeps = out.substeps == 0 ? defaults.substeps : out.substeps;
+    c.rtol = out.rtol == 0.0 ? defaults.rtol : out.rtol;
+    c.atol = out.atol == 0.0 ? defaults.atol : out.atol;
+    v.default_max_steps = out.max_steps == 0;
+    c.max_steps = v.default_max_steps ? rules.integrator.max_steps : out.max_steps;
+    if (const char* why = CheckIntegratorConfig(c)) return Reject(std::string("integrator: ") + why);
+    v.integrator = c;
+  }
+  if (v.command == CommandKind::kSetEffect) {
+    const std::optional<EffectKind> effect = ParseEffectKind(out.setting);
+    if (!effect) return Reject("unknown effect '" + setting + "' (expected " + EffectKindNames() + ")");
+    v.effect = *effect;
+  }
+  if (v.command == CommandKind::kSetMethod) {
+    const std::optional<Method> method = ParseMethod(out.setting);
+    if (!method) return Reject("unknown method '" + setting + "' (expected " + MethodNames() + ")");
+    v.method = *method;
   }
   return v;
 }

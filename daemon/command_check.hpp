@@ -21,6 +21,7 @@ struct CommandRules {
   std::vector<std::string> controllers;  // names, by index
   std::vector<ControllerType> controller_types;
   std::vector<GainBounds> gain_bounds;  // what each controller can use at the scene's period
+  IntegratorConfig integrator;          // the scene's: set-integrator keeps its Newton settings
 };
 
 struct CommandVerdict {
@@ -28,11 +29,20 @@ struct CommandVerdict {
   std::string reason;  // why, for kRejected and kUndecodable; bus text in it is escaped
   CommandKind command = CommandKind::kReset;
   int controller = -1;  // switch: the target; set-gains: the controller the gains are for
+  // set-integrator, set-effect, set-method, set-forces, parsed and checked (CommandMessage's fields).
+  IntegratorConfig integrator;
+  bool default_max_steps = false;
+  EffectKind effect = EffectKind::kGravity;
+  Method method = Method::kClosedForm;
+  bool on = false;
 };
 
 // Checks `data` (size bytes) as a command_t for an instance with `rules`,
 // decoding it into `out` (whose vectors keep their capacity). `active` is
 // the instance's active controller (set-gains with no name means it).
+// Integrator, effect and method names are parsed here and the integrator's
+// numbers checked (CheckIntegratorConfig; 0 means the default); whether the
+// instance can take them now is the tick's to decide (Instance::Set*).
 CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRules& rules, int active, command_t& out);
 
 }  // namespace lagrange

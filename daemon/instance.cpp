@@ -1,12 +1,36 @@
 #include "daemon/instance.hpp"
 
+#include <array>
+
 namespace lagrange {
+namespace {
+
+constexpr IntegratorType kAllIntegrators[] = {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                                              IntegratorType::kRk4, IntegratorType::kDormandPrince,
+                                              IntegratorType::kVariational};
+constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Method::kRecursive};
+
+// Why an effect cannot be switched on, by EffectKind (static: the tick reports them).
+constexpr std::array<const char*, kNumEffectKinds> kNotConfigured = {
+    "effect gravity cannot be switched",  // never: gravity and Coriolis are always configured
+    "effect coriolis cannot be switched",
+    "effect damping: the scene gives it no coefficients (effects.damping)",
+    "effect friction: the scene gives it no coefficients (effects.friction)",
+    "effect limits: the scene gives no joint limits (effects.limits)",
+    "effect saturation: the scene gives no torque bounds (effects.saturation)",
+    "effect disturbance: the scene gives no pushes (effects.disturbance)",
+};
+
+}  // namespace
+
+// The scene reader's wording for the same rules (daemon/scene.cpp).
+constexpr char kExternalNotIntegrated[] = "an external plant is not integrated by lagranged (its state is measured)";
+constexpr char kNoClosedForm[] = "this plant has no closed-form dynamics (methods: lagrangian, recursive)";
 
 Instance::Instance(const InstanceConfig& config)
     : config_(config),
       external_(config.external.has_value()),
       model_(MakeDynamics(config.plant, config.method), config.effects),
-      integrator_(MakeIntegrator(config.integrator, config.plant.num_dofs())),
       trajectory_(MakeTrajectory(config)),
       q_(config.q0),
       qd_(config.qd0),
@@ -14,7 +38,23 @@ Instance::Instance(const InstanceConfig& config)
       tau_(VectorXd::Zero(config.plant.num_dofs())),
       tau_cmd_(VectorXd::Zero(config.plant.num_dofs())),
       q_des_(config.q0),
-      setpoint_(config.plant.num_dofs()) {
+      setpoint_(config.plant.num_dofs()),
+      accounting_(config.telemetry && !config.external),
+      forces_(config.plant.num_dofs()),
+      q_start_(VectorXd::Zero(config.plant.num_dofs())),
+      qd_start_(VectorXd::Zero(config.plant.num_dofs())),
+      tau_start_(VectorXd::Zero(config.plant.num_dofs())) {
+  // Every method the plant has and every integrator type, so that switching
+  // at run time builds nothing.
+  for (const Method m : kAllMethods) {
+    if (m != config.method && HasMethod(config.plant.type(), m)) model_.AddDynamics(MakeDynamics(config.plant, m));
+  }
+  for (const IntegratorType type : kAllIntegrators) {
+    IntegratorConfig c = config.integrator;
+    c.type = type;
+    integrators_.push_back(MakeIntegrator(c, num_dofs()));
+  }
+  integrator_ = integrators_[static_cast<std::size_t>(config.integrator.type)].get();
   const VectorXd& limits = config.torque_limits.size() == num_dofs()
                                ? config.torque_limits
                                : VectorXd::Constant(num_dofs(), std::numeric_limits<double>::infinity());
@@ -41,15 +81,85 @@ Instance::Instance(const InstanceConfig& config)
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
+  ResetBalance();
+}
+
+void Instance::ResetBalance() {
+  balance_.Reset(model_.Energy(q_, qd_));
+  rest_power_ = power_end_ = 0.0;
+  if (!accounting_) return;
+  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
+  power_end_ = NonConservativePower(qd_, forces_);
+  rest_power_ = power_end_ - qd_.dot(forces_.tau_applied);
+}
+
+// The tick just integrated ran from (q_start_, qd_start_) under tau_cmd_:
+// held, its applied force's work is tau·Δq exactly (`held`); a law's
+// (tau_applied_start at the start, the law's output at the end) goes through
+// the trapezoid rule with the rest's. The rest's power (damping, friction,
+// stops, pushes: functions of the state and t) at the start is the previous
+// end's; at the end it is computed afresh. A non-finite end (the health
+// check then faults the step) adds nothing.
+void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
+  if (!accounting_) return;
+  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
+  const double power_end = NonConservativePower(qd_, forces_);
+  const double rest_end = power_end - qd_.dot(forces_.tau_applied);
+  const double energy = model_.Energy(q_, qd_);
+  if (!std::isfinite(power_end) || !std::isfinite(energy)) return;
+  if (held) {
+    balance_.AddTickWithWork(dt, tau_applied_start.dot(q_ - q_start_), rest_power_, rest_end, energy);
+  } else {
+    balance_.AddTick(dt, rest_power_ + qd_start_.dot(tau_applied_start), power_end, energy);
+  }
+  power_end_ = power_end;
+  rest_power_ = rest_end;
+}
+
+void Instance::ComputeForces(EffectForces& out) {
+  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/true);
+}
+
+const char* Instance::SetIntegrator(const IntegratorConfig& config) {
+  if (external_) return kExternalNotIntegrated;
+  if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis) return kVariationalNeedsCoriolis;
+  Integrator& target = *integrators_[static_cast<std::size_t>(config.type)];
+  if (const char* refused = target.Reconfigure(config)) return refused;
+  integrator_ = &target;
+  return nullptr;
+}
+
+const char* Instance::SetEffect(EffectKind kind, bool on) {
+  if (kind == EffectKind::kCoriolis && !on && !external_ && integrator_->type() == IntegratorType::kVariational) {
+    return kVariationalNeedsCoriolis;
+  }
+  if (!model_.effects().SetEnabled(kind, on)) return kNotConfigured[static_cast<std::size_t>(kind)];
+  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
+  if (!accounting_) return nullptr;
+  // V may have gained or lost a term, and the rest's power changed with the effects.
+  balance_.Rebase(model_.Energy(q_, qd_));
+  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
+  power_end_ = NonConservativePower(qd_, forces_);
+  rest_power_ = power_end_ - qd_.dot(forces_.tau_applied);
+  return nullptr;
+}
+
+const char* Instance::SetMethod(Method method) {
+  if (!model_.SelectMethod(method)) return kNoClosedForm;  // every plant has the other two
+  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
+  return nullptr;
 }
 
 void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, out); }
 
 Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
+  q_start_ = q_;
+  qd_start_ = qd_;
   const bool ok = external_ || integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;  // no accumulated round-off over long runs
   model_.ComputeAcceleration(t_, q_, qd_, tau_cmd, qdd_);
+  if (!external_) Account(dt, tau_, /*held=*/true);
   return ok ? nullptr : kIntegratorFailed;
 }
 
@@ -66,11 +176,15 @@ void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef
 // (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
 Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law) {
   stage_law_.Bind(law, setpoint);
+  q_start_ = q_;
+  qd_start_ = qd_;
+  tau_start_ = tau_;  // the law's output at this state, as the last tick ended (the same setpoint)
   const bool ok = integrator_->Advance(model_, &stage_law_, t_, dt, tau_cmd_, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;
   model_.ComputeAcceleration(&stage_law_, t_, q_, qd_, tau_cmd_, qdd_);
   stage_law_.Compute(t_, q_, qd_, tau_cmd_);
   model_.effects().Saturate(tau_cmd_, tau_);
+  Account(dt, tau_start_, /*held=*/false);
   if (!stage_law_.ok) return kControllerNotFinite;  // the cause, even when the integrator then failed too
   return ok ? nullptr : kIntegratorFailed;
 }
@@ -100,6 +214,9 @@ void Instance::Save(Saved& out) const {
   out.t = t_;
   out.q = q_;
   out.qd = qd_;
+  out.balance = balance_;
+  out.rest_power = rest_power_;
+  out.power_end = power_end_;
 }
 
 void Instance::Restore(const Saved& saved) {
@@ -109,6 +226,9 @@ void Instance::Restore(const Saved& saved) {
   qd_ = saved.qd;
   qdd_.setZero();
   tau_.setZero();
+  balance_ = saved.balance;
+  rest_power_ = saved.rest_power;
+  power_end_ = saved.power_end;
 }
 
 std::vector<std::string> Instance::controller_names() const {
@@ -155,6 +275,7 @@ void Instance::Reset() {
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
+  ResetBalance();
 }
 
 }  // namespace lagrange

@@ -80,8 +80,10 @@ class Instance {
     std::int64_t steps = 0;
     double t = 0.0;
     VectorXd q, qd;
+    EnergyBalance balance;
+    double rest_power = 0.0, power_end = 0.0;
   };
-  Saved MakeSaved() const { return {steps_, t_, q_, qd_}; }
+  Saved MakeSaved() const { return {steps_, t_, q_, qd_, balance_, rest_power_, power_end_}; }
   void Save(Saved& out) const;
   // Restores a saved state with zero torque and acceleration; no allocation.
   void Restore(const Saved& saved);
@@ -113,8 +115,8 @@ class Instance {
   // Each returns why it was refused (a static string, the scene reader's
   // wording where it has the same rule; nothing changed), or null.
   //   SetIntegrator  an external plant's (not integrated), kVariationalNeedsCoriolis,
-  //                  CheckIntegratorConfig; the integrator keeps nothing between
-  //                  ticks except dopri5's step proposal, which restarts
+  //                  CheckIntegratorConfig; dopri5 keeps its last step proposal
+  //                  from when it last ran (a proposal only: it adapts)
   //   SetEffect      an effect whose parameters the scene does not give,
   //                  coriolis off under the variational integrator; the energy
   //                  balance is re-based so ε runs on continuously (V may jump)
@@ -125,8 +127,8 @@ class Instance {
   Method method() const { return model_.method(); }
 
   // The energy balance (plant/energy_balance.hpp) over every step since
-  // start or Reset: each step adds its tick with the non-conservative power
-  // at its start and end under its command. Kept when `accounting` (the
+  // start or Reset: each step adds its tick, a held command's work exactly
+  // (tau·Δq) and the rest's by the trapezoid rule (a continuous law's too). Kept when `accounting` (the
   // scene's telemetry) is on; it then costs one ComputeEffectForces without
   // gravity and Coriolis terms per step. An external plant keeps none.
   bool accounting() const { return accounting_; }
@@ -150,9 +152,10 @@ class Instance {
   };
 
   StepFailure Integrate(double dt, ConstVecRef tau_cmd);
-  // After a step of length dt from velocity qd_start_ under tau_cmd_ (held):
-  // adds the tick to the balance.
-  void Account(double dt);
+  // After a step of length dt from (q_start_, qd_start_), with
+  // tau_applied_start applied at its start (`held`: over all of it): adds the
+  // tick to the balance.
+  void Account(double dt, ConstVecRef tau_applied_start, bool held);
   // Restarts the balance at the current state.
   void ResetBalance();
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
@@ -177,7 +180,9 @@ class Instance {
   bool accounting_;
   EnergyBalance balance_;
   EffectForces forces_;      // scratch: the effects at a step's end
+  VectorXd q_start_;         // scratch: q at a step's start
   VectorXd qd_start_;        // scratch: qd at a step's start
+  VectorXd tau_start_;       // scratch: a continuous law's applied force at a step's start
   double rest_power_ = 0.0;  // the non-command power at the last step's end (power_end_ − qdᵀ tau_applied)
   double power_end_ = 0.0;
 };

@@ -47,12 +47,36 @@ bool StatusFits(const std::vector<std::string>& instances, const std::vector<std
   s.instance_modes.assign(instances.size(), 0);
   s.instance_dofs = dofs;
   s.instance_reasons.assign(instances.size(), std::string(kLongestModeReason, 'x'));
+  // The longest each description can be (IntegratorDescription, EffectsDescription).
+  s.instance_integrators.assign(instances.size(), std::string(80, 'x'));
+  s.instance_methods.assign(instances.size(), std::string(11, 'x'));
+  s.instance_effects.assign(instances.size(), std::string(64, 'x'));
+  s.instance_forces.assign(instances.size(), false);
   s.num_joints = static_cast<std::int32_t>(joints.size());
   s.joint_names = joints;
   return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
 }
 
 }  // namespace
+
+std::string IntegratorDescription(const IntegratorConfig& c, bool external_plant) {
+  if (external_plant) return "none";
+  std::string text(ToString(c.type));
+  if (c.type == IntegratorType::kDormandPrince) {
+    text += fmt::format(" rtol={:g} atol={:g} max_steps={}", c.rtol, c.atol, c.max_steps);
+  }
+  if (c.substeps > 1) text += fmt::format(" x{}", c.substeps);
+  return text;
+}
+
+std::string EffectsDescription(const EffectFlags& flags) {
+  std::string text;
+  for (int k = 0; k < kNumEffectKinds; ++k) {
+    const auto kind = static_cast<EffectKind>(k);
+    if (flags.on(kind)) text += (text.empty() ? "" : ",") + std::string(ToString(kind));
+  }
+  return text;
+}
 
 std::int64_t NewRunId() {
   std::int64_t id = 0;
@@ -113,7 +137,7 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
     info.reply_channel = channels.reply[i];
     info.n = inst.num_dofs();
     info.command_rules = CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                                      std::move(bounds)};
+                                      std::move(bounds), c.integrator};
     info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
     info.timeout = c.setpoint_timeout;
     if (const ExternalControllerRef external = ExternalControllerOf(c); external.config != nullptr) {
@@ -472,6 +496,11 @@ void LcmReceiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::si
     slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
     slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
   }
+  slot->integrator = v.integrator;
+  slot->default_max_steps = v.default_max_steps;
+  slot->effect = v.effect;
+  slot->method = v.method;
+  slot->on = v.on;
   runtime_.channels(i).commands.Push();  // the tick applies or refuses it; its record says which
 }
 
@@ -520,6 +549,17 @@ LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& r
     tq.num_dofs = inst.num_dofs();
     tq.tau.resize(static_cast<std::size_t>(tq.num_dofs));
     torques_.push_back(tq);
+    telemetry_t tm{};
+    tm.run_id = run_id_;
+    telemetry_.push_back(tm);
+    forces_t f{};
+    f.run_id = run_id_;
+    f.num_dofs = inst.num_dofs();
+    for (auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd,
+                    &f.tau_applied}) {
+      v->resize(static_cast<std::size_t>(f.num_dofs));
+    }
+    forces_.push_back(f);
     modes_.push_back(Mode::kRunning);
     reasons_.push_back(nullptr);
     dofs_.push_back(inst.num_dofs());
@@ -582,6 +622,8 @@ void LcmPublisher::Publish(const TickRecord& record) {
     s.mode = static_cast<int8_t>(r.mode);
     bus_.PublishMessage(channels_.state[i], s);
     ++states_published_;
+    if (r.telemetry) PublishTelemetry(i, r, record);
+    if (r.publish_forces) PublishForces(i, r, record);
     PublishReplies(i, r, record.utime);
   }
   LogEvents(record);
@@ -596,6 +638,11 @@ void LcmPublisher::Publish(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     last_.instances[i].mode = record.instances[i].mode;
     last_.instances[i].reason = record.instances[i].reason;
+    last_.instances[i].integrator = record.instances[i].integrator;
+    last_.instances[i].external_plant = record.instances[i].external_plant;
+    last_.instances[i].method = record.instances[i].method;
+    last_.instances[i].effects = record.instances[i].effects;
+    last_.instances[i].publish_forces = record.instances[i].publish_forces;
   }
   have_record_ = true;
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
@@ -609,6 +656,62 @@ void LcmPublisher::PublishTorque(std::size_t i, const InstanceRecord& r, std::in
   t.state_tick = r.state_tick;
   std::copy_n(r.tau.data(), t.tau.size(), t.tau.data());
   bus_.PublishMessage(channels_.torque_out[i], t);
+}
+
+// (record) => telemetry_t: the balance, the integrator's work, the instance's compute.
+void LcmPublisher::PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
+  telemetry_t& m = telemetry_[i];
+  m.utime = record.utime;
+  m.tick = record.tick;
+  m.t = r.t;
+  m.mode = static_cast<int8_t>(r.mode);
+  m.energy = r.kinetic_energy + r.potential_energy;
+  m.energy_residual = r.energy_residual;
+  m.quadrature_bound = r.quadrature_bound;
+  m.work = r.work;
+  m.power = r.power;
+  m.integrator = r.external_plant ? "none" : ToString(r.integrator.type);
+  m.substeps = r.integrator.substeps;
+  m.method = ToString(r.method);
+  const IntegratorWork& w = r.integrator_work;
+  const auto clamp32 = [](std::int64_t v) {
+    return static_cast<std::int32_t>(std::min<std::int64_t>(v, std::numeric_limits<std::int32_t>::max()));
+  };
+  m.evaluations = clamp32(w.evaluations);
+  m.steps_accepted = clamp32(w.accepted);
+  m.steps_rejected = clamp32(w.rejected);
+  m.newton_iterations = clamp32(w.newton_iterations);
+  m.failures = clamp32(w.failures);
+  m.error_estimate = std::isfinite(w.error_estimate) ? w.error_estimate : -1.0;  // NaN: none; never on the wire
+  m.step = w.step;
+  m.compute_us = static_cast<double>(r.compute) * 1e-3;
+  bus_.PublishMessage(channels_.telemetry[i], m);
+}
+
+// (record) => forces_t.
+void LcmPublisher::PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
+  forces_t& f = forces_[i];
+  const EffectForces& e = r.forces;
+  f.utime = record.utime;
+  f.tick = record.tick;
+  f.t = r.t;
+  f.gravity_on = e.active.gravity;
+  f.coriolis_on = e.active.coriolis;
+  f.damping_on = e.active.damping;
+  f.friction_on = e.active.friction;
+  f.limits_on = e.active.limits;
+  f.saturation_on = e.active.saturation;
+  f.disturbance_on = e.active.disturbance;
+  const auto n = static_cast<std::size_t>(f.num_dofs);
+  std::copy_n(e.gravity.data(), n, f.gravity.data());
+  std::copy_n(e.coriolis.data(), n, f.coriolis.data());
+  std::copy_n(e.damping.data(), n, f.damping.data());
+  std::copy_n(e.friction.data(), n, f.friction.data());
+  std::copy_n(e.limits.data(), n, f.limits.data());
+  std::copy_n(e.disturbance.data(), n, f.disturbance.data());
+  std::copy_n(e.tau_cmd.data(), n, f.tau_cmd.data());
+  std::copy_n(e.tau_applied.data(), n, f.tau_applied.data());
+  bus_.PublishMessage(channels_.forces[i], f);
 }
 
 // (tick verdicts) => one reply_t each, within the reply budget.
@@ -698,7 +801,13 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
   s.instance_names = names_;
   for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
   s.instance_dofs = dofs_;
-  for (const InstanceRecord& r : last.instances) s.instance_reasons.emplace_back(r.reason ? r.reason : "");
+  for (const InstanceRecord& r : last.instances) {
+    s.instance_reasons.emplace_back(r.reason ? r.reason : "");
+    s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant));
+    s.instance_methods.emplace_back(ToString(r.method));
+    s.instance_effects.push_back(EffectsDescription(r.effects));
+    s.instance_forces.push_back(r.publish_forces);
+  }
   s.num_joints = static_cast<int32_t>(joint_names_.size());
   s.joint_names = joint_names_;
   bus_.PublishMessage(channels_.status, s);

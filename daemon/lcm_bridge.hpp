@@ -25,10 +25,12 @@
 // it is logged or published.
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <array>
@@ -47,6 +49,12 @@
 namespace lagrange {
 
 class TimingCsvWriter;
+
+// status_t.instance_integrators: "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10
+// max_steps=200"; "none" for an external plant.
+std::string IntegratorDescription(const IntegratorConfig& config, bool external_plant);
+// status_t.instance_effects: the effects on, comma-separated in EffectKind order.
+std::string EffectsDescription(const EffectFlags& flags);
 
 // A random, non-zero 64-bit id for this run of lagranged (getrandom).
 std::int64_t NewRunId();
@@ -232,6 +240,8 @@ class LcmPublisher {
   void Publish(const TickRecord& record);
   void PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime);
   void PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime);
+  void PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
 
@@ -250,6 +260,8 @@ class LcmPublisher {
   std::vector<std::vector<std::string>> controller_names_;
   std::vector<state_t> states_;
   std::vector<torque_t> torques_;  // external plants' commands, by instance
+  std::vector<telemetry_t> telemetry_;  // by instance
+  std::vector<forces_t> forces_;        // by instance
   std::vector<Mode> modes_;
   std::vector<const char*> reasons_;  // each instance's latest record's reason
   std::vector<double> latencies_, computes_;  // µs, this status window

@@ -10,7 +10,9 @@ Loop::Loop(Runtime& runtime, Clock& clock, LoopTimerOptions options, SpscRing<Ti
       timer_(clock, options),
       out_(out),
       notify_fd_(notify_fd),
-      spare_(runtime.MakeRecord()) {}
+      spare_(runtime.MakeRecord()) {
+  runtime_.SetClock(&clock_);  // each instance's compute time (telemetry_t)
+}
 
 void Loop::Run(const std::atomic<bool>& stop, std::int64_t max_ticks) {
   timer_.Start();

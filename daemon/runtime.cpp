@@ -1,6 +1,7 @@
 #include "daemon/runtime.hpp"
 
 #include "daemon/health.hpp"
+#include "daemon/work_bound.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -61,7 +62,8 @@ InstanceRecord::InstanceRecord(int n)
       qdd(VectorXd::Zero(n)),
       tau(VectorXd::Zero(n)),
       q_des(VectorXd::Zero(n)),
-      qd_des(VectorXd::Zero(n)) {}
+      qd_des(VectorXd::Zero(n)),
+      forces(n) {}
 
 struct Runtime::Slot {
   explicit Slot(const InstanceConfig& c)
@@ -76,7 +78,8 @@ struct Runtime::Slot {
         timeout(ToNanoseconds(c.setpoint_timeout)),
         max_energy(MaxEnergy(c)),
         energies{instance.KineticEnergy(), instance.PotentialEnergy()},
-        state_timeout(c.external ? ToNanoseconds(c.external->state_timeout) : 0) {
+        state_timeout(c.external ? ToNanoseconds(c.external->state_timeout) : 0),
+        forces(c.forces) {
     const int n = c.plant.num_dofs();
     const std::vector<ControllerType> types = instance.controller_types();
     const std::vector<const ControllerConfig*> configs = ControllerConfigs(c);
@@ -130,6 +133,10 @@ struct Runtime::Slot {
   std::int64_t source = 0;       // the run id the watchdog locked onto (0: none yet)
   Nanoseconds clock_origin = -1;  // monotonic time of step 0 (-1: set at the next step)
   bool send_zero_once = false;  // fault or stopped: command zero torque in this tick's record, once
+  // Issue 14: switching and telemetry.
+  bool forces;                            // publish <NAME>_FORCES
+  std::array<double, 3> evaluation_s{};  // by Method: one evaluation's cost, s (0: unknown)
+  bool integrated = false;                // this tick ran the integrator
 
   bool external_active() const { return torque_timeout[instance.active_controller()] > 0; }
 
@@ -164,11 +171,16 @@ TickRecord Runtime::MakeRecord() const {
   return r;
 }
 
+void Runtime::SetEvaluationCosts(std::size_t i, const std::array<double, 3>& seconds) {
+  slots_[i]->evaluation_s = seconds;
+}
+
 void Runtime::Tick(Nanoseconds now, TickRecord& record) {
   phase_shift_ = 0;
   for (std::size_t i = 0; i < slots_.size(); ++i) {
     Slot& s = *slots_[i];
     InstanceRecord& r = record.instances[i];
+    const Nanoseconds start = clock_ != nullptr ? clock_->Now() : 0;
     r.fault = nullptr;
     r.commands_accepted = r.commands_rejected = 0;
     r.command_error = nullptr;
@@ -182,6 +194,7 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     ControlAndIntegrate(s);
     CheckHealth(s, r);
     Record(s, r);
+    r.compute = clock_ != nullptr ? clock_->Now() - start : 0;
   }
 }
 
@@ -231,16 +244,23 @@ void Runtime::TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r) {
 // (command queue) => mode, controller, gains, state.
 void Runtime::TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r) {
   while (CommandMessage* c = s.channels.commands.Front()) {
-    AddVerdict(r, c->request_id, c->kind, Apply(s, c->kind, c->controller, &c->gains, now));
+    AddVerdict(r, c->request_id, c->kind, Apply(s, c->kind, c->controller, &c->gains, now, c));
     s.channels.commands.Pop();
   }
   s.channels.active_controller.store(static_cast<int>(s.instance.active_controller()), std::memory_order_release);
 }
 
 // Applies one command; returns why it was refused, or null.
-const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now) {
+const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now,
+                           const CommandMessage* message) {
   Instance& inst = s.instance;
   switch (kind) {
+    case CommandKind::kSetIntegrator:
+    case CommandKind::kSetEffect:
+    case CommandKind::kSetMethod:
+    case CommandKind::kSetForces:
+      if (message == nullptr) return "unknown command";
+      return ApplySwitch(s, *message);
     case CommandKind::kSwitchController: {
       const bool torque_hold = s.mode == Mode::kHold && (s.reason == kTorquesTimedOut || s.reason == kNoTorqueYet);
       inst.SelectController(static_cast<std::size_t>(controller));
@@ -324,6 +344,41 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       return nullptr;
   }
   return "unknown command";
+}
+
+// Whether `config` by `method` fits the period at the measured cost (as
+// lagranged checks a scene before the loop); true when the cost is unknown.
+bool Runtime::Fits(const Slot& s, const IntegratorConfig& config, Method method) const {
+  const double cost = s.evaluation_s[static_cast<std::size_t>(method)];
+  if (cost <= 0.0 || s.instance.external_plant()) return true;
+  return static_cast<double>(WorstCaseEvaluations(config, s.instance.num_dofs())) * cost <= period_;
+}
+
+// Integrator, effect, method, forces: at this tick boundary, allocation-free
+// (Instance built every combination before the loop).
+const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
+  Instance& inst = s.instance;
+  switch (c.kind) {
+    case CommandKind::kSetIntegrator: {
+      IntegratorConfig config = c.integrator;
+      if (c.default_max_steps) config.max_steps = inst.config().integrator.max_steps;
+      const double cost = s.evaluation_s[static_cast<std::size_t>(inst.method())];
+      if (c.default_max_steps && config.type == IntegratorType::kDormandPrince && cost > 0.0) {
+        // The largest max_steps that fits: s·(1 + 6·max_steps) + 1 evaluations in the period.
+        const double fit = std::floor(((period_ / cost - 1.0) / config.substeps - 1.0) / 6.0);
+        if (fit < 1.0) return kSwitchDoesNotFit;
+        config.max_steps = static_cast<int>(std::min<double>(config.max_steps, fit));
+      }
+      if (!Fits(s, config, inst.method())) return kSwitchDoesNotFit;
+      return inst.SetIntegrator(config);
+    }
+    case CommandKind::kSetEffect: return inst.SetEffect(c.effect, c.on);
+    case CommandKind::kSetMethod:
+      if (!Fits(s, inst.integrator().config(), c.method)) return kSwitchDoesNotFit;
+      return inst.SetMethod(c.method);
+    case CommandKind::kSetForces: s.forces = c.on; return nullptr;
+    default: return "unknown command";
+  }
 }
 
 // (leaving a mode that ignored the setpoints) => running, or hold when the
@@ -469,6 +524,7 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
   const InstanceConfig& c = inst.config();
   s.in_use = nullptr;
+  s.integrated = !inst.external_plant() && (s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop);
   const auto brake = [&] {
     s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
     return inst.StepWithTorque(period_, s.brake_torque);
@@ -539,6 +595,21 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.publish_torque = inst.external_plant() && (commanding || s.send_zero_once);
   r.state_tick = s.measured_tick;
   s.send_zero_once = false;
+  // Telemetry and forces.
+  r.telemetry = inst.config().telemetry;
+  const EnergyBalance& balance = inst.energy_balance();
+  r.energy_residual = balance.residual();
+  r.quadrature_bound = balance.quadrature_bound();
+  r.work = balance.work();
+  r.power = inst.power();
+  r.integrated = s.integrated && s.mode != Mode::kFault;  // a faulted step's work is of the step undone
+  r.integrator_work = r.integrated ? inst.integrator().work() : IntegratorWork{};
+  r.integrator = inst.integrator().config();
+  r.external_plant = inst.external_plant();
+  r.method = inst.method();
+  r.effects = inst.model().effects().flags();
+  r.publish_forces = s.forces;
+  if (s.forces) inst.ComputeForces(r.forces);
 }
 
 }  // namespace lagrange

@@ -112,6 +112,10 @@ enum class CommandKind : std::int8_t {
   kResume = 5,
   kEstop = 6,
   kClearEstop = 7,
+  kSetIntegrator = 8,
+  kSetEffect = 9,
+  kSetMethod = 10,
+  kSetForces = 11,
 };
 
 // A command the LCM thread has decoded and checked against what does not
@@ -122,6 +126,13 @@ struct CommandMessage {
   std::int64_t request_id = 0;  // the sender's, echoed with the verdict
   int controller = -1;          // switch: the target; set-gains: the controller the gains are for
   Gains gains;                  // sized n
+  // set-integrator: the integrator as asked (CheckIntegratorConfig passed);
+  // default_max_steps: dopri5 takes the scene's max_steps, lowered to what fits the period.
+  IntegratorConfig integrator;
+  bool default_max_steps = false;
+  EffectKind effect = EffectKind::kGravity;  // set-effect
+  Method method = Method::kClosedForm;       // set-method
+  bool on = false;                           // set-effect, set-forces
 };
 
 // The urgent commands, by index into UrgentFlags.
@@ -172,6 +183,11 @@ inline constexpr char kMeasuredNotFinite[] = "a measured state was not finite or
 inline constexpr char kMeasuredWrongSize[] = "a measured state had the wrong num_dofs";
 inline constexpr char kMeasuredSecondSource[] = "a measured state came from a second source (run_id)";
 
+// Why a run-time switch was refused by the work bound (daemon/work_bound.hpp).
+inline constexpr char kSwitchDoesNotFit[] =
+    "its worst case per tick does not fit the period (as lagranged refuses such a scene): lower substeps or "
+    "max_steps, or choose a cheaper method";
+
 // The tick's verdict on one command, for the reply the publisher sends.
 struct Verdict {
   std::int64_t request_id = 0;
@@ -202,6 +218,23 @@ struct InstanceRecord {
   // answers the measured state of tick state_tick).
   bool publish_torque = false;
   std::int64_t state_tick = -1;
+
+  // Telemetry (telemetry_t), when `telemetry`. The balance is the instance's
+  // (zero for an external plant); work is this tick's, zero when nothing
+  // was integrated (`integrated` false).
+  bool telemetry = false;
+  double energy_residual = 0.0, quadrature_bound = 0.0, work = 0.0, power = 0.0;
+  bool integrated = false;
+  IntegratorWork integrator_work;
+  Nanoseconds compute = 0;  // this instance's share of the tick (0 without a clock)
+  // What the instance runs with now (status_t).
+  IntegratorConfig integrator;
+  bool external_plant = false;
+  Method method = Method::kClosedForm;
+  EffectFlags effects;
+  // Forces (forces_t): every effect's force at the tick's end state, when publish_forces.
+  bool publish_forces = false;
+  EffectForces forces;
 };
 
 struct TickRecord {
@@ -230,6 +263,16 @@ class Runtime {
   // One tick at monotonic time `now`: fills record.instances.
   void Tick(Nanoseconds now, TickRecord& record);
 
+  // The clock each instance's compute time is read from (InstanceRecord::compute);
+  // none (the default): 0. The loop sets its own.
+  void SetClock(Clock* clock) { clock_ = clock; }
+
+  // Before the loop: the cost of one right-hand-side evaluation of instance
+  // i by each method (s, by Method; 0: unknown, not checked), which the
+  // integrator and method commands are checked against as the scene was
+  // (daemon/work_bound.hpp).
+  void SetEvaluationCosts(std::size_t i, const std::array<double, 3>& seconds);
+
   // The loop's phase correction after this tick, ns (0: none): set by the
   // first external plant with phase_lock that took a measured state this
   // tick, −(wait − phase_lag)/4 clamped to ±kMaxPhaseStep, where wait is how
@@ -245,7 +288,8 @@ class Runtime {
   struct Slot;
   void TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r);
   void TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r);
-  const char* Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now);
+  const char* Apply(Slot& s, CommandKind kind, int controller, const Gains* gains, Nanoseconds now,
+                    const CommandMessage* message = nullptr);
   void TakeMeasured(Slot& s, Nanoseconds now);
   void TakeSetpoint(Slot& s, Nanoseconds now);
   void TakeTorque(Slot& s, Nanoseconds now);
@@ -260,7 +304,11 @@ class Runtime {
   void Stop(Slot& s, const char* why);
   void Fault(Slot& s, const char* why, InstanceRecord& r);
 
+  const char* ApplySwitch(Slot& s, const CommandMessage& c);
+  bool Fits(const Slot& s, const IntegratorConfig& config, Method method) const;
+
   double period_;
+  Clock* clock_ = nullptr;
   std::vector<std::unique_ptr<Slot>> slots_;
   Nanoseconds phase_shift_ = 0;
 };

@@ -152,7 +152,7 @@ std::optional<EffectsError> CheckEffects(const EffectsConfig& c, const std::vect
 
 EffectsConfig ReadEffects(const YamlReader& node, const std::vector<std::string>& names, EffectsConfig c) {
   const int n = static_cast<int>(names.size());
-  node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"});
+  node.ExpectKeys({"gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance", "off"});
   if (auto v = node.Optional("gravity")) c.gravity = v->Bool();
   if (auto v = node.Optional("coriolis")) c.coriolis = v->Bool();
   if (auto v = node.Optional("damping")) {
@@ -201,12 +201,27 @@ EffectsConfig ReadEffects(const YamlReader& node, const std::vector<std::string>
           Push{p.Required("start").Number(), p.Required("duration").PositiveNumber(), p.Required("tau").Vector(n)});
     }
   }
+  if (auto v = node.Optional("off")) {
+    // Effects given above that start off; a command (SET_EFFECT) may turn them on.
+    c.off.clear();
+    for (std::size_t i = 0; i < v->Size(); ++i) {
+      const YamlReader item = v->At(i);
+      const std::optional<EffectKind> kind = ParseEffectKind(item.Text());
+      if (!kind) item.Fail("expected one of " + EffectKindNames() + ", got '" + Escape(item.Text()) + "'");
+      const Effects probe(c, static_cast<int>(names.size()));
+      if (!probe.Configured(*kind)) {
+        item.Fail("effect " + std::string(ToString(*kind)) + " is not given above: nothing to switch on later");
+      }
+      c.off.push_back(*kind);
+    }
+  }
   if (auto err = CheckEffects(c, names)) node.Fail(err->key, err->message);
   return c;
 }
 
 IntegratorConfig ReadIntegrator(const YamlReader& node) {
   node.ExpectKeys({"type", "substeps", "rtol", "atol", "max_steps"});
+  // The same rules as the run-time integrator command (CheckIntegratorConfig), with the key named.
   IntegratorConfig c;
   if (auto v = node.Optional("type")) {
     const std::optional<IntegratorType> t = ParseIntegratorType(v->Text());
@@ -217,6 +232,7 @@ IntegratorConfig ReadIntegrator(const YamlReader& node) {
   if (auto v = node.Optional("rtol")) c.rtol = v->PositiveNumber();
   if (auto v = node.Optional("atol")) c.atol = v->PositiveNumber();
   if (auto v = node.Optional("max_steps")) c.max_steps = v->Integer(1, 10000000);
+  if (const char* why = CheckIntegratorConfig(c)) node.Fail(why);
   return c;
 }
 
@@ -361,7 +377,8 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
 
 InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
-                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping"});
+                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping",
+                   "telemetry", "forces"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();
@@ -395,11 +412,14 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   if (auto i = node.Optional("integrator")) {
     if (inst.external) i->Fail("an external plant is not integrated by lagranged (its state is measured)");
     inst.integrator = ReadIntegrator(*i);
-    if (inst.integrator.type == IntegratorType::kVariational && !inst.effects.coriolis) {
-      i->Required("type").Fail(
-          "the variational integrator integrates the full Lagrangian; it needs effects.coriolis on");
+    const bool coriolis = inst.effects.coriolis && std::find(inst.effects.off.begin(), inst.effects.off.end(),
+                                                             EffectKind::kCoriolis) == inst.effects.off.end();
+    if (inst.integrator.type == IntegratorType::kVariational && !coriolis) {
+      i->Required("type").Fail(kVariationalNeedsCoriolis);  // the command's refusal is the same (Instance::SetIntegrator)
     }
   }
+  if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();
+  if (auto f = node.Optional("forces")) inst.forces = f->Bool();
   ReadControl(node, period, inst, urdf);
   CheckExternalControl(node, inst);
   return inst;

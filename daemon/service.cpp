@@ -146,6 +146,10 @@ int Serve(const Options& o, const LogFiles& logs) {
     spdlog::error("{}", *refusal);
     return 2;
   }
+  // The run-time integrator and method commands are held to the same bound.
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    runtime->SetEvaluationCosts(i, MeasureEvaluationCosts(scene.instances[i]));
+  }
   std::vector<std::string> names;
   for (const auto& inst : scene.instances) names.push_back(inst.name);
   const ChannelNames channels = SceneChannelNames(scene, o.channel_prefix);

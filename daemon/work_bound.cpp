@@ -62,6 +62,17 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   return fastest;
 }
 
+std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config) {
+  std::array<double, 3> costs{};
+  for (const Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    if (!HasMethod(config.plant.type(), m)) continue;
+    InstanceConfig c = config;
+    c.method = m;
+    costs[static_cast<std::size_t>(m)] = MeasureEvaluationSeconds(c);
+  }
+  return costs;
+}
+
 std::vector<WorkBound> MeasureWorkBounds(const Scene& scene) {
   std::vector<WorkBound> bounds;
   for (const InstanceConfig& inst : scene.instances) {

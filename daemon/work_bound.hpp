@@ -23,6 +23,7 @@
 // batch is taken, so a loaded machine does not inflate it (the bound is about
 // the scene, not about the machine's load).
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -37,6 +38,10 @@ std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs);
 
 // The cost of one ComputeAcceleration for `config` at (q0, qd0), zero torque, s.
 double MeasureEvaluationSeconds(const InstanceConfig& config);
+
+// The same by every method the plant has (by Method; 0 for a method it lacks),
+// for the run-time method and integrator commands (Runtime::SetEvaluationCosts).
+std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
 struct WorkBound {
   std::string instance;

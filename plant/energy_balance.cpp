@@ -19,6 +19,17 @@ void EnergyBalance::Reset(double energy) {
   energy_ = energy;
 }
 
+void EnergyBalance::Rebase(double energy) {
+  energy0_ += energy - energy_;
+  energy_ = energy;
+}
+
+void EnergyBalance::AddTickWithWork(double h, double command_work, double rest_start, double rest_end,
+                                    double energy_end) {
+  work_ += command_work;
+  AddTick(h, rest_start, rest_end, energy_end);
+}
+
 void EnergyBalance::AddTick(double h, double power_start, double power_end, double energy_end) {
   work_ += 0.5 * h * (power_start + power_end);
   energy_ = energy_end;
