@@ -232,7 +232,7 @@ Run AdaptiveRun(const Problem& p, double rtol, double min_timed) {
   run.config.type = IntegratorType::kDormandPrince;
   run.config.rtol = rtol;
   run.config.atol = rtol / 100.0;
-  run.config.max_steps = 100'000'000;
+  run.config.max_steps = 10'000'000;
   run.ok = Integrate(p, run.config, 1, p.t_final, run, false);
   run.ns_per_sim_s = TimeIntegration(p, run.config, 1, p.t_final, min_timed);
   Run sampled;
@@ -263,7 +263,7 @@ IntegratorConfig Dopri(double rtol) {
   c.type = IntegratorType::kDormandPrince;
   c.rtol = rtol;
   c.atol = rtol / 100.0;
-  c.max_steps = 100'000'000;
+  c.max_steps = 10'000'000;
   return c;
 }
 

@@ -105,8 +105,11 @@ void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
   model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
   const double power_end = NonConservativePower(qd_, forces_);
   const double rest_end = power_end - qd_.dot(forces_.tau_applied);
-  const double energy = model_.Energy(q_, qd_);
+  kinetic_ = model_.KineticEnergy(q_, qd_);
+  potential_ = model_.PotentialEnergy(q_);
+  const double energy = kinetic_ + potential_;
   if (!std::isfinite(power_end) || !std::isfinite(energy)) return;
+  energies_cached_ = true;
   if (held) {
     balance_.AddTickWithWork(dt, tau_applied_start.dot(q_ - q_start_), rest_power_, rest_end, energy);
   } else {
@@ -134,6 +137,7 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
     return kVariationalNeedsCoriolis;
   }
   if (!model_.effects().SetEnabled(kind, on)) return kNotConfigured[static_cast<std::size_t>(kind)];
+  energies_cached_ = false;  // V may have gained or lost a term
   model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
   if (!accounting_) return nullptr;
   // V may have gained or lost a term, and the rest's power changed with the effects.
@@ -154,6 +158,7 @@ void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, o
 
 Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
+  energies_cached_ = false;
   q_start_ = q_;
   qd_start_ = qd_;
   const bool ok = external_ || integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
@@ -176,6 +181,7 @@ void Instance::StageLaw::Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef
 // (setpoint) => the law at every stage of the sub-steps; tau reported at the new state.
 Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law) {
   stage_law_.Bind(law, setpoint);
+  energies_cached_ = false;
   q_start_ = q_;
   qd_start_ = qd_;
   tau_start_ = tau_;  // the law's output at this state, as the last tick ended (the same setpoint)
@@ -220,6 +226,7 @@ void Instance::Save(Saved& out) const {
 }
 
 void Instance::Restore(const Saved& saved) {
+  energies_cached_ = false;
   steps_ = saved.steps;
   t_ = saved.t;
   q_ = saved.q;
@@ -261,6 +268,7 @@ std::optional<std::string> Instance::SelectController(std::string_view name) {
 }
 
 void Instance::Reset() {
+  energies_cached_ = false;
   t_ = 0.0;
   steps_ = 0;
   q_ = config_.q0;

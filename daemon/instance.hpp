@@ -71,6 +71,7 @@ class Instance {
   void SetMeasured(ConstVecRef q, ConstVecRef qd) {
     q_ = q;
     qd_ = qd;
+    energies_cached_ = false;
   }
   bool external_plant() const { return external_; }
   // The external controller at `index`, or null for another type.
@@ -104,8 +105,9 @@ class Instance {
   // and every controller's gains back to the scene's.
   void Reset();
 
-  double KineticEnergy() const { return model_.KineticEnergy(q_, qd_); }
-  double PotentialEnergy() const { return model_.PotentialEnergy(q_); }
+  // T and V at the current state: the balance's, when it computed them at this state.
+  double KineticEnergy() const { return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_); }
+  double PotentialEnergy() const { return energies_cached_ ? potential_ : model_.PotentialEnergy(q_); }
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }
@@ -185,6 +187,10 @@ class Instance {
   VectorXd tau_start_;       // scratch: a continuous law's applied force at a step's start
   double rest_power_ = 0.0;  // the non-command power at the last step's end (power_end_ − qdᵀ tau_applied)
   double power_end_ = 0.0;
+  // T and V of the current state as Account computed them (the health check
+  // reads them instead of computing M(q) again); false once the state or V changes.
+  bool energies_cached_ = false;
+  double kinetic_ = 0.0, potential_ = 0.0;
 };
 
 }  // namespace lagrange

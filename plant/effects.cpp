@@ -2,13 +2,71 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
+#include "plant/enum_names.hpp"
+
 namespace lagrange {
 namespace {
+
+constexpr EnumName<EffectKind> kEffectKindNames[] = {
+    {EffectKind::kGravity, "gravity"},         {EffectKind::kCoriolis, "coriolis"},
+    {EffectKind::kDamping, "damping"},         {EffectKind::kFriction, "friction"},
+    {EffectKind::kLimits, "limits"},           {EffectKind::kSaturation, "saturation"},
+    {EffectKind::kDisturbance, "disturbance"},
+};
+static_assert(std::size(kEffectKindNames) == kNumEffectKinds);
+
+// The flag of `kind` in `flags`.
+template <class Flags>
+auto& FlagOf(Flags& flags, EffectKind kind) {
+  switch (kind) {
+    case EffectKind::kGravity: return flags.gravity;
+    case EffectKind::kCoriolis: return flags.coriolis;
+    case EffectKind::kDamping: return flags.damping;
+    case EffectKind::kFriction: return flags.friction;
+    case EffectKind::kLimits: return flags.limits;
+    case EffectKind::kSaturation: return flags.saturation;
+    case EffectKind::kDisturbance: return flags.disturbance;
+  }
+  return flags.gravity;  // unreachable for a valid kind
+}
+
+// Gravity and Coriolis need no parameters; the others are configured when given.
+bool IsConfigured(const EffectsConfig& c, EffectKind kind) {
+  switch (kind) {
+    case EffectKind::kGravity:
+    case EffectKind::kCoriolis: return true;
+    case EffectKind::kDamping: return c.damping.has_value();
+    case EffectKind::kFriction: return c.friction.has_value();
+    case EffectKind::kLimits: return c.limits.has_value();
+    case EffectKind::kSaturation: return c.saturation.has_value();
+    case EffectKind::kDisturbance: return !c.disturbance.empty();
+  }
+  return false;
+}
+
+// What the config gives, less config.off.
+EffectFlags InitialFlags(const EffectsConfig& c) {
+  EffectFlags f{.gravity = c.gravity,
+                .coriolis = c.coriolis,
+                .damping = c.damping.has_value(),
+                .friction = c.friction.has_value(),
+                .limits = c.limits.has_value(),
+                .disturbance = !c.disturbance.empty(),
+                .saturation = c.saturation.has_value()};
+  for (EffectKind kind : c.off) FlagOf(f, kind) = false;
+  return f;
+}
+
+// No force stage on: tau = tau_cmd.
+bool PassesCommandThrough(const EffectFlags& f) {
+  return !f.saturation && !f.disturbance && !f.damping && !f.friction && !f.limits;
+}
 
 std::optional<EffectsError> CheckVector(const std::string& key, const VectorXd& v, int n, bool strictly_positive) {
   if (v.size() != n) {
@@ -50,6 +108,12 @@ double LimitSpring(const JointLimits& l, int i, double q) {
 
 }  // namespace
 
+std::string_view ToString(EffectKind kind) { return NameOf(kEffectKindNames, kind); }
+std::optional<EffectKind> ParseEffectKind(std::string_view name) { return ValueOf(kEffectKindNames, name); }
+std::string EffectKindNames() { return JoinedNames(kEffectKindNames); }
+
+bool EffectFlags::on(EffectKind kind) const { return FlagOf(*this, kind); }
+
 std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
   if (c.damping) {
     if (auto e = CheckVector("damping", *c.damping, n, false)) return e;
@@ -90,19 +154,31 @@ std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
     }
     if (!p.tau.allFinite()) return EffectsError{key + ".tau", "expected finite values"};
   }
+  // An effect listed off could never be switched on without its parameters.
+  for (EffectKind kind : c.off) {
+    if (!IsConfigured(c, kind)) {
+      return EffectsError{"off", "expected effects whose parameters are given, got " + std::string(ToString(kind))};
+    }
+  }
   return std::nullopt;
 }
 
 Effects::Effects(EffectsConfig config, int n)
-    : config_(std::move(config)),
-      terms_(config_.terms()),
-      flags_{config_.gravity,     config_.coriolis,
-             config_.damping.has_value(), config_.friction.has_value(),
-             config_.limits.has_value(),  !config_.disturbance.empty(),
-             config_.saturation.has_value()},
-      passes_command_through_(!config_.saturation && config_.disturbance.empty() && !config_.damping &&
-                              !config_.friction && !config_.limits) {
+    : config_(std::move(config)), flags_(InitialFlags(config_)), passes_command_through_(PassesCommandThrough(flags_)) {
   if (auto e = ValidateEffects(config_, n)) throw std::invalid_argument(e->key + ": " + e->message);
+  terms_ = {flags_.gravity, flags_.coriolis};
+}
+
+bool Effects::Configured(EffectKind kind) const { return IsConfigured(config_, kind); }
+
+bool Effects::SetEnabled(EffectKind kind, bool on) {
+  // A stage switched on without its parameters would read an empty optional;
+  // a kind out of range (a cast from the wire) names no flag.
+  if ((on && !Configured(kind)) || static_cast<int>(kind) >= kNumEffectKinds) return false;
+  FlagOf(flags_, kind) = on;
+  terms_ = {flags_.gravity, flags_.coriolis};
+  passes_command_through_ = PassesCommandThrough(flags_);
+  return true;
 }
 
 void Effects::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau) {
@@ -117,7 +193,7 @@ void Effects::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, C
 // Eigen's vectorised loops cost more in set-up than they save.
 void Effects::Saturate(ConstVecRef tau_cmd, VecRef tau) {
   const int n = static_cast<int>(tau.size());
-  if (!config_.saturation) {
+  if (!flags_.saturation) {
     for (int i = 0; i < n; ++i) tau[i] = tau_cmd[i];
     return;
   }
@@ -127,7 +203,7 @@ void Effects::Saturate(ConstVecRef tau_cmd, VecRef tau) {
 }
 
 void Effects::AddDisturbance(double t, VecRef tau) {
-  if (config_.disturbance.empty()) return;
+  if (!flags_.disturbance) return;
   ++counts_.disturbance;
   for (const Push& p : config_.disturbance) {
     if (t >= p.start && t < p.start + p.duration) {
@@ -137,27 +213,27 @@ void Effects::AddDisturbance(double t, VecRef tau) {
 }
 
 void Effects::AddDamping(ConstVecRef qd, VecRef tau) {
-  if (!config_.damping) return;
+  if (!flags_.damping) return;
   ++counts_.damping;
   const VectorXd& b = *config_.damping;
   for (int i = 0; i < tau.size(); ++i) tau[i] -= b[i] * qd[i];
 }
 
 void Effects::AddFriction(ConstVecRef qd, VecRef tau) {
-  if (!config_.friction) return;
+  if (!flags_.friction) return;
   ++counts_.friction;
   const CoulombFriction& f = *config_.friction;
   for (int i = 0; i < tau.size(); ++i) tau[i] -= f.coulomb[i] * std::tanh(qd[i] / f.velocity_scale);
 }
 
 void Effects::AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau) {
-  if (!config_.limits) return;
+  if (!flags_.limits) return;
   ++counts_.limits;
   for (int i = 0; i < tau.size(); ++i) tau[i] += LimitForce(*config_.limits, i, q[i], qd[i]);
 }
 
 void Effects::AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau, VecRef springs) {
-  if (!config_.limits) return;
+  if (!flags_.limits) return;
   ++counts_.limits;
   for (int i = 0; i < tau.size(); ++i) {
     tau[i] += LimitForce(*config_.limits, i, q[i], qd[i]);
@@ -167,12 +243,12 @@ void Effects::AddLimits(ConstVecRef q, ConstVecRef qd, VecRef tau, VecRef spring
 
 double Effects::DissipatedPower(ConstVecRef q, ConstVecRef qd) const {
   double p = 0.0;
-  if (config_.damping) p += qd.dot(config_.damping->cwiseProduct(qd));
-  if (config_.friction) {
+  if (flags_.damping) p += qd.dot(config_.damping->cwiseProduct(qd));
+  if (flags_.friction) {
     const CoulombFriction& f = *config_.friction;
     for (int i = 0; i < qd.size(); ++i) p += qd[i] * f.coulomb[i] * std::tanh(qd[i] / f.velocity_scale);
   }
-  if (config_.limits) {
+  if (flags_.limits) {
     for (int i = 0; i < qd.size(); ++i) {
       p -= qd[i] * (LimitForce(*config_.limits, i, q[i], qd[i]) - LimitSpring(*config_.limits, i, q[i]));
     }
@@ -181,7 +257,7 @@ double Effects::DissipatedPower(ConstVecRef q, ConstVecRef qd) const {
 }
 
 double Effects::LimitPotentialEnergy(ConstVecRef q) const {
-  if (!config_.limits) return 0.0;
+  if (!flags_.limits) return 0.0;
   double e = 0.0;
   for (int i = 0; i < q.size(); ++i) {
     const double f = LimitSpring(*config_.limits, i, q[i]);

@@ -44,7 +44,8 @@ struct Push {
 // The effects by name, for run-time switching (Effects::SetEnabled) and the wire.
 enum class EffectKind : std::uint8_t { kGravity, kCoriolis, kDamping, kFriction, kLimits, kSaturation, kDisturbance };
 inline constexpr int kNumEffectKinds = 7;
-std::string_view ToString(EffectKind kind);  // "gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"
+// "gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"
+std::string_view ToString(EffectKind kind);
 std::optional<EffectKind> ParseEffectKind(std::string_view name);
 // "gravity|coriolis|damping|friction|limits|saturation|disturbance"
 std::string EffectKindNames();
@@ -83,7 +84,8 @@ struct EffectsError {
   std::string message;
 };
 
-// Checks sizes against n and every range above.
+// Checks sizes against n and every range above, and that `off` names only
+// Configured effects.
 std::optional<EffectsError> ValidateEffects(const EffectsConfig& config, int n);
 
 class Effects {
@@ -101,7 +103,8 @@ class Effects {
   // Turns one effect on or off at run time: flags(), terms() and
   // passes_command_through() follow, and every stage, DissipatedPower and
   // LimitPotentialEnergy obey the new flags. Allocates nothing. False, with
-  // nothing changed, when turning on an effect that is not Configured.
+  // nothing changed, when turning on an effect that is not Configured (or for
+  // a kind out of range).
   bool SetEnabled(EffectKind kind, bool on);
   // True when no stage below is on (no saturation, pushes, damping, friction
   // or limits): tau = tau_cmd exactly, and nothing here needs to run.
@@ -130,8 +133,8 @@ class Effects {
 
  private:
   EffectsConfig config_;
-  DynamicsTerms terms_;  // config_.terms(), resolved once
-  EffectFlags flags_;    // resolved once
+  DynamicsTerms terms_;  // flags_.gravity and flags_.coriolis
+  EffectFlags flags_;    // resolved from config_ once, then as SetEnabled switched
   bool passes_command_through_;
   StageCounts counts_;
 };

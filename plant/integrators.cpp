@@ -164,6 +164,8 @@ class DormandPrince final : public Integrator {
     return std::sqrt(sum / (2 * n_));
   }
 
+  void StartOver() override { h_next_ = 0.0; }
+
   VectorXd y_, y1_, yt_, err_;
   VectorXd k_[7];
   double h_next_ = 0.0;
@@ -245,7 +247,7 @@ class Variational final : public Integrator {
     qm_ = 0.5 * (q0 + q1);
     v_ = (q1 - q0) / h;
     dyn.ComputeKineticEnergyGradient(qm_, v_, x_);
-    if (m.effects().config().gravity) {
+    if (m.effects().terms().gravity) {
       dyn.ComputeGravityForce(qm_, tmp_);
       x_ -= tmp_;
     }
@@ -274,6 +276,8 @@ class Variational final : public Integrator {
     jacobian_h_ = h;
   }
 
+  void StartOver() override { jacobian_valid_ = false; }
+
   static constexpr double kRoundOffFloor = 1e-9;    // |Δq| / (1 + |q|) below which a stall is round-off
   static constexpr double kSlowContraction = 0.25;  // rebuild the Jacobian when |Δq| shrinks slower than this
 
@@ -290,6 +294,31 @@ class Variational final : public Integrator {
 std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames, type); }
 std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }
 std::string IntegratorTypeNames() { return JoinedNames(kIntegratorNames); }
+
+const char* CheckIntegratorConfig(const IntegratorConfig& c) {
+  // Bounds keep a tick's work finite: substeps and max_steps multiply the
+  // evaluations one call may make. NaN fails every comparison, so it is refused.
+  if (c.substeps < 1 || c.substeps > 1000) return "integrator.substeps: expected 1 to 1000";
+  if (!std::isfinite(c.rtol) || !(c.rtol > 0.0)) return "integrator.rtol: expected a finite number > 0";
+  if (!std::isfinite(c.atol) || !(c.atol > 0.0)) return "integrator.atol: expected a finite number > 0";
+  if (c.max_steps < 1 || c.max_steps > 10000000) return "integrator.max_steps: expected 1 to 10000000";
+  if (!std::isfinite(c.newton_tol) || !(c.newton_tol > 0.0)) {
+    return "integrator.newton_tol: expected a finite number > 0";
+  }
+  if (c.newton_max_iterations < 1 || c.newton_max_iterations > 1000) {
+    return "integrator.newton_max_iterations: expected 1 to 1000";
+  }
+  return nullptr;
+}
+
+const char* Integrator::Reconfigure(const IntegratorConfig& config) {
+  if (config.type != config_.type) return "integrator.type differs from this integrator's";
+  if (const char* reason = CheckIntegratorConfig(config)) return reason;
+  // Every buffer is sized by n_ alone (see the classes above): only numbers change.
+  config_ = config;
+  StartOver();
+  return nullptr;
+}
 
 bool Integrator::Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) {
@@ -327,11 +356,7 @@ void Integrator::AddWorkToStats() {
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {
-  if (c.substeps < 1) throw std::invalid_argument("substeps: expected a whole number >= 1");
-  if (!(c.rtol > 0.0) || !(c.atol > 0.0)) throw std::invalid_argument("rtol, atol: expected positive numbers");
-  if (c.max_steps < 1 || c.newton_max_iterations < 1 || !(c.newton_tol > 0.0)) {
-    throw std::invalid_argument("max_steps, newton_max_iterations, newton_tol: expected positive values");
-  }
+  if (const char* reason = CheckIntegratorConfig(c)) throw std::invalid_argument(reason);
   switch (c.type) {
     case IntegratorType::kExplicitEuler: return std::make_unique<ExplicitEuler>(c, n);
     case IntegratorType::kSemiImplicitEuler: return std::make_unique<SemiImplicitEuler>(c, n);

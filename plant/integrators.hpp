@@ -130,8 +130,11 @@ class Integrator {
 
   // Takes new numbers (substeps, rtol, atol, max_steps, Newton settings) for
   // this integrator; config.type must be type(). Allocates nothing: every
-  // buffer depends on n only. Returns why it was refused (CheckIntegratorConfig,
-  // or a type mismatch; nothing changed), or null.
+  // buffer depends on n only. What a step carries to the next (dopri5's step
+  // proposal, the variational Jacobian) starts over, so the next call steps
+  // exactly as a new integrator of `config` would; stats() keep counting.
+  // Returns why it was refused (CheckIntegratorConfig, or a type mismatch;
+  // nothing changed), or null.
   const char* Reconfigure(const IntegratorConfig& config);
 
   // (law, t, h, q, qd, tau_cmd) => (q, qd) at t + h. `law` null: tau_cmd is
@@ -157,6 +160,8 @@ class Integrator {
   // work_.error_estimate when it has one); the caller counts steps and failures.
   virtual bool DoStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) = 0;
+  // Forgets what one step carries to the next, as at construction (Reconfigure).
+  virtual void StartOver() {}
 
   IntegratorConfig config_;
   int n_;
@@ -171,7 +176,7 @@ class Integrator {
   IntegratorStats stats_;
 };
 
-// Throws std::invalid_argument for a bad config (substeps < 1, tolerances <= 0).
+// Throws std::invalid_argument with CheckIntegratorConfig's reason for a bad config.
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& config, int n);
 
 }  // namespace lagrange

@@ -1,14 +1,49 @@
 #include "plant/plant_model.hpp"
 
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace lagrange {
 
 PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects)
-    : dynamics_(std::move(dynamics)),
+    : dynamics_(dynamics.get()),
       effects_(std::move(effects), dynamics_->num_dofs()),
       tau_(dynamics_->num_dofs()),
-      tau_law_(dynamics_->num_dofs()) {}
+      tau_law_(dynamics_->num_dofs()) {
+  all_.push_back(std::move(dynamics));
+}
+
+void PlantModel::AddDynamics(std::unique_ptr<Dynamics> dynamics) {
+  if (dynamics == nullptr) throw std::invalid_argument("AddDynamics: expected dynamics, got null");
+  // The scratch above is sized (n): every held dynamics must share it.
+  if (dynamics->num_dofs() != num_dofs()) {
+    throw std::invalid_argument("AddDynamics: expected " + std::to_string(num_dofs()) + " degrees of freedom, got " +
+                                std::to_string(dynamics->num_dofs()));
+  }
+  if (HasMethod(dynamics->method())) {
+    throw std::invalid_argument("AddDynamics: the " + std::string(ToString(dynamics->method())) +
+                                " method is already held");
+  }
+  all_.push_back(std::move(dynamics));
+}
+
+bool PlantModel::HasMethod(Method method) const {
+  for (const auto& d : all_) {
+    if (d->method() == method) return true;
+  }
+  return false;
+}
+
+bool PlantModel::SelectMethod(Method method) {
+  for (const auto& d : all_) {
+    if (d->method() == method) {
+      dynamics_ = d.get();
+      return true;
+    }
+  }
+  return false;
+}
 
 EffectForces::EffectForces(int n)
     : gravity(VectorXd::Zero(n)),
@@ -54,7 +89,7 @@ void PlantModel::ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef 
 
 // (law, t, q, qd, tau_cmd) => (G, C qd, each effect's force, tau_cmd, sat(tau_cmd)).
 void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
-                                     EffectForces& out) {
+                                     EffectForces& out, bool conservative) {
   eigen_assert(out.tau_applied.size() == num_dofs());
   const EffectFlags& on = effects_.flags();
   out.active = on;
@@ -65,12 +100,12 @@ void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, C
   }
   effects_.Saturate(out.tau_cmd, out.tau_applied);
   out.gravity.setZero();
-  if (on.gravity) {
+  if (conservative && on.gravity) {
     dynamics_->ComputeGravityForce(q, out.gravity);
     ++term_counts_.gravity;
   }
   out.coriolis.setZero();
-  if (on.coriolis) {
+  if (conservative && on.coriolis) {
     dynamics_->ComputeCoriolisForce(q, qd, out.coriolis);
     ++term_counts_.coriolis;
   }
@@ -90,14 +125,19 @@ double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) const { return d
 
 double PlantModel::PotentialEnergy(ConstVecRef q) const {
   double v = effects_.LimitPotentialEnergy(q);
-  if (effects_.config().gravity) v += dynamics_->ComputePotentialEnergy(q);
+  if (effects_.terms().gravity) v += dynamics_->ComputePotentialEnergy(q);
   return v;
 }
 
 StageCounts PlantModel::counts() const {
+  // Summed over every held dynamics: a stage counts whichever method ran it.
   StageCounts c = effects_.counts();
-  c.gravity = dynamics_->counts().gravity + term_counts_.gravity;
-  c.coriolis = dynamics_->counts().coriolis + term_counts_.coriolis;
+  c.gravity = term_counts_.gravity;
+  c.coriolis = term_counts_.coriolis;
+  for (const auto& d : all_) {
+    c.gravity += d->counts().gravity;
+    c.coriolis += d->counts().coriolis;
+  }
   return c;
 }
 

@@ -105,8 +105,9 @@ class PlantModel {
   // evaluated and its term is set to zero. Allocates nothing; `out` must be
   // sized for this plant. A law is called once more, at (t, q, qd): one with
   // state sees that call.
-  // `conservative` false: gravity and coriolis are not evaluated (left zero)
-  // even when on: what the energy balance needs (NonConservativePower).
+  // `conservative` false: gravity and coriolis are neither evaluated nor
+  // counted (left zero) even when on, what the energy balance needs
+  // (NonConservativePower); `active` still reports the flags.
   void ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                            EffectForces& out, bool conservative = true);
   // The same with tau_cmd held.
@@ -118,8 +119,8 @@ class PlantModel {
   double PotentialEnergy(ConstVecRef q) const;
   double Energy(ConstVecRef q, ConstVecRef qd) const { return KineticEnergy(q, qd) + PotentialEnergy(q); }
 
-  // Gravity and Coriolis counts from the dynamics (and ComputeEffectForces),
-  // the rest from the effects.
+  // Gravity and Coriolis counts from every held dynamics (and
+  // ComputeEffectForces), the rest from the effects.
   StageCounts counts() const;
 
  private:
@@ -130,8 +131,8 @@ class PlantModel {
   Dynamics* dynamics_;  // the one in use, one of all_
   std::vector<std::unique_ptr<Dynamics>> all_;
   Effects effects_;
-  VectorXd tau_;      // scratch (n)
-  VectorXd tau_law_;  // scratch (n)
+  VectorXd tau_;             // scratch (n)
+  VectorXd tau_law_;         // scratch (n)
   StageCounts term_counts_;  // gravity and Coriolis terms ComputeEffectForces evaluated
 };
 

@@ -278,6 +278,17 @@ class CountedLoop {
     c->gains.kd.setConstant(1.0);
     runtime_.channels(instance).commands.Push();
   }
+  // A switch command (integrator, effect, method, forces) as the receiver checked it.
+  void Switch(std::size_t instance, const CommandMessage& message) {
+    CommandMessage* c = runtime_.channels(instance).commands.BeginPush();
+    c->kind = message.kind;
+    c->integrator = message.integrator;
+    c->default_max_steps = message.default_max_steps;
+    c->effect = message.effect;
+    c->method = message.method;
+    c->on = message.on;
+    runtime_.channels(instance).commands.Push();
+  }
   std::int64_t allocations() const { return allocations_; }
   std::int64_t ticks() const { return loop_.ticks(); }
 
@@ -312,6 +323,58 @@ TEST(Loop, TheTickAllocatesNothingInAnyMode) {
   loop.Run(10);
   EXPECT_EQ(loop.allocations(), 0);
   EXPECT_EQ(loop.ticks(), 200);
+}
+
+// Switching at run time allocates nothing: every integrator (with new
+// sub-steps and tolerances), every effect off and on again (with forces
+// published), every method, and the refusals (which format nothing).
+TEST(Loop, SwitchingIntegratorsEffectsAndMethodsAllocatesNothing) {
+  Runtime runtime(TwoInstances(
+      "    effects: {damping: 0.1, friction: {coulomb: 0.05}, limits: {lower: [-3, -3], upper: [3, 3]},\n"
+      "              saturation: [40, 15], disturbance: [{start: 0.01, duration: 0.05, tau: [1, 0]}]}\n"));
+  runtime.SetEvaluationCosts(0, {1e-7, 1e-6, 5e-7});  // the work bound is checked too
+  CountedLoop loop(runtime);
+  loop.Run(10);
+  CommandMessage forces{CommandKind::kSetForces};
+  forces.on = true;
+  loop.Switch(0, forces);
+  for (const IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
+                                    IntegratorType::kRk4, IntegratorType::kDormandPrince,
+                                    IntegratorType::kVariational}) {
+    CommandMessage c{CommandKind::kSetIntegrator};
+    c.integrator.type = type;
+    c.integrator.substeps = 2;
+    c.integrator.rtol = 1e-7;
+    c.integrator.max_steps = 50;
+    c.default_max_steps = type == IntegratorType::kDormandPrince;
+    loop.Switch(0, c);
+    loop.Run(5);
+  }
+  for (int k = 0; k < kNumEffectKinds; ++k) {
+    CommandMessage c{CommandKind::kSetEffect};
+    c.effect = static_cast<EffectKind>(k);
+    c.on = false;  // coriolis off under the variational integrator: refused
+    loop.Switch(0, c);
+    loop.Run(2);
+    c.on = true;
+    loop.Switch(0, c);
+    loop.Run(2);
+  }
+  for (const Method m : {Method::kLagrangian, Method::kRecursive, Method::kClosedForm}) {
+    CommandMessage c{CommandKind::kSetMethod};
+    c.method = m;
+    loop.Switch(0, c);
+    loop.Run(5);
+  }
+  CommandMessage lacking{CommandKind::kSetEffect};  // the cart-pole has no friction: refused
+  lacking.effect = EffectKind::kFriction;
+  lacking.on = true;
+  loop.Switch(1, lacking);
+  loop.Run(5);
+  EXPECT_EQ(loop.allocations(), 0);
+  EXPECT_EQ(runtime.instance(0).method(), Method::kClosedForm);
+  EXPECT_EQ(runtime.instance(0).integrator().type(), IntegratorType::kVariational);
+  EXPECT_TRUE(runtime.instance(0).model().effects().flags().coriolis);
 }
 
 // A URDF robot's tick allocates nothing either: the Panda by both of its

@@ -1,6 +1,7 @@
 // Stepping a plant allocates nothing once it is built: every plant type,
 // every derivation method, every integrator, every effect on; nor does
-// reading each effect's force and the energy balance.
+// reading each effect's force and the energy balance, nor switching effects,
+// methods and integrator settings at run time.
 
 #include <gtest/gtest.h>
 
@@ -93,6 +94,58 @@ TEST(NoAllocation, ComputingEachEffectsForceAndTheEnergyBalanceAllocatesNothing)
       EXPECT_EQ(allocations, 0) << ToString(spec.type()) << " " << ToString(method);
       EXPECT_TRUE(std::isfinite(balance.residual()));
     }
+  }
+}
+
+// Run-time switching, as the commands a tick takes would do it: every effect
+// off and on again, every held method, new integrator numbers (taken and
+// refused), and the non-conservative forces the energy balance reads.
+TEST(NoAllocation, SwitchingEffectsMethodsAndIntegratorSettingsAllocatesNothing) {
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kArm2);
+  const int n = spec.num_dofs();
+  const Method methods[] = {Method::kClosedForm, Method::kLagrangian, Method::kRecursive};
+  for (IntegratorType it : {IntegratorType::kRk4, IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+    PlantModel model(MakeDynamics(spec, Method::kClosedForm), testing::AllEffectsOn(n));
+    model.AddDynamics(MakeDynamics(spec, Method::kLagrangian));
+    model.AddDynamics(MakeDynamics(spec, Method::kRecursive));
+    IntegratorConfig config;
+    config.type = it;
+    auto integrator = MakeIntegrator(config, n);
+    IntegratorConfig other = config;
+    other.substeps = 4;
+    other.rtol = 1e-6;
+    other.atol = 1e-9;
+    other.newton_tol = 1e-12;
+    IntegratorConfig bad = config;
+    bad.substeps = 0;
+    IntegratorConfig wrong_type = config;
+    wrong_type.type = IntegratorType::kExplicitEuler;
+    EffectForces forces(n);
+    VectorXd q = VectorXd::Constant(n, 0.4), qd = VectorXd::Constant(n, 0.3), tau = VectorXd::Constant(n, 0.2);
+    std::int64_t allocations = 0;
+    int refused = 0;
+    {
+      testing::AllocationCounter counter;
+      for (int k = 0; k < 20; ++k) {
+        for (int e = 0; e < kNumEffectKinds; ++e) {
+          const auto kind = static_cast<EffectKind>(e);
+          // The variational integrator needs the Coriolis terms: leave them on for it.
+          const bool off = k % 2 == 0 && !(it == IntegratorType::kVariational && kind == EffectKind::kCoriolis);
+          model.effects().SetEnabled(kind, !off);
+        }
+        model.SelectMethod(methods[k % 3]);
+        integrator->Reconfigure(k % 2 == 0 ? other : config);
+        if (integrator->Reconfigure(bad) != nullptr) ++refused;
+        if (integrator->Reconfigure(wrong_type) != nullptr) ++refused;
+        integrator->Advance(model, k * 1e-3, 1e-3, tau, q, qd);
+        model.ComputeEffectForces(nullptr, k * 1e-3, q, qd, tau, forces, false);
+        model.Energy(q, qd);
+      }
+      allocations = counter.count();
+    }
+    EXPECT_EQ(allocations, 0) << ToString(it);
+    EXPECT_EQ(refused, 40) << ToString(it);
+    EXPECT_TRUE(q.allFinite()) << ToString(it);
   }
 }
 

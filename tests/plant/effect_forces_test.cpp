@@ -19,10 +19,10 @@
 namespace lagrange {
 namespace {
 
-constexpr double kSumTol = 1e-12;       // relative to the sum of the terms' norms
-constexpr double kFormulaTol = 1e-14;   // one formula evaluated two ways
-constexpr double kPushActive = 1.0;     // s: AllEffectsOn's push acts on [0, 10)
-constexpr double kPushOver = 11.0;      // s
+constexpr double kSumTol = 1e-12;      // relative to the sum of the terms' norms
+constexpr double kFormulaTol = 1e-14;  // one formula evaluated two ways
+constexpr double kPushActive = 1.0;    // s: AllEffectsOn's push acts on [0, 10)
+constexpr double kPushOver = 11.0;     // s
 constexpr int kStatesPerConfig = 20;
 
 VectorXd Vec(std::initializer_list<double> xs) {
@@ -41,9 +41,10 @@ std::vector<testing::PlantCase> Plants() {
   return cases;
 }
 
-// One effect: its flag, its stage counter, its term, and how to switch it off.
+// One effect: its kind, its flag, its stage counter, its term, and how to leave it out of a config.
 struct Effect {
   std::string name;
+  EffectKind kind;
   bool EffectFlags::*flag;
   std::int64_t StageCounts::*count;
   VectorXd EffectForces::*term;  // null: saturation, whose "term" is tau_applied − tau_cmd
@@ -52,19 +53,19 @@ struct Effect {
 
 const std::vector<Effect>& EffectTable() {
   static const std::vector<Effect> effects = {
-      {"gravity", &EffectFlags::gravity, &StageCounts::gravity, &EffectForces::gravity,
+      {"gravity", EffectKind::kGravity, &EffectFlags::gravity, &StageCounts::gravity, &EffectForces::gravity,
        [](EffectsConfig& c) { c.gravity = false; }},
-      {"coriolis", &EffectFlags::coriolis, &StageCounts::coriolis, &EffectForces::coriolis,
+      {"coriolis", EffectKind::kCoriolis, &EffectFlags::coriolis, &StageCounts::coriolis, &EffectForces::coriolis,
        [](EffectsConfig& c) { c.coriolis = false; }},
-      {"damping", &EffectFlags::damping, &StageCounts::damping, &EffectForces::damping,
+      {"damping", EffectKind::kDamping, &EffectFlags::damping, &StageCounts::damping, &EffectForces::damping,
        [](EffectsConfig& c) { c.damping.reset(); }},
-      {"friction", &EffectFlags::friction, &StageCounts::friction, &EffectForces::friction,
+      {"friction", EffectKind::kFriction, &EffectFlags::friction, &StageCounts::friction, &EffectForces::friction,
        [](EffectsConfig& c) { c.friction.reset(); }},
-      {"limits", &EffectFlags::limits, &StageCounts::limits, &EffectForces::limits,
+      {"limits", EffectKind::kLimits, &EffectFlags::limits, &StageCounts::limits, &EffectForces::limits,
        [](EffectsConfig& c) { c.limits.reset(); }},
-      {"disturbance", &EffectFlags::disturbance, &StageCounts::disturbance, &EffectForces::disturbance,
-       [](EffectsConfig& c) { c.disturbance.clear(); }},
-      {"saturation", &EffectFlags::saturation, &StageCounts::saturation, nullptr,
+      {"disturbance", EffectKind::kDisturbance, &EffectFlags::disturbance, &StageCounts::disturbance,
+       &EffectForces::disturbance, [](EffectsConfig& c) { c.disturbance.clear(); }},
+      {"saturation", EffectKind::kSaturation, &EffectFlags::saturation, &StageCounts::saturation, nullptr,
        [](EffectsConfig& c) { c.saturation.reset(); }},
   };
   return effects;
@@ -83,6 +84,19 @@ std::vector<std::pair<std::string, EffectsConfig>> Configs(int n) {
 
 double MaxAbs(const VectorXd& v) { return v.lpNorm<Eigen::Infinity>(); }
 
+// Every term EffectForces holds.
+constexpr VectorXd EffectForces::*kAllTerms[] = {
+    &EffectForces::gravity,     &EffectForces::coriolis, &EffectForces::damping,
+    &EffectForces::friction,    &EffectForces::limits,   &EffectForces::limit_springs,
+    &EffectForces::disturbance, &EffectForces::tau_cmd,  &EffectForces::tau_applied};
+
+// Exact equality, element by element: two models that run the same
+// operations on the same numbers agree to the last bit, and a switch that
+// changed anything else (another stage, another order) would show here.
+bool BitIdentical(const VectorXd& a, const VectorXd& b) {
+  return a.size() == b.size() && (a.array() == b.array()).all();
+}
+
 // M q̈ = tau_applied + disturbance + damping + friction + limits − C q̇ − G, with
 // q̈ from ComputeAcceleration and M from the dynamics, on every plant, method
 // and configuration; the effects that are off ran no stage and left zeros.
@@ -97,8 +111,8 @@ TEST(EffectForces, TermsAddUpToMassTimesTheIntegratedAcceleration) {
         VectorXd qdd(n), net(n), Mqdd(n);
         MatrixXd M(n, n);
         for (int k = 0; k < kStatesPerConfig; ++k) {
-          const std::string where = plant.name + " " + std::string(ToString(method)) + " " + config_name +
-                                    " state " + std::to_string(k);
+          const std::string where =
+              plant.name + " " + std::string(ToString(method)) + " " + config_name + " state " + std::to_string(k);
           // Half the states past a stop (at ±1), and half the time outside the push.
           const double span = k % 2 == 0 ? 0.9 : 1.3;
           const VectorXd q = testing::RandomVector(n, -span, span, rng);
@@ -172,7 +186,7 @@ TEST(EffectForces, EffectsThatAreOffAreNeverEvaluatedAndReadZeroInAReusedStruct)
   const VectorXd q = Vec({0.3, 1.2}), qd = Vec({-1.0, 2.0}), tau_cmd = Vec({5.0, -0.5});
   EffectForces f(2);
   for (int k = 0; k < kCalls; ++k) {
-    all.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);  // every term non-zero here ...
+    all.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);   // every term non-zero here ...
     bare.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);  // ... and none after this
   }
   for (const Effect& e : EffectTable()) {
@@ -214,6 +228,123 @@ TEST(EffectForces, WithALawTheCommandIsTheLawsOutput) {
   model.dynamics().ComputeMassMatrix(q, M);
   Mqdd = M * qdd;
   EXPECT_LE((Mqdd - net).norm(), kSumTol * (1.0 + net.norm()));
+}
+
+// Switching an effect off at run time stops its stage (its count stays flat
+// over forces and accelerations), zeroes its term, and leaves exactly the
+// plant a scene without that effect would build.
+TEST(EffectForces, AnEffectSwitchedOffIsNeverEvaluatedAndItsTermIsZero) {
+  constexpr int kCalls = 10;
+  std::mt19937 rng{42};
+  for (const testing::PlantCase& plant : Plants()) {
+    const int n = plant.spec.num_dofs();
+    for (Method method : testing::MethodsOf(plant.spec.type())) {
+      for (const Effect& e : EffectTable()) {
+        const std::string where = plant.name + " " + std::string(ToString(method)) + " " + e.name;
+        PlantModel switched(MakeDynamics(plant.spec, method), testing::AllEffectsOn(n));
+        EffectsConfig without = testing::AllEffectsOn(n);
+        e.switch_off(without);
+        PlantModel built(MakeDynamics(plant.spec, method), without);
+        ASSERT_TRUE(switched.effects().SetEnabled(e.kind, false)) << where;
+        EXPECT_FALSE(switched.effects().flags().*e.flag) << where;
+
+        EffectForces f(n), expected(n);
+        VectorXd qdd(n), expected_qdd(n);
+        const StageCounts before = switched.counts();
+        for (int k = 0; k < kCalls; ++k) {
+          const VectorXd q = testing::RandomVector(n, -1.3, 1.3, rng);
+          const VectorXd qd = testing::RandomVector(n, -3.0, 3.0, rng);
+          const VectorXd tau_cmd = testing::RandomVector(n, -6.0, 6.0, rng);
+          switched.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);
+          built.ComputeEffectForces(kPushActive, q, qd, tau_cmd, expected);
+          for (VectorXd EffectForces::*term : kAllTerms) {
+            ASSERT_TRUE(BitIdentical(f.*term, expected.*term)) << where << " state " << k;
+          }
+          if (e.term != nullptr) {
+            ASSERT_EQ(MaxAbs(f.*e.term), 0.0) << where;
+          } else {
+            ASSERT_TRUE(BitIdentical(f.tau_applied, tau_cmd)) << where;  // saturation off: the command as it is
+          }
+          switched.ComputeAcceleration(kPushActive, q, qd, tau_cmd, qdd);
+          built.ComputeAcceleration(kPushActive, q, qd, tau_cmd, expected_qdd);
+          ASSERT_TRUE(BitIdentical(qdd, expected_qdd)) << where << " state " << k;
+        }
+        const StageCounts after = switched.counts();
+        for (const Effect& other : EffectTable()) {
+          const std::int64_t runs = after.*other.count - before.*other.count;
+          // Every other stage ran once per force call and once per acceleration.
+          EXPECT_EQ(runs, other.name == e.name ? 0 : 2 * kCalls) << where << ": " << other.name << " stage runs";
+        }
+      }
+    }
+  }
+}
+
+TEST(EffectForces, AnEffectSwitchedBackOnGivesExactlyTheForcesOfAPlantBuiltWithIt) {
+  std::mt19937 rng{7};
+  for (const testing::PlantCase& plant : Plants()) {
+    const int n = plant.spec.num_dofs();
+    for (Method method : testing::MethodsOf(plant.spec.type())) {
+      PlantModel switched(MakeDynamics(plant.spec, method), testing::AllEffectsOn(n));
+      PlantModel built(MakeDynamics(plant.spec, method), testing::AllEffectsOn(n));
+      for (const Effect& e : EffectTable()) {
+        const std::string where = plant.name + " " + std::string(ToString(method)) + " " + e.name;
+        ASSERT_TRUE(switched.effects().SetEnabled(e.kind, false)) << where;
+        ASSERT_TRUE(switched.effects().SetEnabled(e.kind, true)) << where;
+        const VectorXd q = testing::RandomVector(n, -1.3, 1.3, rng);
+        const VectorXd qd = testing::RandomVector(n, -3.0, 3.0, rng);
+        const VectorXd tau_cmd = testing::RandomVector(n, -6.0, 6.0, rng);
+        EffectForces f(n), expected(n);
+        switched.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);
+        built.ComputeEffectForces(kPushActive, q, qd, tau_cmd, expected);
+        EXPECT_TRUE(f.active.*e.flag) << where;
+        for (VectorXd EffectForces::*term : kAllTerms) EXPECT_TRUE(BitIdentical(f.*term, expected.*term)) << where;
+        VectorXd qdd(n), expected_qdd(n);
+        switched.ComputeAcceleration(kPushActive, q, qd, tau_cmd, qdd);
+        built.ComputeAcceleration(kPushActive, q, qd, tau_cmd, expected_qdd);
+        EXPECT_TRUE(BitIdentical(qdd, expected_qdd)) << where;
+        EXPECT_EQ(switched.Energy(q, qd), built.Energy(q, qd)) << where;
+      }
+    }
+  }
+}
+
+// conservative = false, for the energy balance: G and C qd are neither
+// evaluated nor counted, and every other term is the full call's.
+TEST(EffectForces, NonConservativeCallLeavesGravityAndCoriolisOutAndEveryOtherTermAsIs) {
+  std::mt19937 rng{11};
+  for (const testing::PlantCase& plant : Plants()) {
+    const int n = plant.spec.num_dofs();
+    for (Method method : testing::MethodsOf(plant.spec.type())) {
+      const std::string where = plant.name + " " + std::string(ToString(method));
+      PlantModel model(MakeDynamics(plant.spec, method), testing::AllEffectsOn(n));
+      EffectForces full(n), partial(n);
+      for (int k = 0; k < kStatesPerConfig; ++k) {
+        const VectorXd q = testing::RandomVector(n, -1.3, 1.3, rng);
+        const VectorXd qd = testing::RandomVector(n, -3.0, 3.0, rng);
+        const VectorXd tau_cmd = testing::RandomVector(n, -6.0, 6.0, rng);
+        const double t = k % 2 == 0 ? kPushActive : kPushOver;
+        model.ComputeEffectForces(nullptr, t, q, qd, tau_cmd, full, true);
+        const StageCounts before = model.counts();
+        model.ComputeEffectForces(nullptr, t, q, qd, tau_cmd, partial, false);
+        const StageCounts after = model.counts();
+        EXPECT_EQ(after.gravity, before.gravity) << where;
+        EXPECT_EQ(after.coriolis, before.coriolis) << where;
+        EXPECT_EQ(MaxAbs(partial.gravity), 0.0) << where;
+        EXPECT_EQ(MaxAbs(partial.coriolis), 0.0) << where;
+        ASSERT_GT(MaxAbs(full.gravity), 0.0) << where;  // so the zeros above were left out, not computed
+        for (VectorXd EffectForces::*term : kAllTerms) {
+          if (term == &EffectForces::gravity || term == &EffectForces::coriolis) continue;
+          ASSERT_TRUE(BitIdentical(partial.*term, full.*term)) << where << " state " << k;
+        }
+        // Every other stage still ran once.
+        for (const Effect& e : EffectTable()) {
+          if (e.kind == EffectKind::kGravity || e.kind == EffectKind::kCoriolis) continue;
+          EXPECT_EQ(after.*e.count - before.*e.count, 1) << where << ": " << e.name;
+        }
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -107,6 +107,113 @@ TEST(Effects, ValidationNamesTheKeyAndWhatWasExpected) {
   EXPECT_EQ(err->key, "friction.velocity_scale");
 }
 
+TEST(EffectKinds, NamesRoundTripInTableOrder) {
+  EXPECT_EQ(EffectKindNames(), "gravity|coriolis|damping|friction|limits|saturation|disturbance");
+  for (int k = 0; k < kNumEffectKinds; ++k) {
+    const auto kind = static_cast<EffectKind>(k);
+    EXPECT_EQ(ParseEffectKind(ToString(kind)), kind);
+  }
+  EXPECT_FALSE(ParseEffectKind("Gravity"));
+  EXPECT_FALSE(ParseEffectKind(""));
+}
+
+TEST(EffectKinds, FlagsOnReadsTheFlagOfEachKind) {
+  for (int k = 0; k < kNumEffectKinds; ++k) {
+    EffectFlags only;
+    const auto kind = static_cast<EffectKind>(k);
+    bool* const flags[] = {&only.gravity, &only.coriolis,   &only.damping,    &only.friction,
+                           &only.limits,  &only.saturation, &only.disturbance};  // EffectKind order
+    *flags[k] = true;
+    for (int j = 0; j < kNumEffectKinds; ++j) {
+      EXPECT_EQ(only.on(static_cast<EffectKind>(j)), j == k) << ToString(kind) << " asked of " << j;
+    }
+  }
+}
+
+TEST(Effects, SetEnabledRefusesAnEffectWithoutParametersAndChangesNothing) {
+  EffectsConfig c;
+  c.damping = Vec({0.5, 2.0});
+  Effects e(c, 2);
+  const VectorXd q = Vec({0.1, 0.2}), qd = Vec({3.0, -1.5}), tau_cmd = Vec({9.0, -9.0});
+  const VectorXd before = Force(e, 0.0, q, qd, tau_cmd);
+  for (EffectKind kind :
+       {EffectKind::kFriction, EffectKind::kLimits, EffectKind::kSaturation, EffectKind::kDisturbance}) {
+    EXPECT_FALSE(e.Configured(kind)) << ToString(kind);
+    EXPECT_FALSE(e.SetEnabled(kind, true)) << ToString(kind);
+    EXPECT_FALSE(e.flags().on(kind)) << ToString(kind);
+  }
+  EXPECT_FALSE(e.SetEnabled(static_cast<EffectKind>(kNumEffectKinds), false));  // out of range, as from the wire
+  EXPECT_TRUE(e.Configured(EffectKind::kGravity));
+  EXPECT_TRUE(e.Configured(EffectKind::kCoriolis));
+  EXPECT_TRUE(e.Configured(EffectKind::kDamping));
+  EXPECT_FALSE(e.passes_command_through());
+  EXPECT_TRUE(e.terms().gravity);
+  EXPECT_TRUE(e.terms().coriolis);
+  EXPECT_EQ((Force(e, 0.0, q, qd, tau_cmd) - before).norm(), 0.0);
+  EXPECT_EQ(e.counts().saturation, 0);  // the refused stages never ran
+  EXPECT_EQ(e.counts().friction, 0);
+}
+
+TEST(Effects, EffectsListedOffStartOffAndSwitchOn) {
+  EffectsConfig c;
+  c.damping = Vec({0.5, 2.0});
+  c.off = {EffectKind::kDamping, EffectKind::kGravity};
+  Effects e(c, 2);
+  const VectorXd q = Vec({0.1, 0.2}), qd = Vec({3.0, -1.5}), tau_cmd = Vec({1.0, 1.0});
+  EXPECT_FALSE(e.flags().damping);
+  EXPECT_FALSE(e.terms().gravity);
+  EXPECT_TRUE(e.terms().coriolis);
+  EXPECT_TRUE(e.passes_command_through());
+  EXPECT_EQ((Force(e, 0.0, q, qd, tau_cmd) - tau_cmd).norm(), 0.0);
+  EXPECT_EQ(e.counts().damping, 0);
+
+  ASSERT_TRUE(e.SetEnabled(EffectKind::kDamping, true));
+  ASSERT_TRUE(e.SetEnabled(EffectKind::kGravity, true));
+  EXPECT_TRUE(e.terms().gravity);
+  EXPECT_FALSE(e.passes_command_through());
+  const VectorXd tau = Force(e, 0.0, q, qd, tau_cmd);
+  EXPECT_NEAR(tau[0], 1.0 - 1.5, kTol);
+  EXPECT_NEAR(tau[1], 1.0 + 3.0, kTol);
+  EXPECT_EQ(e.counts().damping, 1);
+}
+
+TEST(Effects, ValidationRefusesOffForAnEffectWithoutParameters) {
+  EffectsConfig c;
+  c.off = {EffectKind::kFriction};
+  const auto err = ValidateEffects(c, 2);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->key, "off");
+  EXPECT_EQ(err->message, "expected effects whose parameters are given, got friction");
+  c.off = {EffectKind::kGravity, EffectKind::kCoriolis};
+  EXPECT_FALSE(ValidateEffects(c, 2));
+}
+
+// Dissipation and the stops' stored energy are the switched-on stages' only.
+TEST(Effects, DissipatedPowerAndLimitEnergyFollowTheFlags) {
+  const VectorXd q = Vec({1.2, -1.1}), qd = Vec({0.7, -0.4});  // both joints past a stop (±1), moving out
+  Effects switched(testing::AllEffectsOn(2), 2);
+  const double all_power = switched.DissipatedPower(q, qd);
+  const double all_energy = switched.LimitPotentialEnergy(q);
+  ASSERT_GT(all_energy, 0.0);
+  for (EffectKind kind : {EffectKind::kDamping, EffectKind::kFriction, EffectKind::kLimits}) {
+    ASSERT_TRUE(switched.SetEnabled(kind, false));
+  }
+  EXPECT_EQ(switched.DissipatedPower(q, qd), 0.0);
+  EXPECT_EQ(switched.LimitPotentialEnergy(q), 0.0);
+
+  // Limits alone: the power of the stops' dampers, as a scene with limits only.
+  ASSERT_TRUE(switched.SetEnabled(EffectKind::kLimits, true));
+  EffectsConfig limits_only;
+  limits_only.limits = testing::AllEffectsOn(2).limits;
+  const Effects reference(limits_only, 2);
+  EXPECT_EQ(switched.DissipatedPower(q, qd), reference.DissipatedPower(q, qd));
+  EXPECT_EQ(switched.LimitPotentialEnergy(q), all_energy);
+
+  ASSERT_TRUE(switched.SetEnabled(EffectKind::kDamping, true));
+  ASSERT_TRUE(switched.SetEnabled(EffectKind::kFriction, true));
+  EXPECT_EQ(switched.DissipatedPower(q, qd), all_power);
+}
+
 class EveryMethod : public ::testing::TestWithParam<Method> {};
 
 TEST_P(EveryMethod, EffectsLeftOutAreNeverEvaluated) {

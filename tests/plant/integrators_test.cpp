@@ -6,7 +6,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
+#include <set>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "plant/integrators.hpp"
@@ -318,7 +322,6 @@ TEST(ControlLawArgument, AConstantLawStepsLikeItsHeldTorqueAndRunsAtEveryEvaluat
   }
 }
 
-
 // ----- Work per call (IntegratorWork) -----
 
 constexpr IntegratorType kEveryIntegrator[] = {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
@@ -395,7 +398,8 @@ TEST(IntegratorWork, DormandPrinceTakesFewStepsAtALooseToleranceAndMoreAtATightO
 
 TEST(IntegratorWork, VariationalIteratesNewtonAtLeastOncePerSubStepAndOnlyAFewTimesNearRest) {
   constexpr int kSubsteps = 2;
-  constexpr std::int64_t kHandful = 3;  // Newton iterations per sub-step near rest (measured: 1, 2 with a Jacobian rebuild)
+  constexpr std::int64_t kHandful =
+      3;  // Newton iterations per sub-step near rest (measured: 1, 2 with a Jacobian rebuild)
   PendulumRun run(1e-3);
   auto integrator = MakeWithSubsteps(IntegratorType::kVariational, 1, kSubsteps);
   for (int k = 0; k < 100; ++k) {
@@ -437,6 +441,195 @@ TEST(IntegratorWork, IsPerCallAndAddsUpToTheCumulativeStatistics) {
       EXPECT_EQ(after.failures - before.failures, w.failures) << ToString(type);
     }
   }
+}
+
+// ---- run-time reconfiguration ------------------------------------------------
+
+bool SameConfig(const IntegratorConfig& a, const IntegratorConfig& b) {
+  return a.type == b.type && a.substeps == b.substeps && a.rtol == b.rtol && a.atol == b.atol &&
+         a.max_steps == b.max_steps && a.newton_tol == b.newton_tol &&
+         a.newton_max_iterations == b.newton_max_iterations;
+}
+
+// Exact equality, element by element: the same operations on the same numbers.
+bool BitIdentical(const VectorXd& a, const VectorXd& b) {
+  return a.size() == b.size() && (a.array() == b.array()).all();
+}
+
+struct Trajectory {
+  VectorXd q, qd;
+  std::int64_t accepted = 0;
+};
+
+// `ticks` ticks of length `tick` of the arm under every effect, from a fixed state.
+Trajectory RunArm(Integrator& integrator, int ticks, double tick = kTick) {
+  auto model = MakeModel(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm, testing::AllEffectsOn(2));
+  Trajectory r{(VectorXd(2) << 0.9, -0.7).finished(), (VectorXd(2) << 1.5, -2.0).finished()};
+  const VectorXd tau = (VectorXd(2) << 0.8, -0.3).finished();
+  for (int k = 0; k < ticks; ++k) {
+    integrator.Advance(*model, k * tick, tick, tau, r.q, r.qd);
+    r.accepted += integrator.work().accepted;
+  }
+  return r;
+}
+
+TEST(Reconfigure, Rk4ReconfiguredToFourSubstepsStepsBitIdenticallyToAFreshOne) {
+  auto reconfigured = MakeWithSubsteps(IntegratorType::kRk4, 2, 1);
+  RunArm(*reconfigured, 50);  // some history under the old config
+  IntegratorConfig c = reconfigured->config();
+  c.substeps = 4;
+  ASSERT_EQ(reconfigured->Reconfigure(c), nullptr);
+  EXPECT_EQ(reconfigured->config().substeps, 4);
+  auto fresh = MakeWithSubsteps(IntegratorType::kRk4, 2, 4);
+  const Trajectory a = RunArm(*reconfigured, 500), b = RunArm(*fresh, 500);
+  EXPECT_TRUE(BitIdentical(a.q, b.q));
+  EXPECT_TRUE(BitIdentical(a.qd, b.qd));
+  EXPECT_EQ(reconfigured->work().steps, 4);
+}
+
+// From a tight tolerance to a loose one over 10 ms ticks, where the tight
+// tolerance's step proposal is well below a tick: that proposal is not
+// carried over, and the loose tolerance takes fewer steps.
+TEST(Reconfigure, Dopri5ReconfiguredToNewTolerancesStepsBitIdenticallyToAFreshOne) {
+  constexpr double kLongTick = 10 * kTick;
+  auto reconfigured = MakeWithSubsteps(IntegratorType::kDormandPrince, 2, 1, 1e-10);
+  auto tight = MakeWithSubsteps(IntegratorType::kDormandPrince, 2, 1, 1e-10);
+  RunArm(*reconfigured, 50, kLongTick);
+  IntegratorConfig c = reconfigured->config();
+  c.rtol = 1e-4;
+  c.atol = 1e-6;
+  ASSERT_EQ(reconfigured->Reconfigure(c), nullptr);
+  EXPECT_EQ(reconfigured->config().rtol, 1e-4);
+  EXPECT_EQ(reconfigured->config().atol, 1e-6);
+  auto fresh = MakeIntegrator(c, 2);
+  const Trajectory a = RunArm(*reconfigured, 200, kLongTick), b = RunArm(*fresh, 200, kLongTick),
+                   t = RunArm(*tight, 200, kLongTick);
+  EXPECT_TRUE(BitIdentical(a.q, b.q));
+  EXPECT_TRUE(BitIdentical(a.qd, b.qd));
+  EXPECT_EQ(a.accepted, b.accepted);
+  EXPECT_LT(a.accepted, t.accepted);  // the looser tolerance took effect
+}
+
+// What a step carries to the next (dopri5's proposal, the variational
+// Jacobian) starts over, so every type steps as a fresh one of the new config.
+TEST(Reconfigure, EveryIntegratorStepsAsAFreshOneOfTheNewConfig) {
+  for (IntegratorType type : kEveryIntegrator) {
+    IntegratorConfig old_config;
+    old_config.type = type;
+    old_config.substeps = 2;  // the same sub-step: the variational Jacobian would still fit it
+    old_config.rtol = 1e-6;
+    old_config.atol = 1e-8;
+    old_config.newton_tol = 1e-10;
+    IntegratorConfig new_config;
+    new_config.type = type;
+    new_config.substeps = 2;
+    new_config.rtol = 1e-9;
+    new_config.atol = 1e-11;
+    new_config.max_steps = 5000;
+    new_config.newton_tol = 1e-13;
+    new_config.newton_max_iterations = 20;
+    auto reconfigured = MakeIntegrator(old_config, 2);
+    RunArm(*reconfigured, 30);
+    ASSERT_EQ(reconfigured->Reconfigure(new_config), nullptr) << ToString(type);
+    EXPECT_TRUE(SameConfig(reconfigured->config(), new_config)) << ToString(type);
+    auto fresh = MakeIntegrator(new_config, 2);
+    const Trajectory a = RunArm(*reconfigured, 100), b = RunArm(*fresh, 100);
+    EXPECT_TRUE(BitIdentical(a.q, b.q)) << ToString(type);
+    EXPECT_TRUE(BitIdentical(a.qd, b.qd)) << ToString(type);
+  }
+}
+
+TEST(Reconfigure, RefusesATypeMismatchOrABadNumberAndChangesNothing) {
+  IntegratorConfig original;
+  original.type = IntegratorType::kDormandPrince;
+  original.substeps = 2;
+  original.rtol = 1e-7;
+  auto integrator = MakeIntegrator(original, 2);
+
+  IntegratorConfig other_type = original;
+  other_type.type = IntegratorType::kRk4;
+  other_type.substeps = 5;
+  EXPECT_STREQ(integrator->Reconfigure(other_type), "integrator.type differs from this integrator's");
+  EXPECT_TRUE(SameConfig(integrator->config(), original));
+
+  IntegratorConfig bad = original;
+  bad.substeps = 0;
+  bad.rtol = 1e-3;  // a good number beside a bad one is not taken either
+  EXPECT_STREQ(integrator->Reconfigure(bad), "integrator.substeps: expected 1 to 1000");
+  EXPECT_TRUE(SameConfig(integrator->config(), original));
+  bad = original;
+  bad.atol = std::nan("");
+  EXPECT_STREQ(integrator->Reconfigure(bad), "integrator.atol: expected a finite number > 0");
+  EXPECT_TRUE(SameConfig(integrator->config(), original));
+}
+
+TEST(Reconfigure, CheckIntegratorConfigGivesOneReasonPerRuleAndTheFactoryThrowsIt) {
+  EXPECT_EQ(CheckIntegratorConfig(IntegratorConfig{}), nullptr);
+  IntegratorConfig edges;
+  edges.substeps = 1000;
+  edges.max_steps = 10000000;
+  edges.newton_max_iterations = 1000;
+  edges.rtol = 1e-300;
+  EXPECT_EQ(CheckIntegratorConfig(edges), nullptr);
+
+  struct Rule {
+    void (*spoil)(IntegratorConfig&);
+    const char* reason;
+  };
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Rule rules[] = {
+      {[](IntegratorConfig& c) { c.substeps = 0; }, "integrator.substeps: expected 1 to 1000"},
+      {[](IntegratorConfig& c) { c.substeps = 1001; }, "integrator.substeps: expected 1 to 1000"},
+      {[](IntegratorConfig& c) { c.rtol = 0.0; }, "integrator.rtol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.rtol = kInf; }, "integrator.rtol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.atol = -1e-9; }, "integrator.atol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.atol = std::nan(""); }, "integrator.atol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.max_steps = 0; }, "integrator.max_steps: expected 1 to 10000000"},
+      {[](IntegratorConfig& c) { c.max_steps = 10000001; }, "integrator.max_steps: expected 1 to 10000000"},
+      {[](IntegratorConfig& c) { c.newton_tol = 0.0; }, "integrator.newton_tol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.newton_tol = kInf; }, "integrator.newton_tol: expected a finite number > 0"},
+      {[](IntegratorConfig& c) { c.newton_max_iterations = 0; },
+       "integrator.newton_max_iterations: expected 1 to 1000"},
+      {[](IntegratorConfig& c) { c.newton_max_iterations = 1001; },
+       "integrator.newton_max_iterations: expected 1 to 1000"},
+  };
+  std::set<std::string> distinct;
+  for (const Rule& rule : rules) {
+    IntegratorConfig c;
+    rule.spoil(c);
+    const char* reason = CheckIntegratorConfig(c);
+    ASSERT_NE(reason, nullptr) << rule.reason;
+    EXPECT_STREQ(reason, rule.reason);
+    distinct.insert(reason);
+    try {
+      MakeIntegrator(c, 2);
+      ADD_FAILURE() << "MakeIntegrator took a config with " << rule.reason;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_STREQ(e.what(), rule.reason);
+    }
+  }
+  EXPECT_EQ(distinct.size(), 6u);  // one reason per key
+}
+
+// The variational integrator reads gravity's switch, not the scene's config.
+TEST(Variational, GravitySwitchedOffStepsAsAModelBuiltWithout) {
+  const PlantSpec spec = DefaultPlantSpec(PlantType::kArm2);
+  auto switched = MakeModel(spec, Method::kClosedForm, testing::AllEffectsOn(2));
+  EffectsConfig without = testing::AllEffectsOn(2);
+  without.gravity = false;
+  auto built = MakeModel(spec, Method::kClosedForm, without);
+  ASSERT_TRUE(switched->effects().SetEnabled(EffectKind::kGravity, false));
+  auto a = MakeIntegratorOfType(IntegratorType::kVariational, 2);
+  auto b = MakeIntegratorOfType(IntegratorType::kVariational, 2);
+  VectorXd qa = (VectorXd(2) << 0.5, -0.2).finished(), qda = (VectorXd(2) << 0.3, 0.1).finished();
+  VectorXd qb = qa, qdb = qda;
+  const VectorXd tau = VectorXd::Zero(2);
+  for (int k = 0; k < 200; ++k) {
+    a->Step(*switched, k * kTick, kTick, tau, qa, qda);
+    b->Step(*built, k * kTick, kTick, tau, qb, qdb);
+  }
+  EXPECT_TRUE(BitIdentical(qa, qb));
+  EXPECT_TRUE(BitIdentical(qda, qdb));
 }
 
 }  // namespace
