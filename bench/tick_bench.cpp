@@ -7,7 +7,12 @@
 //            (config/robots/panda.urdf) under computed torque tracking a
 //            3 s minimum-jerk move, recursive dynamics, RK4, 1 kHz
 //
-//   tick/<scene>/hot          ticks back to back (caches and predictors warm)
+//   tick/<scene>/hot          ticks back to back (caches and predictors warm),
+//                             as shipped: the energy balance kept (telemetry on)
+//   tick/<scene>/hot/telemetry-off  the same with every instance's telemetry
+//                             off: what keeping the balance costs, by ratio
+//   tick/<scene>/hot/forces-on  the same with every instance's forces on
+//                             (<NAME>_FORCES): what computing them costs
 //   tick/<scene>/after-sleep  one tick per absolute 1 ms deadline, timed from
 //                             the wake to the end of the tick, as lagranged
 //                             times its compute (daemon/loop.cpp: clock reads
@@ -20,6 +25,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <exception>
 #include <optional>
 #include <string>
@@ -59,9 +65,15 @@ void FailIfFaulted(benchmark::State& bm, const TickRecord& record) {
   }
 }
 
-void TimeHot(benchmark::State& bm, const std::string& path) {
+enum class Variant : std::uint8_t { kAsShipped, kTelemetryOff, kForcesOn };
+
+void TimeHot(benchmark::State& bm, const std::string& path, Variant variant) {
   std::optional<Scene> scene = LoadOrSkip(bm, path);
   if (!scene) return;
+  for (InstanceConfig& c : scene->instances) {
+    if (variant == Variant::kTelemetryOff) c.telemetry = false;
+    if (variant == Variant::kForcesOn) c.forces = true;
+  }
   Runtime runtime(std::move(*scene));
   TickRecord record = runtime.MakeRecord();
   Nanoseconds now = 0;
@@ -107,7 +119,11 @@ void TimeAfterSleep(benchmark::State& bm, const std::string& path) {
 
 void RegisterScene(const std::string& name, const std::string& scene) {
   benchmark::RegisterBenchmark(("tick/" + name + "/hot").c_str(),
-                               [scene](benchmark::State& bm) { TimeHot(bm, scene); });
+                               [scene](benchmark::State& bm) { TimeHot(bm, scene, Variant::kAsShipped); });
+  benchmark::RegisterBenchmark(("tick/" + name + "/hot/telemetry-off").c_str(),
+                               [scene](benchmark::State& bm) { TimeHot(bm, scene, Variant::kTelemetryOff); });
+  benchmark::RegisterBenchmark(("tick/" + name + "/hot/forces-on").c_str(),
+                               [scene](benchmark::State& bm) { TimeHot(bm, scene, Variant::kForcesOn); });
   benchmark::RegisterBenchmark(("tick/" + name + "/after-sleep").c_str(),
                                [scene](benchmark::State& bm) { TimeAfterSleep(bm, scene); })
       ->UseManualTime()
