@@ -1,14 +1,19 @@
 // lagrangectl command: switch controller, change gains, reset, pause, resume,
 // emergency stop and clear it (clear also re-arms an external plant stopped
-// by its watchdog). Done only when lagranged says so: a reply_t
-// from the one run publishing the instance's state, carrying this command's
-// own request_id.
+// by its watchdog); switch the integrator, an effect, the dynamics method, or
+// the forces stream. Done only when lagranged says so: a reply_t from the one
+// run publishing the instance's state, carrying this command's own request_id.
 
 #include <lagrange/command_t.hpp>
+
+#include <optional>
 
 #include "daemon/channels.hpp"
 #include "daemon/clock.hpp"
 #include "daemon/escape.hpp"
+#include "plant/effects.hpp"
+#include "plant/integrators.hpp"
+#include "plant/types.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"
@@ -19,29 +24,54 @@ namespace {
 struct Action {
   const char* verb;
   std::int8_t code;
-  bool takes_name;  // controller NAME
+  int operands;          // words after the verb
+  const char* expected;  // what they are, for messages
 };
 
-constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, true},
-                               {"gains", command_t::SET_GAINS, false},
-                               {"reset", command_t::RESET, false},
-                               {"pause", command_t::PAUSE, false},
-                               {"resume", command_t::RESUME, false},
-                               {"estop", command_t::ESTOP, false},
-                               {"clear", command_t::CLEAR_ESTOP, false}};
+constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, 1, "one controller name"},
+                               {"gains", command_t::SET_GAINS, 0, ""},
+                               {"reset", command_t::RESET, 0, ""},
+                               {"pause", command_t::PAUSE, 0, ""},
+                               {"resume", command_t::RESUME, 0, ""},
+                               {"estop", command_t::ESTOP, 0, ""},
+                               {"clear", command_t::CLEAR_ESTOP, 0, ""},
+                               {"integrator", command_t::SET_INTEGRATOR, 1, "one integrator TYPE"},
+                               {"effect", command_t::SET_EFFECT, 2, "an effect NAME and on or off"},
+                               {"method", command_t::SET_METHOD, 1, "one method NAME"},
+                               {"forces", command_t::SET_FORCES, 1, "on or off"}};
 
 constexpr std::chrono::milliseconds kEstopResend{20};
+
+std::string Verbs() {
+  std::string verbs;
+  constexpr std::size_t n = std::size(kActions);
+  for (std::size_t i = 0; i < n; ++i) verbs += std::string(i == 0 ? "" : i + 1 == n ? " or " : ", ") + kActions[i].verb;
+  return verbs;
+}
+
+// Throws a UsageError listing the known names unless `known`.
+void RequireKnown(const std::string& what, const std::string& name, bool known, const std::string& names) {
+  if (!known) throw UsageError("unknown " + what + " '" + Escape(name, 60) + "' (expected " + names + ")");
+}
+
+bool OnOff(const std::string& what, const std::string& word) {
+  if (word != "on" && word != "off") throw UsageError(what + ": expected on or off, got '" + Escape(word, 60) + "'");
+  return word == "on";
+}
 
 class CommandCommand final : public Command {
  public:
   explicit CommandCommand(CLI::App& parent)
-      : Command(parent.add_subcommand(
-            "command",
-            "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | resume | estop | clear")) {
+      : Command(parent.add_subcommand("command",
+                                      "Command an instance: controller NAME | gains --kp .. --kd .. | reset | pause | "
+                                      "resume | estop | clear | integrator TYPE [--substeps N ..] | effect NAME on|off "
+                                      "| method NAME | forces on|off")) {
     app_->add_option("instance", instance_, "Instance name (as in the scene)")->required();
     app_->add_option("action", action_,
-                     "controller NAME, gains, reset, pause, resume, estop or clear (leaves an estop into hold, and "
-                     "re-arms an external plant its watchdog stopped into waiting)")
+                     "controller NAME, gains, reset, pause, resume, estop, clear (leaves an estop into hold, and "
+                     "re-arms an external plant its watchdog stopped into waiting), integrator TYPE (" +
+                         IntegratorTypeNames() + "), effect NAME (" + EffectKindNames() + ") on|off, method NAME (" +
+                         MethodNames() + "), or forces on|off (publish <NAME>_FORCES)")
         ->required()
         ->expected(1, -1);
     app_->add_option("--kp", kp_, "gains: proportional gains, one for every joint or one per joint (a or a,b,..)")
@@ -52,6 +82,12 @@ class CommandCommand final : public Command {
         ->delimiter(',')
         ->allow_extra_args(false)
         ->check(NonNegativeNumber());
+    app_->add_option("--substeps", substeps_, "integrator: sub-steps per tick, 1..1000 (default 1)");
+    app_->add_option("--rtol", rtol_, "integrator dopri5: relative tolerance (default 1e-8)");
+    app_->add_option("--atol", atol_, "integrator dopri5: absolute tolerance (default 1e-10)");
+    app_->add_option("--max-steps", max_steps_,
+                     "integrator dopri5: internal steps per tick (default: the scene's, lowered to what fits the "
+                     "period)");
     bus_.AddTo(*app_);
   }
 
@@ -100,8 +136,9 @@ class CommandCommand final : public Command {
     const auto replied = std::chrono::steady_clock::now();
     link.PumpUntil([&] { return link.state_received_at() > replied; }, 0.5);
     const state_t& s = link.state();
-    out << instance_ << ": " << action_[0] << (action_[0] == "controller" ? " " + Escape(action_[1]) : "")
-        << " done; now " << ModeName(s.mode) << " with " << Escape(s.controller) << "\n";
+    std::string words;
+    for (const std::string& w : action_) words += (words.empty() ? "" : " ") + Escape(w);
+    out << instance_ << ": " << words << " done; now " << ModeName(s.mode) << " with " << Escape(s.controller) << "\n";
     return 0;
   }
 
@@ -112,33 +149,90 @@ class CommandCommand final : public Command {
     const std::string& verb = action_[0];
     const Action* action = nullptr;
     for (const Action& a : kActions) action = verb == a.verb ? &a : action;
-    if (!action) {
-      throw UsageError("unknown action '" + verb +
-                       "' (expected controller, gains, reset, pause, resume, estop or clear)");
-    }
-    const std::size_t args = action_.size() - 1;
-    if (action->takes_name && args != 1) throw UsageError("controller: expected one controller name");
-    if (!action->takes_name && args != 0) {
+    if (!action) throw UsageError("unknown action '" + Escape(verb, 60) + "' (expected " + Verbs() + ")");
+    const std::vector<std::string> args(action_.begin() + 1, action_.end());
+    if (static_cast<int>(args.size()) != action->operands) {
       if (verb == "gains") {
         throw UsageError(
             "gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
-            action_[1] + "'");
+            Escape(args[0], 60) + "'");
       }
-      throw UsageError(verb + ": takes no arguments");
+      if (action->operands == 0) throw UsageError(verb + ": takes no arguments");
+      throw UsageError(verb + ": expected " + action->expected + ", got " + std::to_string(args.size()) +
+                       (args.size() == 1 ? " word" : " words"));
     }
     const bool gains = action->code == command_t::SET_GAINS;
     if (gains && (kp_.empty() || kd_.empty())) throw UsageError("gains: needs both --kp and --kd");
     if (!gains && (!kp_.empty() || !kd_.empty())) throw UsageError("--kp, --kd: only for gains");
-    command_t c;
+    const bool integrator = action->code == command_t::SET_INTEGRATOR;
+    if (!integrator && (substeps_ || rtol_ || atol_ || max_steps_)) {
+      throw UsageError("--substeps, --rtol, --atol, --max-steps: only for integrator");
+    }
+    command_t c{};  // every field zero: "the default" for the integrator's numbers
     c.command = action->code;
-    c.controller = action->takes_name ? action_[1] : "";
-    c.num_gains = 0;
+    switch (action->code) {
+      case command_t::SWITCH_CONTROLLER: c.controller = args[0]; break;
+      case command_t::SET_INTEGRATOR: {
+        const std::optional<IntegratorType> type = ParseIntegratorType(args[0]);
+        RequireKnown("integrator", args[0], type.has_value(), IntegratorTypeNames());
+        c.setting = args[0];
+        SetIntegratorNumbers(*type, c);
+        break;
+      }
+      case command_t::SET_EFFECT:
+        RequireKnown("effect", args[0], ParseEffectKind(args[0]).has_value(), EffectKindNames());
+        c.setting = args[0];
+        c.on = OnOff("effect " + args[0], args[1]);
+        break;
+      case command_t::SET_METHOD:
+        RequireKnown("method", args[0], ParseMethod(args[0]).has_value(), MethodNames());
+        c.setting = args[0];
+        break;
+      case command_t::SET_FORCES: c.on = OnOff("forces", args[0]); break;
+      default: break;
+    }
     return c;
+  }
+
+  // The numbers given, each checked as the daemon checks them
+  // (CheckIntegratorConfig, with the others at their defaults); those not
+  // given stay 0, which the daemon reads as its default.
+  void SetIntegratorNumbers(IntegratorType type, command_t& c) const {
+    if (type != IntegratorType::kDormandPrince && (rtol_ || atol_ || max_steps_))
+      throw UsageError("--rtol, --atol, --max-steps: only for dopri5");
+    auto check = [](const char* option, const std::string& value, auto set) {
+      IntegratorConfig config;
+      set(config);
+      if (const char* why = CheckIntegratorConfig(config)) {
+        std::string reason = why;  // "integrator.substeps: expected 1 to 1000": the option names the key here
+        if (reason.rfind("integrator.", 0) == 0 && reason.find(": ") != std::string::npos)
+          reason = reason.substr(reason.find(": ") + 2);
+        throw UsageError(std::string(option) + " " + value + ": " + reason);
+      }
+    };
+    if (substeps_) {
+      check("--substeps", std::to_string(*substeps_), [&](IntegratorConfig& k) { k.substeps = *substeps_; });
+      c.substeps = *substeps_;
+    }
+    if (rtol_) {
+      check("--rtol", FormatDouble(*rtol_), [&](IntegratorConfig& k) { k.rtol = *rtol_; });
+      c.rtol = *rtol_;
+    }
+    if (atol_) {
+      check("--atol", FormatDouble(*atol_), [&](IntegratorConfig& k) { k.atol = *atol_; });
+      c.atol = *atol_;
+    }
+    if (max_steps_) {
+      check("--max-steps", std::to_string(*max_steps_), [&](IntegratorConfig& k) { k.max_steps = *max_steps_; });
+      c.max_steps = *max_steps_;
+    }
   }
 
   std::string instance_;
   std::vector<std::string> action_;
   std::vector<double> kp_, kd_;
+  std::optional<int> substeps_, max_steps_;
+  std::optional<double> rtol_, atol_;
   BusOptions bus_;
 };
 

@@ -91,6 +91,20 @@ std::string ModeReasonIn(const status_t& status, const std::string& instance, st
   return "";
 }
 
+std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::string& instance) {
+  const std::size_t count = status.instance_names.size();
+  if (status.instance_integrators.size() != count || status.instance_methods.size() != count ||
+      status.instance_effects.size() != count || status.instance_forces.size() != count) {
+    return std::nullopt;
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    if (status.instance_names[i] != instance) continue;
+    return InstanceSettings{Escape(status.instance_integrators[i], 80), Escape(status.instance_methods[i], 40),
+                            Escape(status.instance_effects[i], 120), status.instance_forces[i] != 0};
+  }
+  return std::nullopt;
+}
+
 DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)
     : options_(bus), instance_(instance), state_channel_(bus.Channel(instance, kStateSuffix)), bus_(bus.Open()) {
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });

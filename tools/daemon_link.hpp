@@ -59,6 +59,18 @@ std::vector<std::string> JointNamesIn(const status_t& status, const std::string&
 // (a status is sent at 10 Hz, a state every tick), or gives no reason.
 std::string ModeReasonIn(const status_t& status, const std::string& instance, std::int8_t mode);
 
+// How a status says `instance` is integrated and computed
+// (status_t.instance_integrators, _methods, _effects, _forces), escaped;
+// nullopt when the status names no such instance or its arrays do not match
+// its count (an older daemon's status).
+struct InstanceSettings {
+  std::string integrator;  // "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10 max_steps=200", "none"
+  std::string method;      // closed-form | lagrangian | recursive
+  std::string effects;     // the effects on, comma-separated ("" for none)
+  bool forces = false;     // publishing <NAME>_FORCES
+};
+std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::string& instance);
+
 // How long lagrangectl listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state

@@ -1,10 +1,12 @@
 #include "tools/lcm_log.hpp"
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
@@ -41,8 +43,9 @@ bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), con
   return size >= 0 && check(data, static_cast<std::size_t>(size)) == WireCheck::kOk && m.decode(data, 0, size) == size;
 }
 
-void Columns(std::ostream& out, const char* name, int n) {
-  for (int i = 0; i < n; ++i) out << ',' << name << i;
+// ",name0,name1,.." (or name_0.. with separator "_").
+void Columns(std::ostream& out, const char* name, int n, const char* separator = "") {
+  for (int i = 0; i < n; ++i) out << ',' << name << separator << i;
 }
 
 void Values(std::ostream& out, const std::vector<double>& v) {
@@ -166,10 +169,10 @@ class StatusWriter final : public Writer {
              "last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
              "datagrams_dropped_kernel,datagrams_malformed,fragments_dropped,foreign_messages,last_foreign_run_id,"
              "replies_suppressed,"
-             "instances,reasons,joints\n";
+             "instances,reasons,integrators,methods,effects,forces,joints\n";
     }
     header_ = true;
-    std::string instances, reasons, joints;
+    std::string instances, reasons, integrators, methods, effects, forces, joints;
     // NAME=j1,j2,..: each instance's share of joint_names (none when the
     // status carries none or its counts do not add up: JointNamesByInstance).
     const std::vector<std::vector<std::string>> names = JointNamesByInstance(s);
@@ -177,6 +180,13 @@ class StatusWriter final : public Writer {
       const auto k = static_cast<std::size_t>(i);
       instances += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + std::to_string(s.instance_modes[k]);
       reasons += (i ? ";" : "") + Escape(s.instance_names[k]) + "=" + Escape(s.instance_reasons[k]);
+      if (const std::optional<InstanceSettings> set = SettingsIn(s, s.instance_names[k])) {
+        const std::string name = (i ? ";" : "") + Escape(s.instance_names[k]) + "=";
+        integrators += name + set->integrator;
+        methods += name + set->method;
+        effects += name + set->effects;
+        forces += name + (set->forces ? "1" : "0");
+      }
       joints += (i ? ";" : "") + Escape(s.instance_names[k]) + "=";
       if (k >= names.size()) continue;
       for (std::size_t j = 0; j < names[k].size(); ++j) joints += (j ? "," : "") + names[k][j];
@@ -196,12 +206,79 @@ class StatusWriter final : public Writer {
         << Quote(s.last_command_error) << ',' << s.decode_errors << ',' << s.datagrams_dropped_kernel << ','
         << s.datagrams_malformed << ',' << s.fragments_dropped << ',' << s.foreign_messages << ','
         << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ',' << QuoteEscaped(instances) << ','
-        << QuoteEscaped(reasons) << ',' << QuoteEscaped(joints) << '\n';
+        << QuoteEscaped(reasons);
+    for (const std::string* text : {&integrators, &methods, &effects, &forces}) out << ',' << QuoteEscaped(*text);
+    out << ',' << QuoteEscaped(joints) << '\n';
     return true;
   }
 
  private:
   bool header_ = false;
+};
+
+class TelemetryWriter final : public Writer {
+ public:
+  const char* type() const override { return "telemetry_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    telemetry_t m;
+    if (!CheckedDecode(m, CheckTelemetryPacket, data, size)) return false;
+    if (!header_) {
+      out << "log_utime,utime,run_id,tick,t,mode,energy,energy_residual,quadrature_bound,work,power,integrator,"
+             "substeps,method,evaluations,steps_accepted,steps_rejected,newton_iterations,failures,error_estimate,"
+             "step,compute_us\n";
+    }
+    header_ = true;
+    out << log_utime << ',' << m.utime << ',' << RunIdText(m.run_id) << ',' << m.tick << ',' << FormatDouble(m.t) << ','
+        << static_cast<int>(m.mode);
+    for (double x : {m.energy, m.energy_residual, m.quadrature_bound, m.work, m.power}) out << ',' << FormatDouble(x);
+    out << ',' << Quote(m.integrator) << ',' << m.substeps << ',' << Quote(m.method);
+    for (std::int32_t x : {m.evaluations, m.steps_accepted, m.steps_rejected, m.newton_iterations, m.failures})
+      out << ',' << x;
+    out << ',' << FormatDouble(m.error_estimate) << ',' << FormatDouble(m.step) << ',' << FormatDouble(m.compute_us)
+        << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
+class ForcesWriter final : public Writer {
+ public:
+  const char* type() const override { return "forces_t"; }
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    forces_t f;
+    if (!CheckedDecode(f, CheckForcesPacket, data, size)) return false;
+    if (n_ < 0) {
+      n_ = f.num_dofs;
+      out << "log_utime,utime,run_id,tick,t";
+      for (const char* effect : kEffects) out << ',' << effect << "_on";
+      out << ",num_dofs";
+      for (const char* row : kRows) Columns(out, row, n_, "_");
+      out << '\n';
+    }
+    if (f.num_dofs != n_) return false;
+    out << log_utime << ',' << f.utime << ',' << RunIdText(f.run_id) << ',' << f.tick << ',' << FormatDouble(f.t);
+    for (bool on :
+         {f.gravity_on, f.coriolis_on, f.damping_on, f.friction_on, f.limits_on, f.saturation_on, f.disturbance_on}) {
+      out << ',' << (on ? 1 : 0);
+    }
+    out << ',' << f.num_dofs;
+    for (const auto* v :
+         {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+      Values(out, *v);
+    }
+    out << '\n';
+    return true;
+  }
+
+ private:
+  // forces_t's flags and rows, in its order.
+  static constexpr const char* kEffects[] = {"gravity", "coriolis",   "damping",    "friction",
+                                             "limits",  "saturation", "disturbance"};
+  static constexpr const char* kRows[] = {"gravity", "coriolis",    "damping", "friction",
+                                          "limits",  "disturbance", "tau_cmd", "tau_applied"};
+  int n_ = -1;
 };
 
 class ReplyWriter final : public Writer {
@@ -228,6 +305,8 @@ std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
   if (fingerprint == command_t::getHash()) return std::make_unique<CommandWriter>();
   if (fingerprint == status_t::getHash()) return std::make_unique<StatusWriter>();
   if (fingerprint == reply_t::getHash()) return std::make_unique<ReplyWriter>();
+  if (fingerprint == telemetry_t::getHash()) return std::make_unique<TelemetryWriter>();
+  if (fingerprint == forces_t::getHash()) return std::make_unique<ForcesWriter>();
   return nullptr;
 }
 

@@ -27,7 +27,8 @@ struct LogToCsvResult {
 
 // Decodes every event whose channel matches `channel_regex` (all when empty)
 // into `dir`/<CHANNEL>.csv. Columns: log_utime (when the logger received it,
-// µs), then the message's fields, arrays one column per element (q0, q1, ..).
+// µs), then the message's fields, arrays one column per element (q0, q1, ..;
+// forces_t's rows as gravity_0, gravity_1, .., tau_applied_0, ..).
 LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex);
 
 }  // namespace lagrange::cli

@@ -4,11 +4,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
 
+#include "daemon/channels.hpp"
 #include "daemon/spawn.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -20,8 +22,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Runs python3 -c kPlotScript CSV PNG TITLE; returns (status, its stdout and stderr together).
-std::pair<int, std::string> RunPlotScript(const std::string& csv, const std::string& png, const std::string& title) {
+// What to draw: the state CSV, and "" or the instance's telemetry and forces CSVs.
+struct PlotInputs {
+  std::string state, telemetry, forces;
+};
+
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES; returns (status, its stdout and stderr together).
+std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
   if (pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
   SpawnOptions options;
@@ -30,7 +37,7 @@ std::pair<int, std::string> RunPlotScript(const std::string& csv, const std::str
   options.search_path = true;
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
-  const pid_t pid = Spawn({"python3", "-c", kPlotScript, csv, png, title}, options);
+  const pid_t pid = Spawn({"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces}, options);
   close(out_pipe[1]);
   if (pid < 0) {
     close(out_pipe[0]);
@@ -53,22 +60,50 @@ std::string LastLine(const std::string& text) {
 }
 
 // The script's summary, "N rows in K segments" (the last line that says so;
-// matplotlib may warn before it).
+// matplotlib may warn before it), then "; telemetry: .." and "; forces: .."
+// for the panels it drew from those.
 std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
-  std::string found;
+  static const std::regex kExtra(R"(^(telemetry: \d+ rows|forces: \d+ rows of [a-z_, ]*)$)");
+  std::string found, extra;
   std::istringstream lines(output);
   for (std::string line; std::getline(lines, line);) {
-    if (std::regex_match(line, kSummary)) found = line;
+    if (std::regex_match(line, kSummary)) {
+      found = line;
+      extra.clear();
+    } else if (!found.empty() && std::regex_match(line, kExtra)) {
+      extra += "; " + line;
+    }
   }
-  return found;
+  return found.empty() ? found : found + extra;
+}
+
+// A channel name as a regular expression that matches it alone.
+std::string RegexQuote(const std::string& text) {
+  std::string quoted;
+  for (char c : text) {
+    if (std::strchr(R"(\^$.|?*+()[]{})", c)) quoted += '\\';
+    quoted += c;
+  }
+  return quoted;
+}
+
+// "ARM" for "ARM_STATE" (the instance's channels share it); "" for another name.
+std::string InstanceBase(const std::string& state_channel) {
+  const std::string suffix = kStateSuffix;
+  if (state_channel.size() <= suffix.size() ||
+      state_channel.compare(state_channel.size() - suffix.size(), suffix.size(), suffix) != 0) {
+    return "";
+  }
+  return state_channel.substr(0, state_channel.size() - suffix.size());
 }
 
 class PlotCommand final : public Command {
  public:
   explicit PlotCommand(CLI::App& parent)
       : Command(parent.add_subcommand("plot",
-                                      "Plot q against q_des, torques, energy and tracking error (PNG); "
+                                      "Plot q against q_des, torques, energy and tracking error (PNG), and the "
+                                      "instance's energy residual, cost per tick and forces when recorded; "
                                       "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
@@ -78,25 +113,23 @@ class PlotCommand final : public Command {
   int Run(std::ostream& out, std::ostream&) override {
     if (!fs::exists(input_)) throw std::runtime_error("cannot read " + input_);
     const std::string png = output_.empty() ? fs::path(input_).replace_extension(".png").string() : output_;
-    std::string csv = input_;
+    PlotInputs in{input_, "", ""};
     std::string title = fs::path(input_).filename().string();
     fs::path scratch;
     if (IsLcmLog(input_)) {
       scratch = fs::temp_directory_path() / ("lagrangectl_plot_" + std::to_string(getpid()));
-      const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
-      const auto it =
-          std::find_if(r.written.begin(), r.written.end(), [](const auto& e) { return e.second.type == "state_t"; });
-      if (it == r.written.end()) {
+      try {
+        title += " : " + FromLog(scratch, in);
+      } catch (...) {
         fs::remove_all(scratch);
-        throw std::runtime_error("no state channel" + (channel_.empty() ? "" : " '" + channel_ + "'") + " in " +
-                                 input_);
+        throw;
       }
-      csv = it->second.path;
-      title += " : " + it->first;
     } else if (!channel_.empty()) {
       throw UsageError("--channel: only for an LCM log");
+    } else {
+      Siblings(in);
     }
-    const auto [status, err] = RunPlotScript(csv, png, title);
+    const auto [status, err] = RunPlotScript(in, png, title);
     if (!scratch.empty()) fs::remove_all(scratch);
     if (status == 127)
       throw std::runtime_error("plot needs python3 with matplotlib (scripts/setup-deps installs them)");
@@ -112,6 +145,38 @@ class PlotCommand final : public Command {
   }
 
  private:
+  // Decodes the log's state channel (the first *_STATE, or --channel) and
+  // that instance's telemetry and forces into `scratch`; returns the state channel.
+  std::string FromLog(const fs::path& scratch, PlotInputs& in) const {
+    const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
+    const auto state =
+        std::find_if(r.written.begin(), r.written.end(), [](const auto& e) { return e.second.type == "state_t"; });
+    if (state == r.written.end())
+      throw std::runtime_error("no state channel" + (channel_.empty() ? "" : " '" + channel_ + "'") + " in " + input_);
+    in.state = state->second.path;
+    const std::string base = InstanceBase(state->first);
+    if (base.empty()) return state->first;
+    const LogToCsvResult extra =
+        LogToCsv(input_, scratch.string(), RegexQuote(base) + "(" + kTelemetrySuffix + "|" + kForcesSuffix + ")");
+    for (const auto& [channel, csv] : extra.written) {
+      if (csv.rows == 0) continue;
+      if (channel == base + kTelemetrySuffix && csv.type == "telemetry_t") in.telemetry = csv.path;
+      if (channel == base + kForcesSuffix && csv.type == "forces_t") in.forces = csv.path;
+    }
+    return state->first;
+  }
+
+  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TELEMETRY.csv and DIR/NAME_FORCES.csv, where they exist.
+  static void Siblings(PlotInputs& in) {
+    const fs::path state(in.state);
+    const std::string base = InstanceBase(state.stem().string());
+    if (base.empty() || state.extension() != ".csv") return;
+    const fs::path telemetry = state.parent_path() / (base + kTelemetrySuffix + ".csv");
+    const fs::path forces = state.parent_path() / (base + kForcesSuffix + ".csv");
+    if (fs::exists(telemetry)) in.telemetry = telemetry.string();
+    if (fs::exists(forces)) in.forces = forces.string();
+  }
+
   static bool IsLcmLog(const std::string& path) {
     try {
       RequireLcmLog(path);

@@ -1,10 +1,15 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE`. A reset or restart (the simulated time
-t goes backwards, the tick does not follow on, or the run id changes) starts
-a new segment: the lines break there instead of drawing back to t = 0. On
-success it prints one line to stdout: "N rows in K segment(s)"."""
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV]` (either may be
+""): with a telemetry CSV (log2csv of <NAME>_TELEMETRY) two more panels, the
+energy residual ε(t) against ± the quadrature bound and the cost per tick
+(evaluations, compute µs); with a forces CSV (<NAME>_FORCES) one panel per
+joint, each effect that was on as a line. A reset or restart (the simulated
+time t goes backwards, the tick does not follow on, or the run id changes)
+starts a new segment: the lines break there instead of drawing back to
+t = 0. On success it prints "N rows in K segment(s)" to stdout, then
+"telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
 import csv
 import math
 import re
@@ -75,10 +80,73 @@ def with_gaps(values, starts):
     return out
 
 
+# forces_t's rows in the order of its balance, each with its *_on flag (None:
+# always drawn) and its legend; gravity and coriolis are G and C q̇ as
+# published, which enter M q̈ with a minus.
+FORCE_ROWS = (("gravity", "gravity_on", "G (gravity)"), ("coriolis", "coriolis_on", "C qd (coriolis)"),
+              ("damping", "damping_on", "damping"), ("friction", "friction_on", "friction"),
+              ("limits", "limits_on", "limits"), ("disturbance", "disturbance_on", "disturbance"),
+              ("tau_cmd", "saturation_on", "tau_cmd (before saturation)"), ("tau_applied", None, "tau_applied"))
+
+
+def series(path, columns):
+    """A telemetry or forces CSV's time axis with gaps at its segments, and the function that gaps a column alike."""
+    t = numbers(columns, "t", path)
+    starts = segment_starts(columns, t, path)
+    return with_gaps(t, starts), (lambda values: with_gaps(values, starts))
+
+
+def telemetry_panels(axes, path):
+    header, columns = load(path)
+    missing = [n for n in ("t", "energy_residual", "quadrature_bound", "evaluations", "compute_us") if n not in columns]
+    if missing:
+        fail("%s lacks the columns %s (a *_TELEMETRY.csv from log2csv)" % (path, ", ".join(missing)))
+    t, gap = series(path, columns)
+    eps, bound = numbers(columns, "energy_residual", path), numbers(columns, "quadrature_bound", path)
+    axes[0].plot(t, gap(eps), label="ε = E - E(0) - W", linewidth=1.2, color="black")
+    axes[0].plot(t, gap(bound), label="± quadrature bound", linewidth=1.0, color="gray", linestyle="--")
+    axes[0].plot(t, gap([-b for b in bound]), linewidth=1.0, color="gray", linestyle="--")
+    axes[0].set_ylabel("ε (J)")
+    axes[0].set_title("energy-balance residual: the integrator's drift (dashed: the quadrature's own error)")
+    axes[1].plot(t, gap(numbers(columns, "evaluations", path)), label="evaluations", linewidth=1.2, color="C0")
+    axes[1].set_ylabel("evaluations per tick")
+    right = axes[1].twinx()
+    right.plot(t, gap(numbers(columns, "compute_us", path)), label="compute µs", linewidth=0.8, color="C3", alpha=0.7)
+    right.set_ylabel("compute (µs per tick)")
+    right.legend(loc="upper left", fontsize="small")
+    axes[1].set_title("cost per tick")
+    return "telemetry: %d rows" % len(eps)
+
+
+def forces_panels(axes, path):
+    header, columns = load(path)
+    joints = len(indexed(header, r"tau_applied_(\d+)"))
+    missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in FORCE_ROWS for j in range(joints)]
+               if n not in columns]
+    if missing or joints != len(axes):
+        fail("%s lacks the columns %s (a *_FORCES.csv from log2csv)" % (path, ", ".join(missing[:3]) or "tau_applied_0.."))
+    t, gap = series(path, columns)
+    drawn = []
+    for row, flag, label in FORCE_ROWS:
+        on = numbers(columns, flag, path) if flag else [1.0] * len(t)
+        if not any(on):
+            continue  # off throughout: not computed, not drawn
+        drawn.append(row)
+        for j, axis in enumerate(axes):
+            values = [v if o else math.nan for v, o in zip(numbers(columns, "%s_%d" % (row, j), path), on)]
+            axis.plot(t, gap(values), label=label, linewidth=1.2 if row != "tau_cmd" else 0.9,
+                      linestyle="--" if row == "tau_cmd" else "-")
+    for j, axis in enumerate(axes):
+        axis.set_ylabel("joint %d (N·m or N)" % j)
+        axis.set_title("joint %d: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % j)
+    return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
+
+
 def main():
-    if len(sys.argv) != 4:
-        fail("usage: plot.py CSV PNG TITLE")
+    if len(sys.argv) not in (4, 6):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV]")
     path, png, title = sys.argv[1:4]
+    telemetry, forces = sys.argv[4:6] if len(sys.argv) == 6 else ("", "")
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_?des(\d+)")
@@ -103,7 +171,10 @@ def main():
     def draw(axis, name, values, **style):
         axis.plot(t_gapped, with_gaps(values, starts), label=name, linewidth=1.2, **style)
 
-    fig, axes = plt.subplots(4, 1, sharex=True, figsize=(10, 11))
+    force_joints = len(indexed(load(forces)[0], r"tau_applied_(\d+)")) if forces else 0
+    panels = 4 + (2 if telemetry else 0) + force_joints
+    fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(10, 2.75 * panels), squeeze=False)
+    axes = [row[0] for row in axes]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (qn, dn) in enumerate(zip(q, qdes)):
         color = colors[i % len(colors)]
@@ -127,17 +198,24 @@ def main():
         draw(axes[3], "e%d" % i, err, color=colors[i % len(colors)])
     axes[3].set_ylabel("q_des - q (rad or m)")
     axes[3].set_title("tracking error")
-    axes[3].set_xlabel("t (s)")
+    extra = []
+    if telemetry:
+        extra.append(telemetry_panels(axes[4:6], telemetry))
+    if forces:
+        extra.append(forces_panels(axes[panels - force_joints:], forces))
+    axes[-1].set_xlabel("t (s)")
     for axis in axes:
         axis.grid(True, alpha=0.3)
         axis.legend(loc="upper right", fontsize="small", ncol=4)
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))  # 0.3 in kept for the title however tall
     try:
         fig.savefig(png, dpi=80)
     except OSError as e:
         fail("cannot write %s: %s" % (png, e.strerror))
     print("%d rows in %d segment%s" % (len(t), len(starts), "" if len(starts) == 1 else "s"))
+    for line in extra:
+        print(line)
 
 
 try:

@@ -1,16 +1,22 @@
 // lagrangectl watch: a live terminal view of every instance and the loop's
 // timing. Each daemon and instance is shown with its run id; one whose latest
 // message is older than kStale is marked STALE, and every string from the bus
-// is escaped.
+// is escaped. Per instance, the status's integrator, method and effects, and
+// from <NAME>_TELEMETRY the latest energy residual ε and the cost per tick
+// (evaluations, compute µs) averaged over the telemetry since the previous frame.
 
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <lagrange/telemetry_t.hpp>
+
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include "daemon/channels.hpp"
 #include "daemon/escape.hpp"
@@ -78,15 +84,17 @@ bool PlausibleInstanceName(const std::string& name) {
   return true;
 }
 
-// The latest message of each run id on one channel (at most kMaxRunsShown runs).
-template <class Message>
+// The latest message of each run id on one channel (at most kMaxRunsShown
+// runs), with an `Extra` per run that outlives each message.
+template <class Message, class Extra = std::monostate>
 class ByRun {
  public:
   struct Entry {
     Message message;
     SteadyTime received;
+    Extra extra;
   };
-  void Add(Message&& message, SteadyTime now) {
+  Entry& Add(Message&& message, SteadyTime now) {
     auto it = entries_.find(message.run_id);
     if (it == entries_.end()) {
       if (entries_.size() >= kMaxRunsShown) {  // forget the run heard from least recently
@@ -97,7 +105,9 @@ class ByRun {
       }
       it = entries_.emplace(message.run_id, Entry{}).first;
     }
-    it->second = Entry{std::move(message), now};
+    it->second.message = std::move(message);
+    it->second.received = now;
+    return it->second;
   }
   // Most recently heard first.
   std::vector<const Entry*> Latest() const {
@@ -106,17 +116,47 @@ class ByRun {
     std::sort(v.begin(), v.end(), [](const Entry* a, const Entry* b) { return a->received > b->received; });
     return v;
   }
+  const Entry* Find(std::int64_t run_id) const {
+    const auto it = entries_.find(run_id);
+    return it == entries_.end() ? nullptr : &it->second;
+  }
+  template <class F>
+  void ForEach(F f) {
+    for (auto& [id, e] : entries_) f(e);
+  }
   bool empty() const { return entries_.empty(); }
 
  private:
   std::map<std::int64_t, Entry> entries_;
 };
 
+// An instance's cost per tick, averaged over the telemetry received between
+// two frames (evaluations vary from tick to tick under dopri5, compute time always).
+struct CostWindow {
+  double evaluations = 0.0, compute_us = 0.0;  // sums since the last frame
+  int count = 0;
+  double mean_evaluations = std::nan(""), mean_compute_us = std::nan("");  // over the last window that had any
+  void Close() {
+    if (count > 0) {
+      mean_evaluations = evaluations / count;
+      mean_compute_us = compute_us / count;
+    }
+    evaluations = compute_us = 0.0;
+    count = 0;
+  }
+};
+
+struct InstanceView {
+  ByRun<state_t> states;
+  ByRun<telemetry_t, CostWindow> telemetry;
+};
+
 class WatchCommand final : public Command {
  public:
   explicit WatchCommand(CLI::App& parent)
-      : Command(
-            parent.add_subcommand("watch", "Live view of every instance and the loop's timing (q or Ctrl-C quits)")) {
+      : Command(parent.add_subcommand("watch",
+                                      "Live view of every instance (mode, integrator, energy residual, cost per tick) "
+                                      "and the loop's timing (q or Ctrl-C quits)")) {
     app_->add_option("--instance", only_, "Show only these instances (repeatable)");
     app_->add_option("--rate", rate_, "Refreshes per second")->check(PositiveNumber(50.0))->capture_default_str();
     app_->add_option("--frames", frames_, "Draw this many frames and exit (default: until q or Ctrl-C)")
@@ -136,7 +176,7 @@ class WatchCommand final : public Command {
     auto ready = [&] {
       if (statuses_.empty()) return false;
       for (const std::string& name : only_) {
-        if (instances_.at(name).empty()) return false;
+        if (instances_.at(name).states.empty()) return false;
       }
       return true;
     };
@@ -146,7 +186,7 @@ class WatchCommand final : public Command {
                                " s (no lagranged on " + bus_.Url() + "?)");
     }
     for (const std::string& name : only_) {
-      if (instances_.at(name).empty()) {
+      if (instances_.at(name).states.empty()) {
         throw std::runtime_error("no state from instance '" + name + "' on " + bus_.Channel(name, kStateSuffix) +
                                  " (unknown instance?)");
       }
@@ -162,6 +202,7 @@ class WatchCommand final : public Command {
         Handle(5);
         if (Interrupted() || terminal.QuitPressed()) return 0;
       }
+      for (auto& [name, view] : instances_) view.telemetry.ForEach([](auto& e) { e.extra.Close(); });
       out << (clear ? "\x1b[H\x1b[2J" : "") << Frame(std::chrono::steady_clock::now()) << (clear ? "" : "\n");
       out.flush();
     }
@@ -184,14 +225,25 @@ class WatchCommand final : public Command {
 
   void SubscribeInstance(const std::string& name) {
     if (instances_.count(name)) return;
-    ByRun<state_t>* runs = &instances_[name];
+    InstanceView* view = &instances_[name];
     bus_handle_->Subscribe(
-        bus_.Channel(name, kStateSuffix), [runs](std::string_view, const std::uint8_t* d, std::size_t n) {
+        bus_.Channel(name, kStateSuffix), [view](std::string_view, const std::uint8_t* d, std::size_t n) {
           state_t msg;
           if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
             return;
-          runs->Add(std::move(msg), std::chrono::steady_clock::now());
+          view->states.Add(std::move(msg), std::chrono::steady_clock::now());
         });
+    bus_handle_->Subscribe(bus_.Channel(name, kTelemetrySuffix), [view](std::string_view, const std::uint8_t* d,
+                                                                        std::size_t n) {
+      telemetry_t msg;
+      if (CheckTelemetryPacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
+        return;
+      const double evaluations = msg.evaluations, compute_us = msg.compute_us;
+      CostWindow& w = view->telemetry.Add(std::move(msg), std::chrono::steady_clock::now()).extra;
+      w.evaluations += evaluations;
+      w.compute_us += compute_us;
+      ++w.count;
+    });
   }
 
   void OnStatus(const std::uint8_t* data, std::size_t size) {
@@ -224,8 +276,8 @@ class WatchCommand final : public Command {
       << "   replies suppressed " << s.replies_suppressed << "\n";
   }
 
-  void InstanceLines(std::ostream& f, const std::string& name, const ByRun<state_t>& runs, SteadyTime now) const {
-    const auto latest = runs.Latest();
+  void InstanceLines(std::ostream& f, const std::string& name, const InstanceView& view, SteadyTime now) const {
+    const auto latest = view.states.Latest();
     std::vector<std::string> live;
     for (const auto* e : latest) {
       if (Age(e->received, now) <= kStale) live.push_back(RunIdText(e->message.run_id));
@@ -247,6 +299,7 @@ class WatchCommand final : public Command {
       f << "   " << Escape(st.controller) << "   t " << F(st.t, 3) << " s   T " << F(st.kinetic_energy) << " J   V "
         << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
         << RunIdText(st.run_id) << "\n";
+      SettingsAndTelemetryLines(f, name, st.run_id, view.telemetry.Find(st.run_id), now);
       // Joint names from this run's status (URDF names, or q1.. for planar plants), cut to one column.
       const std::vector<std::string> joints = JointNamesOf(name, st.run_id, st.num_dofs);
       int width = 4;
@@ -263,6 +316,35 @@ class WatchCommand final : public Command {
         f << line;
       }
     }
+  }
+
+  // The status's integrator, method and effects for the instance; then from
+  // its telemetry the latest energy residual ε with the quadrature's own error
+  // bound, and the cost per tick averaged since the previous frame.
+  void SettingsAndTelemetryLines(std::ostream& f, const std::string& instance, std::int64_t run_id,
+                                 const ByRun<telemetry_t, CostWindow>::Entry* telemetry, SteadyTime now) const {
+    for (const auto* e : statuses_.Latest()) {
+      if (e->message.run_id != run_id) continue;
+      if (const std::optional<InstanceSettings> s = SettingsIn(e->message, instance)) {
+        f << "  integrator " << s->integrator << "   method " << s->method << "   effects "
+          << (s->effects.empty() ? std::string("none") : s->effects) << "   forces " << (s->forces ? "on" : "off")
+          << "\n";
+      }
+      break;
+    }
+    if (!telemetry) {
+      f << "  no telemetry\n";
+      return;
+    }
+    const telemetry_t& t = telemetry->message;
+    char line[192];
+    std::snprintf(
+        line, sizeof line, "  ε %10.3e J (quadrature bound %.1e J)   evaluations %.4g/tick   compute %.1f us/tick",
+        t.energy_residual, t.quadrature_bound, telemetry->extra.mean_evaluations, telemetry->extra.mean_compute_us);
+    f << line;
+    const double age = Age(telemetry->received, now);
+    if (age > kStale) f << "   STALE (no telemetry for " << F(age, 1) << " s)";
+    f << "\n";
   }
 
   // " (why)" when the latest status of the state's run gives a reason for the
@@ -295,10 +377,10 @@ class WatchCommand final : public Command {
         continue;  // a dead run after a restart: shown only while nothing newer speaks
       DaemonLines(f, e->message, age);
     }
-    for (const auto& [name, runs] : instances_) {
-      if (runs.empty()) continue;
+    for (const auto& [name, view] : instances_) {
+      if (view.states.empty()) continue;
       if (!only_.empty() && std::find(only_.begin(), only_.end(), name) == only_.end()) continue;
-      InstanceLines(f, name, runs, now);
+      InstanceLines(f, name, view, now);
     }
     return f.str();
   }
@@ -310,7 +392,7 @@ class WatchCommand final : public Command {
   BusOptions bus_;
   std::unique_ptr<Bus> bus_handle_;
   ByRun<status_t> statuses_;
-  std::map<std::string, ByRun<state_t>> instances_;  // by instance name; node-based, so handlers keep their pointer
+  std::map<std::string, InstanceView> instances_;  // by instance name; node-based, so handlers keep their pointer
 };
 
 }  // namespace

@@ -5,14 +5,18 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <thread>
 
 #include "daemon/runtime.hpp"
@@ -406,6 +410,176 @@ TEST_F(LiveDaemon, SendCommandAndWatchWorkWithTheSevenJointPanda) {
   EXPECT_NE(r.out.find(" with gravity-compensation\n"), std::string::npos) << r.out;
 }
 
+// What a status says of one instance's integrator, method, effects and forces ("" / false when it does not say).
+struct Settings {
+  std::string integrator, method, effects;
+  bool forces = false;
+};
+Settings SettingsOf(const status_t& s, const std::string& instance) {
+  for (std::size_t i = 0; i < s.instance_names.size() && i < s.instance_integrators.size(); ++i) {
+    if (s.instance_names[i] == instance)
+      return {s.instance_integrators[i], s.instance_methods[i], s.instance_effects[i], s.instance_forces[i] != 0};
+  }
+  return {};
+}
+
+// RK4 evaluates the dynamics four times per sub-step: one tick in four
+// sub-steps is 16 evaluations. The command goes out with the tolerances at 0
+// (the daemon's defaults), and telemetry and status show the switch.
+TEST_F(LiveDaemon, IntegratorCommandRunsRk4InFourSubStepsAsTelemetryAndStatusShow) {
+  Start(7730);
+  ASSERT_TRUE(collector_->WaitFor(
+      "ARM_TELEMETRY", [](const auto& m) { return !m.empty(); }, 10.0));
+  const telemetry_t before = collector_->Decoded<telemetry_t>("ARM_TELEMETRY").back();
+  EXPECT_EQ(before.integrator, "rk4");
+  EXPECT_EQ(before.substeps, 1);
+  EXPECT_EQ(before.evaluations, 4);
+
+  const auto r = Ctl({"command", "arm", "integrator", "rk4", "--substeps", "4"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "arm: integrator rk4 done; now running with computed-torque\n");
+  const auto commands = collector_->Decoded<command_t>("ARM_COMMAND");
+  ASSERT_FALSE(commands.empty());
+  const command_t& sent = commands.back();
+  EXPECT_EQ(sent.command, command_t::SET_INTEGRATOR);
+  EXPECT_EQ(sent.setting, "rk4");
+  EXPECT_EQ(sent.substeps, 4);
+  EXPECT_EQ(sent.rtol, 0.0);  // 0: the default, exactly
+  EXPECT_EQ(sent.atol, 0.0);
+  EXPECT_EQ(sent.max_steps, 0);
+
+  ASSERT_TRUE(collector_->WaitForLatest<telemetry_t>(
+      "ARM_TELEMETRY", [](const telemetry_t& t) { return t.substeps == 4; }, 5.0));
+  constexpr double kExact = 1e-15;
+  int switched = 0;
+  for (const telemetry_t& t : collector_->Decoded<telemetry_t>("ARM_TELEMETRY")) {
+    if (t.substeps != 4) continue;
+    ++switched;
+    EXPECT_EQ(t.integrator, "rk4");
+    EXPECT_EQ(t.mode, state_t::MODE_RUNNING);
+    EXPECT_EQ(t.evaluations, 16) << "tick " << t.tick;
+    EXPECT_EQ(t.steps_accepted, 4);
+    EXPECT_EQ(t.steps_rejected, 0);
+    EXPECT_EQ(t.failures, 0);
+    EXPECT_EQ(t.error_estimate, -1.0);  // a fixed-step method has none
+    EXPECT_NEAR(t.step, 0.001 / 4, kExact);
+  }
+  EXPECT_GT(switched, 0);
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return SettingsOf(s, "arm").integrator == "rk4 x4"; }, 5.0));
+  const status_t status = collector_->Decoded<status_t>("LAGRANGE_STATUS").back();
+  EXPECT_EQ(SettingsOf(status, "cartpole").integrator, "rk4");  // the other instance untouched
+}
+
+// The variational integrator integrates the full Lagrangian: with coriolis
+// off the daemon refuses it and says why; with coriolis back on it takes it.
+TEST_F(LiveDaemon, VariationalIntegratorIsRefusedWhileCoriolisIsOff) {
+  Start(7731);
+  auto r = Ctl({"command", "arm", "effect", "coriolis", "off"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "arm: effect coriolis off done; now running with computed-torque\n");
+  r = Ctl({"command", "arm", "integrator", "variational"});
+  ExpectOneLine(r, "command", 1, "refused: ");
+  EXPECT_NE(r.err.find("needs effects.coriolis on"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out, "");
+  ASSERT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS",
+      [](const status_t& s) { return SettingsOf(s, "arm").effects.find("gravity") != std::string::npos; }, 5.0));
+  const Settings arm = SettingsOf(collector_->Decoded<status_t>("LAGRANGE_STATUS").back(), "arm");
+  EXPECT_EQ(arm.effects.find("coriolis"), std::string::npos) << arm.effects;
+  EXPECT_EQ(arm.integrator, "rk4");  // unchanged by the refusal
+
+  ASSERT_EQ(Ctl({"command", "arm", "effect", "coriolis", "on"}).status, 0);
+  r = Ctl({"command", "arm", "integrator", "variational"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(collector_->WaitForLatest<telemetry_t>(
+      "ARM_TELEMETRY", [](const telemetry_t& t) { return t.integrator == "variational"; }, 5.0));
+}
+
+// The largest tick among `messages` (-1 for none).
+template <class Message>
+std::int64_t LastTick(const std::vector<Message>& messages) {
+  std::int64_t last = -1;
+  for (const Message& m : messages) last = std::max(last, m.tick);
+  return last;
+}
+
+// ARM_FORCES flows only while asked. Its rows are the tick's: tau_applied is
+// the state's applied torque of the same tick. After `forces off`, states
+// keep coming and no forces come with them.
+TEST_F(LiveDaemon, ForcesOnPublishesTheArmsForcesAndForcesOffStopsThem) {
+  Start(7732);
+  ASSERT_TRUE(collector_->WaitFor(
+      "ARM_STATE", [](const auto& m) { return m.size() >= 200; }, 10.0));
+  EXPECT_EQ(collector_->Count("ARM_FORCES"), 0u);  // the default scene does not ask for them
+
+  auto r = Ctl({"command", "arm", "forces", "on"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "arm: forces on done; now running with computed-torque\n");
+  ASSERT_TRUE(collector_->WaitFor(
+      "ARM_FORCES", [](const auto& m) { return m.size() >= 100; }, 10.0));
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return SettingsOf(s, "arm").forces; }, 5.0));
+  EXPECT_EQ(collector_->Count("CARTPOLE_FORCES"), 0u);  // asked of the arm alone
+
+  std::map<std::int64_t, state_t> states;
+  for (state_t& s : collector_->Decoded<state_t>("ARM_STATE")) states[s.tick] = std::move(s);
+  constexpr double kExact = 1e-12;
+  int matched = 0;
+  for (const forces_t& f : collector_->Decoded<forces_t>("ARM_FORCES")) {
+    ASSERT_EQ(f.num_dofs, 2);
+    EXPECT_TRUE(f.gravity_on);
+    EXPECT_TRUE(f.coriolis_on);
+    EXPECT_FALSE(f.damping_on);  // the default scene's arm has no damping: its row is zeros
+    EXPECT_EQ(f.damping, std::vector<double>(2, 0.0));
+    const auto s = states.find(f.tick);
+    if (s == states.end()) continue;  // its state was lost or is yet to come
+    ++matched;
+    EXPECT_EQ(f.run_id, s->second.run_id);
+    for (std::size_t j = 0; j < 2; ++j) EXPECT_NEAR(f.tau_applied[j], s->second.tau[j], kExact) << "tick " << f.tick;
+  }
+  EXPECT_GT(matched, 0);
+
+  r = Ctl({"command", "arm", "forces", "off"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  // Were forces still on, each new state would come with its forces: 500
+  // states beyond the last forces' tick cannot arrive.
+  constexpr std::int64_t kStatesBeyond = 500;
+  bool stopped = false;
+  for (const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       !stopped && std::chrono::steady_clock::now() < deadline;) {
+    stopped = LastTick(collector_->Decoded<state_t>("ARM_STATE")) >=
+              LastTick(collector_->Decoded<forces_t>("ARM_FORCES")) + kStatesBeyond;
+    if (!stopped) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_TRUE(stopped);
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return !SettingsOf(s, "arm").forces; }, 5.0));
+}
+
+// watch shows each instance's integrator, method and effects from the status,
+// and from its telemetry ε and the cost per tick.
+TEST_F(LiveDaemon, WatchShowsTheResidualTheCostAndTheIntegratorOfEachInstance) {
+  Start(7733);
+  ASSERT_EQ(Ctl({"command", "arm", "integrator", "rk4", "--substeps", "4"}).status, 0);
+  const auto r = Ctl({"watch", "--frames", "3", "--rate", "5"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::size_t last = r.out.rfind("lagranged run ");
+  ASSERT_NE(last, std::string::npos) << r.out;
+  const std::string frame = r.out.substr(last);
+  const std::size_t arm = frame.find("\narm   "), cartpole = frame.find("\ncartpole   ");
+  ASSERT_NE(arm, std::string::npos) << frame;
+  ASSERT_NE(cartpole, std::string::npos) << frame;
+  const std::string arm_lines = frame.substr(arm, cartpole - arm), cartpole_lines = frame.substr(cartpole);
+  for (const char* text : {"\n  integrator rk4 x4   method ", "   effects gravity,coriolis", "   forces off\n",
+                           "\n  ε ", " J (quadrature bound ", "   evaluations 16/tick   compute "}) {
+    EXPECT_NE(arm_lines.find(text), std::string::npos) << text << "\n" << arm_lines;
+  }
+  for (const char* text : {"\n  integrator rk4   method ", "\n  ε ", "   evaluations 4/tick   compute "})
+    EXPECT_NE(cartpole_lines.find(text), std::string::npos) << text << "\n" << cartpole_lines;
+  EXPECT_EQ(frame.find("no telemetry"), std::string::npos) << frame;
+}
+
 TEST(LiveStale, WatchMarksADaemonThatStoppedAsStale) {
   ASSERT_EQ(testing::PrepareLoopbackMulticast(7929), "");
   const std::string url = testing::TestLcmUrl(7929);
@@ -498,6 +672,10 @@ class FakeDaemon {
         st.instance_modes = {config_.mode};
         st.instance_dofs = {2};
         st.instance_reasons = {config_.mode_reason};
+        st.instance_integrators = {"rk4"};
+        st.instance_methods = {"closed-form"};
+        st.instance_effects = {"gravity,coriolis"};
+        st.instance_forces = {0};
         st.num_joints = 2;
         st.joint_names = {"q1", "q2"};
         lcm_.publish("LAGRANGE_STATUS", &st);

@@ -10,9 +10,11 @@
 #include <signal.h>
 #include <unistd.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <cmath>
@@ -215,16 +217,22 @@ TEST_F(Logs, Log2CsvRefusesWhatIsNotALogWithOneLine) {
   }
 }
 
-// The PNG decodes as an image (by matplotlib, as a user's viewer would) at least 400 × 400 pixels.
-void ExpectImage(const fs::path& png) {
+// The PNG's (height, width) in pixels, decoded by matplotlib as a user's viewer would; (0, 0) when it does not decode.
+std::pair<int, int> ImageSize(const fs::path& png) {
   const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
   const auto r = testing::RunProcess(
       {python, "-c",
        "import sys, matplotlib.image; a = matplotlib.image.imread(sys.argv[1]); print(a.shape[0], a.shape[1])",
        png.string()});
-  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   int height = 0, width = 0;
   std::istringstream(r.out) >> height >> width;
+  return {height, width};
+}
+
+// The PNG decodes as an image at least 400 × 400 pixels.
+void ExpectImage(const fs::path& png) {
+  const auto [height, width] = ImageSize(png);
   EXPECT_GE(width, 400);
   EXPECT_GE(height, 400);
 }
@@ -244,10 +252,12 @@ std::size_t Segments(const Csv& csv) {
   return segments;
 }
 
+// plot's line for the state rows of `csv`, without the newline (and without
+// what it adds for telemetry and forces panels).
 std::string PlotLine(const fs::path& png, const Csv& csv) {
   const std::size_t segments = Segments(csv);
   return png.string() + ": " + std::to_string(csv.rows.size()) + " rows in " + std::to_string(segments) + " segment" +
-         (segments == 1 ? "" : "s") + "\n";
+         (segments == 1 ? "" : "s");
 }
 
 TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
@@ -260,7 +270,7 @@ TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   auto r = RunCtl({"plot", arm.string(), "-o", png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   const Csv simulated = ReadCsv(arm);
-  EXPECT_EQ(r.out, PlotLine(png, simulated));
+  EXPECT_EQ(r.out, PlotLine(png, simulated) + "\n");
   EXPECT_EQ(Segments(simulated), 1u);  // one run, no reset: one unbroken line per series
   ExpectImage(png);
 
@@ -271,7 +281,8 @@ TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   ASSERT_EQ(r.status, 0) << r.err;
   ASSERT_EQ(RunCtl({"log2csv", log.string(), "--channel", "ARM_STATE", "-o", (dir_ / "c").string()}).status, 0);
   const Csv recorded = ReadCsv(dir_ / "c" / "ARM_STATE.csv");
-  EXPECT_EQ(r.out, PlotLine(log_png, recorded));  // drawn from the same rows log2csv writes
+  // Drawn from the same rows log2csv writes, with the arm's telemetry lagranged published beside its states.
+  EXPECT_EQ(r.out.rfind(PlotLine(log_png, recorded) + "; telemetry: ", 0), 0u) << r.out;
   const std::vector<double> t = recorded.Numbers("t");
   bool went_back = false;
   for (std::size_t k = 1; k < t.size(); ++k) went_back = went_back || t[k] < t[k - 1];
@@ -435,7 +446,7 @@ TEST_F(Logs, Log2CsvAndPlotTakeASevenJointRobotsRun) {
   const fs::path log_png = dir_ / "panda_log.png";
   auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out, PlotLine(log_png, states));
+  EXPECT_EQ(r.out.rfind(PlotLine(log_png, states) + "; telemetry: ", 0), 0u) << r.out;
   ExpectImage(log_png);
   const fs::path csv = dir_ / "panda.csv", png = dir_ / "panda.png";
   ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_pd_gravity.yaml", "--duration", "1",
@@ -453,7 +464,8 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   if (jar.empty()) GTEST_SKIP() << "no JDK at configure time: the jar is not built";
   const auto list = testing::RunProcess({JAR_PATH, "tf", jar});
   ASSERT_EQ(list.exit_code, 0) << list.err;
-  for (const char* type : {"state_t", "setpoint_t", "command_t", "status_t", "reply_t"}) {
+  for (const char* type :
+       {"state_t", "setpoint_t", "command_t", "status_t", "reply_t", "torque_t", "telemetry_t", "forces_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
     const auto javap = testing::RunProcess(
@@ -475,13 +487,77 @@ void PutInt32(std::vector<std::uint8_t>& bytes, std::size_t at, std::int32_t v) 
     bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(v) >> (24 - 8 * i));
 }
 
-state_t SomeState() {
+state_t SomeState(std::int64_t tick = 0) {
   state_t s{};
   s.run_id = 0x1234;
+  s.tick = tick;
+  s.t = 1e-3 * static_cast<double>(tick);
   s.num_dofs = 2;
   for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.25);
   s.controller = "pd";
   return s;
+}
+
+// One tick's telemetry: rk4 in 4 sub-steps (16 evaluations), residual ε.
+telemetry_t SomeTelemetry(std::int64_t tick, double residual) {
+  telemetry_t m{};
+  m.utime = 1'700'000'000'000'000 + 1000 * tick;
+  m.run_id = 0x1234;
+  m.tick = tick;
+  m.t = 1e-3 * static_cast<double>(tick);
+  m.mode = state_t::MODE_RUNNING;
+  m.energy = 2.5;
+  m.energy_residual = residual;
+  m.quadrature_bound = 1e-9;
+  m.work = 0.125;
+  m.power = -0.5;
+  m.integrator = "rk4";
+  m.substeps = 4;
+  m.method = "closed-form";
+  m.evaluations = 16;
+  m.steps_accepted = 4;
+  m.error_estimate = -1.0;
+  m.step = 2.5e-4;
+  m.compute_us = 12.5;
+  return m;
+}
+
+// forces_t's rows in its order.
+constexpr const char* kForceRows[] = {"gravity", "coriolis",    "damping", "friction",
+                                      "limits",  "disturbance", "tau_cmd", "tau_applied"};
+
+// A distinct value for each row, joint and tick, exact in decimal.
+double ForceValue(std::size_t row, int joint, std::int64_t tick) {
+  return static_cast<double>(row + 1) + 0.25 * joint + 1e-3 * static_cast<double>(tick);
+}
+
+// Forces on n joints at `tick`; the effects on are the first of `on` (gravity,
+// coriolis, damping, friction, limits, saturation, disturbance; the rest off).
+// A row whose effect is off is zeros, as lagranged sends it.
+forces_t SomeForces(std::int64_t tick, std::vector<bool> on, int n) {
+  on.resize(7, false);
+  forces_t f{};
+  f.utime = 1'700'000'000'000'000 + 1000 * tick;
+  f.run_id = 0x1234;
+  f.tick = tick;
+  f.t = 1e-3 * static_cast<double>(tick);
+  f.gravity_on = on[0];
+  f.coriolis_on = on[1];
+  f.damping_on = on[2];
+  f.friction_on = on[3];
+  f.limits_on = on[4];
+  f.saturation_on = on[5];
+  f.disturbance_on = on[6];
+  f.num_dofs = n;
+  // Row → its effect's flag in `on` (tau_cmd: saturation; tau_applied: always there).
+  const int flag[] = {0, 1, 2, 3, 4, 6, -1, -1};
+  std::vector<double>* rows[] = {&f.gravity, &f.coriolis,    &f.damping, &f.friction,
+                                 &f.limits,  &f.disturbance, &f.tau_cmd, &f.tau_applied};
+  for (std::size_t r = 0; r < 8; ++r) {
+    for (int j = 0; j < n; ++j)
+      rows[r]->push_back(flag[r] < 0 || on[static_cast<std::size_t>(flag[r])] ? ForceValue(r, j, tick) : 0.0);
+  }
+  return f;
 }
 
 // What lagrangectl decodes from the bus or a log passes these checks first.
@@ -494,12 +570,20 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
   status.instance_modes = {0, 4};
   status.instance_dofs = {2, 2};
   status.instance_reasons = {"", "emergency stop"};
+  status.instance_integrators = {"rk4 x4", "dopri5 rtol=1e-08 atol=1e-10 max_steps=200"};
+  status.instance_methods = {"closed-form", "recursive"};
+  status.instance_effects = {"gravity,coriolis", ""};
+  status.instance_forces = {1, 0};
   status.num_joints = 4;
   status.joint_names = {"q1", "q2", "x", "theta"};
   reply_t reply{};
   reply.reason = "not paused";
   const std::vector<std::pair<std::vector<std::uint8_t>, WireCheck (*)(const void*, std::size_t)>> packets = {
-      {Encode(SomeState()), CheckStatePacket}, {Encode(status), CheckStatusPacket}, {Encode(reply), CheckReplyPacket}};
+      {Encode(SomeState()), CheckStatePacket},
+      {Encode(status), CheckStatusPacket},
+      {Encode(reply), CheckReplyPacket},
+      {Encode(SomeTelemetry(1, 0.0)), CheckTelemetryPacket},
+      {Encode(SomeForces(1, {true}, 2)), CheckForcesPacket}};
   for (const auto& [bytes, check] : packets) {
     EXPECT_EQ(check(bytes.data(), bytes.size()), WireCheck::kOk);
     for (std::size_t size = 0; size < bytes.size(); ++size)
@@ -518,15 +602,20 @@ TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
   state = Encode(SomeState());
   PutInt32(state, state.size() - 1 - 3 - 4, -5);  // the controller's length ("pd" + NUL, then mode)
   EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
-  // The tail: num_instances, names, modes, dofs, num_joints, joint names.
-  const std::size_t joint_names = (4 + 3) + (4 + 3) + (4 + 2) + (4 + 6);
+  // num_instances follows the fixed fields (156 bytes with the fingerprint), last_rejection "why" (4 + 4),
+  // the two command counts (16), last_command_error "" (4 + 1) and seven counters (56).
+  const std::size_t names_at = 156 + 8 + 16 + 5 + 56;
   std::vector<std::uint8_t> lying = Encode(status);
-  const std::size_t names_at = lying.size() - joint_names - 4 - 2 * 4 - 2 - (4 + 9) - (4 + 4) - 4;
   PutInt32(lying, names_at, 0x7fffffff);
   EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
-  lying = Encode(status);  // a status declaring 2^31 - 1 joint names
+  lying = Encode(status);  // a status declaring 2^31 - 1 joint names (the tail: num_joints, then the names)
+  const std::size_t joint_names = (4 + 3) + (4 + 3) + (4 + 2) + (4 + 6);
   PutInt32(lying, lying.size() - joint_names - 4, 0x7fffffff);
   EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
+  // Forces declaring 2^31 - 1 joints (num_dofs after utime, run_id, tick, t and the seven flags).
+  lying = Encode(SomeForces(1, {true}, 2));
+  PutInt32(lying, 8 + 4 * 8 + 7, 0x7fffffff);
+  EXPECT_EQ(CheckForcesPacket(lying.data(), lying.size()), WireCheck::kBadLength);
 }
 
 TEST_F(Logs, Log2CsvSkipsARecordedStateWhoseLengthsLie) {
@@ -602,6 +691,10 @@ TEST_F(Logs, Log2CsvWritesTorquesOneColumnPerJointAndTheStatusCountersAndReasons
   status.instance_modes = {state_t::MODE_HOLD, state_t::MODE_RUNNING};
   status.instance_dofs = {2, 1};
   status.instance_reasons = {kTorquesTimedOut, ""};
+  status.instance_integrators = {"rk4 x4", "none"};
+  status.instance_methods = {"closed-form", "recursive"};
+  status.instance_effects = {"gravity,coriolis,damping", ""};
+  status.instance_forces = {1, 0};
   status.num_joints = 3;
   status.joint_names = {"q1", "q2", "theta"};
   const fs::path log = dir_ / "torques.lcm";
@@ -636,7 +729,135 @@ TEST_F(Logs, Log2CsvWritesTorquesOneColumnPerJointAndTheStatusCountersAndReasons
   EXPECT_EQ(statuses.Texts("last_rejection").front(), "\"arm: torque: run_id 0: expected the sender's non-zero id\"");
   EXPECT_EQ(statuses.Texts("instances").front(), "\"arm=1;probe=0\"");
   EXPECT_EQ(statuses.Texts("reasons").front(), std::string("\"arm=") + kTorquesTimedOut + ";probe=\"");
+  EXPECT_EQ(statuses.Texts("integrators").front(), "\"arm=rk4 x4;probe=none\"");
+  EXPECT_EQ(statuses.Texts("methods").front(), "\"arm=closed-form;probe=recursive\"");
+  std::ifstream status_csv(out / "LAGRANGE_STATUS.csv");  // effects hold commas: read as text, not by ReadCsv
+  std::string row;
+  std::getline(status_csv, row);
+  std::getline(status_csv, row);
+  EXPECT_NE(row.find(",\"arm=gravity,coriolis,damping;probe=\",\"arm=1;probe=0\","), std::string::npos) << row;
   EXPECT_EQ(statuses.header.back(), "joints");
+}
+
+// Telemetry becomes one column per field; forces one column per effect's flag
+// and per row and joint (gravity_0, gravity_1, ..), every value exactly as
+// sent. A forces packet whose num_dofs lies is skipped like any other.
+TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
+  const std::vector<double> residuals = {1e-12, -2.5e-10, 3.0000000000000001e-9};
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (std::size_t k = 0; k < residuals.size(); ++k)
+    events.emplace_back("ARM_TELEMETRY", Encode(SomeTelemetry(static_cast<std::int64_t>(k) + 1, residuals[k])));
+  std::vector<std::uint8_t> lying = Encode(SomeForces(3, {true, true}, 2));
+  PutInt32(lying, 8 + 4 * 8 + 7, 0x7fffffff);              // num_dofs, after utime, run_id, tick, t and the seven flags
+  const std::vector<bool> on = {true, true, false, true};  // gravity, coriolis, friction; damping off
+  events.emplace_back("ARM_FORCES", Encode(SomeForces(1, on, 2)));
+  events.emplace_back("ARM_FORCES", lying);
+  events.emplace_back("ARM_FORCES", Encode(SomeForces(2, on, 2)));
+  const fs::path log = dir_ / "telemetry.lcm";
+  WriteLog(log, events);
+  const fs::path out = dir_ / "csv";
+  const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("ARM_TELEMETRY.csv: 3 rows of telemetry_t\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ARM_FORCES.csv: 2 rows of forces_t (1 skipped"), std::string::npos) << r.out;
+
+  const Csv telemetry = ReadCsv(out / "ARM_TELEMETRY.csv");
+  std::string columns;
+  for (const std::string& name : telemetry.header) columns += (columns.empty() ? "" : ",") + name;
+  EXPECT_EQ(columns,
+            "log_utime,utime,run_id,tick,t,mode,energy,energy_residual,quadrature_bound,work,power,integrator,"
+            "substeps,method,evaluations,steps_accepted,steps_rejected,newton_iterations,failures,error_estimate,"
+            "step,compute_us");
+  EXPECT_EQ(telemetry.Numbers("energy_residual"), residuals);  // shortest round-trip text: exact
+  EXPECT_EQ(telemetry.Numbers("tick"), (std::vector<double>{1, 2, 3}));
+  EXPECT_EQ(telemetry.Texts("integrator"), std::vector<std::string>(3, "\"rk4\""));
+  EXPECT_EQ(telemetry.Texts("method"), std::vector<std::string>(3, "\"closed-form\""));
+  EXPECT_EQ(telemetry.Texts("run_id"), std::vector<std::string>(3, "0000000000001234"));
+  for (const auto& [column, value] : std::vector<std::pair<std::string, double>>{{"energy", 2.5},
+                                                                                 {"quadrature_bound", 1e-9},
+                                                                                 {"work", 0.125},
+                                                                                 {"power", -0.5},
+                                                                                 {"substeps", 4},
+                                                                                 {"evaluations", 16},
+                                                                                 {"steps_accepted", 4},
+                                                                                 {"steps_rejected", 0},
+                                                                                 {"error_estimate", -1},
+                                                                                 {"step", 2.5e-4},
+                                                                                 {"compute_us", 12.5}}) {
+    EXPECT_EQ(telemetry.Numbers(column), std::vector<double>(3, value)) << column;
+  }
+
+  const Csv forces = ReadCsv(out / "ARM_FORCES.csv");
+  std::vector<std::string> header = {"log_utime",     "utime",          "run_id",     "tick",        "t",
+                                     "gravity_on",    "coriolis_on",    "damping_on", "friction_on", "limits_on",
+                                     "saturation_on", "disturbance_on", "num_dofs"};
+  for (const char* row : kForceRows) {
+    for (int j = 0; j < 2; ++j) header.push_back(std::string(row) + "_" + std::to_string(j));
+  }
+  EXPECT_EQ(forces.header, header);
+  ASSERT_EQ(forces.rows.size(), 2u);
+  EXPECT_EQ(forces.Numbers("tick"), (std::vector<double>{1, 2}));
+  for (const auto& [flag, value] : std::vector<std::pair<std::string, double>>{
+           {"gravity_on", 1}, {"coriolis_on", 1}, {"damping_on", 0}, {"friction_on", 1}, {"saturation_on", 0}}) {
+    EXPECT_EQ(forces.Numbers(flag), std::vector<double>(2, value)) << flag;
+  }
+  for (std::size_t row = 0; row < std::size(kForceRows); ++row) {
+    const bool off = std::string(kForceRows[row]) == "damping" || std::string(kForceRows[row]) == "limits" ||
+                     std::string(kForceRows[row]) == "disturbance";
+    for (int j = 0; j < 2; ++j) {
+      const std::string column = std::string(kForceRows[row]) + "_" + std::to_string(j);
+      EXPECT_EQ(forces.Numbers(column),
+                (std::vector<double>{off ? 0.0 : ForceValue(row, j, 1), off ? 0.0 : ForceValue(row, j, 2)}))
+          << column;
+    }
+  }
+}
+
+// An arm run of `ticks` ticks: states, telemetry and forces (gravity,
+// coriolis and friction on; damping, limits, saturation and disturbance off).
+std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTelemetryAndForces(int ticks) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (std::int64_t k = 0; k < ticks; ++k) {
+    state_t s = SomeState(k);
+    s.q = {0.5 * std::sin(1e-2 * static_cast<double>(k)), 0.25};
+    events.emplace_back("ARM_STATE", Encode(s));
+    events.emplace_back("ARM_TELEMETRY", Encode(SomeTelemetry(k, 1e-10 * std::sin(0.05 * static_cast<double>(k)))));
+    events.emplace_back("ARM_FORCES", Encode(SomeForces(k, {true, true, false, true}, 2)));
+  }
+  return events;
+}
+
+// With the instance's telemetry and forces beside its states (in a log, or
+// as log2csv's CSVs side by side), plot adds the ε and cost panels and one
+// panel per joint, naming the effects it drew (those that were on).
+TEST_F(Logs, PlotAddsTheResidualTheCostAndOneForcePanelPerJointWhenRecorded) {
+  const fs::path log = dir_ / "arm.lcm";
+  WriteLog(log, ArmRunWithTelemetryAndForces(200));
+  const std::string extra = "; telemetry: 200 rows; forces: 200 rows of gravity, coriolis, friction, tau_applied\n";
+  const fs::path log_png = dir_ / "log.png";
+  auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, log_png.string() + ": 200 rows in 1 segment" + extra);
+  const auto [height, width] = ImageSize(log_png);
+
+  // log2csv's CSVs: the state CSV finds its instance's siblings.
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()}).status, 0);
+  const fs::path csv_png = dir_ / "csv.png";
+  r = RunCtl({"plot", (dir_ / "csv" / "ARM_STATE.csv").string(), "-o", csv_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, csv_png.string() + ": 200 rows in 1 segment" + extra);
+  EXPECT_EQ(ImageSize(csv_png), std::make_pair(height, width));
+
+  // The states alone: four panels, so a shorter picture of the same width.
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "--channel", "ARM_STATE", "-o", (dir_ / "state").string()}).status, 0);
+  const fs::path state_png = dir_ / "state.png";
+  r = RunCtl({"plot", (dir_ / "state" / "ARM_STATE.csv").string(), "-o", state_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, state_png.string() + ": 200 rows in 1 segment\n");
+  const auto [state_height, state_width] = ImageSize(state_png);
+  EXPECT_EQ(state_width, width);
+  EXPECT_GE(state_height, 400);
+  EXPECT_GT(height, state_height + 3 * 100);  // four panels more: ε, cost, and one per joint
 }
 
 }  // namespace
