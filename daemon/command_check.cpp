@@ -9,7 +9,14 @@
 namespace lagrange {
 namespace {
 
-CommandVerdict Reject(std::string why) { return {CommandVerdict::Kind::kRejected, std::move(why)}; }
+CommandVerdict MakeVerdict(CommandVerdict::Kind kind, std::string why) {
+  CommandVerdict v;
+  v.kind = kind;
+  v.reason = std::move(why);
+  return v;
+}
+
+CommandVerdict Reject(std::string why) { return MakeVerdict(CommandVerdict::Kind::kRejected, std::move(why)); }
 
 int FindController(const CommandRules& rules, const std::string& name) {
   const auto it = std::find(rules.controllers.begin(), rules.controllers.end(), name);
@@ -26,13 +33,14 @@ std::string Unknown(const CommandRules& rules, const std::string& name) {
 
 CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRules& rules, int active, command_t& out) {
   if (const WireCheck w = CheckCommandPacket(data, size); w != WireCheck::kOk) {
-    return {CommandVerdict::Kind::kUndecodable, ToString(w)};
+    return MakeVerdict(CommandVerdict::Kind::kUndecodable, ToString(w));
   }
-  if (out.decode(data, 0, static_cast<int>(size)) < 0) return {CommandVerdict::Kind::kUndecodable, "decode failed"};
+  if (out.decode(data, 0, static_cast<int>(size)) < 0) return MakeVerdict(CommandVerdict::Kind::kUndecodable, "decode failed");
   if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::SET_FORCES) {
     return Reject("unknown command " + std::to_string(out.command));
   }
-  CommandVerdict v{CommandVerdict::Kind::kAccepted, "", static_cast<CommandKind>(out.command)};
+  CommandVerdict v = MakeVerdict(CommandVerdict::Kind::kAccepted, "");
+  v.command = static_cast<CommandKind>(out.command);
   if (v.command == CommandKind::kSwitchController) {
     v.controller = FindController(rules, out.controller);
     if (v.controller < 0) return Reject(Unknown(rules, out.controller));
