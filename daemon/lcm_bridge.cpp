@@ -164,6 +164,8 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
   if (output_listener_ != nullptr) {
     std::vector<std::string> outputs = channels.state;
     outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
+    outputs.insert(outputs.end(), channels.telemetry.begin(), channels.telemetry.end());
+    outputs.insert(outputs.end(), channels.forces.begin(), channels.forces.end());
     for (const std::string& ch : channels.torque_out) {
       if (!ch.empty()) outputs.push_back(ch);
     }

@@ -10,8 +10,8 @@
 // and hands the good ones to the tick; bad ones are dropped, counted, and
 // their reason kept. It answers commands it refuses itself with a reply_t.
 // It also listens on this run's output channels (<NAME>_STATE, <NAME>_REPLY,
-// LAGRANGE_STATUS) and counts messages there from another run id: a second
-// daemon, or a spoofer.
+// <NAME>_TELEMETRY, <NAME>_FORCES, LAGRANGE_STATUS) and counts messages there
+// from another run id: a second daemon, or a spoofer.
 //
 // LcmPublisher (publish thread): waits on an eventfd the tick writes, turns
 // each tick record into a torque_t on an external plant's torque_channel

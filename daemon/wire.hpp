@@ -37,11 +37,11 @@ WireCheck CheckStatePacket(const void* data, std::size_t size);
 inline constexpr std::int32_t kMaxStatusInstances = 1024;
 inline constexpr std::int32_t kMaxStatusJoints = 4096;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);
-// reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
 // telemetry_t: every fixed field and its two strings.
 WireCheck CheckTelemetryPacket(const void* data, std::size_t size);
 // forces_t: the fixed fields, num_dofs (≤ kMaxDofs), 8 × num_dofs doubles.
 WireCheck CheckForcesPacket(const void* data, std::size_t size);
+// reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
 WireCheck CheckReplyPacket(const void* data, std::size_t size);
 
 }  // namespace lagrange

@@ -12,18 +12,22 @@
 #include <signal.h>
 #include <unistd.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -53,8 +57,9 @@ constexpr double kWait = 30.0;           // s: bound on waiting for an effect; a
 constexpr long kMemoryGrowthKiB = 1024;  // "pins no memory": at most 1 MiB
 
 // lagranged's output channels for the default scene.
-const std::vector<std::string> kOutputChannels = {"ARM_STATE", "CARTPOLE_STATE", "ARM_REPLY", "CARTPOLE_REPLY",
-                                                  "LAGRANGE_STATUS"};
+const std::vector<std::string> kOutputChannels = {"ARM_STATE",      "CARTPOLE_STATE",  "ARM_REPLY",
+                                                  "CARTPOLE_REPLY", "ARM_TELEMETRY",   "CARTPOLE_TELEMETRY",
+                                                  "ARM_FORCES",     "CARTPOLE_FORCES", "LAGRANGE_STATUS"};
 
 // Records the messages of some channels of one bus, on its own thread.
 class BusCollector {
@@ -156,7 +161,7 @@ class Attack : public ::testing::Test {
   }
 
   static command_t Command(int8_t kind, const std::string& controller = "") {
-    command_t c;
+    command_t c{};
     c.utime = WallMicros();
     c.request_id = 0;
     c.command = kind;
@@ -454,6 +459,229 @@ TEST_F(Attack, SeparateInputBusKeepsOutputsClean) {
   EXPECT_GT(seen.received, 0);
   EXPECT_EQ(seen.delivered, seen.received);
   EXPECT_EQ(seen.malformed + seen.oversized + seen.fragments_dropped, 0);
+}
+
+// ---------------------------------------------------------------- hostile switch commands
+
+// True when every value is finite.
+bool AllFinite(std::initializer_list<const std::vector<double>*> arrays, std::initializer_list<double> scalars = {}) {
+  for (const std::vector<double>* a : arrays) {
+    for (const double x : *a) {
+      if (!std::isfinite(x)) return false;
+    }
+  }
+  for (const double x : scalars) {
+    if (!std::isfinite(x)) return false;
+  }
+  return true;
+}
+
+bool Printable(const std::string& text) {
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c == 0x7f) return false;
+  }
+  return true;
+}
+
+// A hostile switch command: a switch kind (now and then an unknown code), a
+// setting (a valid name, one with junk after it, another kind's name, random
+// bytes, or longer than the wire allows: `undecodable`), and numbers from the
+// edges of their types, or all 0 (the defaults) so that many switches apply.
+command_t HostileSwitch(std::mt19937& rng, std::int64_t request_id, bool& undecodable) {
+  static const std::vector<std::string> kIntegrators = {"explicit-euler", "semi-implicit-euler", "rk4", "dopri5",
+                                                        "variational"};
+  static const std::vector<std::string> kEffects = {"gravity", "coriolis",   "damping",    "friction",
+                                                    "limits",  "saturation", "disturbance"};
+  static const std::vector<std::string> kMethods = {"closed-form", "lagrangian", "recursive"};
+  static const std::vector<std::int8_t> kUnknownKinds = {0, 12, -1, 127};
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN(), kInf = std::numeric_limits<double>::infinity();
+  constexpr std::int32_t kMax32 = std::numeric_limits<std::int32_t>::max(), kMin32 = -kMax32 - 1;
+  static const std::vector<std::int32_t> kCounts = {1, 2, 4, 1000, 1001, -1, -5, 10000000, 10000001, kMax32, kMin32};
+  static const std::vector<double> kNumbers = {
+      -0.0, 1e-8, 1e-3, 1.0, 5e-324, 1e-300, -1.0, kNan, -kNan, kInf, -kInf, 1e308, std::numeric_limits<double>::max()};
+  std::uniform_int_distribution<int> percent(0, 99);
+  const auto pick = [&rng](const auto& v) {
+    return v[std::uniform_int_distribution<std::size_t>(0, v.size() - 1)(rng)];
+  };
+  const int k = percent(rng);
+  const std::int8_t kind = k < 40   ? command_t::SET_INTEGRATOR
+                           : k < 60 ? command_t::SET_EFFECT
+                           : k < 80 ? command_t::SET_METHOD
+                           : k < 95 ? command_t::SET_FORCES
+                                    : pick(kUnknownKinds);
+  const std::vector<std::string>& names = kind == command_t::SET_EFFECT   ? kEffects
+                                          : kind == command_t::SET_METHOD ? kMethods
+                                                                          : kIntegrators;
+  testing::SwitchFields f;
+  const int how = percent(rng);
+  undecodable = false;
+  if (how < 60) {
+    f.setting = pick(names);
+  } else if (how < 68) {
+    f.setting = pick(names) + (percent(rng) < 50 ? "\x1b[31m" : "\n2026-01-01T00:00:00.000 info forged");
+  } else if (how < 74) {
+    f.setting = pick(kEffects) + pick(kMethods);
+  } else if (how < 97) {
+    std::uniform_int_distribution<int> byte(1, 255);  // a NUL would end the string on the wire
+    f.setting.resize(std::uniform_int_distribution<std::size_t>(0, 64)(rng));
+    for (char& ch : f.setting) ch = static_cast<char>(byte(rng));
+  } else {
+    f.setting = std::string(300, 'x');  // over the 256 bytes a string may take: refused before decoding
+    undecodable = true;
+  }
+  if (percent(rng) < 50) {  // hostile numbers; else all 0 (the defaults)
+    f.substeps = pick(kCounts);
+    f.rtol = pick(kNumbers);
+    f.atol = pick(kNumbers);
+    f.max_steps = pick(kCounts);
+  }
+  f.on = percent(rng) < 50;
+  return testing::MakeSwitchCommand(kind, request_id, WallMicros(), std::move(f));
+}
+
+// Thousands of switches, most of them hostile, a few thousand valid ones
+// flipping the integrator, method and effects back and forth, with resets
+// (out of the faults that bad tolerances and explicit Euler cause) and a
+// setpoint stream moving the arm: lagranged keeps ticking, publishes only
+// finite states, answers each command at most once (refusals with a
+// printable reason), counts what it refuses or does not answer, and afterwards
+// runs exactly what the last valid switches set.
+TEST_F(Attack, HostileSwitchCommandsAreRefusedAndNeverStopTheLoop) {
+  Start(7770);
+  std::mt19937 rng{42};
+  constexpr int kCommands = 8000;
+  constexpr int kPerMillisecond = 8;  // under the 32 a tick takes: most reach the tick
+  const std::int64_t first_id = next_request_id_ + 1;
+  std::int64_t sent = 0, undecodable = 0;
+  auto next = std::chrono::steady_clock::now();
+  for (int k = 0; k < kCommands; ++k) {
+    bool bad = false;
+    command_t c = HostileSwitch(rng, ++next_request_id_, bad);
+    if (k % 500 == 250) {  // legal, and fails its first step: a fault, until the reset below
+      c = testing::MakeSwitchCommand(command_t::SET_INTEGRATOR, next_request_id_, WallMicros(),
+                                     {.setting = "dopri5", .rtol = 1e-300, .atol = 1e-300, .max_steps = 1});
+      bad = false;
+    }
+    if (k % 500 == 499) {
+      c = testing::MakeCommand(command_t::RESET, next_request_id_, WallMicros());
+      bad = false;
+    }
+    sender_->PublishMessage("ARM_COMMAND", c);
+    ++sent;
+    undecodable += bad;
+    if (k % 50 == 0) {
+      const std::vector<double> target =
+          (k / 50) % 2 == 0 ? std::vector<double>{0.5, 0.4} : std::vector<double>{-0.3, 0.8};
+      sender_->PublishMessage("ARM_SETPOINT", testing::MakeSetpoint(target, WallMicros()));
+    }
+    if (k % kPerMillisecond == kPerMillisecond - 1) {
+      next += std::chrono::milliseconds(1);
+      std::this_thread::sleep_until(next);
+    }
+  }
+  const std::int64_t last_flood_id = next_request_id_;
+  ASSERT_TRUE(daemon_->Running()) << daemon_->Stderr();
+  const std::int64_t ticks_after_flood = LastStatus().ticks;
+
+  // A known configuration, each switch resent until answered: every one applies.
+  using testing::SwitchFields;
+  const std::vector<std::pair<std::int8_t, SwitchFields>> settle = {
+      {command_t::SET_INTEGRATOR, {.setting = "rk4", .substeps = 2}},
+      {command_t::SET_EFFECT, {.setting = "coriolis", .on = true}},
+      {command_t::SET_EFFECT, {.setting = "gravity", .on = true}},
+      {command_t::SET_METHOD, {.setting = "closed-form"}},
+      {command_t::SET_FORCES, {.setting = "", .on = true}},
+  };
+  for (const auto& [kind, fields] : settle) {
+    const reply_t r = Request(testing::MakeSwitchCommand(kind, 0, WallMicros(), fields));
+    EXPECT_TRUE(r.accepted) << fields.setting << ": " << r.reason;
+  }
+  const reply_t reset = Request(Command(command_t::RESET));
+  EXPECT_TRUE(reset.accepted) << reset.reason;
+  const std::int64_t requests = 1 + static_cast<std::int64_t>(settle.size());
+  const auto most_sends_per_request = static_cast<std::int64_t>(kWait / 0.25) + 1;  // Request resends every 0.25 s
+
+  // The loop still ticks and the status shows what the last switches set.
+  EXPECT_TRUE(AwaitStatus([&](const status_t& s) {
+    return s.ticks > ticks_after_flood + 500 && s.instance_integrators.size() == 2 &&
+           s.instance_integrators[0] == "rk4 x2" && s.instance_methods[0] == "closed-form" &&
+           s.instance_effects[0] == "gravity,coriolis" && s.instance_forces[0] != 0 &&
+           s.instance_modes[0] == state_t::MODE_RUNNING;
+  })) << "integrator '"
+      << LastStatus().instance_integrators.at(0) << "', method '" << LastStatus().instance_methods.at(0)
+      << "', effects '" << LastStatus().instance_effects.at(0) << "', mode "
+      << static_cast<int>(LastStatus().instance_modes.at(0));
+  EXPECT_TRUE(outputs_->WaitForLatest<telemetry_t>("ARM_TELEMETRY", [](const telemetry_t& m) {
+    return m.integrator == "rk4" && m.substeps == 2 && m.evaluations == 8 && m.method == "closed-form" &&
+           m.mode == state_t::MODE_RUNNING;
+  }));
+  EXPECT_TRUE(outputs_->WaitForLatest<forces_t>(
+      "ARM_FORCES", [](const forces_t& f) { return f.num_dofs == 2 && f.gravity_on && f.coriolis_on; }));
+  ASSERT_TRUE(daemon_->Running()) << daemon_->Stderr();
+
+  // Replies: at most one per command; a refusal says why, printably.
+  std::map<std::int64_t, int> replies_per_id;
+  std::int64_t accepted = 0, refused = 0;
+  for (const reply_t& r : outputs_->Decoded<reply_t>("ARM_REPLY")) {
+    ++replies_per_id[r.request_id];
+    (r.accepted ? accepted : refused) += 1;
+    EXPECT_EQ(r.accepted, r.reason.empty()) << r.request_id << ": " << r.reason;
+    EXPECT_TRUE(Printable(r.reason)) << r.request_id << ": " << r.reason;
+  }
+  std::int64_t flood_replies = 0;
+  for (const auto& [id, count] : replies_per_id) {
+    if (id < first_id || id > last_flood_id) continue;
+    ++flood_replies;
+    EXPECT_EQ(count, 1) << "request " << id << " answered " << count << " times";
+  }
+  EXPECT_GT(flood_replies, 0);
+  EXPECT_GT(refused, 0);
+  // Counted: a status published after every reply above was sent holds them
+  // all, and each command decoded was answered or counted as not answered.
+  const std::int64_t ticks_now = LastStatus().ticks;
+  ASSERT_TRUE(AwaitStatus([&](const status_t& s) { return s.ticks > ticks_now + 300; }));
+  const status_t s = LastStatus();
+  EXPECT_GE(s.commands_rejected, refused);
+  EXPECT_GE(s.commands_accepted, accepted);
+  const std::int64_t decided = s.commands_accepted + s.commands_rejected;
+  EXPECT_GE(decided, accepted + refused + s.replies_suppressed) << "a verdict neither sent nor counted";
+  EXPECT_LE(decided, sent - undecodable + requests * most_sends_per_request) << "more verdicts than commands";
+  EXPECT_GT(s.decode_errors, 0);
+  EXPECT_LE(s.decode_errors, undecodable);
+  EXPECT_TRUE(Printable(s.last_command_error)) << s.last_command_error;
+  RecordProperty("commands_sent", static_cast<int>(sent));
+  RecordProperty("commands_accepted", static_cast<int>(s.commands_accepted));
+  RecordProperty("commands_rejected", static_cast<int>(s.commands_rejected));
+  RecordProperty("replies_suppressed", static_cast<int>(s.replies_suppressed));
+
+  // Every state, telemetry and forces message of this run was finite.
+  const std::int64_t run_id = s.run_id;
+  std::int64_t states = 0, faulted = 0;
+  for (const std::string channel : {"ARM_STATE", "CARTPOLE_STATE"}) {
+    for (const state_t& st : outputs_->Decoded<state_t>(channel)) {
+      if (st.run_id != run_id) continue;
+      ++states;
+      faulted += st.mode == state_t::MODE_FAULT;
+      EXPECT_TRUE(AllFinite({&st.q, &st.qd, &st.qdd, &st.tau, &st.q_des, &st.qd_des},
+                            {st.t, st.kinetic_energy, st.potential_energy}))
+          << channel << " tick " << st.tick << " mode " << static_cast<int>(st.mode);
+    }
+  }
+  EXPECT_GT(states, 0);
+  EXPECT_GT(faulted, 0) << "the failing dopri5 never faulted the arm";
+  RecordProperty("states_in_fault", static_cast<int>(faulted));
+  for (const telemetry_t& m : outputs_->Decoded<telemetry_t>("ARM_TELEMETRY")) {
+    EXPECT_TRUE(AllFinite({}, {m.t, m.energy, m.energy_residual, m.quadrature_bound, m.work, m.power, m.error_estimate,
+                               m.step, m.compute_us}))
+        << "tick " << m.tick << " integrator " << m.integrator << " mode " << static_cast<int>(m.mode);
+  }
+  for (const forces_t& f : outputs_->Decoded<forces_t>("ARM_FORCES")) {
+    EXPECT_TRUE(AllFinite(
+        {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}))
+        << "tick " << f.tick;
+  }
+  Stop();
 }
 
 }  // namespace

@@ -6,19 +6,24 @@
 
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 
 #include <atomic>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "daemon/bus.hpp"
@@ -27,6 +32,10 @@
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "plant/arm2.hpp"
+#include "plant/effects.hpp"
+#include "plant/integrators.hpp"
+#include "plant/types.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
 
@@ -61,7 +70,10 @@ bool Decode(const std::uint8_t* data, std::size_t size, T& out) {
 class Bridge : public ::testing::Test {
  protected:
   explicit Bridge(SetpointAge age = SetpointAge::kWall)
-      : scene_(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml")),
+      : Bridge(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml"), age) {}
+  // Another scene with the default one's instances (arm, cartpole).
+  Bridge(Scene scene, SetpointAge age)
+      : scene_(std::move(scene)),
         runtime_(scene_),
         channels_(MakeChannelNames({"arm", "cartpole"}, "")),
         receiver_(input_, &output_, output_, channels_, runtime_, clock_, stats_, age, kRunId),
@@ -83,6 +95,16 @@ class Bridge : public ::testing::Test {
     output_.Subscribe("LAGRANGE_STATUS", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       status_t s;
       if (Decode(d, n, s)) last_status_ = s;
+    });
+    output_.Subscribe("ARM_TELEMETRY", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+      telemetry_t m;
+      if (Decode(d, n, m)) telemetry_.push_back(m);
+    });
+    output_.Subscribe("CARTPOLE_TELEMETRY",
+                      [this](std::string_view, const std::uint8_t*, std::size_t) { ++cartpole_telemetry_; });
+    output_.Subscribe("ARM_FORCES", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+      forces_t f;
+      if (Decode(d, n, f)) forces_.push_back(f);
     });
   }
 
@@ -126,6 +148,18 @@ class Bridge : public ::testing::Test {
     return testing::MakeCommand(kind, request_id, 0, controller, std::move(kp), std::move(kd));
   }
   void SendCommand(const command_t& c) { input_.PublishMessage("ARM_COMMAND", c); }
+  static command_t Switch(int8_t kind, std::int64_t request_id, testing::SwitchFields fields) {
+    return testing::MakeSwitchCommand(kind, request_id, 0, std::move(fields));
+  }
+  // The one reply to `request_id` (a failed assertion when there is none, or more).
+  reply_t OnlyReply(std::int64_t request_id) const {
+    const auto by_id = RepliesById();
+    const auto it = by_id.find(request_id);
+    EXPECT_NE(it, by_id.end()) << "no reply to " << request_id;
+    if (it == by_id.end()) return reply_t{};
+    EXPECT_EQ(it->second.size(), 1u) << "request " << request_id;
+    return it->second.front();
+  }
 
   // Replies by request id.
   std::map<std::int64_t, std::vector<reply_t>> RepliesById() const {
@@ -181,6 +215,9 @@ class Bridge : public ::testing::Test {
   state_t last_state_;
   std::int64_t states_ = 0;
   status_t last_status_;
+  std::vector<telemetry_t> telemetry_;  // the arm's
+  std::int64_t cartpole_telemetry_ = 0;
+  std::vector<forces_t> forces_;  // the arm's
 };
 
 class StreamBridge : public Bridge {
@@ -605,6 +642,259 @@ TEST_F(Bridge, UrgentCommandsWithinOneTickApplyInTheOrderTheyCame) {
   EXPECT_STREQ(record.instances[0].verdicts[0].error, "clear_estop: the instance is not in an emergency stop");
   EXPECT_EQ(record.instances[0].verdicts[1].error, nullptr);
   EXPECT_EQ(runtime_.mode(0), Mode::kEstop);
+}
+
+// ------------------------------------------------------------------ issue 14: switches, telemetry, forces
+
+constexpr double kForceBalance = 1e-9;  // N·m: closed-form M, G, C against the published rows (round-off only)
+
+TEST_F(Bridge, ASwitchedIntegratorIsAcceptedAndTheTelemetryAndStatusShowIt) {
+  Ticks(10);
+  ASSERT_FALSE(telemetry_.empty());
+  EXPECT_EQ(telemetry_.back().integrator, "rk4");  // the scene's
+  EXPECT_EQ(telemetry_.back().evaluations, 4);
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 201, {.setting = "rk4", .substeps = 4}));
+  Ticks(100);
+  const reply_t r = OnlyReply(201);
+  EXPECT_TRUE(r.accepted) << r.reason;
+  EXPECT_EQ(r.reason, "");
+  EXPECT_EQ(r.command, command_t::SET_INTEGRATOR);
+  EXPECT_EQ(r.run_id, kRunId);
+  // One telemetry_t per state_t, tick for tick, after it.
+  EXPECT_EQ(static_cast<std::int64_t>(telemetry_.size()), states_);
+  const telemetry_t& m = telemetry_.back();
+  EXPECT_EQ(m.run_id, kRunId);
+  EXPECT_EQ(m.tick, last_state_.tick);
+  EXPECT_DOUBLE_EQ(m.t, last_state_.t);
+  EXPECT_EQ(m.mode, state_t::MODE_RUNNING);
+  EXPECT_EQ(m.integrator, "rk4");
+  EXPECT_EQ(m.substeps, 4);
+  EXPECT_EQ(m.method, "closed-form");
+  EXPECT_EQ(m.evaluations, 16);  // 4 per sub-step
+  EXPECT_EQ(m.steps_accepted, 4);
+  EXPECT_EQ(m.steps_rejected, 0);
+  EXPECT_EQ(m.newton_iterations, 0);
+  EXPECT_EQ(m.failures, 0);
+  EXPECT_DOUBLE_EQ(m.error_estimate, -1.0);  // a fixed-step method estimates nothing
+  EXPECT_DOUBLE_EQ(m.step, scene_.period / 4);
+  EXPECT_TRUE(std::isfinite(m.energy_residual)) << m.energy_residual;
+  EXPECT_DOUBLE_EQ(m.energy, last_state_.kinetic_energy + last_state_.potential_energy);
+  EXPECT_EQ(last_status_.instance_integrators, (std::vector<std::string>{"rk4 x4", "rk4"}));
+  EXPECT_EQ(last_status_.instance_methods, (std::vector<std::string>{"closed-form", "closed-form"}));
+  EXPECT_EQ(last_status_.instance_effects.at(0), "gravity,coriolis");
+  EXPECT_EQ(last_status_.instance_forces, (std::vector<std::int8_t>{0, 0}));
+  EXPECT_EQ(last_status_.commands_accepted, 1);
+  EXPECT_EQ(last_status_.commands_rejected, 0);
+  // The method and an effect, in one tick, in the order they came.
+  SendCommand(Switch(command_t::SET_METHOD, 202, {.setting = "recursive"}));
+  SendCommand(Switch(command_t::SET_EFFECT, 203, {.setting = "gravity", .on = false}));
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(202).accepted) << OnlyReply(202).reason;
+  EXPECT_TRUE(OnlyReply(203).accepted) << OnlyReply(203).reason;
+  EXPECT_EQ(telemetry_.back().method, "recursive");
+  EXPECT_EQ(last_status_.instance_methods.at(0), "recursive");
+  EXPECT_EQ(last_status_.instance_effects.at(0), "coriolis");
+  EXPECT_EQ(last_status_.commands_accepted, 3);
+}
+
+TEST_F(Bridge, TheVariationalIntegratorIsRefusedWhileCoriolisIsOff) {
+  SendCommand(Switch(command_t::SET_EFFECT, 301, {.setting = "coriolis", .on = false}));
+  Ticks(1);
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 302, {.setting = "variational"}));
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(301).accepted) << OnlyReply(301).reason;
+  const reply_t refused = OnlyReply(302);
+  EXPECT_FALSE(refused.accepted);
+  EXPECT_EQ(refused.command, command_t::SET_INTEGRATOR);
+  EXPECT_NE(refused.reason.find("needs effects.coriolis on"), std::string::npos) << refused.reason;
+  EXPECT_EQ(last_status_.commands_rejected, 1);
+  EXPECT_EQ(last_status_.last_command_error.rfind("arm: ", 0), 0u) << last_status_.last_command_error;
+  EXPECT_NE(last_status_.last_command_error.find("needs effects.coriolis on"), std::string::npos);
+  EXPECT_EQ(last_status_.instance_integrators.at(0), "rk4");  // nothing changed
+  EXPECT_EQ(last_status_.instance_effects.at(0), "gravity");
+  EXPECT_EQ(telemetry_.back().integrator, "rk4");
+  // Coriolis back on, then the same switch is applied.
+  SendCommand(Switch(command_t::SET_EFFECT, 303, {.setting = "coriolis", .on = true}));
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 304, {.setting = "variational"}));
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(303).accepted) << OnlyReply(303).reason;
+  EXPECT_TRUE(OnlyReply(304).accepted) << OnlyReply(304).reason;
+  EXPECT_EQ(last_status_.instance_integrators.at(0), "variational");
+  EXPECT_EQ(last_status_.instance_effects.at(0), "gravity,coriolis");
+  EXPECT_EQ(telemetry_.back().integrator, "variational");
+  EXPECT_GT(telemetry_.back().newton_iterations, 0);
+  EXPECT_DOUBLE_EQ(telemetry_.back().error_estimate, -1.0);
+  EXPECT_EQ(runtime_.mode(0), Mode::kRunning);
+}
+
+// The receiver parses names and checks the integrator's numbers (0 is the
+// default; anything else must be in range): each refusal is answered, says
+// what was expected, is counted, and never reaches the tick.
+TEST_F(Bridge, BadSwitchSettingsAreRefusedByTheReceiverNamingWhatWasExpected) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    command_t command;
+    std::vector<std::string> says;  // substrings of the reason
+  };
+  const std::string integrators = IntegratorTypeNames(), effects = EffectKindNames(), methods = MethodNames();
+  const std::vector<Case> cases = {
+      {Switch(command_t::SET_INTEGRATOR, 501, {.setting = "rk5"}),
+       {"unknown integrator 'rk5'", "expected", integrators}},
+      {Switch(command_t::SET_INTEGRATOR, 502, {.setting = ""}), {"unknown integrator ''", "expected", integrators}},
+      {Switch(command_t::SET_EFFECT, 503, {.setting = "wind", .on = true}),
+       {"unknown effect 'wind'", "expected", effects}},
+      {Switch(command_t::SET_METHOD, 504, {.setting = "magic"}), {"unknown method 'magic'", "expected", methods}},
+      {Switch(command_t::SET_METHOD, 505, {.setting = "recursive\n\x1b[31m"}),
+       {"unknown method 'recursive\\n\\x1b[31m'", "expected", methods}},
+      {Switch(command_t::SET_INTEGRATOR, 506, {.setting = "rk4", .substeps = 1001}), {"substeps: expected 1 to 1000"}},
+      {Switch(command_t::SET_INTEGRATOR, 507, {.setting = "rk4", .substeps = -1}), {"substeps: expected 1 to 1000"}},
+      {Switch(command_t::SET_INTEGRATOR, 508, {.setting = "dopri5", .rtol = nan}),
+       {"rtol: expected a finite number > 0"}},
+      {Switch(command_t::SET_INTEGRATOR, 509, {.setting = "dopri5", .rtol = -1.0}),
+       {"rtol: expected a finite number > 0"}},
+      {Switch(command_t::SET_INTEGRATOR, 510, {.setting = "dopri5", .atol = inf}),
+       {"atol: expected a finite number > 0"}},
+      {Switch(command_t::SET_INTEGRATOR, 511, {.setting = "dopri5", .max_steps = -5}),
+       {"max_steps: expected 1 to 10000000"}},
+  };
+  for (const Case& c : cases) {
+    SendCommand(c.command);
+    Ticks(1);
+    const reply_t r = OnlyReply(c.command.request_id);
+    EXPECT_FALSE(r.accepted) << c.command.request_id;
+    EXPECT_EQ(r.command, c.command.command);
+    EXPECT_TRUE(Printable(r.reason)) << r.reason;
+    for (const std::string& part : c.says) {
+      EXPECT_NE(r.reason.find(part), std::string::npos)
+          << c.command.request_id << ": '" << r.reason << "' does not say '" << part << "'";
+    }
+  }
+  Ticks(100);
+  const auto refused = static_cast<std::int64_t>(cases.size());
+  EXPECT_EQ(stats_.commands_rejected.load(), refused);
+  EXPECT_EQ(last_status_.commands_rejected, refused);
+  EXPECT_EQ(last_status_.commands_accepted, 0);
+  EXPECT_EQ(last_status_.last_command_error.rfind("arm: ", 0), 0u) << last_status_.last_command_error;
+  EXPECT_EQ(stats_.decode_errors.load(), 0);
+  EXPECT_EQ(replies_.size(), cases.size());
+  // Nothing reached the tick: the arm runs what the scene says.
+  EXPECT_EQ(last_status_.instance_integrators.at(0), "rk4");
+  EXPECT_EQ(last_status_.instance_methods.at(0), "closed-form");
+  EXPECT_EQ(last_status_.instance_effects.at(0), "gravity,coriolis");
+  EXPECT_EQ(runtime_.mode(0), Mode::kRunning);
+}
+
+// forces_t rows are the terms of M(q) qdd = tau_applied + disturbance +
+// damping + friction + limits − coriolis − gravity at the tick's end state:
+// checked against the arm's closed form at the q, qd, qdd of the same tick's
+// state_t, on a swinging arm so that every row that is on is not zero.
+TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQdd) {
+  std::map<std::int64_t, state_t> states;  // the arm's, by tick
+  output_.Subscribe("ARM_STATE", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    state_t s;
+    if (Decode(d, n, s)) states[s.tick] = s;
+  });
+  SendFresh({0.5, 0.4});  // a step: the arm swings towards it
+  Ticks(100);
+  EXPECT_TRUE(forces_.empty());
+  EXPECT_EQ(last_status_.instance_forces.at(0), 0);
+  SendCommand(Switch(command_t::SET_FORCES, 401, {.setting = "", .on = true}));
+  SendFresh({0.5, 0.4});
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(401).accepted) << OnlyReply(401).reason;
+  ASSERT_EQ(forces_.size(), 100u);  // one per tick, from the tick that applied it
+  EXPECT_EQ(last_status_.instance_forces, (std::vector<std::int8_t>{1, 0}));
+  const Arm2ClosedForm arm(std::get<Arm2Params>(scene_.instances[0].plant.params));
+  MatrixXd M(2, 2);
+  VectorXd G(2), c(2);
+  double largest_coriolis = 0.0;
+  for (const forces_t& f : forces_) {
+    ASSERT_EQ(f.num_dofs, 2);
+    ASSERT_EQ(states.count(f.tick), 1u) << "no state_t for tick " << f.tick;
+    const state_t& s = states.at(f.tick);
+    EXPECT_EQ(f.run_id, kRunId);
+    EXPECT_EQ(f.utime, s.utime);
+    EXPECT_DOUBLE_EQ(f.t, s.t);
+    EXPECT_TRUE(f.gravity_on && f.coriolis_on);
+    EXPECT_FALSE(f.damping_on || f.friction_on || f.limits_on || f.saturation_on || f.disturbance_on);
+    const Eigen::Map<const VectorXd> q(s.q.data(), 2), qd(s.qd.data(), 2), qdd(s.qdd.data(), 2);
+    arm.ComputeMassMatrix(q, M);
+    arm.ComputeGravityForce(q, G);
+    arm.ComputeCoriolisForce(q, qd, c);
+    const VectorXd Mqdd = M * qdd;
+    for (std::size_t j = 0; j < 2; ++j) {
+      const auto k = static_cast<Eigen::Index>(j);
+      const double sum = f.tau_applied[j] + f.disturbance[j] + f.damping[j] + f.friction[j] + f.limits[j] -
+                         f.coriolis[j] - f.gravity[j];
+      EXPECT_NEAR(sum, Mqdd[k], kForceBalance) << "tick " << f.tick << ", row " << j;
+      EXPECT_NEAR(f.gravity[j], G[k], kForceBalance) << "tick " << f.tick;
+      EXPECT_NEAR(f.coriolis[j], c[k], kForceBalance) << "tick " << f.tick;
+      for (const auto* off : {&f.damping, &f.friction, &f.limits, &f.disturbance}) EXPECT_DOUBLE_EQ((*off)[j], 0.0);
+      EXPECT_DOUBLE_EQ(f.tau_applied[j], s.tau[j]);      // state_t's tau is as applied
+      EXPECT_DOUBLE_EQ(f.tau_cmd[j], f.tau_applied[j]);  // saturation is off
+      largest_coriolis = std::max(largest_coriolis, std::abs(f.coriolis[j]));
+    }
+  }
+  EXPECT_GT(largest_coriolis, 1e-3);  // the arm moved: the Coriolis row was exercised
+  SendCommand(Switch(command_t::SET_FORCES, 402, {.setting = "", .on = false}));
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(402).accepted) << OnlyReply(402).reason;
+  EXPECT_EQ(forces_.size(), 100u);  // none from the tick that applied it
+  EXPECT_EQ(last_status_.instance_forces, (std::vector<std::int8_t>{0, 0}));
+}
+
+// telemetry_t and forces_t carry this run's id (README, "Run ids") on this
+// run's output channels: another run's there is counted like one on ARM_STATE.
+TEST_F(Bridge, AnotherRunsTelemetryOrForcesOnOurChannelsIsCountedAndOursAreNot) {
+  SendCommand(Switch(command_t::SET_FORCES, 701, {.setting = "", .on = true}));
+  Ticks(300);  // our telemetry and forces, 300 of each
+  ASSERT_EQ(forces_.size(), 300u);
+  EXPECT_EQ(stats_.foreign_messages.load(), 0);
+  telemetry_t telemetry{};
+  telemetry.run_id = 0x5eed5eed5eed;
+  output_.PublishMessage("ARM_TELEMETRY", telemetry);
+  Receive();
+  EXPECT_EQ(stats_.foreign_messages.load(), 1);
+  EXPECT_EQ(stats_.last_foreign_run_id.load(), 0x5eed5eed5eed);
+  forces_t forces{};
+  forces.run_id = 0x0f0f0f0f;
+  forces.num_dofs = 0;
+  output_.PublishMessage("CARTPOLE_FORCES", forces);
+  Receive();
+  EXPECT_EQ(stats_.foreign_messages.load(), 2);
+  EXPECT_EQ(stats_.last_foreign_run_id.load(), 0x0f0f0f0f);
+}
+
+// The default scene with `telemetry: false` on the arm.
+std::string SceneWithQuietArm() {
+  std::ifstream in(std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string arm = "  - name: arm\n";
+  const std::size_t at = yaml.find(arm);
+  if (at == std::string::npos) return "";
+  return yaml.insert(at + arm.size(), "    telemetry: false\n");
+}
+
+class QuietArmBridge : public Bridge {
+ protected:
+  QuietArmBridge()
+      : Bridge(ParseScene(SceneWithQuietArm(), "default.yaml, arm telemetry: false"), SetpointAge::kWall) {}
+};
+
+TEST_F(QuietArmBridge, AnInstanceWithTelemetryOffPublishesNoTelemetryAndTheOthersStillDo) {
+  ASSERT_FALSE(scene_.instances[0].telemetry);
+  Ticks(200);
+  EXPECT_EQ(states_, 200);
+  EXPECT_TRUE(telemetry_.empty());
+  EXPECT_EQ(cartpole_telemetry_, 200);
+  // Switching still works and shows in the status.
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 601, {.setting = "rk4", .substeps = 2}));
+  Ticks(100);
+  EXPECT_TRUE(OnlyReply(601).accepted) << OnlyReply(601).reason;
+  EXPECT_EQ(last_status_.instance_integrators.at(0), "rk4 x2");
+  EXPECT_TRUE(telemetry_.empty());
 }
 
 }  // namespace

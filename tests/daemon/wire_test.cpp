@@ -4,12 +4,18 @@
 
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "daemon/wire.hpp"
+#include "plant/types.hpp"
 #include "tests/support/lcm_messages.hpp"
 
 namespace lagrange {
@@ -89,6 +95,231 @@ TEST(Wire, EveryPacketThatPassesDecodes) {
     EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
     EXPECT_EQ(out.num_dofs, n);
   }
+}
+
+// ------------------------------------------------------------------ issue 14: the switch commands' layout
+
+// Every field of command_t in use: set-gains' string and arrays, then the
+// switch fields. Byte offsets: controller's length at 25 ("pd\0" to 32),
+// num_gains at 32, kp and kd to 68, setting's length at 68 ("dopri5\0" to 79),
+// substeps at 79, rtol, atol, max_steps at 99, on at 103; 104 bytes.
+command_t FullCommand() {
+  command_t c = testing::MakeSetGainsCommand();
+  c.command = command_t::SET_INTEGRATOR;
+  c.setting = "dopri5";
+  c.substeps = 4;
+  c.rtol = 1e-6;
+  c.atol = 1e-9;
+  c.max_steps = 200;
+  c.on = true;
+  return c;
+}
+constexpr std::size_t kSettingLengthAt = 68, kSettingNulAt = 78, kFullCommandSize = 104;
+
+TEST(Wire, AFullSwitchCommandPassesAndDecodesToItsFields) {
+  const auto buf = Encode(FullCommand());
+  ASSERT_EQ(buf.size(), kFullCommandSize);
+  ASSERT_EQ(CheckCommandPacket(buf.data(), buf.size()), WireCheck::kOk);
+  command_t out;
+  ASSERT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  EXPECT_EQ(out.setting, "dopri5");
+  EXPECT_EQ(out.substeps, 4);
+  EXPECT_EQ(out.max_steps, 200);
+  EXPECT_TRUE(out.on);
+  for (std::size_t len = 0; len < buf.size(); ++len) {
+    EXPECT_NE(CheckCommandPacket(buf.data(), len), WireCheck::kOk) << len;
+  }
+}
+
+// A sender built against command_t before issue 14 stops after kd: another
+// layout, refused before decoding (its fingerprint differs too, but the size
+// alone must not pass).
+TEST(Wire, ACommandEndingAfterItsGainsIsRefused) {
+  const auto buf = Encode(FullCommand());
+  EXPECT_EQ(CheckCommandPacket(buf.data(), kSettingLengthAt), WireCheck::kTooShort);
+}
+
+TEST(Wire, ASettingOfLengthZeroOrOver256BytesIsRefused) {
+  auto zero = Encode(FullCommand());
+  WriteInt32(zero, kSettingLengthAt, 0);  // not even the NUL
+  EXPECT_EQ(CheckCommandPacket(zero.data(), zero.size()), WireCheck::kBadLength);
+  auto negative = Encode(FullCommand());
+  WriteInt32(negative, kSettingLengthAt, -1);
+  EXPECT_EQ(CheckCommandPacket(negative.data(), negative.size()), WireCheck::kBadLength);
+  auto crafted = Encode(FullCommand());
+  WriteInt32(crafted, kSettingLengthAt, 0x7fffffff);
+  EXPECT_EQ(CheckCommandPacket(crafted.data(), crafted.size()), WireCheck::kBadLength);
+  // Real strings around the bound: 255 bytes and the NUL pass, 256 and the NUL do not.
+  command_t longest = FullCommand();
+  longest.setting.assign(255, 'x');
+  const auto fits = Encode(longest);
+  EXPECT_EQ(CheckCommandPacket(fits.data(), fits.size()), WireCheck::kOk);
+  longest.setting.assign(256, 'x');
+  const auto over = Encode(longest);
+  EXPECT_EQ(CheckCommandPacket(over.data(), over.size()), WireCheck::kBadLength);
+}
+
+TEST(Wire, ASettingWithoutItsNulIsRefused) {
+  auto buf = Encode(FullCommand());
+  ASSERT_EQ(buf.at(kSettingNulAt), 0);
+  buf[kSettingNulAt] = 'x';
+  EXPECT_EQ(CheckCommandPacket(buf.data(), buf.size()), WireCheck::kBadLength);
+}
+
+TEST(Wire, ACommandWithTrailingBytesOrWithoutItsOnByteIsRefused) {
+  auto longer = Encode(FullCommand());
+  longer.push_back(0);
+  EXPECT_EQ(CheckCommandPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  const auto buf = Encode(FullCommand());
+  EXPECT_EQ(CheckCommandPacket(buf.data(), buf.size() - 1), WireCheck::kSizeMismatch);
+}
+
+// ------------------------------------------------------------------ telemetry_t and forces_t
+
+telemetry_t ValidTelemetry() {
+  telemetry_t m{};
+  m.utime = 1;
+  m.run_id = 0x1234;
+  m.tick = 7;
+  m.t = 0.007;
+  m.energy = 1.5;
+  m.energy_residual = 1e-12;
+  m.integrator = "dopri5";
+  m.substeps = 2;
+  m.method = "closed-form";
+  m.evaluations = 19;
+  m.error_estimate = 0.3;
+  m.step = 5e-4;
+  return m;
+}
+// The integrator's length: after fingerprint, utime, run_id, tick, t, mode, energy .. power.
+constexpr std::size_t kTelemetryStringAt = 8 + 3 * 8 + 8 + 1 + 5 * 8;
+
+forces_t ValidForces(int n) {
+  forces_t f{};
+  f.utime = 1;
+  f.run_id = 0x5678;
+  f.tick = 7;
+  f.gravity_on = f.coriolis_on = true;
+  f.num_dofs = n;
+  for (auto* v :
+       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+    v->assign(static_cast<std::size_t>(n), 0.25);
+  }
+  return f;
+}
+// num_dofs: after fingerprint, utime, run_id, tick, t and the seven flags.
+constexpr std::size_t kForcesDofsAt = 8 + 3 * 8 + 8 + 7;
+
+TEST(Wire, ATelemetryPassesAndEveryTruncationOrExtraByteIsCaught) {
+  const auto buf = Encode(ValidTelemetry());
+  ASSERT_EQ(CheckTelemetryPacket(buf.data(), buf.size()), WireCheck::kOk);
+  telemetry_t out;
+  EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  for (std::size_t len = 0; len < buf.size(); ++len) {
+    EXPECT_NE(CheckTelemetryPacket(buf.data(), len), WireCheck::kOk) << len;
+  }
+  auto longer = buf;
+  longer.push_back(0);
+  EXPECT_EQ(CheckTelemetryPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  const auto forces = Encode(ValidForces(2));
+  EXPECT_EQ(CheckTelemetryPacket(forces.data(), forces.size()), WireCheck::kFingerprint);
+}
+
+TEST(Wire, ATelemetryWithACraftedOrOversizedStringIsRefused) {
+  for (const std::int32_t length : {0x7fffffff, -1, 0, 257}) {
+    auto buf = Encode(ValidTelemetry());
+    WriteInt32(buf, kTelemetryStringAt, length);
+    EXPECT_EQ(CheckTelemetryPacket(buf.data(), buf.size()), WireCheck::kBadLength) << length;
+  }
+  telemetry_t m = ValidTelemetry();
+  m.method.assign(256, 'x');  // 257 bytes with its NUL
+  const auto over = Encode(m);
+  EXPECT_EQ(CheckTelemetryPacket(over.data(), over.size()), WireCheck::kBadLength);
+}
+
+TEST(Wire, ForcesPassForEverySizeUpToTheBoundAndEveryTruncationIsCaught) {
+  for (int n : {0, 1, 2, kMaxDofs}) {
+    const auto buf = Encode(ValidForces(n));
+    ASSERT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kOk) << n;
+    forces_t out;
+    EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+    EXPECT_EQ(out.num_dofs, n);
+  }
+  const auto buf = Encode(ValidForces(2));
+  for (std::size_t len = 0; len < buf.size(); ++len) {
+    EXPECT_NE(CheckForcesPacket(buf.data(), len), WireCheck::kOk) << len;
+  }
+  auto longer = buf;
+  longer.push_back(0);
+  EXPECT_EQ(CheckForcesPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+}
+
+TEST(Wire, ForcesOverKMaxDofsOrNegativeOrMiscountedAreRefused) {
+  const auto over = Encode(ValidForces(kMaxDofs + 1));  // really that long
+  EXPECT_EQ(CheckForcesPacket(over.data(), over.size()), WireCheck::kBadLength);
+  auto buf = Encode(ValidForces(2));
+  WriteInt32(buf, kForcesDofsAt, -1);
+  EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kBadLength);
+  WriteInt32(buf, kForcesDofsAt, 0x7fffffff);
+  EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kBadLength);
+  WriteInt32(buf, kForcesDofsAt, 3);  // plausible, but the packet holds 2
+  EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kTooShort);
+  WriteInt32(buf, kForcesDofsAt, 1);
+  EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kSizeMismatch);
+}
+
+// ------------------------------------------------------------------ status_t with the switch fields
+
+status_t StatusWithSwitchFields() {
+  status_t s{};
+  s.run_id = 0x9abc;
+  s.num_instances = 2;
+  s.instance_names = {"arm", "cartpole"};
+  s.instance_modes = {0, 1};
+  s.instance_dofs = {2, 2};
+  s.instance_reasons = {"", "setpoints timed out"};
+  s.instance_integrators = {"rk4 x4", "dopri5 rtol=1e-08 atol=1e-10 max_steps=200"};
+  s.instance_methods = {"closed-form", "recursive"};
+  s.instance_effects = {"gravity,coriolis", ""};
+  s.instance_forces = {true, false};
+  s.num_joints = 4;
+  s.joint_names = {"q1", "q2", "x", "theta"};
+  return s;
+}
+
+TEST(Wire, AStatusWithTheSwitchFieldsPassesAndEveryTruncationIsCaught) {
+  const auto buf = Encode(StatusWithSwitchFields());
+  ASSERT_EQ(CheckStatusPacket(buf.data(), buf.size()), WireCheck::kOk);
+  status_t out;
+  ASSERT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  EXPECT_EQ(out.instance_integrators[1], "dopri5 rtol=1e-08 atol=1e-10 max_steps=200");
+  EXPECT_EQ(out.instance_forces, (std::vector<std::int8_t>{1, 0}));
+  for (std::size_t len = 0; len < buf.size(); ++len) {
+    EXPECT_NE(CheckStatusPacket(buf.data(), len), WireCheck::kOk) << len;
+  }
+  auto longer = buf;
+  longer.push_back(0);
+  EXPECT_EQ(CheckStatusPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+}
+
+TEST(Wire, AStatusWhoseSwitchStringsExceedTheBoundIsRefused) {
+  for (auto field : {&status_t::instance_integrators, &status_t::instance_methods, &status_t::instance_effects}) {
+    status_t s = StatusWithSwitchFields();
+    (s.*field)[1].assign(256, 'x');
+    const auto buf = Encode(s);
+    EXPECT_EQ(CheckStatusPacket(buf.data(), buf.size()), WireCheck::kBadLength);
+  }
+}
+
+TEST(Wire, TheRunIdOfATelemetryOrForcesIsReadAndACommandHasNone) {
+  const auto telemetry = Encode(ValidTelemetry());
+  EXPECT_EQ(RunIdOf(telemetry.data(), telemetry.size()), std::optional<std::int64_t>(0x1234));
+  const auto forces = Encode(ValidForces(2));
+  EXPECT_EQ(RunIdOf(forces.data(), forces.size()), std::optional<std::int64_t>(0x5678));
+  const auto command = Encode(FullCommand());
+  EXPECT_EQ(RunIdOf(command.data(), command.size()), std::nullopt);
+  EXPECT_EQ(RunIdOf(telemetry.data(), 8 + 8 + 7), std::nullopt);  // too short to hold it
 }
 
 }  // namespace

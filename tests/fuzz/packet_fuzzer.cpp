@@ -1,11 +1,16 @@
 // libFuzzer target: what lagranged does with a packet on a setpoint, command,
 // torque or measured-state channel before anything reaches the tick: the raw
-// layout checks, decoding, the setpoint rules and the command rules (CheckCommand). Run with --write-seeds DIR to write valid
-// packets as a starting corpus.
+// layout checks, decoding, the setpoint rules and the command rules
+// (CheckCommand, with the switch commands' names and integrator numbers); and
+// lagrangectl's checks of what lagranged publishes (status, telemetry, forces).
+// Run with --write-seeds DIR to write valid packets as a starting corpus.
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/forces_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <cmath>
@@ -18,6 +23,9 @@
 #include "daemon/command_check.hpp"
 #include "daemon/setpoint_check.hpp"
 #include "daemon/wire.hpp"
+#include "plant/effects.hpp"
+#include "plant/integrators.hpp"
+#include "plant/types.hpp"
 
 namespace {
 
@@ -36,7 +44,7 @@ void WriteSeeds(const std::string& dir) {
   s.qd = {0.0, 1.0};
   s.qdd = {0.0, 0.0};
   WriteSeed(dir + "/setpoint", s);
-  lagrange::command_t c;
+  lagrange::command_t c{};
   c.utime = 1;
   c.request_id = 42;
   c.command = lagrange::command_t::SET_GAINS;
@@ -45,6 +53,36 @@ void WriteSeeds(const std::string& dir) {
   c.kp = {1.0, 2.0};
   c.kd = {0.1, 0.2};
   WriteSeed(dir + "/command", c);
+  // The switch commands, one seed each: every field after the gains in use.
+  c.controller = "";
+  c.num_gains = 0;
+  c.kp.clear();
+  c.kd.clear();
+  c.command = lagrange::command_t::SET_INTEGRATOR;
+  c.setting = "dopri5";
+  c.substeps = 2;
+  c.rtol = 1e-6;
+  c.atol = 1e-9;
+  c.max_steps = 200;
+  WriteSeed(dir + "/command_set_integrator", c);
+  c.setting = "rk4";
+  c.substeps = 4;
+  c.rtol = c.atol = 0.0;
+  c.max_steps = 0;
+  WriteSeed(dir + "/command_set_integrator_defaults", c);
+  c.substeps = 0;
+  c.command = lagrange::command_t::SET_EFFECT;
+  c.setting = "coriolis";
+  c.on = 1;
+  WriteSeed(dir + "/command_set_effect", c);
+  c.command = lagrange::command_t::SET_METHOD;
+  c.setting = "recursive";
+  c.on = 0;
+  WriteSeed(dir + "/command_set_method", c);
+  c.command = lagrange::command_t::SET_FORCES;
+  c.setting = "";
+  c.on = 1;
+  WriteSeed(dir + "/command_set_forces", c);
   lagrange::torque_t t;
   t.utime = 1;
   t.run_id = 7;
@@ -58,6 +96,35 @@ void WriteSeeds(const std::string& dir) {
   for (auto* v : {&st.q, &st.qd, &st.qdd, &st.tau, &st.q_des, &st.qd_des}) v->assign(2, 0.25);
   st.controller = "computed-torque";
   WriteSeed(dir + "/state", st);
+  lagrange::telemetry_t tm{};
+  tm.run_id = 7;
+  tm.integrator = "dopri5";
+  tm.substeps = 1;
+  tm.method = "closed-form";
+  tm.error_estimate = 0.5;
+  WriteSeed(dir + "/telemetry", tm);
+  lagrange::forces_t f{};
+  f.run_id = 7;
+  f.gravity_on = f.coriolis_on = 1;
+  f.num_dofs = 2;
+  for (auto* v :
+       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+    v->assign(2, 0.5);
+  }
+  WriteSeed(dir + "/forces", f);
+  lagrange::status_t status{};
+  status.num_instances = 1;
+  status.instance_names = {"arm"};
+  status.instance_modes = {0};
+  status.instance_dofs = {2};
+  status.instance_reasons = {""};
+  status.instance_integrators = {"rk4 x4"};
+  status.instance_methods = {"closed-form"};
+  status.instance_effects = {"gravity,coriolis"};
+  status.instance_forces = {1};
+  status.num_joints = 2;
+  status.joint_names = {"q1", "q2"};
+  WriteSeed(dir + "/status", status);
 }
 
 }  // namespace
@@ -104,19 +171,46 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (state.num_dofs < 0 || (state.num_dofs > 0 && static_cast<std::size_t>(state.num_dofs) != state.q.size()))
       __builtin_trap();
   }
+  // What lagrangectl reads: a packet that passes decodes to exactly its own size.
+  if (CheckTelemetryPacket(data, size) == WireCheck::kOk) {
+    telemetry_t telemetry;
+    if (telemetry.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
+  }
+  if (CheckForcesPacket(data, size) == WireCheck::kOk) {
+    forces_t forces;
+    if (forces.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
+    if (forces.num_dofs < 0 || forces.num_dofs > kMaxDofs ||
+        static_cast<std::size_t>(forces.num_dofs) != forces.tau_applied.size())
+      __builtin_trap();
+  }
+  if (CheckStatusPacket(data, size) == WireCheck::kOk) {
+    status_t status;
+    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
+    const auto n = static_cast<std::size_t>(status.num_instances);
+    if (status.instance_integrators.size() != n || status.instance_forces.size() != n) __builtin_trap();
+  }
   static const CommandRules command_rules{
       "arm",
       2,
       {"pd", "none"},
       {ControllerType::kPd, ControllerType::kNone},
-      {GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}}};
+      {GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}},
+      IntegratorConfig{}};   // the scene's: rk4 (set-integrator keeps its Newton settings and max_steps)
   static command_t command;  // reused, as in the receiver
   const CommandVerdict c = CheckCommand(data, size, command_rules, 0, command);
   if (c.kind == CommandVerdict::Kind::kAccepted) {
     // An accepted command names a known code and, where it needs one, a known controller.
-    if (command.command < command_t::SWITCH_CONTROLLER || command.command > command_t::CLEAR_ESTOP) __builtin_trap();
+    if (command.command < command_t::SWITCH_CONTROLLER || command.command > command_t::SET_FORCES) __builtin_trap();
     const bool needs_controller = c.command == CommandKind::kSwitchController || c.command == CommandKind::kSetGains;
     if (needs_controller && (c.controller < 0 || c.controller > 1)) __builtin_trap();
+    // A switch names what it parsed, and an integrator's numbers are ones the scene reader would take.
+    if (c.command == CommandKind::kSetIntegrator &&
+        (CheckIntegratorConfig(c.integrator) != nullptr || ToString(c.integrator.type) != command.setting)) {
+      __builtin_trap();
+    }
+    if (c.command == CommandKind::kSetEffect && ToString(c.effect) != command.setting) __builtin_trap();
+    if (c.command == CommandKind::kSetMethod && ToString(c.method) != command.setting) __builtin_trap();
+    if (c.on != (command.on != 0)) __builtin_trap();
   }
   for (const char ch : c.reason) {
     if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) __builtin_trap();  // reasons are escaped

@@ -36,7 +36,7 @@ inline setpoint_t MakeSetpoint(std::vector<double> q, std::int64_t utime, std::v
 inline command_t MakeCommand(int8_t kind, std::int64_t request_id, std::int64_t utime,
                              const std::string& controller = "", std::vector<double> kp = {},
                              std::vector<double> kd = {}) {
-  command_t c;
+  command_t c{};
   c.utime = utime;
   c.request_id = request_id;
   c.command = kind;
@@ -50,7 +50,7 @@ inline command_t MakeCommand(int8_t kind, std::int64_t request_id, std::int64_t 
 // A well-formed command with every field in use: set-gains for "pd" on two
 // joints (a string and two arrays, the layout the wire checks walk).
 inline command_t MakeSetGainsCommand() {
-  command_t c;
+  command_t c{};
   c.utime = 5;
   c.request_id = 1;
   c.command = command_t::SET_GAINS;
@@ -58,6 +58,35 @@ inline command_t MakeSetGainsCommand() {
   c.num_gains = 2;
   c.kp = {1.0, 2.0};
   c.kd = {0.1, 0.2};
+  return c;
+}
+
+// The fields of a switch command (SET_INTEGRATOR, SET_EFFECT, SET_METHOD,
+// SET_FORCES): the setting's name, the integrator's numbers (0: the
+// default) and `on`.
+struct SwitchFields {
+  std::string setting;
+  std::int32_t substeps = 0;
+  double rtol = 0.0;
+  double atol = 0.0;
+  std::int32_t max_steps = 0;
+  bool on = false;
+};
+
+// A switch command of `kind` sent at `utime` (µs), every field of command_t
+// set (no controller, no gains).
+inline command_t MakeSwitchCommand(int8_t kind, std::int64_t request_id, std::int64_t utime, SwitchFields f) {
+  command_t c{};
+  c.utime = utime;
+  c.request_id = request_id;
+  c.command = kind;
+  c.num_gains = 0;
+  c.setting = std::move(f.setting);
+  c.substeps = f.substeps;
+  c.rtol = f.rtol;
+  c.atol = f.atol;
+  c.max_steps = f.max_steps;
+  c.on = f.on ? 1 : 0;
   return c;
 }
 
