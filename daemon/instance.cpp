@@ -1,7 +1,5 @@
 #include "daemon/instance.hpp"
 
-#include <array>
-
 namespace lagrange {
 namespace {
 
@@ -10,22 +8,7 @@ constexpr IntegratorType kAllIntegrators[] = {IntegratorType::kExplicitEuler, In
                                               IntegratorType::kVariational};
 constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Method::kRecursive};
 
-// Why an effect cannot be switched on, by EffectKind (static: the tick reports them).
-constexpr std::array<const char*, kNumEffectKinds> kNotConfigured = {
-    "effect gravity cannot be switched",  // never: gravity and Coriolis are always configured
-    "effect coriolis cannot be switched",
-    "effect damping: the scene gives it no coefficients (effects.damping)",
-    "effect friction: the scene gives it no coefficients (effects.friction)",
-    "effect limits: the scene gives no joint limits (effects.limits)",
-    "effect saturation: the scene gives no torque bounds (effects.saturation)",
-    "effect disturbance: the scene gives no pushes (effects.disturbance)",
-};
-
 }  // namespace
-
-// The scene reader's wording for the same rules (daemon/scene.cpp).
-constexpr char kExternalNotIntegrated[] = "an external plant is not integrated by lagranged (its state is measured)";
-constexpr char kNoClosedForm[] = "this plant has no closed-form dynamics (methods: lagrangian, recursive)";
 
 Instance::Instance(const InstanceConfig& config)
     : config_(config),
@@ -125,7 +108,8 @@ void Instance::ComputeForces(EffectForces& out) {
 
 const char* Instance::SetIntegrator(const IntegratorConfig& config) {
   if (external_) return kExternalNotIntegrated;
-  if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis) return kVariationalNeedsCoriolis;
+  if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis)
+    return kVariationalNeedsCoriolis;
   Integrator& target = *integrators_[static_cast<std::size_t>(config.type)];
   if (const char* refused = target.Reconfigure(config)) return refused;
   integrator_ = &target;
@@ -136,9 +120,8 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
   if (kind == EffectKind::kCoriolis && !on && !external_ && integrator_->type() == IntegratorType::kVariational) {
     return kVariationalNeedsCoriolis;
   }
-  if (!model_.effects().SetEnabled(kind, on)) return kNotConfigured[static_cast<std::size_t>(kind)];
-  energies_cached_ = false;  // V may have gained or lost a term
-  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
+  if (!model_.effects().SetEnabled(kind, on)) return NotConfiguredReason(kind);
+  energies_cached_ = false;  // V may have gained or lost a term; q̈ follows at the next step
   if (!accounting_) return nullptr;
   // V may have gained or lost a term, and the rest's power changed with the effects.
   balance_.Rebase(model_.Energy(q_, qd_));
@@ -149,9 +132,8 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
 }
 
 const char* Instance::SetMethod(Method method) {
-  if (!model_.SelectMethod(method)) return kNoClosedForm;  // every plant has the other two
-  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);
-  return nullptr;
+  if (!model_.SelectMethod(method)) return NoMethodReason(config_.plant.type(), method);
+  return nullptr;  // q̈ follows at the next step
 }
 
 void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, out); }
@@ -184,7 +166,10 @@ Instance::StepFailure Instance::IntegrateContinuous(double dt, const Setpoint& s
   energies_cached_ = false;
   q_start_ = q_;
   qd_start_ = qd_;
-  tau_start_ = tau_;  // the law's output at this state, as the last tick ended (the same setpoint)
+  if (accounting_) {  // the law's applied force at the start, under this tick's setpoint (the first stage's)
+    stage_law_.Compute(t_, q_, qd_, tau_cmd_);
+    model_.effects().Saturate(tau_cmd_, tau_start_);
+  }
   const bool ok = integrator_->Advance(model_, &stage_law_, t_, dt, tau_cmd_, q_, qd_);
   t_ = static_cast<double>(++steps_) * dt;
   model_.ComputeAcceleration(&stage_law_, t_, q_, qd_, tau_cmd_, qdd_);
@@ -233,6 +218,7 @@ void Instance::Restore(const Saved& saved) {
   qd_ = saved.qd;
   qdd_.setZero();
   tau_.setZero();
+  tau_cmd_.setZero();  // frozen under zero torque: nothing of the undone step is left
   balance_ = saved.balance;
   rest_power_ = saved.rest_power;
   power_end_ = saved.power_end;

@@ -117,12 +117,14 @@ class Instance {
   // Each returns why it was refused (a static string, the scene reader's
   // wording where it has the same rule; nothing changed), or null.
   //   SetIntegrator  an external plant's (not integrated), kVariationalNeedsCoriolis,
-  //                  CheckIntegratorConfig; dopri5 keeps its last step proposal
-  //                  from when it last ran (a proposal only: it adapts)
+  //                  CheckIntegratorConfig; the integrator starts over as one
+  //                  built with these settings (dopri5's step proposal, the
+  //                  variational Jacobian)
   //   SetEffect      an effect whose parameters the scene does not give,
   //                  coriolis off under the variational integrator; the energy
   //                  balance is re-based so ε runs on continuously (V may jump)
-  //   SetMethod      a method the plant does not have
+  //   SetMethod      a method the plant does not have (NoMethodReason)
+  // q̈ of the current state is left as it is until the next step.
   const char* SetIntegrator(const IntegratorConfig& config);
   const char* SetEffect(EffectKind kind, bool on);
   const char* SetMethod(Method method);
@@ -165,13 +167,13 @@ class Instance {
   InstanceConfig config_;
   bool external_;  // the plant is outside: nothing is integrated
   PlantModel model_;
-  Integrator* integrator_;  // the one in use, one of integrators_
+  Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
-  std::vector<bool> continuous_;    // by controller index
+  std::vector<bool> continuous_;                // by controller index
   std::vector<ExternalController*> externals_;  // by controller index, null for other types
-  std::vector<Gains> scene_gains_;  // by controller index: what Reset restores
+  std::vector<Gains> scene_gains_;              // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;
   double t_ = 0.0;

@@ -32,8 +32,8 @@ constexpr std::size_t kLongestModeReason = 64;
 // the file's, of any length.
 constexpr std::size_t kMaxJointNameBytes = 60;
 
-// True when a status carrying these instances and joint names, with both of
-// its reasons at the longest they can be, fits in one datagram.
+}  // namespace
+
 bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
                 const std::vector<std::string>& joints) {
   status_t s{};
@@ -56,8 +56,6 @@ bool StatusFits(const std::vector<std::string>& instances, const std::vector<std
   s.joint_names = joints;
   return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
 }
-
-}  // namespace
 
 std::string IntegratorDescription(const IntegratorConfig& c, bool external_plant) {
   if (external_plant) return "none";
@@ -136,8 +134,9 @@ LcmReceiver::LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const C
     info.command_channel = channels.command[i];
     info.reply_channel = channels.reply[i];
     info.n = inst.num_dofs();
-    info.command_rules = CommandRules{inst.name(), inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                                      std::move(bounds), c.integrator};
+    info.command_rules =
+        CommandRules{inst.name(),       inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                     std::move(bounds), c.integrator};
     info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
     info.timeout = c.setpoint_timeout;
     if (const ExternalControllerRef external = ExternalControllerOf(c); external.config != nullptr) {
@@ -358,7 +357,8 @@ namespace {
 std::string CheckValues(const char* field, const std::vector<double>& v, double bound) {
   for (std::size_t k = 0; k < v.size(); ++k) {
     if (!std::isfinite(v[k])) return fmt::format("non-finite value in {}[{}]", field, k);
-    if (std::abs(v[k]) > bound) return fmt::format("{}[{}] = {:.6g} is out of range (|x| <= {:.0e})", field, k, v[k], bound);
+    if (std::abs(v[k]) > bound)
+      return fmt::format("{}[{}] = {:.6g} is out of range (|x| <= {:.0e})", field, k, v[k], bound);
   }
   return "";
 }
@@ -376,8 +376,7 @@ void LcmReceiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::siz
   if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(info.torque_channel, "decode failed");
   std::atomic<std::int64_t>& rejected = stats_.torques_rejected;
   if (torque_.num_dofs != info.n) {
-    return RejectInput(i, rejected, "torque",
-                       fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, info.n));
+    return RejectInput(i, rejected, "torque", fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, info.n));
   }
   if (std::string why = CheckValues("tau", torque_.tau, kMaxSetpointMagnitude); !why.empty()) {
     return RejectInput(i, rejected, "torque", why);
@@ -393,13 +392,13 @@ void LcmReceiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::siz
   // torque_timeout), another run_id is refused and the sequence must grow;
   // once it has lapsed, any sender starts a new stream.
   const std::int64_t now = clock_.WallMicros();
-  const bool current_fresh = info.torque_source != 0 &&
-                             now - info.torque_last_us <= ToMicroseconds(info.torque_timeout);
+  const bool current_fresh =
+      info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(info.torque_timeout);
   if (current_fresh && torque_.run_id != info.torque_source) {
-    return RejectInput(i, rejected, "torque",
-                       fmt::format("from a second sender (run_id {:016x}) while {:016x} streams",
-                                   static_cast<std::uint64_t>(torque_.run_id),
-                                   static_cast<std::uint64_t>(info.torque_source)));
+    return RejectInput(
+        i, rejected, "torque",
+        fmt::format("from a second sender (run_id {:016x}) while {:016x} streams",
+                    static_cast<std::uint64_t>(torque_.run_id), static_cast<std::uint64_t>(info.torque_source)));
   }
   if (current_fresh && torque_.sequence <= info.torque_sequence) {
     return RejectInput(i, rejected, "torque",
@@ -432,8 +431,7 @@ void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::s
     return DecodeError(info.measured_channel, "decode failed");
   }
   if (measured_.num_dofs != info.n) {
-    return Trip(i, MeasuredProblem::kWrongSize,
-                fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, info.n));
+    return Trip(i, MeasuredProblem::kWrongSize, fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, info.n));
   }
   for (const auto& [field, values] : {std::pair{"q", &measured_.q}, std::pair{"qd", &measured_.qd}}) {
     if (std::string why = CheckValues(field, *values, kMaxSetpointMagnitude); !why.empty()) {
@@ -441,8 +439,7 @@ void LcmReceiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::s
     }
   }
   if (measured_.run_id == 0) {  // the watchdog locks onto a source by its id: 0 would lock onto nothing
-    return RejectInput(i, stats_.measured_rejected, "measured state",
-                       "run_id 0: expected the sender's non-zero id");
+    return RejectInput(i, stats_.measured_rejected, "measured state", "run_id 0: expected the sender's non-zero id");
   }
   const std::int64_t previous = info.measured_source;
   info.measured_source = measured_.run_id;
@@ -557,8 +554,8 @@ LcmPublisher::LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& r
     forces_t f{};
     f.run_id = run_id_;
     f.num_dofs = inst.num_dofs();
-    for (auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd,
-                    &f.tau_applied}) {
+    for (auto* v :
+         {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
       v->resize(static_cast<std::size_t>(f.num_dofs));
     }
     forces_.push_back(f);
@@ -644,7 +641,7 @@ void LcmPublisher::Publish(const TickRecord& record) {
     last_.instances[i].external_plant = record.instances[i].external_plant;
     last_.instances[i].method = record.instances[i].method;
     last_.instances[i].effects = record.instances[i].effects;
-    last_.instances[i].publish_forces = record.instances[i].publish_forces;
+    last_.instances[i].forces_on = record.instances[i].forces_on;
   }
   have_record_ = true;
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
@@ -808,7 +805,7 @@ void LcmPublisher::PublishStatus(const TickRecord& last) {
     s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant));
     s.instance_methods.emplace_back(ToString(r.method));
     s.instance_effects.push_back(EffectsDescription(r.effects));
-    s.instance_forces.push_back(r.publish_forces);
+    s.instance_forces.push_back(r.forces_on);
   }
   s.num_joints = static_cast<int32_t>(joint_names_.size());
   s.joint_names = joint_names_;

@@ -50,6 +50,12 @@ namespace lagrange {
 
 class TimingCsvWriter;
 
+// True when a status carrying these instances and joint names, with every
+// reason and description at the longest it can be, fits in one datagram.
+// lagranged refuses a scene whose instances alone would not fit.
+bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
+                const std::vector<std::string>& joints);
+
 // status_t.instance_integrators: "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10
 // max_steps=200"; "none" for an external plant.
 std::string IntegratorDescription(const IntegratorConfig& config, bool external_plant);
@@ -175,8 +181,8 @@ class LcmReceiver {
     std::string measured_channel;
     double state_timeout = 0.01;
     Timeline measured;
-    std::int64_t measured_source = 0;  // the previous packet's run id (0: none yet)
-    std::int64_t measured_tick = 0;    // the last accepted state's tick (from measured_source)
+    std::int64_t measured_source = 0;    // the previous packet's run id (0: none yet)
+    std::int64_t measured_tick = 0;      // the last accepted state's tick (from measured_source)
     std::int64_t measured_last_us = -1;  // when it was accepted, wall clock µs
   };
   // A setpoint's age against its instance's timeout, or why it is refused.
@@ -259,11 +265,11 @@ class LcmPublisher {
   std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
   std::vector<std::vector<std::string>> controller_names_;
   std::vector<state_t> states_;
-  std::vector<torque_t> torques_;  // external plants' commands, by instance
+  std::vector<torque_t> torques_;       // external plants' commands, by instance
   std::vector<telemetry_t> telemetry_;  // by instance
   std::vector<forces_t> forces_;        // by instance
   std::vector<Mode> modes_;
-  std::vector<const char*> reasons_;  // each instance's latest record's reason
+  std::vector<const char*> reasons_;          // each instance's latest record's reason
   std::vector<double> latencies_, computes_;  // µs, this status window
   std::int64_t commands_applied_ = 0;         // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;

@@ -106,8 +106,8 @@ struct Runtime::Slot {
   Mode mode = Mode::kRunning;
   Mode before_pause = Mode::kRunning;
   const char* paused_reason = nullptr;  // the reason before the pause
-  bool streaming = false;         // a streamed setpoint has been accepted since start or reset
-  Nanoseconds last_setpoint = 0;  // when it was
+  bool streaming = false;               // a streamed setpoint has been accepted since start or reset
+  Nanoseconds last_setpoint = 0;        // when it was
   Setpoint streamed, held, current;
   Instance::Saved good;  // the last state that passed the health check
   VectorXd zero, brake, brake_torque;
@@ -119,8 +119,8 @@ struct Runtime::Slot {
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
   const char* reason = nullptr;                // why the mode is not running
-  bool estop_latched = false;  // an estop not yet cleared: survives a fault, the watchdog and reset
-  bool hold_on_arrival = false;  // external plant waiting after clear_estop: its first state holds
+  bool estop_latched = false;                  // an estop not yet cleared: survives a fault, the watchdog and reset
+  bool hold_on_arrival = false;                // external plant waiting after clear_estop: its first state holds
   // External controllers, by controller index: torque_timeout (0: not external)
   // and the fallback's index in hold (-1: the brake).
   std::vector<Nanoseconds> torque_timeout;
@@ -130,13 +130,13 @@ struct Runtime::Slot {
   Nanoseconds state_timeout;
   Nanoseconds last_measured = 0;
   std::int64_t measured_tick = -1;
-  std::int64_t source = 0;       // the run id the watchdog locked onto (0: none yet)
+  std::int64_t source = 0;        // the run id the watchdog locked onto (0: none yet)
   Nanoseconds clock_origin = -1;  // monotonic time of step 0 (-1: set at the next step)
-  bool send_zero_once = false;  // fault or stopped: command zero torque in this tick's record, once
+  bool send_zero_once = false;    // fault or stopped: command zero torque in this tick's record, once
   // Issue 14: switching and telemetry.
-  bool forces;                            // publish <NAME>_FORCES
+  bool forces;                           // publish <NAME>_FORCES
   std::array<double, 3> evaluation_s{};  // by Method: one evaluation's cost, s (0: unknown)
-  bool integrated = false;                // this tick ran the integrator
+  bool integrated = false;               // this tick ran the integrator
 
   bool external_active() const { return torque_timeout[instance.active_controller()] > 0; }
 
@@ -372,7 +372,16 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
       if (!Fits(s, config, inst.method())) return kSwitchDoesNotFit;
       return inst.SetIntegrator(config);
     }
-    case CommandKind::kSetEffect: return inst.SetEffect(c.effect, c.on);
+    case CommandKind::kSetEffect: {
+      if (const char* refused = inst.SetEffect(c.effect, c.on)) return refused;
+      // V may have changed: the energies published while nothing steps
+      // (paused, fault) follow, and the good state to return to after a
+      // fault carries the re-based balance (it is the current state: commands
+      // come between ticks, after the health check).
+      s.energies = {inst.KineticEnergy(), inst.PotentialEnergy()};
+      inst.Save(s.good);
+      return nullptr;
+    }
     case CommandKind::kSetMethod:
       if (!Fits(s, inst.integrator().config(), c.method)) return kSwitchDoesNotFit;
       return inst.SetMethod(c.method);
@@ -524,7 +533,8 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
   const InstanceConfig& c = inst.config();
   s.in_use = nullptr;
-  s.integrated = !inst.external_plant() && (s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop);
+  s.integrated =
+      !inst.external_plant() && (s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop);
   const auto brake = [&] {
     s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
     return inst.StepWithTorque(period_, s.brake_torque);
@@ -608,8 +618,9 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.external_plant = inst.external_plant();
   r.method = inst.method();
   r.effects = inst.model().effects().flags();
-  r.publish_forces = s.forces;
-  if (s.forces) inst.ComputeForces(r.forces);
+  r.forces_on = s.forces;
+  r.publish_forces = s.forces && s.mode != Mode::kFault && s.mode != Mode::kStopped;
+  if (r.publish_forces) inst.ComputeForces(r.forces);
 }
 
 }  // namespace lagrange

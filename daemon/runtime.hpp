@@ -93,9 +93,9 @@ struct TorqueMessage {
 
 // An external plant's measured state, validated (size, finite, bounded) and fresh.
 struct MeasuredMessage {
-  VectorXd q, qd;            // (n)
-  std::int64_t tick = -1;    // the sender's state_t.tick
-  std::int64_t run_id = 0;   // the sender's state_t.run_id
+  VectorXd q, qd;           // (n)
+  std::int64_t tick = -1;   // the sender's state_t.tick
+  std::int64_t run_id = 0;  // the sender's state_t.run_id
   Nanoseconds sent = kSentUnknown;
   Nanoseconds arrived = kSentUnknown;  // when the receiver took it (monotonic), for the phase lock
 };
@@ -232,7 +232,10 @@ struct InstanceRecord {
   bool external_plant = false;
   Method method = Method::kClosedForm;
   EffectFlags effects;
-  // Forces (forces_t): every effect's force at the tick's end state, when publish_forces.
+  // Forces (forces_t): every effect's force at the tick's end state, when
+  // publish_forces: asked (forces_on) and the state is not one a fault or
+  // the watchdog restored (frozen under zero torque, with q̈ zeroed).
+  bool forces_on = false;
   bool publish_forces = false;
   EffectForces forces;
 };

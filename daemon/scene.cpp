@@ -79,10 +79,7 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf) {
   if (auto m = node.Optional("method")) {
     const std::optional<Method> parsed = ParseMethod(m->Text());
     if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
-    if (!HasMethod(*type, *parsed)) {
-      m->Fail(std::string(ToString(*type)) + " has no " + std::string(ToString(*parsed)) +
-              " path (expected lagrangian or recursive)");
-    }
+    if (const char* why = NoMethodReason(*type, *parsed)) m->Fail(why);  // as the method command says
     *method = *parsed;
   }
   return spec;
@@ -201,21 +198,27 @@ EffectsConfig ReadEffects(const YamlReader& node, const std::vector<std::string>
           Push{p.Required("start").Number(), p.Required("duration").PositiveNumber(), p.Required("tau").Vector(n)});
     }
   }
+  std::vector<EffectKind> off;
+  std::vector<YamlReader> off_items;
   if (auto v = node.Optional("off")) {
     // Effects given above that start off; a command (SET_EFFECT) may turn them on.
-    c.off.clear();
     for (std::size_t i = 0; i < v->Size(); ++i) {
-      const YamlReader item = v->At(i);
-      const std::optional<EffectKind> kind = ParseEffectKind(item.Text());
-      if (!kind) item.Fail("expected one of " + EffectKindNames() + ", got '" + Escape(item.Text()) + "'");
-      const Effects probe(c, static_cast<int>(names.size()));
-      if (!probe.Configured(*kind)) {
-        item.Fail("effect " + std::string(ToString(*kind)) + " is not given above: nothing to switch on later");
+      off_items.push_back(v->At(i));
+      const std::optional<EffectKind> kind = ParseEffectKind(off_items.back().Text());
+      if (!kind) {
+        off_items.back().Fail("expected one of " + EffectKindNames() + ", got '" + Escape(off_items.back().Text()) +
+                              "'");
       }
-      c.off.push_back(*kind);
+      off.push_back(*kind);
     }
   }
+  c.off.clear();
   if (auto err = CheckEffects(c, names)) node.Fail(err->key, err->message);
+  const Effects probe(c, static_cast<int>(names.size()));  // valid now: it cannot throw
+  for (std::size_t i = 0; i < off.size(); ++i) {
+    if (!probe.Configured(off[i])) off_items[i].Fail(NotConfiguredReason(off[i]));
+  }
+  c.off = off;
   return c;
 }
 
@@ -370,7 +373,11 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
                         ToString(other->type) == f);
     }
     if (!found) {
-      nodes[k].Required("fallback").Fail("expected brake" + (holders.empty() ? "" : " or one of this instance's controllers (" + holders.substr(2) + ")") + ", got '" + Escape(f) + "'");
+      nodes[k]
+          .Required("fallback")
+          .Fail("expected brake" +
+                (holders.empty() ? "" : " or one of this instance's controllers (" + holders.substr(2) + ")") +
+                ", got '" + Escape(f) + "'");
     }
   }
 }
@@ -410,12 +417,13 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     node.Required("plant").Fail("file", Escape(urdf_params->file) + ": its joints' " + err->key + ": " + err->message);
   }
   if (auto i = node.Optional("integrator")) {
-    if (inst.external) i->Fail("an external plant is not integrated by lagranged (its state is measured)");
+    if (inst.external) i->Fail(kExternalNotIntegrated);  // as the integrator command says
     inst.integrator = ReadIntegrator(*i);
     const bool coriolis = inst.effects.coriolis && std::find(inst.effects.off.begin(), inst.effects.off.end(),
                                                              EffectKind::kCoriolis) == inst.effects.off.end();
     if (inst.integrator.type == IntegratorType::kVariational && !coriolis) {
-      i->Required("type").Fail(kVariationalNeedsCoriolis);  // the command's refusal is the same (Instance::SetIntegrator)
+      i->Required("type").Fail(
+          kVariationalNeedsCoriolis);  // the command's refusal is the same (Instance::SetIntegrator)
     }
   }
   if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();

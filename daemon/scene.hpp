@@ -48,6 +48,11 @@ struct ExternalPlantConfig {
   double phase_lag = 2e-4;  // s
 };
 
+// An external plant's state is measured: a scene's `integrator` and the
+// integrator command are refused with this.
+inline constexpr char kExternalNotIntegrated[] =
+    "an external plant is not integrated by lagranged (its state is measured)";
+
 struct InstanceConfig {
   std::string name;  // [a-z][a-z0-9_]*, unique in the scene
   PlantSpec plant;
@@ -63,11 +68,11 @@ struct InstanceConfig {
   VectorXd setpoint_lower, setpoint_upper;  // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
   double setpoint_timeout = 0.5;            // s: streamed setpoints older than this, or none for this long, time out
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
-  std::optional<double> max_energy;       // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
-  std::optional<VectorXd> estop_damping;  // (n) brake B during an emergency stop (default 20/s × diag M(q0))
+  std::optional<double> max_energy;             // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
+  std::optional<VectorXd> estop_damping;        // (n) brake B during an emergency stop (default 20/s × diag M(q0))
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
-  bool telemetry = true;  // keep the energy balance and publish <NAME>_TELEMETRY every tick
-  bool forces = false;    // publish <NAME>_FORCES from the start (a command may turn it on or off)
+  bool telemetry = true;                        // keep the energy balance and publish <NAME>_TELEMETRY every tick
+  bool forces = false;  // publish <NAME>_FORCES from the start (a command may turn it on or off)
 };
 
 struct Scene {

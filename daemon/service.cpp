@@ -151,7 +151,18 @@ int Serve(const Options& o, const LogFiles& logs) {
     runtime->SetEvaluationCosts(i, MeasureEvaluationCosts(scene.instances[i]));
   }
   std::vector<std::string> names;
-  for (const auto& inst : scene.instances) names.push_back(inst.name);
+  std::vector<std::int32_t> dofs;
+  for (const auto& inst : scene.instances) {
+    names.push_back(inst.name);
+    dofs.push_back(inst.plant.num_dofs());
+  }
+  if (!StatusFits(names, dofs, {})) {
+    spdlog::error(
+        "{}: {} instances: a status_t listing them would not fit one datagram; split the scene across "
+        "daemons (--channel-prefix)",
+        o.config, names.size());
+    return 2;
+  }
   const ChannelNames channels = SceneChannelNames(scene, o.channel_prefix);
   if (const std::string why = CheckChannelNames(channels, names); !why.empty()) {
     spdlog::error("{}: {}", o.config, why);
@@ -203,13 +214,12 @@ int Serve(const Options& o, const LogFiles& logs) {
                static_cast<std::uint64_t>(run_id));
   for (std::size_t i = 0; i < names.size(); ++i) {
     const InstanceConfig& inst = scene.instances[i];
-    spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", names[i], inst.external ? "external plant, model " : "",
-                 ToString(inst.plant.type()), runtime->instance(i).controller().name(), channels.state[i],
-                 channels.setpoint[i], channels.command[i],
-                 channels.torque_in[i].empty() ? "" : ", torques from " + channels.torque_in[i],
-                 inst.external ? ", measured state from " + channels.measured_in[i] + ", torque to " +
-                                     channels.torque_out[i]
-                               : "");
+    spdlog::info(
+        "  {}: {}{} with {}, {} / {} / {}{}{}", names[i], inst.external ? "external plant, model " : "",
+        ToString(inst.plant.type()), runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i],
+        channels.command[i], channels.torque_in[i].empty() ? "" : ", torques from " + channels.torque_in[i],
+        inst.external ? ", measured state from " + channels.measured_in[i] + ", torque to " + channels.torque_out[i]
+                      : "");
   }
 
   std::atomic<bool> stop_loop{false}, stop_io{false};

@@ -68,6 +68,10 @@ std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config) {
     if (!HasMethod(config.plant.type(), m)) continue;
     InstanceConfig c = config;
     c.method = m;
+    // Every effect a command can switch on, on: the costliest combination.
+    c.effects.off.clear();
+    c.effects.gravity = true;
+    c.effects.coriolis = true;
     costs[static_cast<std::size_t>(m)] = MeasureEvaluationSeconds(c);
   }
   return costs;

@@ -40,6 +40,8 @@ std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs);
 double MeasureEvaluationSeconds(const InstanceConfig& config);
 
 // The same by every method the plant has (by Method; 0 for a method it lacks),
+// with every effect the scene configures on (gravity, Coriolis and those in
+// effects.off included): the costliest combination a command can switch to,
 // for the run-time method and integrator commands (Runtime::SetEvaluationCosts).
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 

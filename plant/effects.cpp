@@ -110,6 +110,28 @@ double LimitSpring(const JointLimits& l, int i, double q) {
 
 std::string_view ToString(EffectKind kind) { return NameOf(kEffectKindNames, kind); }
 std::optional<EffectKind> ParseEffectKind(std::string_view name) { return ValueOf(kEffectKindNames, name); }
+const char* NotConfiguredReason(EffectKind kind) {
+  switch (kind) {
+    case EffectKind::kDamping:
+      return "effect damping has no coefficients under effects (give them there; list it in effects.off to start it "
+             "off)";
+    case EffectKind::kFriction:
+      return "effect friction has no coefficients under effects (give them there; list it in effects.off to start it "
+             "off)";
+    case EffectKind::kLimits:
+      return "effect limits has no joint limits under effects (give them there; list it in effects.off to start it "
+             "off)";
+    case EffectKind::kSaturation:
+      return "effect saturation has no torque bounds under effects (give them there; list it in effects.off to start "
+             "it off)";
+    case EffectKind::kDisturbance:
+      return "effect disturbance has no pushes under effects (give them there; list it in effects.off to start it off)";
+    case EffectKind::kGravity:
+    case EffectKind::kCoriolis: break;  // always configured
+  }
+  return "this effect is always available";
+}
+
 std::string EffectKindNames() { return JoinedNames(kEffectKindNames); }
 
 bool EffectFlags::on(EffectKind kind) const { return FlagOf(*this, kind); }

@@ -49,6 +49,9 @@ std::string_view ToString(EffectKind kind);
 std::optional<EffectKind> ParseEffectKind(std::string_view name);
 // "gravity|coriolis|damping|friction|limits|saturation|disturbance"
 std::string EffectKindNames();
+// Why `kind` cannot be switched on: its parameters are not given (a static
+// string; the scene reader says it of effects.off, the effect command of "on").
+const char* NotConfiguredReason(EffectKind kind);
 
 struct EffectsConfig {
   bool gravity = true;

@@ -7,8 +7,8 @@ namespace lagrange {
 double NonConservativePower(ConstVecRef qd, const EffectForces& f) {
   double p = 0.0;
   for (int i = 0; i < qd.size(); ++i) {
-    p += qd[i] * (f.tau_applied[i] + f.disturbance[i] + f.damping[i] + f.friction[i] + f.limits[i] -
-                  f.limit_springs[i]);
+    p +=
+        qd[i] * (f.tau_applied[i] + f.disturbance[i] + f.damping[i] + f.friction[i] + f.limits[i] - f.limit_springs[i]);
   }
   return p;
 }
@@ -22,6 +22,7 @@ void EnergyBalance::Reset(double energy) {
 void EnergyBalance::Rebase(double energy) {
   energy0_ += energy - energy_;
   energy_ = energy;
+  slope_known_ = false;
 }
 
 void EnergyBalance::AddTickWithWork(double h, double command_work, double rest_start, double rest_end,
@@ -34,7 +35,7 @@ void EnergyBalance::AddTick(double h, double power_start, double power_end, doub
   work_ += 0.5 * h * (power_start + power_end);
   energy_ = energy_end;
   const double slope = (power_end - power_start) / h;
-  if (ticks_ >= 1) {
+  if (ticks_ >= 1 && slope_known_) {
     // h³/12 |P''| with P'' from the two slopes; the first tick takes the second's estimate.
     const double second_derivative = std::abs(slope - last_slope_) / (0.5 * (h + last_h_));
     quadrature_bound_ += h * h * h / 12.0 * second_derivative;
@@ -42,6 +43,7 @@ void EnergyBalance::AddTick(double h, double power_start, double power_end, doub
   }
   last_slope_ = slope;
   last_h_ = h;
+  slope_known_ = true;
   ++ticks_;
 }
 

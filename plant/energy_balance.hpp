@@ -72,7 +72,9 @@ class EnergyBalance {
 
   // The energy function changed under the run (an effect switched on or off:
   // V gained or lost a term): E is now `energy` at the same state. E(0) moves
-  // by the jump, so ε, W and the bound run on continuously.
+  // by the jump, so ε, W and the bound run on continuously; the next tick
+  // adds nothing to the bound (its power's slope before the switch is of
+  // another function).
   void Rebase(double energy);
 
   // One tick of length h > 0, s: the non-conservative power at its start and
@@ -89,8 +91,8 @@ class EnergyBalance {
 
   double residual() const { return energy_ - energy0_ - work_; }  // ε, J
   double energy_change() const { return energy_ - energy0_; }     // E − E(0), J
-  double work() const { return work_; }                            // W, J
-  double quadrature_bound() const { return quadrature_bound_; }    // J
+  double work() const { return work_; }                           // W, J
+  double quadrature_bound() const { return quadrature_bound_; }   // J
   std::int64_t ticks() const { return ticks_; }
 
  private:
@@ -98,8 +100,9 @@ class EnergyBalance {
   double energy_ = 0.0;
   double work_ = 0.0;
   double quadrature_bound_ = 0.0;
-  double last_slope_ = 0.0;  // W/s, the previous tick's
-  double last_h_ = 0.0;      // s
+  double last_slope_ = 0.0;   // W/s, the previous tick's
+  double last_h_ = 0.0;       // s
+  bool slope_known_ = false;  // last_slope_ is of the current power function (false after Rebase)
   std::int64_t ticks_ = 0;
 };
 

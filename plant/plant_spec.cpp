@@ -450,6 +450,15 @@ bool HasClosedForm(PlantType type) {
 
 bool HasMethod(PlantType type, Method method) { return method != Method::kClosedForm || HasClosedForm(type); }
 
+const char* NoMethodReason(PlantType type, Method method) {
+  if (HasMethod(type, method)) return nullptr;
+  switch (type) {  // only closed forms can be missing
+    case PlantType::kChain: return "chain has no closed-form path (expected lagrangian or recursive)";
+    case PlantType::kUrdf: return "urdf has no closed-form path (expected lagrangian or recursive)";
+    default: return "this plant has no such path (expected lagrangian or recursive)";
+  }
+}
+
 Method FastestMethod(PlantType type) { return HasClosedForm(type) ? Method::kClosedForm : Method::kRecursive; }
 
 std::vector<JointType> JointTypesOf(const PlantSpec& spec) {

@@ -94,6 +94,9 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec);
 // Closed forms exist for pendulum, arm2 and cartpole; every plant has the
 // lagrangian and recursive paths.
 bool HasMethod(PlantType type, Method method);
+// Why `type` cannot be derived by `method` (a static string: the scene reader
+// and the run-time method command both say it), or null when it can.
+const char* NoMethodReason(PlantType type, Method method);
 // The fastest exact path: closed form where one exists, else recursive.
 Method FastestMethod(PlantType type);
 

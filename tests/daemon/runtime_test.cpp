@@ -329,19 +329,21 @@ TEST(Loop, TheTickAllocatesNothingInAnyMode) {
 // sub-steps and tolerances), every effect off and on again (with forces
 // published), every method, and the refusals (which format nothing).
 TEST(Loop, SwitchingIntegratorsEffectsAndMethodsAllocatesNothing) {
-  Runtime runtime(TwoInstances(
-      "    effects: {damping: 0.1, friction: {coulomb: 0.05}, limits: {lower: [-3, -3], upper: [3, 3]},\n"
-      "              saturation: [40, 15], disturbance: [{start: 0.01, duration: 0.05, tau: [1, 0]}]}\n"));
+  Runtime runtime(
+      TwoInstances("    effects: {damping: 0.1, friction: {coulomb: 0.05}, limits: {lower: [-3, -3], upper: [3, 3]},\n"
+                   "              saturation: [40, 15], disturbance: [{start: 0.01, duration: 0.05, tau: [1, 0]}]}\n"));
   runtime.SetEvaluationCosts(0, {1e-7, 1e-6, 5e-7});  // the work bound is checked too
   CountedLoop loop(runtime);
   loop.Run(10);
-  CommandMessage forces{CommandKind::kSetForces};
+  CommandMessage forces;
+  forces.kind = CommandKind::kSetForces;
   forces.on = true;
   loop.Switch(0, forces);
-  for (const IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler,
-                                    IntegratorType::kRk4, IntegratorType::kDormandPrince,
-                                    IntegratorType::kVariational}) {
-    CommandMessage c{CommandKind::kSetIntegrator};
+  for (const IntegratorType type :
+       {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4,
+        IntegratorType::kDormandPrince, IntegratorType::kVariational}) {
+    CommandMessage c;
+    c.kind = CommandKind::kSetIntegrator;
     c.integrator.type = type;
     c.integrator.substeps = 2;
     c.integrator.rtol = 1e-7;
@@ -351,7 +353,8 @@ TEST(Loop, SwitchingIntegratorsEffectsAndMethodsAllocatesNothing) {
     loop.Run(5);
   }
   for (int k = 0; k < kNumEffectKinds; ++k) {
-    CommandMessage c{CommandKind::kSetEffect};
+    CommandMessage c;
+    c.kind = CommandKind::kSetEffect;
     c.effect = static_cast<EffectKind>(k);
     c.on = false;  // coriolis off under the variational integrator: refused
     loop.Switch(0, c);
@@ -361,12 +364,14 @@ TEST(Loop, SwitchingIntegratorsEffectsAndMethodsAllocatesNothing) {
     loop.Run(2);
   }
   for (const Method m : {Method::kLagrangian, Method::kRecursive, Method::kClosedForm}) {
-    CommandMessage c{CommandKind::kSetMethod};
+    CommandMessage c;
+    c.kind = CommandKind::kSetMethod;
     c.method = m;
     loop.Switch(0, c);
     loop.Run(5);
   }
-  CommandMessage lacking{CommandKind::kSetEffect};  // the cart-pole has no friction: refused
+  CommandMessage lacking;
+  lacking.kind = CommandKind::kSetEffect;  // the cart-pole has no friction: refused
   lacking.effect = EffectKind::kFriction;
   lacking.on = true;
   loop.Switch(1, lacking);
