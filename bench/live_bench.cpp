@@ -511,11 +511,27 @@ struct LoggedSetpoint {
 struct Log {
   std::vector<Tick> ticks;                                    // the run's telemetry, in log order
   std::map<std::int64_t, LoggedState> states;                 // the run's state_t by tick
-  std::unordered_map<std::string, LoggedSetpoint> setpoints;  // what this program streamed, by Key(q)
+  // What this program streamed, by Key(q): the sine comes back to the same
+  // bits (at rest before it starts, and now and then in its periods), so
+  // every setpoint with those bits, in log order; the one a tick used is the
+  // latest sent before it ran.
+  std::unordered_map<std::string, std::vector<LoggedSetpoint>> setpoints;
+  std::int64_t setpoint_count = 0;
   std::map<std::int64_t, std::int64_t> reply_utime;           // request_id → the reply's utime
   std::int64_t nonfinite = 0;                                 // telemetry with a non-finite ε or energy
   std::int64_t events = 0;
 };
+
+// The setpoint a logged tick used: the latest with its q_des bits sent before the tick ran.
+const LoggedSetpoint* LatestBefore(const Log& log, const LoggedState& state) {
+  const auto it = log.setpoints.find(state.q_des_bits);
+  if (it == log.setpoints.end()) return nullptr;
+  const LoggedSetpoint* latest = nullptr;
+  for (const LoggedSetpoint& sp : it->second) {
+    if (sp.utime <= state.utime) latest = &sp;
+  }
+  return latest != nullptr ? latest : &it->second.front();
+}
 
 Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::int64_t run_id) {
   Log log;
@@ -544,9 +560,8 @@ Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::
         sp.q = vec(setpoint.q);
         sp.qd = vec(setpoint.qd);
         sp.qdd = vec(setpoint.qdd);
-        const auto index = static_cast<std::int64_t>(log.setpoints.size());
-        log.setpoints.emplace(Key(setpoint.q.data(), setpoint.q.size()),
-                              LoggedSetpoint{std::move(sp), setpoint.utime, index});
+        log.setpoints[Key(setpoint.q.data(), setpoint.q.size())].push_back(
+            LoggedSetpoint{std::move(sp), setpoint.utime, log.setpoint_count++});
       }
       continue;
     }
@@ -732,14 +747,14 @@ struct Offline {
       if (state == log.states.end()) {
         ++r.states_missing;  // its setpoint unknown: the previous one again
         previous = -1;
-      } else if (const auto used = log.setpoints.find(state->second.q_des_bits); used != log.setpoints.end()) {
-        sp = used->second.setpoint;
+      } else if (const LoggedSetpoint* used = LatestBefore(log, state->second); used != nullptr) {
+        sp = used->setpoint;
         if (counted) {
-          ages.push_back(static_cast<double>(state->second.utime - used->second.utime));
-          r.setpoints_reused += previous >= 0 && used->second.index == previous ? 1 : 0;
-          r.setpoints_skipped += previous >= 0 && used->second.index > previous + 1 ? 1 : 0;
+          ages.push_back(static_cast<double>(state->second.utime - used->utime));
+          r.setpoints_reused += previous >= 0 && used->index == previous ? 1 : 0;
+          r.setpoints_skipped += previous >= 0 && used->index > previous + 1 ? 1 : 0;
         }
-        previous = used->second.index;
+        previous = used->index;
       } else {
         ++r.setpoints_unmatched;
         previous = -1;
