@@ -123,29 +123,6 @@ struct Options {
 
 // ---- figures ---------------------------------------------------------------------------
 
-struct Summary {
-  std::size_t n = 0;
-  double p50 = std::numeric_limits<double>::quiet_NaN();
-  double p99 = std::numeric_limits<double>::quiet_NaN();
-  double max = std::numeric_limits<double>::quiet_NaN();
-};
-
-// Nearest-rank percentiles (as lagranged's status_t).
-Summary Summarize(std::vector<double> v) {
-  Summary s;
-  s.n = v.size();
-  if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  const auto rank = [&](double p) {
-    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-    return v[std::clamp<std::size_t>(k, 1, v.size()) - 1];
-  };
-  s.p50 = rank(0.50);
-  s.p99 = rank(0.99);
-  s.max = v.back();
-  return s;
-}
-
 double Mean(const std::vector<double>& v) {
   double sum = 0.0;
   for (const double x : v) sum += x;

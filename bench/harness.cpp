@@ -1,5 +1,6 @@
 #include "bench/harness.hpp"
 
+
 #include <fcntl.h>
 #include <signal.h>
 #include <string.h>
@@ -8,7 +9,9 @@
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <thread>
@@ -174,6 +177,21 @@ std::vector<std::string> CyclictestArgs(int seconds, const fs::path& json, int f
   if (cpu >= 0) argv.push_back("-a" + std::to_string(cpu));
   if (mlockall) argv.push_back("-m");
   return argv;
+}
+
+Summary Summarize(std::vector<double> v) {
+  Summary s;
+  s.n = v.size();
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  const auto rank = [&](double p) {
+    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+    return v[std::clamp<std::size_t>(k, 1, v.size()) - 1];
+  };
+  s.p50 = rank(0.50);
+  s.p99 = rank(0.99);
+  s.max = v.back();
+  return s;
 }
 
 }  // namespace lagrange::bench

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -80,5 +81,14 @@ std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const std::files
 // tune the machine (/dev/cpu_dma_latency) for the daemon beside it.
 std::vector<std::string> CyclictestArgs(int seconds, const std::filesystem::path& json, int fifo_priority, int cpu,
                                         bool mlockall, int histogram_us = 20000);
+
+// p50, p99 and max of a sample, nearest rank (as lagranged's status_t); NaN for none.
+struct Summary {
+  std::size_t n = 0;
+  double p50 = std::numeric_limits<double>::quiet_NaN();
+  double p99 = std::numeric_limits<double>::quiet_NaN();
+  double max = std::numeric_limits<double>::quiet_NaN();
+};
+Summary Summarize(std::vector<double> v);
 
 }  // namespace lagrange::bench

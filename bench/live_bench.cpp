@@ -187,27 +187,6 @@ struct Tick {
   int substeps = 1;
 };
 
-struct Summary {
-  std::size_t n = 0;
-  double p50 = kNaN, p99 = kNaN, max = kNaN;
-};
-
-// Nearest-rank percentiles (as lagranged's status_t).
-Summary Summarize(std::vector<double> v) {
-  Summary s;
-  s.n = v.size();
-  if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  const auto rank = [&](double p) {
-    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-    return v[std::clamp<std::size_t>(k, 1, v.size()) - 1];
-  };
-  s.p50 = rank(0.50);
-  s.p99 = rank(0.99);
-  s.max = v.back();
-  return s;
-}
-
 struct Figures {
   std::size_t ticks = 0;      // in the window
   std::int64_t missed = 0;    // tick numbers missing from the window (live: not logged)
