@@ -864,16 +864,7 @@ std::optional<Channels> LoopChannels(const Scene& plant, const Scene& controller
 int Main(int argc, char** argv) {
   Options o;
   CLI::App app{"external_bench: the two-process loop (external controller / external plant) beside one process"};
-  const fs::path sibling = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "daemon" / "lagranged";
-  if (fs::exists(sibling)) o.lagranged = sibling.string();
-  app.add_option("--lagranged", o.lagranged, "The daemon to run (default: ../daemon/lagranged beside this program)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--config-dir", o.config_dir, "Where default.yaml and the two external scenes are")
-      ->capture_default_str();
-  app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
-  app.add_option("--port", o.port, "Private LCM port on udpm://239.255.76.67")
-      ->check(CLI::Range(1, 65535))
-      ->capture_default_str();
+  AddDaemonOptions(app, o.lagranged, o.config_dir, o.out, o.port, "Where default.yaml and the two external scenes are");
   auto* duration = app.add_option("--duration", o.duration, "Seconds of one process, and of the two-process loop")
                        ->check(CLI::Range(1.0, 3600.0))
                        ->capture_default_str();

@@ -1,6 +1,5 @@
 #include "bench/harness.hpp"
 
-
 #include <fcntl.h>
 #include <signal.h>
 #include <string.h>
@@ -9,9 +8,12 @@
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <thread>
@@ -192,6 +194,20 @@ Summary Summarize(std::vector<double> v) {
   s.p99 = rank(0.99);
   s.max = v.back();
   return s;
+}
+
+void AddDaemonOptions(CLI::App& app, std::string& lagranged, std::string& config_dir, std::string& out, int& port,
+                      const std::string& config_help) {
+  namespace fs = std::filesystem;
+  const fs::path sibling = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "daemon" / "lagranged";
+  if (fs::exists(sibling)) lagranged = sibling.string();
+  app.add_option("--lagranged", lagranged, "The daemon to run (default: ../daemon/lagranged beside this program)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--config-dir", config_dir, config_help)->capture_default_str();
+  app.add_option("--out", out, "Folder for the results")->capture_default_str();
+  app.add_option("--port", port, "Private LCM port on udpm://239.255.76.67")
+      ->check(CLI::Range(1, 65535))
+      ->capture_default_str();
 }
 
 }  // namespace lagrange::bench

@@ -7,12 +7,23 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <map>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
+namespace CLI {
+class App;
+}
+
 namespace lagrange::bench {
+
+// The options of a benchmark that runs lagranged on the project's scenes:
+// --lagranged (default: ../daemon/lagranged beside this program, when there),
+// --config-dir (`config_help` says what it must hold), --out and --port (a
+// private LCM port on udpm://239.255.76.67).
+void AddDaemonOptions(CLI::App& app, std::string& lagranged, std::string& config_dir, std::string& out, int& port,
+                      const std::string& config_help);
 
 // udpm://239.255.76.67:PORT?ttl=0 (this host only).
 std::string Url(int port);

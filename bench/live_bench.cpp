@@ -488,16 +488,16 @@ struct LoggedSetpoint {
 };
 
 struct Log {
-  std::vector<Tick> ticks;                                    // the run's telemetry, in log order
-  std::map<std::int64_t, LoggedState> states;                 // the run's state_t by tick
+  std::vector<Tick> ticks;                     // the run's telemetry, in log order
+  std::map<std::int64_t, LoggedState> states;  // the run's state_t by tick
   // What this program streamed, by Key(q): the sine comes back to the same
   // bits (at rest before it starts, and now and then in its periods), so
   // every setpoint with those bits, in log order; the one a tick used is the
   // latest sent before it ran.
   std::unordered_map<std::string, std::vector<LoggedSetpoint>> setpoints;
   std::int64_t setpoint_count = 0;
-  std::map<std::int64_t, std::int64_t> reply_utime;           // request_id → the reply's utime
-  std::int64_t nonfinite = 0;                                 // telemetry with a non-finite ε or energy
+  std::map<std::int64_t, std::int64_t> reply_utime;  // request_id → the reply's utime
+  std::int64_t nonfinite = 0;                        // telemetry with a non-finite ε or energy
   std::int64_t events = 0;
 };
 
@@ -804,15 +804,7 @@ void PrintRow(const std::string& source, const Setting& s, const Figures& f) {
 int Main(int argc, char** argv) {
   Options o;
   CLI::App app{"live_bench: accuracy against cost, live in lagranged and offline, for every integrator setting"};
-  const fs::path sibling = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "daemon" / "lagranged";
-  if (fs::exists(sibling)) o.lagranged = sibling.string();
-  app.add_option("--lagranged", o.lagranged, "The daemon to run (default: ../daemon/lagranged beside this program)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--config-dir", o.config_dir, "Where default.yaml is")->capture_default_str();
-  app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
-  app.add_option("--port", o.port, "Private LCM port on udpm://239.255.76.67")
-      ->check(CLI::Range(1, 65535))
-      ->capture_default_str();
+  AddDaemonOptions(app, o.lagranged, o.config_dir, o.out, o.port, "Where default.yaml is");
   auto* seconds = app.add_option("--seconds", o.seconds, "Seconds per setting")
                       ->check(CLI::Range(1.0, 3600.0))
                       ->capture_default_str();
