@@ -70,7 +70,10 @@ Instance::Instance(const InstanceConfig& config)
 void Instance::ResetBalance() {
   balance_.Reset(model_.Energy(q_, qd_));
   rest_power_ = power_end_ = 0.0;
-  if (!accounting_) return;
+  if (accounting_) ComputePowers();
+}
+
+void Instance::ComputePowers() {
   model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
   power_end_ = NonConservativePower(qd_, forces_);
   rest_power_ = power_end_ - qd_.dot(forces_.tau_applied);
@@ -125,9 +128,7 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
   if (!accounting_) return nullptr;
   // V may have gained or lost a term, and the rest's power changed with the effects.
   balance_.Rebase(model_.Energy(q_, qd_));
-  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
-  power_end_ = NonConservativePower(qd_, forces_);
-  rest_power_ = power_end_ - qd_.dot(forces_.tau_applied);
+  ComputePowers();
   return nullptr;
 }
 

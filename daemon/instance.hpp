@@ -162,6 +162,9 @@ class Instance {
   void Account(double dt, ConstVecRef tau_applied_start, bool held);
   // Restarts the balance at the current state.
   void ResetBalance();
+  // power_end_ and rest_power_ at the current state under tau_cmd_ (the
+  // effects as they are now), without a tick to account.
+  void ComputePowers();
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
 
   InstanceConfig config_;
