@@ -365,7 +365,7 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
       const double cost = s.evaluation_s[static_cast<std::size_t>(inst.method())];
       if (c.default_max_steps && config.type == IntegratorType::kDormandPrince && cost > 0.0) {
         // The largest max_steps that fits: s·(1 + 6·max_steps) + 1 evaluations in the period.
-        const double fit = std::floor(((period_ / cost - 1.0) / config.substeps - 1.0) / 6.0);
+        const double fit = LargestMaxStepsThatFit(period_ / cost, config.substeps);
         if (fit < 1.0) return kSwitchDoesNotFit;
         config.max_steps = static_cast<int>(std::min<double>(config.max_steps, fit));
       }

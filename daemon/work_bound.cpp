@@ -24,12 +24,16 @@ std::int64_t SaturatingMul(std::int64_t a, std::int64_t b) {
 // What the scene can change, with the largest max_steps that would fit for dopri5.
 std::string WhatToLower(const IntegratorConfig& config, double evaluations_that_fit) {
   if (config.type != IntegratorType::kDormandPrince) return "integrator.substeps";
-  const double max_steps = std::floor(((evaluations_that_fit - 1.0) / std::max(1, config.substeps) - 1.0) / 6.0);
+  const double max_steps = LargestMaxStepsThatFit(evaluations_that_fit, config.substeps);
   if (max_steps < 1.0) return "integrator.max_steps or integrator.substeps";
   return fmt::format("integrator.max_steps (at most {:.0f} fits) or integrator.substeps", max_steps);
 }
 
 }  // namespace
+
+double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps) {
+  return std::floor(((evaluations_that_fit - 1.0) / std::max(1, substeps) - 1.0) / 6.0);
+}
 
 std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs) {
   std::int64_t per_step = 1;

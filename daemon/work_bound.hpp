@@ -33,6 +33,10 @@
 
 namespace lagrange {
 
+// dopri5: the largest max_steps whose worst case, s·(1 + 6·max_steps) + 1,
+// stays within `evaluations_that_fit` (< 1: none does).
+double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps);
+
 // Worst-case right-hand-side evaluations of one tick (see above).
 std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs);
 
