@@ -1,6 +1,6 @@
 #include "daemon/channels.hpp"
 
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/scene.hpp"
 
 #include <cctype>

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "controllers/factory.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/wire.hpp"
 
 namespace lagrange {

@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "daemon/command_check.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/setpoint_check.hpp"
 #include "daemon/timing_csv.hpp"
 #include "daemon/wire.hpp"

@@ -21,7 +21,7 @@
 // JointNamesOf, escaped). It also logs mode changes, faults and refused
 // commands, at most once a second per kind of line.
 //
-// Every string that came from the bus is escaped (daemon/escape.hpp) before
+// Every string that came from the bus is escaped (plant/escape.hpp) before
 // it is logged or published.
 
 #include <lagrange/command_t.hpp>

@@ -5,7 +5,7 @@
 #include <set>
 
 #include "daemon/channels.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/scene_control.hpp"
 #include "daemon/yaml_reader.hpp"
 

@@ -6,7 +6,7 @@
 #include <charconv>
 #include <filesystem>
 
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 
 namespace lagrange {
 

@@ -22,6 +22,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "plant/escape.hpp"
+
 namespace lagrange {
 namespace {
 
@@ -39,34 +41,12 @@ constexpr double kMinAxisNorm = 1e-12;  // below this an <axis> has no direction
 // fraction of its subtree's inertia about the joint origin.
 constexpr double kMotionInertiaTolerance = 1e-12;
 
-// Text from the file, made safe for a one-line message as daemon/escape.hpp
-// does (callers print the message as it is): bytes below 0x20, 0x7f and '\'
-// written as C escapes (\n, \r, \t, \\, else \xhh), at most `max_bytes`
-// bytes of input (cut at a UTF-8 character boundary) with "..." when cut.
+// Text from the file, made safe for a one-line message (plant/escape.hpp):
+// callers print the message as it is.
 std::string Printable(std::string_view text, std::size_t max_bytes = kMaxNameChars) {
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::size_t end = std::min(text.size(), max_bytes);
-  while (end < text.size() && end > 0 && (static_cast<unsigned char>(text[end]) & 0xC0) == 0x80) --end;
-  std::string out;
-  for (const char ch : text.substr(0, end)) {
-    const auto c = static_cast<unsigned char>(ch);
-    switch (c) {
-      case '\n': out += "\\n"; continue;
-      case '\r': out += "\\r"; continue;
-      case '\t': out += "\\t"; continue;
-      case '\\': out += "\\\\"; continue;
-      default: break;
-    }
-    if (c < 0x20 || c == 0x7F) {
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 0xF];
-    } else {
-      out += ch;
-    }
-  }
-  return end < text.size() ? out + "..." : out;
+  return Escape(text, max_bytes);
 }
+
 [[noreturn]] void Fail(const std::string& file, const std::string& element, const std::string& reason) {
   throw UrdfError(Printable(file, file.size()) + ": " + element + ": " + reason);
 }

@@ -10,7 +10,7 @@
 
 #include "daemon/channels.hpp"
 #include "daemon/clock.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"

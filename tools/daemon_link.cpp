@@ -4,7 +4,7 @@
 #include <random>
 
 #include "daemon/channels.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 

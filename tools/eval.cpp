@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "plant/plant_spec.hpp"
 #include "plant/urdf.hpp"
 #include "tools/cli_support.hpp"

@@ -17,7 +17,7 @@
 #include <regex>
 #include <stdexcept>
 
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/daemon_link.hpp"

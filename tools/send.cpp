@@ -15,7 +15,7 @@
 #include "controllers/trajectory.hpp"
 #include "daemon/channels.hpp"
 #include "daemon/clock.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/lcm_bridge.hpp"  // NewRunId
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"

@@ -19,7 +19,7 @@
 #include <variant>
 
 #include "daemon/channels.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "daemon/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "daemon/bus.hpp"
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/raw_udp.hpp"

@@ -1,7 +1,12 @@
 #pragma once
-// Text from the bus (controller names, reasons that quote them) is printed to
-// logs, statuses and terminals only through Escape: a newline cannot forge a
-// log line and an ANSI/OSC sequence cannot reach a terminal.
+// Foreign text (from the bus: controller names, reasons that quote them; from
+// a file: a URDF's names and urdfdom's messages) is printed to logs, statuses,
+// messages and terminals only through Escape: a newline cannot forge a log
+// line and an ANSI/OSC sequence cannot reach a terminal.
+//
+// It lives in lagrange_plant, the bottom layer, because both the URDF reader
+// (plant/urdf.cpp) and the protocol quote foreign text; it is pure string
+// work, no I/O.
 
 #include <string>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "daemon/escape.hpp"
+#include "plant/escape.hpp"
 
 namespace lagrange {
 
