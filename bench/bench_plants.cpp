@@ -80,19 +80,22 @@ std::string_view TermName(DynamicsTerm term) {
   return "?";
 }
 
-void EvaluateTerm(const Dynamics& d, DynamicsTerm term, const State& s, MatrixXd& M, VectorXd& v) {
+void EvaluateTerm(const Dynamics& d, DynamicsData& data, DynamicsTerm term, const State& s, MatrixXd& M,
+                  VectorXd& v) {
+  DynamicsData* const d_data = &data;
   switch (term) {
-    case DynamicsTerm::kM: d.ComputeMassMatrix(s.q, M); break;
-    case DynamicsTerm::kC: d.ComputeCoriolisMatrix(s.q, s.qd, M); break;
-    case DynamicsTerm::kCqd: d.ComputeCoriolisForce(s.q, s.qd, v); break;
-    case DynamicsTerm::kG: d.ComputeGravityForce(s.q, v); break;
-    case DynamicsTerm::kdTdq: d.ComputeKineticEnergyGradient(s.q, s.qd, v); break;
-    case DynamicsTerm::kID: d.ComputeInverseDynamics(s.q, s.qd, s.qdd, DynamicsTerms{}, v); break;
-    case DynamicsTerm::kFD: d.ComputeForwardDynamics(s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
+    case DynamicsTerm::kM: d.ComputeMassMatrix(*d_data, s.q, M); break;
+    case DynamicsTerm::kC: d.ComputeCoriolisMatrix(*d_data, s.q, s.qd, M); break;
+    case DynamicsTerm::kCqd: d.ComputeCoriolisForce(*d_data, s.q, s.qd, v); break;
+    case DynamicsTerm::kG: d.ComputeGravityForce(*d_data, s.q, v); break;
+    case DynamicsTerm::kdTdq: d.ComputeKineticEnergyGradient(*d_data, s.q, s.qd, v); break;
+    case DynamicsTerm::kID: d.ComputeInverseDynamics(*d_data, s.q, s.qd, s.qdd, DynamicsTerms{}, v); break;
+    case DynamicsTerm::kFD: d.ComputeForwardDynamics(*d_data, s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
   }
 }
 
 void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term) {
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   constexpr int kStates = 16;
   std::mt19937 rng{42};
   const std::vector<State> states = RandomStates(d.joint_types(), kStates, rng);
@@ -101,7 +104,7 @@ void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term) {
   VectorXd v(n);
   int k = 0;
   for (auto _ : bm) {
-    EvaluateTerm(d, term, states[k], M, v);
+    EvaluateTerm(d, *d_data, term, states[k], M, v);
     benchmark::DoNotOptimize(M.data());
     benchmark::DoNotOptimize(v.data());
     benchmark::ClobberMemory();

@@ -14,7 +14,7 @@
 #include <benchmark/benchmark.h>
 
 #include "plant/effects.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/rigid_tree.hpp"
 
 namespace lagrange::bench {
@@ -81,8 +81,9 @@ inline constexpr DynamicsTerm kAllDynamicsTerms[] = {DynamicsTerm::kM, DynamicsT
                                                      DynamicsTerm::kG, DynamicsTerm::kdTdq, DynamicsTerm::kID,
                                                      DynamicsTerm::kFD};
 std::string_view TermName(DynamicsTerm term);
-// One call of `term` on state s; a matrix lands in M (n x n), a vector in v (n).
-void EvaluateTerm(const Dynamics& d, DynamicsTerm term, const State& s, MatrixXd& M, VectorXd& v);
+// One call of `term` on state s through `data` (d's); a matrix lands in M (n x n), a vector in v (n).
+void EvaluateTerm(const Dynamics& d, DynamicsData& data, DynamicsTerm term, const State& s, MatrixXd& M,
+                  VectorXd& v);
 // Times `term` of `d` under Google Benchmark, cycling through 16 seeded random
 // states so no call sees a constant input; sets the counter "dofs".
 void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term);

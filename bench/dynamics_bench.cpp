@@ -9,33 +9,39 @@
 //   Cqd  ComputeCoriolisForce        (q, qd) => C qd (n)
 //   G    ComputeGravityForce         q => G (n)
 //   FD   ComputeForwardDynamics      (q, qd, tau) => qdd (n), gravity and Coriolis on
-// and calib/sincos. Each call cycles through 16 seeded random states.
+// and calib/sincos. Each call cycles through 16 seeded random states. The
+// method "spatial" is the spatial algorithms (plant/spatial_dynamics.hpp) on
+// the plant's tree, beside its recursive path (the planar algorithms on the
+// same tree folded to 2-D): the measurement that keeps the planar ones.
 
-#include <functional>
 #include <memory>
 #include <string>
 
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
+#include "plant/spatial_dynamics.hpp"
 
 namespace lagrange::bench {
 namespace {
 
-void TimePlantTerm(benchmark::State& bm, const PlantSpec& spec, Method method, DynamicsTerm term) {
-  const std::unique_ptr<Dynamics> d = MakeDynamics(spec, method);
-  TimeTerm(bm, *d, term);
-}
+constexpr DynamicsTerm kTerms[] = {DynamicsTerm::kM, DynamicsTerm::kC, DynamicsTerm::kCqd, DynamicsTerm::kG,
+                                   DynamicsTerm::kID, DynamicsTerm::kFD};
 
 void RegisterPlant(const NamedPlant& plant) {
   for (Method method : MethodsOf(plant.spec.type())) {
-    for (DynamicsTerm term :
-         {DynamicsTerm::kM, DynamicsTerm::kC, DynamicsTerm::kCqd, DynamicsTerm::kG, DynamicsTerm::kFD}) {
+    for (DynamicsTerm term : kTerms) {
       const std::string name =
           "derive/" + plant.name + "/" + std::string(lagrange::ToString(method)) + "/" + std::string(TermName(term));
       benchmark::RegisterBenchmark(name.c_str(), [spec = plant.spec, method, term](benchmark::State& bm) {
-        TimePlantTerm(bm, spec, method, term);
+        TimeTerm(bm, *MakeDynamics(spec, method), term);
       });
     }
+  }
+  for (DynamicsTerm term : kTerms) {
+    const std::string name = "derive/" + plant.name + "/spatial/" + std::string(TermName(term));
+    benchmark::RegisterBenchmark(name.c_str(), [spec = plant.spec, term](benchmark::State& bm) {
+      TimeTerm(bm, SpatialDynamics(MakeRigidTree(spec)), term);
+    });
   }
 }
 

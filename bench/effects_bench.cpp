@@ -19,7 +19,6 @@
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
 #include "plant/integrators.hpp"
-#include "plant/rk4.hpp"
 
 namespace lagrange::bench {
 namespace {
@@ -106,16 +105,17 @@ void TimeSteps(benchmark::State& bm, int n, StepFn&& step) {
   }
 }
 
-// RK4 (plant/rk4.hpp, as the integrator uses it) on the dynamics alone.
+// RK4's stages (the Rk4 integrator's own, plant/integrators.hpp) on the dynamics alone.
 void TimeBare(benchmark::State& bm, const PlantSpec& spec) {
   std::unique_ptr<Dynamics> d = MakeDynamics(spec, FastestMethod(spec.type()));
+  const std::unique_ptr<DynamicsData> d_data = d->MakeData();
   const int n = d->num_dofs();
   const VectorXd tau = VectorXd::Zero(n);
-  Rk4Stepper rk4(n);
+  Rk4 rk4(IntegratorConfig{}, n);
   auto acceleration = [&](double, ConstVecRef q, ConstVecRef qd, VecRef qdd) {
-    d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+    d->ComputeForwardDynamics(*d_data, q, qd, tau, DynamicsTerms{}, qdd);
   };
-  TimeSteps(bm, n, [&](double t, VectorXd& q, VectorXd& qd) { rk4.Step(acceleration, t, kStep, q, qd); });
+  TimeSteps(bm, n, [&](double t, VectorXd& q, VectorXd& qd) { rk4.Stages(acceleration, t, kStep, q, qd); });
 }
 
 void TimeCase(benchmark::State& bm, const PlantSpec& spec, Case c) {

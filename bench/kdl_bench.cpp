@@ -174,6 +174,7 @@ std::vector<AgreementRow> CheckAgreement(const NamedTree& robot, Method method) 
   const std::vector<State> states = RandomStates(robot.tree.joint_types(), kCheckStates, rng);
   const std::vector<KdlState> kstates = ToKdl(states);
   const int n = d->num_dofs();
+  const std::unique_ptr<DynamicsData> data = d->MakeData();
   if (static_cast<int>(kdl.num_joints()) != n) throw std::logic_error("ToKdlChain lost joints");
   std::vector<AgreementRow> rows;
   for (DynamicsTerm term : kPeerTerms) {
@@ -181,7 +182,7 @@ std::vector<AgreementRow> CheckAgreement(const NamedTree& robot, Method method) 
     for (int k = 0; k < kCheckStates; ++k) {
       MatrixXd M(n, n);
       VectorXd v(n);
-      EvaluateTerm(*d, term, states[k], M, v);
+      EvaluateTerm(*d, *data, term, states[k], M, v);
       KDL::JntArray out(static_cast<unsigned int>(n));
       const KdlState& s = kstates[k];
       const int rc = kdl.Evaluate(term, s.q, s.qd, s.qdd, s.tau, kdl.H(), out);

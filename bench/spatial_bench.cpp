@@ -76,6 +76,7 @@ constexpr std::pair<Term, const char*> kTerms[] = {
 
 void TimeTerm(benchmark::State& bm, const RigidTree& tree, Term term) {
   const SpatialDynamics d(tree);
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   const int n = d.num_dofs();
   std::mt19937 rng{7};
   std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), rate(-2.0, 2.0);
@@ -97,19 +98,19 @@ void TimeTerm(benchmark::State& bm, const RigidTree& tree, Term term) {
   for (auto _ : bm) {
     const State& s = states[k];
     switch (term) {
-      case Term::kID: d.ComputeInverseDynamics(s.q, s.qd, s.qdd, DynamicsTerms{}, v); break;
-      case Term::kFD: d.ComputeForwardDynamics(s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
-      case Term::kFDAba: d.ComputeForwardDynamics(FA::kArticulatedBody, s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
+      case Term::kID: d.ComputeInverseDynamics(*d_data, s.q, s.qd, s.qdd, DynamicsTerms{}, v); break;
+      case Term::kFD: d.ComputeForwardDynamics(*d_data, s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
+      case Term::kFDAba: d.ComputeForwardDynamics(*d_data, FA::kArticulatedBody, s.q, s.qd, s.tau, DynamicsTerms{}, v); break;
       case Term::kFDCrba:
-        d.ComputeForwardDynamics(FA::kCompositeRigidBody, s.q, s.qd, s.tau, DynamicsTerms{}, v);
+        d.ComputeForwardDynamics(*d_data, FA::kCompositeRigidBody, s.q, s.qd, s.tau, DynamicsTerms{}, v);
         break;
-      case Term::kM: d.ComputeMassMatrix(s.q, M); break;
-      case Term::kC: d.ComputeCoriolisMatrix(s.q, s.qd, M); break;
-      case Term::kCqd: d.ComputeCoriolisForce(s.q, s.qd, v); break;
-      case Term::kG: d.ComputeGravityForce(s.q, v); break;
-      case Term::kdTdq: d.ComputeKineticEnergyGradient(s.q, s.qd, v); break;
-      case Term::kT: x += d.ComputeKineticEnergy(s.q, s.qd); break;
-      case Term::kV: x += d.ComputePotentialEnergy(s.q); break;
+      case Term::kM: d.ComputeMassMatrix(*d_data, s.q, M); break;
+      case Term::kC: d.ComputeCoriolisMatrix(*d_data, s.q, s.qd, M); break;
+      case Term::kCqd: d.ComputeCoriolisForce(*d_data, s.q, s.qd, v); break;
+      case Term::kG: d.ComputeGravityForce(*d_data, s.q, v); break;
+      case Term::kdTdq: d.ComputeKineticEnergyGradient(*d_data, s.q, s.qd, v); break;
+      case Term::kT: x += d.ComputeKineticEnergy(*d_data, s.q, s.qd); break;
+      case Term::kV: x += d.ComputePotentialEnergy(*d_data, s.q); break;
     }
     benchmark::DoNotOptimize(M.data());
     benchmark::DoNotOptimize(v.data());

@@ -39,7 +39,7 @@
 #include <vector>
 
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange::bench {
 namespace {

@@ -5,9 +5,10 @@
 namespace lagrange {
 
 ExternalController::ExternalController(std::vector<JointType> joints, VectorXd torque_limits,
-                                       std::unique_ptr<Dynamics> model, bool compensate_gravity)
+                                       std::shared_ptr<const Dynamics> model, bool compensate_gravity)
     : Controller(std::move(joints), std::move(torque_limits)),
       model_(std::move(model)),
+      data_(model_ ? model_->MakeData() : nullptr),
       compensate_gravity_(compensate_gravity),
       tau_ext_(VectorXd::Zero(num_dofs())),
       g_(VectorXd::Zero(num_dofs())) {
@@ -17,7 +18,7 @@ ExternalController::ExternalController(std::vector<JointType> joints, VectorXd t
 void ExternalController::ComputeLaw(double, ConstVecRef q, ConstVecRef, const Setpoint&, VecRef tau) {
   tau = tau_ext_;
   if (!compensate_gravity_) return;
-  model_->ComputeGravityForce(q, g_);
+  model_->ComputeGravityForce(*data_, q, g_);
   tau += g_;
 }
 

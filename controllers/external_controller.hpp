@@ -20,7 +20,7 @@ namespace lagrange {
 class ExternalController final : public Controller {
  public:
   // `model` may be null when compensate_gravity is off.
-  ExternalController(std::vector<JointType> joints, VectorXd torque_limits, std::unique_ptr<Dynamics> model,
+  ExternalController(std::vector<JointType> joints, VectorXd torque_limits, std::shared_ptr<const Dynamics> model,
                      bool compensate_gravity);
   std::string_view name() const override { return "external"; }
   void Reset() override { tau_ext_.setZero(); }
@@ -33,7 +33,8 @@ class ExternalController final : public Controller {
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
 
  private:
-  std::unique_ptr<Dynamics> model_;
+  std::shared_ptr<const Dynamics> model_;  // shared, immutable (plant/dynamics.hpp)
+  std::unique_ptr<DynamicsData> data_;     // this controller's data for it
   bool compensate_gravity_;
   VectorXd tau_ext_, g_;
 };

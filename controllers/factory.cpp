@@ -26,9 +26,14 @@ constexpr EnumName<ControllerType> kControllerNames[] = {
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
 
-std::unique_ptr<Dynamics> ControllerModel(const ControllerConfig& c, const PlantSpec& plant) {
+// The controller's model: the plant's own (shared) when the config changes
+// nothing and it was built for the method, else one of its own.
+std::shared_ptr<const Dynamics> ControllerModel(const ControllerConfig& c, const PlantSpec& plant,
+                                                const MethodModels& shared) {
   const PlantSpec& spec = c.model ? *c.model : plant;
-  return MakeDynamics(spec, c.model_method.value_or(FastestMethod(spec.type())));
+  const Method method = c.model_method.value_or(FastestMethod(spec.type()));
+  if (!c.model && shared[static_cast<std::size_t>(method)]) return shared[static_cast<std::size_t>(method)];
+  return MakeDynamics(spec, method);
 }
 
 VectorXd Equilibrium(const LqrOptions& o, const PlantSpec& plant) {
@@ -74,9 +79,10 @@ std::optional<std::string> ValidateLqr(const LqrOptions& o, const PlantSpec& pla
   return CheckLqrWeights(LqrQ(o, n), LqrR(o, m));
 }
 
-std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& limits) {
+std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& limits,
+                                    const MethodModels& shared) {
   const int n = plant.num_dofs();
-  auto model = ControllerModel(c, plant);
+  const std::shared_ptr<const Dynamics> model = ControllerModel(c, plant, shared);
   const std::vector<int> act = Actuated(c.lqr, plant);
   const int m = static_cast<int>(act.size());
   const LinearModel lin = Linearize(*model, Equilibrium(c.lqr, plant), act);
@@ -109,7 +115,8 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
     return b;
   }
   MatrixXd M(n, n);
-  MakeDynamics(plant, FastestMethod(plant.type()))->ComputeMassMatrix(q0.size() == n ? q0 : VectorXd::Zero(n), M);
+  const std::unique_ptr<Dynamics> model = MakeDynamics(plant, FastestMethod(plant.type()));
+  model->ComputeMassMatrix(*model->MakeData(), q0.size() == n ? q0 : VectorXd::Zero(n), M);
   char mass[64];
   if (type == ControllerType::kCartPolePd) {
     b.any_sign = true;
@@ -223,7 +230,8 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
 namespace {
 
 // The controller for a validated config.
-std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits) {
+std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits,
+                                    const MethodModels& shared) {
   const std::vector<JointType> joints = JointTypesOf(plant);
   switch (c.type) {
     case ControllerType::kNone: return std::make_unique<ZeroController>(joints, torque_limits);
@@ -233,21 +241,21 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
       options.gravity_compensation = c.type == ControllerType::kGravityCompensation;
       const bool needs_model = options.gravity_compensation || options.acceleration_feedforward;
       return std::make_unique<PdController>(joints, torque_limits, c.gains, options,
-                                            needs_model ? ControllerModel(c, plant) : nullptr);
+                                            needs_model ? ControllerModel(c, plant, shared) : nullptr);
     }
     case ControllerType::kComputedTorque:
-      return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains, ControllerModel(c, plant));
+      return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains, ControllerModel(c, plant, shared));
     case ControllerType::kCartPolePd: return std::make_unique<CartPolePdController>(joints, torque_limits, c.gains);
-    case ControllerType::kLqr: return MakeLqr(c, plant, torque_limits);
+    case ControllerType::kLqr: return MakeLqr(c, plant, torque_limits, shared);
     case ControllerType::kSwingUp: {
-      std::unique_ptr<Controller> balancer = MakeLqr(c, plant, torque_limits);
+      std::unique_ptr<Controller> balancer = MakeLqr(c, plant, torque_limits, shared);
       if (!c.wrap.empty()) balancer->set_wrapped_joints(c.wrap);
-      return std::make_unique<SwingUpController>(joints, torque_limits, c.swing_up, ControllerModel(c, plant),
+      return std::make_unique<SwingUpController>(joints, torque_limits, c.swing_up, ControllerModel(c, plant, shared),
                                                  std::move(balancer));
     }
     case ControllerType::kExternal:
       return std::make_unique<ExternalController>(
-          joints, torque_limits, c.external.compensate_gravity ? ControllerModel(c, plant) : nullptr,
+          joints, torque_limits, c.external.compensate_gravity ? ControllerModel(c, plant, shared) : nullptr,
           c.external.compensate_gravity);
   }
   throw std::invalid_argument("unknown controller");
@@ -256,9 +264,9 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
 }  // namespace
 
 std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const PlantSpec& plant,
-                                           const VectorXd& torque_limits) {
+                                           const VectorXd& torque_limits, const MethodModels& plant_models) {
   if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
-  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits);
+  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits, plant_models);
   controller->set_gain_bounds(ComputeGainBounds(c, plant));
   if (!c.wrap.empty()) controller->set_wrapped_joints(c.wrap);
   return controller;

@@ -1,7 +1,7 @@
 #pragma once
 // Typed controller configuration (what a scene's `controller:` becomes) and
-// the factory that builds a controller, with its own model instance, before
-// the loop starts.
+// the factory that builds a controller, with its model (shared with the
+// plant's where it is the same) and data of its own, before the loop starts.
 
 #include <memory>
 #include <optional>
@@ -14,7 +14,7 @@
 #include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange {
 
@@ -119,8 +119,12 @@ std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& g
 
 // Builds the controller with its gain bounds (ComputeGainBounds(config,
 // plant)) and its wrapped joints (config.wrap). Throws std::invalid_argument with the message ValidateController
-// would give. torque_limits (n), +inf for none.
+// would give. torque_limits (n), +inf for none. A controller that needs a
+// model and does not change the plant's (no `model`) shares the plant's
+// model for its method from `plant_models` when one is built there (the
+// instance builds every method once); otherwise it builds its own. Either
+// way it evaluates through data of its own.
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,
-                                           const VectorXd& torque_limits);
+                                           const VectorXd& torque_limits, const MethodModels& plant_models = {});
 
 }  // namespace lagrange

@@ -5,11 +5,12 @@
 namespace lagrange {
 
 PdController::PdController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains, PdOptions options,
-                           std::unique_ptr<Dynamics> model)
+                           std::shared_ptr<const Dynamics> model)
     : Controller(std::move(joints), std::move(torque_limits)),
       gains_(std::move(gains)),
       options_(options),
       model_(std::move(model)),
+      data_(model_ ? model_->MakeData() : nullptr),
       M_(num_dofs(), num_dofs()),
       e_(num_dofs()),
       term_(num_dofs()) {
@@ -35,20 +36,21 @@ void PdController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd, const Setpo
     tau[i] = gains_.kp[i] * e + gains_.kd[i] * edot;
   }
   if (options_.acceleration_feedforward) {
-    model_->ComputeMassMatrix(q, M_);
+    model_->ComputeMassMatrix(*data_, q, M_);
     tau.noalias() += M_ * sp.qdd;
   }
   if (options_.gravity_compensation) {
-    model_->ComputeGravityForce(q, term_);
+    model_->ComputeGravityForce(*data_, q, term_);
     tau += term_;
   }
 }
 
 ComputedTorqueController::ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains,
-                                                   std::unique_ptr<Dynamics> model)
+                                                   std::shared_ptr<const Dynamics> model)
     : Controller(std::move(joints), std::move(torque_limits)),
       gains_(std::move(gains)),
       model_(std::move(model)),
+      data_(model_ ? model_->MakeData() : nullptr),
       a_(num_dofs()) {
   if (auto fault = FindGainFault(gains_, gain_bounds())) {
     throw std::invalid_argument(DescribeGainFault(*fault, gains_, gain_bounds()));
@@ -67,7 +69,7 @@ void ComputedTorqueController::ComputeLaw(double, ConstVecRef q, ConstVecRef qd,
     const double e = Error(i, sp.q[i], q[i]);
     a_[i] = sp.qdd[i] + gains_.kd[i] * (sp.qd[i] - qd[i]) + gains_.kp[i] * e;
   }
-  model_->ComputeInverseDynamics(q, qd, a_, DynamicsTerms{}, tau);
+  model_->ComputeInverseDynamics(*data_, q, qd, a_, DynamicsTerms{}, tau);
 }
 
 }  // namespace lagrange

@@ -34,7 +34,7 @@ struct PdOptions {
 class PdController final : public Controller {
  public:
   PdController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains, PdOptions options,
-               std::unique_ptr<Dynamics> model);
+               std::shared_ptr<const Dynamics> model);
   std::string_view name() const override;
   Gains gains() const override { return gains_; }
   bool has_gains() const override { return true; }
@@ -46,7 +46,8 @@ class PdController final : public Controller {
  private:
   Gains gains_;
   PdOptions options_;
-  std::unique_ptr<Dynamics> model_;
+  std::shared_ptr<const Dynamics> model_;  // shared, immutable (plant/dynamics.hpp)
+  std::unique_ptr<DynamicsData> data_;     // this controller's data for it
   MatrixXd M_;
   VectorXd e_, term_;
 };
@@ -66,7 +67,7 @@ class PdController final : public Controller {
 class ComputedTorqueController final : public Controller {
  public:
   ComputedTorqueController(std::vector<JointType> joints, VectorXd torque_limits, Gains gains,
-                           std::unique_ptr<Dynamics> model);
+                           std::shared_ptr<const Dynamics> model);
   std::string_view name() const override { return "computed-torque"; }
   Gains gains() const override { return gains_; }
   bool has_gains() const override { return true; }
@@ -77,7 +78,8 @@ class ComputedTorqueController final : public Controller {
 
  private:
   Gains gains_;
-  std::unique_ptr<Dynamics> model_;
+  std::shared_ptr<const Dynamics> model_;  // shared, immutable (plant/dynamics.hpp)
+  std::unique_ptr<DynamicsData> data_;     // this controller's data for it
   VectorXd a_;
 };
 

@@ -80,11 +80,12 @@ LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const M
 }
 
 LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
+  const std::unique_ptr<DynamicsData> data = model.MakeData();
   const int n = model.num_dofs();
   const int m = static_cast<int>(actuated.size());
   constexpr double kStep = 1e-6;
   VectorXd G(n), qd = VectorXd::Zero(n), qdd_p(n), qdd_m(n);
-  model.ComputeGravityForce(q0, G);
+  model.ComputeGravityForce(*data, q0, G);
   VectorXd tau0 = VectorXd::Zero(n);
   LinearModel lin{MatrixXd::Zero(2 * n, 2 * n), MatrixXd::Zero(2 * n, m), VectorXd(m)};
   for (int k = 0; k < m; ++k) {
@@ -102,26 +103,26 @@ LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vect
   VectorXd q = q0;
   for (int j = 0; j < n; ++j) {  // ∂qdd/∂q
     q[j] = q0[j] + kStep;
-    model.ComputeForwardDynamics(q, qd, tau0, DynamicsTerms{}, qdd_p);
+    model.ComputeForwardDynamics(*data, q, qd, tau0, DynamicsTerms{}, qdd_p);
     q[j] = q0[j] - kStep;
-    model.ComputeForwardDynamics(q, qd, tau0, DynamicsTerms{}, qdd_m);
+    model.ComputeForwardDynamics(*data, q, qd, tau0, DynamicsTerms{}, qdd_m);
     q[j] = q0[j];
     lin.A.block(n, j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
   }
   for (int j = 0; j < n; ++j) {  // ∂qdd/∂qd
     qd[j] = kStep;
-    model.ComputeForwardDynamics(q0, qd, tau0, DynamicsTerms{}, qdd_p);
+    model.ComputeForwardDynamics(*data, q0, qd, tau0, DynamicsTerms{}, qdd_p);
     qd[j] = -kStep;
-    model.ComputeForwardDynamics(q0, qd, tau0, DynamicsTerms{}, qdd_m);
+    model.ComputeForwardDynamics(*data, q0, qd, tau0, DynamicsTerms{}, qdd_m);
     qd[j] = 0.0;
     lin.A.block(n, n + j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
   }
   for (int k = 0; k < m; ++k) {  // ∂qdd/∂u
     VectorXd tau = tau0;
     tau[actuated[k]] += kStep;
-    model.ComputeForwardDynamics(q0, qd, tau, DynamicsTerms{}, qdd_p);
+    model.ComputeForwardDynamics(*data, q0, qd, tau, DynamicsTerms{}, qdd_p);
     tau[actuated[k]] -= 2 * kStep;
-    model.ComputeForwardDynamics(q0, qd, tau, DynamicsTerms{}, qdd_m);
+    model.ComputeForwardDynamics(*data, q0, qd, tau, DynamicsTerms{}, qdd_m);
     lin.B.block(n, k, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
   }
   return lin;

@@ -9,10 +9,11 @@
 namespace lagrange {
 
 SwingUpController::SwingUpController(std::vector<JointType> joints, VectorXd torque_limits, SwingUpOptions options,
-                                     std::unique_ptr<Dynamics> model, std::unique_ptr<Controller> balancer)
+                                     std::shared_ptr<const Dynamics> model, std::unique_ptr<Controller> balancer)
     : Controller(std::move(joints), std::move(torque_limits)),
       options_(options),
       model_(std::move(model)),
+      data_(model_ ? model_->MakeData() : nullptr),
       balancer_(std::move(balancer)),
       M_(2, 2),
       c_(2),
@@ -23,7 +24,7 @@ SwingUpController::SwingUpController(std::vector<JointType> joints, VectorXd tor
   if (!model_ || !balancer_) throw std::invalid_argument("swing-up needs a model and a balancing controller");
   VectorXd up(2);
   up << 0.0, std::numbers::pi;
-  energy_up_ = model_->ComputePotentialEnergy(up);
+  energy_up_ = model_->ComputePotentialEnergy(*data_, up);
 }
 
 void SwingUpController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
@@ -38,10 +39,10 @@ void SwingUpController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, cons
     if (!balancer_->Compute(t, q, qd, sp, tau)) tau.setConstant(std::numeric_limits<double>::quiet_NaN());
     return;
   }
-  model_->ComputeMassMatrix(q, M_);
-  model_->ComputeCoriolisForce(q, qd, c_);
-  model_->ComputeGravityForce(q, G_);
-  const double energy = 0.5 * M_(1, 1) * qd[1] * qd[1] + model_->ComputePotentialEnergy(q);
+  model_->ComputeMassMatrix(*data_, q, M_);
+  model_->ComputeCoriolisForce(*data_, q, qd, c_);
+  model_->ComputeGravityForce(*data_, q, G_);
+  const double energy = 0.5 * M_(1, 1) * qd[1] * qd[1] + model_->ComputePotentialEnergy(*data_, q);
   const double pump = qd[1] * std::cos(q[1]);
   const double direction = pump >= 0.0 ? 1.0 : -1.0;
   const double accel = options_.energy_gain * (energy - energy_up_) * direction - options_.cart_gain * q[0] -

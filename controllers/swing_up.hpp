@@ -34,7 +34,7 @@ struct SwingUpOptions {
 class SwingUpController final : public Controller {
  public:
   SwingUpController(std::vector<JointType> joints, VectorXd torque_limits, SwingUpOptions options,
-                    std::unique_ptr<Dynamics> model, std::unique_ptr<Controller> balancer);
+                    std::shared_ptr<const Dynamics> model, std::unique_ptr<Controller> balancer);
   std::string_view name() const override { return "swing-up"; }
   void Reset() override { balancing_ = false; }
   bool balancing() const { return balancing_; }
@@ -44,7 +44,8 @@ class SwingUpController final : public Controller {
 
  private:
   SwingUpOptions options_;
-  std::unique_ptr<Dynamics> model_;
+  std::shared_ptr<const Dynamics> model_;  // shared, immutable (plant/dynamics.hpp)
+  std::unique_ptr<DynamicsData> data_;     // this controller's data for it
   std::unique_ptr<Controller> balancer_;
   double energy_up_ = 0.0;
   bool balancing_ = false;

@@ -11,7 +11,7 @@
 #include <cmath>
 
 #include "daemon/instance.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange {
 

@@ -13,7 +13,8 @@ constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Meth
 Instance::Instance(const InstanceConfig& config)
     : config_(config),
       external_(config.external.has_value()),
-      model_(MakeDynamics(config.plant, config.method), config.effects),
+      models_(MakeMethodModels(config.plant)),
+      model_(models_[static_cast<std::size_t>(config.method)], config.effects),
       trajectory_(MakeTrajectory(config)),
       q_(config.q0),
       qd_(config.qd0),
@@ -30,7 +31,7 @@ Instance::Instance(const InstanceConfig& config)
   // Every method the plant has and every integrator type, so that switching
   // at run time builds nothing.
   for (const Method m : kAllMethods) {
-    if (m != config.method && HasMethod(config.plant.type(), m)) model_.AddDynamics(MakeDynamics(config.plant, m));
+    if (m != config.method && HasMethod(config.plant.type(), m)) model_.AddDynamics(models_[static_cast<std::size_t>(m)]);
   }
   for (const IntegratorType type : kAllIntegrators) {
     IntegratorConfig c = config.integrator;
@@ -45,7 +46,7 @@ Instance::Instance(const InstanceConfig& config)
   const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), config.effects.limits);
   const auto make = [&](ControllerConfig c) {
     c.wrap = wrap;
-    return MakeController(c, config.plant, limits);
+    return MakeController(c, config.plant, limits, models_);
   };
   controllers_.push_back(make(config.controller));
   continuous_.push_back(config.controller.continuous);

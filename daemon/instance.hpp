@@ -106,8 +106,8 @@ class Instance {
   void Reset();
 
   // T and V at the current state: the balance's, when it computed them at this state.
-  double KineticEnergy() const { return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_); }
-  double PotentialEnergy() const { return energies_cached_ ? potential_ : model_.PotentialEnergy(q_); }
+  double KineticEnergy() { return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_); }
+  double PotentialEnergy() { return energies_cached_ ? potential_ : model_.PotentialEnergy(q_); }
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }
@@ -168,7 +168,8 @@ class Instance {
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
 
   InstanceConfig config_;
-  bool external_;  // the plant is outside: nothing is integrated
+  bool external_;        // the plant is outside: nothing is integrated
+  MethodModels models_;  // the plant's dynamics by every method it has, shared with the controllers
   PlantModel model_;
   Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType

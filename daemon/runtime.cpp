@@ -96,7 +96,7 @@ struct Runtime::Slot {
       brake = *c.estop_damping;
     } else {
       MatrixXd M(n, n);
-      instance.model().dynamics().ComputeMassMatrix(c.q0, M);
+      instance.model().dynamics().ComputeMassMatrix(instance.model().data(), c.q0, M);
       brake = 20.0 * M.diagonal();  // a 50 ms time constant per joint
     }
   }

@@ -9,7 +9,7 @@
 #include "controllers/factory.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange {
 

@@ -5,7 +5,7 @@
 #include <limits>
 #include <sstream>
 
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange {
 namespace {

@@ -4,14 +4,14 @@
 
 namespace lagrange {
 
-PlanarChain Arm2::ToChain() const {
-  PlanarChain chain;
-  chain.g = p_.g;
-  chain.joints.push_back({JointType::kRevolute, {0.0, 0.0}, 0.0});
-  chain.joints.push_back({JointType::kRevolute, {p_.L1, 0.0}, 0.0});
-  chain.bodies.push_back({p_.m1, {0.5 * p_.L1, 0.0}, p_.m1 * p_.L1 * p_.L1 / 12.0});
-  chain.bodies.push_back({p_.m2, {0.5 * p_.L2, 0.0}, p_.m2 * p_.L2 * p_.L2 / 12.0});
-  return chain;
+RigidTree ToRigidTree(const Arm2Params& p) {
+  RigidTree tree;
+  tree.gravity = PlanarGravity(p.g);
+  tree.joints.push_back(PlanarTreeJoint("q1", JointType::kRevolute, -1, 0.0, 0.0, 0.0));
+  tree.joints.push_back(PlanarTreeJoint("q2", JointType::kRevolute, 0, p.L1, 0.0, 0.0));
+  tree.bodies.push_back(PlanarTreeBody(p.m1, 0.5 * p.L1, 0.0, p.m1 * p.L1 * p.L1 / 12.0));
+  tree.bodies.push_back(PlanarTreeBody(p.m2, 0.5 * p.L2, 0.0, p.m2 * p.L2 * p.L2 / 12.0));
+  return tree;
 }
 
 Arm2ClosedForm::Arm2ClosedForm(Arm2Params p)
@@ -23,8 +23,8 @@ Arm2ClosedForm::Arm2ClosedForm(Arm2Params p)
       g1_((0.5 * p.m1 * p.L1 + p.m2 * p.L1) * p.g),
       g2_(0.5 * p.m2 * p.L2 * p.g) {}
 
-void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
-  AssertSizes(q, M);
+void Arm2ClosedForm::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  Checked(data, q, M);
   const double bc = b_ * std::cos(q[1]);
   M(0, 0) = a_ + 2.0 * bc;
   M(0, 1) = d_ + bc;
@@ -32,8 +32,8 @@ void Arm2ClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
   M(1, 1) = d_;
 }
 
-void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
-  AssertSizes(q, qd, C);
+void Arm2ClosedForm::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  Checked(data, q, qd, C);
   const double h = -b_ * std::sin(q[1]);
   C(0, 0) = h * qd[1];
   C(0, 1) = h * (qd[0] + qd[1]);
@@ -41,72 +41,72 @@ void Arm2ClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef
   C(1, 1) = 0.0;
 }
 
-void Arm2ClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
-  AssertSizes(q, qd, c);
+void Arm2ClosedForm::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  Checked(data, q, qd, c);
   const double h = -b_ * std::sin(q[1]);
   c[0] = h * (2.0 * qd[0] + qd[1]) * qd[1];
   c[1] = -h * qd[0] * qd[0];
 }
 
-void Arm2ClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) const {
-  AssertSizes(q, G);
+void Arm2ClosedForm::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const {
+  Checked(data, q, G);
   const double c12 = std::cos(q[0] + q[1]);
   G[0] = g1_ * std::cos(q[0]) + g2_ * c12;
   G[1] = g2_ * c12;
 }
 
-void Arm2ClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
-  AssertSizes(q, qd, dTdq);
+void Arm2ClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  Checked(data, q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -b_ * std::sin(q[1]) * (qd[0] * qd[0] + qd[0] * qd[1]);
 }
 
-double Arm2ClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
-  AssertSizes(q, qd);
+double Arm2ClosedForm::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const {
+  Checked(data, q, qd);
   const double bc = b_ * std::cos(q[1]);
   return 0.5 * (a_ + 2.0 * bc) * qd[0] * qd[0] + (d_ + bc) * qd[0] * qd[1] + 0.5 * d_ * qd[1] * qd[1];
 }
 
-double Arm2ClosedForm::ComputePotentialEnergy(ConstVecRef q) const {
-  AssertSizes(q);
+double Arm2ClosedForm::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {
+  Checked(data, q);
   const double s1 = std::sin(q[0]);
   return p_.g * (0.5 * p_.m1 * p_.L1 * s1 + p_.m2 * (p_.L1 * s1 + 0.5 * p_.L2 * std::sin(q[0] + q[1])));
 }
 
-void Arm2ClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+void Arm2ClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                                             VecRef tau) const {
-  AssertSizes(q, qd, qdd, tau);
+  Checked(data, q, qd, qdd, tau);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   const double bc = b_ * c2;
   tau[0] = (a_ + 2.0 * bc) * qdd[0] + (d_ + bc) * qdd[1];
   tau[1] = (d_ + bc) * qdd[0] + d_ * qdd[1];
   if (terms.coriolis) {
-    CountCoriolis();
+    CountCoriolis(data);
     const double h = -b_ * s2;
     tau[0] += h * (2.0 * qd[0] + qd[1]) * qd[1];
     tau[1] -= h * qd[0] * qd[0];
   }
   if (terms.gravity) {
-    CountGravity();
+    CountGravity(data);
     const double c12 = std::cos(q[0] + q[1]);
     tau[0] += g1_ * std::cos(q[0]) + g2_ * c12;
     tau[1] += g2_ * c12;
   }
 }
 
-void Arm2ClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+void Arm2ClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                                             VecRef qdd) const {
-  AssertSizes(q, qd, tau, qdd);
+  Checked(data, q, qd, tau, qdd);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];
   if (terms.coriolis) {
-    CountCoriolis();
+    CountCoriolis(data);
     const double h = -b_ * s2;
     r0 -= h * (2.0 * qd[0] + qd[1]) * qd[1];
     r1 += h * qd[0] * qd[0];
   }
   if (terms.gravity) {
-    CountGravity();
+    CountGravity(data);
     const double c12 = std::cos(q[0] + q[1]);
     r0 -= g1_ * std::cos(q[0]) + g2_ * c12;
     r1 -= g2_ * c12;

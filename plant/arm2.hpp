@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "plant/dynamics.hpp"
-#include "plant/recursive_dynamics.hpp"
+#include "plant/rigid_tree.hpp"
 
 namespace lagrange {
 
@@ -50,11 +50,12 @@ class Arm2 {
     return p_.m1 * p_.g * y1 + p_.m2 * p_.g * y2;
   }
 
-  PlanarChain ToChain() const;
-
  private:
   Arm2Params p_;
 };
+
+// The arm as a tree: joints "q1" at the origin and "q2" at (L1, 0) in link 1's frame.
+RigidTree ToRigidTree(const Arm2Params& p);
 
 // M = [[a + 2b cos q2, d + b cos q2], [d + b cos q2, d]],  a = m1L1²/3 + m2L1² + m2L2²/3,
 // b = m2 L1 L2 / 2, d = m2 L2²/3;  C = h [[q̇2, q̇1 + q̇2], [−q̇1, 0]], h = −b sin q2;
@@ -63,16 +64,16 @@ class Arm2ClosedForm final : public Dynamics {
  public:
   explicit Arm2ClosedForm(Arm2Params p);
   Method method() const override { return Method::kClosedForm; }
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
-  double ComputePotentialEnergy(ConstVecRef q) const override;
-  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+  void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                               VecRef tau) const override;
-  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+  void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
 
  private:

@@ -5,14 +5,14 @@
 
 namespace lagrange {
 
-PlanarChain CartPole::ToChain() const {
-  PlanarChain chain;
-  chain.g = p_.g;
-  chain.joints.push_back({JointType::kPrismatic, {0.0, 0.0}, 0.0});
-  chain.joints.push_back({JointType::kRevolute, {0.0, 0.0}, -std::numbers::pi / 2});
-  chain.bodies.push_back({p_.mc, {0.0, 0.0}, 0.0});
-  chain.bodies.push_back({p_.mp, {p_.l, 0.0}, p_.pole_inertia()});
-  return chain;
+RigidTree ToRigidTree(const CartPoleParams& p) {
+  RigidTree tree;
+  tree.gravity = PlanarGravity(p.g);
+  tree.joints.push_back(PlanarTreeJoint("x", JointType::kPrismatic, -1, 0.0, 0.0, 0.0));
+  tree.joints.push_back(PlanarTreeJoint("theta", JointType::kRevolute, 0, 0.0, 0.0, -std::numbers::pi / 2));
+  tree.bodies.push_back(PlanarTreeBody(p.mc, 0.0, 0.0, 0.0));
+  tree.bodies.push_back(PlanarTreeBody(p.mp, p.l, 0.0, p.pole_inertia()));
+  return tree;
 }
 
 CartPoleClosedForm::CartPoleClosedForm(CartPoleParams p)
@@ -22,8 +22,8 @@ CartPoleClosedForm::CartPoleClosedForm(CartPoleParams p)
       Ip_(p.mp * p.l * p.l + p.pole_inertia()),
       mgl_(p.mp * p.g * p.l) {}
 
-void CartPoleClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
-  AssertSizes(q, M);
+void CartPoleClosedForm::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  Checked(data, q, M);
   const double m01 = ml_ * std::cos(q[1]);
   M(0, 0) = mt_;
   M(0, 1) = m01;
@@ -31,67 +31,67 @@ void CartPoleClosedForm::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
   M(1, 1) = Ip_;
 }
 
-void CartPoleClosedForm::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
-  AssertSizes(q, qd, C);
+void CartPoleClosedForm::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  Checked(data, q, qd, C);
   C.setZero();
   C(0, 1) = -ml_ * std::sin(q[1]) * qd[1];
 }
 
-void CartPoleClosedForm::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
-  AssertSizes(q, qd, c);
+void CartPoleClosedForm::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  Checked(data, q, qd, c);
   c[0] = -ml_ * std::sin(q[1]) * qd[1] * qd[1];
   c[1] = 0.0;
 }
 
-void CartPoleClosedForm::ComputeGravityForce(ConstVecRef q, VecRef G) const {
-  AssertSizes(q, G);
+void CartPoleClosedForm::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const {
+  Checked(data, q, G);
   G[0] = 0.0;
   G[1] = mgl_ * std::sin(q[1]);
 }
 
-void CartPoleClosedForm::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
-  AssertSizes(q, qd, dTdq);
+void CartPoleClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  Checked(data, q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -ml_ * std::sin(q[1]) * qd[0] * qd[1];
 }
 
-double CartPoleClosedForm::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
-  AssertSizes(q, qd);
+double CartPoleClosedForm::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const {
+  Checked(data, q, qd);
   return 0.5 * mt_ * qd[0] * qd[0] + ml_ * std::cos(q[1]) * qd[0] * qd[1] + 0.5 * Ip_ * qd[1] * qd[1];
 }
 
-double CartPoleClosedForm::ComputePotentialEnergy(ConstVecRef q) const {
-  AssertSizes(q);
+double CartPoleClosedForm::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {
+  Checked(data, q);
   return -mgl_ * std::cos(q[1]);
 }
 
-void CartPoleClosedForm::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+void CartPoleClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                                                 VecRef tau) const {
-  AssertSizes(q, qd, qdd, tau);
+  Checked(data, q, qd, qdd, tau);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   tau[0] = mt_ * qdd[0] + ml_ * c * qdd[1];
   tau[1] = ml_ * c * qdd[0] + Ip_ * qdd[1];
   if (terms.coriolis) {
-    CountCoriolis();
+    CountCoriolis(data);
     tau[0] -= ml_ * s * qd[1] * qd[1];
   }
   if (terms.gravity) {
-    CountGravity();
+    CountGravity(data);
     tau[1] += mgl_ * s;
   }
 }
 
-void CartPoleClosedForm::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+void CartPoleClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                                                 VecRef qdd) const {
-  AssertSizes(q, qd, tau, qdd);
+  Checked(data, q, qd, tau, qdd);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];
   if (terms.coriolis) {
-    CountCoriolis();
+    CountCoriolis(data);
     r0 += ml_ * s * qd[1] * qd[1];
   }
   if (terms.gravity) {
-    CountGravity();
+    CountGravity(data);
     r1 -= mgl_ * s;
   }
   const double m01 = ml_ * c;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "plant/dynamics.hpp"
-#include "plant/recursive_dynamics.hpp"
+#include "plant/rigid_tree.hpp"
 
 namespace lagrange {
 
@@ -45,11 +45,13 @@ class CartPole {
     return -(p_.mp * p_.g * p_.l) * cos(q[1]);
   }
 
-  PlanarChain ToChain() const;
-
  private:
   CartPoleParams p_;
 };
+
+// The cart-pole as a tree: joint "x" sliding along the world's x, the pole's
+// joint "theta" at the cart's origin, its link pointing along −y at θ = 0.
+RigidTree ToRigidTree(const CartPoleParams& p);
 
 // M = [[mc + mp, mp l cos θ], [mp l cos θ, mp l² + I]], C = [[0, −mp l θ̇ sin θ], [0, 0]],
 // G = [0, mp g l sin θ].
@@ -57,16 +59,16 @@ class CartPoleClosedForm final : public Dynamics {
  public:
   explicit CartPoleClosedForm(CartPoleParams p);
   Method method() const override { return Method::kClosedForm; }
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
-  double ComputePotentialEnergy(ConstVecRef q) const override;
-  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+  void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                               VecRef tau) const override;
-  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+  void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
 
  private:

@@ -1,17 +1,22 @@
 #include "plant/chain.hpp"
 
+#include <string>
+#include <utility>
+
 namespace lagrange {
 
-PlanarChain ToPlanarChain(const ChainParams& p) {
-  PlanarChain chain;
-  chain.g = p.g;
+RigidTree ToRigidTree(const ChainParams& p) {
+  RigidTree tree;
+  tree.gravity = PlanarGravity(p.g);
   for (int i = 0; i < p.num_links(); ++i) {
     const ChainLink& link = p.links[i];
     const double along = i == 0 ? 0.0 : p.links[i - 1].L;
-    chain.joints.push_back({link.joint, {along, 0.0}, i == 0 ? p.base_angle : 0.0});
-    chain.bodies.push_back({link.m, {link.com_offset(), 0.0}, link.inertia()});
+    std::string name = std::to_string(i + 1);  // "q1".., built in place: g++ 12 warns falsely on "q" + string
+    name.insert(name.begin(), 'q');
+    tree.joints.push_back(PlanarTreeJoint(std::move(name), link.joint, i - 1, along, 0.0, i == 0 ? p.base_angle : 0.0));
+    tree.bodies.push_back(PlanarTreeBody(link.m, link.com_offset(), 0.0, link.inertia()));
   }
-  return chain;
+  return tree;
 }
 
 }  // namespace lagrange

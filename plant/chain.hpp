@@ -12,7 +12,7 @@
 #include <optional>
 #include <vector>
 
-#include "plant/recursive_dynamics.hpp"
+#include "plant/rigid_tree.hpp"
 
 namespace lagrange {
 
@@ -35,7 +35,8 @@ struct ChainParams {
   int num_links() const { return static_cast<int>(links.size()); }
 };
 
-// The chain's geometry as a PlanarChain; its energies are PlanarChain's.
-PlanarChain ToPlanarChain(const ChainParams& p);
+// The chain as a tree: joint "qi" of link i at the end of link i − 1 (the
+// origin for the first, turned by base_angle), link i along its frame's x.
+RigidTree ToRigidTree(const ChainParams& p);
 
 }  // namespace lagrange

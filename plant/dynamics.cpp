@@ -20,43 +20,52 @@ std::string_view ToString(Method method) { return NameOf(kMethodNames, method); 
 std::optional<Method> ParseMethod(std::string_view name) { return ValueOf(kMethodNames, name); }
 std::string MethodNames() { return NamesInWords(kMethodNames); }
 
-Dynamics::Dynamics(std::vector<JointType> joints)
-    : joints_(std::move(joints)), M_(num_dofs(), num_dofs()), term_(num_dofs()), llt_(num_dofs()) {}
+DynamicsData::DynamicsData(const Dynamics& model)
+    : model_(&model),
+      M_(model.num_dofs(), model.num_dofs()),
+      term_(model.num_dofs()),
+      llt_(model.num_dofs()) {}
 
-void Dynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                      VecRef tau) const {
-  AssertSizes(q, qd, qdd, tau);
-  ComputeMassMatrix(q, M_);
-  tau.noalias() = M_ * qdd;
+Dynamics::Dynamics(std::vector<JointType> joints) : joints_(std::move(joints)) {}
+
+std::unique_ptr<DynamicsData> Dynamics::MakeData() const {
+  return std::unique_ptr<DynamicsData>(new DynamicsData(*this));
+}
+
+void Dynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                      DynamicsTerms terms, VecRef tau) const {
+  DynamicsData& d = Checked(data, q, qd, qdd, tau);
+  ComputeMassMatrix(d, q, d.M_);
+  tau.noalias() = d.M_ * qdd;
   if (terms.coriolis) {
-    CountCoriolis();
-    ComputeCoriolisForce(q, qd, term_);
-    tau += term_;
+    CountCoriolis(d);
+    ComputeCoriolisForce(d, q, qd, d.term_);
+    tau += d.term_;
   }
   if (terms.gravity) {
-    CountGravity();
-    ComputeGravityForce(q, term_);
-    tau += term_;
+    CountGravity(d);
+    ComputeGravityForce(d, q, d.term_);
+    tau += d.term_;
   }
 }
 
-void Dynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                      VecRef qdd) const {
-  AssertSizes(q, qd, tau, qdd);
+void Dynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                      DynamicsTerms terms, VecRef qdd) const {
+  DynamicsData& d = Checked(data, q, qd, tau, qdd);
   qdd = tau;
   if (terms.coriolis) {
-    CountCoriolis();
-    ComputeCoriolisForce(q, qd, term_);
-    qdd -= term_;
+    CountCoriolis(d);
+    ComputeCoriolisForce(d, q, qd, d.term_);
+    qdd -= d.term_;
   }
   if (terms.gravity) {
-    CountGravity();
-    ComputeGravityForce(q, term_);
-    qdd -= term_;
+    CountGravity(d);
+    ComputeGravityForce(d, q, d.term_);
+    qdd -= d.term_;
   }
-  ComputeMassMatrix(q, M_);
-  llt_.compute(M_);
-  llt_.solveInPlace(qdd);
+  ComputeMassMatrix(d, q, d.M_);
+  d.llt_.compute(d.M_);
+  d.llt_.solveInPlace(qdd);
 }
 
 double Power(ConstVecRef qd, ConstVecRef tau) { return qd.dot(tau); }

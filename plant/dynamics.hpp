@@ -6,21 +6,65 @@
 // with M = ∂²T/∂qd², C_ij = Σ_k ½(∂M_ij/∂q_k + ∂M_ik/∂q_j − ∂M_jk/∂q_i) qd_k and
 // G = ∂V/∂q (see types.hpp for symbols, units and dimensions).
 //
-// A Dynamics object owns the scratch memory its algorithms need: every buffer
-// is sized in the constructor, so no call below allocates. Parameters are fixed
-// at construction and every query is const; the scratch it writes is the
-// object's own (mutable), so one object serves one thread; controllers hold
-// their own.
+// Model and data apart, as Pinocchio's Model/Data and MuJoCo's
+// mjModel/mjData: a Dynamics is the model, built once from the plant's
+// parameters and immutable afterwards; everything a query writes (scratch,
+// stage counts) lives in a DynamicsData made by that model for one user (a
+// thread, a controller, a batch worker). Every query is const on the model
+// and takes the caller's data:
 //
-// Every Compute* checks its arguments' sizes at its top in debug builds
-// (assert; compiled out under NDEBUG): vectors (n), matrices (n x n).
+//   std::shared_ptr<const Dynamics> model = MakeDynamics(spec, method);  // shared by every user
+//   std::unique_ptr<DynamicsData> data = model->MakeData();               // one per user
+//   model->ComputeMassMatrix(*data, q, M);
+//
+// So one model serves any number of threads at once, each with its own data
+// (tests/plant/model_data_test.cpp runs that under ThreadSanitizer). Every
+// buffer a query needs is in the data, sized by MakeData: no query allocates.
+//
+// The boundary: every Compute* checks at its top that `data` was made by this
+// model and that its arguments are sized for it, vectors (n) and matrices
+// (n x n) (eigen_assert: on in debug and sanitizer builds, compiled out under
+// NDEBUG).
 
 #include <Eigen/Cholesky>
+#include <memory>
 #include <vector>
 
 #include "plant/types.hpp"
 
 namespace lagrange {
+
+class Dynamics;
+
+// What one user of a Dynamics writes: the scratch of its queries and how
+// often they evaluated the gated terms. Made only by Dynamics::MakeData,
+// sized for that model, and passed back to that model alone. Not shared
+// between threads (each thread makes its own).
+class DynamicsData {
+ public:
+  virtual ~DynamicsData() = default;
+  DynamicsData(const DynamicsData&) = delete;
+  DynamicsData& operator=(const DynamicsData&) = delete;
+
+  // The model this data belongs to.
+  const Dynamics& model() const { return *model_; }
+  // How often the gravity and Coriolis terms were evaluated by inverse and
+  // forward dynamics through this data (the other counts stay zero).
+  const StageCounts& counts() const { return counts_; }
+
+ protected:
+  // A model's own data type derives from this; only the model constructs it.
+  explicit DynamicsData(const Dynamics& model);
+
+ private:
+  friend class Dynamics;
+  const Dynamics* model_;
+  StageCounts counts_;
+  // Scratch of the generic inverse and forward dynamics (n x n, n).
+  MatrixXd M_;
+  VectorXd term_;
+  Eigen::LLT<MatrixXd> llt_;
+};
 
 class Dynamics {
  public:
@@ -33,40 +77,46 @@ class Dynamics {
   const std::vector<JointType>& joint_types() const { return joints_; }
   virtual Method method() const = 0;
 
+  // A data object for one user of this model, every buffer sized.
+  virtual std::unique_ptr<DynamicsData> MakeData() const;
+
   // q (n) => M (n x n).
-  virtual void ComputeMassMatrix(ConstVecRef q, MatRef M) const = 0;
+  virtual void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const = 0;
   // (q, qd) (n, n) => C (n x n), the Christoffel factorisation: Ṁ − 2C is skew.
-  virtual void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const = 0;
+  virtual void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const = 0;
   // (q, qd) => c = C(q, qd) qd (n).
-  virtual void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const = 0;
+  virtual void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const = 0;
   // q => G = ∂V/∂q (n).
-  virtual void ComputeGravityForce(ConstVecRef q, VecRef G) const = 0;
+  virtual void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const = 0;
   // (q, qd) => ∂T/∂q (n), which equals Cᵀ qd. Used by the variational integrator.
-  virtual void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const = 0;
+  virtual void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                            VecRef dTdq) const = 0;
   // (q, qd) => T = ½ qdᵀ M qd, J.
-  virtual double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const = 0;
-  // q => V, J; zero at the base's height, gravity along −y.
-  virtual double ComputePotentialEnergy(ConstVecRef q) const = 0;
+  virtual double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const = 0;
+  // q => V, J; zero with every centre of mass at the base's origin (the
+  // planar plants: at the base's height, gravity along −y).
+  virtual double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const = 0;
 
-  // (q, qd, qdd) => tau = M qdd + [C qd] + [G]; bracketed terms only when on in `terms`.
-  virtual void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                      VecRef tau) const;
-  // (q, qd, tau) => qdd = M⁻¹ (tau − [C qd] − [G]).
-  virtual void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                      VecRef qdd) const;
-
-  // How often gravity and Coriolis terms were evaluated by the two calls above.
-  const StageCounts& counts() const { return counts_; }
+  // (q, qd, qdd) => tau = M qdd + [C qd] + [G]; bracketed terms only when on in
+  // `terms`, each counted in data.counts() when evaluated.
+  virtual void ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                      DynamicsTerms terms, VecRef tau) const;
+  // (q, qd, tau) => qdd = M⁻¹ (tau − [C qd] − [G]), counted as above.
+  virtual void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                      DynamicsTerms terms, VecRef qdd) const;
 
  protected:
-  void CountGravity() const { ++counts_.gravity; }
-  void CountCoriolis() const { ++counts_.coriolis; }
+  static void CountGravity(DynamicsData& data) { ++data.counts_.gravity; }
+  static void CountCoriolis(DynamicsData& data) { ++data.counts_.coriolis; }
 
-  // Debug-build check that every argument is sized for this plant: a vector
-  // (n), a matrix (n x n). Call at the top of each Compute*.
-  template <class... Xs>
-  void AssertSizes([[maybe_unused]] const Xs&... xs) const {
+  // The boundary check at the top of each Compute*: `data` is this model's
+  // and every argument is sized for this plant, a vector (n), a matrix
+  // (n x n). Returns the data as the model's own type.
+  template <class Data = DynamicsData, class... Xs>
+  Data& Checked(DynamicsData& data, [[maybe_unused]] const Xs&... xs) const {
+    eigen_assert(&data.model() == this && "DynamicsData made by another model");
     eigen_assert((HasDofSize(xs) && ...));
+    return static_cast<Data&>(data);
   }
 
  private:
@@ -76,13 +126,6 @@ class Dynamics {
   }
 
   std::vector<JointType> joints_;
-  // Mutable: the const queries count their gated stages and write scratch
-  // owned by this object, which is not shared between threads.
-  mutable StageCounts counts_;
-  // Scratch for the generic inverse and forward dynamics.
-  mutable MatrixXd M_;
-  mutable VectorXd term_;
-  mutable Eigen::LLT<MatrixXd> llt_;
 };
 
 // Power delivered by generalized forces: qdᵀ tau, W.

@@ -7,7 +7,6 @@
 #include <string>
 
 #include "plant/enum_names.hpp"
-#include "plant/rk4.hpp"
 
 namespace lagrange {
 namespace {
@@ -52,24 +51,6 @@ class SemiImplicitEuler final : public Integrator {
 
  private:
   VectorXd qdd_;
-};
-
-class Rk4 final : public Integrator {
- public:
-  Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), rk4_(n) {}
-
-  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    rk4_.Step([&](double ts, ConstVecRef qs, ConstVecRef qds,
-                  VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
-              t, h, q, qd);
-    ++work_.accepted;
-    work_.evaluations += 4;
-    work_.step = h;
-    return true;
-  }
-
- private:
-  Rk4Stepper rk4_;
 };
 
 // Dormand–Prince 5(4) on y = (q, qd), f(y) = (qd, qdd).
@@ -196,7 +177,7 @@ class Variational final : public Integrator {
     work_.step = h;
     const Dynamics& dyn = m.dynamics();
     // p0 = M(q0) qd0.
-    dyn.ComputeMassMatrix(q, M_);
+    dyn.ComputeMassMatrix(m.data(), q, M_);
     p0_.noalias() = M_ * qd;
     // Predictor: q1 = q0 + h qd0 + h²/2 qdd0.
     m.ComputeAcceleration(law, t, q, qd, tau, tmp_);
@@ -232,7 +213,7 @@ class Variational final : public Integrator {
     // p1 = p0 + h (∂T/∂q − G + F) at the midpoint; x_ holds that bracket from the last residual.
     p0_ += h * x_;
     q = q1_;
-    dyn.ComputeMassMatrix(q, M_);
+    dyn.ComputeMassMatrix(m.data(), q, M_);
     llt_.compute(M_);
     qd = llt_.solve(p0_);
     if (!converged) jacobian_valid_ = false;
@@ -244,16 +225,17 @@ class Variational final : public Integrator {
   void Residual(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, ConstVecRef q0, const VectorXd& q1,
                 VectorXd& r) {
     const Dynamics& dyn = m.dynamics();
+    DynamicsData& data = m.data();
     qm_ = 0.5 * (q0 + q1);
     v_ = (q1 - q0) / h;
-    dyn.ComputeKineticEnergyGradient(qm_, v_, x_);
+    dyn.ComputeKineticEnergyGradient(data, qm_, v_, x_);
     if (m.effects().terms().gravity) {
-      dyn.ComputeGravityForce(qm_, tmp_);
+      dyn.ComputeGravityForce(data, qm_, tmp_);
       x_ -= tmp_;
     }
     m.ComputeGeneralizedForce(law, t + 0.5 * h, qm_, v_, tau, tmp_);
     x_ += tmp_;
-    dyn.ComputeMassMatrix(qm_, M_);
+    dyn.ComputeMassMatrix(data, qm_, M_);
     r = p0_;
     r.noalias() -= M_ * v_;
     r += (0.5 * h) * x_;
@@ -290,6 +272,17 @@ class Variational final : public Integrator {
 };
 
 }  // namespace
+
+Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
+
+bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) {
+  Stages([&](double ts, ConstVecRef qs, ConstVecRef qds, VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
+         t, h, q, qd);
+  ++work_.accepted;
+  work_.evaluations += 4;
+  work_.step = h;
+  return true;
+}
 
 std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames, type); }
 std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }

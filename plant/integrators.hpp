@@ -176,6 +176,45 @@ class Integrator {
   IntegratorStats stats_;
 };
 
+// The classical fourth-order Runge–Kutta integrator. Its stages are written
+// once, for any acceleration function qdd = f(t, q, qd): DoStep runs them on
+// a PlantModel; bench/effects_bench.cpp runs them on bare Dynamics, the
+// baseline that shows what the effects layer costs.
+class Rk4 final : public Integrator {
+ public:
+  Rk4(const IntegratorConfig& config, int n);
+
+  // (t, h, q, qd) => (q, qd) at t + h. `acceleration(t, q, qd, qdd)` writes
+  // qdd at (t, q, qd); it is called four times. Allocates nothing.
+  template <class Acceleration>
+  void Stages(Acceleration&& acceleration, double t, double h, VecRef q, VecRef qd) {
+    // Stage 1 at (q, qd).
+    acceleration(t, q, qd, kqd_);
+    dq_ = qd;
+    dqd_ = kqd_;
+    // Stages 2 and 3 at the midpoint, stage 4 at the end.
+    kq_ = qd;
+    for (int stage = 2; stage <= 4; ++stage) {
+      const double a = stage == 4 ? h : 0.5 * h;
+      const double w = stage == 4 ? 1.0 : 2.0;
+      q1_ = q + a * kq_;
+      qd1_ = qd + a * kqd_;
+      acceleration(t + a, q1_, qd1_, kqd_);
+      kq_ = qd1_;
+      dq_ += w * kq_;
+      dqd_ += w * kqd_;
+    }
+    q += (h / 6.0) * dq_;
+    qd += (h / 6.0) * dqd_;
+  }
+
+ protected:
+  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override;
+
+ private:
+  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;  // (n) each
+};
+
 // Throws std::invalid_argument with CheckIntegratorConfig's reason for a bad config.
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& config, int n);
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "plant/dynamics.hpp"
-#include "plant/recursive_dynamics.hpp"
+#include "plant/rigid_tree.hpp"
 
 namespace lagrange {
 
@@ -48,25 +48,25 @@ class Pendulum {
     return -(p_.m * p_.g * p_.com()) * cos(q[0]);
   }
 
-  // The same pendulum as a one-joint chain whose link points along −y at θ = 0.
-  PlanarChain ToChain() const;
-
  private:
   PendulumParams p_;
 };
+
+// The pendulum as a tree: joint "theta" at the origin, its link pointing along −y at θ = 0.
+RigidTree ToRigidTree(const PendulumParams& p);
 
 class PendulumClosedForm final : public Dynamics {
  public:
   explicit PendulumClosedForm(PendulumParams p);
   Method method() const override { return Method::kClosedForm; }
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
-  double ComputePotentialEnergy(ConstVecRef q) const override;
-  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+  void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
 
  private:

@@ -6,16 +6,26 @@
 
 namespace lagrange {
 
-PlantModel::PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects)
-    : dynamics_(dynamics.get()),
+namespace {
+
+const Dynamics& NonNull(const std::shared_ptr<const Dynamics>& dynamics) {
+  if (dynamics == nullptr) throw std::invalid_argument("PlantModel: expected dynamics, got null");
+  return *dynamics;
+}
+
+}  // namespace
+
+PlantModel::PlantModel(std::shared_ptr<const Dynamics> dynamics, EffectsConfig effects)
+    : dynamics_(&NonNull(dynamics)),
       effects_(std::move(effects), dynamics_->num_dofs()),
       tau_(dynamics_->num_dofs()),
       tau_law_(dynamics_->num_dofs()) {
-  all_.push_back(std::move(dynamics));
+  all_.push_back({std::move(dynamics), dynamics_->MakeData()});
+  data_ = all_.back().data.get();
 }
 
-void PlantModel::AddDynamics(std::unique_ptr<Dynamics> dynamics) {
-  if (dynamics == nullptr) throw std::invalid_argument("AddDynamics: expected dynamics, got null");
+void PlantModel::AddDynamics(std::shared_ptr<const Dynamics> dynamics) {
+  NonNull(dynamics);
   // The scratch above is sized (n): every held dynamics must share it.
   if (dynamics->num_dofs() != num_dofs()) {
     throw std::invalid_argument("AddDynamics: expected " + std::to_string(num_dofs()) + " degrees of freedom, got " +
@@ -25,20 +35,22 @@ void PlantModel::AddDynamics(std::unique_ptr<Dynamics> dynamics) {
     throw std::invalid_argument("AddDynamics: the " + std::string(ToString(dynamics->method())) +
                                 " method is already held");
   }
-  all_.push_back(std::move(dynamics));
+  auto data = dynamics->MakeData();
+  all_.push_back({std::move(dynamics), std::move(data)});
 }
 
 bool PlantModel::HasMethod(Method method) const {
-  for (const auto& d : all_) {
-    if (d->method() == method) return true;
+  for (const Held& h : all_) {
+    if (h.dynamics->method() == method) return true;
   }
   return false;
 }
 
 bool PlantModel::SelectMethod(Method method) {
-  for (const auto& d : all_) {
-    if (d->method() == method) {
-      dynamics_ = d.get();
+  for (const Held& h : all_) {
+    if (h.dynamics->method() == method) {
+      dynamics_ = h.dynamics.get();
+      data_ = h.data.get();
       return true;
     }
   }
@@ -69,12 +81,12 @@ void PlantModel::ComputeAccelerationWithEffects(ControlLaw* law, double t, Const
   } else {
     law->Compute(t, q, qd, tau_law_);
     if (effects_.passes_command_through()) {  // tau is the law's output as it is
-      dynamics_->ComputeForwardDynamics(q, qd, tau_law_, effects_.terms(), qdd);
+      dynamics_->ComputeForwardDynamics(*data_, q, qd, tau_law_, effects_.terms(), qdd);
       return;
     }
     effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau_);
   }
-  dynamics_->ComputeForwardDynamics(q, qd, tau_, effects_.terms(), qdd);
+  dynamics_->ComputeForwardDynamics(*data_, q, qd, tau_, effects_.terms(), qdd);
 }
 
 void PlantModel::ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
@@ -101,12 +113,12 @@ void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, C
   effects_.Saturate(out.tau_cmd, out.tau_applied);
   out.gravity.setZero();
   if (conservative && on.gravity) {
-    dynamics_->ComputeGravityForce(q, out.gravity);
+    dynamics_->ComputeGravityForce(*data_, q, out.gravity);
     ++term_counts_.gravity;
   }
   out.coriolis.setZero();
   if (conservative && on.coriolis) {
-    dynamics_->ComputeCoriolisForce(q, qd, out.coriolis);
+    dynamics_->ComputeCoriolisForce(*data_, q, qd, out.coriolis);
     ++term_counts_.coriolis;
   }
   // The effects' stages add to a zero term and return at their top when off.
@@ -121,11 +133,13 @@ void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, C
   effects_.AddLimits(q, qd, out.limits, out.limit_springs);
 }
 
-double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) const { return dynamics_->ComputeKineticEnergy(q, qd); }
+double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) {
+  return dynamics_->ComputeKineticEnergy(*data_, q, qd);
+}
 
-double PlantModel::PotentialEnergy(ConstVecRef q) const {
+double PlantModel::PotentialEnergy(ConstVecRef q) {
   double v = effects_.LimitPotentialEnergy(q);
-  if (effects_.terms().gravity) v += dynamics_->ComputePotentialEnergy(q);
+  if (effects_.terms().gravity) v += dynamics_->ComputePotentialEnergy(*data_, q);
   return v;
 }
 
@@ -134,9 +148,9 @@ StageCounts PlantModel::counts() const {
   StageCounts c = effects_.counts();
   c.gravity = term_counts_.gravity;
   c.coriolis = term_counts_.coriolis;
-  for (const auto& d : all_) {
-    c.gravity += d->counts().gravity;
-    c.coriolis += d->counts().coriolis;
+  for (const Held& h : all_) {
+    c.gravity += h.data->counts().gravity;
+    c.coriolis += h.data->counts().coriolis;
   }
   return c;
 }

@@ -1,6 +1,9 @@
 #pragma once
-// A plant instance as the integrators see it: its dynamics (by one method)
-// under the scene's effects.
+// One user's plant as the integrators see it: its dynamics (by one method)
+// under the scene's effects. The dynamics models are shared and immutable
+// (plant/dynamics.hpp); a PlantModel holds its own data for each of them, the
+// effects' switches and counts, and scratch: it is one thread's, as a
+// Pinocchio Data or a MuJoCo mjData is.
 //
 //   (t, q, qd, tau_cmd) => qdd = M⁻¹ (tau − [C qd] − [G]),
 //   tau = the effects' generalized force (plant/effects.hpp)
@@ -61,21 +64,23 @@ struct EffectForces {
 
 class PlantModel {
  public:
-  PlantModel(std::unique_ptr<Dynamics> dynamics, EffectsConfig effects);
+  // Throws std::invalid_argument for a null model.
+  PlantModel(std::shared_ptr<const Dynamics> dynamics, EffectsConfig effects);
 
   int num_dofs() const { return dynamics_->num_dofs(); }
   // The method of the dynamics in use.
   Method method() const { return dynamics_->method(); }
   // Adds the same plant's dynamics by another method (built before the loop),
-  // for SelectMethod. Throws std::invalid_argument when its num_dofs differs
-  // or its method is already held.
-  void AddDynamics(std::unique_ptr<Dynamics> dynamics);
+  // with data of its own, for SelectMethod. Throws std::invalid_argument when
+  // it is null, its num_dofs differs or its method is already held.
+  void AddDynamics(std::shared_ptr<const Dynamics> dynamics);
   bool HasMethod(Method method) const;
   // Switches to the held dynamics of `method`; allocation-free. False, with
   // nothing changed, when none is held.
   bool SelectMethod(Method method);
-  Dynamics& dynamics() { return *dynamics_; }
+  // The dynamics in use and this plant's data for it.
   const Dynamics& dynamics() const { return *dynamics_; }
+  DynamicsData& data() { return *data_; }
   Effects& effects() { return effects_; }
   const Effects& effects() const { return effects_; }
 
@@ -86,7 +91,7 @@ class PlantModel {
   // at every stage.
   void ComputeAcceleration(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
     if (law == nullptr && effects_.passes_command_through()) {
-      dynamics_->ComputeForwardDynamics(q, qd, tau_cmd, effects_.terms(), qdd);
+      dynamics_->ComputeForwardDynamics(*data_, q, qd, tau_cmd, effects_.terms(), qdd);
       return;
     }
     ComputeAccelerationWithEffects(law, t, q, qd, tau_cmd, qdd);
@@ -115,9 +120,9 @@ class PlantModel {
     ComputeEffectForces(nullptr, t, q, qd, tau_cmd, out);
   }
 
-  double KineticEnergy(ConstVecRef q, ConstVecRef qd) const;
-  double PotentialEnergy(ConstVecRef q) const;
-  double Energy(ConstVecRef q, ConstVecRef qd) const { return KineticEnergy(q, qd) + PotentialEnergy(q); }
+  double KineticEnergy(ConstVecRef q, ConstVecRef qd);
+  double PotentialEnergy(ConstVecRef q);
+  double Energy(ConstVecRef q, ConstVecRef qd) { return KineticEnergy(q, qd) + PotentialEnergy(q); }
 
   // Gravity and Coriolis counts from every held dynamics (and
   // ComputeEffectForces), the rest from the effects.
@@ -128,8 +133,14 @@ class PlantModel {
   void ComputeAccelerationWithEffects(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                       VecRef qdd);
 
-  Dynamics* dynamics_;  // the one in use, one of all_
-  std::vector<std::unique_ptr<Dynamics>> all_;
+  // Every held method's model and this plant's data for it.
+  struct Held {
+    std::shared_ptr<const Dynamics> dynamics;
+    std::unique_ptr<DynamicsData> data;
+  };
+  const Dynamics* dynamics_;  // the one in use, one of all_
+  DynamicsData* data_ = nullptr;  // its data
+  std::vector<Held> all_;
   Effects effects_;
   VectorXd tau_;             // scratch (n)
   VectorXd tau_law_;         // scratch (n)

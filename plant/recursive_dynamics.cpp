@@ -52,6 +52,26 @@ Matrix3d SpatialInertia(const PlanarBody& b) {
 
 }  // namespace
 
+std::optional<PlanarChain> PlanarChainOf(const RigidTree& tree) {
+  // Exact comparisons: the built-in plants build their trees from these
+  // very numbers (PlanarTreeJoint, PlanarGravity), and anything else is
+  // evaluated in 3-D, correctly, by the spatial algorithms.
+  if (tree.gravity.x() != 0.0 || tree.gravity.z() != 0.0) return std::nullopt;
+  PlanarChain chain;
+  chain.g = -tree.gravity.y();
+  for (int i = 0; i < tree.num_dofs(); ++i) {
+    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
+    const Matrix3d& R = j.rotation;
+    const bool about_z = R(2, 2) == 1.0 && R(0, 2) == 0.0 && R(1, 2) == 0.0 && R(2, 0) == 0.0 && R(2, 1) == 0.0;
+    const Vector3d axis = j.type == JointType::kRevolute ? Vector3d::UnitZ() : Vector3d::UnitX();
+    if (j.parent != i - 1 || !about_z || j.position.z() != 0.0 || j.axis != axis) return std::nullopt;
+    chain.joints.push_back({j.type, j.position.head<2>(), std::atan2(R(1, 0), R(0, 0))});
+    const RigidBody& b = tree.bodies[static_cast<std::size_t>(i)];
+    chain.bodies.push_back({b.mass, b.com.head<2>(), b.inertia(2, 2)});
+  }
+  return chain;
+}
+
 std::vector<JointType> PlanarChain::joint_types() const {
   std::vector<JointType> types;
   types.reserve(joints.size());
@@ -59,31 +79,50 @@ std::vector<JointType> PlanarChain::joint_types() const {
   return types;
 }
 
+// Workspace of one user (n entries each): frames, velocities, the passes'
+// vectors and, for the Coriolis matrix, base-frame motion and one row per
+// joint of the joint axes J_j and the factors P_j, Q_j.
+struct RecursiveDynamics::Data final : DynamicsData {
+  explicit Data(const RecursiveDynamics& model) : DynamicsData(model) {
+    const int n = model.num_dofs();
+    const auto N = static_cast<std::size_t>(n);
+    X.resize(N);
+    v.resize(N);
+    a.resize(N);
+    f.resize(N);
+    c.resize(N);
+    pA.resize(N);
+    U.resize(N);
+    ov.resize(N);
+    com.resize(N);
+    axes.resize(n, 3);
+    P.resize(n, 3);
+    Q.resize(n, 3);
+    IA.resize(N);
+    D.resize(N);
+    u.resize(N);
+    zeros = VectorXd::Zero(n);
+  }
+  std::vector<Xform> X;
+  std::vector<Eigen::Vector3d> v, a, f, c, pA, U;
+  std::vector<Eigen::Vector3d> ov;
+  std::vector<Eigen::Vector2d> com;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> axes, P, Q;
+  std::vector<Eigen::Matrix3d> IA;
+  std::vector<double> D, u;
+  VectorXd zeros;  // qd or qdd = 0 for the gravity and Coriolis passes
+};
+
 RecursiveDynamics::RecursiveDynamics(PlanarChain chain) : Dynamics(chain.joint_types()), chain_(std::move(chain)) {
-  const auto n = static_cast<std::size_t>(num_dofs());
   for (const PlanarBody& b : chain_.bodies) inertia_.push_back(SpatialInertia(b));
-  X_.resize(n);
-  v_.resize(n);
-  a_.resize(n);
-  f_.resize(n);
-  c_.resize(n);
-  pA_.resize(n);
-  U_.resize(n);
-  ov_.resize(n);
-  com_.resize(n);
-  axes_.resize(n, 3);
-  P_.resize(n, 3);
-  Q_.resize(n, 3);
-  IA_.resize(n);
-  D_.resize(n);
-  u_.resize(n);
-  zeros_ = VectorXd::Zero(num_dofs());
 }
 
-void RecursiveDynamics::ComputeTransforms(ConstVecRef q) const {
+std::unique_ptr<DynamicsData> RecursiveDynamics::MakeData() const { return std::make_unique<Data>(*this); }
+
+void RecursiveDynamics::ComputeTransforms(Data& d, ConstVecRef q) const {
   for (int i = 0; i < num_dofs(); ++i) {
     const PlanarJoint& j = chain_.joints[i];
-    Xform& X = X_[i];
+    Xform& X = d.X[i];
     if (j.type == JointType::kRevolute) {
       X.c = std::cos(j.angle + q[i]);
       X.s = std::sin(j.angle + q[i]);
@@ -96,113 +135,113 @@ void RecursiveDynamics::ComputeTransforms(ConstVecRef q) const {
   }
 }
 
-void RecursiveDynamics::ComputeVelocities(ConstVecRef qd) const {
+void RecursiveDynamics::ComputeVelocities(Data& d, ConstVecRef qd) const {
   Vector3d v_parent = Vector3d::Zero();
   for (int i = 0; i < num_dofs(); ++i) {
-    v_[i] = ApplyX(X_[i], v_parent);
-    v_[i][SubspaceIndex(chain_.joints[i].type)] += qd[i];
-    v_parent = v_[i];
+    d.v[i] = ApplyX(d.X[i], v_parent);
+    d.v[i][SubspaceIndex(chain_.joints[i].type)] += qd[i];
+    v_parent = d.v[i];
   }
 }
 
 // (X, qd, qdd) => tau = M qdd + [C qd] + [G].
-void RecursiveDynamics::Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const {
+void RecursiveDynamics::Rnea(Data& d, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const {
   const int n = num_dofs();
-  if (terms.coriolis) ComputeVelocities(qd);
+  if (terms.coriolis) ComputeVelocities(d, qd);
   Vector3d a_parent(0.0, 0.0, terms.gravity ? chain_.g : 0.0);  // −a_gravity, world frame
   for (int i = 0; i < n; ++i) {
     const int k = SubspaceIndex(chain_.joints[i].type);
-    a_[i] = ApplyX(X_[i], a_parent);
-    a_[i][k] += qdd[i];
+    d.a[i] = ApplyX(d.X[i], a_parent);
+    d.a[i][k] += qdd[i];
     if (terms.coriolis) {
       Vector3d vj = Vector3d::Zero();
       vj[k] = qd[i];
-      a_[i] += CrossMotion(v_[i], vj);
+      d.a[i] += CrossMotion(d.v[i], vj);
     }
-    f_[i] = inertia_[i] * a_[i];
-    if (terms.coriolis) f_[i] += CrossForce(v_[i], inertia_[i] * v_[i]);
-    a_parent = a_[i];
+    d.f[i] = inertia_[i] * d.a[i];
+    if (terms.coriolis) d.f[i] += CrossForce(d.v[i], inertia_[i] * d.v[i]);
+    a_parent = d.a[i];
   }
   for (int i = n - 1; i >= 0; --i) {
-    tau[i] = f_[i][SubspaceIndex(chain_.joints[i].type)];
-    if (i > 0) f_[i - 1] += ApplyXT(X_[i], f_[i]);
+    tau[i] = d.f[i][SubspaceIndex(chain_.joints[i].type)];
+    if (i > 0) d.f[i - 1] += ApplyXT(d.X[i], d.f[i]);
   }
 }
 
-void RecursiveDynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+void RecursiveDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                                                VecRef tau) const {
-  AssertSizes(q, qd, qdd, tau);
-  if (terms.gravity) CountGravity();
-  if (terms.coriolis) CountCoriolis();
-  ComputeTransforms(q);
-  Rnea(qd, qdd, terms, tau);
+  Data& d = Checked<Data>(data, q, qd, qdd, tau);
+  if (terms.gravity) CountGravity(d);
+  if (terms.coriolis) CountCoriolis(d);
+  ComputeTransforms(d, q);
+  Rnea(d, qd, qdd, terms, tau);
 }
 
-void RecursiveDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+void RecursiveDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                                                VecRef qdd) const {
-  AssertSizes(q, qd, tau, qdd);
+  Data& d = Checked<Data>(data, q, qd, tau, qdd);
   const int n = num_dofs();
-  ComputeTransforms(q);
+  ComputeTransforms(d, q);
   // Pass 1: velocity-product terms c_i = v_i × S qd_i and bias forces p_i = v_i ×* I v_i.
   if (terms.coriolis) {
-    CountCoriolis();
-    ComputeVelocities(qd);
+    CountCoriolis(d);
+    ComputeVelocities(d, qd);
     for (int i = 0; i < n; ++i) {
       Vector3d vj = Vector3d::Zero();
       vj[SubspaceIndex(chain_.joints[i].type)] = qd[i];
-      c_[i] = CrossMotion(v_[i], vj);
-      pA_[i] = CrossForce(v_[i], inertia_[i] * v_[i]);
+      d.c[i] = CrossMotion(d.v[i], vj);
+      d.pA[i] = CrossForce(d.v[i], inertia_[i] * d.v[i]);
     }
   } else {
     for (int i = 0; i < n; ++i) {
-      c_[i].setZero();
-      pA_[i].setZero();
+      d.c[i].setZero();
+      d.pA[i].setZero();
     }
   }
-  for (int i = 0; i < n; ++i) IA_[i] = inertia_[i];
+  for (int i = 0; i < n; ++i) d.IA[i] = inertia_[i];
   // Pass 2: articulated-body inertias and bias forces, tip to base.
   for (int i = n - 1; i >= 0; --i) {
     const int k = SubspaceIndex(chain_.joints[i].type);
-    U_[i] = IA_[i].col(k);
-    D_[i] = U_[i][k];
-    u_[i] = tau[i] - pA_[i][k];
+    d.U[i] = d.IA[i].col(k);
+    d.D[i] = d.U[i][k];
+    d.u[i] = tau[i] - d.pA[i][k];
     if (i > 0) {
-      const Matrix3d Ia = IA_[i] - U_[i] * U_[i].transpose() / D_[i];
-      const Vector3d pa = pA_[i] + Ia * c_[i] + U_[i] * (u_[i] / D_[i]);
-      const Matrix3d X = XMatrix(X_[i]);
-      IA_[i - 1].noalias() += X.transpose() * Ia * X;
-      pA_[i - 1] += ApplyXT(X_[i], pa);
+      const Matrix3d Ia = d.IA[i] - d.U[i] * d.U[i].transpose() / d.D[i];
+      const Vector3d pa = d.pA[i] + Ia * d.c[i] + d.U[i] * (d.u[i] / d.D[i]);
+      const Matrix3d X = XMatrix(d.X[i]);
+      d.IA[i - 1].noalias() += X.transpose() * Ia * X;
+      d.pA[i - 1] += ApplyXT(d.X[i], pa);
     }
   }
   // Pass 3: accelerations, base to tip.
   Vector3d a_parent(0.0, 0.0, 0.0);
   if (terms.gravity) {
-    CountGravity();
+    CountGravity(d);
     a_parent[2] = chain_.g;
   }
   for (int i = 0; i < n; ++i) {
     const int k = SubspaceIndex(chain_.joints[i].type);
-    const Vector3d a = ApplyX(X_[i], a_parent) + c_[i];
-    qdd[i] = (u_[i] - U_[i].dot(a)) / D_[i];
+    const Vector3d a = ApplyX(d.X[i], a_parent) + d.c[i];
+    qdd[i] = (d.u[i] - d.U[i].dot(a)) / d.D[i];
     a_parent = a;
     a_parent[k] += qdd[i];
   }
 }
 
-void RecursiveDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
-  AssertSizes(q, M);
+void RecursiveDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  Data& d = Checked<Data>(data, q, M);
   const int n = num_dofs();
-  ComputeTransforms(q);
-  for (int i = 0; i < n; ++i) IA_[i] = inertia_[i];  // composite inertias
+  ComputeTransforms(d, q);
+  for (int i = 0; i < n; ++i) d.IA[i] = inertia_[i];  // composite inertias
   for (int i = n - 1; i > 0; --i) {
-    const Matrix3d X = XMatrix(X_[i]);
-    IA_[i - 1].noalias() += X.transpose() * IA_[i] * X;
+    const Matrix3d X = XMatrix(d.X[i]);
+    d.IA[i - 1].noalias() += X.transpose() * d.IA[i] * X;
   }
   for (int i = 0; i < n; ++i) {
-    Vector3d F = IA_[i].col(SubspaceIndex(chain_.joints[i].type));
+    Vector3d F = d.IA[i].col(SubspaceIndex(chain_.joints[i].type));
     M(i, i) = F[SubspaceIndex(chain_.joints[i].type)];
     for (int j = i; j > 0; --j) {
-      F = ApplyXT(X_[j], F);
+      F = ApplyXT(d.X[j], F);
       const double m = F[SubspaceIndex(chain_.joints[j - 1].type)];
       M(i, j - 1) = m;
       M(j - 1, i) = m;
@@ -210,25 +249,25 @@ void RecursiveDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
   }
 }
 
-void RecursiveDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
-  AssertSizes(q, qd, c);
-  ComputeTransforms(q);
-  Rnea(qd, zeros_, DynamicsTerms{.gravity = false, .coriolis = true}, c);
+void RecursiveDynamics::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  Data& d = Checked<Data>(data, q, qd, c);
+  ComputeTransforms(d, q);
+  Rnea(d, qd, d.zeros, DynamicsTerms{.gravity = false, .coriolis = true}, c);
 }
 
-void RecursiveDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
-  AssertSizes(q, G);
-  ComputeTransforms(q);
-  Rnea(zeros_, zeros_, DynamicsTerms{.gravity = true, .coriolis = false}, G);
+void RecursiveDynamics::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const {
+  Data& d = Checked<Data>(data, q, G);
+  ComputeTransforms(d, q);
+  Rnea(d, d.zeros, d.zeros, DynamicsTerms{.gravity = true, .coriolis = false}, G);
 }
 
 // (X, qd) => base-frame joint axes J_j, body velocities v_j and centres of mass.
-void RecursiveDynamics::ComputeBaseFrameMotion(ConstVecRef qd) const {
+void RecursiveDynamics::ComputeBaseFrameMotion(Data& d, ConstVecRef qd) const {
   double c = 1.0, s = 0.0;  // rotation of body j's frame in the base frame
   Eigen::Vector2d p = Eigen::Vector2d::Zero();
   Vector3d v = Vector3d::Zero();
   for (int j = 0; j < num_dofs(); ++j) {
-    const Xform& X = X_[j];
+    const Xform& X = d.X[j];
     p += Eigen::Vector2d(c * X.r.x() - s * X.r.y(), s * X.r.x() + c * X.r.y());
     const double cj = c * X.c - s * X.s;
     s = s * X.c + c * X.s;
@@ -236,10 +275,10 @@ void RecursiveDynamics::ComputeBaseFrameMotion(ConstVecRef qd) const {
     const Vector3d J =
         chain_.joints[j].type == JointType::kRevolute ? Vector3d(1.0, p.y(), -p.x()) : Vector3d(0.0, c, s);
     v += qd[j] * J;
-    axes_.row(j) = J;
-    ov_[j] = v;
+    d.axes.row(j) = J;
+    d.ov[j] = v;
     const PlanarBody& b = chain_.bodies[j];
-    com_[j] = p + Eigen::Vector2d(c * b.com.x() - s * b.com.y(), s * b.com.x() + c * b.com.y());
+    d.com[j] = p + Eigen::Vector2d(c * b.com.x() - s * b.com.y(), s * b.com.x() + c * b.com.y());
   }
 }
 
@@ -252,15 +291,15 @@ void RecursiveDynamics::ComputeBaseFrameMotion(ConstVecRef qd) const {
 // C_ij = P_i · J̇_j + Q_i · J_j for i > j, P_i = Ic_i J_i, Q_i = Bc_iᵀ J_i.
 // The Christoffel symbols ∂C_ij/∂qd_k are symmetric in (j, k), so this is the
 // Christoffel C: Ṁ − 2C is skew and C qd is the RNEA's.
-void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
-  AssertSizes(q, qd, C);
+void RecursiveDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  Data& d = Checked<Data>(data, q, qd, C);
   const int n = num_dofs();
   if (n == 1) {  // the one body's M = S_0ᵀ I_0 S_0 in its own frame does not depend on q
     C(0, 0) = 0.0;
     return;
   }
-  ComputeTransforms(q);
-  ComputeBaseFrameMotion(qd);
+  ComputeTransforms(d, q);
+  ComputeBaseFrameMotion(d, qd);
   double m = 0.0, hx = 0.0, hy = 0.0, I = 0.0;          // Ic = [[I, −hy, hx], [−hy, m, 0], [hx, 0, m]]
   double dI = 0.0, dhx = 0.0, dhy = 0.0;                // İc, the same shape with zero mass
   Vector3d h = Vector3d::Zero();                        // Σ I_b v_b
@@ -271,15 +310,15 @@ void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, Mat
     return 0.5 * Vector3d(dI * x[0] + (sign * h[2] - dhy) * x[1] + (dhx - sign * h[1]) * x[2],
                           (-dhy - sign * h[2]) * x[0], (dhx + sign * h[1]) * x[0]);
   };
-  const double *J0 = axes_.col(0).data(), *J1 = axes_.col(1).data(), *J2 = axes_.col(2).data();
-  const double *P1 = P_.col(1).data(), *P2 = P_.col(2).data();
-  const double *Q0 = Q_.col(0).data(), *Q1 = Q_.col(1).data(), *Q2 = Q_.col(2).data();
+  const double *J0 = d.axes.col(0).data(), *J1 = d.axes.col(1).data(), *J2 = d.axes.col(2).data();
+  const double *P1 = d.P.col(1).data(), *P2 = d.P.col(2).data();
+  const double *Q0 = d.Q.col(0).data(), *Q1 = d.Q.col(1).data(), *Q2 = d.Q.col(2).data();
   for (int j = n - 1; j >= 0; --j) {
     // Add body j to the subtree's composites.
     const PlanarBody& b = chain_.bodies[j];
-    const Vector3d& vj = ov_[j];
-    const double bm = b.mass, bhx = bm * com_[j].x(), bhy = bm * com_[j].y();
-    const double bI = b.inertia + bm * com_[j].squaredNorm();
+    const Vector3d& vj = d.ov[j];
+    const double bm = b.mass, bhx = bm * d.com[j].x(), bhy = bm * d.com[j].y();
+    const double bI = b.inertia + bm * d.com[j].squaredNorm();
     h += Vector3d(bI * vj[0] - bhy * vj[1] + bhx * vj[2], -bhy * vj[0] + bm * vj[1], bhx * vj[0] + bm * vj[2]);
     dI += 2.0 * (bhx * vj[1] + bhy * vj[2]);
     dhx += bm * vj[1] - vj[0] * bhy;
@@ -289,44 +328,44 @@ void RecursiveDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, Mat
     hy += bhy;
     I += bI;
     // Column j: rows i <= j from F_j, rows i > j from P_i, Q_i made on the way down.
-    const Vector3d J = axes_.row(j).transpose();
+    const Vector3d J = d.axes.row(j).transpose();
     const Vector3d dJ = CrossMotion(vj, J);  // J̇_j; its angular part is 0
     const Vector3d F = ic(dJ) + bc(J, 1.0);
-    P_.row(j) = ic(J);
-    Q_.row(j) = bc(J, -1.0);
+    d.P.row(j) = ic(J);
+    d.Q.row(j) = bc(J, -1.0);
     double* col = &C(0, j);
     for (int i = 0; i <= j; ++i) col[i] = J0[i] * F[0] + J1[i] * F[1] + J2[i] * F[2];
     for (int i = j + 1; i < n; ++i) col[i] = P1[i] * dJ[1] + P2[i] * dJ[2] + Q0[i] * J[0] + Q1[i] * J[1] + Q2[i] * J[2];
   }
 }
 
-void RecursiveDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
-  AssertSizes(q, qd, dTdq);
+void RecursiveDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  Data& d = Checked<Data>(data, q, qd, dTdq);
   const int n = num_dofs();
-  ComputeTransforms(q);
-  ComputeVelocities(qd);
+  ComputeTransforms(d, q);
+  ComputeVelocities(d, qd);
   Vector3d H = Vector3d::Zero();  // Σ_{i≥j} I_i v_i in frame j
   for (int j = n - 1; j >= 0; --j) {
     const int k = SubspaceIndex(chain_.joints[j].type);
-    if (j < n - 1) H = ApplyXT(X_[j + 1], H);
-    H += inertia_[j] * v_[j];
-    Vector3d u = v_[j];  // parent's velocity in frame j
+    if (j < n - 1) H = ApplyXT(d.X[j + 1], H);
+    H += inertia_[j] * d.v[j];
+    Vector3d u = d.v[j];  // parent's velocity in frame j
     u[k] -= qd[j];
     dTdq[j] = -CrossForce(u, H)[k];
   }
 }
 
-double RecursiveDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
-  AssertSizes(q, qd);
-  ComputeTransforms(q);
-  ComputeVelocities(qd);
+double RecursiveDynamics::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const {
+  Data& d = Checked<Data>(data, q, qd);
+  ComputeTransforms(d, q);
+  ComputeVelocities(d, qd);
   double T = 0.0;
-  for (int i = 0; i < num_dofs(); ++i) T += 0.5 * v_[i].dot(inertia_[i] * v_[i]);
+  for (int i = 0; i < num_dofs(); ++i) T += 0.5 * d.v[i].dot(inertia_[i] * d.v[i]);
   return T;
 }
 
-double RecursiveDynamics::ComputePotentialEnergy(ConstVecRef q) const {
-  AssertSizes(q);
+double RecursiveDynamics::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {
+  Checked(data, q);
   return chain_.PotentialEnergy<double>(std::span<const double>(q.data(), q.size()));
 }
 

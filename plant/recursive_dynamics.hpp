@@ -1,7 +1,14 @@
 #pragma once
-// Recursive dynamics: O(n) algorithms (recursive Newton–Euler, composite
-// rigid bodies) in 2-D spatial (Plücker) algebra, over a model described as
-// a PlanarChain, a serial chain of revolute and prismatic joints.
+// Recursive dynamics of a planar serial chain: O(n) algorithms (recursive
+// Newton–Euler, composite rigid bodies, articulated bodies) in 2-D spatial
+// (Plücker) algebra. The built-in plants (pendulum, arm2, cartpole, chain)
+// are described, like every plant, by a RigidTree (plant/rigid_tree.hpp);
+// theirs are planar chains, and PlanarChainOf folds such a tree into the
+// PlanarChain these algorithms and the planar Lagrangian path run on. They
+// are kept beside the spatial algorithms because they are faster where the
+// tick spends its time: forward dynamics of long chains (about 10 % at 20
+// to 64 links) and the C matrix (2 to 3 ×) (bench/spatial_bench.cpp,
+// planar/...); the spatial ones win on inverse dynamics and G.
 //
 // Frames. Body i's frame is placed in body i−1's frame (the world for i = 0)
 // by the joint: translate by `position`, rotate by `angle`, then the joint
@@ -13,10 +20,12 @@
 // joint and (0, 1, 0) for a prismatic joint.
 
 #include <Eigen/Core>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "plant/dynamics.hpp"
+#include "plant/rigid_tree.hpp"
 
 namespace lagrange {
 
@@ -47,6 +56,14 @@ struct PlanarChain {
   S PotentialEnergy(std::span<const S> q) const;
 };
 
+// `tree` as a planar serial chain, when it is one: joint i's parent is joint
+// i − 1, every joint frame lies in the xy plane turned about z only, every
+// revolute axis is +z and every prismatic axis +x, gravity is along y.
+// A body keeps its mass, its centre of mass's (x, y) and its inertia about z
+// (the rest of its tensor is never excited by planar motion). nullopt for any
+// other tree. The built-in plants' trees always are planar chains.
+std::optional<PlanarChain> PlanarChainOf(const RigidTree& tree);
+
 // O(n) recursive dynamics of a PlanarChain.
 //   inverse dynamics: recursive Newton–Euler (RNEA)
 //   forward dynamics: articulated-body algorithm (ABA)
@@ -61,17 +78,18 @@ class RecursiveDynamics final : public Dynamics {
 
   const PlanarChain& chain() const { return chain_; }
   Method method() const override { return Method::kRecursive; }
+  std::unique_ptr<DynamicsData> MakeData() const override;
 
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
-  double ComputePotentialEnergy(ConstVecRef q) const override;
-  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+  void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                               VecRef tau) const override;
-  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+  void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
 
   // Parent-to-child motion transform of one joint: the child frame sits at r
@@ -82,30 +100,19 @@ class RecursiveDynamics final : public Dynamics {
   };
 
  private:
+  struct Data;  // the workspace, defined in the .cpp
   // q => X_i for every joint.
-  void ComputeTransforms(ConstVecRef q) const;
+  void ComputeTransforms(Data& d, ConstVecRef q) const;
   // (X, qd) => v_i, body velocities.
-  void ComputeVelocities(ConstVecRef qd) const;
-  // (X, qd) => axes_, ov_, com_: joint axes, body velocities and centres of
+  void ComputeVelocities(Data& d, ConstVecRef qd) const;
+  // (X, qd) => axes, ov, com: joint axes, body velocities and centres of
   // mass in base coordinates, for the Coriolis matrix.
-  void ComputeBaseFrameMotion(ConstVecRef qd) const;
+  void ComputeBaseFrameMotion(Data& d, ConstVecRef qd) const;
   // (X, v, qdd, terms) => tau by the backward RNEA pass.
-  void Rnea(ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
+  void Rnea(Data& d, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
 
   PlanarChain chain_;
   std::vector<Eigen::Matrix3d> inertia_;  // spatial inertia of each body about its frame origin
-  // Workspace (n entries each), mutable: the const queries write it, and it
-  // is this object's own (Dynamics objects are not shared between threads).
-  mutable std::vector<Xform> X_;
-  mutable std::vector<Eigen::Vector3d> v_, a_, f_, c_, pA_, U_;
-  // Coriolis matrix, in base coordinates: body velocities and centres of
-  // mass, and one row per joint of the joint axes J_j and the factors P_j, Q_j.
-  mutable std::vector<Eigen::Vector3d> ov_;
-  mutable std::vector<Eigen::Vector2d> com_;
-  mutable Eigen::Matrix<double, Eigen::Dynamic, 3> axes_, P_, Q_;
-  mutable std::vector<Eigen::Matrix3d> IA_;
-  mutable std::vector<double> D_, u_;
-  VectorXd zeros_;  // qd or qdd = 0 for the gravity and Coriolis passes
 };
 
 // ---- templated energies -------------------------------------------------

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace lagrange {
 
@@ -19,6 +20,26 @@ std::vector<std::string> RigidTree::joint_names() const {
   names.reserve(joints.size());
   for (const TreeJoint& j : joints) names.push_back(j.name);
   return names;
+}
+
+TreeJoint PlanarTreeJoint(std::string name, JointType type, int parent, double x, double y, double angle) {
+  TreeJoint j;
+  j.name = std::move(name);
+  j.type = type;
+  j.parent = parent;
+  j.position = Eigen::Vector3d(x, y, 0.0);
+  const double c = std::cos(angle), s = std::sin(angle);
+  j.rotation << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;  // Rz(angle), its z row and column exact
+  j.axis = type == JointType::kRevolute ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
+  return j;
+}
+
+RigidBody PlanarTreeBody(double mass, double x, double y, double I) {
+  RigidBody b;
+  b.mass = mass;
+  b.com = Eigen::Vector3d(x, y, 0.0);
+  b.inertia = Eigen::Vector3d(0.5 * I, 0.5 * I, I).asDiagonal();
+  return b;
 }
 
 namespace {

@@ -1,7 +1,12 @@
 #pragma once
-// A kinematic tree of rigid bodies in 3-D, fixed base: the model behind every
-// URDF plant (plant/urdf.hpp builds it), evaluated by the recursive spatial
-// algorithms (plant/spatial_dynamics.hpp) and, through the templated
+// A kinematic tree of rigid bodies in 3-D, fixed base: the one description
+// of every plant's bodies and joints. A URDF plant's is read from its file
+// (plant/urdf.hpp); the built-in plants' (pendulum, arm2, cartpole, chain)
+// are planar trees in the world's xy plane, every joint axis along z,
+// gravity along −y (ToRigidTree in their headers, PlanarTreeJoint and
+// PlanarTreeBody below). It is evaluated by the recursive spatial algorithms
+// (plant/spatial_dynamics.hpp), by the planar ones for a planar chain
+// (plant/recursive_dynamics.hpp, PlanarChainOf) and, through the templated
 // energies below, by the Lagrangian path (plant/lagrangian.hpp).
 //
 // Frames. The world is the root link's frame. Joint i's frame is placed in
@@ -58,6 +63,18 @@ struct RigidTree {
   template <class S>
   S PotentialEnergy(std::span<const S> q) const;
 };
+
+// A joint of a planar plant, in the xy plane: its frame sits at (x, y) in its
+// parent body's frame (m), turned by `angle` (rad) about z; a revolute joint
+// turns about z, a prismatic one slides along its frame's x.
+TreeJoint PlanarTreeJoint(std::string name, JointType type, int parent, double x, double y, double angle);
+// A body of a planar plant: `mass` (kg) with its centre of mass at (x, y) in
+// its frame (m) and inertia `I` (kg·m²) about z through it, as a thin lamina
+// in the plane: I_xx = I_yy = I/2 (the perpendicular-axis theorem), which
+// planar motion never excites.
+RigidBody PlanarTreeBody(double mass, double x, double y, double I);
+// Gravity of a planar plant: g (m/s²) along −y.
+inline Eigen::Vector3d PlanarGravity(double g) { return {0.0, -g, 0.0}; }
 
 // Why I (3 x 3, kg·m², about the centre of mass) is not a rigid body's
 // rotational inertia, or nullopt. It must be finite, symmetric, positive

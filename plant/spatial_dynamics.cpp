@@ -78,8 +78,8 @@ struct SpatialScratch {
   std::vector<double> H;     // M's lower triangle, row-major n x n, then its Lᵀ D L factors
 };
 
-struct SpatialDynamics::Workspace {
-  SpatialModel model;
+struct SpatialDynamics::Data final : DynamicsData {
+  explicit Data(const SpatialDynamics& model) : DynamicsData(model) {}
   SpatialScratch s;
 };
 
@@ -498,20 +498,23 @@ void Aba(const SpatialModel& m, SpatialScratch& s, const double* qd, const doubl
 
 }  // namespace
 
-SpatialDynamics::SpatialDynamics(RigidTree tree)
-    : Dynamics(tree.joint_types()), tree_(std::move(tree)), ws_(std::make_unique<Workspace>()) {
+SpatialDynamics::SpatialDynamics(RigidTree tree) : Dynamics(tree.joint_types()), tree_(std::move(tree)) {
   if (auto error = ValidateRigidTree(tree_)) throw std::invalid_argument("SpatialDynamics: " + *error);
-  ws_->model = Fold(tree_);
-  Size(ws_->s, num_dofs());
-  forward_ = ws_->model.deep ? ForwardAlgorithm::kArticulatedBody : ForwardAlgorithm::kCompositeRigidBody;
+  model_ = std::make_unique<const SpatialModel>(Fold(tree_));
+  forward_ = model_->deep ? ForwardAlgorithm::kArticulatedBody : ForwardAlgorithm::kCompositeRigidBody;
 }
 
 SpatialDynamics::~SpatialDynamics() = default;
 
-void SpatialDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
-  AssertSizes(q, M);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+std::unique_ptr<DynamicsData> SpatialDynamics::MakeData() const {
+  auto data = std::make_unique<Data>(*this);
+  Size(data->s, num_dofs());
+  return data;
+}
+
+void SpatialDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  SpatialScratch& s = Checked<Data>(data, q, M).s;
+  const SpatialModel& m = *model_;
   if (!m.chain) M.setZero();
   Transforms(m, s, q.data());
   if (m.deep) {
@@ -543,10 +546,9 @@ void SpatialDynamics::ComputeMassMatrix(ConstVecRef q, MatRef M) const {
 // with Bc J = ½ İc J + ½ J ×* hc and Bcᵀ J = ½ İc J − ½ J ×* hc (İc symmetric,
 // hc the subtree's momentum): one forward sweep (I, İ, I v per body), one
 // backward sweep accumulating Ic, İc, hc and filling row and column i.
-void SpatialDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const {
-  AssertSizes(q, qd, C);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+void SpatialDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd, C).s;
+  const SpatialModel& m = *model_;
   if (!m.chain) C.setZero();
   Transforms(m, s, q.data());
   WorldPlacements(m, s);
@@ -594,10 +596,9 @@ void SpatialDynamics::ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRe
   }
 }
 
-void SpatialDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const {
-  AssertSizes(q, qd, c);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+void SpatialDynamics::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd, c).s;
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   RneaForward<false, true, false>(m, s, qd.data(), nullptr);
   RneaBackward(m, s, c.data());
@@ -606,10 +607,9 @@ void SpatialDynamics::ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef
 // G_i = −S_iᵀ (subtree gravity wrench about joint i): −z · (h_i × g_i) for a
 // revolute joint, −m_i z · g_i for a prismatic one, with h_i, m_i the
 // subtree's first moment and mass and g_i gravity in body i's frame.
-void SpatialDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
-  AssertSizes(q, G);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+void SpatialDynamics::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const {
+  SpatialScratch& s = Checked<Data>(data, q, G).s;
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   for (int i = 0; i < m.n; ++i) {
     const int p = m.parent[i];
@@ -626,10 +626,9 @@ void SpatialDynamics::ComputeGravityForce(ConstVecRef q, VecRef G) const {
 }
 
 // ∂T/∂q_i = (v_i × S_i) · H_i with H_i the subtree's momentum in body i's frame.
-void SpatialDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
-  AssertSizes(q, qd, dTdq);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+void SpatialDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd, dTdq).s;
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   Velocities(m, s, qd.data());
   for (int i = 0; i < m.n; ++i) s.f[i] = m.inertia[i] * s.v[i];
@@ -645,10 +644,9 @@ void SpatialDynamics::ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd
   }
 }
 
-double SpatialDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const {
-  AssertSizes(q, qd);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+double SpatialDynamics::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd).s;
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   Velocities(m, s, qd.data());
   double T = 0.0;
@@ -657,10 +655,9 @@ double SpatialDynamics::ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) cons
 }
 
 // V = −gravity · Σ m c: the subtree first moments carried to the world origin.
-double SpatialDynamics::ComputePotentialEnergy(ConstVecRef q) const {
-  AssertSizes(q);
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+double SpatialDynamics::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {
+  SpatialScratch& s = Checked<Data>(data, q).s;
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   for (int i = 0; i < m.n; ++i) s.h[i] = m.inertia[i].h;
   Vector3d world = Vector3d::Zero();
@@ -675,30 +672,28 @@ double SpatialDynamics::ComputePotentialEnergy(ConstVecRef q) const {
   return -m.gravity.dot(world);
 }
 
-void SpatialDynamics::ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+void SpatialDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                                              VecRef tau) const {
-  AssertSizes(q, qd, qdd, tau);
-  if (terms.gravity) CountGravity();
-  if (terms.coriolis) CountCoriolis();
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+  SpatialScratch& s = Checked<Data>(data, q, qd, qdd, tau).s;
+  if (terms.gravity) CountGravity(data);
+  if (terms.coriolis) CountCoriolis(data);
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   RneaForwardGated(m, s, qd.data(), qdd.data(), terms);
   RneaBackward(m, s, tau.data());
 }
 
-void SpatialDynamics::ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+void SpatialDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                                              VecRef qdd) const {
-  ComputeForwardDynamics(forward_, q, qd, tau, terms, qdd);
+  ComputeForwardDynamics(data, forward_, q, qd, tau, terms, qdd);
 }
 
-void SpatialDynamics::ComputeForwardDynamics(ForwardAlgorithm algorithm, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                                             DynamicsTerms terms, VecRef qdd) const {
-  AssertSizes(q, qd, tau, qdd);
-  if (terms.gravity) CountGravity();
-  if (terms.coriolis) CountCoriolis();
-  const SpatialModel& m = ws_->model;
-  SpatialScratch& s = ws_->s;
+void SpatialDynamics::ComputeForwardDynamics(DynamicsData& data, ForwardAlgorithm algorithm, ConstVecRef q,
+                                             ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms, VecRef qdd) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd, tau, qdd).s;
+  if (terms.gravity) CountGravity(data);
+  if (terms.coriolis) CountCoriolis(data);
+  const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
   if (algorithm == ForwardAlgorithm::kArticulatedBody) {
     Aba(m, s, qd.data(), tau.data(), terms, qdd.data());

@@ -51,6 +51,8 @@
 
 namespace lagrange {
 
+struct SpatialModel;  // the folded tree (defined in the .cpp)
+
 class SpatialDynamics final : public Dynamics {
  public:
   explicit SpatialDynamics(RigidTree tree);
@@ -58,17 +60,18 @@ class SpatialDynamics final : public Dynamics {
 
   const RigidTree& tree() const { return tree_; }
   Method method() const override { return Method::kRecursive; }
+  std::unique_ptr<DynamicsData> MakeData() const override;
 
-  void ComputeMassMatrix(ConstVecRef q, MatRef M) const override;
-  void ComputeCoriolisMatrix(ConstVecRef q, ConstVecRef qd, MatRef C) const override;
-  void ComputeCoriolisForce(ConstVecRef q, ConstVecRef qd, VecRef c) const override;
-  void ComputeGravityForce(ConstVecRef q, VecRef G) const override;
-  void ComputeKineticEnergyGradient(ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
-  double ComputeKineticEnergy(ConstVecRef q, ConstVecRef qd) const override;
-  double ComputePotentialEnergy(ConstVecRef q) const override;
-  void ComputeInverseDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+  void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
+  void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
+  void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
+  void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
+  double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
+  double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
                               VecRef tau) const override;
-  void ComputeForwardDynamics(ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+  void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
 
   // The exact forward-dynamics algorithms, qdd = M⁻¹ (tau − [C qd] − [G]):
@@ -87,14 +90,14 @@ class SpatialDynamics final : public Dynamics {
   // measured in bench/spatial_bench.cpp).
   static constexpr double kDeepTreeMeanAncestors = 6.5;
   ForwardAlgorithm forward_algorithm() const { return forward_; }
-  void ComputeForwardDynamics(ForwardAlgorithm algorithm, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
-                              DynamicsTerms terms, VecRef qdd) const;
+  void ComputeForwardDynamics(DynamicsData& data, ForwardAlgorithm algorithm, ConstVecRef q, ConstVecRef qd,
+                              ConstVecRef tau, DynamicsTerms terms, VecRef qdd) const;
 
  private:
-  struct Workspace;  // folded model and per-body scratch, defined in the .cpp
+  struct Data;  // one user's per-body scratch, defined in the .cpp
   RigidTree tree_;
   ForwardAlgorithm forward_ = ForwardAlgorithm::kArticulatedBody;
-  std::unique_ptr<Workspace> ws_;  // allocated once, in the constructor
+  std::unique_ptr<const SpatialModel> model_;  // the folded tree, built once in the constructor
 };
 
 }  // namespace lagrange

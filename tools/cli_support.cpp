@@ -3,7 +3,7 @@
 #include <charconv>
 #include <cstdio>
 
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange::cli {
 

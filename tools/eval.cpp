@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "plant/escape.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -99,15 +99,16 @@ class EvalCommand final : public Command {
     const VectorXd qd = JointValues("--qd", qd_, n);
     const VectorXd tau = tau_.empty() ? VectorXd::Zero(n) : JointValues("--tau", tau_, n);
 
-    auto dynamics = MakeDynamics(spec, method);
+    const std::unique_ptr<Dynamics> dynamics = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> data = dynamics->MakeData();
     MatrixXd M(n, n), C(n, n);
     VectorXd G(n), qdd(n);
-    dynamics->ComputeMassMatrix(q, M);
-    dynamics->ComputeCoriolisMatrix(q, qd, C);
-    dynamics->ComputeGravityForce(q, G);
-    dynamics->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
-    const double T = dynamics->ComputeKineticEnergy(q, qd);
-    const double V = dynamics->ComputePotentialEnergy(q);
+    dynamics->ComputeMassMatrix(*data, q, M);
+    dynamics->ComputeCoriolisMatrix(*data, q, qd, C);
+    dynamics->ComputeGravityForce(*data, q, G);
+    dynamics->ComputeForwardDynamics(*data, q, qd, tau, DynamicsTerms{}, qdd);
+    const double T = dynamics->ComputeKineticEnergy(*data, q, qd);
+    const double V = dynamics->ComputePotentialEnergy(*data, q);
     // Every value printed is finite (JSON has no inf or nan).
     if (!M.allFinite() || !C.allFinite() || !G.allFinite() || !qdd.allFinite() || !std::isfinite(T) ||
         !std::isfinite(V)) {

@@ -8,7 +8,7 @@
 
 #include "controllers/controller.hpp"
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange::testing {
 

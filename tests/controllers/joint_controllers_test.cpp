@@ -11,6 +11,7 @@
 #include "controllers/factory.hpp"
 #include "tests/controllers/closed_loop.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -107,8 +108,9 @@ TEST(GravityCompensation, PlainPdKeepsTheOffsetGravityOverKp) {
   ASSERT_TRUE(loop.Run(20.0, 1e-3));
   // At rest, Kp e = G(q): the offset theory predicts, with q the settled pose.
   auto model = MakeDynamics(arm, Method::kClosedForm);
+  const std::unique_ptr<DynamicsData> model_data = model->MakeData();
   VectorXd G(2);
-  model->ComputeGravityForce(loop.q, G);
+  model->ComputeGravityForce(*model_data, loop.q, G);
   const VectorXd offset = loop.setpoint.q - loop.q;
   EXPECT_LT((offset - G / kp).norm(), 1e-8);
   EXPECT_GT(offset.norm(), 0.05);  // and it is far from zero
@@ -254,7 +256,7 @@ TEST(Gains, PerJointMassDiagonalBoundsWouldFaultTheArm) {
   constexpr double kTick = 1e-3;
   const VectorXd q0 = Vec2(0.7853981633974483, 0.0);
   MatrixXd M(2, 2);
-  MakeDynamics(arm, Method::kClosedForm)->ComputeMassMatrix(q0, M);
+  M = testing::MassMatrixOf(arm, Method::kClosedForm, q0);
   ControllerConfig c = Joint(ControllerType::kPd, 0.0, 0.0);
   c.period = 1e-9;  // bounds far above: this test shows what the 1 ms bound prevents
   c.gains = {M.diagonal() / (kTick * kTick), 2.0 * M.diagonal() / kTick};
@@ -328,6 +330,24 @@ TEST(HardCases, ControllersWrapErrorsAtAMillionRevolutions) {
   ASSERT_TRUE(pd->Compute(0.0, q, VectorXd::Zero(2), sp, tau));
   EXPECT_LT(tau.norm(), 50.0 * 1e-8);  // the error is a few ulps of the large angle, not 2π·1e6
   EXPECT_NEAR(JointError(JointType::kRevolute, 0.3, 0.3 + turns + 0.01), -0.01, 1e-8);
+}
+
+// A controller whose model is the plant's shares the plant's model (one
+// immutable object) instead of building another; one with a model of its
+// own (a model error) builds it.
+TEST(ControllerModel, SharesThePlantsModelUnlessItsModelDiffers) {
+  const PlantSpec arm = DefaultPlantSpec(PlantType::kArm2);
+  const MethodModels models = MakeMethodModels(arm);
+  const auto& closed = models[static_cast<std::size_t>(Method::kClosedForm)];
+  const VectorXd limits = VectorXd::Constant(2, kInf);
+  ASSERT_EQ(closed.use_count(), 1);
+  const auto shared = MakeController(Joint(ControllerType::kComputedTorque, 100.0, 20.0), arm, limits, models);
+  EXPECT_EQ(closed.use_count(), 2);
+  ControllerConfig heavier = Joint(ControllerType::kComputedTorque, 100.0, 20.0);
+  heavier.model = arm;
+  std::get<Arm2Params>(heavier.model->params).m2 = 1.0;
+  const auto own = MakeController(heavier, arm, limits, models);
+  EXPECT_EQ(closed.use_count(), 2);
 }
 
 }  // namespace

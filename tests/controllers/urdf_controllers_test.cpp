@@ -13,6 +13,7 @@
 #include "controllers/factory.hpp"
 #include "plant/urdf.hpp"
 #include "tests/controllers/closed_loop.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -53,7 +54,7 @@ TEST(UrdfControllers, GravityCompensationOutputsItsModelsGravity) {
   VectorXd tau(7), tau_heavier(7), G(7);
   ASSERT_TRUE(exact->Compute(0.0, q, zero, sp, tau));
   ASSERT_TRUE(model_error->Compute(0.0, q, zero, sp, tau_heavier));
-  MakeDynamics(panda, Method::kRecursive)->ComputeGravityForce(q, G);
+  G = testing::GravityOf(panda, Method::kRecursive, q);
   EXPECT_LE((tau - G).norm(), 1e-12 * G.norm());
   EXPECT_LE((tau_heavier - 1.05 * G).norm(), 1e-12 * G.norm());
 }
@@ -117,7 +118,7 @@ TEST(UrdfControllers, PdGainBoundsKeepEveryModeOfTheHeldLawWithinTheTicksLimit) 
     const int n = c.plant.num_dofs();
     const GainBounds b = ComputeGainBounds(ControllerType::kPd, c.plant, c.q0, kTick);
     MatrixXd M(n, n);
-    MakeDynamics(c.plant, FastestMethod(c.plant.type()))->ComputeMassMatrix(c.q0, M);
+    M = testing::MassMatrixOf(c.plant, FastestMethod(c.plant.type()), c.q0);
     const MatrixXd Minv = M.inverse();
     auto spectral_radius = [&](const VectorXd& k) {  // of M⁻¹ diag(k), via the symmetric K^½ M⁻¹ K^½
       const MatrixXd S = k.cwiseSqrt().asDiagonal() * Minv * k.cwiseSqrt().asDiagonal();

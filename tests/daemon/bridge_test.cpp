@@ -805,6 +805,7 @@ TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQ
   ASSERT_EQ(forces_.size(), 100u);  // one per tick, from the tick that applied it
   EXPECT_EQ(last_status_.instance_forces, (std::vector<std::int8_t>{1, 0}));
   const Arm2ClosedForm arm(std::get<Arm2Params>(scene_.instances[0].plant.params));
+  const std::unique_ptr<DynamicsData> arm_data = arm.MakeData();
   MatrixXd M(2, 2);
   VectorXd G(2), c(2);
   double largest_coriolis = 0.0;
@@ -818,9 +819,9 @@ TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQ
     EXPECT_TRUE(f.gravity_on && f.coriolis_on);
     EXPECT_FALSE(f.damping_on || f.friction_on || f.limits_on || f.saturation_on || f.disturbance_on);
     const Eigen::Map<const VectorXd> q(s.q.data(), 2), qd(s.qd.data(), 2), qdd(s.qdd.data(), 2);
-    arm.ComputeMassMatrix(q, M);
-    arm.ComputeGravityForce(q, G);
-    arm.ComputeCoriolisForce(q, qd, c);
+    arm.ComputeMassMatrix(*arm_data, q, M);
+    arm.ComputeGravityForce(*arm_data, q, G);
+    arm.ComputeCoriolisForce(*arm_data, q, qd, c);
     const VectorXd Mqdd = M * qdd;
     for (std::size_t j = 0; j < 2; ++j) {
       const auto k = static_cast<Eigen::Index>(j);

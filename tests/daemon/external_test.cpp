@@ -256,7 +256,8 @@ class ExternalControllerLoop : public ::testing::Test {
   // G(q) of the arm's model.
   VectorXd Gravity(const VectorXd& q) {
     VectorXd g(q.size());
-    arm_.runtime().instance(0).model().dynamics().ComputeGravityForce(q, g);
+    PlantModel& model = arm_.runtime().instance(0).model();
+    model.dynamics().ComputeGravityForce(model.data(), q, g);
     return g;
   }
 

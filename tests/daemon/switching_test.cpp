@@ -360,7 +360,8 @@ TEST_F(SwitchingRuntime, ForcesArePublishedOnlyWhenAskedAndSumToTheDynamics) {
   VectorXd net(2);
   f.NetForce(net);
   MatrixXd M(2, 2);
-  runtime.instance(0).model().dynamics().ComputeMassMatrix(Arm().q, M);
+  PlantModel& model = runtime.instance(0).model();
+  model.dynamics().ComputeMassMatrix(model.data(), Arm().q, M);
   EXPECT_LT((M * Arm().qdd - net).norm(), 1e-9 * (1.0 + net.norm()));
   EXPECT_EQ(f.tau_applied, Arm().tau);
   CommandMessage& off = Command(CommandKind::kSetForces);

@@ -12,6 +12,7 @@
 #include "daemon/health.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/offline.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -119,7 +120,7 @@ TEST(ShippedRobots, AHeavierModelLeavesTheOffsetItsGravityErrorPredicts) {
   RunChecked(l, 6.0, [](std::size_t, Instance&) {});
   const Instance& ur5 = l.instances[0];
   VectorXd G(6);
-  MakeDynamics(c.plant, Method::kRecursive)->ComputeGravityForce(ur5.q(), G);
+  G = testing::GravityOf(c.plant, Method::kRecursive, ur5.q());
   const VectorXd e = c.setpoint.target - ur5.q();
   const VectorXd predicted = -0.05 * G.cwiseQuotient(c.controller.gains.kp);
   EXPECT_GT(predicted.cwiseAbs().maxCoeff(), 1e-3);  // an offset worth measuring

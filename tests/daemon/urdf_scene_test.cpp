@@ -14,6 +14,7 @@
 #include "daemon/instance.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
@@ -218,8 +219,8 @@ TEST_F(UrdfScene, GravityAndTheControllersModelAreTheScenes) {
   // The controller's G is its model's: 5 % heavier than the plant's.
   const VectorXd q = (VectorXd(2) << 0.3, -0.4).finished();
   VectorXd G(2), Gm(2);
-  MakeDynamics(robot.plant, Method::kRecursive)->ComputeGravityForce(q, G);
-  MakeDynamics(*robot.controller.model, Method::kRecursive)->ComputeGravityForce(q, Gm);
+  G = testing::GravityOf(robot.plant, Method::kRecursive, q);
+  Gm = testing::GravityOf(*robot.controller.model, Method::kRecursive, q);
   EXPECT_LE((Gm - 1.05 * G).norm(), 1e-12 * G.norm());
 }
 
@@ -351,8 +352,8 @@ TEST_F(UrdfScene, AModelFileInheritsThePlantsGravityButNotItsMassScale) {
   // The model's G is half the plant's (the file's masses, not twice them).
   const VectorXd q = (VectorXd(2) << 0.3, -0.4).finished();
   VectorXd G(2), Gm(2);
-  MakeDynamics(robot.plant, Method::kRecursive)->ComputeGravityForce(q, G);
-  MakeDynamics(*robot.controller.model, Method::kRecursive)->ComputeGravityForce(q, Gm);
+  G = testing::GravityOf(robot.plant, Method::kRecursive, q);
+  Gm = testing::GravityOf(*robot.controller.model, Method::kRecursive, q);
   EXPECT_LE((2.0 * Gm - G).norm(), 1e-12 * G.norm());
 }
 

@@ -24,9 +24,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (ValidateRigidTree(robot.tree)) __builtin_trap();  // the loader returns only valid trees
   if (robot.properties.size() != robot.tree.joints.size()) __builtin_trap();
   const SpatialDynamics dynamics(robot.tree);
+  const std::unique_ptr<DynamicsData> dynamics_data = dynamics.MakeData();
   const int n = robot.tree.num_dofs();
   MatrixXd M(n, n);
-  dynamics.ComputeMassMatrix(VectorXd::Zero(n), M);
+  dynamics.ComputeMassMatrix(*dynamics_data, VectorXd::Zero(n), M);
   if (!M.allFinite()) __builtin_trap();
   return 0;
 }

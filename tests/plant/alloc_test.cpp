@@ -12,7 +12,7 @@
 
 #include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -50,7 +50,7 @@ TEST(NoAllocation, SteppingAPlantAllocatesNothing) {
             integrator->Advance(model, k * 1e-3, 1e-3, tau, q, qd);
             integrator->Advance(model, &law, k * 1e-3, 1e-3, tau, q, qd);
             model.Energy(q, qd);
-            model.dynamics().ComputeGravityForce(q, scratch);
+            model.dynamics().ComputeGravityForce(model.data(), q, scratch);
           }
           allocations = counter.count();
         }

@@ -11,7 +11,8 @@
 #include <numbers>
 
 #include "plant/lagrangian.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
+#include "plant/spatial_dynamics.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/plant_cases.hpp"
 
@@ -35,17 +36,18 @@ struct Terms {
 };
 
 Terms Evaluate(const Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& u) {
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   const int n = d.num_dofs();
   Terms t{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n)};
-  d.ComputeMassMatrix(q, t.M);
-  d.ComputeCoriolisMatrix(q, qd, t.C);
-  d.ComputeCoriolisForce(q, qd, t.c);
-  d.ComputeGravityForce(q, t.G);
-  d.ComputeKineticEnergyGradient(q, qd, t.dTdq);
-  d.ComputeForwardDynamics(q, qd, u, DynamicsTerms{}, t.qdd);
-  d.ComputeInverseDynamics(q, qd, u, DynamicsTerms{}, t.tau);
-  t.T = d.ComputeKineticEnergy(q, qd);
-  t.V = d.ComputePotentialEnergy(q);
+  d.ComputeMassMatrix(*d_data, q, t.M);
+  d.ComputeCoriolisMatrix(*d_data, q, qd, t.C);
+  d.ComputeCoriolisForce(*d_data, q, qd, t.c);
+  d.ComputeGravityForce(*d_data, q, t.G);
+  d.ComputeKineticEnergyGradient(*d_data, q, qd, t.dTdq);
+  d.ComputeForwardDynamics(*d_data, q, qd, u, DynamicsTerms{}, t.qdd);
+  d.ComputeInverseDynamics(*d_data, q, qd, u, DynamicsTerms{}, t.tau);
+  t.T = d.ComputeKineticEnergy(*d_data, q, qd);
+  t.V = d.ComputePotentialEnergy(*d_data, q);
   return t;
 }
 
@@ -56,11 +58,12 @@ TEST_P(EveryPlant, MassMatrixIsSymmetricPositiveDefinite) {
   std::mt19937 rng{42};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     MatrixXd M(n, n);
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
-      d->ComputeMassMatrix(s.q, M);
+      d->ComputeMassMatrix(*d_data, s.q, M);
       ASSERT_LE((M - M.transpose()).norm(), kSymmetryTol * M.norm()) << ToString(method);
       const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues().minCoeff();
       ASSERT_GT(min_eig, 0.0) << ToString(method) << " at state " << k;
@@ -73,14 +76,15 @@ TEST_P(EveryPlant, MassMatrixRateMinusTwoCoriolisIsSkewSymmetric) {
   std::mt19937 rng{7};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     MatrixXd Mp(n, n), Mm(n, n), C(n, n);
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
-      d->ComputeMassMatrix(s.q + kEps * s.qd, Mp);
-      d->ComputeMassMatrix(s.q - kEps * s.qd, Mm);
+      d->ComputeMassMatrix(*d_data, s.q + kEps * s.qd, Mp);
+      d->ComputeMassMatrix(*d_data, s.q - kEps * s.qd, Mm);
       const MatrixXd Mdot = (Mp - Mm) / (2.0 * kEps);  // Ṁ along qd
-      d->ComputeCoriolisMatrix(s.q, s.qd, C);
+      d->ComputeCoriolisMatrix(*d_data, s.q, s.qd, C);
       const MatrixXd N = Mdot - 2.0 * C;
       ASSERT_LE((N + N.transpose()).norm(), kFiniteDifferenceTol * (Mp.norm() * s.qd.norm()))
           << ToString(method) << " at state " << k;
@@ -93,12 +97,13 @@ TEST_P(EveryPlant, KineticEnergyIsHalfVelocityMassVelocity) {
   std::mt19937 rng{11};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     MatrixXd M(d->num_dofs(), d->num_dofs());
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
-      d->ComputeMassMatrix(s.q, M);
+      d->ComputeMassMatrix(*d_data, s.q, M);
       const double quadratic = 0.5 * s.qd.dot(M * s.qd);
-      ASSERT_NEAR(d->ComputeKineticEnergy(s.q, s.qd), quadratic, kAgreeTol * quadratic) << ToString(method);
+      ASSERT_NEAR(d->ComputeKineticEnergy(*d_data, s.q, s.qd), quadratic, kAgreeTol * quadratic) << ToString(method);
     }
   }
 }
@@ -108,15 +113,16 @@ TEST_P(EveryPlant, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix) {
   std::mt19937 rng{13};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     MatrixXd C(n, n), M(n, n);
     VectorXd c(n), dTdq(n);
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
-      d->ComputeMassMatrix(s.q, M);
-      d->ComputeCoriolisMatrix(s.q, s.qd, C);
-      d->ComputeCoriolisForce(s.q, s.qd, c);
-      d->ComputeKineticEnergyGradient(s.q, s.qd, dTdq);
+      d->ComputeMassMatrix(*d_data, s.q, M);
+      d->ComputeCoriolisMatrix(*d_data, s.q, s.qd, C);
+      d->ComputeCoriolisForce(*d_data, s.q, s.qd, c);
+      d->ComputeKineticEnergyGradient(*d_data, s.q, s.qd, dTdq);
       const double floor = M.norm() * s.qd.squaredNorm();
       ASSERT_LE(RelativeDifference(c, C * s.qd, floor), kAgreeTol) << ToString(method);
       ASSERT_LE(RelativeDifference(dTdq, C.transpose() * s.qd, floor), kAgreeTol) << ToString(method);
@@ -129,6 +135,7 @@ TEST_P(EveryPlant, ForwardDynamicsInvertsInverseDynamics) {
   std::mt19937 rng{17};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     VectorXd tau(n), qdd(n);
     for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true}, DynamicsTerms{true, false},
@@ -136,8 +143,8 @@ TEST_P(EveryPlant, ForwardDynamicsInvertsInverseDynamics) {
       for (int k = 0; k < kStates; ++k) {
         const auto s = RandomStateFor(d->joint_types(), rng);
         const VectorXd qdd0 = testing::RandomVector(n, -5.0, 5.0, rng);
-        d->ComputeInverseDynamics(s.q, s.qd, qdd0, terms, tau);
-        d->ComputeForwardDynamics(s.q, s.qd, tau, terms, qdd);
+        d->ComputeInverseDynamics(*d_data, s.q, s.qd, qdd0, terms, tau);
+        d->ComputeForwardDynamics(*d_data, s.q, s.qd, tau, terms, qdd);
         ASSERT_LE(RelativeDifference(qdd, qdd0), 1e-10)
             << ToString(method) << " gravity " << terms.gravity << " coriolis " << terms.coriolis;
       }
@@ -153,6 +160,7 @@ TEST_P(EveryPlant, AllDerivationMethodsAgree) {
   for (Method method : testing::MethodsOf(spec.type())) {
     if (method == Method::kLagrangian) continue;
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
       const VectorXd u = testing::RandomVector(n, -10.0, 10.0, rng);
@@ -175,21 +183,51 @@ TEST_P(EveryPlant, AllDerivationMethodsAgree) {
   }
 }
 
+// The plant's tree is its one description: the spatial algorithms on it
+// give what every derivation of the plant gives (for the built-in plants,
+// whose recursive path folds the same tree into the planar algorithms).
+TEST_P(EveryPlant, SpatialDynamicsOfThePlantsTreeAgreeWithItsDerivations) {
+  const PlantSpec& spec = GetParam().spec;
+  const SpatialDynamics spatial(MakeRigidTree(spec));
+  const int n = spatial.num_dofs();
+  ASSERT_EQ(spatial.joint_types(), JointTypesOf(spec));
+  std::mt19937 rng{31};
+  for (Method method : testing::MethodsOf(spec.type())) {
+    auto d = MakeDynamics(spec, method);
+    for (int k = 0; k < kStates / 10; ++k) {
+      const auto s = RandomStateFor(d->joint_types(), rng);
+      const VectorXd u = testing::RandomVector(n, -10.0, 10.0, rng);
+      const Terms a = Evaluate(*d, s.q, s.qd, u);
+      const Terms b = Evaluate(spatial, s.q, s.qd, u);
+      const double m = a.M.norm(), g = m * kStandardGravity, v = m * s.qd.squaredNorm();
+      const char* name = ToString(method).data();
+      ASSERT_LE(RelativeDifference(a.M, b.M), kAgreeTol) << name << " M at state " << k;
+      ASSERT_LE(RelativeDifference(a.C, b.C, m * s.qd.norm()), kAgreeTol) << name << " C";
+      ASSERT_LE(RelativeDifference(a.G, b.G, g), kAgreeTol) << name << " G";
+      ASSERT_LE(RelativeDifference(a.tau, b.tau, g + v), kAgreeTol) << name << " inverse dynamics";
+      ASSERT_LE(RelativeDifference(a.qdd, b.qdd, 1.0), 1e-11) << name << " forward dynamics";
+      ASSERT_NEAR(a.T, b.T, kAgreeTol * std::max(1.0, a.T)) << name << " T";
+      ASSERT_NEAR(a.V, b.V, kAgreeTol * g) << name << " V";
+    }
+  }
+}
+
 TEST_P(EveryPlant, GravityIsTheGradientOfThePotential) {
   const PlantSpec& spec = GetParam().spec;
   std::mt19937 rng{29};
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     VectorXd G(n);
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
-      d->ComputeGravityForce(s.q, G);
+      d->ComputeGravityForce(*d_data, s.q, G);
       for (int i = 0; i < n; ++i) {
         VectorXd qp = s.q, qm = s.q;
         qp[i] += kEps;
         qm[i] -= kEps;
-        const double fd = (d->ComputePotentialEnergy(qp) - d->ComputePotentialEnergy(qm)) / (2.0 * kEps);
+        const double fd = (d->ComputePotentialEnergy(*d_data, qp) - d->ComputePotentialEnergy(*d_data, qm)) / (2.0 * kEps);
         ASSERT_NEAR(G[i], fd, kFiniteDifferenceTol * std::max(1.0, G.norm())) << ToString(method);
       }
     }
@@ -205,15 +243,16 @@ TEST_P(EveryPlant, EnergyChangesAtThePowerOfTheAppliedForce) {
   constexpr double kStep = 1e-5;
   for (Method method : testing::MethodsOf(spec.type())) {
     auto d = MakeDynamics(spec, method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const int n = d->num_dofs();
     VectorXd qdd(n);
     for (int k = 0; k < kStates; ++k) {
       const auto s = RandomStateFor(d->joint_types(), rng);
       const VectorXd tau = testing::RandomVector(n, -10.0, 10.0, rng);
-      d->ComputeForwardDynamics(s.q, s.qd, tau, DynamicsTerms{}, qdd);
+      d->ComputeForwardDynamics(*d_data, s.q, s.qd, tau, DynamicsTerms{}, qdd);
       auto energy = [&](double e) {
         const VectorXd q = s.q + e * s.qd, qd = s.qd + e * qdd;
-        return d->ComputeKineticEnergy(q, qd) + d->ComputePotentialEnergy(q);
+        return d->ComputeKineticEnergy(*d_data, q, qd) + d->ComputePotentialEnergy(*d_data, q);
       };
       const double rate = (energy(kStep) - energy(-kStep)) / (2.0 * kStep);
       const double power = s.qd.dot(tau);
@@ -271,10 +310,12 @@ TEST(Robots, GravityAndMassScaleScaleGravityAndMassMatrix) {
   VectorXd G(7), Gh(7);
   for (Method method : testing::MethodsOf(PlantType::kUrdf)) {
     auto d = MakeDynamics(panda, method), h = MakeDynamics(heavier, method);
-    d->ComputeMassMatrix(q, M);
-    h->ComputeMassMatrix(q, Mh);
-    d->ComputeGravityForce(q, G);
-    h->ComputeGravityForce(q, Gh);
+    const std::unique_ptr<DynamicsData> h_data = h->MakeData();
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
+    d->ComputeMassMatrix(*d_data, q, M);
+    h->ComputeMassMatrix(*h_data, q, Mh);
+    d->ComputeGravityForce(*d_data, q, G);
+    h->ComputeGravityForce(*h_data, q, Gh);
     EXPECT_LE(RelativeDifference(Mh, 1.5 * M), kAgreeTol) << ToString(method);
     EXPECT_LE(RelativeDifference(Gh, 3.0 * G), kAgreeTol) << ToString(method);
   }
@@ -332,21 +373,23 @@ TEST(ChainEquivalence, TwoLinkChainIsTheArm) {
 TEST(ClosedForm, PendulumMatchesTheTextbookEquation) {
   // m L² θ̈ + m g L sin θ = τ for the point mass.
   auto d = MakeDynamics(DefaultPlantSpec(PlantType::kPendulum), Method::kClosedForm);
+  const std::unique_ptr<DynamicsData> d_data = d->MakeData();
   VectorXd q(1), qd(1), tau(1), qdd(1);
   q << 0.7;
   qd << 1.1;
   tau << 0.3;
-  d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+  d->ComputeForwardDynamics(*d_data, q, qd, tau, DynamicsTerms{}, qdd);
   EXPECT_NEAR(qdd[0], (0.3 - 1.0 * kStandardGravity * 1.0 * std::sin(0.7)) / 1.0, 1e-15);
 }
 
 TEST(ClosedForm, ArmMatchesTheArticleAtTheShoulderHorizontal) {
   // At q = (0, 0): M11 = m1L1²/3 + m2(L1² + L1L2 + L2²/3), G1 = g(m1 L1/2 + m2(L1 + L2/2)).
   auto d = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm);
+  const std::unique_ptr<DynamicsData> d_data = d->MakeData();
   VectorXd q = VectorXd::Zero(2), G(2);
   MatrixXd M(2, 2);
-  d->ComputeMassMatrix(q, M);
-  d->ComputeGravityForce(q, G);
+  d->ComputeMassMatrix(*d_data, q, M);
+  d->ComputeGravityForce(*d_data, q, G);
   const double m1 = 1.0, m2 = 0.8, L1 = 0.6, L2 = 0.5, g = kStandardGravity;
   EXPECT_NEAR(M(0, 0), m1 * L1 * L1 / 3 + m2 * (L1 * L1 + L1 * L2 + L2 * L2 / 3), 1e-15);
   EXPECT_NEAR(M(0, 1), m2 * (L1 * L2 / 2 + L2 * L2 / 3), 1e-15);
@@ -386,15 +429,19 @@ TEST(Recursive, SixtyFourLinkChainMatchesTheLagrangianPath) {
 TEST(SizeChecks, DebugBuildsRejectMisSizedArguments) {
   for (Method method : testing::MethodsOf(PlantType::kArm2)) {
     const auto d = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), method);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     const VectorXd q2 = VectorXd::Zero(2), q3 = VectorXd::Zero(3);
     MatrixXd M2(2, 2), M3(3, 3);
     VectorXd out2(2), out3(3);
-    EXPECT_DEATH(d->ComputeMassMatrix(q3, M2), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeMassMatrix(q2, M3), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeCoriolisForce(q2, q3, out2), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeGravityForce(q2, out3), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeForwardDynamics(q2, q2, q3, DynamicsTerms{}, out2), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeInverseDynamics(q2, q2, q2, DynamicsTerms{}, out3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeMassMatrix(*d_data, q3, M2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeMassMatrix(*d_data, q2, M3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeCoriolisForce(*d_data, q2, q3, out2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeGravityForce(*d_data, q2, out3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeForwardDynamics(*d_data, q2, q2, q3, DynamicsTerms{}, out2), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeInverseDynamics(*d_data, q2, q2, q2, DynamicsTerms{}, out3), "HasDofSize") << ToString(method);
+    // Data belongs to the model that made it.
+    const auto other = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), method);
+    EXPECT_DEATH(other->ComputeMassMatrix(*d_data, q2, M2), "another model") << ToString(method);
   }
 }
 #endif

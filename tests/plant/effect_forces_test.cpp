@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "plant/plant_model.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/plant_cases.hpp"
 
@@ -133,7 +133,7 @@ TEST(EffectForces, TermsAddUpToMassTimesTheIntegratedAcceleration) {
           }
 
           model.ComputeAcceleration(t, q, qd, tau_cmd, qdd);
-          model.dynamics().ComputeMassMatrix(q, M);
+          model.dynamics().ComputeMassMatrix(model.data(), q, M);
           Mqdd.noalias() = M * qdd;
           forces.NetForce(net);
           const double scale = forces.tau_applied.norm() + forces.disturbance.norm() + forces.damping.norm() +
@@ -151,14 +151,15 @@ TEST(EffectForces, EachTermIsItsOwnEffectsForce) {
   const EffectsConfig config = testing::AllEffectsOn(2);  // b 0.3, Fc 0.2, v_s 0.1, stops ±1 (k 500, d 5), sat 4
   PlantModel model(MakeDynamics(spec, Method::kClosedForm), config);
   auto reference = MakeDynamics(spec, Method::kLagrangian);
+  const std::unique_ptr<DynamicsData> reference_data = reference->MakeData();
   const VectorXd q = Vec({1.02, -0.5}), qd = Vec({0.4, -0.05}), tau_cmd = Vec({-7.0, 1.5});
   EffectForces f(2);
   model.ComputeEffectForces(kPushActive, q, qd, tau_cmd, f);
 
   VectorXd G(2);
   MatrixXd C(2, 2);
-  reference->ComputeGravityForce(q, G);
-  reference->ComputeCoriolisMatrix(q, qd, C);
+  reference->ComputeGravityForce(*reference_data, q, G);
+  reference->ComputeCoriolisMatrix(*reference_data, q, qd, C);
   EXPECT_LE(MaxAbs(f.gravity - G), kFormulaTol * (1.0 + MaxAbs(G)));
   EXPECT_LE(MaxAbs(f.coriolis - C * qd), kFormulaTol * (1.0 + MaxAbs(C * qd)));
   EXPECT_LE(MaxAbs(f.damping - Vec({-0.3 * 0.4, 0.3 * 0.05})), kFormulaTol);
@@ -225,7 +226,7 @@ TEST(EffectForces, WithALawTheCommandIsTheLawsOutput) {
   MatrixXd M(2, 2);
   f.NetForce(net);
   model.ComputeAcceleration(&law, kPushActive, q, qd, ignored, qdd);
-  model.dynamics().ComputeMassMatrix(q, M);
+  model.dynamics().ComputeMassMatrix(model.data(), q, M);
   Mqdd = M * qdd;
   EXPECT_LE((Mqdd - net).norm(), kSumTol * (1.0 + net.norm()));
 }

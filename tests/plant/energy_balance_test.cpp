@@ -18,7 +18,7 @@
 
 #include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {

@@ -8,7 +8,7 @@
 #include <numbers>
 
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "tests/support/full_length.hpp"
 
 namespace lagrange {
@@ -80,12 +80,14 @@ TEST(HardCases, ArmFullyFoldedAndFullyStretchedStaysWellPosed) {
     MatrixXd M(2, 2), M_ref(2, 2);
     VectorXd qdd(2), qdd_ref(2);
     auto reference = MakeDynamics(arm, Method::kLagrangian);
-    reference->ComputeMassMatrix(q, M_ref);
-    reference->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd_ref);
+    const std::unique_ptr<DynamicsData> reference_data = reference->MakeData();
+    reference->ComputeMassMatrix(*reference_data, q, M_ref);
+    reference->ComputeForwardDynamics(*reference_data, q, qd, tau, DynamicsTerms{}, qdd_ref);
     EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(M_ref).eigenvalues().minCoeff(), 1e-3);
     for (Method m : {Method::kClosedForm, Method::kRecursive}) {
       auto d = MakeDynamics(arm, m);
-      d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+      const std::unique_ptr<DynamicsData> d_data = d->MakeData();
+      d->ComputeForwardDynamics(*d_data, q, qd, tau, DynamicsTerms{}, qdd);
       EXPECT_LE((qdd - qdd_ref).norm(), 1e-12 * qdd_ref.norm()) << q2;
     }
     // And it swings through the singular-looking poses conserving energy.
@@ -131,8 +133,9 @@ TEST(HardCases, AMillionRevolutionsChangeNothingButTheAngleItself) {
     VectorXd q = VectorXd::Constant(n, 0.3), qd = VectorXd::Constant(n, 0.7), qdd(n), qdd_far(n);
     const VectorXd far = q.array() + turns;
     auto d = MakeDynamics(spec, Method::kClosedForm);
-    d->ComputeForwardDynamics(q, qd, VectorXd::Zero(n), DynamicsTerms{}, qdd);
-    d->ComputeForwardDynamics(far, qd, VectorXd::Zero(n), DynamicsTerms{}, qdd_far);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
+    d->ComputeForwardDynamics(*d_data, q, qd, VectorXd::Zero(n), DynamicsTerms{}, qdd);
+    d->ComputeForwardDynamics(*d_data, far, qd, VectorXd::Zero(n), DynamicsTerms{}, qdd_far);
     EXPECT_LT((qdd - qdd_far).norm(), 100.0 * representation * (1.0 + qdd.norm())) << ToString(type);
     // The same swing, offset by whole turns, up to the rounding of a 6.3e6 rad angle
     // (~5e-10 rad per step). The arm is chaotic: after a second that rounding grows,
@@ -175,9 +178,10 @@ TEST(HardCases, ExtremeMassRatiosKeepAPositiveDefiniteMassMatrixAndEnergy) {
   for (const Case& c : cases) {
     const int n = c.spec.num_dofs();
     auto reference = MakeDynamics(c.spec, Method::kLagrangian);
+    const std::unique_ptr<DynamicsData> reference_data = reference->MakeData();
     MatrixXd M(n, n);
     VectorXd q = VectorXd::Constant(n, 0.4);
-    reference->ComputeMassMatrix(q, M);
+    reference->ComputeMassMatrix(*reference_data, q, M);
     EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues().minCoeff(), 0.0) << c.name;
     Simulation r = Make(c.spec, IntegratorType::kDormandPrince, 1, {}, FastestMethod(c.spec.type()));
     r.q = q;
@@ -203,13 +207,14 @@ TEST(HardCases, IllConditionedMassMatrixIsSolvedWithARoundOffResidual) {
   tau << 0.3, 0.0;
   for (Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
     auto d = MakeDynamics({p}, m);
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     MatrixXd M(2, 2);
-    d->ComputeMassMatrix(q, M);
+    d->ComputeMassMatrix(*d_data, q, M);
     const auto eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues();
     ASSERT_GE(eig.maxCoeff() / eig.minCoeff(), 1e10);
-    d->ComputeCoriolisForce(q, qd, c);
-    d->ComputeGravityForce(q, G);
-    d->ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, qdd);
+    d->ComputeCoriolisForce(*d_data, q, qd, c);
+    d->ComputeGravityForce(*d_data, q, G);
+    d->ComputeForwardDynamics(*d_data, q, qd, tau, DynamicsTerms{}, qdd);
     const VectorXd rhs = tau - c - G;
     const double residual = (M * qdd - rhs).norm() / (M.norm() * qdd.norm() + rhs.norm());
     EXPECT_LT(residual, 1e-15) << ToString(m);  // measured: 2e-17 for all three

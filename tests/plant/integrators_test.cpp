@@ -14,7 +14,7 @@
 #include <utility>
 
 #include "plant/integrators.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
@@ -101,7 +101,7 @@ TEST(GravityCompensation, ArmHoldsThePoseOfTheArticle) {
       q0 << kPi / 4, 0.0;
       q = q0;
       for (int k = 0; k < 3000; ++k) {
-        model->dynamics().ComputeGravityForce(q, tau);
+        model->dynamics().ComputeGravityForce(model->data(), q, tau);
         integrator->Step(*model, k * kTick, kTick, tau, q, qd);
       }
       EXPECT_LE((q - q0).lpNorm<Eigen::Infinity>(), 1e-9) << ToString(method) << " " << ToString(type);

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "plant/plant_model.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
@@ -80,7 +80,7 @@ TEST(PlantModel, PotentialEnergyFollowsGravitysFlag) {
   VectorXd q(2);
   q << 1.3, 0.4;  // joint 1 past its stop at 1
   const double springs = model.effects().LimitPotentialEnergy(q);
-  const double gravity = model.dynamics().ComputePotentialEnergy(q);
+  const double gravity = model.dynamics().ComputePotentialEnergy(model.data(), q);
   ASSERT_GT(springs, 0.0);
   ASSERT_NE(gravity, 0.0);
   EXPECT_EQ(model.PotentialEnergy(q), springs + gravity);

@@ -65,17 +65,18 @@ struct Terms {
 
 // Every query at (q, qd); forward dynamics of u and inverse dynamics of u as qdd.
 Terms Evaluate(const Dynamics& d, const State& s, const VectorXd& u) {
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   const int n = d.num_dofs();
   Terms t{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n), VectorXd(n)};
-  d.ComputeMassMatrix(s.q, t.M);
-  d.ComputeCoriolisMatrix(s.q, s.qd, t.C);
-  d.ComputeCoriolisForce(s.q, s.qd, t.c);
-  d.ComputeGravityForce(s.q, t.G);
-  d.ComputeKineticEnergyGradient(s.q, s.qd, t.dTdq);
-  d.ComputeForwardDynamics(s.q, s.qd, u, DynamicsTerms{}, t.qdd);
-  d.ComputeInverseDynamics(s.q, s.qd, u, DynamicsTerms{}, t.tau);
-  t.T = d.ComputeKineticEnergy(s.q, s.qd);
-  t.V = d.ComputePotentialEnergy(s.q);
+  d.ComputeMassMatrix(*d_data, s.q, t.M);
+  d.ComputeCoriolisMatrix(*d_data, s.q, s.qd, t.C);
+  d.ComputeCoriolisForce(*d_data, s.q, s.qd, t.c);
+  d.ComputeGravityForce(*d_data, s.q, t.G);
+  d.ComputeKineticEnergyGradient(*d_data, s.q, s.qd, t.dTdq);
+  d.ComputeForwardDynamics(*d_data, s.q, s.qd, u, DynamicsTerms{}, t.qdd);
+  d.ComputeInverseDynamics(*d_data, s.q, s.qd, u, DynamicsTerms{}, t.tau);
+  t.T = d.ComputeKineticEnergy(*d_data, s.q, s.qd);
+  t.V = d.ComputePotentialEnergy(*d_data, s.q);
   return t;
 }
 
@@ -104,10 +105,11 @@ TEST(SpatialDynamics, MassMatrixIsSymmetricPositiveDefinite) {
   for (int k = 0; k < 40; ++k) {
     const RigidTree tree = RandomTree(k, rng, 30);
     const SpatialDynamics d(tree);
+    const std::unique_ptr<DynamicsData> d_data = d.MakeData();
     const int n = d.num_dofs();
     MatrixXd M(n, n);
     for (int j = 0; j < 3; ++j) {
-      d.ComputeMassMatrix(RandomState(tree, rng).q, M);
+      d.ComputeMassMatrix(*d_data, RandomState(tree, rng).q, M);
       ASSERT_LE((M - M.transpose()).norm(), kSymmetryTol * M.norm()) << "tree " << k;
       ASSERT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(M).eigenvalues().minCoeff(), 0.0) << "tree " << k;
     }
@@ -119,13 +121,14 @@ TEST(SpatialDynamics, MassMatrixRateMinusTwoCoriolisIsSkewSymmetric) {
   for (int k = 0; k < 40; ++k) {
     const RigidTree tree = RandomTree(k, rng, 30);
     const SpatialDynamics d(tree);
+    const std::unique_ptr<DynamicsData> d_data = d.MakeData();
     const int n = d.num_dofs();
     MatrixXd Mp(n, n), Mm(n, n), C(n, n);
     const State s = RandomState(tree, rng);
-    d.ComputeMassMatrix(s.q + kEps * s.qd, Mp);
-    d.ComputeMassMatrix(s.q - kEps * s.qd, Mm);
+    d.ComputeMassMatrix(*d_data, s.q + kEps * s.qd, Mp);
+    d.ComputeMassMatrix(*d_data, s.q - kEps * s.qd, Mm);
     const MatrixXd Mdot = (Mp - Mm) / (2.0 * kEps);  // Ṁ along qd
-    d.ComputeCoriolisMatrix(s.q, s.qd, C);
+    d.ComputeCoriolisMatrix(*d_data, s.q, s.qd, C);
     const MatrixXd N = Mdot - 2.0 * C;
     ASSERT_LE((N + N.transpose()).norm(), kFiniteDifferenceTol * Mp.norm() * s.qd.norm()) << "tree " << k;
   }
@@ -136,18 +139,19 @@ TEST(SpatialDynamics, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix)
   for (int k = 0; k < 40; ++k) {
     const RigidTree tree = RandomTree(k, rng, 40);
     const SpatialDynamics d(tree);
+    const std::unique_ptr<DynamicsData> d_data = d.MakeData();
     const int n = d.num_dofs();
     MatrixXd C(n, n), M(n, n);
     VectorXd c(n), dTdq(n);
     const State s = RandomState(tree, rng);
-    d.ComputeMassMatrix(s.q, M);
-    d.ComputeCoriolisMatrix(s.q, s.qd, C);
-    d.ComputeCoriolisForce(s.q, s.qd, c);
-    d.ComputeKineticEnergyGradient(s.q, s.qd, dTdq);
+    d.ComputeMassMatrix(*d_data, s.q, M);
+    d.ComputeCoriolisMatrix(*d_data, s.q, s.qd, C);
+    d.ComputeCoriolisForce(*d_data, s.q, s.qd, c);
+    d.ComputeKineticEnergyGradient(*d_data, s.q, s.qd, dTdq);
     const double floor = M.norm() * s.qd.squaredNorm();
     ASSERT_LE(RelativeDifference(c, C * s.qd, floor), kAgreeTol) << "tree " << k;
     ASSERT_LE(RelativeDifference(dTdq, C.transpose() * s.qd, floor), kAgreeTol) << "tree " << k;
-    ASSERT_NEAR(d.ComputeKineticEnergy(s.q, s.qd), 0.5 * s.qd.dot(M * s.qd), kAgreeTol * floor) << "tree " << k;
+    ASSERT_NEAR(d.ComputeKineticEnergy(*d_data, s.q, s.qd), 0.5 * s.qd.dot(M * s.qd), kAgreeTol * floor) << "tree " << k;
   }
 }
 
@@ -156,18 +160,19 @@ TEST(SpatialDynamics, ForwardDynamicsInvertsInverseDynamics) {
   for (int k = 0; k < 40; ++k) {
     const RigidTree tree = RandomTree(k, rng, 30);
     const SpatialDynamics d(tree);
+    const std::unique_ptr<DynamicsData> d_data = d.MakeData();
     const int n = d.num_dofs();
     MatrixXd M(n, n);
     VectorXd qdd(n), back(n);
     const State s = RandomState(tree, rng);
-    d.ComputeMassMatrix(s.q, M);
+    d.ComputeMassMatrix(*d_data, s.q, M);
     const VectorXd tau = RandomVector(n, -10.0, 10.0, rng);
     const double scale = tau.norm() + M.norm() * (kStandardGravity + s.qd.squaredNorm());
     for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true}, DynamicsTerms{true, false},
                                       DynamicsTerms{false, false}}) {
       for (ForwardAlgorithm algorithm : {ForwardAlgorithm::kArticulatedBody, ForwardAlgorithm::kCompositeRigidBody}) {
-        d.ComputeForwardDynamics(algorithm, s.q, s.qd, tau, terms, qdd);
-        d.ComputeInverseDynamics(s.q, s.qd, qdd, terms, back);
+        d.ComputeForwardDynamics(*d_data, algorithm, s.q, s.qd, tau, terms, qdd);
+        d.ComputeInverseDynamics(*d_data, s.q, s.qd, qdd, terms, back);
         ASSERT_LE((back - tau).norm(), kInverseTol * scale)
             << "tree " << k << " algorithm " << static_cast<int>(algorithm) << " gravity " << terms.gravity
             << " coriolis " << terms.coriolis;
@@ -183,19 +188,20 @@ TEST(SpatialDynamics, EnergyChangesAtThePowerOfTheJointForces) {
   for (int k = 0; k < 40; ++k) {
     const RigidTree tree = RandomTree(k, rng, 30);
     const SpatialDynamics d(tree);
+    const std::unique_ptr<DynamicsData> d_data = d.MakeData();
     const int n = d.num_dofs();
     const State s = RandomState(tree, rng);
     const VectorXd tau = RandomVector(n, -5.0, 5.0, rng);
     VectorXd qdd(n);
-    d.ComputeForwardDynamics(s.q, s.qd, tau, DynamicsTerms{}, qdd);
+    d.ComputeForwardDynamics(*d_data, s.q, s.qd, tau, DynamicsTerms{}, qdd);
     auto energy = [&](double t) {
       const VectorXd q = s.q + t * s.qd, qd = s.qd + t * qdd;
-      return d.ComputeKineticEnergy(q, qd) + d.ComputePotentialEnergy(q);
+      return d.ComputeKineticEnergy(*d_data, q, qd) + d.ComputePotentialEnergy(*d_data, q);
     };
     const double rate = (energy(kEps) - energy(-kEps)) / (2.0 * kEps);
     const double power = Power(s.qd, tau);
     MatrixXd M(n, n);
-    d.ComputeMassMatrix(s.q, M);
+    d.ComputeMassMatrix(*d_data, s.q, M);
     const double scale = M.norm() * (s.qd.norm() + qdd.norm()) * (s.qd.norm() + kStandardGravity) + std::abs(power);
     ASSERT_NEAR(rate, power, kFiniteDifferenceTol * scale) << "tree " << k;
   }
@@ -205,30 +211,31 @@ TEST(SpatialDynamics, InverseDynamicsComputesAndCountsOnlyTheTermsThatAreOn) {
   std::mt19937 rng{23};
   const RigidTree tree = RandomRigidTree({.bodies = 6, .chain = false, .prismatic_fraction = 0.3}, rng);
   const SpatialDynamics d(tree);
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   const int n = d.num_dofs();
   const State s = RandomState(tree, rng);
   const VectorXd qdd = RandomVector(n, -3.0, 3.0, rng);
   MatrixXd M(n, n);
   VectorXd c(n), G(n), tau(n);
-  d.ComputeMassMatrix(s.q, M);
-  d.ComputeCoriolisForce(s.q, s.qd, c);
-  d.ComputeGravityForce(s.q, G);
+  d.ComputeMassMatrix(*d_data, s.q, M);
+  d.ComputeCoriolisForce(*d_data, s.q, s.qd, c);
+  d.ComputeGravityForce(*d_data, s.q, G);
   const double scale = M.norm() * (qdd.norm() + s.qd.squaredNorm() + kStandardGravity);
   for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, true}, DynamicsTerms{true, false},
                                     DynamicsTerms{false, false}}) {
-    const StageCounts before = d.counts();
-    d.ComputeInverseDynamics(s.q, s.qd, qdd, terms, tau);
+    const StageCounts before = d_data->counts();
+    d.ComputeInverseDynamics(*d_data, s.q, s.qd, qdd, terms, tau);
     VectorXd expected = M * qdd;
     if (terms.coriolis) expected += c;
     if (terms.gravity) expected += G;
     EXPECT_LE((tau - expected).norm(), kAgreeTol * scale);
-    EXPECT_EQ(d.counts().gravity - before.gravity, terms.gravity ? 1 : 0);
-    EXPECT_EQ(d.counts().coriolis - before.coriolis, terms.coriolis ? 1 : 0);
-    const StageCounts middle = d.counts();
+    EXPECT_EQ(d_data->counts().gravity - before.gravity, terms.gravity ? 1 : 0);
+    EXPECT_EQ(d_data->counts().coriolis - before.coriolis, terms.coriolis ? 1 : 0);
+    const StageCounts middle = d_data->counts();
     VectorXd back(n);
-    d.ComputeForwardDynamics(s.q, s.qd, tau, terms, back);
-    EXPECT_EQ(d.counts().gravity - middle.gravity, terms.gravity ? 1 : 0);
-    EXPECT_EQ(d.counts().coriolis - middle.coriolis, terms.coriolis ? 1 : 0);
+    d.ComputeForwardDynamics(*d_data, s.q, s.qd, tau, terms, back);
+    EXPECT_EQ(d_data->counts().gravity - middle.gravity, terms.gravity ? 1 : 0);
+    EXPECT_EQ(d_data->counts().coriolis - middle.coriolis, terms.coriolis ? 1 : 0);
   }
 }
 
@@ -238,13 +245,14 @@ TEST(SpatialDynamics, BothForwardAlgorithmsAgreeOnLargeTrees) {
     for (bool chain : {true, false}) {
       const RigidTree tree = RandomRigidTree({.bodies = bodies, .chain = chain, .prismatic_fraction = 0.3}, rng);
       const SpatialDynamics d(tree);
+      const std::unique_ptr<DynamicsData> d_data = d.MakeData();
       const State s = RandomState(tree, rng);
       const VectorXd tau = RandomVector(bodies, -5.0, 5.0, rng);
       VectorXd a(bodies), b(bodies);
       MatrixXd M(bodies, bodies);
-      d.ComputeMassMatrix(s.q, M);
-      d.ComputeForwardDynamics(ForwardAlgorithm::kArticulatedBody, s.q, s.qd, tau, DynamicsTerms{}, a);
-      d.ComputeForwardDynamics(ForwardAlgorithm::kCompositeRigidBody, s.q, s.qd, tau, DynamicsTerms{}, b);
+      d.ComputeMassMatrix(*d_data, s.q, M);
+      d.ComputeForwardDynamics(*d_data, ForwardAlgorithm::kArticulatedBody, s.q, s.qd, tau, DynamicsTerms{}, a);
+      d.ComputeForwardDynamics(*d_data, ForwardAlgorithm::kCompositeRigidBody, s.q, s.qd, tau, DynamicsTerms{}, b);
       EXPECT_LE((M * (a - b)).norm(), kInverseTol * (tau.norm() + M.norm() * (s.qd.squaredNorm() + kStandardGravity)))
           << bodies << " bodies, chain " << chain;
     }
@@ -268,44 +276,29 @@ TEST(SpatialDynamics, AgreesWithTheLagrangianPathOnRandomTrees) {
   }
 }
 
-// A PlanarChain as a RigidTree: every joint axis along z (a prismatic joint
-// slides along its rotated frame's x), gravity along −y, each body's planar
-// inertia as I_zz (I_xx = I_yy = I_zz / 2: valid, and never excited).
-RigidTree TreeFromPlanarChain(const PlanarChain& chain) {
+// A random planar chain, described as every plant is, by a RigidTree in the
+// xy plane (PlanarTreeJoint, PlanarTreeBody, PlanarGravity).
+RigidTree RandomPlanarTree(int links, std::mt19937& rng) {
+  std::uniform_real_distribution<double> mass(0.3, 2.0), coord(-0.6, 0.6), angle(-1.5, 1.5), inertia(0.01, 0.2),
+      unit(0.0, 1.0);
   RigidTree tree;
-  for (int i = 0; i < chain.num_dofs(); ++i) {
-    const PlanarJoint& pj = chain.joints[i];
-    TreeJoint j;
-    j.type = pj.type;
-    j.parent = i - 1;
-    j.position = Eigen::Vector3d(pj.position.x(), pj.position.y(), 0.0);
-    j.rotation = Eigen::AngleAxisd(pj.angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    j.axis = pj.type == JointType::kRevolute ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
-    tree.joints.push_back(j);
-    const PlanarBody& pb = chain.bodies[i];
-    RigidBody b;
-    b.mass = pb.mass;
-    b.com = Eigen::Vector3d(pb.com.x(), pb.com.y(), 0.0);
-    b.inertia = Eigen::Vector3d(0.5 * pb.inertia, 0.5 * pb.inertia, pb.inertia).asDiagonal();
-    tree.bodies.push_back(b);
+  tree.gravity = PlanarGravity(kStandardGravity);
+  for (int i = 0; i < links; ++i) {
+    const JointType type = unit(rng) < 0.3 ? JointType::kPrismatic : JointType::kRevolute;
+    tree.joints.push_back(PlanarTreeJoint(std::string(1, 'j').append(std::to_string(i)), type, i - 1, coord(rng),
+                                          coord(rng), angle(rng)));
+    tree.bodies.push_back(PlanarTreeBody(mass(rng), coord(rng), coord(rng), inertia(rng)));
   }
-  tree.gravity = Eigen::Vector3d(0.0, -chain.g, 0.0);
   return tree;
 }
 
-TEST(SpatialDynamics, PlanarChainAsATreeMatchesThePlanarRecursiveDynamics) {
+TEST(SpatialDynamics, PlanarTreeMatchesThePlanarRecursiveDynamicsOfItsFold) {
   std::mt19937 rng{37};
-  std::uniform_real_distribution<double> mass(0.3, 2.0), coord(-0.6, 0.6), angle(-1.5, 1.5), inertia(0.01, 0.2),
-      unit(0.0, 1.0);
   for (int k = 0; k < 12; ++k) {
-    PlanarChain chain;
-    for (int i = 0; i < 1 + k % 8; ++i) {
-      const JointType type = unit(rng) < 0.3 ? JointType::kPrismatic : JointType::kRevolute;
-      chain.joints.push_back({type, {coord(rng), coord(rng)}, angle(rng)});
-      chain.bodies.push_back({mass(rng), {coord(rng), coord(rng)}, inertia(rng)});
-    }
-    const RecursiveDynamics planar(chain);
-    const RigidTree tree = TreeFromPlanarChain(chain);
+    const RigidTree tree = RandomPlanarTree(1 + k % 8, rng);
+    const std::optional<PlanarChain> chain = PlanarChainOf(tree);
+    ASSERT_TRUE(chain.has_value()) << "tree " << k;
+    const RecursiveDynamics planar(*chain);
     const SpatialDynamics spatial(tree);
     for (int j = 0; j < 4; ++j) {
       const State s = RandomState(tree, rng);
@@ -313,6 +306,24 @@ TEST(SpatialDynamics, PlanarChainAsATreeMatchesThePlanarRecursiveDynamics) {
       ExpectAgree(Evaluate(planar, s, u), Evaluate(spatial, s, u), s, "chain " + std::to_string(k));
     }
   }
+}
+
+TEST(PlanarChainOf, FoldsOnlyPlanarSerialChains) {
+  std::mt19937 rng{43};
+  const RigidTree planar = RandomPlanarTree(4, rng);
+  ASSERT_TRUE(PlanarChainOf(planar).has_value());
+  const auto fails = [&planar](auto&& change) {
+    RigidTree t = planar;
+    change(t);
+    return !PlanarChainOf(t).has_value();
+  };
+  EXPECT_TRUE(fails([](RigidTree& t) { t.gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity); }));
+  EXPECT_TRUE(fails([](RigidTree& t) { t.joints[2].parent = 0; }));  // a branch, not a chain
+  EXPECT_TRUE(fails([](RigidTree& t) { t.joints[1].position.z() = 0.1; }));
+  EXPECT_TRUE(fails([](RigidTree& t) { t.joints[3].axis = Eigen::Vector3d::UnitY(); }));
+  EXPECT_TRUE(fails([](RigidTree& t) {
+    t.joints[1].rotation = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  }));
 }
 
 TEST(SpatialDynamics, ForwardAlgorithmFollowsTheTreeDepth) {
@@ -493,6 +504,7 @@ TEST(NoAllocation, SpatialAndLagrangianTreeDynamicsAllocateNothing) {
   std::mt19937 rng{53};
   const RigidTree tree = RandomRigidTree({.bodies = 9, .chain = false, .prismatic_fraction = 0.3}, rng);
   const SpatialDynamics spatial(tree);
+  const std::unique_ptr<DynamicsData> spatial_data = spatial.MakeData();
   const LagrangianDynamics<RigidTree> lagrangian(tree);
   const int n = tree.num_dofs();
   const State s = RandomState(tree, rng);
@@ -500,23 +512,24 @@ TEST(NoAllocation, SpatialAndLagrangianTreeDynamicsAllocateNothing) {
   MatrixXd M(n, n);
   VectorXd out(n);
   for (const Dynamics* d : {static_cast<const Dynamics*>(&spatial), static_cast<const Dynamics*>(&lagrangian)}) {
+    const std::unique_ptr<DynamicsData> d_data = d->MakeData();
     std::int64_t allocations = 0;
     double sink = 0.0;
     {
       testing::AllocationCounter counter;
-      d->ComputeMassMatrix(s.q, M);
-      d->ComputeCoriolisMatrix(s.q, s.qd, M);
-      d->ComputeCoriolisForce(s.q, s.qd, out);
-      d->ComputeGravityForce(s.q, out);
-      d->ComputeKineticEnergyGradient(s.q, s.qd, out);
-      sink += d->ComputeKineticEnergy(s.q, s.qd) + d->ComputePotentialEnergy(s.q);
+      d->ComputeMassMatrix(*d_data, s.q, M);
+      d->ComputeCoriolisMatrix(*d_data, s.q, s.qd, M);
+      d->ComputeCoriolisForce(*d_data, s.q, s.qd, out);
+      d->ComputeGravityForce(*d_data, s.q, out);
+      d->ComputeKineticEnergyGradient(*d_data, s.q, s.qd, out);
+      sink += d->ComputeKineticEnergy(*d_data, s.q, s.qd) + d->ComputePotentialEnergy(*d_data, s.q);
       for (const DynamicsTerms terms : {DynamicsTerms{true, true}, DynamicsTerms{false, false}}) {
-        d->ComputeInverseDynamics(s.q, s.qd, u, terms, out);
-        d->ComputeForwardDynamics(s.q, s.qd, u, terms, out);
+        d->ComputeInverseDynamics(*d_data, s.q, s.qd, u, terms, out);
+        d->ComputeForwardDynamics(*d_data, s.q, s.qd, u, terms, out);
       }
       if (d == &spatial) {
         for (ForwardAlgorithm a : {ForwardAlgorithm::kArticulatedBody, ForwardAlgorithm::kCompositeRigidBody}) {
-          spatial.ComputeForwardDynamics(a, s.q, s.qd, u, DynamicsTerms{}, out);
+          spatial.ComputeForwardDynamics(*spatial_data, a, s.q, s.qd, u, DynamicsTerms{}, out);
         }
       }
       allocations = counter.count();

@@ -19,7 +19,7 @@
 #include <unistd.h>
 
 #include "plant/lagrangian.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "tests/support/plant_cases.hpp"
 
@@ -73,16 +73,18 @@ void ExpectLimits(const UrdfRobot& robot, const std::vector<Limits>& limits) {
 // M symmetric positive definite, and the Lagrangian and recursive paths agree.
 void ExpectPhysicalMassMatrix(const RigidTree& tree, std::mt19937& rng) {
   const LagrangianDynamics<RigidTree> lagrangian(tree);
+  const std::unique_ptr<DynamicsData> lagrangian_data = lagrangian.MakeData();
   const SpatialDynamics spatial(tree);
+  const std::unique_ptr<DynamicsData> spatial_data = spatial.MakeData();
   const int n = tree.num_dofs();
   MatrixXd Ml(n, n), Ms(n, n);
   VectorXd Gl(n), Gs(n);
   for (int k = 0; k < kStates; ++k) {
     const auto [q, qd] = RandomStateFor(tree.joint_types(), rng);
-    lagrangian.ComputeMassMatrix(q, Ml);
-    spatial.ComputeMassMatrix(q, Ms);
-    lagrangian.ComputeGravityForce(q, Gl);
-    spatial.ComputeGravityForce(q, Gs);
+    lagrangian.ComputeMassMatrix(*lagrangian_data, q, Ml);
+    spatial.ComputeMassMatrix(*spatial_data, q, Ms);
+    lagrangian.ComputeGravityForce(*lagrangian_data, q, Gl);
+    spatial.ComputeGravityForce(*spatial_data, q, Gs);
     EXPECT_LT(RelativeDifference(Ml, Ml.transpose()), kAgreeTol);
     EXPECT_GT(Eigen::SelfAdjointEigenSolver<MatrixXd>(Ml).eigenvalues().minCoeff(), 0.0);
     EXPECT_LT(RelativeDifference(Ml, Ms), kAgreeTol);
@@ -165,7 +167,7 @@ TEST(ShippedRobots, Ur5GravityAtZeroMatchesUrsTables) {
   for (const auto& d : derivations) {
     SCOPED_TRACE(ToString(d->method()));
     VectorXd G(6);
-    d->ComputeGravityForce(VectorXd::Zero(6), G);
+    d->ComputeGravityForce(*d->MakeData(), VectorXd::Zero(6), G);
     EXPECT_NEAR(G[0], 0.0, 1e-12);
     EXPECT_NEAR(G[1], shoulder, 1e-12 * std::abs(shoulder));
     EXPECT_NEAR(G[2], elbow, 1e-12 * std::abs(elbow));
@@ -269,10 +271,11 @@ TEST(UrdfFixedJoints, MergedRobotHasTheSameMassMatrixAndGravity) {
     const VectorXd q = RandomStateFor(loaded.joint_types(), rng).q;
     for (const auto& [d, dm] :
          {std::pair<const Dynamics*, const Dynamics*>{&lagrangian, &lagrangian_merged}, {&spatial, &spatial_merged}}) {
-      d->ComputeMassMatrix(q, M);
-      dm->ComputeMassMatrix(q, Mm);
-      d->ComputeGravityForce(q, G);
-      dm->ComputeGravityForce(q, Gm);
+      const std::unique_ptr<DynamicsData> d_data = d->MakeData(), dm_data = dm->MakeData();
+      d->ComputeMassMatrix(*d_data, q, M);
+      dm->ComputeMassMatrix(*dm_data, q, Mm);
+      d->ComputeGravityForce(*d_data, q, G);
+      dm->ComputeGravityForce(*dm_data, q, Gm);
       EXPECT_LT(RelativeDifference(M, Mm, 0.0), kMergeTol);
       EXPECT_LT(RelativeDifference(G, Gm, 0.0), kMergeTol);
     }
@@ -554,12 +557,13 @@ struct Evaluated {
 };
 
 Evaluated Evaluate(const Dynamics& d, const VectorXd& q, const VectorXd& qd, const VectorXd& tau) {
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
   const int n = d.num_dofs();
   Evaluated e{MatrixXd(n, n), MatrixXd(n, n), VectorXd(n), VectorXd(n)};
-  d.ComputeMassMatrix(q, e.M);
-  d.ComputeCoriolisMatrix(q, qd, e.C);
-  d.ComputeGravityForce(q, e.G);
-  d.ComputeForwardDynamics(q, qd, tau, DynamicsTerms{}, e.qdd);
+  d.ComputeMassMatrix(*d_data, q, e.M);
+  d.ComputeCoriolisMatrix(*d_data, q, qd, e.C);
+  d.ComputeGravityForce(*d_data, q, e.G);
+  d.ComputeForwardDynamics(*d_data, q, qd, tau, DynamicsTerms{}, e.qdd);
   return e;
 }
 

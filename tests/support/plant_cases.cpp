@@ -68,4 +68,18 @@ double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor) {
   return (a - b).norm() / std::max({a.norm(), b.norm(), floor});
 }
 
+VectorXd GravityOf(const PlantSpec& spec, Method method, const VectorXd& q) {
+  const std::unique_ptr<Dynamics> model = MakeDynamics(spec, method);
+  VectorXd G(model->num_dofs());
+  model->ComputeGravityForce(*model->MakeData(), q, G);
+  return G;
+}
+
+MatrixXd MassMatrixOf(const PlantSpec& spec, Method method, const VectorXd& q) {
+  const std::unique_ptr<Dynamics> model = MakeDynamics(spec, method);
+  MatrixXd M(model->num_dofs(), model->num_dofs());
+  model->ComputeMassMatrix(*model->MakeData(), q, M);
+  return M;
+}
+
 }  // namespace lagrange::testing

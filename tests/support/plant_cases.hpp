@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "plant/effects.hpp"
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 namespace lagrange::testing {
 
@@ -36,6 +36,11 @@ VectorXd RandomVector(int n, double lo, double hi, std::mt19937& rng);
 // Every effect on, sized for n joints: damping 0.3, Coulomb friction 0.2 (v_s 0.1),
 // stops at ±1 (k 500, d 5), saturation 4, and a push of 0.7 from t = 0 to 10 s.
 EffectsConfig AllEffectsOn(int n);
+
+// G(q) and M(q) of `spec` by `method`, from a model and data made for the
+// call: for tests that need one value.
+VectorXd GravityOf(const PlantSpec& spec, Method method, const VectorXd& q);
+MatrixXd MassMatrixOf(const PlantSpec& spec, Method method, const VectorXd& q);
 
 // Relative difference ‖a − b‖ / max(‖a‖, ‖b‖, floor).
 double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor = 1.0);

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 #include "tools/cli_support.hpp"
@@ -57,12 +57,13 @@ TEST(Eval, EveryPrintedNumberReadsBackToTheModelsDouble) {
   // Exact equality is the property: the JSON must carry each double, not a rounding of it.
   const json out = Eval({"--plant", "arm2", "--q", "0.3,-1.2", "--qd", "1e-7,3e5"});
   const auto dynamics = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), Method::kClosedForm);
+  const std::unique_ptr<DynamicsData> dynamics_data = dynamics->MakeData();
   const VectorXd qv = (VectorXd(2) << 0.3, -1.2).finished(), qdv = (VectorXd(2) << 1e-7, 3e5).finished();
   MatrixXd M(2, 2), C(2, 2);
   VectorXd G(2);
-  dynamics->ComputeMassMatrix(qv, M);
-  dynamics->ComputeCoriolisMatrix(qv, qdv, C);
-  dynamics->ComputeGravityForce(qv, G);
+  dynamics->ComputeMassMatrix(*dynamics_data, qv, M);
+  dynamics->ComputeCoriolisMatrix(*dynamics_data, qv, qdv, C);
+  dynamics->ComputeGravityForce(*dynamics_data, qv, G);
   const auto Mj = out.at("M").get<Rows>(), Cj = out.at("C").get<Rows>();
   for (int i = 0; i < 2; ++i) {
     EXPECT_EQ(out.at("G").get<Numbers>()[i], G[i]);
@@ -71,8 +72,8 @@ TEST(Eval, EveryPrintedNumberReadsBackToTheModelsDouble) {
       EXPECT_EQ(Cj[i][j], C(i, j));
     }
   }
-  EXPECT_EQ(out.at("T").get<double>(), dynamics->ComputeKineticEnergy(qv, qdv));
-  EXPECT_EQ(out.at("V").get<double>(), dynamics->ComputePotentialEnergy(qv));
+  EXPECT_EQ(out.at("T").get<double>(), dynamics->ComputeKineticEnergy(*dynamics_data, qv, qdv));
+  EXPECT_EQ(out.at("V").get<double>(), dynamics->ComputePotentialEnergy(*dynamics_data, qv));
 }
 
 TEST(Eval, EveryMethodPrintsTheSameDynamics) {

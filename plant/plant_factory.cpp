@@ -1,4 +1,4 @@
-#include "plant/plant_spec.hpp"
+#include "plant/plant_factory.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -9,6 +9,7 @@
 
 #include "plant/enum_names.hpp"
 #include "plant/lagrangian.hpp"
+#include "plant/recursive_dynamics.hpp"
 #include "plant/spatial_dynamics.hpp"
 
 namespace lagrange {
@@ -461,49 +462,21 @@ const char* NoMethodReason(PlantType type, Method method) {
 
 Method FastestMethod(PlantType type) { return HasClosedForm(type) ? Method::kClosedForm : Method::kRecursive; }
 
+namespace {
+
+bool HasNoRobot(const PlantSpec& spec) {
+  const auto* urdf = std::get_if<UrdfParams>(&spec.params);
+  return urdf != nullptr && urdf->robot == nullptr;
+}
+
+}  // namespace
+
 std::vector<JointType> JointTypesOf(const PlantSpec& spec) {
-  if (const auto* urdf = std::get_if<UrdfParams>(&spec.params)) {
-    return urdf->robot ? urdf->robot->tree.joint_types() : std::vector<JointType>{};
-  }
-  return ToPlanarChain(spec).joint_types();
+  return HasNoRobot(spec) ? std::vector<JointType>{} : MakeRigidTree(spec).joint_types();
 }
 
 std::vector<std::string> JointNamesOf(const PlantSpec& spec) {
-  switch (spec.type()) {
-    case PlantType::kPendulum: return {"theta"};
-    case PlantType::kCartPole: return {"x", "theta"};
-    case PlantType::kUrdf: {
-      const auto& robot = std::get<UrdfParams>(spec.params).robot;
-      return robot ? robot->tree.joint_names() : std::vector<std::string>{};
-    }
-    case PlantType::kArm2:
-    case PlantType::kChain: break;
-  }
-  std::vector<std::string> names;
-  for (int i = 1; i <= spec.num_dofs(); ++i) {
-    std::string name = std::to_string(i);  // built in place: g++ 12 warns falsely on "q" + string
-    name.insert(name.begin(), 'q');
-    names.push_back(std::move(name));
-  }
-  return names;
-}
-
-PlanarChain ToPlanarChain(const PlantSpec& spec) {
-  return std::visit(
-      [](const auto& p) -> PlanarChain {
-        using P = std::decay_t<decltype(p)>;
-        if constexpr (std::is_same_v<P, PendulumParams>)
-          return Pendulum(p).ToChain();
-        else if constexpr (std::is_same_v<P, Arm2Params>)
-          return Arm2(p).ToChain();
-        else if constexpr (std::is_same_v<P, CartPoleParams>)
-          return CartPole(p).ToChain();
-        else if constexpr (std::is_same_v<P, UrdfParams>)
-          throw std::invalid_argument("a urdf plant is a 3-D tree, not a planar chain");
-        else
-          return ToPlanarChain(p);
-      },
-      spec.params);
+  return HasNoRobot(spec) ? std::vector<std::string>{} : MakeRigidTree(spec).joint_names();
 }
 
 RigidTree MakeRigidTree(const UrdfParams& p) {
@@ -517,6 +490,27 @@ RigidTree MakeRigidTree(const UrdfParams& p) {
   return tree;
 }
 
+RigidTree MakeRigidTree(const PlantSpec& spec) {
+  return std::visit(
+      [](const auto& p) -> RigidTree {
+        if constexpr (std::is_same_v<std::decay_t<decltype(p)>, UrdfParams>) {
+          return MakeRigidTree(p);
+        } else {
+          return ToRigidTree(p);
+        }
+      },
+      spec.params);
+}
+
+MethodModels MakeMethodModels(const PlantSpec& spec) {
+  MethodModels models;
+  for (std::size_t k = 0; k < kNumMethods; ++k) {
+    const auto method = static_cast<Method>(k);
+    if (HasMethod(spec.type(), method)) models[k] = MakeDynamics(spec, method);
+  }
+  return models;
+}
+
 std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
   if (auto err = ValidatePlantSpec(spec)) {
     throw std::invalid_argument(err->key + ": " + err->message);
@@ -525,13 +519,18 @@ std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
     throw std::invalid_argument("method " + std::string(ToString(method)) + " is not available for " +
                                 std::string(ToString(spec.type())) + " (use lagrangian or recursive)");
   }
-  if (const auto* urdf = std::get_if<UrdfParams>(&spec.params)) {
-    if (method == Method::kRecursive) return std::make_unique<SpatialDynamics>(MakeRigidTree(*urdf));
-    return std::make_unique<LagrangianDynamics<RigidTree>>(MakeRigidTree(*urdf));
+  RigidTree tree = MakeRigidTree(spec);
+  if (spec.type() == PlantType::kUrdf) {
+    if (method == Method::kRecursive) return std::make_unique<SpatialDynamics>(std::move(tree));
+    return std::make_unique<LagrangianDynamics<RigidTree>>(std::move(tree));
   }
-  if (method == Method::kRecursive) return std::make_unique<RecursiveDynamics>(ToPlanarChain(spec));
+  // The built-in plants' trees are planar chains: their recursive and
+  // (for the chain) Lagrangian paths run in 2-D (plant/recursive_dynamics.hpp).
+  std::optional<PlanarChain> planar = PlanarChainOf(tree);
+  if (!planar) throw std::logic_error("a built-in plant's tree is not a planar chain");
+  if (method == Method::kRecursive) return std::make_unique<RecursiveDynamics>(std::move(*planar));
   return std::visit(
-      [method](const auto& p) -> std::unique_ptr<Dynamics> {
+      [method, &planar](const auto& p) -> std::unique_ptr<Dynamics> {
         using P = std::decay_t<decltype(p)>;
         const bool closed = method == Method::kClosedForm;
         if constexpr (std::is_same_v<P, PendulumParams>) {
@@ -543,10 +542,8 @@ std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
         } else if constexpr (std::is_same_v<P, CartPoleParams>) {
           if (closed) return std::make_unique<CartPoleClosedForm>(p);
           return std::make_unique<LagrangianDynamics<CartPole>>(CartPole(p));
-        } else if constexpr (std::is_same_v<P, ChainParams>) {
-          return std::make_unique<LagrangianDynamics<PlanarChain>>(ToPlanarChain(p));
         } else {
-          return nullptr;  // urdf: handled above
+          return std::make_unique<LagrangianDynamics<PlanarChain>>(std::move(*planar));  // chain
         }
       },
       spec.params);

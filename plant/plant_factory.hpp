@@ -1,6 +1,7 @@
 #pragma once
-// Plant types, their named parameters, validation, and the factory that
-// builds a plant's dynamics by any of the three methods.
+// The plant factory and parameter table: plant types, their named
+// parameters, validation, each plant's tree, and the factory that builds a
+// plant's dynamics model by any of the three methods.
 //
 // Parameter names (SI units):
 //   pendulum  m, L, g, body (point | rod)
@@ -12,6 +13,7 @@
 //             itself is loaded from its file by the scene reader or
 //             lagrangectl (plant/urdf.hpp, library lagrange_urdf), never here
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -108,26 +110,37 @@ Method FastestMethod(PlantType type);
 // largest |limit| of each prismatic joint on the way, 1 m when it has none).
 double DefaultMaxEnergy(const PlantSpec& spec);
 
-// The joint types, base first.
-std::vector<JointType> JointTypesOf(const PlantSpec& spec);
-
-// The joints' names, in q order: a urdf plant's from its file; planar plants
-// have generated ones: pendulum "theta", arm2 "q1", "q2", cartpole "x",
-// "theta", chain "q1" .. "qn".
-std::vector<std::string> JointNamesOf(const PlantSpec& spec);
-
-// The plant as a planar chain (the recursive path's model). Throws
-// std::invalid_argument for a urdf plant, which is a 3-D tree (MakeRigidTree).
-PlanarChain ToPlanarChain(const PlantSpec& spec);
-
-// A urdf plant's tree as simulated: the robot's, with the spec's gravity and
-// every mass and inertia × mass_scale. Throws std::invalid_argument without a robot.
+// The plant's tree (plant/rigid_tree.hpp), the one description of its
+// bodies and joints: a built-in plant's planar tree (ToRigidTree of its
+// parameters), or a urdf plant's as simulated: the robot's, with the spec's
+// gravity and every mass and inertia × mass_scale. Throws
+// std::invalid_argument for a urdf spec without a robot.
+RigidTree MakeRigidTree(const PlantSpec& spec);
 RigidTree MakeRigidTree(const UrdfParams& params);
 
-// Builds the plant's dynamics by `method`: a urdf plant's are SpatialDynamics
-// (recursive) or LagrangianDynamics<RigidTree> of MakeRigidTree. Throws
+// The joint types and names, in q order (the tree's); empty for a urdf spec
+// without a robot. A urdf plant's names are its file's; the built-in plants
+// name theirs: pendulum "theta", arm2 "q1", "q2", cartpole "x", "theta",
+// chain "q1" .. "qn".
+std::vector<JointType> JointTypesOf(const PlantSpec& spec);
+std::vector<std::string> JointNamesOf(const PlantSpec& spec);
+
+// Builds the plant's dynamics model by `method` (shareable: make data per
+// user, plant/dynamics.hpp). From the plant's tree: a urdf plant's are
+// SpatialDynamics (recursive) or LagrangianDynamics<RigidTree>; the built-in
+// plants' planar chains run the planar recursive algorithms (and, for the
+// chain, the planar Lagrangian energies); closed forms are hand-derived. Throws
 // std::invalid_argument when the spec is invalid or the plant has no such method.
 std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method);
+
+// A plant's dynamics models by Method (indexed static_cast<std::size_t>(method)),
+// null where not built: built once, then shared read-only by everyone who
+// evaluates the plant (its instance, its controllers), each with data of
+// their own.
+inline constexpr std::size_t kNumMethods = 3;
+using MethodModels = std::array<std::shared_ptr<const Dynamics>, kNumMethods>;
+// Every method the plant has (HasMethod). Throws as MakeDynamics.
+MethodModels MakeMethodModels(const PlantSpec& spec);
 
 // Strict number parsing shared by every front end: the whole text must be a
 // finite decimal number.
