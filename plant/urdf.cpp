@@ -1,19 +1,17 @@
 #include "plant/urdf.hpp"
 
-#include <console_bridge/console.h>
 #include <tinyxml.h>
-#include <urdf_parser/urdf_parser.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <memory>
-#include <mutex>
+#include <optional>
 #include <span>
 #include <sstream>
 #include <system_error>
@@ -29,10 +27,9 @@ namespace {
 
 constexpr std::size_t kMaxUrdfBytes = 2u << 20;  // a real robot's URDF is well under 1 MiB
 constexpr std::size_t kMaxNameChars = 64;        // of a name quoted in a message
-constexpr std::size_t kMaxMessageChars = 240;    // of one urdfdom message relayed
 constexpr int kMaxXmlDepth = 64;                 // element nesting; a URDF needs about 5
-// Elements, links and joints: two DOMs of a big file cost gigabytes, and
-// urdfdom frees a long chain of links recursively.
+// Elements, links and joints: what one file may cost (its DOM, the tree's
+// maps); a robot has tens of links.
 constexpr std::size_t kMaxXmlElements = 65536;
 constexpr std::size_t kMaxLinks = 4096;
 constexpr std::size_t kMaxJoints = 4096;
@@ -43,9 +40,7 @@ constexpr double kMotionInertiaTolerance = 1e-12;
 
 // Text from the file, made safe for a one-line message (plant/escape.hpp):
 // callers print the message as it is.
-std::string Printable(std::string_view text, std::size_t max_bytes = kMaxNameChars) {
-  return Escape(text, max_bytes);
-}
+std::string Printable(std::string_view text, std::size_t max_bytes = kMaxNameChars) { return Escape(text, max_bytes); }
 
 [[noreturn]] void Fail(const std::string& file, const std::string& element, const std::string& reason) {
   throw UrdfError(Printable(file, file.size()) + ": " + element + ": " + reason);
@@ -61,7 +56,7 @@ std::string Number(double x) {
   return out.str();
 }
 
-// tinyxml 2.6.2 (ours, and urdfdom's) parses nested elements recursively: a file of a million
+// TinyXML 2.6.2 parses nested elements recursively: a file of a million
 // nested tags overflows the stack. A URDF nests five deep or so; the text is
 // scanned first the way tinyxml tokenises it, so its depth here is never below
 // tinyxml's while tinyxml goes on parsing (where tinyxml stops at an error,
@@ -217,44 +212,72 @@ void CheckXmlText(std::string_view t, const std::string& file) {
 }
 
 // ---------------------------------------------------------------------------
-// The XML, read first: what urdfdom does not keep (file order, which
-// attributes are present), and checks whose messages should name the element.
+// The robot as the file states it, read from the one TinyXML DOM of the text.
+// By hand, not by urdfdom (urdf.hpp says more): urdfdom parses only text, so
+// the file would be parsed twice, and its model drops the file's joint order
+// and which attributes are absent, both of which we need. What it did for us
+// is done here: the numbers, the rotation of rpy, and its refusals of what we
+// read.
 
-struct XmlJoint {
-  std::string name, type, parent, child;
-  // Which of <limit lower upper> and <dynamics damping friction> the file
-  // gives: urdfdom reads an absent one as 0.
-  bool limit = false, lower = false, upper = false, dynamics = false, damping = false, friction = false;
+// A fixed placement: x_parent = p + R x_child.
+struct Frame {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
 };
 
-struct XmlRobot {
+Frame Compose(const Frame& a, const Frame& b) { return {a.R * b.R, a.p + a.R * b.p}; }
+
+// URDF's rpy, fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll), by
+// its unit quaternion q = (x, y, z, w), with s and c the sine and cosine of
+// half the roll (r), pitch (p) and yaw (y):
+//   x = sr cp cy − cr sp sy    y = cr sp cy + sr cp sy
+//   z = cr cp sy − sr sp cy    w = cr cp cy + sr sp sy
+// The products are urdfdom's (urdf_model/pose.h, Rotation::setFromRPY) in its
+// order, and normalised as it and then Eigen did, so a file loads to the same
+// bits as when urdfdom read it.
+Eigen::Matrix3d RotationFromRpy(double roll, double pitch, double yaw) {
+  const double sr = std::sin(roll / 2.0), cr = std::cos(roll / 2.0);
+  const double sp = std::sin(pitch / 2.0), cp = std::cos(pitch / 2.0);
+  const double sy = std::sin(yaw / 2.0), cy = std::cos(yaw / 2.0);
+  Eigen::Vector4d q(sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+                    cr * cp * cy + sr * sp * sy);  // x, y, z, w
+  q /= std::sqrt(q.x() * q.x() + q.y() * q.y() + q.z() * q.z() + q.w() * q.w());
+  return Eigen::Quaterniond(q).normalized().toRotationMatrix();
+}
+
+struct FileInertial {
+  Frame origin;       // <origin>: the centre of mass (p) and the axes the tensor is given in (R), link frame
+  double mass = 0.0;  // kg
+  Eigen::Matrix3d I = Eigen::Matrix3d::Zero();  // about the centre of mass, <origin> axes, kg·m²
+};
+
+struct FileLink {
   std::string name;
-  std::vector<std::string> links;  // file order
-  std::vector<XmlJoint> joints;    // file order
+  std::optional<FileInertial> inertial;
 };
 
-// Numeric attributes we use, checked before urdfdom reads them so a bad one is
-// named: urdfdom refuses most (its parser fails on nan, inf and overflow) but
-// names neither the link nor the attribute, and for <inertial> it only logs
-// and keeps the link with a zero inertia.
-struct NumberAttribute {
-  const char* child;
-  const char* attribute;
-  int count;
-};
-constexpr NumberAttribute kJointNumbers[] = {
-    {"origin", "xyz", 3},     {"origin", "rpy", 3},       {"axis", "xyz", 3},
-    {"limit", "lower", 1},    {"limit", "upper", 1},      {"limit", "effort", 1},
-    {"limit", "velocity", 1}, {"dynamics", "damping", 1}, {"dynamics", "friction", 1},
-};
-constexpr NumberAttribute kInertialNumbers[] = {
-    {"origin", "xyz", 3},  {"origin", "rpy", 3},  {"mass", "value", 1},  {"inertia", "ixx", 1}, {"inertia", "ixy", 1},
-    {"inertia", "ixz", 1}, {"inertia", "iyy", 1}, {"inertia", "iyz", 1}, {"inertia", "izz", 1},
+enum class FileJointType { kRevolute, kContinuous, kPrismatic, kFixed };
+
+struct FileJoint {
+  std::string name;
+  FileJointType type = FileJointType::kFixed;
+  std::string parent, child;                        // link names
+  Frame origin;                                     // the joint frame in the parent link's frame
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // <axis xyz> as written (absent: URDF's x)
+  UrdfJointProperties properties;                   // what <limit> and <dynamics> say, absent stays nullopt
 };
 
-// Whether `text` is exactly `count` finite decimal numbers separated by white space.
-bool AreFiniteNumbers(std::string_view text, int count) {
-  int found = 0;
+struct FileRobot {
+  std::string name;
+  std::vector<FileLink> links;    // file order
+  std::vector<FileJoint> joints;  // file order
+};
+
+// Whether `text` is exactly out.size() finite decimal numbers separated by
+// white space; they go into `out`, each the double nearest to it (as strtod
+// reads it in the C locale, and urdfdom did).
+bool ParseFiniteNumbers(std::string_view text, std::span<double> out) {
+  std::size_t found = 0;
   std::size_t i = 0;
   while (true) {
     while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
@@ -265,103 +288,206 @@ bool AreFiniteNumbers(std::string_view text, int count) {
     if (token.front() == '+') token.remove_prefix(1);
     double value = 0.0;
     const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    if (ec != std::errc() || ptr != token.data() + token.size() || !std::isfinite(value)) return false;
-    ++found;
+    if (found == out.size() || ec != std::errc() || ptr != token.data() + token.size() || !std::isfinite(value)) {
+      return false;
+    }
+    out[found++] = value;
     i = end;
   }
-  return found == count;
+  return found == out.size();
 }
 
-void CheckNumbers(const TiXmlElement* parent, std::span<const NumberAttribute> attributes, const std::string& file,
-                  const std::string& element) {
-  for (const NumberAttribute& a : attributes) {
-    const TiXmlElement* child = parent->FirstChildElement(a.child);
-    const char* text = child ? child->Attribute(a.attribute) : nullptr;
-    if (text == nullptr || AreFiniteNumbers(text, a.count)) continue;
-    const std::string expected = a.count == 1 ? "a finite number" : std::to_string(a.count) + " finite numbers";
-    Fail(file, element + " <" + a.child + ">", std::string(a.attribute) + " " + Quoted(text) + " is not " + expected);
+// "joint 'j1'" and "limit" => "joint 'j1' <limit>": where a message points.
+std::string Within(const std::string& element, std::string_view child) {
+  return element + " <" + std::string(child) + ">";
+}
+
+// `attribute` of `e` as out.size() finite numbers, read into `out`: false if
+// the attribute is absent, refused if it is not such numbers.
+bool ReadNumbers(const TiXmlElement& e, const char* attribute, std::span<double> out, const std::string& file,
+                 const std::string& where) {
+  const char* text = e.Attribute(attribute);
+  if (text == nullptr) return false;
+  if (!ParseFiniteNumbers(text, out)) {
+    const std::string expected = out.size() == 1 ? "a finite number" : std::to_string(out.size()) + " finite numbers";
+    Fail(file, where, std::string(attribute) + " " + Quoted(text) + " is not " + expected);
   }
+  return true;
 }
 
-std::string RequiredName(const TiXmlElement* element, const char* kind, int index, const std::string& file) {
-  const char* name = element->Attribute("name");
+std::optional<double> OptionalNumber(const TiXmlElement& e, const char* attribute, const std::string& file,
+                                     const std::string& where) {
+  double value = 0.0;
+  if (!ReadNumbers(e, attribute, {&value, 1}, file, where)) return std::nullopt;
+  return value;
+}
+
+double RequiredNumber(const TiXmlElement& e, const char* attribute, const std::string& file, const std::string& where) {
+  const std::optional<double> value = OptionalNumber(e, attribute, file, where);
+  if (!value) Fail(file, where, std::string("no ") + attribute + " attribute");
+  return *value;
+}
+
+// <origin xyz rpy> of `parent`: the identity where it or either attribute is absent.
+Frame ReadOrigin(const TiXmlElement& parent, const std::string& file, const std::string& element) {
+  Frame f;
+  const TiXmlElement* origin = parent.FirstChildElement("origin");
+  if (origin == nullptr) return f;
+  const std::string where = Within(element, "origin");
+  std::array<double, 3> v{};
+  if (ReadNumbers(*origin, "xyz", v, file, where)) f.p = Eigen::Vector3d(v[0], v[1], v[2]);
+  if (ReadNumbers(*origin, "rpy", v, file, where)) f.R = RotationFromRpy(v[0], v[1], v[2]);
+  return f;
+}
+
+// A link's <inertial>: URDF requires <mass value> and all six moments of <inertia>.
+std::optional<FileInertial> ReadInertial(const TiXmlElement& link, const std::string& name, const std::string& file) {
+  const TiXmlElement* inertial = link.FirstChildElement("inertial");
+  if (inertial == nullptr) return std::nullopt;
+  const std::string where = LinkElement(name) + " <inertial>";
+  FileInertial in;
+  in.origin = ReadOrigin(*inertial, file, where);
+  const TiXmlElement* mass = inertial->FirstChildElement("mass");
+  if (mass == nullptr) Fail(file, where, "no <mass> (an <inertial> needs <mass value> and <inertia>)");
+  in.mass = RequiredNumber(*mass, "value", file, Within(where, "mass"));
+  const TiXmlElement* inertia = inertial->FirstChildElement("inertia");
+  if (inertia == nullptr) Fail(file, where, "no <inertia> (an <inertial> needs <mass value> and <inertia>)");
+  const std::string at = Within(where, "inertia");
+  const auto moment = [&](const char* attribute) { return RequiredNumber(*inertia, attribute, file, at); };
+  const double ixx = moment("ixx"), ixy = moment("ixy"), ixz = moment("ixz");
+  const double iyy = moment("iyy"), iyz = moment("iyz"), izz = moment("izz");
+  in.I << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
+  return in;
+}
+
+std::string RequiredName(const TiXmlElement& element, const char* kind, int index, const std::string& file) {
+  const char* name = element.Attribute("name");
   if (name == nullptr) Fail(file, std::string(kind) + " #" + std::to_string(index + 1), "no name attribute");
   return name;
 }
 
-std::string LinkOf(const TiXmlElement* joint, const char* role, const std::string& name, const std::string& file) {
-  const TiXmlElement* e = joint->FirstChildElement(role);
+std::string LinkOf(const TiXmlElement& joint, const char* role, const std::string& name, const std::string& file) {
+  const TiXmlElement* e = joint.FirstChildElement(role);
   const char* link = e ? e->Attribute("link") : nullptr;
   if (link == nullptr) Fail(file, JointElement(name), std::string("no <") + role + " link=\"...\">");
   return link;
 }
 
-XmlJoint ReadJoint(const TiXmlElement* e, int index, const std::string& file) {
-  XmlJoint j;
+FileJointType ReadJointType(const TiXmlElement& joint, const std::string& file, const std::string& where) {
+  const char* type = joint.Attribute("type");
+  if (type == nullptr) Fail(file, where, "no type attribute");
+  const std::string_view t = type;
+  if (t == "revolute") return FileJointType::kRevolute;
+  if (t == "continuous") return FileJointType::kContinuous;
+  if (t == "prismatic") return FileJointType::kPrismatic;
+  if (t == "fixed") return FileJointType::kFixed;
+  if (t == "floating" || t == "planar") {
+    Fail(file, where,
+         "type " + Quoted(t) + " is not supported (a fixed-base tree: revolute, continuous, prismatic, fixed)");
+  }
+  Fail(file, where, "unknown type " + Quoted(t) + " (revolute, continuous, prismatic, fixed)");
+}
+
+// <limit>: required on revolute and prismatic joints, and wherever it is, with
+// effort and velocity. A continuous joint has no position limits, whatever it says.
+void ReadLimit(const TiXmlElement& joint, FileJoint& j, const std::string& file, const std::string& where) {
+  const TiXmlElement* limit = joint.FirstChildElement("limit");
+  if (limit == nullptr) {
+    if (j.type == FileJointType::kRevolute || j.type == FileJointType::kPrismatic) {
+      Fail(file, where, "no <limit> (a revolute or prismatic joint needs <limit effort velocity>)");
+    }
+    return;
+  }
+  const std::string at = Within(where, "limit");
+  UrdfJointProperties& p = j.properties;
+  p.lower = OptionalNumber(*limit, "lower", file, at);
+  p.upper = OptionalNumber(*limit, "upper", file, at);
+  p.effort = RequiredNumber(*limit, "effort", file, at);
+  p.velocity = RequiredNumber(*limit, "velocity", file, at);
+  if (j.type == FileJointType::kContinuous) p.lower = p.upper = std::nullopt;
+}
+
+// <dynamics>: damping, friction or both.
+void ReadDynamics(const TiXmlElement& joint, UrdfJointProperties& p, const std::string& file,
+                  const std::string& where) {
+  const TiXmlElement* dynamics = joint.FirstChildElement("dynamics");
+  if (dynamics == nullptr) return;
+  const std::string at = Within(where, "dynamics");
+  p.damping = OptionalNumber(*dynamics, "damping", file, at);
+  p.friction = OptionalNumber(*dynamics, "friction", file, at);
+  if (!p.damping && !p.friction) Fail(file, at, "neither damping nor friction");
+}
+
+FileJoint ReadJoint(const TiXmlElement& e, int index, const std::string& file) {
+  FileJoint j;
   j.name = RequiredName(e, "joint", index, file);
   const std::string where = JointElement(j.name);
-  const char* type = e->Attribute("type");
-  if (type == nullptr) Fail(file, where, "no type attribute");
-  j.type = type;
-  if (j.type == "floating" || j.type == "planar") {
-    Fail(file, where,
-         "type " + Quoted(j.type) + " is not supported (a fixed-base tree: revolute, continuous, prismatic, fixed)");
+  j.type = ReadJointType(e, file, where);
+  if (e.FirstChildElement("mimic") != nullptr) {
+    Fail(file, Within(where, "mimic"), "mimic joints are not supported (each moving joint is one degree of freedom)");
   }
-  if (j.type != "revolute" && j.type != "continuous" && j.type != "prismatic" && j.type != "fixed") {
-    Fail(file, where, "unknown type " + Quoted(j.type) + " (revolute, continuous, prismatic, fixed)");
+  j.origin = ReadOrigin(e, file, where);
+  if (const TiXmlElement* axis = e.FirstChildElement("axis")) {
+    std::array<double, 3> v{};
+    if (ReadNumbers(*axis, "xyz", v, file, Within(where, "axis"))) {
+      j.axis = Eigen::Vector3d(v[0], v[1], v[2]);
+    } else if (j.type != FileJointType::kFixed) {
+      Fail(file, Within(where, "axis"), "no xyz attribute");
+    }
   }
-  if (e->FirstChildElement("mimic") != nullptr) {
-    Fail(file, where + " <mimic>", "mimic joints are not supported (each moving joint is one degree of freedom)");
-  }
-  CheckNumbers(e, kJointNumbers, file, where);
+  ReadLimit(e, j, file, where);
+  ReadDynamics(e, j.properties, file, where);
   j.parent = LinkOf(e, "parent", j.name, file);
   j.child = LinkOf(e, "child", j.name, file);
-  if (const TiXmlElement* limit = e->FirstChildElement("limit")) {
-    j.limit = true;
-    j.lower = limit->Attribute("lower") != nullptr;
-    j.upper = limit->Attribute("upper") != nullptr;
-  }
-  if (const TiXmlElement* dynamics = e->FirstChildElement("dynamics")) {
-    j.dynamics = true;
-    j.damping = dynamics->Attribute("damping") != nullptr;
-    j.friction = dynamics->Attribute("friction") != nullptr;
-  }
   return j;
 }
 
-void CheckCount(const TiXmlElement* robot, const char* kind, std::size_t limit, const std::string& file,
+void CheckCount(const TiXmlElement& robot, const char* kind, std::size_t limit, const std::string& file,
                 const std::string& name) {
   std::size_t count = 0;
-  for (const TiXmlElement* e = robot->FirstChildElement(kind); e; e = e->NextSiblingElement(kind)) ++count;
+  for (const TiXmlElement* e = robot.FirstChildElement(kind); e; e = e->NextSiblingElement(kind)) ++count;
   if (count > limit) {
     Fail(file, "robot " + Quoted(name), std::to_string(count) + " " + kind + "s, more than " + std::to_string(limit));
   }
 }
 
-XmlRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
+// "major.minor" in decimal, equal to 1.0: the only URDF version there is to read.
+bool IsVersionOne(std::string_view version) {
+  const auto field = [](std::string_view digits, unsigned expected) {
+    unsigned value = 0;
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+    return !digits.empty() && ec == std::errc() && end == digits.data() + digits.size() && value == expected;
+  };
+  const std::size_t dot = version.find('.');
+  return dot != std::string_view::npos && field(version.substr(0, dot), 1) && field(version.substr(dot + 1), 0);
+}
+
+FileRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) Fail(file, "<robot>", "no <robot> element at the top level");
   const char* name = robot->Attribute("name");
   if (name == nullptr) Fail(file, "<robot>", "no name attribute");
-  CheckCount(robot, "link", kMaxLinks, file, name);
-  CheckCount(robot, "joint", kMaxJoints, file, name);
-  XmlRobot xml{name, {}, {}};
+  if (const char* version = robot->Attribute("version"); version != nullptr && !IsVersionOne(version)) {
+    Fail(file, "robot " + Quoted(name), "version " + Quoted(version) + " is not supported (URDF 1.0)");
+  }
+  CheckCount(*robot, "link", kMaxLinks, file, name);
+  CheckCount(*robot, "joint", kMaxJoints, file, name);
+  FileRobot out{name, {}, {}};
   int index = 0;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"), ++index) {
-    xml.links.push_back(RequiredName(e, "link", index, file));
-    if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
-      CheckNumbers(inertial, kInertialNumbers, file, LinkElement(xml.links.back()) + " <inertial>");
-    }
+    std::string link = RequiredName(*e, "link", index, file);
+    std::optional<FileInertial> inertial = ReadInertial(*e, link, file);
+    out.links.push_back({std::move(link), std::move(inertial)});
   }
   index = 0;
   for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"), ++index) {
-    xml.joints.push_back(ReadJoint(e, index, file));
+    out.joints.push_back(ReadJoint(*e, index, file));
   }
-  return xml;
+  return out;
 }
 
-// Our DOM lives only here: what we need is copied out before urdfdom builds its own.
-XmlRobot ReadXml(const std::string& text, const std::string& file) {
+// The one parse of the text. The DOM lives only here: the robot is copied out of it.
+FileRobot ReadText(const std::string& text, const std::string& file) {
   TiXmlDocument doc;
   doc.Parse(text.c_str());
   if (doc.Error()) {
@@ -373,15 +499,15 @@ XmlRobot ReadXml(const std::string& text, const std::string& file) {
 
 // A tree: unique names, joints between defined links, one parent per link,
 // one root, every link reachable from it. Returns the root link's name.
-std::string CheckTree(const XmlRobot& xml, const std::string& file) {
-  const std::string robot = "robot " + Quoted(xml.name);
-  if (xml.links.empty()) Fail(file, robot, "no <link>");
+std::string CheckTree(const FileRobot& robot, const std::string& file) {
+  const std::string where = "robot " + Quoted(robot.name);
+  if (robot.links.empty()) Fail(file, where, "no <link>");
   std::map<std::string, std::string> parent_joint;  // link => the joint whose child it is ("" for none yet)
-  for (const std::string& link : xml.links) {
-    if (!parent_joint.emplace(link, "").second) Fail(file, LinkElement(link), "defined twice");
+  for (const FileLink& link : robot.links) {
+    if (!parent_joint.emplace(link.name, "").second) Fail(file, LinkElement(link.name), "defined twice");
   }
   std::map<std::string, int> joints;
-  for (const XmlJoint& j : xml.joints) {
+  for (const FileJoint& j : robot.joints) {
     if (!joints.emplace(j.name, 0).second) Fail(file, JointElement(j.name), "defined twice");
     for (const std::string* link : {&j.parent, &j.child}) {
       if (!parent_joint.contains(*link)) Fail(file, JointElement(j.name), "link " + Quoted(*link) + " is not defined");
@@ -396,18 +522,18 @@ std::string CheckTree(const XmlRobot& xml, const std::string& file) {
     previous = j.name;
   }
   std::vector<std::string> roots;
-  for (const std::string& link : xml.links) {
-    if (parent_joint[link].empty()) roots.push_back(link);
+  for (const FileLink& link : robot.links) {
+    if (parent_joint[link.name].empty()) roots.push_back(link.name);
   }
-  if (roots.empty()) Fail(file, robot, "no root link: the joints form a loop");
+  if (roots.empty()) Fail(file, where, "no root link: the joints form a loop");
   if (roots.size() > 1) {
-    Fail(file, robot,
+    Fail(file, where,
          "several root links (" + Quoted(roots[0]) + ", " + Quoted(roots[1]) + (roots.size() > 2 ? ", ..." : "") +
              "): every link but the root needs a parent joint");
   }
   // With one parent per link and one root, a link the root cannot reach is on a loop.
   std::map<std::string, std::vector<std::string>> children;
-  for (const XmlJoint& j : xml.joints) children[j.parent].push_back(j.child);
+  for (const FileJoint& j : robot.joints) children[j.parent].push_back(j.child);
   std::map<std::string, bool> reached{{roots[0], true}};
   std::vector<std::string> stack{roots[0]};
   while (!stack.empty()) {
@@ -418,68 +544,17 @@ std::string CheckTree(const XmlRobot& xml, const std::string& file) {
       stack.push_back(child);
     }
   }
-  for (const std::string& link : xml.links) {
-    if (!reached.contains(link)) {
-      Fail(file, LinkElement(link), "not connected to the root link " + Quoted(roots[0]) + ": the joints form a loop");
+  for (const FileLink& link : robot.links) {
+    if (!reached.contains(link.name)) {
+      Fail(file, LinkElement(link.name),
+           "not connected to the root link " + Quoted(roots[0]) + ": the joints form a loop");
     }
   }
   return roots[0];
 }
 
 // ---------------------------------------------------------------------------
-// urdfdom, with its console_bridge messages captured instead of printed.
-
-class CapturingHandler final : public console_bridge::OutputHandler {
- public:
-  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && errors.size() < 4) errors.push_back(text);
-  }
-  std::vector<std::string> errors;
-};
-
-// urdfdom reports errors only through console_bridge's process-wide handler:
-// for the call we install our own (and the error level) under a lock of our
-// own, and restore both after. It returns null for most errors, but for a bad
-// <inertial> it logs and keeps the link with zero mass, so any error refuses.
-urdf::ModelInterfaceSharedPtr ParseWithUrdfdom(const std::string& text, const std::string& file,
-                                               const std::string& robot) {
-  static std::mutex mutex;
-  const std::lock_guard lock(mutex);
-  CapturingHandler handler;
-  const console_bridge::LogLevel level = console_bridge::getLogLevel();
-  console_bridge::useOutputHandler(&handler);
-  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_ERROR);
-  urdf::ModelInterfaceSharedPtr model;
-  try {
-    model = urdf::parseURDF(text);
-  } catch (const std::exception& e) {
-    handler.errors.push_back(e.what());
-  }
-  console_bridge::setLogLevel(level);
-  console_bridge::restorePreviousOutputHandler();
-  if (model != nullptr && handler.errors.empty()) return model;
-  std::string why;
-  for (const std::string& e : handler.errors) why += (why.empty() ? "" : "; ") + Printable(e, kMaxMessageChars);
-  Fail(file, "robot " + Quoted(robot), "urdfdom refused it: " + (why.empty() ? "no reason given" : why));
-}
-
-// ---------------------------------------------------------------------------
 // Rigid-body algebra for building the tree.
-
-// A fixed placement: x_parent = p + R x_child.
-struct Frame {
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-};
-
-Frame Compose(const Frame& a, const Frame& b) { return {a.R * b.R, a.p + a.R * b.p}; }
-
-// urdfdom keeps <origin rpy> as the unit quaternion of R = Rz(yaw) Ry(pitch) Rx(roll).
-Frame ToFrame(const urdf::Pose& pose) {
-  const urdf::Rotation& r = pose.rotation;
-  return {Eigen::Quaterniond(r.w, r.x, r.y, r.z).normalized().toRotationMatrix(),
-          Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z)};
-}
 
 // Mass, centre of mass c and inertia about c, in one frame.
 struct MassProps {
@@ -506,62 +581,46 @@ MassProps Combined(const MassProps& a, const MassProps& b) {
 
 // A link's <inertial> in its own frame: centre of mass at <origin xyz>, the
 // tensor (given in the <origin> frame) turned into link axes.
-MassProps LinkMassProps(const urdf::Link& link, const std::string& file) {
+MassProps LinkMassProps(const FileLink& link, const std::string& file) {
   if (!link.inertial) return {};
-  const urdf::Inertial& in = *link.inertial;
+  const FileInertial& in = *link.inertial;
   const std::string where = LinkElement(link.name) + " <inertial>";
-  if (in.mass < 0.0) Fail(file, where + " <mass>", "mass must be >= 0 kg, got " + Number(in.mass));
-  Eigen::Matrix3d I;
-  I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  if (const auto why = CheckRotationalInertia(I)) Fail(file, where + " <inertia>", *why);
-  const Frame f = ToFrame(in.origin);
-  return {in.mass, f.p, f.R * I * f.R.transpose()};
+  if (in.mass < 0.0) Fail(file, Within(where, "mass"), "mass must be >= 0 kg, got " + Number(in.mass));
+  if (const auto why = CheckRotationalInertia(in.I)) Fail(file, Within(where, "inertia"), *why);
+  const Frame& f = in.origin;
+  return {in.mass, f.p, f.R * in.I * f.R.transpose()};
 }
 
 // ---------------------------------------------------------------------------
 // The tree, depth-first from the root.
 
-UrdfJointProperties JointProperties(const XmlJoint& xml, const urdf::Joint& joint, const std::string& file) {
-  UrdfJointProperties p;
-  const std::string where = JointElement(xml.name);
-  if (xml.limit && joint.limits) {
-    // urdfdom requires effort and velocity in <limit> and reads absent lower/upper as 0.
-    p.effort = joint.limits->effort;
-    p.velocity = joint.limits->velocity;
-    if (joint.type != urdf::Joint::CONTINUOUS) {
-      if (xml.lower) p.lower = joint.limits->lower;
-      if (xml.upper) p.upper = joint.limits->upper;
-    }
-    if (*p.effort < 0.0) Fail(file, where + " <limit>", "effort must be >= 0, got " + Number(*p.effort));
-    if (*p.velocity < 0.0) Fail(file, where + " <limit>", "velocity must be >= 0, got " + Number(*p.velocity));
-    if (p.lower && p.upper && *p.lower > *p.upper) {
-      Fail(file, where + " <limit>", "lower " + Number(*p.lower) + " is above upper " + Number(*p.upper));
-    }
+// A moving joint's <limit> and <dynamics>: effort, velocity, damping and
+// friction >= 0, lower <= upper.
+const UrdfJointProperties& CheckedProperties(const FileJoint& joint, const std::string& file) {
+  const UrdfJointProperties& p = joint.properties;
+  const std::string limit = Within(JointElement(joint.name), "limit");
+  const std::string dynamics = Within(JointElement(joint.name), "dynamics");
+  if (p.effort && *p.effort < 0.0) Fail(file, limit, "effort must be >= 0, got " + Number(*p.effort));
+  if (p.velocity && *p.velocity < 0.0) Fail(file, limit, "velocity must be >= 0, got " + Number(*p.velocity));
+  if (p.lower && p.upper && *p.lower > *p.upper) {
+    Fail(file, limit, "lower " + Number(*p.lower) + " is above upper " + Number(*p.upper));
   }
-  if (xml.dynamics && joint.dynamics) {
-    if (xml.damping) p.damping = joint.dynamics->damping;
-    if (xml.friction) p.friction = joint.dynamics->friction;
-    if (p.damping && *p.damping < 0.0) {
-      Fail(file, where + " <dynamics>", "damping must be >= 0, got " + Number(*p.damping));
-    }
-    if (p.friction && *p.friction < 0.0) {
-      Fail(file, where + " <dynamics>", "friction must be >= 0, got " + Number(*p.friction));
-    }
-  }
+  if (p.damping && *p.damping < 0.0) Fail(file, dynamics, "damping must be >= 0, got " + Number(*p.damping));
+  if (p.friction && *p.friction < 0.0) Fail(file, dynamics, "friction must be >= 0, got " + Number(*p.friction));
   return p;
 }
 
 class TreeBuilder {
  public:
-  TreeBuilder(const XmlRobot& xml, const urdf::ModelInterface& model, const std::string& file)
-      : xml_(xml), model_(model), file_(file) {
-    for (const XmlJoint& j : xml.joints) children_[j.parent].push_back(&j);
+  TreeBuilder(const FileRobot& robot, const std::string& file) : robot_(robot), file_(file) {
+    for (const FileLink& link : robot.links) links_[link.name] = &link;
+    for (const FileJoint& j : robot.joints) children_[j.parent].push_back(&j);
   }
 
   // (root link) => robot: moving joints numbered depth-first, children in file
   // order; fixed joints' links merged into the body they hang from.
   UrdfRobot Build(const std::string& root) {
-    LinkMassProps(*model_.getLink(root), file_);  // checked, then ignored: the base is fixed
+    LinkMassProps(*links_.at(root), file_);  // checked, then ignored: the base is fixed
     std::vector<Pending> stack;
     PushChildren(root, -1, Frame{}, stack);
     while (!stack.empty()) {
@@ -572,11 +631,11 @@ class TreeBuilder {
     for (std::size_t i = 0; i < parts_.size(); ++i) {
       MassProps body;
       for (const MassProps& part : parts_[i]) body = Combined(body, part);
-      robot_.tree.bodies[i] = {body.m, body.c, body.I};
+      out_.tree.bodies[i] = {body.m, body.c, body.I};
     }
-    robot_.name = xml_.name;
-    robot_.file = file_;
-    return std::move(robot_);
+    out_.name = robot_.name;
+    out_.file = file_;
+    return std::move(out_);
   }
 
   // Child link of each moving joint, for messages.
@@ -584,7 +643,7 @@ class TreeBuilder {
 
  private:
   struct Pending {
-    const XmlJoint* joint;
+    const FileJoint* joint;
     int body;            // body the joint's parent link belongs to; −1: the world
     Frame link_in_body;  // the parent link's frame in that body's frame
   };
@@ -596,49 +655,48 @@ class TreeBuilder {
   }
 
   void Visit(const Pending& at, std::vector<Pending>& stack) {
-    const urdf::Joint& joint = *model_.getJoint(at.joint->name);
-    const urdf::Link& child = *model_.getLink(at.joint->child);
-    const Frame origin = Compose(at.link_in_body, ToFrame(joint.parent_to_joint_origin_transform));
+    const FileJoint& joint = *at.joint;
+    const Frame origin = Compose(at.link_in_body, joint.origin);
     int body = at.body;
     Frame child_in_body = origin;  // a fixed joint: the child link rides on the same body
-    if (joint.type != urdf::Joint::FIXED) {
-      body = AddJoint(*at.joint, joint, at.body, origin);
+    if (joint.type != FileJointType::kFixed) {
+      body = AddJoint(joint, at.body, origin);
       child_in_body = Frame{};
     }
-    const MassProps link = LinkMassProps(child, file_);
+    const MassProps link = LinkMassProps(*links_.at(joint.child), file_);
     if (body >= 0) parts_[body].push_back(Transformed(link, child_in_body));
-    PushChildren(at.joint->child, body, child_in_body, stack);
+    PushChildren(joint.child, body, child_in_body, stack);
   }
 
-  int AddJoint(const XmlJoint& xml, const urdf::Joint& joint, int parent, const Frame& origin) {
-    if (robot_.tree.num_dofs() == kMaxDofs) {
-      Fail(file_, "robot " + Quoted(xml_.name), "more than " + std::to_string(kMaxDofs) + " moving joints");
+  int AddJoint(const FileJoint& joint, int parent, const Frame& origin) {
+    if (out_.tree.num_dofs() == kMaxDofs) {
+      Fail(file_, "robot " + Quoted(robot_.name), "more than " + std::to_string(kMaxDofs) + " moving joints");
     }
-    const Eigen::Vector3d axis(joint.axis.x, joint.axis.y, joint.axis.z);
+    const Eigen::Vector3d& axis = joint.axis;
     if (!(axis.norm() > kMinAxisNorm)) {
-      Fail(file_, JointElement(xml.name) + " <axis>",
+      Fail(file_, Within(JointElement(joint.name), "axis"),
            "axis (" + Number(axis.x()) + ", " + Number(axis.y()) + ", " + Number(axis.z()) + ") has no direction");
     }
     TreeJoint j;
-    j.name = xml.name;
-    j.type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
+    j.name = joint.name;
+    j.type = joint.type == FileJointType::kPrismatic ? JointType::kPrismatic : JointType::kRevolute;
     j.parent = parent;
     j.position = origin.p;
     j.rotation = origin.R;
     j.axis = axis.normalized();
-    robot_.tree.joints.push_back(j);
-    robot_.tree.bodies.emplace_back();
-    robot_.properties.push_back(JointProperties(xml, joint, file_));
+    out_.tree.joints.push_back(j);
+    out_.tree.bodies.emplace_back();
+    out_.properties.push_back(CheckedProperties(joint, file_));
     parts_.emplace_back();
-    child_links_.push_back(xml.child);
-    return robot_.tree.num_dofs() - 1;
+    child_links_.push_back(joint.child);
+    return out_.tree.num_dofs() - 1;
   }
 
-  const XmlRobot& xml_;
-  const urdf::ModelInterface& model_;
+  const FileRobot& robot_;
   const std::string& file_;
-  std::map<std::string, std::vector<const XmlJoint*>> children_;  // link => child joints, file order
-  UrdfRobot robot_;
+  std::map<std::string, const FileLink*> links_;                   // name => link
+  std::map<std::string, std::vector<const FileJoint*>> children_;  // link => child joints, file order
+  UrdfRobot out_;
   std::vector<std::vector<MassProps>> parts_;  // per body: its links in the body frame
   std::vector<std::string> child_links_;
 };
@@ -677,10 +735,9 @@ void CheckEveryJointMovesInertia(const RigidTree& tree, const std::vector<std::s
 UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
   CheckXmlText(xml, file);
   const std::string text(xml);
-  const XmlRobot robot_xml = ReadXml(text, file);
-  const std::string root = CheckTree(robot_xml, file);
-  const urdf::ModelInterfaceSharedPtr model = ParseWithUrdfdom(text, file, robot_xml.name);
-  TreeBuilder builder(robot_xml, *model, file);
+  const FileRobot read = ReadText(text, file);
+  const std::string root = CheckTree(read, file);
+  TreeBuilder builder(read, file);
   UrdfRobot robot = builder.Build(root);
   if (robot.tree.num_dofs() == 0) {
     Fail(file, "robot " + Quoted(robot.name),

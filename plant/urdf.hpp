@@ -1,7 +1,16 @@
 #pragma once
-// Loading a robot from URDF (Debian's liburdfdom, urdf_parser) into a
-// RigidTree (plant/rigid_tree.hpp). Library lagrange_urdf: it reads files,
-// so it lives beside the math-only lagrange_plant, not in it.
+// Loading a robot from URDF into a RigidTree (plant/rigid_tree.hpp). The
+// text is parsed once, by TinyXML (Debian's libtinyxml), after a bounding scan
+// (below), and the robot is read from that DOM. Library lagrange_urdf: it
+// reads files, so it lives beside the math-only lagrange_plant, not in it.
+//
+// Not urdfdom (urdf::parseURDF), which read the file a second time: it parses
+// only text, keeps a link's child joints sorted by name, reads an absent
+// <limit lower/upper> or <dynamics> attribute as 0, and reports errors only
+// through console_bridge's process-wide output handler. The checks it made on
+// what we read are made here (see "Checks"); what we do not read is not
+// checked: <visual>, <collision>, <material>, <safety_controller>,
+// <calibration>, <transmission>, <gazebo>.
 //
 // What is read:
 //   joints     revolute, continuous (revolute without position limits),
@@ -14,8 +23,7 @@
 //   properties <limit lower upper effort velocity>, <dynamics damping friction>
 //
 // The tree. Joint order is depth-first from the root link, a link's child
-// joints in the order they appear in the file (urdfdom keeps them sorted by
-// name; the order is read from the XML). Moving joints take indices 0..n−1,
+// joints in the order they appear in the file. Moving joints take indices 0..n−1,
 // parents first. Body i is joint i's child link, plus every link hanging from
 // it through fixed joints (chains of them too), merged by the parallel-axis
 // theorem; a moving joint below such a link is re-based onto body i's frame
@@ -25,12 +33,14 @@
 // URDF/ROS convention, z up); set `tree.gravity` to change it.
 //
 // Properties are what the file says: an attribute it does not give is
-// nullopt (urdfdom would read an absent lower/upper as 0; a revolute joint
-// whose <limit> gives only effort and velocity has no position limits here).
-// A continuous joint has no lower/upper even if its <limit> gives them.
-// urdfdom requires effort and velocity in every <limit>, so they are present
-// exactly when <limit> is. Refused: effort, velocity, damping or friction < 0,
-// lower > upper.
+// nullopt, not 0 (a revolute joint whose <limit> gives only effort and
+// velocity has no position limits). A continuous joint has no lower/upper even
+// if its <limit> gives them. URDF requires effort and velocity in every
+// <limit> (checked), so they are present exactly when <limit> is. Refused:
+// effort, velocity, damping or friction < 0, lower > upper.
+//
+// Numbers are decimal (C locale, each read as the nearest double; a leading
+// '+' allowed), a list of them separated by any white space.
 //
 // Checks, each a one-line UrdfError "FILE: ELEMENT: reason" (the caller picks
 // the exit code), in this order:
@@ -39,22 +49,19 @@
 //                 U+FFFF after the start; elements nested over 64 deep as tinyxml
 //                 tokenises them (it would overflow the stack) or more than 65536
 //                 elements; malformed XML (line, column); more than 4096 links or
-//                 4096 joints (urdfdom frees a chain of links recursively)
-//   the XML       no <robot> or no name; an element without a name; a joint type
-//                 that is not revolute/continuous/prismatic/fixed; <mimic>; any
-//                 number we use that is not finite (nan, inf, overflow); a link
-//                 or joint defined twice; a joint naming an undefined link or
-//                 the same link as parent and child; a link with two parents;
-//                 no root, several roots, links not reachable from the root
-//   urdfdom       whatever urdf::parseURDF refuses that the above does not
-//                 (a revolute or prismatic joint without <limit>, an <inertial>
-//                 without <mass> or <inertia>, a version other than 1.0, ...):
-//                 "FILE: robot 'r': urdfdom refused it: <its messages>". urdfdom
-//                 reports through console_bridge's process-wide output handler;
-//                 the loader swaps in a capturing handler for the call (under a
-//                 lock of its own) and restores it, so nothing is printed. Any
-//                 error refuses, even when urdfdom still returns a model (it
-//                 does so for a bad <inertial>, zeroing the link's mass).
+//                 4096 joints
+//   the XML       no <robot> or no name; a version other than 1.0 ("major.minor",
+//                 decimal digits); an element without a name; a joint type that
+//                 is not revolute/continuous/prismatic/fixed; <mimic>; any number
+//                 we read that is not finite (nan, inf, overflow) or not as many
+//                 as expected; an <inertial> without <mass value> or <inertia>
+//                 with all of ixx ixy ixz iyy iyz izz; a moving joint's <axis>
+//                 without xyz; a revolute or prismatic joint without <limit>; a
+//                 <limit> (on any joint) without effort or velocity; a <dynamics>
+//                 with neither damping nor friction; a link or joint defined
+//                 twice; a joint naming an undefined link or the same link as
+//                 parent and child; a link with two parents; no root, several
+//                 roots, links not reachable from the root
 //   the physics   a negative mass; an inertia refused by CheckRotationalInertia
 //                 (plant/rigid_tree.hpp: not positive semi-definite, or principal
 //                 moments violating the triangle inequality); no moving joint, or more than kMaxDofs; a
@@ -67,7 +74,7 @@
 //   "arm.urdf: joint 'j3': type 'floating' is not supported (a fixed-base tree: revolute, continuous, prismatic,
 //   fixed)" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)"
 //   "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint 'j7' moves nothing)"
-// Names and urdfdom's messages are quoted escaped as plant/escape.hpp does
+// Names and values from the file are quoted escaped as plant/escape.hpp does
 // (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
 // name: the message is one line, safe to print as it is; do not escape it again.
 
