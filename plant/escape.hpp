@@ -1,6 +1,6 @@
 #pragma once
 // Foreign text (from the bus: controller names, reasons that quote them; from
-// a file: a URDF's names and urdfdom's messages) is printed to logs, statuses,
+// a file: a URDF's names) is printed to logs, statuses,
 // messages and terminals only through Escape: a newline cannot forge a log
 // line and an ANSI/OSC sequence cannot reach a terminal.
 //
