@@ -18,8 +18,8 @@
 #include <lcm/lcm-cpp.hpp>
 #include <thread>
 
-#include "daemon/bus.hpp"
 #include "daemon/spawn.hpp"
+#include "protocol/bus.hpp"
 
 namespace lagrange::bench {
 

@@ -78,10 +78,11 @@
 
 #include "bench/harness.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 
 #ifndef LAGRANGE_SOURCE_DIR
 #define LAGRANGE_SOURCE_DIR "."

@@ -8,11 +8,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include "daemon/command_check.hpp"
-#include "plant/escape.hpp"
-#include "daemon/setpoint_check.hpp"
 #include "daemon/timing_csv.hpp"
-#include "daemon/wire.hpp"
+#include "plant/escape.hpp"
+#include "protocol/command_check.hpp"
+#include "protocol/setpoint_check.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange {
 namespace {

@@ -1,12 +1,12 @@
 #pragma once
 // The daemon's bus side, on two threads of its own; they meet the tick only
 // at the runtime's mailboxes and the record ring. Both speak LCM's wire
-// format through daemon/bus.hpp, never through lcm::LCM (see there why).
+// format through protocol/bus.hpp, never through lcm::LCM (see there why).
 //
 // LcmReceiver (receive thread): for each instance it subscribes to
 // <NAME>_SETPOINT and <NAME>_COMMAND on the input bus (and an external
 // controller's torque channel, an external plant's state_channel), checks every packet's
-// raw layout before decoding (daemon/wire.hpp), validates what it decodes,
+// raw layout before decoding (protocol/wire.hpp), validates what it decodes,
 // and hands the good ones to the tick; bad ones are dropped, counted, and
 // their reason kept. It answers commands it refuses itself with a reply_t.
 // It also listens on this run's output channels (<NAME>_STATE, <NAME>_REPLY,
@@ -39,12 +39,12 @@
 #include <string>
 #include <vector>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
-#include "daemon/command_check.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/setpoint_check.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/command_check.hpp"
+#include "protocol/setpoint_check.hpp"
 
 namespace lagrange {
 

@@ -54,26 +54,14 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
-#include "daemon/clock.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/mailbox.hpp"
 #include "daemon/scene.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/command_kind.hpp"
+#include "protocol/mode.hpp"
 
 namespace lagrange {
-
-enum class Mode : std::int8_t {
-  kRunning = 0,
-  kHold = 1,
-  kFault = 2,
-  kPaused = 3,
-  kEstop = 4,
-  kStopped = 5,  // external plant: the watchdog stopped commanding
-  kWaiting = 6,  // external plant: armed, no measured state yet
-};
-std::string_view ToString(Mode mode);
-// The name of a state_t.mode / status_t.instance_modes value as it came off
-// the wire: ToString of the mode, or "?" out of range.
-const char* ModeName(std::int8_t wire_mode);
 
 // A setpoint the LCM thread has validated and found fresh.
 struct SetpointMessage {
@@ -103,20 +91,6 @@ struct MeasuredMessage {
 // What the receiver found wrong with an external plant's measured state: each
 // trips the watchdog (the instance stops commanding).
 enum class MeasuredProblem : std::uint8_t { kNone = 0, kNotFinite, kWrongSize, kSecondSource };
-
-enum class CommandKind : std::int8_t {
-  kSwitchController = 1,
-  kSetGains = 2,
-  kReset = 3,
-  kPause = 4,
-  kResume = 5,
-  kEstop = 6,
-  kClearEstop = 7,
-  kSetIntegrator = 8,
-  kSetEffect = 9,
-  kSetMethod = 10,
-  kSetForces = 11,
-};
 
 // A command the LCM thread has decoded and checked against what does not
 // change (controller names, gain sizes); the tick checks the rest.

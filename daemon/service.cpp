@@ -14,8 +14,6 @@
 #include <iostream>
 #include <thread>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/default_scene.hpp"
 #include "daemon/lcm_bridge.hpp"
 #include "daemon/log_file.hpp"
@@ -23,9 +21,12 @@
 #include "daemon/realtime.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
 #include "daemon/timing_csv.hpp"
 #include "daemon/work_bound.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 
 namespace lagrange {
 namespace {

@@ -8,12 +8,12 @@
 
 #include <optional>
 
-#include "daemon/channels.hpp"
-#include "daemon/clock.hpp"
-#include "plant/escape.hpp"
 #include "plant/effects.hpp"
+#include "plant/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/clock.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <random>
 
-#include "daemon/channels.hpp"
 #include "plant/escape.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 
 namespace lagrange::cli {

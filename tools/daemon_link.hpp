@@ -4,7 +4,7 @@
 //
 // The bus is hostile: anyone on it can publish an instance's state, the
 // status or a reply. So every packet is size-checked before it is decoded
-// (daemon/wire.hpp), every string is escaped before it is printed, and a
+// (protocol/wire.hpp), every string is escaped before it is printed, and a
 // command or setpoint stream acts only when exactly one lagranged run (one
 // run_id) publishes the instance's state; success is reported only from a
 // reply of that run carrying the sender's own request_id.
@@ -21,8 +21,8 @@
 #include <optional>
 #include <string>
 
-#include "daemon/bus.hpp"
 #include "daemon/runtime.hpp"  // ModeName
+#include "protocol/bus.hpp"
 
 namespace lagrange::cli {
 
@@ -33,7 +33,7 @@ struct BusOptions {
 
   void AddTo(CLI::App& app);
   std::string Url() const;
-  // PREFIX + NAME_UPPER + suffix (daemon/channels.hpp).
+  // PREFIX + NAME_UPPER + suffix (protocol/channels.hpp).
   std::string Channel(const std::string& instance, const char* suffix) const;
   std::string StatusChannel() const;
   // Opens the bus; a malformed URL is a UsageError (exit 2), a failure to open it a runtime_error.

@@ -18,7 +18,7 @@
 #include <stdexcept>
 
 #include "plant/escape.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/daemon_link.hpp"
 

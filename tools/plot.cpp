@@ -10,8 +10,8 @@
 #include <regex>
 #include <sstream>
 
-#include "daemon/channels.hpp"
 #include "daemon/spawn.hpp"
+#include "protocol/channels.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/lcm_log.hpp"

@@ -13,10 +13,10 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/channels.hpp"
-#include "daemon/clock.hpp"
-#include "plant/escape.hpp"
 #include "daemon/lcm_bridge.hpp"  // NewRunId
+#include "plant/escape.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/clock.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"

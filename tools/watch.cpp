@@ -18,9 +18,9 @@
 #include <sstream>
 #include <variant>
 
-#include "daemon/channels.hpp"
 #include "plant/escape.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"

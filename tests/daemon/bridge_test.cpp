@@ -26,8 +26,6 @@
 #include <variant>
 #include <vector>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/lcm_bridge.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
@@ -36,6 +34,8 @@
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
 

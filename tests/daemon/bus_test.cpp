@@ -1,4 +1,4 @@
-// The bus lagrange talks LCM through (daemon/bus.hpp): LCM's LC02 datagram
+// The bus lagrange talks LCM through (protocol/bus.hpp): LCM's LC02 datagram
 // format, every fragment (LC03) dropped, hostile datagrams counted without
 // allocating, strict URLs, Escape for what the bus says; then real sockets on
 // loopback multicast (ports 7900-7919), including the datagrams that crash
@@ -15,8 +15,8 @@
 #include <thread>
 #include <vector>
 
-#include "daemon/bus.hpp"
 #include "plant/escape.hpp"
+#include "protocol/bus.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/raw_udp.hpp"

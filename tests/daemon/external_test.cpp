@@ -27,13 +27,14 @@
 #include <string_view>
 #include <vector>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/lcm_bridge.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"

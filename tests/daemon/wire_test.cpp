@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "daemon/wire.hpp"
 #include "plant/types.hpp"
+#include "protocol/wire.hpp"
 #include "tests/support/lcm_messages.hpp"
 
 namespace lagrange {

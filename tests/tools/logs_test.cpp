@@ -24,7 +24,7 @@
 #include <sstream>
 
 #include "daemon/runtime.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/wire.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"

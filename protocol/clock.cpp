@@ -1,4 +1,4 @@
-#include "daemon/clock.hpp"
+#include "protocol/clock.hpp"
 
 #include <time.h>
 

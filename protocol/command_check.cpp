@@ -1,10 +1,10 @@
-#include "daemon/command_check.hpp"
+#include "protocol/command_check.hpp"
 
 #include <algorithm>
 
 #include "controllers/factory.hpp"
 #include "plant/escape.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange {
 namespace {

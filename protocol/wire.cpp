@@ -1,4 +1,4 @@
-#include "daemon/wire.hpp"
+#include "protocol/wire.hpp"
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>

@@ -1,7 +1,6 @@
-#include "daemon/channels.hpp"
+#include "protocol/channels.hpp"
 
 #include "plant/escape.hpp"
-#include "daemon/scene.hpp"
 
 #include <cctype>
 #include <cstdlib>
@@ -28,24 +27,6 @@ ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, co
   c.measured_in.assign(instance_names.size(), "");
   c.torque_out.assign(instance_names.size(), "");
   c.status = prefix + kStatusChannel;
-  return c;
-}
-
-ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix) {
-  std::vector<std::string> names;
-  for (const InstanceConfig& inst : scene.instances) names.push_back(inst.name);
-  ChannelNames c = MakeChannelNames(names, prefix);
-  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
-    const InstanceConfig& inst = scene.instances[i];
-    if (const ExternalControllerRef external = ExternalControllerOf(inst); external.config != nullptr) {
-      const std::string& written = external.config->external.torque_channel;
-      c.torque_in[i] = written.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix) : written;
-    }
-    if (inst.external) {
-      c.measured_in[i] = inst.external->state_channel;
-      c.torque_out[i] = inst.external->torque_channel;
-    }
-  }
   return c;
 }
 

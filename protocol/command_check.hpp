@@ -11,7 +11,10 @@
 #include <vector>
 
 #include "controllers/factory.hpp"
-#include "daemon/runtime.hpp"
+#include "plant/effects.hpp"
+#include "plant/integrators.hpp"
+#include "plant/types.hpp"
+#include "protocol/command_kind.hpp"
 
 namespace lagrange {
 

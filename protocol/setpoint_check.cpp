@@ -1,9 +1,9 @@
-#include "daemon/setpoint_check.hpp"
+#include "protocol/setpoint_check.hpp"
 
 #include <cmath>
 #include <sstream>
 
-#include "daemon/wire.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange {
 namespace {

@@ -32,13 +32,10 @@ struct ChannelNames {
   std::string status;
 };
 
-// The derived names only (torque_in, measured_in, torque_out all "").
+// The derived names only (torque_in, measured_in, torque_out all ""); a
+// scene's own names are daemon/scene_channels.hpp's.
 ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix);
 
-struct Scene;
-// Every channel of a scene: the derived ones with the prefix, the ones the
-// scene writes as written.
-ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix);
 // Why this set of channels cannot work (an input that is one of this run's
 // outputs, an output two instances share), or "" when it can.
 std::string CheckChannelNames(const ChannelNames& channels, const std::vector<std::string>& instance_names);

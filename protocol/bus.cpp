@@ -1,4 +1,4 @@
-#include "daemon/bus.hpp"
+#include "protocol/bus.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
