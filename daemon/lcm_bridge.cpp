@@ -2,7 +2,6 @@
 
 #include <poll.h>
 #include <spdlog/spdlog.h>
-#include <sys/random.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +11,7 @@
 #include "plant/escape.hpp"
 #include "protocol/command_check.hpp"
 #include "protocol/setpoint_check.hpp"
+#include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -24,67 +24,7 @@ double Percentile(std::vector<double>& v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
-// The longest reason a status can carry for one instance's mode (the tick's
-// static reasons and faults are shorter).
-constexpr std::size_t kLongestModeReason = 64;
-
-// Bytes of a joint name kept in a status (before escaping): a URDF's names are
-// the file's, of any length.
-constexpr std::size_t kMaxJointNameBytes = 60;
-
 }  // namespace
-
-bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
-                const std::vector<std::string>& joints) {
-  status_t s{};
-  // A reason at its longest: a Reason holds at most text.size() − 1 bytes
-  // (199, written escaped, then NUL); a tick's command error, an instance
-  // name (<= 48 bytes) + ": " + one of the tick's short static reasons, is shorter.
-  s.last_rejection.assign(Reason{}.text.size() - 1, 'x');
-  s.last_command_error = s.last_rejection;
-  s.num_instances = static_cast<std::int32_t>(instances.size());
-  s.instance_names = instances;
-  s.instance_modes.assign(instances.size(), 0);
-  s.instance_dofs = dofs;
-  s.instance_reasons.assign(instances.size(), std::string(kLongestModeReason, 'x'));
-  // The longest each description can be (IntegratorDescription, EffectsDescription).
-  s.instance_integrators.assign(instances.size(), std::string(80, 'x'));
-  s.instance_methods.assign(instances.size(), std::string(11, 'x'));
-  s.instance_effects.assign(instances.size(), std::string(64, 'x'));
-  s.instance_forces.assign(instances.size(), false);
-  s.num_joints = static_cast<std::int32_t>(joints.size());
-  s.joint_names = joints;
-  return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
-}
-
-std::string IntegratorDescription(const IntegratorConfig& c, bool external_plant) {
-  if (external_plant) return "none";
-  std::string text(ToString(c.type));
-  if (c.type == IntegratorType::kDormandPrince) {
-    text += fmt::format(" rtol={:g} atol={:g} max_steps={}", c.rtol, c.atol, c.max_steps);
-  }
-  if (c.substeps > 1) text += fmt::format(" x{}", c.substeps);
-  return text;
-}
-
-std::string EffectsDescription(const EffectFlags& flags) {
-  std::string text;
-  for (int k = 0; k < kNumEffectKinds; ++k) {
-    const auto kind = static_cast<EffectKind>(k);
-    if (flags.on(kind)) text += (text.empty() ? "" : ",") + std::string(ToString(kind));
-  }
-  return text;
-}
-
-std::int64_t NewRunId() {
-  std::int64_t id = 0;
-  while (id == 0) {
-    if (getrandom(&id, sizeof id, 0) != static_cast<ssize_t>(sizeof id)) {
-      throw std::runtime_error("getrandom failed: cannot make a run id");
-    }
-  }
-  return id;
-}
 
 void Reason::Set(const std::string& s) {
   const std::size_t n = std::min(s.size(), text.size() - 1);

@@ -45,29 +45,15 @@
 #include "protocol/channels.hpp"
 #include "protocol/command_check.hpp"
 #include "protocol/setpoint_check.hpp"
+#include "protocol/status.hpp"
 
 namespace lagrange {
 
 class TimingCsvWriter;
 
-// True when a status carrying these instances and joint names, with every
-// reason and description at the longest it can be, fits in one datagram.
-// lagranged refuses a scene whose instances alone would not fit.
-bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
-                const std::vector<std::string>& joints);
-
-// status_t.instance_integrators: "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10
-// max_steps=200"; "none" for an external plant.
-std::string IntegratorDescription(const IntegratorConfig& config, bool external_plant);
-// status_t.instance_effects: the effects on, comma-separated in EffectKind order.
-std::string EffectsDescription(const EffectFlags& flags);
-
-// A random, non-zero 64-bit id for this run of lagranged (getrandom).
-std::int64_t NewRunId();
-
 // A reason, carried between threads in a mailbox (no allocation to move it).
 struct Reason {
-  std::array<char, 200> text{};
+  std::array<char, kMaxStatusReasonBytes + 1> text{};  // NUL-terminated
   void Set(const std::string& s);
 };
 

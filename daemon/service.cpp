@@ -27,6 +27,8 @@
 #include "daemon/yaml_reader.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/status.hpp"
 
 namespace lagrange {
 namespace {

@@ -14,6 +14,8 @@
 #include "plant/types.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"

@@ -1,10 +1,11 @@
 #include "tools/daemon_link.hpp"
 
 #include <algorithm>
-#include <random>
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 
@@ -41,68 +42,6 @@ std::unique_ptr<Bus> BusOptions::Open() const {
     }
   }
   return OpenBus(url);  // BusError (a runtime_error) when the socket cannot be set up
-}
-
-std::int64_t NewRequestId() {
-  std::random_device device;
-  std::uint64_t id = 0;
-  while (id == 0) id = (static_cast<std::uint64_t>(device()) << 32) ^ device();
-  return static_cast<std::int64_t>(id);
-}
-
-std::vector<std::vector<std::string>> JointNamesByInstance(const status_t& status) {
-  const auto instances = static_cast<std::size_t>(std::max(status.num_instances, 0));
-  if (status.instance_names.size() != instances || status.instance_dofs.size() != instances ||
-      status.joint_names.size() != static_cast<std::size_t>(std::max(status.num_joints, 0))) {
-    return {};
-  }
-  std::size_t total = 0;
-  for (const std::int32_t n : status.instance_dofs) {
-    if (n < 0) return {};
-    total += static_cast<std::size_t>(n);
-  }
-  if (total != status.joint_names.size()) return {};  // names that cannot be attributed are not attributed
-  std::vector<std::vector<std::string>> names(instances);
-  std::size_t first = 0;
-  for (std::size_t i = 0; i < instances; ++i) {
-    const auto n = static_cast<std::size_t>(status.instance_dofs[i]);
-    for (std::size_t j = first; j < first + n; ++j) names[i].push_back(Escape(status.joint_names[j], 80));
-    first += n;
-  }
-  return names;
-}
-
-std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance) {
-  std::vector<std::vector<std::string>> names = JointNamesByInstance(status);
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    if (status.instance_names[i] == instance) return std::move(names[i]);
-  }
-  return {};
-}
-
-std::string ModeReasonIn(const status_t& status, const std::string& instance, std::int8_t mode) {
-  const std::size_t count =
-      std::min({status.instance_names.size(), status.instance_modes.size(), status.instance_reasons.size()});
-  for (std::size_t i = 0; i < count; ++i) {
-    if (status.instance_names[i] == instance) {
-      return status.instance_modes[i] == mode ? Escape(status.instance_reasons[i]) : "";
-    }
-  }
-  return "";
-}
-
-std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::string& instance) {
-  const std::size_t count = status.instance_names.size();
-  if (status.instance_integrators.size() != count || status.instance_methods.size() != count ||
-      status.instance_effects.size() != count || status.instance_forces.size() != count) {
-    return std::nullopt;
-  }
-  for (std::size_t i = 0; i < count; ++i) {
-    if (status.instance_names[i] != instance) continue;
-    return InstanceSettings{Escape(status.instance_integrators[i], 80), Escape(status.instance_methods[i], 40),
-                            Escape(status.instance_effects[i], 120), status.instance_forces[i] != 0};
-  }
-  return std::nullopt;
 }
 
 DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)

@@ -23,6 +23,8 @@
 
 #include "daemon/runtime.hpp"  // ModeName
 #include "protocol/bus.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/status.hpp"
 
 namespace lagrange::cli {
 
@@ -39,37 +41,6 @@ struct BusOptions {
   // Opens the bus; a malformed URL is a UsageError (exit 2), a failure to open it a runtime_error.
   std::unique_ptr<Bus> Open() const;
 };
-
-// A fresh random non-zero id for a command.
-std::int64_t NewRequestId();
-
-// Every instance's joint names from a status (status_t.joint_names: instance
-// after instance, instance_dofs[i] each), escaped for printing, one list per
-// instance; empty (no lists) when the status carries no names or its counts
-// do not add up (Σ instance_dofs ≠ num_joints, sizes that disagree with
-// their counts): names are never attributed to the wrong instance.
-std::vector<std::vector<std::string>> JointNamesByInstance(const status_t& status);
-// The joint names a status gives for `instance` (JointNamesByInstance); empty
-// when the status names no such instance, carries no names, or its counts do
-// not add up.
-std::vector<std::string> JointNamesIn(const status_t& status, const std::string& instance);
-
-// Why a status says `instance` is in `mode` (status_t.instance_reasons),
-// escaped; "" when the status names no such instance, gives it another mode
-// (a status is sent at 10 Hz, a state every tick), or gives no reason.
-std::string ModeReasonIn(const status_t& status, const std::string& instance, std::int8_t mode);
-
-// How a status says `instance` is integrated and computed
-// (status_t.instance_integrators, _methods, _effects, _forces), escaped;
-// nullopt when the status names no such instance or its arrays do not match
-// its count (an older daemon's status).
-struct InstanceSettings {
-  std::string integrator;  // "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10 max_steps=200", "none"
-  std::string method;      // closed-form | lagrangian | recursive
-  std::string effects;     // the effects on, comma-separated ("" for none)
-  bool forces = false;     // publishing <NAME>_FORCES
-};
-std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::string& instance);
 
 // How long lagrangectl listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.

@@ -18,6 +18,8 @@
 #include <stdexcept>
 
 #include "plant/escape.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/daemon_link.hpp"

@@ -13,10 +13,11 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/lcm_bridge.hpp"  // NewRunId
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/daemon_link.hpp"

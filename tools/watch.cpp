@@ -20,6 +20,8 @@
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
