@@ -40,7 +40,7 @@ void WriteBigEndian32(std::uint32_t v, std::uint8_t* p) {
 }
 
 [[noreturn]] void ThrowUrlError(const std::string& url, const std::string& what) {
-  throw BusError("LCM URL '" + url + "': " + what + "; " + kExpected);
+  throw BusUrlError("LCM URL '" + url + "': " + what + "; " + kExpected);
 }
 
 // A decimal integer of digits only (no sign, no spaces) in [min, max]; false otherwise.
@@ -423,9 +423,9 @@ int InProcessBus::Handle(int /*timeout_ms*/) { return Drain(1024); }
 std::unique_ptr<Bus> OpenBus(const std::string& url) {
   if (url.rfind("udpm://", 0) == 0) return std::make_unique<UdpmBus>(url, ParseUdpmUrl(url));
   if (url == "inprocess://") return std::make_unique<InProcessBus>();
-  throw BusError("LCM URL '" + url +
-                 "': lagrange speaks only udpm://GROUP:PORT?ttl=N (and inprocess:// in tests); see "
-                 "docs/lcm-fragment-bug.md, 'Why lagrange has its own LCM transport'");
+  throw BusUrlError("LCM URL '" + url +
+                    "': lagrange speaks only udpm://GROUP:PORT?ttl=N (and inprocess:// in tests); see "
+                    "docs/lcm-fragment-bug.md, 'Why lagrange has its own LCM transport'");
 }
 
 }  // namespace lagrange

@@ -40,6 +40,12 @@ inline constexpr std::size_t kMaxMessageSize = 16 * 1024;
 struct BusError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+// A URL that is not one this bus takes (its syntax, or another provider's):
+// the caller's mistake rather than the system's, so lagrangectl treats it as
+// a bad argument (exit 2).
+struct BusUrlError : BusError {
+  using BusError::BusError;
+};
 
 // A parsed udpm:// URL.
 struct UdpmUrl {
@@ -48,7 +54,7 @@ struct UdpmUrl {
   int ttl = 0;            // 0: this host only
   int recv_buf_size = 0;  // SO_RCVBUF request, bytes; 0: the system default
 };
-// Parses `url`; throws BusError ("LCM URL 'X': <what is wrong>; expected udpm://GROUP:PORT?ttl=0..255...").
+// Parses `url`; throws BusUrlError ("LCM URL 'X': <what is wrong>; expected udpm://GROUP:PORT?ttl=0..255...").
 // Strict: decimal digits only, no default port; a missing ttl is 0 (LCM's default);
 // unknown or repeated query keys are refused.
 UdpmUrl ParseUdpmUrl(const std::string& url);
@@ -108,7 +114,8 @@ class Bus {
 };
 
 // Opens a bus for `url` (see above); throws BusError with one line naming the
-// URL and the reason (bad URL, socket, bind or multicast membership failed).
+// URL and the reason (socket, bind or multicast membership failed), a
+// BusUrlError for a bad URL.
 std::unique_ptr<Bus> OpenBus(const std::string& url);
 
 // A bus inside one process: Publish queues, Drain delivers in order to the

@@ -13,12 +13,14 @@
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/client.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
+#include "protocol/mode.hpp"
+#include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/daemon_link.hpp"
 
 namespace lagrange::cli {
 namespace {

@@ -20,9 +20,9 @@
 #include "plant/escape.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
+#include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
-#include "tools/daemon_link.hpp"
 
 namespace lagrange::cli {
 namespace {

@@ -2,12 +2,13 @@
 // or none at all when the counts do not add up (never misattributed). An
 // instance's reason for its mode, only for the mode it is given with.
 
-#include "tools/daemon_link.hpp"
+#include "protocol/status.hpp"
 
 #include <gtest/gtest.h>
+#include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
-namespace lagrange::cli {
+namespace lagrange {
 namespace {
 
 status_t Status(std::vector<std::string> instances, std::vector<std::int32_t> dofs, std::vector<std::string> joints) {
@@ -60,4 +61,4 @@ TEST(ModeReasons, AReasonIsGivenOnlyForItsOwnModeAndEscaped) {
 }
 
 }  // namespace
-}  // namespace lagrange::cli
+}  // namespace lagrange

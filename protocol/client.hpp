@@ -1,6 +1,8 @@
 #pragma once
-// What lagrangectl's live commands share: the bus options, and a link to one
-// lagranged run that trusts nothing it has not seen consistently.
+// The client side of talking to a daemon: where to find it (LinkOptions),
+// and a link to one lagranged run that trusts nothing it has not seen
+// consistently (DaemonLink). lagrangectl's live commands use it, as the
+// Python module and the viewer are to.
 //
 // The bus is hostile: anyone on it can publish an instance's state, the
 // status or a reply. So every packet is size-checked before it is decoded
@@ -13,7 +15,6 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
-#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -21,28 +22,27 @@
 #include <optional>
 #include <string>
 
-#include "daemon/runtime.hpp"  // ModeName
 #include "protocol/bus.hpp"
-#include "protocol/ids.hpp"
-#include "protocol/status.hpp"
 
-namespace lagrange::cli {
+namespace lagrange {
 
-struct BusOptions {
+// Where a client finds a daemon, and how long it waits for one.
+struct LinkOptions {
   std::string lcm_url;         // "" → $LCM_DEFAULT_URL → udpm://239.255.76.67:7667?ttl=0
   std::string channel_prefix;  // as given to lagranged --channel-prefix
   double wait = 3.0;           // s to wait for the daemon before giving up
 
-  void AddTo(CLI::App& app);
+  // lcm_url resolved (ResolveLcmUrl, protocol/channels.hpp).
   std::string Url() const;
   // PREFIX + NAME_UPPER + suffix (protocol/channels.hpp).
   std::string Channel(const std::string& instance, const char* suffix) const;
   std::string StatusChannel() const;
-  // Opens the bus; a malformed URL is a UsageError (exit 2), a failure to open it a runtime_error.
+  // Opens the bus: BusUrlError for a malformed URL (worded by ParseUdpmUrl), a
+  // BusError when it cannot be opened.
   std::unique_ptr<Bus> Open() const;
 };
 
-// How long lagrangectl listens to an instance before acting, so that a second
+// How long a client listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state
 
@@ -50,7 +50,8 @@ inline constexpr double kRunWindow = 0.3;  // s after the first state
 // on the caller's thread, keeping the latest message of each run id.
 class DaemonLink {
  public:
-  DaemonLink(const BusOptions& bus, const std::string& instance);
+  // Opens the bus (options.Open(): BusUrlError, BusError) and subscribes.
+  DaemonLink(const LinkOptions& options, const std::string& instance);
   DaemonLink(const DaemonLink&) = delete;
   DaemonLink& operator=(const DaemonLink&) = delete;
 
@@ -108,7 +109,7 @@ class DaemonLink {
   void OnReply(const std::uint8_t* data, std::size_t size);
   std::string TwoRunsMessage(const std::string& doing) const;
 
-  BusOptions options_;
+  LinkOptions options_;
   std::string instance_;
   std::string state_channel_;
   std::unique_ptr<Bus> bus_;
@@ -121,4 +122,4 @@ class DaemonLink {
   std::optional<reply_t> reply_;
 };
 
-}  // namespace lagrange::cli
+}  // namespace lagrange

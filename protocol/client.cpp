@@ -1,4 +1,4 @@
-#include "tools/daemon_link.hpp"
+#include "protocol/client.hpp"
 
 #include <algorithm>
 
@@ -7,9 +7,8 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/wire.hpp"
-#include "tools/cli_support.hpp"
 
-namespace lagrange::cli {
+namespace lagrange {
 namespace {
 
 // Distinct run ids remembered per channel: enough to name two in an error,
@@ -18,38 +17,31 @@ constexpr std::size_t kMaxRuns = 4;
 
 }  // namespace
 
-void BusOptions::AddTo(CLI::App& app) {
-  app.add_option("--lcm-url", lcm_url, "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
-  app.add_option("--channel-prefix", channel_prefix, "The daemon's --channel-prefix");
-  app.add_option("--wait", wait, "Seconds to wait for the daemon")->check(CLI::PositiveNumber)->capture_default_str();
-}
+std::string LinkOptions::Url() const { return ResolveLcmUrl(lcm_url); }
 
-std::string BusOptions::Url() const { return ResolveLcmUrl(lcm_url); }
-
-std::string BusOptions::Channel(const std::string& instance, const char* suffix) const {
+std::string LinkOptions::Channel(const std::string& instance, const char* suffix) const {
   return InstanceChannel(channel_prefix, instance, suffix);
 }
 
-std::string BusOptions::StatusChannel() const { return channel_prefix + kStatusChannel; }
+std::string LinkOptions::StatusChannel() const { return channel_prefix + kStatusChannel; }
 
-std::unique_ptr<Bus> BusOptions::Open() const {
+std::unique_ptr<Bus> LinkOptions::Open() const {
   const std::string url = Url();
-  if (url.rfind("inprocess://", 0) != 0) {
-    try {
-      ParseUdpmUrl(url);
-    } catch (const BusError& e) {
-      throw UsageError(e.what());
-    }
-  }
-  return OpenBus(url);  // BusError (a runtime_error) when the socket cannot be set up
+  // ParseUdpmUrl first: it names what is wrong with any URL that is not a
+  // udpm:// one (OpenBus only says which providers it speaks).
+  if (url.rfind("inprocess://", 0) != 0) ParseUdpmUrl(url);
+  return OpenBus(url);  // BusError when the socket cannot be set up
 }
 
-DaemonLink::DaemonLink(const BusOptions& bus, const std::string& instance)
-    : options_(bus), instance_(instance), state_channel_(bus.Channel(instance, kStateSuffix)), bus_(bus.Open()) {
+DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
+    : options_(options),
+      instance_(instance),
+      state_channel_(options.Channel(instance, kStateSuffix)),
+      bus_(options.Open()) {
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
-  bus_->Subscribe(bus.Channel(instance, kReplySuffix),
+  bus_->Subscribe(options.Channel(instance, kReplySuffix),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
-  bus_->Subscribe(bus.StatusChannel(),
+  bus_->Subscribe(options.StatusChannel(),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
 }
 
@@ -130,4 +122,4 @@ void DaemonLink::Pump(double seconds) {
   PumpUntil([] { return false; }, seconds);
 }
 
-}  // namespace lagrange::cli
+}  // namespace lagrange
