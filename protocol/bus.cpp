@@ -14,6 +14,8 @@
 #include <cstring>
 #include <limits>
 
+#include "protocol/big_endian.hpp"
+
 namespace lagrange {
 namespace {
 
@@ -27,17 +29,6 @@ constexpr std::size_t kMaxDatagramSize = kHeaderSize + kMaxChannelLength + 1 + k
 // has to cut a datagram short; MSG_TRUNC is still checked.
 constexpr std::size_t kReceiveBufferSize = 64 * 1024 + 256;
 constexpr const char* kExpected = "expected udpm://GROUP:PORT?ttl=0..255[&recv_buf_size=BYTES]";
-
-std::uint32_t ReadBigEndian32(const std::uint8_t* p) {
-  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
-}
-
-void WriteBigEndian32(std::uint32_t v, std::uint8_t* p) {
-  p[0] = static_cast<std::uint8_t>(v >> 24);
-  p[1] = static_cast<std::uint8_t>(v >> 16);
-  p[2] = static_cast<std::uint8_t>(v >> 8);
-  p[3] = static_cast<std::uint8_t>(v);
-}
 
 [[noreturn]] void ThrowUrlError(const std::string& url, const std::string& what) {
   throw BusUrlError("LCM URL '" + url + "': " + what + "; " + kExpected);

@@ -10,21 +10,14 @@
 #include <lagrange/torque_t.hpp>
 
 #include "plant/types.hpp"
+#include "protocol/big_endian.hpp"
 
 namespace lagrange {
 namespace {
 
-std::int64_t ReadInt64(const std::uint8_t* p) {
-  std::uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
-  return static_cast<std::int64_t>(v);
-}
+std::int64_t ReadInt64(const std::uint8_t* p) { return static_cast<std::int64_t>(ReadBigEndian64(p)); }
 
-std::int32_t ReadInt32(const std::uint8_t* p) {
-  std::uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v = (v << 8) | p[i];
-  return static_cast<std::int32_t>(v);
-}
+std::int32_t ReadInt32(const std::uint8_t* p) { return static_cast<std::int32_t>(ReadBigEndian32(p)); }
 
 constexpr std::size_t kHash = 8, kInt64 = 8, kInt32 = 4, kInt8 = 1, kDouble = 8;
 constexpr std::int32_t kMaxString = 256;  // bytes, including the terminating NUL
@@ -35,11 +28,41 @@ std::int64_t Fingerprint(const void* data, std::size_t size) {
   return size < kHash ? 0 : ReadInt64(static_cast<const std::uint8_t*>(data));
 }
 
-std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
+MessageType TypeOf(const void* data, std::size_t size) {
   const std::int64_t hash = Fingerprint(data, size);
-  if (hash != state_t::getHash() && hash != status_t::getHash() && hash != reply_t::getHash() &&
-      hash != torque_t::getHash() && hash != telemetry_t::getHash() && hash != forces_t::getHash())
-    return std::nullopt;
+  if (hash == state_t::getHash()) return MessageType::kState;
+  if (hash == setpoint_t::getHash()) return MessageType::kSetpoint;
+  if (hash == command_t::getHash()) return MessageType::kCommand;
+  if (hash == reply_t::getHash()) return MessageType::kReply;
+  if (hash == status_t::getHash()) return MessageType::kStatus;
+  if (hash == torque_t::getHash()) return MessageType::kTorque;
+  if (hash == telemetry_t::getHash()) return MessageType::kTelemetry;
+  if (hash == forces_t::getHash()) return MessageType::kForces;
+  return MessageType::kUnknown;
+}
+
+const char* ToString(MessageType type) {
+  switch (type) {
+    case MessageType::kState: return "state_t";
+    case MessageType::kSetpoint: return "setpoint_t";
+    case MessageType::kCommand: return "command_t";
+    case MessageType::kReply: return "reply_t";
+    case MessageType::kStatus: return "status_t";
+    case MessageType::kTorque: return "torque_t";
+    case MessageType::kTelemetry: return "telemetry_t";
+    case MessageType::kForces: return "forces_t";
+    case MessageType::kUnknown: break;
+  }
+  return "?";
+}
+
+std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
+  switch (TypeOf(data, size)) {
+    case MessageType::kUnknown:
+    case MessageType::kSetpoint:
+    case MessageType::kCommand: return std::nullopt;
+    default: break;
+  }
   if (size < kHash + 2 * kInt64) return std::nullopt;
   return ReadInt64(static_cast<const std::uint8_t*>(data) + kHash + kInt64);
 }

@@ -16,6 +16,23 @@ enum class WireCheck : std::uint8_t { kOk, kTooShort, kFingerprint, kBadLength, 
 
 // A packet's LCM fingerprint (its first 8 bytes, big-endian); 0 when shorter.
 std::int64_t Fingerprint(const void* data, std::size_t size);
+
+// lagrange's message types, told apart by their fingerprints.
+enum class MessageType : std::uint8_t {
+  kUnknown,  // another type's fingerprint, or shorter than one
+  kState,
+  kSetpoint,
+  kCommand,
+  kReply,
+  kStatus,
+  kTorque,
+  kTelemetry,
+  kForces,
+};
+// A packet's type by its fingerprint alone: the layout is the Check*Packet functions' to check.
+MessageType TypeOf(const void* data, std::size_t size);
+// The LCM type's name ("state_t", ...); "?" for kUnknown.
+const char* ToString(MessageType type);
 // The run id of a state_t, status_t, reply_t or torque_t packet (each begins:
 // fingerprint, utime, run_id); nullopt for another type or a short packet.
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);

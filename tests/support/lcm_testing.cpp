@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
+#include "protocol/lcm_log.hpp"
 #include "tests/support/lcm_subscribe.hpp"
 #include "tests/support/process.hpp"
 
@@ -202,12 +204,14 @@ LcmLoggerProcess::~LcmLoggerProcess() {
 }
 
 int LcmLoggerProcess::ProbesLogged() const {
-  std::ifstream exists(path_);
-  if (!exists) return 0;  // LogFile on a missing file crashes in LCM 1.3.1
-  lcm::LogFile file(path_, "r");
-  if (!file.good()) return 0;
+  std::optional<LcmLogReader> file;
+  try {
+    file.emplace(path_);
+  } catch (const LcmLogError&) {
+    return 0;  // not there yet, or nothing written yet
+  }
   int n = 0;
-  while (const lcm::LogEvent* e = file.readNextEvent()) n += e->channel == "LAGRANGE_TEST_PROBE";
+  while (const LcmLogEvent* e = file->Next()) n += e->channel == "LAGRANGE_TEST_PROBE";
   return n;
 }
 

@@ -1,4 +1,4 @@
-#include "tools/lcm_log.hpp"
+#include "tools/log_csv.hpp"
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
@@ -8,7 +8,6 @@
 #include <lagrange/status_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
-#include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
 #include <filesystem>
@@ -20,6 +19,7 @@
 #include "plant/escape.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
+#include "protocol/lcm_log.hpp"
 #include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
@@ -66,12 +66,10 @@ class Writer {
   virtual ~Writer() = default;
   // False when the message does not decode or does not fit the header.
   virtual bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) = 0;
-  virtual const char* type() const = 0;
 };
 
 class StateWriter final : public Writer {
  public:
-  const char* type() const override { return "state_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     state_t s;
     if (!CheckedDecode(s, CheckStatePacket, data, size)) return false;
@@ -96,7 +94,6 @@ class StateWriter final : public Writer {
 
 class SetpointWriter final : public Writer {
  public:
-  const char* type() const override { return "setpoint_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     setpoint_t s;
     if (!CheckedDecode(s, CheckSetpointPacket, data, size)) return false;
@@ -119,7 +116,6 @@ class SetpointWriter final : public Writer {
 
 class TorqueWriter final : public Writer {
  public:
-  const char* type() const override { return "torque_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     torque_t t;
     if (!CheckedDecode(t, CheckTorquePacket, data, size)) return false;
@@ -143,7 +139,6 @@ class TorqueWriter final : public Writer {
 
 class CommandWriter final : public Writer {
  public:
-  const char* type() const override { return "command_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     command_t c;
     if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
@@ -160,7 +155,6 @@ class CommandWriter final : public Writer {
 
 class StatusWriter final : public Writer {
  public:
-  const char* type() const override { return "status_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     status_t s;
     if (!CheckedDecode(s, CheckStatusPacket, data, size)) return false;
@@ -220,7 +214,6 @@ class StatusWriter final : public Writer {
 
 class TelemetryWriter final : public Writer {
  public:
-  const char* type() const override { return "telemetry_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     telemetry_t m;
     if (!CheckedDecode(m, CheckTelemetryPacket, data, size)) return false;
@@ -247,7 +240,6 @@ class TelemetryWriter final : public Writer {
 
 class ForcesWriter final : public Writer {
  public:
-  const char* type() const override { return "forces_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     forces_t f;
     if (!CheckedDecode(f, CheckForcesPacket, data, size)) return false;
@@ -285,7 +277,6 @@ class ForcesWriter final : public Writer {
 
 class ReplyWriter final : public Writer {
  public:
-  const char* type() const override { return "reply_t"; }
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
     reply_t r;
     if (!CheckedDecode(r, CheckReplyPacket, data, size)) return false;
@@ -300,15 +291,18 @@ class ReplyWriter final : public Writer {
   bool header_ = false;
 };
 
-std::unique_ptr<Writer> WriterFor(std::int64_t fingerprint) {
-  if (fingerprint == state_t::getHash()) return std::make_unique<StateWriter>();
-  if (fingerprint == setpoint_t::getHash()) return std::make_unique<SetpointWriter>();
-  if (fingerprint == torque_t::getHash()) return std::make_unique<TorqueWriter>();
-  if (fingerprint == command_t::getHash()) return std::make_unique<CommandWriter>();
-  if (fingerprint == status_t::getHash()) return std::make_unique<StatusWriter>();
-  if (fingerprint == reply_t::getHash()) return std::make_unique<ReplyWriter>();
-  if (fingerprint == telemetry_t::getHash()) return std::make_unique<TelemetryWriter>();
-  if (fingerprint == forces_t::getHash()) return std::make_unique<ForcesWriter>();
+std::unique_ptr<Writer> WriterFor(MessageType type) {
+  switch (type) {
+    case MessageType::kState: return std::make_unique<StateWriter>();
+    case MessageType::kSetpoint: return std::make_unique<SetpointWriter>();
+    case MessageType::kTorque: return std::make_unique<TorqueWriter>();
+    case MessageType::kCommand: return std::make_unique<CommandWriter>();
+    case MessageType::kStatus: return std::make_unique<StatusWriter>();
+    case MessageType::kReply: return std::make_unique<ReplyWriter>();
+    case MessageType::kTelemetry: return std::make_unique<TelemetryWriter>();
+    case MessageType::kForces: return std::make_unique<ForcesWriter>();
+    case MessageType::kUnknown: break;
+  }
   return nullptr;
 }
 
@@ -322,21 +316,8 @@ std::string SafeFileName(const std::string& channel) {
 
 }  // namespace
 
-void RequireLcmLog(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  unsigned char magic[4] = {0, 0, 0, 0};
-  in.read(reinterpret_cast<char*>(magic), 4);
-  // Every event of an LCM log starts with the sync word 0xEDA1DA01.
-  if (in.gcount() != 4 || magic[0] != 0xED || magic[1] != 0xA1 || magic[2] != 0xDA || magic[3] != 0x01) {
-    throw std::runtime_error(path + " is not an LCM log (no LCM sync word at its start)");
-  }
-}
-
 LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex) {
-  RequireLcmLog(log_path);
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) throw std::runtime_error("cannot open " + log_path + " as an LCM log");
+  LcmLogReader log(log_path);
   std::filesystem::create_directories(dir);
   const std::regex wanted(channel_regex.empty() ? ".*" : channel_regex);
   struct Output {
@@ -345,24 +326,25 @@ LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, con
   };
   std::map<std::string, Output> outputs;
   LogToCsvResult result;
-  while (const lcm::LogEvent* e = log.readNextEvent()) {
-    if (!std::regex_match(e->channel, wanted)) continue;
-    auto it = outputs.find(e->channel);
+  while (const LcmLogEvent* e = log.Next()) {
+    const std::string channel(e->channel);
+    if (!std::regex_match(channel, wanted)) continue;
+    auto it = outputs.find(channel);
     if (it == outputs.end()) {
-      std::unique_ptr<Writer> writer =
-          WriterFor(Fingerprint(e->data, static_cast<std::size_t>(std::max(e->datalen, 0))));
+      const MessageType type = TypeOf(e->data, e->size);
+      std::unique_ptr<Writer> writer = WriterFor(type);
       if (!writer) {
-        ++result.unknown[e->channel];
+        ++result.unknown[channel];
         continue;
       }
-      const std::string path = (std::filesystem::path(dir) / (SafeFileName(e->channel) + ".csv")).string();
+      const std::string path = (std::filesystem::path(dir) / (SafeFileName(channel) + ".csv")).string();
       Output o{std::move(writer), std::ofstream(path)};
       if (!o.file) throw std::runtime_error("cannot write " + path);
-      result.written[e->channel] = {o.writer->type(), path, 0, 0};
-      it = outputs.emplace(e->channel, std::move(o)).first;
+      result.written[channel] = {ToString(type), path, 0, 0};
+      it = outputs.emplace(channel, std::move(o)).first;
     }
-    ChannelCsv& c = result.written[e->channel];
-    if (it->second.writer->Write(it->second.file, e->timestamp, e->data, e->datalen))
+    ChannelCsv& c = result.written[channel];
+    if (it->second.writer->Write(it->second.file, e->utime, e->data, static_cast<int>(e->size)))
       ++c.rows;
     else
       ++c.skipped;

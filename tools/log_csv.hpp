@@ -1,6 +1,7 @@
 #pragma once
-// Reading lcm-logger files: identifying lagrange's message types by their
-// fingerprints and writing one CSV per channel.
+// An lcm-logger file as CSV: one file per channel of lagrange messages,
+// read through protocol/lcm_log.hpp and identified by their fingerprints
+// (protocol/wire.hpp).
 
 #include <cstdint>
 #include <map>
@@ -8,10 +9,6 @@
 #include <string>
 
 namespace lagrange::cli {
-
-// Throws a one-line error when `path` cannot be read or is not an LCM log
-// (checked from its first event's magic number).
-void RequireLcmLog(const std::string& path);
 
 struct ChannelCsv {
   std::string type;  // "state_t", ...
@@ -26,7 +23,8 @@ struct LogToCsvResult {
 };
 
 // Decodes every event whose channel matches `channel_regex` (all when empty)
-// into `dir`/<CHANNEL>.csv. Columns: log_utime (when the logger received it,
+// into `dir`/<CHANNEL>.csv. Throws a one-line error when `log_path` cannot be
+// read or is not an LCM log (LcmLogError). Columns: log_utime (when the logger received it,
 // µs), then the message's fields, arrays one column per element (q0, q1, ..;
 // forces_t's rows as gravity_0, gravity_1, .., tau_applied_0, ..).
 LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex);
