@@ -1,6 +1,6 @@
 #pragma once
 // The tick: every instance of a scene, its mode, and the mailboxes through
-// which the LCM thread reaches it. Built before the loop; Tick allocates
+// which the receive thread reaches it. Built before the loop; Tick allocates
 // nothing, takes no lock, logs nothing and sends nothing.
 //
 // One tick, per instance:
@@ -63,12 +63,12 @@
 
 namespace lagrange {
 
-// A setpoint the LCM thread has validated and found fresh.
+// A setpoint the receive thread has validated and found fresh.
 struct SetpointMessage {
   Setpoint setpoint;
 };
 
-// A torque for an external controller, validated and fresh (daemon/lcm_bridge.hpp).
+// A torque for an external controller, validated and fresh (daemon/receiver.hpp).
 // `sent`: when it was sent on the monotonic clock, as the receiver judged
 // its age (arrival − age): the timeouts count from there, so a torque or
 // state is never used once older than its timeout, however long it waited.
@@ -92,7 +92,7 @@ struct MeasuredMessage {
 // trips the watchdog (the instance stops commanding).
 enum class MeasuredProblem : std::uint8_t { kNone = 0, kNotFinite, kWrongSize, kSecondSource };
 
-// A command the LCM thread has decoded and checked against what does not
+// A command the receive thread has decoded and checked against what does not
 // change (controller names, gain sizes); the tick checks the rest.
 struct CommandMessage {
   CommandKind kind = CommandKind::kReset;
@@ -129,7 +129,7 @@ struct UrgentFlags {
   std::uint64_t sequence = 0;  // the receiver's counter
 };
 
-// Where the LCM receive thread meets one instance.
+// Where the receive thread meets one instance.
 struct InstanceChannels {
   InstanceChannels(int n, std::size_t command_capacity);
   LatestMailbox<SetpointMessage> setpoints;

@@ -15,10 +15,11 @@
 #include <thread>
 
 #include "daemon/default_scene.hpp"
-#include "daemon/lcm_bridge.hpp"
 #include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/publisher.hpp"
 #include "daemon/realtime.hpp"
+#include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/scene_channels.hpp"
@@ -198,9 +199,9 @@ int Serve(const Options& o, const LogFiles& logs) {
                                o.max_catch_up};
   Loop loop(*runtime, clock, timer, ring, notify_fd);
   ReceiverStats stats;
-  LcmReceiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, channels, *runtime, clock,
-                       stats, o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
-  LcmPublisher publisher(*bus_out, channels, *runtime, ring, loop, stats, notify_fd, run_id);
+  Receiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, channels, *runtime, clock,
+                    stats, o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
+  Publisher publisher(*bus_out, channels, *runtime, ring, loop, stats, notify_fd, run_id);
   TimingCsvWriter timing;
   if (!o.timing_csv.empty()) {
     if (!timing.Open(o.timing_csv)) {

@@ -1,5 +1,5 @@
-// The LCM bridge as a protocol, with nothing left to chance: LcmReceiver, the
-// Runtime's tick (through Loop) and LcmPublisher over an InProcessBus with a
+// The daemon's bus side as a protocol, with nothing left to chance: Receiver, the
+// Runtime's tick (through Loop) and Publisher over an InProcessBus with a
 // FakeClock, so every count below is a fact, not a sample of UDP delivery or
 // of a machine's speed. What lagranged refuses and counts, what it answers,
 // and that an urgent command lands in the very next tick whatever came first.
@@ -26,8 +26,9 @@
 #include <variant>
 #include <vector>
 
-#include "daemon/lcm_bridge.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/publisher.hpp"
+#include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "plant/arm2.hpp"
@@ -207,10 +208,10 @@ class Bridge : public ::testing::Test {
   testing::FakeClock clock_;
   ReceiverStats stats_;
   InProcessBus input_, output_;
-  LcmReceiver receiver_;
+  Receiver receiver_;
   SpscRing<TickRecord> ring_;
   Loop loop_;
-  LcmPublisher publisher_;
+  Publisher publisher_;
   std::vector<reply_t> replies_;
   state_t last_state_;
   std::int64_t states_ = 0;
@@ -510,7 +511,7 @@ TEST(BridgeJointNames, NamesTooLongForOneStatusDatagramAreLeftOutAndTheStatusSti
   InProcessBus output;
   SpscRing<TickRecord> ring(256, runtime.MakeRecord());
   Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
-  LcmPublisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
+  Publisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
   std::optional<status_t> status;
   output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
     status_t s;

@@ -1,36 +1,27 @@
 #pragma once
-// The daemon's bus side, on two threads of its own; they meet the tick only
-// at the runtime's mailboxes and the record ring. Both speak LCM's wire
-// format through protocol/bus.hpp, never through lcm::LCM (see there why).
+// The daemon's receive thread: it meets the tick only at the runtime's
+// mailboxes (daemon/runtime.hpp), and speaks LCM's wire format through
+// protocol/bus.hpp, never through lcm::LCM (see there why). What it sends out
+// is the publisher's (daemon/publisher.hpp), but for its own refusals.
 //
-// LcmReceiver (receive thread): for each instance it subscribes to
-// <NAME>_SETPOINT and <NAME>_COMMAND on the input bus (and an external
-// controller's torque channel, an external plant's state_channel), checks every packet's
-// raw layout before decoding (protocol/wire.hpp), validates what it decodes,
-// and hands the good ones to the tick; bad ones are dropped, counted, and
-// their reason kept. It answers commands it refuses itself with a reply_t.
-// It also listens on this run's output channels (<NAME>_STATE, <NAME>_REPLY,
-// <NAME>_TELEMETRY, <NAME>_FORCES, LAGRANGE_STATUS) and counts messages there
-// from another run id: a second daemon, or a spoofer.
-//
-// LcmPublisher (publish thread): waits on an eventfd the tick writes, turns
-// each tick record into a torque_t on an external plant's torque_channel
-// (first: it is the latency that counts), one state_t per instance on <NAME>_STATE, a reply_t
-// per command verdict on <NAME>_REPLY, and every 0.1 s of ticks a status_t
-// on LAGRANGE_STATUS (with every instance's joint names, from
-// JointNamesOf, escaped). It also logs mode changes, faults and refused
-// commands, at most once a second per kind of line.
+// Receiver: for each instance it subscribes to <NAME>_SETPOINT and
+// <NAME>_COMMAND on the input bus (and an external controller's torque
+// channel, an external plant's state_channel), checks every packet's raw
+// layout before decoding (protocol/wire.hpp), validates what it decodes
+// (protocol/setpoint_check.hpp, command_check.hpp), and hands the good ones to
+// the tick; bad ones are dropped, counted, and their reason kept. It answers
+// commands it refuses itself with a reply_t. It also listens on this run's
+// output channels (<NAME>_STATE, <NAME>_REPLY, <NAME>_TELEMETRY,
+// <NAME>_FORCES, LAGRANGE_STATUS) and counts messages there from another run
+// id: a second daemon, or a spoofer.
 //
 // Every string that came from the bus is escaped (plant/escape.hpp) before
 // it is logged or published.
 
 #include <lagrange/command_t.hpp>
-#include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
-#include <lagrange/status_t.hpp>
-#include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <array>
@@ -39,8 +30,8 @@
 #include <string>
 #include <vector>
 
-#include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
+#include "daemon/throttle.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/command_check.hpp"
@@ -49,35 +40,10 @@
 
 namespace lagrange {
 
-class TimingCsvWriter;
-
 // A reason, carried between threads in a mailbox (no allocation to move it).
 struct Reason {
   std::array<char, kMaxStatusReasonBytes + 1> text{};  // NUL-terminated
   void Set(const std::string& s);
-};
-
-// At most one line per second; counts what it held back.
-class LogThrottle {
- public:
-  // True when a line may be written at `now_us`; `suppressed` then says how
-  // many were held back since the last one (and is reset).
-  bool Allow(std::int64_t now_us, std::int64_t& suppressed);
-
- private:
-  std::int64_t last_us_ = -1'000'000'000;
-  std::int64_t held_ = 0;
-};
-
-// At most `rate` events per second on average, in bursts of up to `burst`.
-class TokenBucket {
- public:
-  TokenBucket(double rate, double burst) : rate_(rate), burst_(burst), tokens_(burst) {}
-  bool Take(std::int64_t now_us);
-
- private:
-  double rate_, burst_, tokens_;
-  std::int64_t last_us_ = -1;
 };
 
 // Replies per second the daemon sends at most, from each thread; beyond it
@@ -121,15 +87,15 @@ enum class SetpointAge : std::uint8_t {
 };
 inline constexpr int kStreamConfirmations = 3;
 
-class LcmReceiver {
+class Receiver {
  public:
   // Subscribes on `input` (setpoints, commands) and, when `output_listener`
   // is given, on it for this run's output channels (it may be `input` itself
   // when both directions share a bus). Refusals are answered on `replies`
   // (a bus this thread alone publishes on). Reads the runtime's immutable
   // configuration only.
-  LcmReceiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime,
-              Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id);
+  Receiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime, Clock& clock,
+           ReceiverStats& stats, SetpointAge age, std::int64_t run_id);
 
   // Handles messages until `stop` is set (checked every 20 ms).
   void Run(const std::atomic<bool>& stop);
@@ -210,63 +176,6 @@ class LcmReceiver {
   reply_t reply_;
   LogThrottle log_throttle_, foreign_throttle_;
   TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
-};
-
-class LcmPublisher {
- public:
-  LcmPublisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
-               const Loop& loop, ReceiverStats& stats, int notify_fd, std::int64_t run_id);
-
-  // Publishes records as they come until `stop` is set.
-  void Run(const std::atomic<bool>& stop);
-  // Publishes whatever is left in the ring and a final status.
-  void Drain();
-
-  // For bench/: from now on also offers every tick's timing to `writer`,
-  // which writes it to its file on a thread of its own (never this one).
-  void SetTimingWriter(TimingCsvWriter* writer) { timing_ = writer; }
-
-  std::int64_t states_published() const { return states_published_; }
-
- private:
-  void Publish(const TickRecord& record);
-  void PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime);
-  void PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime);
-  void PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record);
-  void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
-  void PublishStatus(const TickRecord& last);
-  void LogEvents(const TickRecord& record);
-
-  Bus& bus_;
-  ChannelNames channels_;
-  SpscRing<TickRecord>& ring_;
-  const Loop& loop_;
-  ReceiverStats& stats_;
-  int notify_fd_;
-  std::int64_t run_id_;
-  int status_every_;
-  double period_;
-  std::vector<std::string> names_;
-  std::vector<std::int32_t> dofs_;        // each instance's n
-  std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
-  std::vector<std::vector<std::string>> controller_names_;
-  std::vector<state_t> states_;
-  std::vector<torque_t> torques_;       // external plants' commands, by instance
-  std::vector<telemetry_t> telemetry_;  // by instance
-  std::vector<forces_t> forces_;        // by instance
-  std::vector<Mode> modes_;
-  std::vector<const char*> reasons_;          // each instance's latest record's reason
-  std::vector<double> latencies_, computes_;  // µs, this status window
-  std::int64_t commands_applied_ = 0;         // by the tick, from its records
-  std::int64_t commands_refused_by_tick_ = 0;
-  std::string last_setpoint_rejection_, last_command_error_;
-  std::int64_t states_published_ = 0;
-  bool have_record_ = false;
-  TickRecord last_;
-  reply_t reply_;
-  LogThrottle refusal_throttle_;
-  TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
-  TimingCsvWriter* timing_ = nullptr;
 };
 
 }  // namespace lagrange
