@@ -18,7 +18,7 @@
 #include <optional>
 #include <thread>
 
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/lcm_log.hpp"
 #include "protocol/wire.hpp"

@@ -10,7 +10,7 @@
 #include <regex>
 #include <sstream>
 
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
 #include "tools/cli_support.hpp"

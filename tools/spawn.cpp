@@ -1,4 +1,4 @@
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -68,6 +68,7 @@ pid_t Spawn(const std::vector<std::string>& argv, const SpawnOptions& options) {
   struct sigaction default_action {};
   default_action.sa_handler = SIG_DFL;
   sigemptyset(&default_action.sa_mask);
+  const pid_t parent = getpid();
 
   const pid_t pid = fork();
   if (pid != 0) return pid;  // the parent: the child's pid, or -1 (errno from fork)
@@ -82,6 +83,10 @@ pid_t Spawn(const std::vector<std::string>& argv, const SpawnOptions& options) {
   }
   if (options.timer_slack_ns > 0) prctl(PR_SET_TIMERSLACK, options.timer_slack_ns, 0, 0, 0);
   if (options.default_sigpipe) sigaction(SIGPIPE, &default_action, nullptr);
+  if (options.die_with_parent) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0);
+    if (getppid() != parent) _exit(127);  // it died before prctl: no signal would come
+  }
   for (const char* path : paths) {
     execv(path, args.data());
     // As execvp: a missing or unreadable candidate moves on to the next; anything else is final.

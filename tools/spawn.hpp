@@ -8,13 +8,14 @@
 // Every program the project starts goes through here: lagrangectl plot
 // (python3), the process benchmarks (lagranged, cyclictest, lcm-logger,
 // bench/harness) and the tests (RunProcess, BackgroundProcess,
-// tests/support/process). It is the one place because the callers have
+// tests/support/process). It is lagrange_tools' (lagrangectl's), not the
+// daemon's: lagranged starts no process. It is the one place because the callers have
 // threads, and after fork in a threaded process the child may only make
 // async-signal-safe calls until exec: another thread may hold malloc's lock
 // (or any other) at the moment of the fork, and in the child that lock is
 // never released. So everything is prepared before fork (the argv array, the
-// PATH candidates, the signal action) and the child only dup2s, fcntls,
-// prctls, sigactions, execs and _exits. Getting that right once here beats
+// PATH candidates, the signal action, the parent's pid) and the child only
+// dup2s, fcntls, prctls, sigactions, getppids, execs and _exits. Getting that right once here beats
 // getting it right (or not) in each caller.
 //
 // If no exec succeeds the child exits 127 (the shell's "command not found").
@@ -44,6 +45,12 @@ struct SpawnOptions {
   // The child's SIGPIPE at its default action (as a service manager leaves
   // it) rather than whatever this process has.
   bool default_sigpipe = false;
+  // The child is killed (SIGKILL) when its parent dies, as when a test
+  // process crashes with lagranged children running: prctl PR_SET_PDEATHSIG
+  // before exec, which keeps it. If the parent died before that, the child
+  // exits (127) instead of running on. Linux sends the signal when the
+  // thread that called Spawn exits: spawn from a thread that outlives the child.
+  bool die_with_parent = false;
 };
 
 // Forks and execs `argv` (not empty) as `options` say. Returns the child's
