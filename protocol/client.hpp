@@ -57,7 +57,7 @@ class DaemonLink {
 
   Bus& bus() { return *bus_; }
 
-  // Waits up to --wait for the instance's first state, listens kRunWindow
+  // Waits up to options.wait for the instance's first state, listens kRunWindow
   // longer, and returns the one run id that published it. Throws a one-line
   // error when none came, or "two lagranged runs publish X (ids A and B):
   // refusing to act" when several did.
@@ -73,7 +73,7 @@ class DaemonLink {
   // When the run's latest state arrived, on the steady clock.
   std::chrono::steady_clock::time_point state_received_at() const;
 
-  // Waits up to --wait for a status from the run; throws a one-line error.
+  // Waits up to options.wait for a status from the run; throws a one-line error.
   const status_t& AwaitStatus();
   const std::optional<status_t>& status() const { return status_; }
   std::int64_t statuses_received() const { return statuses_received_; }

@@ -24,12 +24,16 @@ LcmLogReader::LcmLogReader(const std::string& path, std::size_t max_payload)
 
 bool LcmLogReader::Read(void* out, std::size_t size) { return std::fread(out, 1, size, file_.get()) == size; }
 
-// Reads up to and including the next sync word, counting the bytes before it.
+// Reads up to and including the next sync word, counting the bytes before
+// it. At the end of the file: kClean right after an event, else kTruncated.
 bool LcmLogReader::FindSyncWord() {
   std::uint32_t window = 0;
   for (int bytes = 0;; ++bytes) {
     const int c = std::fgetc(file_.get());
-    if (c == EOF) return false;
+    if (c == EOF) {
+      end_ = bytes == 0 ? End::kClean : End::kTruncated;
+      return false;
+    }
     window = (window << 8) | static_cast<std::uint32_t>(c);
     if (bytes >= 3 && window == kLcmLogSyncWord) {
       skipped_ += bytes - 3;
@@ -41,10 +45,7 @@ bool LcmLogReader::FindSyncWord() {
 const LcmLogEvent* LcmLogReader::Next() {
   if (end_ != End::kNotYet) return nullptr;
   // The constructor read the first event's sync word.
-  if (!first_ && !FindSyncWord()) {
-    end_ = End::kClean;
-    return nullptr;
-  }
+  if (!first_ && !FindSyncWord()) return nullptr;
   first_ = false;
   std::uint8_t header[kHeaderSize];
   if (!Read(header, sizeof header)) {

@@ -898,18 +898,5 @@ TEST_F(QuietArmBridge, AnInstanceWithTelemetryOffPublishesNoTelemetryAndTheOther
   EXPECT_TRUE(telemetry_.empty());
 }
 
-// A status lists every instance in one datagram, so lagranged refuses a
-// scene with more instances than fit (service.cpp), and joint names are left
-// out before that.
-TEST(StatusSize, AStatusOfTwentyInstancesFitsAndOneOfAThousandDoesNot) {
-  const auto names = [](int n) {
-    std::vector<std::string> v;
-    for (int i = 0; i < n; ++i) v.push_back("instance_" + std::to_string(i));
-    return v;
-  };
-  EXPECT_TRUE(StatusFits(names(20), std::vector<std::int32_t>(20, 7), {}));
-  EXPECT_FALSE(StatusFits(names(1000), std::vector<std::int32_t>(1000, 2), {}));
-}
-
 }  // namespace
 }  // namespace lagrange

@@ -1,12 +1,17 @@
-// Joint names from a status: each instance's share of status_t.joint_names,
-// or none at all when the counts do not add up (never misattributed). An
-// instance's reason for its mode, only for the mode it is given with.
+// What a status says and how much of it fits (protocol/status.hpp): joint
+// names from a status, each instance's share of status_t.joint_names, or none
+// at all when the counts do not add up (never misattributed); an instance's
+// reason for its mode, only for the mode it is given with; the descriptions
+// lagranged writes; the size bound that keeps a status in one datagram.
 
 #include "protocol/status.hpp"
 
 #include <gtest/gtest.h>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+
+#include "plant/effects.hpp"
+#include "plant/integrators.hpp"
 
 namespace lagrange {
 namespace {
@@ -58,6 +63,43 @@ TEST(ModeReasons, AReasonIsGivenOnlyForItsOwnModeAndEscaped) {
   EXPECT_EQ(ModeReasonIn(s, "other", state_t::MODE_HOLD), "");
   s.instance_reasons.pop_back();  // fewer reasons than instances: none made up
   EXPECT_EQ(ModeReasonIn(s, "plant", state_t::MODE_STOPPED), "");
+}
+
+// A status lists every instance in one datagram, so lagranged refuses a
+// scene with more instances than fit (service.cpp), and joint names are left
+// out before that.
+TEST(StatusSize, AStatusOfTwentyInstancesFitsAndOneOfAThousandDoesNot) {
+  const auto names = [](int n) {
+    std::vector<std::string> v;
+    for (int i = 0; i < n; ++i) v.push_back("instance_" + std::to_string(i));
+    return v;
+  };
+  EXPECT_TRUE(StatusFits(names(20), std::vector<std::int32_t>(20, 7), {}));
+  EXPECT_FALSE(StatusFits(names(1000), std::vector<std::int32_t>(1000, 2), {}));
+}
+
+// The descriptions lagranged writes in a status (and lagrangectl watch shows).
+TEST(StatusDescriptions, AnIntegratorIsDescribedByItsNameAndWhatItWasGiven) {
+  IntegratorConfig c;
+  EXPECT_EQ(IntegratorDescription(c, false), "rk4");
+  c.substeps = 4;
+  EXPECT_EQ(IntegratorDescription(c, false), "rk4 x4");
+  c = IntegratorConfig{};
+  c.type = IntegratorType::kDormandPrince;
+  c.max_steps = 200;
+  EXPECT_EQ(IntegratorDescription(c, false), "dopri5 rtol=1e-08 atol=1e-10 max_steps=200");
+  c.rtol = 1.5e-6;
+  c.substeps = 2;
+  EXPECT_EQ(IntegratorDescription(c, false), "dopri5 rtol=1.5e-06 atol=1e-10 max_steps=200 x2");
+  EXPECT_EQ(IntegratorDescription(c, true), "none");  // an external plant integrates nothing
+}
+
+TEST(StatusDescriptions, TheEffectsOnAreListedInTheirOrder) {
+  EffectFlags flags;
+  EXPECT_EQ(EffectsDescription(flags), "");
+  flags.friction = true;
+  flags.gravity = true;
+  EXPECT_EQ(EffectsDescription(flags), "gravity,friction");
 }
 
 }  // namespace
