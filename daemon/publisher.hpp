@@ -47,7 +47,7 @@ class Publisher {
   // Publishes whatever is left in the ring and a final status.
   void Drain();
 
-  // For bench/: from now on also offers every tick's timing to `writer`,
+  // --timing-csv: from now on also offers every tick's timing to `writer`,
   // which writes it to its file on a thread of its own (never this one).
   void SetTimingWriter(TimingCsvWriter* writer) { timing_ = writer; }
 

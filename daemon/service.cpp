@@ -48,7 +48,7 @@ struct Options {
   RealtimeOptions rt;
   double spin_us = 0.0;
   bool require_rt = false;
-  std::string timing_csv;  // bench/: per-tick timing, written by the publish thread
+  std::string timing_csv;  // per-tick wake latency and compute, written off the publish path
 };
 
 // --log-file: the rotating log and its start-up record (daemon/log_file.hpp); null without the option.
@@ -355,8 +355,8 @@ int RunLagranged(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1000.0));
   app.add_flag("--require-rt", o.require_rt, "Exit (status 3) if real-time set-up is not permitted");
   app.add_option("--timing-csv", o.timing_csv,
-                 "Write every tick's wake-up latency and compute time (ns) to this CSV, from the publish thread "
-                 "(for bench/)");
+                 "Write every tick's wake-up latency and compute time (ns) to this CSV, to check a real-time "
+                 "set-up tick by tick (written by a thread of its own; a slow disk drops rows, never ticks)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
