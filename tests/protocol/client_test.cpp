@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "protocol/channels.hpp"
+#include "tests/support/lcm_messages.hpp"
 
 namespace lagrange {
 namespace {
@@ -29,15 +30,7 @@ LinkOptions InProcess(double wait = 0.05) {
   return o;
 }
 
-state_t State(std::int64_t run_id, std::int64_t tick = 1) {
-  state_t s{};
-  s.run_id = run_id;
-  s.tick = tick;
-  s.num_dofs = 2;
-  for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.0);
-  s.controller = "pd";
-  return s;
-}
+state_t State(std::int64_t run_id, std::int64_t tick = 1) { return testing::MakeState(tick, run_id); }
 
 reply_t Reply(std::int64_t run_id, std::int64_t request_id, const std::string& reason) {
   reply_t r{};

@@ -7,7 +7,6 @@
 #include "protocol/lcm_log.hpp"
 
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/lcm_testing.hpp"
 
 namespace lagrange {
 namespace {
@@ -92,20 +92,7 @@ TEST_F(LcmLog, ReadsEveryEventLcmsOwnWriterWrote) {
       {"ARM_STATE", {1, 2, 3}},
       {"LAGRANGE_STATUS", {}},
       {"A_CHANNEL_OF_SIXTY_THREE_BYTES_" + std::string(32, 'X'), {9}}};
-  {
-    lcm::LogFile file(path.string(), "w");
-    std::int64_t n = 0;
-    for (const auto& [channel, payload] : written) {
-      Bytes data = payload;
-      lcm::LogEvent e{};
-      e.eventnum = n;
-      e.timestamp = 1000 * ++n;
-      e.channel = channel;
-      e.datalen = static_cast<int32_t>(data.size());
-      e.data = data.data();
-      ASSERT_EQ(file.writeEvent(&e), 0);
-    }
-  }
+  testing::WriteLcmLog(path.string(), written);  // event k at 1000 (k + 1) µs
   LcmLogReader reader(path.string());
   for (std::size_t k = 0; k < written.size(); ++k) {
     const LcmLogEvent* e = reader.Next();

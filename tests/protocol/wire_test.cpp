@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -22,6 +23,7 @@ namespace lagrange {
 namespace {
 
 using testing::Encode;
+using testing::MakeState;
 
 setpoint_t ValidSetpoint(int n) {
   setpoint_t s;
@@ -310,6 +312,53 @@ TEST(Wire, AStatusWhoseSwitchStringsExceedTheBoundIsRefused) {
     const auto buf = Encode(s);
     EXPECT_EQ(CheckStatusPacket(buf.data(), buf.size()), WireCheck::kBadLength);
   }
+}
+
+// What lagrangectl (a client) decodes from the bus or a log passes these checks first.
+TEST(Wire, WhatAClientDecodesIsAcceptedAndTruncationsAndLyingLengthsAreRefused) {
+  status_t status = StatusWithSwitchFields();
+  status.last_rejection = "why";
+  status.last_command_error = "";
+  reply_t reply{};
+  reply.reason = "not paused";
+  const std::vector<std::pair<std::vector<std::uint8_t>, WireCheck (*)(const void*, std::size_t)>> packets = {
+      {Encode(MakeState()), CheckStatePacket},
+      {Encode(status), CheckStatusPacket},
+      {Encode(reply), CheckReplyPacket},
+      {Encode(ValidTelemetry()), CheckTelemetryPacket},
+      {Encode(ValidForces(2)), CheckForcesPacket}};
+  for (const auto& [bytes, check] : packets) {
+    EXPECT_EQ(check(bytes.data(), bytes.size()), WireCheck::kOk);
+    for (std::size_t size = 0; size < bytes.size(); ++size)
+      ASSERT_NE(check(bytes.data(), size), WireCheck::kOk) << size;
+    std::vector<std::uint8_t> longer = bytes;
+    longer.push_back(0);
+    EXPECT_EQ(check(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  }
+  EXPECT_EQ(CheckStatePacket(packets[1].first.data(), packets[1].first.size()), WireCheck::kFingerprint);
+
+  // A state declaring 2^31 - 1 joints, a negative string length, a status declaring 2^31 - 1 instances.
+  std::vector<std::uint8_t> state = Encode(MakeState());
+  const std::size_t num_dofs_at = 8 + 4 * 8;
+  WriteInt32(state, num_dofs_at, 0x7fffffff);
+  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
+  state = Encode(MakeState());
+  WriteInt32(state, state.size() - 1 - 3 - 4, -5);  // the controller's length ("pd" + NUL, then mode)
+  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
+  // num_instances follows the fixed fields (156 bytes with the fingerprint), last_rejection "why" (4 + 4),
+  // the two command counts (16), last_command_error "" (4 + 1) and seven counters (56).
+  const std::size_t names_at = 156 + 8 + 16 + 5 + 56;
+  std::vector<std::uint8_t> lying = Encode(status);
+  WriteInt32(lying, names_at, 0x7fffffff);
+  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
+  lying = Encode(status);  // a status declaring 2^31 - 1 joint names (the tail: num_joints, then the names)
+  const std::size_t joint_names = (4 + 3) + (4 + 3) + (4 + 2) + (4 + 6);
+  WriteInt32(lying, lying.size() - joint_names - 4, 0x7fffffff);
+  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
+  // Forces declaring 2^31 - 1 joints (num_dofs after utime, run_id, tick, t and the seven flags).
+  lying = Encode(ValidForces(2));
+  WriteInt32(lying, 8 + 4 * 8 + 7, 0x7fffffff);
+  EXPECT_EQ(CheckForcesPacket(lying.data(), lying.size()), WireCheck::kBadLength);
 }
 
 TEST(Wire, TheRunIdOfATelemetryOrForcesIsReadAndACommandHasNone) {

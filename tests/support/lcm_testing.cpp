@@ -22,6 +22,23 @@ std::string TestLcmUrl(int port) {
   return std::string("udpm://") + kTestLcmGroup + ":" + std::to_string(port) + "?ttl=0";
 }
 
+void WriteLcmLog(const std::string& path,
+                 const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& events) {
+  lcm::LogFile file(path, "w");
+  if (!file.good()) throw std::runtime_error("cannot write the LCM log " + path);
+  std::int64_t n = 0;
+  for (const auto& [channel, bytes] : events) {
+    std::vector<std::uint8_t> data = bytes;
+    lcm::LogEvent e{};
+    e.eventnum = n;
+    e.timestamp = 1000 * ++n;
+    e.channel = channel;
+    e.datalen = static_cast<int32_t>(data.size());
+    e.data = data.data();
+    if (file.writeEvent(&e) != 0) throw std::runtime_error("writing the LCM log " + path + " failed");
+  }
+}
+
 std::int64_t WallMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
