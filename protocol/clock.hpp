@@ -1,5 +1,6 @@
 #pragma once
-// Time for the loop, injectable so tests can drive it.
+// Time for the loop, injectable so tests can drive it, and the wall clock a
+// message's utime is read from (daemon and clients alike).
 
 #include <cmath>
 #include <cstdint>

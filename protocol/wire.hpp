@@ -46,7 +46,7 @@ WireCheck CheckCommandPacket(const void* data, std::size_t size);
 // torque_t: fingerprint, utime, run_id, sequence, state_tick, num_dofs (<= kMaxDofs), num_dofs doubles.
 WireCheck CheckTorquePacket(const void* data, std::size_t size);
 
-// What lagrangectl receives, checked the same way before decoding.
+// What a client (lagrangectl, protocol/client.hpp) receives, checked the same way before decoding.
 // state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
 WireCheck CheckStatePacket(const void* data, std::size_t size);
 // status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
