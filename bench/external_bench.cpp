@@ -72,10 +72,11 @@
 #include <unordered_map>
 
 #include "bench/harness.hpp"
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 
 #ifndef LAGRANGE_SOURCE_DIR
 #define LAGRANGE_SOURCE_DIR "."

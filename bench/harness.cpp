@@ -15,11 +15,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <lcm/lcm-cpp.hpp>
+#include <optional>
 #include <thread>
 
-#include "daemon/bus.hpp"
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/lcm_log.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange::bench {
 
@@ -151,13 +153,19 @@ std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& 
                                                                 std::int64_t run_id) {
   std::map<std::string, std::vector<std::int64_t>> ticks;
   for (const std::string& c : channels) ticks[c];
-  lcm::LogFile log(file.string(), "r");
-  if (!log.good()) return ticks;
+  std::optional<LcmLogReader> log;
+  try {
+    log.emplace(file.string());
+  } catch (const LcmLogError&) {
+    return ticks;
+  }
   state_t s;
-  while (const lcm::LogEvent* event = log.readNextEvent()) {
-    const auto it = ticks.find(event->channel);
+  while (const LcmLogEvent* event = log->Next()) {
+    const auto it = ticks.find(std::string(event->channel));
     if (it == ticks.end()) continue;
-    if (s.decode(event->data, 0, event->datalen) < 0) continue;
+    if (CheckStatePacket(event->data, event->size) != WireCheck::kOk ||
+        s.decode(event->data, 0, static_cast<int>(event->size)) < 0)
+      continue;
     if (run_id != 0 && s.run_id != run_id) continue;
     it->second.push_back(s.tick);
   }

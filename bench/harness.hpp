@@ -43,7 +43,7 @@ std::string LoadAverage();
 // and stderr in `log` (nothing when empty); returns its pid. With
 // `timer_slack_ns` > 0 the child sets its timer slack first (inherited by its
 // threads and kept across exec). Returns -1 when fork fails. lagrange::Spawn
-// (daemon/spawn.hpp) does the fork and exec.
+// (tools/spawn.hpp) does the fork and exec.
 pid_t Spawn(const std::vector<std::string>& argv, const std::filesystem::path& log, unsigned long timer_slack_ns = 0);
 
 struct Exit {

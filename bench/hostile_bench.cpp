@@ -76,8 +76,8 @@
 
 #include "bench/harness.hpp"
 #include "bench/proc_stats.hpp"
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 
 namespace lagrange::bench {
 namespace {

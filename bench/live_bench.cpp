@@ -64,7 +64,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <lcm/lcm-cpp.hpp>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -78,10 +77,12 @@
 
 #include "bench/harness.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/lcm_log.hpp"
 
 #ifndef LAGRANGE_SOURCE_DIR
 #define LAGRANGE_SOURCE_DIR "."
@@ -514,8 +515,12 @@ const LoggedSetpoint* LatestBefore(const Log& log, const LoggedState& state) {
 
 Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::int64_t run_id) {
   Log log;
-  lcm::LogFile in(file.string(), "r");
-  if (!in.good()) return log;
+  std::optional<LcmLogReader> in;
+  try {
+    in.emplace(file.string());
+  } catch (const LcmLogError&) {
+    return log;
+  }
   telemetry_t m;
   reply_t reply;
   state_t state;
@@ -524,17 +529,18 @@ Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::
   const auto vec = [](const std::vector<double>& v) {
     return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
   };
-  while (const lcm::LogEvent* e = in.readNextEvent()) {
+  while (const LcmLogEvent* e = in->Next()) {
     ++log.events;
+    const int size = static_cast<int>(e->size);
     if (e->channel == ch.state[arm]) {
-      if (state.decode(e->data, 0, e->datalen) >= 0 && state.run_id == run_id) {
+      if (state.decode(e->data, 0, size) >= 0 && state.run_id == run_id) {
         log.states[state.tick] = {state.utime, vec(state.q), vec(state.qd),
                                   Key(state.q_des.data(), state.q_des.size())};
       }
       continue;
     }
     if (e->channel == ch.setpoint[arm]) {
-      if (setpoint.decode(e->data, 0, e->datalen) >= 0) {
+      if (setpoint.decode(e->data, 0, size) >= 0) {
         Setpoint sp(setpoint.num_dofs);
         sp.q = vec(setpoint.q);
         sp.qd = vec(setpoint.qd);
@@ -545,12 +551,12 @@ Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::
       continue;
     }
     if (e->channel == ch.reply[arm]) {
-      if (reply.decode(e->data, 0, e->datalen) >= 0 && reply.run_id == run_id) {
+      if (reply.decode(e->data, 0, size) >= 0 && reply.run_id == run_id) {
         log.reply_utime[reply.request_id] = reply.utime;
       }
       continue;
     }
-    if (e->channel != ch.telemetry[arm] || m.decode(e->data, 0, e->datalen) < 0 || m.run_id != run_id) continue;
+    if (e->channel != ch.telemetry[arm] || m.decode(e->data, 0, size) < 0 || m.run_id != run_id) continue;
     Tick k;
     k.tick = m.tick;
     k.utime = m.utime;

@@ -57,7 +57,7 @@
 
 #include "bench/harness.hpp"
 #include "bench/proc_stats.hpp"
-#include "daemon/bus.hpp"
+#include "protocol/bus.hpp"
 
 namespace lagrange::bench {
 namespace {

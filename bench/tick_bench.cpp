@@ -31,9 +31,9 @@
 #include <string>
 #include <vector>
 
-#include "daemon/clock.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "protocol/clock.hpp"
 
 namespace lagrange::bench {
 namespace {

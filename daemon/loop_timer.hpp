@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "daemon/clock.hpp"
+#include "protocol/clock.hpp"
 
 namespace lagrange {
 

@@ -1,6 +1,6 @@
 #pragma once
 // The tick: every instance of a scene, its mode, and the mailboxes through
-// which the LCM thread reaches it. Built before the loop; Tick allocates
+// which the receive thread reaches it. Built before the loop; Tick allocates
 // nothing, takes no lock, logs nothing and sends nothing.
 //
 // One tick, per instance:
@@ -54,33 +54,21 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
-#include "daemon/clock.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/mailbox.hpp"
 #include "daemon/scene.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/command_kind.hpp"
+#include "protocol/mode.hpp"
 
 namespace lagrange {
 
-enum class Mode : std::int8_t {
-  kRunning = 0,
-  kHold = 1,
-  kFault = 2,
-  kPaused = 3,
-  kEstop = 4,
-  kStopped = 5,  // external plant: the watchdog stopped commanding
-  kWaiting = 6,  // external plant: armed, no measured state yet
-};
-std::string_view ToString(Mode mode);
-// The name of a state_t.mode / status_t.instance_modes value as it came off
-// the wire: ToString of the mode, or "?" out of range.
-const char* ModeName(std::int8_t wire_mode);
-
-// A setpoint the LCM thread has validated and found fresh.
+// A setpoint the receive thread has validated and found fresh.
 struct SetpointMessage {
   Setpoint setpoint;
 };
 
-// A torque for an external controller, validated and fresh (daemon/lcm_bridge.hpp).
+// A torque for an external controller, validated and fresh (daemon/receiver.hpp).
 // `sent`: when it was sent on the monotonic clock, as the receiver judged
 // its age (arrival − age): the timeouts count from there, so a torque or
 // state is never used once older than its timeout, however long it waited.
@@ -104,21 +92,7 @@ struct MeasuredMessage {
 // trips the watchdog (the instance stops commanding).
 enum class MeasuredProblem : std::uint8_t { kNone = 0, kNotFinite, kWrongSize, kSecondSource };
 
-enum class CommandKind : std::int8_t {
-  kSwitchController = 1,
-  kSetGains = 2,
-  kReset = 3,
-  kPause = 4,
-  kResume = 5,
-  kEstop = 6,
-  kClearEstop = 7,
-  kSetIntegrator = 8,
-  kSetEffect = 9,
-  kSetMethod = 10,
-  kSetForces = 11,
-};
-
-// A command the LCM thread has decoded and checked against what does not
+// A command the receive thread has decoded and checked against what does not
 // change (controller names, gain sizes); the tick checks the rest.
 struct CommandMessage {
   CommandKind kind = CommandKind::kReset;
@@ -155,7 +129,7 @@ struct UrgentFlags {
   std::uint64_t sequence = 0;  // the receiver's counter
 };
 
-// Where the LCM receive thread meets one instance.
+// Where the receive thread meets one instance.
 struct InstanceChannels {
   InstanceChannels(int n, std::size_t command_capacity);
   LatestMailbox<SetpointMessage> setpoints;

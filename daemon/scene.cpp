@@ -4,10 +4,10 @@
 #include <limits>
 #include <set>
 
-#include "daemon/channels.hpp"
-#include "plant/escape.hpp"
 #include "daemon/scene_control.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/escape.hpp"
+#include "protocol/channels.hpp"
 
 namespace lagrange {
 namespace {

@@ -1,6 +1,6 @@
 #include "daemon/scene_control.hpp"
 
-#include "daemon/channels.hpp"
+#include "protocol/channels.hpp"
 
 #include <algorithm>
 #include <charconv>

@@ -1,9 +1,7 @@
 #include "tools/cli_support.hpp"
 
-#include <charconv>
-#include <cstdio>
-
 #include "plant/plant_factory.hpp"
+#include "protocol/format.hpp"
 
 namespace lagrange::cli {
 
@@ -50,18 +48,6 @@ VectorXd JointValues(std::string_view option, const std::vector<double>& values,
                      std::to_string(values.size()));
   }
   return Eigen::Map<const VectorXd>(values.data(), n);
-}
-
-std::string RunIdText(std::int64_t id) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(static_cast<std::uint64_t>(id)));
-  return buf;
-}
-
-std::string FormatDouble(double x) {
-  char buf[32];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
-  return ec == std::errc() ? std::string(buf, end) : std::string("nan");
 }
 
 }  // namespace lagrange::cli

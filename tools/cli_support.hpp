@@ -1,9 +1,8 @@
 #pragma once
 // Shared pieces of lagrangectl's commands: usage errors, number validators,
-// per-joint values, number formatting.
+// per-joint values.
 
 #include <CLI/CLI.hpp>
-#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -32,11 +31,5 @@ CLI::Option* AddNumberList(CLI::App& app, const std::string& name, std::vector<d
 // `values` (already validated finite) as one per joint: exactly `n`, or one
 // value for every joint when `scalar_ok`.
 VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok = false);
-
-// A run id or request id as lagrangectl prints it: 16 hex digits.
-std::string RunIdText(std::int64_t id);
-
-// Shortest text that reads back to the same double.
-std::string FormatDouble(double x);
 
 }  // namespace lagrange::cli

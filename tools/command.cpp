@@ -8,15 +8,19 @@
 
 #include <optional>
 
-#include "daemon/channels.hpp"
-#include "daemon/clock.hpp"
-#include "plant/escape.hpp"
 #include "plant/effects.hpp"
+#include "plant/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/client.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/mode.hpp"
+#include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/daemon_link.hpp"
 
 namespace lagrange::cli {
 namespace {

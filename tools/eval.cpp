@@ -7,6 +7,7 @@
 #include "plant/escape.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
+#include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 

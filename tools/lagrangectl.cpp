@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "protocol/bus.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
@@ -88,6 +89,9 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
     err << where << ": " << e.what() << "\n";
     return 2;
   } catch (const UsageError& e) {
+    err << where << ": " << e.what() << "\n";
+    return 2;
+  } catch (const BusUrlError& e) {  // a malformed --lcm-url or $LCM_DEFAULT_URL is a bad argument
     err << where << ": " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

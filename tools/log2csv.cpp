@@ -2,7 +2,7 @@
 
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/lcm_log.hpp"
+#include "tools/log_csv.hpp"
 
 namespace lagrange::cli {
 namespace {

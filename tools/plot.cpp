@@ -10,11 +10,12 @@
 #include <regex>
 #include <sstream>
 
-#include "daemon/channels.hpp"
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/lcm_log.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/lcm_log.hpp"
+#include "tools/log_csv.hpp"
 #include "tools/plot_script.hpp"
 
 namespace lagrange::cli {
@@ -179,7 +180,7 @@ class PlotCommand final : public Command {
 
   static bool IsLcmLog(const std::string& path) {
     try {
-      RequireLcmLog(path);
+      LcmLogReader{path};  // checks the sync word at its start
       return true;
     } catch (const std::exception&) {
       return false;

@@ -13,13 +13,17 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/channels.hpp"
-#include "daemon/clock.hpp"
 #include "plant/escape.hpp"
-#include "daemon/lcm_bridge.hpp"  // NewRunId
+#include "protocol/channels.hpp"
+#include "protocol/client.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/mode.hpp"
+#include "protocol/status.hpp"
+#include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/daemon_link.hpp"
 #include "tools/interrupt.hpp"
 
 namespace lagrange::cli {

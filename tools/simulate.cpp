@@ -11,6 +11,7 @@
 #include "daemon/health.hpp"
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
+#include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 

@@ -18,12 +18,17 @@
 #include <sstream>
 #include <variant>
 
-#include "daemon/channels.hpp"
 #include "plant/escape.hpp"
-#include "daemon/wire.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/client.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/mode.hpp"
+#include "protocol/status.hpp"
+#include "protocol/wire.hpp"
+#include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
-#include "tools/daemon_link.hpp"
 #include "tools/interrupt.hpp"
 
 namespace lagrange::cli {

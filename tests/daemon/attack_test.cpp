@@ -4,7 +4,7 @@
 // lines, terminal escapes, a spoofed state stream) leaves the daemon running,
 // obeying, its memory flat and its log truthful. Raw datagrams go out through
 // tests/support/raw_udp.hpp; this process itself listens through lagrange's
-// own bus (daemon/bus.hpp), never lcm::LCM, which the fragments would crash.
+// own bus (protocol/bus.hpp), never lcm::LCM, which the fragments would crash.
 // UDP may lose datagrams under a flood: every wait here resends or polls
 // with a bound, and nothing counts messages or measures time.
 
@@ -39,7 +39,7 @@
 #include <thread>
 #include <vector>
 
-#include "daemon/bus.hpp"
+#include "protocol/bus.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"

@@ -1,5 +1,5 @@
-// The LCM bridge as a protocol, with nothing left to chance: LcmReceiver, the
-// Runtime's tick (through Loop) and LcmPublisher over an InProcessBus with a
+// The daemon's bus side as a protocol, with nothing left to chance: Receiver, the
+// Runtime's tick (through Loop) and Publisher over an InProcessBus with a
 // FakeClock, so every count below is a fact, not a sample of UDP delivery or
 // of a machine's speed. What lagranged refuses and counts, what it answers,
 // and that an urgent command lands in the very next tick whatever came first.
@@ -26,16 +26,17 @@
 #include <variant>
 #include <vector>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
-#include "daemon/lcm_bridge.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/publisher.hpp"
+#include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "plant/arm2.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
 
@@ -207,10 +208,10 @@ class Bridge : public ::testing::Test {
   testing::FakeClock clock_;
   ReceiverStats stats_;
   InProcessBus input_, output_;
-  LcmReceiver receiver_;
+  Receiver receiver_;
   SpscRing<TickRecord> ring_;
   Loop loop_;
-  LcmPublisher publisher_;
+  Publisher publisher_;
   std::vector<reply_t> replies_;
   state_t last_state_;
   std::int64_t states_ = 0;
@@ -510,7 +511,7 @@ TEST(BridgeJointNames, NamesTooLongForOneStatusDatagramAreLeftOutAndTheStatusSti
   InProcessBus output;
   SpscRing<TickRecord> ring(256, runtime.MakeRecord());
   Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
-  LcmPublisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
+  Publisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
   std::optional<status_t> status;
   output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
     status_t s;
@@ -896,19 +897,6 @@ TEST_F(QuietArmBridge, AnInstanceWithTelemetryOffPublishesNoTelemetryAndTheOther
   EXPECT_TRUE(OnlyReply(601).accepted) << OnlyReply(601).reason;
   EXPECT_EQ(last_status_.instance_integrators.at(0), "rk4 x2");
   EXPECT_TRUE(telemetry_.empty());
-}
-
-// A status lists every instance in one datagram, so lagranged refuses a
-// scene with more instances than fit (service.cpp), and joint names are left
-// out before that.
-TEST(StatusSize, AStatusOfTwentyInstancesFitsAndOneOfAThousandDoesNot) {
-  const auto names = [](int n) {
-    std::vector<std::string> v;
-    for (int i = 0; i < n; ++i) v.push_back("instance_" + std::to_string(i));
-    return v;
-  };
-  EXPECT_TRUE(StatusFits(names(20), std::vector<std::int32_t>(20, 7), {}));
-  EXPECT_FALSE(StatusFits(names(1000), std::vector<std::int32_t>(1000, 2), {}));
 }
 
 }  // namespace

@@ -6,9 +6,10 @@
 
 #include <string>
 
-#include "daemon/channels.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "protocol/channels.hpp"
 
 namespace lagrange {
 namespace {

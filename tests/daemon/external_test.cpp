@@ -1,5 +1,5 @@
-// External controllers and external plants, deterministic: real LcmReceivers,
-// Runtimes (ticked by Loop, each on its own FakeClock) and LcmPublishers over
+// External controllers and external plants, deterministic: real Receivers,
+// Runtimes (ticked by Loop, each on its own FakeClock) and Publishers over
 // InProcessBus objects, so every count and every tick below is a fact, not a
 // sample of UDP delivery or of a machine's speed.
 //
@@ -27,13 +27,15 @@
 #include <string_view>
 #include <vector>
 
-#include "daemon/bus.hpp"
-#include "daemon/channels.hpp"
-#include "daemon/lcm_bridge.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/publisher.hpp"
+#include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/scene_channels.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
@@ -219,10 +221,10 @@ class Daemon {
   testing::FakeClock clock_;
   ReceiverStats stats_;
   InProcessBus input_, output_;
-  LcmReceiver receiver_;
+  Receiver receiver_;
   SpscRing<TickRecord> ring_;
   Loop loop_;
-  LcmPublisher publisher_;
+  Publisher publisher_;
   std::vector<state_t> states_;
   std::vector<torque_t> torques_;
   std::vector<reply_t> replies_;

@@ -1,5 +1,5 @@
 // libFuzzer target: what the bus does with one datagram from the wire
-// (daemon/bus.hpp): ParseDatagram's classification, reformatting a parsed
+// (protocol/bus.hpp): ParseDatagram's classification, reformatting a parsed
 // message byte for byte, and InProcessBus delivering it only to the
 // subscribers of exactly its channel. Run with --write-seeds DIR to write a
 // valid LC02 datagram and the LC03 fragments that crash LCM 1.3.1 as a
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "daemon/bus.hpp"
+#include "protocol/bus.hpp"
 
 namespace {
 

@@ -20,12 +20,12 @@
 #include <string>
 #include <vector>
 
-#include "daemon/command_check.hpp"
-#include "daemon/setpoint_check.hpp"
-#include "daemon/wire.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
+#include "protocol/command_check.hpp"
+#include "protocol/setpoint_check.hpp"
+#include "protocol/wire.hpp"
 
 namespace {
 

@@ -4,7 +4,7 @@
 
 #include <deque>
 
-#include "daemon/clock.hpp"
+#include "protocol/clock.hpp"
 
 namespace lagrange::testing {
 

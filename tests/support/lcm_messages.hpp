@@ -3,6 +3,7 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
 
 #include <cstdint>
 #include <string>
@@ -28,6 +29,19 @@ inline setpoint_t MakeSetpoint(std::vector<double> q, std::int64_t utime, std::v
   s.qd = qd.empty() ? std::vector<double>(q.size(), 0.0) : std::move(qd);
   s.qdd = qdd.empty() ? std::vector<double>(q.size(), 0.0) : std::move(qdd);
   s.q = std::move(q);
+  return s;
+}
+
+// A well-formed state of a two-joint instance under "pd" at `tick` (t = 1 ms
+// per tick), every vector 0.25, from run `run_id`.
+inline state_t MakeState(std::int64_t tick = 0, std::int64_t run_id = 0x1234) {
+  state_t s{};
+  s.run_id = run_id;
+  s.tick = tick;
+  s.t = 1e-3 * static_cast<double>(tick);
+  s.num_dofs = 2;
+  for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.25);
+  s.controller = "pd";
   return s;
 }
 

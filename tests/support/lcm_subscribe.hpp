@@ -1,7 +1,7 @@
 #pragma once
 // Subscribing member functions through LCM's function subscriptions, for the
 // tests that listen with lcm::LCM to well-formed traffic (lagranged and
-// lagrangectl receive through daemon/bus.hpp instead).
+// lagrangectl receive through protocol/bus.hpp instead).
 //
 // LCM 1.3.1's member-function subscriptions (LCM::subscribe with a handler
 // object) trip UndefinedBehaviorSanitizer's vptr check inside LCM's own

@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
+#include "protocol/lcm_log.hpp"
 #include "tests/support/lcm_subscribe.hpp"
 #include "tests/support/process.hpp"
 
@@ -18,6 +20,23 @@ namespace lagrange::testing {
 
 std::string TestLcmUrl(int port) {
   return std::string("udpm://") + kTestLcmGroup + ":" + std::to_string(port) + "?ttl=0";
+}
+
+void WriteLcmLog(const std::string& path,
+                 const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& events) {
+  lcm::LogFile file(path, "w");
+  if (!file.good()) throw std::runtime_error("cannot write the LCM log " + path);
+  std::int64_t n = 0;
+  for (const auto& [channel, bytes] : events) {
+    std::vector<std::uint8_t> data = bytes;
+    lcm::LogEvent e{};
+    e.eventnum = n;
+    e.timestamp = 1000 * ++n;
+    e.channel = channel;
+    e.datalen = static_cast<int32_t>(data.size());
+    e.data = data.data();
+    if (file.writeEvent(&e) != 0) throw std::runtime_error("writing the LCM log " + path + " failed");
+  }
 }
 
 std::int64_t WallMicros() {
@@ -202,12 +221,14 @@ LcmLoggerProcess::~LcmLoggerProcess() {
 }
 
 int LcmLoggerProcess::ProbesLogged() const {
-  std::ifstream exists(path_);
-  if (!exists) return 0;  // LogFile on a missing file crashes in LCM 1.3.1
-  lcm::LogFile file(path_, "r");
-  if (!file.good()) return 0;
+  std::optional<LcmLogReader> file;
+  try {
+    file.emplace(path_);
+  } catch (const LcmLogError&) {
+    return 0;  // not there yet, or nothing written yet
+  }
   int n = 0;
-  while (const lcm::LogEvent* e = file.readNextEvent()) n += e->channel == "LAGRANGE_TEST_PROBE";
+  while (const LcmLogEvent* e = file->Next()) n += e->channel == "LAGRANGE_TEST_PROBE";
   return n;
 }
 

@@ -5,12 +5,14 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace lagrange::testing {
@@ -123,6 +125,10 @@ inline constexpr bool kResidentSizeMeaningful = false;
 #else
 inline constexpr bool kResidentSizeMeaningful = true;
 #endif
+
+// Writes `events` (channel, payload) to an LCM log at `path` with LCM's own
+// writer: event number k, logged at 1000 (k + 1) µs. Throws when it cannot.
+void WriteLcmLog(const std::string& path, const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& events);
 
 // Wall clock, µs since the Unix epoch (what LCM utime fields carry).
 std::int64_t WallMicros();

@@ -9,7 +9,7 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "daemon/spawn.hpp"
+#include "tools/spawn.hpp"
 
 namespace lagrange::testing {
 
@@ -18,6 +18,7 @@ pid_t Spawn(const std::vector<std::string>& argv, int stdout_fd, int stderr_fd) 
   options.stdout_fd = stdout_fd;
   options.stderr_fd = stderr_fd;
   options.default_sigpipe = true;  // the default action, as a service manager leaves it
+  options.die_with_parent = true;  // a crashed test leaves no child running
   const pid_t pid = lagrange::Spawn(argv, options);
   if (pid < 0) throw std::runtime_error("fork failed");
   return pid;

@@ -16,8 +16,9 @@ struct ProcessResult {
 
 // Starts argv[0] (a path: no PATH search) with arguments, its stdout and
 // stderr on `stdout_fd` and `stderr_fd` (−1: this process's), SIGPIPE at its
-// default action; returns its pid (throws when fork fails). lagrange::Spawn
-// (daemon/spawn.hpp) does the fork and exec.
+// default action, killed if this test process dies first (a crash leaves no
+// lagranged behind); returns its pid (throws when fork fails). lagrange::Spawn
+// (tools/spawn.hpp) does the fork and exec.
 pid_t Spawn(const std::vector<std::string>& argv, int stdout_fd = -1, int stderr_fd = -1);
 
 // Runs argv[0] with arguments, captures stdout and stderr, waits up to

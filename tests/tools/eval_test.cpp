@@ -13,6 +13,7 @@
 #include <numbers>
 
 #include "plant/plant_factory.hpp"
+#include "protocol/format.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 #include "tools/cli_support.hpp"
@@ -135,8 +136,8 @@ TEST(Eval, AChainWithAPrismaticFirstJointIsTheCartPole) {
   // A slider along +x (1 kg) carrying a 1 m uniform rod of 0.1 kg: the cart-pole's defaults,
   // with the rod's angle from +x, so θ = q1 + π/2. Both chain methods agree with the closed form.
   const double q1 = 0.63;
-  const std::string q = "0.3," + cli::FormatDouble(q1), qd = "0.5,-1.3";
-  const json cartpole = Eval({"--plant", "cartpole", "--q", "0.3," + cli::FormatDouble(q1 + std::numbers::pi / 2),
+  const std::string q = "0.3," + FormatDouble(q1), qd = "0.5,-1.3";
+  const json cartpole = Eval({"--plant", "cartpole", "--q", "0.3," + FormatDouble(q1 + std::numbers::pi / 2),
                               "--qd", qd, "--tau", "0.4,-0.05"});
   for (const std::string method : {"recursive", "lagrangian"}) {
     const auto r = RunCtl({"eval", "--plant", "chain", "--param", "joints=prismatic,revolute", "--param", "m=1,0.1",

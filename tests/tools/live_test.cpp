@@ -20,6 +20,8 @@
 #include <thread>
 
 #include "daemon/runtime.hpp"
+#include "protocol/format.hpp"
+#include "protocol/ids.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
@@ -185,7 +187,7 @@ std::string JoinNumbers(const std::vector<double>& v) {
   std::string s;
   for (double x : v) {
     if (!s.empty()) s += ',';
-    s += cli::FormatDouble(x);
+    s += FormatDouble(x);
   }
   return s;
 }
@@ -362,7 +364,7 @@ TEST_F(LiveDaemon, WatchShowsEveryInstanceRunIdsAndTheLoopsTiming) {
   }
   EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
   // The run id in the header is the one on every state.
-  const std::string run = cli::RunIdText(LastState("ARM_STATE").run_id);
+  const std::string run = RunIdText(LastState("ARM_STATE").run_id);
   EXPECT_NE(r.out.find("lagranged run " + run), std::string::npos) << run << "\n" << r.out;
   EXPECT_NE(r.out.find("run " + run + "\n"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("\x1b["), std::string::npos);  // no screen control codes when not on a terminal

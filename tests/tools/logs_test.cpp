@@ -1,6 +1,7 @@
 // lagrangectl on recorded runs: log2csv and plot; replaying a setpoint log
-// with lcm-logplayer; several daemons on one bus; the lcm-spy types jar; the
-// packet checks lagrangectl applies before decoding anything.
+// with lcm-logplayer; several daemons on one bus; the lcm-spy types jar. (The
+// packet checks lagrangectl applies before decoding anything are
+// tests/protocol/wire_test's.)
 //
 // Multicast may drop a datagram on a loaded machine, so nothing here counts
 // on every message arriving or on when it arrives: the checks are on what
@@ -24,7 +25,7 @@
 #include <sstream>
 
 #include "daemon/runtime.hpp"
-#include "daemon/wire.hpp"
+#include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
@@ -35,6 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::BackgroundProcess;
 using testing::LcmCollector;
+using testing::MakeState;
 using testing::RunCtl;
 
 struct Csv {
@@ -487,17 +489,6 @@ void PutInt32(std::vector<std::uint8_t>& bytes, std::size_t at, std::int32_t v) 
     bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(v) >> (24 - 8 * i));
 }
 
-state_t SomeState(std::int64_t tick = 0) {
-  state_t s{};
-  s.run_id = 0x1234;
-  s.tick = tick;
-  s.t = 1e-3 * static_cast<double>(tick);
-  s.num_dofs = 2;
-  for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.25);
-  s.controller = "pd";
-  return s;
-}
-
 // One tick's telemetry: rk4 in 4 sub-steps (16 evaluations), residual ε.
 telemetry_t SomeTelemetry(std::int64_t tick, double residual) {
   telemetry_t m{};
@@ -560,104 +551,18 @@ forces_t SomeForces(std::int64_t tick, std::vector<bool> on, int n) {
   return f;
 }
 
-// What lagrangectl decodes from the bus or a log passes these checks first.
-TEST(WireChecks, AcceptWhatIsEncodedAndRefuseTruncationsAndLyingLengths) {
-  status_t status{};
-  status.last_rejection = "why";
-  status.last_command_error = "";
-  status.num_instances = 2;
-  status.instance_names = {"arm", "cartpole"};
-  status.instance_modes = {0, 4};
-  status.instance_dofs = {2, 2};
-  status.instance_reasons = {"", "emergency stop"};
-  status.instance_integrators = {"rk4 x4", "dopri5 rtol=1e-08 atol=1e-10 max_steps=200"};
-  status.instance_methods = {"closed-form", "recursive"};
-  status.instance_effects = {"gravity,coriolis", ""};
-  status.instance_forces = {1, 0};
-  status.num_joints = 4;
-  status.joint_names = {"q1", "q2", "x", "theta"};
-  reply_t reply{};
-  reply.reason = "not paused";
-  const std::vector<std::pair<std::vector<std::uint8_t>, WireCheck (*)(const void*, std::size_t)>> packets = {
-      {Encode(SomeState()), CheckStatePacket},
-      {Encode(status), CheckStatusPacket},
-      {Encode(reply), CheckReplyPacket},
-      {Encode(SomeTelemetry(1, 0.0)), CheckTelemetryPacket},
-      {Encode(SomeForces(1, {true}, 2)), CheckForcesPacket}};
-  for (const auto& [bytes, check] : packets) {
-    EXPECT_EQ(check(bytes.data(), bytes.size()), WireCheck::kOk);
-    for (std::size_t size = 0; size < bytes.size(); ++size)
-      ASSERT_NE(check(bytes.data(), size), WireCheck::kOk) << size;
-    std::vector<std::uint8_t> longer = bytes;
-    longer.push_back(0);
-    EXPECT_EQ(check(longer.data(), longer.size()), WireCheck::kSizeMismatch);
-  }
-  EXPECT_EQ(CheckStatePacket(packets[1].first.data(), packets[1].first.size()), WireCheck::kFingerprint);
-
-  // A state declaring 2^31 - 1 joints, a negative string length, a status declaring 2^31 - 1 instances.
-  std::vector<std::uint8_t> state = Encode(SomeState());
-  const std::size_t num_dofs_at = 8 + 4 * 8;
-  PutInt32(state, num_dofs_at, 0x7fffffff);
-  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
-  state = Encode(SomeState());
-  PutInt32(state, state.size() - 1 - 3 - 4, -5);  // the controller's length ("pd" + NUL, then mode)
-  EXPECT_EQ(CheckStatePacket(state.data(), state.size()), WireCheck::kBadLength);
-  // num_instances follows the fixed fields (156 bytes with the fingerprint), last_rejection "why" (4 + 4),
-  // the two command counts (16), last_command_error "" (4 + 1) and seven counters (56).
-  const std::size_t names_at = 156 + 8 + 16 + 5 + 56;
-  std::vector<std::uint8_t> lying = Encode(status);
-  PutInt32(lying, names_at, 0x7fffffff);
-  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
-  lying = Encode(status);  // a status declaring 2^31 - 1 joint names (the tail: num_joints, then the names)
-  const std::size_t joint_names = (4 + 3) + (4 + 3) + (4 + 2) + (4 + 6);
-  PutInt32(lying, lying.size() - joint_names - 4, 0x7fffffff);
-  EXPECT_EQ(CheckStatusPacket(lying.data(), lying.size()), WireCheck::kBadLength);
-  // Forces declaring 2^31 - 1 joints (num_dofs after utime, run_id, tick, t and the seven flags).
-  lying = Encode(SomeForces(1, {true}, 2));
-  PutInt32(lying, 8 + 4 * 8 + 7, 0x7fffffff);
-  EXPECT_EQ(CheckForcesPacket(lying.data(), lying.size()), WireCheck::kBadLength);
-}
-
 TEST_F(Logs, Log2CsvSkipsARecordedStateWhoseLengthsLie) {
   const fs::path log = dir_ / "lying.lcm";
-  {
-    lcm::LogFile file(log.string(), "w");
-    std::vector<std::uint8_t> good = Encode(SomeState());
-    std::vector<std::uint8_t> bad = good;
-    PutInt32(bad, 8 + 4 * 8, 0x7fffffff);  // num_dofs: would make the generated decoder allocate 96 GiB
-    std::int64_t n = 0;
-    for (auto* bytes : {&good, &bad, &good}) {
-      lcm::LogEvent e{};
-      e.eventnum = n;
-      e.timestamp = 1000 * ++n;
-      e.channel = "ARM_STATE";
-      e.datalen = static_cast<int32_t>(bytes->size());
-      e.data = bytes->data();
-      ASSERT_EQ(file.writeEvent(&e), 0);
-    }
-  }
+  const std::vector<std::uint8_t> good = Encode(MakeState());
+  std::vector<std::uint8_t> bad = good;
+  PutInt32(bad, 8 + 4 * 8, 0x7fffffff);  // num_dofs: would make the generated decoder allocate 96 GiB
+  testing::WriteLcmLog(log.string(), {{"ARM_STATE", good}, {"ARM_STATE", bad}, {"ARM_STATE", good}});
   const auto r = RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("2 rows of state_t (1 skipped"), std::string::npos) << r.out;
   const Csv states = ReadCsv(dir_ / "csv" / "ARM_STATE.csv");
   EXPECT_EQ(states.rows.size(), 2u);
   EXPECT_EQ(states.Texts("run_id").front(), "0000000000001234");
-}
-
-// Writes `events` (channel, encoded message) to an LCM log, 1 ms apart.
-void WriteLog(const fs::path& path, const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& events) {
-  lcm::LogFile file(path.string(), "w");
-  std::int64_t n = 0;
-  for (const auto& [channel, bytes] : events) {
-    std::vector<std::uint8_t> data = bytes;
-    lcm::LogEvent e{};
-    e.eventnum = n;
-    e.timestamp = 1000 * ++n;
-    e.channel = channel;
-    e.datalen = static_cast<int32_t>(data.size());
-    e.data = data.data();
-    ASSERT_EQ(file.writeEvent(&e), 0);
-  }
 }
 
 torque_t SomeTorque(std::int64_t sequence, double tau0, double tau1) {
@@ -698,11 +603,11 @@ TEST_F(Logs, Log2CsvWritesTorquesOneColumnPerJointAndTheStatusCountersAndReasons
   status.num_joints = 3;
   status.joint_names = {"q1", "q2", "theta"};
   const fs::path log = dir_ / "torques.lcm";
-  WriteLog(log, {{"ARM_TORQUE", Encode(SomeTorque(1, 1.5, -0.25))},
-                 {"ARM_TORQUE", Encode(SomeTorque(2, 2.5, 1e-3))},
-                 {"ARM_TORQUE", lying},
-                 {"ARM_TORQUE", Encode(SomeTorque(4, -40.0, 15.0))},
-                 {"LAGRANGE_STATUS", Encode(status)}});
+  testing::WriteLcmLog(log.string(), {{"ARM_TORQUE", Encode(SomeTorque(1, 1.5, -0.25))},
+                                      {"ARM_TORQUE", Encode(SomeTorque(2, 2.5, 1e-3))},
+                                      {"ARM_TORQUE", lying},
+                                      {"ARM_TORQUE", Encode(SomeTorque(4, -40.0, 15.0))},
+                                      {"LAGRANGE_STATUS", Encode(status)}});
   const fs::path out = dir_ / "csv";
   const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
   ASSERT_EQ(r.status, 0) << r.err;
@@ -754,7 +659,7 @@ TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
   events.emplace_back("ARM_FORCES", lying);
   events.emplace_back("ARM_FORCES", Encode(SomeForces(2, on, 2)));
   const fs::path log = dir_ / "telemetry.lcm";
-  WriteLog(log, events);
+  testing::WriteLcmLog(log.string(), events);
   const fs::path out = dir_ / "csv";
   const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
   ASSERT_EQ(r.status, 0) << r.err;
@@ -818,7 +723,7 @@ TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
 std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTelemetryAndForces(int ticks) {
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
   for (std::int64_t k = 0; k < ticks; ++k) {
-    state_t s = SomeState(k);
+    state_t s = MakeState(k);
     s.q = {0.5 * std::sin(1e-2 * static_cast<double>(k)), 0.25};
     events.emplace_back("ARM_STATE", Encode(s));
     events.emplace_back("ARM_TELEMETRY", Encode(SomeTelemetry(k, 1e-10 * std::sin(0.05 * static_cast<double>(k)))));
@@ -832,7 +737,7 @@ std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTelemet
 // panel per joint, naming the effects it drew (those that were on).
 TEST_F(Logs, PlotAddsTheResidualTheCostAndOneForcePanelPerJointWhenRecorded) {
   const fs::path log = dir_ / "arm.lcm";
-  WriteLog(log, ArmRunWithTelemetryAndForces(200));
+  testing::WriteLcmLog(log.string(), ArmRunWithTelemetryAndForces(200));
   const std::string extra = "; telemetry: 200 rows; forces: 200 rows of gravity, coriolis, friction, tau_applied\n";
   const fs::path log_png = dir_ / "log.png";
   auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});

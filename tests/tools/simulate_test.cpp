@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "daemon/scene.hpp"
+#include "protocol/format.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 #include "tools/cli_support.hpp"
@@ -237,7 +238,7 @@ instances:
   EXPECT_TRUE(AllFinite(arm));
   EXPECT_GT(arm.rows.size(), 10u);
   EXPECT_LT(arm.rows.size(), 1001u);
-  EXPECT_NE(lines[2].find("its CSV ends at t = " + cli::FormatDouble(arm.rows.back()[0]) + " s"), std::string::npos)
+  EXPECT_NE(lines[2].find("its CSV ends at t = " + FormatDouble(arm.rows.back()[0]) + " s"), std::string::npos)
       << lines[2];
   EXPECT_EQ(pendulum.rows.size(), 1001u);
   EXPECT_TRUE(AllFinite(pendulum));

@@ -1,0 +1,97 @@
+#pragma once
+// The daemon's publish thread: it meets the tick only at the record ring (and
+// the eventfd the tick writes), and speaks LCM's wire format through
+// protocol/bus.hpp, never through lcm::LCM (see there why).
+//
+// Publisher: waits on an eventfd the tick writes, turns each tick record into
+// a torque_t on an external plant's torque_channel (first: it is the latency
+// that counts), one state_t per instance on <NAME>_STATE, a reply_t per
+// command verdict on <NAME>_REPLY, a telemetry_t and a forces_t where asked,
+// and every 0.1 s of ticks a status_t on LAGRANGE_STATUS (with every
+// instance's joint names, from JointNamesOf, escaped; protocol/status.hpp
+// says what a status carries). It also logs mode changes, faults and refused
+// commands, at most once a second per kind of line.
+//
+// Every string that came from the bus is escaped (plant/escape.hpp) before
+// it is logged or published.
+
+#include <lagrange/forces_t.hpp>
+#include <lagrange/reply_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/telemetry_t.hpp>
+#include <lagrange/torque_t.hpp>
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "daemon/loop.hpp"
+#include "daemon/receiver.hpp"
+#include "daemon/runtime.hpp"
+#include "daemon/throttle.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/channels.hpp"
+
+namespace lagrange {
+
+class TimingCsvWriter;
+
+class Publisher {
+ public:
+  Publisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring, const Loop& loop,
+            ReceiverStats& stats, int notify_fd, std::int64_t run_id);
+
+  // Publishes records as they come until `stop` is set.
+  void Run(const std::atomic<bool>& stop);
+  // Publishes whatever is left in the ring and a final status.
+  void Drain();
+
+  // --timing-csv: from now on also offers every tick's timing to `writer`,
+  // which writes it to its file on a thread of its own (never this one).
+  void SetTimingWriter(TimingCsvWriter* writer) { timing_ = writer; }
+
+  std::int64_t states_published() const { return states_published_; }
+
+ private:
+  void Publish(const TickRecord& record);
+  void PublishReplies(std::size_t i, const InstanceRecord& r, std::int64_t utime);
+  void PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime);
+  void PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishStatus(const TickRecord& last);
+  void LogEvents(const TickRecord& record);
+
+  Bus& bus_;
+  ChannelNames channels_;
+  SpscRing<TickRecord>& ring_;
+  const Loop& loop_;
+  ReceiverStats& stats_;
+  int notify_fd_;
+  std::int64_t run_id_;
+  int status_every_;
+  double period_;
+  std::vector<std::string> names_;
+  std::vector<std::int32_t> dofs_;        // each instance's n
+  std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
+  std::vector<std::vector<std::string>> controller_names_;
+  std::vector<state_t> states_;
+  std::vector<torque_t> torques_;       // external plants' commands, by instance
+  std::vector<telemetry_t> telemetry_;  // by instance
+  std::vector<forces_t> forces_;        // by instance
+  std::vector<Mode> modes_;
+  std::vector<const char*> reasons_;          // each instance's latest record's reason
+  std::vector<double> latencies_, computes_;  // µs, this status window
+  std::int64_t commands_applied_ = 0;         // by the tick, from its records
+  std::int64_t commands_refused_by_tick_ = 0;
+  std::string last_setpoint_rejection_, last_command_error_;
+  std::int64_t states_published_ = 0;
+  bool have_record_ = false;
+  TickRecord last_;
+  reply_t reply_;
+  LogThrottle refusal_throttle_;
+  TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
+  TimingCsvWriter* timing_ = nullptr;
+};
+
+}  // namespace lagrange

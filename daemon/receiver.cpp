@@ -1,0 +1,429 @@
+#include "daemon/receiver.hpp"
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "plant/escape.hpp"
+#include "protocol/command_check.hpp"
+#include "protocol/setpoint_check.hpp"
+#include "protocol/wire.hpp"
+
+namespace lagrange {
+
+void Reason::Set(const std::string& s) {
+  const std::size_t n = std::min(s.size(), text.size() - 1);
+  std::copy_n(s.data(), n, text.data());
+  text[n] = '\0';
+}
+
+Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime,
+                   Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
+    : input_(input),
+      output_listener_(output_listener),
+      replies_(replies),
+      runtime_(runtime),
+      clock_(clock),
+      stats_(stats),
+      age_(age),
+      run_id_(run_id) {
+  for (std::size_t i = 0; i < runtime.size(); ++i) {
+    Instance& inst = runtime.instance(i);
+    const InstanceConfig& c = inst.config();
+    std::vector<GainBounds> bounds;
+    for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
+    InstanceInfo info;
+    info.name = inst.name();
+    info.setpoint_channel = channels.setpoint[i];
+    info.command_channel = channels.command[i];
+    info.reply_channel = channels.reply[i];
+    info.n = inst.num_dofs();
+    info.command_rules =
+        CommandRules{inst.name(),       inst.num_dofs(), inst.controller_names(), inst.controller_types(),
+                     std::move(bounds), c.integrator};
+    info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
+    info.timeout = c.setpoint_timeout;
+    if (const ExternalControllerRef external = ExternalControllerOf(c); external.config != nullptr) {
+      info.external_controller = external.index;
+      info.torque_timeout = external.config->external.torque_timeout;
+    }
+    if (channels.torque_in.size() > i) info.torque_channel = channels.torque_in[i];
+    if (channels.measured_in.size() > i) info.measured_channel = channels.measured_in[i];
+    if (c.external) info.state_timeout = c.external->state_timeout;
+    info_.push_back(std::move(info));
+    input_.Subscribe(channels.setpoint[i],
+                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
+    input_.Subscribe(channels.command[i],
+                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
+    if (!info_[i].torque_channel.empty() && info_[i].external_controller >= 0) {
+      input_.Subscribe(info_[i].torque_channel,
+                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleTorque(i, d, n); });
+    }
+    if (!info_[i].measured_channel.empty()) {
+      input_.Subscribe(info_[i].measured_channel,
+                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleMeasured(i, d, n); });
+    }
+  }
+  if (output_listener_ != nullptr) {
+    std::vector<std::string> outputs = channels.state;
+    outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
+    outputs.insert(outputs.end(), channels.telemetry.begin(), channels.telemetry.end());
+    outputs.insert(outputs.end(), channels.forces.begin(), channels.forces.end());
+    for (const std::string& ch : channels.torque_out) {
+      if (!ch.empty()) outputs.push_back(ch);
+    }
+    outputs.push_back(channels.status);
+    for (const std::string& ch : outputs) {
+      output_listener_->Subscribe(
+          ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) { HandleOwnOutput(name, d, n); });
+    }
+  }
+  reply_.run_id = run_id_;
+}
+
+void Receiver::Run(const std::atomic<bool>& stop) {
+  while (!stop.load(std::memory_order_relaxed)) Poll(20);
+}
+
+void Receiver::Poll(int timeout_ms) {
+  Bus* second = output_listener_ == &input_ ? nullptr : output_listener_;
+  pollfd fds[2];
+  nfds_t n = 0;
+  if (input_.fd() >= 0) fds[n++] = {input_.fd(), POLLIN, 0};
+  if (second != nullptr && second->fd() >= 0) fds[n++] = {second->fd(), POLLIN, 0};
+  if (n > 0) {
+    poll(fds, n, timeout_ms);
+  } else if (timeout_ms > 0) {
+    usleep(static_cast<useconds_t>(timeout_ms) * 1000);  // in-process buses: nothing to wait on, and no spinning
+  }
+  input_.Drain();
+  if (second != nullptr) second->Drain();
+  UpdateBusStats();
+}
+
+void Receiver::UpdateBusStats() {
+  BusStats total = input_.stats();
+  if (output_listener_ != nullptr && output_listener_ != &input_) {
+    const BusStats out = output_listener_->stats();
+    total.kernel_drops += out.kernel_drops;
+    total.malformed += out.malformed;
+    total.oversized += out.oversized;
+    total.fragments_dropped += out.fragments_dropped;
+  }
+  stats_.datagrams_dropped_kernel.store(total.kernel_drops, std::memory_order_relaxed);
+  stats_.datagrams_malformed.store(total.malformed + total.oversized, std::memory_order_relaxed);
+  stats_.fragments_dropped.store(total.fragments_dropped, std::memory_order_relaxed);
+}
+
+// A flood of bad packets must not become a flood of log lines.
+void Receiver::Warn(const std::string& message) {
+  std::int64_t suppressed = 0;
+  if (!log_throttle_.Allow(clock_.WallMicros(), suppressed)) return;
+  if (suppressed > 0) {
+    spdlog::warn("{} ({} more refusals or decode errors since the last line, not logged)", message, suppressed);
+  } else {
+    spdlog::warn("{}", message);
+  }
+}
+
+// Counts a refusal and keeps its reason for the status.
+void Receiver::Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reason>& last, std::size_t i,
+                      const std::string& why) {
+  counter.fetch_add(1, std::memory_order_relaxed);
+  last.back().Set(info_[i].name + ": " + why);
+  last.Publish();
+}
+
+void Receiver::DecodeError(const std::string& channel, const char* why) {
+  stats_.decode_errors.fetch_add(1, std::memory_order_relaxed);
+  Warn(channel + ": dropped a packet that is not a valid message: " + why);
+}
+
+void Receiver::RejectSetpoint(std::size_t i, const std::string& why) {
+  Refuse(stats_.setpoints_rejected, stats_.last_setpoint_rejection, i, why);
+  Warn(info_[i].name + ": setpoint rejected: " + why);
+}
+
+// `why` is already escaped where it quotes the bus.
+void Receiver::RejectCommand(std::size_t i, const std::string& why) {
+  Refuse(stats_.commands_rejected, stats_.last_command_error, i, why);
+  Warn(info_[i].name + ": command rejected: " + why);
+  const std::int64_t now = clock_.WallMicros();
+  if (!reply_budget_.Take(now)) {
+    stats_.replies_suppressed.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  reply_.utime = now;
+  reply_.request_id = command_.request_id;
+  reply_.command = command_.command;
+  reply_.accepted = false;
+  reply_.reason = why;
+  replies_.PublishMessage(info_[i].reply_channel, reply_);
+}
+
+namespace {
+
+// a − b, saturating: hostile timestamps near ±2^63 must not overflow.
+std::int64_t SaturatingSub(std::int64_t a, std::int64_t b) {
+  if (b < 0 && a > INT64_MAX + b) return INT64_MAX;
+  if (b > 0 && a < INT64_MIN + b) return INT64_MIN;
+  return a - b;
+}
+
+}  // namespace
+
+Receiver::AgeVerdict Receiver::Age(Timeline& info, double timeout, std::int64_t utime) {
+  const std::int64_t now = clock_.WallMicros();
+  const std::int64_t timeout_us = ToMicroseconds(timeout);
+  const std::int64_t offset = SaturatingSub(now, utime);
+  AgeVerdict v;
+  if (age_ == SetpointAge::kWall) {
+    v.age = static_cast<double>(offset) * 1e-6;
+    v.ok = v.age <= timeout && v.age >= -timeout;
+    return v;
+  }
+  const bool new_stream = info.last_arrival < 0 || now - info.last_arrival > timeout_us;
+  const std::int64_t behind = SaturatingSub(offset, info.least_offset);  // < 0: ahead of the timeline
+  if (!new_stream && (behind > timeout_us || behind < -timeout_us)) {
+    // Out of line with the stream's timeline by more than the timeout: one bad
+    // timestamp, a stale packet, or a timeline that really moved (the sender's
+    // clock jumped; a forged first packet set the timeline). It moves the
+    // timeline only when kStreamConfirmations such packets in a row agree with
+    // one another, with no in-line packet between them.
+    const bool agrees =
+        info.candidate_count > 0 &&
+        std::abs(static_cast<double>(SaturatingSub(offset, info.candidate_offset))) <= static_cast<double>(timeout_us);
+    info.candidate_count = agrees ? info.candidate_count + 1 : 1;
+    if (!agrees) info.candidate_offset = offset;
+    if (info.candidate_count < kStreamConfirmations) {
+      v.ok = false;
+      if (behind < 0) v.out_of_line = "timestamp out of line with its stream (ahead by more than setpoint_timeout)";
+      v.age = static_cast<double>(behind) * 1e-6;
+      return v;
+    }
+    info.least_offset = offset;  // confirmed: the timeline moved
+  }
+  info.candidate_count = 0;
+  if (new_stream || offset < info.least_offset) info.least_offset = offset;
+  v.age = static_cast<double>(offset - info.least_offset) * 1e-6;
+  v.ok = v.age <= timeout;
+  if (v.ok) info.last_arrival = now;
+  return v;
+}
+
+void Receiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  InstanceInfo& info = info_[i];
+  const SetpointVerdict verdict = CheckSetpoint(data, size, info.rules, setpoint_);
+  if (verdict.kind == SetpointVerdict::Kind::kUndecodable) {
+    DecodeError(info.setpoint_channel, verdict.reason.c_str());
+    return;
+  }
+  if (verdict.kind == SetpointVerdict::Kind::kRejected) {
+    RejectSetpoint(i, verdict.reason);
+    return;
+  }
+  const AgeVerdict age = Age(info.setpoints, info.timeout, setpoint_.utime);
+  if (!age.ok) {
+    // Refused and counted; it does not send the instance to hold (only the timeout does).
+    return RejectSetpoint(i, AgeReason(age, "setpoint_timeout", info.timeout));
+  }
+  SetpointMessage& m = runtime_.channels(i).setpoints.back();
+  m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
+  m.setpoint.qd = Eigen::Map<const VectorXd>(setpoint_.qd.data(), info.n);
+  m.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), info.n);
+  runtime_.channels(i).setpoints.Publish();
+  stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+std::string Receiver::AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout) {
+  if (age.out_of_line) return age.out_of_line;
+  return age.age > 0 ? fmt::format("stale: sent {:.6g} s ago ({} {:.6g} s)", age.age, timeout_name, timeout)
+                     : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age);
+}
+
+void Receiver::RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what,
+                           const std::string& why) {
+  Refuse(counter, stats_.last_setpoint_rejection, i, std::string(what) + ": " + why);
+  Warn(info_[i].name + ": " + what + " rejected: " + why);
+}
+
+// The first problem since the tick last looked stays: a good state after a bad one cannot hide it.
+void Receiver::Trip(std::size_t i, MeasuredProblem problem, const std::string& why) {
+  std::uint8_t none = 0;
+  runtime_.channels(i).measured_problem.compare_exchange_strong(none, static_cast<std::uint8_t>(problem),
+                                                                std::memory_order_acq_rel);
+  RejectInput(i, stats_.measured_rejected, "measured state", why);
+}
+
+namespace {
+
+// The first non-finite or out-of-range value of `v` (|x| <= bound), as a reason; "" when none.
+std::string CheckValues(const char* field, const std::vector<double>& v, double bound) {
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!std::isfinite(v[k])) return fmt::format("non-finite value in {}[{}]", field, k);
+    if (std::abs(v[k]) > bound)
+      return fmt::format("{}[{}] = {:.6g} is out of range (|x| <= {:.0e})", field, k, v[k], bound);
+  }
+  return "";
+}
+
+}  // namespace
+
+// (torque_t) => the external controller's mailbox: checked like a setpoint
+// (layout, size, finite, |tau| <= 1e6, age), and one sender at a time whose
+// sequence grows.
+void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckTorquePacket(data, size); w != WireCheck::kOk) {
+    return DecodeError(info.torque_channel, ToString(w));
+  }
+  if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(info.torque_channel, "decode failed");
+  std::atomic<std::int64_t>& rejected = stats_.torques_rejected;
+  if (torque_.num_dofs != info.n) {
+    return RejectInput(i, rejected, "torque", fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, info.n));
+  }
+  if (std::string why = CheckValues("tau", torque_.tau, kMaxSetpointMagnitude); !why.empty()) {
+    return RejectInput(i, rejected, "torque", why);
+  }
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  if (active != info.external_controller) {
+    return RejectInput(i, rejected, "torque",
+                       "the instance is not running its external controller (active: " +
+                           info.command_rules.controllers[static_cast<std::size_t>(active)] + ")");
+  }
+  if (torque_.run_id == 0) return RejectInput(i, rejected, "torque", "run_id 0: expected the sender's non-zero id");
+  // One sender at a time: while the current stream is fresh (a torque within
+  // torque_timeout), another run_id is refused and the sequence must grow;
+  // once it has lapsed, any sender starts a new stream.
+  const std::int64_t now = clock_.WallMicros();
+  const bool current_fresh =
+      info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(info.torque_timeout);
+  if (current_fresh && torque_.run_id != info.torque_source) {
+    return RejectInput(
+        i, rejected, "torque",
+        fmt::format("from a second sender (run_id {:016x}) while {:016x} streams",
+                    static_cast<std::uint64_t>(torque_.run_id), static_cast<std::uint64_t>(info.torque_source)));
+  }
+  if (current_fresh && torque_.sequence <= info.torque_sequence) {
+    return RejectInput(i, rejected, "torque",
+                       fmt::format("sequence {} does not grow (last {}): a duplicate or reordered packet",
+                                   torque_.sequence, info.torque_sequence));
+  }
+  const AgeVerdict age = Age(info.torques, info.torque_timeout, torque_.utime);
+  if (!age.ok) return RejectInput(i, rejected, "torque", AgeReason(age, "torque_timeout", info.torque_timeout));
+  info.torque_source = torque_.run_id;
+  info.torque_sequence = torque_.sequence;
+  info.torque_last_us = now;
+  TorqueMessage& m = runtime_.channels(i).torques.back();
+  m.tau = Eigen::Map<const VectorXd>(torque_.tau.data(), info.n);
+  m.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
+  runtime_.channels(i).torques.Publish();
+  stats_.torques_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+// (state_t) => an external plant's measured state, or a watchdog trip: the
+// wrong size, a non-finite (or |x| > 1e6) q or qd, or a run id other than the
+// previous packet's trip it; a stale one, or one whose tick does not grow (a
+// duplicate, a reordered packet), is refused and counted (the absence of
+// fresh ones trips the watchdog once state_timeout passes).
+void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  InstanceInfo& info = info_[i];
+  if (const WireCheck w = CheckStatePacket(data, size); w != WireCheck::kOk) {
+    return DecodeError(info.measured_channel, ToString(w));
+  }
+  if (measured_.decode(data, 0, static_cast<int>(size)) < 0) {
+    return DecodeError(info.measured_channel, "decode failed");
+  }
+  if (measured_.num_dofs != info.n) {
+    return Trip(i, MeasuredProblem::kWrongSize, fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, info.n));
+  }
+  for (const auto& [field, values] : {std::pair{"q", &measured_.q}, std::pair{"qd", &measured_.qd}}) {
+    if (std::string why = CheckValues(field, *values, kMaxSetpointMagnitude); !why.empty()) {
+      return Trip(i, MeasuredProblem::kNotFinite, why);
+    }
+  }
+  if (measured_.run_id == 0) {  // the watchdog locks onto a source by its id: 0 would lock onto nothing
+    return RejectInput(i, stats_.measured_rejected, "measured state", "run_id 0: expected the sender's non-zero id");
+  }
+  const std::int64_t previous = info.measured_source;
+  info.measured_source = measured_.run_id;
+  if (previous != 0 && measured_.run_id != previous) {
+    return Trip(i, MeasuredProblem::kSecondSource,
+                fmt::format("from run_id {:016x} after {:016x}: a second source, or the plant restarted",
+                            static_cast<std::uint64_t>(measured_.run_id), static_cast<std::uint64_t>(previous)));
+  }
+  // Within one fresh stream the tick must grow; after a lapse of state_timeout any tick starts a new one.
+  const std::int64_t arrival = clock_.WallMicros();
+  const bool fresh_stream =
+      info.measured_last_us >= 0 && arrival - info.measured_last_us <= ToMicroseconds(info.state_timeout);
+  if (fresh_stream && previous == measured_.run_id && measured_.tick <= info.measured_tick) {
+    return RejectInput(i, stats_.measured_rejected, "measured state",
+                       fmt::format("tick {} does not grow (last {}): a duplicate or reordered state", measured_.tick,
+                                   info.measured_tick));
+  }
+  const AgeVerdict age = Age(info.measured, info.state_timeout, measured_.utime);
+  if (!age.ok) {
+    return RejectInput(i, stats_.measured_rejected, "measured state",
+                       AgeReason(age, "state_timeout", info.state_timeout));
+  }
+  info.measured_tick = measured_.tick;
+  info.measured_last_us = arrival;
+  MeasuredMessage& m = runtime_.channels(i).measured.back();
+  m.q = Eigen::Map<const VectorXd>(measured_.q.data(), info.n);
+  m.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), info.n);
+  m.tick = measured_.tick;
+  m.run_id = measured_.run_id;
+  m.arrived = clock_.Now();
+  m.sent = m.arrived - ToNanoseconds(std::max(age.age, 0.0));
+  runtime_.channels(i).measured.Publish();
+  stats_.measured_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+void Receiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  const InstanceInfo& info = info_[i];
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  const CommandVerdict v = CheckCommand(data, size, info.command_rules, active, command_);
+  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(info.command_channel, v.reason.c_str());
+  if (v.kind == CommandVerdict::Kind::kRejected) return RejectCommand(i, v.reason);
+  if (const std::optional<Urgent> urgent = UrgentKind(v.command)) {
+    runtime_.PostUrgent(i, *urgent, command_.request_id);  // never refused for room; the tick decides
+    return;
+  }
+  CommandMessage* slot = runtime_.channels(i).commands.BeginPush();
+  if (slot == nullptr) return RejectCommand(i, "the command queue is full");
+  slot->kind = v.command;
+  slot->utime = command_.utime;
+  slot->request_id = command_.request_id;
+  slot->controller = v.controller;
+  if (v.command == CommandKind::kSetGains) {
+    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
+    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
+  }
+  slot->integrator = v.integrator;
+  slot->default_max_steps = v.default_max_steps;
+  slot->effect = v.effect;
+  slot->method = v.method;
+  slot->on = v.on;
+  runtime_.channels(i).commands.Push();  // the tick applies or refuses it; its record says which
+}
+
+// A message on one of this run's output channels: ours (our own multicast,
+// looped back), or another publisher's.
+void Receiver::HandleOwnOutput(std::string_view channel, const std::uint8_t* data, std::size_t size) {
+  const std::optional<std::int64_t> id = RunIdOf(data, size);
+  const bool ours_type = id.has_value();
+  const std::int64_t run_id = id.value_or(0);
+  if (ours_type && run_id == run_id_) return;
+  stats_.foreign_messages.fetch_add(1, std::memory_order_relaxed);
+  stats_.last_foreign_run_id.store(ours_type ? run_id : 0, std::memory_order_relaxed);
+  std::int64_t suppressed = 0;
+  if (!foreign_throttle_.Allow(clock_.WallMicros(), suppressed)) return;
+  spdlog::warn("another publisher on {} (run id {:016x}{}): a second lagranged or a spoofer shares this bus{}",
+               Escape(channel, 64), static_cast<std::uint64_t>(run_id), ours_type ? "" : ", not a lagrange message",
+               suppressed > 0 ? fmt::format(" ({} more such messages since the last line)", suppressed) : "");
+}
+
+}  // namespace lagrange

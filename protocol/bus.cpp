@@ -1,0 +1,422 @@
+#include "protocol/bus.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <limits>
+
+#include "protocol/big_endian.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr std::uint32_t kShortMagic = 0x4c433032;     // "LC02": one whole message
+constexpr std::uint32_t kFragmentMagic = 0x4c433033;  // "LC03": one fragment of a long message
+constexpr std::size_t kHeaderSize = 8;                // magic + seqno
+constexpr std::size_t kMaxChannelLength = 63;         // LCM_MAX_CHANNEL_NAME_LENGTH
+// The longest LC02 datagram we accept or write: header, channel, NUL, payload.
+constexpr std::size_t kMaxDatagramSize = kHeaderSize + kMaxChannelLength + 1 + kMaxMessageSize;
+// Larger than any UDP payload (65 507 bytes over IPv4), so the kernel never
+// has to cut a datagram short; MSG_TRUNC is still checked.
+constexpr std::size_t kReceiveBufferSize = 64 * 1024 + 256;
+constexpr const char* kExpected = "expected udpm://GROUP:PORT?ttl=0..255[&recv_buf_size=BYTES]";
+
+[[noreturn]] void ThrowUrlError(const std::string& url, const std::string& what) {
+  throw BusUrlError("LCM URL '" + url + "': " + what + "; " + kExpected);
+}
+
+// A decimal integer of digits only (no sign, no spaces) in [min, max]; false otherwise.
+bool ParseDecimal(std::string_view text, long long min, long long max, long long& out) {
+  if (text.empty() || text.size() > 12) return false;
+  for (const char c : text) {
+    if (c < '0' || c > '9') return false;
+  }
+  long long v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc{} || end != text.data() + text.size() || v < min || v > max) return false;
+  out = v;
+  return true;
+}
+
+// Dotted-quad IPv4, four decimal octets 0-255.
+bool ParseIpv4(std::string_view text, std::uint8_t (&octets)[4]) {
+  for (int i = 0; i < 4; ++i) {
+    const std::size_t dot = i < 3 ? text.find('.') : text.size();
+    if (dot == std::string_view::npos) return false;
+    long long v = 0;
+    if (dot > 3 || !ParseDecimal(text.substr(0, dot), 0, 255, v)) return false;
+    octets[i] = static_cast<std::uint8_t>(v);
+    text.remove_prefix(i < 3 ? dot + 1 : dot);
+  }
+  return text.empty();
+}
+
+bool ChannelFits(std::string_view channel) {
+  return channel.size() <= kMaxChannelLength && channel.find('\0') == std::string_view::npos;
+}
+
+using Subscriptions = std::vector<std::pair<std::string, Bus::Handler>>;
+
+void Bump(std::int64_t& counter) { ++counter; }
+void Bump(std::atomic<std::int64_t>& counter) { counter.fetch_add(1, std::memory_order_relaxed); }
+
+// One datagram read from the wire => counted, and handed to the subscribers of
+// its channel when it is a whole message. `Counters` is BusStats or UdpmBus's
+// atomic counters (the same field names). Allocates nothing.
+template <class Counters>
+void Dispatch(const Subscriptions& subscriptions, const std::uint8_t* data, std::size_t size, Counters& counters) {
+  Bump(counters.received);
+  const Datagram d = ParseDatagram(data, size);
+  switch (d.kind) {
+    case Datagram::Kind::kMessage: {
+      bool delivered = false;
+      for (const auto& [channel, handler] : subscriptions) {
+        if (std::string_view(channel) != d.channel) continue;
+        handler(d.channel, d.payload, d.payload_size);
+        delivered = true;
+      }
+      if (delivered) Bump(counters.delivered);
+      return;
+    }
+    case Datagram::Kind::kFragment: Bump(counters.fragments_dropped); return;
+    case Datagram::Kind::kOversized: Bump(counters.oversized); return;
+    case Datagram::Kind::kMalformed: Bump(counters.malformed); return;
+  }
+}
+
+// LCM's UDP multicast transport for unfragmented messages (see bus.hpp).
+class UdpmBus final : public Bus {
+ public:
+  UdpmBus(const std::string& url_text, const UdpmUrl& url);
+  ~UdpmBus() override;
+  UdpmBus(const UdpmBus&) = delete;
+  UdpmBus& operator=(const UdpmBus&) = delete;
+
+  bool Publish(std::string_view channel, const void* data, std::size_t size) override;
+  void Subscribe(const std::string& channel, Handler handler) override;
+  int fd() const override { return recv_fd_; }
+  int Drain(int max) override;
+  int Handle(int timeout_ms) override;
+  BusStats stats() const override;
+
+ private:
+  struct Counters {
+    std::atomic<std::int64_t> received{0}, delivered{0}, fragments_dropped{0}, malformed{0}, oversized{0},
+        kernel_drops{0}, send_failures{0};
+  };
+  [[noreturn]] void ThrowSocketError(const char* what) const;
+  void OpenReceiveSocket();
+
+  std::string url_text_;
+  UdpmUrl url_;
+  sockaddr_in group_{};
+  int send_fd_ = -1;
+  int recv_fd_ = -1;
+  std::uint32_t seqno_ = 0;
+  std::vector<std::uint8_t> send_buffer_;
+  std::vector<std::uint8_t> receive_buffer_;
+  Subscriptions subscriptions_;
+  Counters counters_;
+};
+
+UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url)
+    : url_text_(url_text), url_(url), send_buffer_(kMaxDatagramSize), receive_buffer_(kReceiveBufferSize) {
+  group_.sin_family = AF_INET;
+  group_.sin_port = htons(url_.port);
+  if (inet_pton(AF_INET, url_.group.c_str(), &group_.sin_addr) != 1) ThrowUrlError(url_text_, "bad group address");
+
+  send_fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (send_fd_ < 0) ThrowSocketError("cannot open a UDP socket");
+  const unsigned char ttl = static_cast<unsigned char>(url_.ttl);
+  const unsigned char loop = 1;
+  if (setsockopt(send_fd_, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl) != 0 ||
+      setsockopt(send_fd_, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop) != 0) {
+    const int saved = errno;
+    close(send_fd_);
+    errno = saved;
+    ThrowSocketError("cannot set the multicast TTL or loopback");
+  }
+}
+
+UdpmBus::~UdpmBus() {
+  if (send_fd_ >= 0) close(send_fd_);
+  if (recv_fd_ >= 0) close(recv_fd_);
+}
+
+void UdpmBus::ThrowSocketError(const char* what) const {
+  throw BusError("LCM URL '" + url_text_ + "': " + what + ": " + std::strerror(errno));
+}
+
+void UdpmBus::OpenReceiveSocket() {
+  const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) ThrowSocketError("cannot open a UDP socket");
+  auto fail = [&](const char* what) {
+    const int saved = errno;
+    close(fd);
+    errno = saved;
+    ThrowSocketError(what);
+  };
+  const int one = 1;
+  // Shared with lcm-logger, lcm-spy and other lagrange processes on this port.
+  if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) fail("SO_REUSEADDR");
+  if (setsockopt(fd, SOL_SOCKET, SO_REUSEPORT, &one, sizeof one) != 0) fail("SO_REUSEPORT");
+  if (url_.recv_buf_size > 0 &&
+      setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &url_.recv_buf_size, sizeof url_.recv_buf_size) != 0) {
+    fail("SO_RCVBUF");
+  }
+  // The kernel's count of datagrams dropped for a full buffer comes with each one read.
+  if (setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one) != 0) fail("SO_RXQ_OVFL");
+  sockaddr_in any{};
+  any.sin_family = AF_INET;
+  any.sin_port = htons(url_.port);
+  any.sin_addr.s_addr = htonl(INADDR_ANY);
+  if (bind(fd, reinterpret_cast<const sockaddr*>(&any), sizeof any) != 0) fail("cannot bind the port");
+  ip_mreq membership{};
+  membership.imr_multiaddr = group_.sin_addr;
+  membership.imr_interface.s_addr = htonl(INADDR_ANY);
+  if (setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &membership, sizeof membership) != 0) {
+    fail("cannot join the multicast group");
+  }
+  // Only our group's datagrams, not those of groups other sockets on this host joined (best effort).
+  const int zero = 0;
+  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
+  recv_fd_ = fd;
+}
+
+bool UdpmBus::Publish(std::string_view channel, const void* data, std::size_t size) {
+  std::size_t written = 0;
+  if (size > kMaxMessageSize || !ChannelFits(channel) ||
+      !FormatDatagram(seqno_, channel, data, size, send_buffer_.data(), send_buffer_.size(), written)) {
+    Bump(counters_.send_failures);
+    return false;
+  }
+  ++seqno_;
+  const ssize_t sent = sendto(send_fd_, send_buffer_.data(), written, MSG_DONTWAIT,
+                              reinterpret_cast<const sockaddr*>(&group_), sizeof group_);
+  if (sent != static_cast<ssize_t>(written)) {
+    Bump(counters_.send_failures);
+    return false;
+  }
+  return true;
+}
+
+void UdpmBus::Subscribe(const std::string& channel, Handler handler) {
+  if (recv_fd_ < 0) OpenReceiveSocket();
+  subscriptions_.emplace_back(channel, std::move(handler));
+}
+
+int UdpmBus::Drain(int max) {
+  if (recv_fd_ < 0) return 0;
+  int read = 0;
+  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(std::uint32_t))];
+  while (read < max) {
+    iovec iov{receive_buffer_.data(), receive_buffer_.size()};
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control;
+    msg.msg_controllen = sizeof control;
+    const ssize_t n = recvmsg(recv_fd_, &msg, MSG_DONTWAIT);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      break;  // EAGAIN: nothing more waiting; anything else: try again at the next Drain
+    }
+    ++read;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+          c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+        std::uint32_t drops = 0;  // cumulative for this socket
+        std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+        counters_.kernel_drops.store(drops, std::memory_order_relaxed);
+      }
+    }
+    if ((msg.msg_flags & MSG_TRUNC) != 0 || static_cast<std::size_t>(n) > receive_buffer_.size()) {
+      Bump(counters_.received);
+      Bump(counters_.oversized);
+      continue;
+    }
+    Dispatch(subscriptions_, receive_buffer_.data(), static_cast<std::size_t>(n), counters_);
+  }
+  return read;
+}
+
+int UdpmBus::Handle(int timeout_ms) {
+  if (recv_fd_ < 0) {
+    poll(nullptr, 0, timeout_ms);  // nothing subscribed: just the wait
+    return 0;
+  }
+  pollfd p{recv_fd_, POLLIN, 0};
+  if (poll(&p, 1, timeout_ms) <= 0) return 0;
+  return Drain(1024);
+}
+
+BusStats UdpmBus::stats() const {
+  constexpr auto kRelaxed = std::memory_order_relaxed;
+  BusStats s;
+  s.received = counters_.received.load(kRelaxed);
+  s.delivered = counters_.delivered.load(kRelaxed);
+  s.fragments_dropped = counters_.fragments_dropped.load(kRelaxed);
+  s.malformed = counters_.malformed.load(kRelaxed);
+  s.oversized = counters_.oversized.load(kRelaxed);
+  s.kernel_drops = counters_.kernel_drops.load(kRelaxed);
+  s.send_failures = counters_.send_failures.load(kRelaxed);
+  return s;
+}
+
+}  // namespace
+
+UdpmUrl ParseUdpmUrl(const std::string& url) {
+  constexpr std::string_view kScheme = "udpm://";
+  std::string_view rest(url);
+  if (rest.substr(0, kScheme.size()) != kScheme) ThrowUrlError(url, "not a udpm:// URL");
+  rest.remove_prefix(kScheme.size());
+
+  const std::size_t question = rest.find('?');
+  const std::string_view address = rest.substr(0, question);
+  const std::string_view query = question == std::string_view::npos ? std::string_view{} : rest.substr(question + 1);
+
+  const std::size_t colon = address.find(':');
+  if (colon == std::string_view::npos) ThrowUrlError(url, "no port");
+  const std::string_view group = address.substr(0, colon);
+  std::uint8_t octets[4];
+  if (!ParseIpv4(group, octets)) ThrowUrlError(url, "group '" + std::string(group) + "' is not a dotted IPv4 address");
+  if (octets[0] < 224 || octets[0] > 239) {
+    ThrowUrlError(url, "group '" + std::string(group) + "' is not an IPv4 multicast address (224.0.0.0/4)");
+  }
+  long long port = 0;
+  if (!ParseDecimal(address.substr(colon + 1), 1, 65535, port)) ThrowUrlError(url, "port is not 1-65535");
+
+  UdpmUrl out;
+  out.group = std::string(group);
+  out.port = static_cast<std::uint16_t>(port);
+  if (question == std::string_view::npos) return out;
+  if (query.empty()) ThrowUrlError(url, "empty query");
+
+  bool have_ttl = false, have_buf = false;
+  std::string_view pairs = query;
+  while (true) {
+    const std::size_t amp = pairs.find('&');
+    const std::string_view pair = pairs.substr(0, amp);
+    const std::size_t eq = pair.find('=');
+    if (eq == std::string_view::npos) ThrowUrlError(url, "query item '" + std::string(pair) + "' is not KEY=VALUE");
+    const std::string_view key = pair.substr(0, eq), value = pair.substr(eq + 1);
+    long long v = 0;
+    if (key == "ttl") {
+      if (have_ttl) ThrowUrlError(url, "ttl given twice");
+      if (!ParseDecimal(value, 0, 255, v)) ThrowUrlError(url, "ttl '" + std::string(value) + "' is not 0-255");
+      out.ttl = static_cast<int>(v);
+      have_ttl = true;
+    } else if (key == "recv_buf_size") {
+      if (have_buf) ThrowUrlError(url, "recv_buf_size given twice");
+      if (!ParseDecimal(value, 1, std::numeric_limits<int>::max(), v)) {
+        ThrowUrlError(url, "recv_buf_size '" + std::string(value) + "' is not a positive byte count");
+      }
+      out.recv_buf_size = static_cast<int>(v);
+      have_buf = true;
+    } else {
+      ThrowUrlError(url, "unknown option '" + std::string(key) + "'");
+    }
+    if (amp == std::string_view::npos) break;
+    pairs.remove_prefix(amp + 1);
+  }
+  return out;
+}
+
+Datagram ParseDatagram(const std::uint8_t* data, std::size_t size) {
+  Datagram d;  // kMalformed
+  if (data == nullptr || size < 4) return d;
+  const std::uint32_t magic = ReadBigEndian32(data);
+  if (magic == kFragmentMagic) {
+    d.kind = Datagram::Kind::kFragment;  // never reassembled: nothing past the magic is read
+    return d;
+  }
+  if (magic != kShortMagic || size < kHeaderSize) return d;
+  if (size > kMaxDatagramSize) {
+    d.kind = Datagram::Kind::kOversized;
+    return d;
+  }
+  const std::uint8_t* channel = data + kHeaderSize;
+  const std::size_t searchable = std::min(size - kHeaderSize, kMaxChannelLength + 1);
+  const void* nul = std::memchr(channel, '\0', searchable);
+  if (nul == nullptr) return d;  // not terminated within LCM's 63-byte limit
+  const std::size_t channel_size = static_cast<std::size_t>(static_cast<const std::uint8_t*>(nul) - channel);
+  const std::size_t payload_offset = kHeaderSize + channel_size + 1;
+  d.payload_size = size - payload_offset;
+  if (d.payload_size > kMaxMessageSize) {
+    d.payload_size = 0;
+    d.kind = Datagram::Kind::kOversized;
+    return d;
+  }
+  d.kind = Datagram::Kind::kMessage;
+  d.channel = std::string_view(reinterpret_cast<const char*>(channel), channel_size);
+  d.payload = data + payload_offset;
+  return d;
+}
+
+bool FormatDatagram(std::uint32_t seqno, std::string_view channel, const void* payload, std::size_t size,
+                    std::uint8_t* out, std::size_t capacity, std::size_t& written) {
+  written = 0;
+  if (!ChannelFits(channel) || (payload == nullptr && size > 0)) return false;
+  if (out == nullptr || size > capacity || capacity - size < kHeaderSize + channel.size() + 1) return false;
+  WriteBigEndian32(kShortMagic, out);
+  WriteBigEndian32(seqno, out + 4);
+  std::memcpy(out + kHeaderSize, channel.data(), channel.size());
+  out[kHeaderSize + channel.size()] = 0;
+  if (size > 0) std::memcpy(out + kHeaderSize + channel.size() + 1, payload, size);
+  written = kHeaderSize + channel.size() + 1 + size;
+  return true;
+}
+
+bool InProcessBus::Publish(std::string_view channel, const void* data, std::size_t size) {
+  if (size > kMaxMessageSize || !ChannelFits(channel) || (data == nullptr && size > 0)) {
+    ++stats_.send_failures;
+    return false;
+  }
+  std::vector<std::uint8_t> bytes(kHeaderSize + channel.size() + 1 + size);
+  std::size_t written = 0;
+  FormatDatagram(seqno_++, channel, data, size, bytes.data(), bytes.size(), written);
+  queue_.push_back({std::move(bytes)});
+  return true;
+}
+
+void InProcessBus::Subscribe(const std::string& channel, Handler handler) {
+  subscriptions_.emplace_back(channel, std::move(handler));
+}
+
+void InProcessBus::InjectDatagram(const void* data, std::size_t size) {
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  queue_.push_back({size > 0 ? std::vector<std::uint8_t>(p, p + size) : std::vector<std::uint8_t>{}});
+}
+
+int InProcessBus::Drain(int max) {
+  int read = 0;
+  while (read < max && !queue_.empty()) {
+    // Moved out first: a handler may publish into this same bus.
+    const std::vector<std::uint8_t> bytes = std::move(queue_.front().bytes);
+    queue_.pop_front();
+    ++read;
+    Dispatch(subscriptions_, bytes.data(), bytes.size(), stats_);
+  }
+  return read;
+}
+
+int InProcessBus::Handle(int /*timeout_ms*/) { return Drain(1024); }
+
+std::unique_ptr<Bus> OpenBus(const std::string& url) {
+  if (url.rfind("udpm://", 0) == 0) return std::make_unique<UdpmBus>(url, ParseUdpmUrl(url));
+  if (url == "inprocess://") return std::make_unique<InProcessBus>();
+  throw BusUrlError("LCM URL '" + url +
+                    "': lagrange speaks only udpm://GROUP:PORT?ttl=N (and inprocess:// in tests); see "
+                    "docs/lcm-fragment-bug.md, 'Why lagrange has its own LCM transport'");
+}
+
+}  // namespace lagrange

@@ -1,0 +1,163 @@
+#pragma once
+// The message bus lagranged and lagrangectl receive and send through.
+//
+// Why not lcm::LCM: LCM 1.3.1's UDP-multicast provider (Debian's liblcm1, and
+// upstream still) reassembles fragmented messages with 32-bit bounds checks
+// that wrap: a crafted fragment (after a first fragment from the same sender)
+// makes it write 4 GiB past a buffer or copy 4 GiB (SIGSEGV), and a first
+// fragment may declare a 256 MiB message that it allocates and keeps. See
+// docs/lcm-fragment-bug.md. UdpmBus speaks LCM's wire format itself for the
+// short, unfragmented messages lagrange uses (LC02, all well under
+// kMaxMessageSize) into one fixed buffer, and drops and counts every
+// fragment (LC03), so lcm-logger, lcm-spy and lcm-logplayer still
+// interoperate with it on the same group and port.
+//
+// URLs: udpm://GROUP:PORT?ttl=N (GROUP an IPv4 multicast address, PORT
+// 1-65535, N 0-255; recv_buf_size=BYTES optional) and, for deterministic
+// tests in one process, inprocess:// (an InProcessBus). Anything else is
+// refused with a BusError naming the URL and what was expected.
+//
+// Threads: subscribe before the bus is shared. After that one thread may
+// Publish while another receives (Handle/Drain); neither may be called from
+// two threads at once.
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace lagrange {
+
+// The largest message lagrange sends or accepts, bytes of payload. Larger
+// ones are refused before any allocation and counted.
+inline constexpr std::size_t kMaxMessageSize = 16 * 1024;
+
+struct BusError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+// A URL that is not one this bus takes (its syntax, or another provider's):
+// the caller's mistake rather than the system's, so lagrangectl treats it as
+// a bad argument (exit 2).
+struct BusUrlError : BusError {
+  using BusError::BusError;
+};
+
+// A parsed udpm:// URL.
+struct UdpmUrl {
+  std::string group;  // dotted IPv4 multicast address
+  std::uint16_t port = 0;
+  int ttl = 0;            // 0: this host only
+  int recv_buf_size = 0;  // SO_RCVBUF request, bytes; 0: the system default
+};
+// Parses `url`; throws BusUrlError ("LCM URL 'X': <what is wrong>; expected udpm://GROUP:PORT?ttl=0..255...").
+// Strict: decimal digits only, no default port; a missing ttl is 0 (LCM's default);
+// unknown or repeated query keys are refused.
+UdpmUrl ParseUdpmUrl(const std::string& url);
+
+// What a bus dropped or could not do, totals since it opened.
+struct BusStats {
+  std::int64_t received = 0;           // datagrams read
+  std::int64_t delivered = 0;          // messages handed to a handler
+  std::int64_t fragments_dropped = 0;  // LC03 fragments (never reassembled)
+  std::int64_t malformed = 0;          // not an LCM datagram: short, bad magic, channel not terminated or too long
+  std::int64_t oversized = 0;          // datagrams over kMaxMessageSize (truncated by the kernel into our buffer)
+  std::int64_t kernel_drops = 0;       // datagrams the kernel dropped for a full receive buffer (SO_RXQ_OVFL)
+  std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
+};
+
+class Bus {
+ public:
+  // One message: channel name and payload (an LCM-encoded type). The views
+  // are valid only during the call.
+  using Handler = std::function<void(std::string_view channel, const std::uint8_t* data, std::size_t size)>;
+
+  virtual ~Bus() = default;
+
+  // Sends one message without blocking. False (and counted) when it is larger
+  // than kMaxMessageSize, the channel is longer than 63 bytes, or the send failed.
+  virtual bool Publish(std::string_view channel, const void* data, std::size_t size) = 0;
+
+  // Calls `handler` for every message on exactly `channel`. Before sharing the bus.
+  // UdpmBus opens its receive socket at the first Subscribe (a publish-only bus
+  // has none) and throws BusError there if bind or the group membership fails.
+  virtual void Subscribe(const std::string& channel, Handler handler) = 0;
+
+  // A file descriptor that polls readable when Drain has work; -1 when none
+  // (InProcessBus: Drain whenever).
+  virtual int fd() const = 0;
+  // Handles every message already waiting, at most `max` datagrams; never blocks.
+  // Returns the number of datagrams read.
+  virtual int Drain(int max = 1024) = 0;
+  // Waits up to `timeout_ms` for messages, then drains. Returns datagrams read.
+  virtual int Handle(int timeout_ms) = 0;
+
+  virtual BusStats stats() const = 0;
+
+  // Encodes an LCM type into a reusable buffer and publishes it.
+  template <class Message>
+  bool PublishMessage(std::string_view channel, const Message& message) {
+    const int size = message.getEncodedSize();
+    if (size < 0 || static_cast<std::size_t>(size) > kMaxMessageSize)
+      return Publish(channel, nullptr, kMaxMessageSize + 1);
+    encode_buffer_.resize(static_cast<std::size_t>(size));
+    if (message.encode(encode_buffer_.data(), 0, size) != size) return Publish(channel, nullptr, kMaxMessageSize + 1);
+    return Publish(channel, encode_buffer_.data(), encode_buffer_.size());
+  }
+
+ private:
+  std::vector<std::uint8_t> encode_buffer_;
+};
+
+// Opens a bus for `url` (see above); throws BusError with one line naming the
+// URL and the reason (socket, bind or multicast membership failed), a
+// BusUrlError for a bad URL.
+std::unique_ptr<Bus> OpenBus(const std::string& url);
+
+// A bus inside one process: Publish queues, Drain delivers in order to the
+// subscribers of this same object. Every count is exact; for tests.
+class InProcessBus final : public Bus {
+ public:
+  bool Publish(std::string_view channel, const void* data, std::size_t size) override;
+  void Subscribe(const std::string& channel, Handler handler) override;
+  int fd() const override { return -1; }
+  int Drain(int max = 1024) override;
+  int Handle(int timeout_ms) override;
+  BusStats stats() const override { return stats_; }
+
+  // Queues a raw datagram as UdpmBus would read it from the wire (LC02/LC03
+  // header included), to test the datagram parser without sockets.
+  void InjectDatagram(const void* data, std::size_t size);
+
+ private:
+  struct Datagram {
+    std::vector<std::uint8_t> bytes;
+  };
+  std::deque<Datagram> queue_;
+  std::vector<std::pair<std::string, Handler>> subscriptions_;
+  BusStats stats_;
+  std::uint32_t seqno_ = 0;
+};
+
+// LCM's datagram format, written once for UdpmBus and InProcessBus.
+//   short message:  "LC02" (u32 BE 0x4c433032), seqno u32 BE, channel NUL-terminated, payload
+//   fragment:       "LC03" (0x4c433033), ... (dropped and counted, never parsed further)
+struct Datagram {
+  enum class Kind : std::uint8_t { kMessage, kFragment, kMalformed, kOversized };
+  Kind kind = Kind::kMalformed;
+  std::string_view channel;
+  const std::uint8_t* payload = nullptr;
+  std::size_t payload_size = 0;
+};
+// Classifies `size` bytes read from the wire. Never reads outside [data, data + size).
+Datagram ParseDatagram(const std::uint8_t* data, std::size_t size);
+// Writes an LC02 datagram for (seqno, channel, payload) into `out`; false (nothing written) when it
+// would exceed `capacity` or the channel is longer than 63 bytes or holds a NUL.
+bool FormatDatagram(std::uint32_t seqno, std::string_view channel, const void* payload, std::size_t size,
+                    std::uint8_t* out, std::size_t capacity, std::size_t& written);
+
+}  // namespace lagrange

@@ -1,0 +1,52 @@
+#pragma once
+// LCM channel names, written once for lagranged and lagrangectl: instance
+// `arm` uses ARM_STATE, ARM_SETPOINT, ARM_COMMAND, ARM_REPLY, ARM_TELEMETRY
+// and ARM_FORCES; the daemon
+// publishes LAGRANGE_STATUS. A prefix P is prepended to every channel, so
+// several daemons share one bus.
+
+#include <string>
+#include <vector>
+
+namespace lagrange {
+
+inline constexpr const char* kStateSuffix = "_STATE";
+inline constexpr const char* kSetpointSuffix = "_SETPOINT";
+inline constexpr const char* kCommandSuffix = "_COMMAND";
+inline constexpr const char* kReplySuffix = "_REPLY";
+inline constexpr const char* kTorqueSuffix = "_TORQUE";
+inline constexpr const char* kTelemetrySuffix = "_TELEMETRY";
+inline constexpr const char* kForcesSuffix = "_FORCES";
+inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
+
+// prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
+std::string InstanceChannel(const std::string& prefix, const std::string& instance, const char* suffix);
+
+struct ChannelNames {
+  std::vector<std::string> state, setpoint, command, reply;  // one per instance
+  std::vector<std::string> telemetry, forces;                // one per instance (outputs)
+  // One per instance, "" where the instance has none:
+  std::vector<std::string> torque_in;     // an external controller's torques (derived, or as the scene wrote it)
+  std::vector<std::string> measured_in;   // an external plant's measured state (as written)
+  std::vector<std::string> torque_out;    // an external plant's torque command (as written)
+  std::string status;
+};
+
+// The derived names only (torque_in, measured_in, torque_out all ""); a
+// scene's own names are daemon/scene_channels.hpp's.
+ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix);
+
+// Why this set of channels cannot work (an input that is one of this run's
+// outputs, an output two instances share), or "" when it can.
+std::string CheckChannelNames(const ChannelNames& channels, const std::vector<std::string>& instance_names);
+// A channel name a scene may write: 1-63 bytes of printable ASCII without
+// spaces. "" when valid, else what was expected.
+std::string CheckChannelName(const std::string& channel);
+
+// The default LCM URL when neither --lcm-url nor LCM_DEFAULT_URL is given.
+inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+// --lcm-url if given, else $LCM_DEFAULT_URL, else kDefaultLcmUrl.
+std::string ResolveLcmUrl(const std::string& option);
+
+}  // namespace lagrange

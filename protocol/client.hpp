@@ -1,0 +1,125 @@
+#pragma once
+// The client side of talking to a daemon: where to find it (LinkOptions),
+// and a link to one lagranged run that trusts nothing it has not seen
+// consistently (DaemonLink). lagrangectl's live commands use it, as the
+// Python module and the viewer are to.
+//
+// The bus is hostile: anyone on it can publish an instance's state, the
+// status or a reply. So every packet is size-checked before it is decoded
+// (protocol/wire.hpp), every string is escaped before it is printed, and a
+// command or setpoint stream acts only when exactly one lagranged run (one
+// run_id) publishes the instance's state; success is reported only from a
+// reply of that run carrying the sender's own request_id.
+
+#include <lagrange/reply_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "protocol/bus.hpp"
+
+namespace lagrange {
+
+// Where a client finds a daemon, and how long it waits for one.
+struct LinkOptions {
+  std::string lcm_url;         // "" → $LCM_DEFAULT_URL → udpm://239.255.76.67:7667?ttl=0
+  std::string channel_prefix;  // as given to lagranged --channel-prefix
+  double wait = 3.0;           // s to wait for the daemon before giving up
+
+  // lcm_url resolved (ResolveLcmUrl, protocol/channels.hpp).
+  std::string Url() const;
+  // PREFIX + NAME_UPPER + suffix (protocol/channels.hpp).
+  std::string Channel(const std::string& instance, const char* suffix) const;
+  std::string StatusChannel() const;
+  // Opens the bus: BusUrlError for a malformed URL (worded by ParseUdpmUrl), a
+  // BusError when it cannot be opened.
+  std::unique_ptr<Bus> Open() const;
+};
+
+// How long a client listens to an instance before acting, so that a second
+// run publishing on the same channel (two daemons, or a spoofer) shows.
+inline constexpr double kRunWindow = 0.3;  // s after the first state
+
+// Listens to one instance's state and reply channels and the status channel
+// on the caller's thread, keeping the latest message of each run id.
+class DaemonLink {
+ public:
+  // Opens the bus (options.Open(): BusUrlError, BusError) and subscribes.
+  DaemonLink(const LinkOptions& options, const std::string& instance);
+  DaemonLink(const DaemonLink&) = delete;
+  DaemonLink& operator=(const DaemonLink&) = delete;
+
+  Bus& bus() { return *bus_; }
+
+  // Waits up to options.wait for the instance's first state, listens kRunWindow
+  // longer, and returns the one run id that published it. Throws a one-line
+  // error when none came, or "two lagranged runs publish X (ids A and B):
+  // refusing to act" when several did.
+  std::int64_t AwaitOneRun();
+  // Throws the two-runs error if a second run has published the instance's
+  // state since; `doing` ends the message ("refusing to act").
+  void RequireOneRun(const std::string& doing) const;
+  std::int64_t run_id() const { return run_id_; }
+
+  // The latest state of the run (after AwaitOneRun), and how many came.
+  const state_t& state() const;
+  std::int64_t states_received() const;
+  // When the run's latest state arrived, on the steady clock.
+  std::chrono::steady_clock::time_point state_received_at() const;
+
+  // Waits up to options.wait for a status from the run; throws a one-line error.
+  const status_t& AwaitStatus();
+  const std::optional<status_t>& status() const { return status_; }
+  std::int64_t statuses_received() const { return statuses_received_; }
+
+  // Collects replies carrying `request_id` from now on.
+  void ExpectReply(std::int64_t request_id) { request_id_ = request_id; }
+  // The run's reply to the expected request, once it came.
+  const std::optional<reply_t>& reply() const { return reply_; }
+
+  // Handles messages for `seconds`.
+  void Pump(double seconds);
+  // Handles messages until `done` holds or `seconds` pass; returns whether it held.
+  template <class Predicate>
+  bool PumpUntil(Predicate done, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (!done()) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now >= end) return false;
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - now).count();
+      bus_->Handle(static_cast<int>(std::min<std::int64_t>(left, 10)));
+    }
+    return true;
+  }
+
+ private:
+  struct Seen {
+    state_t state;
+    std::chrono::steady_clock::time_point received;
+    std::int64_t count = 0;
+  };
+  void OnState(const std::uint8_t* data, std::size_t size);
+  void OnStatus(const std::uint8_t* data, std::size_t size);
+  void OnReply(const std::uint8_t* data, std::size_t size);
+  std::string TwoRunsMessage(const std::string& doing) const;
+
+  LinkOptions options_;
+  std::string instance_;
+  std::string state_channel_;
+  std::unique_ptr<Bus> bus_;
+  std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
+  std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
+  bool have_run_ = false;
+  std::optional<status_t> status_;  // the run's latest
+  std::int64_t statuses_received_ = 0;
+  std::int64_t request_id_ = 0;
+  std::optional<reply_t> reply_;
+};
+
+}  // namespace lagrange

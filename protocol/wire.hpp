@@ -1,0 +1,64 @@
+#pragma once
+// Checking LCM packets before decoding them. The generated decoders trust
+// array lengths written in the packet; a crafted length could make them
+// allocate gigabytes. These functions walk the wire layout of our types and
+// accept a packet only if its fingerprint matches and its size is exactly
+// what its own length fields imply, within kMaxDofs.
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace lagrange {
+
+enum class WireCheck : std::uint8_t { kOk, kTooShort, kFingerprint, kBadLength, kSizeMismatch };
+
+// A packet's LCM fingerprint (its first 8 bytes, big-endian); 0 when shorter.
+std::int64_t Fingerprint(const void* data, std::size_t size);
+
+// lagrange's message types, told apart by their fingerprints.
+enum class MessageType : std::uint8_t {
+  kUnknown,  // another type's fingerprint, or shorter than one
+  kState,
+  kSetpoint,
+  kCommand,
+  kReply,
+  kStatus,
+  kTorque,
+  kTelemetry,
+  kForces,
+};
+// A packet's type by its fingerprint alone: the layout is the Check*Packet functions' to check.
+MessageType TypeOf(const void* data, std::size_t size);
+// The LCM type's name ("state_t", ...); "?" for kUnknown.
+const char* ToString(MessageType type);
+// The run id of a state_t, status_t, reply_t or torque_t packet (each begins:
+// fingerprint, utime, run_id); nullopt for another type or a short packet.
+std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
+const char* ToString(WireCheck check);
+
+// setpoint_t: fingerprint, utime, num_dofs, 3 × num_dofs doubles.
+WireCheck CheckSetpointPacket(const void* data, std::size_t size);
+// command_t: fingerprint, utime, request_id, command, controller (string), num_gains, 2 × num_gains doubles,
+// setting (string), substeps, rtol, atol, max_steps, on.
+WireCheck CheckCommandPacket(const void* data, std::size_t size);
+// torque_t: fingerprint, utime, run_id, sequence, state_tick, num_dofs (<= kMaxDofs), num_dofs doubles.
+WireCheck CheckTorquePacket(const void* data, std::size_t size);
+
+// What a client (lagrangectl, protocol/client.hpp) receives, checked the same way before decoding.
+// state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
+WireCheck CheckStatePacket(const void* data, std::size_t size);
+// status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
+// joint counts, reasons, integrators, methods, effects and forces flags, num_joints (≤ kMaxStatusJoints) joint names.
+inline constexpr std::int32_t kMaxStatusInstances = 1024;
+inline constexpr std::int32_t kMaxStatusJoints = 4096;
+WireCheck CheckStatusPacket(const void* data, std::size_t size);
+// telemetry_t: every fixed field and its two strings.
+WireCheck CheckTelemetryPacket(const void* data, std::size_t size);
+// forces_t: the fixed fields, num_dofs (≤ kMaxDofs), 8 × num_dofs doubles.
+WireCheck CheckForcesPacket(const void* data, std::size_t size);
+// reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
+WireCheck CheckReplyPacket(const void* data, std::size_t size);
+
+}  // namespace lagrange

@@ -1,0 +1,53 @@
+// Channel names (protocol/channels.hpp): derived from the instance's name in
+// upper case under a prefix, a name a scene may write, and which LCM URL is
+// used. Scenes' own channels and the conflicts between them are
+// tests/daemon/external_scene_test's.
+
+#include "protocol/channels.hpp"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <string>
+
+namespace lagrange {
+namespace {
+
+TEST(Channels, AnInstancesChannelsAreItsNameInUpperCaseUnderThePrefix) {
+  EXPECT_EQ(InstanceChannel("", "arm", kStateSuffix), "ARM_STATE");
+  EXPECT_EQ(InstanceChannel("LEFT_", "chain_7", kSetpointSuffix), "LEFT_CHAIN_7_SETPOINT");
+  const ChannelNames c = MakeChannelNames({"arm", "pole"}, "P_");
+  EXPECT_EQ(c.command, (std::vector<std::string>{"P_ARM_COMMAND", "P_POLE_COMMAND"}));
+  EXPECT_EQ(c.reply[1], "P_POLE_REPLY");
+  EXPECT_EQ(c.telemetry[0], "P_ARM_TELEMETRY");
+  EXPECT_EQ(c.forces[1], "P_POLE_FORCES");
+  EXPECT_EQ(c.status, "P_LAGRANGE_STATUS");
+  EXPECT_EQ(c.torque_in, (std::vector<std::string>{"", ""}));  // a scene's to name
+}
+
+TEST(Channels, AWrittenNameIsOneTo63PrintableBytesWithoutSpaces) {
+  EXPECT_EQ(CheckChannelName("MY_TORQUE"), "");
+  EXPECT_EQ(CheckChannelName(std::string(63, 'X')), "");
+  EXPECT_EQ(CheckChannelName(""), "expected an LCM channel name of 1 to 63 bytes, got 0");
+  EXPECT_EQ(CheckChannelName(std::string(64, 'X')), "expected an LCM channel name of 1 to 63 bytes, got 64");
+  EXPECT_EQ(CheckChannelName("A B"), "expected an LCM channel name of printable ASCII without spaces, got 'A B'");
+  EXPECT_EQ(CheckChannelName("A\nB"), "expected an LCM channel name of printable ASCII without spaces, got 'A\\nB'");
+}
+
+TEST(Channels, TheUrlIsTheOptionElseTheEnvironmentElseTheDefault) {
+  const char* saved = getenv("LCM_DEFAULT_URL");
+  const std::string restore = saved ? saved : "";
+  unsetenv("LCM_DEFAULT_URL");
+  EXPECT_EQ(ResolveLcmUrl(""), kDefaultLcmUrl);
+  setenv("LCM_DEFAULT_URL", "udpm://239.255.76.67:7001?ttl=0", 1);
+  EXPECT_EQ(ResolveLcmUrl(""), "udpm://239.255.76.67:7001?ttl=0");
+  EXPECT_EQ(ResolveLcmUrl("udpm://239.255.76.67:7002?ttl=0"), "udpm://239.255.76.67:7002?ttl=0");
+  if (saved) {
+    setenv("LCM_DEFAULT_URL", restore.c_str(), 1);
+  } else {
+    unsetenv("LCM_DEFAULT_URL");
+  }
+}
+
+}  // namespace
+}  // namespace lagrange

@@ -1,0 +1,17 @@
+#pragma once
+// lagrangectl's options for reaching a daemon (--lcm-url, --channel-prefix,
+// --wait): the client's LinkOptions (protocol/client.hpp) as CLI11 flags. A
+// malformed URL surfaces as a BusUrlError, which lagrangectl reports as a bad
+// argument (exit 2).
+
+#include <CLI/CLI.hpp>
+
+#include "protocol/client.hpp"
+
+namespace lagrange::cli {
+
+struct BusOptions : LinkOptions {
+  void AddTo(CLI::App& app);
+};
+
+}  // namespace lagrange::cli
