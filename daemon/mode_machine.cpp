@@ -1,0 +1,161 @@
+#include "daemon/mode_machine.hpp"
+
+namespace lagrange {
+namespace {
+
+// Outcome helpers: `s` becomes `mode` for `reason`, entered anew.
+ModeOutcome Enter(ModeState s, Mode mode, const char* reason) {
+  s.mode = mode;
+  s.reason = reason;
+  return {s, nullptr, true};
+}
+ModeOutcome Stay(const ModeState& s) { return {s, nullptr, false}; }
+ModeOutcome Refuse(const ModeState& s, const char* why) { return {s, why, false}; }
+
+bool Commanding(Mode m) { return m == Mode::kRunning || m == Mode::kHold; }
+
+// Leaving a mode that ignored the setpoints: running, or hold when the
+// streamed setpoint it would follow has already timed out.
+ModeOutcome RunOrHold(const ModeState& s, const ModeContext& c) {
+  if (c.setpoints_timed_out) return Enter(s, Mode::kHold, kSetpointsTimedOut);
+  ModeState next = s;
+  next.mode = Mode::kRunning;
+  next.reason = nullptr;
+  return {next, nullptr, s.mode != Mode::kRunning};
+}
+
+// An external plant re-armed: waiting for its first fresh state.
+ModeOutcome Rearm(ModeState s) {
+  return Enter(s, Mode::kWaiting, s.estop_latched ? kWaitingEstopLatched : kWaitingForState);
+}
+
+ModeOutcome OnEstop(ModeState s) {
+  if (s.mode == Mode::kFault) return Refuse(s, kEstopWhileFaulted);
+  s.estop_latched = true;
+  s.hold_on_arrival = false;
+  // An external plant that commands nothing keeps its mode; its first fresh
+  // state after re-arming then brakes instead of running.
+  if (s.mode == Mode::kStopped) return Stay(s);
+  if (s.mode == Mode::kWaiting) {
+    s.reason = kWaitingEstopLatched;
+    return Stay(s);
+  }
+  return Enter(s, Mode::kEstop, kEstopped);
+}
+
+ModeOutcome OnClearEstop(ModeState s) {
+  if (s.mode == Mode::kStopped) return Rearm(s);  // the watchdog re-armed; a latched estop stays
+  if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
+    s.estop_latched = false;
+    s.hold_on_arrival = true;
+    s.reason = kWaitingForState;
+    return Stay(s);
+  }
+  if (s.mode != Mode::kEstop) return Refuse(s, kClearWithoutEstop);
+  s.estop_latched = false;
+  return Enter(s, Mode::kHold, kLeftEstop);
+}
+
+// The instance is back at its initial state; reset keeps a latched estop.
+ModeOutcome OnReset(ModeState s, const ModeContext& c) {
+  s.hold_on_arrival = false;
+  if (c.external_plant) return Rearm(s);
+  if (s.estop_latched) return Enter(s, Mode::kEstop, kEstopped);
+  if (c.external_controller) return Enter(s, Mode::kHold, kNoTorqueYet);  // until its first torque
+  s.mode = Mode::kRunning;
+  s.reason = nullptr;
+  return {s, nullptr, true};
+}
+
+ModeOutcome OnPause(ModeState s, const ModeContext& c) {
+  if (c.external_plant) return Refuse(s, kPauseExternalPlant);
+  if (!Commanding(s.mode)) return Refuse(s, kPauseNotRunning);
+  s.before_pause = s.mode;
+  s.paused_reason = s.reason;
+  return Enter(s, Mode::kPaused, kPausedByCommand);
+}
+
+ModeOutcome OnResume(ModeState s) {
+  if (s.mode != Mode::kPaused) return Refuse(s, kResumeNotPaused);
+  s.mode = s.before_pause;  // as it was: a hold keeps the position it held
+  s.reason = s.paused_reason;
+  return Stay(s);
+}
+
+bool TorqueHold(const ModeState& s) {
+  return s.mode == Mode::kHold && (s.reason == kTorquesTimedOut || s.reason == kNoTorqueYet);
+}
+
+ModeOutcome OnControllerSwitched(const ModeState& s, const ModeContext& c) {
+  if (c.external_controller) {  // hold until its first torque
+    return Commanding(s.mode) ? Enter(s, Mode::kHold, kNoTorqueYet) : Stay(s);
+  }
+  if (TorqueHold(s)) return RunOrHold(s, c);  // the torque stream no longer matters: the setpoints decide
+  return Stay(s);
+}
+
+// Streamed setpoints (or, under an external controller, torques) resume a hold.
+ModeOutcome Resume(ModeState s) {
+  if (s.mode != Mode::kHold) return Stay(s);
+  s.mode = Mode::kRunning;
+  s.reason = nullptr;
+  return {s, nullptr, true};
+}
+
+ModeOutcome OnMeasuredArrived(ModeState s, const ModeContext& c) {
+  if (s.mode != Mode::kWaiting) return Stay(s);
+  const bool hold = s.hold_on_arrival;
+  s.hold_on_arrival = false;
+  if (s.estop_latched) return Enter(s, Mode::kEstop, kEstopped);
+  if (hold) return Enter(s, Mode::kHold, kLeftEstop);
+  return RunOrHold(s, c);
+}
+
+// The watchdog: a measured state that cannot be used stops an external plant.
+ModeOutcome OnMeasuredProblem(const ModeState& s, ModeEvent e) {
+  if (s.mode == Mode::kStopped || s.mode == Mode::kFault) return Stay(s);
+  switch (e) {
+    case ModeEvent::kMeasuredTimedOut:
+      return s.mode == Mode::kWaiting ? Stay(s) : Enter(s, Mode::kStopped, kMeasuredTimedOut);
+    case ModeEvent::kMeasuredNotFinite: return Enter(s, Mode::kStopped, kMeasuredNotFinite);
+    case ModeEvent::kMeasuredWrongSize: return Enter(s, Mode::kStopped, kMeasuredWrongSize);
+    default:  // a second source: nothing is locked onto while waiting
+      return s.mode == Mode::kWaiting ? Stay(s) : Enter(s, Mode::kStopped, kMeasuredSecondSource);
+  }
+}
+
+}  // namespace
+
+ModeOutcome Transition(const ModeState& s, ModeEvent e, const ModeContext& c) {
+  switch (e) {
+    case ModeEvent::kStart: {
+      ModeState first;
+      if (c.external_plant) return Enter(first, Mode::kWaiting, kWaitingForState);
+      if (c.external_controller) return Enter(first, Mode::kHold, kNoTorqueYet);
+      return {first, nullptr, true};
+    }
+    case ModeEvent::kEstop: return OnEstop(s);
+    case ModeEvent::kClearEstop: return OnClearEstop(s);
+    case ModeEvent::kReset: return OnReset(s, c);
+    case ModeEvent::kPause: return OnPause(s, c);
+    case ModeEvent::kResume: return OnResume(s);
+    case ModeEvent::kControllerSwitched: return OnControllerSwitched(s, c);
+    case ModeEvent::kSetpointArrived: return c.external_controller ? Stay(s) : Resume(s);
+    case ModeEvent::kSetpointsTimedOut:
+      if (c.external_controller || s.mode != Mode::kRunning) return Stay(s);
+      return Enter(s, Mode::kHold, kSetpointsTimedOut);
+    case ModeEvent::kTorqueArrived: return c.external_controller ? Resume(s) : Stay(s);
+    case ModeEvent::kTorquesTimedOut:
+      if (!c.external_controller || s.mode != Mode::kRunning) return Stay(s);
+      return Enter(s, Mode::kHold, kTorquesTimedOut);
+    case ModeEvent::kMeasuredArrived: return OnMeasuredArrived(s, c);
+    case ModeEvent::kMeasuredTimedOut:
+    case ModeEvent::kMeasuredNotFinite:
+    case ModeEvent::kMeasuredWrongSize:
+    case ModeEvent::kMeasuredSecondSource: return OnMeasuredProblem(s, e);
+    case ModeEvent::kFault: return Enter(s, Mode::kFault, c.fault);
+  }
+  return Stay(s);
+}
+
+}  // namespace lagrange
