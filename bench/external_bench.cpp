@@ -850,16 +850,19 @@ void PrintSummary(const json& j) {
 
 // The two scenes' channels, as lagranged derives them, and whether they meet.
 std::optional<Channels> LoopChannels(const Scene& plant, const Scene& controller, std::string& problem) {
-  const ChannelNames p = SceneChannelNames(plant, "");
-  const ChannelNames c = SceneChannelNames(controller, kControllerPrefix);
-  if (plant.instances.size() != 1 || controller.instances.size() != 1 || p.torque_in[0].empty() ||
-      c.measured_in[0] != p.state[0] || c.torque_out[0] != p.torque_in[0]) {
+  if (plant.instances.size() != 1 || controller.instances.size() != 1) {
+    problem = "the scenes do not close a loop: expected one instance each";
+    return std::nullopt;
+  }
+  const InstanceChannelNames p = SceneChannelNames(plant.instances[0], "");
+  const InstanceChannelNames c = SceneChannelNames(controller.instances[0], kControllerPrefix);
+  if (p.torque_in.empty() || c.measured_in != p.state || c.torque_out != p.torque_in) {
     problem =
         "the scenes do not close a loop: the plant must publish what the controller reads, and read what it "
         "writes (one instance each)";
     return std::nullopt;
   }
-  return Channels{p.state[0], p.torque_in[0], p.status, c.status};
+  return Channels{p.state, p.torque_in, StatusChannel(""), StatusChannel(kControllerPrefix)};
 }
 
 int Main(int argc, char** argv) {

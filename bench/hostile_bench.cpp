@@ -113,9 +113,9 @@ struct Options {
   int rt_priority = 0;    // > 0: the daemon with --mlockall --rt-priority
 };
 
-// The default scene's channels: instance 0 is the arm, 1 the cart-pole.
-const ChannelNames kChannels = MakeChannelNames({"arm", "cartpole"}, "");
-constexpr std::size_t kArm = 0, kCartpole = 1;
+// The default scene's channels: the arm's and the cart-pole's.
+const InstanceChannelNames kArm = DerivedChannelNames("", "arm"), kCartpole = DerivedChannelNames("", "cartpole");
+const std::string kStatus = StatusChannel("");
 constexpr const char* kLoggedChannels = "ARM_STATE|CARTPOLE_STATE|LAGRANGE_STATUS|ARM_REPLY|CARTPOLE_REPLY";
 // Request ids of the estops and clears carry this tag in their top 16 bits.
 constexpr std::int64_t kEstopTag = std::int64_t{0x4553} << 48;
@@ -200,7 +200,7 @@ constexpr std::uint64_t kRemakeEvery = 512;
 
 Traffic MakeTraffic(Case c, std::uint64_t generation) {
   Traffic t;
-  const std::string& setpoint = kChannels.setpoint[kArm];
+  const std::string& setpoint = kArm.setpoint;
   const std::int64_t now = WallMicros();
   const double hold = std::numbers::pi / 4;
   switch (c) {
@@ -241,7 +241,7 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
     case Case::kCommands: {
       t.remake = true;
       const std::int64_t id = static_cast<std::int64_t>(generation) * 8 + 1;
-      const std::string& command = kChannels.command[kArm];
+      const std::string& command = kArm.command;
       t.datagrams = {
           Lc02(1, command, Encode(Command(command_t::SWITCH_CONTROLLER, id, "pd"))),
           Lc02(2, command, Encode(Command(command_t::PAUSE, id + 1))),
@@ -252,7 +252,7 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
       break;
     }
     case Case::kFragments: {
-      const std::string& channel = kChannels.state[kArm];
+      const std::string& channel = kArm.state;
       const Bytes first = Lc03(7, 4096, 0, 0, 2, channel, 16, 0x11);
       Bytes shorter = Lc03(7, 4096, 2, 1, 2, "", 0, 0);  // 20 bytes of header ...
       shorter.resize(18);                                // ... cut to 18
@@ -278,7 +278,7 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
       spoof.num_dofs = 2;
       for (auto* v : {&spoof.q, &spoof.qd, &spoof.qdd, &spoof.tau, &spoof.q_des, &spoof.qd_des}) v->assign(2, 0.0);
       spoof.controller = "spoof";
-      t.datagrams.push_back(Lc02(15, kChannels.state[kArm], Encode(spoof)));
+      t.datagrams.push_back(Lc02(15, kArm.state, Encode(spoof)));
       break;
     }
   }
@@ -340,13 +340,13 @@ FloodResult Flood(Case c, int port, const std::atomic<bool>& stop) {
 class Observer {
  public:
   explicit Observer(const std::string& url) : bus_(OpenBus(WithReceiveBuffer(url))) {
-    bus_->Subscribe(kChannels.status,
+    bus_->Subscribe(kStatus,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-    bus_->Subscribe(kChannels.state[kArm],
+    bus_->Subscribe(kArm.state,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnArm(d, n); });
-    bus_->Subscribe(kChannels.state[kCartpole],
+    bus_->Subscribe(kCartpole.state,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnCartpole(d, n); });
-    bus_->Subscribe(kChannels.reply[kArm],
+    bus_->Subscribe(kArm.reply,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
   }
 
@@ -488,7 +488,7 @@ bool AwaitCondition(Done done, int timeout_ms) {
 std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, std::int64_t& next_id,
                               const std::atomic<bool>& stop) {
   std::unique_ptr<Bus> bus = OpenBus(input_url);
-  const std::string& channel = kChannels.command[kArm];
+  const std::string& channel = kArm.command;
   std::vector<Estop> estops;
   auto next = Clock::now() + std::chrono::milliseconds(250);
   while (!stop.load()) {
@@ -529,7 +529,7 @@ void Probe(const std::string& input_url, Observer& observer, const std::atomic<b
     std::this_thread::sleep_until(next);
     const double x = 1e-4 * static_cast<double>(k % 500 + 1);  // m
     observer.ProbeSent(x, MonotonicNs());
-    bus->PublishMessage(kChannels.setpoint[kCartpole], Setpoint(WallMicros(), {x, std::numbers::pi}));
+    bus->PublishMessage(kCartpole.setpoint, Setpoint(WallMicros(), {x, std::numbers::pi}));
   }
 }
 
@@ -623,7 +623,7 @@ CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::
   if (r.have_status) {
     r.a = *a;
     r.b = *b;
-    const auto ticks = ReadStateTicks(log, {kChannels.state[kArm], kChannels.state[kCartpole]}, observer.run_id());
+    const auto ticks = ReadStateTicks(log, {kArm.state, kCartpole.state}, observer.run_id());
     for (const auto& [channel, t] : ticks) r.lost[channel] = Lost(t, a->ticks, b->ticks);
   }
   fs::remove(log);
@@ -641,8 +641,8 @@ void WriteCases(const fs::path& path, const std::vector<CaseResult>& results) {
          "setpoints_rejected,commands_accepted,commands_rejected,decode_errors,datagrams_dropped_kernel,"
          "datagrams_malformed,fragments_dropped,foreign_messages,replies_suppressed\n";
   for (const CaseResult& r : results) {
-    const auto lost = [&](std::size_t i) {
-      const auto it = r.lost.find(kChannels.state[i]);
+    const auto lost = [&](const InstanceChannelNames& instance) {
+      const auto it = r.lost.find(instance.state);
       return it == r.lost.end() ? std::int64_t{-1} : it->second;
     };
     const auto count = [&](auto pred) { return std::count_if(r.estops.begin(), r.estops.end(), pred); };

@@ -310,13 +310,13 @@ struct Reply {
 // The arm's state (its run_id) and the replies to this program's commands, as they arrive.
 class Observer {
  public:
-  Observer(const std::string& url, const ChannelNames& ch, std::size_t arm) : bus_(OpenBus(url)) {
-    bus_->Subscribe(ch.state[arm], [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+  Observer(const std::string& url, const InstanceChannelNames& ch) : bus_(OpenBus(url)) {
+    bus_->Subscribe(ch.state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       state_t s;
       if (s.decode(d, 0, static_cast<int>(n)) < 0) return;
       if (run_id_.load() == 0) run_id_.store(s.run_id);
     });
-    bus_->Subscribe(ch.reply[arm], [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+    bus_->Subscribe(ch.reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
       if (r.decode(d, 0, static_cast<int>(n)) < 0) return;
       std::lock_guard<std::mutex> lock(mutex_);
@@ -407,12 +407,12 @@ struct LiveRun {
 LiveRun RunLive(const Options& o, const Scene& scene, std::size_t arm, const std::vector<Setting>& settings) {
   LiveRun r;
   const std::string url = Url(o.port);
-  const ChannelNames ch = SceneChannelNames(scene, "");
+  const InstanceChannelNames ch = SceneChannelNames(scene.instances[arm], "");
   const InstanceConfig& config = scene.instances[arm];
   const std::unique_ptr<Trajectory> sine = MakeSine(config.q0, VectorXd::Constant(config.q0.size(), kAmplitude),
                                                     VectorXd::Constant(config.q0.size(), kFrequency));
   const std::string logged =
-      ch.state[arm] + "|" + ch.setpoint[arm] + "|" + ch.command[arm] + "|" + ch.reply[arm] + "|" + ch.telemetry[arm];
+      ch.state + "|" + ch.setpoint + "|" + ch.command + "|" + ch.reply + "|" + ch.telemetry;
   r.load_before = LoadAverage();
   // A 4 MiB receive buffer (net.core.rmem_max on Debian's default): the logger, descheduled on a busy
   // machine, must not lose the states and setpoints the replay needs.
@@ -422,7 +422,7 @@ LiveRun RunLive(const Options& o, const Scene& scene, std::size_t arm, const std
     r.logger_exit = DescribeExit(logger.Stop().status);
     return r;
   }
-  Observer observer(url, ch, arm);
+  Observer observer(url, ch);
   std::atomic<bool> stop_receive{false}, stop_stream{false};
   std::thread receive([&] { observer.Run(stop_receive); });
   const pid_t daemon = Spawn(
@@ -430,17 +430,17 @@ LiveRun RunLive(const Options& o, const Scene& scene, std::size_t arm, const std
       o.File("lagranged_live.log"));
   std::thread stream;
   if (!Await([&] { return observer.run_id() != 0; }, 20.0)) {
-    r.problem = "lagranged published no " + ch.state[arm] + " (see lagranged_live.log)";
+    r.problem = "lagranged published no " + ch.state + " (see lagranged_live.log)";
   } else {
     r.run_id = observer.run_id();
-    stream = std::thread([&] { StreamSine(url, ch.setpoint[arm], *sine, config.plant.num_dofs(), stop_stream); });
+    stream = std::thread([&] { StreamSine(url, ch.setpoint, *sine, config.plant.num_dofs(), stop_stream); });
     std::this_thread::sleep_for(std::chrono::duration<double>(o.settle));
     std::unique_ptr<Bus> commands = OpenBus(url);
     std::mt19937_64 random{std::random_device{}()};
     for (const Setting& s : settings) {
       Switch sw;
       while (sw.request_id == 0) sw.request_id = static_cast<std::int64_t>(random() >> 1);
-      commands->PublishMessage(ch.command[arm], IntegratorCommand(s.config, sw.request_id));
+      commands->PublishMessage(ch.command, IntegratorCommand(s.config, sw.request_id));
       Await([&] { return observer.reply(sw.request_id).has_value(); }, kReplyTimeout);
       sw.reply = observer.reply(sw.request_id);
       r.switches.push_back(sw);
@@ -513,7 +513,7 @@ const LoggedSetpoint* LatestBefore(const Log& log, const LoggedState& state) {
   return latest != nullptr ? latest : &it->second.front();
 }
 
-Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::int64_t run_id) {
+Log ReadLog(const fs::path& file, const InstanceChannelNames& ch, std::int64_t run_id) {
   Log log;
   std::optional<LcmLogReader> in;
   try {
@@ -532,14 +532,14 @@ Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::
   while (const LcmLogEvent* e = in->Next()) {
     ++log.events;
     const int size = static_cast<int>(e->size);
-    if (e->channel == ch.state[arm]) {
+    if (e->channel == ch.state) {
       if (state.decode(e->data, 0, size) >= 0 && state.run_id == run_id) {
         log.states[state.tick] = {state.utime, vec(state.q), vec(state.qd),
                                   Key(state.q_des.data(), state.q_des.size())};
       }
       continue;
     }
-    if (e->channel == ch.setpoint[arm]) {
+    if (e->channel == ch.setpoint) {
       if (setpoint.decode(e->data, 0, size) >= 0) {
         Setpoint sp(setpoint.num_dofs);
         sp.q = vec(setpoint.q);
@@ -550,13 +550,13 @@ Log ReadLog(const fs::path& file, const ChannelNames& ch, std::size_t arm, std::
       }
       continue;
     }
-    if (e->channel == ch.reply[arm]) {
+    if (e->channel == ch.reply) {
       if (reply.decode(e->data, 0, size) >= 0 && reply.run_id == run_id) {
         log.reply_utime[reply.request_id] = reply.utime;
       }
       continue;
     }
-    if (e->channel != ch.telemetry[arm] || m.decode(e->data, 0, size) < 0 || m.run_id != run_id) continue;
+    if (e->channel != ch.telemetry || m.decode(e->data, 0, size) < 0 || m.run_id != run_id) continue;
     Tick k;
     k.tick = m.tick;
     k.utime = m.utime;
@@ -870,7 +870,7 @@ int Main(int argc, char** argv) {
   std::vector<LiveSegment> live;
   if (!o.offline_only) {
     run = RunLive(o, scene, arm, settings);
-    log = ReadLog(o.File("live.lcmlog"), SceneChannelNames(scene, ""), arm, run.run_id);
+    log = ReadLog(o.File("live.lcmlog"), SceneChannelNames(scene.instances[arm], ""), run.run_id);
     live = SplitLog(log, run, settings, o);
     if (!o.keep_log) fs::remove(o.File("live.lcmlog"));
   }

@@ -11,27 +11,34 @@ constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Meth
 }  // namespace
 
 Instance::Instance(const InstanceConfig& config)
-    : config_(config),
-      external_(config.external.has_value()),
-      models_(MakeMethodModels(config.plant)),
-      model_(models_[static_cast<std::size_t>(config.method)], config.effects),
-      trajectory_(MakeTrajectory(config)),
-      q_(config.q0),
-      qd_(config.qd0),
-      qdd_(VectorXd::Zero(config.plant.num_dofs())),
-      tau_(VectorXd::Zero(config.plant.num_dofs())),
-      tau_cmd_(VectorXd::Zero(config.plant.num_dofs())),
-      q_des_(config.q0),
-      setpoint_(config.plant.num_dofs()),
-      accounting_(config.telemetry && !config.external),
-      forces_(config.plant.num_dofs()),
-      q_start_(VectorXd::Zero(config.plant.num_dofs())),
-      qd_start_(VectorXd::Zero(config.plant.num_dofs())),
-      tau_start_(VectorXd::Zero(config.plant.num_dofs())) {
+    : Instance(std::make_shared<const InstanceModel>(BuildInstanceModel(config))) {}
+
+Instance::Instance(std::shared_ptr<const InstanceModel> model)
+    : instance_model_(std::move(model)),
+      external_(instance_model_->external_plant()),
+      model_(instance_model_->dynamics[static_cast<std::size_t>(instance_model_->config.method)],
+             instance_model_->config.effects),
+      trajectory_(MakeTrajectory(instance_model_->config)),
+      q_(instance_model_->config.q0),
+      qd_(instance_model_->config.qd0),
+      qdd_(VectorXd::Zero(instance_model_->num_dofs)),
+      tau_(VectorXd::Zero(instance_model_->num_dofs)),
+      tau_cmd_(VectorXd::Zero(instance_model_->num_dofs)),
+      q_des_(instance_model_->config.q0),
+      setpoint_(instance_model_->num_dofs),
+      accounting_(instance_model_->config.telemetry && !external_),
+      forces_(instance_model_->num_dofs),
+      q_start_(VectorXd::Zero(instance_model_->num_dofs)),
+      qd_start_(VectorXd::Zero(instance_model_->num_dofs)),
+      tau_start_(VectorXd::Zero(instance_model_->num_dofs)) {
+  const InstanceModel& im = *instance_model_;
+  const InstanceConfig& config = im.config;
   // Every method the plant has and every integrator type, so that switching
   // at run time builds nothing.
   for (const Method m : kAllMethods) {
-    if (m != config.method && HasMethod(config.plant.type(), m)) model_.AddDynamics(models_[static_cast<std::size_t>(m)]);
+    if (m != config.method && im.dynamics[static_cast<std::size_t>(m)]) {
+      model_.AddDynamics(im.dynamics[static_cast<std::size_t>(m)]);
+    }
   }
   for (const IntegratorType type : kAllIntegrators) {
     IntegratorConfig c = config.integrator;
@@ -39,24 +46,9 @@ Instance::Instance(const InstanceConfig& config)
     integrators_.push_back(MakeIntegrator(c, num_dofs()));
   }
   integrator_ = integrators_[static_cast<std::size_t>(config.integrator.type)].get();
-  const VectorXd& limits = config.torque_limits.size() == num_dofs()
-                               ? config.torque_limits
-                               : VectorXd::Constant(num_dofs(), std::numeric_limits<double>::infinity());
-  // A joint with a stop is driven the way the stop allows; only free revolute joints wrap.
-  const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), config.effects.limits);
-  const auto make = [&](ControllerConfig c) {
-    c.wrap = wrap;
-    return MakeController(c, config.plant, limits, models_);
-  };
-  controllers_.push_back(make(config.controller));
-  continuous_.push_back(config.controller.continuous);
-  for (const ControllerConfig& c : config.alternates) {
-    controllers_.push_back(make(c));
-    continuous_.push_back(c.continuous);
-  }
-  if (config.controller.type != ControllerType::kNone) {
-    controllers_.push_back(make(ControllerConfig{}));
-    continuous_.push_back(false);
+  for (const ControllerModel& c : im.controllers) {
+    controllers_.push_back(MakeController(c.config, config.plant, im.torque_limits, im.dynamics));
+    continuous_.push_back(c.config.continuous);
   }
   for (const auto& c : controllers_) {
     scene_gains_.push_back(c->gains());
@@ -134,7 +126,7 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
 }
 
 const char* Instance::SetMethod(Method method) {
-  if (!model_.SelectMethod(method)) return NoMethodReason(config_.plant.type(), method);
+  if (!model_.SelectMethod(method)) return NoMethodReason(config().plant.type(), method);
   return nullptr;  // q̈ follows at the next step
 }
 
@@ -228,20 +220,13 @@ void Instance::Restore(const Saved& saved) {
 
 std::vector<std::string> Instance::controller_names() const {
   std::vector<std::string> names;
-  for (const auto& c : controllers_) names.emplace_back(c->name());
+  for (const ControllerModel& c : instance_model_->controllers) names.push_back(c.name);
   return names;
 }
 
 void Instance::SelectController(std::size_t index) {
   active_ = index;
   controllers_[index]->Reset();
-}
-
-std::vector<ControllerType> Instance::controller_types() const {
-  std::vector<ControllerType> types = {config_.controller.type};
-  for (const ControllerConfig& c : config_.alternates) types.push_back(c.type);
-  if (config_.controller.type != ControllerType::kNone) types.push_back(ControllerType::kNone);
-  return types;
 }
 
 std::optional<std::string> Instance::SelectController(std::string_view name) {
@@ -252,15 +237,15 @@ std::optional<std::string> Instance::SelectController(std::string_view name) {
   }
   std::string list;
   for (const auto& c : controllers_) list += (list.empty() ? "" : ", ") + std::string(c->name());
-  return "unknown controller '" + std::string(name) + "' for " + config_.name + " (available: " + list + ")";
+  return "unknown controller '" + std::string(name) + "' for " + config().name + " (available: " + list + ")";
 }
 
 void Instance::Reset() {
   energies_cached_ = false;
   t_ = 0.0;
   steps_ = 0;
-  q_ = config_.q0;
-  qd_ = config_.qd0;
+  q_ = config().q0;
+  qd_ = config().qd0;
   tau_.setZero();
   tau_cmd_.setZero();
   for (std::size_t i = 0; i < controllers_.size(); ++i) {

@@ -1,7 +1,8 @@
 #pragma once
-// One running plant instance: model, integrator, controllers, its scene
-// trajectory and its state, built from an InstanceConfig. Everything is
-// allocated in the constructor; nothing after allocates.
+// One running plant instance, the tick's data for one InstanceModel
+// (daemon/instance_model.hpp): its plant (data for the shared dynamics
+// models, the effects' switches), integrators, controllers, trajectory and
+// state. Everything is allocated in the constructor; nothing after allocates.
 //
 // One step: setpoint → controller (with its torque limits) → integrate the
 // scene's sub-steps → qdd at the new state.
@@ -13,6 +14,7 @@
 
 #include "controllers/controller.hpp"
 #include "controllers/trajectory.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/scene.hpp"
 #include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
@@ -22,10 +24,14 @@ namespace lagrange {
 
 class Instance {
  public:
+  // The tick's data for `model` (which it keeps: it may be shared by other threads).
+  explicit Instance(std::shared_ptr<const InstanceModel> model);
+  // The same on a model of its own (an offline run, a test). Throws as BuildInstanceModel.
   explicit Instance(const InstanceConfig& config);
 
-  const InstanceConfig& config() const { return config_; }
-  const std::string& name() const { return config_.name; }
+  const InstanceModel& instance_model() const { return *instance_model_; }
+  const InstanceConfig& config() const { return instance_model_->config; }
+  const std::string& name() const { return config().name; }
   int num_dofs() const { return model_.num_dofs(); }
 
   double t() const { return t_; }  // simulated time, s
@@ -91,9 +97,8 @@ class Instance {
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }
-  // Names and types of the controllers this instance can run (the scene's, plus none), by index.
+  // Names of the controllers this instance can run (the scene's, plus none), by index.
   std::vector<std::string> controller_names() const;
-  std::vector<ControllerType> controller_types() const;
   // Switches to a configured controller by name and resets it.
   std::optional<std::string> SelectController(std::string_view name);
   // The same by index into controller_names(); no allocation.
@@ -167,9 +172,8 @@ class Instance {
   void ComputePowers();
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
 
-  InstanceConfig config_;
-  bool external_;        // the plant is outside: nothing is integrated
-  MethodModels models_;  // the plant's dynamics by every method it has, shared with the controllers
+  std::shared_ptr<const InstanceModel> instance_model_;
+  bool external_;  // the plant is outside: nothing is integrated
   PlantModel model_;
   Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType

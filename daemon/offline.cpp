@@ -9,10 +9,8 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
   std::vector<OfflineFault> faults;
   std::vector<bool> healthy(instances.size(), true);
   std::vector<Instance::Saved> good;
-  std::vector<double> max_energy;
   for (std::size_t i = 0; i < instances.size(); ++i) {
     good.push_back(instances[i].MakeSaved());
-    max_energy.push_back(MaxEnergy(instances[i].config()));
     observe(i, instances[i]);
   }
   StepEnergies energies;
@@ -20,9 +18,10 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
     for (std::size_t i = 0; i < instances.size(); ++i) {
       if (!healthy[i]) continue;
       Instance& inst = instances[i];
+      const double max_energy = inst.instance_model().max_energy;
       const Instance::StepFailure step = inst.Step(period);
-      if (const char* why = CheckStepHealth(inst, step, max_energy[i], energies)) {
-        faults.push_back({i, inst.t(), why, max_energy[i]});
+      if (const char* why = CheckStepHealth(inst, step, max_energy, energies)) {
+        faults.push_back({i, inst.t(), why, max_energy});
         healthy[i] = false;
         inst.Restore(good[i]);
         continue;

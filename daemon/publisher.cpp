@@ -23,56 +23,48 @@ double Percentile(std::vector<double>& v, double p) {
 
 }  // namespace
 
-Publisher::Publisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring,
-                     const Loop& loop, ReceiverStats& stats, int notify_fd, std::int64_t run_id)
+Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& ring, const Loop& loop,
+                     ReceiverStats& stats, int notify_fd, std::int64_t run_id)
     : bus_(output),
-      channels_(channels),
+      model_(runtime.model()),
       ring_(ring),
       loop_(loop),
       stats_(stats),
       notify_fd_(notify_fd),
       run_id_(run_id),
-      status_every_(std::max(1, static_cast<int>(std::lround(0.1 / runtime.period())))),
-      period_(runtime.period()),
+      status_every_(std::max(1, static_cast<int>(std::lround(0.1 / model_.period)))),
       last_(runtime.MakeRecord()) {
-  for (std::size_t i = 0; i < runtime.size(); ++i) {
-    Instance& inst = runtime.instance(i);
-    names_.push_back(inst.name());
-    controller_names_.push_back(inst.controller_names());
-    state_t s;
-    s.run_id = run_id_;
-    s.num_dofs = inst.num_dofs();
-    for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->resize(static_cast<std::size_t>(s.num_dofs));
-    states_.push_back(s);
-    torque_t tq{};
-    tq.run_id = run_id_;
-    tq.sequence = 0;
-    tq.num_dofs = inst.num_dofs();
-    tq.tau.resize(static_cast<std::size_t>(tq.num_dofs));
-    torques_.push_back(tq);
-    telemetry_t tm{};
-    tm.run_id = run_id_;
-    telemetry_.push_back(tm);
-    forces_t f{};
-    f.run_id = run_id_;
-    f.num_dofs = inst.num_dofs();
-    for (auto* v :
-         {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
-      v->resize(static_cast<std::size_t>(f.num_dofs));
+  status_ = status_t{};
+  status_.run_id = run_id_;
+  status_.period = model_.period;
+  for (const InstanceModel& m : model_.instances) {
+    const auto n = static_cast<std::size_t>(m.num_dofs);
+    Outgoing o;
+    o.state.run_id = run_id_;
+    o.state.num_dofs = m.num_dofs;
+    for (auto* v : {&o.state.q, &o.state.qd, &o.state.qdd, &o.state.tau, &o.state.q_des, &o.state.qd_des}) v->resize(n);
+    o.torque.run_id = run_id_;
+    o.torque.num_dofs = m.num_dofs;
+    o.torque.tau.resize(n);
+    o.telemetry.run_id = run_id_;
+    o.forces.run_id = run_id_;
+    o.forces.num_dofs = m.num_dofs;
+    for (auto* v : {&o.forces.gravity, &o.forces.coriolis, &o.forces.damping, &o.forces.friction, &o.forces.limits,
+                    &o.forces.disturbance, &o.forces.tau_cmd, &o.forces.tau_applied}) {
+      v->resize(n);
     }
-    forces_.push_back(f);
-    modes_.push_back(Mode::kRunning);
-    reasons_.push_back(nullptr);
-    dofs_.push_back(inst.num_dofs());
-    for (const std::string& joint : JointNamesOf(inst.config().plant)) {
-      joint_names_.push_back(Escape(joint, kMaxJointNameBytes));
-    }
+    out_.push_back(std::move(o));
+    status_.instance_names.push_back(m.name());
+    status_.instance_dofs.push_back(m.num_dofs);
+    for (const std::string& joint : m.joint_names) status_.joint_names.push_back(Escape(joint, kMaxJointNameBytes));
   }
-  if (!StatusFits(names_, dofs_, joint_names_)) {
+  status_.num_instances = static_cast<std::int32_t>(status_.instance_names.size());
+  if (!StatusFits(status_.instance_names, status_.instance_dofs, status_.joint_names)) {
     spdlog::warn("the {} joint names do not fit in a {} status datagram: statuses carry none (num_joints = 0)",
-                 joint_names_.size(), channels_.status);
-    joint_names_.clear();
+                 status_.joint_names.size(), model_.status_channel);
+    status_.joint_names.clear();
   }
+  status_.num_joints = static_cast<std::int32_t>(status_.joint_names.size());
   latencies_.reserve(static_cast<std::size_t>(status_every_) * 2);
   computes_.reserve(static_cast<std::size_t>(status_every_) * 2);
   reply_.run_id = run_id_;
@@ -103,10 +95,10 @@ void Publisher::Drain() {
 void Publisher::Publish(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
-    if (r.publish_torque && !channels_.torque_out[i].empty()) {
+    if (r.publish_torque && !model_.instances[i].channels.torque_out.empty()) {
       PublishTorque(i, r, record.utime);  // first: the external plant waits for it
     }
-    state_t& s = states_[i];
+    state_t& s = out_[i].state;
     s.utime = record.utime;
     s.tick = record.tick;
     s.t = r.t;
@@ -119,9 +111,9 @@ void Publisher::Publish(const TickRecord& record) {
     std::copy_n(r.qd_des.data(), n, s.qd_des.data());
     s.kinetic_energy = r.kinetic_energy;
     s.potential_energy = r.potential_energy;
-    s.controller = controller_names_[i][static_cast<std::size_t>(r.controller)];
+    s.controller = model_.instances[i].controllers[static_cast<std::size_t>(r.controller)].name;
     s.mode = static_cast<int8_t>(r.mode);
-    bus_.PublishMessage(channels_.state[i], s);
+    bus_.PublishMessage(model_.instances[i].channels.state, s);
     ++states_published_;
     if (r.telemetry) PublishTelemetry(i, r, record);
     if (r.publish_forces) PublishForces(i, r, record);
@@ -151,17 +143,17 @@ void Publisher::Publish(const TickRecord& record) {
 
 // (record) => torque_t on an external plant's torque_channel.
 void Publisher::PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime) {
-  torque_t& t = torques_[i];
+  torque_t& t = out_[i].torque;
   t.utime = utime;
   ++t.sequence;
   t.state_tick = r.state_tick;
   std::copy_n(r.tau.data(), t.tau.size(), t.tau.data());
-  bus_.PublishMessage(channels_.torque_out[i], t);
+  bus_.PublishMessage(model_.instances[i].channels.torque_out, t);
 }
 
 // (record) => telemetry_t: the balance, the integrator's work, the instance's compute.
 void Publisher::PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
-  telemetry_t& m = telemetry_[i];
+  telemetry_t& m = out_[i].telemetry;
   m.utime = record.utime;
   m.tick = record.tick;
   m.t = r.t;
@@ -186,12 +178,12 @@ void Publisher::PublishTelemetry(std::size_t i, const InstanceRecord& r, const T
   m.error_estimate = std::isfinite(w.error_estimate) ? w.error_estimate : -1.0;  // NaN: none; never on the wire
   m.step = w.step;
   m.compute_us = static_cast<double>(r.compute) * 1e-3;
-  bus_.PublishMessage(channels_.telemetry[i], m);
+  bus_.PublishMessage(model_.instances[i].channels.telemetry, m);
 }
 
 // (record) => forces_t.
 void Publisher::PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
-  forces_t& f = forces_[i];
+  forces_t& f = out_[i].forces;
   const EffectForces& e = r.forces;
   f.utime = record.utime;
   f.tick = record.tick;
@@ -212,7 +204,7 @@ void Publisher::PublishForces(std::size_t i, const InstanceRecord& r, const Tick
   std::copy_n(e.disturbance.data(), n, f.disturbance.data());
   std::copy_n(e.tau_cmd.data(), n, f.tau_cmd.data());
   std::copy_n(e.tau_applied.data(), n, f.tau_applied.data());
-  bus_.PublishMessage(channels_.forces[i], f);
+  bus_.PublishMessage(model_.instances[i].channels.forces, f);
 }
 
 // (tick verdicts) => one reply_t each, within the reply budget.
@@ -228,7 +220,7 @@ void Publisher::PublishReplies(std::size_t i, const InstanceRecord& r, std::int6
     reply_.command = static_cast<int8_t>(v.kind);
     reply_.accepted = v.error == nullptr;
     reply_.reason = v.error ? v.error : "";
-    bus_.PublishMessage(channels_.reply[i], reply_);
+    bus_.PublishMessage(model_.instances[i].channels.reply, reply_);
   }
 }
 
@@ -236,38 +228,38 @@ void Publisher::LogEvents(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
     if (r.fault)
-      spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", names_[i], r.t, r.fault);
+      spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", model_.instances[i].name(), r.t, r.fault);
     commands_applied_ += r.commands_accepted;
     if (r.commands_accepted > 0 && spdlog::should_log(spdlog::level::debug)) {
-      spdlog::debug("{}: {} command(s) applied at t = {:.3f} s", names_[i], r.commands_accepted, r.t);
+      spdlog::debug("{}: {} command(s) applied at t = {:.3f} s", model_.instances[i].name(), r.commands_accepted, r.t);
     }
     if (r.commands_rejected > 0) {
       commands_refused_by_tick_ += r.commands_rejected;
-      last_command_error_ = names_[i] + ": " + r.command_error;
+      last_command_error_ = model_.instances[i].name() + ": " + r.command_error;
       std::int64_t suppressed = 0;
       if (refusal_throttle_.Allow(record.utime, suppressed)) {
         spdlog::warn(
-            "{}: command refused: {}{}", names_[i], r.command_error,
+            "{}: command refused: {}{}", model_.instances[i].name(), r.command_error,
             suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
       }
     }
-    if (r.mode != modes_[i] || r.reason != reasons_[i]) {
+    if (r.mode != out_[i].mode || r.reason != out_[i].reason) {
       const bool alarm = r.mode == Mode::kFault || r.mode == Mode::kEstop || r.mode == Mode::kStopped;
-      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}", names_[i],
-                  ToString(modes_[i]), ToString(r.mode), r.t, r.reason ? fmt::format(" ({})", r.reason) : "");
-      modes_[i] = r.mode;
-      reasons_[i] = r.reason;
+      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}", model_.instances[i].name(),
+                  ToString(out_[i].mode), ToString(r.mode), r.t, r.reason ? fmt::format(" ({})", r.reason) : "");
+      out_[i].mode = r.mode;
+      out_[i].reason = r.reason;
     }
   }
 }
 
+// (the last record, the receiver's counts, this window's timing) => status_t;
+// the run's fixed fields (names, joint counts and names) are in status_ already.
 void Publisher::PublishStatus(const TickRecord& last) {
-  status_t s;
+  status_t& s = status_;
   s.utime = last.utime;
-  s.run_id = run_id_;
   s.ticks = last.tick + 1;
   s.ticks_in_window = static_cast<int32_t>(latencies_.size());
-  s.period = period_;
   s.wake_latency_max = latencies_.empty() ? 0.0 : *std::max_element(latencies_.begin(), latencies_.end());
   s.compute_max = computes_.empty() ? 0.0 : *std::max_element(computes_.begin(), computes_.end());
   s.wake_latency_p50 = Percentile(latencies_, 0.50);
@@ -298,10 +290,13 @@ void Publisher::PublishStatus(const TickRecord& last) {
   s.foreign_messages = stats_.foreign_messages.load(std::memory_order_relaxed);
   s.last_foreign_run_id = stats_.last_foreign_run_id.load(std::memory_order_relaxed);
   s.replies_suppressed = stats_.replies_suppressed.load(std::memory_order_relaxed);
-  s.num_instances = static_cast<int32_t>(names_.size());
-  s.instance_names = names_;
-  for (const Mode m : modes_) s.instance_modes.push_back(static_cast<int8_t>(m));
-  s.instance_dofs = dofs_;
+  s.instance_modes.clear();
+  s.instance_reasons.clear();
+  s.instance_integrators.clear();
+  s.instance_methods.clear();
+  s.instance_effects.clear();
+  s.instance_forces.clear();
+  for (const Outgoing& o : out_) s.instance_modes.push_back(static_cast<int8_t>(o.mode));
   for (const InstanceRecord& r : last.instances) {
     s.instance_reasons.emplace_back(r.reason ? r.reason : "");
     s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant));
@@ -309,9 +304,7 @@ void Publisher::PublishStatus(const TickRecord& last) {
     s.instance_effects.push_back(EffectsDescription(r.effects));
     s.instance_forces.push_back(r.forces_on);
   }
-  s.num_joints = static_cast<int32_t>(joint_names_.size());
-  s.joint_names = joint_names_;
-  bus_.PublishMessage(channels_.status, s);
+  bus_.PublishMessage(model_.status_channel, s);
 }
 
 }  // namespace lagrange

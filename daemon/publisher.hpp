@@ -18,6 +18,7 @@
 #include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -31,7 +32,6 @@
 #include "daemon/runtime.hpp"
 #include "daemon/throttle.hpp"
 #include "protocol/bus.hpp"
-#include "protocol/channels.hpp"
 
 namespace lagrange {
 
@@ -39,8 +39,10 @@ class TimingCsvWriter;
 
 class Publisher {
  public:
-  Publisher(Bus& output, const ChannelNames& channels, Runtime& runtime, SpscRing<TickRecord>& ring, const Loop& loop,
-            ReceiverStats& stats, int notify_fd, std::int64_t run_id);
+  // Publishes the records of `runtime` (whose model it reads: channels,
+  // names, joint names) that the tick puts in `ring`.
+  Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& ring, const Loop& loop, ReceiverStats& stats,
+            int notify_fd, std::int64_t run_id);
 
   // Publishes records as they come until `stop` is set.
   void Run(const std::atomic<bool>& stop);
@@ -62,25 +64,27 @@ class Publisher {
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
 
+  // One instance's messages, kept between ticks (their vectors keep their
+  // capacity), and its mode and reason as last logged.
+  struct Outgoing {
+    state_t state{};
+    torque_t torque{};  // an external plant's command; its sequence counts from 0
+    telemetry_t telemetry{};
+    forces_t forces{};
+    Mode mode = Mode::kRunning;
+    const char* reason = nullptr;
+  };
+
   Bus& bus_;
-  ChannelNames channels_;
+  const DaemonModel& model_;
   SpscRing<TickRecord>& ring_;
   const Loop& loop_;
   ReceiverStats& stats_;
   int notify_fd_;
   std::int64_t run_id_;
   int status_every_;
-  double period_;
-  std::vector<std::string> names_;
-  std::vector<std::int32_t> dofs_;        // each instance's n
-  std::vector<std::string> joint_names_;  // every instance's, escaped, in order (empty: too long for a status)
-  std::vector<std::vector<std::string>> controller_names_;
-  std::vector<state_t> states_;
-  std::vector<torque_t> torques_;       // external plants' commands, by instance
-  std::vector<telemetry_t> telemetry_;  // by instance
-  std::vector<forces_t> forces_;        // by instance
-  std::vector<Mode> modes_;
-  std::vector<const char*> reasons_;          // each instance's latest record's reason
+  std::vector<Outgoing> out_;  // by instance
+  status_t status_;            // the run's fixed fields filled once
   std::vector<double> latencies_, computes_;  // µs, this status window
   std::int64_t commands_applied_ = 0;         // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;

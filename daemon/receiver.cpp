@@ -20,62 +20,41 @@ void Reason::Set(const std::string& s) {
   text[n] = '\0';
 }
 
-Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime,
-                   Clock& clock, ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
+Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runtime, Clock& clock,
+                   ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
     : input_(input),
       output_listener_(output_listener),
       replies_(replies),
       runtime_(runtime),
+      model_(runtime.model()),
       clock_(clock),
       stats_(stats),
       age_(age),
-      run_id_(run_id) {
-  for (std::size_t i = 0; i < runtime.size(); ++i) {
-    Instance& inst = runtime.instance(i);
-    const InstanceConfig& c = inst.config();
-    std::vector<GainBounds> bounds;
-    for (std::size_t k = 0; k < inst.controller_names().size(); ++k) bounds.push_back(inst.controller(k).gain_bounds());
-    InstanceInfo info;
-    info.name = inst.name();
-    info.setpoint_channel = channels.setpoint[i];
-    info.command_channel = channels.command[i];
-    info.reply_channel = channels.reply[i];
-    info.n = inst.num_dofs();
-    info.command_rules =
-        CommandRules{inst.name(),       inst.num_dofs(), inst.controller_names(), inst.controller_types(),
-                     std::move(bounds), c.integrator};
-    info.rules = SetpointRules{inst.num_dofs(), c.setpoint_lower, c.setpoint_upper};
-    info.timeout = c.setpoint_timeout;
-    if (const ExternalControllerRef external = ExternalControllerOf(c); external.config != nullptr) {
-      info.external_controller = external.index;
-      info.torque_timeout = external.config->external.torque_timeout;
-    }
-    if (channels.torque_in.size() > i) info.torque_channel = channels.torque_in[i];
-    if (channels.measured_in.size() > i) info.measured_channel = channels.measured_in[i];
-    if (c.external) info.state_timeout = c.external->state_timeout;
-    info_.push_back(std::move(info));
-    input_.Subscribe(channels.setpoint[i],
+      run_id_(run_id),
+      data_(model_.instances.size()) {
+  for (std::size_t i = 0; i < model_.instances.size(); ++i) {
+    const InstanceChannelNames& c = model_.instances[i].channels;
+    input_.Subscribe(c.setpoint,
                      [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
-    input_.Subscribe(channels.command[i],
+    input_.Subscribe(c.command,
                      [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
-    if (!info_[i].torque_channel.empty() && info_[i].external_controller >= 0) {
-      input_.Subscribe(info_[i].torque_channel,
+    if (!c.torque_in.empty() && model_.instances[i].external_controller >= 0) {
+      input_.Subscribe(c.torque_in,
                        [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleTorque(i, d, n); });
     }
-    if (!info_[i].measured_channel.empty()) {
-      input_.Subscribe(info_[i].measured_channel,
+    if (!c.measured_in.empty()) {
+      input_.Subscribe(c.measured_in,
                        [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleMeasured(i, d, n); });
     }
   }
   if (output_listener_ != nullptr) {
-    std::vector<std::string> outputs = channels.state;
-    outputs.insert(outputs.end(), channels.reply.begin(), channels.reply.end());
-    outputs.insert(outputs.end(), channels.telemetry.begin(), channels.telemetry.end());
-    outputs.insert(outputs.end(), channels.forces.begin(), channels.forces.end());
-    for (const std::string& ch : channels.torque_out) {
-      if (!ch.empty()) outputs.push_back(ch);
+    std::vector<std::string> outputs = {model_.status_channel};
+    for (const InstanceModel& m : model_.instances) {
+      for (const std::string* ch : {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces,
+                                    &m.channels.torque_out}) {
+        if (!ch->empty()) outputs.push_back(*ch);
+      }
     }
-    outputs.push_back(channels.status);
     for (const std::string& ch : outputs) {
       output_listener_->Subscribe(
           ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) { HandleOwnOutput(name, d, n); });
@@ -83,6 +62,16 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, const Channel
   }
   reply_.run_id = run_id_;
 }
+
+namespace {
+
+// s: an instance's timeouts as the scene gave them (the receiver judges ages in seconds).
+double TorqueTimeout(const InstanceModel& m) {
+  return m.controllers[static_cast<std::size_t>(m.external_controller)].config.external.torque_timeout;
+}
+double StateTimeout(const InstanceModel& m) { return m.config.external->state_timeout; }
+
+}  // namespace
 
 void Receiver::Run(const std::atomic<bool>& stop) {
   while (!stop.load(std::memory_order_relaxed)) Poll(20);
@@ -133,7 +122,7 @@ void Receiver::Warn(const std::string& message) {
 void Receiver::Refuse(std::atomic<std::int64_t>& counter, LatestMailbox<Reason>& last, std::size_t i,
                       const std::string& why) {
   counter.fetch_add(1, std::memory_order_relaxed);
-  last.back().Set(info_[i].name + ": " + why);
+  last.back().Set(model_.instances[i].name() + ": " + why);
   last.Publish();
 }
 
@@ -144,13 +133,13 @@ void Receiver::DecodeError(const std::string& channel, const char* why) {
 
 void Receiver::RejectSetpoint(std::size_t i, const std::string& why) {
   Refuse(stats_.setpoints_rejected, stats_.last_setpoint_rejection, i, why);
-  Warn(info_[i].name + ": setpoint rejected: " + why);
+  Warn(model_.instances[i].name() + ": setpoint rejected: " + why);
 }
 
 // `why` is already escaped where it quotes the bus.
 void Receiver::RejectCommand(std::size_t i, const std::string& why) {
   Refuse(stats_.commands_rejected, stats_.last_command_error, i, why);
-  Warn(info_[i].name + ": command rejected: " + why);
+  Warn(model_.instances[i].name() + ": command rejected: " + why);
   const std::int64_t now = clock_.WallMicros();
   if (!reply_budget_.Take(now)) {
     stats_.replies_suppressed.fetch_add(1, std::memory_order_relaxed);
@@ -161,7 +150,7 @@ void Receiver::RejectCommand(std::size_t i, const std::string& why) {
   reply_.command = command_.command;
   reply_.accepted = false;
   reply_.reason = why;
-  replies_.PublishMessage(info_[i].reply_channel, reply_);
+  replies_.PublishMessage(model_.instances[i].channels.reply, reply_);
 }
 
 namespace {
@@ -215,25 +204,26 @@ Receiver::AgeVerdict Receiver::Age(Timeline& info, double timeout, std::int64_t 
 }
 
 void Receiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size) {
-  InstanceInfo& info = info_[i];
-  const SetpointVerdict verdict = CheckSetpoint(data, size, info.rules, setpoint_);
+  const InstanceModel& m = model_.instances[i];
+  InstanceData& info = data_[i];
+  const SetpointVerdict verdict = CheckSetpoint(data, size, m.setpoint_rules, setpoint_);
   if (verdict.kind == SetpointVerdict::Kind::kUndecodable) {
-    DecodeError(info.setpoint_channel, verdict.reason.c_str());
+    DecodeError(m.channels.setpoint, verdict.reason.c_str());
     return;
   }
   if (verdict.kind == SetpointVerdict::Kind::kRejected) {
     RejectSetpoint(i, verdict.reason);
     return;
   }
-  const AgeVerdict age = Age(info.setpoints, info.timeout, setpoint_.utime);
+  const AgeVerdict age = Age(info.setpoints, m.config.setpoint_timeout, setpoint_.utime);
   if (!age.ok) {
     // Refused and counted; it does not send the instance to hold (only the timeout does).
-    return RejectSetpoint(i, AgeReason(age, "setpoint_timeout", info.timeout));
+    return RejectSetpoint(i, AgeReason(age, "setpoint_timeout", m.config.setpoint_timeout));
   }
-  SetpointMessage& m = runtime_.channels(i).setpoints.back();
-  m.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), info.n);
-  m.setpoint.qd = Eigen::Map<const VectorXd>(setpoint_.qd.data(), info.n);
-  m.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), info.n);
+  SetpointMessage& msg = runtime_.channels(i).setpoints.back();
+  msg.setpoint.q = Eigen::Map<const VectorXd>(setpoint_.q.data(), m.num_dofs);
+  msg.setpoint.qd = Eigen::Map<const VectorXd>(setpoint_.qd.data(), m.num_dofs);
+  msg.setpoint.qdd = Eigen::Map<const VectorXd>(setpoint_.qdd.data(), m.num_dofs);
   runtime_.channels(i).setpoints.Publish();
   stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
 }
@@ -247,7 +237,7 @@ std::string Receiver::AgeReason(const AgeVerdict& age, const char* timeout_name,
 void Receiver::RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what,
                            const std::string& why) {
   Refuse(counter, stats_.last_setpoint_rejection, i, std::string(what) + ": " + why);
-  Warn(info_[i].name + ": " + what + " rejected: " + why);
+  Warn(model_.instances[i].name() + ": " + what + " rejected: " + why);
 }
 
 // The first problem since the tick last looked stays: a good state after a bad one cannot hide it.
@@ -276,23 +266,24 @@ std::string CheckValues(const char* field, const std::vector<double>& v, double 
 // (layout, size, finite, |tau| <= 1e6, age), and one sender at a time whose
 // sequence grows.
 void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size) {
-  InstanceInfo& info = info_[i];
+  const InstanceModel& m = model_.instances[i];
+  InstanceData& info = data_[i];
   if (const WireCheck w = CheckTorquePacket(data, size); w != WireCheck::kOk) {
-    return DecodeError(info.torque_channel, ToString(w));
+    return DecodeError(m.channels.torque_in, ToString(w));
   }
-  if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(info.torque_channel, "decode failed");
+  if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(m.channels.torque_in, "decode failed");
   std::atomic<std::int64_t>& rejected = stats_.torques_rejected;
-  if (torque_.num_dofs != info.n) {
-    return RejectInput(i, rejected, "torque", fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, info.n));
+  if (torque_.num_dofs != m.num_dofs) {
+    return RejectInput(i, rejected, "torque", fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, m.num_dofs));
   }
   if (std::string why = CheckValues("tau", torque_.tau, kMaxSetpointMagnitude); !why.empty()) {
     return RejectInput(i, rejected, "torque", why);
   }
   const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
-  if (active != info.external_controller) {
+  if (active != m.external_controller) {
     return RejectInput(i, rejected, "torque",
                        "the instance is not running its external controller (active: " +
-                           info.command_rules.controllers[static_cast<std::size_t>(active)] + ")");
+                           m.command_rules.controllers[static_cast<std::size_t>(active)] + ")");
   }
   if (torque_.run_id == 0) return RejectInput(i, rejected, "torque", "run_id 0: expected the sender's non-zero id");
   // One sender at a time: while the current stream is fresh (a torque within
@@ -300,7 +291,7 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
   // once it has lapsed, any sender starts a new stream.
   const std::int64_t now = clock_.WallMicros();
   const bool current_fresh =
-      info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(info.torque_timeout);
+      info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(TorqueTimeout(m));
   if (current_fresh && torque_.run_id != info.torque_source) {
     return RejectInput(
         i, rejected, "torque",
@@ -312,14 +303,14 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
                        fmt::format("sequence {} does not grow (last {}): a duplicate or reordered packet",
                                    torque_.sequence, info.torque_sequence));
   }
-  const AgeVerdict age = Age(info.torques, info.torque_timeout, torque_.utime);
-  if (!age.ok) return RejectInput(i, rejected, "torque", AgeReason(age, "torque_timeout", info.torque_timeout));
+  const AgeVerdict age = Age(info.torques, TorqueTimeout(m), torque_.utime);
+  if (!age.ok) return RejectInput(i, rejected, "torque", AgeReason(age, "torque_timeout", TorqueTimeout(m)));
   info.torque_source = torque_.run_id;
   info.torque_sequence = torque_.sequence;
   info.torque_last_us = now;
-  TorqueMessage& m = runtime_.channels(i).torques.back();
-  m.tau = Eigen::Map<const VectorXd>(torque_.tau.data(), info.n);
-  m.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
+  TorqueMessage& msg = runtime_.channels(i).torques.back();
+  msg.tau = Eigen::Map<const VectorXd>(torque_.tau.data(), m.num_dofs);
+  msg.sent = clock_.Now() - ToNanoseconds(std::max(age.age, 0.0));
   runtime_.channels(i).torques.Publish();
   stats_.torques_accepted.fetch_add(1, std::memory_order_relaxed);
 }
@@ -330,15 +321,16 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
 // duplicate, a reordered packet), is refused and counted (the absence of
 // fresh ones trips the watchdog once state_timeout passes).
 void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size) {
-  InstanceInfo& info = info_[i];
+  const InstanceModel& m = model_.instances[i];
+  InstanceData& info = data_[i];
   if (const WireCheck w = CheckStatePacket(data, size); w != WireCheck::kOk) {
-    return DecodeError(info.measured_channel, ToString(w));
+    return DecodeError(m.channels.measured_in, ToString(w));
   }
   if (measured_.decode(data, 0, static_cast<int>(size)) < 0) {
-    return DecodeError(info.measured_channel, "decode failed");
+    return DecodeError(m.channels.measured_in, "decode failed");
   }
-  if (measured_.num_dofs != info.n) {
-    return Trip(i, MeasuredProblem::kWrongSize, fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, info.n));
+  if (measured_.num_dofs != m.num_dofs) {
+    return Trip(i, MeasuredProblem::kWrongSize, fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, m.num_dofs));
   }
   for (const auto& [field, values] : {std::pair{"q", &measured_.q}, std::pair{"qd", &measured_.qd}}) {
     if (std::string why = CheckValues(field, *values, kMaxSetpointMagnitude); !why.empty()) {
@@ -358,35 +350,35 @@ void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size
   // Within one fresh stream the tick must grow; after a lapse of state_timeout any tick starts a new one.
   const std::int64_t arrival = clock_.WallMicros();
   const bool fresh_stream =
-      info.measured_last_us >= 0 && arrival - info.measured_last_us <= ToMicroseconds(info.state_timeout);
+      info.measured_last_us >= 0 && arrival - info.measured_last_us <= ToMicroseconds(StateTimeout(m));
   if (fresh_stream && previous == measured_.run_id && measured_.tick <= info.measured_tick) {
     return RejectInput(i, stats_.measured_rejected, "measured state",
                        fmt::format("tick {} does not grow (last {}): a duplicate or reordered state", measured_.tick,
                                    info.measured_tick));
   }
-  const AgeVerdict age = Age(info.measured, info.state_timeout, measured_.utime);
+  const AgeVerdict age = Age(info.measured, StateTimeout(m), measured_.utime);
   if (!age.ok) {
     return RejectInput(i, stats_.measured_rejected, "measured state",
-                       AgeReason(age, "state_timeout", info.state_timeout));
+                       AgeReason(age, "state_timeout", StateTimeout(m)));
   }
   info.measured_tick = measured_.tick;
   info.measured_last_us = arrival;
-  MeasuredMessage& m = runtime_.channels(i).measured.back();
-  m.q = Eigen::Map<const VectorXd>(measured_.q.data(), info.n);
-  m.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), info.n);
-  m.tick = measured_.tick;
-  m.run_id = measured_.run_id;
-  m.arrived = clock_.Now();
-  m.sent = m.arrived - ToNanoseconds(std::max(age.age, 0.0));
+  MeasuredMessage& msg = runtime_.channels(i).measured.back();
+  msg.q = Eigen::Map<const VectorXd>(measured_.q.data(), m.num_dofs);
+  msg.qd = Eigen::Map<const VectorXd>(measured_.qd.data(), m.num_dofs);
+  msg.tick = measured_.tick;
+  msg.run_id = measured_.run_id;
+  msg.arrived = clock_.Now();
+  msg.sent = msg.arrived - ToNanoseconds(std::max(age.age, 0.0));
   runtime_.channels(i).measured.Publish();
   stats_.measured_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
 void Receiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_t size) {
-  const InstanceInfo& info = info_[i];
+  const InstanceModel& m = model_.instances[i];
   const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
-  const CommandVerdict v = CheckCommand(data, size, info.command_rules, active, command_);
-  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(info.command_channel, v.reason.c_str());
+  const CommandVerdict v = CheckCommand(data, size, m.command_rules, active, command_);
+  if (v.kind == CommandVerdict::Kind::kUndecodable) return DecodeError(m.channels.command, v.reason.c_str());
   if (v.kind == CommandVerdict::Kind::kRejected) return RejectCommand(i, v.reason);
   if (const std::optional<Urgent> urgent = UrgentKind(v.command)) {
     runtime_.PostUrgent(i, *urgent, command_.request_id);  // never refused for room; the tick decides
@@ -399,8 +391,8 @@ void Receiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_
   slot->request_id = command_.request_id;
   slot->controller = v.controller;
   if (v.command == CommandKind::kSetGains) {
-    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), info.n);
-    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), info.n);
+    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), m.num_dofs);
+    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), m.num_dofs);
   }
   slot->integrator = v.integrator;
   slot->default_max_steps = v.default_max_steps;

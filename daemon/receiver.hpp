@@ -92,10 +92,11 @@ class Receiver {
   // Subscribes on `input` (setpoints, commands) and, when `output_listener`
   // is given, on it for this run's output channels (it may be `input` itself
   // when both directions share a bus). Refusals are answered on `replies`
-  // (a bus this thread alone publishes on). Reads the runtime's immutable
-  // configuration only.
-  Receiver(Bus& input, Bus* output_listener, Bus& replies, const ChannelNames& channels, Runtime& runtime, Clock& clock,
-           ReceiverStats& stats, SetpointAge age, std::int64_t run_id);
+  // (a bus this thread alone publishes on). Reads the run's model
+  // (runtime.model(): channels, rules, timeouts) and reaches the tick only
+  // through the runtime's mailboxes.
+  Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runtime, Clock& clock, ReceiverStats& stats,
+           SetpointAge age, std::int64_t run_id);
 
   // Handles messages until `stop` is set (checked every 20 ms).
   void Run(const std::atomic<bool>& stop);
@@ -112,26 +113,16 @@ class Receiver {
     std::int64_t candidate_offset = 0;
     int candidate_count = 0;
   };
-  struct InstanceInfo {
-    std::string name;
-    std::string setpoint_channel, command_channel, reply_channel;
-    int n = 0;
-    CommandRules command_rules;
-    SetpointRules rules;
-    double timeout = 0.5;
+  // What the receiver keeps of one instance between packets (the rest is
+  // the instance's model): each stream's timeline, an external controller's
+  // sender, its last sequence number and when it last sent, an external
+  // plant's source and last accepted tick.
+  struct InstanceData {
     Timeline setpoints;
-    // An external controller's torques ("" channel: none): its timeout, the
-    // stream's sender and its last sequence number, and when it last sent.
-    std::string torque_channel;
-    int external_controller = -1;  // its controller index
-    double torque_timeout = 0.05;
     Timeline torques;
     std::int64_t torque_source = 0;
     std::int64_t torque_sequence = 0;
     std::int64_t torque_last_us = 0;
-    // An external plant's measured state ("" channel: none).
-    std::string measured_channel;
-    double state_timeout = 0.01;
     Timeline measured;
     std::int64_t measured_source = 0;    // the previous packet's run id (0: none yet)
     std::int64_t measured_tick = 0;      // the last accepted state's tick (from measured_source)
@@ -164,11 +155,12 @@ class Receiver {
   Bus* output_listener_;
   Bus& replies_;
   Runtime& runtime_;
+  const DaemonModel& model_;
   Clock& clock_;
   ReceiverStats& stats_;
   SetpointAge age_;
   std::int64_t run_id_;
-  std::vector<InstanceInfo> info_;
+  std::vector<InstanceData> data_;  // by instance
   setpoint_t setpoint_;  // decoded into; keeps its capacity
   command_t command_;
   torque_t torque_;

@@ -46,114 +46,70 @@ InstanceRecord::InstanceRecord(int n)
       qd_des(VectorXd::Zero(n)),
       forces(n) {}
 
+// The tick's data for one instance: its Instance, its mailboxes, its mode
+// and the timers and state the tick keeps between ticks. Everything fixed
+// is the model's (`m`, daemon/instance_model.hpp).
 struct Runtime::Slot {
-  explicit Slot(const InstanceConfig& c)
-      : instance(c),
-        channels(c.plant.num_dofs(), kCommandQueueCapacity),
-        streamed(c.plant.num_dofs()),
-        held(c.plant.num_dofs()),
-        current(c.plant.num_dofs()),
+  explicit Slot(std::shared_ptr<const InstanceModel> model)
+      : m(*model),
+        instance(std::move(model)),
+        channels(m.num_dofs, kCommandQueueCapacity),
+        streamed(m.num_dofs),
+        held(m.num_dofs),
+        current(m.num_dofs),
         good(instance.MakeSaved()),
-        zero(VectorXd::Zero(c.plant.num_dofs())),
-        brake_torque(VectorXd::Zero(c.plant.num_dofs())),
-        timeout(ToNanoseconds(c.setpoint_timeout)),
-        max_energy(MaxEnergy(c)),
+        zero(VectorXd::Zero(m.num_dofs)),
+        brake_torque(VectorXd::Zero(m.num_dofs)),
         energies{instance.KineticEnergy(), instance.PotentialEnergy()},
-        state_timeout(c.external ? ToNanoseconds(c.external->state_timeout) : 0),
-        forces(c.forces) {
-    const int n = c.plant.num_dofs();
-    const std::vector<ControllerType> types = instance.controller_types();
-    const std::vector<const ControllerConfig*> configs = ControllerConfigs(c);
-    for (std::size_t k = 0; k < types.size(); ++k) {
-      const bool external = types[k] == ControllerType::kExternal;
-      torque_timeout.push_back(external ? ToNanoseconds(configs[k]->external.torque_timeout) : 0);
-      fallback.push_back(external ? Fallback(types, configs[k]->external.fallback) : -1);
-    }
-    if (c.external) {
-      mode = Mode::kWaiting;
-      reason = kWaitingForState;
-    }
-    if (c.estop_damping) {
-      brake = *c.estop_damping;
-    } else {
-      MatrixXd M(n, n);
-      instance.model().dynamics().ComputeMassMatrix(instance.model().data(), c.q0, M);
-      brake = 20.0 * M.diagonal();  // a 50 ms time constant per joint
-    }
-  }
+        forces(m.config.forces) {}
 
+  const InstanceModel& m;
   Instance instance;
   InstanceChannels channels;
-  Mode mode = Mode::kRunning;
-  Mode before_pause = Mode::kRunning;
-  const char* paused_reason = nullptr;  // the reason before the pause
-  bool streaming = false;               // a streamed setpoint has been accepted since start or reset
-  Nanoseconds last_setpoint = 0;        // when it was
+  ModeState mode;
+  bool streaming = false;         // a streamed setpoint has been accepted since start or reset
+  Nanoseconds last_setpoint = 0;  // when it was
   Setpoint streamed, held, current;
   Instance::Saved good;  // the last state that passed the health check
-  VectorXd zero, brake, brake_torque;
-  Nanoseconds timeout;
-  double max_energy;
+  VectorXd zero, brake_torque;
   // This tick's results, computed once and read by the health check and the record.
   Instance::StepFailure step_failure = nullptr;
   const Setpoint* in_use = nullptr;  // the setpoint this tick followed (running, hold), decided once for the record
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
-  const char* reason = nullptr;                // why the mode is not running
-  bool estop_latched = false;                  // an estop not yet cleared: survives a fault, the watchdog and reset
-  bool hold_on_arrival = false;                // external plant waiting after clear_estop: its first state holds
-  // External controllers, by controller index: torque_timeout (0: not external)
-  // and the fallback's index in hold (-1: the brake).
-  std::vector<Nanoseconds> torque_timeout;
-  std::vector<int> fallback;
   Nanoseconds last_torque = 0;  // when the active external controller last got one (or became active)
   // External plant.
-  Nanoseconds state_timeout;
   Nanoseconds last_measured = 0;
   std::int64_t measured_tick = -1;
   std::int64_t source = 0;        // the run id the watchdog locked onto (0: none yet)
   Nanoseconds clock_origin = -1;  // monotonic time of step 0 (-1: set at the next step)
   bool send_zero_once = false;    // fault or stopped: command zero torque in this tick's record, once
-  // Issue 14: switching and telemetry.
-  bool forces;                           // publish <NAME>_FORCES
-  std::array<double, 3> evaluation_s{};  // by Method: one evaluation's cost, s (0: unknown)
-  bool integrated = false;               // this tick ran the integrator
+  bool forces;                    // publish <NAME>_FORCES
+  bool integrated = false;        // this tick ran the integrator
 
-  bool external_active() const { return torque_timeout[instance.active_controller()] > 0; }
-
-  // The fallback of an external controller: the named one, "brake" (-1), or
-  // the first gravity-compensation or computed-torque controller, else the brake.
-  static int Fallback(const std::vector<ControllerType>& types, const std::optional<std::string>& name) {
-    for (std::size_t k = 0; k < types.size(); ++k) {
-      const bool named = name && *name != "brake" && ToString(types[k]) == *name;
-      const bool model_based =
-          !name && (types[k] == ControllerType::kGravityCompensation || types[k] == ControllerType::kComputedTorque);
-      if (named || model_based) return static_cast<int>(k);
-    }
-    return -1;
-  }
+  const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
+  bool external_active() const { return active().external; }
 };
 
-Runtime::Runtime(const Scene& scene) : period_(scene.period) {
-  for (const InstanceConfig& c : scene.instances) {
-    slots_.push_back(std::make_unique<Slot>(c));
-    if (slots_.back()->external_active()) EnterHold(*slots_.back(), kNoTorqueYet);  // until the first torque
+Runtime::Runtime(const Scene& scene, const BuildOptions& options) : Runtime(BuildDaemonModel(scene, options)) {}
+
+Runtime::Runtime(std::shared_ptr<const DaemonModel> model) : model_(std::move(model)) {
+  for (const InstanceModel& m : model_->instances) {
+    // Each slot keeps its instance's model alive with the whole run's.
+    slots_.push_back(std::make_unique<Slot>(std::shared_ptr<const InstanceModel>(model_, &m)));
+    On(*slots_.back(), ModeEvent::kStart, 0);
   }
 }
 
 Runtime::~Runtime() = default;
 Instance& Runtime::instance(std::size_t i) { return slots_[i]->instance; }
 InstanceChannels& Runtime::channels(std::size_t i) { return slots_[i]->channels; }
-Mode Runtime::mode(std::size_t i) const { return slots_[i]->mode; }
+Mode Runtime::mode(std::size_t i) const { return slots_[i]->mode.mode; }
 
 TickRecord Runtime::MakeRecord() const {
   TickRecord r;
-  for (const auto& s : slots_) r.instances.emplace_back(s->instance.num_dofs());
+  for (const auto& s : slots_) r.instances.emplace_back(s->m.num_dofs);
   return r;
-}
-
-void Runtime::SetEvaluationCosts(std::size_t i, const std::array<double, 3>& seconds) {
-  slots_[i]->evaluation_s = seconds;
 }
 
 void Runtime::Tick(Nanoseconds now, TickRecord& record) {
@@ -168,10 +124,10 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     r.num_verdicts = 0;
     TakeUrgent(s, now, r);
     TakeCommands(s, now, r);
-    if (s.instance.external_plant()) TakeMeasured(s, now);
+    if (s.m.external_plant()) TakeMeasured(s, now);
     TakeSetpoint(s, now);
     TakeTorque(s, now);
-    if (s.instance.external_plant()) KeepPlantTime(s, now);
+    if (s.m.external_plant()) KeepPlantTime(s, now);
     ControlAndIntegrate(s);
     CheckHealth(s, r);
     Record(s, r);
@@ -201,7 +157,46 @@ void AddVerdict(InstanceRecord& r, std::int64_t request_id, CommandKind kind, co
 
 constexpr CommandKind kUrgentCommand[kNumUrgent] = {CommandKind::kEstop, CommandKind::kClearEstop, CommandKind::kReset};
 
+// Whether no accepted input came for `timeout` since `last` (when the last one was sent).
+bool TimedOut(Nanoseconds now, Nanoseconds last, Nanoseconds timeout) { return now - last > timeout; }
+
 }  // namespace
+
+const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault) {
+  const ModeContext context{.external_plant = s.m.external_plant(),
+                            .external_controller = s.external_active(),
+                            .setpoints_timed_out = s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
+                            .fault = fault};
+  const ModeOutcome out = Transition(s.mode, event, context);
+  s.mode = out.next;
+  if (out.refused != nullptr || !out.entered) return out.refused;
+  // Entry actions.
+  switch (s.mode.mode) {
+    case Mode::kHold:  // where the hold began, at rest; a fallback starts afresh
+      s.held.q = s.instance.q();
+      s.held.qd.setZero();
+      s.held.qdd.setZero();
+      if (s.external_active() && s.active().fallback.kind == HoldBy::Kind::kController) {
+        s.instance.controller(s.active().fallback.controller).Reset();
+      }
+      break;
+    case Mode::kStopped:  // the watchdog: the last good state kept, zero torque commanded once
+    case Mode::kFault:    // the last good state kept, zero torque; nothing moves until reset
+      s.in_use = nullptr;
+      s.instance.Restore(s.good);
+      s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};
+      s.send_zero_once = s.mode.mode == Mode::kStopped || s.m.external_plant();
+      break;
+    case Mode::kWaiting:  // (re-)armed: a new source, and the plant's clock resumes from its first state
+      s.clock_origin = -1;
+      s.source = 0;
+      break;
+    case Mode::kRunning:
+    case Mode::kPaused:
+    case Mode::kEstop: break;
+  }
+  return nullptr;
+}
 
 // (urgent flags) => estop, clear_estop, reset: each kind posted since the
 // last tick applied once, in the order the receiver posted them.
@@ -242,16 +237,10 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
     case CommandKind::kSetForces:
       if (message == nullptr) return "unknown command";
       return ApplySwitch(s, *message);
-    case CommandKind::kSwitchController: {
-      const bool torque_hold = s.mode == Mode::kHold && (s.reason == kTorquesTimedOut || s.reason == kNoTorqueYet);
+    case CommandKind::kSwitchController:
       inst.SelectController(static_cast<std::size_t>(controller));
-      if (s.external_active()) {
-        Activated(s, now);
-      } else if (torque_hold) {
-        RunOrHold(s, now);  // the torque stream no longer matters: the setpoints decide
-      }
-      return nullptr;
-    }
+      if (s.external_active()) s.last_torque = now;  // its torque timeout counts from here
+      return On(s, ModeEvent::kControllerSwitched, now);
     case CommandKind::kSetGains:
       if (!inst.controller(static_cast<std::size_t>(controller)).SetGains(*gains)) {
         return "the gains do not fit the controller";
@@ -262,67 +251,18 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       inst.Save(s.good);
       s.streaming = false;
       s.source = 0;
-      if (inst.external_plant()) {  // re-armed; the first fresh state runs it (or brakes it, estop latched)
-        s.clock_origin = -1;
-        s.hold_on_arrival = false;
-        s.mode = Mode::kWaiting;
-        s.reason = s.estop_latched ? kWaitingEstopLatched : kWaitingForState;
-      } else if (s.estop_latched) {  // reset keeps an estop, also one a fault interrupted
-        s.mode = Mode::kEstop;
-        s.reason = kEstopped;
-      } else {
-        s.mode = Mode::kRunning;
-        s.reason = nullptr;
-        if (s.external_active()) Activated(s, now);
-      }
-      return nullptr;
-    case CommandKind::kPause:
-      if (inst.external_plant()) return "pause: an external plant keeps moving and cannot be frozen (estop brakes it)";
-      if (s.mode != Mode::kRunning && s.mode != Mode::kHold) return "pause: the instance is not running or holding";
-      s.before_pause = s.mode;
-      s.mode = Mode::kPaused;
-      s.paused_reason = s.reason;
-      s.reason = kPausedByCommand;
-      return nullptr;
-    case CommandKind::kResume:
-      if (s.mode != Mode::kPaused) return "resume: the instance is not paused";
-      s.mode = s.before_pause;
-      s.reason = s.paused_reason;
-      s.last_setpoint = now;  // the setpoint timeout restarts; a torque's age never does (it is never
-                              // applied once older than torque_timeout: TakeTorque holds this tick)
-      return nullptr;
-    case CommandKind::kEstop:
-      if (s.mode == Mode::kFault) return "estop: the instance is faulted (frozen); reset it";
-      s.estop_latched = true;
-      s.hold_on_arrival = false;
-      // An external plant that commands nothing keeps its mode; its first
-      // fresh state after re-arming then brakes instead of running.
-      if (s.mode == Mode::kStopped) return nullptr;
-      if (s.mode == Mode::kWaiting) {
-        s.reason = kWaitingEstopLatched;
-        return nullptr;
-      }
-      s.mode = Mode::kEstop;
-      s.reason = kEstopped;
-      return nullptr;
-    case CommandKind::kClearEstop:
-      if (s.mode == Mode::kStopped) {  // an external plant's watchdog, re-armed; a latched estop stays
-        s.clock_origin = -1;           // its trajectory resumes where it stopped
-        s.mode = Mode::kWaiting;
-        s.reason = s.estop_latched ? kWaitingEstopLatched : kWaitingForState;
-        s.source = 0;
-        return nullptr;
-      }
-      if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
-        s.estop_latched = false;
-        s.hold_on_arrival = true;
-        s.reason = kWaitingForState;
-        return nullptr;
-      }
-      if (s.mode != Mode::kEstop) return "clear_estop: the instance is not in an emergency stop";
-      s.estop_latched = false;
-      EnterHold(s, kLeftEstop);
-      return nullptr;
+      if (s.external_active()) s.last_torque = now;
+      return On(s, ModeEvent::kReset, now);
+    case CommandKind::kPause: return On(s, ModeEvent::kPause, now);
+    case CommandKind::kResume: {
+      const char* refused = On(s, ModeEvent::kResume, now);
+      // The setpoint timeout restarts; a torque's age never does (it is never
+      // applied once older than torque_timeout: TakeTorque holds this tick).
+      if (refused == nullptr) s.last_setpoint = now;
+      return refused;
+    }
+    case CommandKind::kEstop: return On(s, ModeEvent::kEstop, now);
+    case CommandKind::kClearEstop: return On(s, ModeEvent::kClearEstop, now);
   }
   return "unknown command";
 }
@@ -330,9 +270,9 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
 // Whether `config` by `method` fits the period at the measured cost (as
 // lagranged checks a scene before the loop); true when the cost is unknown.
 bool Runtime::Fits(const Slot& s, const IntegratorConfig& config, Method method) const {
-  const double cost = s.evaluation_s[static_cast<std::size_t>(method)];
-  if (cost <= 0.0 || s.instance.external_plant()) return true;
-  return static_cast<double>(WorstCaseEvaluations(config, s.instance.num_dofs())) * cost <= period_;
+  const double cost = s.m.evaluation_s[static_cast<std::size_t>(method)];
+  if (cost <= 0.0 || s.m.external_plant()) return true;
+  return static_cast<double>(WorstCaseEvaluations(config, s.m.num_dofs)) * cost <= period();
 }
 
 // Integrator, effect, method, forces: at this tick boundary, allocation-free
@@ -343,10 +283,10 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
     case CommandKind::kSetIntegrator: {
       IntegratorConfig config = c.integrator;
       if (c.default_max_steps) config.max_steps = inst.config().integrator.max_steps;
-      const double cost = s.evaluation_s[static_cast<std::size_t>(inst.method())];
+      const double cost = s.m.evaluation_s[static_cast<std::size_t>(inst.method())];
       if (c.default_max_steps && config.type == IntegratorType::kDormandPrince && cost > 0.0) {
         // The largest max_steps that fits: s·(1 + 6·max_steps) + 1 evaluations in the period.
-        const double fit = LargestMaxStepsThatFit(period_ / cost, config.substeps);
+        const double fit = LargestMaxStepsThatFit(period() / cost, config.substeps);
         if (fit < 1.0) return kSwitchDoesNotFit;
         config.max_steps = static_cast<int>(std::min<double>(config.max_steps, fit));
       }
@@ -371,67 +311,44 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
   }
 }
 
-// (leaving a mode that ignored the setpoints) => running, or hold when the
-// streamed setpoint it would follow has already timed out.
-void Runtime::RunOrHold(Slot& s, Nanoseconds now) {
-  if (s.streaming && now - s.last_setpoint > s.timeout) return EnterHold(s, kSetpointsTimedOut);
-  s.mode = Mode::kRunning;
-  s.reason = nullptr;
-}
-
-// (an external controller became active) => hold until its first torque.
-void Runtime::Activated(Slot& s, Nanoseconds now) {
-  s.last_torque = now;
-  if (s.mode == Mode::kRunning || s.mode == Mode::kHold) EnterHold(s, kNoTorqueYet);
-}
-
 // (measured mailbox, watchdog) => an external plant's (q, qd), or stopped.
 void Runtime::TakeMeasured(Slot& s, Nanoseconds now) {
   const auto problem = static_cast<MeasuredProblem>(s.channels.measured_problem.exchange(0, std::memory_order_acq_rel));
   const MeasuredMessage* m = s.channels.measured.Take();
-  if (s.mode == Mode::kStopped || s.mode == Mode::kFault) return;
+  if (s.mode.mode == Mode::kStopped || s.mode.mode == Mode::kFault) return;
   switch (problem) {
     case MeasuredProblem::kNone: break;
-    case MeasuredProblem::kNotFinite: return Stop(s, kMeasuredNotFinite);
-    case MeasuredProblem::kWrongSize: return Stop(s, kMeasuredWrongSize);
-    case MeasuredProblem::kSecondSource:
-      if (s.mode != Mode::kWaiting) return Stop(s, kMeasuredSecondSource);  // nothing is locked while waiting
-      break;
+    case MeasuredProblem::kNotFinite: On(s, ModeEvent::kMeasuredNotFinite, now); break;
+    case MeasuredProblem::kWrongSize: On(s, ModeEvent::kMeasuredWrongSize, now); break;
+    case MeasuredProblem::kSecondSource: On(s, ModeEvent::kMeasuredSecondSource, now); break;
   }
+  if (s.mode.mode == Mode::kStopped) return;
   if (m != nullptr) {
-    if (s.source != 0 && m->run_id != s.source) return Stop(s, kMeasuredSecondSource);
+    if (s.source != 0 && m->run_id != s.source) {
+      On(s, ModeEvent::kMeasuredSecondSource, now);
+      return;
+    }
     s.source = m->run_id;
     LockPhase(s, now, m->arrived);
     s.instance.SetMeasured(m->q, m->qd);
     s.measured_tick = m->tick;
     s.last_measured = std::min(now, m->sent);
-    if (s.mode == Mode::kWaiting) {
-      if (s.estop_latched) {
-        s.mode = Mode::kEstop;
-        s.reason = kEstopped;
-      } else if (s.hold_on_arrival) {
-        EnterHold(s, kLeftEstop);
-      } else {
-        RunOrHold(s, now);
-      }
-      s.hold_on_arrival = false;
-    }
+    On(s, ModeEvent::kMeasuredArrived, now);
   }
-  if (s.mode != Mode::kWaiting && now - s.last_measured > s.state_timeout) Stop(s, kMeasuredTimedOut);
+  if (TimedOut(now, s.last_measured, s.m.state_timeout)) On(s, ModeEvent::kMeasuredTimedOut, now);
 }
 
 // (now) => an external plant's step count: the plant is real, so its time is
 // the wall's, ticks the loop skipped included, while it is commanded; a
 // stopped or waiting instance's clock stands, and resumes from there.
 void Runtime::KeepPlantTime(Slot& s, Nanoseconds now) {
-  const bool commanding = s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop;
-  const Nanoseconds period = ToNanoseconds(period_);
-  if (!commanding || period <= 0) {
+  const Nanoseconds period = ToNanoseconds(this->period());
+  if (!Commands(s.mode.mode) || period <= 0) {
     s.clock_origin = -1;
     return;
   }
   if (s.clock_origin < 0) s.clock_origin = now - s.instance.steps() * period;
-  s.instance.CatchUp((now - s.clock_origin) / period, period_);
+  s.instance.CatchUp((now - s.clock_origin) / period, this->period());
 }
 
 // (how long the state this tick takes had waited) => the loop's phase shift:
@@ -440,102 +357,67 @@ void Runtime::KeepPlantTime(Slot& s, Nanoseconds now) {
 // most kMaxPhaseStep a tick, so the loop settles phase_lag after the plant's
 // states. A wait beyond a period (a late tick, a gap) is not a phase: ignored.
 void Runtime::LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived) {
-  const ExternalPlantConfig& e = *s.instance.config().external;
-  const Nanoseconds period = ToNanoseconds(period_);
+  const ExternalPlantConfig& e = *s.m.config.external;
+  const Nanoseconds period = ToNanoseconds(this->period());
   const Nanoseconds wait = now - arrived;
   if (!e.phase_lock || phase_shift_ != 0 || arrived == kSentUnknown || wait < 0 || wait > period) return;
   const Nanoseconds error = wait - ToNanoseconds(e.phase_lag);
   phase_shift_ = std::clamp<Nanoseconds>(-error / 4, -kMaxPhaseStep, kMaxPhaseStep);
 }
 
-// (watchdog) => stopped: the last good state is kept, zero torque is commanded once.
-void Runtime::Stop(Slot& s, const char* why) {
-  s.mode = Mode::kStopped;
-  s.reason = why;
-  s.in_use = nullptr;
-  s.instance.Restore(s.good);
-  s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};
-  s.send_zero_once = true;
-}
-
-// (mailbox) => streamed setpoint, hold on staleness or timeout.
+// (mailbox) => the streamed setpoint; its timeout. Stale setpoints never get
+// here (the receiver refuses them) and so cannot cause hold: only the
+// timeout does (daemon/mode_machine.hpp has the whole rule).
 void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
-  // Stale setpoints never get here (the receiver refuses them) and so cannot
-  // cause hold: only the timeout does, while no fresh setpoint arrives. Under
-  // an external controller the torques decide running and hold instead.
-  const bool torques_decide = s.external_active();
-  if (const SetpointMessage* m = s.channels.setpoints.Take()) {
-    s.streamed.q = m->setpoint.q;
-    s.streamed.qd = m->setpoint.qd;
-    s.streamed.qdd = m->setpoint.qdd;
+  if (const SetpointMessage* msg = s.channels.setpoints.Take()) {
+    s.streamed.q = msg->setpoint.q;
+    s.streamed.qd = msg->setpoint.qd;
+    s.streamed.qdd = msg->setpoint.qdd;
     s.streaming = true;
     s.last_setpoint = now;
-    if (s.mode == Mode::kHold && !torques_decide) {
-      s.mode = Mode::kRunning;
-      s.reason = nullptr;
-    }
+    On(s, ModeEvent::kSetpointArrived, now);
   }
-  if (!torques_decide && s.mode == Mode::kRunning && s.streaming && now - s.last_setpoint > s.timeout) {
-    EnterHold(s, kSetpointsTimedOut);
-  }
+  if (s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout)) On(s, ModeEvent::kSetpointsTimedOut, now);
 }
 
-// (mailbox) => the external controller's torque; hold on timeout.
+// (mailbox) => the external controller's torque; its timeout.
 void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
-  const TorqueMessage* m = s.channels.torques.Take();  // taken even when unused, so an old one never applies later
+  const TorqueMessage* msg = s.channels.torques.Take();  // taken even when unused, so an old one never applies later
   if (!s.external_active()) return;
-  if (m != nullptr) {
-    s.instance.external_controller(s.instance.active_controller())->SetTorque(m->tau);
-    s.last_torque = std::min(now, m->sent);
-    if (s.mode == Mode::kHold) {
-      s.mode = Mode::kRunning;
-      s.reason = nullptr;
-    }
+  if (msg != nullptr) {
+    s.instance.external_controller(s.instance.active_controller())->SetTorque(msg->tau);
+    s.last_torque = std::min(now, msg->sent);
+    On(s, ModeEvent::kTorqueArrived, now);
   }
-  if (s.mode == Mode::kRunning && now - s.last_torque > s.torque_timeout[s.instance.active_controller()]) {
-    EnterHold(s, kTorquesTimedOut);
-  }
-}
-
-void Runtime::EnterHold(Slot& s, const char* why) {
-  s.mode = Mode::kHold;
-  s.reason = why;
-  s.held.q = s.instance.q();
-  s.held.qd.setZero();
-  s.held.qdd.setZero();
-  if (s.external_active()) {
-    const int fallback = s.fallback[s.instance.active_controller()];
-    if (fallback >= 0) s.instance.controller(static_cast<std::size_t>(fallback)).Reset();
-  }
+  if (TimedOut(now, s.last_torque, s.active().torque_timeout)) On(s, ModeEvent::kTorquesTimedOut, now);
 }
 
 // (mode, setpoint) => control, integrate.
 void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
-  const InstanceConfig& c = inst.config();
   s.in_use = nullptr;
-  s.integrated =
-      !inst.external_plant() && (s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop);
+  s.integrated = !inst.external_plant() && Commands(s.mode.mode);
   const auto brake = [&] {
-    s.brake_torque = (-s.brake.cwiseProduct(inst.qd())).cwiseMax(-c.torque_limits).cwiseMin(c.torque_limits);
-    return inst.StepWithTorque(period_, s.brake_torque);
+    s.brake_torque = (-s.m.brake.cwiseProduct(inst.qd())).cwiseMax(-s.m.torque_limits).cwiseMin(s.m.torque_limits);
+    return inst.StepWithTorque(period(), s.brake_torque);
   };
-  switch (s.mode) {
+  switch (s.mode.mode) {
     case Mode::kRunning:
       if (!s.streaming) inst.SampleTrajectory(s.current);
       s.in_use = s.streaming ? &s.streamed : &s.current;
-      s.step_failure = inst.Step(period_, *s.in_use);
+      s.step_failure = inst.Step(period(), *s.in_use);
       break;
     case Mode::kHold: {
       s.in_use = &s.held;  // also published under zero-torque: where hold began
-      if (c.on_timeout == TimeoutBehaviour::kZeroTorque) {
-        s.step_failure = inst.StepWithTorque(period_, s.zero);
-        break;
+      if (s.m.config.on_timeout == TimeoutBehaviour::kZeroTorque) {
+        s.step_failure = inst.StepWithTorque(period(), s.zero);
+      } else if (!s.external_active()) {
+        s.step_failure = inst.Step(period(), s.held);
+      } else if (s.active().fallback.kind == HoldBy::Kind::kController) {
+        s.step_failure = inst.Step(period(), s.held, s.active().fallback.controller);
+      } else {
+        s.step_failure = brake();
       }
-      const int fallback = s.external_active() ? s.fallback[inst.active_controller()] : -2;
-      s.step_failure = fallback == -1  ? brake()
-                       : fallback >= 0 ? inst.Step(period_, s.held, static_cast<std::size_t>(fallback))
-                                       : inst.Step(period_, s.held);
       break;
     }
     case Mode::kEstop: s.step_failure = brake(); break;
@@ -549,22 +431,14 @@ void Runtime::ControlAndIntegrate(Slot& s) {
 // (step, state) => energies; fault (daemon/health.hpp's rule), or remember
 // the state as good. The energies computed here are the ones the record publishes.
 void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
+  if (!Commands(s.mode.mode)) return;  // nothing moved (or nothing was measured); the energies stand
   Instance& inst = s.instance;
-  if (s.mode == Mode::kFault || s.mode == Mode::kPaused || s.mode == Mode::kStopped || s.mode == Mode::kWaiting) {
-    return;  // nothing moved (or nothing was measured); the energies stand
+  if (const char* fault = CheckStepHealth(inst, s.step_failure, s.m.max_energy, s.energies)) {
+    On(s, ModeEvent::kFault, 0, fault);
+    r.fault = fault;
+    return;
   }
-  if (const char* fault = CheckStepHealth(inst, s.step_failure, s.max_energy, s.energies)) return Fault(s, fault, r);
   inst.Save(s.good);
-}
-
-void Runtime::Fault(Slot& s, const char* why, InstanceRecord& r) {
-  s.mode = Mode::kFault;
-  s.reason = why;
-  s.in_use = nullptr;
-  s.instance.Restore(s.good);
-  s.energies = {s.instance.KineticEnergy(), s.instance.PotentialEnergy()};  // of the restored, good state
-  s.send_zero_once = s.instance.external_plant();
-  r.fault = why;
 }
 
 // (instance, mode) => record.
@@ -580,10 +454,9 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.kinetic_energy = s.energies.kinetic;
   r.potential_energy = s.energies.potential;
   r.controller = static_cast<int>(inst.active_controller());
-  r.mode = s.mode;
-  r.reason = s.reason;
-  const bool commanding = s.mode == Mode::kRunning || s.mode == Mode::kHold || s.mode == Mode::kEstop;
-  r.publish_torque = inst.external_plant() && (commanding || s.send_zero_once);
+  r.mode = s.mode.mode;
+  r.reason = s.mode.reason;
+  r.publish_torque = inst.external_plant() && (Commands(s.mode.mode) || s.send_zero_once);
   r.state_tick = s.measured_tick;
   s.send_zero_once = false;
   // Telemetry and forces.
@@ -593,14 +466,14 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.quadrature_bound = balance.quadrature_bound();
   r.work = balance.work();
   r.power = inst.power();
-  r.integrated = s.integrated && s.mode != Mode::kFault;  // a faulted step's work is of the step undone
+  r.integrated = s.integrated && s.mode.mode != Mode::kFault;  // a faulted step's work is of the step undone
   r.integrator_work = r.integrated ? inst.integrator().work() : IntegratorWork{};
   r.integrator = inst.integrator().config();
   r.external_plant = inst.external_plant();
   r.method = inst.method();
   r.effects = inst.model().effects().flags();
   r.forces_on = s.forces;
-  r.publish_forces = s.forces && s.mode != Mode::kFault && s.mode != Mode::kStopped;
+  r.publish_forces = s.forces && s.mode.mode != Mode::kFault && s.mode.mode != Mode::kStopped;
   if (r.publish_forces) inst.ComputeForces(r.forces);
 }
 

@@ -7,31 +7,18 @@
 //   take commands → take the latest setpoint → check its timeout →
 //   control and integrate (by mode) → check health → record for the publisher
 //
-// Modes (state_t.MODE_*):
-//   running  follows the streamed setpoint, or the scene trajectory until one arrives;
-//            under an external controller, applies the latest streamed torque
-//   hold     streamed setpoints went stale or stopped: on_timeout behaviour
-//            (hold-position: q_d = q when it began, at rest; zero-torque: τ = 0);
-//            the next valid setpoint resumes running. Under an external
-//            controller: no torque yet since it became active, or none for
-//            torque_timeout; hold-position is then kept by its fallback (a
-//            configured controller, or the brake τ = −B q̇), and the next
-//            valid torque resumes running
-//   stopped  external plant: the watchdog tripped (measured state older than
-//            state_timeout, non-finite, of the wrong size, or from a second
-//            run id): zero torque is commanded once, then nothing; reset or
-//            clear_estop re-arm it into waiting, never the state itself
-//   waiting  external plant, armed: no measured state since start, reset or
-//            clear; the first fresh one starts running
-//   fault    the controller's law, the integrator, the state or the energy
-//            (|T + V| > max_energy) failed: the last good state is kept, τ = 0,
-//            nothing moves; reset clears it
-//   paused   frozen: time and state stand still; resume returns to the mode before
-//   estop    the controller is bypassed and every joint braked, τ = −B q̇ within the
-//            torque limits; clear_estop enters hold. An estop is latched until
-//            clear_estop: reset keeps it (also after a fault or the watchdog
-//            interrupted it), and an external plant stopped or waiting takes it
-//            and brakes from its first fresh state instead of running.
+// Modes, what moves an instance between them and when it holds: the mode
+// machine (daemon/mode_machine.hpp), one transition function every Take*
+// step, command and health check calls. What each mode does in a tick:
+//   running  control (the streamed setpoint, the scene trajectory until one
+//            arrives, or an external controller's latest torque), integrate
+//   hold     hold-position: q_d = q where the hold began, at rest, under the
+//            active controller, or an external controller's fallback (a
+//            configured controller, or the brake τ = −B q̇); zero-torque: τ = 0
+//   estop    the controller bypassed, every joint braked: τ = −B q̇ within the
+//            torque limits
+//   fault, stopped, paused, waiting: nothing moves (fault and stopped command
+//            zero torque once)
 //
 // An external plant's instance is not integrated: each tick its (q, q̇) are
 // the latest measured ones, its controller runs on them, and the record asks
@@ -55,7 +42,9 @@
 
 #include "controllers/controller.hpp"
 #include "daemon/instance.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/mailbox.hpp"
+#include "daemon/mode_machine.hpp"
 #include "daemon/scene.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/command_kind.hpp"
@@ -143,20 +132,6 @@ struct InstanceChannels {
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
 };
 
-// Why an instance is not running (static strings, published in the status).
-inline constexpr char kSetpointsTimedOut[] = "streamed setpoints timed out (setpoint_timeout)";
-inline constexpr char kTorquesTimedOut[] = "streamed torques timed out (torque_timeout)";
-inline constexpr char kNoTorqueYet[] = "no torque yet on the external controller's channel";
-inline constexpr char kLeftEstop[] = "cleared from an emergency stop";
-inline constexpr char kEstopped[] = "emergency stop";
-inline constexpr char kPausedByCommand[] = "paused by command";
-inline constexpr char kWaitingForState[] = "waiting for the measured state (state_channel)";
-inline constexpr char kWaitingEstopLatched[] = "waiting for the measured state; estop latched";
-inline constexpr char kMeasuredTimedOut[] = "the measured state timed out (state_timeout)";
-inline constexpr char kMeasuredNotFinite[] = "a measured state was not finite or out of range";
-inline constexpr char kMeasuredWrongSize[] = "a measured state had the wrong num_dofs";
-inline constexpr char kMeasuredSecondSource[] = "a measured state came from a second source (run_id)";
-
 // Why a run-time switch was refused by the work bound (daemon/work_bound.hpp).
 inline constexpr char kSwitchDoesNotFit[] =
     "its worst case per tick does not fit the period (as lagranged refuses such a scene): lower substeps or "
@@ -225,11 +200,18 @@ struct TickRecord {
 
 class Runtime {
  public:
-  explicit Runtime(const Scene& scene);
+  // The tick's data for every instance of `model` (which it keeps, shared
+  // with the receive and publish threads). Throws std::invalid_argument as
+  // Instance does.
+  explicit Runtime(std::shared_ptr<const DaemonModel> model);
+  // The same on a model built from `scene` (tests, benches: by default no
+  // prefix and no measured costs).
+  explicit Runtime(const Scene& scene, const BuildOptions& options = {});
   ~Runtime();
 
+  const DaemonModel& model() const { return *model_; }
   std::size_t size() const { return slots_.size(); }
-  double period() const { return period_; }
+  double period() const { return model_->period; }
   Instance& instance(std::size_t i);
   InstanceChannels& channels(std::size_t i);
   Mode mode(std::size_t i) const;
@@ -243,12 +225,6 @@ class Runtime {
   // The clock each instance's compute time is read from (InstanceRecord::compute);
   // none (the default): 0. The loop sets its own.
   void SetClock(Clock* clock) { clock_ = clock; }
-
-  // Before the loop: the cost of one right-hand-side evaluation of instance
-  // i by each method (s, by Method; 0: unknown, not checked), which the
-  // integrator and method commands are checked against as the scene was
-  // (daemon/work_bound.hpp).
-  void SetEvaluationCosts(std::size_t i, const std::array<double, 3>& seconds);
 
   // The loop's phase correction after this tick, ns (0: none): set by the
   // first external plant with phase_lock that took a measured state this
@@ -273,18 +249,16 @@ class Runtime {
   void ControlAndIntegrate(Slot& s);
   void CheckHealth(Slot& s, InstanceRecord& r);
   void Record(Slot& s, InstanceRecord& r);
-  void EnterHold(Slot& s, const char* why);
-  void Activated(Slot& s, Nanoseconds now);
-  void RunOrHold(Slot& s, Nanoseconds now);
+  // Runs `event` through the mode machine (daemon/mode_machine.hpp) and, when
+  // it enters a mode, that mode's entry actions. Returns a command's refusal, or null.
+  const char* On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault = nullptr);
   void KeepPlantTime(Slot& s, Nanoseconds now);
   void LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived);
-  void Stop(Slot& s, const char* why);
-  void Fault(Slot& s, const char* why, InstanceRecord& r);
 
   const char* ApplySwitch(Slot& s, const CommandMessage& c);
   bool Fits(const Slot& s, const IntegratorConfig& config, Method method) const;
 
-  double period_;
+  std::shared_ptr<const DaemonModel> model_;
   Clock* clock_ = nullptr;
   std::vector<std::unique_ptr<Slot>> slots_;
   Nanoseconds phase_shift_ = 0;

@@ -2,22 +2,23 @@
 
 namespace lagrange {
 
-ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix) {
-  std::vector<std::string> names;
-  for (const InstanceConfig& inst : scene.instances) names.push_back(inst.name);
-  ChannelNames c = MakeChannelNames(names, prefix);
-  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
-    const InstanceConfig& inst = scene.instances[i];
-    if (const ExternalControllerRef external = ExternalControllerOf(inst); external.config != nullptr) {
-      const std::string& written = external.config->external.torque_channel;
-      c.torque_in[i] = written.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix) : written;
-    }
-    if (inst.external) {
-      c.measured_in[i] = inst.external->state_channel;
-      c.torque_out[i] = inst.external->torque_channel;
-    }
+InstanceChannelNames SceneChannelNames(const InstanceConfig& inst, const std::string& prefix) {
+  InstanceChannelNames c = DerivedChannelNames(prefix, inst.name);
+  if (const ExternalControllerRef external = ExternalControllerOf(inst); external.config != nullptr) {
+    const std::string& written = external.config->external.torque_channel;
+    c.torque_in = written.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix) : written;
+  }
+  if (inst.external) {
+    c.measured_in = inst.external->state_channel;
+    c.torque_out = inst.external->torque_channel;
   }
   return c;
+}
+
+std::vector<InstanceChannelNames> SceneChannelNames(const Scene& scene, const std::string& prefix) {
+  std::vector<InstanceChannelNames> all;
+  for (const InstanceConfig& inst : scene.instances) all.push_back(SceneChannelNames(inst, prefix));
+  return all;
 }
 
 }  // namespace lagrange

@@ -1,17 +1,19 @@
 #pragma once
-// The channels of a scene: the names derived from its instances
-// (protocol/channels.hpp) and the ones its external controllers and plants
-// write themselves.
+// The channels an instance of a scene reads and writes: the derived ones
+// (protocol/channels.hpp) under the run's --channel-prefix, and the ones the
+// scene writes (an external controller's torque_channel, an external plant's
+// state_channel and torque_channel), used exactly as written.
 
 #include <string>
+#include <vector>
 
 #include "daemon/scene.hpp"
 #include "protocol/channels.hpp"
 
 namespace lagrange {
 
-// Every channel of a scene: the derived ones with the prefix, the ones the
-// scene writes as written.
-ChannelNames SceneChannelNames(const Scene& scene, const std::string& prefix);
+InstanceChannelNames SceneChannelNames(const InstanceConfig& instance, const std::string& prefix);
+// Every instance's, in the scene's order.
+std::vector<InstanceChannelNames> SceneChannelNames(const Scene& scene, const std::string& prefix);
 
 }  // namespace lagrange

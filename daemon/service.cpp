@@ -22,7 +22,7 @@
 #include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
-#include "daemon/scene_channels.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/timing_csv.hpp"
 #include "daemon/work_bound.hpp"
 #include "daemon/yaml_reader.hpp"
@@ -133,13 +133,6 @@ int Serve(const Options& o, const LogFiles& logs) {
     spdlog::error("{}", e.what());
     return 2;
   }
-  std::unique_ptr<Runtime> runtime;
-  try {
-    runtime = std::make_unique<Runtime>(scene);
-  } catch (const std::exception& e) {
-    spdlog::error("{}: {}", o.config, e.what());
-    return 2;
-  }
   // A tick must end within the period whatever the scene does (daemon/work_bound.hpp).
   const std::vector<WorkBound> bounds = MeasureWorkBounds(scene);
   for (const WorkBound& b : bounds) {
@@ -150,15 +143,24 @@ int Serve(const Options& o, const LogFiles& logs) {
     spdlog::error("{}", *refusal);
     return 2;
   }
-  // The run-time integrator and method commands are held to the same bound.
-  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
-    runtime->SetEvaluationCosts(i, MeasureEvaluationCosts(scene.instances[i]));
+  // The run's model, built once: the run-time integrator and method commands
+  // are held to the same bound by each method's measured cost.
+  std::shared_ptr<const DaemonModel> model;
+  std::unique_ptr<Runtime> runtime;
+  try {
+    model = BuildDaemonModel(scene, {.channel_prefix = o.channel_prefix, .measure_costs = true});
+    runtime = std::make_unique<Runtime>(model);
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", o.config, e.what());
+    return 2;
   }
   std::vector<std::string> names;
   std::vector<std::int32_t> dofs;
-  for (const auto& inst : scene.instances) {
-    names.push_back(inst.name);
-    dofs.push_back(inst.plant.num_dofs());
+  std::vector<InstanceChannelNames> channels;
+  for (const InstanceModel& m : model->instances) {
+    names.push_back(m.name());
+    dofs.push_back(m.num_dofs);
+    channels.push_back(m.channels);
   }
   if (!StatusFits(names, dofs, {})) {
     spdlog::error(
@@ -167,8 +169,7 @@ int Serve(const Options& o, const LogFiles& logs) {
         o.config, names.size());
     return 2;
   }
-  const ChannelNames channels = SceneChannelNames(scene, o.channel_prefix);
-  if (const std::string why = CheckChannelNames(channels, names); !why.empty()) {
+  if (const std::string why = CheckChannelNames(channels, model->status_channel); !why.empty()) {
     spdlog::error("{}: {}", o.config, why);
     return 2;
   }
@@ -199,9 +200,9 @@ int Serve(const Options& o, const LogFiles& logs) {
                                o.max_catch_up};
   Loop loop(*runtime, clock, timer, ring, notify_fd);
   ReceiverStats stats;
-  Receiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, channels, *runtime, clock,
-                    stats, o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
-  Publisher publisher(*bus_out, channels, *runtime, ring, loop, stats, notify_fd, run_id);
+  Receiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, *runtime, clock, stats,
+                    o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
+  Publisher publisher(*bus_out, *runtime, ring, loop, stats, notify_fd, run_id);
   TimingCsvWriter timing;
   if (!o.timing_csv.empty()) {
     if (!timing.Open(o.timing_csv)) {
@@ -216,14 +217,12 @@ int Serve(const Options& o, const LogFiles& logs) {
   spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}{}, run id {:016x}", o.config, scene.description,
                names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
                static_cast<std::uint64_t>(run_id));
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    const InstanceConfig& inst = scene.instances[i];
-    spdlog::info(
-        "  {}: {}{} with {}, {} / {} / {}{}{}", names[i], inst.external ? "external plant, model " : "",
-        ToString(inst.plant.type()), runtime->instance(i).controller().name(), channels.state[i], channels.setpoint[i],
-        channels.command[i], channels.torque_in[i].empty() ? "" : ", torques from " + channels.torque_in[i],
-        inst.external ? ", measured state from " + channels.measured_in[i] + ", torque to " + channels.torque_out[i]
-                      : "");
+  for (const InstanceModel& m : model->instances) {
+    const InstanceChannelNames& c = m.channels;
+    spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", m.name(), m.external_plant() ? "external plant, model " : "",
+                 ToString(m.config.plant.type()), m.controllers.front().name, c.state, c.setpoint, c.command,
+                 c.torque_in.empty() ? "" : ", torques from " + c.torque_in,
+                 m.external_plant() ? ", measured state from " + c.measured_in + ", torque to " + c.torque_out : "");
   }
 
   std::atomic<bool> stop_loop{false}, stop_io{false};

@@ -46,7 +46,7 @@ double MeasureEvaluationSeconds(const InstanceConfig& config);
 // The same by every method the plant has (by Method; 0 for a method it lacks),
 // with every effect the scene configures on (gravity, Coriolis and those in
 // effects.off included): the costliest combination a command can switch to,
-// for the run-time method and integrator commands (Runtime::SetEvaluationCosts).
+// for the run-time method and integrator commands (InstanceModel::evaluation_s, BuildOptions::measure_costs).
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
 struct WorkBound {

@@ -13,20 +13,15 @@ std::string InstanceChannel(const std::string& prefix, const std::string& instan
   return prefix + upper + suffix;
 }
 
-ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix) {
-  ChannelNames c;
-  for (const std::string& name : instance_names) {
-    c.state.push_back(InstanceChannel(prefix, name, kStateSuffix));
-    c.setpoint.push_back(InstanceChannel(prefix, name, kSetpointSuffix));
-    c.command.push_back(InstanceChannel(prefix, name, kCommandSuffix));
-    c.reply.push_back(InstanceChannel(prefix, name, kReplySuffix));
-    c.telemetry.push_back(InstanceChannel(prefix, name, kTelemetrySuffix));
-    c.forces.push_back(InstanceChannel(prefix, name, kForcesSuffix));
-  }
-  c.torque_in.assign(instance_names.size(), "");
-  c.measured_in.assign(instance_names.size(), "");
-  c.torque_out.assign(instance_names.size(), "");
-  c.status = prefix + kStatusChannel;
+InstanceChannelNames DerivedChannelNames(const std::string& prefix, const std::string& instance) {
+  InstanceChannelNames c;
+  c.instance = instance;
+  c.state = InstanceChannel(prefix, instance, kStateSuffix);
+  c.setpoint = InstanceChannel(prefix, instance, kSetpointSuffix);
+  c.command = InstanceChannel(prefix, instance, kCommandSuffix);
+  c.reply = InstanceChannel(prefix, instance, kReplySuffix);
+  c.telemetry = InstanceChannel(prefix, instance, kTelemetrySuffix);
+  c.forces = InstanceChannel(prefix, instance, kForcesSuffix);
   return c;
 }
 
@@ -42,17 +37,17 @@ std::string CheckChannelName(const std::string& channel) {
   return "";
 }
 
-std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::string>& names) {
+std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances, const std::string& status) {
   // Every output, with who publishes it.
   std::vector<std::pair<std::string, std::string>> outputs;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    outputs.emplace_back(c.state[i], names[i] + "'s state");
-    outputs.emplace_back(c.reply[i], names[i] + "'s replies");
-    if (i < c.telemetry.size()) outputs.emplace_back(c.telemetry[i], names[i] + "'s telemetry");
-    if (i < c.forces.size()) outputs.emplace_back(c.forces[i], names[i] + "'s forces");
-    if (!c.torque_out[i].empty()) outputs.emplace_back(c.torque_out[i], names[i] + "'s torque_channel");
+  for (const InstanceChannelNames& c : instances) {
+    outputs.emplace_back(c.state, c.instance + "'s state");
+    outputs.emplace_back(c.reply, c.instance + "'s replies");
+    outputs.emplace_back(c.telemetry, c.instance + "'s telemetry");
+    outputs.emplace_back(c.forces, c.instance + "'s forces");
+    if (!c.torque_out.empty()) outputs.emplace_back(c.torque_out, c.instance + "'s torque_channel");
   }
-  outputs.emplace_back(c.status, "the status");
+  outputs.emplace_back(status, "the status");
   for (std::size_t a = 0; a < outputs.size(); ++a) {
     for (std::size_t b = a + 1; b < outputs.size(); ++b) {
       if (outputs[a].first == outputs[b].first) {
@@ -68,17 +63,17 @@ std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::stri
     std::string_view what;
   };
   std::vector<Input> inputs;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    for (const auto& [channel, what] : {std::pair{&c.setpoint[i], "setpoints"}, std::pair{&c.command[i], "commands"},
-                                        std::pair{&c.torque_in[i], "torques"},
-                                        std::pair{&c.measured_in[i], "state_channel"}}) {
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const InstanceChannelNames& c = instances[i];
+    for (const auto& [channel, what] : {std::pair{&c.setpoint, "setpoints"}, std::pair{&c.command, "commands"},
+                                        std::pair{&c.torque_in, "torques"}, std::pair{&c.measured_in, "state_channel"}}) {
       if (!channel->empty()) inputs.push_back({channel, i, what});
     }
   }
   for (const Input& in : inputs) {
     for (const auto& [out, who] : outputs) {
       if (*in.channel == out) {
-        return names[in.instance] + " reads its " + std::string(in.what) + " from " + out +
+        return instances[in.instance].instance + " reads its " + std::string(in.what) + " from " + out +
                ", which this lagranged publishes (" + who + "): give it another --channel-prefix";
       }
     }
@@ -89,7 +84,7 @@ std::string CheckChannelNames(const ChannelNames& c, const std::vector<std::stri
       const Input& x = inputs[a];
       const Input& y = inputs[b];
       if (*x.channel != *y.channel || (x.what == "state_channel" && y.what == "state_channel")) continue;
-      return names[x.instance] + " reads its " + std::string(x.what) + " and " + names[y.instance] + " its " +
+      return instances[x.instance].instance + " reads its " + std::string(x.what) + " and " + instances[y.instance].instance + " its " +
              std::string(y.what) + " from the same channel " + *x.channel;
     }
   }

@@ -22,23 +22,25 @@ inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
 // prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
 std::string InstanceChannel(const std::string& prefix, const std::string& instance, const char* suffix);
 
-struct ChannelNames {
-  std::vector<std::string> state, setpoint, command, reply;  // one per instance
-  std::vector<std::string> telemetry, forces;                // one per instance (outputs)
-  // One per instance, "" where the instance has none:
-  std::vector<std::string> torque_in;     // an external controller's torques (derived, or as the scene wrote it)
-  std::vector<std::string> measured_in;   // an external plant's measured state (as written)
-  std::vector<std::string> torque_out;    // an external plant's torque command (as written)
-  std::string status;
+// One instance's channels.
+struct InstanceChannelNames {
+  std::string instance;                                      // its name, for messages
+  std::string state, setpoint, command, reply, telemetry, forces;
+  // "" where the instance has none:
+  std::string torque_in;    // an external controller's torques (derived, or as the scene wrote it)
+  std::string measured_in;  // an external plant's measured state (as written)
+  std::string torque_out;   // an external plant's torque command (as written)
 };
 
-// The derived names only (torque_in, measured_in, torque_out all ""); a
-// scene's own names are daemon/scene_channels.hpp's.
-ChannelNames MakeChannelNames(const std::vector<std::string>& instance_names, const std::string& prefix);
+// The derived names of instance `instance` under `prefix` (torque_in,
+// measured_in, torque_out ""; a scene's own names are the daemon's to add).
+InstanceChannelNames DerivedChannelNames(const std::string& prefix, const std::string& instance);
+// The status channel under `prefix`.
+inline std::string StatusChannel(const std::string& prefix) { return prefix + kStatusChannel; }
 
-// Why this set of channels cannot work (an input that is one of this run's
-// outputs, an output two instances share), or "" when it can.
-std::string CheckChannelNames(const ChannelNames& channels, const std::vector<std::string>& instance_names);
+// Why one run's channels cannot work (an input that is one of this run's
+// outputs, an output two instances share), or "" when they can.
+std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances, const std::string& status);
 // A channel name a scene may write: 1-63 bytes of printable ASCII without
 // spaces. "" when valid, else what was expected.
 std::string CheckChannelName(const std::string& channel);

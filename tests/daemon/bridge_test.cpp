@@ -76,11 +76,10 @@ class Bridge : public ::testing::Test {
   Bridge(Scene scene, SetpointAge age)
       : scene_(std::move(scene)),
         runtime_(scene_),
-        channels_(MakeChannelNames({"arm", "cartpole"}, "")),
-        receiver_(input_, &output_, output_, channels_, runtime_, clock_, stats_, age, kRunId),
+        receiver_(input_, &output_, output_, runtime_, clock_, stats_, age, kRunId),
         ring_(2048, runtime_.MakeRecord()),
         loop_(runtime_, clock_, {kMs, OverrunPolicy::kSkip, 0}, ring_),
-        publisher_(output_, channels_, runtime_, ring_, loop_, stats_, -1, kRunId) {
+        publisher_(output_, runtime_, ring_, loop_, stats_, -1, kRunId) {
     // What the publisher sends (and, in one test, a spoofer; not decoded when it is junk).
     output_.Subscribe("ARM_REPLY", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
@@ -204,7 +203,6 @@ class Bridge : public ::testing::Test {
 
   Scene scene_;
   Runtime runtime_;
-  ChannelNames channels_;
   testing::FakeClock clock_;
   ReceiverStats stats_;
   InProcessBus input_, output_;
@@ -504,14 +502,12 @@ TEST(BridgeJointNames, NamesTooLongForOneStatusDatagramAreLeftOutAndTheStatusSti
     text += "  - {name: chain" + std::to_string(i) + ", plant: {type: chain, params: {links: 256}}}\n";
   }
   Runtime runtime(ParseScene(text, "inline"));
-  const ChannelNames channels =
-      MakeChannelNames({"chain0", "chain1", "chain2", "chain3", "chain4", "chain5", "chain6", "chain7"}, "");
   testing::FakeClock clock;
   ReceiverStats stats;
   InProcessBus output;
   SpscRing<TickRecord> ring(256, runtime.MakeRecord());
   Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
-  Publisher publisher(output, channels, runtime, ring, loop, stats, -1, kRunId);
+  Publisher publisher(output, runtime, ring, loop, stats, -1, kRunId);
   std::optional<status_t> status;
   output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
     status_t s;

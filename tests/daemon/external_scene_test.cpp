@@ -7,6 +7,7 @@
 #include <string>
 
 #include "daemon/scene.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/scene_channels.hpp"
 #include "daemon/yaml_reader.hpp"
 #include "protocol/channels.hpp"
@@ -173,34 +174,34 @@ TEST(ExternalControllerScene, AFallbackOfBrakeOrAConfiguredControllerIsAccepted)
 
 TEST(ExternalChannels, ExplicitChannelsAreUsedAsWrittenAndDerivedOnesArePrefixed) {
   const Scene plant = ParseScene(ExternalArmScene(), kFile);
-  const ChannelNames c = SceneChannelNames(plant, "CTRL_");
-  EXPECT_EQ(c.measured_in[0], "ARM_STATE");
-  EXPECT_EQ(c.torque_out[0], "ARM_TORQUE");
-  EXPECT_EQ(c.torque_in[0], "");
-  EXPECT_EQ(c.state[0], "CTRL_ARM_CONTROLLER_STATE");
-  EXPECT_EQ(c.setpoint[0], "CTRL_ARM_CONTROLLER_SETPOINT");
-  EXPECT_EQ(c.command[0], "CTRL_ARM_CONTROLLER_COMMAND");
-  EXPECT_EQ(c.reply[0], "CTRL_ARM_CONTROLLER_REPLY");
-  EXPECT_EQ(c.status, "CTRL_LAGRANGE_STATUS");
+  const InstanceChannelNames c = SceneChannelNames(plant, "CTRL_")[0];
+  EXPECT_EQ(c.measured_in, "ARM_STATE");
+  EXPECT_EQ(c.torque_out, "ARM_TORQUE");
+  EXPECT_EQ(c.torque_in, "");
+  EXPECT_EQ(c.state, "CTRL_ARM_CONTROLLER_STATE");
+  EXPECT_EQ(c.setpoint, "CTRL_ARM_CONTROLLER_SETPOINT");
+  EXPECT_EQ(c.command, "CTRL_ARM_CONTROLLER_COMMAND");
+  EXPECT_EQ(c.reply, "CTRL_ARM_CONTROLLER_REPLY");
+  EXPECT_EQ(BuildDaemonModel(plant, {.channel_prefix = "CTRL_"})->status_channel, "CTRL_LAGRANGE_STATUS");
 
-  const ChannelNames derived = SceneChannelNames(ParseScene(SimulatedArmScene("{type: external}"), kFile), "SIM_");
-  EXPECT_EQ(derived.torque_in[0], "SIM_ARM_TORQUE");
-  EXPECT_EQ(derived.measured_in[0], "");
-  EXPECT_EQ(derived.torque_out[0], "");
-  const ChannelNames written =
-      SceneChannelNames(ParseScene(SimulatedArmScene("{type: external, torque_channel: MY_TORQUE}"), kFile), "SIM_");
-  EXPECT_EQ(written.torque_in[0], "MY_TORQUE");
+  const InstanceChannelNames derived =
+      SceneChannelNames(ParseScene(SimulatedArmScene("{type: external}"), kFile), "SIM_")[0];
+  EXPECT_EQ(derived.torque_in, "SIM_ARM_TORQUE");
+  EXPECT_EQ(derived.measured_in, "");
+  EXPECT_EQ(derived.torque_out, "");
+  const InstanceChannelNames written =
+      SceneChannelNames(ParseScene(SimulatedArmScene("{type: external, torque_channel: MY_TORQUE}"), kFile), "SIM_")[0];
+  EXPECT_EQ(written.torque_in, "MY_TORQUE");
 }
 
 // An external plant named like the arm it controls reads ARM_STATE, which it
 // would publish itself without a prefix.
 TEST(ExternalChannels, AnInputEqualToAnOwnOutputIsRefusedUntilAPrefixSeparatesThem) {
   const Scene scene = ParseScene(ExternalArmScene("", "", "{type: computed-torque, kp: 100, kd: 20}", "arm"), kFile);
-  const std::vector<std::string> names = {"arm"};
-  EXPECT_EQ(CheckChannelNames(SceneChannelNames(scene, ""), names),
+  EXPECT_EQ(CheckChannelNames(SceneChannelNames(scene, ""), StatusChannel("")),
             "arm reads its state_channel from ARM_STATE, which this lagranged publishes (arm's state): "
             "give it another --channel-prefix");
-  EXPECT_EQ(CheckChannelNames(SceneChannelNames(scene, "CTRL_"), names), "");
+  EXPECT_EQ(CheckChannelNames(SceneChannelNames(scene, "CTRL_"), StatusChannel("CTRL_")), "");
 }
 
 // Torques on another instance's setpoint channel, or a measured state on its
@@ -225,7 +226,7 @@ instances:
     controller: {type: pd, kp: 10, kd: 1}
 )",
                                    kFile);
-    return CheckChannelNames(SceneChannelNames(scene, ""), {"arm", "leg", "ext", "ext2"});
+    return CheckChannelNames(SceneChannelNames(scene, ""), StatusChannel(""));
   };
   EXPECT_EQ(check("{type: external, torque_channel: LEG_SETPOINT}", "ROBOT_STATE"),
             "arm reads its torques and leg its setpoints from the same channel LEG_SETPOINT");
@@ -238,12 +239,12 @@ TEST(ExternalChannels, TheShippedTwoProcessScenesFitTogetherAsTheirCommentsSay) 
   const std::string dir = std::string(LAGRANGE_SOURCE_DIR) + "/config/";
   const Scene plant = LoadScene(dir + "arm_external_controller.yaml");
   const Scene controller = LoadScene(dir + "arm_external_plant.yaml");
-  const ChannelNames p = SceneChannelNames(plant, "");
-  const ChannelNames c = SceneChannelNames(controller, "CTRL_");
-  EXPECT_EQ(CheckChannelNames(p, {"arm"}), "");
-  EXPECT_EQ(CheckChannelNames(c, {"arm_controller"}), "");
-  EXPECT_EQ(c.measured_in[0], p.state[0]);     // the controller reads the plant's state
-  EXPECT_EQ(p.torque_in[0], c.torque_out[0]);  // and the plant takes the controller's torque
+  const std::vector<InstanceChannelNames> p = SceneChannelNames(plant, "");
+  const std::vector<InstanceChannelNames> c = SceneChannelNames(controller, "CTRL_");
+  EXPECT_EQ(CheckChannelNames(p, StatusChannel("")), "");
+  EXPECT_EQ(CheckChannelNames(c, StatusChannel("CTRL_")), "");
+  EXPECT_EQ(c[0].measured_in, p[0].state);     // the controller reads the plant's state
+  EXPECT_EQ(p[0].torque_in, c[0].torque_out);  // and the plant takes the controller's torque
 }
 
 }  // namespace

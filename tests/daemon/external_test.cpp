@@ -136,31 +136,31 @@ class Daemon {
   Daemon(Scene scene, const std::string& prefix, std::int64_t run_id)
       : run_id_(run_id),
         scene_(std::move(scene)),
-        runtime_(scene_),
-        channels_(SceneChannelNames(scene_, prefix)),
-        receiver_(input_, nullptr, output_, channels_, runtime_, clock_, stats_, SetpointAge::kWall, run_id),
+        runtime_(scene_, {.channel_prefix = prefix}),
+        channels_(runtime_.model().instances[0].channels),
+        receiver_(input_, nullptr, output_, runtime_, clock_, stats_, SetpointAge::kWall, run_id),
         ring_(kRing, runtime_.MakeRecord()),
         loop_(runtime_, clock_, {kMs, OverrunPolicy::kSkip, 0}, ring_),
-        publisher_(output_, channels_, runtime_, ring_, loop_, stats_, -1, run_id) {
-    output_.Subscribe(channels_.state[0], [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+        publisher_(output_, runtime_, ring_, loop_, stats_, -1, run_id) {
+    output_.Subscribe(channels_.state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       state_t s;
       if (!Decode(d, n, s) || s.run_id != run_id_) return;
       all_finite_ = all_finite_ && Finite(s);
       states_.push_back(std::move(s));
     });
-    if (!channels_.torque_out[0].empty()) {
-      output_.Subscribe(channels_.torque_out[0], [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+    if (!channels_.torque_out.empty()) {
+      output_.Subscribe(channels_.torque_out, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
         torque_t t;
         if (!Decode(d, n, t) || t.run_id != run_id_) return;
         all_finite_ = all_finite_ && Finite(t.tau);
         torques_.push_back(std::move(t));
       });
     }
-    output_.Subscribe(channels_.reply[0], [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+    output_.Subscribe(channels_.reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
       if (Decode(d, n, r)) replies_.push_back(r);
     });
-    output_.Subscribe(channels_.status, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+    output_.Subscribe(runtime_.model().status_channel, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       status_t s;
       if (Decode(d, n, s) && s.run_id == run_id_) last_status_ = s;
     });
@@ -190,17 +190,17 @@ class Daemon {
   }
 
   std::int64_t WallMicros() { return clock_.WallMicros(); }
-  void SendTorque(const torque_t& t) { input_.PublishMessage(channels_.torque_in[0], t); }
-  void SendState(const state_t& s) { input_.PublishMessage(channels_.measured_in[0], s); }
+  void SendTorque(const torque_t& t) { input_.PublishMessage(channels_.torque_in, t); }
+  void SendState(const state_t& s) { input_.PublishMessage(channels_.measured_in, s); }
   void SendCommand(int8_t kind, std::int64_t request_id, const std::string& controller = "") {
-    input_.PublishMessage(channels_.command[0], testing::MakeCommand(kind, request_id, 0, controller));
+    input_.PublishMessage(channels_.command, testing::MakeCommand(kind, request_id, 0, controller));
   }
   void SendBytes(const std::string& channel, const Bytes& bytes) {
     input_.Publish(channel, bytes.data(), bytes.size());
   }
 
   Runtime& runtime() { return runtime_; }
-  const ChannelNames& channels() const { return channels_; }
+  const InstanceChannelNames& channels() const { return channels_; }
   const ReceiverStats& stats() const { return stats_; }
   InProcessBus& input() { return input_; }
   InProcessBus& output() { return output_; }
@@ -217,7 +217,7 @@ class Daemon {
   std::int64_t run_id_;
   Scene scene_;
   Runtime runtime_;
-  ChannelNames channels_;
+  InstanceChannelNames channels_;  // the first instance's
   testing::FakeClock clock_;
   ReceiverStats stats_;
   InProcessBus input_, output_;
@@ -500,7 +500,7 @@ TEST_F(ExternalControllerLoop, ResumeNeverAppliesATorqueOlderThanTheTimeout) {
 TEST_F(ExternalControllerLoop, SwitchingAwayFromATorqueHoldHoldsWhenTheSetpointsHadTimedOut) {
   arm_.SendCommand(command_t::SWITCH_CONTROLLER, 1, "gravity-compensation");
   arm_.Ticks(1);
-  arm_.input().PublishMessage(arm_.channels().setpoint[0], testing::MakeSetpoint({0.0, 1.5}, arm_.WallMicros()));
+  arm_.input().PublishMessage(arm_.channels().setpoint, testing::MakeSetpoint({0.0, 1.5}, arm_.WallMicros()));
   arm_.Ticks(3000);  // setpoint_timeout (0.5 s) long past: hold
   ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
   const VectorXd held = Vec(arm_.states().back().q_des);
@@ -880,7 +880,7 @@ TEST_F(ExternalPlantWatchdog, ClearAfterTheWatchdogHoldsWhenTheSetpointsHadTimed
   std::int64_t tick = 1;
   SendState(tick++);
   controller_.Ticks(1);
-  controller_.input().PublishMessage(controller_.channels().setpoint[0],
+  controller_.input().PublishMessage(controller_.channels().setpoint,
                                      testing::MakeSetpoint({0.0, 1.5}, controller_.WallMicros()));
   for (int k = 0; k < 700; ++k) {  // past setpoint_timeout (0.5 s): hold
     SendState(tick++);
@@ -975,8 +975,8 @@ class TwoProcessLoop : public ::testing::Test {
     EXPECT_TRUE(controller_.all_finite());
   }
 
-  void LinkStates() { Link(plant_, plant_.channels().state[0], controller_); }
-  void LinkTorques() { Link(controller_, controller_.channels().torque_out[0], plant_); }
+  void LinkStates() { Link(plant_, plant_.channels().state, controller_); }
+  void LinkTorques() { Link(controller_, controller_.channels().torque_out, plant_); }
   void Steps(int n) {
     for (int k = 0; k < n; ++k) {
       plant_.Ticks(1);

@@ -245,8 +245,9 @@ TEST(Switching, AMethodThePlantLacksIsRefused) {
 
 class SwitchingRuntime : public ::testing::Test {
  protected:
-  explicit SwitchingRuntime(const std::string& scene = SwingingArm("{type: rk4}", "    effects: {damping: 0.2}\n"))
-      : runtime(ParseScene(scene, "inline")), record(runtime.MakeRecord()) {}
+  explicit SwitchingRuntime(const std::string& scene = SwingingArm("{type: rk4}", "    effects: {damping: 0.2}\n"),
+                            const BuildOptions& options = {})
+      : runtime(ParseScene(scene, "inline"), options), record(runtime.MakeRecord()) {}
   void Ticks(int n) {
     for (int k = 0; k < n; ++k) {
       now += kMs;
@@ -326,9 +327,16 @@ TEST_F(SwitchingRuntime, AVariationalSwitchWithoutCoriolisIsRefusedAndChangesNot
   EXPECT_EQ(Arm().mode, Mode::kRunning);
 }
 
+// The arm with known costs per evaluation: closed form 1 µs, lagrangian 5 µs, recursive 2 µs.
+class CostedSwitchingRuntime : public SwitchingRuntime {
+ protected:
+  CostedSwitchingRuntime()
+      : SwitchingRuntime(SwingingArm("{type: rk4}", "    effects: {damping: 0.2}\n"),
+                         {.evaluation_s = std::array<double, kNumMethods>{1e-6, 5e-6, 2e-6}}) {}
+};
+
 // The work bound the scene was checked against holds for switches too.
-TEST_F(SwitchingRuntime, ASwitchWhoseWorstCaseDoesNotFitThePeriodIsRefused) {
-  runtime.SetEvaluationCosts(0, {1e-6, 5e-6, 2e-6});  // closed form 1 µs per evaluation
+TEST_F(CostedSwitchingRuntime, ASwitchWhoseWorstCaseDoesNotFitThePeriodIsRefused) {
   Ticks(1);
   EXPECT_STREQ(SetIntegrator(IntegratorType::kRk4, 300), kSwitchDoesNotFit);  // 1201 evaluations × 1 µs > 1 ms
   EXPECT_EQ(Arm().integrator.substeps, 1);

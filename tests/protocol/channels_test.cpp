@@ -16,13 +16,18 @@ namespace {
 TEST(Channels, AnInstancesChannelsAreItsNameInUpperCaseUnderThePrefix) {
   EXPECT_EQ(InstanceChannel("", "arm", kStateSuffix), "ARM_STATE");
   EXPECT_EQ(InstanceChannel("LEFT_", "chain_7", kSetpointSuffix), "LEFT_CHAIN_7_SETPOINT");
-  const ChannelNames c = MakeChannelNames({"arm", "pole"}, "P_");
-  EXPECT_EQ(c.command, (std::vector<std::string>{"P_ARM_COMMAND", "P_POLE_COMMAND"}));
-  EXPECT_EQ(c.reply[1], "P_POLE_REPLY");
-  EXPECT_EQ(c.telemetry[0], "P_ARM_TELEMETRY");
-  EXPECT_EQ(c.forces[1], "P_POLE_FORCES");
-  EXPECT_EQ(c.status, "P_LAGRANGE_STATUS");
-  EXPECT_EQ(c.torque_in, (std::vector<std::string>{"", ""}));  // a scene's to name
+  const InstanceChannelNames arm = DerivedChannelNames("P_", "arm"), pole = DerivedChannelNames("P_", "pole");
+  EXPECT_EQ(arm.command, "P_ARM_COMMAND");
+  EXPECT_EQ(pole.command, "P_POLE_COMMAND");
+  EXPECT_EQ(pole.reply, "P_POLE_REPLY");
+  EXPECT_EQ(arm.state, "P_ARM_STATE");
+  EXPECT_EQ(arm.setpoint, "P_ARM_SETPOINT");
+  EXPECT_EQ(arm.telemetry, "P_ARM_TELEMETRY");
+  EXPECT_EQ(pole.forces, "P_POLE_FORCES");
+  EXPECT_EQ(StatusChannel("P_"), "P_LAGRANGE_STATUS");
+  EXPECT_EQ(arm.torque_in, "");  // a scene's to name
+  EXPECT_EQ(arm.measured_in, "");
+  EXPECT_EQ(arm.torque_out, "");
 }
 
 TEST(Channels, AWrittenNameIsOneTo63PrintableBytesWithoutSpaces) {

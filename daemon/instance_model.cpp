@@ -1,0 +1,107 @@
+#include "daemon/instance_model.hpp"
+
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include "daemon/health.hpp"
+#include "daemon/scene_channels.hpp"
+#include "daemon/work_bound.hpp"
+
+namespace lagrange {
+namespace {
+
+// The fallback of an external controller: the named one, "brake", or the
+// first gravity-compensation or computed-torque controller, else the brake.
+HoldBy FallbackOf(const std::vector<ControllerModel>& controllers, const std::optional<std::string>& name) {
+  for (std::size_t k = 0; k < controllers.size(); ++k) {
+    const ControllerType type = controllers[k].config.type;
+    const bool named = name && *name != "brake" && controllers[k].name == *name;
+    const bool model_based =
+        !name && (type == ControllerType::kGravityCompensation || type == ControllerType::kComputedTorque);
+    if (named || model_based) return {HoldBy::Kind::kController, k};
+  }
+  return {HoldBy::Kind::kBrake, 0};
+}
+
+std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
+  // A joint with a stop is driven the way the stop allows; only free revolute joints wrap.
+  const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), config.effects.limits);
+  std::vector<ControllerConfig> configs;
+  for (const ControllerConfig* c : ControllerConfigs(config)) configs.push_back(*c);
+  if (config.controller.type != ControllerType::kNone) configs.emplace_back();  // none, to switch to
+  std::vector<ControllerModel> controllers;
+  for (ControllerConfig& c : configs) {
+    c.wrap = wrap;
+    if (auto error = ValidateController(c, config.plant)) throw std::invalid_argument(*error);
+    ControllerModel m;
+    m.name = std::string(ToString(c.type));
+    m.gain_bounds = ComputeGainBounds(c, config.plant);
+    m.external = c.type == ControllerType::kExternal;
+    m.torque_timeout = m.external ? ToNanoseconds(c.external.torque_timeout) : 0;
+    m.config = std::move(c);
+    controllers.push_back(std::move(m));
+  }
+  for (ControllerModel& m : controllers) {
+    if (m.external) m.fallback = FallbackOf(controllers, m.config.external.fallback);
+  }
+  return controllers;
+}
+
+// B: the scene's, else a 50 ms time constant per joint at q0 (20/s × diag M(q0)).
+VectorXd BrakeOf(const InstanceConfig& config, const Dynamics& dynamics) {
+  if (config.estop_damping) return *config.estop_damping;
+  const int n = dynamics.num_dofs();
+  MatrixXd M(n, n);
+  dynamics.ComputeMassMatrix(*dynamics.MakeData(), config.q0, M);
+  return 20.0 * M.diagonal();
+}
+
+CommandRules CommandRulesOf(const InstanceModel& m) {
+  CommandRules rules;
+  rules.instance = m.name();
+  rules.n = m.num_dofs;
+  for (const ControllerModel& c : m.controllers) {
+    rules.controllers.push_back(c.name);
+    rules.controller_types.push_back(c.config.type);
+    rules.gain_bounds.push_back(c.gain_bounds);
+  }
+  rules.integrator = m.config.integrator;
+  return rules;
+}
+
+}  // namespace
+
+InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOptions& options) {
+  InstanceModel m;
+  m.config = config;
+  m.num_dofs = config.plant.num_dofs();
+  m.joint_names = JointNamesOf(config.plant);
+  m.channels = SceneChannelNames(config, options.channel_prefix);
+  m.controllers = ControllersOf(config);
+  m.external_controller = ExternalControllerOf(config).index;
+  m.dynamics = MakeMethodModels(config.plant);
+  m.torque_limits = config.torque_limits.size() == m.num_dofs
+                        ? config.torque_limits
+                        : VectorXd::Constant(m.num_dofs, std::numeric_limits<double>::infinity());
+  m.brake = BrakeOf(config, *m.dynamics[static_cast<std::size_t>(config.method)]);
+  m.max_energy = MaxEnergy(config);
+  m.setpoint_timeout = ToNanoseconds(config.setpoint_timeout);
+  m.state_timeout = config.external ? ToNanoseconds(config.external->state_timeout) : 0;
+  m.setpoint_rules = SetpointRules{m.num_dofs, config.setpoint_lower, config.setpoint_upper};
+  m.command_rules = CommandRulesOf(m);
+  if (options.measure_costs) m.evaluation_s = MeasureEvaluationCosts(config);
+  if (options.evaluation_s) m.evaluation_s = *options.evaluation_s;
+  return m;
+}
+
+std::shared_ptr<const DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options) {
+  auto model = std::make_shared<DaemonModel>();
+  model->file = scene.file;
+  model->period = scene.period;
+  model->status_channel = StatusChannel(options.channel_prefix);
+  for (const InstanceConfig& c : scene.instances) model->instances.push_back(BuildInstanceModel(c, options));
+  return model;
+}
+
+}  // namespace lagrange

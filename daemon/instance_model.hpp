@@ -1,0 +1,97 @@
+#pragma once
+// One run's instances as lagranged runs them, model and data apart at the
+// daemon's scale (as plant/dynamics.hpp is at the plant's): everything about
+// an instance that is fixed before the loop is built once from the scene
+// (BuildDaemonModel), immutable afterwards, and read by const reference by
+// the receive thread, the tick and the publish thread. Each thread keeps only
+// its own data: the tick its Instance (daemon/instance.hpp) and mode
+// (Runtime), the receiver its timelines and senders, the publisher its
+// messages.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "controllers/factory.hpp"
+#include "daemon/scene.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/command_check.hpp"
+#include "protocol/setpoint_check.hpp"
+
+namespace lagrange {
+
+// Who keeps an external controller's instance in place while it holds
+// (its torques have not come yet, or lapsed).
+struct HoldBy {
+  enum class Kind : std::uint8_t {
+    kController,  // a configured controller, `controller`: the named fallback or the first gravity-compensation or
+                  // computed-torque one
+    kBrake,       // τ = −B q̇, the emergency-stop brake
+  } kind = Kind::kBrake;
+  std::size_t controller = 0;  // kController: its index
+};
+
+// One of the controllers an instance can run, by index: the scene's
+// `controller`, then its `controllers`, then `none` (unless the scene's is none).
+struct ControllerModel {
+  ControllerConfig config;  // as the scene gave it (wrap set from the instance's joints)
+  std::string name;         // ToString(config.type): what commands and states call it
+  GainBounds gain_bounds;   // what it accepts at the scene's period (ComputeGainBounds)
+  // An external controller (type external): how long its torques stay fresh,
+  // and who holds the instance while none is.
+  bool external = false;
+  Nanoseconds torque_timeout = 0;
+  HoldBy fallback;
+};
+
+struct InstanceModel {
+  InstanceConfig config;  // as the scene gave it
+  int num_dofs = 0;
+  std::vector<std::string> joint_names;  // JointNamesOf, in q order, as in the file
+  InstanceChannelNames channels;
+  std::vector<ControllerModel> controllers;
+  int external_controller = -1;  // the index of its external controller; -1: none
+  // The plant's dynamics by every method it has, shared (immutable) with the
+  // tick's Instance and its controllers.
+  MethodModels dynamics;
+  VectorXd torque_limits;  // (n), +inf where none
+  VectorXd brake;          // (n) B of the estop brake: the scene's estop_damping, else 20/s × diag M(q0)
+  double max_energy = 0.0;                // J: |T + V| above this faults (MaxEnergy)
+  Nanoseconds setpoint_timeout = 0;       // the scene's setpoint_timeout
+  Nanoseconds state_timeout = 0;          // an external plant's; 0: not external
+  SetpointRules setpoint_rules;           // what the receiver accepts as a setpoint
+  CommandRules command_rules;             // ... and as a command
+  // Measured before the loop (BuildOptions::measure_costs): one right-hand-side
+  // evaluation's cost by Method, s, with every configured effect on; 0: not
+  // measured (nothing is then refused for cost).
+  std::array<double, kNumMethods> evaluation_s{};
+
+  const std::string& name() const { return config.name; }
+  bool external_plant() const { return config.external.has_value(); }
+};
+
+struct DaemonModel {
+  std::string file;    // the scene's
+  double period = 0.0;  // s
+  std::string status_channel;
+  std::vector<InstanceModel> instances;
+};
+
+struct BuildOptions {
+  std::string channel_prefix;  // --channel-prefix
+  bool measure_costs = false;  // time each method's evaluation (daemon/work_bound.hpp), for the switch commands
+  // Given costs instead (by Method, s), for every instance: tests that need the bound exact.
+  std::optional<std::array<double, kNumMethods>> evaluation_s;
+};
+
+// One instance's model. Throws std::invalid_argument for a controller that
+// cannot be built (ValidateController's message).
+InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOptions& options = {});
+// Every instance of the scene, in order.
+std::shared_ptr<const DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options = {});
+
+}  // namespace lagrange
