@@ -244,7 +244,8 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
                                             needs_model ? ControllerModel(c, plant, shared) : nullptr);
     }
     case ControllerType::kComputedTorque:
-      return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains, ControllerModel(c, plant, shared));
+      return std::make_unique<ComputedTorqueController>(joints, torque_limits, c.gains,
+                                                        ControllerModel(c, plant, shared));
     case ControllerType::kCartPolePd: return std::make_unique<CartPolePdController>(joints, torque_limits, c.gains);
     case ControllerType::kLqr: return MakeLqr(c, plant, torque_limits, shared);
     case ControllerType::kSwingUp: {

@@ -58,13 +58,13 @@ struct InstanceModel {
   // The plant's dynamics by every method it has, shared (immutable) with the
   // tick's Instance and its controllers.
   MethodModels dynamics;
-  VectorXd torque_limits;  // (n), +inf where none
-  VectorXd brake;          // (n) B of the estop brake: the scene's estop_damping, else 20/s × diag M(q0)
-  double max_energy = 0.0;                // J: |T + V| above this faults (MaxEnergy)
-  Nanoseconds setpoint_timeout = 0;       // the scene's setpoint_timeout
-  Nanoseconds state_timeout = 0;          // an external plant's; 0: not external
-  SetpointRules setpoint_rules;           // what the receiver accepts as a setpoint
-  CommandRules command_rules;             // ... and as a command
+  VectorXd torque_limits;            // (n), +inf where none
+  VectorXd brake;                    // (n) B of the estop brake: the scene's estop_damping, else 20/s × diag M(q0)
+  double max_energy = 0.0;           // J: |T + V| above this faults (MaxEnergy)
+  Nanoseconds setpoint_timeout = 0;  // the scene's setpoint_timeout
+  Nanoseconds state_timeout = 0;     // an external plant's; 0: not external
+  SetpointRules setpoint_rules;      // what the receiver accepts as a setpoint
+  CommandRules command_rules;        // ... and as a command
   // Measured before the loop (BuildOptions::measure_costs): one right-hand-side
   // evaluation's cost by Method, s, with every configured effect on; 0: not
   // measured (nothing is then refused for cost).
@@ -75,7 +75,7 @@ struct InstanceModel {
 };
 
 struct DaemonModel {
-  std::string file;    // the scene's
+  std::string file;     // the scene's
   double period = 0.0;  // s
   std::string status_channel;
   std::vector<InstanceModel> instances;

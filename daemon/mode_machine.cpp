@@ -44,7 +44,7 @@ ModeOutcome OnEstop(ModeState s) {
 }
 
 ModeOutcome OnClearEstop(ModeState s) {
-  if (s.mode == Mode::kStopped) return Rearm(s);  // the watchdog re-armed; a latched estop stays
+  if (s.mode == Mode::kStopped) return Rearm(s);      // the watchdog re-armed; a latched estop stays
   if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
     s.estop_latched = false;
     s.hold_on_arrival = true;

@@ -228,7 +228,8 @@ void Publisher::LogEvents(const TickRecord& record) {
   for (std::size_t i = 0; i < record.instances.size(); ++i) {
     const InstanceRecord& r = record.instances[i];
     if (r.fault)
-      spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", model_.instances[i].name(), r.t, r.fault);
+      spdlog::error("{}: fault at t = {:.3f} s: {}; zero torque, state frozen until reset", model_.instances[i].name(),
+                    r.t, r.fault);
     commands_applied_ += r.commands_accepted;
     if (r.commands_accepted > 0 && spdlog::should_log(spdlog::level::debug)) {
       spdlog::debug("{}: {} command(s) applied at t = {:.3f} s", model_.instances[i].name(), r.commands_accepted, r.t);
@@ -245,8 +246,9 @@ void Publisher::LogEvents(const TickRecord& record) {
     }
     if (r.mode != out_[i].mode || r.reason != out_[i].reason) {
       const bool alarm = r.mode == Mode::kFault || r.mode == Mode::kEstop || r.mode == Mode::kStopped;
-      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}", model_.instances[i].name(),
-                  ToString(out_[i].mode), ToString(r.mode), r.t, r.reason ? fmt::format(" ({})", r.reason) : "");
+      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}",
+                  model_.instances[i].name(), ToString(out_[i].mode), ToString(r.mode), r.t,
+                  r.reason ? fmt::format(" ({})", r.reason) : "");
       out_[i].mode = r.mode;
       out_[i].reason = r.reason;
     }

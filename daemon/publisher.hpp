@@ -83,8 +83,8 @@ class Publisher {
   int notify_fd_;
   std::int64_t run_id_;
   int status_every_;
-  std::vector<Outgoing> out_;  // by instance
-  status_t status_;            // the run's fixed fields filled once
+  std::vector<Outgoing> out_;                 // by instance
+  status_t status_;                           // the run's fixed fields filled once
   std::vector<double> latencies_, computes_;  // µs, this status window
   std::int64_t commands_applied_ = 0;         // by the tick, from its records
   std::int64_t commands_refused_by_tick_ = 0;

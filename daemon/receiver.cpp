@@ -20,8 +20,8 @@ void Reason::Set(const std::string& s) {
   text[n] = '\0';
 }
 
-Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runtime, Clock& clock,
-                   ReceiverStats& stats, SetpointAge age, std::int64_t run_id)
+Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runtime, Clock& clock, ReceiverStats& stats,
+                   SetpointAge age, std::int64_t run_id)
     : input_(input),
       output_listener_(output_listener),
       replies_(replies),
@@ -50,8 +50,8 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
   if (output_listener_ != nullptr) {
     std::vector<std::string> outputs = {model_.status_channel};
     for (const InstanceModel& m : model_.instances) {
-      for (const std::string* ch : {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces,
-                                    &m.channels.torque_out}) {
+      for (const std::string* ch :
+           {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces, &m.channels.torque_out}) {
         if (!ch->empty()) outputs.push_back(*ch);
       }
     }
@@ -290,8 +290,7 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
   // torque_timeout), another run_id is refused and the sequence must grow;
   // once it has lapsed, any sender starts a new stream.
   const std::int64_t now = clock_.WallMicros();
-  const bool current_fresh =
-      info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(TorqueTimeout(m));
+  const bool current_fresh = info.torque_source != 0 && now - info.torque_last_us <= ToMicroseconds(TorqueTimeout(m));
   if (current_fresh && torque_.run_id != info.torque_source) {
     return RejectInput(
         i, rejected, "torque",
@@ -330,7 +329,8 @@ void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size
     return DecodeError(m.channels.measured_in, "decode failed");
   }
   if (measured_.num_dofs != m.num_dofs) {
-    return Trip(i, MeasuredProblem::kWrongSize, fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, m.num_dofs));
+    return Trip(i, MeasuredProblem::kWrongSize,
+                fmt::format("num_dofs is {}, expected {}", measured_.num_dofs, m.num_dofs));
   }
   for (const auto& [field, values] : {std::pair{"q", &measured_.q}, std::pair{"qd", &measured_.qd}}) {
     if (std::string why = CheckValues(field, *values, kMaxSetpointMagnitude); !why.empty()) {
@@ -358,8 +358,7 @@ void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size
   }
   const AgeVerdict age = Age(info.measured, StateTimeout(m), measured_.utime);
   if (!age.ok) {
-    return RejectInput(i, stats_.measured_rejected, "measured state",
-                       AgeReason(age, "state_timeout", StateTimeout(m)));
+    return RejectInput(i, stats_.measured_rejected, "measured state", AgeReason(age, "state_timeout", StateTimeout(m)));
   }
   info.measured_tick = measured_.tick;
   info.measured_last_us = arrival;

@@ -161,7 +161,7 @@ class Receiver {
   SetpointAge age_;
   std::int64_t run_id_;
   std::vector<InstanceData> data_;  // by instance
-  setpoint_t setpoint_;  // decoded into; keeps its capacity
+  setpoint_t setpoint_;             // decoded into; keeps its capacity
   command_t command_;
   torque_t torque_;
   state_t measured_;

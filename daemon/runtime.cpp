@@ -77,7 +77,7 @@ struct Runtime::Slot {
   const Setpoint* in_use = nullptr;  // the setpoint this tick followed (running, hold), decided once for the record
   StepEnergies energies;
   std::uint64_t urgent_seen[kNumUrgent] = {};  // the latest posted number applied, per urgent kind
-  Nanoseconds last_torque = 0;  // when the active external controller last got one (or became active)
+  Nanoseconds last_torque = 0;                 // when the active external controller last got one (or became active)
   // External plant.
   Nanoseconds last_measured = 0;
   std::int64_t measured_tick = -1;

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "daemon/default_scene.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/publisher.hpp"
@@ -22,7 +23,6 @@
 #include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
-#include "daemon/instance_model.hpp"
 #include "daemon/timing_csv.hpp"
 #include "daemon/work_bound.hpp"
 #include "daemon/yaml_reader.hpp"

@@ -55,7 +55,8 @@ void Arm2ClosedForm::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecR
   G[1] = g2_ * c12;
 }
 
-void Arm2ClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+void Arm2ClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                  VecRef dTdq) const {
   Checked(data, q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -b_ * std::sin(q[1]) * (qd[0] * qd[0] + qd[0] * qd[1]);
@@ -73,8 +74,8 @@ double Arm2ClosedForm::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q)
   return p_.g * (0.5 * p_.m1 * p_.L1 * s1 + p_.m2 * (p_.L1 * s1 + 0.5 * p_.L2 * std::sin(q[0] + q[1])));
 }
 
-void Arm2ClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                            VecRef tau) const {
+void Arm2ClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                            DynamicsTerms terms, VecRef tau) const {
   Checked(data, q, qd, qdd, tau);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   const double bc = b_ * c2;
@@ -94,8 +95,8 @@ void Arm2ClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, C
   }
 }
 
-void Arm2ClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                            VecRef qdd) const {
+void Arm2ClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                            DynamicsTerms terms, VecRef qdd) const {
   Checked(data, q, qd, tau, qdd);
   const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];

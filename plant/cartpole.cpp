@@ -49,7 +49,8 @@ void CartPoleClosedForm::ComputeGravityForce(DynamicsData& data, ConstVecRef q, 
   G[1] = mgl_ * std::sin(q[1]);
 }
 
-void CartPoleClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+void CartPoleClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                      VecRef dTdq) const {
   Checked(data, q, qd, dTdq);
   dTdq[0] = 0.0;
   dTdq[1] = -ml_ * std::sin(q[1]) * qd[0] * qd[1];
@@ -65,8 +66,8 @@ double CartPoleClosedForm::ComputePotentialEnergy(DynamicsData& data, ConstVecRe
   return -mgl_ * std::cos(q[1]);
 }
 
-void CartPoleClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                                VecRef tau) const {
+void CartPoleClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                                DynamicsTerms terms, VecRef tau) const {
   Checked(data, q, qd, qdd, tau);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   tau[0] = mt_ * qdd[0] + ml_ * c * qdd[1];
@@ -81,8 +82,8 @@ void CartPoleClosedForm::ComputeInverseDynamics(DynamicsData& data, ConstVecRef 
   }
 }
 
-void CartPoleClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                                VecRef qdd) const {
+void CartPoleClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                                DynamicsTerms terms, VecRef qdd) const {
   Checked(data, q, qd, tau, qdd);
   const double s = std::sin(q[1]), c = std::cos(q[1]);
   double r0 = tau[0], r1 = tau[1];

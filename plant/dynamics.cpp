@@ -21,10 +21,7 @@ std::optional<Method> ParseMethod(std::string_view name) { return ValueOf(kMetho
 std::string MethodNames() { return NamesInWords(kMethodNames); }
 
 DynamicsData::DynamicsData(const Dynamics& model)
-    : model_(&model),
-      M_(model.num_dofs(), model.num_dofs()),
-      term_(model.num_dofs()),
-      llt_(model.num_dofs()) {}
+    : model_(&model), M_(model.num_dofs(), model.num_dofs()), term_(model.num_dofs()), llt_(model.num_dofs()) {}
 
 Dynamics::Dynamics(std::vector<JointType> joints) : joints_(std::move(joints)) {}
 

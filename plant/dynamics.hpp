@@ -89,8 +89,7 @@ class Dynamics {
   // q => G = ∂V/∂q (n).
   virtual void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const = 0;
   // (q, qd) => ∂T/∂q (n), which equals Cᵀ qd. Used by the variational integrator.
-  virtual void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
-                                            VecRef dTdq) const = 0;
+  virtual void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const = 0;
   // (q, qd) => T = ½ qdᵀ M qd, J.
   virtual double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const = 0;
   // q => V, J; zero with every centre of mass at the base's origin (the

@@ -19,30 +19,20 @@ constexpr EnumName<IntegratorType> kIntegratorNames[] = {
     {IntegratorType::kVariational, "variational"},
 };
 
-class ExplicitEuler final : public Integrator {
+// Explicit Euler: q⁺ = q + h qd, qd⁺ = qd + h qdd; semi-implicit (symplectic)
+// Euler takes the new velocity for the position: qd⁺ first, then q⁺ = q + h qd⁺.
+class Euler final : public Integrator {
  public:
-  ExplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
+  Euler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
   bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
     m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
-    q += h * qd;
-    qd += h * qdd_;
-    ++work_.accepted;
-    ++work_.evaluations;
-    work_.step = h;
-    return true;
-  }
-
- private:
-  VectorXd qdd_;
-};
-
-class SemiImplicitEuler final : public Integrator {
- public:
-  SemiImplicitEuler(const IntegratorConfig& c, int n) : Integrator(c, n), qdd_(n) {}
-  bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    m.ComputeAcceleration(law, t, q, qd, tau, qdd_);
-    qd += h * qdd_;
-    q += h * qd;
+    if (config_.type == IntegratorType::kSemiImplicitEuler) {
+      qd += h * qdd_;
+      q += h * qd;
+    } else {
+      q += h * qd;
+      qd += h * qdd_;
+    }
     ++work_.accepted;
     ++work_.evaluations;
     work_.step = h;
@@ -276,7 +266,8 @@ class Variational final : public Integrator {
 Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
 
 bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) {
-  Stages([&](double ts, ConstVecRef qs, ConstVecRef qds, VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
+  Stages([&](double ts, ConstVecRef qs, ConstVecRef qds,
+             VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
          t, h, q, qd);
   ++work_.accepted;
   work_.evaluations += 4;
@@ -351,8 +342,8 @@ void Integrator::AddWorkToStats() {
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {
   if (const char* reason = CheckIntegratorConfig(c)) throw std::invalid_argument(reason);
   switch (c.type) {
-    case IntegratorType::kExplicitEuler: return std::make_unique<ExplicitEuler>(c, n);
-    case IntegratorType::kSemiImplicitEuler: return std::make_unique<SemiImplicitEuler>(c, n);
+    case IntegratorType::kExplicitEuler:
+    case IntegratorType::kSemiImplicitEuler: return std::make_unique<Euler>(c, n);
     case IntegratorType::kRk4: return std::make_unique<Rk4>(c, n);
     case IntegratorType::kDormandPrince: return std::make_unique<DormandPrince>(c, n);
     case IntegratorType::kVariational: return std::make_unique<Variational>(c, n);

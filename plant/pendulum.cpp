@@ -35,7 +35,8 @@ void PendulumClosedForm::ComputeGravityForce(DynamicsData& data, ConstVecRef q, 
   G[0] = mgl_ * std::sin(q[0]);
 }
 
-void PendulumClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+void PendulumClosedForm::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                      VecRef dTdq) const {
   Checked(data, q, qd, dTdq);
   dTdq[0] = 0.0;
 }
@@ -50,8 +51,8 @@ double PendulumClosedForm::ComputePotentialEnergy(DynamicsData& data, ConstVecRe
   return -mgl_ * std::cos(q[0]);
 }
 
-void PendulumClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                                VecRef qdd) const {
+void PendulumClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                                DynamicsTerms terms, VecRef qdd) const {
   Checked(data, q, qd, tau, qdd);
   double rhs = tau[0];
   if (terms.coriolis) CountCoriolis(data);  // C = 0 for one joint: nothing to add

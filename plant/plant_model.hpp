@@ -138,7 +138,7 @@ class PlantModel {
     std::shared_ptr<const Dynamics> dynamics;
     std::unique_ptr<DynamicsData> data;
   };
-  const Dynamics* dynamics_;  // the one in use, one of all_
+  const Dynamics* dynamics_;      // the one in use, one of all_
   DynamicsData* data_ = nullptr;  // its data
   std::vector<Held> all_;
   Effects effects_;

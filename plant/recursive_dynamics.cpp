@@ -168,8 +168,8 @@ void RecursiveDynamics::Rnea(Data& d, ConstVecRef qd, ConstVecRef qdd, DynamicsT
   }
 }
 
-void RecursiveDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                               VecRef tau) const {
+void RecursiveDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                               DynamicsTerms terms, VecRef tau) const {
   Data& d = Checked<Data>(data, q, qd, qdd, tau);
   if (terms.gravity) CountGravity(d);
   if (terms.coriolis) CountCoriolis(d);
@@ -177,8 +177,8 @@ void RecursiveDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q
   Rnea(d, qd, qdd, terms, tau);
 }
 
-void RecursiveDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                               VecRef qdd) const {
+void RecursiveDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                               DynamicsTerms terms, VecRef qdd) const {
   Data& d = Checked<Data>(data, q, qd, tau, qdd);
   const int n = num_dofs();
   ComputeTransforms(d, q);
@@ -339,7 +339,8 @@ void RecursiveDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q,
   }
 }
 
-void RecursiveDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+void RecursiveDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                     VecRef dTdq) const {
   Data& d = Checked<Data>(data, q, qd, dTdq);
   const int n = num_dofs();
   ComputeTransforms(d, q);

@@ -626,7 +626,8 @@ void SpatialDynamics::ComputeGravityForce(DynamicsData& data, ConstVecRef q, Vec
 }
 
 // ∂T/∂q_i = (v_i × S_i) · H_i with H_i the subtree's momentum in body i's frame.
-void SpatialDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const {
+void SpatialDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                   VecRef dTdq) const {
   SpatialScratch& s = Checked<Data>(data, q, qd, dTdq).s;
   const SpatialModel& m = *model_;
   Transforms(m, s, q.data());
@@ -672,8 +673,8 @@ double SpatialDynamics::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q
   return -m.gravity.dot(world);
 }
 
-void SpatialDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
-                                             VecRef tau) const {
+void SpatialDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                             DynamicsTerms terms, VecRef tau) const {
   SpatialScratch& s = Checked<Data>(data, q, qd, qdd, tau).s;
   if (terms.gravity) CountGravity(data);
   if (terms.coriolis) CountCoriolis(data);
@@ -683,8 +684,8 @@ void SpatialDynamics::ComputeInverseDynamics(DynamicsData& data, ConstVecRef q, 
   RneaBackward(m, s, tau.data());
 }
 
-void SpatialDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
-                                             VecRef qdd) const {
+void SpatialDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                             DynamicsTerms terms, VecRef qdd) const {
   ComputeForwardDynamics(data, forward_, q, qd, tau, terms, qdd);
 }
 

@@ -51,8 +51,7 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
   for (std::size_t a = 0; a < outputs.size(); ++a) {
     for (std::size_t b = a + 1; b < outputs.size(); ++b) {
       if (outputs[a].first == outputs[b].first) {
-        return "channel " + outputs[a].first + " would carry both " + outputs[a].second + " and " +
-               outputs[b].second;
+        return "channel " + outputs[a].first + " would carry both " + outputs[a].second + " and " + outputs[b].second;
       }
     }
   }
@@ -65,8 +64,9 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
   std::vector<Input> inputs;
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const InstanceChannelNames& c = instances[i];
-    for (const auto& [channel, what] : {std::pair{&c.setpoint, "setpoints"}, std::pair{&c.command, "commands"},
-                                        std::pair{&c.torque_in, "torques"}, std::pair{&c.measured_in, "state_channel"}}) {
+    for (const auto& [channel, what] :
+         {std::pair{&c.setpoint, "setpoints"}, std::pair{&c.command, "commands"}, std::pair{&c.torque_in, "torques"},
+          std::pair{&c.measured_in, "state_channel"}}) {
       if (!channel->empty()) inputs.push_back({channel, i, what});
     }
   }
@@ -84,8 +84,8 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
       const Input& x = inputs[a];
       const Input& y = inputs[b];
       if (*x.channel != *y.channel || (x.what == "state_channel" && y.what == "state_channel")) continue;
-      return instances[x.instance].instance + " reads its " + std::string(x.what) + " and " + instances[y.instance].instance + " its " +
-             std::string(y.what) + " from the same channel " + *x.channel;
+      return instances[x.instance].instance + " reads its " + std::string(x.what) + " and " +
+             instances[y.instance].instance + " its " + std::string(y.what) + " from the same channel " + *x.channel;
     }
   }
   return "";

@@ -24,7 +24,7 @@ std::string InstanceChannel(const std::string& prefix, const std::string& instan
 
 // One instance's channels.
 struct InstanceChannelNames {
-  std::string instance;                                      // its name, for messages
+  std::string instance;  // its name, for messages
   std::string state, setpoint, command, reply, telemetry, forces;
   // "" where the instance has none:
   std::string torque_in;    // an external controller's torques (derived, or as the scene wrote it)

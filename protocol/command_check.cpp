@@ -35,7 +35,8 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
   if (const WireCheck w = CheckCommandPacket(data, size); w != WireCheck::kOk) {
     return MakeVerdict(CommandVerdict::Kind::kUndecodable, ToString(w));
   }
-  if (out.decode(data, 0, static_cast<int>(size)) < 0) return MakeVerdict(CommandVerdict::Kind::kUndecodable, "decode failed");
+  if (out.decode(data, 0, static_cast<int>(size)) < 0)
+    return MakeVerdict(CommandVerdict::Kind::kUndecodable, "decode failed");
   if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::SET_FORCES) {
     return Reject("unknown command " + std::to_string(out.command));
   }

@@ -10,13 +10,13 @@
 #include <regex>
 #include <sstream>
 
-#include "tools/spawn.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/log_csv.hpp"
 #include "tools/plot_script.hpp"
+#include "tools/spawn.hpp"
 
 namespace lagrange::cli {
 namespace {

@@ -306,8 +306,8 @@ class SendCommand final : public Command {
       sent += link.bus().PublishMessage(channel, msg) ? 1 : 0;
       std::this_thread::sleep_until(next + period);
       link.bus().Drain();
-      saw_running_ = saw_running_ ||
-                     (link.state().mode == state_t::MODE_RUNNING && link.state_received_at() > first_sent_);
+      saw_running_ =
+          saw_running_ || (link.state().mode == state_t::MODE_RUNNING && link.state_received_at() > first_sent_);
     }
     return sent;
   }

@@ -6,8 +6,8 @@
 
 #include <string>
 
-#include "daemon/scene.hpp"
 #include "daemon/instance_model.hpp"
+#include "daemon/scene.hpp"
 #include "daemon/scene_channels.hpp"
 #include "daemon/yaml_reader.hpp"
 #include "protocol/channels.hpp"
@@ -219,7 +219,8 @@ instances:
     plant: {type: arm2}
     controller: {type: pd, kp: 10, kd: 1}
   - name: ext
-    plant: {type: external, model: {type: arm2}, state_channel: )" + ext_state + R"(, torque_channel: OUT_A}
+    plant: {type: external, model: {type: arm2}, state_channel: )" +
+                                       ext_state + R"(, torque_channel: OUT_A}
     controller: {type: pd, kp: 10, kd: 1}
   - name: ext2
     plant: {type: external, model: {type: arm2}, state_channel: ROBOT_STATE, torque_channel: OUT_B}

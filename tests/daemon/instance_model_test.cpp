@@ -19,7 +19,8 @@ period: 0.002
 instances:
   - name: arm
     plant: {type: arm2}
-    controller: {type: external)" + fallback + R"(}
+    controller: {type: external)" +
+                        fallback + R"(}
     controllers:
       - {type: pd, kp: 10, kd: 1}
       - {type: gravity-compensation, kp: 10, kd: 1}

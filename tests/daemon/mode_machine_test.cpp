@@ -18,12 +18,23 @@ constexpr Mode kModes[] = {Mode::kRunning, Mode::kHold,    Mode::kFault,  Mode::
 constexpr int kNumModes = 7;
 
 const char* EventName(ModeEvent e) {
-  constexpr const char* kNames[kNumModeEvents] = {
-      "start",           "estop",           "clear_estop",        "reset",
-      "pause",           "resume",          "controller switched", "setpoint arrived",
-      "setpoints timed out", "torque arrived", "torques timed out",  "measured arrived",
-      "measured timed out", "measured not finite", "measured wrong size", "measured second source",
-      "fault"};
+  constexpr const char* kNames[kNumModeEvents] = {"start",
+                                                  "estop",
+                                                  "clear_estop",
+                                                  "reset",
+                                                  "pause",
+                                                  "resume",
+                                                  "controller switched",
+                                                  "setpoint arrived",
+                                                  "setpoints timed out",
+                                                  "torque arrived",
+                                                  "torques timed out",
+                                                  "measured arrived",
+                                                  "measured timed out",
+                                                  "measured not finite",
+                                                  "measured wrong size",
+                                                  "measured second source",
+                                                  "fault"};
   return kNames[static_cast<int>(e)];
 }
 
@@ -85,21 +96,21 @@ TEST(ModeMachine, EveryModeUnderEveryEventInASimulatedPlant) {
   const ModeContext sim{.fault = "the controller's output was not finite"};
   const Row rows[] = {
       //                                 running hold fault paused estop stopped waiting
-      {ModeEvent::kEstop,               {E,      E,   X,    E,     E,    S,      W}},
-      {ModeEvent::kClearEstop,          {X,      X,   X,    X,     H,    W,      X}},
-      {ModeEvent::kPause,               {P,      P,   X,    X,     X,    X,      X}},
-      {ModeEvent::kResume,              {X,      X,   X,    H,     X,    X,      X}},
-      {ModeEvent::kControllerSwitched,  {R,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kSetpointArrived,     {R,      R,   F,    P,     E,    S,      W}},
-      {ModeEvent::kSetpointsTimedOut,   {H,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kTorqueArrived,       {R,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kTorquesTimedOut,     {R,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kMeasuredArrived,     {R,      H,   F,    P,     E,    S,      R}},
-      {ModeEvent::kMeasuredTimedOut,    {S,      S,   F,    S,     S,    S,      W}},
-      {ModeEvent::kMeasuredNotFinite,   {S,      S,   F,    S,     S,    S,      S}},
-      {ModeEvent::kMeasuredWrongSize,   {S,      S,   F,    S,     S,    S,      S}},
-      {ModeEvent::kMeasuredSecondSource,{S,      S,   F,    S,     S,    S,      W}},
-      {ModeEvent::kFault,               {F,      F,   F,    F,     F,    F,      F}},
+      {ModeEvent::kEstop, {E, E, X, E, E, S, W}},
+      {ModeEvent::kClearEstop, {X, X, X, X, H, W, X}},
+      {ModeEvent::kPause, {P, P, X, X, X, X, X}},
+      {ModeEvent::kResume, {X, X, X, H, X, X, X}},
+      {ModeEvent::kControllerSwitched, {R, H, F, P, E, S, W}},
+      {ModeEvent::kSetpointArrived, {R, R, F, P, E, S, W}},
+      {ModeEvent::kSetpointsTimedOut, {H, H, F, P, E, S, W}},
+      {ModeEvent::kTorqueArrived, {R, H, F, P, E, S, W}},
+      {ModeEvent::kTorquesTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kMeasuredArrived, {R, H, F, P, E, S, R}},
+      {ModeEvent::kMeasuredTimedOut, {S, S, F, S, S, S, W}},
+      {ModeEvent::kMeasuredNotFinite, {S, S, F, S, S, S, S}},
+      {ModeEvent::kMeasuredWrongSize, {S, S, F, S, S, S, S}},
+      {ModeEvent::kMeasuredSecondSource, {S, S, F, S, S, S, W}},
+      {ModeEvent::kFault, {F, F, F, F, F, F, F}},
   };
   // Every event but start and reset (below: reset depends on the latch, not the mode).
   static_assert(std::size(rows) == kNumModeEvents - 2);
@@ -131,11 +142,9 @@ TEST(ModeMachine, UnderAnExternalControllerTheTorquesDecide) {
   const ModeContext external{.external_controller = true};
   const Row rows[] = {
       //                                 running hold fault paused estop stopped waiting
-      {ModeEvent::kSetpointArrived,     {R,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kSetpointsTimedOut,   {R,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kTorqueArrived,       {R,      R,   F,    P,     E,    S,      W}},
-      {ModeEvent::kTorquesTimedOut,     {H,      H,   F,    P,     E,    S,      W}},
-      {ModeEvent::kControllerSwitched,  {H,      H,   F,    P,     E,    S,      W}},
+      {ModeEvent::kSetpointArrived, {R, H, F, P, E, S, W}},    {ModeEvent::kSetpointsTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kTorqueArrived, {R, R, F, P, E, S, W}},      {ModeEvent::kTorquesTimedOut, {H, H, F, P, E, S, W}},
+      {ModeEvent::kControllerSwitched, {H, H, F, P, E, S, W}},
   };
   for (const Row& row : rows) ExpectRow(row, external, "external controller");
   EXPECT_EQ(Transition(In(Mode::kRunning), ModeEvent::kTorquesTimedOut, external).next.reason, kTorquesTimedOut);
@@ -202,8 +211,8 @@ TEST(ModeMachine, StartWaitsForAnExternalPlantAndHoldsForAnExternalController) {
 }
 
 TEST(ModeMachine, AMeasuredStateAfterTheSetpointsStoppedHolds) {
-  const ModeOutcome out =
-      Transition(In(Mode::kWaiting), ModeEvent::kMeasuredArrived, {.external_plant = true, .setpoints_timed_out = true});
+  const ModeOutcome out = Transition(In(Mode::kWaiting), ModeEvent::kMeasuredArrived,
+                                     {.external_plant = true, .setpoints_timed_out = true});
   EXPECT_EQ(out.next.mode, Mode::kHold);
   EXPECT_EQ(out.next.reason, kSetpointsTimedOut);
 }

@@ -227,7 +227,8 @@ TEST_P(EveryPlant, GravityIsTheGradientOfThePotential) {
         VectorXd qp = s.q, qm = s.q;
         qp[i] += kEps;
         qm[i] -= kEps;
-        const double fd = (d->ComputePotentialEnergy(*d_data, qp) - d->ComputePotentialEnergy(*d_data, qm)) / (2.0 * kEps);
+        const double fd =
+            (d->ComputePotentialEnergy(*d_data, qp) - d->ComputePotentialEnergy(*d_data, qm)) / (2.0 * kEps);
         ASSERT_NEAR(G[i], fd, kFiniteDifferenceTol * std::max(1.0, G.norm())) << ToString(method);
       }
     }
@@ -437,8 +438,10 @@ TEST(SizeChecks, DebugBuildsRejectMisSizedArguments) {
     EXPECT_DEATH(d->ComputeMassMatrix(*d_data, q2, M3), "HasDofSize") << ToString(method);
     EXPECT_DEATH(d->ComputeCoriolisForce(*d_data, q2, q3, out2), "HasDofSize") << ToString(method);
     EXPECT_DEATH(d->ComputeGravityForce(*d_data, q2, out3), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeForwardDynamics(*d_data, q2, q2, q3, DynamicsTerms{}, out2), "HasDofSize") << ToString(method);
-    EXPECT_DEATH(d->ComputeInverseDynamics(*d_data, q2, q2, q2, DynamicsTerms{}, out3), "HasDofSize") << ToString(method);
+    EXPECT_DEATH(d->ComputeForwardDynamics(*d_data, q2, q2, q3, DynamicsTerms{}, out2), "HasDofSize")
+        << ToString(method);
+    EXPECT_DEATH(d->ComputeInverseDynamics(*d_data, q2, q2, q2, DynamicsTerms{}, out3), "HasDofSize")
+        << ToString(method);
     // Data belongs to the model that made it.
     const auto other = MakeDynamics(DefaultPlantSpec(PlantType::kArm2), method);
     EXPECT_DEATH(other->ComputeMassMatrix(*d_data, q2, M2), "another model") << ToString(method);

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "plant/plant_model.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/plant_model.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/plant_cases.hpp"
 

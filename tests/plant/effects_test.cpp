@@ -6,8 +6,8 @@
 #include <cmath>
 #include <limits>
 
-#include "plant/plant_model.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/plant_model.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {

@@ -57,7 +57,7 @@ struct Scenario {
   EffectsConfig effects;
   VectorXd q0, qd0;
   HeldLaw law;
-  double duration = 0.0;  // s
+  double duration = 0.0;    // s
   bool continuous = false;  // the law evaluated at every integrator stage instead of held
 };
 
@@ -83,12 +83,12 @@ struct IntegratorChoice {
 };
 
 struct BalanceRun {
-  double residual = 0.0;        // ε at the end, J
-  double max_residual = 0.0;    // max |ε| over the run, J
-  double bound = 0.0;           // quadrature_bound at the end, J
-  double energy_change = 0.0;   // E − E(0) at the end, J
+  double residual = 0.0;           // ε at the end, J
+  double max_residual = 0.0;       // max |ε| over the run, J
+  double bound = 0.0;              // quadrature_bound at the end, J
+  double energy_change = 0.0;      // E − E(0) at the end, J
   double max_energy_change = 0.0;  // max |E − E(0)|, J
-  double tick_errors = 0.0;     // Σ_k |ε(t_k+1) − ε(t_k)|, J
+  double tick_errors = 0.0;        // Σ_k |ε(t_k+1) − ε(t_k)|, J
   // Work of the command, pushes, damping, friction and the stops' dampers, J (trapezoid).
   double works[5] = {};
 };
@@ -150,7 +150,7 @@ Scenario DampedArmUnderPd(double duration) {
   EffectsConfig effects;
   effects.damping = Vec({0.3, 0.3});
   return {DefaultPlantSpec(PlantType::kArm2), effects, Vec({0.0, 0.0}), Vec({0.0, 0.0}),
-          Pd(Vec({1.0, -0.5}), 20.0, 2.0), duration};
+          Pd(Vec({1.0, -0.5}), 20.0, 2.0),    duration};
 }
 
 // ----- The balance's arithmetic, on powers known in closed form -----
@@ -329,8 +329,7 @@ TEST(EnergyBalance, QuadratureBoundCoversTheResidualOfAnExactIntegration) {
 TEST(EnergyBalance, TheNextTicksStartPowerIsTheLastEndPowerPlusTheCommandsChange) {
   constexpr double kRoundOff = 1e-12;  // W
   std::mt19937 rng{7};
-  PlantModel model(MakeDynamics(DefaultPlantSpec(PlantType::kCartPole), Method::kClosedForm),
-                   testing::AllEffectsOn(2));
+  PlantModel model(MakeDynamics(DefaultPlantSpec(PlantType::kCartPole), Method::kClosedForm), testing::AllEffectsOn(2));
   EffectForces end(2), next_start(2);
   for (int k = 0; k < 50; ++k) {
     const VectorXd q = testing::RandomVector(2, -1.3, 1.3, rng), qd = testing::RandomVector(2, -3.0, 3.0, rng);

@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "plant/plant_model.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/plant_model.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {

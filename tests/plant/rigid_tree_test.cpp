@@ -151,7 +151,8 @@ TEST(SpatialDynamics, CoriolisForceAndEnergyGradientFollowFromTheCoriolisMatrix)
     const double floor = M.norm() * s.qd.squaredNorm();
     ASSERT_LE(RelativeDifference(c, C * s.qd, floor), kAgreeTol) << "tree " << k;
     ASSERT_LE(RelativeDifference(dTdq, C.transpose() * s.qd, floor), kAgreeTol) << "tree " << k;
-    ASSERT_NEAR(d.ComputeKineticEnergy(*d_data, s.q, s.qd), 0.5 * s.qd.dot(M * s.qd), kAgreeTol * floor) << "tree " << k;
+    ASSERT_NEAR(d.ComputeKineticEnergy(*d_data, s.q, s.qd), 0.5 * s.qd.dot(M * s.qd), kAgreeTol * floor)
+        << "tree " << k;
   }
 }
 

@@ -137,8 +137,8 @@ TEST(Eval, AChainWithAPrismaticFirstJointIsTheCartPole) {
   // with the rod's angle from +x, so θ = q1 + π/2. Both chain methods agree with the closed form.
   const double q1 = 0.63;
   const std::string q = "0.3," + FormatDouble(q1), qd = "0.5,-1.3";
-  const json cartpole = Eval({"--plant", "cartpole", "--q", "0.3," + FormatDouble(q1 + std::numbers::pi / 2),
-                              "--qd", qd, "--tau", "0.4,-0.05"});
+  const json cartpole = Eval({"--plant", "cartpole", "--q", "0.3," + FormatDouble(q1 + std::numbers::pi / 2), "--qd",
+                              qd, "--tau", "0.4,-0.05"});
   for (const std::string method : {"recursive", "lagrangian"}) {
     const auto r = RunCtl({"eval", "--plant", "chain", "--param", "joints=prismatic,revolute", "--param", "m=1,0.1",
                            "--param", "L=0.5,1", "--q", q, "--qd", qd, "--tau", "0.4,-0.05", "--method", method});
