@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "controllers/factory.hpp"
@@ -86,6 +87,17 @@ struct BuildOptions {
   bool measure_costs = false;  // time each method's evaluation (daemon/work_bound.hpp), for the switch commands
   // Given costs instead (by Method, s), for every instance: tests that need the bound exact.
   std::optional<std::array<double, kNumMethods>> evaluation_s;
+
+  static BuildOptions Prefixed(std::string prefix) {
+    BuildOptions o;
+    o.channel_prefix = std::move(prefix);
+    return o;
+  }
+  static BuildOptions WithCosts(const std::array<double, kNumMethods>& seconds) {
+    BuildOptions o;
+    o.evaluation_s = seconds;
+    return o;
+  }
 };
 
 // One instance's model. Throws std::invalid_argument for a controller that

@@ -10,9 +10,12 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <exception>
 #include <future>
 #include <iostream>
 #include <thread>
+#include <variant>
 
 #include "daemon/default_scene.hpp"
 #include "daemon/instance_model.hpp"
@@ -124,15 +127,24 @@ void ReportThreadRealtime(const char* thread, const std::vector<std::string>& pr
   if (!warned.exchange(true)) spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);
 }
 
-int Serve(const Options& o, const LogFiles& logs) {
-  // Everything the loop needs is built and checked before it starts.
+// Everything the loop needs that takes time, built and checked before it
+// starts: the scene, the work bound, the run's model and the tick's data.
+struct Prepared {
   Scene scene;
+  std::shared_ptr<const DaemonModel> model;
+  std::unique_ptr<Runtime> runtime;
+};
+
+// Prepared, or the exit status of a refusal (logged).
+std::variant<int, Prepared> Prepare(const Options& o) {
+  Prepared p;
   try {
-    scene = LoadScene(o.config);
+    p.scene = LoadScene(o.config);
   } catch (const ConfigError& e) {
     spdlog::error("{}", e.what());
     return 2;
   }
+  const Scene& scene = p.scene;
   // A tick must end within the period whatever the scene does (daemon/work_bound.hpp).
   const std::vector<WorkBound> bounds = MeasureWorkBounds(scene);
   for (const WorkBound& b : bounds) {
@@ -145,11 +157,12 @@ int Serve(const Options& o, const LogFiles& logs) {
   }
   // The run's model, built once: the run-time integrator and method commands
   // are held to the same bound by each method's measured cost.
-  std::shared_ptr<const DaemonModel> model;
-  std::unique_ptr<Runtime> runtime;
   try {
-    model = BuildDaemonModel(scene, {.channel_prefix = o.channel_prefix, .measure_costs = true});
-    runtime = std::make_unique<Runtime>(model);
+    BuildOptions options;
+    options.channel_prefix = o.channel_prefix;
+    options.measure_costs = true;
+    p.model = BuildDaemonModel(scene, options);
+    p.runtime = std::make_unique<Runtime>(p.model);
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", o.config, e.what());
     return 2;
@@ -157,7 +170,7 @@ int Serve(const Options& o, const LogFiles& logs) {
   std::vector<std::string> names;
   std::vector<std::int32_t> dofs;
   std::vector<InstanceChannelNames> channels;
-  for (const InstanceModel& m : model->instances) {
+  for (const InstanceModel& m : p.model->instances) {
     names.push_back(m.name());
     dofs.push_back(m.num_dofs);
     channels.push_back(m.channels);
@@ -169,10 +182,55 @@ int Serve(const Options& o, const LogFiles& logs) {
         o.config, names.size());
     return 2;
   }
-  if (const std::string why = CheckChannelNames(channels, model->status_channel); !why.empty()) {
+  if (const std::string why = CheckChannelNames(channels, p.model->status_channel); !why.empty()) {
     spdlog::error("{}: {}", o.config, why);
     return 2;
   }
+  return p;
+}
+
+// Runs `work` on a thread of its own while this thread keeps answering the
+// handled signals, so that start-up, however long a scene makes it, never
+// delays a stop: SIGINT or SIGTERM ends the process at once (exit 0, the
+// line logged), SIGHUP reopens the log file.
+template <class Work>
+void WhileAnsweringSignals(const LogFiles& logs, Work&& work) {
+  std::atomic<bool> done{false};
+  std::exception_ptr failure;
+  std::thread worker([&] {
+    try {
+      work();
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    done.store(true, std::memory_order_release);
+  });
+  const sigset_t signals = HandledSignals();
+  while (!done.load(std::memory_order_acquire)) {
+    const timespec wait{0, 20'000'000};
+    const int got = sigtimedwait(&signals, nullptr, &wait);
+    if (got == SIGHUP) {
+      ReopenLogFile(logs);
+    } else if (got > 0) {
+      spdlog::info("stopped by signal {} during start-up", got);
+      spdlog::default_logger()->flush();
+      std::_Exit(0);  // the start-up thread may be mid-computation: nothing to hand over, nothing to join
+    }
+  }
+  worker.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+int Serve(const Options& o, const LogFiles& logs) {
+  std::variant<int, Prepared> prepared = 2;
+  WhileAnsweringSignals(logs, [&] { prepared = Prepare(o); });
+  if (const int* refused = std::get_if<int>(&prepared)) return *refused;
+  Prepared& ready = std::get<Prepared>(prepared);
+  const Scene& scene = ready.scene;
+  const std::shared_ptr<const DaemonModel>& model = ready.model;
+  std::unique_ptr<Runtime>& runtime = ready.runtime;
+  std::vector<std::string> names;
+  for (const InstanceModel& m : model->instances) names.push_back(m.name());
   // Outputs (state, status, replies) go to --lcm-url; inputs (setpoints,
   // commands) come from --input-lcm-url, the same bus unless given. The
   // receive thread also listens on the output bus for another publisher of

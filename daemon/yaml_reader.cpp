@@ -1,5 +1,7 @@
 #include "daemon/yaml_reader.hpp"
 
+#include "plant/bounded_file.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -59,11 +61,11 @@ YamlReader YamlReader::Parse(const std::string& text, const std::string& file) {
 }
 
 YamlReader YamlReader::Load(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path, 0, 0, "", "cannot read the file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return Parse(buffer.str(), path);
+  try {
+    return Parse(ReadBoundedFile(path, kMaxSceneBytes), path);
+  } catch (const FileReadError& e) {
+    throw ConfigError(path, 0, 0, "", e.what());
+  }
 }
 
 void YamlReader::Fail(const std::string& message) const {

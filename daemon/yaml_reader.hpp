@@ -6,6 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstddef>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -31,8 +32,11 @@ class YamlReader {
  public:
   // Parses `text`; a syntax error is a ConfigError at its position.
   static YamlReader Parse(const std::string& text, const std::string& file);
-  // Reads and parses a file; an unreadable file is a ConfigError.
+  // Reads and parses a file; a file that cannot be read, is not a regular
+  // file (a FIFO, a device: read without blocking and refused) or is larger
+  // than kMaxSceneBytes is a ConfigError naming it.
   static YamlReader Load(const std::string& path);
+  static constexpr std::size_t kMaxSceneBytes = 1u << 20;  // a scene is a few KiB
 
   // YAML::Node's own assignment writes through to the document; these rebind.
   YamlReader(const YamlReader&) = default;

@@ -20,6 +20,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "plant/bounded_file.hpp"
 #include "plant/escape.hpp"
 
 namespace lagrange {
@@ -748,60 +749,12 @@ UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
   return robot;
 }
 
-namespace {
-
-std::string FileKind(mode_t mode) {
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISSOCK(mode)) return "a socket";
-  return "not a file";
-}
-
-class FileDescriptor {
- public:
-  explicit FileDescriptor(int fd) : fd_(fd) {}
-  FileDescriptor(const FileDescriptor&) = delete;
-  FileDescriptor& operator=(const FileDescriptor&) = delete;
-  ~FileDescriptor() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
-
-std::string SystemReason(int error) { return std::generic_category().message(error); }
-
-}  // namespace
-
 UrdfRobot LoadUrdf(const std::string& path) {
-  // Non-blocking: opening a FIFO for reading would wait for a writer. Only a regular file is read.
-  const FileDescriptor fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC));
-  if (fd.get() < 0) {
-    const int error = errno;
-    Fail(path, "file", "cannot be opened (" + SystemReason(error) + ")");
-  }
-  struct stat status {};
-  if (::fstat(fd.get(), &status) != 0) {
-    const int error = errno;
-    Fail(path, "file", "cannot be read (" + SystemReason(error) + ")");
-  }
-  if (!S_ISREG(status.st_mode)) Fail(path, "file", "not a regular file (" + FileKind(status.st_mode) + ")");
   std::string text;
-  char buffer[1 << 16];
-  while (true) {
-    const ssize_t n = ::read(fd.get(), buffer, sizeof buffer);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      const int error = errno;
-      Fail(path, "file", "cannot be read (" + SystemReason(error) + ")");
-    }
-    if (n == 0) break;
-    text.append(buffer, static_cast<std::size_t>(n));
-    if (text.size() > kMaxUrdfBytes) Fail(path, "file", "larger than " + std::to_string(kMaxUrdfBytes >> 20) + " MiB");
+  try {
+    text = ReadBoundedFile(path, kMaxUrdfBytes);
+  } catch (const FileReadError& e) {
+    Fail(path, "file", e.what());
   }
   return ParseUrdf(text, path);
 }

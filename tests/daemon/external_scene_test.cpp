@@ -182,7 +182,7 @@ TEST(ExternalChannels, ExplicitChannelsAreUsedAsWrittenAndDerivedOnesArePrefixed
   EXPECT_EQ(c.setpoint, "CTRL_ARM_CONTROLLER_SETPOINT");
   EXPECT_EQ(c.command, "CTRL_ARM_CONTROLLER_COMMAND");
   EXPECT_EQ(c.reply, "CTRL_ARM_CONTROLLER_REPLY");
-  EXPECT_EQ(BuildDaemonModel(plant, {.channel_prefix = "CTRL_"})->status_channel, "CTRL_LAGRANGE_STATUS");
+  EXPECT_EQ(BuildDaemonModel(plant, BuildOptions::Prefixed("CTRL_"))->status_channel, "CTRL_LAGRANGE_STATUS");
 
   const InstanceChannelNames derived =
       SceneChannelNames(ParseScene(SimulatedArmScene("{type: external}"), kFile), "SIM_")[0];

@@ -136,7 +136,7 @@ class Daemon {
   Daemon(Scene scene, const std::string& prefix, std::int64_t run_id)
       : run_id_(run_id),
         scene_(std::move(scene)),
-        runtime_(scene_, {.channel_prefix = prefix}),
+        runtime_(scene_, BuildOptions::Prefixed(prefix)),
         channels_(runtime_.model().instances[0].channels),
         receiver_(input_, nullptr, output_, runtime_, clock_, stats_, SetpointAge::kWall, run_id),
         ring_(kRing, runtime_.MakeRecord()),

@@ -59,7 +59,7 @@ TEST(InstanceModel, TheEstopBrakeDefaultsToAFiftyMillisecondTimeConstantAtTheIni
 
 // The tick, and through the runtime the receive and publish threads, read one model.
 TEST(InstanceModel, TheRuntimeAndItsInstancesShareTheOneModel) {
-  const std::shared_ptr<const DaemonModel> model = BuildDaemonModel(TwoControllerScene(""), {.channel_prefix = "P_"});
+  const std::shared_ptr<const DaemonModel> model = BuildDaemonModel(TwoControllerScene(""), BuildOptions::Prefixed("P_"));
   Runtime runtime(model);
   EXPECT_EQ(&runtime.model(), model.get());
   EXPECT_EQ(&runtime.instance(0).instance_model(), &model->instances[0]);

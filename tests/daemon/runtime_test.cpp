@@ -332,7 +332,7 @@ TEST(Loop, SwitchingIntegratorsEffectsAndMethodsAllocatesNothing) {
   Runtime runtime(
       TwoInstances("    effects: {damping: 0.1, friction: {coulomb: 0.05}, limits: {lower: [-3, -3], upper: [3, 3]},\n"
                    "              saturation: [40, 15], disturbance: [{start: 0.01, duration: 0.05, tau: [1, 0]}]}\n"),
-      {.evaluation_s = std::array<double, kNumMethods>{1e-7, 1e-6, 5e-7}});  // the work bound is checked too
+      BuildOptions::WithCosts({1e-7, 1e-6, 5e-7}));  // the work bound is checked too
   CountedLoop loop(runtime);
   loop.Run(10);
   CommandMessage forces;

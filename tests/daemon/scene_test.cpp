@@ -3,6 +3,9 @@
 // line, the key and what was expected.
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 
 #include <filesystem>
 #include <fstream>
@@ -146,8 +149,35 @@ TEST(SceneParsing, AMissingFileIsRefusedNamingIt) {
     LoadScene("/nonexistent/scene.yaml");
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/scene.yaml: cannot read the file");
+    EXPECT_STREQ(e.what(), "/nonexistent/scene.yaml: cannot be opened (No such file or directory)");
   }
+}
+
+// A FIFO would block the reader forever, /dev/zero would read until memory
+// runs out: neither is a scene.
+TEST(SceneParsing, AFifoADeviceOrAnOversizedFileIsRefusedWithoutWaitingOrReadingItAll) {
+  const std::string dir = ::testing::TempDir();
+  const std::string fifo = dir + "/scene_fifo.yaml";
+  ::unlink(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto refusal = [](const std::string& path) -> std::string {
+    try {
+      LoadScene(path);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  EXPECT_EQ(refusal(fifo), fifo + ": not a regular file (a FIFO)");
+  EXPECT_EQ(refusal("/dev/zero"), "/dev/zero: not a regular file (a character device)");
+  const std::string big = dir + "/scene_big.yaml";
+  {
+    std::ofstream out(big);
+    out << "description: \"" << std::string(YamlReader::kMaxSceneBytes, 'x') << "\"\n";
+  }
+  EXPECT_EQ(refusal(big), big + ": larger than 1 MiB");
+  ::unlink(fifo.c_str());
+  ::unlink(big.c_str());
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -158,6 +159,35 @@ TEST_F(Service, AClosedStderrDoesNotKillItAndSigtermStillEndsItCleanly) {
   AwaitStates(states);  // it logged its start-up lines into the closed pipe and runs
   kill(pid, SIGTERM);   // the final status goes into the closed pipe too
   EXPECT_EQ(WaitForExit(pid, kExitWait), 0);
+}
+
+// Start-up (the scene, the work bound, each method's timing) runs while the
+// main thread answers signals: a SIGTERM during it stops lagranged there,
+// exit 0, its line logged, however long the scene would take to start.
+TEST_F(Service, SigtermDuringStartUpStopsItThere) {
+  Prepare(7970);
+  // Many long chains: a start-up of seconds (each instance's methods are timed).
+  std::string scene = "period: 0.001\ninstances:\n";
+  for (int i = 0; i < 60; ++i) {
+    scene += "  - {name: c" + std::to_string(i) + ", plant: {type: chain, method: lagrangian, params: {links: 48}}}\n";
+  }
+  const fs::path file = dir_ / "slow_start.yaml";
+  std::ofstream(file) << scene;
+  auto daemon = Start({"--config", file.string()});
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  daemon->Signal(SIGTERM);
+  ASSERT_EQ(daemon->Wait(kExitWait), 0) << daemon->Stderr();
+  EXPECT_NE(daemon->Stderr().find("stopped by signal 15 during start-up"), std::string::npos) << daemon->Stderr();
+  EXPECT_EQ(daemon->Stderr().find("scene "), std::string::npos) << "the loop never started";
+}
+
+// A FIFO as the scene would block the reader forever: refused at once.
+TEST_F(Service, AFifoAsTheSceneIsRefusedWithoutWaitingForAWriter) {
+  Prepare(7971);
+  const fs::path fifo = dir_ / "scene.fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const auto r = testing::RunProcess(Argv({"--config", fifo.string()}), 60.0);
+  ExpectOneLineRefusal(r, fifo.string() + ": not a regular file (a FIFO)");
 }
 
 TEST_F(Service, SighupReopensTheLogFileAfterLogrotateRenamedIt) {

@@ -332,7 +332,7 @@ class CostedSwitchingRuntime : public SwitchingRuntime {
  protected:
   CostedSwitchingRuntime()
       : SwitchingRuntime(SwingingArm("{type: rk4}", "    effects: {damping: 0.2}\n"),
-                         {.evaluation_s = std::array<double, kNumMethods>{1e-6, 5e-6, 2e-6}}) {}
+                         BuildOptions::WithCosts({1e-6, 5e-6, 2e-6})) {}
 };
 
 // The work bound the scene was checked against holds for switches too.

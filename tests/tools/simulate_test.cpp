@@ -305,7 +305,7 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
   const std::vector<Case> cases = {
       {{"simulate", (dir_ / "missing.yaml").string(), "--duration", "1", "--csv", out},
        1,
-       "missing.yaml: cannot read the file"},
+       "missing.yaml: cannot be opened (No such file or directory)"},
       {{"simulate", negative.string(), "--duration", "1", "--csv", out},
        1,
        "negative.yaml:3:38: instances[0].plant.params.m2: expected a positive number (kg), got -0.8"},
