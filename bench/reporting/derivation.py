@@ -20,6 +20,7 @@ SPATIAL_TERMS = ["M", "C", "Cqd", "G", "dTdq", "ID", "FD"]
 SPATIAL_SIZES = CHAIN_SIZES  # bench_plants.cpp SpatialChainSizes()
 KDL_TERMS = ["M", "G", "Cqd", "ID", "FD"]  # the terms Orocos KDL has
 KDL_RATIO_LIMIT = 0.3  # lagrange / KDL per call
+PLANAR_SPATIAL_TERMS = ["M", "C", "Cqd", "G", "ID", "FD"]  # the terms dynamics_bench times on both
 
 
 def links_of(plant, family):
@@ -112,12 +113,37 @@ def derivation_section(out, runs, calib, context, spatial=None):
     md.append(table(["method"] + TERMS, exponent_cells(rows, ("lagrangian", "recursive"), TERMS)))
     exponents = exponent_csv_rows("chain", rows, ("lagrangian", "recursive"), TERMS)
     md.append("\n![derivation cost](derivation_cost.png)\n")
+    if planar_spatial := planar_against_spatial(get):
+        md.append(planar_spatial)
     if srows:
         md.append(spatial_subsection(out, srows, spatial[1], spatial[2]))
         exponents += exponent_csv_rows("spatial", srows, TREE_METHODS, SPATIAL_TERMS)
     write_csv(out / "derivation_exponents.csv",
               ["family", "method", "term", f"exponent_n_ge_{FIT_FROM_LINKS}", "exponent_all_n"], exponents)
     return "\n".join(md), get
+
+
+def planar_against_spatial(get):
+    """The chains' planar algorithms (method recursive: the chain's tree folded to 2-D) against the spatial
+    ones on the same tree (method spatial), per chain size and term; "" when dynamics_bench timed no
+    derive/<chain>/spatial rows."""
+    terms = [t for t in PLANAR_SPATIAL_TERMS if any((f"chain{n}", "spatial", t) in get for n in CHAIN_SIZES)]
+    if not terms:
+        return ""
+
+    def cell(plant, term):
+        planar, spatial = get.get((plant, "recursive", term)), get.get((plant, "spatial", term))
+        if planar is None or spatial is None:
+            return "n/a"
+        return f"{ns(planar)} / {ns(spatial)} ({planar / spatial:.2f})"
+
+    body = [[f"chain{n}"] + [cell(f"chain{n}", t) for t in terms] for n in CHAIN_SIZES]
+    return "\n".join([
+        "\nPlanar against spatial on the same chains: `recursive` runs the planar algorithms on the chain's "
+        "`RigidTree` folded to 2-D (`PlanarChainOf`), `spatial` the spatial ones (`SpatialDynamics`: CRBA, RNEA, "
+        "ABA) on the tree itself. Per term, planar / spatial time per call, and in brackets their ratio (below 1: "
+        "the planar algorithms are faster). ID: inverse dynamics τ = M q̈ + C q̇ + G.\n",
+        table(["plant"] + terms, body)])
 
 
 def spatial_subsection(out, rows, calib, context):
