@@ -51,14 +51,13 @@ def external_row(name, s, unit="µs", note="", digits=1):
     return [name, s["n"], amount(s["p50"], unit, digits), amount(s["p99"], unit, digits), amount(s["max"], unit, digits), note]
 
 
-def external_section(e):
+def external_figure_rows(e):
+    """The section's table of figures: the round trip, one process, then the two-process loop."""
     st, t, one = e["settings"], e["two_process"], e["single_process"]["timing"]
     rtt = e["round_trip_us"]
     rtt50 = num(rtt["p50"])
     one50 = num(one["compute_us"]["p50"])
-    limits = ", ".join(f"{x:g}" for x in st["torque_limits"])
-    tau_max = ", ".join(f"{x:.3g}" for x in t["tau_abs_max"])
-    rows = [
+    return [
         external_row(f"LCM round trip (ping → a second process → back, one a ms; {e['round_trips_lost']} lost)", rtt),
         external_row("one process: tick compute (the default scene: the arm and the cart-pole)", one["compute_us"]),
         external_row("one process: wake-up latency", one["wake_us"]),
@@ -91,6 +90,27 @@ def external_section(e):
                      t["kill_to_hold_ms"], "ms", note=f"torque_timeout {1e3 * st['torque_timeout_s']:.0f} ms",
                      digits=2),
     ]
+
+
+def external_segment_table(t):
+    """One row per segment: a new controller process, a new phase."""
+    rows = [[s["segment"], amount(s.get("controller_tick_after_state_us_p50"), "µs", 0),
+             f"{amount(s.get('state_to_torque_us_p50'), 'µs', 0)} / {amount(s.get('state_to_torque_us_p99'), 'µs', 0)}",
+             f"{amount(s.get('delay_ticks_p50'), '', 0)} / {amount(s.get('delay_ticks_p99'), '', 0)} / "
+             f"{amount(s.get('delay_ticks_max'), '', 0)}",
+             f"{s['torques'] - s['applied']} of {s['torques']}", s["plant_ticks_in_hold"],
+             amount(s.get("kill_to_hold_ms"), "ms", 2), s["controller_exit"]] for s in t["segments"]]
+    return table(["segment", "controller tick after plant tick k, p50", "state → torque p50 / p99",
+                  "delay j − k p50 / p99 / max", "never applied", "plant ticks in hold", "kill → hold", "#2 ended"],
+                 rows)
+
+
+def external_section(e):
+    st, t, one = e["settings"], e["two_process"], e["single_process"]["timing"]
+    rtt = e["round_trip_us"]
+    rtt50 = num(rtt["p50"])
+    limits = ", ".join(f"{x:g}" for x in st["torque_limits"])
+    tau_max = ", ".join(f"{x:.3g}" for x in t["tau_abs_max"])
     histogram = ", ".join(f"{k}: {v}" for k, v in t["delay_ticks_histogram"].items())
     md = ["## 8. Two-process loop (external controller / external plant)\n",
           f"`external_bench`, on one private LCM URL ({st['url']}), one after another: the LCM round trip (this "
@@ -116,7 +136,7 @@ def external_section(e):
           "way on the bus, so without the phase lock the second reading exceeds 1 tick + RTT by the two hand-offs "
           "whenever a segment draws a phase near a whole tick. Per-torque rows: `external_torques.csv`.\n",
           table(["target", "limit", "measured", "met"], external_target_rows(e)),
-          table(["figure", "samples", "p50", "p99", "max", "note"], rows),
+          table(["figure", "samples", "p50", "p99", "max", "note"], external_figure_rows(e)),
           f"- Torques from the windows' states: {t['torques']}; applied {t['applied']}, never applied "
           f"(superseded before a plant tick took them) {t['never_applied']} "
           f"({100 * t['never_applied_fraction']:.2f} %). Delay j − k in ticks (count): {histogram}.",
@@ -142,15 +162,7 @@ def external_section(e):
               "begins before state k has reached it uses state k − 1 "
               "(the phase column then reads a tick more), and a torque that reaches the plant after its next tick "
               "began waits one more tick.\n")
-    seg_rows = [[s["segment"], amount(s.get("controller_tick_after_state_us_p50"), "µs", 0),
-                 f"{amount(s.get('state_to_torque_us_p50'), 'µs', 0)} / {amount(s.get('state_to_torque_us_p99'), 'µs', 0)}",
-                 f"{amount(s.get('delay_ticks_p50'), '', 0)} / {amount(s.get('delay_ticks_p99'), '', 0)} / "
-                 f"{amount(s.get('delay_ticks_max'), '', 0)}",
-                 f"{s['torques'] - s['applied']} of {s['torques']}", s["plant_ticks_in_hold"],
-                 amount(s.get("kill_to_hold_ms"), "ms", 2), s["controller_exit"]] for s in t["segments"]]
-    md.append(table(["segment", "controller tick after plant tick k, p50", "state → torque p50 / p99",
-                     "delay j − k p50 / p99 / max", "never applied", "plant ticks in hold", "kill → hold",
-                     "#2 ended"], seg_rows))
+    md.append(external_segment_table(t))
     if t.get("problem"):
         md.append(f"\n**The run stopped early: {t['problem']}.**\n")
     return "\n".join(md)

@@ -182,11 +182,39 @@ def growth_orders(curve):
             + ", ".join(parts) + ".")
 
 
-def live_section(out, d):
-    plot_live_accuracy(out, d)
-    run = d["run"]
+def live_method(run):
+    """What the run did, and the definitions of its figures."""
     sine = run.get("sine", {})
-    pairs = list(zip(d["live"], d["offline"], d["paced"]))
+    return [
+        f"`live_bench`: one lagranged on config/{run.get('scene', 'default.yaml')} ({run.get('url', '')}), an "
+        "external `lcm-logger` recording the arm's channels, and this program streaming q_d = q0 + "
+        f"{sine.get('amplitude_rad', '?')} sin(2π {sine.get('frequency_hz', '?')} t) rad on both joints (with its "
+        f"q̇_d and q̈_d) to the arm at {sine.get('stream_hz', 1000):g} Hz. After {run.get('settle_s', '?')} s the "
+        "daemon is switched by SET_INTEGRATOR (each answered accepted) through the settings below, "
+        f"{run.get('seconds_per_setting', '?')} s each. Every live figure comes from the logged ARM_TELEMETRY, "
+        f"from {run.get('drop_s', '?')} s after the switch's reply to the next switch, cut to whole periods of "
+        "the sine. Offline, the same InstanceConfig runs in `lagrange::Instance` (the code of the daemon's tick) "
+        "with the same sine through the same sequence; and again paced at 1 kHz (sleeping between ticks as the "
+        "daemon does, for the cost only). The **replay** runs each live window once more offline from the logged "
+        "state two ticks before it, every tick under the setpoint the daemon used (the q_des of its logged state, "
+        "matched bit for bit to the logged ARM_SETPOINT for q̇_d and q̈_d), and compares the state with the logged "
+        "one after every tick. And the curve: each family over its knob (Euler and RK4 over 1–16 "
+        "sub-steps, dopri5 rtol 1e-4 … 1e-12 with atol = rtol/100, variational 1–8 sub-steps), from a fresh "
+        "instance settled the same way.\n",
+        "Definitions. **ε** is the telemetry's energy-balance residual E − E(0) − W. **ε growth** is b in the "
+        "least-squares fit ε(t) ≈ a + b t + Σ_{m=1..4} (c_m sin 2πmft + d_m cos 2πmft) over the window (t "
+        "simulated, the harmonics on the sine's clock): the secular drift in J/s with what ε does periodically "
+        "with the motion taken out; a straight line over a finite window would read that oscillation as growth. "
+        "Its **noise** (±) is half the difference between the fits over the window's two halves. **ε swing** is "
+        "the peak-to-peak of ε − b t: the periodic error. The **round-off floor** is 2⁻⁵² (max|E| + max|W|) √n / T, "
+        "the random walk of rounding in ε's running sums over n ticks. **Compute** is live the telemetry's "
+        "`compute_us` (the arm's share of the tick: commands, control, integration, health checks, accounting) "
+        "and offline the steady-clock time of `Instance::Step` (control, integration, accounting).\n",
+    ]
+
+
+def eps_finding(d, pairs):
+    """Whether live and offline ε growth agree, and what the replay says when they do not."""
     verdicts = [growth_agreement(lv, off, replay_of(d, k))[0] for k, (lv, off, _) in enumerate(pairs)]
     disagree = [k for k, v in enumerate(verdicts) if v.startswith("**no")]
     unexplained = [lv["setting"] for (lv, _, _), v in zip(pairs, verdicts) if v == "**no**"]
@@ -194,60 +222,12 @@ def live_section(out, d):
     exact = [r["setting"] for r in d["replay"] if r["state_difference_max"] == 0]
     replay_off = [lv["setting"] for lv, rp in zip(d["live"], d["replay"])
                   if not abs(rp["eps_growth_J_per_s"] - lv["eps_growth_J_per_s"]) <= lv["roundoff_floor_J_per_s"]]
-    hot = [ratio(lv["compute_us_p50"], off["compute_us_p50"]) for lv, off, _ in pairs]
-    cold = [ratio(lv["compute_us_p50"], pc["compute_us_p50"]) for lv, _, pc in pairs]
     lost = max(max(0.0, 1e3 * (lv["clock_s"] - lv["window_s"])) for lv, _, _ in pairs)
-    dopri = [r for r in d["curve"] if r["integrator"] == "dopri5"]
-    dopri_evals = sorted({round(r["evaluations_per_tick"], 2) for r in dopri})
-    shares = [ratio(pc["compute_us_p50"] - off["compute_us_p50"], lv["compute_us_p50"] - off["compute_us_p50"])
-              for lv, off, pc in pairs]
-    gap_share = 100 * float(np.nanmedian(shares)) if any(math.isfinite(x) for x in shares) else math.nan
-    at_floor, above = [], []
-    for lv, off, _ in pairs:
-        floor = max(lv["roundoff_floor_J_per_s"], off["roundoff_floor_J_per_s"])
-        if abs(lv["eps_growth_J_per_s"]) <= floor and abs(off["eps_growth_J_per_s"]) <= floor:
-            at_floor.append(f"{lv['setting']} (swing {sci(off['eps_swing_J'])} J)")
-        else:
-            above.append(f"{lv['setting']} ({signed(off['eps_growth_J_per_s'])} J/s offline, swing "
-                         f"{sci(off['eps_swing_J'])} J)")
-    orders = growth_orders(d["curve"])
-    md = ["## 9. Accuracy against cost, live\n",
-          f"`live_bench`: one lagranged on config/{run.get('scene', 'default.yaml')} ({run.get('url', '')}), an "
-          "external `lcm-logger` recording the arm's channels, and this program streaming q_d = q0 + "
-          f"{sine.get('amplitude_rad', '?')} sin(2π {sine.get('frequency_hz', '?')} t) rad on both joints (with its "
-          f"q̇_d and q̈_d) to the arm at {sine.get('stream_hz', 1000):g} Hz. After {run.get('settle_s', '?')} s the "
-          "daemon is switched by SET_INTEGRATOR (each answered accepted) through the settings below, "
-          f"{run.get('seconds_per_setting', '?')} s each. Every live figure comes from the logged ARM_TELEMETRY, "
-          f"from {run.get('drop_s', '?')} s after the switch's reply to the next switch, cut to whole periods of "
-          "the sine. Offline, the same InstanceConfig runs in `lagrange::Instance` (the code of the daemon's tick) "
-          "with the same sine through the same sequence; and again paced at 1 kHz (sleeping between ticks as the "
-          "daemon does, for the cost only). The **replay** runs each live window once more offline from the logged "
-          "state two ticks before it, every tick under the setpoint the daemon used (the q_des of its logged state, "
-          "matched bit for bit to the logged ARM_SETPOINT for q̇_d and q̈_d), and compares the state with the logged "
-          "one after every tick. And the curve: each family over its knob (Euler and RK4 over 1–16 "
-          "sub-steps, dopri5 rtol 1e-4 … 1e-12 with atol = rtol/100, variational 1–8 sub-steps), from a fresh "
-          "instance settled the same way.\n",
-          "Definitions. **ε** is the telemetry's energy-balance residual E − E(0) − W. **ε growth** is b in the "
-          "least-squares fit ε(t) ≈ a + b t + Σ_{m=1..4} (c_m sin 2πmft + d_m cos 2πmft) over the window (t "
-          "simulated, the harmonics on the sine's clock): the secular drift in J/s with what ε does periodically "
-          "with the motion taken out; a straight line over a finite window would read that oscillation as growth. "
-          "Its **noise** (±) is half the difference between the fits over the window's two halves. **ε swing** is "
-          "the peak-to-peak of ε − b t: the periodic error. The **round-off floor** is 2⁻⁵² (max|E| + max|W|) √n / T, "
-          "the random walk of rounding in ε's running sums over n ticks. **Compute** is live the telemetry's "
-          "`compute_us` (the arm's share of the tick: commands, control, integration, health checks, accounting) "
-          "and offline the steady-clock time of `Instance::Step` (control, integration, accounting).\n",
-          live_table(d),
-          "\nThe live input, from the replay (per window): the age of the setpoint each tick used (the tick's start "
-          "− the setpoint's send time, µs), ticks that took the same setpoint as the tick before, ticks after which "
-          "streamed setpoints went unused, and ticks without a logged state or a matching setpoint. Offline, every "
-          "tick takes the sine at its own simulated time: age 0, nothing reused or skipped.\n",
-          input_table(d),
-          "\n![accuracy against cost, live and offline](live_accuracy.png)\n"]
     verdict = ("Offline and live ε growth agree within their noise for every setting"
                if not disagree else
                "Offline and live ε growth disagree beyond their noise for "
                + ", ".join(d["live"][k]["setting"] for k in disagree))
-    md.append(
+    return (
         f"- **ε: {verdict}.** The replay reproduces the daemon's states to {sci(replay_diff)} (rad or rad/s; "
         f"bit for bit under {', '.join(exact) or 'none'}; dopri5's step proposal and the variational Jacobian "
         "start over at the replay's first tick, so those differ in the last bits), and "
@@ -261,7 +241,18 @@ def live_section(out, d):
         "periodic part slightly aperiodic, and a little of the swing leaks into the fitted growth"
         + (f"; it is beyond the noise of the halves for {', '.join(input_note(d, k) for k in disagree)}"
            if disagree else "")
-        + (f". Not explained by the input: {', '.join(unexplained)}" if unexplained else "") + ".\n"
+        + (f". Not explained by the input: {', '.join(unexplained)}" if unexplained else "") + ".\n")
+
+
+def cost_finding(d, pairs):
+    """Live compute against offline, tight and paced."""
+    run = d["run"]
+    hot = [ratio(lv["compute_us_p50"], off["compute_us_p50"]) for lv, off, _ in pairs]
+    cold = [ratio(lv["compute_us_p50"], pc["compute_us_p50"]) for lv, _, pc in pairs]
+    shares = [ratio(pc["compute_us_p50"] - off["compute_us_p50"], lv["compute_us_p50"] - off["compute_us_p50"])
+              for lv, off, pc in pairs]
+    gap_share = 100 * float(np.nanmedian(shares)) if any(math.isfinite(x) for x in shares) else math.nan
+    return (
         f"- **Cost: live is {min(hot):.1f}–{max(hot):.1f}× the offline tight loop (p50), and {min(cold):.1f}–"
         f"{max(cold):.1f}× the offline run paced at 1 kHz.** Not noise, and not the integrators: evaluations per "
         "tick agree (the table), so each setting does the same arithmetic live and offline. The tight loop runs "
@@ -270,7 +261,23 @@ def live_section(out, d):
         "(median over the settings); the rest is what the tick does beyond Step (taking commands and the setpoint, "
         "the health check's energies, the record) and a machine shared with the logger and this program (load "
         f"average {run.get('load_average_before', '?')} before, {run.get('load_average_after', '?')} after, "
-        f"{run.get('cores', '?')} cores).\n"
+        f"{run.get('cores', '?')} cores).\n")
+
+
+def metric_finding(d, pairs):
+    """Which settings sit at the round-off floor, the observed orders, and dopri5's steps per tick."""
+    dopri = [r for r in d["curve"] if r["integrator"] == "dopri5"]
+    dopri_evals = sorted({round(r["evaluations_per_tick"], 2) for r in dopri})
+    at_floor, above = [], []
+    for lv, off, _ in pairs:
+        floor = max(lv["roundoff_floor_J_per_s"], off["roundoff_floor_J_per_s"])
+        if abs(lv["eps_growth_J_per_s"]) <= floor and abs(off["eps_growth_J_per_s"]) <= floor:
+            at_floor.append(f"{lv['setting']} (swing {sci(off['eps_swing_J'])} J)")
+        else:
+            above.append(f"{lv['setting']} ({signed(off['eps_growth_J_per_s'])} J/s offline, swing "
+                         f"{sci(off['eps_swing_J'])} J)")
+    orders = growth_orders(d["curve"])
+    return (
         f"- **What the metric shows.** At the round-off floor (live and offline): {', '.join(at_floor) or 'none'}. "
         f"Above it: {', '.join(above) or 'none'}. {orders} dopri5 takes "
         f"{'one internal step' if dopri_evals == [7.0] else 'few internal steps'} per 1 ms tick at every tolerance "
@@ -278,8 +285,23 @@ def live_section(out, d):
         "estimate in the live run "
         f"{max((r['error_estimate_max'] for r in d['live'] if r['integrator'] == 'dopri5'), default=math.nan):.1e})"
         ", so its curve is one point: the arm's motion is smooth on the scale of a tick.\n")
+
+
+def live_section(out, d):
+    plot_live_accuracy(out, d)
+    run = d["run"]
+    pairs = list(zip(d["live"], d["offline"], d["paced"]))
+    md = ["## 9. Accuracy against cost, live\n"] + live_method(run) + [
+        live_table(d),
+        "\nThe live input, from the replay (per window): the age of the setpoint each tick used (the tick's start "
+        "− the setpoint's send time, µs), ticks that took the same setpoint as the tick before, ticks after which "
+        "streamed setpoints went unused, and ticks without a logged state or a matching setpoint. Offline, every "
+        "tick takes the sine at its own simulated time: age 0, nothing reused or skipped.\n",
+        input_table(d),
+        "\n![accuracy against cost, live and offline](live_accuracy.png)\n",
+        eps_finding(d, pairs) + cost_finding(d, pairs) + metric_finding(d, pairs)]
     if run.get("problems"):
         md.append("**The run reported problems:** " + "; ".join(run["problems"]) + "\n")
-    md.append("Files: `live.csv`, `live_offline.csv` (kind setting, paced, replay, curve), `live_traces.csv` (ε(t) of every "
-              "window), `live.json`; `live.lcmlog` with `--keep-log`.\n")
+    md.append("Files: `live.csv`, `live_offline.csv` (kind setting, paced, replay, curve), `live_traces.csv` (ε(t) of "
+              "every window), `live.json`; `live.lcmlog` with `--keep-log`.\n")
     return "\n".join(md)

@@ -116,21 +116,69 @@ def thread_role(t):
     return THREAD_ROLES.get(t.get("name", ""), SYSCALL_ROLES.get(t["usually_in"], ""))
 
 
-def loop_section(out, d, tick_runs):
-    s = d["summary"]
-    plot_loop(out, d)
-    cyc = d["cyclictest_concurrent"]
-    wake99, cyc99 = percentile(d["wake"], 99), pct(cyc, 99)
-    rows = [stats_row("tick compute time (lagranged)", d["compute"]),
+def loop_rows(d):
+    """The loop's percentiles: lagranged's tick, cyclictest beside it and alone, the setpoint prober."""
+    return [stats_row("tick compute time (lagranged)", d["compute"]),
             stats_row("wake-up latency (lagranged)", d["wake"]),
-            stats_row("wake-up latency, cyclictest, same time", cyc),
+            stats_row("wake-up latency, cyclictest, same time", d["cyclictest_concurrent"]),
             stats_row("wake-up latency, cyclictest alone, before", d["cyclictest_alone"]),
             stats_row("wake-up latency, cyclictest alone, timer slack 1 ns", d["cyclictest_alone-slack-1ns"]),
             stats_row("setpoint publication → first state with it", d["setpoint"])]
-    write_csv(out / "loop_stats.csv", ["metric", "samples", "p50", "p99", "max"], rows)
+
+
+def loop_findings(d, tick_runs):
+    """The loop's bullets: lagranged against cyclictest, overruns, CPU, late wakes, the tick outside the daemon
+    and the timer slack."""
+    s = d["summary"]
+    cyc = d["cyclictest_concurrent"]
+    wake99, cyc99 = percentile(d["wake"], 99), pct(cyc, 99)
     hot = tick_runs.get("tick/default/hot", {}).get("real_ns", math.nan)
     slept = tick_runs.get("tick/default/after-sleep", {}).get("real_ns", math.nan)
     alone, slack = d["cyclictest_alone"], d["cyclictest_alone-slack-1ns"]
+    return [
+        f"\n- Wake-up latency p99, lagranged / cyclictest at the same time: {ratio(wake99, cyc99):.2f}.",
+        f"- Overruns (missed deadlines): {d['overruns']} in {d['ticks']} ticks; ARM_STATE messages received "
+        f"{s['arm_states_received']}, tick gaps {s['arm_state_tick_gaps']}.",
+        f"- Setpoints sent {d['setpoints_sent']}, seen in a state {len(d['setpoint'])}.",
+        f"- lagranged CPU: {float(s['daemon_cpu_window_percent']):.2f} % of one core over the steady window "
+        f"({float(s['window_s']):.1f} s from 2 s after its first state), "
+        f"{float(s['daemon_cpu_total_percent']):.2f} % over its whole life "
+        f"({float(s['daemon_cpu_total_s']):.2f} s CPU in {float(s['daemon_wall_s']):.1f} s, wait4 rusage).",
+        f"- Wakes later than one period (1 ms): lagranged {late(d['wake'])}, cyclictest at the same time "
+        f"{late(cyc)} (per 10⁴ wakes); a wake that late is an overrun. Both loops are placed by the scheduler "
+        "(not pinned); late wakes of that size come with the machine's load rather than the thread: see the "
+        "pinned run below.",
+        f"- The same tick outside the daemon (`tick_bench`, default scene): {ns(hot)} back to back with warm "
+        f"caches, {ns(slept)} when each tick follows a 1 ms sleep as in the daemon (caches and branch "
+        f"predictors go cold while the thread sleeps); lagranged's median, {us(percentile(d['compute'], 50))}, "
+        "compares with the second figure.",
+        f"- Timer slack: SCHED_OTHER threads get Linux's default 50 µs (SCHED_FIFO threads, `--rt-priority`, "
+        f"none). cyclictest alone wakes with a median of {us_limit(pct(alone, 50), alone)} with the default "
+        f"slack and {us_limit(pct(slack, 50), slack)} with its slack set to 1 ns (inherited from the "
+        "benchmark's fork, kept across exec); the difference is what the slack adds to the floor that "
+        "lagranged and cyclictest share.\n",
+    ]
+
+
+def loop_machine(d):
+    """lagranged's threads and the machine's largest CPU users over the steady window."""
+    s = d["summary"]
+    trows = [[t["thread"], t.get("name", ""), t["usually_in"], f"{float(t['percent_of_one_core']):.2f} %",
+              thread_role(t)] for t in d["threads"]]
+    return ["lagranged's threads over the steady window (role from the name lagranged gave the thread, else from "
+            "the system call it was seen blocked in most):\n",
+            table(["thread (creation order)", "name", "usually blocked in", "CPU, % of one core", "role"], trows),
+            "\nThe machine during the run (the largest CPU users from the daemon's first state to 1 s before its "
+            f"end; load average before {s['load_average_before']}, after {s['load_average_after']}):\n",
+            table(["process", "CPU, % of one core"],
+                  [[n["process"], f"{float(n['percent_of_one_core']):.1f} %"] for n in d["noise"]])]
+
+
+def loop_section(out, d, tick_runs):
+    s = d["summary"]
+    plot_loop(out, d)
+    rows = loop_rows(d)
+    write_csv(out / "loop_stats.csv", ["metric", "samples", "p50", "p99", "max"], rows)
     md = ["## 5. The loop\n",
           f"`lagranged --config config/default.yaml --duration {float(s['duration_s']):.0f}` (arm under computed "
           "torque and cart-pole under LQR, both RK4, 1 kHz; no real-time options: SCHED_OTHER, default timer slack) "
@@ -141,38 +189,8 @@ def loop_section(out, d, tick_runs):
           "`/dev/cpu_dma_latency` for the daemon as well), a setpoint prober (a new arm setpoint every 100 ms "
           "plus up to 1 ms of seeded jitter) and `lcm-logger` recording the states. cyclictest also ran alone "
           "before the daemon, once with the default timer slack and once with 1 ns.\n",
-          table(["metric", "samples", "p50", "p99", "max"], rows),
-          f"\n- Wake-up latency p99, lagranged / cyclictest at the same time: {ratio(wake99, cyc99):.2f}.",
-          f"- Overruns (missed deadlines): {d['overruns']} in {d['ticks']} ticks; ARM_STATE messages received "
-          f"{s['arm_states_received']}, tick gaps {s['arm_state_tick_gaps']}.",
-          f"- Setpoints sent {d['setpoints_sent']}, seen in a state {len(d['setpoint'])}.",
-          f"- lagranged CPU: {float(s['daemon_cpu_window_percent']):.2f} % of one core over the steady window "
-          f"({float(s['window_s']):.1f} s from 2 s after its first state), "
-          f"{float(s['daemon_cpu_total_percent']):.2f} % over its whole life "
-          f"({float(s['daemon_cpu_total_s']):.2f} s CPU in {float(s['daemon_wall_s']):.1f} s, wait4 rusage).",
-          f"- Wakes later than one period (1 ms): lagranged {late(d['wake'])}, cyclictest at the same time "
-          f"{late(cyc)} (per 10⁴ wakes); a wake that late is an overrun. Both loops are placed by the scheduler "
-          "(not pinned); late wakes of that size come with the machine's load rather than the thread: see the "
-          "pinned run below.",
-          f"- The same tick outside the daemon (`tick_bench`, default scene): {ns(hot)} back to back with warm "
-          f"caches, {ns(slept)} when each tick follows a 1 ms sleep as in the daemon (caches and branch "
-          f"predictors go cold while the thread sleeps); lagranged's median, {us(percentile(d['compute'], 50))}, "
-          "compares with the second figure.",
-          f"- Timer slack: SCHED_OTHER threads get Linux's default 50 µs (SCHED_FIFO threads, `--rt-priority`, "
-          f"none). cyclictest alone wakes with a median of {us_limit(pct(alone, 50), alone)} with the default "
-          f"slack and {us_limit(pct(slack, 50), slack)} with its slack set to 1 ns (inherited from the "
-          "benchmark's fork, kept across exec); the difference is what the slack adds to the floor that "
-          "lagranged and cyclictest share.\n",
-          "lagranged's threads over the steady window (role from the name lagranged gave the thread, else from "
-          "the system call it was seen blocked in most):\n"]
-    md.insert(-1, tick_subsection(tick_runs))
-    trows = [[t["thread"], t.get("name", ""), t["usually_in"], f"{float(t['percent_of_one_core']):.2f} %",
-              thread_role(t)] for t in d["threads"]]
-    md.append(table(["thread (creation order)", "name", "usually blocked in", "CPU, % of one core", "role"], trows))
-    md.append("\nThe machine during the run (the largest CPU users from the daemon's first state to 1 s before its "
-              f"end; load average before {s['load_average_before']}, after {s['load_average_after']}):\n")
-    md.append(table(["process", "CPU, % of one core"],
-                    [[n["process"], f"{float(n['percent_of_one_core']):.1f} %"] for n in d["noise"]]))
+          table(["metric", "samples", "p50", "p99", "max"], rows)]
+    md += loop_findings(d, tick_runs) + [tick_subsection(tick_runs)] + loop_machine(d)
     md.append("\n![loop latency](loop_latency.png)\n")
     if (out / "loop_ticks_rt.csv").exists():
         md.append(loop_rt_section(loop_data(out, "rt")))
