@@ -211,10 +211,7 @@ std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& 
   ForEachLogEvent(file, [&](const LcmLogEvent& event) {
     const auto it = ticks.find(std::string(event.channel));
     if (it == ticks.end()) return;
-    if (CheckStatePacket(event.data, event.size) != WireCheck::kOk ||
-        s.decode(event.data, 0, static_cast<int>(event.size)) < 0)
-      return;
-    if (run_id != 0 && s.run_id != run_id) return;
+    if (!DecodeChecked(CheckStatePacket, event, s) || (run_id != 0 && s.run_id != run_id)) return;
     it->second.push_back(s.tick);
   });
   return ticks;

@@ -553,16 +553,15 @@ class LogReading {
 
   void Read(const LcmLogEvent& e) {
     ++log_.events;
-    const int size = static_cast<int>(e.size);
     if (e.channel == ch_.state[arm_]) {
-      if (state_.decode(e.data, 0, size) >= 0 && state_.run_id == run_id_) OnState();
+      if (DecodeChecked(CheckStatePacket, e, state_) && state_.run_id == run_id_) OnState();
     } else if (e.channel == ch_.setpoint[arm_]) {
-      if (setpoint_.decode(e.data, 0, size) >= 0) OnSetpoint();
+      if (DecodeChecked(CheckSetpointPacket, e, setpoint_)) OnSetpoint();
     } else if (e.channel == ch_.reply[arm_]) {
-      if (reply_.decode(e.data, 0, size) >= 0 && reply_.run_id == run_id_)
+      if (DecodeChecked(CheckReplyPacket, e, reply_) && reply_.run_id == run_id_)
         log_.reply_utime[reply_.request_id] = reply_.utime;
     } else if (e.channel == ch_.telemetry[arm_]) {
-      if (telemetry_.decode(e.data, 0, size) >= 0 && telemetry_.run_id == run_id_) OnTelemetry();
+      if (DecodeChecked(CheckTelemetryPacket, e, telemetry_) && telemetry_.run_id == run_id_) OnTelemetry();
     }
   }
   Log Take() { return std::move(log_); }
