@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -37,7 +38,11 @@ std::int64_t WallMicros() {
       .count();
 }
 
-std::string CheckLoopback(const std::string& url) {
+std::string PrepareLoopback(const std::string& url) {
+  if (geteuid() == 0 && std::system("ip route show 239.255.0.0/16 2>/dev/null | grep -q 'dev lo'") != 0 &&
+      std::system("ip link set lo multicast on && ip route add 239.255.0.0/16 dev lo") != 0) {
+    return "could not add the multicast route on lo (ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo)";
+  }
   std::unique_ptr<Bus> in, out;
   try {
     in = OpenBus(url);

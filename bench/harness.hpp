@@ -36,8 +36,11 @@ std::string Url(int port);
 // a receiver descheduled on a busy machine must not lose what it counts.
 std::string WithReceiveBuffer(const std::string& url);
 
-// "" when a message published on `url` comes back to this process, else what to do about it.
-std::string CheckLoopback(const std::string& url);
+// LCM on this host only needs multicast routed through the loopback
+// interface. As root, adds the route when it is missing (ip link set lo
+// multicast on; ip route add 239.255.0.0/16 dev lo); then "" when a message
+// published on `url` comes back to this process, else what to do about it.
+std::string PrepareLoopback(const std::string& url);
 
 // ---- clocks and waiting --------------------------------------------------------------------
 

@@ -37,7 +37,7 @@ int PrepareRun(std::string_view program, const DaemonOptions& o, const std::vect
   }
   fs::create_directories(o.out);
   for (int port : ports) {
-    if (const std::string problem = CheckLoopback(Url(port)); !problem.empty()) {
+    if (const std::string problem = PrepareLoopback(Url(port)); !problem.empty()) {
       std::cerr << program << ": " << problem << "\n";
       return 1;
     }

@@ -49,7 +49,7 @@ void QuickDefault(const CLI::Option* option, T& value, T quick) {
 
 // Before a run starts anything: a lagranged to run (else exit status 2), the
 // results folder made, and LCM multicast looping back on every port in
-// `ports` (else 1). No ports: an offline run, which needs neither daemon nor
+// `ports` (PrepareLoopback; else 1). No ports: an offline run, which needs neither daemon nor
 // bus. What is wrong goes to stderr as "<program>: ..."; 0 when ready.
 int PrepareRun(std::string_view program, const DaemonOptions& o, const std::vector<int>& ports);
 
