@@ -8,6 +8,7 @@
 //   C    ComputeCoriolisMatrix       (q, qd) => C (n x n)
 //   Cqd  ComputeCoriolisForce        (q, qd) => C qd (n)
 //   G    ComputeGravityForce         q => G (n)
+//   ID   ComputeInverseDynamics      (q, qd, qdd) => tau (n), gravity and Coriolis on
 //   FD   ComputeForwardDynamics      (q, qd, tau) => qdd (n), gravity and Coriolis on
 // and calib/sincos. Each call cycles through 16 seeded random states. The
 // method "spatial" is the spatial algorithms (plant/spatial_dynamics.hpp) on

@@ -72,21 +72,18 @@
 #include <unordered_map>
 
 #include "bench/harness.hpp"
+#include "bench/options.hpp"
+#include "bench/stats.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/scene_channels.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 
-#ifndef LAGRANGE_SOURCE_DIR
-#define LAGRANGE_SOURCE_DIR "."
-#endif
-
 namespace lagrange::bench {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 constexpr const char* kSingleScene = "default.yaml";
@@ -101,11 +98,12 @@ constexpr int kApplyMargin = 20;  // ticks a window's last torques get to be app
 // post it to the tick's mailbox.
 constexpr std::int64_t kReceiveGuardUs = 100;
 
-struct Options {
-  std::string lagranged;
-  std::string config_dir = std::string(LAGRANGE_SOURCE_DIR) + "/config";
-  std::string out = "bench/results";
-  int port = 7750;
+// config: the folder of the three scenes.
+struct Options : DaemonOptions {
+  Options() {
+    config = SourceConfigDir();
+    port = 7750;
+  }
   double duration = 12.0;  // s: the one-process run, and the two-process loop over all segments
   int segments = 8;        // controller processes, one after another; each ends with SIGKILL
   int round_trips = 2000;
@@ -117,18 +115,9 @@ struct Options {
   int receive_priority() const { return PrioritiesBelow(rt_priority).receive; }
   bool quick = false;
   bool echo = false;  // internal: be the echo of the round-trip measurement
-
-  fs::path File(const std::string& name) const { return fs::path(out) / name; }
-  std::string Scene(const char* file) const { return (fs::path(config_dir) / file).string(); }
 };
 
 // ---- figures ---------------------------------------------------------------------------
-
-double Mean(const std::vector<double>& v) {
-  double sum = 0.0;
-  for (const double x : v) sum += x;
-  return v.empty() ? std::numeric_limits<double>::quiet_NaN() : sum / static_cast<double>(v.size());
-}
 
 json ToJson(const Summary& s) { return {{"n", s.n}, {"p50", s.p50}, {"p99", s.p99}, {"max", s.max}}; }
 
@@ -200,6 +189,34 @@ struct RoundTrips {
   std::string echo_exit;
 };
 
+// Pings the echo on `bus` and times each pong.
+class Pinger {
+ public:
+  explicit Pinger(Bus& bus) : bus_(bus) {
+    bus_.Subscribe(kPongChannel, [this](std::string_view, const std::uint8_t* data, std::size_t size) {
+      std::int64_t k = -1;
+      if (size == sizeof k) std::memcpy(&k, data, sizeof k);
+      if (k == expected_) arrived_ns_ = MonotonicNs();
+    });
+  }
+  // Ping `k`, waiting up to `timeout_ms` for its pong: the round trip, µs; -1 when none came.
+  double Ping(std::int64_t k, int timeout_ms) {
+    expected_ = k;
+    arrived_ns_ = -1;
+    const std::int64_t sent = MonotonicNs();
+    bus_.Publish(kPingChannel, &k, sizeof k);
+    const std::int64_t deadline = sent + std::int64_t{timeout_ms} * 1'000'000;
+    while (arrived_ns_ < 0 && MonotonicNs() < deadline) {
+      bus_.Handle(static_cast<int>(std::max<std::int64_t>(1, (deadline - MonotonicNs()) / 1'000'000)));
+    }
+    return arrived_ns_ < 0 ? -1.0 : 1e-3 * static_cast<double>(arrived_ns_ - sent);
+  }
+
+ private:
+  Bus& bus_;
+  std::int64_t expected_ = -1, arrived_ns_ = -1;
+};
+
 // Starts the echo and pings it once per millisecond (absolute schedule),
 // each awaited before the next, at the receive priority.
 RoundTrips PingEcho(const Options& o, const std::string& url) {
@@ -208,35 +225,19 @@ RoundTrips PingEcho(const Options& o, const std::string& url) {
   }
   RoundTrips r;
   std::unique_ptr<Bus> bus = OpenBus(url);
-  std::int64_t expected = -1, arrived_ns = -1;
-  bus->Subscribe(kPongChannel, [&](std::string_view, const std::uint8_t* data, std::size_t size) {
-    std::int64_t k = -1;
-    if (size == sizeof k) std::memcpy(&k, data, sizeof k);
-    if (k == expected) arrived_ns = MonotonicNs();
-  });
+  Pinger pinger(*bus);
   std::vector<std::string> argv = {fs::read_symlink("/proc/self/exe").string(), "--echo", "--port",
                                    std::to_string(o.port)};
   if (o.rt_priority > 0) argv.insert(argv.end(), {"--rt-priority", std::to_string(o.rt_priority)});
   const pid_t echo = Spawn(argv, o.File("external_echo.log"));
-  const auto ping = [&](std::int64_t k, int timeout_ms) {
-    expected = k;
-    arrived_ns = -1;
-    const std::int64_t sent = MonotonicNs();
-    bus->Publish(kPingChannel, &k, sizeof k);
-    const std::int64_t deadline = sent + std::int64_t{timeout_ms} * 1'000'000;
-    while (arrived_ns < 0 && MonotonicNs() < deadline) {
-      bus->Handle(static_cast<int>(std::max<std::int64_t>(1, (deadline - MonotonicNs()) / 1'000'000)));
-    }
-    return arrived_ns < 0 ? -1.0 : 1e-3 * static_cast<double>(arrived_ns - sent);
-  };
   // One pong back (the echo has subscribed) before timing; at most 5 s. Warm-up pings count down from -1.
   bool echoing = false;
-  for (std::int64_t k = -1; k >= -250 && !echoing; --k) echoing = ping(k, 20) >= 0;
+  for (std::int64_t k = -1; k >= -250 && !echoing; --k) echoing = pinger.Ping(k, 20) >= 0;
   auto next = Clock::now();
   for (std::int64_t i = 0; i < o.round_trips; ++i) {
     next += std::chrono::milliseconds(1);
     std::this_thread::sleep_until(next);
-    const double us = ping(i, 100);
+    const double us = pinger.Ping(i, 100);
     if (us < 0) {
       ++r.lost;
     } else {
@@ -265,9 +266,7 @@ struct SingleRun {
 };
 
 std::vector<std::string> DaemonArgs(const Options& o, const std::string& url, const char* scene) {
-  std::vector<std::string> argv = {o.lagranged, "--config", o.Scene(scene), "--lcm-url", url, "--log-level", "warn"};
-  if (o.rt_priority > 0) argv.insert(argv.end(), {"--mlockall", "--rt-priority", std::to_string(o.rt_priority)});
-  return argv;
+  return LagrangedArgs(o.lagranged, o.Scene(scene), url, o.rt_priority);
 }
 
 SingleRun RunSingleProcess(const Options& o, const std::string& url) {
@@ -302,7 +301,7 @@ struct Channels {
 // timestamping each message as its handler runs.
 class Observer {
  public:
-  Observer(const std::string& url, const Channels& ch) : bus_(OpenBus(url + "&recv_buf_size=4194304")) {
+  Observer(const std::string& url, const Channels& ch) : bus_(OpenBus(WithReceiveBuffer(url))) {
     bus_->Subscribe(ch.state, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
     bus_->Subscribe(ch.torque, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnTorque(d, n); });
     bus_->Subscribe(ch.plant_status,
@@ -398,17 +397,6 @@ class Observer {
   std::map<std::int64_t, status_t> controller_status_;
 };
 
-// Waits up to `timeout_s` for `done`; true if it came.
-template <class Done>
-bool Await(Done done, double timeout_s) {
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
-}
-
 // ---- 3. two processes: the run ---------------------------------------------------------------------
 
 // One controller process.
@@ -481,8 +469,7 @@ TwoProcessRun RunTwoProcess(const Options& o, const std::string& url, const Chan
     r.segments.push_back(std::move(s));
   }
   r.plant_status = observer.plant_status();
-  kill(plant, SIGTERM);
-  r.plant_exit = DescribeExit(WaitExit(plant, 10.0).status);
+  r.plant_exit = DescribeExit(Terminate(plant, 10.0).status);
   r.kernel_drops = observer.kernel_drops();
   return r;
 }
@@ -559,11 +546,6 @@ class PlantStates {
   std::map<std::int64_t, const StateSeen*> by_tick_;
 };
 
-// The bits of a torque vector: applied torques are compared bit for bit.
-std::string Key(const std::vector<double>& tau) {
-  return std::string(reinterpret_cast<const char*>(tau.data()), tau.size() * sizeof(double));
-}
-
 // One segment: the plant ticks [first, last] of its window, and `end`, the
 // tick up to which its torques may still be applied (the hold after the kill).
 struct Window {
@@ -578,14 +560,14 @@ std::map<const TorqueSeen*, std::int64_t> MatchApplications(const PlantStates& p
                                                             const std::vector<const TorqueSeen*>& torques,
                                                             const InstanceConfig& config, Window& w, Analysis& a) {
   std::unordered_map<std::string, std::vector<const TorqueSeen*>> by_tau;
-  for (const TorqueSeen* t : torques) by_tau[Key(t->tau)].push_back(t);
+  for (const TorqueSeen* t : torques) by_tau[Bits(t->tau)].push_back(t);
   std::map<const TorqueSeen*, std::int64_t> applied;
   const TorqueSeen* previous = nullptr;
   const auto& by_tick = plant.by_tick();
   for (auto it = by_tick.lower_bound(w.first); it != by_tick.end() && it->first < w.end; ++it) {
     const StateSeen& s = *it->second;
     const TorqueSeen* match = nullptr;
-    if (const auto c = by_tau.find(Key(s.tau)); c != by_tau.end()) {
+    if (const auto c = by_tau.find(Bits(s.tau)); c != by_tau.end()) {
       for (const TorqueSeen* t : c->second) {
         if (t->state_tick < s.tick && (!match || t->sequence > match->sequence)) match = t;
       }
@@ -675,44 +657,49 @@ json SegmentJson(const Segment& seg, std::size_t index, const Window& w, const s
   return j;
 }
 
+// One segment's window: its plant ticks counted, each of its controller's
+// torques measured (those from the window's states), into `a`.
+void AnalyzeSegment(const PlantStates& plant, const Observer& observer, const InstanceConfig& config,
+                    const Segment& seg, std::size_t index, Analysis& a) {
+  Window w;
+  std::tie(w.first, w.last) = plant.Window(seg.start_us, seg.end_us);
+  if (w.first < 0) return;
+  w.end = seg.hold ? seg.hold->tick : w.last + kApplyMargin;
+  std::vector<const TorqueSeen*> mine;
+  for (const TorqueSeen& t : observer.torques()) {
+    if (t.run_id == seg.run_id) mine.push_back(&t);
+  }
+  const auto applied = MatchApplications(plant, mine, config, w, a);
+  a.window_ticks += w.ticks;
+  a.hold_ticks += w.hold;
+  a.reused_ticks += w.reused;
+  const auto& by_tick = plant.by_tick();
+  a.state_gaps += (w.last - w.first + 1) -
+                  static_cast<std::int64_t>(std::distance(by_tick.lower_bound(w.first), by_tick.upper_bound(w.last)));
+  std::vector<TorqueResult> results;
+  std::int64_t last_sequence = -1;
+  for (const TorqueSeen* t : mine) {
+    if (last_sequence >= 0 && t->sequence > last_sequence + 1) a.torque_gaps += t->sequence - last_sequence - 1;
+    last_sequence = std::max(last_sequence, t->sequence);
+    if (t->state_tick < w.first || t->state_tick > w.last - kApplyMargin) continue;
+    const auto it = applied.find(t);
+    TorqueResult r = Measure(plant, *t, it == applied.end() ? std::nullopt : std::optional(it->second));
+    r.segment = static_cast<int>(index);
+    a.torque_publication_us.push_back(static_cast<double>(t->arrival - t->utime));
+    a.older_state += r.older_state ? 1 : 0;
+    a.waited_a_tick += r.waited_a_tick ? 1 : 0;
+    results.push_back(r);
+  }
+  a.segments.push_back(SegmentJson(seg, index, w, results));
+  a.torques.insert(a.torques.end(), results.begin(), results.end());
+}
+
 Analysis Analyze(const TwoProcessRun& run, const Observer& observer, const InstanceConfig& config) {
   Analysis a;
   a.tau_abs_max.assign(static_cast<std::size_t>(config.plant.num_dofs()), 0.0);
   const PlantStates plant(observer.states());
   for (std::size_t si = 0; si < run.segments.size(); ++si) {
-    const Segment& seg = run.segments[si];
-    if (seg.start_us == 0) continue;
-    Window w;
-    std::tie(w.first, w.last) = plant.Window(seg.start_us, seg.end_us);
-    if (w.first < 0) continue;
-    w.end = seg.hold ? seg.hold->tick : w.last + kApplyMargin;
-    std::vector<const TorqueSeen*> mine;
-    for (const TorqueSeen& t : observer.torques()) {
-      if (t.run_id == seg.run_id) mine.push_back(&t);
-    }
-    const auto applied = MatchApplications(plant, mine, config, w, a);
-    a.window_ticks += w.ticks;
-    a.hold_ticks += w.hold;
-    a.reused_ticks += w.reused;
-    const auto& by_tick = plant.by_tick();
-    a.state_gaps += (w.last - w.first + 1) -
-                    static_cast<std::int64_t>(std::distance(by_tick.lower_bound(w.first), by_tick.upper_bound(w.last)));
-    std::vector<TorqueResult> results;
-    std::int64_t last_sequence = -1;
-    for (const TorqueSeen* t : mine) {
-      if (last_sequence >= 0 && t->sequence > last_sequence + 1) a.torque_gaps += t->sequence - last_sequence - 1;
-      last_sequence = std::max(last_sequence, t->sequence);
-      if (t->state_tick < w.first || t->state_tick > w.last - kApplyMargin) continue;
-      const auto it = applied.find(t);
-      TorqueResult r = Measure(plant, *t, it == applied.end() ? std::nullopt : std::optional(it->second));
-      r.segment = static_cast<int>(si);
-      a.torque_publication_us.push_back(static_cast<double>(t->arrival - t->utime));
-      a.older_state += r.older_state ? 1 : 0;
-      a.waited_a_tick += r.waited_a_tick ? 1 : 0;
-      results.push_back(r);
-    }
-    a.segments.push_back(SegmentJson(seg, si, w, results));
-    a.torques.insert(a.torques.end(), results.begin(), results.end());
+    if (run.segments[si].start_us != 0) AnalyzeSegment(plant, observer, config, run.segments[si], si, a);
   }
   return a;
 }
@@ -732,70 +719,91 @@ void WriteTorques(const fs::path& path, const Analysis& a) {
   }
 }
 
-json TwoProcessJson(const Options& o, const TwoProcessRun& run, const Analysis& a) {
+// The latencies of the torques of every window, sample by sample.
+struct TorqueSamples {
   std::vector<double> recv, recv_bus, phase, delay_ticks, added_ticks, delay_us, added_us, application;
-  std::map<std::int64_t, std::int64_t> histogram;
-  std::int64_t never = 0;
-  for (const TorqueResult& r : a.torques) {
-    if (std::isfinite(r.state_to_torque_us)) recv.push_back(r.state_to_torque_us);
-    if (std::isfinite(r.state_arrival_to_torque_us)) recv_bus.push_back(r.state_arrival_to_torque_us);
-    if (std::isfinite(r.controller_tick_after_us)) phase.push_back(r.controller_tick_after_us);
+  std::map<std::int64_t, std::int64_t> histogram;  // delay j − k => torques
+  std::int64_t never = 0;                          // never applied
+};
+
+TorqueSamples CollectTorques(const std::vector<TorqueResult>& torques) {
+  TorqueSamples t;
+  for (const TorqueResult& r : torques) {
+    if (std::isfinite(r.state_to_torque_us)) t.recv.push_back(r.state_to_torque_us);
+    if (std::isfinite(r.state_arrival_to_torque_us)) t.recv_bus.push_back(r.state_arrival_to_torque_us);
+    if (std::isfinite(r.controller_tick_after_us)) t.phase.push_back(r.controller_tick_after_us);
     if (r.applied_tick < 0) {
-      ++never;
+      ++t.never;
       continue;
     }
     const std::int64_t d = r.applied_tick - r.torque->state_tick;
-    ++histogram[d];
-    delay_ticks.push_back(static_cast<double>(d));
-    added_ticks.push_back(static_cast<double>(d - 1));
-    if (std::isfinite(r.delay_us)) delay_us.push_back(r.delay_us);
-    if (std::isfinite(r.added_us)) added_us.push_back(r.added_us);
-    if (std::isfinite(r.arrival_to_application_us)) application.push_back(r.arrival_to_application_us);
+    ++t.histogram[d];
+    t.delay_ticks.push_back(static_cast<double>(d));
+    t.added_ticks.push_back(static_cast<double>(d - 1));
+    if (std::isfinite(r.delay_us)) t.delay_us.push_back(r.delay_us);
+    if (std::isfinite(r.added_us)) t.added_us.push_back(r.added_us);
+    if (std::isfinite(r.arrival_to_application_us)) t.application.push_back(r.arrival_to_application_us);
   }
-  std::vector<double> kill_to_hold, kill_to_hold_seen;
+  return t;
+}
+
+// The torques' figures in external.json's two_process.
+json TorqueJson(const Analysis& a) {
+  const TorqueSamples t = CollectTorques(a.torques);
+  json histogram = json::object();
+  for (const auto& [d, count] : t.histogram) histogram[std::to_string(d)] = count;
+  const std::size_t n = a.torques.size();
+  return {{"torques", n},
+          {"applied", n - static_cast<std::size_t>(t.never)},
+          {"never_applied", t.never},
+          {"never_applied_fraction", n == 0 ? 0.0 : static_cast<double>(t.never) / static_cast<double>(n)},
+          {"state_to_torque_us", ToJson(Summarize(t.recv))},
+          {"state_arrival_to_torque_us", ToJson(Summarize(t.recv_bus))},
+          {"controller_tick_after_state_us", ToJson(Summarize(t.phase))},
+          {"state_publication_us", ToJson(Summarize(a.state_publication_us))},
+          {"torque_publication_us", ToJson(Summarize(a.torque_publication_us))},
+          {"delay_ticks", ToJson(Summarize(t.delay_ticks))},
+          {"delay_ticks_histogram", histogram},
+          {"added_ticks", ToJson(Summarize(t.added_ticks))},
+          {"delay_us", ToJson(Summarize(t.delay_us))},
+          {"added_us", ToJson(Summarize(t.added_us))},
+          {"added_ticks_mean", Mean(t.added_ticks)},
+          {"arrival_to_application_us", ToJson(Summarize(t.application))},
+          {"receive_guard_us", kReceiveGuardUs},
+          {"torques_waited_a_tick", a.waited_a_tick},
+          {"torques_from_older_state", a.older_state}};
+}
+
+// The plant's ticks in the windows and what this program missed, in external.json's two_process.
+json TickJson(const TwoProcessRun& run, const Analysis& a) {
+  return {{"plant_ticks_in_windows", a.window_ticks},
+          {"plant_ticks_in_hold", a.hold_ticks},
+          {"plant_ticks_other_mode", a.other_mode_ticks},
+          {"plant_ticks_reusing_torque", a.reused_ticks},
+          {"plant_ticks_unmatched", a.unmatched_ticks},
+          {"plant_ticks_at_torque_limit", a.at_limit_ticks},
+          {"tau_abs_max", a.tau_abs_max},
+          {"states_missed_here", a.state_gaps},
+          {"torques_missed_here", a.torque_gaps},
+          {"kernel_drops_here", run.kernel_drops}};
+}
+
+// Each kill's time to the plant's hold: by the plant's tick (`seen`: false) or by its arrival here, ms.
+Summary KillToHold(const TwoProcessRun& run, bool seen) {
+  std::vector<double> ms;
   for (const Segment& s : run.segments) {
-    if (!s.hold) continue;
-    kill_to_hold.push_back(1e-3 * static_cast<double>(s.hold->utime - s.kill_us));
-    kill_to_hold_seen.push_back(1e-3 * static_cast<double>(s.hold->arrival - s.kill_us));
+    if (s.hold) ms.push_back(1e-3 * static_cast<double>((seen ? s.hold->arrival : s.hold->utime) - s.kill_us));
   }
-  json histo = json::object();
-  for (const auto& [d, count] : histogram) histo[std::to_string(d)] = count;
-  json j = {{"segments_run", run.segments.size()},
-            {"plant_exit", run.plant_exit},
-            {"problem", run.problem},
-            {"torques", a.torques.size()},
-            {"applied", a.torques.size() - static_cast<std::size_t>(never)},
-            {"never_applied", never},
-            {"never_applied_fraction",
-             a.torques.empty() ? 0.0 : static_cast<double>(never) / static_cast<double>(a.torques.size())},
-            {"state_to_torque_us", ToJson(Summarize(recv))},
-            {"state_arrival_to_torque_us", ToJson(Summarize(recv_bus))},
-            {"controller_tick_after_state_us", ToJson(Summarize(phase))},
-            {"state_publication_us", ToJson(Summarize(a.state_publication_us))},
-            {"torque_publication_us", ToJson(Summarize(a.torque_publication_us))},
-            {"delay_ticks", ToJson(Summarize(delay_ticks))},
-            {"delay_ticks_histogram", histo},
-            {"added_ticks", ToJson(Summarize(added_ticks))},
-            {"delay_us", ToJson(Summarize(delay_us))},
-            {"added_us", ToJson(Summarize(added_us))},
-            {"added_ticks_mean", Mean(added_ticks)},
-            {"arrival_to_application_us", ToJson(Summarize(application))},
-            {"receive_guard_us", kReceiveGuardUs},
-            {"torques_waited_a_tick", a.waited_a_tick},
-            {"torques_from_older_state", a.older_state},
-            {"plant_ticks_in_windows", a.window_ticks},
-            {"plant_ticks_in_hold", a.hold_ticks},
-            {"plant_ticks_other_mode", a.other_mode_ticks},
-            {"plant_ticks_reusing_torque", a.reused_ticks},
-            {"plant_ticks_unmatched", a.unmatched_ticks},
-            {"plant_ticks_at_torque_limit", a.at_limit_ticks},
-            {"tau_abs_max", a.tau_abs_max},
-            {"states_missed_here", a.state_gaps},
-            {"torques_missed_here", a.torque_gaps},
-            {"kernel_drops_here", run.kernel_drops},
-            {"kill_to_hold_ms", ToJson(Summarize(kill_to_hold))},
-            {"kill_to_hold_seen_ms", ToJson(Summarize(kill_to_hold_seen))},
-            {"segments", a.segments}};
+  return Summarize(std::move(ms));
+}
+
+json TwoProcessJson(const Options& o, const TwoProcessRun& run, const Analysis& a) {
+  json j = {{"segments_run", run.segments.size()}, {"plant_exit", run.plant_exit}, {"problem", run.problem}};
+  j.update(TorqueJson(a));
+  j.update(TickJson(run, a));
+  j["kill_to_hold_ms"] = ToJson(KillToHold(run, false));
+  j["kill_to_hold_seen_ms"] = ToJson(KillToHold(run, true));
+  j["segments"] = a.segments;
   if (run.plant_status) {
     j["plant_torques_accepted"] = run.plant_status->torques_accepted;
     j["plant_torques_rejected"] = run.plant_status->torques_rejected;
@@ -848,6 +856,12 @@ void PrintSummary(const json& j) {
 
 // ---- main -----------------------------------------------------------------------------------------
 
+// The two scenes of the loop and their channels.
+struct LoopScenes {
+  Scene plant, controller;
+  Channels channels;
+};
+
 // The two scenes' channels, as lagranged derives them, and whether they meet.
 std::optional<Channels> LoopChannels(const Scene& plant, const Scene& controller, std::string& problem) {
   if (plant.instances.size() != 1 || controller.instances.size() != 1) {
@@ -865,10 +879,27 @@ std::optional<Channels> LoopChannels(const Scene& plant, const Scene& controller
   return Channels{p.state, p.torque_in, StatusChannel(""), StatusChannel(kControllerPrefix)};
 }
 
-int Main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"external_bench: the two-process loop (external controller / external plant) beside one process"};
-  AddDaemonOptions(app, o.lagranged, o.config_dir, o.out, o.port, "Where default.yaml and the two external scenes are");
+// The plant's and the controller's scenes from --config-dir; nullopt (and why, on stderr) when they do not load
+// or do not close a loop.
+std::optional<LoopScenes> LoadLoopScenes(const Options& o) {
+  LoopScenes s;
+  std::string problem;
+  try {
+    s.plant = LoadScene(o.Scene(kPlantScene));
+    s.controller = LoadScene(o.Scene(kControllerScene));
+  } catch (const std::exception& e) {
+    problem = e.what();
+  }
+  if (problem.empty()) {
+    if (std::optional<Channels> channels = LoopChannels(s.plant, s.controller, problem)) s.channels = *channels;
+  }
+  if (problem.empty()) return s;
+  std::cerr << "external_bench: " << problem << "\n";
+  return std::nullopt;
+}
+
+void AddOptions(CLI::App& app, Options& o) {
+  AddDaemonOptions(app, o, ConfigOption::kSceneFolder, "Where default.yaml and the two external scenes are");
   auto* duration = app.add_option("--duration", o.duration, "Seconds of one process, and of the two-process loop")
                        ->check(CLI::Range(1.0, 3600.0))
                        ->capture_default_str();
@@ -881,85 +912,73 @@ int Main(int argc, char** argv) {
   app.add_option("--rt-priority", o.rt_priority,
                  "Run every daemon with --mlockall --rt-priority P (SCHED_FIFO tick, publish and receive threads)")
       ->check(CLI::Range(1, 97));
-  app.add_flag("--quick", o.quick, "2 s, 2 segments, 500 round trips (unless given)");
+  AddQuickFlag(app, o.quick, "2 s, 2 segments, 500 round trips (unless given)", [&o, duration, segments, round_trips] {
+    QuickDefault(duration, o.duration, 2.0);
+    QuickDefault(segments, o.segments, 2);
+    QuickDefault(round_trips, o.round_trips, 500);
+  });
   app.add_flag("--echo", o.echo, "Internal: answer the round-trip pings on --port")->group("");
-  CLI11_PARSE(app, argc, argv);
-  const std::string url = Url(o.port);
-  if (o.echo) return RunEcho(url, o.receive_priority());
-  if (o.quick) {
-    if (duration->count() == 0) o.duration = 2.0;
-    if (segments->count() == 0) o.segments = 2;
-    if (round_trips->count() == 0) o.round_trips = 500;
-  }
-  if (o.lagranged.empty()) {
-    std::cerr << "external_bench: no lagranged beside this program; give --lagranged\n";
-    return 2;
-  }
-  Scene plant_scene, controller_scene;
-  try {
-    plant_scene = LoadScene(o.Scene(kPlantScene));
-    controller_scene = LoadScene(o.Scene(kControllerScene));
-  } catch (const std::exception& e) {
-    std::cerr << "external_bench: " << e.what() << "\n";
-    return 2;
-  }
-  std::string problem;
-  const std::optional<Channels> channels = LoopChannels(plant_scene, controller_scene, problem);
-  if (!channels) {
-    std::cerr << "external_bench: " << problem << "\n";
-    return 2;
-  }
-  fs::create_directories(o.out);
-  if (const std::string loopback = CheckLoopback(url); !loopback.empty()) {
-    std::cerr << "external_bench: " << loopback << "\n";
-    return 1;
-  }
-  const InstanceConfig& plant = plant_scene.instances[0];
-  const std::string load_before = LoadAverage();
+}
 
+// 1: the LCM round trip, into external_rtt.csv.
+RoundTrips RunRoundTrips(const Options& o, const std::string& url) {
   std::cerr << "external_bench: LCM round trip (" << o.round_trips << " pings)\n";
-  const RoundTrips rtt = MeasureRoundTrips(o, url);
-  {
-    std::ofstream csv(o.File("external_rtt.csv"));
-    csv << "k,round_trip_us\n";
-    for (std::size_t k = 0; k < rtt.us.size(); ++k) csv << k << ',' << rtt.us[k] << '\n';
-  }
-  std::cerr << "external_bench: one process, " << kSingleScene << ", " << o.duration << " s\n";
-  const SingleRun single = RunSingleProcess(o, url);
+  RoundTrips rtt = MeasureRoundTrips(o, url);
+  std::ofstream csv(o.File("external_rtt.csv"));
+  csv << "k,round_trip_us\n";
+  for (std::size_t k = 0; k < rtt.us.size(); ++k) csv << k << ',' << rtt.us[k] << '\n';
+  return rtt;
+}
+
+// 3: the two-process loop, its torques into external_torques.csv; external.json's two_process.
+json RunLoop(const Options& o, const std::string& url, const LoopScenes& scenes, TwoProcessRun& two) {
   std::cerr << "external_bench: two processes, " << kPlantScene << " and " << kControllerScene << ", " << o.segments
             << " controller segment(s)\n";
-  Observer observer(url, *channels);
+  Observer observer(url, scenes.channels);
   std::atomic<bool> stop{false};
   std::thread receive([&] { observer.Run(stop, o.receive_priority()); });
-  const TwoProcessRun two = RunTwoProcess(o, url, *channels, observer);
+  two = RunTwoProcess(o, url, scenes.channels, observer);
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   stop = true;
   receive.join();
-  const Analysis analysis = Analyze(two, observer, plant);
+  const Analysis analysis = Analyze(two, observer, scenes.plant.instances[0]);
   WriteTorques(o.File("external_torques.csv"), analysis);
+  return TwoProcessJson(o, two, analysis);
+}
 
-  const double torque_timeout = plant.controller.external.torque_timeout;
-  json j = {{"settings",
-             {{"url", url},
-              {"duration_s", o.duration},
-              {"segments", o.segments},
-              {"settle_s", o.settle},
-              {"rt_priority", o.rt_priority},
-              {"quick", o.quick},
-              {"period_s", plant_scene.period},
-              {"torque_timeout_s", torque_timeout},
-              {"torque_limits", std::vector<double>(plant.torque_limits.data(),
-                                                    plant.torque_limits.data() + plant.torque_limits.size())},
-              {"scenes", {{"single", kSingleScene}, {"plant", kPlantScene}, {"controller", kControllerScene}}},
-              {"channels", {{"state", channels->state}, {"torque", channels->torque}}},
-              {"cores", std::thread::hardware_concurrency()},
-              {"load_average_before", load_before},
-              {"load_average_after", LoadAverage()}}},
-            {"round_trip_us", ToJson(Summarize(rtt.us))},
-            {"round_trips_lost", rtt.lost},
-            {"echo_exit", rtt.echo_exit},
-            {"single_process", {{"timing", ToJson(single.timing)}, {"exit", single.exit}}},
-            {"two_process", TwoProcessJson(o, two, analysis)}};
+json SettingsJson(const Options& o, const std::string& url, const LoopScenes& scenes) {
+  const InstanceConfig& plant = scenes.plant.instances[0];
+  return {{"url", url},
+          {"duration_s", o.duration},
+          {"segments", o.segments},
+          {"settle_s", o.settle},
+          {"rt_priority", o.rt_priority},
+          {"quick", o.quick},
+          {"period_s", scenes.plant.period},
+          {"torque_timeout_s", plant.controller.external.torque_timeout},
+          {"torque_limits",
+           std::vector<double>(plant.torque_limits.data(), plant.torque_limits.data() + plant.torque_limits.size())},
+          {"scenes", {{"single", kSingleScene}, {"plant", kPlantScene}, {"controller", kControllerScene}}},
+          {"channels", {{"state", scenes.channels.state}, {"torque", scenes.channels.torque}}},
+          {"cores", std::thread::hardware_concurrency()}};
+}
+
+// 1, 2 and 3 one after another, into external.json; the exit status.
+int Run(const Options& o, const std::string& url, const LoopScenes& scenes) {
+  json settings = SettingsJson(o, url, scenes);
+  settings["load_average_before"] = LoadAverage();
+  const RoundTrips rtt = RunRoundTrips(o, url);
+  std::cerr << "external_bench: one process, " << kSingleScene << ", " << o.duration << " s\n";
+  const SingleRun single = RunSingleProcess(o, url);
+  TwoProcessRun two;
+  json loop = RunLoop(o, url, scenes, two);
+  settings["load_average_after"] = LoadAverage();
+  const json j = {{"settings", settings},
+                  {"round_trip_us", ToJson(Summarize(rtt.us))},
+                  {"round_trips_lost", rtt.lost},
+                  {"echo_exit", rtt.echo_exit},
+                  {"single_process", {{"timing", ToJson(single.timing)}, {"exit", single.exit}}},
+                  {"two_process", std::move(loop)}};
   std::ofstream(o.File("external.json")) << j.dump(2) << '\n';
   PrintSummary(j);
   if (!two.problem.empty()) {
@@ -972,6 +991,19 @@ int Main(int argc, char** argv) {
               << " round trips\n";
   }
   return clean ? 0 : 1;
+}
+
+int Main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"external_bench: the two-process loop (external controller / external plant) beside one process"};
+  AddOptions(app, o);
+  CLI11_PARSE(app, argc, argv);
+  const std::string url = Url(o.port);
+  if (o.echo) return RunEcho(url, o.receive_priority());
+  const std::optional<LoopScenes> scenes = LoadLoopScenes(o);
+  if (!scenes) return 2;
+  if (const int status = PrepareRun("external_bench", o, {o.port})) return status;
+  return Run(o, url, *scenes);
 }
 
 }  // namespace

@@ -8,27 +8,26 @@
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
 
-#include <CLI/CLI.hpp>
-
 #include <algorithm>
 #include <chrono>
-#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <thread>
 
-#include "tools/spawn.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/lcm_log.hpp"
 #include "protocol/wire.hpp"
+#include "tools/spawn.hpp"
 
 namespace lagrange::bench {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 std::string Url(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
+
+std::string WithReceiveBuffer(const std::string& url) { return url + "&recv_buf_size=4194304"; }
 
 std::int64_t MonotonicNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
@@ -39,7 +38,11 @@ std::int64_t WallMicros() {
       .count();
 }
 
-std::string CheckLoopback(const std::string& url) {
+std::string PrepareLoopback(const std::string& url) {
+  if (geteuid() == 0 && std::system("ip route show 239.255.0.0/16 2>/dev/null | grep -q 'dev lo'") != 0 &&
+      std::system("ip link set lo multicast on && ip route add 239.255.0.0/16 dev lo") != 0) {
+    return "could not add the multicast route on lo (ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo)";
+  }
   std::unique_ptr<Bus> in, out;
   try {
     in = OpenBus(url);
@@ -56,6 +59,13 @@ std::string CheckLoopback(const std::string& url) {
   }
   if (received > 0) return "";
   return "LCM multicast does not loop back; as root: ip link set lo multicast on; ip route add 239.255.0.0/16 dev lo";
+}
+
+JitteredSchedule::JitteredSchedule(Clock::duration period) : period_(period), next_(Clock::now()) {}
+
+void JitteredSchedule::SleepUntilNext() {
+  next_ += period_ + std::chrono::microseconds(jitter_us_(rng_));
+  std::this_thread::sleep_until(next_);
 }
 
 std::string LoadAverage() {
@@ -101,6 +111,11 @@ Exit WaitExit(pid_t pid, double timeout_s) {
   return e;
 }
 
+Exit Terminate(pid_t pid, double timeout_s) {
+  kill(pid, SIGTERM);
+  return WaitExit(pid, timeout_s);
+}
+
 std::string DescribeExit(int status) {
   if (status < 0) return "killed (did not exit)";
   if (status > 128) {
@@ -108,6 +123,39 @@ std::string DescribeExit(int status) {
     return "signal " + std::to_string(status - 128) + (name ? std::string(" (SIG") + name + ")" : "");
   }
   return "exit " + std::to_string(status);
+}
+
+std::vector<std::string> LagrangedArgs(const std::string& lagranged, const std::string& scene, const std::string& url,
+                                       int rt_priority) {
+  std::vector<std::string> argv = {lagranged, "--lcm-url", url, "--log-level", "warn"};
+  if (!scene.empty()) argv.insert(argv.end(), {"--config", scene});
+  if (rt_priority > 0) argv.insert(argv.end(), {"--mlockall", "--rt-priority", std::to_string(rt_priority)});
+  return argv;
+}
+
+// ---- what the benchmarks send ------------------------------------------------------
+
+setpoint_t SetpointMessage(std::int64_t utime, std::vector<double> q) {
+  setpoint_t sp;
+  sp.utime = utime;
+  sp.num_dofs = static_cast<std::int32_t>(q.size());
+  sp.qd.assign(q.size(), 0.0);
+  sp.qdd.assign(q.size(), 0.0);
+  sp.q = std::move(q);
+  return sp;
+}
+
+command_t CommandMessage(std::int8_t kind, std::int64_t request_id) {
+  command_t c{};
+  c.utime = WallMicros();
+  c.request_id = request_id;
+  c.command = kind;
+  c.num_gains = 0;
+  return c;
+}
+
+std::string Bits(std::span<const double> v) {
+  return std::string(reinterpret_cast<const char*>(v.data()), v.size_bytes());
 }
 
 // ---- lcm-logger -------------------------------------------------------------------
@@ -148,28 +196,36 @@ Exit LcmLogger::Stop() {
   return WaitExit(pid_, 5.0);
 }
 
+bool ForEachLogEvent(const fs::path& file, const std::function<void(const LcmLogEvent&)>& on_event) {
+  std::optional<LcmLogReader> log;
+  try {
+    log.emplace(file.string());
+  } catch (const LcmLogError&) {
+    return false;
+  }
+  while (const LcmLogEvent* event = log->Next()) on_event(*event);
+  return true;
+}
+
 std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& file,
                                                                 const std::vector<std::string>& channels,
                                                                 std::int64_t run_id) {
   std::map<std::string, std::vector<std::int64_t>> ticks;
   for (const std::string& c : channels) ticks[c];
-  std::optional<LcmLogReader> log;
-  try {
-    log.emplace(file.string());
-  } catch (const LcmLogError&) {
-    return ticks;
-  }
   state_t s;
-  while (const LcmLogEvent* event = log->Next()) {
-    const auto it = ticks.find(std::string(event->channel));
-    if (it == ticks.end()) continue;
-    if (CheckStatePacket(event->data, event->size) != WireCheck::kOk ||
-        s.decode(event->data, 0, static_cast<int>(event->size)) < 0)
-      continue;
-    if (run_id != 0 && s.run_id != run_id) continue;
+  ForEachLogEvent(file, [&](const LcmLogEvent& event) {
+    const auto it = ticks.find(std::string(event.channel));
+    if (it == ticks.end()) return;
+    if (!DecodeChecked(CheckStatePacket, event, s) || (run_id != 0 && s.run_id != run_id)) return;
     it->second.push_back(s.tick);
-  }
+  });
   return ticks;
+}
+
+std::int64_t TicksMissing(std::vector<std::int64_t> ticks, std::int64_t from, std::int64_t to) {
+  std::sort(ticks.begin(), ticks.end());
+  ticks.erase(std::unique(ticks.begin(), ticks.end()), ticks.end());
+  return (to - from) - std::count_if(ticks.begin(), ticks.end(), [&](std::int64_t t) { return t >= from && t < to; });
 }
 
 std::vector<std::string> CyclictestArgs(int seconds, const fs::path& json, int fifo_priority, int cpu, bool mlockall,
@@ -187,35 +243,6 @@ std::vector<std::string> CyclictestArgs(int seconds, const fs::path& json, int f
   if (cpu >= 0) argv.push_back("-a" + std::to_string(cpu));
   if (mlockall) argv.push_back("-m");
   return argv;
-}
-
-Summary Summarize(std::vector<double> v) {
-  Summary s;
-  s.n = v.size();
-  if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  const auto rank = [&](double p) {
-    const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-    return v[std::clamp<std::size_t>(k, 1, v.size()) - 1];
-  };
-  s.p50 = rank(0.50);
-  s.p99 = rank(0.99);
-  s.max = v.back();
-  return s;
-}
-
-void AddDaemonOptions(CLI::App& app, std::string& lagranged, std::string& config_dir, std::string& out, int& port,
-                      const std::string& config_help) {
-  namespace fs = std::filesystem;
-  const fs::path sibling = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "daemon" / "lagranged";
-  if (fs::exists(sibling)) lagranged = sibling.string();
-  app.add_option("--lagranged", lagranged, "The daemon to run (default: ../daemon/lagranged beside this program)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--config-dir", config_dir, config_help)->capture_default_str();
-  app.add_option("--out", out, "Folder for the results")->capture_default_str();
-  app.add_option("--port", port, "Private LCM port on udpm://239.255.76.67")
-      ->check(CLI::Range(1, 65535))
-      ->capture_default_str();
 }
 
 }  // namespace lagrange::bench

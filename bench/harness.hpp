@@ -1,43 +1,86 @@
 #pragma once
-// What the process-level benchmarks (loop_bench, hostile_bench) share: the
-// private LCM URL, clocks, child processes (lagranged, cyclictest,
-// lcm-logger) and reading what lcm-logger recorded.
+// What the process-level benchmarks (loop_bench, hostile_bench,
+// external_bench, live_bench) share: the private LCM URL, clocks and waiting,
+// child processes (lagranged, cyclictest, lcm-logger), the messages they send
+// and reading what lcm-logger recorded. Their options and set-up are
+// bench/options.hpp; statistics bench/stats.hpp.
 
 #include <sys/types.h>
+#include <lagrange/command_t.hpp>
+#include <lagrange/setpoint_t.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
-#include <limits>
+#include <functional>
 #include <map>
+#include <random>
+#include <span>
 #include <string>
+#include <thread>
 #include <vector>
 
-namespace CLI {
-class App;
-}
+#include "protocol/lcm_log.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange::bench {
 
-// The options of a benchmark that runs lagranged on the project's scenes:
-// --lagranged (default: ../daemon/lagranged beside this program, when there),
-// --config-dir (`config_help` says what it must hold), --out and --port (a
-// private LCM port on udpm://239.255.76.67).
-void AddDaemonOptions(CLI::App& app, std::string& lagranged, std::string& config_dir, std::string& out, int& port,
-                      const std::string& config_help);
+using Clock = std::chrono::steady_clock;
+
+// ---- the bus ----------------------------------------------------------------------------
 
 // udpm://239.255.76.67:PORT?ttl=0 (this host only).
 std::string Url(int port);
+
+// `url` with a 4 MiB receive buffer (net.core.rmem_max on Debian's default):
+// a receiver descheduled on a busy machine must not lose what it counts.
+std::string WithReceiveBuffer(const std::string& url);
+
+// LCM on this host only needs multicast routed through the loopback
+// interface. As root, adds the route when it is missing (ip link set lo
+// multicast on; ip route add 239.255.0.0/16 dev lo); then "" when a message
+// published on `url` comes back to this process, else what to do about it.
+std::string PrepareLoopback(const std::string& url);
+
+// ---- clocks and waiting --------------------------------------------------------------------
 
 // steady clock, ns.
 std::int64_t MonotonicNs();
 // wall clock, µs since the Unix epoch (as in the messages' utime).
 std::int64_t WallMicros();
 
-// "" when a message published on `url` comes back to this process, else what to do about it.
-std::string CheckLoopback(const std::string& url);
+// Polls `done` every `poll` until it holds (true) or `timeout_s` has passed (false).
+template <class Done>
+bool Await(Done done, double timeout_s, Clock::duration poll = std::chrono::milliseconds(1)) {
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    if (Clock::now() > deadline) return false;
+    std::this_thread::sleep_for(poll);
+  }
+  return true;
+}
+
+// A prober's schedule: one wake every `period` plus 0–999 µs of seeded
+// jitter (std::mt19937{42}), on absolute deadlines from construction, so that
+// it does not lock to the tick's phase and two runs draw the same jitter.
+class JitteredSchedule {
+ public:
+  explicit JitteredSchedule(Clock::duration period);
+  // Sleeps until the next deadline.
+  void SleepUntilNext();
+
+ private:
+  Clock::duration period_;
+  Clock::time_point next_;
+  std::mt19937 rng_{42};
+  std::uniform_int_distribution<int> jitter_us_{0, 999};
+};
 
 // /proc/loadavg's first three fields.
 std::string LoadAverage();
+
+// ---- child processes -------------------------------------------------------------------------
 
 // Starts `argv` (argv[0] looked up in PATH when it has no '/') with stdout
 // and stderr in `log` (nothing when empty); returns its pid. With
@@ -52,8 +95,37 @@ struct Exit {
 };
 // Waits up to `timeout_s` for `pid`, then kills it (SIGKILL).
 Exit WaitExit(pid_t pid, double timeout_s);
+// SIGTERM to `pid`, then WaitExit.
+Exit Terminate(pid_t pid, double timeout_s);
 // "exit 0", "signal 11 (SIGSEGV)", "killed (did not exit)".
 std::string DescribeExit(int status);
+
+// lagranged's command line on `url`, warnings and errors logged, on `scene`
+// ("": the daemon's default scene); with `rt_priority` > 0 also --mlockall
+// --rt-priority P (SCHED_FIFO tick P, publish P − 1, receive P − 2).
+std::vector<std::string> LagrangedArgs(const std::string& lagranged, const std::string& scene, const std::string& url,
+                                       int rt_priority = 0);
+
+// cyclictest's command line for a 1 kHz, one-thread run of `seconds` (whole
+// seconds) writing its histogram (µs bins up to `histogram_us`) and summary
+// to `json`. SCHED_OTHER unless `fifo_priority` > 0; pinned when `cpu` >= 0;
+// `--mlockall` when `mlockall`. Always --default-system: cyclictest must not
+// tune the machine (/dev/cpu_dma_latency) for the daemon beside it.
+std::vector<std::string> CyclictestArgs(int seconds, const std::filesystem::path& json, int fifo_priority, int cpu,
+                                        bool mlockall, int histogram_us = 20000);
+
+// ---- what the benchmarks send -----------------------------------------------------------------
+
+// A setpoint for q (rad or m) at rest: qd and qdd zero.
+setpoint_t SetpointMessage(std::int64_t utime, std::vector<double> q);
+// A command of `kind` stamped now (WallMicros), with no gains and every other field zero or empty.
+command_t CommandMessage(std::int8_t kind, std::int64_t request_id);
+
+// The bits of a vector, as a key: the daemon passes setpoints and torques
+// through bit for bit, so that is how they are matched.
+std::string Bits(std::span<const double> v);
+
+// ---- lcm-logger and its logs ---------------------------------------------------------------------
 
 // Debian's lcm-logger recording the channels matching `channels` (an LCM
 // regular expression, anchored by LCM) on `url` into `file`.
@@ -78,28 +150,26 @@ class LcmLogger {
   bool stopped_ = false;
 };
 
+// Calls `on_event` for each event of the LCM log `file` (protocol/lcm_log.hpp:
+// a truncated last event, a logger that crashed, ends the read); false, and
+// no call, when the file cannot be read as a log.
+bool ForEachLogEvent(const std::filesystem::path& file, const std::function<void(const LcmLogEvent&)>& on_event);
+
+// Decodes a recorded packet into `m` once `check` (protocol/wire.hpp's check
+// of Message's layout) has accepted it: a logged packet is as untrusted as a
+// live one, and the generated decoders trust the lengths it states.
+template <class Message>
+bool DecodeChecked(WireCheck (*check)(const void*, std::size_t), const LcmLogEvent& event, Message& m) {
+  return check(event.data, event.size) == WireCheck::kOk && m.decode(event.data, 0, static_cast<int>(event.size)) >= 0;
+}
+
 // The state_t ticks recorded in an LCM log, by channel, for the channels in
-// `channels`; only messages of `run_id` unless it is 0. A truncated last
-// event (a logger that crashed) ends the read.
+// `channels`; only messages of `run_id` unless it is 0.
 std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const std::filesystem::path& file,
                                                                 const std::vector<std::string>& channels,
                                                                 std::int64_t run_id);
 
-// cyclictest's command line for a 1 kHz, one-thread run of `seconds` (whole
-// seconds) writing its histogram (µs bins up to `histogram_us`) and summary
-// to `json`. SCHED_OTHER unless `fifo_priority` > 0; pinned when `cpu` >= 0;
-// `--mlockall` when `mlockall`. Always --default-system: cyclictest must not
-// tune the machine (/dev/cpu_dma_latency) for the daemon beside it.
-std::vector<std::string> CyclictestArgs(int seconds, const std::filesystem::path& json, int fifo_priority, int cpu,
-                                        bool mlockall, int histogram_us = 20000);
-
-// p50, p99 and max of a sample, nearest rank (as lagranged's status_t); NaN for none.
-struct Summary {
-  std::size_t n = 0;
-  double p50 = std::numeric_limits<double>::quiet_NaN();
-  double p99 = std::numeric_limits<double>::quiet_NaN();
-  double max = std::numeric_limits<double>::quiet_NaN();
-};
-Summary Summarize(std::vector<double> v);
+// The ticks in [from, to) that `ticks` lacks (a tick logged twice counts once).
+std::int64_t TicksMissing(std::vector<std::int64_t> ticks, std::int64_t from, std::int64_t to);
 
 }  // namespace lagrange::bench

@@ -75,6 +75,7 @@
 #include <thread>
 
 #include "bench/harness.hpp"
+#include "bench/options.hpp"
 #include "bench/proc_stats.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
@@ -83,7 +84,6 @@ namespace lagrange::bench {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 constexpr const char* kGroup = "239.255.76.67";
 
@@ -103,19 +103,19 @@ const char* Name(Case c) {
   return "?";
 }
 
-struct Options {
-  std::string lagranged;
-  std::string config;
-  std::string out = "bench/results";
-  int port = 7990;        // outputs (and inputs on the shared bus); inputs on port + 1 when separate
+// port: outputs (and inputs on the shared bus); inputs on port + 1 when separate.
+struct Options : DaemonOptions {
+  Options() { port = 7990; }
   double seconds = 10.0;  // per case
   bool quick = false;     // 2 s per case
   int rt_priority = 0;    // > 0: the daemon with --mlockall --rt-priority
 };
 
-// The default scene's channels: the arm's and the cart-pole's.
-const InstanceChannelNames kArm = DerivedChannelNames("", "arm"), kCartpole = DerivedChannelNames("", "cartpole");
+// The default scene's channels: instance 0 is the arm, 1 the cart-pole.
+const std::vector<InstanceChannelNames> kChannels = {DerivedChannelNames("", "arm"),
+                                                     DerivedChannelNames("", "cartpole")};
 const std::string kStatus = StatusChannel("");
+constexpr std::size_t kArm = 0, kCartpole = 1;
 constexpr const char* kLoggedChannels = "ARM_STATE|CARTPOLE_STATE|LAGRANGE_STATUS|ARM_REPLY|CARTPOLE_REPLY";
 // Request ids of the estops and clears carry this tag in their top 16 bits.
 constexpr std::int64_t kEstopTag = std::int64_t{0x4553} << 48;
@@ -170,24 +170,12 @@ Bytes Encode(const Message& m) {
   return b;
 }
 
-setpoint_t Setpoint(std::int64_t utime, std::vector<double> q) {
-  setpoint_t sp;
-  sp.utime = utime;
-  sp.num_dofs = static_cast<std::int32_t>(q.size());
-  sp.qd.assign(q.size(), 0.0);
-  sp.qdd.assign(q.size(), 0.0);
-  sp.q = std::move(q);
-  return sp;
-}
+Bytes SetpointBytes(std::int64_t utime, std::vector<double> q) { return Encode(SetpointMessage(utime, std::move(q))); }
 
-command_t Command(std::int8_t kind, std::int64_t request_id, const std::string& controller = "") {
-  command_t c;
-  c.utime = WallMicros();
-  c.request_id = request_id;
-  c.command = kind;
+Bytes CommandBytes(std::int8_t kind, std::int64_t request_id, const std::string& controller = "") {
+  command_t c = CommandMessage(kind, request_id);
   c.controller = controller;
-  c.num_gains = 0;
-  return c;
+  return Encode(c);
 }
 
 // The datagrams of one flood, sent in turn. Made again (new timestamps and
@@ -198,91 +186,102 @@ struct Traffic {
 };
 constexpr std::uint64_t kRemakeEvery = 512;
 
-Traffic MakeTraffic(Case c, std::uint64_t generation) {
+constexpr double kHold = std::numbers::pi / 4;  // rad, the arm's first joint
+
+// Valid arm setpoints.
+Traffic SetpointFlood(std::int64_t now) {
+  return {{Lc02(1, kChannels[kArm].setpoint, SetpointBytes(now, {kHold, 0.0}))}, true};
+}
+
+// Arm setpoints the daemon must refuse, and datagrams that are not LCM.
+Traffic MalformedFlood(std::int64_t now) {
+  const std::string& setpoint = kChannels[kArm].setpoint;
+  const Bytes valid = SetpointBytes(now, {kHold, 0.0});
+  Bytes huge_n = valid;
+  const std::uint8_t n_max[4] = {0x7f, 0xff, 0xff, 0xff};
+  std::memcpy(huge_n.data() + 16, n_max, 4);  // after the fingerprint and utime
+  state_t wrong_type;
+  wrong_type.num_dofs = 0;
+  Bytes unterminated = Lc02(10, "", {});
+  unterminated.pop_back();
+  unterminated.insert(unterminated.end(), 80, 'A');  // no NUL
+  return {{
+              Lc02(1, setpoint, Bytes(valid.begin(), valid.begin() + static_cast<std::ptrdiff_t>(valid.size() / 2))),
+              Lc02(2, setpoint, Encode(wrong_type)),
+              Lc02(3, setpoint, SetpointBytes(now, {kHold, 0.0, 0.0})),
+              Lc02(4, setpoint, SetpointBytes(now, {std::numeric_limits<double>::quiet_NaN(), 0.0})),
+              Lc02(5, setpoint, SetpointBytes(now, {10.0, 0.0})),
+              Lc02(6, setpoint, SetpointBytes(now - 3'600'000'000, {kHold, 0.0})),
+              Lc02(7, setpoint, huge_n),
+              Lc02(8, setpoint, {}),
+              Bytes{'L', 'C', '9', '9', 0, 0, 0, 9, 'A', 0, 1, 2, 3},
+              unterminated,
+              Lc02(11, setpoint, Bytes(20'000, 0x55)),
+              Bytes{'L', 'C', '0'},
+          },
+          true};
+}
+
+// Valid arm commands; request ids new in every generation.
+Traffic CommandFlood(std::uint64_t generation) {
+  const std::int64_t id = static_cast<std::int64_t>(generation) * 8 + 1;
+  const std::string& command = kChannels[kArm].command;
+  return {{
+              Lc02(1, command, CommandBytes(command_t::SWITCH_CONTROLLER, id, "pd")),
+              Lc02(2, command, CommandBytes(command_t::PAUSE, id + 1)),
+              Lc02(3, command, CommandBytes(command_t::SWITCH_CONTROLLER, id + 2, "gravity-compensation")),
+              Lc02(4, command, CommandBytes(command_t::RESUME, id + 3)),
+              Lc02(5, command, CommandBytes(command_t::SWITCH_CONTROLLER, id + 4, "computed-torque")),
+          },
+          true};
+}
+
+// LC03 fragments on the arm's state channel (docs/lcm-fragment-bug.md).
+Traffic FragmentFlood() {
+  const std::string& channel = kChannels[kArm].state;
+  const Bytes first = Lc03(7, 4096, 0, 0, 2, channel, 16, 0x11);
+  Bytes shorter = Lc03(7, 4096, 2, 1, 2, "", 0, 0);  // 20 bytes of header ...
+  shorter.resize(18);                                // ... cut to 18
   Traffic t;
-  const std::string& setpoint = kArm.setpoint;
-  const std::int64_t now = WallMicros();
-  const double hold = std::numbers::pi / 4;
-  switch (c) {
-    case Case::kQuiet: break;
-    case Case::kSetpoints:
-      t.remake = true;
-      t.datagrams.push_back(Lc02(1, setpoint, Encode(Setpoint(now, {hold, 0.0}))));
-      break;
-    case Case::kMalformed: {
-      t.remake = true;
-      const Bytes valid = Encode(Setpoint(now, {hold, 0.0}));
-      Bytes huge_n = valid;
-      const std::uint8_t n_max[4] = {0x7f, 0xff, 0xff, 0xff};
-      std::memcpy(huge_n.data() + 16, n_max, 4);  // after the fingerprint and utime
-      state_t wrong_type;
-      wrong_type.num_dofs = 0;
-      t.datagrams = {
-          Lc02(1, setpoint, Bytes(valid.begin(), valid.begin() + static_cast<std::ptrdiff_t>(valid.size() / 2))),
-          Lc02(2, setpoint, Encode(wrong_type)),
-          Lc02(3, setpoint, Encode(Setpoint(now, {hold, 0.0, 0.0}))),
-          Lc02(4, setpoint, Encode(Setpoint(now, {std::numeric_limits<double>::quiet_NaN(), 0.0}))),
-          Lc02(5, setpoint, Encode(Setpoint(now, {10.0, 0.0}))),
-          Lc02(6, setpoint, Encode(Setpoint(now - 3'600'000'000, {hold, 0.0}))),
-          Lc02(7, setpoint, huge_n),
-          Lc02(8, setpoint, {}),
-          Bytes{'L', 'C', '9', '9', 0, 0, 0, 9, 'A', 0, 1, 2, 3},
-          [] {
-            Bytes b = Lc02(10, "", {});
-            b.pop_back();
-            b.insert(b.end(), 80, 'A');  // no NUL
-            return b;
-          }(),
-          Lc02(11, setpoint, Bytes(20'000, 0x55)),
-          Bytes{'L', 'C', '0'},
-      };
-      break;
-    }
-    case Case::kCommands: {
-      t.remake = true;
-      const std::int64_t id = static_cast<std::int64_t>(generation) * 8 + 1;
-      const std::string& command = kArm.command;
-      t.datagrams = {
-          Lc02(1, command, Encode(Command(command_t::SWITCH_CONTROLLER, id, "pd"))),
-          Lc02(2, command, Encode(Command(command_t::PAUSE, id + 1))),
-          Lc02(3, command, Encode(Command(command_t::SWITCH_CONTROLLER, id + 2, "gravity-compensation"))),
-          Lc02(4, command, Encode(Command(command_t::RESUME, id + 3))),
-          Lc02(5, command, Encode(Command(command_t::SWITCH_CONTROLLER, id + 4, "computed-torque"))),
-      };
-      break;
-    }
-    case Case::kFragments: {
-      const std::string& channel = kArm.state;
-      const Bytes first = Lc03(7, 4096, 0, 0, 2, channel, 16, 0x11);
-      Bytes shorter = Lc03(7, 4096, 2, 1, 2, "", 0, 0);  // 20 bytes of header ...
-      shorter.resize(18);                                // ... cut to 18
-      t.datagrams = {first, Lc03(7, 4096, 0xfffffff0u, 1, 2, "", 64, 0xab), first, shorter,
-                     Lc03(8, 1u << 28, 0, 0, 0x1001, channel, 16, 0x22)};
-      for (std::uint16_t k = 1; k <= 4; ++k)
-        t.datagrams.push_back(Lc03(8, 1u << 28, k * 1400u, k, 0x1001, "", 1400, 0x33));
-      break;
-    }
-    case Case::kForeign: {
-      std::mt19937 rng{42};
-      std::uniform_int_distribution<int> byte(0, 255);
-      for (int k = 0; k < 15; ++k) {
-        Bytes payload(200);
-        for (auto& b : payload) b = static_cast<std::uint8_t>(byte(rng));
-        char name[32];
-        std::snprintf(name, sizeof name, "FOREIGN_ROBOT_%02d_STATE", k);
-        t.datagrams.push_back(Lc02(static_cast<std::uint32_t>(k), name, payload));
-      }
-      state_t spoof;
-      spoof.utime = now;
-      spoof.run_id = kSpoofRunId;
-      spoof.num_dofs = 2;
-      for (auto* v : {&spoof.q, &spoof.qd, &spoof.qdd, &spoof.tau, &spoof.q_des, &spoof.qd_des}) v->assign(2, 0.0);
-      spoof.controller = "spoof";
-      t.datagrams.push_back(Lc02(15, kArm.state, Encode(spoof)));
-      break;
-    }
-  }
+  t.datagrams = {first, Lc03(7, 4096, 0xfffffff0u, 1, 2, "", 64, 0xab), first, shorter,
+                 Lc03(8, 1u << 28, 0, 0, 0x1001, channel, 16, 0x22)};
+  for (std::uint16_t k = 1; k <= 4; ++k) t.datagrams.push_back(Lc03(8, 1u << 28, k * 1400u, k, 0x1001, "", 1400, 0x33));
   return t;
+}
+
+// Seeded random payloads on 15 channels the daemon does not use, and an arm state from another run.
+Traffic ForeignFlood(std::int64_t now) {
+  Traffic t;
+  std::mt19937 rng{42};
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (int k = 0; k < 15; ++k) {
+    Bytes payload(200);
+    for (auto& b : payload) b = static_cast<std::uint8_t>(byte(rng));
+    char name[32];
+    std::snprintf(name, sizeof name, "FOREIGN_ROBOT_%02d_STATE", k);
+    t.datagrams.push_back(Lc02(static_cast<std::uint32_t>(k), name, payload));
+  }
+  state_t spoof;
+  spoof.utime = now;
+  spoof.run_id = kSpoofRunId;
+  spoof.num_dofs = 2;
+  for (auto* v : {&spoof.q, &spoof.qd, &spoof.qdd, &spoof.tau, &spoof.q_des, &spoof.qd_des}) v->assign(2, 0.0);
+  spoof.controller = "spoof";
+  t.datagrams.push_back(Lc02(15, kChannels[kArm].state, Encode(spoof)));
+  return t;
+}
+
+Traffic MakeTraffic(Case c, std::uint64_t generation) {
+  const std::int64_t now = WallMicros();
+  switch (c) {
+    case Case::kQuiet: return {};
+    case Case::kSetpoints: return SetpointFlood(now);
+    case Case::kMalformed: return MalformedFlood(now);
+    case Case::kCommands: return CommandFlood(generation);
+    case Case::kFragments: return FragmentFlood();
+    case Case::kForeign: return ForeignFlood(now);
+  }
+  return {};
 }
 
 // A plain UDP socket to the group (multicast TTL 0, loopback on).
@@ -340,13 +339,12 @@ FloodResult Flood(Case c, int port, const std::atomic<bool>& stop) {
 class Observer {
  public:
   explicit Observer(const std::string& url) : bus_(OpenBus(WithReceiveBuffer(url))) {
-    bus_->Subscribe(kStatus,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-    bus_->Subscribe(kArm.state,
+    bus_->Subscribe(kStatus, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+    bus_->Subscribe(kChannels[kArm].state,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnArm(d, n); });
-    bus_->Subscribe(kCartpole.state,
+    bus_->Subscribe(kChannels[kCartpole].state,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnCartpole(d, n); });
-    bus_->Subscribe(kArm.reply,
+    bus_->Subscribe(kChannels[kArm].reply,
                     [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
   }
 
@@ -404,8 +402,6 @@ class Observer {
   }
 
  private:
-  static std::string WithReceiveBuffer(const std::string& url) { return url + "&recv_buf_size=4194304"; }
-
   bool Ours(std::int64_t run_id) const { return run_id_ != 0 && run_id == run_id_; }
 
   void OnStatus(const std::uint8_t* d, std::size_t n) {
@@ -473,22 +469,13 @@ struct Estop {
   int sends = 0;                       // times the estop was sent (every 20 ms until seen, as lagrangectl does)
 };
 
-// Waits up to `timeout_ms` for `done`; true if it came.
-template <class Done>
-bool AwaitCondition(Done done, int timeout_ms) {
-  const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
-  while (!done()) {
-    if (Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }
-  return true;
-}
+constexpr auto kEstopPoll = std::chrono::microseconds(200);
 
 // An estop every 0.5 s (the first after 0.25 s) until `stop`; after each, clear_estop until the arm leaves it.
 std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, std::int64_t& next_id,
                               const std::atomic<bool>& stop) {
   std::unique_ptr<Bus> bus = OpenBus(input_url);
-  const std::string& channel = kArm.command;
+  const std::string& channel = kChannels[kArm].command;
   std::vector<Estop> estops;
   auto next = Clock::now() + std::chrono::milliseconds(250);
   while (!stop.load()) {
@@ -503,16 +490,16 @@ std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, 
     // datagram before lagranged reads it; a repeated estop applies once.
     for (int elapsed = 0; elapsed < 250; elapsed += 20) {
       ++e.sends;
-      bus->PublishMessage(channel, Command(command_t::ESTOP, e.request_id));
-      if (AwaitCondition([&] { return observer.estop_since() >= e.sent_ns; }, 20)) {
+      bus->PublishMessage(channel, CommandMessage(command_t::ESTOP, e.request_id));
+      if (Await([&] { return observer.estop_since() >= e.sent_ns; }, 0.020, kEstopPoll)) {
         e.state_latency_ns = observer.estop_since() - e.sent_ns;
         break;
       }
     }
     do {
       ++e.clears;
-      bus->PublishMessage(channel, Command(command_t::CLEAR_ESTOP, kEstopTag | next_id++));
-    } while (!AwaitCondition([&] { return observer.estop_since() < 0; }, 50) && e.clears < 10);
+      bus->PublishMessage(channel, CommandMessage(command_t::CLEAR_ESTOP, kEstopTag | next_id++));
+    } while (!Await([&] { return observer.estop_since() < 0; }, 0.050, kEstopPoll) && e.clears < 10);
     estops.push_back(e);
   }
   return estops;
@@ -521,19 +508,25 @@ std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, 
 // A cart-pole setpoint every 20 ms (+ jitter) until `stop`: x changes every time, θ upright.
 void Probe(const std::string& input_url, Observer& observer, const std::atomic<bool>& stop) {
   std::unique_ptr<Bus> bus = OpenBus(input_url);
-  std::mt19937 rng{42};
-  std::uniform_int_distribution<int> jitter_us(0, 999);
-  auto next = Clock::now();
+  JitteredSchedule schedule(std::chrono::milliseconds(20));
   for (std::int64_t k = 0; !stop.load(); ++k) {
-    next += std::chrono::milliseconds(20) + std::chrono::microseconds(jitter_us(rng));
-    std::this_thread::sleep_until(next);
+    schedule.SleepUntilNext();
     const double x = 1e-4 * static_cast<double>(k % 500 + 1);  // m
     observer.ProbeSent(x, MonotonicNs());
-    bus->PublishMessage(kCartpole.setpoint, Setpoint(WallMicros(), {x, std::numbers::pi}));
+    bus->PublishMessage(kChannels[kCartpole].setpoint, SetpointMessage(WallMicros(), {x, std::numbers::pi}));
   }
 }
 
 // ---- one case ------------------------------------------------------------------------------
+
+// One bus set-up: the daemon's outputs on `url`, its inputs (the floods, the
+// estops, the prober) on `input_url`, the same URL when shared.
+struct BusSetup {
+  std::string name;  // "shared" or "separate"
+  std::string url, input_url;
+  int input_port = 0;
+  fs::path scratch;  // the cases' LCM logs, removed once read
+};
 
 struct Daemon {
   pid_t pid = -1;
@@ -556,48 +549,25 @@ struct CaseResult {
   std::vector<std::int64_t> probes;
 };
 
-std::vector<std::string> DaemonArgs(const Options& o, const std::string& url, const std::string& input_url) {
-  std::vector<std::string> argv = {o.lagranged, "--lcm-url", url, "--log-level", "warn"};
-  if (input_url != url) argv.insert(argv.end(), {"--input-lcm-url", input_url});
-  if (!o.config.empty()) argv.insert(argv.end(), {"--config", o.config});
-  if (o.rt_priority > 0) argv.insert(argv.end(), {"--mlockall", "--rt-priority", std::to_string(o.rt_priority)});
-  return argv;
-}
-
 // Starts the daemon (its output in `log`, or `log`.restartN) and waits for its first status.
-bool StartDaemon(const Options& o, const std::string& url, const std::string& input_url, const fs::path& log,
-                 Observer& observer, Daemon& d) {
+bool StartDaemon(const Options& o, const BusSetup& bus, const fs::path& log, Observer& observer, Daemon& d) {
   observer.Reset();
-  d.pid = Spawn(DaemonArgs(o, url, input_url),
-                d.starts == 0 ? log : fs::path(log.string() + ".restart" + std::to_string(d.starts)));
+  std::vector<std::string> argv = LagrangedArgs(o.lagranged, o.config, bus.url, o.rt_priority);
+  if (bus.input_url != bus.url) argv.insert(argv.end(), {"--input-lcm-url", bus.input_url});
+  d.pid = Spawn(argv, d.starts == 0 ? log : fs::path(log.string() + ".restart" + std::to_string(d.starts)));
   ++d.starts;
   if (!observer.StatusAfter(0, 20.0)) return false;
   if (d.rss_first_kib < 0) d.rss_first_kib = VmRssKiB(d.pid);
   return true;
 }
 
-std::int64_t Lost(std::vector<std::int64_t> ticks, std::int64_t from, std::int64_t to) {
-  std::sort(ticks.begin(), ticks.end());
-  ticks.erase(std::unique(ticks.begin(), ticks.end()), ticks.end());
-  return (to - from) - std::count_if(ticks.begin(), ticks.end(), [&](std::int64_t t) { return t >= from && t < to; });
-}
-
-CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::string& url,
-                   const std::string& input_url, int input_port, const fs::path& scratch, Observer& observer, Daemon& d,
-                   std::int64_t& next_id) {
-  CaseResult r;
-  r.bus = bus;
-  r.c = c;
-  const fs::path log = scratch / (bus + "_" + Name(c) + ".lcmlog");
-  LcmLogger logger(url, kLoggedChannels, log, scratch / (bus + "_" + Name(c) + ".logger.txt"));
-  if (!logger.AwaitReady()) std::cerr << "hostile_bench: lcm-logger did not start (" << bus << ", " << Name(c) << ")\n";
-  r.rss_start = r.rss_peak = VmRssKiB(d.pid);
-  const std::optional<status_t> a = observer.StatusAfter(MonotonicNs(), 2.0);
-
+// The case's window: its flood, the estops and the prober for --seconds-per-case, the daemon's VmRSS every 0.1 s.
+void RunWindow(const Options& o, const BusSetup& bus, Case c, Observer& observer, const Daemon& d,
+               std::int64_t& next_id, CaseResult& r) {
   std::atomic<bool> stop_flood{false}, stop{false};
-  std::thread flood([&] { r.flood = Flood(c, input_port, stop_flood); });
-  std::thread estops([&] { r.estops = SendEstops(input_url, observer, next_id, stop); });
-  std::thread probe([&] { Probe(input_url, observer, stop); });
+  std::thread flood([&] { r.flood = Flood(c, bus.input_port, stop_flood); });
+  std::thread estops([&] { r.estops = SendEstops(bus.input_url, observer, next_id, stop); });
+  std::thread probe([&] { Probe(bus.input_url, observer, stop); });
   const auto start = Clock::now();
   const auto end = start + std::chrono::duration<double>(o.seconds);
   while (Clock::now() < end) {
@@ -610,7 +580,32 @@ CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::
   estops.join();
   probe.join();
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+}
 
+// The states of this run that `log` lacks, per instance, of the ticks between the statuses `a` and `b`.
+void CountLost(const fs::path& log, const std::optional<status_t>& a, const std::optional<status_t>& b,
+               std::int64_t run_id, CaseResult& r) {
+  r.have_status = a && b;
+  if (!r.have_status) return;
+  r.a = *a;
+  r.b = *b;
+  const auto ticks = ReadStateTicks(log, {kChannels[kArm].state, kChannels[kCartpole].state}, run_id);
+  for (const auto& [channel, t] : ticks) r.lost[channel] = TicksMissing(t, a->ticks, b->ticks);
+}
+
+CaseResult RunCase(const Options& o, const BusSetup& bus, Case c, Observer& observer, const Daemon& d,
+                   std::int64_t& next_id) {
+  CaseResult r;
+  r.bus = bus.name;
+  r.c = c;
+  const std::string stem = bus.name + "_" + Name(c);
+  const fs::path log = bus.scratch / (stem + ".lcmlog");
+  LcmLogger logger(bus.url, kLoggedChannels, log, bus.scratch / (stem + ".logger.txt"));
+  if (!logger.AwaitReady())
+    std::cerr << "hostile_bench: lcm-logger did not start (" << bus.name << ", " << Name(c) << ")\n";
+  r.rss_start = r.rss_peak = VmRssKiB(d.pid);
+  const std::optional<status_t> a = observer.StatusAfter(MonotonicNs(), 2.0);
+  RunWindow(o, bus, c, observer, d, next_id, r);
   const std::optional<status_t> b = observer.StatusAfter(MonotonicNs(), 2.0);
   r.rss_end = VmRssKiB(d.pid);
   r.rss_peak = std::max(r.rss_peak, r.rss_end);
@@ -619,13 +614,7 @@ CaseResult RunCase(const Options& o, const std::string& bus, Case c, const std::
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last states reach the logger
   r.logger_exit = DescribeExit(logger.Stop().status);
   r.daemon_alive = waitpid(d.pid, nullptr, WNOHANG) == 0;
-  r.have_status = a && b;
-  if (r.have_status) {
-    r.a = *a;
-    r.b = *b;
-    const auto ticks = ReadStateTicks(log, {kArm.state, kCartpole.state}, observer.run_id());
-    for (const auto& [channel, t] : ticks) r.lost[channel] = Lost(t, a->ticks, b->ticks);
-  }
+  CountLost(log, a, b, observer.run_id(), r);
   fs::remove(log);
   return r;
 }
@@ -641,8 +630,8 @@ void WriteCases(const fs::path& path, const std::vector<CaseResult>& results) {
          "setpoints_rejected,commands_accepted,commands_rejected,decode_errors,datagrams_dropped_kernel,"
          "datagrams_malformed,fragments_dropped,foreign_messages,replies_suppressed\n";
   for (const CaseResult& r : results) {
-    const auto lost = [&](const InstanceChannelNames& instance) {
-      const auto it = r.lost.find(instance.state);
+    const auto lost = [&](std::size_t i) {
+      const auto it = r.lost.find(kChannels[i].state);
       return it == r.lost.end() ? std::int64_t{-1} : it->second;
     };
     const auto count = [&](auto pred) { return std::count_if(r.estops.begin(), r.estops.end(), pred); };
@@ -697,78 +686,41 @@ struct BusRun {
   long rss_first_kib = -1, rss_last_kib = -1;
 };
 
-BusRun RunBus(const Options& o, const std::string& bus, bool separate, const fs::path& scratch,
-              std::vector<CaseResult>& results) {
-  const std::string url = Url(o.port);
-  const int input_port = separate ? o.port + 1 : o.port;
-  const std::string input_url = Url(input_port);
-  const fs::path log = fs::path(o.out) / ("lagranged_hostile_" + bus + ".log");
-  Observer observer(url);
+// Every case on one bus set-up, with one daemon (started again if a case killed it).
+BusRun RunBus(const Options& o, const BusSetup& bus, std::vector<CaseResult>& results) {
+  const fs::path log = o.File("lagranged_hostile_" + bus.name + ".log");
+  Observer observer(bus.url);
   std::atomic<bool> stop{false};
   std::thread observe([&] { observer.Run(stop); });
   Daemon d;
-  BusRun run;
-  run.bus = bus;
   std::int64_t next_id = 1;
-  bool up = StartDaemon(o, url, input_url, log, observer, d);
+  bool up = StartDaemon(o, bus, log, observer, d);
   for (Case c : kCases) {
     if (!up) {
-      std::cerr << "hostile_bench: lagranged (" << bus << ") is not running; starting it again\n";
+      std::cerr << "hostile_bench: lagranged (" << bus.name << ") is not running; starting it again\n";
       WaitExit(d.pid, 0.5);
-      up = StartDaemon(o, url, input_url, log, observer, d);
+      up = StartDaemon(o, bus, log, observer, d);
       if (!up) break;
     }
-    std::cerr << "hostile_bench: " << bus << " bus, " << Name(c) << "\n";
-    results.push_back(RunCase(o, bus, c, url, input_url, input_port, scratch, observer, d, next_id));
+    std::cerr << "hostile_bench: " << bus.name << " bus, " << Name(c) << "\n";
+    results.push_back(RunCase(o, bus, c, observer, d, next_id));
     d.rss_last_kib = results.back().rss_end;
     up = results.back().daemon_alive;
   }
-  kill(d.pid, SIGTERM);
-  run.exit = DescribeExit(WaitExit(d.pid, 10.0).status);
-  run.starts = d.starts;
-  run.rss_first_kib = d.rss_first_kib;
-  run.rss_last_kib = d.rss_last_kib;
+  BusRun run{bus.name, d.starts, DescribeExit(Terminate(d.pid, 10.0).status), d.rss_first_kib, d.rss_last_kib};
   stop = true;
   observe.join();
   return run;
 }
 
-int Main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"hostile_bench: lagranged under floods of hostile traffic, on one bus and on two"};
-  app.add_option("--lagranged", o.lagranged, "The daemon to run")->required()->check(CLI::ExistingFile);
-  app.add_option("--config", o.config, "Scene with instances arm (2-DOF) and cartpole (default: the daemon's default)");
-  app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
-  app.add_option("--port", o.port, "LCM port on udpm://239.255.76.67 (outputs); inputs on PORT + 1 when separate")
-      ->check(CLI::Range(1, 65534))
-      ->capture_default_str();
-  auto* seconds = app.add_option("--seconds-per-case", o.seconds, "Seconds of each case")
-                      ->check(CLI::Range(1.0, 600.0))
-                      ->capture_default_str();
-  app.add_flag("--quick", o.quick, "2 s per case (unless --seconds-per-case)");
-  app.add_option("--rt-priority", o.rt_priority, "Run the daemon with --mlockall --rt-priority N")
-      ->check(CLI::Range(1, 99));
-  CLI11_PARSE(app, argc, argv);
-  if (o.quick && seconds->count() == 0) o.seconds = 2.0;
-  fs::create_directories(o.out);
-  for (int port : {o.port, o.port + 1}) {
-    if (const std::string problem = CheckLoopback(Url(port)); !problem.empty()) {
-      std::cerr << "hostile_bench: " << problem << "\n";
-      return 1;
-    }
-  }
-  char scratch_template[] = "/tmp/hostile_bench.XXXXXX";
-  const fs::path scratch = mkdtemp(scratch_template);
+BusSetup MakeBusSetup(const Options& o, const std::string& name, bool separate, const fs::path& scratch) {
+  const int input_port = separate ? o.port + 1 : o.port;
+  return {name, Url(o.port), Url(input_port), input_port, scratch};
+}
 
-  std::vector<CaseResult> results;
-  std::vector<BusRun> runs = {RunBus(o, "shared", false, scratch, results),
-                              RunBus(o, "separate", true, scratch, results)};
-  fs::remove_all(scratch);
-
-  WriteCases(fs::path(o.out) / "hostile_cases.csv", results);
-  WriteEstops(fs::path(o.out) / "hostile_estops.csv", results);
-  WriteProbes(fs::path(o.out) / "hostile_probe.csv", results);
-  std::ofstream summary(fs::path(o.out) / "hostile_summary.csv");
+// hostile_summary.csv; the exit status: 1 when a daemon had to be started again or did not exit cleanly.
+int WriteSummary(const Options& o, const std::vector<BusRun>& runs) {
+  std::ofstream summary(o.File("hostile_summary.csv"));
   summary << "key,value\nseconds_per_case," << o.seconds << "\nport," << o.port << "\ninput_port_separate,"
           << o.port + 1 << "\nrt_priority," << o.rt_priority << "\ncores," << std::thread::hardware_concurrency()
           << '\n';
@@ -781,6 +733,35 @@ int Main(int argc, char** argv) {
     if (r.starts != 1 || r.exit != "exit 0") status = 1;
   }
   return status;
+}
+
+int Main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"hostile_bench: lagranged under floods of hostile traffic, on one bus and on two"};
+  AddDaemonOptions(app, o, ConfigOption::kSceneFile,
+                   "Scene with instances arm (2-DOF) and cartpole (default: the daemon's default)");
+  app.get_option("--port")
+      ->description("LCM port on udpm://239.255.76.67 (outputs); inputs on PORT + 1 when separate")
+      ->check(CLI::Range(1, 65534));
+  auto* seconds = app.add_option("--seconds-per-case", o.seconds, "Seconds of each case")
+                      ->check(CLI::Range(1.0, 600.0))
+                      ->capture_default_str();
+  AddQuickFlag(app, o.quick, "2 s per case (unless --seconds-per-case)",
+               [&o, seconds] { QuickDefault(seconds, o.seconds, 2.0); });
+  app.add_option("--rt-priority", o.rt_priority, "Run the daemon with --mlockall --rt-priority N")
+      ->check(CLI::Range(1, 99));
+  CLI11_PARSE(app, argc, argv);
+  if (const int status = PrepareRun("hostile_bench", o, {o.port, o.port + 1})) return status;
+  char scratch_template[] = "/tmp/hostile_bench.XXXXXX";
+  const fs::path scratch = mkdtemp(scratch_template);
+  std::vector<CaseResult> results;
+  const std::vector<BusRun> runs = {RunBus(o, MakeBusSetup(o, "shared", false, scratch), results),
+                                    RunBus(o, MakeBusSetup(o, "separate", true, scratch), results)};
+  fs::remove_all(scratch);
+  WriteCases(o.File("hostile_cases.csv"), results);
+  WriteEstops(o.File("hostile_estops.csv"), results);
+  WriteProbes(o.File("hostile_probe.csv"), results);
+  return WriteSummary(o, runs);
 }
 
 }  // namespace

@@ -76,6 +76,8 @@
 #include <unordered_map>
 
 #include "bench/harness.hpp"
+#include "bench/options.hpp"
+#include "bench/stats.hpp"
 #include "controllers/trajectory.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/scene.hpp"
@@ -84,15 +86,10 @@
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
 
-#ifndef LAGRANGE_SOURCE_DIR
-#define LAGRANGE_SOURCE_DIR "."
-#endif
-
 namespace lagrange::bench {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 constexpr const char* kScene = "default.yaml";
@@ -104,11 +101,12 @@ constexpr int kDopriMaxSteps = 200;     // internal steps per tick
 constexpr double kReplyTimeout = 2.0;   // s
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-struct Options {
-  std::string lagranged;
-  std::string config_dir = std::string(LAGRANGE_SOURCE_DIR) + "/config";
-  std::string out = "bench/results";
-  int port = 7751;
+// config: the folder of default.yaml.
+struct Options : DaemonOptions {
+  Options() {
+    config = SourceConfigDir();
+    port = 7751;
+  }
   double seconds = 10.0;       // per setting
   double settle = 2.0;         // s of the sine under the scene's integrator before the first switch
   double drop = 0.5;           // s after each switch left out
@@ -116,8 +114,6 @@ struct Options {
   bool quick = false;
   bool offline_only = false;  // development: skip the live run
   bool keep_log = false;      // keep live.lcmlog after reading it
-
-  fs::path File(const std::string& name) const { return fs::path(out) / name; }
 };
 
 // ---- settings ------------------------------------------------------------------------------
@@ -241,26 +237,16 @@ double Growth(const std::vector<Tick>& v, std::size_t from, std::size_t to) {
   return a.colPivHouseholderQr().solve(y)(1);
 }
 
-// A setting's ticks (after the drop, in time order) => its figures, over the
-// longest whole number of sine periods (on the sine's clock) from the first tick.
-Figures Analyze(std::vector<Tick> v) {
-  Figures f;
-  for (const Tick& k : v) f.finite = f.finite && std::isfinite(k.eps) && std::isfinite(k.energy);
-  if (v.size() < 2) {
-    f.ticks = v.size();
-    return f;
-  }
+// Cuts `v` (at least two ticks) to the longest whole number of sine periods (on the sine's clock) from its first tick.
+void CutToWholePeriods(std::vector<Tick>& v) {
   const double whole = std::floor((v.back().clock - v.front().clock) * kFrequency + 1e-6) / kFrequency;
-  if (whole > 0.0) {
-    const double end = v.front().clock + whole + 1e-9;
-    v.erase(std::find_if(v.begin(), v.end(), [&](const Tick& k) { return k.clock > end; }), v.end());
-  }
-  f.ticks = v.size();
-  for (std::size_t k = 0; k < v.size(); k += kTraceEvery) f.trace.emplace_back(v[k].t, v[k].eps);
-  f.window_s = v.back().t - v.front().t;
-  f.clock_s = v.back().clock - v.front().clock;
-  f.periods = f.clock_s * kFrequency;
-  f.missed = (v.back().tick - v.front().tick + 1) - static_cast<std::int64_t>(v.size());
+  if (whole <= 0.0) return;
+  const double end = v.front().clock + whole + 1e-9;
+  v.erase(std::find_if(v.begin(), v.end(), [&](const Tick& k) { return k.clock > end; }), v.end());
+}
+
+// The window's compute, evaluations, step counts and error estimates, and the round-off floor of ε's sums.
+void Tally(const std::vector<Tick>& v, Figures& f) {
   std::vector<double> compute;
   double evaluations = 0.0, max_e = 0.0, max_w = 0.0;
   for (const Tick& k : v) {
@@ -272,8 +258,14 @@ Figures Analyze(std::vector<Tick> v) {
     max_w = std::max(max_w, std::abs(k.work));
     if (std::isfinite(k.error_estimate)) f.error_estimate_max = std::fmax(f.error_estimate_max, k.error_estimate);
   }
-  f.compute = Summarize(compute);
+  f.compute = Summarize(std::move(compute));
   f.evaluations = evaluations / static_cast<double>(v.size());
+  f.floor =
+      std::numeric_limits<double>::epsilon() * (max_e + max_w) * std::sqrt(static_cast<double>(v.size())) / f.window_s;
+}
+
+// ε's growth over the window and over each half, and its swing about the growth.
+void FitGrowth(const std::vector<Tick>& v, Figures& f) {
   // The halves share the middle tick, so each spans half the window.
   const double mid_clock = v.front().clock + 0.5 * f.clock_s - 1e-9;
   const auto mid = static_cast<std::size_t>(
@@ -281,21 +273,38 @@ Figures Analyze(std::vector<Tick> v) {
   f.eps_growth = Growth(v, 0, v.size());
   f.eps_growth_first = Growth(v, 0, std::min(mid + 1, v.size()));
   f.eps_growth_second = Growth(v, mid, v.size());
+  if (!std::isfinite(f.eps_growth)) return;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const Tick& k : v) {
+    const double detrended = k.eps - f.eps_growth * (k.t - v.front().t);
+    lo = std::min(lo, detrended);
+    hi = std::max(hi, detrended);
+  }
+  f.eps_swing = hi - lo;
+}
+
+// A setting's ticks (after the drop, in time order) => its figures, over the
+// longest whole number of sine periods (on the sine's clock) from the first tick.
+Figures Analyze(std::vector<Tick> v) {
+  Figures f;
+  for (const Tick& k : v) f.finite = f.finite && std::isfinite(k.eps) && std::isfinite(k.energy);
+  if (v.size() < 2) {
+    f.ticks = v.size();
+    return f;
+  }
+  CutToWholePeriods(v);
+  f.ticks = v.size();
+  for (std::size_t k = 0; k < v.size(); k += kTraceEvery) f.trace.emplace_back(v[k].t, v[k].eps);
+  f.window_s = v.back().t - v.front().t;
+  f.clock_s = v.back().clock - v.front().clock;
+  f.periods = f.clock_s * kFrequency;
+  f.missed = (v.back().tick - v.front().tick + 1) - static_cast<std::int64_t>(v.size());
+  Tally(v, f);
+  FitGrowth(v, f);
   f.eps_start = v.front().eps;
   f.eps_end = v.back().eps;
   f.eps_change_rate = std::abs(f.eps_end - f.eps_start) / f.window_s;
-  if (std::isfinite(f.eps_growth)) {
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const Tick& k : v) {
-      const double detrended = k.eps - f.eps_growth * (k.t - v.front().t);
-      lo = std::min(lo, detrended);
-      hi = std::max(hi, detrended);
-    }
-    f.eps_swing = hi - lo;
-  }
   f.bound_growth = (v.back().bound - v.front().bound) / f.window_s;
-  f.floor =
-      std::numeric_limits<double>::epsilon() * (max_e + max_w) * std::sqrt(static_cast<double>(v.size())) / f.window_s;
   return f;
 }
 
@@ -310,13 +319,13 @@ struct Reply {
 // The arm's state (its run_id) and the replies to this program's commands, as they arrive.
 class Observer {
  public:
-  Observer(const std::string& url, const InstanceChannelNames& ch) : bus_(OpenBus(url)) {
-    bus_->Subscribe(ch.state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+  Observer(const std::string& url, const std::vector<InstanceChannelNames>& ch, std::size_t arm) : bus_(OpenBus(url)) {
+    bus_->Subscribe(ch[arm].state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       state_t s;
       if (s.decode(d, 0, static_cast<int>(n)) < 0) return;
       if (run_id_.load() == 0) run_id_.store(s.run_id);
     });
-    bus_->Subscribe(ch.reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+    bus_->Subscribe(ch[arm].reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
       if (r.decode(d, 0, static_cast<int>(n)) < 0) return;
       std::lock_guard<std::mutex> lock(mutex_);
@@ -341,6 +350,11 @@ class Observer {
   std::map<std::int64_t, Reply> replies_;
 };
 
+// q_d = q0 + kAmplitude sin(2π kFrequency t) on every joint of the arm, q0 its initial pose.
+std::unique_ptr<Trajectory> ArmSine(const InstanceConfig& arm) {
+  return MakeSine(arm.q0, VectorXd::Constant(arm.q0.size(), kAmplitude), VectorXd::Constant(arm.q0.size(), kFrequency));
+}
+
 // Publishes the sine on `channel` at kStreamRate (absolute schedule) until `stop`.
 void StreamSine(const std::string& url, const std::string& channel, const Trajectory& sine, int n,
                 const std::atomic<bool>& stop) {
@@ -364,23 +378,9 @@ void StreamSine(const std::string& url, const std::string& channel, const Trajec
   }
 }
 
-template <class Done>
-bool Await(Done done, double timeout_s) {
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
-}
-
 command_t IntegratorCommand(const IntegratorConfig& c, std::int64_t request_id) {
   const bool dopri = c.type == IntegratorType::kDormandPrince;
-  command_t cmd{};
-  cmd.utime = WallMicros();
-  cmd.request_id = request_id;
-  cmd.command = command_t::SET_INTEGRATOR;
-  cmd.num_gains = 0;
+  command_t cmd = CommandMessage(command_t::SET_INTEGRATOR, request_id);
   cmd.setting = std::string(ToString(c.type));
   cmd.substeps = c.substeps;
   cmd.rtol = dopri ? c.rtol : 0.0;
@@ -403,65 +403,77 @@ struct LiveRun {
   std::string load_before, load_after;
 };
 
+// SET_INTEGRATOR on `channel` for each setting in turn, each held --seconds
+// once accepted; stops at the first refused or unanswered (r.problem).
+void SwitchThrough(const Options& o, const std::string& url, const std::string& channel, const Observer& observer,
+                   const std::vector<Setting>& settings, LiveRun& r) {
+  std::unique_ptr<Bus> commands = OpenBus(url);
+  std::mt19937_64 random{std::random_device{}()};
+  for (const Setting& s : settings) {
+    Switch sw;
+    while (sw.request_id == 0) sw.request_id = static_cast<std::int64_t>(random() >> 1);
+    commands->PublishMessage(channel, IntegratorCommand(s.config, sw.request_id));
+    Await([&] { return observer.reply(sw.request_id).has_value(); }, kReplyTimeout);
+    sw.reply = observer.reply(sw.request_id);
+    r.switches.push_back(sw);
+    if (!sw.reply) {
+      r.problem = "no reply to SET_INTEGRATOR " + s.label + " within " + std::to_string(kReplyTimeout) + " s";
+      break;
+    }
+    if (!sw.reply->accepted) {
+      r.problem = "SET_INTEGRATOR " + s.label + " refused: " + sw.reply->reason;
+      break;
+    }
+    std::cerr << "live_bench: " << s.label << " for " << o.seconds << " s\n";
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
+  }
+}
+
+// The daemon from start to exit: once it publishes, the sine streams to the
+// arm, and after --settle it is switched through the settings.
+void DriveDaemon(const Options& o, const Scene& scene, std::size_t arm, const std::vector<Setting>& settings,
+                 const Observer& observer, LiveRun& r) {
+  const std::string url = Url(o.port);
+  const std::vector<InstanceChannelNames> ch = SceneChannelNames(scene, "");
+  const std::unique_ptr<Trajectory> sine = ArmSine(scene.instances[arm]);
+  const pid_t daemon = Spawn(LagrangedArgs(o.lagranged, o.Scene(kScene), url), o.File("lagranged_live.log"));
+  std::atomic<bool> stop_stream{false};
+  std::thread stream;
+  if (!Await([&] { return observer.run_id() != 0; }, 20.0)) {
+    r.problem = "lagranged published no " + ch[arm].state + " (see lagranged_live.log)";
+  } else {
+    r.run_id = observer.run_id();
+    const int n = scene.instances[arm].plant.num_dofs();
+    stream = std::thread([&, n] { StreamSine(url, ch[arm].setpoint, *sine, n, stop_stream); });
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.settle));
+    SwitchThrough(o, url, ch[arm].command, observer, settings, r);
+    r.end_us = WallMicros();
+  }
+  // The sine streams until the daemon has stopped: without it the arm would go to hold.
+  r.daemon_exit = DescribeExit(Terminate(daemon, 10.0).status);
+  stop_stream = true;
+  if (stream.joinable()) stream.join();
+}
+
 // Logger, daemon, the sine, the switches; every child stopped before it returns.
 LiveRun RunLive(const Options& o, const Scene& scene, std::size_t arm, const std::vector<Setting>& settings) {
   LiveRun r;
   const std::string url = Url(o.port);
-  const InstanceChannelNames ch = SceneChannelNames(scene.instances[arm], "");
-  const InstanceConfig& config = scene.instances[arm];
-  const std::unique_ptr<Trajectory> sine = MakeSine(config.q0, VectorXd::Constant(config.q0.size(), kAmplitude),
-                                                    VectorXd::Constant(config.q0.size(), kFrequency));
+  const std::vector<InstanceChannelNames> ch = SceneChannelNames(scene, "");
   const std::string logged =
-      ch.state + "|" + ch.setpoint + "|" + ch.command + "|" + ch.reply + "|" + ch.telemetry;
+      ch[arm].state + "|" + ch[arm].setpoint + "|" + ch[arm].command + "|" + ch[arm].reply + "|" + ch[arm].telemetry;
   r.load_before = LoadAverage();
-  // A 4 MiB receive buffer (net.core.rmem_max on Debian's default): the logger, descheduled on a busy
-  // machine, must not lose the states and setpoints the replay needs.
-  LcmLogger logger(url + "&recv_buf_size=4194304", logged, o.File("live.lcmlog"), o.File("lcm_logger_live.log"));
+  // The logger, descheduled on a busy machine, must not lose the states and setpoints the replay needs.
+  LcmLogger logger(WithReceiveBuffer(url), logged, o.File("live.lcmlog"), o.File("lcm_logger_live.log"));
   if (!logger.AwaitReady()) {
     r.problem = "lcm-logger did not start recording (see lcm_logger_live.log)";
     r.logger_exit = DescribeExit(logger.Stop().status);
     return r;
   }
-  Observer observer(url, ch);
-  std::atomic<bool> stop_receive{false}, stop_stream{false};
+  Observer observer(url, ch, arm);
+  std::atomic<bool> stop_receive{false};
   std::thread receive([&] { observer.Run(stop_receive); });
-  const pid_t daemon = Spawn(
-      {o.lagranged, "--config", (fs::path(o.config_dir) / kScene).string(), "--lcm-url", url, "--log-level", "warn"},
-      o.File("lagranged_live.log"));
-  std::thread stream;
-  if (!Await([&] { return observer.run_id() != 0; }, 20.0)) {
-    r.problem = "lagranged published no " + ch.state + " (see lagranged_live.log)";
-  } else {
-    r.run_id = observer.run_id();
-    stream = std::thread([&] { StreamSine(url, ch.setpoint, *sine, config.plant.num_dofs(), stop_stream); });
-    std::this_thread::sleep_for(std::chrono::duration<double>(o.settle));
-    std::unique_ptr<Bus> commands = OpenBus(url);
-    std::mt19937_64 random{std::random_device{}()};
-    for (const Setting& s : settings) {
-      Switch sw;
-      while (sw.request_id == 0) sw.request_id = static_cast<std::int64_t>(random() >> 1);
-      commands->PublishMessage(ch.command, IntegratorCommand(s.config, sw.request_id));
-      Await([&] { return observer.reply(sw.request_id).has_value(); }, kReplyTimeout);
-      sw.reply = observer.reply(sw.request_id);
-      r.switches.push_back(sw);
-      if (!sw.reply) {
-        r.problem = "no reply to SET_INTEGRATOR " + s.label + " within " + std::to_string(kReplyTimeout) + " s";
-        break;
-      }
-      if (!sw.reply->accepted) {
-        r.problem = "SET_INTEGRATOR " + s.label + " refused: " + sw.reply->reason;
-        break;
-      }
-      std::cerr << "live_bench: " << s.label << " for " << o.seconds << " s\n";
-      std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
-    }
-    r.end_us = WallMicros();
-  }
-  // The sine streams until the daemon has stopped: without it the arm would go to hold.
-  kill(daemon, SIGTERM);
-  r.daemon_exit = DescribeExit(WaitExit(daemon, 10.0).status);
-  stop_stream = true;
-  if (stream.joinable()) stream.join();
+  DriveDaemon(o, scene, arm, settings, observer, r);
   stop_receive = true;
   receive.join();
   r.logger_exit = DescribeExit(logger.Stop().status);
@@ -471,15 +483,10 @@ LiveRun RunLive(const Options& o, const Scene& scene, std::size_t arm, const std
 
 // ---- the log --------------------------------------------------------------------------------------
 
-// The bits of a vector: the daemon publishes the setpoint it used bit for bit.
-std::string Key(const double* data, std::size_t n) {
-  return std::string(reinterpret_cast<const char*>(data), n * sizeof(double));
-}
-
 struct LoggedState {
   std::int64_t utime = 0;  // when the tick ran (wall clock)
   VectorXd q, qd;          // at the tick's end
-  std::string q_des_bits;  // Key of the setpoint's q the tick used
+  std::string q_des_bits;  // Bits of the setpoint's q the tick used
 };
 
 struct LoggedSetpoint {
@@ -491,7 +498,7 @@ struct LoggedSetpoint {
 struct Log {
   std::vector<Tick> ticks;                     // the run's telemetry, in log order
   std::map<std::int64_t, LoggedState> states;  // the run's state_t by tick
-  // What this program streamed, by Key(q): the sine comes back to the same
+  // What this program streamed, by Bits(q): the sine comes back to the same
   // bits (at rest before it starts, and now and then in its periods), so
   // every setpoint with those bits, in log order; the one a tick used is the
   // latest sent before it ran.
@@ -513,72 +520,85 @@ const LoggedSetpoint* LatestBefore(const Log& log, const LoggedState& state) {
   return latest != nullptr ? latest : &it->second.front();
 }
 
-Log ReadLog(const fs::path& file, const InstanceChannelNames& ch, std::int64_t run_id) {
-  Log log;
-  std::optional<LcmLogReader> in;
-  try {
-    in.emplace(file.string());
-  } catch (const LcmLogError&) {
-    return log;
+// A message's vector as an Eigen vector.
+Eigen::Map<const VectorXd> View(const std::vector<double>& v) {
+  return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+// A telemetry_t as a tick's figures (all but the sine's clock).
+Tick TelemetryTick(const telemetry_t& m) {
+  Tick k;
+  k.tick = m.tick;
+  k.utime = m.utime;
+  k.t = m.t;
+  k.eps = m.energy_residual;
+  k.bound = m.quadrature_bound;
+  k.energy = m.energy;
+  k.work = m.work;
+  k.compute_us = m.compute_us;
+  k.evaluations = m.evaluations;
+  k.rejected = m.steps_rejected;
+  k.failures = m.failures;
+  if (m.error_estimate >= 0.0) k.error_estimate = m.error_estimate;  // −1: none
+  k.mode = m.mode;
+  k.integrator = m.integrator;
+  k.substeps = m.substeps;
+  return k;
+}
+
+// The arm's channels of one run, event by event, into a Log.
+class LogReading {
+ public:
+  LogReading(const std::vector<InstanceChannelNames>& ch, std::size_t arm, std::int64_t run_id)
+      : ch_(ch), arm_(arm), run_id_(run_id) {}
+
+  void Read(const LcmLogEvent& e) {
+    ++log_.events;
+    if (e.channel == ch_[arm_].state) {
+      if (DecodeChecked(CheckStatePacket, e, state_) && state_.run_id == run_id_) OnState();
+    } else if (e.channel == ch_[arm_].setpoint) {
+      if (DecodeChecked(CheckSetpointPacket, e, setpoint_)) OnSetpoint();
+    } else if (e.channel == ch_[arm_].reply) {
+      if (DecodeChecked(CheckReplyPacket, e, reply_) && reply_.run_id == run_id_)
+        log_.reply_utime[reply_.request_id] = reply_.utime;
+    } else if (e.channel == ch_[arm_].telemetry) {
+      if (DecodeChecked(CheckTelemetryPacket, e, telemetry_) && telemetry_.run_id == run_id_) OnTelemetry();
+    }
   }
-  telemetry_t m;
-  reply_t reply;
-  state_t state;
-  setpoint_t setpoint;
-  std::int64_t base_us = -1;  // the first telemetry's utime: the clock's zero
-  const auto vec = [](const std::vector<double>& v) {
-    return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-  };
-  while (const LcmLogEvent* e = in->Next()) {
-    ++log.events;
-    const int size = static_cast<int>(e->size);
-    if (e->channel == ch.state) {
-      if (state.decode(e->data, 0, size) >= 0 && state.run_id == run_id) {
-        log.states[state.tick] = {state.utime, vec(state.q), vec(state.qd),
-                                  Key(state.q_des.data(), state.q_des.size())};
-      }
-      continue;
-    }
-    if (e->channel == ch.setpoint) {
-      if (setpoint.decode(e->data, 0, size) >= 0) {
-        Setpoint sp(setpoint.num_dofs);
-        sp.q = vec(setpoint.q);
-        sp.qd = vec(setpoint.qd);
-        sp.qdd = vec(setpoint.qdd);
-        log.setpoints[Key(setpoint.q.data(), setpoint.q.size())].push_back(
-            LoggedSetpoint{std::move(sp), setpoint.utime, log.setpoint_count++});
-      }
-      continue;
-    }
-    if (e->channel == ch.reply) {
-      if (reply.decode(e->data, 0, size) >= 0 && reply.run_id == run_id) {
-        log.reply_utime[reply.request_id] = reply.utime;
-      }
-      continue;
-    }
-    if (e->channel != ch.telemetry || m.decode(e->data, 0, size) < 0 || m.run_id != run_id) continue;
-    Tick k;
-    k.tick = m.tick;
-    k.utime = m.utime;
-    k.t = m.t;
-    k.eps = m.energy_residual;
-    k.bound = m.quadrature_bound;
-    k.energy = m.energy;
-    k.work = m.work;
-    k.compute_us = m.compute_us;
-    k.evaluations = m.evaluations;
-    k.rejected = m.steps_rejected;
-    k.failures = m.failures;
-    if (m.error_estimate >= 0.0) k.error_estimate = m.error_estimate;  // −1: none
-    k.mode = m.mode;
-    k.integrator = m.integrator;
-    k.substeps = m.substeps;
-    if (base_us < 0) base_us = m.utime;
-    k.clock = 1e-6 * static_cast<double>(m.utime - base_us);
-    if (!std::isfinite(k.eps) || !std::isfinite(k.energy)) ++log.nonfinite;
-    log.ticks.push_back(std::move(k));
+  Log Take() { return std::move(log_); }
+
+ private:
+  void OnState() { log_.states[state_.tick] = {state_.utime, View(state_.q), View(state_.qd), Bits(state_.q_des)}; }
+  void OnSetpoint() {
+    Setpoint sp(setpoint_.num_dofs);
+    sp.q = View(setpoint_.q);
+    sp.qd = View(setpoint_.qd);
+    sp.qdd = View(setpoint_.qdd);
+    log_.setpoints[Bits(setpoint_.q)].push_back(LoggedSetpoint{std::move(sp), setpoint_.utime, log_.setpoint_count++});
   }
-  return log;
+  void OnTelemetry() {
+    Tick k = TelemetryTick(telemetry_);
+    if (base_us_ < 0) base_us_ = telemetry_.utime;
+    k.clock = 1e-6 * static_cast<double>(telemetry_.utime - base_us_);
+    if (!std::isfinite(k.eps) || !std::isfinite(k.energy)) ++log_.nonfinite;
+    log_.ticks.push_back(std::move(k));
+  }
+
+  const std::vector<InstanceChannelNames>& ch_;
+  std::size_t arm_;
+  std::int64_t run_id_;
+  Log log_;
+  telemetry_t telemetry_;
+  reply_t reply_;
+  state_t state_;
+  setpoint_t setpoint_;
+  std::int64_t base_us_ = -1;  // the first telemetry's utime: the clock's zero
+};
+
+Log ReadLog(const fs::path& file, const std::vector<InstanceChannelNames>& ch, std::size_t arm, std::int64_t run_id) {
+  LogReading reading(ch, arm, run_id);
+  ForEachLogEvent(file, [&](const LcmLogEvent& e) { reading.Read(e); });
+  return reading.Take();
 }
 
 struct LiveSegment {
@@ -660,13 +680,47 @@ struct Replayed {
   std::int64_t states_missing = 0;  // ticks without a logged state (the previous setpoint used)
 };
 
+// The replay's input, tick by tick: the setpoint the daemon used, and what
+// the live input did (counted into the Replayed).
+class ReplayInput {
+ public:
+  ReplayInput(const Log& log, Replayed& r) : log_(log), r_(r) {}
+
+  // `sp` = the setpoint the tick of `state` used; unchanged when the state
+  // was not logged (null) or its q_des matches no logged setpoint. A tick in
+  // the window (`counted`) adds its setpoint's age, and whether it reused
+  // the previous tick's or skipped some.
+  void Next(const LoggedState* state, bool counted, Setpoint& sp) {
+    const LoggedSetpoint* used = state ? LatestBefore(log_, *state) : nullptr;
+    if (!state) {
+      ++r_.states_missing;  // its setpoint unknown: the previous one again
+    } else if (!used) {
+      ++r_.setpoints_unmatched;
+    } else {
+      sp = used->setpoint;
+      if (counted) {
+        ages_.push_back(static_cast<double>(state->utime - used->utime));
+        r_.setpoints_reused += previous_ >= 0 && used->index == previous_ ? 1 : 0;
+        r_.setpoints_skipped += previous_ >= 0 && used->index > previous_ + 1 ? 1 : 0;
+      }
+    }
+    previous_ = used ? used->index : -1;
+  }
+  std::vector<double> TakeAges() { return std::move(ages_); }
+
+ private:
+  const Log& log_;
+  Replayed& r_;
+  std::int64_t previous_ = -1;  // the previous tick's setpoint index
+  std::vector<double> ages_;    // µs
+};
+
 // The arm offline: the live run's sequence, its replay, and the curve's points.
 struct Offline {
   const InstanceConfig& config;
   double period;  // s
   const Options& o;
-  std::unique_ptr<Trajectory> sine = MakeSine(config.q0, VectorXd::Constant(config.q0.size(), kAmplitude),
-                                              VectorXd::Constant(config.q0.size(), kFrequency));
+  std::unique_ptr<Trajectory> sine = ArmSine(config);
 
   std::int64_t Ticks(double seconds) const { return std::llround(seconds / period); }
 
@@ -721,33 +775,18 @@ struct Offline {
     inst.SetIntegrator(s.config);
     inst.SetMeasured(start->second.q, start->second.qd);
     Setpoint sp(inst.num_dofs());
+    ReplayInput input(log, r);
     std::vector<Tick> v;
     auto next_live = live.begin();
     r.state_difference = 0.0;
-    std::vector<double> ages;
-    std::int64_t previous = -1;  // the previous tick's setpoint index
     for (std::int64_t tick = live.front().tick - 1; tick <= live.back().tick; ++tick) {
       const auto state = log.states.find(tick);
-      const bool counted = tick >= live.front().tick;
-      if (state == log.states.end()) {
-        ++r.states_missing;  // its setpoint unknown: the previous one again
-        previous = -1;
-      } else if (const LoggedSetpoint* used = LatestBefore(log, state->second); used != nullptr) {
-        sp = used->setpoint;
-        if (counted) {
-          ages.push_back(static_cast<double>(state->second.utime - used->utime));
-          r.setpoints_reused += previous >= 0 && used->index == previous ? 1 : 0;
-          r.setpoints_skipped += previous >= 0 && used->index > previous + 1 ? 1 : 0;
-        }
-        previous = used->index;
-      } else {
-        ++r.setpoints_unmatched;
-        previous = -1;
-      }
+      const LoggedState* logged = state == log.states.end() ? nullptr : &state->second;
+      input.Next(logged, tick >= live.front().tick, sp);
       Tick k = StepTimed(inst, sp, period);
-      if (state != log.states.end()) {
-        r.state_difference = std::max({r.state_difference, (inst.q() - state->second.q).lpNorm<Eigen::Infinity>(),
-                                       (inst.qd() - state->second.qd).lpNorm<Eigen::Infinity>()});
+      if (logged) {
+        r.state_difference = std::max({r.state_difference, (inst.q() - logged->q).lpNorm<Eigen::Infinity>(),
+                                       (inst.qd() - logged->qd).lpNorm<Eigen::Infinity>()});
       }
       while (next_live != live.end() && next_live->tick < tick) ++next_live;
       if (next_live == live.end() || next_live->tick != tick) continue;
@@ -757,7 +796,7 @@ struct Offline {
       v.push_back(std::move(k));
     }
     r.figures = Analyze(std::move(v));
-    r.setpoint_age_us = Summarize(std::move(ages));
+    r.setpoint_age_us = Summarize(input.TakeAges());
     return r;
   }
 
@@ -805,12 +844,172 @@ void PrintRow(const std::string& source, const Setting& s, const Figures& f) {
   std::cout << o.str();
 }
 
+// Everything the run measured, live and offline.
+struct Results {
+  LiveRun run;
+  Log log;
+  std::vector<LiveSegment> live;  // one per setting the daemon ran
+  std::vector<Figures> same;      // offline, the live run's sequence
+  std::vector<Figures> paced;     // the same, paced at the period
+  std::vector<Replayed> replays;  // one per live segment
+  std::vector<Figures> curve;     // one per CurveSettings()
+  std::string offline_problem;
+};
+
+// live.csv: one row per setting the daemon ran.
+void WriteLive(const Options& o, const std::vector<Setting>& settings, const Results& r) {
+  std::ofstream csv(o.File("live.csv"));
+  csv.precision(10);
+  csv << "setting,integrator,substeps,rtol,atol,max_steps,reply_logged,ticks_mismatched,ticks_not_running,"
+      << kFigureHeader << '\n';
+  for (std::size_t k = 0; k < r.live.size(); ++k) {
+    WriteSetting(csv, settings[k]);
+    csv << (r.live[k].reply_logged ? 1 : 0) << ',' << r.live[k].mismatched << ',' << r.live[k].not_running << ',';
+    WriteFigures(csv, r.live[k].figures);
+    csv << '\n';
+  }
+}
+
+// One row of live_offline.csv; the replay's columns empty for the other kinds.
+void WriteOfflineRow(std::ostream& csv, const char* kind, const Setting& s, const Figures& f, const Replayed* r) {
+  csv << kind << ',';
+  WriteSetting(csv, s);
+  WriteFigures(csv, f);
+  if (!r) {
+    csv << ",,,,,,,,\n";
+    return;
+  }
+  csv << ',' << r->state_difference << ',' << r->setpoints_unmatched << ',' << r->states_missing << ','
+      << r->setpoint_age_us.p50 << ',' << r->setpoint_age_us.p99 << ',' << r->setpoint_age_us.max << ','
+      << r->setpoints_reused << ',' << r->setpoints_skipped << '\n';
+}
+
+// live_offline.csv: the settings offline, the same paced, the replays, then the curve.
+void WriteOffline(const Options& o, const std::vector<Setting>& settings, const Results& r) {
+  std::ofstream csv(o.File("live_offline.csv"));
+  csv.precision(10);
+  csv << "kind,setting,integrator,substeps,rtol,atol,max_steps," << kFigureHeader
+      << ",state_difference_max,setpoints_unmatched,states_missing,setpoint_age_us_p50,setpoint_age_us_p99,"
+         "setpoint_age_us_max,setpoints_reused,setpoints_skipped\n";
+  for (std::size_t k = 0; k < r.same.size(); ++k) WriteOfflineRow(csv, "setting", settings[k], r.same[k], nullptr);
+  for (std::size_t k = 0; k < r.paced.size(); ++k) WriteOfflineRow(csv, "paced", settings[k], r.paced[k], nullptr);
+  for (std::size_t k = 0; k < r.replays.size(); ++k) {
+    WriteOfflineRow(csv, "replay", settings[k], r.replays[k].figures, &r.replays[k]);
+  }
+  const std::vector<Setting> curve = CurveSettings();
+  for (std::size_t k = 0; k < r.curve.size(); ++k) WriteOfflineRow(csv, "curve", curve[k], r.curve[k], nullptr);
+}
+
+// live_traces.csv: ε(t) of every window, live, offline and replayed.
+void WriteTraces(const Options& o, const std::vector<Setting>& settings, const Results& r) {
+  std::ofstream csv(o.File("live_traces.csv"));
+  csv.precision(12);
+  csv << "source,setting,t_s,eps_J\n";
+  const auto write = [&](const char* source, const Setting& s, const Figures& f) {
+    for (const auto& [t, eps] : f.trace) csv << source << ",\"" << s.label << "\"," << t << ',' << eps << '\n';
+  };
+  for (std::size_t k = 0; k < r.live.size(); ++k) write("live", settings[k], r.live[k].figures);
+  for (std::size_t k = 0; k < r.same.size(); ++k) write("offline", settings[k], r.same[k]);
+  for (std::size_t k = 0; k < r.replays.size(); ++k) write("replay", settings[k], r.replays[k].figures);
+}
+
+// live.json: the run's settings, exits and problems.
+void WriteRunJson(const Options& o, const Scene& scene, std::size_t arm, const Results& r,
+                  const std::vector<std::string>& problems) {
+  const VectorXd& q0 = scene.instances[arm].q0;
+  const json sine = {{"amplitude_rad", kAmplitude},
+                     {"frequency_hz", kFrequency},
+                     {"stream_hz", kStreamRate},
+                     {"center_rad", std::vector<double>(q0.data(), q0.data() + q0.size())}};
+  const json j = {{"url", Url(o.port)},
+                  {"scene", kScene},
+                  {"instance", kInstance},
+                  {"period_s", scene.period},
+                  {"seconds_per_setting", o.seconds},
+                  {"settle_s", o.settle},
+                  {"drop_s", o.drop},
+                  {"quick", o.quick},
+                  {"sine", sine},
+                  {"dopri5_max_steps", kDopriMaxSteps},
+                  {"run_id", r.run.run_id},
+                  {"log_events", r.log.events},
+                  {"telemetry_logged", r.log.ticks.size()},
+                  {"daemon_exit", r.run.daemon_exit},
+                  {"logger_exit", r.run.logger_exit},
+                  {"cores", std::thread::hardware_concurrency()},
+                  {"load_average_before", r.run.load_before},
+                  {"load_average_after", r.run.load_after},
+                  {"problems", problems}};
+  std::ofstream(o.File("live.json")) << j.dump(2) << '\n';
+}
+
+// Every setting's figures on stdout.
+void PrintRows(const std::vector<Setting>& settings, const Results& r) {
+  std::cout << "live_bench (live: telemetry compute_us; offline: Instance::Step):\n";
+  for (std::size_t k = 0; k < settings.size(); ++k) {
+    if (k < r.live.size()) PrintRow("live   ", settings[k], r.live[k].figures);
+    PrintRow("offline", settings[k], r.same[k]);
+    PrintRow("paced  ", settings[k], r.paced[k]);
+    if (k >= r.replays.size()) continue;
+    const Replayed& rp = r.replays[k];
+    PrintRow("replay ", settings[k], rp.figures);
+    std::cout << "           replay: state difference " << rp.state_difference << ", setpoints unmatched "
+              << rp.setpoints_unmatched << ", states missing " << rp.states_missing << "; setpoint age p50 "
+              << rp.setpoint_age_us.p50 << " µs, p99 " << rp.setpoint_age_us.p99 << " µs, max "
+              << rp.setpoint_age_us.max << " µs, reused " << rp.setpoints_reused << ", skipped " << rp.setpoints_skipped
+              << '\n';
+  }
+}
+
+// ---- the run ----------------------------------------------------------------------------------------
+
+// The daemon switched through the settings, and its log split into the settings' windows.
+void RunLivePart(const Options& o, const Scene& scene, std::size_t arm, const std::vector<Setting>& settings,
+                 Results& r) {
+  r.run = RunLive(o, scene, arm, settings);
+  r.log = ReadLog(o.File("live.lcmlog"), SceneChannelNames(scene, ""), arm, r.run.run_id);
+  r.live = SplitLog(r.log, r.run, settings, o);
+  if (!o.keep_log) fs::remove(o.File("live.lcmlog"));
+}
+
+// The same settings offline, tight and paced, the curve, and the replay of every live window.
+void RunOfflinePart(const Options& o, const Scene& scene, std::size_t arm, const std::vector<Setting>& settings,
+                    Results& r) {
+  std::cerr << "live_bench: offline, the same settings and the curve\n";
+  const Offline offline{scene.instances[arm], scene.period, o};
+  r.same = offline.Sequence(settings, o.seconds, false, r.offline_problem);
+  std::cerr << "live_bench: offline paced at the scene's period, " << o.paced_seconds << " s a setting\n";
+  r.paced = offline.Sequence(settings, o.paced_seconds, true, r.offline_problem);
+  for (const Setting& s : CurveSettings()) r.curve.push_back(offline.Point(s, r.offline_problem));
+  for (std::size_t k = 0; k < r.live.size(); ++k) {
+    r.replays.push_back(offline.Replay(settings[k], r.log, r.live[k].ticks));
+  }
+}
+
+// The self check: what makes the run's figures not what they say.
+std::vector<std::string> Problems(const Options& o, const std::vector<Setting>& settings, const Results& r) {
+  std::vector<std::string> problems;
+  if (!r.run.problem.empty()) problems.push_back(r.run.problem);
+  if (!r.offline_problem.empty()) problems.push_back(r.offline_problem);
+  if (r.log.nonfinite > 0)
+    problems.push_back(std::to_string(r.log.nonfinite) + " logged telemetry with a non-finite ε or energy");
+  for (std::size_t k = 0; k < r.live.size(); ++k) {
+    if (r.live[k].figures.ticks == 0) problems.push_back("no telemetry logged for " + settings[k].label);
+    if (!r.live[k].figures.finite) problems.push_back("non-finite ε or energy under " + settings[k].label);
+    if (r.live[k].mismatched > 0) {
+      problems.push_back(std::to_string(r.live[k].mismatched) + " ticks under " + settings[k].label +
+                         " reported another integrator or sub-step count");
+    }
+  }
+  if (!o.offline_only && r.run.daemon_exit != "exit 0") problems.push_back("lagranged: " + r.run.daemon_exit);
+  if (!o.offline_only && r.run.logger_exit != "exit 0") problems.push_back("lcm-logger: " + r.run.logger_exit);
+  return problems;
+}
+
 // ---- main -------------------------------------------------------------------------------------------
 
-int Main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"live_bench: accuracy against cost, live in lagranged and offline, for every integrator setting"};
-  AddDaemonOptions(app, o.lagranged, o.config_dir, o.out, o.port, "Where default.yaml is");
+void AddOptions(CLI::App& app, Options& o) {
+  AddDaemonOptions(app, o, ConfigOption::kSceneFolder, "Where default.yaml is");
   auto* seconds = app.add_option("--seconds", o.seconds, "Seconds per setting")
                       ->check(CLI::Range(1.0, 3600.0))
                       ->capture_default_str();
@@ -824,172 +1023,60 @@ int Main(int argc, char** argv) {
                                        "Seconds per setting of the offline run paced at the period (compute only)")
                             ->check(CLI::Range(0.0, 3600.0))
                             ->capture_default_str();
-  app.add_flag("--quick", o.quick, "5 s per setting (two sine periods kept), 1 s settle, 1 s paced (unless given)");
+  AddQuickFlag(app, o.quick, "5 s per setting (two sine periods kept), 1 s settle, 1 s paced (unless given)",
+               [&o, seconds, settle, paced_seconds] {
+                 QuickDefault(seconds, o.seconds, 5.0);
+                 QuickDefault(settle, o.settle, 1.0);
+                 QuickDefault(paced_seconds, o.paced_seconds, 1.0);
+               });
   app.add_flag("--keep-log", o.keep_log, "Keep lcm-logger's live.lcmlog (removed once read otherwise)");
   app.add_flag("--offline-only", o.offline_only, "Skip the live run: the offline figures alone (no live.csv)");
-  CLI11_PARSE(app, argc, argv);
-  if (o.quick) {
-    if (seconds->count() == 0) o.seconds = 5.0;
-    if (settle->count() == 0) o.settle = 1.0;
-    if (paced_seconds->count() == 0) o.paced_seconds = 1.0;
-  }
-  if (o.drop >= o.seconds) {
-    std::cerr << "live_bench: --drop must be shorter than --seconds\n";
-    return 2;
-  }
-  if (o.lagranged.empty() && !o.offline_only) {
-    std::cerr << "live_bench: no lagranged beside this program; give --lagranged\n";
-    return 2;
-  }
-  Scene scene;
+}
+
+// The scene and its arm's index; nullopt (and why, on stderr) when it does not load or has no arm.
+std::optional<std::size_t> LoadArm(const Options& o, Scene& scene) {
   try {
-    scene = LoadScene((fs::path(o.config_dir) / kScene).string());
+    scene = LoadScene(o.Scene(kScene));
   } catch (const std::exception& e) {
     std::cerr << "live_bench: " << e.what() << "\n";
-    return 2;
+    return std::nullopt;
   }
   const auto found = std::find_if(scene.instances.begin(), scene.instances.end(),
                                   [](const InstanceConfig& c) { return c.name == kInstance; });
   if (found == scene.instances.end()) {
     std::cerr << "live_bench: " << kScene << " has no instance '" << kInstance << "'\n";
+    return std::nullopt;
+  }
+  return static_cast<std::size_t>(found - scene.instances.begin());
+}
+
+int Main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"live_bench: accuracy against cost, live in lagranged and offline, for every integrator setting"};
+  AddOptions(app, o);
+  CLI11_PARSE(app, argc, argv);
+  if (o.drop >= o.seconds) {
+    std::cerr << "live_bench: --drop must be shorter than --seconds\n";
     return 2;
   }
-  const auto arm = static_cast<std::size_t>(found - scene.instances.begin());
-  fs::create_directories(o.out);
-  const std::string url = Url(o.port);
-  if (const std::string loopback = CheckLoopback(url); !loopback.empty() && !o.offline_only) {
-    std::cerr << "live_bench: " << loopback << "\n";
-    return 1;
+  Scene scene;
+  const std::optional<std::size_t> arm = LoadArm(o, scene);
+  if (!arm) return 2;
+  if (const int status = PrepareRun("live_bench", o, o.offline_only ? std::vector<int>{} : std::vector{o.port})) {
+    return status;
   }
   const std::vector<Setting> settings = LiveSettings();
-
-  std::cerr << "live_bench: lagranged on " << kScene << " (" << url << "), " << settings.size() << " settings of "
-            << o.seconds << " s\n";
-  LiveRun run;
-  Log log;
-  std::vector<LiveSegment> live;
-  if (!o.offline_only) {
-    run = RunLive(o, scene, arm, settings);
-    log = ReadLog(o.File("live.lcmlog"), SceneChannelNames(scene.instances[arm], ""), run.run_id);
-    live = SplitLog(log, run, settings, o);
-    if (!o.keep_log) fs::remove(o.File("live.lcmlog"));
-  }
-
-  std::cerr << "live_bench: offline, the same settings and the curve\n";
-  std::string offline_problem;
-  const Offline offline{scene.instances[arm], scene.period, o};
-  const std::vector<Figures> same = offline.Sequence(settings, o.seconds, false, offline_problem);
-  std::cerr << "live_bench: offline paced at the scene's period, " << o.paced_seconds << " s a setting\n";
-  const std::vector<Figures> paced = offline.Sequence(settings, o.paced_seconds, true, offline_problem);
-  const std::vector<Setting> curve_settings = CurveSettings();
-  std::vector<Figures> curve;
-  for (const Setting& s : curve_settings) curve.push_back(offline.Point(s, offline_problem));
-  std::vector<Replayed> replays;
-  for (std::size_t k = 0; k < live.size(); ++k) replays.push_back(offline.Replay(settings[k], log, live[k].ticks));
-
-  // The self check.
-  std::vector<std::string> problems;
-  if (!run.problem.empty()) problems.push_back(run.problem);
-  if (!offline_problem.empty()) problems.push_back(offline_problem);
-  if (log.nonfinite > 0)
-    problems.push_back(std::to_string(log.nonfinite) + " logged telemetry with a non-finite ε or energy");
-  for (std::size_t k = 0; k < live.size(); ++k) {
-    if (live[k].figures.ticks == 0) problems.push_back("no telemetry logged for " + settings[k].label);
-    if (!live[k].figures.finite) problems.push_back("non-finite ε or energy under " + settings[k].label);
-    if (live[k].mismatched > 0) {
-      problems.push_back(std::to_string(live[k].mismatched) + " ticks under " + settings[k].label +
-                         " reported another integrator or sub-step count");
-    }
-  }
-  if (!o.offline_only && run.daemon_exit != "exit 0") problems.push_back("lagranged: " + run.daemon_exit);
-  if (!o.offline_only && run.logger_exit != "exit 0") problems.push_back("lcm-logger: " + run.logger_exit);
-
-  if (!o.offline_only) {
-    std::ofstream csv(o.File("live.csv"));
-    csv.precision(10);
-    csv << "setting,integrator,substeps,rtol,atol,max_steps,reply_logged,ticks_mismatched,ticks_not_running,"
-        << kFigureHeader << '\n';
-    for (std::size_t k = 0; k < live.size(); ++k) {
-      WriteSetting(csv, settings[k]);
-      csv << (live[k].reply_logged ? 1 : 0) << ',' << live[k].mismatched << ',' << live[k].not_running << ',';
-      WriteFigures(csv, live[k].figures);
-      csv << '\n';
-    }
-  }
-  {
-    std::ofstream csv(o.File("live_offline.csv"));
-    csv.precision(10);
-    csv << "kind,setting,integrator,substeps,rtol,atol,max_steps," << kFigureHeader
-        << ",state_difference_max,setpoints_unmatched,states_missing,setpoint_age_us_p50,setpoint_age_us_p99,"
-           "setpoint_age_us_max,setpoints_reused,setpoints_skipped\n";
-    const auto row = [&](const char* kind, const Setting& s, const Figures& f, const Replayed* r) {
-      csv << kind << ',';
-      WriteSetting(csv, s);
-      WriteFigures(csv, f);
-      if (r) {
-        csv << ',' << r->state_difference << ',' << r->setpoints_unmatched << ',' << r->states_missing << ','
-            << r->setpoint_age_us.p50 << ',' << r->setpoint_age_us.p99 << ',' << r->setpoint_age_us.max << ','
-            << r->setpoints_reused << ',' << r->setpoints_skipped << '\n';
-      } else {
-        csv << ",,,,,,,,\n";
-      }
-    };
-    for (std::size_t k = 0; k < same.size(); ++k) row("setting", settings[k], same[k], nullptr);
-    for (std::size_t k = 0; k < paced.size(); ++k) row("paced", settings[k], paced[k], nullptr);
-    for (std::size_t k = 0; k < replays.size(); ++k) row("replay", settings[k], replays[k].figures, &replays[k]);
-    for (std::size_t k = 0; k < curve.size(); ++k) row("curve", curve_settings[k], curve[k], nullptr);
-  }
-  {
-    std::ofstream csv(o.File("live_traces.csv"));
-    csv.precision(12);
-    csv << "source,setting,t_s,eps_J\n";
-    const auto write = [&](const char* source, const Setting& s, const Figures& f) {
-      for (const auto& [t, eps] : f.trace) csv << source << ",\"" << s.label << "\"," << t << ',' << eps << '\n';
-    };
-    for (std::size_t k = 0; k < live.size(); ++k) write("live", settings[k], live[k].figures);
-    for (std::size_t k = 0; k < same.size(); ++k) write("offline", settings[k], same[k]);
-    for (std::size_t k = 0; k < replays.size(); ++k) write("replay", settings[k], replays[k].figures);
-  }
-  const InstanceConfig& config = scene.instances[arm];
-  json j = {{"url", url},
-            {"scene", kScene},
-            {"instance", kInstance},
-            {"period_s", scene.period},
-            {"seconds_per_setting", o.seconds},
-            {"settle_s", o.settle},
-            {"drop_s", o.drop},
-            {"quick", o.quick},
-            {"sine",
-             {{"amplitude_rad", kAmplitude},
-              {"frequency_hz", kFrequency},
-              {"stream_hz", kStreamRate},
-              {"center_rad", std::vector<double>(config.q0.data(), config.q0.data() + config.q0.size())}}},
-            {"dopri5_max_steps", kDopriMaxSteps},
-            {"run_id", run.run_id},
-            {"log_events", log.events},
-            {"telemetry_logged", log.ticks.size()},
-            {"daemon_exit", run.daemon_exit},
-            {"logger_exit", run.logger_exit},
-            {"cores", std::thread::hardware_concurrency()},
-            {"load_average_before", run.load_before},
-            {"load_average_after", run.load_after},
-            {"problems", problems}};
-  std::ofstream(o.File("live.json")) << j.dump(2) << '\n';
-
-  std::cout << "live_bench (live: telemetry compute_us; offline: Instance::Step):\n";
-  for (std::size_t k = 0; k < settings.size(); ++k) {
-    if (k < live.size()) PrintRow("live   ", settings[k], live[k].figures);
-    PrintRow("offline", settings[k], same[k]);
-    PrintRow("paced  ", settings[k], paced[k]);
-    if (k < replays.size()) {
-      PrintRow("replay ", settings[k], replays[k].figures);
-      std::cout << "           replay: state difference " << replays[k].state_difference << ", setpoints unmatched "
-                << replays[k].setpoints_unmatched << ", states missing " << replays[k].states_missing
-                << "; setpoint age p50 " << replays[k].setpoint_age_us.p50 << " µs, p99 "
-                << replays[k].setpoint_age_us.p99 << " µs, max " << replays[k].setpoint_age_us.max << " µs, reused "
-                << replays[k].setpoints_reused << ", skipped " << replays[k].setpoints_skipped << '\n';
-    }
-  }
+  std::cerr << "live_bench: lagranged on " << kScene << " (" << Url(o.port) << "), " << settings.size()
+            << " settings of " << o.seconds << " s\n";
+  Results r;
+  if (!o.offline_only) RunLivePart(o, scene, *arm, settings, r);
+  RunOfflinePart(o, scene, *arm, settings, r);
+  const std::vector<std::string> problems = Problems(o, settings, r);
+  if (!o.offline_only) WriteLive(o, settings, r);
+  WriteOffline(o, settings, r);
+  WriteTraces(o, settings, r);
+  WriteRunJson(o, scene, *arm, r, problems);
+  PrintRows(settings, r);
   for (const std::string& p : problems) std::cerr << "live_bench: " << p << "\n";
   return problems.empty() ? 0 : 1;
 }

@@ -56,6 +56,7 @@
 #include <thread>
 
 #include "bench/harness.hpp"
+#include "bench/options.hpp"
 #include "bench/proc_stats.hpp"
 #include "protocol/bus.hpp"
 
@@ -63,13 +64,9 @@ namespace lagrange::bench {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
-struct Options {
-  std::string lagranged;
-  std::string config;
-  std::string out = "bench/results";
-  int port = 7901;
+struct Options : DaemonOptions {
+  Options() { port = 7901; }
   double duration = 60.0;  // s of daemon ticks
   double alone = 10.0;     // s of cyclictest alone before the daemon, twice (0: none)
   int rt_priority = 0;     // > 0: SCHED_FIFO for the daemon's tick, one more for cyclictest
@@ -78,8 +75,8 @@ struct Options {
   std::string tag;         // appended to every file name
 
   // out/<stem>[_tag].<ext>
-  fs::path File(const std::string& stem, const std::string& ext = ".csv") const {
-    return fs::path(out) / (stem + (tag.empty() ? "" : "_" + tag) + ext);
+  fs::path Tagged(const std::string& stem, const std::string& ext = ".csv") const {
+    return File(stem + (tag.empty() ? "" : "_" + tag) + ext);
   }
 };
 
@@ -93,9 +90,9 @@ constexpr const char* kLoggedChannels = "ARM_STATE|CARTPOLE_STATE|LAGRANGE_STATU
 pid_t StartCyclictest(const Options& o, const std::string& phase, int seconds, bool beside_daemon,
                       unsigned long timer_slack_ns = 0) {
   const bool rt = beside_daemon && o.rt_priority > 0;
-  return Spawn(CyclictestArgs(seconds, o.File("cyclictest_" + phase, ".json"), rt ? o.rt_priority + 1 : 0,
+  return Spawn(CyclictestArgs(seconds, o.Tagged("cyclictest_" + phase, ".json"), rt ? o.rt_priority + 1 : 0,
                               beside_daemon ? o.cpu : -1, rt),
-               o.File("cyclictest_" + phase, ".log"), timer_slack_ns);
+               o.Tagged("cyclictest_" + phase, ".log"), timer_slack_ns);
 }
 
 void RunCyclictestAlone(const Options& o, const std::string& phase, unsigned long timer_slack_ns = 0) {
@@ -143,24 +140,16 @@ class SetpointProbe {
 };
 
 void SetpointProbe::Send(const std::atomic<bool>& stop) {
-  std::mt19937 rng{42};
-  std::uniform_int_distribution<int> jitter_us(0, 999);
-  auto next = Clock::now();
+  JitteredSchedule schedule(std::chrono::milliseconds(100));
   for (std::int64_t k = 0; !stop.load(); ++k) {
-    next += std::chrono::milliseconds(100) + std::chrono::microseconds(jitter_us(rng));
-    std::this_thread::sleep_until(next);
-    setpoint_t sp;
-    sp.num_dofs = 2;
-    sp.q = {Value(k), 0.0};
-    sp.qd = {0.0, 0.0};
-    sp.qdd = {0.0, 0.0};
+    schedule.SleepUntilNext();
     {
       std::lock_guard<std::mutex> lock(mutex_);
       pending_ = k;
       sent_.push_back(MonotonicNs());
       latency_.push_back(-1);
     }
-    sp.utime = WallMicros();
+    const setpoint_t sp = SetpointMessage(WallMicros(), {Value(k), 0.0});
     out_.publish("ARM_SETPOINT", &sp);
   }
 }
@@ -242,13 +231,15 @@ std::string UsualState(const Measured& m, pid_t tid) {
   return best;
 }
 
+// Up to 20 s for the daemon's first state; false when it exits first.
 bool AwaitFirstState(const SetpointProbe& probe, pid_t pid) {
-  const auto deadline = Clock::now() + std::chrono::seconds(20);
-  while (probe.states() == 0 && Clock::now() < deadline) {
-    if (waitpid(pid, nullptr, WNOHANG) != 0) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return probe.states() > 0;
+  bool exited = false;
+  const auto seen_or_exited = [&] {
+    if (probe.states() > 0) return true;
+    exited = waitpid(pid, nullptr, WNOHANG) != 0;
+    return exited;
+  };
+  return Await(seen_or_exited, 20.0, std::chrono::milliseconds(5)) && !exited;
 }
 
 // From the daemon's first state to 1 s before its end: CPU snapshots, noise.
@@ -269,32 +260,17 @@ void Observe(const Options& o, pid_t pid, Measured& m) {
   m.top = tracker.Top(8);
 }
 
-std::vector<std::string> DaemonArgs(const Options& o, const std::string& url) {
-  std::vector<std::string> argv = {o.lagranged, "--lcm-url", url, "--log-level", "warn"};
-  if (!o.config.empty()) argv.insert(argv.end(), {"--config", o.config});
+// lagranged for --duration with its timing CSV, the real-time options given and its tick pinned to --cpu.
+std::vector<std::string> LoopDaemonArgs(const Options& o, const std::string& url) {
+  std::vector<std::string> argv = LagrangedArgs(o.lagranged, o.config, url, o.rt_priority);
+  argv.insert(argv.end(), {"--duration", std::to_string(o.duration), "--timing-csv", o.Tagged("loop_ticks").string()});
+  if (o.cpu >= 0) argv.insert(argv.end(), {"--cpu", std::to_string(o.cpu)});
   return argv;
 }
 
-int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Measured& m) {
-  LcmLogger logger(url, kLoggedChannels, o.File("loop_states", ".lcmlog"), o.File("lcm_logger", ".log"));
-  m.logger_ready = logger.AwaitReady();
-  if (!m.logger_ready) std::cerr << "loop_bench: lcm-logger did not start; no delivery figure\n";
-  std::vector<std::string> argv = DaemonArgs(o, url);
-  argv.insert(argv.end(), {"--duration", std::to_string(o.duration), "--timing-csv", o.File("loop_ticks").string()});
-  if (o.rt_priority > 0) argv.insert(argv.end(), {"--mlockall", "--rt-priority", std::to_string(o.rt_priority)});
-  if (o.cpu >= 0) argv.insert(argv.end(), {"--cpu", std::to_string(o.cpu)});
-  m.load_before = LoadAverage();
-  const auto spawned = Clock::now();
-  const pid_t pid = Spawn(argv, o.File("lagranged", ".log"));
-  std::atomic<bool> stop{false};
-  std::thread receive([&] { probe.Receive(stop); });
-  if (!AwaitFirstState(probe, pid)) {
-    stop = true;
-    receive.join();
-    std::cerr << "loop_bench: lagranged published no state (see " << o.File("lagranged", ".log") << ")\n";
-    WaitExit(pid, 1.0);
-    return 1;
-  }
+// From the daemon's first state: cyclictest beside it and the prober sending until 1 s before its end,
+// then the daemon's and cyclictest's exits; the daemon's wall time from `spawned`.
+void MeasureRun(const Options& o, pid_t pid, Clock::time_point spawned, SetpointProbe& probe, Measured& m) {
   // cyclictest ends before the daemon does (whole seconds, -D).
   const pid_t cyclictest =
       StartCyclictest(o, "concurrent", std::max(1, static_cast<int>(std::floor(o.duration - 2.0))), true);
@@ -307,12 +283,32 @@ int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Me
   m.wall = std::chrono::duration<double>(Clock::now() - spawned).count();
   m.load_after = LoadAverage();
   m.cyclictest = WaitExit(cyclictest, 10.0);
+}
+
+int RunDaemon(const Options& o, const std::string& url, SetpointProbe& probe, Measured& m) {
+  LcmLogger logger(url, kLoggedChannels, o.Tagged("loop_states", ".lcmlog"), o.Tagged("lcm_logger", ".log"));
+  m.logger_ready = logger.AwaitReady();
+  if (!m.logger_ready) std::cerr << "loop_bench: lcm-logger did not start; no delivery figure\n";
+  const std::vector<std::string> argv = LoopDaemonArgs(o, url);
+  m.load_before = LoadAverage();
+  const auto spawned = Clock::now();
+  const pid_t pid = Spawn(argv, o.Tagged("lagranged", ".log"));
+  std::atomic<bool> stop{false};
+  std::thread receive([&] { probe.Receive(stop); });
+  if (!AwaitFirstState(probe, pid)) {
+    stop = true;
+    receive.join();
+    std::cerr << "loop_bench: lagranged published no state (see " << o.Tagged("lagranged", ".log") << ")\n";
+    WaitExit(pid, 1.0);
+    return 1;
+  }
+  MeasureRun(o, pid, spawned, probe, m);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the final status reaches the logger and the probe
   stop = true;
   receive.join();
   m.logger = logger.Stop();
-  m.logged = ReadStateTicks(o.File("loop_states", ".lcmlog"), kLoggedStates, probe.run_id());
-  fs::remove(o.File("loop_states", ".lcmlog"));
+  m.logged = ReadStateTicks(o.Tagged("loop_states", ".lcmlog"), kLoggedStates, probe.run_id());
+  fs::remove(o.Tagged("loop_states", ".lcmlog"));
   if (m.cyclictest.status != 0)
     std::cerr << "loop_bench: cyclictest ended with " << DescribeExit(m.cyclictest.status) << "\n";
   return m.exit.status == 0 ? 0 : 1;
@@ -331,7 +327,8 @@ Shutdown TimeSigterm(const Options& o, const std::string& url, int run) {
   std::unique_ptr<Bus> bus = OpenBus(url);
   std::atomic<bool> seen{false};
   bus->Subscribe("ARM_STATE", [&](std::string_view, const std::uint8_t*, std::size_t) { seen = true; });
-  const pid_t pid = Spawn(DaemonArgs(o, url), o.File("lagranged_sigterm_" + std::to_string(run), ".log"));
+  const pid_t pid =
+      Spawn(LagrangedArgs(o.lagranged, o.config, url), o.Tagged("lagranged_sigterm_" + std::to_string(run), ".log"));
   const auto deadline = Clock::now() + std::chrono::seconds(20);
   while (!seen && Clock::now() < deadline && waitpid(pid, nullptr, WNOHANG) == 0) bus->Handle(20);
   Shutdown s;
@@ -380,14 +377,6 @@ void WriteNoise(const fs::path& path, const Measured& m) {
   for (const auto& [name, s] : m.top) csv << '"' << name << "\"," << s << ',' << 100.0 * s / window << '\n';
 }
 
-// Ticks missing from `ticks` in [0, run): never logged (or logged twice: counted as extra).
-std::int64_t Missing(std::vector<std::int64_t> ticks, std::int64_t run) {
-  std::sort(ticks.begin(), ticks.end());
-  ticks.erase(std::unique(ticks.begin(), ticks.end()), ticks.end());
-  const auto in_run = std::count_if(ticks.begin(), ticks.end(), [&](std::int64_t t) { return t >= 0 && t < run; });
-  return run - in_run;
-}
-
 void WriteSummary(const fs::path& path, const Options& o, const Measured& m, const SetpointProbe& probe) {
   std::ofstream csv(path);
   csv.precision(10);
@@ -413,7 +402,7 @@ void WriteSummary(const fs::path& path, const Options& o, const Measured& m, con
       << "logger_exit,\"" << DescribeExit(m.logger.status) << "\"\n";
   for (const auto& [channel, ticks] : m.logged) {
     csv << "logger_states_" << channel << ',' << ticks.size() << '\n'
-        << "logger_missing_" << channel << ',' << Missing(ticks, probe.ticks_run()) << '\n';
+        << "logger_missing_" << channel << ',' << TicksMissing(ticks, 0, probe.ticks_run()) << '\n';
   }
   csv << "cyclictest_exit,\"" << DescribeExit(m.cyclictest.status) << "\"\n"
       << "alone_s," << o.alone << '\n'
@@ -421,13 +410,22 @@ void WriteSummary(const fs::path& path, const Options& o, const Measured& m, con
       << "cpu," << o.cpu << '\n';
 }
 
-int Main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"loop_bench: lagranged on a scene beside cyclictest, with setpoint round trips and lcm-logger"};
-  app.add_option("--lagranged", o.lagranged, "The daemon to run")->required()->check(CLI::ExistingFile);
-  app.add_option("--config", o.config, "Scene (default: the daemon's default scene)");
-  app.add_option("--out", o.out, "Folder for the results")->capture_default_str();
-  app.add_option("--port", o.port, "Private LCM port on udpm://239.255.76.67")->capture_default_str();
+// --sigterm-runs starts, each timed from SIGTERM to its exit, into sigterm.csv; false when one failed.
+bool WriteSigterm(const Options& o, const std::string& url) {
+  std::ofstream csv(o.Tagged("sigterm"));
+  csv << "run,exit_ms,exit_status\n";
+  bool clean = true;
+  for (int run = 0; run < o.sigterm_runs; ++run) {
+    const Shutdown s = TimeSigterm(o, url, run);
+    csv << run << ',' << s.exit_ms << ',' << s.status << '\n';
+    if (s.exit_ms < 0.0 || s.status != 0) clean = false;
+    if (s.status == 0) fs::remove(o.Tagged("lagranged_sigterm_" + std::to_string(run), ".log"));
+  }
+  return clean;
+}
+
+void AddOptions(CLI::App& app, Options& o) {
+  AddDaemonOptions(app, o, ConfigOption::kSceneFile, "Scene (default: the daemon's default scene)");
   app.add_option("--duration", o.duration, "Seconds of daemon ticks")
       ->check(CLI::Range(5.0, 3600.0))
       ->capture_default_str();
@@ -442,13 +440,15 @@ int Main(int argc, char** argv) {
   app.add_option("--sigterm-runs", o.sigterm_runs, "Afterwards, time SIGTERM to exit over this many daemon starts")
       ->check(CLI::Range(0, 1000));
   app.add_option("--tag", o.tag, "Appended to every output file name");
+}
+
+int Main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"loop_bench: lagranged on a scene beside cyclictest, with setpoint round trips and lcm-logger"};
+  AddOptions(app, o);
   CLI11_PARSE(app, argc, argv);
-  fs::create_directories(o.out);
+  if (const int status = PrepareRun("loop_bench", o, {o.port})) return status;
   const std::string url = Url(o.port);
-  if (const std::string problem = CheckLoopback(url); !problem.empty()) {
-    std::cerr << "loop_bench: " << problem << "\n";
-    return 1;
-  }
   if (o.alone > 0.0) {
     RunCyclictestAlone(o, "alone");
     RunCyclictestAlone(o, "alone-slack-1ns", 1);
@@ -456,20 +456,11 @@ int Main(int argc, char** argv) {
   Measured m;
   SetpointProbe probe(url);
   int status = RunDaemon(o, url, probe, m);
-  WriteSetpoints(o.File("setpoint_latency"), probe);
-  WriteThreads(o.File("loop_threads"), m);
-  WriteNoise(o.File("loop_noise"), m);
-  WriteSummary(o.File("loop_summary"), o, m, probe);
-  if (o.sigterm_runs > 0) {
-    std::ofstream csv(o.File("sigterm"));
-    csv << "run,exit_ms,exit_status\n";
-    for (int run = 0; run < o.sigterm_runs; ++run) {
-      const Shutdown s = TimeSigterm(o, url, run);
-      csv << run << ',' << s.exit_ms << ',' << s.status << '\n';
-      if (s.exit_ms < 0.0 || s.status != 0) status = 1;
-      if (s.status == 0) fs::remove(o.File("lagranged_sigterm_" + std::to_string(run), ".log"));
-    }
-  }
+  WriteSetpoints(o.Tagged("setpoint_latency"), probe);
+  WriteThreads(o.Tagged("loop_threads"), m);
+  WriteNoise(o.Tagged("loop_noise"), m);
+  WriteSummary(o.Tagged("loop_summary"), o, m, probe);
+  if (o.sigterm_runs > 0 && !WriteSigterm(o, url)) status = 1;
   return status;
 }
 

@@ -74,10 +74,8 @@ constexpr std::pair<Term, const char*> kTerms[] = {
     {Term::kM, "M"},       {Term::kC, "C"},   {Term::kCqd, "Cqd"},      {Term::kG, "G"},
     {Term::kdTdq, "dTdq"}, {Term::kT, "T"},   {Term::kV, "V"}};
 
-void TimeTerm(benchmark::State& bm, const RigidTree& tree, Term term) {
-  const SpatialDynamics d(tree);
-  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
-  const int n = d.num_dofs();
+// kStates seeded random states of n joints: q in ±π, qd, qdd and tau in ±2.
+std::vector<State> SeededStates(int n) {
   std::mt19937 rng{7};
   std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi), rate(-2.0, 2.0);
   std::vector<State> states(kStates);
@@ -90,6 +88,14 @@ void TimeTerm(benchmark::State& bm, const RigidTree& tree, Term term) {
       s.tau[i] = rate(rng);
     }
   }
+  return states;
+}
+
+void TimeTerm(benchmark::State& bm, const RigidTree& tree, Term term) {
+  const SpatialDynamics d(tree);
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
+  const int n = d.num_dofs();
+  const std::vector<State> states = SeededStates(n);
   MatrixXd M(n, n);
   VectorXd v(n);
   double x = 0.0;

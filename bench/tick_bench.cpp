@@ -20,10 +20,11 @@
 //                             with no LCM threads beside it; its mean is the
 //                             benchmark's time, and counters p50_ns, p99_ns
 //                             and max_ns give the distribution of its ticks
+//                             (nearest rank, as lagranged's status_t:
+//                             bench/stats.hpp)
 
 #include <benchmark/benchmark.h>
 
-#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -31,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/stats.hpp"
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "protocol/clock.hpp"
@@ -85,13 +87,6 @@ void TimeHot(benchmark::State& bm, const std::string& path, Variant variant) {
   FailIfFaulted(bm, record);
 }
 
-// The value below which a fraction p of the sorted samples lies (nearest rank).
-double Percentile(const std::vector<double>& sorted, double p) {
-  if (sorted.empty()) return 0.0;
-  const auto rank = static_cast<std::size_t>(p * static_cast<double>(sorted.size() - 1) + 0.5);
-  return sorted[std::min(rank, sorted.size() - 1)];
-}
-
 void TimeAfterSleep(benchmark::State& bm, const std::string& path) {
   std::optional<Scene> scene = LoadOrSkip(bm, path);
   if (!scene) return;
@@ -110,10 +105,10 @@ void TimeAfterSleep(benchmark::State& bm, const std::string& path) {
     bm.SetIterationTime(static_cast<double>(compute) * 1e-9);
     compute_ns.push_back(static_cast<double>(compute));
   }
-  std::sort(compute_ns.begin(), compute_ns.end());
-  bm.counters["p50_ns"] = Percentile(compute_ns, 0.50);
-  bm.counters["p99_ns"] = Percentile(compute_ns, 0.99);
-  bm.counters["max_ns"] = compute_ns.empty() ? 0.0 : compute_ns.back();
+  const Summary ticks = Summarize(std::move(compute_ns));
+  bm.counters["p50_ns"] = ticks.p50;
+  bm.counters["p99_ns"] = ticks.p99;
+  bm.counters["max_ns"] = ticks.max;
   FailIfFaulted(bm, record);
 }
 

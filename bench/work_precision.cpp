@@ -348,15 +348,8 @@ void LongHorizon(IntegratorType type, std::int64_t steps, std::ofstream& csv) {
             << Seconds(std::chrono::steady_clock::now() - start) << " s\n";
 }
 
-int Main(int argc, char** argv) {
-  std::string out = "bench/results";
-  bool quick = false;
-  CLI::App app{"work_precision: error against cost for every integrator, and long-horizon energy"};
-  app.add_option("--out", out, "Folder for the CSV files")->capture_default_str();
-  app.add_flag("--quick", quick, "Fewer points and 10^5 long-horizon steps (a smoke run)");
-  CLI11_PARSE(app, argc, argv);
-  fs::create_directories(out);
-
+// The steps and tolerances swept, and the long horizon's steps; fewer with --quick.
+Settings SweepSettings(bool quick) {
   Settings s{{1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5},
              {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12}};
   if (quick) {
@@ -365,6 +358,18 @@ int Main(int argc, char** argv) {
     s.min_timed = 0.0;
     s.long_steps = 100'000;
   }
+  return s;
+}
+
+int Main(int argc, char** argv) {
+  std::string out = "bench/results";
+  bool quick = false;
+  CLI::App app{"work_precision: error against cost for every integrator, and long-horizon energy"};
+  app.add_option("--out", out, "Folder for the CSV files")->capture_default_str();
+  app.add_flag("--quick", quick, "Fewer points and 10^5 long-horizon steps (a smoke run)");
+  CLI11_PARSE(app, argc, argv);
+  fs::create_directories(out);
+  const Settings s = SweepSettings(quick);
   std::ofstream refs(fs::path(out) / "reference.csv");
   refs.precision(17);
   refs << "plant,check,max_state_difference,estimated_error_of_check\n";
