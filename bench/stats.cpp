@@ -1,18 +1,14 @@
 #include "bench/stats.hpp"
 
+#include "protocol/status.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
 namespace lagrange::bench {
 
-double Percentile(std::span<double> v, double p) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-  const auto k = static_cast<std::ptrdiff_t>(std::clamp<std::size_t>(rank, 1, v.size()) - 1);
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[static_cast<std::size_t>(k)];
-}
+double Percentile(std::span<double> v, double p) { return NearestRankPercentile(v, p); }
 
 double Mean(std::span<const double> v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();

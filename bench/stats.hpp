@@ -1,7 +1,7 @@
 #pragma once
 // The statistics every benchmark program computes, one definition each.
 //
-// Percentiles are by nearest rank, as lagranged's status_t reports its
+// Percentiles are by nearest rank (protocol/status.hpp), as lagranged's status_t reports its
 // wake-up latency and compute time (daemon/publisher.cpp): the p-th
 // percentile of n samples is the ceil(p n)-th smallest (p in (0, 1]), always a
 // sample that was measured, never an interpolation between two. (The report,

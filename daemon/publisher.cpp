@@ -14,12 +14,8 @@
 namespace lagrange {
 namespace {
 
-double Percentile(std::vector<double>& v, double p) {
-  if (v.empty()) return 0.0;
-  const auto k = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(std::min(k, v.size() - 1)), v.end());
-  return v[std::min(k, v.size() - 1)];
-}
+// A status figure: nearest rank (protocol/status.hpp), 0 for an empty window.
+double Percentile(std::vector<double>& v, double p) { return v.empty() ? 0.0 : NearestRankPercentile(v, p); }
 
 }  // namespace
 

@@ -1,6 +1,8 @@
 #include "protocol/status.hpp"
 
 #include <algorithm>
+#include <limits>
+#include <cmath>
 #include <cstdio>
 
 #include "plant/escape.hpp"
@@ -114,6 +116,14 @@ std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::st
                             Escape(status.instance_effects[i], 120), status.instance_forces[i] != 0};
   }
   return std::nullopt;
+}
+
+double NearestRankPercentile(std::span<double> v, double p) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  const auto k = static_cast<std::ptrdiff_t>(std::clamp<std::size_t>(rank, 1, v.size()) - 1);
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
 }
 
 }  // namespace lagrange

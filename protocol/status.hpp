@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -66,5 +67,11 @@ struct InstanceSettings {
   bool forces = false;     // publishing <NAME>_FORCES
 };
 std::optional<InstanceSettings> SettingsIn(const status_t& status, const std::string& instance);
+
+// The p-th percentile (p in (0, 1]) by nearest rank: the ceil(p n)-th
+// smallest of the n samples, always one that was measured; the rule of the
+// status's wake-up latency and compute figures (and of bench/'s). NaN for no
+// samples. Reorders `v` (nth_element), allocates nothing.
+double NearestRankPercentile(std::span<double> v, double p);
 
 }  // namespace lagrange

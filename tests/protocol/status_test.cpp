@@ -7,6 +7,8 @@
 #include "protocol/status.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
@@ -100,6 +102,15 @@ TEST(StatusDescriptions, TheEffectsOnAreListedInTheirOrder) {
   flags.friction = true;
   flags.gravity = true;
   EXPECT_EQ(EffectsDescription(flags), "gravity,friction");
+}
+
+TEST(Status, PercentilesAreNearestRankSamplesNeverInterpolations) {
+  std::vector<double> v = {5.0, 1.0, 4.0, 2.0, 3.0};
+  EXPECT_EQ(NearestRankPercentile(v, 0.5), 3.0);   // the 3rd smallest of 5
+  EXPECT_EQ(NearestRankPercentile(v, 0.99), 5.0);  // ceil(4.95) = 5th
+  EXPECT_EQ(NearestRankPercentile(v, 0.01), 1.0);  // below 1/n: the smallest
+  std::vector<double> none;
+  EXPECT_TRUE(std::isnan(NearestRankPercentile(none, 0.5)));
 }
 
 }  // namespace
