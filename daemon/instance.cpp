@@ -102,10 +102,16 @@ void Instance::ComputeForces(EffectForces& out) {
   model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/true);
 }
 
-const char* Instance::SetIntegrator(const IntegratorConfig& config) {
+const char* Instance::CheckIntegrator(const IntegratorConfig& config) const {
   if (external_) return kExternalNotIntegrated;
-  if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis)
+  if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis) {
     return kVariationalNeedsCoriolis;
+  }
+  return CheckIntegratorConfig(config);
+}
+
+const char* Instance::SetIntegrator(const IntegratorConfig& config) {
+  if (const char* refused = CheckIntegrator(config)) return refused;
   Integrator& target = *integrators_[static_cast<std::size_t>(config.type)];
   if (const char* refused = target.Reconfigure(config)) return refused;
   integrator_ = &target;

@@ -131,6 +131,8 @@ class Instance {
   //   SetMethod      a method the plant does not have (NoMethodReason)
   // q̈ of the current state is left as it is until the next step.
   const char* SetIntegrator(const IntegratorConfig& config);
+  // Why SetIntegrator would refuse `config`, changing nothing; null when it would not.
+  const char* CheckIntegrator(const IntegratorConfig& config) const;
   const char* SetEffect(EffectKind kind, bool on);
   const char* SetMethod(Method method);
   Method method() const { return model_.method(); }

@@ -90,7 +90,10 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
   m.state_timeout = config.external ? ToNanoseconds(config.external->state_timeout) : 0;
   m.setpoint_rules = SetpointRules{m.num_dofs, config.setpoint_lower, config.setpoint_upper};
   m.command_rules = CommandRulesOf(m);
-  if (options.measure_costs) m.evaluation_s = MeasureEvaluationCosts(config);
+  if (options.measure_costs) {
+    m.evaluation_s = MeasureEvaluationCosts(config);
+    m.tick_overhead_s = MeasureTickOverheadSeconds(config, m.evaluation_s[static_cast<std::size_t>(config.method)]);
+  }
   if (options.evaluation_s) m.evaluation_s = *options.evaluation_s;
   return m;
 }

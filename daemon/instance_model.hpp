@@ -70,6 +70,7 @@ struct InstanceModel {
   // evaluation's cost by Method, s, with every configured effect on; 0: not
   // measured (nothing is then refused for cost).
   std::array<double, kNumMethods> evaluation_s{};
+  double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
 
   const std::string& name() const { return config.name; }
   bool external_plant() const { return config.external.has_value(); }
@@ -85,7 +86,8 @@ struct DaemonModel {
 struct BuildOptions {
   std::string channel_prefix;  // --channel-prefix
   bool measure_costs = false;  // time each method's evaluation (daemon/work_bound.hpp), for the switch commands
-  // Given costs instead (by Method, s), for every instance: tests that need the bound exact.
+  // Given costs instead (by Method, s; the rest of a tick 0), for every
+  // instance: tests that need the bound exact.
   std::optional<std::array<double, kNumMethods>> evaluation_s;
 
   static BuildOptions Prefixed(std::string prefix) {

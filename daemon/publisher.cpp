@@ -17,6 +17,15 @@ namespace {
 // A status figure: nearest rank (protocol/status.hpp), 0 for an empty window.
 double Percentile(std::vector<double>& v, double p) { return v.empty() ? 0.0 : NearestRankPercentile(v, p); }
 
+// What a work-bound refusal quotes, as the scene's refusal does.
+std::string WorkFiguresText(const WorkFigures& w) {
+  std::string text = fmt::format(": the worst case would be {:.4g} ms per tick, {:.4g} ms fit", w.worst_s * 1e3,
+                                 w.budget_s * 1e3);
+  if (w.max_steps_fit > 0) text += fmt::format("; at most {} max_steps fit", w.max_steps_fit);
+  if (w.max_steps_fit == 0) text += "; no max_steps fits";
+  return text;
+}
+
 }  // namespace
 
 Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& ring, const Loop& loop,
@@ -216,6 +225,7 @@ void Publisher::PublishReplies(std::size_t i, const InstanceRecord& r, std::int6
     reply_.command = static_cast<int8_t>(v.kind);
     reply_.accepted = v.error == nullptr;
     reply_.reason = v.error ? v.error : "";
+    if (v.work.budget_s > 0.0) reply_.reason += WorkFiguresText(v.work);
     bus_.PublishMessage(model_.instances[i].channels.reply, reply_);
   }
 }

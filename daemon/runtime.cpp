@@ -86,6 +86,8 @@ struct Runtime::Slot {
   bool send_zero_once = false;    // fault or stopped: command zero torque in this tick's record, once
   bool forces;                    // publish <NAME>_FORCES
   bool integrated = false;        // this tick ran the integrator
+  double worst_s = 0.0;           // this instance's worst case per tick as it runs now (daemon/work_bound.hpp)
+  WorkFigures refusal;            // the figures of the last switch the work bound refused
 
   const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
   bool external_active() const { return active().external; }
@@ -98,6 +100,8 @@ Runtime::Runtime(std::shared_ptr<const DaemonModel> model) : model_(std::move(mo
     // Each slot keeps its instance's model alive with the whole run's.
     slots_.push_back(std::make_unique<Slot>(std::shared_ptr<const InstanceModel>(model_, &m)));
     On(*slots_.back(), ModeEvent::kStart, 0);
+    slots_.back()->worst_s = WorkBoundOf(m, m.config.integrator, m.config.method).tick_s();
+    worst_total_s_ += slots_.back()->worst_s;
   }
 }
 
@@ -145,14 +149,17 @@ void Runtime::PostUrgent(std::size_t i, Urgent kind, std::int64_t request_id) {
 
 namespace {
 
-void AddVerdict(InstanceRecord& r, std::int64_t request_id, CommandKind kind, const char* error) {
+void AddVerdict(InstanceRecord& r, std::int64_t request_id, CommandKind kind, const char* error,
+                const WorkFigures& work = {}) {
   if (error) {
     ++r.commands_rejected;
     r.command_error = error;
   } else {
     ++r.commands_accepted;
   }
-  if (r.num_verdicts < r.verdicts.size()) r.verdicts[r.num_verdicts++] = {request_id, kind, error};
+  if (r.num_verdicts < r.verdicts.size()) {
+    r.verdicts[r.num_verdicts++] = {request_id, kind, error, error == kSwitchDoesNotFit ? work : WorkFigures{}};
+  }
 }
 
 constexpr CommandKind kUrgentCommand[kNumUrgent] = {CommandKind::kEstop, CommandKind::kClearEstop, CommandKind::kReset};
@@ -220,7 +227,7 @@ void Runtime::TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r) {
 // (command queue) => mode, controller, gains, state.
 void Runtime::TakeCommands(Slot& s, Nanoseconds now, InstanceRecord& r) {
   while (CommandMessage* c = s.channels.commands.Front()) {
-    AddVerdict(r, c->request_id, c->kind, Apply(s, c->kind, c->controller, &c->gains, now, c));
+    AddVerdict(r, c->request_id, c->kind, Apply(s, c->kind, c->controller, &c->gains, now, c), s.refusal);
     s.channels.commands.Pop();
   }
   s.channels.active_controller.store(static_cast<int>(s.instance.active_controller()), std::memory_order_release);
@@ -267,12 +274,20 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
   return "unknown command";
 }
 
-// Whether `config` by `method` fits the period at the measured cost (as
-// lagranged checks a scene before the loop); true when the cost is unknown.
-bool Runtime::Fits(const Slot& s, const IntegratorConfig& config, Method method) const {
-  const double cost = s.m.evaluation_s[static_cast<std::size_t>(method)];
-  if (cost <= 0.0 || s.m.external_plant()) return true;
-  return static_cast<double>(WorstCaseEvaluations(config, s.m.num_dofs)) * cost <= period();
+double Runtime::FreeFor(const Slot& s) const {
+  return kTickBudgetFraction * period() - (worst_total_s_ - s.worst_s);
+}
+
+bool Runtime::Fits(Slot& s, const IntegratorConfig& config, Method method) {
+  const double worst = WorkBoundOf(s.m, config, method).tick_s();
+  if (worst <= FreeFor(s)) {  // costs of 0 (not measured) always fit
+    worst_total_s_ += worst - s.worst_s;
+    s.worst_s = worst;
+    return true;
+  }
+  s.refusal = {worst_total_s_ - s.worst_s + worst, kTickBudgetFraction * period(),
+               config.type == IntegratorType::kDormandPrince ? DefaultMaxSteps(s.m, config.substeps, FreeFor(s)) : -1};
+  return false;
 }
 
 // Integrator, effect, method, forces: at this tick boundary, allocation-free
@@ -282,14 +297,14 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
   switch (c.kind) {
     case CommandKind::kSetIntegrator: {
       IntegratorConfig config = c.integrator;
-      if (c.default_max_steps) config.max_steps = inst.config().integrator.max_steps;
-      const double cost = s.m.evaluation_s[static_cast<std::size_t>(inst.method())];
-      if (c.default_max_steps && config.type == IntegratorType::kDormandPrince && cost > 0.0) {
-        // The largest max_steps that fits: s·(1 + 6·max_steps) + 1 evaluations in the period.
-        const double fit = LargestMaxStepsThatFit(period() / cost, config.substeps);
-        if (fit < 1.0) return kSwitchDoesNotFit;
-        config.max_steps = static_cast<int>(std::min<double>(config.max_steps, fit));
+      if (c.default_max_steps) {
+        config.max_steps = inst.config().integrator.max_steps;
+        // dopri5: the largest that fits at the costliest method, so a later method switch still fits.
+        if (config.type == IntegratorType::kDormandPrince) {
+          config.max_steps = std::max(1, DefaultMaxSteps(s.m, config.substeps, FreeFor(s)));
+        }
       }
+      if (const char* refused = inst.CheckIntegrator(config)) return refused;
       if (!Fits(s, config, inst.method())) return kSwitchDoesNotFit;
       return inst.SetIntegrator(config);
     }
@@ -304,6 +319,7 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
       return nullptr;
     }
     case CommandKind::kSetMethod:
+      if (!inst.instance_model().dynamics[static_cast<std::size_t>(c.method)]) return inst.SetMethod(c.method);
       if (!Fits(s, inst.integrator().config(), c.method)) return kSwitchDoesNotFit;
       return inst.SetMethod(c.method);
     case CommandKind::kSetForces: s.forces = c.on; return nullptr;

@@ -132,16 +132,28 @@ struct InstanceChannels {
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
 };
 
-// Why a run-time switch was refused by the work bound (daemon/work_bound.hpp).
+// Why a run-time switch was refused by the work bound (daemon/work_bound.hpp);
+// the reply adds the figures (WorkFigures).
 inline constexpr char kSwitchDoesNotFit[] =
-    "its worst case per tick does not fit the period (as lagranged refuses such a scene): lower substeps or "
-    "max_steps, or choose a cheaper method";
+    "the instances' worst case per tick would not fit the period (as lagranged refuses such a scene): lower "
+    "substeps or max_steps, or choose a cheaper method";
+
+// The figures behind a kSwitchDoesNotFit refusal, for the reply to quote (the
+// tick never formats): the instances' worst case per tick with the switch, the
+// budget (kTickBudgetFraction of the period), and for dopri5 the most
+// max_steps that would fit (-1: another integrator).
+struct WorkFigures {
+  double worst_s = 0.0;
+  double budget_s = 0.0;
+  int max_steps_fit = -1;
+};
 
 // The tick's verdict on one command, for the reply the publisher sends.
 struct Verdict {
   std::int64_t request_id = 0;
   CommandKind kind = CommandKind::kReset;
   const char* error = nullptr;  // null: applied
+  WorkFigures work;             // error == kSwitchDoesNotFit: its figures
 };
 // Verdicts one tick can produce: a full command queue plus every urgent kind.
 inline constexpr std::size_t kCommandQueueCapacity = 32;
@@ -256,9 +268,14 @@ class Runtime {
   void LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived);
 
   const char* ApplySwitch(Slot& s, const CommandMessage& c);
-  bool Fits(const Slot& s, const IntegratorConfig& config, Method method) const;
+  // Whether instance s by `config` and `method` keeps the instances' worst
+  // case within the budget; when not, s's refusal figures say by how much.
+  bool Fits(Slot& s, const IntegratorConfig& config, Method method);
+  // The budget less every other instance's worst case, s.
+  double FreeFor(const Slot& s) const;
 
   std::shared_ptr<const DaemonModel> model_;
+  double worst_total_s_ = 0.0;  // Σ every instance's current worst case per tick
   Clock* clock_ = nullptr;
   std::vector<std::unique_ptr<Slot>> slots_;
   Nanoseconds phase_shift_ = 0;

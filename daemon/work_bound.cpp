@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include "daemon/instance.hpp"
+#include "daemon/instance_model.hpp"
 #include "plant/plant_model.hpp"
 
 namespace lagrange {
@@ -31,6 +33,12 @@ std::string WhatToLower(const IntegratorConfig& config, double evaluations_that_
   const double max_steps = LargestMaxStepsThatFit(evaluations_that_fit, config.substeps);
   if (max_steps < 1.0) return "integrator.max_steps or integrator.substeps";
   return fmt::format("integrator.max_steps (at most {:.0f} fits) or integrator.substeps", max_steps);
+}
+
+// "rk4 worst case 5 evaluations × 0.03 µs + 2.1 µs".
+std::string Describe(const WorkBound& b, const IntegratorConfig& config) {
+  return fmt::format("{} worst case {} evaluations × {:.3g} µs + {:.3g} µs", ToString(config.type), b.evaluations,
+                     b.evaluation_s * 1e6, b.overhead_s * 1e6);
 }
 
 }  // namespace
@@ -59,9 +67,9 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   const int n = model.num_dofs();
   const VectorXd tau = VectorXd::Zero(n);
   VectorXd qdd(n);
-  using Clock = std::chrono::steady_clock;
-  const auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
-  const Clock::time_point begin = Clock::now();
+  using Steady = std::chrono::steady_clock;
+  const auto seconds_since = [](Steady::time_point t) { return std::chrono::duration<double>(Steady::now() - t).count(); };
+  const Steady::time_point begin = Steady::now();
   // Warm up, and find how many calls a batch can afford.
   int calls = kCallsPerBatch;
   for (int i = 0; i < kWarmUpCalls && seconds_since(begin) < 0.1 * kMeasureBudget; ++i) {
@@ -69,7 +77,7 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   }
   double fastest = std::numeric_limits<double>::infinity();
   for (int b = 0; b < kBatches; ++b) {
-    const Clock::time_point start = Clock::now();
+    const Steady::time_point start = Steady::now();
     for (int i = 0; i < calls; ++i) model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
     const double batch = seconds_since(start);
     fastest = std::min(fastest, batch / calls);
@@ -94,27 +102,69 @@ std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config) {
   return costs;
 }
 
-std::vector<WorkBound> MeasureWorkBounds(const Scene& scene) {
-  std::vector<WorkBound> bounds;
-  for (const InstanceConfig& inst : scene.instances) {
-    bounds.push_back(
-        {inst.name, WorstCaseEvaluations(inst.integrator, inst.plant.num_dofs()), MeasureEvaluationSeconds(inst)});
+double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluation_s) {
+  // One explicit Euler step makes the fewest evaluations, whatever the scene's
+  // integrator would (a stiff scene's dopri5 tick may take seconds).
+  InstanceConfig c = config;
+  c.integrator = IntegratorConfig{};
+  c.integrator.type = IntegratorType::kExplicitEuler;
+  Instance instance(c);
+  const double period = 1e-3;  // the step's length does not change its work
+  using Steady = std::chrono::steady_clock;
+  const Steady::time_point begin = Steady::now();
+  double fastest = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < kBatches && std::chrono::duration<double>(Steady::now() - begin).count() < kMeasureBudget; ++b) {
+    const Steady::time_point start = Steady::now();
+    instance.Step(period);
+    const double step = std::chrono::duration<double>(Steady::now() - start).count();
+    const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
+    fastest = std::min(fastest, step - evaluations * evaluation_s);
+    instance.Reset();  // every step from the initial state
   }
+  return std::max(0.0, fastest);
+}
+
+WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method) {
+  const double cost = m.evaluation_s[static_cast<std::size_t>(method)];
+  if (m.external_plant()) return {m.name(), 0, cost, m.tick_overhead_s};  // nothing is integrated
+  return {m.name(), WorstCaseEvaluations(config, m.num_dofs), cost, m.tick_overhead_s};
+}
+
+std::vector<WorkBound> WorkBoundsOf(const DaemonModel& model) {
+  std::vector<WorkBound> bounds;
+  for (const InstanceModel& m : model.instances) bounds.push_back(WorkBoundOf(m, m.config.integrator, m.config.method));
   return bounds;
 }
 
-std::optional<std::string> CheckWorkBounds(const Scene& scene, const std::vector<WorkBound>& bounds) {
-  for (std::size_t i = 0; i < bounds.size() && i < scene.instances.size(); ++i) {
-    const WorkBound& b = bounds[i];
-    if (b.tick_s() <= scene.period) continue;
-    const IntegratorConfig& integrator = scene.instances[i].integrator;
-    return fmt::format(
-        "{}: instances[{}] ({}): {} worst case {} evaluations × {:.3g} µs = {:.4g} ms per tick does not fit the "
-        "period {:.4g} ms; lower {}, or lengthen the period",
-        scene.file, i, b.instance, ToString(integrator.type), b.evaluations, b.evaluation_s * 1e6, b.tick_s() * 1e3,
-        scene.period * 1e3, WhatToLower(integrator, scene.period / b.evaluation_s));
+std::optional<std::string> CheckWorkBounds(const DaemonModel& model) {
+  const std::vector<WorkBound> bounds = WorkBoundsOf(model);
+  double total = 0.0;
+  std::size_t largest = 0;
+  std::string parts;
+  for (std::size_t i = 0; i < bounds.size(); ++i) {
+    total += bounds[i].tick_s();
+    if (bounds[i].tick_s() > bounds[largest].tick_s()) largest = i;
+    parts += fmt::format("{}{}: {} = {:.3g} ms", parts.empty() ? "" : ", ", bounds[i].instance,
+                         Describe(bounds[i], model.instances[i].config.integrator), bounds[i].tick_s() * 1e3);
   }
-  return std::nullopt;
+  const double budget = kTickBudgetFraction * model.period;
+  if (bounds.empty() || total <= budget) return std::nullopt;
+  const WorkBound& b = bounds[largest];
+  const double free = budget - (total - b.tick_s()) - b.overhead_s;
+  return fmt::format(
+      "{}: the instances' worst case per tick, {:.4g} ms ({}), does not fit {:.0f} % of the period {:.4g} ms; for "
+      "instances[{}] ({}), the largest, lower {}, or lengthen the period",
+      model.file, total * 1e3, parts, kTickBudgetFraction * 100, model.period * 1e3, largest, b.instance,
+      WhatToLower(model.instances[largest].config.integrator, b.evaluation_s > 0 ? free / b.evaluation_s : 0.0));
+}
+
+int DefaultMaxSteps(const InstanceModel& m, int substeps, double seconds_free) {
+  const int scene = m.config.integrator.max_steps;
+  const double costliest = *std::max_element(m.evaluation_s.begin(), m.evaluation_s.end());
+  if (costliest <= 0.0) return scene;
+  const double fit = LargestMaxStepsThatFit((seconds_free - m.tick_overhead_s) / costliest, substeps);
+  if (fit < 1.0) return 0;
+  return static_cast<int>(std::min<double>(scene, fit));
 }
 
 }  // namespace lagrange

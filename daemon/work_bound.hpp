@@ -5,9 +5,11 @@
 // adaptive or implicit integrator may evaluate the right-hand side many times
 // in it. The daemon only reads signals between ticks, so a tick that can run
 // for seconds (dopri5 on a stiff scene, max_steps 1e7: 13.7 s) makes SIGTERM
-// take that long. lagranged refuses a scene whose worst case does not fit:
+// take that long, and instances that each fit but not together overrun every
+// tick. So the whole tick is bounded, at load and at every switch command:
 //
-//   worst case per tick = evaluations(integrator, n) × cost of one evaluation ≤ period
+//   Σ over instances (evaluations(integrator, n) × cost of one evaluation + the rest of its tick)
+//       ≤ kTickBudgetFraction × period
 //
 // Right-hand-side evaluations per tick, s = substeps, n = degrees of freedom
 // (each integrator's Step, then one more for q̈ at the new state):
@@ -19,9 +21,11 @@
 //                                          Jacobians of n + 1 residuals, one residual per
 //                                          Newton iteration, the final M(q) solve)
 // The cost of one evaluation is PlantModel::ComputeAcceleration at the
-// instance's initial state, on a private model, timed in batches; the fastest
-// batch is taken, so a loaded machine does not inflate it (the bound is about
-// the scene, not about the machine's load).
+// instance's initial state, on a private model, by every method the plant has
+// with every configured effect on (what a command can switch to), timed in
+// batches; the fastest batch is taken, so a loaded machine does not inflate it
+// (the bound is about the scene, not about the machine's load). The rest of
+// its tick (controller, energy balance, health check) is timed the same way.
 
 #include <array>
 #include <cstdint>
@@ -33,6 +37,13 @@
 
 namespace lagrange {
 
+struct InstanceModel;
+struct DaemonModel;
+
+// The share of the period the instances' worst cases may take together; the
+// rest is kept for the wake-up's lateness and the hand-over to the publisher.
+inline constexpr double kTickBudgetFraction = 0.8;
+
 // dopri5: the largest max_steps whose worst case, s·(1 + 6·max_steps) + 1,
 // stays within `evaluations_that_fit` (< 1: none does).
 double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps);
@@ -40,29 +51,47 @@ double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps);
 // Worst-case right-hand-side evaluations of one tick (see above).
 std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs);
 
-// The cost of one ComputeAcceleration for `config` at (q0, qd0), zero torque, s.
+// The cost of one ComputeAcceleration for `config` at (q0, qd0), zero torque,
+// s: the fastest of up to 20 batches, within 50 ms.
 double MeasureEvaluationSeconds(const InstanceConfig& config);
 
 // The same by every method the plant has (by Method; 0 for a method it lacks),
 // with every effect the scene configures on (gravity, Coriolis and those in
-// effects.off included): the costliest combination a command can switch to,
-// for the run-time method and integrator commands (InstanceModel::evaluation_s, BuildOptions::measure_costs).
+// effects.off included): the costliest combination a command can switch to.
+// (InstanceModel::evaluation_s, BuildOptions::measure_costs.)
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
+// The rest of one tick of the instance besides its integrator's evaluations
+// (the controller, the energy balance, the trajectory, the health check), s:
+// a private Instance stepped under the scene's controller, its step time less
+// the evaluations it made, the fastest of a few batches within 50 ms.
+double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluation_s);
+
+// One instance's worst case per tick.
 struct WorkBound {
   std::string instance;
   std::int64_t evaluations = 0;  // worst case per tick
-  double evaluation_s = 0.0;     // measured cost of one
-  double tick_s() const { return static_cast<double>(evaluations) * evaluation_s; }
+  double evaluation_s = 0.0;     // cost of one
+  double overhead_s = 0.0;       // the rest of its tick
+  double tick_s() const { return static_cast<double>(evaluations) * evaluation_s + overhead_s; }
 };
 
-// Every instance's bound, measured now.
-std::vector<WorkBound> MeasureWorkBounds(const Scene& scene);
+// Instance `m` by `config` and `method`, at its measured costs.
+WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method);
+// Every instance's, as the scene configures it.
+std::vector<WorkBound> WorkBoundsOf(const DaemonModel& model);
 
-// The refusal for the first instance whose worst case exceeds the period:
-// "<file>: instances[i] (<name>): <integrator> worst case N evaluations × X µs = Y ms
-// per tick does not fit the period P ms; lower <what to lower>, or lengthen the period";
-// nullopt when every instance fits.
-std::optional<std::string> CheckWorkBounds(const Scene& scene, const std::vector<WorkBound>& bounds);
+// The refusal when the instances' worst cases together exceed
+// kTickBudgetFraction of the period: "<file>: the instances' worst case per
+// tick, Y ms (arm: rk4 ... = a ms, ...), does not fit 80 % of the period P ms;
+// for instances[i] (<name>), the largest, lower <what to lower>, or lengthen
+// the period"; nullopt when they fit. Costs of 0 (not measured) count 0.
+std::optional<std::string> CheckWorkBounds(const DaemonModel& model);
+
+// dopri5 without max_steps given: the scene's, lowered to the largest that
+// fits `seconds_free` at the costliest method the instance has (so that a
+// later method switch still fits); 0 when not even one step fits; the
+// scene's when no cost is known.
+int DefaultMaxSteps(const InstanceModel& m, int substeps, double seconds_free);
 
 }  // namespace lagrange

@@ -9,8 +9,10 @@
 #include <memory>
 
 #include "daemon/health.hpp"
+#include "daemon/instance_model.hpp"
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
+#include "daemon/work_bound.hpp"
 #include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -69,9 +71,15 @@ class SimulateCommand final : public Command {
         throw std::runtime_error(scene_ + ": instance " + c.name + " cannot run offline: " + why);
       }
     }
+    // One rule with lagranged: a scene whose ticks would not fit its period
+    // in real time is refused here too, with the same message.
+    BuildOptions options;
+    options.measure_costs = true;
+    const std::shared_ptr<const DaemonModel> model = BuildDaemonModel(scene, options);
+    if (const auto refusal = CheckWorkBounds(*model)) throw std::runtime_error(*refusal);
     std::vector<Instance> instances;
-    instances.reserve(scene.instances.size());
-    for (const InstanceConfig& c : scene.instances) instances.emplace_back(c);
+    instances.reserve(model->instances.size());
+    for (const InstanceModel& m : model->instances) instances.emplace_back(std::shared_ptr<const InstanceModel>(model, &m));
 
     const bool several = instances.size() > 1;
     std::vector<std::unique_ptr<std::ofstream>> files;

@@ -335,20 +335,56 @@ class CostedSwitchingRuntime : public SwitchingRuntime {
                          BuildOptions::WithCosts({1e-6, 5e-6, 2e-6})) {}
 };
 
-// The work bound the scene was checked against holds for switches too.
-TEST_F(CostedSwitchingRuntime, ASwitchWhoseWorstCaseDoesNotFitThePeriodIsRefused) {
+// The work bound the scene was checked against holds for switches too: the
+// instances' worst case per tick within 80 % of the period (0.8 ms here).
+TEST_F(CostedSwitchingRuntime, ASwitchWhoseWorstCaseDoesNotFitThePeriodIsRefusedWithItsFigures) {
   Ticks(1);
-  EXPECT_STREQ(SetIntegrator(IntegratorType::kRk4, 300), kSwitchDoesNotFit);  // 1201 evaluations × 1 µs > 1 ms
+  EXPECT_STREQ(SetIntegrator(IntegratorType::kRk4, 200), kSwitchDoesNotFit);  // 801 evaluations × 1 µs > 0.8 ms
+  EXPECT_NEAR(Arm().verdicts[0].work.worst_s, 801e-6, 1e-12);
+  EXPECT_NEAR(Arm().verdicts[0].work.budget_s, 0.8e-3, 1e-12);
   EXPECT_EQ(Arm().integrator.substeps, 1);
-  ASSERT_EQ(SetIntegrator(IntegratorType::kRk4, 200), nullptr);  // 801 µs fits
+  ASSERT_EQ(SetIntegrator(IntegratorType::kRk4, 150), nullptr);  // 601 µs fits
   // ... but not by the lagrangian method at 5 µs.
   CommandMessage& m = Command(CommandKind::kSetMethod);
   m.method = Method::kLagrangian;
   EXPECT_STREQ(Verdict(), kSwitchDoesNotFit);
   EXPECT_EQ(Arm().method, Method::kClosedForm);
-  // dopri5 with no max_steps given takes the largest that fits: s·(1 + 6·m) + 1 ≤ 1000.
+  // dopri5 with no max_steps given takes the largest that fits at the costliest
+  // method (lagrangian, 5 µs): s·(1 + 6·m) + 1 ≤ 160 gives 26, ...
   ASSERT_EQ(SetIntegrator(IntegratorType::kDormandPrince, 1, /*default_max_steps=*/true), nullptr);
-  EXPECT_EQ(Arm().integrator.max_steps, 166);
+  EXPECT_EQ(Arm().integrator.max_steps, 26);
+  // ... so a switch to that method still fits.
+  CommandMessage& lagrangian = Command(CommandKind::kSetMethod);
+  lagrangian.method = Method::kLagrangian;
+  EXPECT_EQ(Verdict(), nullptr);
+  EXPECT_EQ(Arm().method, Method::kLagrangian);
+}
+
+// The bound is the whole tick's: instances that each fit alone but not
+// together are refused (the issue's cart-pole: method lagrangian, then rk4 ×
+// 1000, beside the arm).
+TEST(WorkBound, IsCheckedOverEveryInstanceNotEachAlone) {
+  Runtime runtime(ParseScene(R"(
+period: 0.001
+instances:
+  - {name: arm, plant: {type: arm2}, integrator: {type: rk4, substeps: 90}}
+  - {name: cartpole, plant: {type: cartpole}, integrator: {type: rk4, substeps: 90}}
+)",
+                             "inline"),
+                  BuildOptions::WithCosts({1e-6, 5e-6, 2e-6}));  // each: 361 µs, together 722 µs of 800
+  TickRecord record = runtime.MakeRecord();
+  const auto set = [&](std::size_t i, int substeps) {
+    CommandMessage* c = runtime.channels(i).commands.BeginPush();
+    c->kind = CommandKind::kSetIntegrator;
+    c->integrator = IntegratorConfig{};
+    c->integrator.substeps = substeps;
+    runtime.channels(i).commands.Push();
+    runtime.Tick(kMs, record);
+    return record.instances[i].verdicts[0].error;
+  };
+  EXPECT_STREQ(set(1, 110), kSwitchDoesNotFit);  // 441 µs alone would fit; with the arm's 361 it does not
+  EXPECT_EQ(set(0, 10), nullptr);                // the arm down to 41 µs ...
+  EXPECT_EQ(set(1, 110), nullptr);               // ... and now the cart-pole's 441 µs fits beside it
 }
 
 // Forces only when asked; they add up to M(q) q̈ at the published state.

@@ -296,6 +296,9 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
   const fs::path negative =
       Write("negative.yaml", "instances:\n  - name: arm\n    plant: {type: arm2, params: {m2: -0.8}}\n");
   const fs::path broken = Write("broken.yaml", "instances: [\n");
+  // lagranged refuses it (max_steps 1e5 per tick cannot fit 1 ms): simulate by the same rule.
+  const fs::path unbounded =
+      Write("unbounded.yaml", "instances:\n  - {name: arm, plant: {type: arm2}, integrator: {type: dopri5}}\n");
   const std::string out = (dir_ / "x.csv").string();
   struct Case {
     std::vector<std::string> args;
@@ -310,6 +313,9 @@ TEST_F(Simulate, BadInputPrintsOneLineAndExitsNonZero) {
        1,
        "negative.yaml:3:38: instances[0].plant.params.m2: expected a positive number (kg), got -0.8"},
       {{"simulate", broken.string(), "--duration", "1", "--csv", out}, 1, "broken.yaml:2:1: invalid YAML"},
+      {{"simulate", unbounded.string(), "--duration", "1", "--csv", out},
+       1,
+       "unbounded.yaml: the instances' worst case per tick"},
       {{"simulate", negative.string(), "--duration", "-1", "--csv", out},
        2,
        "--duration: expected a positive number, got '-1'"},
