@@ -43,7 +43,8 @@ ModeOutcome OnEstop(ModeState s) {
   return Enter(s, Mode::kEstop, kEstopped);
 }
 
-ModeOutcome OnClearEstop(ModeState s) {
+ModeOutcome OnClearEstop(ModeState s, const ModeContext& c) {
+  if (c.estop_this_tick) return Refuse(s, kClearWithEstop);  // the estop wins its tick
   if (s.mode == Mode::kStopped) return Rearm(s);      // the watchdog re-armed; a latched estop stays
   if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
     s.estop_latched = false;
@@ -135,7 +136,7 @@ ModeOutcome Transition(const ModeState& s, ModeEvent e, const ModeContext& c) {
       return {first, nullptr, true};
     }
     case ModeEvent::kEstop: return OnEstop(s);
-    case ModeEvent::kClearEstop: return OnClearEstop(s);
+    case ModeEvent::kClearEstop: return OnClearEstop(s, c);
     case ModeEvent::kReset: return OnReset(s, c);
     case ModeEvent::kPause: return OnPause(s, c);
     case ModeEvent::kResume: return OnResume(s);

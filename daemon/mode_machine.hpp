@@ -29,7 +29,14 @@
 //     running instance that follows streamed setpoints, or an external
 //     controller's torques, then holds; an external plant stops.
 //   The next accepted input (kSetpointArrived, kTorqueArrived) resumes
-//   running from hold. Under an external controller the torques decide,
+//   running from hold.
+//
+// The stop is sacred: an estop is taken before anything else in a tick, and
+// a clear_estop that arrives in the same tick as an estop is refused
+// (kClearWithEstop) whichever was sent first, so no flood of clears can
+// cancel an estop as it lands. Leaving an estop takes a clear_estop in a
+// later tick: a deliberate command of its own (a key holder's when the bus is
+// signed). A latched estop survives a fault, the watchdog and reset. Under an external controller the torques decide,
 //   never the setpoints. An instance also holds when an external controller
 //   becomes active (until its first torque) and after clear_estop.
 
@@ -76,6 +83,7 @@ struct ModeContext {
   bool external_plant = false;       // the plant is outside lagranged
   bool external_controller = false;  // the active controller (after the event) streams torques over LCM
   bool setpoints_timed_out = false;  // streamed setpoints were accepted and then stopped for setpoint_timeout
+  bool estop_this_tick = false;      // an estop arrived in the same tick as this event (kClearEstop)
   const char* fault = nullptr;       // kFault: why (a static string)
 };
 
@@ -113,6 +121,8 @@ inline constexpr char kMeasuredSecondSource[] = "a measured state came from a se
 // Why a command was refused by the mode (static strings, in the reply).
 inline constexpr char kEstopWhileFaulted[] = "estop: the instance is faulted (frozen); reset it";
 inline constexpr char kClearWithoutEstop[] = "clear_estop: the instance is not in an emergency stop";
+inline constexpr char kClearWithEstop[] =
+    "clear_estop: an estop arrived in the same tick, and an estop wins; send clear_estop again to leave it";
 inline constexpr char kPauseExternalPlant[] =
     "pause: an external plant keeps moving and cannot be frozen (estop brakes it)";
 inline constexpr char kPauseNotRunning[] = "pause: the instance is not running or holding";

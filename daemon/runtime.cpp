@@ -87,6 +87,7 @@ struct Runtime::Slot {
   bool forces;                    // publish <NAME>_FORCES
   bool integrated = false;        // this tick ran the integrator
   double worst_s = 0.0;           // this instance's worst case per tick as it runs now (daemon/work_bound.hpp)
+  bool estop_this_tick = false;   // an estop was posted for this tick (a clear_estop in it is refused)
   WorkFigures refusal;            // the figures of the last switch the work bound refused
 
   const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
@@ -173,6 +174,7 @@ const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* f
   const ModeContext context{.external_plant = s.m.external_plant(),
                             .external_controller = s.external_active(),
                             .setpoints_timed_out = s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
+                            .estop_this_tick = s.estop_this_tick,
                             .fault = fault};
   const ModeOutcome out = Transition(s.mode, event, context);
   s.mode = out.next;
@@ -211,6 +213,8 @@ void Runtime::TakeUrgent(Slot& s, Nanoseconds now, InstanceRecord& r) {
   UrgentFlags& u = s.channels.urgent;
   std::uint64_t posted[kNumUrgent];
   for (std::size_t k = 0; k < kNumUrgent; ++k) posted[k] = u.posted[k].load(std::memory_order_acquire);
+  const auto estop = static_cast<std::size_t>(Urgent::kEstop);
+  s.estop_this_tick = posted[estop] > s.urgent_seen[estop];
   for (;;) {
     std::size_t next = kNumUrgent;
     for (std::size_t k = 0; k < kNumUrgent; ++k) {

@@ -196,6 +196,14 @@ TEST(ModeMachine, AnEstopStaysLatchedThroughTheWatchdogAndBrakesTheFirstStateAft
   EXPECT_FALSE(first.next.hold_on_arrival);
 }
 
+TEST(ModeMachine, AClearInTheEstopsOwnTickIsRefusedInEveryMode) {
+  for (const Mode m : kModes) {
+    const ModeOutcome out = Transition(In(m), ModeEvent::kClearEstop, {.estop_this_tick = true});
+    EXPECT_EQ(out.refused, kClearWithEstop) << ToString(m);
+    EXPECT_EQ(out.next.mode, m) << ToString(m);
+  }
+}
+
 TEST(ModeMachine, FaultKeepsTheLatchAndRefusesAnEstopUntilReset) {
   ModeState faulted = Transition(In(Mode::kEstop), ModeEvent::kFault, {.fault = "the energy left its bound"}).next;
   EXPECT_EQ(faulted.reason, std::string("the energy left its bound"));

@@ -181,6 +181,26 @@ TEST_F(RuntimeTest, EmergencyStopBrakesTheJointsAndClearingHolds) {
   EXPECT_STREQ(Arm().command_error, "clear_estop: the instance is not in an emergency stop");
 }
 
+// The stop is sacred: a clear_estop in the same tick as an estop is refused
+// whichever came first, a flood of them included; a clear in a later tick
+// leaves the estop.
+TEST_F(RuntimeTest, AClearInTheSameTickAsAnEstopNeverCancelsIt) {
+  Ticks(10);
+  for (const bool clear_first : {true, false}) {
+    if (clear_first) runtime.PostUrgent(0, Urgent::kClearEstop, 1);
+    runtime.PostUrgent(0, Urgent::kEstop, 2);
+    for (int k = 0; k < 1000; ++k) runtime.PostUrgent(0, Urgent::kClearEstop, 3 + k);  // a flood of clears
+    Ticks(1);
+    EXPECT_EQ(Arm().mode, Mode::kEstop) << "clear first: " << clear_first;
+    EXPECT_STREQ(Arm().command_error, kClearWithEstop);
+    Ticks(5);
+    EXPECT_EQ(Arm().mode, Mode::kEstop);
+    runtime.PostUrgent(0, Urgent::kClearEstop, 9000);  // deliberate, in a tick of its own
+    Ticks(1);
+    EXPECT_EQ(Arm().mode, Mode::kHold);
+  }
+}
+
 class FaultTest : public RuntimeTest {
  protected:
   FaultTest() : RuntimeTest(TwoInstances("    max_energy: 8.0\n")) {}
