@@ -9,7 +9,10 @@ namespace {
 
 class Hold final : public Trajectory {
  public:
-  explicit Hold(VectorXd q) : q_(std::move(q)) {}
+  Hold(VectorXd q, bool follows_start) : q_(std::move(q)), follows_start_(follows_start) {}
+  void StartFrom(ConstVecRef q, ConstVecRef) override {
+    if (follows_start_) q_ = q;
+  }
   void Sample(double, Setpoint& out) const override {
     out.q = q_;
     out.qd.setZero();
@@ -19,11 +22,13 @@ class Hold final : public Trajectory {
 
  private:
   VectorXd q_;
+  bool follows_start_;
 };
 
 class Step final : public Trajectory {
  public:
   Step(VectorXd from, VectorXd target, double at) : from_(std::move(from)), target_(std::move(target)), at_(at) {}
+  void StartFrom(ConstVecRef q, ConstVecRef) override { from_ = q; }
   void Sample(double t, Setpoint& out) const override {
     out.q = t < at_ ? from_ : target_;
     out.qd.setZero();
@@ -38,8 +43,14 @@ class Step final : public Trajectory {
 
 class Sine final : public Trajectory {
  public:
-  Sine(VectorXd center, VectorXd amplitude, VectorXd frequency)
-      : center_(std::move(center)), amplitude_(std::move(amplitude)), omega_(2.0 * std::numbers::pi * frequency) {}
+  Sine(VectorXd center, VectorXd amplitude, VectorXd frequency, bool follows_start)
+      : center_(std::move(center)),
+        amplitude_(std::move(amplitude)),
+        omega_(2.0 * std::numbers::pi * frequency),
+        follows_start_(follows_start) {}
+  void StartFrom(ConstVecRef q, ConstVecRef) override {
+    if (follows_start_) center_ = q;  // q_d(0) = center
+  }
   void Sample(double t, Setpoint& out) const override {
     for (int i = 0; i < center_.size(); ++i) {
       const double s = std::sin(omega_[i] * t), c = std::cos(omega_[i] * t);
@@ -52,13 +63,22 @@ class Sine final : public Trajectory {
 
  private:
   VectorXd center_, amplitude_, omega_;
+  bool follows_start_;
 };
 
 // Quintic q(s) = Σ c_k s^k on s = t/T in [0, 1] per joint.
 class MinimumJerk final : public Trajectory {
  public:
   MinimumJerk(const VectorXd& q0, const VectorXd& qd0, const VectorXd& qdd0, const VectorXd& target, double T)
-      : c_(q0.size(), 6), target_(target), T_(T) {
+      : c_(q0.size(), 6), target_(target), qdd0_(qdd0), T_(T) {
+    Fit(q0, qd0);
+  }
+  void StartFrom(ConstVecRef q, ConstVecRef qd) override { Fit(q, qd); }
+  // (q0, qd0, qdd0_) => the quintic's coefficients to (target, 0, 0).
+  void Fit(ConstVecRef q0, ConstVecRef qd0) {
+    const VectorXd& qdd0 = qdd0_;
+    const VectorXd& target = target_;
+    const double T = T_;
     for (int i = 0; i < q0.size(); ++i) {
       // Boundary conditions in s: q(0) = q0, q'(0) = T qd0, q''(0) = T² qdd0, q(1) = target, q'(1) = q''(1) = 0.
       const double a0 = q0[i], a1 = T * qd0[i], a2 = 0.5 * T * T * qdd0[i];
@@ -93,20 +113,23 @@ class MinimumJerk final : public Trajectory {
 
  private:
   MatrixXd c_;
-  VectorXd target_;
+  VectorXd target_, qdd0_;
   double T_;
 };
 
 }  // namespace
 
-std::unique_ptr<Trajectory> MakeHold(const VectorXd& q) { return std::make_unique<Hold>(q); }
+std::unique_ptr<Trajectory> MakeHold(const VectorXd& q, bool follows_start) {
+  return std::make_unique<Hold>(q, follows_start);
+}
 
 std::unique_ptr<Trajectory> MakeStep(const VectorXd& from, const VectorXd& target, double at) {
   return std::make_unique<Step>(from, target, at);
 }
 
-std::unique_ptr<Trajectory> MakeSine(const VectorXd& center, const VectorXd& amplitude, const VectorXd& frequency) {
-  return std::make_unique<Sine>(center, amplitude, frequency);
+std::unique_ptr<Trajectory> MakeSine(const VectorXd& center, const VectorXd& amplitude, const VectorXd& frequency,
+                                     bool follows_start) {
+  return std::make_unique<Sine>(center, amplitude, frequency, follows_start);
 }
 
 std::unique_ptr<Trajectory> MakeMinimumJerk(const VectorXd& q0, const VectorXd& qd0, const VectorXd& qdd0,

@@ -136,7 +136,12 @@ const char* Instance::SetMethod(Method method) {
   return nullptr;  // q̈ follows at the next step
 }
 
-void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_, out); }
+void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_ - trajectory_start_, out); }
+
+void Instance::RestartTrajectory() {
+  trajectory_->StartFrom(q_, qd_);
+  trajectory_start_ = t_;
+}
 
 Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
@@ -259,6 +264,7 @@ void Instance::Reset() {
   }
   active_ = 0;
   controller().Reset();
+  RestartTrajectory();  // from the scene's initial state at t = 0, as built
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);

@@ -53,6 +53,10 @@ class Instance {
 
   // The scene trajectory's setpoint at the current time.
   void SampleTrajectory(Setpoint& out) const;
+  // Starts the scene trajectory over from the current state, now (an
+  // external plant's first measured state: Trajectory::StartFrom). Reset
+  // starts it from the scene's initial state again. Allocates nothing.
+  void RestartTrajectory();
 
   // Why a step failed (static strings, so the tick can report them without
   // formatting), or null when it did not.
@@ -186,6 +190,7 @@ class Instance {
   std::vector<Gains> scene_gains_;              // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;
+  double trajectory_start_ = 0.0;  // s: the instance time the trajectory's time counts from
   double t_ = 0.0;
   std::int64_t steps_ = 0;
   VectorXd q_, qd_, qdd_, tau_, tau_cmd_, q_des_;

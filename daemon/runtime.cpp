@@ -177,8 +177,12 @@ const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* f
                             .estop_this_tick = s.estop_this_tick,
                             .fault = fault};
   const ModeOutcome out = Transition(s.mode, event, context);
+  const Mode before = s.mode.mode;
   s.mode = out.next;
   if (out.refused != nullptr || !out.entered) return out.refused;
+  // An external plant commanded from its first fresh state: the scene's
+  // trajectory starts there, not where the scene assumed the robot was.
+  if (before == Mode::kWaiting && Commands(s.mode.mode)) s.instance.RestartTrajectory();
   // Entry actions.
   switch (s.mode.mode) {
     case Mode::kHold:  // where the hold began, at rest; a fallback starts afresh

@@ -477,9 +477,10 @@ std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& c) {
   const TrajectoryConfig& t = c.setpoint;
   const int n = c.plant.num_dofs();
   switch (t.type) {
-    case TrajectoryConfig::Type::kHold: return MakeHold(t.q.value_or(c.q0));
+    case TrajectoryConfig::Type::kHold: return MakeHold(t.q.value_or(c.q0), !t.q.has_value());
     case TrajectoryConfig::Type::kStep: return MakeStep(c.q0, t.target, t.at);
-    case TrajectoryConfig::Type::kSine: return MakeSine(t.center.value_or(c.q0), t.amplitude, t.frequency);
+    case TrajectoryConfig::Type::kSine:
+      return MakeSine(t.center.value_or(c.q0), t.amplitude, t.frequency, !t.center.has_value());
     case TrajectoryConfig::Type::kMinimumJerk:
       return MakeMinimumJerk(c.q0, c.qd0, VectorXd::Zero(n), t.target, t.duration);
   }

@@ -80,5 +80,34 @@ TEST(Step, JumpsAtItsTimeAndStaysAtRest) {
   EXPECT_EQ(s.qd.norm() + s.qdd.norm(), 0.0);
 }
 
+// StartFrom starts the motion over from a measured state; what the scene
+// fixed (a target, an explicit hold or centre) stays.
+TEST(StartFrom, EveryGeneratorStartsFromTheGivenStateAndKeepsWhatTheSceneFixed) {
+  const VectorXd q = V({1.2, -0.5}), qd = V({0.3, 0.0});
+  Setpoint s(2);
+  auto jerk = MakeMinimumJerk(V({0.0, 0.0}), V({0.0, 0.0}), V({0.0, 0.0}), V({1.0, 1.0}), 2.0);
+  jerk->StartFrom(q, qd);
+  jerk->Sample(0.0, s);
+  EXPECT_EQ(s.q, q);
+  EXPECT_NEAR((s.qd - qd).norm(), 0.0, 1e-15);
+  jerk->Sample(2.0, s);
+  EXPECT_EQ(s.q, V({1.0, 1.0}));  // the target stays
+  auto step = MakeStep(V({0.0, 0.0}), V({1.0, 2.0}), 0.5);
+  step->StartFrom(q, qd);
+  step->Sample(0.0, s);
+  EXPECT_EQ(s.q, q);
+  auto defaulted = MakeHold(V({0.0, 0.0}), /*follows_start=*/true), fixed = MakeHold(V({0.0, 0.0}));
+  defaulted->StartFrom(q, qd);
+  fixed->StartFrom(q, qd);
+  defaulted->Sample(1.0, s);
+  EXPECT_EQ(s.q, q);
+  fixed->Sample(1.0, s);
+  EXPECT_EQ(s.q, V({0.0, 0.0}));
+  auto sine = MakeSine(V({0.0, 0.0}), V({0.5, 0.2}), V({1.0, 0.25}), /*follows_start=*/true);
+  sine->StartFrom(q, qd);
+  sine->Sample(0.0, s);
+  EXPECT_NEAR((s.q - q).norm(), 0.0, 1e-15);
+}
+
 }  // namespace
 }  // namespace lagrange

@@ -624,19 +624,26 @@ TEST_F(Bridge, TwoEstopsInOneTickAreAppliedOnce) {
   EXPECT_EQ(record.instances[0].num_verdicts, 0u);  // and not again
 }
 
-TEST_F(Bridge, UrgentCommandsWithinOneTickApplyInTheOrderTheyCame) {
+// Verdicts come in the order the commands came; an estop wins its tick: a
+// clear_estop in the same tick is refused whether it came before or after.
+TEST_F(Bridge, UrgentCommandsWithinOneTickAreAnsweredInOrderAndTheEstopWins) {
   SendCommand(Command(command_t::ESTOP, 1));
   SendCommand(Command(command_t::CLEAR_ESTOP, 2));
   TickRecord record = TickByHand();
   ASSERT_EQ(record.instances[0].num_verdicts, 2u);
   EXPECT_EQ(record.instances[0].verdicts[0].request_id, 1);
+  EXPECT_EQ(record.instances[0].verdicts[0].error, nullptr);
   EXPECT_EQ(record.instances[0].verdicts[1].request_id, 2);
+  EXPECT_STREQ(record.instances[0].verdicts[1].error, kClearWithEstop);
+  EXPECT_EQ(runtime_.mode(0), Mode::kEstop);
+  SendCommand(Command(command_t::CLEAR_ESTOP, 3));  // a tick of its own: leaves the estop
+  record = TickByHand();
   EXPECT_EQ(runtime_.mode(0), Mode::kHold);
-  SendCommand(Command(command_t::CLEAR_ESTOP, 3));
-  SendCommand(Command(command_t::ESTOP, 4));
+  SendCommand(Command(command_t::CLEAR_ESTOP, 4));
+  SendCommand(Command(command_t::ESTOP, 5));
   record = TickByHand();
   ASSERT_EQ(record.instances[0].num_verdicts, 2u);
-  EXPECT_STREQ(record.instances[0].verdicts[0].error, "clear_estop: the instance is not in an emergency stop");
+  EXPECT_STREQ(record.instances[0].verdicts[0].error, kClearWithEstop);
   EXPECT_EQ(record.instances[0].verdicts[1].error, nullptr);
   EXPECT_EQ(runtime_.mode(0), Mode::kEstop);
 }

@@ -1170,6 +1170,26 @@ instances:
   ExpectTwoOddTicksThen(runtime, record, Mode::kStopped);
 }
 
+// An external plant's controller that starts (or restarts) on a robot that
+// is not where its scene assumed starts its trajectory from the measured
+// state, as libfranka's motion generators do: the shipped controller scene's
+// sine is centred on the initial q (0.785, 0), the robot is at (1.2, -0.5).
+TEST(ExternalPlantStart, TheTrajectoryStartsFromTheFirstMeasuredStateNotTheScenesInitialQ) {
+  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/arm_external_plant.yaml"));
+  TickRecord record = runtime.MakeRecord();
+  const VectorXd measured = Vec({1.2, -0.5});
+  PostMeasured(runtime, measured, Vec({0.0, 0.0}), 1);
+  runtime.Tick(kMs, record);
+  ASSERT_EQ(runtime.mode(0), Mode::kRunning);
+  // The sine's value at its start is its centre: the measured q, so nothing jumps.
+  EXPECT_LT((record.instances[0].q_des - measured).norm(), 1e-12) << record.instances[0].q_des.transpose();
+  // And a reset starts it from the scene's initial q again (then the next first state anchors it anew).
+  runtime.instance(0).Reset();
+  Setpoint sp(2);
+  runtime.instance(0).SampleTrajectory(sp);
+  EXPECT_LT((sp.q - runtime.instance(0).config().q0).norm(), 1e-12);
+}
+
 // ------------------------------------------------------------------ phase lock
 
 // An external plant with phase_lock, fed states that arrive on their own 1 kHz
