@@ -252,9 +252,15 @@ void Publisher::LogEvents(const TickRecord& record) {
     }
     if (r.mode != out_[i].mode || r.reason != out_[i].reason) {
       const bool alarm = r.mode == Mode::kFault || r.mode == Mode::kEstop || r.mode == Mode::kStopped;
-      spdlog::log(alarm ? spdlog::level::warn : spdlog::level::info, "{}: {} -> {} at t = {:.3f} s{}",
-                  model_.instances[i].name(), ToString(out_[i].mode), ToString(r.mode), r.t,
-                  r.reason ? fmt::format(" ({})", r.reason) : "");
+      const std::string why = r.reason ? fmt::format(" ({})", r.reason) : "";
+      const auto level = alarm ? spdlog::level::warn : spdlog::level::info;
+      if (r.mode != out_[i].mode) {
+        spdlog::log(level, "{}: {} -> {} at t = {:.3f} s{}", model_.instances[i].name(), ToString(out_[i].mode),
+                    ToString(r.mode), r.t, why);
+      } else {  // the same mode for a new reason
+        spdlog::log(level, "{}: still {} at t = {:.3f} s, now{}", model_.instances[i].name(), ToString(r.mode), r.t,
+                    why);
+      }
       out_[i].mode = r.mode;
       out_[i].reason = r.reason;
     }

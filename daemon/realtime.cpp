@@ -3,6 +3,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -18,7 +19,16 @@ ThreadPriorities PrioritiesBelow(int tick_priority) {
 std::vector<std::string> LockMemory(const RealtimeOptions& options) {
   std::vector<std::string> problems;
   if (options.lock_memory && mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
-    problems.push_back(std::string("mlockall: ") + std::strerror(errno));
+    const int error = errno;
+    std::string why = std::string("mlockall: ") + std::strerror(error);
+    rlimit limit{};
+    if ((error == ENOMEM || error == EPERM) && getrlimit(RLIMIT_MEMLOCK, &limit) == 0) {
+      why += limit.rlim_cur == RLIM_INFINITY
+                 ? " (RLIMIT_MEMLOCK is unlimited)"
+                 : " (RLIMIT_MEMLOCK is " + std::to_string(limit.rlim_cur / 1024) +
+                       " KiB: raise it, e.g. LimitMEMLOCK=infinity in the service unit or ulimit -l, or run as root)";
+    }
+    problems.push_back(why);
   }
   return problems;
 }

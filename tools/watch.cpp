@@ -268,10 +268,10 @@ class WatchCommand final : public Command {
     f << "wake latency us  p50 " << F(s.wake_latency_p50, 1) << "  p99 " << F(s.wake_latency_p99, 1) << "  max "
       << F(s.wake_latency_max, 1) << "    compute us  p50 " << F(s.compute_p50, 1) << "  p99 " << F(s.compute_p99, 1)
       << "  max " << F(s.compute_max, 1) << "\n";
-    f << "setpoints " << s.setpoints_accepted << " accepted, " << s.setpoints_rejected << " rejected   torques "
-      << s.torques_accepted << " accepted, " << s.torques_rejected << " rejected   measured states "
-      << s.measured_accepted << " accepted, " << s.measured_rejected << " rejected"
-      << (s.last_rejection.empty() ? "" : " (last: " + Escape(s.last_rejection) + ")") << "\n";
+    f << "inputs    setpoints " << s.setpoints_accepted << " accepted, " << s.setpoints_rejected
+      << " rejected   torques " << s.torques_accepted << " accepted, " << s.torques_rejected
+      << " rejected   measured states " << s.measured_accepted << " accepted, " << s.measured_rejected << " rejected\n";
+    if (!s.last_rejection.empty()) f << "          last input rejected: " << Escape(s.last_rejection) << "\n";
     f << "commands  " << s.commands_accepted << " accepted, " << s.commands_rejected << " rejected"
       << (s.last_command_error.empty() ? "" : " (last: " + Escape(s.last_command_error) + ")") << "   decode errors "
       << s.decode_errors << "\n";
