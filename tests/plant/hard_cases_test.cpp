@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <numbers>
@@ -156,6 +158,8 @@ TEST(HardCases, AMillionRevolutionsChangeNothingButTheAngleItself) {
   }
 }
 
+constexpr double kMassRatioEnergyTol = 2e-6;  // of the energy scale |E(0)| + T(0), at every step
+
 TEST(HardCases, ExtremeMassRatiosKeepAPositiveDefiniteMassMatrixAndEnergy) {
   struct Case {
     std::string name;
@@ -188,9 +192,17 @@ TEST(HardCases, ExtremeMassRatiosKeepAPositiveDefiniteMassMatrixAndEnergy) {
     r.qd = VectorXd::Constant(n, 0.5);
     const double e0 = r.model->Energy(r.q, r.qd);
     double scale = std::abs(e0) + r.model->KineticEnergy(r.q, r.qd);
-    for (int k = 0; k < 3000; ++k) r.integrator->Step(*r.model, k * 1e-3, 1e-3, r.tau, r.q, r.qd);
-    ASSERT_TRUE(r.q.allFinite() && r.qd.allFinite()) << c.name;
-    EXPECT_LT(std::abs(r.model->Energy(r.q, r.qd) - e0), 1e-6 * scale) << c.name;
+    // At every step, not only at the end (the chain's error peaks mid-run: 1.09e-6 at t = 2.565 s).
+    double worst = 0.0;
+    for (int k = 0; k < 3000; ++k) {
+      r.integrator->Step(*r.model, k * 1e-3, 1e-3, r.tau, r.q, r.qd);
+      ASSERT_TRUE(r.q.allFinite() && r.qd.allFinite()) << c.name << " at step " << k;
+      worst = std::max(worst, std::abs(r.model->Energy(r.q, r.qd) - e0) / scale);
+    }
+    EXPECT_LT(worst, kMassRatioEnergyTol) << c.name;
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g", worst);
+    RecordProperty(c.name + " largest energy error", text);
   }
 }
 
@@ -235,8 +247,11 @@ TEST(HardCases, VariationalIntegratorKeepsTheArmsEnergyBoundedForHours) {
     if (k < steps / 10) first = std::max(first, err);         // the first tenth of the run
     if (k >= steps - steps / 10) last = std::max(last, err);  // the last tenth
   }
-  EXPECT_LT(first, 1e-2);        // measured 3.4e-3 J of 8 J: O(h²)
+  EXPECT_LT(first, 1e-2);        // of 8 J: O(h²); the README quotes the full-length run's figures
   EXPECT_LT(last, 2.0 * first);  // no secular growth
+  char text[64];
+  std::snprintf(text, sizeof text, "first tenth %.3g J, last tenth %.3g J", first, last);
+  RecordProperty("largest energy error", text);
 }
 
 // Fifty links released horizontally fall and whip for 10 s (the tip's
