@@ -34,6 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::BackgroundProcess;
 using testing::LcmCollector;
+using testing::ReadFile;
 
 constexpr double kWait = 20.0;                  // s: bound on waiting for an effect; a pass takes far less
 constexpr std::int64_t kTicksPerSecond = 1000;  // every scene here: period 0.001 s
@@ -82,12 +83,6 @@ double MaxAbsDifference(const std::vector<double>& a, const std::vector<double>&
   double m = 0.0;
   for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
   return m;
-}
-
-std::string ReadFile(const fs::path& path) {
-  std::ostringstream text;
-  text << std::ifstream(path).rdbuf();
-  return text.str();
 }
 
 class ExternalLive : public ::testing::Test {

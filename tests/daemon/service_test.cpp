@@ -31,16 +31,10 @@ namespace {
 namespace fs = std::filesystem;
 using testing::BackgroundProcess;
 using testing::LcmCollector;
+using testing::ReadFile;
 
 constexpr double kExitWait = 10.0;    // s: generous, for "it ended at all"
 constexpr double kAppearWait = 10.0;  // s: for a line or a file to appear
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 bool WaitUntil(const std::function<bool()>& condition, double timeout_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);

@@ -7,6 +7,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include "tools/spawn.hpp"
@@ -82,6 +84,13 @@ std::vector<std::string> Lines(const std::string& text) {
     start = nl + 1;
   }
   return lines;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 }  // namespace lagrange::testing

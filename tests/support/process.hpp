@@ -28,4 +28,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, double timeout_s 
 // Lines of `text`, without the trailing empty one.
 std::vector<std::string> Lines(const std::string& text);
 
+// The whole of the file at `path` ("" when it cannot be read).
+std::string ReadFile(const std::string& path);
+
 }  // namespace lagrange::testing

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@ namespace lagrange {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ReadFile;
 using testing::RunProcess;
 
 // A client of the installed types: encodes a state_t and decodes it back.
@@ -105,6 +107,30 @@ TEST_F(Install, EveryShippedSceneIsInstalledAndRuns) {
   }
   EXPECT_TRUE(fs::is_regular_file(prefix_ / "lib/systemd/system/lagranged.service"));
   EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/doc/lagrange/README.md"));
+}
+
+// Under a prefix other than /usr/local the unit runs that prefix's programs and scene.
+TEST_F(Install, TheUnitNamesThePrefixItWasInstalledUnder) {
+  const std::string unit = ReadFile(prefix_ / "lib/systemd/system/lagranged.service");
+  EXPECT_NE(unit.find("ExecStart=" + (prefix_ / "bin/lagranged").string() + " --config " +
+                      (prefix_ / "share/lagrange/config/default.yaml").string()),
+            std::string::npos)
+      << unit;
+  EXPECT_EQ(unit.find("/usr/local/"), std::string::npos) << unit;
+}
+
+// The installed README's links lead somewhere, and the example client's source is there to copy.
+TEST_F(Install, TheInstalledReadmesLinksResolveAndTheExampleSourceIsThere) {
+  const fs::path doc = prefix_ / "share/doc/lagrange";
+  const std::string readme = ReadFile(doc / "README.md");
+  const std::regex link(R"(\]\(([^)#:]+)\))");
+  int links = 0;
+  for (auto it = std::sregex_iterator(readme.begin(), readme.end(), link); it != std::sregex_iterator(); ++it) {
+    EXPECT_TRUE(fs::exists(doc / (*it)[1].str())) << (*it)[1].str();
+    ++links;
+  }
+  EXPECT_GT(links, 0);
+  EXPECT_TRUE(fs::is_regular_file(doc / "tools/examples/impedance_client.cpp"));
 }
 
 TEST_F(Install, TheLcmTypesAreInstalledAsDefinitionsHeadersAndJar) {
