@@ -47,6 +47,9 @@ constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, 1, "
                                {"forces", command_t::SET_FORCES, 1, "on or off"}};
 
 constexpr std::chrono::milliseconds kEstopResend{20};
+// A refusal's reason is printed whole (a reply_t's reason passes the wire
+// check at up to 4 KiB); Escape's default would cut a gain refusal's bounds.
+constexpr std::size_t kMaxReasonShown = 2048;
 
 std::string Verbs() {
   std::string verbs;
@@ -122,7 +125,7 @@ class CommandCommand final : public Command {
     }
     link.RequireOneRun("refusing to trust the verdict");
     const reply_t& reply = *link.reply();
-    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason));
+    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason, kMaxReasonShown));
     out << instance_ << ": " << Words() << " done; now " << StateAfterReply(link, run) << "\n";
     return 0;
   }
@@ -166,7 +169,7 @@ class CommandCommand final : public Command {
         throw std::runtime_error("no verdict from lagranged (run " + RunIdText(runs[0]) + ") within " +
                                  FormatDouble(bus_.wait) + " s");
       }
-      if (!reply->accepted) throw std::runtime_error("refused: " + Escape(reply->reason));
+      if (!reply->accepted) throw std::runtime_error("refused: " + Escape(reply->reason, kMaxReasonShown));
       out << instance_ << ": estop done; now " << StateAfterReply(link, runs[0]) << "\n";
       return 0;
     }
@@ -180,7 +183,7 @@ class CommandCommand final : public Command {
       if (!reply) {
         out << "no verdict within " << FormatDouble(bus_.wait) << " s\n";
       } else if (!reply->accepted) {
-        out << "refused: " << Escape(reply->reason) << "\n";
+        out << "refused: " << Escape(reply->reason, kMaxReasonShown) << "\n";
       } else {
         ++applied;
         out << "done; now " << StateAfterReply(link, run) << "\n";

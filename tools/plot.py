@@ -149,13 +149,12 @@ def main():
     telemetry, forces = sys.argv[4:6] if len(sys.argv) == 6 else ("", "")
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
-    qdes = indexed(header, r"q_?des(\d+)")
+    qdes = indexed(header, r"q_des(\d+)")
     tau = indexed(header, r"tau(\d+)")
-    kinetic = "T" if "T" in columns else "kinetic_energy"
-    potential = "V" if "V" in columns else "potential_energy"
-    missing = [n for n, ok in (("t", "t" in columns), ("q0..", bool(q)), ("qdes0.. or q_des0..", len(qdes) == len(q) and q),
-                               ("tau0..", len(tau) == len(q) and q), ("T or kinetic_energy", kinetic in columns),
-                               ("V or potential_energy", potential in columns)) if not ok]
+    kinetic, potential = "kinetic_energy", "potential_energy"  # simulate's and log2csv's names (tools/log_csv.hpp)
+    missing = [n for n, ok in (("t", "t" in columns), ("q0..", bool(q)), ("q_des0..", len(qdes) == len(q) and q),
+                               ("tau0..", len(tau) == len(q) and q), (kinetic, kinetic in columns),
+                               (potential, potential in columns)) if not ok]
     if missing:
         fail("%s lacks the columns %s (a CSV from lagrangectl simulate, or a *_STATE.csv from log2csv)"
              % (path, ", ".join(missing)))

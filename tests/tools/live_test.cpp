@@ -192,13 +192,13 @@ std::string JoinNumbers(const std::vector<double>& v) {
   return s;
 }
 
-// The arm of arm_external_controller.yaml holds under gravity compensation
+// The arm of arm_external_plant.yaml holds under gravity compensation
 // until a torque comes, so at rest its torque is G(q). `send --tau` streams
 // G(q) + (lift, 0): applied exactly as sent, it lifts the shoulder, for at
 // rest M q̈ = τ − G = (lift, 0) and M⁻¹ has a positive diagonal. A torque of
 // the wrong size never leaves lagrangectl.
 TEST_F(LiveDaemon, SendTauStreamsATorqueTheArmIsDrivenByUnderItsExternalController) {
-  Start(7710, {"--config", SceneFile("arm_external_controller.yaml")});
+  Start(7710, {"--config", SceneFile("arm_external_plant.yaml")});
   ASSERT_TRUE(collector_->WaitForLatest<state_t>(
       "ARM_STATE", [](const state_t& s) { return s.mode == state_t::MODE_HOLD; }, 5.0));
   ExpectOneLine(Ctl({"send", "arm", "--tau", "1,2,3"}), "send", 2,
@@ -251,7 +251,7 @@ TEST_F(LiveDaemon, SendTauStreamsATorqueTheArmIsDrivenByUnderItsExternalControll
 }
 
 TEST_F(LiveDaemon, SendTauIsRefusedUnlessTheExternalControllerIsActiveAndSaysHowToSwitch) {
-  Start(7711, {"--config", SceneFile("arm_external_controller.yaml")});
+  Start(7711, {"--config", SceneFile("arm_external_plant.yaml")});
   ASSERT_EQ(Ctl({"command", "arm", "controller", "gravity-compensation"}).status, 0);
   auto r = Ctl({"send", "arm", "--tau", "1", "--for", "0.2"});
   ExpectOneLine(r, "send", 1,
@@ -279,7 +279,7 @@ TEST_F(LiveDaemon, SendTauToAnInstanceWhoseSceneHasNoExternalControllerSaysSo) {
 
 // An external plant's controller waits for a measured state nobody sends.
 TEST_F(LiveDaemon, WatchShowsANewModeWithItsReasonAndTheTorqueAndMeasuredCounters) {
-  Start(7713, {"--config", SceneFile("arm_external_plant.yaml")});
+  Start(7713, {"--config", SceneFile("arm_external_controller.yaml")});
   const auto r = Ctl({"watch", "--frames", "1"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find(std::string("\narm_controller   waiting (") + kWaitingForState + ")   computed-torque   t "),
@@ -794,6 +794,21 @@ TEST(BelievesNobody, AnEstopThatOneRunDidNotApplyIsNamedAndFails) {
   EXPECT_EQ(r.out,
             "arm: run 00000000000000aa: estop done; now running with pd\n"
             "arm: run 00000000000000bb: estop no verdict within 1 s\n");
+}
+
+// A gain refusal names the per-joint bounds before anything cuts it: whole in
+// lagrangectl's line, and within the status's last_command_error.
+TEST_F(LiveDaemon, AGainRefusalKeepsItsPerJointBoundsInTheReplyAndTheStatus) {
+  Start(7852);
+  ASSERT_EQ(Ctl({"command", "arm", "controller", "pd"}).status, 0);
+  const auto r = Ctl({"command", "arm", "gains", "--kp", "1e6", "--kd", "1"});
+  ExpectOneLine(r, "command", 1, "refused: gains for pd: kp[0]: expected |gain| <= ");
+  EXPECT_NE(r.err.find("; or every kp within its joint's bound ["), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("], but kp[0] = 1e+06 ("), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.substr(r.err.size() - 2), ")\n") << r.err;  // the rules' end: nothing cut
+  ASSERT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return s.last_command_error.find("], but kp[0] = 1e+06") != std::string::npos; },
+      5.0));
 }
 
 TEST_F(LiveDaemon, AMistypedInstanceOrAForgottenPrefixIsNamedWhenTheWaitEnds) {
