@@ -50,6 +50,9 @@ std::string FaultLine(Instance& inst, const OfflineFault& f) {
   std::string line =
       "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
   if (f.reason == kEnergyOutOfBound) line += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
+  if (f.reason == kResidualOutOfBound) {
+    line += ", |ε| > " + FormatDouble(inst.instance_model().residual_bound.bound) + " J";
+  }
   return line + "; its CSV ends at t = " + FormatDouble(inst.t()) + " s, the last healthy step";
 }
 
