@@ -10,10 +10,10 @@
 //      the torque applied in tick j is computed in tick j from state j − 1:
 //      j − k = 1 for state k; that is the delay the two-process loop is
 //      measured against;
-//   3. two processes: lagranged #1 on config/arm_external_controller.yaml (the
+//   3. two processes: lagranged #1 on config/arm_external_plant.yaml (the
 //      simulated arm under an `external` controller: applies the latest
 //      torque_t from ARM_TORQUE, publishes ARM_STATE every tick with tau = the
-//      torque applied) and lagranged #2 on config/arm_external_plant.yaml with
+//      torque applied) and lagranged #2 on config/arm_external_controller.yaml with
 //      --channel-prefix CTRL_ (computed torque on the measured ARM_STATE,
 //      torque_t on ARM_TORQUE with state_tick = the state it used), both with
 //      --timing-csv. This program timestamps every ARM_STATE and ARM_TORQUE it
@@ -87,8 +87,8 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr const char* kSingleScene = "default.yaml";
-constexpr const char* kPlantScene = "arm_external_controller.yaml";  // lagranged #1: the plant
-constexpr const char* kControllerScene = "arm_external_plant.yaml";  // lagranged #2: the controller
+constexpr const char* kPlantScene = "arm_external_plant.yaml";  // lagranged #1: the plant
+constexpr const char* kControllerScene = "arm_external_controller.yaml";  // lagranged #2: the controller
 constexpr const char* kControllerPrefix = "CTRL_";                   // #2's own channels
 constexpr const char* kPingChannel = "LAGRANGE_BENCH_PING";
 constexpr const char* kPongChannel = "LAGRANGE_BENCH_PONG";

@@ -109,21 +109,27 @@ std::string DescribeGainFault(const GainFault& f, const Gains& g, const GainBoun
       return key + (b.any_sign ? ": expected finite gains" : ": expected finite gains >= 0");
     case GainFault::Kind::kSign: return key + ": expected finite gains >= 0";
     case GainFault::Kind::kAboveBound: {
+      // The numbers first, the rules they come from last: a reason is cut to
+      // fit a status (kMaxStatusReasonBytes), and the bounds must survive it.
       const VectorXd& v = f.kd ? g.kd : g.kp;
       const double max = (f.kd ? b.kd_max : b.kp_max)[f.index];
-      char text[512];
-      std::snprintf(text, sizeof text, "[%d]: expected |gain| <= %.6g (%s), got %.6g", f.index, max,
-                    (f.kd ? b.kd_rule : b.kp_rule).c_str(), v[f.index]);
+      char text[160];
+      std::snprintf(text, sizeof text, "[%d]: expected |gain| <= %.6g, got %.6g", f.index, max, v[f.index]);
       std::string message = key + text;
+      std::string rules = (f.kd ? b.kd_rule : b.kp_rule);
       const VectorXd& per_joint = f.kd ? b.kd_max_per_joint : b.kp_max_per_joint;
-      if (per_joint.size() == v.size()) {  // beyond the second box too: say where
+      if (per_joint.size() == v.size()) {  // beyond the second box too: its bounds, and where
         const int i = FirstAbove(v, per_joint);
-        std::snprintf(text, sizeof text, "; or every %s within its joint's bound (%s), but %s[%d] = %.6g > %.6g",
-                      key.c_str(), (f.kd ? b.kd_rule_per_joint : b.kp_rule_per_joint).c_str(), key.c_str(), i, v[i],
-                      per_joint[i]);
+        message += "; or every " + key + " within its joint's bound [";
+        for (int j = 0; j < per_joint.size(); ++j) {
+          std::snprintf(text, sizeof text, "%s%.4g", j ? ", " : "", per_joint[j]);
+          message += text;
+        }
+        std::snprintf(text, sizeof text, "], but %s[%d] = %.6g", key.c_str(), i, v[i]);
         message += text;
+        rules += "; per joint " + (f.kd ? b.kd_rule_per_joint : b.kp_rule_per_joint);
       }
-      return message;
+      return message + " (" + rules + ")";
     }
   }
   return key + ": expected valid gains";

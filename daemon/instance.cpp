@@ -26,7 +26,7 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
       tau_cmd_(VectorXd::Zero(instance_model_->num_dofs)),
       q_des_(instance_model_->config.q0),
       setpoint_(instance_model_->num_dofs),
-      accounting_(instance_model_->config.telemetry && !external_),
+      accounting_((instance_model_->config.telemetry || instance_model_->config.energy_balance) && !external_),
       forces_(instance_model_->num_dofs),
       q_start_(VectorXd::Zero(instance_model_->num_dofs)),
       qd_start_(VectorXd::Zero(instance_model_->num_dofs)),

@@ -144,7 +144,7 @@ class Instance {
   // The energy balance (plant/energy_balance.hpp) over every step since
   // start or Reset: each step adds its tick, a held command's work exactly
   // (tau·Δq) and the rest's by the trapezoid rule (a continuous law's too). Kept when `accounting` (the
-  // scene's telemetry) is on; it then costs one ComputeEffectForces without
+  // scene's telemetry, or its energy_balance bound) is on; it then costs one ComputeEffectForces without
   // gravity and Coriolis terms per step. An external plant keeps none.
   bool accounting() const { return accounting_; }
   const EnergyBalance& energy_balance() const { return balance_; }

@@ -86,6 +86,7 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
                         : VectorXd::Constant(m.num_dofs, std::numeric_limits<double>::infinity());
   m.brake = BrakeOf(config, *m.dynamics[static_cast<std::size_t>(config.method)]);
   m.max_energy = MaxEnergy(config);
+  m.residual_bound = config.energy_balance.value_or(EnergyBalanceBound{});
   m.setpoint_timeout = ToNanoseconds(config.setpoint_timeout);
   m.state_timeout = config.external ? ToNanoseconds(config.external->state_timeout) : 0;
   m.setpoint_rules = SetpointRules{m.num_dofs, config.setpoint_lower, config.setpoint_upper};

@@ -62,6 +62,7 @@ struct InstanceModel {
   VectorXd torque_limits;            // (n), +inf where none
   VectorXd brake;                    // (n) B of the estop brake: the scene's estop_damping, else 20/s × diag M(q0)
   double max_energy = 0.0;           // J: |T + V| above this faults (MaxEnergy)
+  EnergyBalanceBound residual_bound;  // the scene's energy_balance (bound +inf: none)
   Nanoseconds setpoint_timeout = 0;  // the scene's setpoint_timeout
   Nanoseconds state_timeout = 0;     // an external plant's; 0: not external
   SetpointRules setpoint_rules;      // what the receiver accepts as a setpoint

@@ -20,7 +20,7 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
       Instance& inst = instances[i];
       const double max_energy = inst.instance_model().max_energy;
       const Instance::StepFailure step = inst.Step(period);
-      if (const char* why = CheckStepHealth(inst, step, max_energy, energies)) {
+      if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
         faults.push_back({i, inst.t(), why, max_energy});
         healthy[i] = false;
         inst.Restore(good[i]);

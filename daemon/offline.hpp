@@ -27,7 +27,8 @@ struct OfflineFault {
 const char* OfflineRefusal(const InstanceConfig& config);
 
 // Runs `steps` steps of `period`. After every step the daemon's health check
-// runs (non-finite torque or state, a failed integrator, |T + V| > max_energy);
+// runs (non-finite torque or state, a failed integrator, |T + V| > max_energy,
+// |ε| > energy_balance.bound under on_exceed: fault);
 // an instance that fails it is never observed again: it is put back to its last
 // healthy state and stops there, the others go on. Returns the faults in the
 // order they happened (empty: every instance ran every step).

@@ -141,6 +141,8 @@ void Publisher::Publish(const TickRecord& record) {
     last_.instances[i].method = record.instances[i].method;
     last_.instances[i].effects = record.instances[i].effects;
     last_.instances[i].forces_on = record.instances[i].forces_on;
+    last_.instances[i].residual_exceeded = record.instances[i].residual_exceeded;
+    last_.instances[i].energy_residual = record.instances[i].energy_residual;
   }
   have_record_ = true;
   if ((record.tick + 1) % status_every_ == 0) PublishStatus(record);
@@ -264,7 +266,28 @@ void Publisher::LogEvents(const TickRecord& record) {
       out_[i].mode = r.mode;
       out_[i].reason = r.reason;
     }
+    if (r.residual_exceeded != out_[i].residual_exceeded) {  // energy_balance with on_exceed: warn
+      const double bound = model_.instances[i].residual_bound.bound;
+      if (r.residual_exceeded)
+        spdlog::warn("{}: the energy-balance residual |ε| = {:.3g} J exceeds energy_balance.bound = {:.3g} J at t = "
+                     "{:.3f} s (on_exceed: warn: still {})",
+                     model_.instances[i].name(), std::abs(r.energy_residual), bound, r.t, ToString(r.mode));
+      else
+        spdlog::info("{}: the energy-balance residual is back within energy_balance.bound at t = {:.3f} s",
+                     model_.instances[i].name(), r.t);
+      out_[i].residual_exceeded = r.residual_exceeded;
+    }
   }
+}
+
+// The status's reason for an instance: why its mode is not running, and
+// whether |ε| exceeds the scene's energy_balance bound (on_exceed: warn).
+std::string Publisher::StatusReason(std::size_t i, const InstanceRecord& r) const {
+  std::string reason = r.reason ? r.reason : "";
+  if (!r.residual_exceeded) return reason;
+  return reason + (reason.empty() ? "" : "; ") +
+         fmt::format("|ε| = {:.3g} J exceeds energy_balance.bound = {:.3g} J", std::abs(r.energy_residual),
+                     model_.instances[i].residual_bound.bound);
 }
 
 // (the last record, the receiver's counts, this window's timing) => status_t;
@@ -311,8 +334,9 @@ void Publisher::PublishStatus(const TickRecord& last) {
   s.instance_effects.clear();
   s.instance_forces.clear();
   for (const Outgoing& o : out_) s.instance_modes.push_back(static_cast<int8_t>(o.mode));
-  for (const InstanceRecord& r : last.instances) {
-    s.instance_reasons.emplace_back(r.reason ? r.reason : "");
+  for (std::size_t i = 0; i < last.instances.size(); ++i) {
+    const InstanceRecord& r = last.instances[i];
+    s.instance_reasons.push_back(StatusReason(i, r));
     s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant));
     s.instance_methods.emplace_back(ToString(r.method));
     s.instance_effects.push_back(EffectsDescription(r.effects));

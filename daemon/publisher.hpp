@@ -63,6 +63,7 @@ class Publisher {
   void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
+  std::string StatusReason(std::size_t i, const InstanceRecord& r) const;
 
   // One instance's messages, kept between ticks (their vectors keep their
   // capacity), and its mode and reason as last logged.
@@ -73,6 +74,7 @@ class Publisher {
     forces_t forces{};
     Mode mode = Mode::kRunning;
     const char* reason = nullptr;
+    bool residual_exceeded = false;  // as last logged
   };
 
   Bus& bus_;

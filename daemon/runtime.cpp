@@ -457,7 +457,7 @@ void Runtime::ControlAndIntegrate(Slot& s) {
 void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
   if (!Commands(s.mode.mode)) return;  // nothing moved (or nothing was measured); the energies stand
   Instance& inst = s.instance;
-  if (const char* fault = CheckStepHealth(inst, s.step_failure, s.m.max_energy, s.energies)) {
+  if (const char* fault = CheckStepHealth(inst, s.step_failure, s.m.max_energy, s.m.residual_bound, s.energies)) {
     On(s, ModeEvent::kFault, 0, fault);
     r.fault = fault;
     return;
@@ -487,6 +487,7 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.telemetry = inst.config().telemetry;
   const EnergyBalance& balance = inst.energy_balance();
   r.energy_residual = balance.residual();
+  r.residual_exceeded = s.m.residual_bound.on_exceed == OnResidualExceeded::kWarn && ResidualExceeds(inst, s.m.residual_bound);
   r.quadrature_bound = balance.quadrature_bound();
   r.work = balance.work();
   r.power = inst.power();

@@ -185,6 +185,9 @@ struct InstanceRecord {
   // was integrated (`integrated` false).
   bool telemetry = false;
   double energy_residual = 0.0, quadrature_bound = 0.0, work = 0.0, power = 0.0;
+  // |ε| above the scene's energy_balance.bound under on_exceed: warn (the
+  // balance is kept whenever a bound is, telemetry on or off).
+  bool residual_exceeded = false;
   bool integrated = false;
   IntegratorWork integrator_work;
   Nanoseconds compute = 0;  // this instance's share of the tick (0 without a clock)

@@ -382,10 +382,28 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
   }
 }
 
+// energy_balance: {bound: J, on_exceed: warn|fault}
+EnergyBalanceBound ReadEnergyBalanceBound(const YamlReader& node, bool external_plant) {
+  if (external_plant) node.Fail("expected no energy_balance for an external plant (it keeps no energy balance)");
+  node.ExpectKeys({"bound", "on_exceed"});
+  EnergyBalanceBound b;
+  b.bound = node.Required("bound").PositiveNumber();
+  if (auto o = node.Optional("on_exceed")) {
+    const std::string v = o->Text();
+    if (v == "warn")
+      b.on_exceed = OnResidualExceeded::kWarn;
+    else if (v == "fault")
+      b.on_exceed = OnResidualExceeded::kFault;
+    else
+      o->Fail("expected warn or fault, got '" + Escape(v, 60) + "'");
+  }
+  return b;
+}
+
 InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
-                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "estop_damping",
-                   "telemetry", "forces"});
+                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "energy_balance",
+                   "estop_damping", "telemetry", "forces"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();
@@ -428,6 +446,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   }
   if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();
   if (auto f = node.Optional("forces")) inst.forces = f->Bool();
+  if (auto e = node.Optional("energy_balance")) inst.energy_balance = ReadEnergyBalanceBound(*e, inst.external.has_value());
   ReadControl(node, period, inst, urdf);
   CheckExternalControl(node, inst);
   return inst;

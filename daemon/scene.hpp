@@ -3,6 +3,8 @@
 // parsed once from YAML into typed structs and validated before anything runs.
 // See README.md, "Scene reference", for every key.
 
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,18 @@ struct ExternalPlantConfig {
 inline constexpr char kExternalNotIntegrated[] =
     "an external plant is not integrated by lagranged (its state is measured)";
 
+// energy_balance: {bound: J, on_exceed: warn|fault}. The energy-balance
+// residual ε (plant/energy_balance.hpp; telemetry_t.energy_residual) is the
+// one sign that an integrator is making or losing energy while the state
+// stays finite; |ε| above `bound` either warns (the instance runs on, and the
+// status's instance_reasons say it exceeds) or faults the instance as a
+// diverging plant does (last good state, zero torque, until reset).
+enum class OnResidualExceeded : std::uint8_t { kWarn, kFault };
+struct EnergyBalanceBound {
+  double bound = std::numeric_limits<double>::infinity();  // J, > 0; +inf: none
+  OnResidualExceeded on_exceed = OnResidualExceeded::kWarn;
+};
+
 struct InstanceConfig {
   std::string name;  // [a-z][a-z0-9_]*, unique in the scene
   PlantSpec plant;
@@ -69,6 +83,7 @@ struct InstanceConfig {
   double setpoint_timeout = 0.5;            // s: streamed setpoints older than this, or none for this long, time out
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
   std::optional<double> max_energy;             // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
+  std::optional<EnergyBalanceBound> energy_balance;  // a bound on |ε| (none by default)
   std::optional<VectorXd> estop_damping;        // (n) brake B during an emergency stop (default 20/s × diag M(q0))
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
   bool telemetry = true;                        // keep the energy balance and publish <NAME>_TELEMETRY every tick

@@ -80,7 +80,7 @@ void Dispatch(const Subscriptions& subscriptions, const std::uint8_t* data, std:
     case Datagram::Kind::kMessage: {
       bool delivered = false;
       for (const auto& [channel, handler] : subscriptions) {
-        if (std::string_view(channel) != d.channel) continue;
+        if (!channel.empty() && std::string_view(channel) != d.channel) continue;  // "": kEveryChannel
         handler(d.channel, d.payload, d.payload_size);
         delivered = true;
       }

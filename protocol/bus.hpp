@@ -70,6 +70,10 @@ struct BusStats {
   std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
 };
 
+// Subscribe's channel for every message, whatever its channel (a client
+// listening for what is on the bus; no LCM channel is empty).
+inline constexpr const char* kEveryChannel = "";
+
 class Bus {
  public:
   // One message: channel name and payload (an LCM-encoded type). The views
@@ -82,7 +86,8 @@ class Bus {
   // than kMaxMessageSize, the channel is longer than 63 bytes, or the send failed.
   virtual bool Publish(std::string_view channel, const void* data, std::size_t size) = 0;
 
-  // Calls `handler` for every message on exactly `channel`. Before sharing the bus.
+  // Calls `handler` for every message on exactly `channel` (kEveryChannel: on
+  // every channel). Before sharing the bus.
   // UdpmBus opens its receive socket at the first Subscribe (a publish-only bus
   // has none) and throws BusError there if bind or the group membership fails.
   virtual void Subscribe(const std::string& channel, Handler handler) = 0;

@@ -1,6 +1,7 @@
 #include "protocol/client.hpp"
 
 #include <algorithm>
+#include <cctype>
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
@@ -15,7 +16,71 @@ namespace {
 // bounded so a spoofer cycling ids costs nothing.
 constexpr std::size_t kMaxRuns = 4;
 
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string Lower(std::string s) {
+  for (char& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return s;
+}
+
+std::string List(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& n : names) text += (text.empty() ? "" : ", ") + Escape(n, 64);
+  return text;
+}
+
 }  // namespace
+
+std::string HeardHint(const std::string& prefix, const std::string& instance, const std::set<std::string>& channels) {
+  // Status channels name the prefixes in use; state channels, the instances.
+  std::set<std::string> prefixes;
+  std::vector<std::string> states;
+  for (const std::string& c : channels) {
+    if (EndsWith(c, kStatusChannel)) prefixes.insert(c.substr(0, c.size() - std::string(kStatusChannel).size()));
+    if (EndsWith(c, kStateSuffix)) states.push_back(c);
+  }
+  auto use_prefix = [](const std::string& p) {
+    return p.empty() ? std::string(": without --channel-prefix?") : ": --channel-prefix " + Escape(p, 64) + "?";
+  };
+  if (instance.empty()) {  // waiting for the status: a daemon under another prefix
+    for (const std::string& p : prefixes)
+      if (p != prefix) return "a lagranged publishes " + Escape(p + kStatusChannel, 64) + use_prefix(p);
+  }
+  if (states.empty()) {
+    return prefixes.empty() ? "heard no lagranged there (is one running, on this LCM URL?)"
+                            : "heard a status but no state channel (" + List({channels.begin(), channels.end()}) + ")";
+  }
+  if (instance.empty()) return "state channels heard: " + List(states);
+  const std::string bare = InstanceChannel("", instance, kStateSuffix);
+  if (channels.contains(prefix + bare))
+    return "heard " + Escape(prefix + bare, 64) + ", but no valid state_t on it (not a lagranged?)";
+  // The instance under another prefix (one a status confirms, when any came).
+  for (const std::string& c : states) {
+    if (!EndsWith(c, bare) || c == prefix + bare) continue;
+    const std::string other = c.substr(0, c.size() - bare.size());
+    if (!prefixes.empty() && !prefixes.contains(other)) continue;
+    return "a lagranged publishes " + Escape(c, 64) + use_prefix(other);
+  }
+  // Another instance under this prefix: the nearest name.
+  std::string best;
+  std::size_t best_distance = std::string::npos;
+  for (const std::string& c : states) {
+    if (c.rfind(prefix, 0) != 0) continue;
+    const std::string name = Lower(c.substr(prefix.size(), c.size() - prefix.size() - std::string(kStateSuffix).size()));
+    const std::size_t d = EditDistance(Lower(instance), name);
+    if (d < best_distance) {
+      best = name;
+      best_distance = d;
+    }
+  }
+  const std::string heard = "state channels heard: " + List(states);
+  if (!best.empty()) return heard + "; did you mean '" + Escape(best, 64) + "'?";
+  std::string shown;
+  for (const std::string& p : prefixes) shown += (shown.empty() ? "" : ", ") + (p.empty() ? "none" : Escape(p, 64));
+  return heard + (prefixes.empty() ? "" : " (channel prefixes: " + shown + ")");
+}
 
 std::string LinkOptions::Url() const { return ResolveLcmUrl(lcm_url); }
 
@@ -43,6 +108,12 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
   bus_->Subscribe(options.StatusChannel(),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+  bus_->Subscribe(kEveryChannel, [this](std::string_view channel, const std::uint8_t*, std::size_t) { OnAny(channel); });
+}
+
+void DaemonLink::OnAny(std::string_view channel) {
+  if (!runs_.empty() || heard_.size() >= kMaxHeardChannels) return;  // only while no state came, bounded
+  heard_.emplace(channel);
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
@@ -71,9 +142,29 @@ void DaemonLink::OnReply(const std::uint8_t* data, std::size_t size) {
   if (!have_run_ || request_id_ == 0 || CheckReplyPacket(data, size) != WireCheck::kOk) return;
   reply_t msg;
   if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
-  // Only the run we saw, answering our own request: anything else proves nothing.
-  if (msg.run_id != run_id_ || msg.request_id != request_id_ || reply_) return;
-  reply_ = std::move(msg);
+  // Only a run we saw (the chosen one, or any after AwaitRuns), answering our
+  // own request, and only its first answer: anything else proves nothing.
+  if (msg.request_id != request_id_ || (!every_run_ && msg.run_id != run_id_)) return;
+  const auto it = runs_.find(msg.run_id);
+  if (it == runs_.end() || it->second.reply) return;
+  it->second.reply = std::move(msg);
+}
+
+void DaemonLink::ExpectReply(std::int64_t request_id) {
+  request_id_ = request_id;
+  for (auto& [id, seen] : runs_) seen.reply.reset();
+}
+
+const std::optional<reply_t>& DaemonLink::reply(std::int64_t run) const {
+  static const std::optional<reply_t> kNone;
+  const auto it = runs_.find(run);
+  return it == runs_.end() ? kNone : it->second.reply;
+}
+
+std::vector<std::int64_t> DaemonLink::runs() const {
+  std::vector<std::int64_t> ids;
+  for (const auto& [id, seen] : runs_) ids.push_back(id);
+  return ids;
 }
 
 std::string DaemonLink::TwoRunsMessage(const std::string& doing) const {
@@ -88,16 +179,28 @@ std::string DaemonLink::TwoRunsMessage(const std::string& doing) const {
 }
 
 std::int64_t DaemonLink::AwaitOneRun() {
-  if (!PumpUntil([&] { return !runs_.empty(); }, options_.wait)) {
-    throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
-                             FormatDouble(options_.wait) + " s (unknown instance, or no lagranged on " +
-                             options_.Url() + "?)");
-  }
-  Pump(kRunWindow);
+  AwaitFirstState();
   RequireOneRun("refusing to act");
   run_id_ = runs_.begin()->first;
   have_run_ = true;
   return run_id_;
+}
+
+std::vector<std::int64_t> DaemonLink::AwaitRuns() {
+  AwaitFirstState();
+  run_id_ = runs_.begin()->first;
+  have_run_ = true;
+  every_run_ = true;
+  return runs();
+}
+
+void DaemonLink::AwaitFirstState() {
+  if (!PumpUntil([&] { return !runs_.empty(); }, options_.wait)) {
+    throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
+                             FormatDouble(options_.wait) + " s on " + options_.Url() + "; " +
+                             HeardHint(options_.channel_prefix, instance_, heard_));
+  }
+  Pump(kRunWindow);
 }
 
 void DaemonLink::RequireOneRun(const std::string& doing) const {

@@ -9,7 +9,9 @@
 // (protocol/wire.hpp), every string is escaped before it is printed, and a
 // command or setpoint stream acts only when exactly one lagranged run (one
 // run_id) publishes the instance's state; success is reported only from a
-// reply of that run carrying the sender's own request_id.
+// reply of that run carrying the sender's own request_id. The one exception
+// is the emergency stop, which is never withheld: it goes to every run
+// publishing the state (AwaitRuns), and each run's verdict is its own reply.
 
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
@@ -20,7 +22,9 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "protocol/bus.hpp"
 
@@ -42,6 +46,17 @@ struct LinkOptions {
   std::unique_ptr<Bus> Open() const;
 };
 
+// What was heard on the bus while a client waited in vain for `instance`'s
+// state under `prefix`, as the end of its error: given the channels heard
+// (`channels`, at most kMaxHeardChannels), the instance's state under
+// another prefix ("a lagranged publishes SIM_ARM_STATE: --channel-prefix
+// SIM_?"), the nearest instance name under this prefix ("did you mean
+// 'arm'?"), else the state channels heard, else that none was. Names from the
+// bus are escaped. An empty `instance`: the wait was for the status (a
+// lagranged publishing its status under another prefix is named).
+std::string HeardHint(const std::string& prefix, const std::string& instance, const std::set<std::string>& channels);
+inline constexpr std::size_t kMaxHeardChannels = 32;
+
 // How long a client listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state
@@ -62,6 +77,10 @@ class DaemonLink {
   // error when none came, or "two lagranged runs publish X (ids A and B):
   // refusing to act" when several did.
   std::int64_t AwaitOneRun();
+  // Waits as AwaitOneRun does but refuses nothing: every run id that published
+  // the instance's state (at most kMaxRuns), in increasing order; replies are
+  // then collected from each (reply(run)). Throws only when none came.
+  std::vector<std::int64_t> AwaitRuns();
   // Throws the two-runs error if a second run has published the instance's
   // state since; `doing` ends the message ("refusing to act").
   void RequireOneRun(const std::string& doing) const;
@@ -79,9 +98,16 @@ class DaemonLink {
   std::int64_t statuses_received() const { return statuses_received_; }
 
   // Collects replies carrying `request_id` from now on.
-  void ExpectReply(std::int64_t request_id) { request_id_ = request_id; }
+  void ExpectReply(std::int64_t request_id);
   // The run's reply to the expected request, once it came.
-  const std::optional<reply_t>& reply() const { return reply_; }
+  const std::optional<reply_t>& reply() const { return reply(run_id_); }
+  // Run `run`'s reply to the expected request, once it came (AwaitRuns).
+  const std::optional<reply_t>& reply(std::int64_t run) const;
+  // The runs that have published the instance's state so far.
+  std::vector<std::int64_t> runs() const;
+  // Run `run`'s latest state and when it arrived (a run runs() lists).
+  const state_t& state(std::int64_t run) const { return runs_.at(run).state; }
+  std::chrono::steady_clock::time_point state_received_at(std::int64_t run) const { return runs_.at(run).received; }
 
   // Handles messages for `seconds`.
   void Pump(double seconds);
@@ -103,23 +129,29 @@ class DaemonLink {
     state_t state;
     std::chrono::steady_clock::time_point received;
     std::int64_t count = 0;
+    std::optional<reply_t> reply;  // to request_id_
   };
   void OnState(const std::uint8_t* data, std::size_t size);
   void OnStatus(const std::uint8_t* data, std::size_t size);
   void OnReply(const std::uint8_t* data, std::size_t size);
+  void OnAny(std::string_view channel);
   std::string TwoRunsMessage(const std::string& doing) const;
+  // Waits up to options.wait for the instance's first state (else throws),
+  // then kRunWindow longer.
+  void AwaitFirstState();
 
   LinkOptions options_;
   std::string instance_;
   std::string state_channel_;
   std::unique_ptr<Bus> bus_;
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
+  std::set<std::string> heard_;         // channels heard before the first state, for HeardHint
   std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;
   std::int64_t request_id_ = 0;
-  std::optional<reply_t> reply_;
+  bool every_run_ = false;  // AwaitRuns: replies from every run in runs_ count
 };
 
 }  // namespace lagrange

@@ -3,6 +3,8 @@
 // by its watchdog); switch the integrator, an effect, the dynamics method, or
 // the forces stream. Done only when lagranged says so: a reply_t from the one
 // run publishing the instance's state, carrying this command's own request_id.
+// An estop is the exception: it is never withheld, and goes to every run
+// publishing the state, each run's verdict reported on a line of its own.
 
 #include <lagrange/command_t.hpp>
 
@@ -45,6 +47,9 @@ constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, 1, "
                                {"forces", command_t::SET_FORCES, 1, "on or off"}};
 
 constexpr std::chrono::milliseconds kEstopResend{20};
+// A refusal's reason is printed whole (a reply_t's reason passes the wire
+// check at up to 4 KiB); Escape's default would cut a gain refusal's bounds.
+constexpr std::size_t kMaxReasonShown = 2048;
 
 std::string Verbs() {
   std::string verbs;
@@ -98,6 +103,9 @@ class CommandCommand final : public Command {
   int Run(std::ostream& out, std::ostream&) override {
     command_t c = Parse();
     DaemonLink link(bus_, instance_);
+    // An emergency stop is never withheld: it goes to every run publishing
+    // the instance's state, and each run's verdict is reported.
+    if (c.command == command_t::ESTOP) return Estop(link, c, out);
     const std::int64_t run = link.AwaitOneRun();
     if (c.command == command_t::SET_GAINS) {
       const int n = link.state().num_dofs;
@@ -109,44 +117,100 @@ class CommandCommand final : public Command {
     }
     c.request_id = NewRequestId();
     link.ExpectReply(c.request_id);
-    const std::string channel = bus_.Channel(instance_, kCommandSuffix);
-    auto send = [&] {
-      c.utime = MonotonicClock().WallMicros();
-      if (!link.bus().PublishMessage(channel, c)) throw std::runtime_error("could not send the command on " + channel);
-    };
-    send();
-    // An emergency stop is sent again every kEstopResend until its verdict
-    // comes: under a flood the kernel may drop a datagram before lagranged
-    // reads it, and a repeated estop is applied once (it is latest-wins).
+    Send(link, c);
     // Other commands are sent once: a repeat could apply twice.
-    const bool resend = c.command == command_t::ESTOP;
-    auto next_send = std::chrono::steady_clock::now() + kEstopResend;
-    if (!link.PumpUntil(
-            [&] {
-              if (resend && std::chrono::steady_clock::now() >= next_send) {
-                send();
-                next_send += kEstopResend;
-              }
-              return link.reply().has_value();
-            },
-            bus_.wait)) {
+    if (!link.PumpUntil([&] { return link.reply().has_value(); }, bus_.wait)) {
       throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " +
                                FormatDouble(bus_.wait) + " s");
     }
     link.RequireOneRun("refusing to trust the verdict");
     const reply_t& reply = *link.reply();
-    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason));
-    // The tick applied it before the reply went out: the next state shows the result.
-    const auto replied = std::chrono::steady_clock::now();
-    link.PumpUntil([&] { return link.state_received_at() > replied; }, 0.5);
-    const state_t& s = link.state();
-    std::string words;
-    for (const std::string& w : action_) words += (words.empty() ? "" : " ") + Escape(w);
-    out << instance_ << ": " << words << " done; now " << ModeName(s.mode) << " with " << Escape(s.controller) << "\n";
+    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason, kMaxReasonShown));
+    out << instance_ << ": " << Words() << " done; now " << StateAfterReply(link, run) << "\n";
     return 0;
   }
 
  private:
+  void Send(DaemonLink& link, command_t& c) const {
+    const std::string channel = bus_.Channel(instance_, kCommandSuffix);
+    c.utime = MonotonicClock().WallMicros();
+    if (!link.bus().PublishMessage(channel, c)) throw std::runtime_error("could not send the command on " + channel);
+  }
+
+  // One line per run publishing the instance's state (or the usual one line
+  // when there is one run); throws, after printing them, unless every run
+  // applied the estop. It is sent again every kEstopResend until every run
+  // answered: under a flood the kernel may drop a datagram before lagranged
+  // reads it, and a repeated estop is applied once (it is latest-wins).
+  int Estop(DaemonLink& link, command_t& c, std::ostream& out) const {
+    link.AwaitRuns();
+    c.request_id = NewRequestId();
+    link.ExpectReply(c.request_id);
+    Send(link, c);
+    auto next_send = std::chrono::steady_clock::now() + kEstopResend;
+    auto all_answered = [&] {
+      for (const std::int64_t run : link.runs())
+        if (!link.reply(run)) return false;
+      return true;
+    };
+    link.PumpUntil(
+        [&] {
+          if (std::chrono::steady_clock::now() >= next_send) {
+            Send(link, c);
+            next_send += kEstopResend;
+          }
+          return all_answered();
+        },
+        bus_.wait);
+    const std::vector<std::int64_t> runs = link.runs();
+    if (runs.size() == 1) {  // the one run's verdict, worded as every other command's
+      const std::optional<reply_t>& reply = link.reply(runs[0]);
+      if (!reply) {
+        throw std::runtime_error("no verdict from lagranged (run " + RunIdText(runs[0]) + ") within " +
+                                 FormatDouble(bus_.wait) + " s");
+      }
+      if (!reply->accepted) throw std::runtime_error("refused: " + Escape(reply->reason, kMaxReasonShown));
+      out << instance_ << ": estop done; now " << StateAfterReply(link, runs[0]) << "\n";
+      return 0;
+    }
+    std::size_t applied = 0;
+    std::string ids;
+    for (const std::int64_t run : runs) {
+      const std::optional<reply_t>& reply = link.reply(run);
+      const std::string id = RunIdText(run);
+      ids += (ids.empty() ? "" : ", ") + id;
+      out << instance_ << ": run " << id << ": estop ";
+      if (!reply) {
+        out << "no verdict within " << FormatDouble(bus_.wait) << " s\n";
+      } else if (!reply->accepted) {
+        out << "refused: " << Escape(reply->reason, kMaxReasonShown) << "\n";
+      } else {
+        ++applied;
+        out << "done; now " << StateAfterReply(link, run) << "\n";
+      }
+    }
+    out.flush();
+    if (applied == runs.size()) return 0;
+    throw std::runtime_error("estop applied by " + std::to_string(applied) + " of the " +
+                             std::to_string(runs.size()) + " runs publishing " +
+                             bus_.Channel(instance_, kStateSuffix) + " (ids " + ids + ")");
+  }
+
+  // "MODE with CONTROLLER" from the run's first state after its reply (the
+  // tick applied the command before the reply went out), or its latest.
+  static std::string StateAfterReply(DaemonLink& link, std::int64_t run) {
+    const auto replied = std::chrono::steady_clock::now();
+    link.PumpUntil([&] { return link.state_received_at(run) > replied; }, 0.5);
+    const state_t& s = link.state(run);
+    return std::string(ModeName(s.mode)) + " with " + Escape(s.controller);
+  }
+
+  std::string Words() const {
+    std::string words;
+    for (const std::string& w : action_) words += (words.empty() ? "" : " ") + Escape(w);
+    return words;
+  }
+
   // The command from the arguments, before anything goes on the bus (gains
   // are sized once the instance's num_dofs is known).
   command_t Parse() const {

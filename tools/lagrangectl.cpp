@@ -2,27 +2,12 @@
 #include <vector>
 
 #include "protocol/bus.hpp"
+#include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
 namespace lagrange::cli {
 namespace {
-
-// Levenshtein distance: insertions, deletions and substitutions.
-std::size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
-}
 
 // "unknown command 'evl'; did you mean 'eval'?" when the first argument names
 // no subcommand (empty when it does, or is an option).

@@ -45,9 +45,8 @@ bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), con
   return size >= 0 && check(data, static_cast<std::size_t>(size)) == WireCheck::kOk && m.decode(data, 0, size) == size;
 }
 
-// ",name0,name1,.." (or name_0.. with separator "_").
 void Columns(std::ostream& out, const char* name, int n, const char* separator = "") {
-  for (int i = 0; i < n; ++i) out << ',' << name << separator << i;
+  out << JointColumns(name, n, separator);
 }
 
 void Values(std::ostream& out, const std::vector<double>& v) {
@@ -77,7 +76,8 @@ class StateWriter final : public Writer {
       n_ = s.num_dofs;
       out << "log_utime,utime,run_id,tick,t,num_dofs";
       for (const char* field : {"q", "qd", "qdd", "tau", "q_des", "qd_des"}) Columns(out, field, n_);
-      out << ",kinetic_energy,potential_energy,controller,mode\n";
+      out << ',' << kKineticEnergyColumn << ',' << kPotentialEnergyColumn
+          << ",controller,mode\n";
     }
     if (s.num_dofs != n_) return false;
     out << log_utime << ',' << s.utime << ',' << RunIdText(s.run_id) << ',' << s.tick << ',' << FormatDouble(s.t) << ','
@@ -315,6 +315,12 @@ std::string SafeFileName(const std::string& channel) {
 }
 
 }  // namespace
+
+std::string JointColumns(const char* field, int n, const char* separator) {
+  std::string columns;
+  for (int i = 0; i < n; ++i) columns += std::string(",") + field + separator + std::to_string(i);
+  return columns;
+}
 
 LogToCsvResult LogToCsv(const std::string& log_path, const std::string& dir, const std::string& channel_regex) {
   LcmLogReader log(log_path);

@@ -10,6 +10,14 @@
 
 namespace lagrange::cli {
 
+// Column names, written once for log2csv and simulate (and read by plot):
+// a joint array field's columns ",q0,q1,.." (",gravity_0,gravity_1,.." with
+// separator "_"; state_t's fields by their own names: q, qd, qdd, tau, q_des,
+// qd_des), and the energies'.
+std::string JointColumns(const char* field, int n, const char* separator = "");
+inline constexpr const char* kKineticEnergyColumn = "kinetic_energy";      // T, J
+inline constexpr const char* kPotentialEnergyColumn = "potential_energy";  // V, J
+
 struct ChannelCsv {
   std::string type;  // "state_t", ...
   std::string path;  // the CSV written

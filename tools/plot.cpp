@@ -26,6 +26,7 @@ namespace fs = std::filesystem;
 // What to draw: the state CSV, and "" or the instance's telemetry and forces CSVs.
 struct PlotInputs {
   std::string state, telemetry, forces;
+  std::string status;  // the daemon's status CSV: joint names, integrator and method switches
 };
 
 // Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES; returns (status, its stdout and stderr together).
@@ -38,7 +39,7 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.search_path = true;
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
-  const pid_t pid = Spawn({"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces}, options);
+  const pid_t pid = Spawn({"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status}, options);
   close(out_pipe[1]);
   if (pid < 0) {
     close(out_pipe[0]);
@@ -164,6 +165,17 @@ class PlotCommand final : public Command {
       if (channel == base + kTelemetrySuffix && csv.type == "telemetry_t") in.telemetry = csv.path;
       if (channel == base + kForcesSuffix && csv.type == "forces_t") in.forces = csv.path;
     }
+    // The status of the daemon that published it: the longest prefix of the base.
+    const LogToCsvResult status = LogToCsv(input_, scratch.string(), std::string(".*") + kStatusChannel);
+    std::size_t best = 0;
+    for (const auto& [channel, csv] : status.written) {
+      const std::string prefix = channel.substr(0, channel.size() - std::string(kStatusChannel).size());
+      if (csv.rows == 0 || csv.type != "status_t" || base.rfind(prefix, 0) != 0) continue;
+      if (in.status.empty() || prefix.size() > best) {
+        in.status = csv.path;
+        best = prefix.size();
+      }
+    }
     return state->first;
   }
 
@@ -176,6 +188,14 @@ class PlotCommand final : public Command {
     const fs::path forces = state.parent_path() / (base + kForcesSuffix + ".csv");
     if (fs::exists(telemetry)) in.telemetry = telemetry.string();
     if (fs::exists(forces)) in.forces = forces.string();
+    // DIR/PLAGRANGE_STATUS.csv for the longest prefix P of the base.
+    for (std::size_t n = base.size() + 1; n-- > 0;) {
+      const fs::path status = state.parent_path() / (base.substr(0, n) + kStatusChannel + ".csv");
+      if (fs::exists(status)) {
+        in.status = status.string();
+        break;
+      }
+    }
   }
 
   static bool IsLcmLog(const std::string& path) {

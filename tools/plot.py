@@ -1,8 +1,10 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV]` (either may be
-""): with a telemetry CSV (log2csv of <NAME>_TELEMETRY) two more panels, the
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV]]` (any may be
+""): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are named as
+the daemon names them, and a dotted vertical line marks each switch of the
+integrator or the dynamics method; with a telemetry CSV (log2csv of <NAME>_TELEMETRY) two more panels, the
 energy residual ε(t) against ± the quadrature bound and the cost per tick
 (evaluations, compute µs); with a forces CSV (<NAME>_FORCES) one panel per
 joint, each effect that was on as a line. A reset or restart (the simulated
@@ -10,8 +12,10 @@ time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
 "telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
+import bisect
 import csv
 import math
+import os
 import re
 import sys
 
@@ -107,13 +111,20 @@ def telemetry_panels(axes, path):
     axes[0].plot(t, gap(bound), label="± quadrature bound", linewidth=1.0, color="gray", linestyle="--")
     axes[0].plot(t, gap([-b for b in bound]), linewidth=1.0, color="gray", linestyle="--")
     axes[0].set_ylabel("ε (J)")
+    # Tick labels that carry their own exponent: no offset text to sit over the title.
+    import matplotlib.ticker
+    axes[0].yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%.2g"))
     axes[0].set_title("energy-balance residual: the integrator's drift (dashed: the quadrature's own error)")
     axes[1].plot(t, gap(numbers(columns, "evaluations", path)), label="evaluations", linewidth=1.2, color="C0")
     axes[1].set_ylabel("evaluations per tick")
     right = axes[1].twinx()
     right.plot(t, gap(numbers(columns, "compute_us", path)), label="compute µs", linewidth=0.8, color="C3", alpha=0.7)
     right.set_ylabel("compute (µs per tick)")
-    right.legend(loc="upper left", fontsize="small")
+    # One legend for both axes, each entry naming its side, where it hides the least.
+    lines = axes[1].get_lines() + right.get_lines()
+    axes[1].legend(lines, ["evaluations (left axis)", "compute µs (right axis)"], loc="best", fontsize="small")
+    axes[1].set_zorder(right.get_zorder() + 1)  # the legend above the right axis's line
+    axes[1].patch.set_visible(False)
     axes[1].set_title("cost per tick")
     return "telemetry: %d rows" % len(eps)
 
@@ -142,20 +153,69 @@ def forces_panels(axes, path):
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
 
 
+def by_instance(text):
+    """'arm=a;cartpole=b' (log2csv's per-instance status columns) -> {'arm': 'a', 'cartpole': 'b'}."""
+    out = {}
+    for part in text.split(";"):
+        name, _, value = part.partition("=")
+        if name:
+            out[name] = value
+    return out
+
+
+def status_facts(status_path, state_path, state_columns, joints):
+    """From the daemon's status CSV: the instance's joint names (None when it names none
+    or not `joints` of them) and [(t, label)] at each change of its integrator or method,
+    placed at the first state row logged after the status that showed it."""
+    header, columns = load(status_path)
+    if any(n not in columns for n in ("log_utime", "integrators", "methods", "joints")):
+        fail("%s lacks the columns log_utime, integrators, methods, joints (LAGRANGE_STATUS.csv from log2csv)"
+             % status_path)
+    base = os.path.basename(state_path)
+    base = base[:-len("_STATE.csv")] if base.endswith("_STATE.csv") else ""
+    names = set()
+    for text in columns["integrators"]:
+        names.update(by_instance(text))
+    matches = [n for n in names if base.upper().endswith(n.upper())]
+    if not matches:
+        return None, []
+    instance = max(matches, key=len)
+    joint_names = None
+    for text in columns["joints"]:
+        listed = by_instance(text).get(instance, "")
+        if listed and len(listed.split(",")) == joints:
+            joint_names = listed.split(",")
+            break
+    switches = []
+    if "log_utime" in state_columns:
+        state_utime = numbers(state_columns, "log_utime", state_path)
+        state_t = numbers(state_columns, "t", state_path)
+        previous = None
+        for utime, integrators, methods in zip(columns["log_utime"], columns["integrators"], columns["methods"]):
+            now = {"integrator": by_instance(integrators).get(instance), "method": by_instance(methods).get(instance)}
+            if previous is not None and now != previous:
+                at = bisect.bisect_left(state_utime, float(utime))
+                if at < len(state_t):
+                    label = ", ".join("%s %s" % (k, now[k]) for k in ("integrator", "method") if now[k] != previous[k])
+                    switches.append((state_t[at], label))
+            previous = now
+    return joint_names, switches
+
+
 def main():
-    if len(sys.argv) not in (4, 6):
-        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV]")
+    if len(sys.argv) not in (4, 6, 7):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV]]")
     path, png, title = sys.argv[1:4]
-    telemetry, forces = sys.argv[4:6] if len(sys.argv) == 6 else ("", "")
+    telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
+    status = sys.argv[6] if len(sys.argv) == 7 else ""
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
-    qdes = indexed(header, r"q_?des(\d+)")
+    qdes = indexed(header, r"q_des(\d+)")
     tau = indexed(header, r"tau(\d+)")
-    kinetic = "T" if "T" in columns else "kinetic_energy"
-    potential = "V" if "V" in columns else "potential_energy"
-    missing = [n for n, ok in (("t", "t" in columns), ("q0..", bool(q)), ("qdes0.. or q_des0..", len(qdes) == len(q) and q),
-                               ("tau0..", len(tau) == len(q) and q), ("T or kinetic_energy", kinetic in columns),
-                               ("V or potential_energy", potential in columns)) if not ok]
+    kinetic, potential = "kinetic_energy", "potential_energy"  # simulate's and log2csv's names (tools/log_csv.hpp)
+    missing = [n for n, ok in (("t", "t" in columns), ("q0..", bool(q)), ("q_des0..", len(qdes) == len(q) and q),
+                               ("tau0..", len(tau) == len(q) and q), (kinetic, kinetic in columns),
+                               (potential, potential in columns)) if not ok]
     if missing:
         fail("%s lacks the columns %s (a CSV from lagrangectl simulate, or a *_STATE.csv from log2csv)"
              % (path, ", ".join(missing)))
@@ -176,14 +236,20 @@ def main():
     fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(10, 2.75 * panels), squeeze=False)
     axes = [row[0] for row in axes]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    joint_names, switches = status_facts(status, path, columns, len(q)) if status else (None, [])
+    joint = joint_names or ["q%d" % i for i in range(len(q))]
     for i, (qn, dn) in enumerate(zip(q, qdes)):
         color = colors[i % len(colors)]
-        draw(axes[0], "q%d" % i, numbers(columns, qn, path), color=color)
-        draw(axes[0], "qdes%d" % i, numbers(columns, dn, path), color=color, linestyle="--")
+        draw(axes[0], joint[i], numbers(columns, qn, path), color=color)
+        draw(axes[0], joint[i] + " setpoint", numbers(columns, dn, path), color=color, linestyle="--")
     axes[0].set_ylabel("q, q_des (rad or m)")
     axes[0].set_title("joint positions (solid) and setpoints (dashed)")
+    # A segment's first row carries no applied torque yet (a row's tau is the
+    # one held over the tick that led to it): not drawn, so no line from 0.
+    first_rows = set(starts)
     for i, name in enumerate(tau):
-        draw(axes[1], "tau%d" % i, numbers(columns, name, path), color=colors[i % len(colors)])
+        values = [math.nan if k in first_rows else v for k, v in enumerate(numbers(columns, name, path))]
+        draw(axes[1], joint[i], values, color=colors[i % len(colors)])
     axes[1].set_ylabel("tau (N·m or N)")
     axes[1].set_title("applied generalized forces")
     T = numbers(columns, kinetic, path)
@@ -195,7 +261,7 @@ def main():
     axes[2].set_title("kinetic T, potential V and total E")
     for i, (qn, dn) in enumerate(zip(q, qdes)):
         err = [d - x for d, x in zip(numbers(columns, dn, path), numbers(columns, qn, path))]
-        draw(axes[3], "e%d" % i, err, color=colors[i % len(colors)])
+        draw(axes[3], joint[i], err, color=colors[i % len(colors)])
     axes[3].set_ylabel("q_des - q (rad or m)")
     axes[3].set_title("tracking error")
     extra = []
@@ -204,9 +270,15 @@ def main():
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces))
     axes[-1].set_xlabel("t (s)")
+    for t_switch, label in switches:
+        for axis in axes:
+            axis.axvline(t_switch, color="dimgray", linestyle=":", linewidth=1.0)
+        axes[0].annotate(label, xy=(t_switch, 1.0), xycoords=("data", "axes fraction"), xytext=(2, -2),
+                         textcoords="offset points", va="top", fontsize="small", color="dimgray")
     for axis in axes:
         axis.grid(True, alpha=0.3)
-        axis.legend(loc="upper right", fontsize="small", ncol=4)
+        if axis.get_legend() is None:  # the cost panel has its own
+            axis.legend(loc="best", fontsize="small", ncol=4)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))  # 0.3 in kept for the title however tall
     try:

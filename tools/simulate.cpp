@@ -16,6 +16,7 @@
 #include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
+#include "tools/log_csv.hpp"
 
 namespace lagrange::cli {
 namespace {
@@ -29,12 +30,11 @@ std::string CsvPathFor(const std::string& path, const std::string& name, bool se
   return path.substr(0, dot) + "." + name + path.substr(dot);
 }
 
+// The columns log2csv gives the same quantities in a state CSV (JointColumns).
 void WriteHeader(std::ostream& out, int n) {
   out << 't';
-  for (const char* field : {"q", "qd", "qdes", "tau"}) {
-    for (int i = 0; i < n; ++i) out << ',' << field << i;
-  }
-  out << ",T,V\n";
+  for (const char* field : {"q", "qd", "q_des", "tau"}) out << JointColumns(field, n);
+  out << ',' << kKineticEnergyColumn << ',' << kPotentialEnergyColumn << '\n';
 }
 
 void WriteRow(std::ostream& out, Instance& inst) {
@@ -50,6 +50,9 @@ std::string FaultLine(Instance& inst, const OfflineFault& f) {
   std::string line =
       "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
   if (f.reason == kEnergyOutOfBound) line += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
+  if (f.reason == kResidualOutOfBound) {
+    line += ", |ε| > " + FormatDouble(inst.instance_model().residual_bound.bound) + " J";
+  }
   return line + "; its CSV ends at t = " + FormatDouble(inst.t()) + " s, the last healthy step";
 }
 

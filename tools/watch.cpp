@@ -175,6 +175,12 @@ class WatchCommand final : public Command {
     bus_handle_->Subscribe(bus_.StatusChannel(),
                            [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
     for (const std::string& name : only_) SubscribeInstance(name);
+    // What else is on the bus, while waiting: for the hint if nothing comes.
+    std::set<std::string> heard;
+    bool waiting = true;
+    bus_handle_->Subscribe(kEveryChannel, [&](std::string_view channel, const std::uint8_t*, std::size_t) {
+      if (waiting && heard.size() < kMaxHeardChannels) heard.emplace(channel);
+    });
 
     // Wait for the daemon (and any instance asked for by name).
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(bus_.wait);
@@ -186,14 +192,16 @@ class WatchCommand final : public Command {
       return true;
     };
     while (!ready() && std::chrono::steady_clock::now() < give_up) Handle(10);
+    waiting = false;
     if (statuses_.empty()) {
-      throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) +
-                               " s (no lagranged on " + bus_.Url() + "?)");
+      throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) + " s on " +
+                               bus_.Url() + "; " + HeardHint(bus_.channel_prefix, "", heard));
     }
     for (const std::string& name : only_) {
       if (instances_.at(name).states.empty()) {
         throw std::runtime_error("no state from instance '" + name + "' on " + bus_.Channel(name, kStateSuffix) +
-                                 " (unknown instance?)");
+                                 " within " + FormatDouble(bus_.wait) + " s; " +
+                                 HeardHint(bus_.channel_prefix, name, heard));
       }
     }
 

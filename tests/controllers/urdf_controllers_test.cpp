@@ -8,6 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "controllers/factory.hpp"
@@ -145,8 +146,17 @@ TEST(UrdfControllers, PdGainBoundsKeepEveryModeOfTheHeldLawWithinTheTicksLimit) 
   ASSERT_TRUE(fault);
   const std::string message = DescribeGainFault(*fault, g, ur5);
   EXPECT_EQ(message.rfind("kp[0]: expected |gain| <= ", 0), 0u) << message;  // the uniform box's first breach
-  EXPECT_NE(message.find("; or every kp within its joint's bound (Kp_i·h²·c/M_ii <= 1"), std::string::npos) << message;
-  EXPECT_NE(message.find(", but kp[5] = "), std::string::npos) << message;  // and the per-joint box's
+  // The per-joint box's bounds and its breach, before the rules: a status keeps only a reason's first 199 bytes.
+  std::string bounds;
+  for (int j = 0; j < 6; ++j) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%.4g", j ? ", " : "", ur5.kp_max_per_joint[j]);
+    bounds += text;
+  }
+  const std::size_t per_joint = message.find("; or every kp within its joint's bound [" + bounds + "], but kp[5] = ");
+  EXPECT_NE(per_joint, std::string::npos) << message;
+  EXPECT_LT(message.find(" (", per_joint), 199u - std::string("ur5: gains for pd: ").size()) << message;
+  EXPECT_NE(message.find("; per joint Kp_i·h²·c/M_ii <= 1"), std::string::npos) << message;
   // One joint: one box.
   EXPECT_EQ(ComputeGainBounds(ControllerType::kPd, DefaultPlantSpec(PlantType::kPendulum), VectorXd::Zero(1), kTick)
                 .kp_max_per_joint.size(),

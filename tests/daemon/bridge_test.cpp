@@ -486,6 +486,44 @@ TEST_F(Bridge, ControlCharactersInAControllerNameAreEscapedInTheReplyAndTheStatu
 
 // Every status names each instance's joints, instance after instance, after
 // its joint count: the default scene's are generated.
+// energy_balance with on_exceed: warn: the status's reason names the instance
+// whose |ε| exceeds its bound while it runs; the other instance's stays "".
+TEST(BridgeResidualBound, TheStatusSaysWhichInstanceExceedsItsEnergyBalanceBound) {
+  Runtime runtime(ParseScene(R"(
+instances:
+  - {name: p, plant: {type: pendulum}, initial: {q: [1.5]}, integrator: {type: explicit-euler},
+     energy_balance: {bound: 0.1, on_exceed: warn}}
+  - {name: r, plant: {type: pendulum}, initial: {q: [1.5]}, integrator: {type: rk4},
+     energy_balance: {bound: 0.1, on_exceed: warn}}
+)",
+                             "inline"));
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  InProcessBus output;
+  SpscRing<TickRecord> ring(256, runtime.MakeRecord());
+  Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
+  Publisher publisher(output, runtime, ring, loop, stats, -1, kRunId);
+  std::optional<status_t> status;
+  output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    status_t s;
+    if (Decode(d, n, s)) status = s;
+  });
+  std::atomic<bool> stop{false};
+  for (int k = 1; k <= 10; ++k) {  // 10 s, drained a second at a time
+    loop.Run(stop, 1000 * k);
+    publisher.Drain();
+    while (output.Drain() > 0) {
+    }
+  }
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->instance_modes, (std::vector<std::int8_t>{state_t::MODE_RUNNING, state_t::MODE_RUNNING}));
+  ASSERT_EQ(status->instance_reasons.size(), 2u);
+  EXPECT_EQ(status->instance_reasons[0].rfind("|ε| = ", 0), 0u) << status->instance_reasons[0];
+  EXPECT_NE(status->instance_reasons[0].find(" J exceeds energy_balance.bound = 0.1 J"), std::string::npos)
+      << status->instance_reasons[0];
+  EXPECT_EQ(status->instance_reasons[1], "");
+}
+
 TEST_F(Bridge, TheStatusNamesEveryInstancesJointsAfterItsJointCount) {
   Ticks(100);
   EXPECT_EQ(last_status_.instance_names, (std::vector<std::string>{"arm", "cartpole"}));

@@ -120,7 +120,7 @@ class ExternalLive : public ::testing::Test {
     return std::make_unique<BackgroundProcess>(argv);
   }
   std::unique_ptr<BackgroundProcess> StartPlant() {
-    return Lagranged(RelaxedScene("arm_external_controller.yaml"), kKeepPace);
+    return Lagranged(RelaxedScene("arm_external_plant.yaml"), kKeepPace);
   }
   // The pair, both running: the plant (under the external controller) and the
   // controller (computed torque on the external plant).
@@ -130,7 +130,7 @@ class ExternalLive : public ::testing::Test {
     plant_run_ = Latest(kArmState).run_id;
     std::vector<std::string> options = kKeepPace;
     options.insert(options.end(), {"--channel-prefix", kPrefix});
-    controller_ = Lagranged(RelaxedScene("arm_external_plant.yaml"), options);
+    controller_ = Lagranged(RelaxedScene("arm_external_controller.yaml"), options);
     ASSERT_TRUE(WaitState(kControllerState, [](const state_t& s) { return s.mode == state_t::MODE_RUNNING; }))
         << controller_->Stderr();
     ASSERT_TRUE(WaitState(kArmState, [](const state_t& s) { return s.mode == state_t::MODE_RUNNING; }))

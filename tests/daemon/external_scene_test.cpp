@@ -238,8 +238,8 @@ instances:
 
 TEST(ExternalChannels, TheShippedTwoProcessScenesFitTogetherAsTheirCommentsSay) {
   const std::string dir = std::string(LAGRANGE_SOURCE_DIR) + "/config/";
-  const Scene plant = LoadScene(dir + "arm_external_controller.yaml");
-  const Scene controller = LoadScene(dir + "arm_external_plant.yaml");
+  const Scene plant = LoadScene(dir + "arm_external_plant.yaml");
+  const Scene controller = LoadScene(dir + "arm_external_controller.yaml");
   const std::vector<InstanceChannelNames> p = SceneChannelNames(plant, "");
   const std::vector<InstanceChannelNames> c = SceneChannelNames(controller, "CTRL_");
   EXPECT_EQ(CheckChannelNames(p, StatusChannel("")), "");

@@ -3,10 +3,10 @@
 // InProcessBus objects, so every count and every tick below is a fact, not a
 // sample of UDP delivery or of a machine's speed.
 //
-//   P  a simulated arm under an external controller (config/arm_external_controller.yaml):
+//   P  a simulated arm under an external controller (config/arm_external_plant.yaml):
 //      hold until a torque, torques applied within the limits, the timeout, the fallback,
 //      and what its receiver refuses;
-//   C  the controller of an external plant (config/arm_external_plant.yaml): its watchdog;
+//   C  the controller of an external plant (config/arm_external_controller.yaml): its watchdog;
 //   P + C  closing the loop in one process, one tick apart;
 // and the ticks of both allocate nothing.
 
@@ -54,8 +54,8 @@ constexpr Nanoseconds kMs = 1'000'000;
 constexpr std::int64_t kPlantRunId = 0x0123456789abcdef;       // P, the simulated arm
 constexpr std::int64_t kControllerRunId = 0x7edcba9876543210;  // C, the controller of the external arm
 constexpr std::int64_t kClientRunId = 0xc11e47;                // a torque client of the test's own
-// torque_timeout of arm_external_controller.yaml and state_timeout of
-// arm_external_plant.yaml (0.05 s), in 1 ms ticks.
+// torque_timeout of arm_external_plant.yaml and state_timeout of
+// arm_external_controller.yaml (0.05 s), in 1 ms ticks.
 constexpr int kTimeoutTicks = 50;
 constexpr double kExact = 1e-12;  // N·m or rad: values copied or clipped, not computed
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -243,7 +243,7 @@ void Link(Daemon& from, const std::string& channel, Daemon& to) {
 
 class ExternalControllerLoop : public ::testing::Test {
  protected:
-  explicit ExternalControllerLoop(Scene scene = LoadScene(Config("arm_external_controller.yaml")))
+  explicit ExternalControllerLoop(Scene scene = LoadScene(Config("arm_external_plant.yaml")))
       : arm_(std::move(scene), "", kPlantRunId) {}
   void TearDown() override { EXPECT_TRUE(arm_.all_finite()); }
 
@@ -614,7 +614,7 @@ TEST_F(ExternalControllerLoop, SwitchingToTheExternalControllerHoldsUntilItsFirs
 
 class ExternalPlantWatchdog : public ::testing::Test {
  protected:
-  ExternalPlantWatchdog() : controller_(LoadScene(Config("arm_external_plant.yaml")), "CTRL_", kControllerRunId) {}
+  ExternalPlantWatchdog() : controller_(LoadScene(Config("arm_external_controller.yaml")), "CTRL_", kControllerRunId) {}
   void TearDown() override { EXPECT_TRUE(controller_.all_finite()); }
 
   // A measured state of tick `tick`, sent now (`age_us` ago).
@@ -805,7 +805,7 @@ TEST(ExternalPlantTrips, EachBadStateStopsItWithItsReasonAndOneZeroTorque) {
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.rejection);
-    Daemon controller(LoadScene(Config("arm_external_plant.yaml")), "CTRL_", kControllerRunId);
+    Daemon controller(LoadScene(Config("arm_external_controller.yaml")), "CTRL_", kControllerRunId);
     for (int k = 0; k < 10; ++k) {
       controller.SendState(MakeState({0.8, 0.1}, {0.2, -0.1}, k, controller.WallMicros()));
       controller.Ticks(1);
@@ -964,8 +964,8 @@ TEST_F(ExternalPlantWatchdog, PauseIsRefusedForAnExternalPlant) {
 class TwoProcessLoop : public ::testing::Test {
  protected:
   TwoProcessLoop()
-      : plant_scene_(LoadScene(Config("arm_external_controller.yaml"))),
-        controller_scene_(LoadScene(Config("arm_external_plant.yaml"))),
+      : plant_scene_(LoadScene(Config("arm_external_plant.yaml"))),
+        controller_scene_(LoadScene(Config("arm_external_controller.yaml"))),
         plant_(plant_scene_, "", kPlantRunId),
         controller_(controller_scene_, "CTRL_", kControllerRunId),
         single_(SingleProcessScene(plant_scene_, controller_scene_), "", kPlantRunId),
@@ -1175,7 +1175,7 @@ instances:
 // state, as libfranka's motion generators do: the shipped controller scene's
 // sine is centred on the initial q (0.785, 0), the robot is at (1.2, -0.5).
 TEST(ExternalPlantStart, TheTrajectoryStartsFromTheFirstMeasuredStateNotTheScenesInitialQ) {
-  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/arm_external_plant.yaml"));
+  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/arm_external_controller.yaml"));
   TickRecord record = runtime.MakeRecord();
   const VectorXd measured = Vec({1.2, -0.5});
   PostMeasured(runtime, measured, Vec({0.0, 0.0}), 1);
@@ -1262,7 +1262,7 @@ std::int64_t TickAllocations(Runtime& runtime, TickRecord& record, Nanoseconds& 
 
 TEST(ExternalTickAllocation, APlantTickAllocatesNothingRunningOnTorquesOrHoldingOnItsFallback) {
   const auto none = [](int) {};
-  for (const Scene& scene : {LoadScene(Config("arm_external_controller.yaml")),
+  for (const Scene& scene : {LoadScene(Config("arm_external_plant.yaml")),
                              ArmScene("{type: external, torque_timeout: 0.05, fallback: brake}"),
                              LoadScene(Config("arm_impedance_client.yaml"))}) {
     Runtime runtime(scene);
@@ -1287,7 +1287,7 @@ TEST(ExternalTickAllocation, APlantTickAllocatesNothingRunningOnTorquesOrHolding
 }
 
 TEST(ExternalTickAllocation, AControllerTickAllocatesNothingRunningOrStopped) {
-  Runtime runtime(LoadScene(Config("arm_external_plant.yaml")));
+  Runtime runtime(LoadScene(Config("arm_external_controller.yaml")));
   TickRecord record = runtime.MakeRecord();
   Nanoseconds now = 0;
   const auto none = [](int) {};

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "daemon/health.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -231,6 +232,86 @@ TEST_F(FaultTest, EnergyOutOfBoundFaultsOnlyThatInstanceUntilReset) {
   Ticks(1);
   EXPECT_EQ(Arm().mode, Mode::kRunning);
   EXPECT_NEAR(Arm().q[0], 0.5, 1e-3);
+}
+
+// A free pendulum swinging from 1.5 rad: explicit Euler pumps energy in
+// (|ε| passes 0.1 J within seconds at 1 ms) while every state stays finite;
+// rk4 keeps |ε| far below it. Only the scene's energy_balance bound shows it.
+Scene EulerPendulum(const std::string& integrator, const std::string& on_exceed, bool telemetry = false) {
+  return ParseScene(R"(
+instances:
+  - name: p
+    plant: {type: pendulum}
+    initial: {q: [1.5]}
+    integrator: {type: )" + integrator + R"(}
+    energy_balance: {bound: 0.1, on_exceed: )" + on_exceed + R"(}
+    telemetry: )" + (telemetry ? "true" : "false") + R"(
+  - name: q
+    plant: {type: pendulum}
+    initial: {q: [1.5]}
+    integrator: {type: explicit-euler}
+)",
+                    "inline");
+}
+constexpr double kResidualBound = 0.1;  // J, as in EulerPendulum
+constexpr int kTenSeconds = 10000;      // ticks of 1 ms
+
+TEST(RuntimeResidualBound, ExplicitEulerExceedingTheBoundFaultsOnlyThatInstanceWithItsLastGoodState) {
+  Runtime runtime(EulerPendulum("explicit-euler", "fault"));
+  TickRecord record = runtime.MakeRecord();
+  Nanoseconds now = 0;
+  int faulted_at = -1;
+  for (int k = 0; k < kTenSeconds && faulted_at < 0; ++k) {
+    runtime.Tick(now += kMs, record);
+    const InstanceRecord& r = record.instances[0];
+    ASSERT_TRUE(r.q.allFinite() && r.qd.allFinite() && r.tau.allFinite());
+    if (r.fault) faulted_at = k;
+  }
+  ASSERT_GE(faulted_at, 0) << "explicit Euler stayed within |eps| <= 0.1 J for 10 s";
+  const InstanceRecord& p = record.instances[0];
+  EXPECT_STREQ(p.fault, kResidualOutOfBound);
+  EXPECT_EQ(p.mode, Mode::kFault);
+  EXPECT_LE(std::abs(p.energy_residual), kResidualBound);  // the last good state's balance is what is published
+  EXPECT_FALSE(p.residual_exceeded);                      // a fault, not a warning
+  const VectorXd frozen = p.q;
+  for (int k = 0; k < 100; ++k) runtime.Tick(now += kMs, record);
+  EXPECT_EQ(record.instances[0].q, frozen);
+  EXPECT_EQ(record.instances[0].mode, Mode::kFault);
+  EXPECT_EQ(record.instances[1].mode, Mode::kRunning);  // the unbounded instance runs on, as wrong as before
+}
+
+TEST(RuntimeResidualBound, UnderWarnTheInstanceRunsOnAndItsRecordSaysItExceeds) {
+  Runtime runtime(EulerPendulum("explicit-euler", "warn"));
+  TickRecord record = runtime.MakeRecord();
+  Nanoseconds now = 0;
+  bool exceeded = false;
+  for (int k = 0; k < kTenSeconds; ++k) {
+    runtime.Tick(now += kMs, record);
+    const InstanceRecord& p = record.instances[0];
+    ASSERT_EQ(p.mode, Mode::kRunning);
+    ASSERT_EQ(p.residual_exceeded, std::abs(p.energy_residual) > kResidualBound) << k;
+    exceeded = exceeded || p.residual_exceeded;
+    EXPECT_FALSE(record.instances[1].residual_exceeded);  // no bound: never
+  }
+  EXPECT_TRUE(exceeded);
+  // A reset starts the balance over: within the bound again.
+  CommandMessage* c = runtime.channels(0).commands.BeginPush();
+  ASSERT_NE(c, nullptr);
+  c->kind = CommandKind::kReset;
+  runtime.channels(0).commands.Push();
+  runtime.Tick(now += kMs, record);
+  EXPECT_FALSE(record.instances[0].residual_exceeded);
+}
+
+TEST(RuntimeResidualBound, Rk4StaysWithinTheBoundExplicitEulerBreaks) {
+  Runtime runtime(EulerPendulum("rk4", "fault", true));
+  TickRecord record = runtime.MakeRecord();
+  Nanoseconds now = 0;
+  for (int k = 0; k < kTenSeconds; ++k) {
+    runtime.Tick(now += kMs, record);
+    ASSERT_EQ(record.instances[0].mode, Mode::kRunning) << k;
+  }
+  EXPECT_LT(std::abs(record.instances[0].energy_residual), 1e-6 * kResidualBound);
 }
 
 TEST(RuntimeFaults, ADivergingIntegrationIsFaultedAndNothingNonFiniteIsRecorded) {

@@ -95,6 +95,24 @@ TEST(SceneParsing, DefaultsApplyWhereTheSceneIsSilent) {
   EXPECT_EQ(params.body, PendulumBody::kPointMass);
 }
 
+TEST(SceneParsing, AnEnergyBalanceBoundIsReadWarningByDefaultAndAbsentUnlessGiven) {
+  const Scene scene = ParseScene(R"(
+instances:
+  - {name: a, plant: {type: pendulum}, energy_balance: {bound: 0.5, on_exceed: fault}}
+  - {name: b, plant: {type: pendulum}, energy_balance: {bound: 2}, telemetry: false}
+  - {name: c, plant: {type: pendulum}}
+)",
+                                 "inline");
+  ASSERT_EQ(scene.instances.size(), 3u);
+  ASSERT_TRUE(scene.instances[0].energy_balance);
+  EXPECT_EQ(scene.instances[0].energy_balance->bound, 0.5);
+  EXPECT_EQ(scene.instances[0].energy_balance->on_exceed, OnResidualExceeded::kFault);
+  ASSERT_TRUE(scene.instances[1].energy_balance);
+  EXPECT_EQ(scene.instances[1].energy_balance->bound, 2.0);
+  EXPECT_EQ(scene.instances[1].energy_balance->on_exceed, OnResidualExceeded::kWarn);
+  EXPECT_FALSE(scene.instances[2].energy_balance);
+}
+
 TEST(SceneParsing, ChainParametersTakeScalarsOrPerLinkListsInAnyOrder) {
   // 'links' written last still sizes the per-link lists.
   const Scene scene = ParseScene(R"(

@@ -100,9 +100,79 @@ TEST(DaemonLink, NoStateWithinTheWaitIsOneLineNamingTheChannelAndTheBus) {
     FAIL() << "found a run in a packet that is not a state";
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()),
-              "no state from instance 'arm' on ARM_STATE within 0.05 s (unknown instance, or no lagranged on "
-              "inprocess://?)");
+              "no state from instance 'arm' on ARM_STATE within 0.05 s on inprocess://; heard ARM_STATE, but no "
+              "valid state_t on it (not a lagranged?)");
   }
+}
+
+// The error of a wait in vain for `instance` under `prefix`, after `publish` put messages on the bus.
+template <class Publish>
+std::string TimeoutError(const std::string& prefix, const std::string& instance, Publish publish) {
+  LinkOptions options = InProcess(0.05);
+  options.channel_prefix = prefix;
+  DaemonLink link(options, instance);
+  publish(link.bus());
+  try {
+    link.AwaitOneRun();
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "found a run";
+}
+
+TEST(DaemonLink, AWaitInVainWithNothingOnTheBusSaysNoDaemonWasHeard) {
+  EXPECT_EQ(TimeoutError("", "arm", [](Bus&) {}),
+            "no state from instance 'arm' on ARM_STATE within 0.05 s on inprocess://; heard no lagranged there (is "
+            "one running, on this LCM URL?)");
+}
+
+TEST(DaemonLink, AForgottenChannelPrefixIsNamed) {
+  const std::string error = TimeoutError("", "arm", [](Bus& bus) {
+    bus.PublishMessage("SIM_LAGRANGE_STATUS", Status(kRun));
+    bus.PublishMessage("SIM_ARM_STATE", State(kRun));
+    bus.PublishMessage("SIM_CARTPOLE_STATE", State(kRun));
+  });
+  EXPECT_EQ(error,
+            "no state from instance 'arm' on ARM_STATE within 0.05 s on inprocess://; a lagranged publishes "
+            "SIM_ARM_STATE: --channel-prefix SIM_?");
+}
+
+TEST(DaemonLink, APrefixTheDaemonDoesNotUseIsNamed) {
+  const std::string error = TimeoutError("SIM_", "arm", [](Bus& bus) {
+    bus.PublishMessage("LAGRANGE_STATUS", Status(kRun));
+    bus.PublishMessage("ARM_STATE", State(kRun));
+  });
+  EXPECT_EQ(error,
+            "no state from instance 'arm' on SIM_ARM_STATE within 0.05 s on inprocess://; a lagranged publishes "
+            "ARM_STATE: without --channel-prefix?");
+}
+
+TEST(DaemonLink, AMistypedInstanceGetsTheNearestNameHeard) {
+  const std::string error = TimeoutError("", "amr", [](Bus& bus) {
+    bus.PublishMessage("LAGRANGE_STATUS", Status(kRun));
+    bus.PublishMessage("CARTPOLE_STATE", State(kRun));
+    bus.PublishMessage("ARM_STATE", State(kRun));
+  });
+  EXPECT_EQ(error,
+            "no state from instance 'amr' on AMR_STATE within 0.05 s on inprocess://; state channels heard: "
+            "ARM_STATE, CARTPOLE_STATE; did you mean 'arm'?");
+}
+
+TEST(DaemonLink, ChannelNamesHeardAreEscapedAndBounded) {
+  const std::string error = TimeoutError("", "arm", [](Bus& bus) {
+    for (int k = 0; k < 100; ++k) bus.PublishMessage("X" + std::to_string(k) + "\x1b[2J_STATE", State(kRun));
+  });
+  EXPECT_EQ(error.find('\x1b'), std::string::npos) << error;
+  EXPECT_NE(error.find("\\x1b[2J_STATE"), std::string::npos) << error;
+  std::size_t listed = 0;
+  for (std::size_t at = error.find("_STATE"); at != std::string::npos; at = error.find("_STATE", at + 1)) ++listed;
+  EXPECT_LE(listed, kMaxHeardChannels + 1) << error;  // + the channel waited on
+}
+
+TEST(HeardHint, SuggestsOnlyAPrefixAStatusConfirms) {
+  // FARM_STATE ends in ARM_STATE, but no daemon runs with prefix F.
+  EXPECT_EQ(HeardHint("", "arm", {"LAGRANGE_STATUS", "FARM_STATE"}),
+            "state channels heard: FARM_STATE; did you mean 'farm'?");
 }
 
 TEST(DaemonLink, OnlyTheRunsReplyToItsOwnRequestCounts) {
@@ -119,6 +189,26 @@ TEST(DaemonLink, OnlyTheRunsReplyToItsOwnRequestCounts) {
   ASSERT_TRUE(link.reply());
   EXPECT_TRUE(link.reply()->accepted);
   EXPECT_EQ(link.reply()->reason, "");
+}
+
+TEST(DaemonLink, AfterAwaitRunsEveryRunsReplyToItsOwnRequestIsKept) {
+  DaemonLink link(InProcess(), "arm");
+  link.bus().PublishMessage("ARM_STATE", State(kRun));
+  link.bus().PublishMessage("ARM_STATE", State(kOtherRun));
+  EXPECT_EQ(link.AwaitRuns(), (std::vector<std::int64_t>{kRun, kOtherRun}));
+  link.ExpectReply(42);
+  link.bus().PublishMessage("ARM_REPLY", Reply(0x3333, 42, ""));  // a run that published no state
+  link.bus().PublishMessage("ARM_REPLY", Reply(kOtherRun, 41, "someone else's request"));
+  link.bus().PublishMessage("ARM_REPLY", Reply(kOtherRun, 42, "busy"));
+  link.bus().PublishMessage("ARM_REPLY", Reply(kRun, 42, ""));
+  link.bus().PublishMessage("ARM_REPLY", Reply(kOtherRun, 42, ""));  // a second answer
+  EXPECT_TRUE(link.PumpUntil([&] { return link.reply(kRun) && link.reply(kOtherRun); }, 1.0));
+  link.Pump(0.01);
+  EXPECT_TRUE(link.reply(kRun)->accepted);
+  EXPECT_FALSE(link.reply(kOtherRun)->accepted);
+  EXPECT_EQ(link.reply(kOtherRun)->reason, "busy");
+  EXPECT_FALSE(link.reply(0x3333));
+  EXPECT_EQ(link.runs().size(), 2u);
 }
 
 TEST(DaemonLink, OnlyTheRunsStatusIsKept) {

@@ -192,13 +192,13 @@ std::string JoinNumbers(const std::vector<double>& v) {
   return s;
 }
 
-// The arm of arm_external_controller.yaml holds under gravity compensation
+// The arm of arm_external_plant.yaml holds under gravity compensation
 // until a torque comes, so at rest its torque is G(q). `send --tau` streams
 // G(q) + (lift, 0): applied exactly as sent, it lifts the shoulder, for at
 // rest M q̈ = τ − G = (lift, 0) and M⁻¹ has a positive diagonal. A torque of
 // the wrong size never leaves lagrangectl.
 TEST_F(LiveDaemon, SendTauStreamsATorqueTheArmIsDrivenByUnderItsExternalController) {
-  Start(7710, {"--config", SceneFile("arm_external_controller.yaml")});
+  Start(7710, {"--config", SceneFile("arm_external_plant.yaml")});
   ASSERT_TRUE(collector_->WaitForLatest<state_t>(
       "ARM_STATE", [](const state_t& s) { return s.mode == state_t::MODE_HOLD; }, 5.0));
   ExpectOneLine(Ctl({"send", "arm", "--tau", "1,2,3"}), "send", 2,
@@ -251,7 +251,7 @@ TEST_F(LiveDaemon, SendTauStreamsATorqueTheArmIsDrivenByUnderItsExternalControll
 }
 
 TEST_F(LiveDaemon, SendTauIsRefusedUnlessTheExternalControllerIsActiveAndSaysHowToSwitch) {
-  Start(7711, {"--config", SceneFile("arm_external_controller.yaml")});
+  Start(7711, {"--config", SceneFile("arm_external_plant.yaml")});
   ASSERT_EQ(Ctl({"command", "arm", "controller", "gravity-compensation"}).status, 0);
   auto r = Ctl({"send", "arm", "--tau", "1", "--for", "0.2"});
   ExpectOneLine(r, "send", 1,
@@ -279,7 +279,7 @@ TEST_F(LiveDaemon, SendTauToAnInstanceWhoseSceneHasNoExternalControllerSaysSo) {
 
 // An external plant's controller waits for a measured state nobody sends.
 TEST_F(LiveDaemon, WatchShowsANewModeWithItsReasonAndTheTorqueAndMeasuredCounters) {
-  Start(7713, {"--config", SceneFile("arm_external_plant.yaml")});
+  Start(7713, {"--config", SceneFile("arm_external_controller.yaml")});
   const auto r = Ctl({"watch", "--frames", "1"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find(std::string("\narm_controller   waiting (") + kWaitingForState + ")   computed-torque   t "),
@@ -612,6 +612,7 @@ class FakeDaemon {
     std::string mode_reason;        // the status's instance_reasons
     bool answer = false;            // reply to every command
     std::int64_t reply_run_id = 0;  // 0: the first run id
+    bool every_run_answers = false;  // one reply per run id (as several daemons would)
     bool wrong_request_id = false;  // answer with another request_id than the command's
     bool accept = true;
     std::string reason;
@@ -641,6 +642,11 @@ class FakeDaemon {
     r.accepted = self->config_.accept;
     r.reason = self->config_.reason;
     self->lcm_.publish("ARM_REPLY", &r);
+    if (!self->config_.every_run_answers) return;
+    for (std::size_t k = 1; k < self->config_.run_ids.size(); ++k) {
+      r.run_id = self->config_.run_ids[k];
+      self->lcm_.publish("ARM_REPLY", &r);
+    }
   }
   static void OnSetpoint(const lcm::ReceiveBuffer*, const std::string&, FakeDaemon* self) { ++self->setpoints_; }
   void Loop() {
@@ -753,12 +759,101 @@ TEST(BelievesNobody, TwoRunsOnOneStateChannelMakeSendAndCommandRefuseToAct) {
   FakeDaemon fake(url, config);
   const std::string two =
       "two lagranged runs publish ARM_STATE (ids 00000000000000aa and 00000000000000bb): refusing to act";
-  auto r = RunCtl({"command", "arm", "estop", "--lcm-url", url});
+  auto r = RunCtl({"command", "arm", "pause", "--lcm-url", url});
   ExpectOneLine(r, "command", 1, two);
   r = RunCtl({"send", "arm", "--min-jerk", "1", "--q", "0.3,0.3", "--lcm-url", url});
   ExpectOneLine(r, "send", 1, two);
   EXPECT_EQ(fake.commands(), 0);  // nothing was sent
   EXPECT_EQ(fake.setpoints(), 0);
+}
+
+TEST(BelievesNobody, AnEstopGoesToEveryRunOnTheStateChannelAndReportsEachVerdict) {
+  const std::string url = Url(7848);
+  FakeDaemon::Config config;
+  config.run_ids = {0xaa, 0xbb};
+  config.answer = true;
+  config.every_run_answers = true;
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"command", "arm", "estop", "--wait", "2", "--lcm-url", url});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out,
+            "arm: run 00000000000000aa: estop done; now running with pd\n"
+            "arm: run 00000000000000bb: estop done; now running with pd\n");
+  EXPECT_GE(fake.commands(), 1);
+}
+
+TEST(BelievesNobody, AnEstopThatOneRunDidNotApplyIsNamedAndFails) {
+  const std::string url = Url(7849);
+  FakeDaemon::Config config;
+  config.run_ids = {0xaa, 0xbb};
+  config.answer = true;  // only 0xaa answers
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"command", "arm", "estop", "--wait", "1", "--lcm-url", url});
+  ExpectOneLine(r, "command", 1,
+                "estop applied by 1 of the 2 runs publishing ARM_STATE (ids 00000000000000aa, 00000000000000bb)");
+  EXPECT_EQ(r.out,
+            "arm: run 00000000000000aa: estop done; now running with pd\n"
+            "arm: run 00000000000000bb: estop no verdict within 1 s\n");
+}
+
+// A gain refusal names the per-joint bounds before anything cuts it: whole in
+// lagrangectl's line, and within the status's last_command_error.
+TEST_F(LiveDaemon, AGainRefusalKeepsItsPerJointBoundsInTheReplyAndTheStatus) {
+  Start(7852);
+  ASSERT_EQ(Ctl({"command", "arm", "controller", "pd"}).status, 0);
+  const auto r = Ctl({"command", "arm", "gains", "--kp", "1e6", "--kd", "1"});
+  ExpectOneLine(r, "command", 1, "refused: gains for pd: kp[0]: expected |gain| <= ");
+  EXPECT_NE(r.err.find("; or every kp within its joint's bound ["), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("], but kp[0] = 1e+06 ("), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.substr(r.err.size() - 2), ")\n") << r.err;  // the rules' end: nothing cut
+  ASSERT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [](const status_t& s) { return s.last_command_error.find("], but kp[0] = 1e+06") != std::string::npos; },
+      5.0));
+}
+
+TEST_F(LiveDaemon, AMistypedInstanceOrAForgottenPrefixIsNamedWhenTheWaitEnds) {
+  Start(7851);
+  ExpectOneLine(Ctl({"command", "amr", "pause", "--wait", "1"}), "command", 1,
+                "no state from instance 'amr' on AMR_STATE within 1 s on " + url_ +
+                    "; state channels heard: ARM_STATE, CARTPOLE_STATE; did you mean 'arm'?");
+  ExpectOneLine(Ctl({"send", "arm", "--q", "0,0", "--channel-prefix", "LEFT_", "--wait", "1"}), "send", 1,
+                "a lagranged publishes ARM_STATE: without --channel-prefix?");
+  ExpectOneLine(Ctl({"watch", "--frames", "1", "--channel-prefix", "LEFT_", "--wait", "1"}), "watch", 1,
+                "no LEFT_LAGRANGE_STATUS within 1 s on " + url_ +
+                    "; a lagranged publishes LAGRANGE_STATUS: without --channel-prefix?");
+}
+
+// A forger publishing ARM_STATE under another run id cannot keep an estop
+// from the real daemon: lagrangectl sends it, the daemon applies it, and the
+// forger's silence is reported beside the daemon's verdict.
+TEST_F(LiveDaemon, AnEstopLandsOnTheDaemonThoughAForgerPublishesItsStateChannel) {
+  Start(7850);
+  const std::int64_t daemon_run = LastState("ARM_STATE").run_id;
+  FakeDaemon::Config config;
+  config.run_ids = {0xbad};
+  FakeDaemon forger(url_, config);
+  const auto r = Ctl({"command", "arm", "estop", "--wait", "1"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.out.find("arm: run " + RunIdText(daemon_run) + ": estop done; now estop with "), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("arm: run 0000000000000bad: estop no verdict within 1 s"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("estop applied by 1 of the 2 runs publishing ARM_STATE"), std::string::npos) << r.err;
+  // The daemon's own states say it: in estop.
+  ASSERT_TRUE(collector_->WaitFor(
+      "ARM_STATE",
+      [&](const std::vector<testing::LcmCollector::Message>& m) {
+        for (const auto& message : m) {
+          state_t s;
+          if (s.decode(message.data.data(), 0, static_cast<int>(message.data.size())) > 0 &&
+              s.run_id == daemon_run && s.mode == state_t::MODE_ESTOP)
+            return true;
+        }
+        return false;
+      },
+      5.0));
+  // Other commands still refuse.
+  const auto pause = Ctl({"command", "arm", "pause", "--wait", "1"});
+  ExpectOneLine(pause, "command", 1, "two lagranged runs publish ARM_STATE");
 }
 
 TEST(BelievesNobody, WatchEscapesBusStringsAndShowsTheStatusCounters) {

@@ -283,6 +283,8 @@ TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   ASSERT_EQ(r.status, 0) << r.err;
   ASSERT_EQ(RunCtl({"log2csv", log.string(), "--channel", "ARM_STATE", "-o", (dir_ / "c").string()}).status, 0);
   const Csv recorded = ReadCsv(dir_ / "c" / "ARM_STATE.csv");
+  // simulate names a quantity as log2csv does: every column of its CSV is one of the recorded state CSV's.
+  for (const std::string& column : simulated.header) EXPECT_GE(recorded.Column(column), 0) << column;
   // Drawn from the same rows log2csv writes, with the arm's telemetry lagranged published beside its states.
   EXPECT_EQ(r.out.rfind(PlotLine(log_png, recorded) + "; telemetry: ", 0), 0u) << r.out;
   const std::vector<double> t = recorded.Numbers("t");

@@ -70,7 +70,7 @@ TEST_F(Simulate, WritesOneRowPerStepWithStateTorqueAndEnergy) {
                          "--csv", csv.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   const Csv data = ReadCsv(csv);
-  EXPECT_EQ(data.header, (std::vector<std::string>{"t", "q0", "qd0", "qdes0", "tau0", "T", "V"}));
+  EXPECT_EQ(data.header, (std::vector<std::string>{"t", "q0", "qd0", "q_des0", "tau0", "kinetic_energy", "potential_energy"}));
   ASSERT_EQ(data.rows.size(), 2001u);  // t = 0 and 2000 steps of 1 ms
   for (std::size_t k = 0; k < data.rows.size(); ++k) EXPECT_NEAR(data.rows[k][0], k * 1e-3, 1e-12);
   // Released at 90 degrees with no torque: T + V stays at −m g L cos(π/2) = 0 (variational integrator).
@@ -108,7 +108,7 @@ instances:
   ASSERT_EQ(RunCtl({"simulate", free.string(), "--duration", "3", "--csv", (dir_ / "f.csv").string()}).status, 0);
   ASSERT_EQ(RunCtl({"simulate", damped.string(), "--duration", "3", "--csv", (dir_ / "d.csv").string()}).status, 0);
   const Csv f = ReadCsv(dir_ / "f.csv"), d = ReadCsv(dir_ / "d.csv");
-  const int T = f.Column("T"), V = f.Column("V");
+  const int T = f.Column("kinetic_energy"), V = f.Column("potential_energy");
   const double e0 = f.rows[0][T] + f.rows[0][V];
   EXPECT_NEAR(f.rows.back()[T] + f.rows.back()[V], e0, 1e-6);
   double previous = e0;
@@ -342,9 +342,9 @@ TEST_F(Simulate, RefusesASceneThatNeedsTheBusNamingTheFileAndTheInstance) {
     std::string scene, instance, reason;
   };
   const std::vector<Case> cases = {
-      {config + "arm_external_controller.yaml", "arm", "its controller is external"},
+      {config + "arm_external_plant.yaml", "arm", "its controller is external"},
       {config + "arm_impedance_client.yaml", "arm", "its controller is external"},
-      {config + "arm_external_plant.yaml", "arm_controller", "its plant is external"},
+      {config + "arm_external_controller.yaml", "arm_controller", "its plant is external"},
   };
   for (const Case& c : cases) {
     const fs::path csv = dir_ / "run.csv";
