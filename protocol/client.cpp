@@ -30,7 +30,10 @@ std::unique_ptr<Bus> LinkOptions::Open() const {
   // ParseUdpmUrl first: it names what is wrong with any URL that is not a
   // udpm:// one (OpenBus only says which providers it speaks).
   if (url.rfind("inprocess://", 0) != 0) ParseUdpmUrl(url);
-  return OpenBus(url);  // BusError when the socket cannot be set up
+  const std::string key_file = ResolveBusKeyFile(bus_key_file);
+  if (key_file.empty()) return OpenBus(url);  // BusError when the socket cannot be set up
+  const BusKey key = BusKey::FromFile(key_file);
+  return OpenBus(url, &key);
 }
 
 DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
