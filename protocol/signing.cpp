@@ -155,6 +155,12 @@ void Signer::Sign(std::string_view channel, const std::uint8_t* message, std::si
   std::memcpy(trailer + 32, kTrailerMagic, sizeof kTrailerMagic);
 }
 
+std::size_t MessageSizeBeforeTrailer(const std::uint8_t* wire, std::size_t size) {
+  if (wire == nullptr || size < kSignatureTrailerBytes) return size;
+  const bool marked = std::memcmp(wire + size - sizeof kTrailerMagic, kTrailerMagic, sizeof kTrailerMagic) == 0;
+  return marked ? size - kSignatureTrailerBytes : size;
+}
+
 Verifier::Verifier(const BusKey& key, WallClockMicros clock) : mac_(key), clock_(std::move(clock)) {}
 
 Verifier::Sender* Verifier::Find(std::uint64_t id) {

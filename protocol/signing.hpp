@@ -120,6 +120,11 @@ enum class SignatureVerdict : std::uint8_t {
   kBadTag,    // the tag does not verify: forged or altered
 };
 
+// The size of the message before what looks like a signature trailer (ends in
+// "LGS1"), `size` when there is none. Says nothing about the tag: for readers
+// of recordings (log2csv), which have no key to check it with.
+std::size_t MessageSizeBeforeTrailer(const std::uint8_t* wire, std::size_t size);
+
 // Checks one receiver's datagrams. Remembers the last stamp of up to
 // kMaxSenders senders whose tags verified (a forger cannot fill it); beyond
 // that the least recently heard is forgotten. Allocates nothing.
