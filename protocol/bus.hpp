@@ -79,9 +79,10 @@ struct BusStats {
   std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
   // With a key, messages on subscribed channels refused (SignatureVerdict), each counted once:
   std::int64_t unsigned_dropped = 0;  // no signature trailer
-  std::int64_t stale = 0;             // stamp outside the window of this host's clock (e.g. a replayed recording)
-  std::int64_t replayed = 0;          // stamp not above its sender's last
-  std::int64_t bad_tags = 0;          // forged or altered
+  std::int64_t stale =
+      0;  // stamp outside the window of this host's clock or before the bus opened (a replayed recording)
+  std::int64_t replayed = 0;  // stamp not above its sender's last
+  std::int64_t bad_tags = 0;  // forged or altered
   std::int64_t unauthenticated() const { return unsigned_dropped + stale + replayed + bad_tags; }
 };
 

@@ -161,7 +161,7 @@ std::size_t MessageSizeBeforeTrailer(const std::uint8_t* wire, std::size_t size)
   return marked ? size - kSignatureTrailerBytes : size;
 }
 
-Verifier::Verifier(const BusKey& key, WallClockMicros clock) : mac_(key), clock_(std::move(clock)) {}
+Verifier::Verifier(const BusKey& key, WallClockMicros clock) : mac_(key), clock_(std::move(clock)), opened_(clock_()) {}
 
 Verifier::Sender* Verifier::Find(std::uint64_t id) {
   for (Sender& s : senders_) {
@@ -196,7 +196,7 @@ SignatureVerdict Verifier::Verify(std::string_view channel, const std::uint8_t* 
   const std::int64_t now = clock_();
   const auto signed_stamp = static_cast<std::int64_t>(stamp);
   if (stamp > static_cast<std::uint64_t>(INT64_MAX) || signed_stamp < now - kStampWindowMicros ||
-      signed_stamp > now + kStampWindowMicros) {
+      signed_stamp > now + kStampWindowMicros || signed_stamp < opened_) {
     return SignatureVerdict::kStale;
   }
   Sender* known = Find(sender_id);

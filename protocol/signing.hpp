@@ -16,10 +16,14 @@
 //                  "LGS1" ‖ channel ‖ NUL ‖ message ‖ sender id ‖ stamp
 //   32      4      "LGS1": marks the trailer and its version (36 bytes in all)
 //
-// Accepted only when: the trailer is there, the stamp is within kStampWindow
-// of the receiver's wall clock (a recording replayed later is refused), the
-// stamp is above the last one accepted from that sender (a datagram replayed
-// at once is refused), and the tag verifies (constant time). Why BLAKE2b and
+// Accepted only when: the trailer is there, the stamp is within
+// kStampWindowMicros of the receiver's wall clock and not before the receiver
+// opened (a recording replayed later, or to a receiver started after it was
+// made, is refused), the stamp is above the last one accepted from that
+// sender (a datagram replayed while its sender is heard is refused), and the
+// tag verifies (constant time). What is left: a datagram captured within the
+// window and replayed to a receiver that was running but never heard its
+// sender (another network segment), as with MAVLink. Why BLAKE2b and
 // not MAVLink's HMAC-SHA256: bench/signing_bench.cpp measures both; see the
 // README, "Signed traffic".
 //
@@ -115,7 +119,7 @@ class Signer {
 enum class SignatureVerdict : std::uint8_t {
   kOk,
   kUnsigned,  // shorter than a trailer, or no "LGS1" at its end
-  kStale,     // stamp outside kStampWindowMicros of the receiver's clock
+  kStale,     // stamp outside kStampWindowMicros of the receiver's clock, or before the receiver opened
   kReplayed,  // stamp not above the last accepted from that sender
   kBadTag,    // the tag does not verify: forged or altered
 };
@@ -149,6 +153,7 @@ class Verifier {
 
   KeyedMac mac_;
   WallClockMicros clock_;
+  std::int64_t opened_;  // µs: nothing stamped earlier was sent to this receiver
   std::array<Sender, kMaxSenders> senders_{};
   std::uint64_t calls_ = 0;
 };

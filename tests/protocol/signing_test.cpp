@@ -153,6 +153,17 @@ TEST(Signing, AStampOutsideTheWindowIsRefusedEitherWay) {
   EXPECT_EQ(VerifyWire(later, "A", recorded), SignatureVerdict::kOk);
 }
 
+TEST(Signing, AnythingStampedBeforeTheReceiverOpenedIsStale) {
+  // A recording made before a receiver started, replayed to it at once (within the window).
+  FakeWall wall;
+  Signer signer(TestKey(), 7, wall.Clock());
+  const Bytes recorded = SignedWire(signer, "A", kMessage);
+  wall.now += 1000;
+  Verifier started_after(TestKey(), wall.Clock());
+  EXPECT_EQ(VerifyWire(started_after, "A", recorded), SignatureVerdict::kStale);
+  EXPECT_EQ(VerifyWire(started_after, "A", SignedWire(signer, "A", kMessage)), SignatureVerdict::kOk);
+}
+
 TEST(Signing, UnsignedAndShortMessagesAreRefusedAsUnsigned) {
   FakeWall wall;
   Verifier verifier(TestKey(), wall.Clock());
