@@ -6,7 +6,7 @@
 // replies. Each moves nothing, and the daemon counts it on its channel in the
 // status. A key holder's messages are still obeyed (the control that proves
 // the test could see an effect). The same attacks without a key are
-// attack_test.cpp's. Private ports 8101-8110; nothing here measures time.
+// attack_test.cpp's. Private ports 8101-8106 and 8109 (8107-8108: logs_test.cpp); nothing here measures time.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -327,6 +327,28 @@ TEST_F(SignedAttack, ForgedTorquesAndMeasuredStatesCannotTakeOverTheExternalLoop
   EXPECT_LT(observer.max_abs(), kBounded) << "the arm stayed under its own controller";
   Stop(*controller);
   Stop(*plant);
+}
+
+TEST_F(SignedAttack, TheExampleClientWithTheKeyClosesTheLoopOnASignedDaemon) {
+  Prepare(8109);
+  auto daemon = Lagranged("arm_impedance_client.yaml");
+  SignedObserver observer(url_, *key_, {"ARM_STATE"});
+  ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
+  BackgroundProcess client({IMPEDANCE_CLIENT_PATH, "--url", url_, "--target", "0.3,0.6", "--bus-key", key_path_});
+  constexpr double kNear = 1e-2;  // rad: on its way to the target under the client's torques
+  EXPECT_TRUE(testing::WaitUntil(
+      [&] {
+        const auto s = observer.State("ARM_STATE");
+        return s && s->mode == state_t::MODE_RUNNING && s->controller == "external" &&
+               std::abs(s->q[0] - 0.3) < kNear && std::abs(s->q[1] - 0.6) < kNear;
+      },
+      kWait))
+      << client.Stderr();
+  const auto status = observer.Status("arm");
+  ASSERT_TRUE(status);
+  EXPECT_GT(status->torques_accepted, 0);
+  EXPECT_TRUE(client.Running()) << client.Stderr();
+  Stop(*daemon);
 }
 
 // lagrangectl with the key, run as a process against forgers without it.
