@@ -49,7 +49,11 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
-  if (CheckStatePacket(data, size) != WireCheck::kOk) return;
+  if (CheckStatePacket(data, size) != WireCheck::kOk) {
+    // A signed daemon's state, seen without the key: worth a hint if nothing else comes.
+    if (!bus_->signs() && MessageSizeBeforeTrailer(data, size) != size) signed_states_seen_ = true;
+    return;
+  }
   state_t msg;
   if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
   auto it = runs_.find(msg.run_id);
@@ -92,6 +96,11 @@ std::string DaemonLink::TwoRunsMessage(const std::string& doing) const {
 
 std::int64_t DaemonLink::AwaitOneRun() {
   if (!PumpUntil([&] { return !runs_.empty(); }, options_.wait)) {
+    if (signed_states_seen_) {
+      throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
+                               FormatDouble(options_.wait) + " s that this unsigned client can read: its states " +
+                               "are signed; give the daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
+    }
     throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
                              FormatDouble(options_.wait) + " s (unknown instance, or no lagranged on " +
                              options_.Url() + "?)");

@@ -117,6 +117,7 @@ class DaemonLink {
   std::unique_ptr<Bus> bus_;
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
   std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
+  bool signed_states_seen_ = false;    // states with a signature trailer came to this unsigned link
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;

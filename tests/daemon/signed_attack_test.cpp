@@ -6,7 +6,7 @@
 // replies. Each moves nothing, and the daemon counts it on its channel in the
 // status. A key holder's messages are still obeyed (the control that proves
 // the test could see an effect). The same attacks without a key are
-// attack_test.cpp's. Private ports 8101-8106 and 8109 (8107-8108: logs_test.cpp); nothing here measures time.
+// attack_test.cpp's. Private ports 8101-8106, 8109 and 8110 (8107-8108: logs_test.cpp); nothing here measures time.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -426,6 +426,21 @@ TEST_F(SignedAttack, AForgedRefusalDoesNotMakeLagrangectlReportAnAppliedEstopAsR
       },
       kWait))
       << "the daemon counts the forged replies on its own output channel";
+  Stop(*daemon);
+}
+
+TEST_F(SignedAttack, LagrangectlWithoutTheKeyActsOnNothingAndSaysTheStatesAreSigned) {
+  Prepare(8110);
+  auto daemon = Lagranged();
+  SignedObserver observer(url_, *key_, {"ARM_STATE"});
+  ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
+  const testing::ProcessResult r =
+      testing::RunProcess({LagrangectlPath(), "command", "arm", "pause", "--lcm-url", url_, "--wait", "1"});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("are signed; give the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(observer.State("ARM_STATE")->mode, state_t::MODE_RUNNING);
   Stop(*daemon);
 }
 
