@@ -392,6 +392,31 @@ TEST(SignedBus, TheLargestMessageStillFitsWithItsTrailer) {
   EXPECT_EQ(got[0].message.size(), kMaxMessageSize);
 }
 
+TEST(SignedBus, SigningOnAUdpmBusAndVerifyingOnReceiptAllocateNothing) {
+  const BusKey key = TestKey();
+  // Publish-only: no receive socket, the datagrams go to a private port (8111) and are not read.
+  const std::unique_ptr<Bus> udpm = OpenBus("udpm://239.255.76.67:8111?ttl=0", &key);
+  ASSERT_TRUE(udpm->signs());
+  const Bytes state(200, 0x25);
+  {
+    testing::AllocationCounter allocations;
+    for (int k = 0; k < 100; ++k) udpm->Publish("ARM_STATE", state.data(), state.size());
+    EXPECT_EQ(allocations.count(), 0) << "the publish thread signs in the bus's send buffer";
+  }
+  InProcessBus bus(&key);
+  int delivered = 0;
+  bus.Subscribe("ARM_SETPOINT", [&](std::string_view, const std::uint8_t*, std::size_t) { ++delivered; });
+  Signer sender(key);
+  for (int k = 0; k < 100; ++k) {
+    const Bytes d = Lc02("ARM_SETPOINT", SignedWire(sender, "ARM_SETPOINT", kMessage));
+    bus.InjectDatagram(d.data(), d.size());
+  }
+  testing::AllocationCounter allocations;
+  bus.Drain();
+  EXPECT_EQ(allocations.count(), 0) << "the receive thread verifies without allocating";
+  EXPECT_EQ(delivered, 100);
+}
+
 TEST(SignedBus, WithoutAKeyNothingIsSignedOrChecked) {
   InProcessBus bus;
   EXPECT_FALSE(bus.signs());
