@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "daemon/runtime.hpp"
+#include "protocol/signing.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
@@ -528,6 +529,41 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
         {JAVAP_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar, std::string("lagrange.") + type});
     EXPECT_NE(javap.out.find("implements lcm.lcm.LCMEncodable"), std::string::npos) << javap.out << javap.err;
   }
+}
+
+// lcm-spy decodes a signed message: it constructs the type from a DataInput
+// over the datagram's payload (lcm.spy.Spy: getConstructor(DataInput.class)),
+// which reads the fields and leaves the signature trailer after them unread.
+TEST(LcmSpy, TheTypesJarDecodesASignedStateAsLcmSpyDoes) {
+  const std::string jar = LAGRANGE_LCM_JAR;
+  if (jar.empty() || std::string(JAVA_PATH).empty()) GTEST_SKIP() << "no JDK at configure time";
+  const fs::path dir = fs::temp_directory_path() / ("lagrange_spy_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  state_t state = MakeState(42);
+  std::vector<std::uint8_t> bytes = testing::Encode(state);
+  const std::size_t n = bytes.size();
+  bytes.resize(n + kSignatureTrailerBytes);
+  std::vector<std::uint8_t> key(kBusKeyMinBytes, 7);
+  Signer signer(BusKey::FromBytes(key));
+  signer.Sign("ARM_STATE", bytes.data(), n, bytes.data() + n);
+  std::ofstream(dir / "state.bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(dir / "Decode.java") << R"(
+public class Decode {
+  public static void main(String[] args) throws Exception {
+    byte[] b = java.nio.file.Files.readAllBytes(java.nio.file.Paths.get(args[0]));
+    Object o = Class.forName("lagrange.state_t").getConstructor(java.io.DataInput.class)
+        .newInstance(new lcm.lcm.LCMDataInputStream(b, 0, b.length));
+    lagrange.state_t s = (lagrange.state_t) o;
+    System.out.println(s.tick + " " + s.q[1] + " " + s.controller);
+  }
+}
+)";
+  const auto run = testing::RunProcess({JAVA_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar,
+                                        (dir / "Decode.java").string(), (dir / "state.bin").string()});
+  fs::remove_all(dir);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "42 0.25 pd\n");
 }
 
 // Encodes an LCM message.
