@@ -10,6 +10,7 @@
 #include "daemon/timing_csv.hpp"
 #include "plant/escape.hpp"
 #include "protocol/status.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange {
 namespace {
@@ -19,8 +20,8 @@ double Percentile(std::vector<double>& v, double p) { return v.empty() ? 0.0 : N
 
 // What a work-bound refusal quotes, as the scene's refusal does.
 std::string WorkFiguresText(const WorkFigures& w) {
-  std::string text = fmt::format(": the worst case would be {:.4g} ms per tick, {:.4g} ms fit", w.worst_s * 1e3,
-                                 w.budget_s * 1e3);
+  std::string text =
+      fmt::format(": the worst case would be {:.4g} ms per tick, {:.4g} ms fit", w.worst_s * 1e3, w.budget_s * 1e3);
   if (w.max_steps_fit > 0) text += fmt::format("; at most {} max_steps fit", w.max_steps_fit);
   if (w.max_steps_fit == 0) text += "; no max_steps fits";
   return text;
@@ -327,6 +328,17 @@ void Publisher::PublishStatus(const TickRecord& last) {
   s.foreign_messages = stats_.foreign_messages.load(std::memory_order_relaxed);
   s.last_foreign_run_id = stats_.last_foreign_run_id.load(std::memory_order_relaxed);
   s.replies_suppressed = stats_.replies_suppressed.load(std::memory_order_relaxed);
+  s.bus_signed = stats_.bus_signed;
+  s.datagrams_unauthenticated = stats_.datagrams_unauthenticated.load(std::memory_order_relaxed);
+  s.unauthenticated_channels.clear();
+  s.unauthenticated_counts.clear();
+  for (std::size_t k = 0; k < stats_.channels.size(); ++k) {
+    const std::int64_t n = stats_.unauthenticated[k].load(std::memory_order_relaxed);
+    if (n == 0 || s.unauthenticated_channels.size() >= static_cast<std::size_t>(kMaxStatusChannels)) continue;
+    s.unauthenticated_channels.push_back(stats_.channels[k]);
+    s.unauthenticated_counts.push_back(n);
+  }
+  s.num_unauthenticated_channels = static_cast<std::int32_t>(s.unauthenticated_channels.size());
   s.instance_modes.clear();
   s.instance_reasons.clear();
   s.instance_integrators.clear();

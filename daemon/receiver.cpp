@@ -32,19 +32,20 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
       age_(age),
       run_id_(run_id),
       data_(model_.instances.size()) {
+  stats_.bus_signed = input_.signs();
   for (std::size_t i = 0; i < model_.instances.size(); ++i) {
     const InstanceChannelNames& c = model_.instances[i].channels;
-    input_.Subscribe(c.setpoint,
-                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
-    input_.Subscribe(c.command,
-                     [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
+    Listen(input_, c.setpoint,
+           [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
+    Listen(input_, c.command,
+           [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
     if (!c.torque_in.empty() && model_.instances[i].external_controller >= 0) {
-      input_.Subscribe(c.torque_in,
-                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleTorque(i, d, n); });
+      Listen(input_, c.torque_in,
+             [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleTorque(i, d, n); });
     }
     if (!c.measured_in.empty()) {
-      input_.Subscribe(c.measured_in,
-                       [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleMeasured(i, d, n); });
+      Listen(input_, c.measured_in,
+             [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleMeasured(i, d, n); });
     }
   }
   if (output_listener_ != nullptr) {
@@ -56,8 +57,8 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
       }
     }
     for (const std::string& ch : outputs) {
-      output_listener_->Subscribe(
-          ch, [this](std::string_view name, const std::uint8_t* d, std::size_t n) { HandleOwnOutput(name, d, n); });
+      Listen(*output_listener_, ch,
+             [this](std::string_view name, const std::uint8_t* d, std::size_t n) { HandleOwnOutput(name, d, n); });
     }
   }
   reply_.run_id = run_id_;
@@ -93,7 +94,24 @@ void Receiver::Poll(int timeout_ms) {
   UpdateBusStats();
 }
 
+void Receiver::Listen(Bus& bus, const std::string& channel, Bus::Handler handler) {
+  bus.Subscribe(channel, std::move(handler));
+  if (std::find(stats_.channels.begin(), stats_.channels.end(), channel) != stats_.channels.end()) return;
+  stats_.channels.push_back(channel);
+  stats_.unauthenticated.emplace_back(0);
+}
+
 void Receiver::UpdateBusStats() {
+  std::int64_t unauthenticated = 0;
+  const bool listener_apart = output_listener_ != nullptr && output_listener_ != &input_;
+  for (std::size_t k = 0; k < stats_.channels.size(); ++k) {
+    const std::string& channel = stats_.channels[k];
+    const std::int64_t n =
+        input_.unauthenticated_on(channel) + (listener_apart ? output_listener_->unauthenticated_on(channel) : 0);
+    stats_.unauthenticated[k].store(n, std::memory_order_relaxed);
+    unauthenticated += n;
+  }
+  stats_.datagrams_unauthenticated.store(unauthenticated, std::memory_order_relaxed);
   BusStats total = input_.stats();
   if (output_listener_ != nullptr && output_listener_ != &input_) {
     const BusStats out = output_listener_->stats();

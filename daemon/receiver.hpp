@@ -27,6 +27,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,13 @@ struct ReceiverStats {
   // Messages on this run's output channels from another run.
   std::atomic<std::int64_t> foreign_messages{0};
   std::atomic<std::int64_t> last_foreign_run_id{0};
+  // Signed bus (--bus-key): whether the input bus checks signatures, every channel the
+  // receiver subscribed to (set once by its constructor, before the threads start), the
+  // messages on each refused for their signature (same order) and their total.
+  bool bus_signed = false;
+  std::vector<std::string> channels;
+  std::deque<std::atomic<std::int64_t>> unauthenticated;
+  std::atomic<std::int64_t> datagrams_unauthenticated{0};
   LatestMailbox<Reason> last_setpoint_rejection{Reason{}};  // setpoints, torques and measured states
   LatestMailbox<Reason> last_command_error{Reason{}};
 };
@@ -150,6 +158,8 @@ class Receiver {
   void RejectCommand(std::size_t i, const std::string& why);
   void DecodeError(const std::string& channel, const char* why);
   void UpdateBusStats();
+  // Subscribes `handler` to `channel` on `bus`, and lists the channel for the status's per-channel counts.
+  void Listen(Bus& bus, const std::string& channel, Bus::Handler handler);
 
   Bus& input_;
   Bus* output_listener_;

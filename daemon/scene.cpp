@@ -1,6 +1,7 @@
 #include "daemon/scene.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <limits>
 #include <set>
 
@@ -453,9 +454,16 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
 }
 
 Scene ReadScene(const YamlReader& root) {
-  root.ExpectKeys({"description", "period", "instances"});
+  root.ExpectKeys({"description", "period", "instances", "bus"});
   Scene scene;
   scene.file = root.file();
+  if (auto bus = root.Optional("bus")) {
+    bus->ExpectKeys({"key_file"});
+    const YamlReader key = bus->Required("key_file");
+    if (key.Text().empty()) key.Fail("expected the path of a bus key file, got ''");
+    // Like a URDF file's path: relative to the scene's directory; an absolute one replaces it.
+    scene.bus_key_file = (std::filesystem::path(scene.file).parent_path() / key.Text()).lexically_normal().string();
+  }
   if (auto d = root.Optional("description")) scene.description = d->Text();
   if (auto p = root.Optional("period")) {
     scene.period = p->PositiveNumber();

@@ -95,6 +95,10 @@ struct Scene {
   std::string description;  // free text
   double period = 1e-3;     // s, the tick (and offline step) length
   std::vector<InstanceConfig> instances;
+  // bus: {key_file: PATH}: the shared secret that signs the bus (protocol/signing.hpp),
+  // relative to the scene file's directory; "" for none. --bus-key and
+  // $LAGRANGE_BUS_KEY_FILE take precedence. Read only by lagranged, when it starts.
+  std::string bus_key_file;
 };
 
 // The instance's configured controllers in controller-index order: the

@@ -14,6 +14,7 @@
 #include <exception>
 #include <future>
 #include <iostream>
+#include <optional>
 #include <thread>
 #include <variant>
 
@@ -32,6 +33,7 @@
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/ids.hpp"
+#include "protocol/signing.hpp"
 #include "protocol/status.hpp"
 
 namespace lagrange {
@@ -52,6 +54,7 @@ struct Options {
   double spin_us = 0.0;
   bool require_rt = false;
   std::string timing_csv;  // per-tick wake latency and compute, written off the publish path
+  std::string bus_key;     // --bus-key; else $LAGRANGE_BUS_KEY_FILE; else the scene's bus.key_file
 };
 
 // --log-file: the rotating log and its start-up record (daemon/log_file.hpp); null without the option.
@@ -242,12 +245,23 @@ int Serve(const Options& o, const LogFiles& logs) {
   // this run's channels. Each bus object is used by one thread per direction.
   const std::string url = ResolveLcmUrl(o.lcm_url);
   const std::string input_url = o.input_lcm_url.empty() ? url : o.input_lcm_url;
+  // Signed traffic: with a key every bus signs what it sends and takes only what verifies.
+  std::string key_file = ResolveBusKeyFile(o.bus_key);
+  if (key_file.empty()) key_file = scene.bus_key_file;
+  std::optional<BusKey> key;
+  try {
+    if (!key_file.empty()) key = BusKey::FromFile(key_file);
+  } catch (const BusKeyError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  const BusKey* signing = key ? &*key : nullptr;
   std::unique_ptr<Bus> bus_out, bus_in, bus_replies, bus_listen;
   try {
-    bus_out = OpenBus(url);
-    bus_in = OpenBus(input_url);
-    bus_replies = OpenBus(url);
-    if (input_url != url) bus_listen = OpenBus(url);
+    bus_out = OpenBus(url, signing);
+    bus_in = OpenBus(input_url, signing);
+    bus_replies = OpenBus(url, signing);
+    if (input_url != url) bus_listen = OpenBus(url, signing);
   } catch (const BusError& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -280,6 +294,10 @@ int Serve(const Options& o, const LogFiles& logs) {
   spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}{}, run id {:016x}", o.config, scene.description,
                names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
                static_cast<std::uint64_t>(run_id));
+  if (key) {
+    spdlog::info("bus signed with the key in {}: unsigned, forged, replayed and stale messages are dropped and counted",
+                 key_file);
+  }
   for (const InstanceModel& m : model->instances) {
     const InstanceChannelNames& c = m.channels;
     spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", m.name(), m.external_plant() ? "external plant, model " : "",
@@ -388,6 +406,10 @@ int RunLagranged(int argc, char** argv) {
                  "Bus for setpoints and commands, when it should differ from --lcm-url (outputs): a flood of input "
                  "traffic then never reaches the loggers of the state stream");
   app.add_option("--channel-prefix", o.channel_prefix, "Prepended to every channel name");
+  app.add_option("--bus-key", o.bus_key,
+                 "Sign and check every message with the shared key in FILE (readable by its owner only; "
+                 "lagrangectl keygen FILE makes one); default: $LAGRANGE_BUS_KEY_FILE, else the scene's "
+                 "bus.key_file");
   app.add_option("--log-file", o.log_file,
                  "Also log to this file (rotating: 5 MiB x 3; reopened on SIGHUP; flushed every second); the latest "
                  "start's start-up lines are also kept in FILE.start, never rotated");

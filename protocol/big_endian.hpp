@@ -22,4 +22,9 @@ inline void WriteBigEndian32(std::uint32_t v, std::uint8_t* p) {
   p[3] = static_cast<std::uint8_t>(v);
 }
 
+inline void WriteBigEndian64(std::uint64_t v, std::uint8_t* p) {
+  WriteBigEndian32(static_cast<std::uint32_t>(v >> 32), p);
+  WriteBigEndian32(static_cast<std::uint32_t>(v), p + 4);
+}
+
 }  // namespace lagrange

@@ -23,8 +23,12 @@ constexpr std::uint32_t kShortMagic = 0x4c433032;     // "LC02": one whole messa
 constexpr std::uint32_t kFragmentMagic = 0x4c433033;  // "LC03": one fragment of a long message
 constexpr std::size_t kHeaderSize = 8;                // magic + seqno
 constexpr std::size_t kMaxChannelLength = 63;         // LCM_MAX_CHANNEL_NAME_LENGTH
-// The longest LC02 datagram we accept or write: header, channel, NUL, payload.
-constexpr std::size_t kMaxDatagramSize = kHeaderSize + kMaxChannelLength + 1 + kMaxMessageSize;
+// The longest LC02 datagram for a payload of at most `max_payload`: header, channel, NUL, payload.
+constexpr std::size_t MaxDatagramSize(std::size_t max_payload) {
+  return kHeaderSize + kMaxChannelLength + 1 + max_payload;
+}
+// The most a signed bus puts after the channel: a message and its trailer.
+constexpr std::size_t kMaxSignedPayload = kMaxMessageSize + kSignatureTrailerBytes;
 // Larger than any UDP payload (65 507 bytes over IPv4), so the kernel never
 // has to cut a datagram short; MSG_TRUNC is still checked.
 constexpr std::size_t kReceiveBufferSize = 64 * 1024 + 256;
@@ -64,27 +68,67 @@ bool ChannelFits(std::string_view channel) {
   return channel.size() <= kMaxChannelLength && channel.find('\0') == std::string_view::npos;
 }
 
-using Subscriptions = std::vector<std::pair<std::string, Bus::Handler>>;
+using Subscriptions = std::vector<Subscription>;
 
 void Bump(std::int64_t& counter) { ++counter; }
 void Bump(std::atomic<std::int64_t>& counter) { counter.fetch_add(1, std::memory_order_relaxed); }
 
-// One datagram read from the wire => counted, and handed to the subscribers of
-// its channel when it is a whole message. `Counters` is BusStats or UdpmBus's
-// atomic counters (the same field names). Allocates nothing.
+// Adds a subscription, and a drop counter for its channel if it is new.
+void AddSubscription(Subscriptions& subscriptions, std::deque<ChannelDrops>& drops, const std::string& channel,
+                     Bus::Handler handler) {
+  std::size_t k = 0;
+  while (k < drops.size() && drops[k].channel != channel) ++k;
+  if (k == drops.size()) drops.emplace_back(channel);
+  subscriptions.push_back({channel, std::move(handler), k});
+}
+
+std::int64_t DropsOn(const std::deque<ChannelDrops>& drops, std::string_view channel) {
+  for (const ChannelDrops& d : drops) {
+    if (d.channel == channel) return d.count.load(std::memory_order_relaxed);
+  }
+  return 0;
+}
+
+// A refusal by the verifier, counted by its reason and on its channel.
 template <class Counters>
-void Dispatch(const Subscriptions& subscriptions, const std::uint8_t* data, std::size_t size, Counters& counters) {
+void CountRefusal(SignatureVerdict verdict, Counters& counters, std::atomic<std::int64_t>& on_channel) {
+  switch (verdict) {
+    case SignatureVerdict::kOk: return;
+    case SignatureVerdict::kUnsigned: Bump(counters.unsigned_dropped); break;
+    case SignatureVerdict::kStale: Bump(counters.stale); break;
+    case SignatureVerdict::kReplayed: Bump(counters.replayed); break;
+    case SignatureVerdict::kBadTag: Bump(counters.bad_tags); break;
+  }
+  Bump(on_channel);
+}
+
+// One datagram read from the wire => counted, and handed to the subscribers of
+// its channel when it is a whole message (with a `verifier`: a whole message
+// whose signature verifies, its trailer stripped). `Counters` is BusStats or
+// UdpmBus's atomic counters (the same field names). Allocates nothing.
+template <class Counters>
+void Dispatch(const Subscriptions& subscriptions, std::deque<ChannelDrops>& drops, Verifier* verifier,
+              const std::uint8_t* data, std::size_t size, Counters& counters) {
   Bump(counters.received);
-  const Datagram d = ParseDatagram(data, size);
+  const Datagram d = ParseDatagram(data, size, verifier != nullptr ? kMaxSignedPayload : kMaxMessageSize);
   switch (d.kind) {
     case Datagram::Kind::kMessage: {
-      bool delivered = false;
-      for (const auto& [channel, handler] : subscriptions) {
-        if (!channel.empty() && std::string_view(channel) != d.channel) continue;  // "": kEveryChannel
-        handler(d.channel, d.payload, d.payload_size);
-        delivered = true;
+      // "" (kEveryChannel) hears every channel; the others only their own.
+      const auto hears = [&](const Subscription& s) { return s.channel.empty() || std::string_view(s.channel) == d.channel; };
+      const auto first = std::find_if(subscriptions.begin(), subscriptions.end(), hears);
+      if (first == subscriptions.end()) return;  // not ours: neither checked nor counted
+      std::size_t message_size = d.payload_size;
+      if (verifier != nullptr) {
+        const SignatureVerdict verdict = verifier->Verify(d.channel, d.payload, d.payload_size, message_size);
+        if (verdict != SignatureVerdict::kOk) {
+          CountRefusal(verdict, counters, drops[first->drops].count);
+          return;
+        }
       }
-      if (delivered) Bump(counters.delivered);
+      for (auto it = first; it != subscriptions.end(); ++it) {
+        if (hears(*it)) it->handler(d.channel, d.payload, message_size);
+      }
+      Bump(counters.delivered);
       return;
     }
     case Datagram::Kind::kFragment: Bump(counters.fragments_dropped); return;
@@ -96,7 +140,7 @@ void Dispatch(const Subscriptions& subscriptions, const std::uint8_t* data, std:
 // LCM's UDP multicast transport for unfragmented messages (see bus.hpp).
 class UdpmBus final : public Bus {
  public:
-  UdpmBus(const std::string& url_text, const UdpmUrl& url);
+  UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key);
   ~UdpmBus() override;
   UdpmBus(const UdpmBus&) = delete;
   UdpmBus& operator=(const UdpmBus&) = delete;
@@ -107,11 +151,13 @@ class UdpmBus final : public Bus {
   int Drain(int max) override;
   int Handle(int timeout_ms) override;
   BusStats stats() const override;
+  std::int64_t unauthenticated_on(std::string_view channel) const override { return DropsOn(drops_, channel); }
+  bool signs() const override { return signer_ != nullptr; }
 
  private:
   struct Counters {
     std::atomic<std::int64_t> received{0}, delivered{0}, fragments_dropped{0}, malformed{0}, oversized{0},
-        kernel_drops{0}, send_failures{0};
+        kernel_drops{0}, send_failures{0}, unsigned_dropped{0}, stale{0}, replayed{0}, bad_tags{0};
   };
   [[noreturn]] void ThrowSocketError(const char* what) const;
   void OpenReceiveSocket();
@@ -125,11 +171,19 @@ class UdpmBus final : public Bus {
   std::vector<std::uint8_t> send_buffer_;
   std::vector<std::uint8_t> receive_buffer_;
   Subscriptions subscriptions_;
+  std::deque<ChannelDrops> drops_;
   Counters counters_;
+  std::unique_ptr<Signer> signer_;      // publishing thread only
+  std::unique_ptr<Verifier> verifier_;  // receiving thread only
 };
 
-UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url)
-    : url_text_(url_text), url_(url), send_buffer_(kMaxDatagramSize), receive_buffer_(kReceiveBufferSize) {
+UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key)
+    : url_text_(url_text),
+      url_(url),
+      send_buffer_(MaxDatagramSize(kMaxSignedPayload)),
+      receive_buffer_(kReceiveBufferSize),
+      signer_(key != nullptr ? std::make_unique<Signer>(*key) : nullptr),
+      verifier_(key != nullptr ? std::make_unique<Verifier>(*key) : nullptr) {
   group_.sin_family = AF_INET;
   group_.sin_port = htons(url_.port);
   if (inet_pton(AF_INET, url_.group.c_str(), &group_.sin_addr) != 1) ThrowUrlError(url_text_, "bad group address");
@@ -199,6 +253,10 @@ bool UdpmBus::Publish(std::string_view channel, const void* data, std::size_t si
     Bump(counters_.send_failures);
     return false;
   }
+  if (signer_) {  // the buffer has room for the trailer after any message it took
+    signer_->Sign(channel, send_buffer_.data() + written - size, size, send_buffer_.data() + written);
+    written += kSignatureTrailerBytes;
+  }
   ++seqno_;
   const ssize_t sent = sendto(send_fd_, send_buffer_.data(), written, MSG_DONTWAIT,
                               reinterpret_cast<const sockaddr*>(&group_), sizeof group_);
@@ -211,7 +269,7 @@ bool UdpmBus::Publish(std::string_view channel, const void* data, std::size_t si
 
 void UdpmBus::Subscribe(const std::string& channel, Handler handler) {
   if (recv_fd_ < 0) OpenReceiveSocket();
-  subscriptions_.emplace_back(channel, std::move(handler));
+  AddSubscription(subscriptions_, drops_, channel, std::move(handler));
 }
 
 int UdpmBus::Drain(int max) {
@@ -244,7 +302,7 @@ int UdpmBus::Drain(int max) {
       Bump(counters_.oversized);
       continue;
     }
-    Dispatch(subscriptions_, receive_buffer_.data(), static_cast<std::size_t>(n), counters_);
+    Dispatch(subscriptions_, drops_, verifier_.get(), receive_buffer_.data(), static_cast<std::size_t>(n), counters_);
   }
   return read;
 }
@@ -269,6 +327,10 @@ BusStats UdpmBus::stats() const {
   s.oversized = counters_.oversized.load(kRelaxed);
   s.kernel_drops = counters_.kernel_drops.load(kRelaxed);
   s.send_failures = counters_.send_failures.load(kRelaxed);
+  s.unsigned_dropped = counters_.unsigned_dropped.load(kRelaxed);
+  s.stale = counters_.stale.load(kRelaxed);
+  s.replayed = counters_.replayed.load(kRelaxed);
+  s.bad_tags = counters_.bad_tags.load(kRelaxed);
   return s;
 }
 
@@ -331,7 +393,7 @@ UdpmUrl ParseUdpmUrl(const std::string& url) {
   return out;
 }
 
-Datagram ParseDatagram(const std::uint8_t* data, std::size_t size) {
+Datagram ParseDatagram(const std::uint8_t* data, std::size_t size, std::size_t max_payload) {
   Datagram d;  // kMalformed
   if (data == nullptr || size < 4) return d;
   const std::uint32_t magic = ReadBigEndian32(data);
@@ -340,7 +402,7 @@ Datagram ParseDatagram(const std::uint8_t* data, std::size_t size) {
     return d;
   }
   if (magic != kShortMagic || size < kHeaderSize) return d;
-  if (size > kMaxDatagramSize) {
+  if (size > MaxDatagramSize(max_payload)) {
     d.kind = Datagram::Kind::kOversized;
     return d;
   }
@@ -351,7 +413,7 @@ Datagram ParseDatagram(const std::uint8_t* data, std::size_t size) {
   const std::size_t channel_size = static_cast<std::size_t>(static_cast<const std::uint8_t*>(nul) - channel);
   const std::size_t payload_offset = kHeaderSize + channel_size + 1;
   d.payload_size = size - payload_offset;
-  if (d.payload_size > kMaxMessageSize) {
+  if (d.payload_size > max_payload) {
     d.payload_size = 0;
     d.kind = Datagram::Kind::kOversized;
     return d;
@@ -376,21 +438,31 @@ bool FormatDatagram(std::uint32_t seqno, std::string_view channel, const void* p
   return true;
 }
 
+InProcessBus::InProcessBus(const BusKey* key, WallClockMicros clock)
+    : signer_(key != nullptr ? std::make_unique<Signer>(*key, 0, clock) : nullptr),
+      verifier_(key != nullptr ? std::make_unique<Verifier>(*key, clock) : nullptr) {}
+
+InProcessBus::~InProcessBus() = default;
+
 bool InProcessBus::Publish(std::string_view channel, const void* data, std::size_t size) {
   if (size > kMaxMessageSize || !ChannelFits(channel) || (data == nullptr && size > 0)) {
     ++stats_.send_failures;
     return false;
   }
-  std::vector<std::uint8_t> bytes(kHeaderSize + channel.size() + 1 + size);
+  const std::size_t trailer = signer_ ? kSignatureTrailerBytes : 0;
+  std::vector<std::uint8_t> bytes(kHeaderSize + channel.size() + 1 + size + trailer);
   std::size_t written = 0;
   FormatDatagram(seqno_++, channel, data, size, bytes.data(), bytes.size(), written);
+  if (signer_) signer_->Sign(channel, bytes.data() + written - size, size, bytes.data() + written);
   queue_.push_back({std::move(bytes)});
   return true;
 }
 
 void InProcessBus::Subscribe(const std::string& channel, Handler handler) {
-  subscriptions_.emplace_back(channel, std::move(handler));
+  AddSubscription(subscriptions_, drops_, channel, std::move(handler));
 }
+
+std::int64_t InProcessBus::unauthenticated_on(std::string_view channel) const { return DropsOn(drops_, channel); }
 
 void InProcessBus::InjectDatagram(const void* data, std::size_t size) {
   const auto* p = static_cast<const std::uint8_t*>(data);
@@ -404,16 +476,16 @@ int InProcessBus::Drain(int max) {
     const std::vector<std::uint8_t> bytes = std::move(queue_.front().bytes);
     queue_.pop_front();
     ++read;
-    Dispatch(subscriptions_, bytes.data(), bytes.size(), stats_);
+    Dispatch(subscriptions_, drops_, verifier_.get(), bytes.data(), bytes.size(), stats_);
   }
   return read;
 }
 
 int InProcessBus::Handle(int /*timeout_ms*/) { return Drain(1024); }
 
-std::unique_ptr<Bus> OpenBus(const std::string& url) {
-  if (url.rfind("udpm://", 0) == 0) return std::make_unique<UdpmBus>(url, ParseUdpmUrl(url));
-  if (url == "inprocess://") return std::make_unique<InProcessBus>();
+std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key) {
+  if (url.rfind("udpm://", 0) == 0) return std::make_unique<UdpmBus>(url, ParseUdpmUrl(url), key);
+  if (url == "inprocess://") return std::make_unique<InProcessBus>(key);
   throw BusUrlError("LCM URL '" + url +
                     "': lagrange speaks only udpm://GROUP:PORT?ttl=N (and inprocess:// in tests); see "
                     "docs/lcm-fragment-bug.md, 'Why lagrange has its own LCM transport'");

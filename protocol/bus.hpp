@@ -17,10 +17,17 @@
 // tests in one process, inprocess:// (an InProcessBus). Anything else is
 // refused with a BusError naming the URL and what was expected.
 //
+// Signing (protocol/signing.hpp): a bus opened with a BusKey appends a
+// signature trailer to every message it publishes, and hands a subscriber
+// only messages whose trailer verifies (the trailer stripped); the others are
+// dropped and counted, in total (BusStats) and per channel
+// (unauthenticated_on). Without a key a bus neither signs nor checks.
+//
 // Threads: subscribe before the bus is shared. After that one thread may
 // Publish while another receives (Handle/Drain); neither may be called from
 // two threads at once.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -30,6 +37,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "protocol/signing.hpp"
 
 namespace lagrange {
 
@@ -68,6 +77,13 @@ struct BusStats {
   std::int64_t oversized = 0;          // datagrams over kMaxMessageSize (truncated by the kernel into our buffer)
   std::int64_t kernel_drops = 0;       // datagrams the kernel dropped for a full receive buffer (SO_RXQ_OVFL)
   std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
+  // With a key, messages on subscribed channels refused (SignatureVerdict), each counted once:
+  std::int64_t unsigned_dropped = 0;  // no signature trailer
+  std::int64_t stale =
+      0;  // stamp outside the window of this host's clock or before the bus opened (a replayed recording)
+  std::int64_t replayed = 0;  // stamp not above its sender's last
+  std::int64_t bad_tags = 0;  // forged or altered
+  std::int64_t unauthenticated() const { return unsigned_dropped + stale + replayed + bad_tags; }
 };
 
 // Subscribe's channel for every message, whatever its channel (a client
@@ -102,6 +118,11 @@ class Bus {
   virtual int Handle(int timeout_ms) = 0;
 
   virtual BusStats stats() const = 0;
+  // Messages on `channel` (a subscribed one) refused for their signature;
+  // 0 for any other channel or without a key. Safe from any thread.
+  virtual std::int64_t unauthenticated_on(std::string_view channel) const = 0;
+  // Whether this bus signs what it sends and checks what it receives.
+  virtual bool signs() const = 0;
 
   // Encodes an LCM type into a reusable buffer and publishes it.
   template <class Message>
@@ -118,21 +139,39 @@ class Bus {
   std::vector<std::uint8_t> encode_buffer_;
 };
 
+// What a bus keeps of one subscription, and the refusals counted on one
+// channel (a deque of these: the counter never moves once a thread reads it).
+struct Subscription {
+  std::string channel;
+  Bus::Handler handler;
+  std::size_t drops = 0;  // index of its channel's ChannelDrops
+};
+struct ChannelDrops {
+  explicit ChannelDrops(std::string c) : channel(std::move(c)) {}
+  std::string channel;
+  std::atomic<std::int64_t> count{0};
+};
+
 // Opens a bus for `url` (see above); throws BusError with one line naming the
 // URL and the reason (socket, bind or multicast membership failed), a
 // BusUrlError for a bad URL.
-std::unique_ptr<Bus> OpenBus(const std::string& url);
+// With `key`, the bus signs and verifies (see above); it keeps its own copy.
+std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key = nullptr);
 
 // A bus inside one process: Publish queues, Drain delivers in order to the
 // subscribers of this same object. Every count is exact; for tests.
 class InProcessBus final : public Bus {
  public:
+  explicit InProcessBus(const BusKey* key = nullptr, WallClockMicros clock = SystemWallMicros);
+  ~InProcessBus() override;
   bool Publish(std::string_view channel, const void* data, std::size_t size) override;
   void Subscribe(const std::string& channel, Handler handler) override;
   int fd() const override { return -1; }
   int Drain(int max = 1024) override;
   int Handle(int timeout_ms) override;
   BusStats stats() const override { return stats_; }
+  std::int64_t unauthenticated_on(std::string_view channel) const override;
+  bool signs() const override { return signer_ != nullptr; }
 
   // Queues a raw datagram as UdpmBus would read it from the wire (LC02/LC03
   // header included), to test the datagram parser without sockets.
@@ -143,14 +182,18 @@ class InProcessBus final : public Bus {
     std::vector<std::uint8_t> bytes;
   };
   std::deque<Datagram> queue_;
-  std::vector<std::pair<std::string, Handler>> subscriptions_;
+  std::vector<Subscription> subscriptions_;
+  std::deque<ChannelDrops> drops_;  // one per distinct subscribed channel
   BusStats stats_;
   std::uint32_t seqno_ = 0;
+  std::unique_ptr<Signer> signer_;
+  std::unique_ptr<Verifier> verifier_;
 };
 
 // LCM's datagram format, written once for UdpmBus and InProcessBus.
 //   short message:  "LC02" (u32 BE 0x4c433032), seqno u32 BE, channel NUL-terminated, payload
 //   fragment:       "LC03" (0x4c433033), ... (dropped and counted, never parsed further)
+// A signed bus's trailer (protocol/signing.hpp) is allowed beyond kMaxMessageSize.
 struct Datagram {
   enum class Kind : std::uint8_t { kMessage, kFragment, kMalformed, kOversized };
   Kind kind = Kind::kMalformed;
@@ -158,8 +201,9 @@ struct Datagram {
   const std::uint8_t* payload = nullptr;
   std::size_t payload_size = 0;
 };
-// Classifies `size` bytes read from the wire. Never reads outside [data, data + size).
-Datagram ParseDatagram(const std::uint8_t* data, std::size_t size);
+// Classifies `size` bytes read from the wire: a payload over `max_payload` is
+// kOversized. Never reads outside [data, data + size).
+Datagram ParseDatagram(const std::uint8_t* data, std::size_t size, std::size_t max_payload = kMaxMessageSize);
 // Writes an LC02 datagram for (seqno, channel, payload) into `out`; false (nothing written) when it
 // would exceed `capacity` or the channel is longer than 63 bytes or holds a NUL.
 bool FormatDatagram(std::uint32_t seqno, std::string_view channel, const void* payload, std::size_t size,

@@ -95,7 +95,10 @@ std::unique_ptr<Bus> LinkOptions::Open() const {
   // ParseUdpmUrl first: it names what is wrong with any URL that is not a
   // udpm:// one (OpenBus only says which providers it speaks).
   if (url.rfind("inprocess://", 0) != 0) ParseUdpmUrl(url);
-  return OpenBus(url);  // BusError when the socket cannot be set up
+  const std::string key_file = ResolveBusKeyFile(bus_key_file);
+  if (key_file.empty()) return OpenBus(url);  // BusError when the socket cannot be set up
+  const BusKey key = BusKey::FromFile(key_file);
+  return OpenBus(url, &key);
 }
 
 DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
@@ -117,7 +120,11 @@ void DaemonLink::OnAny(std::string_view channel) {
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
-  if (CheckStatePacket(data, size) != WireCheck::kOk) return;
+  if (CheckStatePacket(data, size) != WireCheck::kOk) {
+    // A signed daemon's state, seen without the key: worth a hint if nothing else comes.
+    if (!bus_->signs() && MessageSizeBeforeTrailer(data, size) != size) signed_states_seen_ = true;
+    return;
+  }
   state_t msg;
   if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
   auto it = runs_.find(msg.run_id);
@@ -196,6 +203,11 @@ std::vector<std::int64_t> DaemonLink::AwaitRuns() {
 
 void DaemonLink::AwaitFirstState() {
   if (!PumpUntil([&] { return !runs_.empty(); }, options_.wait)) {
+    if (signed_states_seen_) {
+      throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
+                               FormatDouble(options_.wait) + " s that this unsigned client can read: its states " +
+                               "are signed; give the daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
+    }
     throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
                              FormatDouble(options_.wait) + " s on " + options_.Url() + "; " +
                              HeardHint(options_.channel_prefix, instance_, heard_));

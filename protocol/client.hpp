@@ -35,13 +35,15 @@ struct LinkOptions {
   std::string lcm_url;         // "" → $LCM_DEFAULT_URL → udpm://239.255.76.67:7667?ttl=0
   std::string channel_prefix;  // as given to lagranged --channel-prefix
   double wait = 3.0;           // s to wait for the daemon before giving up
+  std::string bus_key_file;    // "" → $LAGRANGE_BUS_KEY_FILE → unsigned (protocol/signing.hpp)
 
   // lcm_url resolved (ResolveLcmUrl, protocol/channels.hpp).
   std::string Url() const;
   // PREFIX + NAME_UPPER + suffix (protocol/channels.hpp).
   std::string Channel(const std::string& instance, const char* suffix) const;
   std::string StatusChannel() const;
-  // Opens the bus: BusUrlError for a malformed URL (worded by ParseUdpmUrl), a
+  // Opens the bus, signed when a key is given: BusUrlError for a malformed URL
+  // (worded by ParseUdpmUrl), BusKeyError for a key file that cannot be used, a
   // BusError when it cannot be opened.
   std::unique_ptr<Bus> Open() const;
 };
@@ -147,6 +149,7 @@ class DaemonLink {
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
   std::set<std::string> heard_;         // channels heard before the first state, for HeardHint
   std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
+  bool signed_states_seen_ = false;    // states with a signature trailer came to this unsigned link
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;

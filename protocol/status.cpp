@@ -1,12 +1,13 @@
 #include "protocol/status.hpp"
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "plant/escape.hpp"
 #include "protocol/bus.hpp"
+#include "protocol/wire.hpp"
 
 namespace lagrange {
 namespace {
@@ -37,6 +38,10 @@ bool StatusFits(const std::vector<std::string>& instances, const std::vector<std
   s.instance_forces.assign(instances.size(), false);
   s.num_joints = static_cast<std::int32_t>(joints.size());
   s.joint_names = joints;
+  // The most channels a signed run lists, each name at LCM's longest (63 bytes).
+  s.num_unauthenticated_channels = kMaxStatusChannels;
+  s.unauthenticated_channels.assign(kMaxStatusChannels, std::string(63, 'x'));
+  s.unauthenticated_counts.assign(kMaxStatusChannels, 0);
   return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
 }
 

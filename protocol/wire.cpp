@@ -220,6 +220,10 @@ WireCheck CheckStatusPacket(const void* data, std::size_t size) {
   w.Skip(static_cast<std::size_t>(n) * kInt8);                // instance_forces
   const std::int32_t j = w.Length(kMaxStatusJoints);          // num_joints
   for (std::int32_t i = 0; i < j; ++i) w.String(kMaxString);  // joint_names
+  w.Skip(kInt8 + kInt64);                                     // bus_signed, datagrams_unauthenticated
+  const std::int32_t c = w.Length(kMaxStatusChannels);        // num_unauthenticated_channels
+  for (std::int32_t i = 0; i < c; ++i) w.String(kMaxString);  // unauthenticated_channels
+  w.Skip(static_cast<std::size_t>(c) * kInt64);               // unauthenticated_counts
   return w.Finish();
 }
 

@@ -50,9 +50,12 @@ WireCheck CheckTorquePacket(const void* data, std::size_t size);
 // state_t: fingerprint, utime, run_id, tick, t, num_dofs (≤ kMaxDofs), 6 × num_dofs doubles, T, V, controller, mode.
 WireCheck CheckStatePacket(const void* data, std::size_t size);
 // status_t: every fixed field, its two strings, num_instances (≤ kMaxStatusInstances) names, modes and
-// joint counts, reasons, integrators, methods, effects and forces flags, num_joints (≤ kMaxStatusJoints) joint names.
+// joint counts, reasons, integrators, methods, effects and forces flags, num_joints (≤ kMaxStatusJoints) joint names,
+// bus_signed, datagrams_unauthenticated, num_unauthenticated_channels (≤ kMaxStatusChannels) channels and counts.
 inline constexpr std::int32_t kMaxStatusInstances = 1024;
 inline constexpr std::int32_t kMaxStatusJoints = 4096;
+// status_t.unauthenticated_channels: at most this many channels are listed.
+inline constexpr std::int32_t kMaxStatusChannels = 16;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);
 // telemetry_t: every fixed field and its two strings.
 WireCheck CheckTelemetryPacket(const void* data, std::size_t size);

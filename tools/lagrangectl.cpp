@@ -3,6 +3,7 @@
 
 #include "protocol/bus.hpp"
 #include "protocol/format.hpp"
+#include "protocol/signing.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
@@ -47,6 +48,7 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
   commands.push_back(MakeWatchCommand(app));
   commands.push_back(MakeLog2CsvCommand(app));
   commands.push_back(MakePlotCommand(app));
+  commands.push_back(MakeKeygenCommand(app));
 
   std::string where = "lagrangectl";
   if (const std::string unknown = UnknownCommand(app, argc, argv); !unknown.empty()) {
@@ -77,6 +79,9 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
     err << where << ": " << e.what() << "\n";
     return 2;
   } catch (const BusUrlError& e) {  // a malformed --lcm-url or $LCM_DEFAULT_URL is a bad argument
+    err << where << ": " << e.what() << "\n";
+    return 2;
+  } catch (const BusKeyError& e) {  // --bus-key: missing, readable by others, the wrong size; keygen: exists
     err << where << ": " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

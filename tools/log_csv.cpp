@@ -20,6 +20,7 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/signing.hpp"
 #include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 #include "tools/cli_support.hpp"
@@ -39,10 +40,17 @@ std::string QuoteEscaped(const std::string& escaped) {
 std::string Quote(const std::string& s) { return QuoteEscaped(Escape(s)); }
 
 // Decodes a message only after its wire check: a recorded packet is as
-// untrusted as a live one.
+// untrusted as a live one. A signed bus's message is followed by its
+// signature trailer (protocol/signing.hpp), decoded without it; the signature
+// is not checked here (a log is read after the fact, without the key).
 template <class Message>
 bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), const void* data, int size) {
-  return size >= 0 && check(data, static_cast<std::size_t>(size)) == WireCheck::kOk && m.decode(data, 0, size) == size;
+  if (size < 0) return false;
+  const auto whole = static_cast<std::size_t>(size);
+  for (const std::size_t n : {whole, MessageSizeBeforeTrailer(static_cast<const std::uint8_t*>(data), whole)}) {
+    if (check(data, n) == WireCheck::kOk && m.decode(data, 0, static_cast<int>(n)) == static_cast<int>(n)) return true;
+  }
+  return false;
 }
 
 void Columns(std::ostream& out, const char* name, int n, const char* separator = "") {

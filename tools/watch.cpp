@@ -287,6 +287,13 @@ class WatchCommand final : public Command {
       << "   fragments dropped " << s.fragments_dropped << "   foreign messages " << s.foreign_messages
       << (s.foreign_messages > 0 ? " (last from run " + RunIdText(s.last_foreign_run_id) + ")" : "")
       << "   replies suppressed " << s.replies_suppressed << "\n";
+    if (s.bus_signed) {  // a signed bus: what it refused for its signature, in total and where
+      f << "signed    refused " << s.datagrams_unauthenticated;
+      for (std::size_t k = 0; k < s.unauthenticated_channels.size() && k < s.unauthenticated_counts.size(); ++k) {
+        f << (k == 0 ? " (" : ", ") << Escape(s.unauthenticated_channels[k]) << " " << s.unauthenticated_counts[k];
+      }
+      f << (s.unauthenticated_channels.empty() ? "" : ")") << "\n";
+    }
   }
 
   void InstanceLines(std::ostream& f, const std::string& name, const InstanceView& view, SteadyTime now) const {

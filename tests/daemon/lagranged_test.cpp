@@ -26,6 +26,7 @@
 #include <sstream>
 #include <thread>
 
+#include "protocol/signing.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 
@@ -403,9 +404,13 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
     if (line.rfind("ExecStart=", 0) == 0) exec = line.substr(10);
   }
   ASSERT_FALSE(exec.empty());
-  // The unit's arguments, with the installed paths mapped into this build and a temporary log.
+  // The unit's arguments, with the installed paths mapped into this build, a temporary log and
+  // a new bus key where systemd hands the service its credential (%d).
   const fs::path log = fs::temp_directory_path() / "lagrange_unit_test.log";
+  const fs::path key = fs::temp_directory_path() / ("lagrange_unit_test_" + std::to_string(getpid()) + ".key");
   fs::remove(log);
+  fs::remove(key);
+  WriteNewBusKey(key.string());
   std::vector<std::string> argv;
   std::istringstream words(exec);
   for (std::string w; words >> w;) {
@@ -415,6 +420,8 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
       w = std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml";
     else if (w == "/var/log/lagrange/lagranged.log")
       w = log.string();
+    else if (w == "%d/bus.key")
+      w = key.string();
     argv.push_back(w);
   }
   ASSERT_EQ(argv.front(), LAGRANGED_PATH);
@@ -427,7 +434,9 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_NE(text.str().find("stopped after 300 ticks"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("bus signed with the key in " + key.string()), std::string::npos) << text.str();
   fs::remove(log);
+  fs::remove(key);
 }
 
 }  // namespace

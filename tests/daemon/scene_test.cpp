@@ -113,6 +113,20 @@ instances:
   EXPECT_FALSE(scene.instances[2].energy_balance);
 }
 
+TEST(SceneParsing, TheBusKeyFileIsRelativeToTheSceneAndAbsoluteStaysAbsolute) {
+  const std::string instances = "instances:\n  - {name: p, plant: {type: pendulum}}\n";
+  EXPECT_EQ(ParseScene(instances, "/etc/lagrange/scene.yaml").bus_key_file, "");
+  EXPECT_EQ(ParseScene("bus: {key_file: keys/bus.key}\n" + instances, "/etc/lagrange/scene.yaml").bus_key_file,
+            "/etc/lagrange/keys/bus.key");
+  EXPECT_EQ(ParseScene("bus: {key_file: ../bus.key}\n" + instances, "/etc/lagrange/scenes/a.yaml").bus_key_file,
+            "/etc/lagrange/bus.key");
+  EXPECT_EQ(ParseScene("bus: {key_file: /srv/bus.key}\n" + instances, "/etc/lagrange/scene.yaml").bus_key_file,
+            "/srv/bus.key");
+  for (const char* bad : {"bus: {key_file: ''}\n", "bus: {}\n", "bus: {key: a}\n"}) {
+    EXPECT_THROW(ParseScene(bad + instances, "scene.yaml"), ConfigError) << bad;
+  }
+}
+
 TEST(SceneParsing, ChainParametersTakeScalarsOrPerLinkListsInAnyOrder) {
   // 'links' written last still sizes the per-link lists.
   const Scene scene = ParseScene(R"(

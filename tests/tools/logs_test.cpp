@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "daemon/runtime.hpp"
+#include "protocol/signing.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
@@ -387,6 +388,60 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
   EXPECT_LT(worst, 5e-3);   // ... along the same path
 }
 
+// Signed traffic (--bus-key): lcm-logger records it, log2csv decodes it (the
+// trailer follows the message, where LCM's decoders ignore it), and the
+// recording replayed by lcm-logplayer onto a signed daemon moves nothing:
+// every replayed setpoint is refused for its stamp and counted on its channel.
+TEST_F(Logs, ASignedRunIsRecordedAndDecodedAndItsReplayMovesNothing) {
+  const std::string key = (dir_ / "bus.key").string();
+  ASSERT_EQ(RunCtl({"keygen", key}).status, 0);
+  const std::string url_a = Url(8107);
+  const fs::path log = dir_ / "signed.lcm";
+  {
+    testing::LcmLoggerProcess logger(url_a, log.string());
+    LcmCollector status(url_a, "LAGRANGE_STATUS");
+    auto daemon = Daemon(url_a, {"--bus-key", key});
+    ASSERT_TRUE(status.WaitFor(
+        "LAGRANGE_STATUS", [](const auto& m) { return !m.empty(); }, 20.0));
+    const auto sent = RunCtl({"send", "arm", "--q", "0.5,0.4", "--for", "0.5", "--lcm-url", url_a, "--bus-key", key});
+    ASSERT_EQ(sent.status, 0) << sent.err;
+    daemon->Signal(SIGTERM);
+    ASSERT_EQ(daemon->Wait(60.0), 0) << daemon->Stderr();
+    logger.Stop();
+  }
+  const fs::path out = dir_ / "csv";
+  const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv states = ReadCsv(out / "ARM_STATE.csv");
+  ASSERT_GT(states.rows.size(), 100u);
+  ExpectFiniteNumbers(states, {"run_id", "controller"}, "ARM_STATE");
+  const Csv setpoints = ReadCsv(out / "ARM_SETPOINT.csv");
+  ASSERT_GT(setpoints.rows.size(), 0u);
+  for (double q0 : setpoints.Numbers("q0")) ASSERT_EQ(q0, 0.5);
+
+  const std::string url_b = Url(8108);
+  LcmCollector b(url_b, "ARM_STATE|LAGRANGE_STATUS");
+  auto daemon_b = Daemon(url_b, {"--bus-key", key, "--setpoint-age", "stream"});
+  ASSERT_TRUE(b.WaitFor(
+      "ARM_STATE", [](const auto& m) { return m.size() > 100; }, 20.0));
+  BackgroundProcess player({LCM_LOGPLAYER_PATH, "--lcm-url=" + url_b, "--regexp=ARM_SETPOINT", log.string()});
+  ASSERT_EQ(player.Wait(30.0), 0) << player.Stderr();
+  EXPECT_TRUE(b.WaitForLatest<status_t>(
+      "LAGRANGE_STATUS",
+      [&](const status_t& s) {
+        return s.num_unauthenticated_channels == 1 && s.unauthenticated_channels[0] == "ARM_SETPOINT" &&
+               s.unauthenticated_counts[0] == static_cast<std::int64_t>(setpoints.rows.size());
+      },
+      20.0));
+  daemon_b->Signal(SIGTERM);
+  ASSERT_EQ(daemon_b->Wait(60.0), 0) << daemon_b->Stderr();
+  const status_t last = b.Decoded<status_t>("LAGRANGE_STATUS").back();
+  EXPECT_TRUE(last.bus_signed);
+  EXPECT_EQ(last.setpoints_accepted, 0);
+  const double q0 = 0.7853981633974483;  // config/default.yaml's arm, held while no setpoint comes
+  for (const state_t& s : b.Decoded<state_t>("ARM_STATE")) ASSERT_NEAR(s.q[0], q0, 1e-3) << "tick " << s.tick;
+}
+
 TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemAll) {
   const std::string url = Url(7834);
   const fs::path log = dir_ / "fleet.lcm";
@@ -476,6 +531,41 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
         {JAVAP_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar, std::string("lagrange.") + type});
     EXPECT_NE(javap.out.find("implements lcm.lcm.LCMEncodable"), std::string::npos) << javap.out << javap.err;
   }
+}
+
+// lcm-spy decodes a signed message: it constructs the type from a DataInput
+// over the datagram's payload (lcm.spy.Spy: getConstructor(DataInput.class)),
+// which reads the fields and leaves the signature trailer after them unread.
+TEST(LcmSpy, TheTypesJarDecodesASignedStateAsLcmSpyDoes) {
+  const std::string jar = LAGRANGE_LCM_JAR;
+  if (jar.empty() || std::string(JAVA_PATH).empty()) GTEST_SKIP() << "no JDK at configure time";
+  const fs::path dir = fs::temp_directory_path() / ("lagrange_spy_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  state_t state = MakeState(42);
+  std::vector<std::uint8_t> bytes = testing::Encode(state);
+  const std::size_t n = bytes.size();
+  bytes.resize(n + kSignatureTrailerBytes);
+  std::vector<std::uint8_t> key(kBusKeyMinBytes, 7);
+  Signer signer(BusKey::FromBytes(key));
+  signer.Sign("ARM_STATE", bytes.data(), n, bytes.data() + n);
+  std::ofstream(dir / "state.bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(dir / "Decode.java") << R"(
+public class Decode {
+  public static void main(String[] args) throws Exception {
+    byte[] b = java.nio.file.Files.readAllBytes(java.nio.file.Paths.get(args[0]));
+    Object o = Class.forName("lagrange.state_t").getConstructor(java.io.DataInput.class)
+        .newInstance(new lcm.lcm.LCMDataInputStream(b, 0, b.length));
+    lagrange.state_t s = (lagrange.state_t) o;
+    System.out.println(s.tick + " " + s.q[1] + " " + s.controller);
+  }
+}
+)";
+  const auto run = testing::RunProcess({JAVA_PATH, "-cp", std::string(LCM_JAR_PATH) + ":" + jar,
+                                        (dir / "Decode.java").string(), (dir / "state.bin").string()});
+  fs::remove_all(dir);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "42 0.25 pd\n");
 }
 
 // Encodes an LCM message.

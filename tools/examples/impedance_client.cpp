@@ -1,47 +1,45 @@
 // A joint-space impedance controller for lagranged's `external` controller:
 //   tau = K (q* − q) − D q̇   (N·m; lagranged adds G(q) with compensate_gravity: true)
-// answering every <NAME>_STATE with one torque_t on <NAME>_TORQUE, so it runs at
-// the daemon's rate. Only the generated types and lcm::LCM: copy it and change the law.
+// answering every <NAME>_STATE with one torque_t on <NAME>_TORQUE, so it runs at the daemon's rate.
+// Only the generated types, lcm::LCM and libsodium (bus_signing.hpp, signed traffic): copy it, change the law.
 //   impedance_client --target 0.3,0.6 [--stiffness 40] [--damping 8] [--instance arm] [--url URL]
-//                    [--duration S (0: until killed)]
-// LCM 1.3.1 crashes on forged fragments (docs/lcm-fragment-bug.md): use a bus only you reach (ttl=0).
+//                    [--duration S (0: until killed)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]
+// LCM 1.3.1 crashes on forged fragments (docs/lcm-fragment-bug.md): use a bus only you reach (ttl=0), and a key.
 #include <lagrange/state_t.hpp>
 #include <lagrange/torque_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
 #include <cctype>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <map>
 #include <random>
 #include <sstream>
-#include <stdexcept>
-#include <string>
-#include <vector>
+#include "bus_signing.hpp"  // also <chrono>, <cstdlib>, <map>, <string>, <vector>
 
 struct Impedance {
   lcm::LCM* lcm;
   std::string torque_channel;
   std::vector<double> target;  // q*, rad or m
   double K, D;                 // N·m/rad, N·m·s/rad
+  BusSigning* bus;             // unsigned without a key
   lagrange::torque_t out;      // run_id: this stream's; sequence: +1 per torque, from 1
   std::int64_t locked_run;     // the first lagranged run seen; states of any other are ignored
 
-  void OnState(const lcm::ReceiveBuffer*, const std::string&, const lagrange::state_t* s) {
-    if (locked_run == 0) locked_run = s->run_id;
-    if (s->run_id != locked_run || s->num_dofs != static_cast<int>(target.size())) return;
-    out.num_dofs = s->num_dofs;
+  void OnState(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    lagrange::state_t s;
+    if (!bus->Decode(channel, *rbuf, s)) return;  // with a key: only a key holder's, and each once
+    if (locked_run == 0) locked_run = s.run_id;
+    if (s.run_id != locked_run || s.num_dofs != static_cast<int>(target.size())) return;
+    out.num_dofs = s.num_dofs;
     out.tau.resize(target.size());
     for (std::size_t i = 0; i < target.size(); ++i) {
-      if (!std::isfinite(s->q[i]) || !std::isfinite(s->qd[i])) return;
-      out.tau[i] = K * (target[i] - s->q[i]) - D * s->qd[i];
+      if (!std::isfinite(s.q[i]) || !std::isfinite(s.qd[i])) return;
+      out.tau[i] = K * (target[i] - s.q[i]) - D * s.qd[i];
     }
     ++out.sequence;
-    out.state_tick = s->tick;
-    out.utime = std::chrono::system_clock::now().time_since_epoch() / std::chrono::microseconds(1);  // wall, µs
-    lcm->publish(torque_channel, &out);
+    out.state_tick = s.tick;
+    out.utime = WallMicros();
+    bus->Publish(*lcm, torque_channel, out);
   }
 };
 
@@ -54,7 +52,8 @@ double Number(const std::string& text) {  // a finite number, or an exception na
 
 int main(int argc, char** argv) try {
   std::map<std::string, std::string> opt = {{"--url", ""},         {"--instance", "arm"}, {"--target", ""},
-                                            {"--stiffness", "40"}, {"--damping", "8"},    {"--duration", "0"}};
+                                            {"--stiffness", "40"}, {"--damping", "8"},    {"--duration", "0"},
+                                            {"--bus-key", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (!opt.count(argv[i]) || i + 1 == argc) throw std::invalid_argument(std::string("bad option ") + argv[i]);
     opt[argv[i]] = argv[i + 1];
@@ -67,13 +66,14 @@ int main(int argc, char** argv) try {
   if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--url"] + "'");
   std::string name = opt["--instance"];
   for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  Impedance law{&lcm, name + "_TORQUE", q_target, Number(opt["--stiffness"]), Number(opt["--damping"]), {}, 0};
+  BusSigning bus(opt["--bus-key"]);  // "" → $LAGRANGE_BUS_KEY_FILE → unsigned; refuses a key others can read
+  Impedance law{&lcm, name + "_TORQUE", q_target, Number(opt["--stiffness"]), Number(opt["--damping"]), &bus, {}, 0};
   law.out.run_id = static_cast<std::int64_t>(std::mt19937_64{std::random_device{}()}() | 1);  // random, never 0
   lcm.subscribe(name + "_STATE", &Impedance::OnState, &law);
   const double duration = Number(opt["--duration"]);
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(duration);
   while ((duration <= 0.0 || std::chrono::steady_clock::now() < end) && lcm.handleTimeout(100) >= 0) continue;
   return 0;
-} catch (const std::exception& e) {  // a bad option or number, or no LCM
+} catch (const std::exception& e) {  // a bad option or number, no LCM, a bus key that cannot be used
   return std::fprintf(stderr, "impedance_client: %s\n", e.what()), 2;
 }

@@ -1,0 +1,114 @@
+#pragma once
+// Signed traffic for a client of lagranged (README, "Signed traffic"), written
+// out as a client in any language would write it. After the LCM-encoded
+// message: sender id (8 bytes), stamp (8: µs since the epoch, growing), tag
+// (16), "LGS1"; the tag is keyed BLAKE2b-128 (libsodium) of "LGS1" ‖ channel ‖
+// NUL ‖ message ‖ sender id ‖ stamp, integers big-endian. A message is believed
+// when its tag verifies, its stamp is within 2 s of this clock and not before
+// this client started, and newer than its sender's last. Only libsodium.
+#include <sodium.h>
+#include <sys/stat.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+inline std::int64_t WallMicros() {
+  return std::chrono::system_clock::now().time_since_epoch() / std::chrono::microseconds(1);
+}
+
+class BusSigning {
+ public:
+  // `key_file` "" → $LAGRANGE_BUS_KEY_FILE → unsigned. Throws for a key file
+  // that is readable by group or others, or not 32 to 64 bytes.
+  explicit BusSigning(std::string key_file) {
+    if (key_file.empty() && std::getenv("LAGRANGE_BUS_KEY_FILE") != nullptr)
+      key_file = std::getenv("LAGRANGE_BUS_KEY_FILE");
+    if (key_file.empty()) return;
+    if (sodium_init() < 0) throw std::runtime_error("libsodium cannot be initialised");
+    struct stat st {};
+    if (stat(key_file.c_str(), &st) != 0) throw std::runtime_error("bus key " + key_file + ": " + std::strerror(errno));
+    if ((st.st_mode & 077) != 0) throw std::runtime_error("bus key " + key_file + ": readable by group or others");
+    std::ifstream in(key_file, std::ios::binary);
+    key_.assign(std::istreambuf_iterator<char>(in), {});
+    if (key_.size() < 32 || key_.size() > 64) throw std::runtime_error("bus key " + key_file + ": not 32 to 64 bytes");
+    randombytes_buf(&sender_, sizeof sender_);
+  }
+
+  // Decodes a received message into `msg`; with a key, only one whose trailer verifies.
+  template <class Message>
+  bool Decode(const std::string& channel, const lcm::ReceiveBuffer& rbuf, Message& msg) {
+    const auto* data = static_cast<const unsigned char*>(rbuf.data);
+    const std::size_t size = key_.empty() ? rbuf.data_size : Check(channel, data, rbuf.data_size);
+    return size > 0 && msg.decode(data, 0, static_cast<int>(size)) == static_cast<int>(size);
+  }
+
+  // Encodes `msg`, appends the trailer when there is a key, and publishes it.
+  template <class Message>
+  void Publish(lcm::LCM& lcm, const std::string& channel, const Message& msg) {
+    std::vector<unsigned char> data(static_cast<std::size_t>(msg.getEncodedSize()));
+    msg.encode(data.data(), 0, static_cast<int>(data.size()));
+    if (!key_.empty()) Append(channel, data);
+    lcm.publish(channel, data.data(), static_cast<unsigned>(data.size()));
+  }
+
+ private:
+  static constexpr std::size_t kTrailer = 36;
+  static constexpr std::int64_t kWindow = 2'000'000;  // µs
+
+  static void Put64(std::uint64_t v, unsigned char* p) {
+    for (int i = 7; i >= 0; --i, v >>= 8) p[i] = static_cast<unsigned char>(v);
+  }
+  static std::uint64_t Get64(const unsigned char* p) {
+    std::uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+    return v;
+  }
+  void Tag(const std::string& channel, const unsigned char* msg, std::size_t n, const unsigned char* ids,
+           unsigned char* tag) const {
+    crypto_generichash_state s;
+    crypto_generichash_init(&s, key_.data(), key_.size(), 16);
+    crypto_generichash_update(&s, reinterpret_cast<const unsigned char*>("LGS1"), 4);
+    crypto_generichash_update(&s, reinterpret_cast<const unsigned char*>(channel.c_str()), channel.size() + 1);
+    crypto_generichash_update(&s, msg, n);
+    crypto_generichash_update(&s, ids, 16);  // sender id, stamp
+    crypto_generichash_final(&s, tag, 16);
+  }
+  void Append(const std::string& channel, std::vector<unsigned char>& data) {
+    const std::size_t n = data.size();
+    const auto now = static_cast<std::uint64_t>(WallMicros());
+    last_stamp_ = now > last_stamp_ ? now : last_stamp_ + 1;
+    data.resize(n + kTrailer);
+    Put64(sender_, &data[n]);
+    Put64(last_stamp_, &data[n + 8]);
+    Tag(channel, data.data(), n, &data[n], &data[n + 16]);
+    std::memcpy(&data[n + 32], "LGS1", 4);
+  }
+  // The message's size when its trailer verifies; 0 otherwise.
+  std::size_t Check(const std::string& channel, const unsigned char* data, std::size_t size) {
+    if (size < kTrailer || std::memcmp(data + size - 4, "LGS1", 4) != 0) return 0;
+    const std::size_t n = size - kTrailer;
+    const std::uint64_t id = Get64(data + n), stamp = Get64(data + n + 8);
+    const std::int64_t now = WallMicros(), at = static_cast<std::int64_t>(stamp);
+    if (at < opened_ || at < now - kWindow || at > now + kWindow || stamp <= heard_[id]) return 0;
+    unsigned char tag[16];
+    Tag(channel, data, n, data + n, tag);
+    if (sodium_memcmp(tag, data + n + 16, 16) != 0) return 0;
+    heard_[id] = stamp;
+    return n;
+  }
+
+  std::vector<unsigned char> key_;  // empty: unsigned
+  std::uint64_t sender_ = 0, last_stamp_ = 0;
+  std::map<std::uint64_t, std::uint64_t> heard_;  // sender id → last stamp believed
+  std::int64_t opened_ = WallMicros();
+};
