@@ -49,9 +49,9 @@ void WriteSeeds(const std::string& dir) {
   WriteSeed(dir + "/lc03_huge", huge);
 }
 
-// The channels the target subscribes; "" and a 63-byte name are edge cases.
-// kEveryChannel ("") hears every message; the others only their own.
-const std::string kChannels[] = {"ARM_SETPOINT", "A", kEveryChannel, std::string(63, 'Z')};
+// The channels the target subscribes; a 63-byte name is an edge case, and
+// lagrange::kEveryChannel ("") hears every message; the others only their own.
+const std::string kChannels[] = {"ARM_SETPOINT", "A", lagrange::kEveryChannel, std::string(63, 'Z')};
 
 }  // namespace
 
