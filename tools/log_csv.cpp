@@ -172,10 +172,16 @@ class StatusWriter final : public Writer {
              "setpoints_rejected,torques_accepted,torques_rejected,measured_accepted,measured_rejected,"
              "last_rejection,commands_accepted,commands_rejected,last_command_error,decode_errors,"
              "datagrams_dropped_kernel,datagrams_malformed,fragments_dropped,foreign_messages,last_foreign_run_id,"
-             "replies_suppressed,"
+             "replies_suppressed,bus_signed,datagrams_unauthenticated,unauthenticated,"
              "instances,reasons,integrators,methods,effects,forces,joints\n";
     }
     header_ = true;
+    // CHANNEL=count;..: the messages refused for their signature on each channel that had any.
+    std::string unauthenticated;
+    for (std::size_t k = 0; k < s.unauthenticated_channels.size() && k < s.unauthenticated_counts.size(); ++k) {
+      unauthenticated += (k ? ";" : "") + Escape(s.unauthenticated_channels[k]) + "=" +
+                         std::to_string(s.unauthenticated_counts[k]);
+    }
     std::string instances, reasons, integrators, methods, effects, forces, joints;
     // NAME=j1,j2,..: each instance's share of joint_names (none when the
     // status carries none or its counts do not add up: JointNamesByInstance).
@@ -209,8 +215,9 @@ class StatusWriter final : public Writer {
     out << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ',' << s.commands_rejected << ','
         << Quote(s.last_command_error) << ',' << s.decode_errors << ',' << s.datagrams_dropped_kernel << ','
         << s.datagrams_malformed << ',' << s.fragments_dropped << ',' << s.foreign_messages << ','
-        << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ',' << QuoteEscaped(instances) << ','
-        << QuoteEscaped(reasons);
+        << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ',' << (s.bus_signed ? 1 : 0) << ','
+        << s.datagrams_unauthenticated << ',' << QuoteEscaped(unauthenticated) << ',' << QuoteEscaped(instances)
+        << ',' << QuoteEscaped(reasons);
     for (const std::string* text : {&integrators, &methods, &effects, &forces}) out << ',' << QuoteEscaped(*text);
     out << ',' << QuoteEscaped(joints) << '\n';
     return true;

@@ -430,6 +430,11 @@ TEST_F(Logs, ASignedRunIsRecordedAndDecodedAndItsReplayMovesNothing) {
   const Csv setpoints = ReadCsv(out / "ARM_SETPOINT.csv");
   ASSERT_GT(setpoints.rows.size(), 0u);
   for (double q0 : setpoints.Numbers("q0")) ASSERT_EQ(q0, 0.5);
+  const Csv statuses = ReadCsv(out / "LAGRANGE_STATUS.csv");  // the signing fields have columns too
+  ASSERT_GT(statuses.rows.size(), 0u);
+  for (double signs : statuses.Numbers("bus_signed")) ASSERT_EQ(signs, 1.0);
+  for (double refused : statuses.Numbers("datagrams_unauthenticated")) ASSERT_GE(refused, 0.0);
+  EXPECT_GE(statuses.Column("unauthenticated"), 0);
 
   const std::string url_b = Url(8108);
   LcmCollector b(url_b, "ARM_STATE|LAGRANGE_STATUS");
