@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <charconv>
@@ -29,9 +30,13 @@ constexpr std::size_t MaxDatagramSize(std::size_t max_payload) {
 }
 // The most a signed bus puts after the channel: a message and its trailer.
 constexpr std::size_t kMaxSignedPayload = kMaxMessageSize + kSignatureTrailerBytes;
-// Larger than any UDP payload (65 507 bytes over IPv4), so the kernel never
-// has to cut a datagram short; MSG_TRUNC is still checked.
-constexpr std::size_t kReceiveBufferSize = 64 * 1024 + 256;
+// One receive slot: a byte more than the longest datagram a signed bus takes,
+// so that any longer one comes back with MSG_TRUNC and is counted as oversized.
+constexpr std::size_t kReceiveSlotSize = MaxDatagramSize(kMaxSignedPayload) + 1;
+// Datagrams read per recvmmsg: under a flood, one system call (and one pass
+// through the kernel's socket lock) per batch rather than per datagram.
+// bench/flood_bench measures what it buys.
+constexpr unsigned kReceiveBatch = 16;
 constexpr const char* kExpected = "expected udpm://GROUP:PORT?ttl=0..255[&recv_buf_size=BYTES]";
 
 [[noreturn]] void ThrowUrlError(const std::string& url, const std::string& what) {
@@ -153,6 +158,7 @@ class UdpmBus final : public Bus {
   BusStats stats() const override;
   std::int64_t unauthenticated_on(std::string_view channel) const override { return DropsOn(drops_, channel); }
   bool signs() const override { return signer_ != nullptr; }
+  int receive_buffer_bytes() const override;
 
  private:
   struct Counters {
@@ -169,7 +175,11 @@ class UdpmBus final : public Bus {
   int recv_fd_ = -1;
   std::uint32_t seqno_ = 0;
   std::vector<std::uint8_t> send_buffer_;
+  // kReceiveBatch slots of kReceiveSlotSize bytes, and recvmmsg's headers for them.
   std::vector<std::uint8_t> receive_buffer_;
+  std::array<iovec, kReceiveBatch> receive_iov_{};
+  std::array<mmsghdr, kReceiveBatch> receive_headers_{};
+  std::array<std::array<char, CMSG_SPACE(sizeof(std::uint32_t))>, kReceiveBatch> receive_control_{};
   Subscriptions subscriptions_;
   std::deque<ChannelDrops> drops_;
   Counters counters_;
@@ -181,7 +191,7 @@ UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* 
     : url_text_(url_text),
       url_(url),
       send_buffer_(MaxDatagramSize(kMaxSignedPayload)),
-      receive_buffer_(kReceiveBufferSize),
+      receive_buffer_(kReceiveSlotSize * kReceiveBatch),
       signer_(key != nullptr ? std::make_unique<Signer>(*key) : nullptr),
       verifier_(key != nullptr ? std::make_unique<Verifier>(*key) : nullptr) {
   group_.sin_family = AF_INET;
@@ -223,7 +233,9 @@ void UdpmBus::OpenReceiveSocket() {
   // Shared with lcm-logger, lcm-spy and other lagrange processes on this port.
   if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) fail("SO_REUSEADDR");
   if (setsockopt(fd, SOL_SOCKET, SO_REUSEPORT, &one, sizeof one) != 0) fail("SO_REUSEPORT");
+  // Beyond net.core.rmem_max only with CAP_NET_ADMIN; without it SO_RCVBUF, which the kernel caps there.
   if (url_.recv_buf_size > 0 &&
+      setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &url_.recv_buf_size, sizeof url_.recv_buf_size) != 0 &&
       setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &url_.recv_buf_size, sizeof url_.recv_buf_size) != 0) {
     fail("SO_RCVBUF");
   }
@@ -275,36 +287,53 @@ void UdpmBus::Subscribe(const std::string& channel, Handler handler) {
 int UdpmBus::Drain(int max) {
   if (recv_fd_ < 0) return 0;
   int read = 0;
-  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(std::uint32_t))];
   while (read < max) {
-    iovec iov{receive_buffer_.data(), receive_buffer_.size()};
-    msghdr msg{};
-    msg.msg_iov = &iov;
-    msg.msg_iovlen = 1;
-    msg.msg_control = control;
-    msg.msg_controllen = sizeof control;
-    const ssize_t n = recvmsg(recv_fd_, &msg, MSG_DONTWAIT);
-    if (n < 0) {
+    const unsigned batch = std::min<unsigned>(kReceiveBatch, static_cast<unsigned>(max - read));
+    for (unsigned k = 0; k < batch; ++k) {
+      receive_iov_[k] = {receive_buffer_.data() + k * kReceiveSlotSize, kReceiveSlotSize};
+      msghdr& msg = receive_headers_[k].msg_hdr;
+      msg = msghdr{};
+      msg.msg_iov = &receive_iov_[k];
+      msg.msg_iovlen = 1;
+      msg.msg_control = receive_control_[k].data();
+      msg.msg_controllen = receive_control_[k].size();
+    }
+    const int got = recvmmsg(recv_fd_, receive_headers_.data(), batch, MSG_DONTWAIT, nullptr);
+    if (got < 0) {
       if (errno == EINTR) continue;
       break;  // EAGAIN: nothing more waiting; anything else: try again at the next Drain
     }
-    ++read;
-    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
-      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
-          c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
-        std::uint32_t drops = 0;  // cumulative for this socket
-        std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
-        counters_.kernel_drops.store(drops, std::memory_order_relaxed);
+    if (got == 0) break;
+    for (int k = 0; k < got; ++k) {
+      msghdr& msg = receive_headers_[static_cast<std::size_t>(k)].msg_hdr;
+      const std::size_t n = receive_headers_[static_cast<std::size_t>(k)].msg_len;
+      for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+            c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+          std::uint32_t drops = 0;  // cumulative for this socket
+          std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+          counters_.kernel_drops.store(drops, std::memory_order_relaxed);
+        }
       }
+      if ((msg.msg_flags & MSG_TRUNC) != 0 || n >= kReceiveSlotSize) {
+        Bump(counters_.received);
+        Bump(counters_.oversized);
+        continue;
+      }
+      Dispatch(subscriptions_, drops_, verifier_.get(), receive_buffer_.data() + static_cast<std::size_t>(k) * kReceiveSlotSize,
+               n, counters_);
     }
-    if ((msg.msg_flags & MSG_TRUNC) != 0 || static_cast<std::size_t>(n) > receive_buffer_.size()) {
-      Bump(counters_.received);
-      Bump(counters_.oversized);
-      continue;
-    }
-    Dispatch(subscriptions_, drops_, verifier_.get(), receive_buffer_.data(), static_cast<std::size_t>(n), counters_);
+    read += got;
+    if (static_cast<unsigned>(got) < batch) break;  // the socket is empty
   }
   return read;
+}
+
+int UdpmBus::receive_buffer_bytes() const {
+  int bytes = 0;
+  socklen_t size = sizeof bytes;
+  if (recv_fd_ < 0 || getsockopt(recv_fd_, SOL_SOCKET, SO_RCVBUF, &bytes, &size) != 0) return 0;
+  return bytes;
 }
 
 int UdpmBus::Handle(int timeout_ms) {
@@ -391,6 +420,12 @@ UdpmUrl ParseUdpmUrl(const std::string& url) {
     pairs.remove_prefix(amp + 1);
   }
   return out;
+}
+
+std::string WithDefaultReceiveBuffer(const std::string& url, int bytes) {
+  // Not udpm, a buffer named, or an empty query (refused as it stands when the bus opens).
+  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos || url.back() == '?') return url;
+  return url + (url.find('?') == std::string::npos ? "?" : "&") + "recv_buf_size=" + std::to_string(bytes);
 }
 
 Datagram ParseDatagram(const std::uint8_t* data, std::size_t size, std::size_t max_payload) {

@@ -61,12 +61,19 @@ struct UdpmUrl {
   std::string group;  // dotted IPv4 multicast address
   std::uint16_t port = 0;
   int ttl = 0;            // 0: this host only
-  int recv_buf_size = 0;  // SO_RCVBUF request, bytes; 0: the system default
+  // SO_RCVBUF request, bytes; 0: the system default. Asked with SO_RCVBUFFORCE
+  // first (beyond net.core.rmem_max, with CAP_NET_ADMIN), else SO_RCVBUF
+  // (capped by the kernel at net.core.rmem_max).
+  int recv_buf_size = 0;
 };
 // Parses `url`; throws BusUrlError ("LCM URL 'X': <what is wrong>; expected udpm://GROUP:PORT?ttl=0..255...").
 // Strict: decimal digits only, no default port; a missing ttl is 0 (LCM's default);
 // unknown or repeated query keys are refused.
 UdpmUrl ParseUdpmUrl(const std::string& url);
+
+// `url` asking for a receive buffer of `bytes` when it is a udpm:// URL that
+// names none; any other URL unchanged (a recv_buf_size it gives wins).
+std::string WithDefaultReceiveBuffer(const std::string& url, int bytes);
 
 // What a bus dropped or could not do, totals since it opened.
 struct BusStats {
@@ -123,6 +130,10 @@ class Bus {
   virtual std::int64_t unauthenticated_on(std::string_view channel) const = 0;
   // Whether this bus signs what it sends and checks what it receives.
   virtual bool signs() const = 0;
+  // The receive socket's buffer as the kernel granted it (SO_RCVBUF, which the
+  // kernel reports doubled for its bookkeeping), bytes; 0 without one (nothing
+  // subscribed, or an InProcessBus).
+  virtual int receive_buffer_bytes() const = 0;
 
   // Encodes an LCM type into a reusable buffer and publishes it.
   template <class Message>
@@ -172,6 +183,7 @@ class InProcessBus final : public Bus {
   BusStats stats() const override { return stats_; }
   std::int64_t unauthenticated_on(std::string_view channel) const override;
   bool signs() const override { return signer_ != nullptr; }
+  int receive_buffer_bytes() const override { return 0; }
 
   // Queues a raw datagram as UdpmBus would read it from the wire (LC02/LC03
   // header included), to test the datagram parser without sockets.

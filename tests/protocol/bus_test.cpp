@@ -5,11 +5,13 @@
 // LCM 1.3.1's reassembly (docs/lcm-fragment-bug.md) and interop with lcm::LCM.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <lcm/lcm-cpp.hpp>
 
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <random>
 #include <string>
 #include <thread>
@@ -359,6 +361,18 @@ TEST(BusUrl, AcceptsStrictUdpmUrls) {
   EXPECT_EQ(u.ttl, 0);  // LCM's default
 }
 
+TEST(BusUrl, ADefaultReceiveBufferIsAskedOnlyOfAUdpmUrlThatNamesNone) {
+  EXPECT_EQ(WithDefaultReceiveBuffer("udpm://239.255.76.67:7667?ttl=0", 2097152),
+            "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097152");
+  EXPECT_EQ(WithDefaultReceiveBuffer("udpm://239.255.76.67:7667", 4096), "udpm://239.255.76.67:7667?recv_buf_size=4096");
+  // The user's size wins; other providers and an empty query (refused when opened) are left as they are.
+  EXPECT_EQ(WithDefaultReceiveBuffer("udpm://239.255.76.67:7667?recv_buf_size=1&ttl=0", 2097152),
+            "udpm://239.255.76.67:7667?recv_buf_size=1&ttl=0");
+  EXPECT_EQ(WithDefaultReceiveBuffer("inprocess://", 2097152), "inprocess://");
+  EXPECT_EQ(WithDefaultReceiveBuffer("udpm://239.255.76.67:7667?", 2097152), "udpm://239.255.76.67:7667?");
+  EXPECT_EQ(ParseUdpmUrl(WithDefaultReceiveBuffer("udpm://239.255.76.67:7667?ttl=1", 65536)).recv_buf_size, 65536);
+}
+
 TEST(BusUrl, RefusesMalformedUrlsNamingThem) {
   for (const std::string url : {
            "",
@@ -543,6 +557,46 @@ TEST_F(BusUdpm, SurvivesTheDatagramsThatCrashLcmAndCountsThem) {
   EXPECT_GE(s.malformed, 1);
   EXPECT_GE(s.delivered, 1);
   EXPECT_GE(s.received, s.delivered + s.fragments_dropped + s.oversized + s.malformed);
+}
+
+// SO_RCVBUF(7): the kernel keeps twice the size set, capped at
+// net.core.rmem_max without CAP_NET_ADMIN; with it, the bus's SO_RCVBUFFORCE
+// goes beyond the cap.
+TEST_F(BusUdpm, TheReceiveBufferAskedIsGrantedUpToTheKernelsCap) {
+  std::ifstream rmem("/proc/sys/net/core/rmem_max");
+  long long rmem_max = 0;
+  ASSERT_TRUE(rmem >> rmem_max);
+  const int asked = static_cast<int>(std::min<long long>(rmem_max + 65536, 64LL << 20));
+  const std::unique_ptr<Bus> bus = OpenBus(Url(7905) + "&recv_buf_size=" + std::to_string(asked));
+  EXPECT_EQ(bus->receive_buffer_bytes(), 0);  // no socket before a subscription
+  std::vector<Received> got;
+  bus->Subscribe("X", Recorder(got));
+  const bool privileged = geteuid() == 0;  // root: CAP_NET_ADMIN (the tests run unconfined)
+  const long long expected = 2 * (privileged ? asked : std::min<long long>(asked, rmem_max));
+  EXPECT_EQ(bus->receive_buffer_bytes(), expected) << "asked " << asked << ", rmem_max " << rmem_max;
+  EXPECT_EQ(OpenBus("inprocess://")->receive_buffer_bytes(), 0);
+}
+
+// Drain reads in batches (recvmmsg) yet never reads more than `max`, and hands
+// on every datagram it read: the datagrams it reports are the ones delivered.
+TEST_F(BusUdpm, DrainReadsAtMostItsMaxAndDeliversWhatItRead) {
+  Prepare(7906);
+  const std::unique_ptr<Bus> bus = OpenBus(Url(7906) + "&recv_buf_size=1048576");
+  std::vector<Received> got;
+  got.reserve(64);
+  bus->Subscribe("BATCH", Recorder(got));
+  testing::RawUdpSender raw(kGroup, 7906);
+  // Loopback multicast queues a datagram at the receiver within sendto: all 40 wait (any may be lost).
+  for (std::uint8_t k = 0; k < 40; ++k) ASSERT_TRUE(raw.Send(ShortDatagram("BATCH", {k})));
+  const int first = bus->Drain(5);
+  EXPECT_LE(first, 5);  // not a whole batch of 16
+  EXPECT_EQ(got.size(), static_cast<std::size_t>(first));
+  const int rest = bus->Drain(1024);
+  EXPECT_LE(first + rest, 40);
+  EXPECT_EQ(got.size(), static_cast<std::size_t>(first + rest));
+  for (std::size_t k = 1; k < got.size(); ++k) EXPECT_LT(got[k - 1].payload[0], got[k].payload[0]);  // in order
+  EXPECT_EQ(bus->stats().delivered, static_cast<std::int64_t>(got.size()));
+  EXPECT_EQ(bus->stats().received, static_cast<std::int64_t>(got.size()));
 }
 
 TEST_F(BusUdpm, ReceivesWhatLcmPublishes) {
