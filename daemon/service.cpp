@@ -39,6 +39,27 @@
 namespace lagrange {
 namespace {
 
+// The receive buffer lagranged asks for on the buses it reads, unless the URL
+// names one (recv_buf_size): under a 140 k/s flood of refused datagrams on the
+// two-process loop, the default (net.core.rmem_default, 208 KiB on Debian)
+// overflowed and dropped up to 9 % of the real states and torques in the
+// flood's seconds; 2 MiB dropped none (bench/flood_bench, README "Floods").
+constexpr int kDaemonReceiveBuffer = 2 * 1024 * 1024;
+
+// A warning when a bus's kernel granted less receive buffer than its URL asked
+// (SO_RCVBUF reports twice the bytes granted).
+void WarnSmallReceiveBuffer(const Bus* bus, const std::string& url) {
+  if (bus == nullptr || url.rfind("udpm://", 0) != 0) return;
+  const int asked = ParseUdpmUrl(url).recv_buf_size;
+  const int granted = bus->receive_buffer_bytes() / 2;
+  if (asked <= 0 || granted <= 0 || granted >= asked) return;
+  spdlog::warn(
+      "LCM receive buffer: the kernel granted {} KiB of the {} KiB asked (net.core.rmem_max caps it): a flood on the "
+      "bus can overflow it and drop real setpoints, torques and states. As root: sysctl -w net.core.rmem_max={} "
+      "(README, \"Floods\")",
+      granted / 1024, asked / 1024, asked);
+}
+
 struct Options {
   std::string config = DefaultScenePath();
   std::string lcm_url;
@@ -257,11 +278,14 @@ int Serve(const Options& o, const LogFiles& logs) {
   }
   const BusKey* signing = key ? &*key : nullptr;
   std::unique_ptr<Bus> bus_out, bus_in, bus_replies, bus_listen;
+  // The buses it reads ask for kDaemonReceiveBuffer unless their URL names a size.
+  const std::string in_url = WithDefaultReceiveBuffer(input_url, kDaemonReceiveBuffer);
+  const std::string listen_url = WithDefaultReceiveBuffer(url, kDaemonReceiveBuffer);
   try {
     bus_out = OpenBus(url, signing);
-    bus_in = OpenBus(input_url, signing);
+    bus_in = OpenBus(in_url, signing);
     bus_replies = OpenBus(url, signing);
-    if (input_url != url) bus_listen = OpenBus(url, signing);
+    if (input_url != url) bus_listen = OpenBus(listen_url, signing);
   } catch (const BusError& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -280,6 +304,8 @@ int Serve(const Options& o, const LogFiles& logs) {
   Receiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, *runtime, clock, stats,
                     o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
   Publisher publisher(*bus_out, *runtime, ring, loop, stats, notify_fd, run_id);
+  WarnSmallReceiveBuffer(bus_in.get(), in_url);
+  WarnSmallReceiveBuffer(bus_listen.get(), listen_url);
   TimingCsvWriter timing;
   if (!o.timing_csv.empty()) {
     if (!timing.Open(o.timing_csv)) {
