@@ -6,6 +6,8 @@
 // counts messages; the exact counts and protocol facts are in bridge_test.cpp.
 
 #include <gtest/gtest.h>
+#include <cstdio>
+#include <unistd.h>
 #include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
@@ -133,6 +135,43 @@ TEST_F(Lagranged, TheArmSettlesOnASetpointSentByAnotherProcess) {
   daemon->Signal(SIGTERM);
   ASSERT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
   ExpectWellFormedStream(states.Decoded<state_t>("ARM_STATE"), "ARM_STATE");
+}
+
+// The receive buffer (SO_RCVBUF, as the kernel keeps it: twice the bytes set) of
+// `pid`'s UDP socket bound to `port`, from iproute2's `ss -uampn`; -1 when not found.
+long ReceiveBufferOf(int pid, int port) {
+  FILE* ss = popen("ss -uampn 2>/dev/null", "r");
+  if (ss == nullptr) return -1;
+  std::string out;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, ss) != nullptr) out += buffer;
+  pclose(ss);
+  // "UNCONN 0 0 0.0.0.0:PORT 0.0.0.0:* users:(("lagranged",pid=PID,fd=N))\n\t skmem:(r0,rbBYTES,..."
+  const std::regex socket(":" + std::to_string(port) + " [^\n]*pid=" + std::to_string(pid) + ",[^\n]*\n\\s*skmem:\\(r[0-9]+,rb([0-9]+)");
+  std::smatch m;
+  return std::regex_search(out, m, socket) ? std::stol(m[1]) : -1;
+}
+
+// A flood of refused datagrams overflowed the default 208 KiB buffer and took
+// real states and torques with it (issue 21; bench/flood_bench): lagranged asks
+// 2 MiB on the sockets it reads, unless its URL names a size.
+TEST_F(Lagranged, ItsReceiveSocketAsksTwoMebibytesUnlessTheUrlNamesASize) {
+  Prepare(7819);
+  std::ifstream rmem("/proc/sys/net/core/rmem_max");
+  long rmem_max = 0;
+  ASSERT_TRUE(rmem >> rmem_max);
+  const bool privileged = geteuid() == 0;  // CAP_NET_ADMIN: SO_RCVBUFFORCE goes beyond rmem_max
+  const auto granted = [&](long asked) { return 2 * (privileged ? asked : std::min(asked, rmem_max)); };
+  for (const long asked : {2L * 1024 * 1024, 300'000L}) {
+    const bool named = asked != 2L * 1024 * 1024;
+    LcmCollector states(url_, "ARM_STATE");
+    BackgroundProcess daemon(
+        {LAGRANGED_PATH, "--lcm-url", named ? url_ + "&recv_buf_size=" + std::to_string(asked) : url_});
+    AwaitMessages(states, "ARM_STATE");  // its sockets are open
+    EXPECT_EQ(ReceiveBufferOf(daemon.pid(), port_), granted(asked)) << "asked " << asked << ", rmem_max " << rmem_max;
+    daemon.Signal(SIGTERM);
+    ASSERT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+  }
 }
 
 TEST_F(Lagranged, LcmLoggerRecordsTheStateStreamOfBothInstances) {
