@@ -7,7 +7,7 @@ CSV files and PNG plots (issue 6). Run by scripts/bench; usage:
 Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json
 and kdl.json (Google Benchmark), kdl_agreement.csv, the CSV files of
 work_precision, loop_bench and hostile_bench, external_bench's external.json, live_bench's live.csv,
-live_offline.csv and live.json, cyclictest's JSON files
+live_offline.csv and live.json, flood_bench's flood_cases.csv, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
 are CPU time per call (the median of the repetitions); every one is also given
 as a multiple of calib/sincos, one sin and one cos measured in the same run
@@ -15,7 +15,7 @@ as a multiple of calib/sincos, one sin and one cos measured in the same run
 
 This file is the report's table of contents; each section is a module of
 bench/reporting/ (common: reading and formatting; precision: 1 and 2;
-derivation: 3; effects: 4; loop: 5 and 6; hostile: 7; external: 8; live: 9;
+derivation: 3; effects: 4; loop: 5 and 6; hostile: 7; external: 8; live: 9; flood: 10;
 targets: the first table).
 """
 
@@ -25,6 +25,7 @@ from pathlib import Path
 from reporting.common import median_of, ns, read_benchmarks, table, write_csv
 from reporting.derivation import derivation_section, kdl_subsection, kdl_targets
 from reporting.effects import effects_section
+from reporting.flood import flood_data, flood_section, flood_targets
 from reporting.external import external_data, external_section, external_target_rows
 from reporting.hostile import hostile_data, hostile_section, hostile_targets
 from reporting.live import live_data, live_section
@@ -79,9 +80,11 @@ def main(out):
     loop = loop_data(out)
     hostile = hostile_data(out) if (out / "hostile_cases.csv").exists() else None
     external = external_data(out) if (out / "external.json").exists() else None
+    flood = flood_data(out) if (out / "flood_cases.csv").exists() else None
     target_rows = targets(derive, effects, loop, calib(derive_runs), calib(effects_runs))
     target_rows += kdl_targets(kdl_worst) + [tick_target(tick_runs)]
     target_rows += (hostile_targets(hostile) if hostile else []) + (external_target_rows(external) if external else [])
+    target_rows += flood_targets(flood) if flood else []
     write_csv(out / "targets.csv", ["target", "limit", "measured", "met"], target_rows)
     md = introduction(context, calib(derive_runs)) + [
         "## Targets\n", table(["target", "limit", "measured", "met"], target_rows),
@@ -93,6 +96,8 @@ def main(out):
         md.append(external_section(external))
     if (out / "live.csv").exists():
         md.append(live_section(out, live_data(out)))
+    if flood:
+        md.append(flood_section(flood))
     machine = (out / "machine.txt").read_text() if (out / "machine.txt").exists() else ""
     md += ["## Machine\n", "```\n" + machine.strip() + "\n```\n"]
     (out / "report.md").write_text("\n".join(md))
