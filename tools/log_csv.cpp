@@ -35,10 +35,6 @@ std::string QuoteEscaped(const std::string& escaped) {
   return q + "\"";
 }
 
-// A string from the bus as one CSV field: control characters escaped (a
-// recorded message cannot break a line or reach a terminal), quotes doubled.
-std::string Quote(const std::string& s) { return QuoteEscaped(Escape(s)); }
-
 // Decodes a message only after its wire check: a recorded packet is as
 // untrusted as a live one. A signed bus's message is followed by its
 // signature trailer (protocol/signing.hpp), decoded without it; the signature
@@ -92,7 +88,7 @@ class StateWriter final : public Writer {
         << s.num_dofs;
     for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) Values(out, *v);
     out << ',' << FormatDouble(s.kinetic_energy) << ',' << FormatDouble(s.potential_energy) << ','
-        << Quote(s.controller) << ',' << static_cast<int>(s.mode) << '\n';
+        << CsvText(s.controller) << ',' << static_cast<int>(s.mode) << '\n';
     return true;
   }
 
@@ -153,7 +149,8 @@ class CommandWriter final : public Writer {
     if (!header_) out << "log_utime,utime,request_id,command,controller,num_gains,kp,kd\n";
     header_ = true;
     out << log_utime << ',' << c.utime << ',' << RunIdText(c.request_id) << ',' << static_cast<int>(c.command) << ','
-        << Quote(c.controller) << ',' << c.num_gains << ',' << Quote(Join(c.kp)) << ',' << Quote(Join(c.kd)) << '\n';
+        << CsvText(c.controller) << ',' << c.num_gains << ',' << CsvText(Join(c.kp)) << ',' << CsvText(Join(c.kd))
+        << '\n';
     return true;
   }
 
@@ -212,8 +209,8 @@ class StatusWriter final : public Writer {
                            s.measured_accepted, s.measured_rejected}) {
       out << ',' << x;
     }
-    out << ',' << Quote(s.last_rejection) << ',' << s.commands_accepted << ',' << s.commands_rejected << ','
-        << Quote(s.last_command_error) << ',' << s.decode_errors << ',' << s.datagrams_dropped_kernel << ','
+    out << ',' << CsvText(s.last_rejection) << ',' << s.commands_accepted << ',' << s.commands_rejected << ','
+        << CsvText(s.last_command_error) << ',' << s.decode_errors << ',' << s.datagrams_dropped_kernel << ','
         << s.datagrams_malformed << ',' << s.fragments_dropped << ',' << s.foreign_messages << ','
         << RunIdText(s.last_foreign_run_id) << ',' << s.replies_suppressed << ',' << (s.bus_signed ? 1 : 0) << ','
         << s.datagrams_unauthenticated << ',' << QuoteEscaped(unauthenticated) << ',' << QuoteEscaped(instances)
@@ -241,7 +238,7 @@ class TelemetryWriter final : public Writer {
     out << log_utime << ',' << m.utime << ',' << RunIdText(m.run_id) << ',' << m.tick << ',' << FormatDouble(m.t) << ','
         << static_cast<int>(m.mode);
     for (double x : {m.energy, m.energy_residual, m.quadrature_bound, m.work, m.power}) out << ',' << FormatDouble(x);
-    out << ',' << Quote(m.integrator) << ',' << m.substeps << ',' << Quote(m.method);
+    out << ',' << CsvText(m.integrator) << ',' << m.substeps << ',' << CsvText(m.method);
     for (std::int32_t x : {m.evaluations, m.steps_accepted, m.steps_rejected, m.newton_iterations, m.failures})
       out << ',' << x;
     out << ',' << FormatDouble(m.error_estimate) << ',' << FormatDouble(m.step) << ',' << FormatDouble(m.compute_us)
@@ -298,7 +295,7 @@ class ReplyWriter final : public Writer {
     if (!header_) out << "log_utime,utime,run_id,request_id,command,accepted,reason\n";
     header_ = true;
     out << log_utime << ',' << r.utime << ',' << RunIdText(r.run_id) << ',' << RunIdText(r.request_id) << ','
-        << static_cast<int>(r.command) << ',' << (r.accepted ? 1 : 0) << ',' << Quote(r.reason) << '\n';
+        << static_cast<int>(r.command) << ',' << (r.accepted ? 1 : 0) << ',' << CsvText(r.reason) << '\n';
     return true;
   }
 
@@ -330,6 +327,25 @@ std::string SafeFileName(const std::string& channel) {
 }
 
 }  // namespace
+
+std::string CsvText(const std::string& text) { return QuoteEscaped(Escape(text)); }
+
+std::string JointNamesPath(const std::string& csv_path) {
+  const std::string csv = ".csv";
+  const bool has_csv =
+      csv_path.size() > csv.size() && csv_path.compare(csv_path.size() - csv.size(), csv.size(), csv) == 0;
+  return (has_csv ? csv_path.substr(0, csv_path.size() - csv.size()) : csv_path) + ".joints.csv";
+}
+
+std::string WriteJointNames(const std::string& csv_path, const std::vector<std::string>& names) {
+  const std::string path = JointNamesPath(csv_path);
+  std::ofstream out(path);
+  out << "joint,name\n";
+  for (std::size_t i = 0; i < names.size(); ++i) out << i << ',' << CsvText(names[i]) << '\n';
+  out.flush();
+  if (!out) throw std::runtime_error("cannot write " + path);
+  return path;
+}
 
 std::string JointColumns(const char* field, int n, const char* separator) {
   std::string columns;

@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace lagrange::cli {
 
@@ -17,6 +18,19 @@ namespace lagrange::cli {
 std::string JointColumns(const char* field, int n, const char* separator = "");
 inline constexpr const char* kKineticEnergyColumn = "kinetic_energy";      // T, J
 inline constexpr const char* kPotentialEnergyColumn = "potential_energy";  // V, J
+
+// Foreign text (from the bus, from a URDF) as one CSV field: escaped
+// (plant/escape.hpp: it cannot break a line or reach a terminal), quoted,
+// quotes doubled.
+std::string CsvText(const std::string& text);
+
+// A simulate CSV's joint names, beside it as log2csv's are in the status CSV:
+// FILE.joints.csv for FILE.csv (".joints.csv" appended to any other name),
+// columns joint (i of the CSV's q<i>, qd<i>, ..) and name (CsvText), one row
+// per joint in q order. Plot labels the joints by it.
+std::string JointNamesPath(const std::string& csv_path);
+// Writes `names` to JointNamesPath(csv_path); returns that path. Throws "cannot write PATH".
+std::string WriteJointNames(const std::string& csv_path, const std::vector<std::string>& names);
 
 struct ChannelCsv {
   std::string type;  // "state_t", ...

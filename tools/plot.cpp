@@ -27,9 +27,11 @@ namespace fs = std::filesystem;
 struct PlotInputs {
   std::string state, telemetry, forces;
   std::string status;  // the daemon's status CSV: joint names, integrator and method switches
+  std::string joints;  // a simulate CSV's joint names (JointNamesPath)
 };
 
-// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES; returns (status, its stdout and stderr together).
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS; returns (status, its stdout and
+// stderr together).
 std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
   if (pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
@@ -39,7 +41,8 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.search_path = true;
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
-  const pid_t pid = Spawn({"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status}, options);
+  const pid_t pid = Spawn(
+      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints}, options);
   close(out_pipe[1]);
   if (pid < 0) {
     close(out_pipe[0]);
@@ -62,11 +65,13 @@ std::string LastLine(const std::string& text) {
 }
 
 // The script's summary, "N rows in K segments" (the last line that says so;
-// matplotlib may warn before it), then "; telemetry: .." and "; forces: .."
-// for the panels it drew from those.
+// matplotlib may warn before it), then "; joints: NAME, .." when it labelled
+// the joints by name, and "; telemetry: .." and "; forces: .." for the panels
+// it drew from those. The names come escaped from their CSV; a line with a
+// control character is not printed.
 std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
-  static const std::regex kExtra(R"(^(telemetry: \d+ rows|forces: \d+ rows of [a-z_, ]*)$)");
+  static const std::regex kExtra(R"(^(joints: [^\x00-\x1f\x7f]+|telemetry: \d+ rows|forces: \d+ rows of [a-z_, ]*)$)");
   std::string found, extra;
   std::istringstream lines(output);
   for (std::string line; std::getline(lines, line);) {
@@ -179,8 +184,10 @@ class PlotCommand final : public Command {
     return state->first;
   }
 
+  // For a simulate CSV: its joint names (JointNamesPath), where they exist.
   // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TELEMETRY.csv and DIR/NAME_FORCES.csv, where they exist.
   static void Siblings(PlotInputs& in) {
+    if (const std::string joints = JointNamesPath(in.state); fs::exists(joints)) in.joints = joints;
     const fs::path state(in.state);
     const std::string base = InstanceBase(state.stem().string());
     if (base.empty() || state.extension() != ".csv") return;

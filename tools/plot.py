@@ -1,16 +1,19 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV]]` (any may be
-""): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are named as
-the daemon names them, and a dotted vertical line marks each switch of the
-integrator or the dynamics method; with a telemetry CSV (log2csv of <NAME>_TELEMETRY) two more panels, the
-energy residual ε(t) against ± the quadrature bound and the cost per tick
-(evaluations, compute µs); with a forces CSV (<NAME>_FORCES) one panel per
-joint, each effect that was on as a line. A reset or restart (the simulated
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV]]]`
+(any may be ""): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
+named as the daemon names them, and a dotted vertical line marks each switch
+of the integrator or the dynamics method; with a joints CSV (simulate's
+FILE.joints.csv beside FILE.csv) they are named by it; with a telemetry CSV
+(log2csv of <NAME>_TELEMETRY) two more panels, the energy residual ε(t)
+against ± the quadrature bound and the cost per tick (evaluations, compute
+µs); with a forces CSV (<NAME>_FORCES) one panel per joint, each effect that
+was on as a line. A reset or restart (the simulated
 time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
+"joints: NAME, .." when it named the joints (else they are q0, q1, ..),
 "telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
 import bisect
 import csv
@@ -129,7 +132,7 @@ def telemetry_panels(axes, path):
     return "telemetry: %d rows" % len(eps)
 
 
-def forces_panels(axes, path):
+def forces_panels(axes, path, joint_names):
     header, columns = load(path)
     joints = len(indexed(header, r"tau_applied_(\d+)"))
     missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in FORCE_ROWS for j in range(joints)]
@@ -147,9 +150,10 @@ def forces_panels(axes, path):
             values = [v if o else math.nan for v, o in zip(numbers(columns, "%s_%d" % (row, j), path), on)]
             axis.plot(t, gap(values), label=label, linewidth=1.2 if row != "tau_cmd" else 0.9,
                       linestyle="--" if row == "tau_cmd" else "-")
+    joint = joint_names if joint_names and len(joint_names) == joints else ["joint %d" % j for j in range(joints)]
     for j, axis in enumerate(axes):
-        axis.set_ylabel("joint %d (N·m or N)" % j)
-        axis.set_title("joint %d: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % j)
+        axis.set_ylabel("%s (N·m or N)" % joint[j])
+        axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % joint[j])
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
 
 
@@ -202,12 +206,25 @@ def status_facts(status_path, state_path, state_columns, joints):
     return joint_names, switches
 
 
+def named_joints(path, joints):
+    """A simulate CSV's joint names from its FILE.joints.csv (columns joint, name:
+    tools/log_csv.hpp); None when it does not name joints 0 .. `joints` - 1 in
+    order (the CSV was written again since, by something else)."""
+    header, columns = load(path)
+    if "joint" not in columns or "name" not in columns:
+        fail("%s lacks the columns joint, name (a FILE.joints.csv from lagrangectl simulate)" % path)
+    if columns["joint"] != [str(i) for i in range(joints)]:
+        return None
+    return columns["name"]
+
+
 def main():
-    if len(sys.argv) not in (4, 6, 7):
-        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV]]")
+    if len(sys.argv) not in (4, 6, 7, 8):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV]]]")
     path, png, title = sys.argv[1:4]
     telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
-    status = sys.argv[6] if len(sys.argv) == 7 else ""
+    status = sys.argv[6] if len(sys.argv) >= 7 else ""
+    joints_csv = sys.argv[7] if len(sys.argv) == 8 else ""
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_des(\d+)")
@@ -237,6 +254,8 @@ def main():
     axes = [row[0] for row in axes]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     joint_names, switches = status_facts(status, path, columns, len(q)) if status else (None, [])
+    if joints_csv:
+        joint_names = named_joints(joints_csv, len(q)) or joint_names
     joint = joint_names or ["q%d" % i for i in range(len(q))]
     for i, (qn, dn) in enumerate(zip(q, qdes)):
         color = colors[i % len(colors)]
@@ -268,7 +287,7 @@ def main():
     if telemetry:
         extra.append(telemetry_panels(axes[4:6], telemetry))
     if forces:
-        extra.append(forces_panels(axes[panels - force_joints:], forces))
+        extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))
     axes[-1].set_xlabel("t (s)")
     for t_switch, label in switches:
         for axis in axes:
@@ -286,6 +305,8 @@ def main():
     except OSError as e:
         fail("cannot write %s: %s" % (png, e.strerror))
     print("%d rows in %d segment%s" % (len(t), len(starts), "" if len(starts) == 1 else "s"))
+    if joint_names:
+        print("joints: " + ", ".join(joint_names))
     for line in extra:
         print(line)
 

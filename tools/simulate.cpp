@@ -1,4 +1,5 @@
-// lagrangectl simulate: run a scene offline and write one CSV row per step.
+// lagrangectl simulate: run a scene offline and write one CSV row per step,
+// and each instance's joint names beside its CSV (JointNamesPath).
 // A scene with an external plant or controller is refused: it needs the bus.
 // An instance that fails lagranged's health check (daemon/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
@@ -63,7 +64,8 @@ class SimulateCommand final : public Command {
     app_->add_option("scene", scene_, "Scene file (YAML)")->required();
     app_->add_option("--duration", duration_, "Simulated time, s")->required()->check(PositiveNumber());
     app_->add_option("--csv", csv_,
-                     "Output CSV ('-' for stdout); a scene with several instances writes FILE.NAME.csv for each")
+                     "Output CSV ('-' for stdout), with its joint names in FILE.joints.csv beside it; a scene with "
+                     "several instances writes FILE.NAME.csv (and FILE.NAME.joints.csv) for each")
         ->required();
   }
 
@@ -96,6 +98,7 @@ class SimulateCommand final : public Command {
       files.push_back(std::make_unique<std::ofstream>(path));
       if (!*files.back()) throw std::runtime_error("cannot write " + path);
       streams.push_back(files.back().get());
+      WriteJointNames(path, inst.instance_model().joint_names);
       if (several) err << "lagrangectl simulate: " << inst.name() << " -> " << path << "\n";
     }
     for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i].num_dofs());

@@ -274,7 +274,8 @@ TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   auto r = RunCtl({"plot", arm.string(), "-o", png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   const Csv simulated = ReadCsv(arm);
-  EXPECT_EQ(r.out, PlotLine(png, simulated) + "\n");
+  // The arm's joints named by arm.joints.csv, which simulate wrote beside arm.csv.
+  EXPECT_EQ(r.out, PlotLine(png, simulated) + "; joints: q1, q2\n");
   EXPECT_EQ(Segments(simulated), 1u);  // one run, no reset: one unbroken line per series
   ExpectImage(png);
 
@@ -287,8 +288,9 @@ TEST_F(Logs, PlotDrawsASimulationCsvAndALogBreakingLinesAtAReset) {
   const Csv recorded = ReadCsv(dir_ / "c" / "ARM_STATE.csv");
   // simulate names a quantity as log2csv does: every column of its CSV is one of the recorded state CSV's.
   for (const std::string& column : simulated.header) EXPECT_GE(recorded.Column(column), 0) << column;
-  // Drawn from the same rows log2csv writes, with the arm's telemetry lagranged published beside its states.
-  EXPECT_EQ(r.out.rfind(PlotLine(log_png, recorded) + "; telemetry: ", 0), 0u) << r.out;
+  // Drawn from the same rows log2csv writes, the joints named by the status, with the arm's telemetry
+  // lagranged published beside its states.
+  EXPECT_EQ(r.out.rfind(PlotLine(log_png, recorded) + "; joints: q1, q2; telemetry: ", 0), 0u) << r.out;
   const std::vector<double> t = recorded.Numbers("t");
   bool went_back = false;
   for (std::size_t k = 1; k < t.size(); ++k) went_back = went_back || t[k] < t[k - 1];
@@ -492,7 +494,8 @@ TEST_F(Logs, SeveralDaemonsShareOneBusUnderTheirPrefixesAndOneLoggerRecordsThemA
 }
 
 // A 7-joint robot from URDF, recorded: log2csv writes its seven joints' columns
-// and the status's joint names, and plot draws the log and a simulate CSV.
+// and the status's joint names, and plot draws the log and a simulate CSV,
+// each with the joints named as in the URDF.
 TEST_F(Logs, Log2CsvAndPlotTakeASevenJointRobotsRun) {
   const std::string url = Url(7937);
   const fs::path log = dir_ / "panda.lcm";
@@ -522,7 +525,9 @@ TEST_F(Logs, Log2CsvAndPlotTakeASevenJointRobotsRun) {
   const fs::path log_png = dir_ / "panda_log.png";
   auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out.rfind(PlotLine(log_png, states) + "; telemetry: ", 0), 0u) << r.out;
+  const std::string panda_joints =
+      "; joints: panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7";
+  EXPECT_EQ(r.out.rfind(PlotLine(log_png, states) + panda_joints + "; telemetry: ", 0), 0u) << r.out;
   ExpectImage(log_png);
   const fs::path csv = dir_ / "panda.csv", png = dir_ / "panda.png";
   ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_pd_gravity.yaml", "--duration", "1",
@@ -531,8 +536,48 @@ TEST_F(Logs, Log2CsvAndPlotTakeASevenJointRobotsRun) {
             0);
   r = RunCtl({"plot", csv.string(), "-o", png.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out, png.string() + ": 1001 rows in 1 segment\n");
+  EXPECT_EQ(r.out, png.string() +
+                       ": 1001 rows in 1 segment; joints: shoulder_pan_joint, shoulder_lift_joint, elbow_joint, "
+                       "wrist_1_joint, wrist_2_joint, wrist_3_joint\n");
   ExpectImage(png);
+}
+
+// A simulate CSV's joints are labelled by the names beside it
+// (FILE.joints.csv), read back as simulate wrote them: a URDF's name with a
+// comma, quotes and a tab (escaped). Without that file, or with one that
+// names another robot's joints, they are q0, q1, .. and the line names none;
+// a file there that holds no names is one line.
+TEST_F(Logs, PlotNamesASimulationsJointsByTheNamesBesideItsCsv) {
+  fs::create_directories(dir_ / "robots");
+  std::ofstream(dir_ / "robots" / "odd.urdf")
+      << R"(<robot name="odd"><link name="base"/>)"
+      << R"(<joint name="elbow, &quot;left&quot;&#9;x" type="revolute"><parent link="base"/><child link="a"/>)"
+      << R"(<axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>)"
+      << R"(<link name="a"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>)"
+      << R"(<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link></robot>)";
+  std::ofstream(dir_ / "odd.yaml")
+      << "instances:\n  - name: r\n    plant: {type: urdf, file: robots/odd.urdf}\n    initial: {q: [0.5]}\n";
+  const fs::path csv = dir_ / "odd.csv", names = dir_ / "odd.joints.csv", png = dir_ / "odd.png";
+  ASSERT_EQ(RunCtl({"simulate", (dir_ / "odd.yaml").string(), "--duration", "0.1", "--csv", csv.string()}).status, 0);
+  auto r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, png.string() + ": 101 rows in 1 segment; joints: elbow, \"left\"\\tx\n");
+
+  std::ofstream(names) << "joint,name\n0,\"a\"\n1,\"b\"\n";
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, png.string() + ": 101 rows in 1 segment\n");
+
+  fs::remove(names);
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, png.string() + ": 101 rows in 1 segment\n");
+
+  std::ofstream(names) << "t,q0\n0,1\n";
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, "lagrangectl plot: " + names.string() +
+                       " lacks the columns joint, name (a FILE.joints.csv from lagrangectl simulate)\n");
 }
 
 TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {

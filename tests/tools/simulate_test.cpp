@@ -1,5 +1,5 @@
 // lagrangectl simulate: one CSV row per step with t, q, qd, tau, T, V, from
-// a scene file; bad scenes and arguments are one line and a non-zero exit; an
+// a scene file, and the joint names beside it; bad scenes and arguments are one line and a non-zero exit; an
 // instance that fails lagranged's health check stops at its last healthy row.
 
 #include <gtest/gtest.h>
@@ -93,6 +93,32 @@ TEST_F(Simulate, ASceneWithSeveralInstancesWritesOneCsvEach) {
     EXPECT_EQ(data.header.size(), 11u) << name;
     EXPECT_GE(data.Column("qd1"), 0);
   }
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Beside each CSV, its instance's joint names in q order (FILE.joints.csv): a
+// URDF robot's from its file, the others' generated (README, plants).
+TEST_F(Simulate, WritesEachInstancesJointNamesBesideItsCsv) {
+  const std::string config = std::string(LAGRANGE_SOURCE_DIR) + "/config/";
+  auto r =
+      RunCtl({"simulate", config + "panda_minjerk.yaml", "--duration", "0.01", "--csv", (dir_ / "panda.csv").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string panda = "joint,name\n";
+  for (int j = 0; j < 7; ++j) panda += std::to_string(j) + ",\"panda_joint" + std::to_string(j + 1) + "\"\n";
+  EXPECT_EQ(ReadText(dir_ / "panda.joints.csv"), panda);
+
+  // Several instances, and a FILE without ".csv": FILE.NAME and FILE.NAME.joints.csv for each.
+  r = RunCtl({"simulate", config + "default.yaml", "--duration", "0.01", "--csv", (dir_ / "run").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(ReadCsv(dir_ / "run.arm").rows.size(), 11u);
+  EXPECT_EQ(ReadText(dir_ / "run.arm.joints.csv"), "joint,name\n0,\"q1\"\n1,\"q2\"\n");
+  EXPECT_EQ(ReadText(dir_ / "run.cartpole.joints.csv"), "joint,name\n0,\"x\"\n1,\"theta\"\n");
 }
 
 TEST_F(Simulate, EffectsInTheSceneShapeTheRun) {
