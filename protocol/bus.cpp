@@ -27,8 +27,6 @@ constexpr std::size_t kMaxChannelLength = 63;         // LCM_MAX_CHANNEL_NAME_LE
 constexpr std::size_t MaxDatagramSize(std::size_t max_payload) {
   return kHeaderSize + kMaxChannelLength + 1 + max_payload;
 }
-// The most a signed bus puts after the channel: a message and its trailer.
-constexpr std::size_t kMaxSignedPayload = kMaxMessageSize + kSignatureTrailerBytes;
 // Larger than any UDP payload (65 507 bytes over IPv4), so the kernel never
 // has to cut a datagram short; MSG_TRUNC is still checked.
 constexpr std::size_t kReceiveBufferSize = 64 * 1024 + 256;
