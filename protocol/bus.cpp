@@ -28,8 +28,6 @@ constexpr std::size_t kMaxChannelLength = 63;         // LCM_MAX_CHANNEL_NAME_LE
 constexpr std::size_t MaxDatagramSize(std::size_t max_payload) {
   return kHeaderSize + kMaxChannelLength + 1 + max_payload;
 }
-// The most a signed bus puts after the channel: a message and its trailer.
-constexpr std::size_t kMaxSignedPayload = kMaxMessageSize + kSignatureTrailerBytes;
 // One receive slot: a byte more than the longest datagram a signed bus takes,
 // so that any longer one comes back with MSG_TRUNC and is counted as oversized.
 constexpr std::size_t kReceiveSlotSize = MaxDatagramSize(kMaxSignedPayload) + 1;

@@ -45,6 +45,9 @@ namespace lagrange {
 // The largest message lagrange sends or accepts, bytes of payload. Larger
 // ones are refused before any allocation and counted.
 inline constexpr std::size_t kMaxMessageSize = 16 * 1024;
+// The most a signed bus accepts after the channel: a message and its
+// signature trailer (protocol/signing.hpp).
+inline constexpr std::size_t kMaxSignedPayload = kMaxMessageSize + kSignatureTrailerBytes;
 
 struct BusError : std::runtime_error {
   using std::runtime_error::runtime_error;
