@@ -484,37 +484,45 @@ TEST_F(Bridge, ControlCharactersInAControllerNameAreEscapedInTheReplyAndTheStatu
 
 // ------------------------------------------------------------------ joint names
 
-// Every status names each instance's joints, instance after instance, after
-// its joint count: the default scene's are generated.
+// A scene's loop and publisher, without a receiver, on an in-process output
+// bus: the latest status it published.
+struct StatusHarness {
+  explicit StatusHarness(const std::string& scene) : runtime(ParseScene(scene, "inline")) {
+    output.Subscribe("LAGRANGE_STATUS", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+      status_t s;
+      if (Decode(d, n, s)) status = s;
+    });
+  }
+  // Runs the loop up to tick `tick`, then publishes and delivers what it recorded.
+  void RunTo(std::int64_t tick) {
+    loop.Run(stop, tick);
+    publisher.Drain();
+    while (output.Drain() > 0) {
+    }
+  }
+  Runtime runtime;
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  InProcessBus output;
+  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
+  Loop loop{runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring};
+  Publisher publisher{output, runtime, ring, loop, stats, -1, kRunId};
+  std::atomic<bool> stop{false};
+  std::optional<status_t> status;
+};
+
 // energy_balance with on_exceed: warn: the status's reason names the instance
 // whose |ε| exceeds its bound while it runs; the other instance's stays "".
 TEST(BridgeResidualBound, TheStatusSaysWhichInstanceExceedsItsEnergyBalanceBound) {
-  Runtime runtime(ParseScene(R"(
+  StatusHarness h(R"(
 instances:
   - {name: p, plant: {type: pendulum}, initial: {q: [1.5]}, integrator: {type: explicit-euler},
      energy_balance: {bound: 0.1, on_exceed: warn}}
   - {name: r, plant: {type: pendulum}, initial: {q: [1.5]}, integrator: {type: rk4},
      energy_balance: {bound: 0.1, on_exceed: warn}}
-)",
-                             "inline"));
-  testing::FakeClock clock;
-  ReceiverStats stats;
-  InProcessBus output;
-  SpscRing<TickRecord> ring(256, runtime.MakeRecord());
-  Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
-  Publisher publisher(output, runtime, ring, loop, stats, -1, kRunId);
-  std::optional<status_t> status;
-  output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
-    status_t s;
-    if (Decode(d, n, s)) status = s;
-  });
-  std::atomic<bool> stop{false};
-  for (int k = 1; k <= 10; ++k) {  // 10 s, drained a second at a time
-    loop.Run(stop, 1000 * k);
-    publisher.Drain();
-    while (output.Drain() > 0) {
-    }
-  }
+)");
+  for (int k = 1; k <= 10; ++k) h.RunTo(1000 * k);  // 10 s, drained a second at a time
+  const std::optional<status_t>& status = h.status;
   ASSERT_TRUE(status);
   EXPECT_EQ(status->instance_modes, (std::vector<std::int8_t>{state_t::MODE_RUNNING, state_t::MODE_RUNNING}));
   ASSERT_EQ(status->instance_reasons.size(), 2u);
@@ -524,6 +532,8 @@ instances:
   EXPECT_EQ(status->instance_reasons[1], "");
 }
 
+// Every status names each instance's joints, instance after instance, after
+// its joint count: the default scene's are generated.
 TEST_F(Bridge, TheStatusNamesEveryInstancesJointsAfterItsJointCount) {
   Ticks(100);
   EXPECT_EQ(last_status_.instance_names, (std::vector<std::string>{"arm", "cartpole"}));
@@ -539,27 +549,12 @@ TEST(BridgeJointNames, NamesTooLongForOneStatusDatagramAreLeftOutAndTheStatusSti
   for (int i = 0; i < 8; ++i) {
     text += "  - {name: chain" + std::to_string(i) + ", plant: {type: chain, params: {links: 256}}}\n";
   }
-  Runtime runtime(ParseScene(text, "inline"));
-  testing::FakeClock clock;
-  ReceiverStats stats;
-  InProcessBus output;
-  SpscRing<TickRecord> ring(256, runtime.MakeRecord());
-  Loop loop(runtime, clock, {kMs, OverrunPolicy::kSkip, 0}, ring);
-  Publisher publisher(output, runtime, ring, loop, stats, -1, kRunId);
-  std::optional<status_t> status;
-  output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
-    status_t s;
-    if (Decode(d, n, s)) status = s;
-  });
-  std::atomic<bool> stop{false};
-  loop.Run(stop, 100);
-  publisher.Drain();
-  while (output.Drain() > 0) {
-  }
-  ASSERT_TRUE(status);
-  EXPECT_EQ(status->instance_dofs, std::vector<std::int32_t>(8, 256));
-  EXPECT_EQ(status->num_joints, 0);
-  EXPECT_TRUE(status->joint_names.empty());
+  StatusHarness h(text);
+  h.RunTo(100);
+  ASSERT_TRUE(h.status);
+  EXPECT_EQ(h.status->instance_dofs, std::vector<std::int32_t>(8, 256));
+  EXPECT_EQ(h.status->num_joints, 0);
+  EXPECT_TRUE(h.status->joint_names.empty());
 }
 
 // ------------------------------------------------------------------ other publishers
