@@ -124,7 +124,10 @@ void Dispatch(const Subscriptions& subscriptions, std::deque<ChannelDrops>& drop
       if (verifier != nullptr) {
         const SignatureVerdict verdict = verifier->Verify(d.channel, d.payload, d.payload_size, message_size);
         if (verdict != SignatureVerdict::kOk) {
-          CountRefusal(verdict, counters, drops[first->drops].count);
+          // Counted on its own channel when that is subscribed, even after an every-channel subscription.
+          const auto own = std::find_if(first, subscriptions.end(),
+                                        [&](const Subscription& s) { return std::string_view(s.channel) == d.channel; });
+          CountRefusal(verdict, counters, drops[(own != subscriptions.end() ? own : first)->drops].count);
           return;
         }
       }

@@ -364,6 +364,25 @@ TEST(SignedBus, RefusesUnsignedForgedReplayedAndStaleDatagramsCountingEachOnItsC
   EXPECT_EQ(bus.unauthenticated_on("NOT_OURS"), 0);
 }
 
+// A client that hears every channel and also subscribes to some: a refusal on
+// one of those is counted on it, not on the every-channel subscription.
+TEST(SignedBus, ARefusalIsCountedOnItsOwnChannelAfterAnEveryChannelSubscription) {
+  const BusKey key = TestKey();
+  InProcessBus bus(&key);
+  std::vector<Seen> got;
+  bus.Subscribe(kEveryChannel, Recorder(got));
+  bus.Subscribe("ARM_STATE", Recorder(got));
+  for (const char* channel : {"ARM_STATE", "ARM_STATE", "OTHER"}) {
+    const Bytes unsigned_datagram = Lc02(channel, kMessage);
+    bus.InjectDatagram(unsigned_datagram.data(), unsigned_datagram.size());
+  }
+  bus.Drain();
+  EXPECT_TRUE(got.empty());
+  EXPECT_EQ(bus.unauthenticated_on("ARM_STATE"), 2);
+  EXPECT_EQ(bus.unauthenticated_on(kEveryChannel), 1);  // OTHER: heard only by the every-channel subscription
+  EXPECT_EQ(bus.stats().unsigned_dropped, 3);
+}
+
 TEST(SignedBus, AnUnsignedBusReceivesTheMessageFollowedByTheTrailer) {
   // What lcm-logger records and LCM's decoders read: the message first, then 36 bytes they ignore.
   std::vector<Seen> raw;
