@@ -13,10 +13,7 @@
 //
 //   build/bench/drain_bench [--port P] [Google Benchmark flags]
 
-#include <arpa/inet.h>
 #include <benchmark/benchmark.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
 
@@ -25,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/harness.hpp"
 #include "protocol/big_endian.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/signing.hpp"
@@ -34,16 +32,11 @@ namespace {
 
 int g_port = 7770;
 constexpr int kFill = 512;
-constexpr const char* kGroup = "239.255.76.67";
 
 std::string Url() { return "udpm://239.255.76.67:" + std::to_string(g_port) + "?ttl=0&recv_buf_size=4194304"; }
 
-std::int64_t WallMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
-using Bytes = std::vector<std::uint8_t>;
+using bench::Bytes;
 
 Bytes Garbage() {
   Bytes b(200, 0x5a);
@@ -54,47 +47,22 @@ Bytes Garbage() {
 // An LC02 state_t on ARM_STATE; with `trailer`, a signature trailer whose tag does not verify.
 Bytes RefusedState(bool trailer) {
   state_t s;
-  s.utime = WallMicros();
+  s.utime = bench::WallMicros();
   s.run_id = 0x1234;
   s.tick = 1;
   s.num_dofs = 2;
   for (auto* v : {&s.q, &s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.0);
-  const std::string channel = "ARM_STATE";
-  const std::size_t payload = static_cast<std::size_t>(s.getEncodedSize());
-  Bytes b(8 + channel.size() + 1 + payload + (trailer ? kSignatureTrailerBytes : 0), 0xa5);
-  WriteBigEndian32(0x4c433032, b.data());
-  WriteBigEndian32(1, b.data() + 4);
-  std::memcpy(b.data() + 8, channel.c_str(), channel.size() + 1);
-  s.encode(b.data() + 8 + channel.size() + 1, 0, static_cast<int>(payload));
+  Bytes payload(static_cast<std::size_t>(s.getEncodedSize()) + (trailer ? kSignatureTrailerBytes : 0), 0xa5);
+  s.encode(payload.data(), 0, s.getEncodedSize());
+  Bytes b = bench::Lc02(1, "ARM_STATE", payload);
   if (trailer) {
     std::uint8_t* t = b.data() + b.size() - kSignatureTrailerBytes;
     WriteBigEndian64(0xf100d, t);
-    WriteBigEndian64(static_cast<std::uint64_t>(WallMicros()), t + 8);  // in the window: the tag is computed
+    WriteBigEndian64(static_cast<std::uint64_t>(bench::WallMicros()), t + 8);  // in the window: the tag is computed
     std::memcpy(t + 32, "LGS1", 4);
   }
   return b;
 }
-
-class Sender {
- public:
-  Sender() {
-    fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    const unsigned char ttl = 0, loop = 1;
-    setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-    setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop);
-    to_.sin_family = AF_INET;
-    to_.sin_port = htons(static_cast<std::uint16_t>(g_port));
-    inet_pton(AF_INET, kGroup, &to_.sin_addr);
-  }
-  ~Sender() { close(fd_); }
-  void Fill(const Bytes& b) {
-    for (int k = 0; k < kFill; ++k) sendto(fd_, b.data(), b.size(), 0, reinterpret_cast<const sockaddr*>(&to_), sizeof to_);
-  }
-
- private:
-  int fd_ = -1;
-  sockaddr_in to_{};
-};
 
 // A bus's receive socket opened by subscribing; a key for the signed cases.
 const BusKey& TestKey() {
@@ -119,12 +87,12 @@ void BM_BusDrain(benchmark::State& state) {
   bus->Subscribe("ARM_STATE", [](std::string_view, const std::uint8_t*, std::size_t) {});
   while (bus->Drain(1 << 20) > 0) {
   }
-  Sender sender;
+  bench::RawSender sender(g_port);
   const Bytes datagram = state.range(0) == kGarbage ? Garbage() : RefusedState(signed_bus);
   std::int64_t handled = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    sender.Fill(datagram);
+    for (int k = 0; k < kFill; ++k) sender.Send(datagram);
     state.ResumeTiming();
     int n = 0;
     while ((n = bus->Drain(1 << 20)) > 0) handled += n;
@@ -139,14 +107,14 @@ void BM_RecvmsgEach(benchmark::State& state) {
   bus->Subscribe("ARM_STATE", [](std::string_view, const std::uint8_t*, std::size_t) {});
   while (bus->Drain(1 << 20) > 0) {
   }
-  Sender sender;
+  bench::RawSender sender(g_port);
   const Bytes datagram = state.range(0) == kGarbage ? Garbage() : RefusedState(false);
   std::vector<std::uint8_t> buffer(64 * 1024 + 256);
   alignas(cmsghdr) char control[CMSG_SPACE(sizeof(std::uint32_t))];
   std::int64_t handled = 0, messages = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    sender.Fill(datagram);
+    for (int k = 0; k < kFill; ++k) sender.Send(datagram);
     state.ResumeTiming();
     while (true) {
       iovec iov{buffer.data(), buffer.size()};

@@ -30,9 +30,6 @@
 // showed the arm not running). The loop kept running when neither left
 // running. Files in --out: flood_cases.csv and the daemons' logs.
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
@@ -62,9 +59,7 @@ namespace lagrange::bench {
 namespace {
 
 namespace fs = std::filesystem;
-using Bytes = std::vector<std::uint8_t>;
 
-constexpr const char* kGroup = "239.255.76.67";
 constexpr const char* kPlantScene = "arm_external_plant.yaml";
 constexpr const char* kControllerScene = "arm_external_controller.yaml";
 constexpr const char* kControllerPrefix = "CTRL_";
@@ -99,16 +94,6 @@ struct Options : DaemonOptions {
 };
 
 // ---- the flood --------------------------------------------------------------------------------
-
-// An LC02 datagram, written here rather than with the daemon's formatter: a hostile sender does not use our code.
-Bytes Lc02(std::uint32_t seqno, std::string_view channel, const Bytes& payload) {
-  Bytes b(8 + channel.size() + 1 + payload.size(), 0);  // sized once (g++ 12 misreads a push_back after insert)
-  WriteBigEndian32(0x4c433032, b.data());
-  WriteBigEndian32(seqno, b.data() + 4);
-  std::memcpy(b.data() + 8, channel.data(), channel.size());
-  if (!payload.empty()) std::memcpy(b.data() + 8 + channel.size() + 1, payload.data(), payload.size());
-  return b;
-}
 
 // A refused measured state: the plant's run id, tick 1 (never grows), stamped now.
 Bytes RefusedState(std::int64_t plant_run_id, bool signed_bus, std::uint64_t sender) {
@@ -149,15 +134,8 @@ FloodResult Flood(Case c, int port, bool signed_bus, std::int64_t plant_run_id, 
                   const std::atomic<bool>& stop) {
   FloodResult r;
   if (c == Case::kQuiet) return r;
-  const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return r;
-  const unsigned char ttl = 0, loop = 1;
-  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<std::uint16_t>(port));
-  inet_pton(AF_INET, kGroup, &to.sin_addr);
+  RawSender out(port);
+  if (!out.ok()) return r;
   std::mt19937 rng(static_cast<std::uint32_t>(42 + index));
   const std::uint64_t sender = 0xf100d000ULL + static_cast<std::uint64_t>(index);
   Bytes datagram;
@@ -168,15 +146,13 @@ FloodResult Flood(Case c, int port, bool signed_bus, std::int64_t plant_run_id, 
       WriteBigEndian64(static_cast<std::uint64_t>(WallMicros()),
                        datagram.data() + datagram.size() - kSignatureTrailerBytes + 8);
     }
-    if (sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) > 0)
-      ++r.sent;
+    if (out.Send(datagram)) ++r.sent;
     if (rate > 0 && k % 64 == 63) {
       std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                 std::chrono::duration<double>(static_cast<double>(k + 1) / rate)));
     }
   }
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  close(fd);
   return r;
 }
 
@@ -431,8 +407,9 @@ int Main(int argc, char** argv) {
     std::atomic<bool> stop{false};
     std::thread observe([&] { observer.Run(stop); });
     for (Case c : kCases) {
-      for (const int buffer : {o.recv_buf_size, o.baseline_buffer}) {
-        if (buffer == o.baseline_buffer && (buffer <= 0 || o.recv_buf_size == buffer)) continue;
+      std::vector<int> buffers = {o.recv_buf_size};
+      if (o.baseline_buffer > 0 && o.baseline_buffer != o.recv_buf_size) buffers.push_back(o.baseline_buffer);
+      for (const int buffer : buffers) {
         std::cerr << "flood_bench: " << (signed_bus ? "signed" : "unsigned") << " bus, " << Name(c) << ", buffer "
                   << (buffer > 0 ? std::to_string(buffer) : "default") << "\n";
         results.push_back(RunCase(o, signed_bus ? "signed" : "unsigned", signed_bus ? key_file : "", c, buffer, observer));

@@ -1,6 +1,9 @@
 #include "bench/harness.hpp"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <signal.h>
 #include <string.h>
 #include <sys/resource.h>
@@ -9,6 +12,7 @@
 #include <lagrange/state_t.hpp>
 
 #include <algorithm>
+#include <cstring>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -16,6 +20,7 @@
 #include <optional>
 #include <thread>
 
+#include "protocol/big_endian.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/lcm_log.hpp"
 #include "protocol/wire.hpp"
@@ -28,6 +33,34 @@ namespace fs = std::filesystem;
 std::string Url(int port) { return "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0"; }
 
 std::string WithReceiveBuffer(const std::string& url) { return url + "&recv_buf_size=4194304"; }
+
+Bytes Lc02(std::uint32_t seqno, std::string_view channel, std::span<const std::uint8_t> payload) {
+  Bytes b(8 + channel.size() + 1 + payload.size(), 0);  // sized once (g++ 12 misreads a push_back after an insert)
+  WriteBigEndian32(0x4c433032, b.data());                // "LC02"
+  WriteBigEndian32(seqno, b.data() + 4);
+  std::memcpy(b.data() + 8, channel.data(), channel.size());
+  if (!payload.empty()) std::memcpy(b.data() + 8 + channel.size() + 1, payload.data(), payload.size());
+  return b;
+}
+
+RawSender::RawSender(int port) {
+  fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  const unsigned char ttl = 0, loop = 1;
+  setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+  setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop);
+  to_.sin_family = AF_INET;
+  to_.sin_port = htons(static_cast<std::uint16_t>(port));
+  inet_pton(AF_INET, "239.255.76.67", &to_.sin_addr);
+}
+
+RawSender::~RawSender() {
+  if (fd_ >= 0) close(fd_);
+}
+
+bool RawSender::Send(std::span<const std::uint8_t> b) {
+  return sendto(fd_, b.data(), b.size(), 0, reinterpret_cast<const sockaddr*>(&to_), sizeof to_) ==
+         static_cast<ssize_t>(b.size());
+}
 
 std::int64_t MonotonicNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();

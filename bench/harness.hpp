@@ -5,10 +5,12 @@
 // and reading what lcm-logger recorded. Their options and set-up are
 // bench/options.hpp; statistics bench/stats.hpp.
 
+#include <netinet/in.h>
 #include <sys/types.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -17,6 +19,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -41,6 +44,30 @@ std::string WithReceiveBuffer(const std::string& url);
 // multicast on; ip route add 239.255.0.0/16 dev lo); then "" when a message
 // published on `url` comes back to this process, else what to do about it.
 std::string PrepareLoopback(const std::string& url);
+
+// ---- raw datagrams ------------------------------------------------------------------------
+
+// What a hostile sender puts on the wire, written here rather than with the
+// bus's formatter (a hostile sender does not use our code).
+using Bytes = std::vector<std::uint8_t>;
+// An LC02 datagram: magic, `seqno`, `channel`, NUL, `payload`.
+Bytes Lc02(std::uint32_t seqno, std::string_view channel, std::span<const std::uint8_t> payload);
+
+// A plain UDP socket sending to the bench group 239.255.76.67:`port` (multicast TTL 0, loopback on).
+class RawSender {
+ public:
+  explicit RawSender(int port);
+  ~RawSender();
+  RawSender(const RawSender&) = delete;
+  RawSender& operator=(const RawSender&) = delete;
+  bool ok() const { return fd_ >= 0; }
+  // Sends `b` as one datagram (blocking); false when not all of it went.
+  bool Send(std::span<const std::uint8_t> b);
+
+ private:
+  int fd_ = -1;
+  sockaddr_in to_{};
+};
 
 // ---- clocks and waiting --------------------------------------------------------------------
 

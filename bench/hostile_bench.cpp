@@ -85,7 +85,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kGroup = "239.255.76.67";
 
 enum class Case { kQuiet, kSetpoints, kMalformed, kCommands, kFragments, kForeign };
 constexpr std::array kCases = {Case::kQuiet,    Case::kSetpoints, Case::kMalformed,
@@ -123,26 +122,12 @@ constexpr std::int64_t kSpoofRunId = 0x5ee5;
 
 // ---- datagrams ------------------------------------------------------------------------
 
-using Bytes = std::vector<std::uint8_t>;
-
 void PutU32(Bytes& b, std::uint32_t v) {
   for (int shift = 24; shift >= 0; shift -= 8) b.push_back(static_cast<std::uint8_t>(v >> shift));
 }
 void PutU16(Bytes& b, std::uint16_t v) {
   b.push_back(static_cast<std::uint8_t>(v >> 8));
   b.push_back(static_cast<std::uint8_t>(v));
-}
-
-// An LC02 datagram, written here rather than with the daemon's formatter: a
-// hostile sender does not use our code.
-Bytes Lc02(std::uint32_t seqno, std::string_view channel, const Bytes& payload) {
-  Bytes b;
-  PutU32(b, 0x4c433032);
-  PutU32(b, seqno);
-  b.insert(b.end(), channel.begin(), channel.end());
-  b.push_back(0);
-  b.insert(b.end(), payload.begin(), payload.end());
-  return b;
 }
 
 // An LC03 fragment; fragment 0 carries the channel.
@@ -283,34 +268,6 @@ Traffic MakeTraffic(Case c, std::uint64_t generation) {
   }
   return {};
 }
-
-// A plain UDP socket to the group (multicast TTL 0, loopback on).
-class RawSender {
- public:
-  explicit RawSender(int port) {
-    fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    const unsigned char ttl = 0, loop = 1;
-    setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-    setsockopt(fd_, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop);
-    to_.sin_family = AF_INET;
-    to_.sin_port = htons(static_cast<std::uint16_t>(port));
-    inet_pton(AF_INET, kGroup, &to_.sin_addr);
-  }
-  ~RawSender() {
-    if (fd_ >= 0) close(fd_);
-  }
-  RawSender(const RawSender&) = delete;
-  RawSender& operator=(const RawSender&) = delete;
-  bool ok() const { return fd_ >= 0; }
-  bool Send(const Bytes& b) {
-    return sendto(fd_, b.data(), b.size(), 0, reinterpret_cast<const sockaddr*>(&to_), sizeof to_) ==
-           static_cast<ssize_t>(b.size());
-  }
-
- private:
-  int fd_ = -1;
-  sockaddr_in to_{};
-};
 
 struct FloodResult {
   std::int64_t sent = 0, failed = 0;
