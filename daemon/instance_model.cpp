@@ -94,6 +94,7 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
   if (options.measure_costs) {
     m.evaluation_s = MeasureEvaluationCosts(config);
     m.tick_overhead_s = MeasureTickOverheadSeconds(config, m.evaluation_s[static_cast<std::size_t>(config.method)]);
+    if (!m.external_plant()) m.forces_s = MeasureForcesSeconds(config);
   }
   if (options.evaluation_s) m.evaluation_s = *options.evaluation_s;
   return m;

@@ -72,6 +72,7 @@ struct InstanceModel {
   // measured (nothing is then refused for cost).
   std::array<double, kNumMethods> evaluation_s{};
   double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
+  double forces_s = 0.0;         // computing its per-effect forces, s, while SET_FORCES is on (MeasureForcesSeconds)
 
   const std::string& name() const { return config.name; }
   bool external_plant() const { return config.external.has_value(); }

@@ -245,11 +245,20 @@ void Publisher::LogEvents(const TickRecord& record) {
     }
     if (r.commands_rejected > 0) {
       commands_refused_by_tick_ += r.commands_rejected;
-      last_command_error_ = model_.instances[i].name() + ": " + r.command_error;
+      // A work-bound refusal quotes its figures here too, as its reply does.
+      std::string error = r.command_error;
+      for (std::size_t k = r.num_verdicts; k-- > 0;) {
+        const Verdict& v = r.verdicts[k];
+        if (v.error == r.command_error && v.work.budget_s > 0.0) {
+          error += WorkFiguresText(v.work);
+          break;
+        }
+      }
+      last_command_error_ = model_.instances[i].name() + ": " + error;
       std::int64_t suppressed = 0;
       if (refusal_throttle_.Allow(record.utime, suppressed)) {
         spdlog::warn(
-            "{}: command refused: {}{}", model_.instances[i].name(), r.command_error,
+            "{}: command refused: {}{}", model_.instances[i].name(), error,
             suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
       }
     }

@@ -101,7 +101,7 @@ Runtime::Runtime(std::shared_ptr<const DaemonModel> model) : model_(std::move(mo
     // Each slot keeps its instance's model alive with the whole run's.
     slots_.push_back(std::make_unique<Slot>(std::shared_ptr<const InstanceModel>(model_, &m)));
     On(*slots_.back(), ModeEvent::kStart, 0);
-    slots_.back()->worst_s = WorkBoundOf(m, m.config.integrator, m.config.method).tick_s();
+    slots_.back()->worst_s = WorkBoundOf(m, m.config.integrator, m.config.method, m.config.forces).tick_s();
     worst_total_s_ += slots_.back()->worst_s;
   }
 }
@@ -286,8 +286,8 @@ double Runtime::FreeFor(const Slot& s) const {
   return kTickBudgetFraction * period() - (worst_total_s_ - s.worst_s);
 }
 
-bool Runtime::Fits(Slot& s, const IntegratorConfig& config, Method method) {
-  const double worst = WorkBoundOf(s.m, config, method).tick_s();
+bool Runtime::Fits(Slot& s, const IntegratorConfig& config, Method method, bool forces) {
+  const double worst = WorkBoundOf(s.m, config, method, forces).tick_s();
   if (worst <= FreeFor(s)) {  // costs of 0 (not measured) always fit
     worst_total_s_ += worst - s.worst_s;
     s.worst_s = worst;
@@ -313,7 +313,7 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
         }
       }
       if (const char* refused = inst.CheckIntegrator(config)) return refused;
-      if (!Fits(s, config, inst.method())) return kSwitchDoesNotFit;
+      if (!Fits(s, config, inst.method(), s.forces)) return kSwitchDoesNotFit;
       return inst.SetIntegrator(config);
     }
     case CommandKind::kSetEffect: {
@@ -328,9 +328,12 @@ const char* Runtime::ApplySwitch(Slot& s, const CommandMessage& c) {
     }
     case CommandKind::kSetMethod:
       if (!inst.instance_model().dynamics[static_cast<std::size_t>(c.method)]) return inst.SetMethod(c.method);
-      if (!Fits(s, inst.integrator().config(), c.method)) return kSwitchDoesNotFit;
+      if (!Fits(s, inst.integrator().config(), c.method, s.forces)) return kSwitchDoesNotFit;
       return inst.SetMethod(c.method);
-    case CommandKind::kSetForces: s.forces = c.on; return nullptr;
+    case CommandKind::kSetForces:
+      if (!Fits(s, inst.integrator().config(), inst.method(), c.on)) return kSwitchDoesNotFit;
+      s.forces = c.on;
+      return nullptr;
     default: return "unknown command";
   }
 }

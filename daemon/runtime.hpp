@@ -271,9 +271,10 @@ class Runtime {
   void LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived);
 
   const char* ApplySwitch(Slot& s, const CommandMessage& c);
-  // Whether instance s by `config` and `method` keeps the instances' worst
-  // case within the budget; when not, s's refusal figures say by how much.
-  bool Fits(Slot& s, const IntegratorConfig& config, Method method);
+  // Whether instance s by `config` and `method` (and publishing its forces
+  // when `forces`) keeps the instances' worst case within the budget; when
+  // not, s's refusal figures say by how much.
+  bool Fits(Slot& s, const IntegratorConfig& config, Method method, bool forces);
   // The budget less every other instance's worst case, s.
   double FreeFor(const Slot& s) const;
 

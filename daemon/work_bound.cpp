@@ -111,28 +111,53 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   Instance instance(c);
   const double period = 1e-3;  // the step's length does not change its work
   using Steady = std::chrono::steady_clock;
+  // Under every controller the instance has (a command may switch to any), the costliest.
+  const std::size_t controllers = instance.controller_names().size();
+  double costliest = 0.0;
+  for (std::size_t k = 0; k < controllers; ++k) {
+    instance.SelectController(k);
+    const Steady::time_point begin = Steady::now();
+    const double budget = kMeasureBudget / static_cast<double>(controllers);
+    double fastest = std::numeric_limits<double>::infinity();
+    for (int b = 0; b < kBatches && std::chrono::duration<double>(Steady::now() - begin).count() < budget; ++b) {
+      const Steady::time_point start = Steady::now();
+      instance.Step(period);
+      const double step = std::chrono::duration<double>(Steady::now() - start).count();
+      const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
+      fastest = std::min(fastest, step - evaluations * evaluation_s);
+      instance.Reset();  // every step from the initial state
+    }
+    costliest = std::max(costliest, fastest);
+  }
+  return std::max(0.0, costliest);
+}
+
+double MeasureForcesSeconds(const InstanceConfig& config) {
+  Instance instance(config);
+  EffectForces forces(static_cast<int>(config.q0.size()));
+  using Steady = std::chrono::steady_clock;
   const Steady::time_point begin = Steady::now();
   double fastest = std::numeric_limits<double>::infinity();
   for (int b = 0; b < kBatches && std::chrono::duration<double>(Steady::now() - begin).count() < kMeasureBudget; ++b) {
     const Steady::time_point start = Steady::now();
-    instance.Step(period);
-    const double step = std::chrono::duration<double>(Steady::now() - start).count();
-    const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
-    fastest = std::min(fastest, step - evaluations * evaluation_s);
-    instance.Reset();  // every step from the initial state
+    instance.ComputeForces(forces);
+    fastest = std::min(fastest, std::chrono::duration<double>(Steady::now() - start).count());
   }
-  return std::max(0.0, fastest);
+  return std::isfinite(fastest) ? fastest : 0.0;
 }
 
-WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method) {
+WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method, bool forces) {
   const double cost = m.evaluation_s[static_cast<std::size_t>(method)];
-  if (m.external_plant()) return {m.name(), 0, cost, m.tick_overhead_s};  // nothing is integrated
-  return {m.name(), WorstCaseEvaluations(config, m.num_dofs), cost, m.tick_overhead_s};
+  const double overhead = m.tick_overhead_s + (forces ? m.forces_s : 0.0);
+  if (m.external_plant()) return {m.name(), 0, cost, overhead};  // nothing is integrated
+  return {m.name(), WorstCaseEvaluations(config, m.num_dofs), cost, overhead};
 }
 
 std::vector<WorkBound> WorkBoundsOf(const DaemonModel& model) {
   std::vector<WorkBound> bounds;
-  for (const InstanceModel& m : model.instances) bounds.push_back(WorkBoundOf(m, m.config.integrator, m.config.method));
+  for (const InstanceModel& m : model.instances) {
+    bounds.push_back(WorkBoundOf(m, m.config.integrator, m.config.method, m.config.forces));
+  }
   return bounds;
 }
 

@@ -25,7 +25,9 @@
 // with every configured effect on (what a command can switch to), timed in
 // batches; the fastest batch is taken, so a loaded machine does not inflate it
 // (the bound is about the scene, not about the machine's load). The rest of
-// its tick (controller, energy balance, health check) is timed the same way.
+// its tick (controller, energy balance, health check) is timed the same way,
+// under the costliest controller the scene configures; computing the
+// per-effect forces (SET_FORCES on) is timed apart and counted while on.
 
 #include <array>
 #include <cstdint>
@@ -63,9 +65,14 @@ std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
 // The rest of one tick of the instance besides its integrator's evaluations
 // (the controller, the energy balance, the trajectory, the health check), s:
-// a private Instance stepped under the scene's controller, its step time less
-// the evaluations it made, the fastest of a few batches within 50 ms.
+// a private Instance stepped under each controller the scene configures (a
+// command may switch to any), its step time less the evaluations it made, the
+// fastest of a few batches; the costliest controller's; within 50 ms in all.
 double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluation_s);
+
+// What publishing <NAME>_FORCES adds to its tick (Instance::ComputeForces), s:
+// the fastest of a few batches within 50 ms. Counted while forces are on.
+double MeasureForcesSeconds(const InstanceConfig& config);
 
 // One instance's worst case per tick.
 struct WorkBound {
@@ -76,8 +83,9 @@ struct WorkBound {
   double tick_s() const { return static_cast<double>(evaluations) * evaluation_s + overhead_s; }
 };
 
-// Instance `m` by `config` and `method`, at its measured costs.
-WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method);
+// Instance `m` by `config` and `method`, at its measured costs; with
+// `forces`, publishing its <NAME>_FORCES too.
+WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method, bool forces = false);
 // Every instance's, as the scene configures it.
 std::vector<WorkBound> WorkBoundsOf(const DaemonModel& model);
 

@@ -73,9 +73,9 @@ class Bridge : public ::testing::Test {
   explicit Bridge(SetpointAge age = SetpointAge::kWall)
       : Bridge(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml"), age) {}
   // Another scene with the default one's instances (arm, cartpole).
-  Bridge(Scene scene, SetpointAge age)
+  Bridge(Scene scene, SetpointAge age, const BuildOptions& options = {})
       : scene_(std::move(scene)),
-        runtime_(scene_),
+        runtime_(scene_, options),
         receiver_(input_, &output_, output_, runtime_, clock_, stats_, age, kRunId),
         ring_(2048, runtime_.MakeRecord()),
         loop_(runtime_, clock_, {kMs, OverrunPolicy::kSkip, 0}, ring_),
@@ -732,6 +732,34 @@ TEST_F(Bridge, ASwitchedIntegratorIsAcceptedAndTheTelemetryAndStatusShowIt) {
   EXPECT_EQ(last_status_.instance_methods.at(0), "recursive");
   EXPECT_EQ(last_status_.instance_effects.at(0), "coriolis");
   EXPECT_EQ(last_status_.commands_accepted, 3);
+}
+
+// The default scene with known costs per evaluation (closed form 1 µs,
+// lagrangian 5 µs, recursive 2 µs) and no other cost: the work bound is exact.
+class CostedBridge : public Bridge {
+ protected:
+  CostedBridge()
+      : Bridge(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml"), SetpointAge::kWall,
+               BuildOptions::WithCosts({1e-6, 5e-6, 2e-6})) {}
+};
+
+// A switch the work bound refuses quotes its figures, as a refused scene does,
+// in its reply and in the status's last_command_error.
+TEST_F(CostedBridge, ARefusedSwitchQuotesTheWorstCaseAndWhatFitsInItsReplyAndTheStatus) {
+  // The arm at rk4 x 300: 1201 evaluations x 1 µs with the cart-pole's 5 (rk4) = 1.206 ms of 0.8.
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 401, {.setting = "rk4", .substeps = 300}));
+  Ticks(100);
+  const reply_t r = OnlyReply(401);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_EQ(r.reason, std::string(kSwitchDoesNotFit) + ": the worst case would be 1.206 ms per tick, 0.8 ms fit");
+  EXPECT_EQ(last_status_.last_command_error, "arm: " + r.reason);
+  // dopri5 with a max_steps too large names the largest that fits.
+  SendCommand(Switch(command_t::SET_INTEGRATOR, 402, {.setting = "dopri5", .max_steps = 1000}));
+  Ticks(100);
+  const reply_t d = OnlyReply(402);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_NE(d.reason.find("max_steps fit"), std::string::npos) << d.reason;
+  EXPECT_EQ(last_status_.last_command_error, "arm: " + d.reason);
 }
 
 TEST_F(Bridge, TheVariationalIntegratorIsRefusedWhileCoriolisIsOff) {

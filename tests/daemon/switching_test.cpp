@@ -387,6 +387,41 @@ instances:
   EXPECT_EQ(set(1, 110), nullptr);               // ... and now the cart-pole's 441 µs fits beside it
 }
 
+// Publishing the per-effect forces is part of the tick, so it counts toward
+// the bound while on: switching them on is refused when it would not fit, and
+// a later switch is judged with them on.
+TEST(WorkBound, ForcesCountWhileOnAndAreRefusedWhenTheyWouldNotFit) {
+  auto model = std::make_shared<DaemonModel>(*BuildDaemonModel(ParseScene(R"(
+period: 0.001
+instances:
+  - {name: arm, plant: {type: arm2}, integrator: {type: rk4, substeps: 190}}
+)",
+                                                                          "inline"),
+                                                               BuildOptions::WithCosts({1e-6, 5e-6, 2e-6})));
+  model->instances[0].forces_s = 50e-6;  // 761 µs of evaluations + 50 µs of forces > 800 µs
+  Runtime runtime(model);
+  TickRecord record = runtime.MakeRecord();
+  const auto command = [&](CommandKind kind, bool on, int substeps) {
+    CommandMessage* c = runtime.channels(0).commands.BeginPush();
+    c->kind = kind;
+    c->on = on;
+    c->integrator = IntegratorConfig{};
+    c->integrator.substeps = substeps;
+    runtime.channels(0).commands.Push();
+    runtime.Tick(kMs, record);
+    return record.instances[0].verdicts[0].error;
+  };
+  EXPECT_STREQ(command(CommandKind::kSetForces, true, 0), kSwitchDoesNotFit);
+  EXPECT_NEAR(record.instances[0].verdicts[0].work.worst_s, 811e-6, 1e-12);
+  EXPECT_FALSE(record.instances[0].forces_on);
+  EXPECT_EQ(command(CommandKind::kSetIntegrator, false, 150), nullptr);  // 601 µs
+  EXPECT_EQ(command(CommandKind::kSetForces, true, 0), nullptr);          // + 50 µs fits
+  EXPECT_TRUE(record.instances[0].forces_on);
+  EXPECT_STREQ(command(CommandKind::kSetIntegrator, false, 190), kSwitchDoesNotFit);  // with forces on, 811 µs
+  EXPECT_EQ(command(CommandKind::kSetForces, false, 0), nullptr);
+  EXPECT_EQ(command(CommandKind::kSetIntegrator, false, 190), nullptr);  // without them, 761 µs
+}
+
 // Forces only when asked; they add up to M(q) q̈ at the published state.
 TEST_F(SwitchingRuntime, ForcesArePublishedOnlyWhenAskedAndSumToTheDynamics) {
   Ticks(300);
