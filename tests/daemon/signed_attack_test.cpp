@@ -6,7 +6,7 @@
 // replies. Each moves nothing, and the daemon counts it on its channel in the
 // status. A key holder's messages are still obeyed (the control that proves
 // the test could see an effect). The same attacks without a key are
-// attack_test.cpp's. Private ports 8101-8106, 8109 and 8110 (8107-8108: logs_test.cpp); nothing here measures time.
+// attack_test.cpp's. Private ports 8101-8106, 8109, 8110 and 8112 (8107-8108: logs_test.cpp); nothing here measures time.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -426,6 +426,60 @@ TEST_F(SignedAttack, AForgedRefusalDoesNotMakeLagrangectlReportAnAppliedEstopAsR
       },
       kWait))
       << "the daemon counts the forged replies on its own output channel";
+  Stop(*daemon);
+}
+
+// A flood of CLEAR_ESTOP from a process without the key (unsigned, and signed
+// with another key) cannot undo a key holder's estop; the key holder's own
+// clear does (into hold, never straight back to running).
+TEST_F(SignedAttack, AFloodOfForgedClearsCannotUndoAKeyHoldersEstop) {
+  Prepare(8112);
+  auto daemon = Lagranged();
+  SignedObserver observer(url_, *key_, {"ARM_STATE"});
+  ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
+  std::atomic<bool> stop{false};
+  std::thread flood([&] {
+    for (std::int64_t k = 0; !stop; ++k) {
+      Forge("ARM_COMMAND", testing::Encode(testing::MakeCommand(command_t::CLEAR_ESTOP, 0x8112000 + k, WallMicros())));
+    }
+  });
+  EXPECT_TRUE(testing::SendUntil(
+      [&] { observer.bus().PublishMessage("ARM_COMMAND", testing::MakeCommand(command_t::ESTOP, 0x8112, WallMicros())); },
+      [&] {
+        const auto st = observer.State("ARM_STATE");
+        return st && st->mode == state_t::MODE_ESTOP;
+      },
+      kWait));
+  // The flood goes on until the daemon has counted a thousand more forged clears; the arm stays stopped.
+  const auto refused_then = observer.Status("arm");
+  const std::int64_t before = refused_then ? RefusedOn(*refused_then, "ARM_COMMAND") : 0;
+  EXPECT_TRUE(testing::WaitUntil(
+      [&] {
+        const auto st = observer.Status("arm");
+        return st && RefusedOn(*st, "ARM_COMMAND") >= before + 1000;
+      },
+      kWait));
+  stop = true;
+  flood.join();
+  const auto st = observer.State("ARM_STATE");
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->mode, state_t::MODE_ESTOP);
+  const auto status = observer.Status("arm");
+  ASSERT_TRUE(status);
+  EXPECT_EQ(status->instance_modes[0], state_t::MODE_ESTOP);
+  EXPECT_EQ(status->commands_rejected, 0) << "dropped by the bus, never reaching the tick";
+  // The control: the key holder's clear leaves the estop, into hold.
+  EXPECT_TRUE(testing::SendUntil(
+      [&] {
+        observer.bus().PublishMessage("ARM_COMMAND",
+                                      testing::MakeCommand(command_t::CLEAR_ESTOP, 0x8112001, WallMicros()));
+      },
+      [&] {
+        const auto now = observer.State("ARM_STATE");
+        return now && now->mode != state_t::MODE_ESTOP;
+      },
+      kWait));
+  EXPECT_EQ(observer.State("ARM_STATE")->mode, state_t::MODE_HOLD);
   Stop(*daemon);
 }
 
