@@ -6,7 +6,7 @@
 // replies. Each moves nothing, and the daemon counts it on its channel in the
 // status. A key holder's messages are still obeyed (the control that proves
 // the test could see an effect). The same attacks without a key are
-// attack_test.cpp's. Private ports 8101-8106, 8109, 8110 and 8112 (8107-8108: logs_test.cpp); nothing here measures time.
+// attack_test.cpp's. Private ports 8101-8106, 8109, 8110, 8112 and 8113 (8107-8108: logs_test.cpp); nothing here measures time.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -480,6 +480,70 @@ TEST_F(SignedAttack, AFloodOfForgedClearsCannotUndoAKeyHoldersEstop) {
       },
       kWait));
   EXPECT_EQ(observer.State("ARM_STATE")->mode, state_t::MODE_HOLD);
+  Stop(*daemon);
+}
+
+// The lies to the operator's tools, told by a process without the key
+// under the daemon's run id: "accepted" for a refused gain command, a start
+// state at (−2.5, 2.5) for send --min-jerk, and a status saying no setpoint
+// arrived. lagrangectl with the key believes none of them.
+TEST_F(SignedAttack, ForgedVerdictsStartStatesAndStatusesDoNotFoolLagrangectlWithTheKey) {
+  Prepare(8113);
+  auto daemon = Lagranged();
+  SignedObserver observer(url_, *key_, {"ARM_STATE"});
+  ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
+  const state_t real = *observer.State("ARM_STATE");
+  std::atomic<bool> stop{false};
+  std::thread forger([&] {
+    std::unique_ptr<Bus> bus = OpenBus(url_);
+    bus->Subscribe("ARM_COMMAND", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+      command_t c;
+      if (c.decode(d, 0, static_cast<int>(n)) < 0) return;
+      reply_t r{};
+      r.utime = WallMicros();
+      r.run_id = real.run_id;
+      r.request_id = c.request_id;
+      r.command = c.command;
+      r.accepted = true;
+      for (int k = 0; k < 3; ++k) Forge("ARM_REPLY", testing::Encode(r));
+    });
+    state_t lie = real;
+    lie.q = {-2.5, 2.5};
+    status_t none{};
+    none.run_id = real.run_id;
+    none.num_instances = 1;
+    none.instance_names = {"arm"};
+    none.instance_modes = {state_t::MODE_RUNNING};
+    none.instance_dofs = {2};
+    none.instance_reasons = none.instance_integrators = none.instance_methods = none.instance_effects = {""};
+    none.instance_forces = {0};
+    for (std::int64_t k = 1; !stop; ++k) {
+      lie.tick = real.tick + 1'000'000 + k;
+      lie.utime = none.utime = WallMicros();
+      Forge("ARM_STATE", testing::Encode(lie));
+      Forge("LAGRANGE_STATUS", testing::Encode(none));
+      bus->Handle(1);
+    }
+  });
+  // Kp h² = 1e9 × 1e-6 > 1: the daemon refuses; the forged acceptance must not turn that into "done".
+  const testing::ProcessResult gains = testing::RunProcess({LagrangectlPath(), "command", "arm", "gains", "--kp", "1e9",
+                                                            "--kd", "1", "--lcm-url", url_, "--bus-key", key_path_});
+  EXPECT_EQ(gains.exit_code, 1) << gains.out << gains.err;
+  EXPECT_NE(gains.err.find("refused"), std::string::npos) << gains.err;
+  EXPECT_EQ(gains.out.find("done"), std::string::npos) << gains.out;
+  // The plan starts from the real state (q ≈ (π/4, 0)), and the real status's count is the one reported.
+  const testing::ProcessResult send = testing::RunProcess({LagrangectlPath(), "send", "arm", "--min-jerk", "0.5", "--q",
+                                                           "0.9,0.1", "--lcm-url", url_, "--bus-key", key_path_});
+  stop = true;
+  forger.join();
+  EXPECT_EQ(send.exit_code, 0) << send.out << send.err;
+  EXPECT_NE(send.out.find("lagranged accepted"), std::string::npos) << send.out;
+  EXPECT_EQ((send.out + send.err).find("none of"), std::string::npos) << send.err;
+  EXPECT_LT(observer.max_abs(), 2.0) << "a plan from (-2.5, 2.5) would swing the arm through |q| 2.5 at |q̇| ~17 rad/s";
+  const auto s = observer.Status("arm");
+  ASSERT_TRUE(s);
+  EXPECT_GT(RefusedOn(*s, "ARM_STATE"), 0);
+  EXPECT_GT(RefusedOn(*s, "LAGRANGE_STATUS"), 0);
   Stop(*daemon);
 }
 
