@@ -119,6 +119,15 @@ TEST_F(Install, TheUnitNamesThePrefixItWasInstalledUnder) {
   EXPECT_EQ(unit.find("/usr/local/"), std::string::npos) << unit;
 }
 
+// The unprivileged unit gets the receive buffer lagranged asks for once the
+// installed sysctl file raises the kernel's cap to it (README, "Floods").
+TEST_F(Install, TheSysctlFileRaisesTheReceiveBufferCapToWhatLagrangedAsks) {
+  const std::string conf = ReadFile(prefix_ / "lib/sysctl.d/60-lagrange.conf");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(conf, m, std::regex("\\nnet\\.core\\.rmem_max = ([0-9]+)\\n"))) << conf;
+  EXPECT_EQ(std::stol(m[1]), 2L * 1024 * 1024);
+}
+
 // The installed README's links lead somewhere, and the example client's source is there to copy.
 TEST_F(Install, TheInstalledReadmesLinksResolveAndTheExampleSourceIsThere) {
   const fs::path doc = prefix_ / "share/doc/lagrange";
