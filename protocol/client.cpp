@@ -202,7 +202,24 @@ std::vector<std::int64_t> DaemonLink::AwaitRuns() {
 }
 
 void DaemonLink::AwaitFirstState() {
-  if (!PumpUntil([&] { return !runs_.empty(); }, options_.wait)) {
+  const auto start = std::chrono::steady_clock::now();
+  // A daemon is heard (a status, under any prefix) but not this instance's state: it is not coming.
+  const auto daemon_without_it = [&] {
+    return std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(kNoStateGrace) &&
+           std::any_of(heard_.begin(), heard_.end(), [](const std::string& c) { return EndsWith(c, kStatusChannel); });
+  };
+  PumpUntil([&] { return !runs_.empty() || daemon_without_it(); }, options_.wait);
+  if (runs_.empty() && daemon_without_it()) {
+    if (signed_states_seen_) {
+      throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ +
+                               " that this unsigned client can read: its states are signed; give the daemon's key "
+                               "(--bus-key FILE or " + kBusKeyEnv + ")");
+    }
+    throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " on " +
+                             options_.Url() + ", though a lagranged is publishing there; " +
+                             HeardHint(options_.channel_prefix, instance_, heard_));
+  }
+  if (runs_.empty()) {
     if (signed_states_seen_) {
       throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
                                FormatDouble(options_.wait) + " s that this unsigned client can read: its states " +

@@ -62,6 +62,11 @@ inline constexpr std::size_t kMaxHeardChannels = 32;
 // How long a client listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state
+// A daemon publishes every instance's state each tick (1 kHz) and its status
+// at 10 Hz: when a status has been heard and this long has passed without the
+// instance's state, it is not coming (a mistyped instance, a forgotten
+// --channel-prefix), and the client says so without waiting out --wait.
+inline constexpr double kNoStateGrace = 0.5;  // s
 
 // Listens to one instance's state and reply channels and the status channel
 // on the caller's thread, keeping the latest message of each run id.
@@ -74,9 +79,10 @@ class DaemonLink {
 
   Bus& bus() { return *bus_; }
 
-  // Waits up to options.wait for the instance's first state, listens kRunWindow
-  // longer, and returns the one run id that published it. Throws a one-line
-  // error when none came, or "two lagranged runs publish X (ids A and B):
+  // Waits up to options.wait for the instance's first state (or kNoStateGrace
+  // once a daemon's status is heard without it), listens kRunWindow longer, and
+  // returns the one run id that published it. Throws a one-line error when none
+  // came, or "two lagranged runs publish X (ids A and B):
   // refusing to act" when several did.
   std::int64_t AwaitOneRun();
   // Waits as AwaitOneRun does but refuses nothing: every run id that published
