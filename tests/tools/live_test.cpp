@@ -3,6 +3,8 @@
 // publisher with no daemon, which lagrangectl must not believe.
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
@@ -286,6 +288,23 @@ TEST_F(LiveDaemon, WatchShowsANewModeWithItsReasonAndTheTorqueAndMeasuredCounter
             std::string::npos)
       << r.out;
   EXPECT_NE(r.out.find(" rejected   torques 0 accepted, 0 rejected   measured states "), std::string::npos) << r.out;
+}
+
+// The last refused input has a line of its own under the input counters,
+// never run on after the measured states' count.
+TEST_F(LiveDaemon, WatchPrintsTheLastRejectedInputOnItsOwnLine) {
+  Start(7852);
+  const auto sent = Ctl({"send", "arm", "--q", "10,0"});  // beyond setpoint_limits (±3.1416)
+  EXPECT_EQ(sent.status, 1) << sent.err;
+  const auto r = Ctl({"watch", "--frames", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::vector<std::string> lines = testing::Lines(r.out);
+  const auto inputs = std::find_if(lines.begin(), lines.end(), [](const std::string& l) { return l.rfind("inputs ", 0) == 0; });
+  ASSERT_NE(inputs, lines.end()) << r.out;
+  EXPECT_NE(inputs->find(" rejected   measured states 0 accepted, 0 rejected"), std::string::npos) << *inputs;
+  EXPECT_EQ(inputs->substr(inputs->size() - std::string("0 rejected").size()), "0 rejected") << *inputs;
+  ASSERT_NE(inputs + 1, lines.end());
+  EXPECT_EQ((inputs + 1)->rfind("          last input rejected: arm: ", 0), 0u) << *(inputs + 1);
 }
 
 TEST(LiveOneJoint, SendSineDrivesAOneJointPlant) {
