@@ -94,8 +94,8 @@ class KinematicsData {
   };
 
   const Kinematics* model_;
-  std::vector<Body> bodies_;    // (n)
-  std::vector<Frame> frames_;   // (num_frames)
+  std::vector<Body> bodies_;   // (n)
+  std::vector<Frame> frames_;  // (num_frames)
 };
 
 class Kinematics {

@@ -120,8 +120,7 @@ TEST(FrameKinematics, BiasIsTheDerivativeOfJacobianTimesVelocityAlongTheMotion) 
       for (int k = 0; k < model.num_frames(); ++k) {
         SCOPED_TRACE(model.frame_names()[k]);
         const FrameAxes world = FrameAxes::kWorldAligned;
-        const Vector6d derivative =
-            (plus->jacobian(k, world) * qd - minus->jacobian(k, world) * qd) / (2.0 * kStep);
+        const Vector6d derivative = (plus->jacobian(k, world) * qd - minus->jacobian(k, world) * qd) / (2.0 * kStep);
         EXPECT_LT((data->bias_acceleration(k, world) - derivative).norm(), 10.0 * kFdTol);
         const Vector6d local = LocalOfWorld(data->rotation(k)) * data->bias_acceleration(k, world);
         EXPECT_LT((data->bias_acceleration(k, FrameAxes::kLocal) - local).norm(), kExactTol);
@@ -146,16 +145,15 @@ TEST(FrameKinematics, ArmFramesAreTheClosedForm) {
     EXPECT_LT((data->position(tip) - Eigen::Vector3d(p.L1 * c1 + p.L2 * c12, p.L1 * s1 + p.L2 * s12, 0.0)).norm(),
               kExactTol);
     // The tip's x axis points along link 2, at q1 + q2 from +x.
-    EXPECT_LT((data->rotation(tip) - Eigen::Matrix3d(Eigen::AngleAxisd(q[0] + q[1], Eigen::Vector3d::UnitZ())))
-                  .norm(),
+    EXPECT_LT((data->rotation(tip) - Eigen::Matrix3d(Eigen::AngleAxisd(q[0] + q[1], Eigen::Vector3d::UnitZ()))).norm(),
               kExactTol);
     Matrix6Xd J = Matrix6Xd::Zero(6, 2);
     J.col(0) << -p.L1 * s1 - p.L2 * s12, p.L1 * c1 + p.L2 * c12, 0.0, 0.0, 0.0, 1.0;
     J.col(1) << -p.L2 * s12, p.L2 * c12, 0.0, 0.0, 0.0, 1.0;
     EXPECT_LT((data->jacobian(tip, FrameAxes::kWorldAligned) - J).norm(), kExactTol);
     Vector6d bias;
-    bias << -p.L1 * c1 * w1 * w1 - p.L2 * c12 * w12 * w12, -p.L1 * s1 * w1 * w1 - p.L2 * s12 * w12 * w12, 0.0, 0.0,
-        0.0, 0.0;
+    bias << -p.L1 * c1 * w1 * w1 - p.L2 * c12 * w12 * w12, -p.L1 * s1 * w1 * w1 - p.L2 * s12 * w12 * w12, 0.0, 0.0, 0.0,
+        0.0;
     EXPECT_LT((data->bias_acceleration(tip, FrameAxes::kWorldAligned) - bias).norm(), kExactTol * 10.0);
   }
 }
@@ -224,7 +222,7 @@ TEST(FrameKinematics, PandaLinksFollowFrankasDhTable) {
   struct Dh {
     double a, d, alpha;
   };
-  const Dh table[] = {{0.0, 0.333, 0.0},     {0.0, 0.0, -kPi / 2}, {0.0, 0.316, kPi / 2}, {0.0825, 0.0, kPi / 2},
+  const Dh table[] = {{0.0, 0.333, 0.0},          {0.0, 0.0, -kPi / 2}, {0.0, 0.316, kPi / 2}, {0.0825, 0.0, kPi / 2},
                       {-0.0825, 0.384, -kPi / 2}, {0.0, 0.0, kPi / 2},  {0.088, 0.0, kPi / 2}};
   const Kinematics model(UrdfTree("config/robots/panda.urdf"));
   auto data = model.MakeData();
@@ -253,9 +251,8 @@ TEST(FrameKinematics, EveryUrdfLinkIsAFrameIncludingFixedOnes) {
   for (int i = 1; i <= 8; ++i) links.push_back("panda_link" + std::to_string(i));
   EXPECT_EQ(panda.frame_names(), links);
   const Kinematics ur5(UrdfTree("config/robots/ur5.urdf"));
-  EXPECT_EQ(ur5.frame_names(),
-            std::vector<std::string>({"base_link", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
-                                      "wrist_2_link", "wrist_3_link", "flange"}));
+  EXPECT_EQ(ur5.frame_names(), std::vector<std::string>({"base_link", "shoulder_link", "upper_arm_link", "forearm_link",
+                                                         "wrist_1_link", "wrist_2_link", "wrist_3_link", "flange"}));
   // The root link is the world: still, whatever the state.
   auto data = ur5.MakeData();
   ur5.ComputeFrameKinematics(*data, VectorXd::Constant(6, 0.4), VectorXd::Constant(6, 1.0));
@@ -281,8 +278,8 @@ TEST(FrameKinematics, LinksMergedByFixedJointsKeepTheirPlacement) {
   for (int s = 0; s < kStates; ++s) {
     const auto [q, qd] = RandomStateFor(std::vector<JointType>(2, JointType::kRevolute), rng);
     model.ComputeFrameKinematics(*data, q, qd);
-    const Eigen::Isometry3d bracket = pose("upper") * Eigen::Translation3d(0.4, 0.0, 0.0) *
-                                      Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ());
+    const Eigen::Isometry3d bracket =
+        pose("upper") * Eigen::Translation3d(0.4, 0.0, 0.0) * Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ());
     const Eigen::Isometry3d sensor =
         bracket * Eigen::Translation3d(0.0, 0.0, 0.05) * Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitX());
     const Eigen::Isometry3d tool = pose("lower") * Eigen::Translation3d(0.3, 0.0, 0.02);
