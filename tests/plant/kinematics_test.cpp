@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "plant/plant_factory.hpp"
+#include "plant/spatial_dynamics.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -288,6 +289,45 @@ TEST(FrameKinematics, LinksMergedByFixedJointsKeepTheirPlacement) {
     EXPECT_LT((pose("tool").matrix() - tool.matrix()).norm(), kExactTol);
     // The elbow sits 0.1 along the sensor's x.
     EXPECT_LT((pose("lower").translation() - (sensor * Eigen::Vector3d(0.1, 0.0, 0.0))).norm(), kExactTol);
+  }
+}
+
+// Two derivations meet: with a frame at every body's centre of mass, the
+// recursive dynamics' G = −Σ m J_vᵀ g and T = ½ Σ (m |J_v qd|² + ωᵀ I ω),
+// ω = J_ω qd, I the body's inertia turned into world axes.
+TEST(FrameKinematics, CentreOfMassJacobiansGiveTheDynamicsGravityAndKineticEnergy) {
+  constexpr double kAgreeTol = 1e-12;  // relative
+  std::mt19937 rng{42};
+  for (const NamedTree& t : AllTrees()) {
+    SCOPED_TRACE(t.name);
+    RigidTree tree = t.tree;
+    tree.frames.clear();
+    for (int i = 0; i < tree.num_dofs(); ++i) {
+      tree.frames.push_back({"com" + std::to_string(i), i, tree.bodies[i].com, Eigen::Matrix3d::Identity()});
+    }
+    const Kinematics model(tree);
+    const SpatialDynamics dynamics(tree);
+    auto data = model.MakeData();
+    auto dynamics_data = dynamics.MakeData();
+    const int n = model.num_dofs();
+    for (int s = 0; s < kStates; ++s) {
+      const auto [q, qd] = RandomStateFor(tree.joint_types(), rng);
+      model.ComputeFrameKinematics(*data, q, qd);
+      VectorXd G = VectorXd::Zero(n), G_rnea(n);
+      double T = 0.0;
+      for (int i = 0; i < n; ++i) {
+        const RigidBody& b = tree.bodies[i];
+        const Matrix6Xd& J = data->jacobian(i, FrameAxes::kWorldAligned);
+        G -= b.mass * J.topRows<3>().transpose() * tree.gravity;
+        const Eigen::Vector3d v = J.topRows<3>() * qd, w = J.bottomRows<3>() * qd;
+        const Eigen::Matrix3d& R = data->rotation(i);  // the body's axes (the frame has them)
+        T += 0.5 * (b.mass * v.squaredNorm() + w.dot(R * b.inertia * R.transpose() * w));
+      }
+      dynamics.ComputeGravityForce(*dynamics_data, q, G_rnea);
+      EXPECT_LT(testing::RelativeDifference(G, G_rnea), kAgreeTol);
+      const double T_dynamics = dynamics.ComputeKineticEnergy(*dynamics_data, q, qd);
+      EXPECT_LT(std::abs(T - T_dynamics), kAgreeTol * std::max(1.0, T_dynamics));
+    }
   }
 }
 
