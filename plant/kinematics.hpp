@@ -108,7 +108,8 @@ class Kinematics {
   int num_frames() const { return static_cast<int>(frames_.size()); }
   // The frames' names, by index (the tree's order).
   const std::vector<std::string>& frame_names() const { return names_; }
-  // The index of the frame called `name`, or nullopt.
+  // The index of the frame called `name`, or nullopt (a search by name: look
+  // frames up once, before the loop, and pass indices to the tick).
   std::optional<int> FrameIndex(std::string_view name) const;
 
   // A data object for one user, every buffer sized.
