@@ -11,6 +11,9 @@ RigidTree ToRigidTree(const Arm2Params& p) {
   tree.joints.push_back(PlanarTreeJoint("q2", JointType::kRevolute, 0, p.L1, 0.0, 0.0));
   tree.bodies.push_back(PlanarTreeBody(p.m1, 0.5 * p.L1, 0.0, p.m1 * p.L1 * p.L1 / 12.0));
   tree.bodies.push_back(PlanarTreeBody(p.m2, 0.5 * p.L2, 0.0, p.m2 * p.L2 * p.L2 / 12.0));
+  tree.frames.push_back(PlanarTreeFrame("link1", 0, 0.0, 0.0, 0.0));
+  tree.frames.push_back(PlanarTreeFrame("link2", 1, 0.0, 0.0, 0.0));
+  tree.frames.push_back(PlanarTreeFrame("tip", 1, p.L2, 0.0, 0.0));
   return tree;
 }
 

@@ -55,6 +55,8 @@ class Arm2 {
 };
 
 // The arm as a tree: joints "q1" at the origin and "q2" at (L1, 0) in link 1's frame.
+// Frames (x along the link, z out of the plane): "link1" at the shoulder,
+// "link2" at the elbow, "tip" at link 2's end, (L1 c1 + L2 c12, L1 s1 + L2 s12, 0).
 RigidTree ToRigidTree(const Arm2Params& p);
 
 // M = [[a + 2b cos q2, d + b cos q2], [d + b cos q2, d]],  a = m1L1²/3 + m2L1² + m2L2²/3,

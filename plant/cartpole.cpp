@@ -12,6 +12,9 @@ RigidTree ToRigidTree(const CartPoleParams& p) {
   tree.joints.push_back(PlanarTreeJoint("theta", JointType::kRevolute, 0, 0.0, 0.0, -std::numbers::pi / 2));
   tree.bodies.push_back(PlanarTreeBody(p.mc, 0.0, 0.0, 0.0));
   tree.bodies.push_back(PlanarTreeBody(p.mp, p.l, 0.0, p.pole_inertia()));
+  tree.frames.push_back(PlanarTreeFrame("cart", 0, 0.0, 0.0, 0.0));
+  tree.frames.push_back(PlanarTreeFrame("pole", 1, 0.0, 0.0, 0.0));
+  tree.frames.push_back(PlanarTreeFrame("pole_tip", 1, 2.0 * p.l, 0.0, 0.0));
   return tree;
 }
 

@@ -51,6 +51,9 @@ class CartPole {
 
 // The cart-pole as a tree: joint "x" sliding along the world's x, the pole's
 // joint "theta" at the cart's origin, its link pointing along −y at θ = 0.
+// Frames (z out of the plane): "cart" at (x, 0, 0) with the world's axes,
+// "pole" at the pivot with x along the pole, "pole_tip" at the end of a pole
+// of length 2l (a uniform rod's), (x + 2l sin θ, −2l cos θ, 0).
 RigidTree ToRigidTree(const CartPoleParams& p);
 
 // M = [[mc + mp, mp l cos θ], [mp l cos θ, mp l² + I]], C = [[0, −mp l θ̇ sin θ], [0, 0]],

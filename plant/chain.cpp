@@ -15,7 +15,11 @@ RigidTree ToRigidTree(const ChainParams& p) {
     name.insert(name.begin(), 'q');
     tree.joints.push_back(PlanarTreeJoint(std::move(name), link.joint, i - 1, along, 0.0, i == 0 ? p.base_angle : 0.0));
     tree.bodies.push_back(PlanarTreeBody(link.m, link.com_offset(), 0.0, link.inertia()));
+    std::string frame = std::to_string(i + 1);  // "link1".., built in place as above
+    frame.insert(0, "link");
+    tree.frames.push_back(PlanarTreeFrame(std::move(frame), i, 0.0, 0.0, 0.0));
   }
+  tree.frames.push_back(PlanarTreeFrame("tip", p.num_links() - 1, p.links.back().L, 0.0, 0.0));
   return tree;
 }
 

@@ -37,6 +37,8 @@ struct ChainParams {
 
 // The chain as a tree: joint "qi" of link i at the end of link i − 1 (the
 // origin for the first, turned by base_angle), link i along its frame's x.
+// Frames (z out of the plane): "link1" .. "linkn" at each link's joint, x
+// along the link; "tip" at the last link's end.
 RigidTree ToRigidTree(const ChainParams& p);
 
 }  // namespace lagrange

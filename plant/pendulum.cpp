@@ -9,6 +9,7 @@ RigidTree ToRigidTree(const PendulumParams& p) {
   tree.gravity = PlanarGravity(p.g);
   tree.joints.push_back(PlanarTreeJoint("theta", JointType::kRevolute, -1, 0.0, 0.0, -std::numbers::pi / 2));
   tree.bodies.push_back(PlanarTreeBody(p.m, p.com(), 0.0, p.com_inertia()));
+  tree.frames.push_back(PlanarTreeFrame("bob", 0, p.L, 0.0, 0.0));
   return tree;
 }
 

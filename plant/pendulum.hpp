@@ -53,6 +53,7 @@ class Pendulum {
 };
 
 // The pendulum as a tree: joint "theta" at the origin, its link pointing along −y at θ = 0.
+// Frame "bob" at the link's end, L (sin θ, −cos θ, 0), x along the link, z out of the plane.
 RigidTree ToRigidTree(const PendulumParams& p);
 
 class PendulumClosedForm final : public Dynamics {

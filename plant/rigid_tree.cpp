@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <utility>
 
 namespace lagrange {
@@ -20,6 +21,18 @@ std::vector<std::string> RigidTree::joint_names() const {
   names.reserve(joints.size());
   for (const TreeJoint& j : joints) names.push_back(j.name);
   return names;
+}
+
+std::vector<std::string> RigidTree::frame_names() const {
+  std::vector<std::string> names;
+  names.reserve(frames.size());
+  for (const TreeFrame& f : frames) names.push_back(f.name);
+  return names;
+}
+
+TreeFrame PlanarTreeFrame(std::string name, int body, double x, double y, double angle) {
+  const TreeJoint j = PlanarTreeJoint(std::move(name), JointType::kRevolute, body, x, y, angle);
+  return {j.name, body, j.position, j.rotation};
 }
 
 TreeJoint PlanarTreeJoint(std::string name, JointType type, int parent, double x, double y, double angle) {
@@ -90,6 +103,26 @@ std::optional<std::string> CheckJoint(const TreeJoint& j, int i) {
   if (!j.axis.allFinite()) return Bad(Key("joints", i, "axis"), "finite numbers", Str(j.axis));
   if (std::abs(j.axis.norm() - 1.0) > kUnitTol) {
     return Bad(Key("joints", i, "axis"), "a unit vector", Str(j.axis) + " of norm " + Num(j.axis.norm()));
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> CheckFrames(const RigidTree& tree) {
+  std::set<std::string_view> names;
+  for (int i = 0; i < static_cast<int>(tree.frames.size()); ++i) {
+    const TreeFrame& f = tree.frames[i];
+    if (f.name.empty()) return Bad(Key("frames", i, "name"), "a name", "''");
+    if (!names.insert(f.name).second) return Bad(Key("frames", i, "name"), "a name of one frame", "a repeated name");
+    if (f.body < -1 || f.body >= tree.num_dofs()) {
+      return Bad(Key("frames", i, "body"), "-1 (the world) to " + std::to_string(tree.num_dofs() - 1),
+                 std::to_string(f.body));
+    }
+    if (!f.position.allFinite()) return Bad(Key("frames", i, "position"), "finite numbers", Str(f.position));
+    if (!f.rotation.allFinite()) return Bad(Key("frames", i, "rotation"), "finite numbers", Str(f.rotation));
+    const double orth = (f.rotation.transpose() * f.rotation - Eigen::Matrix3d::Identity()).norm();
+    if (orth > kUnitTol || f.rotation.determinant() <= 0.0) {
+      return Bad(Key("frames", i, "rotation"), "a proper rotation (RᵀR = 1, det R = +1)", Str(f.rotation));
+    }
   }
   return std::nullopt;
 }
@@ -216,6 +249,7 @@ std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
   for (int i = 0; i < n; ++i) {
     if (auto e = CheckBody(tree.bodies[i], i)) return e;
   }
+  if (auto e = CheckFrames(tree)) return e;
   const int k = FirstSingularJoint(MassMatrixAtZero(tree));
   if (k < 0) return std::nullopt;
   if (MovesNothing(tree, k)) {

@@ -15,6 +15,10 @@
 // Body i's frame is joint i's frame after the joint's motion: a revolute joint
 // rotates it by q_i about `axis`, a prismatic joint translates it by q_i·axis.
 // Gravity is the vector `gravity` in the world frame (URDF/ROS: (0, 0, −9.81)).
+// Named frames (`frames`, TreeFrame) ride on a body (or the world) at a fixed
+// placement in its frame: every URDF link, including those merged into a body
+// by fixed joints, and the built-in plants' links and tips
+// (plant/kinematics.hpp evaluates them). They carry no inertia.
 //
 // Energies (SI units), with p_c, v_c the world position and velocity of body
 // i's centre of mass, ω its angular velocity and I its inertia about the centre
@@ -47,14 +51,25 @@ struct TreeJoint {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();         // unit motion axis in the joint frame
 };
 
+// A named frame fixed to body `body` (−1: the world):
+//   p_body = position + rotation · p_frame
+struct TreeFrame {
+  std::string name;
+  int body = -1;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();      // frame origin in the body frame, m
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // frame axes in the body frame
+};
+
 struct RigidTree {
   std::vector<TreeJoint> joints;  // joint i carries body i; parents come first: joints[i].parent < i
   std::vector<RigidBody> bodies;  // one per joint
+  std::vector<TreeFrame> frames;  // named frames, distinct names; may be empty
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity);  // m/s², world frame
 
   int num_dofs() const { return static_cast<int>(joints.size()); }
   std::vector<JointType> joint_types() const;
   std::vector<std::string> joint_names() const;
+  std::vector<std::string> frame_names() const;
 
   // Energies by forward kinematics, templated over the scalar for the
   // Lagrangian path (double and every Dual of plant/dual.hpp).
@@ -68,6 +83,9 @@ struct RigidTree {
 // parent body's frame (m), turned by `angle` (rad) about z; a revolute joint
 // turns about z, a prismatic one slides along its frame's x.
 TreeJoint PlanarTreeJoint(std::string name, JointType type, int parent, double x, double y, double angle);
+// A frame of a planar plant on body `body`: at (x, y) in its frame (m),
+// turned by `angle` (rad) about z.
+TreeFrame PlanarTreeFrame(std::string name, int body, double x, double y, double angle);
 // A body of a planar plant: `mass` (kg) with its centre of mass at (x, y) in
 // its frame (m) and inertia `I` (kg·m²) about z through it, as a thin lamina
 // in the plane: I_xx = I_yy = I/2 (the perpendicular-axis theorem), which
@@ -88,7 +106,8 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
 
 // Why `tree` is not a valid model, as "KEY: expected ..., got ...", or nullopt:
 // sizes agree, 1..kMaxDofs joints, parents come first, rotations are proper
-// orthonormal, axes unit, all numbers finite, masses >= 0, inertias passing
+// orthonormal, axes unit, all numbers finite, masses >= 0, frames on an
+// existing body (or the world) with distinct non-empty names, inertias passing
 // CheckRotationalInertia (physically realisable), and M(0) positive definite (no massless leaf, no joint that
 // moves nothing).
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);

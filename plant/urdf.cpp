@@ -623,6 +623,7 @@ class TreeBuilder {
   UrdfRobot Build(const std::string& root) {
     LinkMassProps(*links_.at(root), file_);  // checked, then ignored: the base is fixed
     std::vector<Pending> stack;
+    out_.tree.frames.push_back({root, -1, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
     PushChildren(root, -1, Frame{}, stack);
     while (!stack.empty()) {
       const Pending next = stack.back();
@@ -666,6 +667,7 @@ class TreeBuilder {
     }
     const MassProps link = LinkMassProps(*links_.at(joint.child), file_);
     if (body >= 0) parts_[body].push_back(Transformed(link, child_in_body));
+    out_.tree.frames.push_back({joint.child, body, child_in_body.p, child_in_body.R});
     PushChildren(joint.child, body, child_in_body, stack);
   }
 

@@ -32,6 +32,13 @@
 // below them start at the world (parent −1). Gravity is (0, 0, −9.81) (the
 // URDF/ROS convention, z up); set `tree.gravity` to change it.
 //
+// Frames. Every link is a frame of the tree (`tree.frames`, named as the
+// link), in the same depth-first order, the root link first: the root link is
+// the world frame; a moving joint's child link is its body's frame; a link
+// merged by fixed joints keeps its own frame at its fixed placement in the body
+// it was merged into (or in the world, below the root), so `panda_link8`,
+// `panda_hand` and `tool0` survive the merge.
+//
 // Properties are what the file says: an attribute it does not give is
 // nullopt, not 0 (a revolute joint whose <limit> gives only effort and
 // velocity has no position limits). A continuous joint has no lower/upper even

@@ -1,10 +1,13 @@
 // lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON:
-// a built-in plant (--plant) or a robot from a URDF file (--urdf).
+// a built-in plant (--plant) or a robot from a URDF file (--urdf); with
+// --frame NAME, that frame's pose, Jacobian and J̇ qd (plant/kinematics.hpp,
+// world-aligned axes); with --frames, the plant's frame names alone.
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include "plant/escape.hpp"
+#include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "protocol/format.hpp"
@@ -57,6 +60,35 @@ std::vector<std::vector<double>> JsonRows(const MatrixXd& m) {
   return rows;
 }
 
+// The frames named by --frame at (q, qd), world-aligned: {NAME: {position,
+// rotation, jacobian, jdot_qdot}}. An unknown name is bad input.
+nlohmann::ordered_json FramesJson(const PlantSpec& spec, const std::vector<std::string>& names, const VectorXd& q,
+                                  const VectorXd& qd) {
+  const Kinematics model(MakeRigidTree(spec));
+  const std::unique_ptr<KinematicsData> data = model.MakeData();
+  std::vector<int> frames;
+  for (const std::string& name : names) {
+    const std::optional<int> k = model.FrameIndex(name);
+    if (!k) throw UsageError("--frame: no frame '" + Escape(name, 64) + "' in this plant (--frames lists them)");
+    frames.push_back(*k);
+  }
+  model.ComputeFrameKinematics(*data, q, qd);
+  nlohmann::ordered_json json = nlohmann::ordered_json::object();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const int k = frames[i];
+    const FrameAxes axes = FrameAxes::kWorldAligned;
+    if (!data->jacobian(k, axes).allFinite() || !data->bias_acceleration(k, axes).allFinite() ||
+        !data->position(k).allFinite()) {
+      throw std::runtime_error("the frame '" + Escape(names[i], 64) + "' is not finite at this state");
+    }
+    json[names[i]] = {{"position", JsonList(data->position(k))},
+                      {"rotation", JsonRows(data->rotation(k))},
+                      {"jacobian", JsonRows(data->jacobian(k, axes))},
+                      {"jdot_qdot", JsonList(data->bias_acceleration(k, axes))}};
+  }
+  return json;
+}
+
 class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
@@ -74,15 +106,28 @@ class EvalCommand final : public Command {
                      "NAME=VALUE, repeatable (m1, m2, L1, L2, mc, mp, l, I, m, L, g, ...; mass_scale with --urdf); a "
                      "chain's m, L, com, I and joints (revolute|prismatic) take one value for every link or a list: "
                      "m=1,0.8,0.5");
-    AddNumberList(*app_, "--q", q_, "Positions a,b,.. (rad or m)")->required();
-    AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s)")->required();
+    // Required unless --frames (checked in Run).
+    AddNumberList(*app_, "--q", q_, "Positions a,b,.. (rad or m); required");
+    AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s); required");
     AddNumberList(*app_, "--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
     app_->add_option("--method", method_, "closed-form|lagrangian|recursive; default the fastest exact path");
+    auto* frame = app_->add_option("--frame", frames_,
+                                   "NAME, repeatable: add the frame's position, rotation, Jacobian (6 x n) and "
+                                   "J̇ qd, world-aligned axes, under \"frames\"");
+    app_->add_flag("--frames", list_frames_, "Print the plant's frame names (no state needed)")->excludes(frame);
   }
 
   int Run(std::ostream& out, std::ostream&) override {
     PlantSpec spec = Spec();
     const PlantType type = spec.type();
+    if (list_frames_) {
+      const nlohmann::ordered_json json = {{"plant", ToString(type)},
+                                           {"frame_names", MakeRigidTree(spec).frame_names()}};
+      out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
+      return 0;
+    }
+    if (q_.empty()) throw UsageError("--q is required");
+    if (qd_.empty()) throw UsageError("--qd is required");
     const std::string what = type == PlantType::kUrdf ? "a urdf robot" : plant_;
 
     Method method = FastestMethod(type);
@@ -117,16 +162,17 @@ class EvalCommand final : public Command {
     }
 
     // ordered_json keeps the keys in the order written; dump() prints the shortest text that reads back to each double.
-    const nlohmann::ordered_json json = {{"plant", ToString(type)},
-                                         {"method", ToString(method)},
-                                         {"num_dofs", n},
-                                         {"joints", JointNamesOf(spec)},
-                                         {"M", JsonRows(M)},
-                                         {"C", JsonRows(C)},
-                                         {"G", JsonList(G)},
-                                         {"qdd", JsonList(qdd)},
-                                         {"T", T},
-                                         {"V", V}};
+    nlohmann::ordered_json json = {{"plant", ToString(type)},
+                                   {"method", ToString(method)},
+                                   {"num_dofs", n},
+                                   {"joints", JointNamesOf(spec)},
+                                   {"M", JsonRows(M)},
+                                   {"C", JsonRows(C)},
+                                   {"G", JsonList(G)},
+                                   {"qdd", JsonList(qdd)},
+                                   {"T", T},
+                                   {"V", V}};
+    if (!frames_.empty()) json["frames"] = FramesJson(spec, frames_, q, qd);
     // A URDF's names are the file's bytes: JSON escapes control characters, and replaces invalid UTF-8.
     out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
     return 0;
@@ -197,6 +243,8 @@ class EvalCommand final : public Command {
   std::vector<std::string> params_;
   std::vector<double> q_, qd_, tau_;
   std::optional<std::string> method_;
+  std::vector<std::string> frames_;
+  bool list_frames_ = false;
 };
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -92,6 +93,53 @@ TEST(ModelData, ThreadsSharingOneModelEachWithItsOwnDataGetWhatOneThreadGets) {
         ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
       }
     }
+  }
+}
+
+// Every frame's pose, Jacobians and biases, flattened.
+VectorXd EvaluateFrames(const Kinematics& model, KinematicsData& data, const VectorXd& q, const VectorXd& qd) {
+  model.ComputeFrameKinematics(data, q, qd);
+  const int n = model.num_dofs();
+  VectorXd out(model.num_frames() * (12 + 24 * n + 12));
+  int at = 0;
+  for (int k = 0; k < model.num_frames(); ++k) {
+    out.segment(at, 9) = data.rotation(k).reshaped();
+    out.segment(at + 9, 3) = data.position(k);
+    at += 12;
+    for (FrameAxes axes : {FrameAxes::kWorldAligned, FrameAxes::kLocal}) {
+      out.segment(at, 6 * n) = data.jacobian(k, axes).reshaped();
+      out.segment(at + 6 * n, 6) = data.bias_acceleration(k, axes);
+      at += 6 * n + 6;
+    }
+  }
+  return out.head(at);
+}
+
+TEST(ModelData, ThreadsSharingOneKinematicsModelEachWithItsOwnDataGetWhatOneThreadGets) {
+  const Kinematics model(LoadUrdf(LAGRANGE_SOURCE_DIR "/config/robots/panda.urdf").tree);
+  std::mt19937 rng{42};
+  std::vector<testing::RandomState> states;
+  for (int k = 0; k < kStates; ++k) {
+    states.push_back(testing::RandomStateFor(std::vector<JointType>(7, JointType::kRevolute), rng));
+  }
+  std::vector<VectorXd> expected;
+  const std::unique_ptr<KinematicsData> alone = model.MakeData();
+  for (const auto& s : states) expected.push_back(EvaluateFrames(model, *alone, s.q, s.qd));
+  std::vector<std::vector<VectorXd>> got(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      const std::unique_ptr<KinematicsData> data = model.MakeData();
+      got[t].resize(states.size());
+      for (int k = 0; k < kStates; ++k) {
+        const int i = t % 2 == 0 ? k : kStates - 1 - k;
+        got[t][i] = EvaluateFrames(model, *data, states[i].q, states[i].qd);
+      }
+    });
+  }
+  for (std::thread& th : threads) th.join();
+  for (int t = 0; t < kThreads; ++t) {
+    for (int k = 0; k < kStates; ++k) ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
   }
 }
 

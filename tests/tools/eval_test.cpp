@@ -11,8 +11,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <sstream>
 
+#include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/urdf.hpp"
 #include "protocol/format.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
@@ -335,6 +338,104 @@ TEST(EvalUrdf, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
     EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
   }
   fs::remove_all(dir);
+}
+
+// --frame NAME: the frame's pose, world-aligned Jacobian and J̇ qd; --frames: the names.
+TEST(EvalFrames, TheArmsTipIsTheClosedForm) {
+  const double L1 = 0.6, L2 = 0.5, q1 = 0.3, q2 = -1.1, w1 = 0.7, w2 = -0.4;
+  const json out = Eval({"--plant", "arm2", "--q", "0.3,-1.1", "--qd", "0.7,-0.4", "--frame", "tip"});
+  const json& tip = out.at("frames").at("tip");
+  const double c1 = std::cos(q1), s1 = std::sin(q1), c12 = std::cos(q1 + q2), s12 = std::sin(q1 + q2);
+  const Numbers p = tip.at("position").get<Numbers>();
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_NEAR(p[0], L1 * c1 + L2 * c12, 1e-15);
+  EXPECT_NEAR(p[1], L1 * s1 + L2 * s12, 1e-15);
+  EXPECT_EQ(p[2], 0.0);
+  const Rows R = tip.at("rotation").get<Rows>();
+  EXPECT_NEAR(R[0][0], c12, 1e-15);
+  EXPECT_NEAR(R[1][0], s12, 1e-15);
+  const Rows J = tip.at("jacobian").get<Rows>();
+  ASSERT_EQ(J.size(), 6u);
+  ASSERT_EQ(J[0].size(), 2u);
+  EXPECT_NEAR(J[0][0], -L1 * s1 - L2 * s12, 1e-15);
+  EXPECT_NEAR(J[1][1], L2 * c12, 1e-15);
+  EXPECT_EQ(J[5], Numbers({1.0, 1.0}));
+  const Numbers bias = tip.at("jdot_qdot").get<Numbers>();
+  ASSERT_EQ(bias.size(), 6u);
+  EXPECT_NEAR(bias[0], -L1 * c1 * w1 * w1 - L2 * c12 * (w1 + w2) * (w1 + w2), 1e-14);
+  EXPECT_NEAR(bias[1], -L1 * s1 * w1 * w1 - L2 * s12 * (w1 + w2) * (w1 + w2), 1e-14);
+}
+
+TEST(EvalFrames, EveryPrintedFrameNumberReadsBackToTheModelsDouble) {
+  const json out = Eval({"--urdf", kPanda, "--q", kPandaPose, "--qd", kPandaVelocity, "--frame", "panda_link8",
+                         "--frame", "panda_link0", "--frame", "panda_link4"});
+  const Kinematics model(LoadUrdf(kPanda).tree);
+  const auto data = model.MakeData();
+  const auto values = [](const std::string& list) {
+    VectorXd v(7);
+    std::stringstream in(list);
+    for (int i = 0; i < 7; ++i) {
+      std::string item;
+      std::getline(in, item, ',');
+      v[i] = std::stod(item);
+    }
+    return v;
+  };
+  model.ComputeFrameKinematics(*data, values(kPandaPose), values(kPandaVelocity));
+  ASSERT_EQ(out.at("frames").size(), 3u);
+  for (const std::string name : {"panda_link8", "panda_link0", "panda_link4"}) {
+    SCOPED_TRACE(name);
+    const int k = *model.FrameIndex(name);
+    const json& f = out.at("frames").at(name);
+    const Rows R = f.at("rotation").get<Rows>(), J = f.at("jacobian").get<Rows>();
+    const Numbers p = f.at("position").get<Numbers>(), bias = f.at("jdot_qdot").get<Numbers>();
+    ASSERT_EQ(J.size(), 6u);
+    for (int r = 0; r < 6; ++r) {
+      ASSERT_EQ(J[r].size(), 7u);
+      for (int c = 0; c < 7; ++c) EXPECT_EQ(J[r][c], data->jacobian(k, FrameAxes::kWorldAligned)(r, c));
+      EXPECT_EQ(bias[r], data->bias_acceleration(k, FrameAxes::kWorldAligned)[r]);
+    }
+    for (int r = 0; r < 3; ++r) {
+      EXPECT_EQ(p[r], data->position(k)[r]);
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(R[r][c], data->rotation(k)(r, c));
+    }
+  }
+  // The root link is the world.
+  EXPECT_EQ(out.at("frames").at("panda_link0").at("position").get<Numbers>(), Numbers({0.0, 0.0, 0.0}));
+}
+
+TEST(EvalFrames, FramesListsEveryFrameNameWithoutAState) {
+  EXPECT_EQ(Eval({"--plant", "arm2", "--frames"}).at("frame_names"), json({"link1", "link2", "tip"}));
+  EXPECT_EQ(Eval({"--plant", "cartpole", "--frames"}).at("frame_names"), json({"cart", "pole", "pole_tip"}));
+  EXPECT_EQ(Eval({"--plant", "pendulum", "--frames"}).at("frame_names"), json({"bob"}));
+  EXPECT_EQ(Eval({"--plant", "chain", "--links", "3", "--frames"}).at("frame_names"),
+            json({"link1", "link2", "link3", "tip"}));
+  const json ur5 = Eval({"--urdf", std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/ur5.urdf", "--frames"});
+  EXPECT_EQ(ur5.at("frame_names").back(), "flange");
+  EXPECT_EQ(Eval({"--urdf", kPanda, "--frames"}).at("frame_names").size(), 9u);
+}
+
+TEST(EvalFrames, AnUnknownFrameIsOneLineNamingItAndExitsTwo) {
+  const std::string zeros = "0,0,0,0,0,0,0";
+  const std::vector<BadEval> cases = {
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--frame", "tip", "--frame", "hand"},
+       "--frame: no frame 'hand' in this plant"},
+      {{"--urdf", kPanda, "--q", zeros, "--qd", zeros, "--frame", "panda_hand"},
+       "--frame: no frame 'panda_hand' in this plant"},
+      {{"--plant", "arm2", "--q", "0,0", "--qd", "0,0", "--frame", "a\nb"}, "--frame: no frame 'a\\nb'"},
+      {{"--plant", "arm2", "--frames", "--frame", "tip"}, "--frame excludes --frames"},
+      {{"--plant", "arm2", "--qd", "0,0", "--frame", "tip"}, "--q is required"},
+  };
+  for (const BadEval& c : cases) {
+    std::vector<std::string> args = {"eval"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = RunCtl(args);
+    EXPECT_EQ(r.status, 2) << c.message << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty());
+    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
+  }
 }
 
 TEST(Eval, TheInstalledBinaryExitsNonZeroWithOneLineOnBadInput) {
