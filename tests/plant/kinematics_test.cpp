@@ -22,6 +22,7 @@
 namespace lagrange {
 namespace {
 
+using testing::PlanarChainOfTheFixture;
 using testing::RandomStateFor;
 
 constexpr double kPi = std::numbers::pi;
@@ -34,16 +35,6 @@ std::string Source(const std::string& relative) { return std::string(LAGRANGE_SO
 
 RigidTree UrdfTree(const std::string& relative) { return LoadUrdf(Source(relative)).tree; }
 
-// The chain of tests/fixtures/urdf/planar_chain.urdf (its comment).
-ChainParams PlanarChainOfTheFixture() {
-  ChainParams p;
-  p.base_angle = 0.3;
-  p.links = {{1.2, 0.5, 0.2, 0.03, JointType::kRevolute},
-             {0.8, 0.4, 0.2, 0.011, JointType::kRevolute},
-             {0.5, 0.3, 0.1, 0.004, JointType::kPrismatic},
-             {0.3, 0.25, 0.125, 0.002, JointType::kRevolute}};
-  return p;
-}
 
 struct NamedTree {
   std::string name;

@@ -27,6 +27,7 @@ namespace lagrange {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::PlanarChainOfTheFixture;
 using testing::RandomStateFor;
 using testing::RelativeDifference;
 
@@ -629,15 +630,6 @@ TEST(LoadUrdf, ADeviceOrADirectoryIsRefused) {
 // ---------------------------------------------------------------------------
 // A planar URDF is the planar chain plant.
 
-ChainParams PlanarChainOfTheFixture() {
-  ChainParams p;
-  p.base_angle = 0.3;
-  p.links = {{1.2, 0.5, 0.2, 0.03, JointType::kRevolute},
-             {0.8, 0.4, 0.2, 0.011, JointType::kRevolute},
-             {0.5, 0.3, 0.1, 0.004, JointType::kPrismatic},
-             {0.3, 0.25, 0.125, 0.002, JointType::kRevolute}};
-  return p;
-}
 
 struct Evaluated {
   MatrixXd M, C;

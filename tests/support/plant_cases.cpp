@@ -82,4 +82,14 @@ MatrixXd MassMatrixOf(const PlantSpec& spec, Method method, const VectorXd& q) {
   return M;
 }
 
+ChainParams PlanarChainOfTheFixture() {
+  ChainParams p;
+  p.base_angle = 0.3;
+  p.links = {{1.2, 0.5, 0.2, 0.03, JointType::kRevolute},
+             {0.8, 0.4, 0.2, 0.011, JointType::kRevolute},
+             {0.5, 0.3, 0.1, 0.004, JointType::kPrismatic},
+             {0.3, 0.25, 0.125, 0.002, JointType::kRevolute}};
+  return p;
+}
+
 }  // namespace lagrange::testing

@@ -22,6 +22,10 @@ inline void PrintTo(const PlantCase& c, std::ostream* os) { *os << c.name; }
 // links with seeded random, unequal link parameters.
 std::vector<PlantCase> AllPlantCases();
 
+// The chain of tests/fixtures/urdf/planar_chain.urdf (its comment says so):
+// base angle 0.3 rad, four links, the third prismatic.
+ChainParams PlanarChainOfTheFixture();
+
 // The derivation methods a plant type has (closed-form, lagrangian, recursive), in that order.
 std::vector<Method> MethodsOf(PlantType type);
 

@@ -176,6 +176,20 @@ struct BadEval {
   std::string message;  // what the one line must say
 };
 
+// Each case: exit 2, nothing on stdout, one line on stderr from "lagrangectl eval: " saying its message.
+void ExpectEachRefused(const std::vector<BadEval>& cases) {
+  for (const BadEval& c : cases) {
+    std::vector<std::string> args = {"eval"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = RunCtl(args);
+    EXPECT_EQ(r.status, 2) << c.message << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty());
+    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
+  }
+}
+
 TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
   const std::vector<BadEval> cases = {
       {{"--plant", "arm3", "--q", "0,0", "--qd", "0,0"},
@@ -211,16 +225,7 @@ TEST(Eval, BadInputPrintsOneLineNamingTheProblemAndExitsNonZero) {
       {{"--plant", "arm2", "--param", "m1=1,2", "--q", "0,0", "--qd", "0,0"},
        "--param m1: expected a finite number, got '1,2'"},
   };
-  for (const BadEval& c : cases) {
-    std::vector<std::string> args = {"eval"};
-    args.insert(args.end(), c.args.begin(), c.args.end());
-    const auto r = RunCtl(args);
-    EXPECT_EQ(r.status, 2) << c.message;
-    EXPECT_TRUE(r.out.empty());
-    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
-    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
-  }
+  ExpectEachRefused(cases);
 }
 
 // A robot from URDF: the same JSON, with its joints' names in q order.
@@ -327,16 +332,7 @@ TEST(EvalUrdf, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
       {{"--plant", "urdf", "--q", "0", "--qd", "0"},
        "--plant: expected one of pendulum|arm2|cartpole|chain, got 'urdf'"},
   };
-  for (const BadEval& c : cases) {
-    std::vector<std::string> args = {"eval"};
-    args.insert(args.end(), c.args.begin(), c.args.end());
-    const auto r = RunCtl(args);
-    EXPECT_EQ(r.status, 2) << c.message << "\n" << r.err;
-    EXPECT_TRUE(r.out.empty());
-    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
-    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
-  }
+  ExpectEachRefused(cases);
   fs::remove_all(dir);
 }
 
@@ -426,16 +422,7 @@ TEST(EvalFrames, AnUnknownFrameIsOneLineNamingItAndExitsTwo) {
       {{"--plant", "arm2", "--frames", "--frame", "tip"}, "--frame excludes --frames"},
       {{"--plant", "arm2", "--qd", "0,0", "--frame", "tip"}, "--q is required"},
   };
-  for (const BadEval& c : cases) {
-    std::vector<std::string> args = {"eval"};
-    args.insert(args.end(), c.args.begin(), c.args.end());
-    const auto r = RunCtl(args);
-    EXPECT_EQ(r.status, 2) << c.message << "\n" << r.err;
-    EXPECT_TRUE(r.out.empty());
-    ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
-    EXPECT_EQ(r.err.rfind("lagrangectl eval: ", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(c.message), std::string::npos) << "got: " << r.err << "expected: " << c.message;
-  }
+  ExpectEachRefused(cases);
 }
 
 TEST(Eval, TheInstalledBinaryExitsNonZeroWithOneLineOnBadInput) {
