@@ -175,6 +175,25 @@ TEST_F(Service, SigtermDuringStartUpStopsItThere) {
   EXPECT_EQ(daemon->Stderr().find("scene "), std::string::npos) << "the loop never started";
 }
 
+// --mlockall refused for want of lockable memory: lagranged goes on without
+// it, and its warning names RLIMIT_MEMLOCK, the limit, and how to raise it.
+// Root's lagranged is made to lack CAP_IPC_LOCK by util-linux's setpriv
+// (dropped from the bounding and inheritable sets before the exec).
+TEST_F(Service, AnMlockallRefusedForLockedMemoryNamesRlimitMemlock) {
+  Prepare(7972);
+  std::string command = "ulimit -l 64 && exec";
+  for (const std::string& a : Argv({"--mlockall", "--duration", "0.2"})) command += " '" + a + "'";
+  std::vector<std::string> argv = {"/bin/bash", "-c", command};
+  if (geteuid() == 0) argv.insert(argv.begin(), {"/usr/bin/setpriv", "--bounding-set", "-ipc_lock", "--inh-caps", "-ipc_lock"});
+  const auto r = testing::RunProcess(argv, 60.0);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("mlockall: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" (RLIMIT_MEMLOCK is 64 KiB: raise it, e.g. LimitMEMLOCK=infinity in the service unit or "
+                       "ulimit -l, or run as root)"),
+            std::string::npos)
+      << r.err;
+}
+
 // A FIFO as the scene would block the reader forever: refused at once.
 TEST_F(Service, AFifoAsTheSceneIsRefusedWithoutWaitingForAWriter) {
   Prepare(7971);
