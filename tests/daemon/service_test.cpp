@@ -179,7 +179,13 @@ TEST_F(Service, SigtermDuringStartUpStopsItThere) {
 // it, and its warning names RLIMIT_MEMLOCK, the limit, and how to raise it.
 // Root's lagranged is made to lack CAP_IPC_LOCK by util-linux's setpriv
 // (dropped from the bounding and inheritable sets before the exec).
+// AddressSanitizer intercepts mlockall (it returns 0 and locks nothing), so
+// under it (scripts/test's sanitizer tree) the refusal cannot happen: the
+// test runs in a plain build (build/).
 TEST_F(Service, AnMlockallRefusedForLockedMemoryNamesRlimitMemlock) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer's mlockall locks nothing and never fails";
+#endif
   Prepare(7972);
   std::string command = "ulimit -l 64 && exec";
   for (const std::string& a : Argv({"--mlockall", "--duration", "0.2"})) command += " '" + a + "'";
