@@ -209,25 +209,17 @@ void DaemonLink::AwaitFirstState() {
            std::any_of(heard_.begin(), heard_.end(), [](const std::string& c) { return EndsWith(c, kStatusChannel); });
   };
   PumpUntil([&] { return !runs_.empty() || daemon_without_it(); }, options_.wait);
-  if (runs_.empty() && daemon_without_it()) {
-    if (signed_states_seen_) {
-      throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ +
-                               " that this unsigned client can read: its states are signed; give the daemon's key "
-                               "(--bus-key FILE or " + kBusKeyEnv + ")");
-    }
-    throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " on " +
-                             options_.Url() + ", though a lagranged is publishing there; " +
-                             HeardHint(options_.channel_prefix, instance_, heard_));
-  }
   if (runs_.empty()) {
+    // Said as soon as a daemon is heard without it, else when --wait ends.
+    const bool early = daemon_without_it();
+    const std::string missing = "no state from instance '" + instance_ + "' on " + state_channel_ +
+                                (early ? "" : " within " + FormatDouble(options_.wait) + " s");
     if (signed_states_seen_) {
-      throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
-                               FormatDouble(options_.wait) + " s that this unsigned client can read: its states " +
-                               "are signed; give the daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
+      throw std::runtime_error(missing + " that this unsigned client can read: its states are signed; give the " +
+                               "daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
     }
-    throw std::runtime_error("no state from instance '" + instance_ + "' on " + state_channel_ + " within " +
-                             FormatDouble(options_.wait) + " s on " + options_.Url() + "; " +
-                             HeardHint(options_.channel_prefix, instance_, heard_));
+    throw std::runtime_error(missing + " on " + options_.Url() + (early ? ", though a lagranged is publishing there" : "") +
+                             "; " + HeardHint(options_.channel_prefix, instance_, heard_));
   }
   Pump(kRunWindow);
 }
