@@ -89,17 +89,24 @@ std::string Bad(const std::string& key, const std::string& expected, const std::
   return key + ": expected " + expected + ", got " + got;
 }
 
+// A fixed placement (`list`[i].position and .rotation): finite, the rotation proper.
+std::optional<std::string> CheckPlacement(const char* list, int i, const Eigen::Vector3d& position,
+                                          const Eigen::Matrix3d& rotation) {
+  if (!position.allFinite()) return Bad(Key(list, i, "position"), "finite numbers", Str(position));
+  if (!rotation.allFinite()) return Bad(Key(list, i, "rotation"), "finite numbers", Str(rotation));
+  const double orth = (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm();
+  if (orth > kUnitTol || rotation.determinant() <= 0.0) {
+    return Bad(Key(list, i, "rotation"), "a proper rotation (RᵀR = 1, det R = +1)", Str(rotation));
+  }
+  return std::nullopt;
+}
+
 std::optional<std::string> CheckJoint(const TreeJoint& j, int i) {
   if (j.parent < -1 || j.parent >= i) {
     return Bad(Key("joints", i, "parent"), "-1 (the world) to " + std::to_string(i - 1) + " (parents come first)",
                std::to_string(j.parent));
   }
-  if (!j.position.allFinite()) return Bad(Key("joints", i, "position"), "finite numbers", Str(j.position));
-  if (!j.rotation.allFinite()) return Bad(Key("joints", i, "rotation"), "finite numbers", Str(j.rotation));
-  const double orth = (j.rotation.transpose() * j.rotation - Eigen::Matrix3d::Identity()).norm();
-  if (orth > kUnitTol || j.rotation.determinant() <= 0.0) {
-    return Bad(Key("joints", i, "rotation"), "a proper rotation (RᵀR = 1, det R = +1)", Str(j.rotation));
-  }
+  if (auto why = CheckPlacement("joints", i, j.position, j.rotation)) return why;
   if (!j.axis.allFinite()) return Bad(Key("joints", i, "axis"), "finite numbers", Str(j.axis));
   if (std::abs(j.axis.norm() - 1.0) > kUnitTol) {
     return Bad(Key("joints", i, "axis"), "a unit vector", Str(j.axis) + " of norm " + Num(j.axis.norm()));
@@ -117,12 +124,7 @@ std::optional<std::string> CheckFrames(const RigidTree& tree) {
       return Bad(Key("frames", i, "body"), "-1 (the world) to " + std::to_string(tree.num_dofs() - 1),
                  std::to_string(f.body));
     }
-    if (!f.position.allFinite()) return Bad(Key("frames", i, "position"), "finite numbers", Str(f.position));
-    if (!f.rotation.allFinite()) return Bad(Key("frames", i, "rotation"), "finite numbers", Str(f.rotation));
-    const double orth = (f.rotation.transpose() * f.rotation - Eigen::Matrix3d::Identity()).norm();
-    if (orth > kUnitTol || f.rotation.determinant() <= 0.0) {
-      return Bad(Key("frames", i, "rotation"), "a proper rotation (RᵀR = 1, det R = +1)", Str(f.rotation));
-    }
+    if (auto why = CheckPlacement("frames", i, f.position, f.rotation)) return why;
   }
   return std::nullopt;
 }
