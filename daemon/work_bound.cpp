@@ -22,6 +22,20 @@ constexpr int kCallsPerBatch = 10;  // a batch amortises the clock read over sev
 // least one call, so start-up stays short whatever the scene.
 constexpr double kMeasureBudget = 0.05;  // s
 
+using Steady = std::chrono::steady_clock;
+
+double SecondsSince(Steady::time_point t) { return std::chrono::duration<double>(Steady::now() - t).count(); }
+
+// The least of `sample()`'s values (s), over up to kBatches calls made while
+// less than `budget` s have passed since the first; +inf when none was made.
+template <class Sample>
+double FastestSample(double budget, Sample sample) {
+  const Steady::time_point begin = Steady::now();
+  double fastest = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < kBatches && SecondsSince(begin) < budget; ++b) fastest = std::min(fastest, sample());
+  return fastest;
+}
+
 std::int64_t SaturatingMul(std::int64_t a, std::int64_t b) {
   if (a != 0 && b > std::numeric_limits<std::int64_t>::max() / a) return std::numeric_limits<std::int64_t>::max();
   return a * b;
@@ -67,21 +81,19 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   const int n = model.num_dofs();
   const VectorXd tau = VectorXd::Zero(n);
   VectorXd qdd(n);
-  using Steady = std::chrono::steady_clock;
-  const auto seconds_since = [](Steady::time_point t) { return std::chrono::duration<double>(Steady::now() - t).count(); };
   const Steady::time_point begin = Steady::now();
   // Warm up, and find how many calls a batch can afford.
   int calls = kCallsPerBatch;
-  for (int i = 0; i < kWarmUpCalls && seconds_since(begin) < 0.1 * kMeasureBudget; ++i) {
+  for (int i = 0; i < kWarmUpCalls && SecondsSince(begin) < 0.1 * kMeasureBudget; ++i) {
     model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
   }
   double fastest = std::numeric_limits<double>::infinity();
   for (int b = 0; b < kBatches; ++b) {
     const Steady::time_point start = Steady::now();
     for (int i = 0; i < calls; ++i) model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
-    const double batch = seconds_since(start);
+    const double batch = SecondsSince(start);
     fastest = std::min(fastest, batch / calls);
-    if (seconds_since(begin) > kMeasureBudget) break;
+    if (SecondsSince(begin) > kMeasureBudget) break;
     if (batch > kMeasureBudget / kBatches) calls = 1;  // slow calls: one per batch
   }
   return fastest;
@@ -110,24 +122,19 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   c.integrator.type = IntegratorType::kExplicitEuler;
   Instance instance(c);
   const double period = 1e-3;  // the step's length does not change its work
-  using Steady = std::chrono::steady_clock;
   // Under every controller the instance has (a command may switch to any), the costliest.
   const std::size_t controllers = instance.controller_names().size();
   double costliest = 0.0;
   for (std::size_t k = 0; k < controllers; ++k) {
     instance.SelectController(k);
-    const Steady::time_point begin = Steady::now();
-    const double budget = kMeasureBudget / static_cast<double>(controllers);
-    double fastest = std::numeric_limits<double>::infinity();
-    for (int b = 0; b < kBatches && std::chrono::duration<double>(Steady::now() - begin).count() < budget; ++b) {
-      const Steady::time_point start = Steady::now();
-      instance.Step(period);
-      const double step = std::chrono::duration<double>(Steady::now() - start).count();
-      const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
-      fastest = std::min(fastest, step - evaluations * evaluation_s);
-      instance.Reset();  // every step from the initial state
-    }
-    costliest = std::max(costliest, fastest);
+    costliest = std::max(costliest, FastestSample(kMeasureBudget / static_cast<double>(controllers), [&] {
+                           const Steady::time_point start = Steady::now();
+                           instance.Step(period);
+                           const double step = SecondsSince(start);
+                           const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
+                           instance.Reset();  // every step from the initial state
+                           return step - evaluations * evaluation_s;
+                         }));
   }
   return std::max(0.0, costliest);
 }
@@ -135,14 +142,11 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
 double MeasureForcesSeconds(const InstanceConfig& config) {
   Instance instance(config);
   EffectForces forces(static_cast<int>(config.q0.size()));
-  using Steady = std::chrono::steady_clock;
-  const Steady::time_point begin = Steady::now();
-  double fastest = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < kBatches && std::chrono::duration<double>(Steady::now() - begin).count() < kMeasureBudget; ++b) {
+  const double fastest = FastestSample(kMeasureBudget, [&] {
     const Steady::time_point start = Steady::now();
     instance.ComputeForces(forces);
-    fastest = std::min(fastest, std::chrono::duration<double>(Steady::now() - start).count());
-  }
+    return SecondsSince(start);
+  });
   return std::isfinite(fastest) ? fastest : 0.0;
 }
 
