@@ -15,6 +15,7 @@
 #include <memory>
 #include <regex>
 #include <stdexcept>
+#include <string_view>
 
 #include "plant/escape.hpp"
 #include "protocol/format.hpp"
@@ -331,9 +332,8 @@ std::string SafeFileName(const std::string& channel) {
 std::string CsvText(const std::string& text) { return QuoteEscaped(Escape(text)); }
 
 std::string JointNamesPath(const std::string& csv_path) {
-  const std::string csv = ".csv";
-  const bool has_csv =
-      csv_path.size() > csv.size() && csv_path.compare(csv_path.size() - csv.size(), csv.size(), csv) == 0;
+  constexpr std::string_view csv = ".csv";
+  const bool has_csv = csv_path.size() > csv.size() && csv_path.ends_with(csv);
   return (has_csv ? csv_path.substr(0, csv_path.size() - csv.size()) : csv_path) + ".joints.csv";
 }
 
