@@ -26,7 +26,7 @@ Eigen::Matrix3d AxisRotation(const Eigen::Vector3d& a, double angle) {
 
 }  // namespace
 
-KinematicsData::KinematicsData(const Kinematics& model) : model_(&model), bodies_(model.num_dofs()) {
+KinematicsData::KinematicsData(const Kinematics& model) : model_(&model), bodies_(model.joints_.size()) {
   const int n = model.num_dofs();
   frames_.resize(model.num_frames());
   for (Frame& f : frames_) {
@@ -40,9 +40,16 @@ KinematicsData::KinematicsData(const Kinematics& model) : model_(&model), bodies
   }
 }
 
-Kinematics::Kinematics(const RigidTree& tree) : joints_(tree.joints), frames_(tree.frames) {
+Kinematics::Kinematics(const RigidTree& tree)
+    : num_dofs_(tree.num_dofs()), joints_(tree.joints), frames_(tree.frames) {
   if (const auto why = ValidateRigidTree(tree)) throw std::invalid_argument("kinematics: " + *why);
   names_ = tree.frame_names();
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    const TreeJoint& j = joints_[static_cast<std::size_t>(i)];
+    dof_.push_back(tree.DofOf(i));
+    scale_.push_back(j.mimic < 0 ? 1.0 : j.multiplier);
+    offset_.push_back(j.mimic < 0 ? 0.0 : j.offset);
+  }
   support_.resize(frames_.size());
   for (std::size_t k = 0; k < frames_.size(); ++k) {
     for (int j = frames_[k].body; j >= 0; j = joints_[j].parent) support_[k].insert(support_[k].begin(), j);
@@ -77,8 +84,10 @@ void Kinematics::ComputeFrameKinematics(KinematicsData& data, ConstVecRef q, Con
 // with the accelerations at qdd = 0.
 void Kinematics::ForwardPass(KinematicsData& data, ConstVecRef q, ConstVecRef qd) const {
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-  for (int i = 0; i < num_dofs(); ++i) {
+  for (int i = 0; i < static_cast<int>(joints_.size()); ++i) {
     const TreeJoint& j = joints_[i];
+    const double qi = scale_[i] * q[dof_[i]] + offset_[i];  // a mimic follows its joint (RigidTree)
+    const double qdi = scale_[i] * qd[dof_[i]];
     KinematicsData::Body& b = data.bodies_[i];
     const bool root = j.parent < 0;
     const KinematicsData::Body* parent = root ? nullptr : &data.bodies_[j.parent];
@@ -87,10 +96,10 @@ void Kinematics::ForwardPass(KinematicsData& data, ConstVecRef q, ConstVecRef qd
     b.z = Mul(R_joint, j.axis);
     Eigen::Vector3d r = root ? j.position : Mul(parent->R, j.position);
     if (j.type == JointType::kRevolute) {
-      b.R = MulAB(R_joint, AxisRotation(j.axis, q[i]));
+      b.R = MulAB(R_joint, AxisRotation(j.axis, qi));
     } else {
       b.R = R_joint;
-      r += q[i] * b.z;
+      r += qi * b.z;
     }
     b.p = root ? r : parent->p + r;
     const Eigen::Vector3d wr = Cross(w, r);
@@ -98,7 +107,7 @@ void Kinematics::ForwardPass(KinematicsData& data, ConstVecRef q, ConstVecRef qd
     b.v = root ? wr : parent->v + wr;
     b.dw = root ? zero : parent->dw;
     b.dv = root ? zero : parent->dv + Cross(parent->dw, r) + Cross(w, wr);
-    const Eigen::Vector3d zqd = qd[i] * b.z;
+    const Eigen::Vector3d zqd = qdi * b.z;
     if (j.type == JointType::kRevolute) {
       b.w += zqd;
       b.dw += Cross(w, zqd);
@@ -124,13 +133,21 @@ void Kinematics::FillFrame(KinematicsData& data, int k) const {
   const Eigen::Vector3d a = b.dv + Cross(b.dw, r) + Cross(b.w, Cross(b.w, r));
   f.bias_world << a, b.dw;
   f.bias_local << MulT(f.R, a), MulT(f.R, b.dw);
+  // Column d sums the motions of the joints d moves (J_joints S): its own and
+  // its mimics', each times its multiplier.
+  for (const int j : support_[k]) {
+    f.J_world.col(dof_[j]).setZero();
+    f.J_local.col(dof_[j]).setZero();
+  }
   for (const int j : support_[k]) {
     const KinematicsData::Body& bj = data.bodies_[j];
     const bool revolute = joints_[j].type == JointType::kRevolute;
     const Eigen::Vector3d linear = revolute ? Cross(bj.z, Eigen::Vector3d(f.p - bj.p)) : bj.z;
     const Eigen::Vector3d angular = revolute ? bj.z : Eigen::Vector3d::Zero();
-    f.J_world.col(j) << linear, angular;
-    f.J_local.col(j) << MulT(f.R, linear), MulT(f.R, angular);
+    f.J_world.col(dof_[j]).head<3>() += scale_[j] * linear;
+    f.J_world.col(dof_[j]).tail<3>() += scale_[j] * angular;
+    f.J_local.col(dof_[j]).head<3>() += scale_[j] * MulT(f.R, linear);
+    f.J_local.col(dof_[j]).tail<3>() += scale_[j] * MulT(f.R, angular);
   }
 }
 

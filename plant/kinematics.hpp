@@ -11,7 +11,9 @@
 //              velocity of the frame's origin (m/s), rows 3..5 its angular
 //              velocity (rad/s); column j is joint j's unit motion (zero for a
 //              joint that does not move the frame): revolute (z_j × (p_k − o_j), z_j),
-//              prismatic (z_j, 0), z_j the joint's world axis through o_j
+//              prismatic (z_j, 0), z_j the joint's world axis through o_j;
+//              a mimic joint's column is added, times its multiplier, to the
+//              column of the joint it follows (J_joints S, plant/rigid_tree.hpp)
 //   bias       J̇_k qd (6): the classical acceleration of the frame's origin
 //              and its angular acceleration at qdd = 0, (p̈_k, ω̇_k) − J_k qdd
 //
@@ -94,7 +96,7 @@ class KinematicsData {
   };
 
   const Kinematics* model_;
-  std::vector<Body> bodies_;   // (n)
+  std::vector<Body> bodies_;   // (num_joints), mimics too
   std::vector<Frame> frames_;  // (num_frames)
 };
 
@@ -104,7 +106,8 @@ class Kinematics {
   // tree is not valid (ValidateRigidTree).
   explicit Kinematics(const RigidTree& tree);
 
-  int num_dofs() const { return static_cast<int>(joints_.size()); }
+  // The tree's degrees of freedom (q's size; mimic joints follow theirs).
+  int num_dofs() const { return num_dofs_; }
   int num_frames() const { return static_cast<int>(frames_.size()); }
   // The frames' names, by index (the tree's order).
   const std::vector<std::string>& frame_names() const { return names_; }
@@ -124,10 +127,16 @@ class Kinematics {
   // The bodies' state => frame k's pose, Jacobians and biases.
   void FillFrame(KinematicsData& data, int k) const;
 
-  std::vector<TreeJoint> joints_;
+  friend class KinematicsData;
+
+  int num_dofs_;
+  std::vector<TreeJoint> joints_;  // every joint, mimics too
+  std::vector<int> dof_;           // (joints) the degree of freedom moving each joint (RigidTree::DofOf)
+  std::vector<double> scale_;      // (joints) 1, or a mimic's multiplier
+  std::vector<double> offset_;     // (joints) 0, or a mimic's offset
   std::vector<TreeFrame> frames_;
   std::vector<std::string> names_;
-  std::vector<std::vector<int>> support_;  // per frame: the joints that move it, root first
+  std::vector<std::vector<int>> support_;  // per frame: the joints that move it, root first (joint indices)
 };
 
 }  // namespace lagrange

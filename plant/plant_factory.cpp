@@ -9,6 +9,7 @@
 
 #include "plant/enum_names.hpp"
 #include "plant/lagrangian.hpp"
+#include "plant/mimic_dynamics.hpp"
 #include "plant/recursive_dynamics.hpp"
 #include "plant/spatial_dynamics.hpp"
 
@@ -216,8 +217,8 @@ std::optional<SpecError> ValidateUrdf(const UrdfParams& p) {
   if (auto err = CheckRange("mass_scale", p.mass_scale, Range::kPositive, "a factor")) return err;
   if (auto err = CheckMassScaleRange(p.mass_scale)) return err;
   const std::string& file = p.file.empty() ? p.robot->file : p.file;
-  if (p.robot->properties.size() != p.robot->tree.joints.size()) {
-    return SpecError{"file", file + ": expected one set of joint properties per moving joint"};
+  if (p.robot->properties.size() != static_cast<std::size_t>(p.robot->tree.num_dofs())) {
+    return SpecError{"file", file + ": expected one set of joint properties per degree of freedom"};
   }
   if (auto err = ValidateRigidTree(p.robot->tree)) return SpecError{"file", file + ": " + *err};
   return CheckScaledTree(p);
@@ -230,10 +231,13 @@ double BodyReach(const UrdfRobot& robot, int i) {
   const RigidTree& tree = robot.tree;
   double reach = tree.bodies[static_cast<std::size_t>(i)].com.norm();
   for (int j = i; j >= 0; j = tree.joints[static_cast<std::size_t>(j)].parent) {
-    reach += tree.joints[static_cast<std::size_t>(j)].position.norm();
-    if (tree.joints[static_cast<std::size_t>(j)].type != JointType::kPrismatic) continue;
-    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(j)];
-    reach += p.lower && p.upper ? std::max(std::abs(*p.lower), std::abs(*p.upper)) : 1.0;
+    const TreeJoint& joint = tree.joints[static_cast<std::size_t>(j)];
+    reach += joint.position.norm();
+    if (joint.type != JointType::kPrismatic) continue;
+    // A mimic travels its multiplier times the followed joint's travel, from its offset.
+    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(tree.DofOf(j))];
+    const double travel = p.lower && p.upper ? std::max(std::abs(*p.lower), std::abs(*p.upper)) : 1.0;
+    reach += joint.mimic < 0 ? travel : std::abs(joint.multiplier) * travel + std::abs(joint.offset);
   }
   return reach;
 }
@@ -253,7 +257,7 @@ double Reach(const PlantSpec& spec) {
         else if constexpr (std::is_same_v<P, UrdfParams>) {
           if (!p.robot) return 0.0;
           double work = 0.0;
-          for (int i = 0; i < p.robot->tree.num_dofs(); ++i) {
+          for (int i = 0; i < p.robot->tree.num_joints(); ++i) {
             work += p.robot->tree.bodies[static_cast<std::size_t>(i)].mass * BodyReach(*p.robot, i);
           }
           return work * p.mass_scale * p.gravity.norm();
@@ -521,6 +525,13 @@ std::unique_ptr<Dynamics> MakeDynamics(const PlantSpec& spec, Method method) {
   }
   RigidTree tree = MakeRigidTree(spec);
   if (spec.type() == PlantType::kUrdf) {
+    // With mimic joints the energies (so the Lagrangian path) are over the
+    // degrees of freedom already; the recursive algorithms run on the free
+    // tree and are reduced (plant/mimic_dynamics.hpp).
+    if (method == Method::kRecursive && tree.has_mimics()) {
+      auto free = std::make_shared<const SpatialDynamics>(tree.WithEveryJointFree());
+      return std::make_unique<MimicDynamics>(tree, std::move(free));
+    }
     if (method == Method::kRecursive) return std::make_unique<SpatialDynamics>(std::move(tree));
     return std::make_unique<LagrangianDynamics<RigidTree>>(std::move(tree));
   }

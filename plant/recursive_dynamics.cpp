@@ -56,10 +56,10 @@ std::optional<PlanarChain> PlanarChainOf(const RigidTree& tree) {
   // Exact comparisons: the built-in plants build their trees from these
   // very numbers (PlanarTreeJoint, PlanarGravity), and anything else is
   // evaluated in 3-D, correctly, by the spatial algorithms.
-  if (tree.gravity.x() != 0.0 || tree.gravity.z() != 0.0) return std::nullopt;
+  if (tree.gravity.x() != 0.0 || tree.gravity.z() != 0.0 || tree.has_mimics()) return std::nullopt;
   PlanarChain chain;
   chain.g = -tree.gravity.y();
-  for (int i = 0; i < tree.num_dofs(); ++i) {
+  for (int i = 0; i < tree.num_joints(); ++i) {
     const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
     const Matrix3d& R = j.rotation;
     const bool about_z = R(2, 2) == 1.0 && R(0, 2) == 0.0 && R(1, 2) == 0.0 && R(2, 0) == 0.0 && R(2, 1) == 0.0;

@@ -1,6 +1,7 @@
 #include "plant/rigid_tree.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,18 +10,44 @@
 
 namespace lagrange {
 
+int RigidTree::num_dofs() const {
+  return static_cast<int>(std::count_if(joints.begin(), joints.end(), [](const TreeJoint& j) { return j.mimic < 0; }));
+}
+
+int RigidTree::DofOf(int joint) const {
+  const int own = joints[static_cast<std::size_t>(joint)].mimic < 0 ? joint : joints[static_cast<std::size_t>(joint)].mimic;
+  if (own < 0 || own >= num_joints()) return -1;  // a tree ValidateRigidTree refuses
+  int dof = 0;
+  for (int i = 0; i < own; ++i) dof += joints[static_cast<std::size_t>(i)].mimic < 0 ? 1 : 0;
+  return dof;
+}
+
 std::vector<JointType> RigidTree::joint_types() const {
   std::vector<JointType> types;
   types.reserve(joints.size());
-  for (const TreeJoint& j : joints) types.push_back(j.type);
+  for (const TreeJoint& j : joints) {
+    if (j.mimic < 0) types.push_back(j.type);
+  }
   return types;
 }
 
 std::vector<std::string> RigidTree::joint_names() const {
   std::vector<std::string> names;
   names.reserve(joints.size());
-  for (const TreeJoint& j : joints) names.push_back(j.name);
+  for (const TreeJoint& j : joints) {
+    if (j.mimic < 0) names.push_back(j.name);
+  }
   return names;
+}
+
+RigidTree RigidTree::WithEveryJointFree() const {
+  RigidTree tree = *this;
+  for (TreeJoint& j : tree.joints) {
+    j.mimic = -1;
+    j.multiplier = 1.0;
+    j.offset = 0.0;
+  }
+  return tree;
 }
 
 std::vector<std::string> RigidTree::frame_names() const {
@@ -114,14 +141,35 @@ std::optional<std::string> CheckJoint(const TreeJoint& j, int i) {
   return std::nullopt;
 }
 
+// A mimic follows another joint, itself a degree of freedom (no chains, so no
+// cycles), by finite numbers.
+std::optional<std::string> CheckMimic(const RigidTree& tree, int i) {
+  const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
+  if (j.mimic < 0) return std::nullopt;
+  const int n = tree.num_joints();
+  if (j.mimic >= n || j.mimic == i) {
+    return Bad(Key("joints", i, "mimic"),
+               "-1 (a degree of freedom) or another joint's index, 0 to " + std::to_string(n - 1),
+               std::to_string(j.mimic));
+  }
+  if (tree.joints[static_cast<std::size_t>(j.mimic)].mimic >= 0) {
+    return Bad(Key("joints", i, "mimic"), "a joint that is a degree of freedom (no chains of mimics)",
+               "joints[" + std::to_string(j.mimic) + "], itself a mimic of joints[" +
+                   std::to_string(tree.joints[static_cast<std::size_t>(j.mimic)].mimic) + "]");
+  }
+  if (!std::isfinite(j.multiplier)) return Bad(Key("joints", i, "multiplier"), "a finite number", Num(j.multiplier));
+  if (!std::isfinite(j.offset)) return Bad(Key("joints", i, "offset"), "a finite number", Num(j.offset));
+  return std::nullopt;
+}
+
 std::optional<std::string> CheckFrames(const RigidTree& tree) {
   std::set<std::string_view> names;
   for (int i = 0; i < static_cast<int>(tree.frames.size()); ++i) {
     const TreeFrame& f = tree.frames[i];
     if (f.name.empty()) return Bad(Key("frames", i, "name"), "a name", "''");
     if (!names.insert(f.name).second) return Bad(Key("frames", i, "name"), "a name of one frame", "a repeated name");
-    if (f.body < -1 || f.body >= tree.num_dofs()) {
-      return Bad(Key("frames", i, "body"), "-1 (the world) to " + std::to_string(tree.num_dofs() - 1),
+    if (f.body < -1 || f.body >= tree.num_joints()) {
+      return Bad(Key("frames", i, "body"), "-1 (the world) to " + std::to_string(tree.num_joints() - 1),
                  std::to_string(f.body));
     }
     if (auto why = CheckPlacement("frames", i, f.position, f.rotation)) return why;
@@ -142,14 +190,16 @@ std::optional<std::string> CheckBody(const RigidBody& b, int i) {
   return std::nullopt;
 }
 
-// M(0) by the composite-rigid-body algorithm in world coordinates at q = 0,
-// written here so the check needs no dynamics object: with J_i joint i's
-// world motion axis and Ic_i the world spatial inertia of its subtree,
-// M_ij = J_iᵀ Ic_i J_j for j an ancestor of i or i itself.
+// M(0) by the composite-rigid-body algorithm in world coordinates at q = 0
+// (every joint at zero but a mimic, at its offset), written here so the check
+// needs no dynamics object: with J_i joint i's world motion axis and Ic_i the
+// world spatial inertia of its subtree, M_ij = J_iᵀ Ic_i J_j for j an ancestor
+// of i or i itself; over the joints, then reduced to the degrees of freedom,
+// Sᵀ M S.
 Eigen::MatrixXd MassMatrixAtZero(const RigidTree& tree) {
   using Vector6d = Eigen::Matrix<double, 6, 1>;
   using Matrix6d = Eigen::Matrix<double, 6, 6>;
-  const int n = tree.num_dofs();
+  const int n = tree.num_joints();
   std::vector<Eigen::Matrix3d> R(n);
   std::vector<Eigen::Vector3d> o(n);
   std::vector<Vector6d> J(n);
@@ -168,8 +218,10 @@ Eigen::MatrixXd MassMatrixAtZero(const RigidTree& tree) {
     const Eigen::Vector3d a = R[i] * j.axis;
     if (j.type == JointType::kRevolute) {
       J[i] << a, o[i].cross(a);
+      R[i] = R[i] * Eigen::AngleAxisd(j.offset, j.axis).toRotationMatrix();
     } else {
       J[i] << Eigen::Vector3d::Zero(), a;
+      o[i] += a * j.offset;
     }
     // Spatial inertia about the world origin: [[I_c − m[c]×², m[c]×], [−m[c]×, m 1]].
     const RigidBody& b = tree.bodies[i];
@@ -191,7 +243,17 @@ Eigen::MatrixXd MassMatrixAtZero(const RigidTree& tree) {
       M(j, i) = M(i, j);
     }
   }
-  return M;
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, tree.num_dofs());
+  for (int i = 0; i < n; ++i) S(i, tree.DofOf(i)) = tree.joints[i].mimic < 0 ? 1.0 : tree.joints[i].multiplier;
+  return S.transpose() * M * S;
+}
+
+// The joint of degree of freedom `dof`.
+int JointOfDof(const RigidTree& tree, int dof) {
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    if (tree.joints[i].mimic < 0 && dof-- == 0) return i;
+  }
+  return -1;
 }
 
 // The first joint at which M(0) stops being positive definite, by Cholesky
@@ -211,7 +273,7 @@ int FirstSingularJoint(Eigen::MatrixXd M) {
 bool MovesNothing(const RigidTree& tree, int i) {
   const RigidBody& b = tree.bodies[i];
   if (b.mass > 0.0 || b.inertia.cwiseAbs().maxCoeff() > 0.0) return false;
-  for (int c = i + 1; c < tree.num_dofs(); ++c) {
+  for (int c = i + 1; c < tree.num_joints(); ++c) {
     if (tree.joints[c].parent == i) return false;
   }
   return true;
@@ -237,7 +299,7 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I) {
 }
 
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
-  const int n = tree.num_dofs();
+  const int n = tree.num_joints();
   if (n < 1 || n > kMaxDofs) {
     return Bad("joints", "1 to " + std::to_string(kMaxDofs) + " joints", std::to_string(n));
   }
@@ -249,11 +311,15 @@ std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
     if (auto e = CheckJoint(tree.joints[i], i)) return e;
   }
   for (int i = 0; i < n; ++i) {
+    if (auto e = CheckMimic(tree, i)) return e;
+  }
+  for (int i = 0; i < n; ++i) {
     if (auto e = CheckBody(tree.bodies[i], i)) return e;
   }
   if (auto e = CheckFrames(tree)) return e;
-  const int k = FirstSingularJoint(MassMatrixAtZero(tree));
-  if (k < 0) return std::nullopt;
+  const int dof = FirstSingularJoint(MassMatrixAtZero(tree));
+  if (dof < 0) return std::nullopt;
+  const int k = JointOfDof(tree, dof);
   if (MovesNothing(tree, k)) {
     return Bad(Key("bodies", k, "mass"), "mass or inertia on a leaf body (M(0) positive definite)",
                "a massless leaf: joints[" + std::to_string(k) + "] moves nothing");

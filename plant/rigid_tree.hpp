@@ -49,6 +49,13 @@ struct TreeJoint {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  // joint frame origin in the parent body frame, m
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // joint frame axes in the parent body frame
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();         // unit motion axis in the joint frame
+  // A mimic joint (URDF <mimic>) is no degree of freedom: it follows joint
+  // `mimic` (an index into RigidTree::joints, itself a degree of freedom) as
+  //   q = multiplier · q_mimic + offset,  qd = multiplier · qd_mimic.
+  // −1: the joint is a degree of freedom.
+  int mimic = -1;
+  double multiplier = 1.0;  // (this joint's unit) per (the followed joint's unit)
+  double offset = 0.0;      // rad or m
 };
 
 // A named frame fixed to body `body` (−1: the world):
@@ -60,16 +67,36 @@ struct TreeFrame {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // frame axes in the body frame
 };
 
+// Joints and degrees of freedom. Every joint carries a body; the degrees of
+// freedom are the joints that mimic none, numbered in joint order. The
+// generalized coordinates q (n = num_dofs()) are theirs: a mimic joint's
+// position is the affine function above of its followed joint's, so
+//   q_joints = S q + o,  qd_joints = S qd
+// with the constant selection S (num_joints x n: column d holds 1 at d's own
+// joint and each mimic's multiplier at the mimics of it) and o the offsets.
+// Everything over q (M = Sᵀ M_joints S, C, G, the Jacobians J_joints S, the
+// messages, the scenes, the controllers) sees only the degrees of freedom; a
+// mimic's generalized force lands on the joint it follows.
 struct RigidTree {
   std::vector<TreeJoint> joints;  // joint i carries body i; parents come first: joints[i].parent < i
   std::vector<RigidBody> bodies;  // one per joint
   std::vector<TreeFrame> frames;  // named frames, distinct names; may be empty
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity);  // m/s², world frame
 
-  int num_dofs() const { return static_cast<int>(joints.size()); }
+  int num_joints() const { return static_cast<int>(joints.size()); }
+  // The joints that mimic none.
+  int num_dofs() const;
+  bool has_mimics() const { return num_dofs() != num_joints(); }
+  // The degree of freedom that moves joint `joint` (its own, or that of the
+  // joint it mimics), an index into q: joint order, mimics skipped. O(joint).
+  int DofOf(int joint) const;
+  // The degrees of freedom's joint types and names (n), in q's order.
   std::vector<JointType> joint_types() const;
   std::vector<std::string> joint_names() const;
   std::vector<std::string> frame_names() const;
+  // The same tree with every joint a degree of freedom (mimics cleared): what
+  // a recursive algorithm runs on before the reduction (plant/mimic_dynamics.hpp).
+  RigidTree WithEveryJointFree() const;
 
   // Energies by forward kinematics, templated over the scalar for the
   // Lagrangian path (double and every Dual of plant/dual.hpp).
@@ -108,8 +135,10 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
 // sizes agree, 1..kMaxDofs joints, parents come first, rotations are proper
 // orthonormal, axes unit, all numbers finite, masses >= 0, frames on an
 // existing body (or the world) with distinct non-empty names, inertias passing
-// CheckRotationalInertia (physically realisable), and M(0) positive definite (no massless leaf, no joint that
-// moves nothing).
+// CheckRotationalInertia (physically realisable), mimics that follow another
+// joint which is itself a degree of freedom (no chains, no cycles) with finite
+// multiplier and offset, and M(0) = Sᵀ M_joints S positive definite at q = 0
+// (no massless leaf, no joint that moves nothing).
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
 
 }  // namespace lagrange

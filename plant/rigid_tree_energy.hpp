@@ -11,6 +11,9 @@
 //   prismatic     R_b = R_j,                   o_b = o_j + R_j axis q,     ω_b = ω_p
 // with v the world velocity of the body origin (v_b = v_p + ω_p × (o_b − o_p)
 // [+ R_j axis qd]), and Rot(a, q) = cos q 1 + sin q [a]× + (1 − cos q) a aᵀ.
+// A mimic joint's q and qd are its followed joint's, scaled and offset
+// (RigidTree), so the energies are over the degrees of freedom and the
+// Lagrangian path's M, C and G are the reduced ones without a reduction step.
 // The walk recurses into children: stack use grows with the tree's depth,
 // nothing is allocated.
 
@@ -147,6 +150,21 @@ Placement<S> MoveByJoint(const TreeJoint& j, const Placement<S>& joint, const S&
   return {joint.R, joint.o + Mul(joint.R, j.axis) * qi};
 }
 
+// Joint i's position and velocity from the degrees of freedom's (q, qd):
+// its own, or for a mimic multiplier · the followed joint's (+ offset).
+template <class S>
+S JointPosition(const RigidTree& tree, int i, std::span<const S> q) {
+  const TreeJoint& j = tree.joints[i];
+  const S& own = q[static_cast<std::size_t>(tree.DofOf(i))];
+  return j.mimic < 0 ? own : own * j.multiplier + j.offset;
+}
+template <class S>
+S JointVelocity(const RigidTree& tree, int i, std::span<const S> qd) {
+  const TreeJoint& j = tree.joints[i];
+  const S& own = qd[static_cast<std::size_t>(tree.DofOf(i))];
+  return j.mimic < 0 ? own : own * j.multiplier;
+}
+
 template <class S>
 S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::span<const S> q,
                     std::span<const S> qd) {
@@ -154,12 +172,12 @@ S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::
   const RigidBody& body = tree.bodies[i];
   const Placement<S> joint = PlaceJoint(j, parent.X);
   const Vec3<S> axis = Mul(joint.R, j.axis);  // world axis
-  Motion<S> b{MoveByJoint(j, joint, q[i]), parent.w, {}};
+  Motion<S> b{MoveByJoint(j, joint, JointPosition(tree, i, q)), parent.w, {}};
   b.v = parent.v + Cross(parent.w, b.X.o - parent.X.o);
   if (j.type == JointType::kRevolute) {
-    b.w = b.w + axis * qd[i];
+    b.w = b.w + axis * JointVelocity(tree, i, qd);
   } else {
-    b.v = b.v + axis * qd[i];
+    b.v = b.v + axis * JointVelocity(tree, i, qd);
   }
   // Centre of mass velocity and the body-axis angular velocity.
   const Vec3<S> vc = b.v + Cross(b.w, Mul(b.X.R, body.com));
@@ -168,7 +186,7 @@ S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::
   const Vec3<S> Iw{wb.x * I(0, 0) + wb.y * I(0, 1) + wb.z * I(0, 2), wb.x * I(1, 0) + wb.y * I(1, 1) + wb.z * I(1, 2),
                    wb.x * I(2, 0) + wb.y * I(2, 1) + wb.z * I(2, 2)};
   S T = 0.5 * (body.mass * Dot(vc, vc) + Dot(wb, Iw));
-  for (int c = i + 1; c < tree.num_dofs(); ++c) {
+  for (int c = i + 1; c < tree.num_joints(); ++c) {
     if (tree.joints[c].parent == i) T += KineticEnergyFrom(tree, c, b, q, qd);
   }
   return T;
@@ -176,11 +194,11 @@ S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::
 
 template <class S>
 S PotentialEnergyFrom(const RigidTree& tree, int i, const Placement<S>& parent, std::span<const S> q) {
-  const Placement<S> b = MoveByJoint(tree.joints[i], PlaceJoint(tree.joints[i], parent), q[i]);
+  const Placement<S> b = MoveByJoint(tree.joints[i], PlaceJoint(tree.joints[i], parent), JointPosition(tree, i, q));
   const RigidBody& body = tree.bodies[i];
   const Vec3<S> pc = b.o + Mul(b.R, body.com);
   S V = -(body.mass * (pc.x * tree.gravity.x() + pc.y * tree.gravity.y() + pc.z * tree.gravity.z()));
-  for (int c = i + 1; c < tree.num_dofs(); ++c) {
+  for (int c = i + 1; c < tree.num_joints(); ++c) {
     if (tree.joints[c].parent == i) V += PotentialEnergyFrom(tree, c, b, q);
   }
   return V;
@@ -194,7 +212,7 @@ S RigidTree::KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
   const Vec3<S> zero{S(0.0), S(0.0), S(0.0)};
   const Motion<S> world{{Identity<S>(), zero}, zero, zero};
   S T(0.0);
-  for (int i = 0; i < num_dofs(); ++i) {
+  for (int i = 0; i < num_joints(); ++i) {
     if (joints[i].parent < 0) T += KineticEnergyFrom(*this, i, world, q, qd);
   }
   return T;
@@ -205,7 +223,7 @@ S RigidTree::PotentialEnergy(std::span<const S> q) const {
   using namespace rigid_tree_energy;
   const Placement<S> world{Identity<S>(), {S(0.0), S(0.0), S(0.0)}};
   S V(0.0);
-  for (int i = 0; i < num_dofs(); ++i) {
+  for (int i = 0; i < num_joints(); ++i) {
     if (joints[i].parent < 0) V += PotentialEnergyFrom(*this, i, world, q);
   }
   return V;

@@ -500,6 +500,10 @@ void Aba(const SpatialModel& m, SpatialScratch& s, const double* qd, const doubl
 
 SpatialDynamics::SpatialDynamics(RigidTree tree) : Dynamics(tree.joint_types()), tree_(std::move(tree)) {
   if (auto error = ValidateRigidTree(tree_)) throw std::invalid_argument("SpatialDynamics: " + *error);
+  if (tree_.has_mimics()) {
+    throw std::invalid_argument(
+        "SpatialDynamics: a tree with mimic joints (run it as WithEveryJointFree() under MimicDynamics)");
+  }
   model_ = std::make_unique<const SpatialModel>(Fold(tree_));
   forward_ = model_->deep ? ForwardAlgorithm::kArticulatedBody : ForwardAlgorithm::kCompositeRigidBody;
 }

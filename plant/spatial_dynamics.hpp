@@ -41,7 +41,8 @@
 // same run: inverse dynamics 25, forward dynamics 46, M 27, C 57, G 9.
 //
 // Invalid trees (ValidateRigidTree) are refused by the constructor with
-// std::invalid_argument.
+// std::invalid_argument, and so are trees with mimic joints: those run as
+// their WithEveryJointFree() tree under MimicDynamics (plant/mimic_dynamics.hpp).
 
 #include <cstdint>
 #include <memory>

@@ -259,6 +259,13 @@ struct FileLink {
 
 enum class FileJointType { kRevolute, kContinuous, kPrismatic, kFixed };
 
+// <mimic joint multiplier offset>: q = multiplier · q_joint + offset (URDF's defaults 1 and 0).
+struct FileMimic {
+  std::string joint;
+  double multiplier = 1.0;
+  double offset = 0.0;
+};
+
 struct FileJoint {
   std::string name;
   FileJointType type = FileJointType::kFixed;
@@ -266,6 +273,7 @@ struct FileJoint {
   Frame origin;                                     // the joint frame in the parent link's frame
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // <axis xyz> as written (absent: URDF's x)
   UrdfJointProperties properties;                   // what <limit> and <dynamics> say, absent stays nullopt
+  std::optional<FileMimic> mimic;                   // <mimic>
 };
 
 struct FileRobot {
@@ -419,14 +427,29 @@ void ReadDynamics(const TiXmlElement& joint, UrdfJointProperties& p, const std::
   if (!p.damping && !p.friction) Fail(file, at, "neither damping nor friction");
 }
 
+// <mimic joint="NAME" multiplier="m" offset="o"/>: on a moving joint only;
+// the joint named is checked once the tree is built (ResolveMimics).
+std::optional<FileMimic> ReadMimic(const TiXmlElement& joint, FileJointType type, const std::string& file,
+                                   const std::string& where) {
+  const TiXmlElement* e = joint.FirstChildElement("mimic");
+  if (e == nullptr) return std::nullopt;
+  const std::string at = Within(where, "mimic");
+  if (e->NextSiblingElement("mimic") != nullptr) Fail(file, at, "more than one <mimic>");
+  if (type == FileJointType::kFixed) Fail(file, at, "a fixed joint cannot mimic (it has no position to follow with)");
+  const char* name = e->Attribute("joint");
+  if (name == nullptr || *name == '\0') Fail(file, at, "no joint attribute (the joint this one follows)");
+  FileMimic mimic{name};
+  mimic.multiplier = OptionalNumber(*e, "multiplier", file, at).value_or(1.0);
+  mimic.offset = OptionalNumber(*e, "offset", file, at).value_or(0.0);
+  return mimic;
+}
+
 FileJoint ReadJoint(const TiXmlElement& e, int index, const std::string& file) {
   FileJoint j;
   j.name = RequiredName(e, "joint", index, file);
   const std::string where = JointElement(j.name);
   j.type = ReadJointType(e, file, where);
-  if (e.FirstChildElement("mimic") != nullptr) {
-    Fail(file, Within(where, "mimic"), "mimic joints are not supported (each moving joint is one degree of freedom)");
-  }
+  j.mimic = ReadMimic(e, j.type, file, where);
   j.origin = ReadOrigin(e, file, where);
   if (const TiXmlElement* axis = e.FirstChildElement("axis")) {
     std::array<double, 3> v{};
@@ -630,6 +653,7 @@ class TreeBuilder {
       stack.pop_back();
       Visit(next, stack);
     }
+    ResolveMimics();
     for (std::size_t i = 0; i < parts_.size(); ++i) {
       MassProps body;
       for (const MassProps& part : parts_[i]) body = Combined(body, part);
@@ -672,7 +696,7 @@ class TreeBuilder {
   }
 
   int AddJoint(const FileJoint& joint, int parent, const Frame& origin) {
-    if (out_.tree.num_dofs() == kMaxDofs) {
+    if (out_.tree.num_joints() == kMaxDofs) {
       Fail(file_, "robot " + Quoted(robot_.name), "more than " + std::to_string(kMaxDofs) + " moving joints");
     }
     const Eigen::Vector3d& axis = joint.axis;
@@ -687,12 +711,50 @@ class TreeBuilder {
     j.position = origin.p;
     j.rotation = origin.R;
     j.axis = axis.normalized();
+    const UrdfJointProperties& properties = CheckedProperties(joint, file_);
+    if (joint.mimic) {
+      j.multiplier = joint.mimic->multiplier;
+      j.offset = joint.mimic->offset;
+      mimics_.push_back({out_.tree.num_joints(), &joint});  // resolved once every joint is in
+    } else {
+      out_.properties.push_back(properties);  // a mimic's own <limit> and <dynamics> are not used
+    }
     out_.tree.joints.push_back(j);
     out_.tree.bodies.emplace_back();
-    out_.properties.push_back(CheckedProperties(joint, file_));
     parts_.emplace_back();
     child_links_.push_back(joint.child);
-    return out_.tree.num_dofs() - 1;
+    return out_.tree.num_joints() - 1;
+  }
+
+  // Each mimic's followed joint by name: a moving joint of the tree that is
+  // itself a degree of freedom.
+  void ResolveMimics() {
+    std::map<std::string_view, int> index;  // moving joint name => index
+    for (int i = 0; i < out_.tree.num_joints(); ++i) index[out_.tree.joints[static_cast<std::size_t>(i)].name] = i;
+    std::map<std::string_view, const FileJoint*> file_joints;
+    for (const FileJoint& j : robot_.joints) file_joints[j.name] = &j;
+    for (const auto& [i, joint] : mimics_) {
+      const std::string at = Within(JointElement(joint->name), "mimic");
+      const std::string& name = joint->mimic->joint;
+      const auto it = index.find(name);
+      if (name == joint->name) Fail(file_, at, "the joint follows itself");
+      if (it == index.end()) {
+        Fail(file_, at,
+             file_joints.count(name) != 0
+                 ? "follows joint " + Quoted(name) + ", which is fixed or not in the tree (it must move)"
+                 : "follows joint " + Quoted(name) + ", which the robot does not have");
+      }
+      const FileJoint& followed = *file_joints.at(name);
+      if (followed.mimic) {
+        Fail(file_, at,
+             followed.mimic->joint == joint->name
+                 ? "follows joint " + Quoted(name) + ", which follows this one (a cycle of mimics)"
+                 : "follows joint " + Quoted(name) + ", itself a mimic of " + Quoted(followed.mimic->joint) +
+                       " (chains of mimics are not supported: follow " + Quoted(followed.mimic->joint) +
+                       " with the product of the multipliers)");
+      }
+      out_.tree.joints[static_cast<std::size_t>(i)].mimic = it->second;
+    }
   }
 
   const FileRobot& robot_;
@@ -702,6 +764,7 @@ class TreeBuilder {
   UrdfRobot out_;
   std::vector<std::vector<MassProps>> parts_;  // per body: its links in the body frame
   std::vector<std::string> child_links_;
+  std::vector<std::pair<int, const FileJoint*>> mimics_;  // (joint index, its file joint) of each mimic
 };
 
 // Each joint must move some inertia at q = 0, else its row of M is zero: the
@@ -709,7 +772,7 @@ class TreeBuilder {
 // (the moment about a revolute axis, the mass for a prismatic joint).
 void CheckEveryJointMovesInertia(const RigidTree& tree, const std::vector<std::string>& child_links,
                                  const std::string& file) {
-  const int n = tree.num_dofs();
+  const int n = tree.num_joints();
   std::vector<MassProps> composite(n);
   for (int i = 0; i < n; ++i) composite[i] = {tree.bodies[i].mass, tree.bodies[i].com, tree.bodies[i].inertia};
   for (int i = n - 1; i >= 0; --i) {  // children come after their parents

@@ -14,7 +14,14 @@
 //
 // What is read:
 //   joints     revolute, continuous (revolute without position limits),
-//              prismatic, fixed; floating, planar and mimic joints are refused
+//              prismatic, fixed; floating and planar joints are refused
+//   mimics     <mimic joint multiplier offset> (defaults 1 and 0) on a moving
+//              joint: it follows the joint named, q = multiplier · q_joint +
+//              offset, and is no degree of freedom (RigidTree: the tree keeps
+//              it as a joint with its body; q, the messages, scenes and
+//              controllers have only the degrees of freedom). A mimic's own
+//              <limit> and <dynamics> are read and checked but not used: its
+//              followed joint's apply
 //   origins    <origin xyz rpy> of joints and of each link's <inertial>; rpy is
 //              URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
 //   axes       <axis xyz> in any direction, normalised (absent: URDF's x; zero refused)
@@ -59,16 +66,19 @@
 //                 4096 joints
 //   the XML       no <robot> or no name; a version other than 1.0 ("major.minor",
 //                 decimal digits); an element without a name; a joint type that
-//                 is not revolute/continuous/prismatic/fixed; <mimic>; any number
+//                 is not revolute/continuous/prismatic/fixed; any number
 //                 we read that is not finite (nan, inf, overflow) or not as many
 //                 as expected; an <inertial> without <mass value> or <inertia>
 //                 with all of ixx ixy ixz iyy iyz izz; a moving joint's <axis>
 //                 without xyz; a revolute or prismatic joint without <limit>; a
 //                 <limit> (on any joint) without effort or velocity; a <dynamics>
-//                 with neither damping nor friction; a link or joint defined
+//                 with neither damping nor friction; a <mimic> on a fixed joint,
+//                 twice in a joint or without a joint attribute; a link or joint defined
 //                 twice; a joint naming an undefined link or the same link as
 //                 parent and child; a link with two parents; no root, several
-//                 roots, links not reachable from the root
+//                 roots, links not reachable from the root; a mimic following
+//                 itself, a joint the robot does not have, a fixed joint, or
+//                 another mimic (chains and cycles)
 //   the physics   a negative mass; an inertia refused by CheckRotationalInertia
 //                 (plant/rigid_tree.hpp: not positive semi-definite, or principal
 //                 moments violating the triangle inequality); no moving joint, or more than kMaxDofs; a
@@ -109,7 +119,7 @@ struct UrdfRobot {
   std::string name;                             // <robot name="...">
   std::string file;                             // the path it was read from (ParseUrdf: its `file`)
   RigidTree tree;                               // moving joints in depth-first order, fixed joints merged
-  std::vector<UrdfJointProperties> properties;  // one per moving joint
+  std::vector<UrdfJointProperties> properties;  // one per degree of freedom (moving joints but mimics), q's order
 };
 
 class UrdfError : public std::runtime_error {

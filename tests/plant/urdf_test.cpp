@@ -348,7 +348,10 @@ TEST(UrdfRefusals, EveryInvalidFixtureIsRefusedInOneLineNamingFileElementAndReas
         // what urdfdom refused for us before the loader read the DOM itself
         "revolute_without_limit", "prismatic_without_limit", "limit_without_effort", "limit_without_velocity",
         "inertial_without_mass", "mass_without_value", "inertial_without_inertia", "inertia_without_a_moment",
-        "unsupported_version", "empty_dynamics", "axis_without_xyz"}) {
+        "unsupported_version", "empty_dynamics", "axis_without_xyz",
+        // mimics that name no degree of freedom
+        "mimic_of_itself", "mimic_of_a_missing_joint", "mimic_of_a_fixed_joint", "mimic_chain", "mimic_cycle",
+        "mimic_on_a_fixed_joint", "mimic_without_a_joint", "two_mimics", "mimic_multiplier_not_finite"}) {
     EXPECT_TRUE(seen.contains(required)) << required << ".urdf is missing";
   }
 }

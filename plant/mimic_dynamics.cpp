@@ -1,0 +1,114 @@
+#include "plant/mimic_dynamics.hpp"
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace lagrange {
+
+struct MimicDynamics::Data final : DynamicsData {
+  Data(const MimicDynamics& model, std::unique_ptr<DynamicsData> free_data, int joints)
+      : DynamicsData(model),
+        free(std::move(free_data)),
+        q(joints),
+        qd(joints),
+        x(joints),
+        A(joints, joints) {}
+  std::unique_ptr<DynamicsData> free;  // the free tree's data
+  VectorXd q, qd, x;                   // (num_joints) q_j, qd_j, a joint-space result
+  MatrixXd A;                          // (num_joints²) a joint-space matrix
+};
+
+MimicDynamics::MimicDynamics(const RigidTree& tree, std::shared_ptr<const Dynamics> free)
+    : Dynamics(tree.joint_types()), free_(std::move(free)) {
+  if (auto error = ValidateRigidTree(tree)) throw std::invalid_argument("MimicDynamics: " + *error);
+  if (!tree.has_mimics()) throw std::invalid_argument("MimicDynamics: a tree without mimic joints");
+  if (!free_ || free_->num_dofs() != tree.num_joints()) {
+    throw std::invalid_argument("MimicDynamics: expected the dynamics of the tree's " +
+                                std::to_string(tree.num_joints()) + " joints, each free");
+  }
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
+    dof_.push_back(tree.DofOf(i));
+    scale_.push_back(j.mimic < 0 ? 1.0 : j.multiplier);
+    offset_.push_back(j.mimic < 0 ? 0.0 : j.offset);
+  }
+}
+
+std::unique_ptr<DynamicsData> MimicDynamics::MakeData() const {
+  return std::make_unique<Data>(*this, free_->MakeData(), free_->num_dofs());
+}
+
+void MimicDynamics::ExpandPosition(Data& d, ConstVecRef q) const {
+  for (std::size_t i = 0; i < dof_.size(); ++i) d.q[static_cast<Eigen::Index>(i)] = scale_[i] * q[dof_[i]] + offset_[i];
+}
+
+void MimicDynamics::Expand(Data& d, ConstVecRef q, ConstVecRef qd) const {
+  ExpandPosition(d, q);
+  for (std::size_t i = 0; i < dof_.size(); ++i) d.qd[static_cast<Eigen::Index>(i)] = scale_[i] * qd[dof_[i]];
+}
+
+void MimicDynamics::Reduce(ConstVecRef x_joints, VecRef out) const {
+  out.setZero();
+  for (std::size_t i = 0; i < dof_.size(); ++i) out[dof_[i]] += scale_[i] * x_joints[static_cast<Eigen::Index>(i)];
+}
+
+void MimicDynamics::Reduce(const MatrixXd& A_joints, MatRef out) const {
+  out.setZero();
+  for (std::size_t c = 0; c < dof_.size(); ++c) {
+    for (std::size_t r = 0; r < dof_.size(); ++r) {
+      out(dof_[r], dof_[c]) +=
+          scale_[r] * scale_[c] * A_joints(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
+    }
+  }
+}
+
+void MimicDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  Data& d = Checked<Data>(data, q, M);
+  ExpandPosition(d, q);
+  free_->ComputeMassMatrix(*d.free, d.q, d.A);
+  Reduce(d.A, M);
+}
+
+void MimicDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const {
+  Data& d = Checked<Data>(data, q, qd, C);
+  Expand(d, q, qd);
+  free_->ComputeCoriolisMatrix(*d.free, d.q, d.qd, d.A);
+  Reduce(d.A, C);
+}
+
+void MimicDynamics::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
+  Data& d = Checked<Data>(data, q, qd, c);
+  Expand(d, q, qd);
+  free_->ComputeCoriolisForce(*d.free, d.q, d.qd, d.x);
+  Reduce(d.x, c);
+}
+
+void MimicDynamics::ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const {
+  Data& d = Checked<Data>(data, q, G);
+  ExpandPosition(d, q);
+  free_->ComputeGravityForce(*d.free, d.q, d.x);
+  Reduce(d.x, G);
+}
+
+void MimicDynamics::ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                 VecRef dTdq) const {
+  Data& d = Checked<Data>(data, q, qd, dTdq);
+  Expand(d, q, qd);
+  free_->ComputeKineticEnergyGradient(*d.free, d.q, d.qd, d.x);
+  Reduce(d.x, dTdq);
+}
+
+double MimicDynamics::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const {
+  Data& d = Checked<Data>(data, q, qd);
+  Expand(d, q, qd);
+  return free_->ComputeKineticEnergy(*d.free, d.q, d.qd);
+}
+
+double MimicDynamics::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {
+  Data& d = Checked<Data>(data, q);
+  ExpandPosition(d, q);
+  return free_->ComputePotentialEnergy(*d.free, d.q);
+}
+
+}  // namespace lagrange
