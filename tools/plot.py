@@ -118,18 +118,16 @@ def telemetry_panels(axes, path):
     import matplotlib.ticker
     axes[0].yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%.2g"))
     axes[0].set_title("energy-balance residual: the integrator's drift (dashed: the quadrature's own error)")
-    axes[1].plot(t, gap(numbers(columns, "evaluations", path)), label="evaluations", linewidth=1.2, color="C0")
+    # One legend for both axes (place_legends), each entry naming its side.
+    axes[1].plot(t, gap(numbers(columns, "evaluations", path)), label="evaluations (left axis)", linewidth=1.2,
+                 color="C0")
     axes[1].set_ylabel("evaluations per tick")
     right = axes[1].twinx()
-    right.plot(t, gap(numbers(columns, "compute_us", path)), label="compute µs", linewidth=0.8, color="C3", alpha=0.7)
+    right.plot(t, gap(numbers(columns, "compute_us", path)), label="compute µs (right axis)", linewidth=0.8,
+               color="C3", alpha=0.7)
     right.set_ylabel("compute (µs per tick)")
-    # One legend for both axes, each entry naming its side, where it hides the least.
-    lines = axes[1].get_lines() + right.get_lines()
-    axes[1].legend(lines, ["evaluations (left axis)", "compute µs (right axis)"], loc="best", fontsize="small")
-    axes[1].set_zorder(right.get_zorder() + 1)  # the legend above the right axis's line
-    axes[1].patch.set_visible(False)
     axes[1].set_title("cost per tick")
-    return "telemetry: %d rows" % len(eps)
+    return "telemetry: %d rows" % len(eps), right
 
 
 def forces_panels(axes, path, joint_names):
@@ -155,6 +153,32 @@ def forces_panels(axes, path, joint_names):
         axis.set_ylabel("%s (N·m or N)" % joint[j])
         axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % joint[j])
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
+
+
+LEGEND_ROWS = 8  # entries in one column of a legend: eight fit beside a panel
+
+
+def place_legends(fig, axes, twins):
+    """Each panel's legend outside every panel's data: to the right of the
+    panels, all in one column past the cost panel's right-hand axis (its
+    ticks and label), each level with its panel's top. `twins` maps a panel
+    to its right-hand axis, whose lines join the panel's legend. The figure
+    is laid out afterwards (tight_layout counts the legends in)."""
+    import matplotlib.transforms
+    renderer = fig.canvas.get_renderer()
+    past = max([0.0] + [twin.get_tightbbox(renderer).x1 - twin.get_window_extent(renderer).x1
+                        for twin in twins.values()])
+    # In inches, so the column stays put whatever the layout does to the panels' size.
+    shift = matplotlib.transforms.ScaledTranslation(past / fig.dpi + 0.1, 0, fig.dpi_scale_trans)
+    for axis in axes:
+        handles, labels = axis.get_legend_handles_labels()
+        if axis in twins:
+            more_handles, more_labels = twins[axis].get_legend_handles_labels()
+            handles, labels = handles + more_handles, labels + more_labels
+        if handles:
+            axis.legend(handles, labels, loc="upper left", bbox_to_anchor=(1, 1),
+                        bbox_transform=axis.transAxes + shift, borderaxespad=0, fontsize="small",
+                        ncol=math.ceil(len(handles) / LEGEND_ROWS))
 
 
 def by_instance(text):
@@ -250,7 +274,8 @@ def main():
 
     force_joints = len(indexed(load(forces)[0], r"tau_applied_(\d+)")) if forces else 0
     panels = 4 + (2 if telemetry else 0) + force_joints
-    fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(10, 2.75 * panels), squeeze=False)
+    # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
+    fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(12.5, 2.75 * panels), squeeze=False)
     axes = [row[0] for row in axes]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     joint_names, switches = status_facts(status, path, columns, len(q)) if status else (None, [])
@@ -283,9 +308,10 @@ def main():
         draw(axes[3], joint[i], err, color=colors[i % len(colors)])
     axes[3].set_ylabel("q_des - q (rad or m)")
     axes[3].set_title("tracking error")
-    extra = []
+    extra, twins = [], {}
     if telemetry:
-        extra.append(telemetry_panels(axes[4:6], telemetry))
+        line, twins[axes[5]] = telemetry_panels(axes[4:6], telemetry)
+        extra.append(line)
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))
     axes[-1].set_xlabel("t (s)")
@@ -296,8 +322,7 @@ def main():
                          textcoords="offset points", va="top", fontsize="small", color="dimgray")
     for axis in axes:
         axis.grid(True, alpha=0.3)
-        if axis.get_legend() is None:  # the cost panel has its own
-            axis.legend(loc="best", fontsize="small", ncol=4)
+    place_legends(fig, axes, twins)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))  # 0.3 in kept for the title however tall
     try:

@@ -5,7 +5,7 @@
 //
 //   P  a simulated arm under an external controller (config/arm_external_plant.yaml):
 //      hold until a torque, torques applied within the limits, the timeout, the fallback,
-//      and what its receiver refuses;
+//      what its receiver refuses, and the line logged when it holds on for a new reason;
 //   C  the controller of an external plant (config/arm_external_controller.yaml): its watchdog;
 //   P + C  closing the loop in one process, one tick apart;
 // and the ticks of both allocate nothing.
@@ -17,12 +17,17 @@
 #include <lagrange/status_t.hpp>
 #include <lagrange/torque_t.hpp>
 
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <ostream>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -39,6 +44,7 @@
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 #include "tests/support/lcm_messages.hpp"
+#include "tests/support/process.hpp"
 
 namespace lagrange {
 
@@ -514,6 +520,75 @@ TEST_F(ExternalControllerLoop, SwitchingAwayFromATorqueHoldHoldsWhenTheSetpoints
   EXPECT_LT((Vec(arm_.states().back().q_des) - held).cwiseAbs().maxCoeff(), 1e-3);  // still where it held
   arm_.Ticks(1000);
   EXPECT_EQ(arm_.runtime().mode(0), Mode::kHold);  // an old setpoint is never taken up again
+}
+
+// What the daemon logs while it lives (the publisher logs through spdlog's
+// default logger), each line as lagranged writes it after its timestamp:
+// "LEVEL MESSAGE", at lagranged's default level (info).
+class CapturedLog {
+ public:
+  CapturedLog() : previous_(spdlog::default_logger()) {
+    auto logger = std::make_shared<spdlog::logger>("captured", std::make_shared<spdlog::sinks::ostream_sink_mt>(out_));
+    logger->set_pattern("%l %v");
+    logger->set_level(spdlog::level::info);
+    spdlog::set_default_logger(std::move(logger));
+  }
+  ~CapturedLog() { spdlog::set_default_logger(previous_); }
+  CapturedLog(const CapturedLog&) = delete;
+  CapturedLog& operator=(const CapturedLog&) = delete;
+
+  std::vector<std::string> Lines() const { return testing::Lines(out_.str()); }
+  // The lines logged after the first `n`.
+  std::vector<std::string> LinesAfter(std::size_t n) const {
+    const std::vector<std::string> all = Lines();
+    return {all.begin() + static_cast<std::ptrdiff_t>(std::min(n, all.size())), all.end()};
+  }
+
+ private:
+  std::ostringstream out_;
+  std::shared_ptr<spdlog::logger> previous_;
+};
+
+// t as the daemon's log lines print it: "3.002".
+std::string LoggedT(double t) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3f", t);
+  return text;
+}
+
+// An instance that stays in hold for a new reason logs one line saying so,
+// "NAME: still hold at t = .. s, now (REASON)", never "hold -> hold": held
+// after its setpoints timed out, switched to the external controller (hold
+// until its first torque), then back (hold: the setpoints had timed out).
+TEST_F(ExternalControllerLoop, HoldingOnForANewReasonIsLoggedAsStillHoldNowTheNewReason) {
+  const CapturedLog log;
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 1, "gravity-compensation");
+  arm_.Ticks(1);
+  arm_.input().PublishMessage(arm_.channels().setpoint, testing::MakeSetpoint({0.0, 1.5}, arm_.WallMicros()));
+  arm_.Ticks(3000);  // setpoint_timeout (0.5 s) long past: hold
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  ASSERT_EQ(arm_.reason(), kSetpointsTimedOut);
+
+  std::size_t logged = log.Lines().size();
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 2, "external");
+  arm_.Ticks(1);
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  EXPECT_EQ(log.LinesAfter(logged),
+            std::vector<std::string>{"info arm: still hold at t = " + LoggedT(arm_.states().back().t) +
+                                     " s, now (no torque yet on the external controller's channel)"});
+
+  logged = log.Lines().size();
+  arm_.SendCommand(command_t::SWITCH_CONTROLLER, 3, "gravity-compensation");
+  arm_.Ticks(1);
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  EXPECT_EQ(log.LinesAfter(logged),
+            std::vector<std::string>{"info arm: still hold at t = " + LoggedT(arm_.states().back().t) +
+                                     " s, now (streamed setpoints timed out (setpoint_timeout))"});
+
+  logged = log.Lines().size();
+  arm_.Ticks(100);  // the same mode for the same reason: nothing more
+  EXPECT_EQ(log.LinesAfter(logged), std::vector<std::string>{});
+  for (const std::string& line : log.Lines()) EXPECT_EQ(line.find("hold -> hold"), std::string::npos) << line;
 }
 
 TEST_F(ExternalControllerLoop, ATorqueWhoseSequenceDoesNotGrowIsRefused) {

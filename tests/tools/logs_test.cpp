@@ -919,5 +919,89 @@ TEST_F(Logs, PlotAddsTheResidualTheCostAndOneForcePanelPerJointWhenRecorded) {
   EXPECT_GT(height, state_height + 3 * 100);  // four panels more: ε, cost, and one per joint
 }
 
+// Runs the plot script lagrangectl embeds (tools/plot.py) with lagrangectl's
+// arguments (CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS) and, as the figure
+// is saved, prints a line for each legend: how many panels' data areas, and
+// how many axes' ticks and labels, its box overlaps, and whether it lies
+// within the figure (nothing of it cut off). The cost panel's right-hand axis
+// is a panel of its own here.
+constexpr const char* kLegendCheck = R"(
+import sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.figure
+
+script = sys.argv.pop(1)
+save = matplotlib.figure.Figure.savefig
+
+
+def checked(fig, *args, **kwargs):
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    panels = [ax.get_window_extent(renderer) for ax in fig.axes]
+    axes = [box for ax in fig.axes for box in (ax.xaxis.get_tightbbox(renderer), ax.yaxis.get_tightbbox(renderer))
+            if box is not None]
+    whole = fig.bbox
+    for legend in [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]:
+        box = legend.get_window_extent(renderer)
+        within = whole.x0 <= box.x0 and box.x1 <= whole.x1 and whole.y0 <= box.y0 and box.y1 <= whole.y1
+        print("legend %s: over %d panels' data, %d axes' ticks or labels, %s the figure"
+              % (legend.get_texts()[0].get_text(), sum(box.overlaps(p) for p in panels),
+                 sum(box.overlaps(a) for a in axes), "within" if within else "cut off by"))
+    return save(fig, *args, **kwargs)
+
+
+matplotlib.figure.Figure.savefig = checked
+with open(script) as f:
+    exec(compile(f.read(), script, "exec"), {"__name__": "__main__"})
+)";
+
+// The legend lines kLegendCheck prints for the plot of `args` (lagrangectl's
+// arguments to the script after the PNG), in the order of the panels.
+std::vector<std::string> LegendLines(const fs::path& png, std::vector<std::string> args) {
+  const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+  std::vector<std::string> argv = {
+      python, "-c", kLegendCheck, std::string(LAGRANGE_SOURCE_DIR) + "/tools/plot.py", args.at(0), png.string()};
+  argv.insert(argv.end(), args.begin() + 1, args.end());
+  const auto r = testing::RunProcess(argv);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::vector<std::string> lines;
+  for (const std::string& line : testing::Lines(r.out))
+    if (line.rfind("legend ", 0) == 0) lines.push_back(line);
+  return lines;
+}
+
+// What kLegendCheck prints for a legend whose first entry is `first` and that covers nothing.
+std::string ClearLegend(const std::string& first) {
+  return "legend " + first + ": over 0 panels' data, 0 axes' ticks or labels, within the figure";
+}
+
+// Every panel's legend stands beside the panels: over no panel's data (the
+// cost panel's compute spikes were under its legend), over no axis's ticks or
+// labels (the cost panel's right-hand axis is between), and whole in the
+// picture. A run with every panel (states, ε, cost, forces), and a robot with
+// long joint names.
+TEST_F(Logs, PlotLegendsCoverNoPanelsDataNorAnyAxisAndLieWithinThePicture) {
+  const fs::path log = dir_ / "arm.lcm";
+  testing::WriteLcmLog(log.string(), ArmRunWithTelemetryAndForces(200));
+  const fs::path csv = dir_ / "csv";
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", csv.string()}).status, 0);
+  EXPECT_EQ(
+      LegendLines(dir_ / "arm.png", {(csv / "ARM_STATE.csv").string(), "ARM_STATE",
+                                     (csv / "ARM_TELEMETRY.csv").string(), (csv / "ARM_FORCES.csv").string(), "", ""}),
+      (std::vector<std::string>{ClearLegend("q0"), ClearLegend("q0"), ClearLegend("T"), ClearLegend("q0"),
+                                ClearLegend("ε = E - E(0) - W"), ClearLegend("evaluations (left axis)"),
+                                ClearLegend("G (gravity)"), ClearLegend("G (gravity)")}));
+
+  const fs::path ur5 = dir_ / "ur5.csv";
+  ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_pd_gravity.yaml", "--duration", "0.2",
+                    "--csv", ur5.string()})
+                .status,
+            0);
+  EXPECT_EQ(LegendLines(dir_ / "ur5.png", {ur5.string(), "ur5.csv", "", "", "", (dir_ / "ur5.joints.csv").string()}),
+            (std::vector<std::string>{ClearLegend("shoulder_pan_joint"), ClearLegend("shoulder_pan_joint"),
+                                      ClearLegend("T"), ClearLegend("shoulder_pan_joint")}));
+}
+
 }  // namespace
 }  // namespace lagrange
