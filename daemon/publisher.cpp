@@ -262,7 +262,17 @@ void Publisher::LogEvents(const TickRecord& record) {
             suppressed > 0 ? fmt::format(" ({} more refusals since the last line, not logged)", suppressed) : "");
       }
     }
-    if (r.mode != out_[i].mode || r.reason != out_[i].reason) {
+    // The first record: an instance that starts in another mode than running
+    // (an external controller waiting for its first torque) says so, rather
+    // than "running -> hold" as though it had left a mode it was never in.
+    const bool first = !out_[i].logged;
+    out_[i].logged = true;
+    if (first && (r.mode != Mode::kRunning || r.reason != nullptr)) {
+      spdlog::info("{}: starts in {} at t = {:.3f} s{}", model_.instances[i].name(), ToString(r.mode), r.t,
+                   r.reason ? fmt::format(" ({})", r.reason) : "");
+      out_[i].mode = r.mode;
+      out_[i].reason = r.reason;
+    } else if (r.mode != out_[i].mode || r.reason != out_[i].reason) {
       const bool alarm = r.mode == Mode::kFault || r.mode == Mode::kEstop || r.mode == Mode::kStopped;
       const std::string why = r.reason ? fmt::format(" ({})", r.reason) : "";
       const auto level = alarm ? spdlog::level::warn : spdlog::level::info;

@@ -74,6 +74,7 @@ class Publisher {
     forces_t forces{};
     Mode mode = Mode::kRunning;
     const char* reason = nullptr;
+    bool logged = false;             // a record of it was seen: mode and reason are its
     bool residual_exceeded = false;  // as last logged
   };
 

@@ -556,6 +556,19 @@ std::string LoggedT(double t) {
   return text;
 }
 
+// An instance whose first tick is in hold (the external controller has sent
+// no torque yet) logs that it starts there, never "running -> hold": it was
+// never running.
+TEST_F(ExternalControllerLoop, AnInstanceThatStartsInHoldSaysSoRatherThanThatItLeftRunning) {
+  const CapturedLog log;
+  arm_.Ticks(5);
+  ASSERT_EQ(arm_.runtime().mode(0), Mode::kHold);
+  ASSERT_FALSE(log.Lines().empty());
+  EXPECT_EQ(log.Lines().front(), "info arm: starts in hold at t = " + LoggedT(arm_.states().front().t) +
+                                     " s (no torque yet on the external controller's channel)");
+  for (const std::string& line : log.Lines()) EXPECT_EQ(line.find("running -> hold"), std::string::npos) << line;
+}
+
 // An instance that stays in hold for a new reason logs one line saying so,
 // "NAME: still hold at t = .. s, now (REASON)", never "hold -> hold": held
 // after its setpoints timed out, switched to the external controller (hold
