@@ -1,8 +1,10 @@
 #include "protocol/setpoint_check.hpp"
 
 #include <cmath>
+#include <span>
 #include <sstream>
 
+#include "plant/escape.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -16,7 +18,7 @@ std::string Number(double x) {
 }
 
 // The first non-finite or out-of-range entry of a field, as a reason ("" if none).
-std::string CheckField(const char* field, const std::vector<double>& v) {
+std::string CheckField(const char* field, std::span<const double> v) {
   for (std::size_t i = 0; i < v.size(); ++i) {
     if (!std::isfinite(v[i])) return std::string("non-finite value in ") + field + "[" + std::to_string(i) + "]";
     if (std::abs(v[i]) > kMaxSetpointMagnitude) {
@@ -46,6 +48,42 @@ SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const Setpoint
       return Reject("q[" + std::to_string(j) + "] = " + Number(out.q[static_cast<std::size_t>(j)]) +
                     " is outside the setpoint limits [" + Number(rules.lower[j]) + ", " + Number(rules.upper[j]) + "]");
     }
+  }
+  return {SetpointVerdict::Kind::kAccepted, ""};
+}
+
+SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out) {
+  if (const WireCheck w = CheckPoseSetpointPacket(data, size); w != WireCheck::kOk) {
+    return {SetpointVerdict::Kind::kUndecodable, ToString(w)};
+  }
+  if (out.decode(data, 0, static_cast<int>(size)) < 0) return {SetpointVerdict::Kind::kUndecodable, "decode failed"};
+  if (rules.frame.empty()) return Reject("no task-space controller on this instance (a pose needs one)");
+  if (!out.frame.empty() && out.frame != rules.frame) {
+    return Reject("frame '" + Escape(out.frame, 64) + "': the task-space controller moves '" + rules.frame + "'");
+  }
+  for (const auto& [field, values] : {std::pair{"position", std::span<const double>(out.position, 3)},
+                                      std::pair{"orientation", std::span<const double>(out.orientation, 4)},
+                                      std::pair{"twist", std::span<const double>(out.twist, 6)},
+                                      std::pair{"duration", std::span<const double>(&out.duration, 1)}}) {
+    if (std::string why = CheckField(field, values); !why.empty()) return Reject(why);
+  }
+  const Eigen::Map<const Eigen::Vector4d> q(out.orientation);
+  if (std::abs(q.norm() - 1.0) > kUnitQuaternionTolerance) {
+    return Reject("orientation: expected a unit quaternion (w, x, y, z), got norm " + Number(q.norm()));
+  }
+  const Eigen::Map<const Eigen::Vector3d> p(out.position);
+  for (int k = 0; k < 3; ++k) {
+    if (p[k] < rules.lower[k] || p[k] > rules.upper[k]) {
+      return Reject("position[" + std::to_string(k) + "] = " + Number(p[k]) + " m is outside the workspace [" +
+                    Number(rules.lower[k]) + ", " + Number(rules.upper[k]) + "]");
+    }
+  }
+  if (out.duration < 0.0 || out.duration > rules.max_duration) {
+    return Reject("duration " + Number(out.duration) + " s: expected 0 (at once) to " + Number(rules.max_duration) +
+                  " s");
+  }
+  if (out.duration > 0.0 && Eigen::Map<const Eigen::Matrix<double, 6, 1>>(out.twist).cwiseAbs().maxCoeff() > 0.0) {
+    return Reject("twist with duration " + Number(out.duration) + " s: a timed move ends at rest (send zeros)");
   }
   return {SetpointVerdict::Kind::kAccepted, ""};
 }

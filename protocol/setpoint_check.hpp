@@ -3,8 +3,12 @@
 // raw layout check (wire.hpp), decoding, then the content rules. Its age is
 // judged by the receiver, which knows the clocks.
 
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 
+#include <Eigen/Core>
+
+#include <limits>
 #include <string>
 
 #include "plant/types.hpp"
@@ -27,5 +31,28 @@ inline constexpr double kMaxSetpointMagnitude = 1e6;
 // Checks `data` (size bytes) as a setpoint_t for an instance with `rules`,
 // decoding it into `out` (whose vectors keep their capacity).
 SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const SetpointRules& rules, setpoint_t& out);
+
+// What a pose setpoint (pose_setpoint_t, on <NAME>_POSE) must satisfy for one
+// instance: the frame its task-space controller moves, the scene's workspace
+// box for the target's position (world frame, m; ±inf where unbounded), and
+// the longest timed move.
+struct PoseRules {
+  std::string frame;  // "" : the instance has no task-space controller (every pose refused)
+  Eigen::Vector3d lower = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d upper = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  double max_duration = 600.0;  // s
+};
+
+// |‖q‖ − 1| above this and a quaternion is refused as not a rotation (a sender
+// normalises; float rounding stays far below it).
+inline constexpr double kUnitQuaternionTolerance = 1e-6;
+
+// Checks `data` (size bytes) as a pose_setpoint_t against `rules`, decoding it
+// into `out`. Refused: non-finite or beyond kMaxSetpointMagnitude, a quaternion
+// that is not unit, a position outside the workspace box, a frame other than
+// rules.frame ("" in the message means rules.frame), a duration outside
+// [0, max_duration], a non-zero twist with a duration (a timed move ends at
+// rest), and any pose for an instance without a task-space controller.
+SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out);
 
 }  // namespace lagrange

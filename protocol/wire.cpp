@@ -2,10 +2,12 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -38,6 +40,8 @@ MessageType TypeOf(const void* data, std::size_t size) {
   if (hash == torque_t::getHash()) return MessageType::kTorque;
   if (hash == telemetry_t::getHash()) return MessageType::kTelemetry;
   if (hash == forces_t::getHash()) return MessageType::kForces;
+  if (hash == pose_setpoint_t::getHash()) return MessageType::kPoseSetpoint;
+  if (hash == task_state_t::getHash()) return MessageType::kTaskState;
   return MessageType::kUnknown;
 }
 
@@ -51,6 +55,8 @@ const char* ToString(MessageType type) {
     case MessageType::kTorque: return "torque_t";
     case MessageType::kTelemetry: return "telemetry_t";
     case MessageType::kForces: return "forces_t";
+    case MessageType::kPoseSetpoint: return "pose_setpoint_t";
+    case MessageType::kTaskState: return "task_state_t";
     case MessageType::kUnknown: break;
   }
   return "?";
@@ -60,6 +66,7 @@ std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size) {
   switch (TypeOf(data, size)) {
     case MessageType::kUnknown:
     case MessageType::kSetpoint:
+    case MessageType::kPoseSetpoint:
     case MessageType::kCommand: return std::nullopt;
     default: break;
   }
@@ -242,6 +249,23 @@ WireCheck CheckForcesPacket(const void* data, std::size_t size) {
   w.Skip(3 * kInt64 + kDouble + 7 * kInt8);  // utime, run_id, tick, t, the seven *_on
   const std::int32_t n = w.Length(kMaxDofs);
   w.Skip(8 * kDouble * static_cast<std::size_t>(n));  // gravity .. tau_applied
+  return w.Finish();
+}
+
+WireCheck CheckPoseSetpointPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, pose_setpoint_t::getHash());
+  w.Skip(kInt64);                  // utime
+  w.String(kMaxString);            // frame
+  w.Skip((3 + 4 + 6 + 1) * kDouble);  // position, orientation, twist, duration
+  return w.Finish();
+}
+
+WireCheck CheckTaskStatePacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, task_state_t::getHash());
+  w.Skip(3 * kInt64 + kDouble);  // utime, run_id, tick, t
+  w.String(kMaxString);          // frame
+  w.String(kMaxString);          // controller
+  w.Skip((3 + 4 + 3 + 4 + 6 + 6) * kDouble);  // position .. twist
   return w.Finish();
 }
 

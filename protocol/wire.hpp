@@ -28,12 +28,14 @@ enum class MessageType : std::uint8_t {
   kTorque,
   kTelemetry,
   kForces,
+  kPoseSetpoint,
+  kTaskState,
 };
 // A packet's type by its fingerprint alone: the layout is the Check*Packet functions' to check.
 MessageType TypeOf(const void* data, std::size_t size);
 // The LCM type's name ("state_t", ...); "?" for kUnknown.
 const char* ToString(MessageType type);
-// The run id of a state_t, status_t, reply_t or torque_t packet (each begins:
+// The run id of a state_t, status_t, reply_t, torque_t or task_state_t packet (each begins:
 // fingerprint, utime, run_id); nullopt for another type or a short packet.
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
 const char* ToString(WireCheck check);
@@ -63,5 +65,9 @@ WireCheck CheckTelemetryPacket(const void* data, std::size_t size);
 WireCheck CheckForcesPacket(const void* data, std::size_t size);
 // reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
 WireCheck CheckReplyPacket(const void* data, std::size_t size);
+// pose_setpoint_t: fingerprint, utime, frame (string), 14 doubles.
+WireCheck CheckPoseSetpointPacket(const void* data, std::size_t size);
+// task_state_t: fingerprint, utime, run_id, tick, t, frame and controller (strings), 26 doubles.
+WireCheck CheckTaskStatePacket(const void* data, std::size_t size);
 
 }  // namespace lagrange

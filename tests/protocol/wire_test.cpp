@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
 #include <optional>
@@ -226,6 +228,46 @@ TEST(Wire, ATelemetryPassesAndEveryTruncationOrExtraByteIsCaught) {
   EXPECT_EQ(CheckTelemetryPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
   const auto forces = Encode(ValidForces(2));
   EXPECT_EQ(CheckTelemetryPacket(forces.data(), forces.size()), WireCheck::kFingerprint);
+}
+
+pose_setpoint_t ValidPose() {
+  pose_setpoint_t m{};
+  m.utime = 1;
+  m.frame = "panda_hand_tcp";
+  m.orientation[0] = 1.0;
+  m.duration = 2.0;
+  return m;
+}
+task_state_t ValidTaskState() {
+  task_state_t m{};
+  m.run_id = 7;
+  m.frame = "tool0";
+  m.controller = "operational-space";
+  m.orientation[0] = m.orientation_des[0] = 1.0;
+  return m;
+}
+
+TEST(Wire, PoseSetpointsAndTaskStatesPassAndEveryTruncationOrExtraByteIsCaught) {
+  const auto pose = Encode(ValidPose());
+  const auto task = Encode(ValidTaskState());
+  ASSERT_EQ(CheckPoseSetpointPacket(pose.data(), pose.size()), WireCheck::kOk);
+  ASSERT_EQ(CheckTaskStatePacket(task.data(), task.size()), WireCheck::kOk);
+  EXPECT_EQ(TypeOf(pose.data(), pose.size()), MessageType::kPoseSetpoint);
+  EXPECT_EQ(TypeOf(task.data(), task.size()), MessageType::kTaskState);
+  EXPECT_EQ(RunIdOf(task.data(), task.size()), std::optional<std::int64_t>(7));
+  EXPECT_EQ(RunIdOf(pose.data(), pose.size()), std::nullopt);  // a client's message carries no run
+  for (std::size_t len = 0; len < pose.size(); ++len) EXPECT_NE(CheckPoseSetpointPacket(pose.data(), len), WireCheck::kOk);
+  for (std::size_t len = 0; len < task.size(); ++len) EXPECT_NE(CheckTaskStatePacket(task.data(), len), WireCheck::kOk);
+  auto longer = pose;
+  longer.push_back(0);
+  EXPECT_EQ(CheckPoseSetpointPacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  EXPECT_EQ(CheckPoseSetpointPacket(task.data(), task.size()), WireCheck::kFingerprint);
+  // A frame name of a crafted length: refused before decoding.
+  for (const std::int32_t length : {0x7fffffff, -1, 0, 257}) {
+    auto buf = pose;
+    WriteInt32(buf, 16, length);  // after the fingerprint and utime
+    EXPECT_EQ(CheckPoseSetpointPacket(buf.data(), buf.size()), WireCheck::kBadLength) << length;
+  }
 }
 
 TEST(Wire, ATelemetryWithACraftedOrOversizedStringIsRefused) {
