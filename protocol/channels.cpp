@@ -22,6 +22,8 @@ InstanceChannelNames DerivedChannelNames(const std::string& prefix, const std::s
   c.reply = InstanceChannel(prefix, instance, kReplySuffix);
   c.telemetry = InstanceChannel(prefix, instance, kTelemetrySuffix);
   c.forces = InstanceChannel(prefix, instance, kForcesSuffix);
+  c.pose = InstanceChannel(prefix, instance, kPoseSuffix);
+  c.task = InstanceChannel(prefix, instance, kTaskSuffix);
   return c;
 }
 
@@ -45,6 +47,7 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
     outputs.emplace_back(c.reply, c.instance + "'s replies");
     outputs.emplace_back(c.telemetry, c.instance + "'s telemetry");
     outputs.emplace_back(c.forces, c.instance + "'s forces");
+    if (!c.task.empty()) outputs.emplace_back(c.task, c.instance + "'s task state");
     if (!c.torque_out.empty()) outputs.emplace_back(c.torque_out, c.instance + "'s torque_channel");
   }
   outputs.emplace_back(status, "the status");
@@ -66,7 +69,7 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
     const InstanceChannelNames& c = instances[i];
     for (const auto& [channel, what] :
          {std::pair{&c.setpoint, "setpoints"}, std::pair{&c.command, "commands"}, std::pair{&c.torque_in, "torques"},
-          std::pair{&c.measured_in, "state_channel"}}) {
+          std::pair{&c.measured_in, "state_channel"}, std::pair{&c.pose, "pose setpoints"}}) {
       if (!channel->empty()) inputs.push_back({channel, i, what});
     }
   }

@@ -7,9 +7,11 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -125,6 +127,18 @@ void WriteSeeds(const std::string& dir) {
   status.num_joints = 2;
   status.joint_names = {"q1", "q2"};
   WriteSeed(dir + "/status", status);
+  lagrange::pose_setpoint_t pose{};
+  pose.frame = "tool0";
+  pose.position[0] = 0.4;
+  pose.position[2] = 0.5;
+  pose.orientation[0] = 1.0;
+  pose.duration = 2.0;
+  WriteSeed(dir + "/pose_setpoint", pose);
+  lagrange::task_state_t task{};
+  task.frame = "tool0";
+  task.controller = "operational-space";
+  task.orientation[0] = task.orientation_des[0] = 1.0;
+  WriteSeed(dir + "/task_state", task);
 }
 
 }  // namespace
@@ -182,6 +196,28 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (forces.num_dofs < 0 || forces.num_dofs > kMaxDofs ||
         static_cast<std::size_t>(forces.num_dofs) != forces.tau_applied.size())
       __builtin_trap();
+  }
+  // Pose setpoints: an accepted one is finite, unit, inside the workspace, for the frame.
+  static PoseRules pose_rules = [] {
+    PoseRules r;
+    r.frame = "tool0";
+    r.lower = Eigen::Vector3d(-1.0, -1.0, 0.0);
+    r.upper = Eigen::Vector3d(1.0, 1.0, 1.5);
+    return r;
+  }();
+  static pose_setpoint_t pose;  // reused, as in the receiver
+  if (CheckPoseSetpoint(data, size, pose_rules, pose).kind == SetpointVerdict::Kind::kAccepted) {
+    const Eigen::Map<const Eigen::Vector4d> q(pose.orientation);
+    if (!(std::abs(q.norm() - 1.0) <= kUnitQuaternionTolerance)) __builtin_trap();
+    for (int k = 0; k < 3; ++k) {
+      if (!(pose.position[k] >= pose_rules.lower[k] && pose.position[k] <= pose_rules.upper[k])) __builtin_trap();
+    }
+    if (!pose.frame.empty() && pose.frame != "tool0") __builtin_trap();
+    if (!std::isfinite(pose.duration) || pose.duration < 0.0) __builtin_trap();
+  }
+  if (CheckTaskStatePacket(data, size) == WireCheck::kOk) {
+    task_state_t task;
+    if (task.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) __builtin_trap();
   }
   if (CheckStatusPacket(data, size) == WireCheck::kOk) {
     status_t status;

@@ -24,6 +24,8 @@ TEST(Channels, AnInstancesChannelsAreItsNameInUpperCaseUnderThePrefix) {
   EXPECT_EQ(arm.setpoint, "P_ARM_SETPOINT");
   EXPECT_EQ(arm.telemetry, "P_ARM_TELEMETRY");
   EXPECT_EQ(pole.forces, "P_POLE_FORCES");
+  EXPECT_EQ(arm.pose, "P_ARM_POSE");
+  EXPECT_EQ(arm.task, "P_ARM_TASK");
   EXPECT_EQ(StatusChannel("P_"), "P_LAGRANGE_STATUS");
   EXPECT_EQ(arm.torque_in, "");  // a scene's to name
   EXPECT_EQ(arm.measured_in, "");
