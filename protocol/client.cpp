@@ -111,6 +111,8 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
   bus_->Subscribe(options.StatusChannel(),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+  bus_->Subscribe(options.Channel(instance, kTaskSuffix),
+                  [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnTaskState(d, n); });
   bus_->Subscribe(kEveryChannel, [this](std::string_view channel, const std::uint8_t*, std::size_t) { OnAny(channel); });
 }
 
@@ -143,6 +145,14 @@ void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
   if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) || msg.run_id != run_id_) return;
   status_ = std::move(msg);
   ++statuses_received_;
+}
+
+void DaemonLink::OnTaskState(const std::uint8_t* data, std::size_t size) {
+  if (!have_run_ || CheckTaskStatePacket(data, size) != WireCheck::kOk) return;
+  task_state_t msg;
+  if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) || msg.run_id != run_id_) return;
+  task_state_ = std::move(msg);
+  ++task_states_received_;
 }
 
 void DaemonLink::OnReply(const std::uint8_t* data, std::size_t size) {

@@ -16,6 +16,7 @@
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 
 #include <chrono>
 #include <cstdint>
@@ -100,6 +101,11 @@ class DaemonLink {
   // When the run's latest state arrived, on the steady clock.
   std::chrono::steady_clock::time_point state_received_at() const;
 
+  // The run's latest task state (<NAME>_TASK: the frame a task-space
+  // controller moves), once one came, and how many came.
+  const std::optional<task_state_t>& task_state() const { return task_state_; }
+  std::int64_t task_states_received() const { return task_states_received_; }
+
   // Waits up to options.wait for a status from the run; throws a one-line error.
   const status_t& AwaitStatus();
   const std::optional<status_t>& status() const { return status_; }
@@ -142,6 +148,7 @@ class DaemonLink {
   void OnState(const std::uint8_t* data, std::size_t size);
   void OnStatus(const std::uint8_t* data, std::size_t size);
   void OnReply(const std::uint8_t* data, std::size_t size);
+  void OnTaskState(const std::uint8_t* data, std::size_t size);
   void OnAny(std::string_view channel);
   std::string TwoRunsMessage(const std::string& doing) const;
   // Waits up to options.wait for the instance's first state (else throws),
@@ -159,6 +166,8 @@ class DaemonLink {
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;
+  std::optional<task_state_t> task_state_;  // the run's latest
+  std::int64_t task_states_received_ = 0;
   std::int64_t request_id_ = 0;
   bool every_run_ = false;  // AwaitRuns: replies from every run in runs_ count
 };

@@ -4,6 +4,7 @@
 // run publishing the instance counted what was sent as accepted, rejected
 // none, and the instance was running it.
 
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -20,6 +21,7 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/setpoint_check.hpp"
 #include "protocol/status.hpp"
 #include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
@@ -32,6 +34,12 @@ namespace {
 // How long after the stream a state shows what the instance made of it
 // (well within any setpoint or torque timeout).
 constexpr double kSettle = 0.02;  // s
+// After a pose target, how long the frame is given to get there (beyond a
+// timed move's duration) before its distance is reported.
+constexpr double kPoseSettle = 0.5;  // s
+// --pose's quaternion as typed (0.7071,0.7071,0,0): within this of unit it is
+// normalised before it is sent (lagranged takes 1e-6); beyond, refused.
+constexpr double kQuaternionTypingTolerance = 1e-3;
 
 // What lagranged made of a stream: the instance's state just after it, and
 // the daemon's counters in a status that counts every message of it.
@@ -75,9 +83,17 @@ class SendCommand final : public Command {
                      ->check(PositiveNumber());
     auto* tau =
         list("--tau", tau_, "Torques a or a,b,.. (N·m or N): a torque_t stream to the instance's external controller");
+    auto* pose = list("--pose", pose_,
+                      "X,Y,Z[,QW,QX,QY,QZ]: a pose target (m; unit quaternion) for the instance's task-space "
+                      "controller, world frame; without a quaternion the orientation of its current target is kept; "
+                      "with --min-jerk, a move there from the measured pose");
+    auto* frame = app_->add_option("--frame", frame_, "--pose: the frame it is for (refused unless the controller's)")
+                      ->needs(pose);
     step->excludes(sine)->excludes(jerk);
     sine->excludes(jerk);
     for (CLI::Option* setpoint : {q, qd, qdd, step, sine, jerk}) tau->excludes(setpoint);
+    for (CLI::Option* joint : {q, qd, qdd, step, sine, tau}) pose->excludes(joint);
+    (void)frame;
     app_->add_option("--torque-channel", torque_channel_,
                      "--tau: the channel to send on (default: <PREFIX><INSTANCE>_TORQUE; a scene may name another)")
         ->needs(tau);
@@ -97,6 +113,7 @@ class SendCommand final : public Command {
     CheckArguments();
     DaemonLink link(bus_, instance_);
     link.AwaitOneRun();
+    if (!pose_.empty()) return SendPose(link, out);
     return tau_.empty() ? SendSetpoints(link, out) : SendTorques(link, out);
   }
 
@@ -107,6 +124,20 @@ class SendCommand final : public Command {
       if (const std::string why = CheckChannelName(*torque_channel_); !why.empty()) {
         throw UsageError("--torque-channel: " + why);
       }
+    }
+    if (!pose_.empty()) {
+      if (pose_.size() != 3 && pose_.size() != 7) {
+        throw UsageError("--pose: expected X,Y,Z or X,Y,Z,QW,QX,QY,QZ (3 or 7 numbers), got " +
+                         std::to_string(pose_.size()));
+      }
+      if (pose_.size() == 7) {
+        const double norm = Eigen::Map<const Eigen::Vector4d>(pose_.data() + 3).norm();
+        if (!(std::abs(norm - 1.0) <= kQuaternionTypingTolerance)) {
+          throw UsageError("--pose: expected a unit quaternion QW,QX,QY,QZ, got norm " + FormatDouble(norm));
+        }
+      }
+      if (once_ || for_) throw UsageError("--pose: sends one target (not with --once or --for)");
+      return;
     }
     if (!tau_.empty()) return;  // CLI11 refused every setpoint option beside --tau
     const bool moving = !sine_.empty() || min_jerk_;
@@ -173,6 +204,63 @@ class SendCommand final : public Command {
     RequireRunning(o, Count(accepted, "setpoint"), "does not follow them");
     out << "sent " << Count(sent, "setpoint") << " (" << what << ") to " << channel << "; lagranged accepted "
         << accepted << "\n";
+    return 0;
+  }
+
+  // One pose target (pose_setpoint_t) for the instance's task-space
+  // controller: at once, or with --min-jerk a move over that time, after which
+  // the frame's distance from it is reported from the instance's task state.
+  int SendPose(DaemonLink& link, std::ostream& out) {
+    const std::string task_channel = bus_.Channel(instance_, kTaskSuffix);
+    const double wait = std::max(bus_.wait, 0.5);
+    if (!link.PumpUntil([&] { return link.task_state().has_value(); }, wait)) {
+      throw std::runtime_error(instance_ + " publishes no task state on " + task_channel + ": it runs " +
+                               Escape(link.state().controller) +
+                               ", not a task-space controller (cartesian-impedance, operational-space)");
+    }
+    const task_state_t current = *link.task_state();
+    pose_setpoint_t msg{};
+    msg.frame = frame_.value_or("");
+    std::copy(pose_.begin(), pose_.begin() + 3, msg.position);
+    if (pose_.size() == 7) {
+      const Eigen::Vector4d q = Eigen::Map<const Eigen::Vector4d>(pose_.data() + 3).normalized();
+      std::copy(q.data(), q.data() + 4, msg.orientation);
+    } else {
+      std::copy(current.orientation_des, current.orientation_des + 4, msg.orientation);
+    }
+    msg.duration = min_jerk_.value_or(0.0);
+    const status_t before = link.AwaitStatus();
+    const std::string channel = bus_.Channel(instance_, kPoseSuffix);
+    MonotonicClock clock;
+    msg.utime = clock.WallMicros();
+    const std::int64_t sent = link.bus().PublishMessage(channel, msg) ? 1 : 0;
+    const Outcome o = AwaitOutcome(link, sent, "pose");
+    const std::int64_t accepted = o.status.setpoints_accepted - before.setpoints_accepted;
+    const std::int64_t rejected = o.status.setpoints_rejected - before.setpoints_rejected;
+    if (rejected > 0) throw std::runtime_error("lagranged rejected the pose: " + Escape(o.status.last_rejection));
+    if (accepted == 0) {
+      throw std::runtime_error("lagranged (run " + RunIdText(link.run_id()) + ") received none of the " +
+                               Count(sent, "pose") + " sent on " + channel);
+    }
+    RequireRunning(o, "the pose", "does not follow it");
+    std::string what = "pose (" + FormatDouble(msg.position[0]) + ", " + FormatDouble(msg.position[1]) + ", " +
+                       FormatDouble(msg.position[2]) + " m; " + FormatDouble(msg.orientation[0]) + ", " +
+                       FormatDouble(msg.orientation[1]) + ", " + FormatDouble(msg.orientation[2]) + ", " +
+                       FormatDouble(msg.orientation[3]) + ")";
+    if (min_jerk_) what += " over " + FormatDouble(*min_jerk_) + " s, minimum jerk";
+    out << "sent " << what << " to " << channel << "; lagranged accepted it";
+    // Where the frame is once the move is done: the task state after it.
+    CatchInterrupt();
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(msg.duration + kPoseSettle);
+    link.PumpUntil([&] { return Interrupted() || std::chrono::steady_clock::now() >= until; },
+                   msg.duration + kPoseSettle + 1.0);
+    if (const std::optional<task_state_t>& t = link.task_state()) {
+      const Eigen::Vector3d p = Eigen::Map<const Eigen::Vector3d>(t->position) - Eigen::Map<const Eigen::Vector3d>(msg.position);
+      // The rotation error is the task state's: the commanded orientation is the sent one once a move ends.
+      out << "; " << Escape(t->frame) << " is " << FormatDouble(1e3 * p.norm()) << " mm and "
+          << FormatDouble(1e3 * Eigen::Map<const Eigen::Vector3d>(t->error + 3).norm()) << " mrad from it";
+    }
+    out << "\n";
     return 0;
   }
 
@@ -317,7 +405,8 @@ class SendCommand final : public Command {
   }
 
   std::string instance_;
-  std::vector<double> q_, qd_, qdd_, sine_, tau_;
+  std::vector<double> q_, qd_, qdd_, sine_, tau_, pose_;
+  std::optional<std::string> frame_;
   std::optional<double> min_jerk_, for_;
   std::optional<std::string> torque_channel_;
   // --tau: when the stream began, and whether a state after it showed the instance running.
