@@ -27,7 +27,7 @@ class Log2CsvCommand final : public Command {
                                (channel_.empty() ? "" : " on channels matching '" + channel_ + "'") + " in " + log_);
     }
     for (const auto& [channel, c] : r.written) {
-      out << c.path << ": " << c.rows << " rows of " << c.type;
+      out << c.path << ": " << c.rows << (c.rows == 1 ? " row of " : " rows of ") << c.type;
       if (c.skipped) out << " (" << c.skipped << " skipped: undecodable or a different num_dofs)";
       out << "\n";
     }

@@ -2,10 +2,12 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -251,6 +253,71 @@ class TelemetryWriter final : public Writer {
   bool header_ = false;
 };
 
+// Fixed-size arrays as columns: NAME0, NAME1, ...
+void FixedColumns(std::ostream& out, const char* name, int n) {
+  for (int i = 0; i < n; ++i) out << ',' << name << i;
+}
+void FixedValues(std::ostream& out, const double* x, int n) {
+  for (int i = 0; i < n; ++i) out << ',' << FormatDouble(x[i]);
+}
+
+class PoseSetpointWriter final : public Writer {
+ public:
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    pose_setpoint_t m;
+    if (!CheckedDecode(m, CheckPoseSetpointPacket, data, size)) return false;
+    if (!header_) {
+      out << "log_utime,utime,frame";
+      FixedColumns(out, "position", 3);
+      FixedColumns(out, "orientation", 4);
+      FixedColumns(out, "twist", 6);
+      out << ",duration\n";
+    }
+    header_ = true;
+    out << log_utime << ',' << m.utime << ',' << CsvText(m.frame);
+    FixedValues(out, m.position, 3);
+    FixedValues(out, m.orientation, 4);
+    FixedValues(out, m.twist, 6);
+    out << ',' << FormatDouble(m.duration) << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
+class TaskStateWriter final : public Writer {
+ public:
+  bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
+    task_state_t m;
+    if (!CheckedDecode(m, CheckTaskStatePacket, data, size)) return false;
+    if (!header_) {
+      out << "log_utime,utime,run_id,tick,t,frame,controller";
+      FixedColumns(out, "position", 3);
+      FixedColumns(out, "orientation", 4);
+      FixedColumns(out, "position_des", 3);
+      FixedColumns(out, "orientation_des", 4);
+      FixedColumns(out, "error", 6);
+      FixedColumns(out, "twist", 6);
+      out << '\n';
+    }
+    header_ = true;
+    out << log_utime << ',' << m.utime << ',' << RunIdText(m.run_id) << ',' << m.tick << ',' << FormatDouble(m.t) << ','
+        << CsvText(m.frame) << ',' << CsvText(m.controller);
+    FixedValues(out, m.position, 3);
+    FixedValues(out, m.orientation, 4);
+    FixedValues(out, m.position_des, 3);
+    FixedValues(out, m.orientation_des, 4);
+    FixedValues(out, m.error, 6);
+    FixedValues(out, m.twist, 6);
+    out << '\n';
+    return true;
+  }
+
+ private:
+  bool header_ = false;
+};
+
 class ForcesWriter final : public Writer {
  public:
   bool Write(std::ostream& out, std::int64_t log_utime, const void* data, int size) override {
@@ -314,6 +381,8 @@ std::unique_ptr<Writer> WriterFor(MessageType type) {
     case MessageType::kReply: return std::make_unique<ReplyWriter>();
     case MessageType::kTelemetry: return std::make_unique<TelemetryWriter>();
     case MessageType::kForces: return std::make_unique<ForcesWriter>();
+    case MessageType::kPoseSetpoint: return std::make_unique<PoseSetpointWriter>();
+    case MessageType::kTaskState: return std::make_unique<TaskStateWriter>();
     case MessageType::kUnknown: break;
   }
   return nullptr;

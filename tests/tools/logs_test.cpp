@@ -12,6 +12,8 @@
 #include <unistd.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -586,7 +588,8 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   const auto list = testing::RunProcess({JAR_PATH, "tf", jar});
   ASSERT_EQ(list.exit_code, 0) << list.err;
   for (const char* type :
-       {"state_t", "setpoint_t", "command_t", "status_t", "reply_t", "torque_t", "telemetry_t", "forces_t"}) {
+       {"state_t", "setpoint_t", "command_t", "status_t", "reply_t", "torque_t", "telemetry_t", "forces_t",
+        "pose_setpoint_t", "task_state_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
     const auto javap = testing::RunProcess(
@@ -801,6 +804,47 @@ TEST_F(Logs, Log2CsvWritesTorquesOneColumnPerJointAndTheStatusCountersAndReasons
 // Telemetry becomes one column per field; forces one column per effect's flag
 // and per row and joint (gravity_0, gravity_1, ..), every value exactly as
 // sent. A forces packet whose num_dofs lies is skipped like any other.
+TEST_F(Logs, Log2CsvWritesPoseSetpointsAndTaskStatesOneColumnPerComponent) {
+  pose_setpoint_t pose{};
+  pose.utime = 11;
+  pose.frame = "tool0";
+  pose.position[0] = 0.4;
+  pose.position[2] = 0.25;
+  pose.orientation[0] = 1.0;
+  pose.duration = 2.0;
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events = {{"UR5_POSE", Encode(pose)}};
+  for (std::int64_t k = 1; k <= 3; ++k) {
+    task_state_t task{};
+    task.utime = 100 + k;
+    task.run_id = 0x1234;
+    task.tick = k;
+    task.t = 0.001 * static_cast<double>(k);
+    task.frame = "tool0";
+    task.controller = "operational-space";
+    task.position[1] = 0.1 * static_cast<double>(k);
+    task.orientation[0] = task.orientation_des[0] = 1.0;
+    task.error[0] = -1e-4 * static_cast<double>(k);
+    events.emplace_back("UR5_TASK", Encode(task));
+  }
+  const fs::path log = dir_ / "task.lcm";
+  testing::WriteLcmLog(log.string(), events);
+  const fs::path out = dir_ / "csv";
+  const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("UR5_POSE.csv: 1 row of pose_setpoint_t"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("UR5_TASK.csv: 3 rows of task_state_t"), std::string::npos) << r.out;
+  const Csv poses = ReadCsv(out / "UR5_POSE.csv");
+  EXPECT_EQ(poses.Numbers("position0"), std::vector<double>{0.4});
+  EXPECT_EQ(poses.Numbers("duration"), std::vector<double>{2.0});
+  EXPECT_EQ(poses.Texts("frame"), std::vector<std::string>{"\"tool0\""});
+  const Csv tasks = ReadCsv(out / "UR5_TASK.csv");
+  EXPECT_EQ(tasks.Numbers("position1"), (std::vector<double>{0.1, 0.2, 0.30000000000000004}));
+  EXPECT_EQ(tasks.Numbers("error0"), (std::vector<double>{-1e-4, -2e-4, -3.0000000000000003e-4}));
+  EXPECT_EQ(tasks.Numbers("orientation_des0"), (std::vector<double>{1.0, 1.0, 1.0}));
+  EXPECT_EQ(tasks.Texts("controller"), std::vector<std::string>(3, "\"operational-space\""));
+  EXPECT_EQ(tasks.header.size(), 7u + 3 + 4 + 3 + 4 + 6 + 6);
+}
+
 TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
   const std::vector<double> residuals = {1e-12, -2.5e-10, 3.0000000000000001e-9};
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
