@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "plant/plant_factory.hpp"
+#include "plant/random_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -35,13 +36,30 @@ std::string Source(const std::string& relative) { return std::string(LAGRANGE_SO
 
 RigidTree UrdfTree(const std::string& relative) { return LoadUrdf(Source(relative)).tree; }
 
-
 struct NamedTree {
   std::string name;
   RigidTree tree;
 };
 
-// Every built-in plant, a chain with a prismatic link, and the URDF robots.
+// A branching random tree (random joint axes, so every joint is folded;
+// prismatic joints) with a frame at each body's origin, one at a random
+// placement on each body, and one on the world away from its origin.
+RigidTree RandomTreeWithFrames() {
+  std::mt19937 rng{7};
+  RandomTreeOptions options;
+  options.bodies = 9;
+  RigidTree tree = RandomRigidTree(options, rng);
+  std::uniform_real_distribution<double> offset(-0.3, 0.3);
+  tree.frames.push_back({"stand", -1, Eigen::Vector3d(offset(rng), offset(rng), offset(rng)), RandomRotation(rng)});
+  for (int i = 0; i < tree.num_dofs(); ++i) {
+    tree.frames.push_back({"body" + std::to_string(i), i, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
+    tree.frames.push_back(
+        {"tool" + std::to_string(i), i, Eigen::Vector3d(offset(rng), offset(rng), offset(rng)), RandomRotation(rng)});
+  }
+  return tree;
+}
+
+// Every built-in plant, a chain with a prismatic link, the URDF robots and fixtures, and a random tree.
 std::vector<NamedTree> AllTrees() {
   std::vector<NamedTree> trees;
   for (const testing::PlantCase& c : testing::AllPlantCases()) trees.push_back({c.name, MakeRigidTree(c.spec)});
@@ -50,6 +68,7 @@ std::vector<NamedTree> AllTrees() {
   trees.push_back({"ur5", UrdfTree("config/robots/ur5.urdf")});
   trees.push_back({"fixed_chain", UrdfTree("tests/fixtures/urdf/fixed_chain.urdf")});
   trees.push_back({"branching", UrdfTree("tests/fixtures/urdf/branching.urdf")});
+  trees.push_back({"random tree", RandomTreeWithFrames()});
   return trees;
 }
 
@@ -332,6 +351,95 @@ TEST(FrameKinematics, ComputingEveryFrameAllocatesNothing) {
     {
       testing::AllocationCounter counter;
       for (int k = 0; k < 10; ++k) model.ComputeFrameKinematics(*data, q, qd);
+      allocations = counter.count();
+    }
+    EXPECT_EQ(allocations, 0) << t.name;
+  }
+}
+
+// Each entry point that computes a part, through a data that last computed
+// everything at another state, gives what ComputeFrameKinematics gives for
+// that part: every frame, both axes.
+TEST(FrameKinematics, EachPartsEntryPointAgreesWithComputeFrameKinematics) {
+  constexpr double kSameTol = 1e-14;  // the same arithmetic on the same state, m, rad or per unit velocity
+  constexpr FrameAxes kBothAxes[] = {FrameAxes::kWorldAligned, FrameAxes::kLocal};
+  std::mt19937 rng{42};
+  for (const NamedTree& t : AllTrees()) {
+    SCOPED_TRACE(t.name);
+    const Kinematics model(t.tree);
+    auto full = model.MakeData(), part = model.MakeData();
+    for (int s = 0; s < kStates; ++s) {
+      const auto [q, qd] = RandomStateFor(t.tree.joint_types(), rng);
+      const auto [q_other, qd_other] = RandomStateFor(t.tree.joint_types(), rng);
+      model.ComputeFrameKinematics(*full, q, qd);
+      // part last saw another state: whatever an entry point does not refresh would show.
+      const auto stale = [&] { model.ComputeFrameKinematics(*part, q_other, qd_other); };
+      const auto expect_pose = [&](int k, const char* entry) {
+        EXPECT_LT((part->rotation(k) - full->rotation(k)).cwiseAbs().maxCoeff(), kSameTol) << entry << " frame " << k;
+        EXPECT_LT((part->position(k) - full->position(k)).cwiseAbs().maxCoeff(), kSameTol) << entry << " frame " << k;
+      };
+      const auto expect_jacobian = [&](int k, FrameAxes axes, const char* entry) {
+        EXPECT_LT((part->jacobian(k, axes) - full->jacobian(k, axes)).cwiseAbs().maxCoeff(), kSameTol)
+            << entry << " frame " << k << " axes " << static_cast<int>(axes);
+      };
+      const auto expect_bias = [&](int k, FrameAxes axes, const char* entry) {
+        EXPECT_LT((part->bias_acceleration(k, axes) - full->bias_acceleration(k, axes)).cwiseAbs().maxCoeff(), kSameTol)
+            << entry << " frame " << k << " axes " << static_cast<int>(axes);
+      };
+      stale();
+      model.ComputeFramePlacements(*part, q);
+      for (int k = 0; k < model.num_frames(); ++k) expect_pose(k, "ComputeFramePlacements");
+      for (FrameAxes axes : kBothAxes) {
+        stale();
+        model.ComputeFrameJacobians(*part, q, axes);
+        for (int k = 0; k < model.num_frames(); ++k) {
+          expect_pose(k, "ComputeFrameJacobians");
+          expect_jacobian(k, axes, "ComputeFrameJacobians");
+        }
+      }
+      for (int k = 0; k < model.num_frames(); ++k) {
+        stale();
+        model.ComputeFramePlacement(*part, q, k);
+        expect_pose(k, "ComputeFramePlacement");
+        for (FrameAxes axes : kBothAxes) {
+          stale();
+          model.ComputeFrameJacobian(*part, q, k, axes);
+          expect_pose(k, "ComputeFrameJacobian");
+          expect_jacobian(k, axes, "ComputeFrameJacobian");
+          stale();
+          model.ComputeFrameBiasAcceleration(*part, q, qd, k, axes);
+          expect_pose(k, "ComputeFrameBiasAcceleration");
+          expect_bias(k, axes, "ComputeFrameBiasAcceleration");
+          stale();
+          model.ComputeFrameJacobianAndBias(*part, q, qd, k, axes);
+          expect_pose(k, "ComputeFrameJacobianAndBias");
+          expect_jacobian(k, axes, "ComputeFrameJacobianAndBias");
+          expect_bias(k, axes, "ComputeFrameJacobianAndBias");
+        }
+      }
+    }
+  }
+}
+
+TEST(FrameKinematics, EachPartsEntryPointAllocatesNothing) {
+  for (const NamedTree& t : AllTrees()) {
+    const Kinematics model(t.tree);
+    auto data = model.MakeData();
+    const int n = model.num_dofs();
+    const VectorXd q = VectorXd::Constant(n, 0.3), qd = VectorXd::Constant(n, -0.7);
+    std::int64_t allocations = 0;
+    {
+      testing::AllocationCounter counter;
+      for (FrameAxes axes : {FrameAxes::kWorldAligned, FrameAxes::kLocal}) {
+        model.ComputeFramePlacements(*data, q);
+        model.ComputeFrameJacobians(*data, q, axes);
+        for (int k = 0; k < model.num_frames(); ++k) {
+          model.ComputeFramePlacement(*data, q, k);
+          model.ComputeFrameJacobian(*data, q, k, axes);
+          model.ComputeFrameBiasAcceleration(*data, q, qd, k, axes);
+          model.ComputeFrameJacobianAndBias(*data, q, qd, k, axes);
+        }
+      }
       allocations = counter.count();
     }
     EXPECT_EQ(allocations, 0) << t.name;
