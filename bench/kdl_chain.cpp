@@ -53,4 +53,36 @@ KDL::Chain ToKdlChain(const RigidTree& tree) {
   return chain;
 }
 
+KdlFrameChain ToKdlFrameChain(const RigidTree& tree) {
+  CheckSerial(tree);
+  KdlFrameChain out;
+  out.segment.assign(tree.frames.size(), -1);
+  // The chain's tip in the current body's frame (the world's before joint 0).
+  Eigen::Matrix3d tip_R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d tip_p = Eigen::Vector3d::Zero();
+  const auto tip = [&] { return ToKdl(tip_R, tip_p); };
+  const auto add_frames_of = [&](int body) {
+    for (std::size_t k = 0; k < tree.frames.size(); ++k) {
+      const TreeFrame& f = tree.frames[k];
+      if (f.body != body) continue;
+      if (f.rotation != tip_R || f.position != tip_p) {
+        out.chain.addSegment(
+            KDL::Segment(f.name, KDL::Joint(KDL::Joint::None), tip().Inverse() * ToKdl(f.rotation, f.position)));
+        tip_R = f.rotation;
+        tip_p = f.position;
+      }
+      out.segment[k] = static_cast<int>(out.chain.getNrOfSegments()) - 1;
+    }
+  };
+  add_frames_of(-1);
+  for (int i = 0; i < tree.num_dofs(); ++i) {
+    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
+    out.chain.addSegment(JointSegment(tree, i, tip().Inverse() * ToKdl(j.rotation, j.position)));
+    tip_R.setIdentity();
+    tip_p.setZero();
+    add_frames_of(i);
+  }
+  return out;
+}
+
 }  // namespace lagrange::bench

@@ -55,8 +55,13 @@
 // (12 multiplications). Offsets along one axis cost 3 multiplications, zero
 // ones none, and a frame at its body's origin with its axes (most URDF
 // links) is read from the body, not copied. Sines and cosines of all joint
-// angles come from one vectorised loop (plant/spatial_sincos.hpp). Measured
-// against Orocos KDL on the shipped robots by bench/kinematics_bench.cpp.
+// angles come from one vectorised loop (plant/spatial_sincos.hpp).
+//
+// Cost (bench/kinematics_bench.cpp, the Panda: 7 joints, 9 frames), in
+// multiples of one sin + cos of the C library measured in the same run:
+// every frame's pose 9, one frame's pose 8, its Jacobian 11, every frame's
+// Jacobian 22, one frame's J̇ qd 16, ComputeFrameKinematics 53; 0.06 to 0.25
+// times Orocos KDL's calls for the same (the bench's table).
 //
 // Model and data apart, as plant/dynamics.hpp: a Kinematics is immutable
 // and may be shared by threads; each user evaluates it through a
