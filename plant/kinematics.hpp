@@ -60,8 +60,8 @@
 // Cost (bench/kinematics_bench.cpp, the Panda: 7 joints, 9 frames), in
 // multiples of one sin + cos of the C library measured in the same run:
 // every frame's pose 9, one frame's pose 8, its Jacobian 11, every frame's
-// Jacobian 22, one frame's J̇ qd 16, ComputeFrameKinematics 53; 0.06 to 0.25
-// times Orocos KDL's calls for the same (the bench's table).
+// Jacobian 24, one frame's J̇ qd 17, ComputeFrameKinematics 58; 0.06 to 0.25
+// times Orocos KDL's calls for the same (README, "Spatial robots").
 //
 // Model and data apart, as plant/dynamics.hpp: a Kinematics is immutable
 // and may be shared by threads; each user evaluates it through a
