@@ -446,6 +446,28 @@ TEST(FrameKinematics, EachPartsEntryPointAllocatesNothing) {
   }
 }
 
+#ifndef NDEBUG
+// Debug builds check sizes, frame indices and the data's model at the top of
+// every entry point; NDEBUG compiles the checks out.
+TEST(SizeChecks, KinematicsRejectsMisSizedArgumentsBadFramesAndOtherModelsData) {
+  const Kinematics model(ToRigidTree(Arm2Params{}));
+  auto data = model.MakeData();
+  const VectorXd q2 = VectorXd::Zero(2), q3 = VectorXd::Zero(3);
+  const int frames = model.num_frames();
+  constexpr FrameAxes kWorld = FrameAxes::kWorldAligned;
+  EXPECT_DEATH(model.ComputeFrameKinematics(*data, q3, q2), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacements(*data, q3), "num_dofs");
+  EXPECT_DEATH(model.ComputeFrameJacobians(*data, q3, kWorld), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacement(*data, q3, 0), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacement(*data, q2, frames), "num_frames");
+  EXPECT_DEATH(model.ComputeFrameJacobian(*data, q2, -1, kWorld), "frame >= 0");
+  EXPECT_DEATH(model.ComputeFrameBiasAcceleration(*data, q2, q3, 0, kWorld), "num_dofs");
+  EXPECT_DEATH(model.ComputeFrameJacobianAndBias(*data, q2, q2, frames, kWorld), "num_frames");
+  const Kinematics other(ToRigidTree(Arm2Params{}));
+  EXPECT_DEATH(other.ComputeFrameJacobian(*data, q2, 0, kWorld), "another model");
+}
+#endif
+
 TEST(FrameKinematics, RefusesAFrameOnAMissingBodyOrARepeatedName) {
   RigidTree tree = ToRigidTree(Arm2Params{});
   tree.frames.push_back(PlanarTreeFrame("elsewhere", 2, 0.0, 0.0, 0.0));
