@@ -1,10 +1,12 @@
 #pragma once
 // What the Google Benchmark programs share: the machine baseline every
-// per-call figure is quoted against, and their main.
+// per-call figure is quoted against, their own flags, and their main.
 
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <string>
+#include <string_view>
 
 namespace lagrange::bench {
 
@@ -16,6 +18,24 @@ inline void TimeSinCos(benchmark::State& bm) {
     x += 0.37;
     if (x > 6.0) x -= 6.0;
   }
+}
+
+// Removes `prefix`VALUE (e.g. "--agreement_csv=FILE") from the command line,
+// since Google Benchmark refuses flags it does not know, and returns VALUE
+// ("" when absent; the last one when repeated).
+inline std::string TakeFlag(int& argc, char** argv, std::string_view prefix) {
+  std::string value;
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg.starts_with(prefix)) {
+      value = std::string(arg.substr(prefix.size()));
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  return value;
 }
 
 // Registers calib/sincos, then the program's own benchmarks, and runs them

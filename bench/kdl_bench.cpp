@@ -23,7 +23,6 @@
 // mistake on either side, or a wrong algorithm, shows there.
 
 #include <kdl/config.h>
-#include <kdl/chain.hpp>
 #include <kdl/chaindynparam.hpp>
 #include <kdl/chainfdsolver_recursive_newton_euler.hpp>
 #include <kdl/chainidsolver_recursive_newton_euler.hpp>
@@ -39,6 +38,7 @@
 
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
+#include "bench/kdl_chain.hpp"
 #include "plant/lagrangian.hpp"
 #include "plant/spatial_dynamics.hpp"
 
@@ -52,38 +52,6 @@ constexpr double kAgreement = 1e-9;  // largest |lagrange − KDL| / (1 + max |K
 // The terms both libraries have.
 constexpr DynamicsTerm kPeerTerms[] = {DynamicsTerm::kM, DynamicsTerm::kG, DynamicsTerm::kCqd, DynamicsTerm::kID,
                                        DynamicsTerm::kFD};
-
-KDL::Vector ToKdl(const Eigen::Vector3d& v) { return KDL::Vector(v.x(), v.y(), v.z()); }
-
-// A serial RigidTree as a KDL chain, one segment per joint. KDL's conventions:
-// a segment's joint sits in the parent segment's tip frame with its origin and
-// axis given there (a revolute joint turns about the line through the origin
-// along the axis); the segment's tip frame is the joint's pose times f_tip, so
-// f_tip is the joint frame's fixed placement; the segment's inertia is given
-// in its tip frame (the body frame) as (mass, centre of mass, rotational
-// inertia about the centre of mass) by RigidBodyInertia's 3-argument
-// constructor, which shifts it to the frame origin itself.
-KDL::Chain ToKdlChain(const RigidTree& tree) {
-  KDL::Chain chain;
-  for (int i = 0; i < tree.num_dofs(); ++i) {
-    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
-    if (j.parent != i - 1) {
-      throw std::invalid_argument("ToKdlChain: joint '" + j.name + "' does not continue a serial chain");
-    }
-    const Eigen::Matrix3d& R = j.rotation;
-    const KDL::Frame placement(
-        KDL::Rotation(R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)),
-        ToKdl(j.position));
-    const KDL::Joint joint(j.name, placement.p, ToKdl(R * j.axis),
-                           j.type == JointType::kRevolute ? KDL::Joint::RotAxis : KDL::Joint::TransAxis);
-    const RigidBody& b = tree.bodies[static_cast<std::size_t>(i)];
-    const Eigen::Matrix3d& I = b.inertia;
-    const KDL::RigidBodyInertia inertia(b.mass, ToKdl(b.com),
-                                        KDL::RotationalInertia(I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)));
-    chain.addSegment(KDL::Segment(j.name, joint, placement, inertia));
-  }
-  return chain;
-}
 
 // KDL's solvers for one chain, and their scratch. The solvers keep a
 // reference to the chain, so a KdlPeer never moves.
@@ -130,12 +98,6 @@ class KdlPeer {
 struct KdlState {
   KDL::JntArray q, qd, qdd, tau;
 };
-
-KDL::JntArray ToJntArray(const VectorXd& v) {
-  KDL::JntArray a(static_cast<unsigned int>(v.size()));
-  a.data = v;
-  return a;
-}
 
 std::vector<KdlState> ToKdl(const std::vector<State>& states) {
   std::vector<KdlState> out;
@@ -285,30 +247,12 @@ void RegisterAll() {
   }
 }
 
-// Removes --agreement_csv=FILE from the command line (Google Benchmark refuses
-// flags it does not know) and returns FILE.
-std::string TakeAgreementFlag(int& argc, char** argv) {
-  constexpr std::string_view kFlag = "--agreement_csv=";
-  std::string path;
-  int kept = 1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view arg = argv[i];
-    if (arg.starts_with(kFlag)) {
-      path = std::string(arg.substr(kFlag.size()));
-    } else {
-      argv[kept++] = argv[i];
-    }
-  }
-  argc = kept;
-  return path;
-}
-
 }  // namespace
 }  // namespace lagrange::bench
 
 int main(int argc, char** argv) {
   using namespace lagrange::bench;
-  const std::string csv = TakeAgreementFlag(argc, argv);
+  const std::string csv = TakeFlag(argc, argv, "--agreement_csv=");
   try {
     if (!Agree(csv)) {
       std::fprintf(stderr, "kdl_bench: lagrange and KDL disagree; not timing\n");

@@ -4,8 +4,8 @@ CSV files and PNG plots (issue 6). Run by scripts/bench; usage:
 
     bench/report.py RESULTS_DIR
 
-Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json
-and kdl.json (Google Benchmark), kdl_agreement.csv, the CSV files of
+Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json,
+kdl.json and kinematics.json (Google Benchmark), kdl_agreement.csv, kinematics_agreement.csv, the CSV files of
 work_precision, loop_bench and hostile_bench, external_bench's external.json, live_bench's live.csv,
 live_offline.csv and live.json, flood_bench's flood_cases.csv, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
@@ -15,7 +15,7 @@ as a multiple of calib/sincos, one sin and one cos measured in the same run
 
 This file is the report's table of contents; each section is a module of
 bench/reporting/ (common: reading and formatting; precision: 1 and 2;
-derivation: 3; effects: 4; loop: 5 and 6; hostile: 7; external: 8; live: 9; flood: 10;
+derivation: 3, kinematics: 3's frame kinematics; effects: 4; loop: 5 and 6; hostile: 7; external: 8; live: 9; flood: 10;
 targets: the first table).
 """
 
@@ -28,6 +28,7 @@ from reporting.effects import effects_section
 from reporting.flood import flood_data, flood_section, flood_targets
 from reporting.external import external_data, external_section, external_target_rows
 from reporting.hostile import hostile_data, hostile_section, hostile_targets
+from reporting.kinematics import kinematics_subsection, kinematics_targets
 from reporting.live import live_data, live_section
 from reporting.loop import delivery_section, loop_data, loop_section, tick_target
 from reporting.precision import long_horizon_section, work_precision, work_precision_section
@@ -48,16 +49,22 @@ def optional_benchmarks(path):
 
 
 def derivation(out, derive_runs, derive_calib, context):
-    """Section 3 with the spatial (spatial_cost) and KDL (kdl_bench) subsections when they ran:
-    (markdown, the planar figures, {robot: KDL's worst ratio})."""
+    """Section 3 with the spatial (spatial_cost), KDL (kdl_bench) and frame kinematics (kinematics_bench)
+    subsections when they ran: (markdown, the planar figures, the KDL targets' rows)."""
     spatial = optional_benchmarks(out / "spatial_cost.json")
     md, derive = derivation_section(out, derive_runs, derive_calib, context, spatial)
-    kdl_worst = {}
+    kdl_rows = []
     kdl = optional_benchmarks(out / "kdl.json")
     if kdl:
         kdl_md, kdl_worst = kdl_subsection(out, *kdl)
         md += "\n" + kdl_md
-    return md, derive, kdl_worst
+        kdl_rows += kdl_targets(kdl_worst)
+    kinematics = optional_benchmarks(out / "kinematics.json")
+    if kinematics:
+        kin_md, kin_worst = kinematics_subsection(out, *kinematics)
+        md += "\n" + kin_md
+        kdl_rows += kinematics_targets(kin_worst)
+    return md, derive, kdl_rows
 
 
 def introduction(context, derive_calib):
@@ -75,14 +82,14 @@ def main(out):
     effects_runs, _ = read_benchmarks(out / "effects.json")
     tick_runs, _ = read_benchmarks(out / "tick.json")
     wp_rows = work_precision(out)
-    deriv_md, derive, kdl_worst = derivation(out, derive_runs, calib(derive_runs), context)
+    deriv_md, derive, kdl_rows = derivation(out, derive_runs, calib(derive_runs), context)
     effects_md, effects = effects_section(out, effects_runs, calib(derive_runs))
     loop = loop_data(out)
     hostile = hostile_data(out) if (out / "hostile_cases.csv").exists() else None
     external = external_data(out) if (out / "external.json").exists() else None
     flood = flood_data(out) if (out / "flood_cases.csv").exists() else None
     target_rows = targets(derive, effects, loop, calib(derive_runs), calib(effects_runs))
-    target_rows += kdl_targets(kdl_worst) + [tick_target(tick_runs)]
+    target_rows += kdl_rows + [tick_target(tick_runs)]
     target_rows += (hostile_targets(hostile) if hostile else []) + (external_target_rows(external) if external else [])
     target_rows += flood_targets(flood) if flood else []
     write_csv(out / "targets.csv", ["target", "limit", "measured", "met"], target_rows)

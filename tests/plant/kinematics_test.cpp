@@ -3,6 +3,7 @@
 // chain plant, Franka's published kinematics, and the allocation counter.
 
 #include "plant/kinematics.hpp"
+#include "plant/lagrangian.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "plant/plant_factory.hpp"
+#include "plant/random_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -35,21 +37,40 @@ std::string Source(const std::string& relative) { return std::string(LAGRANGE_SO
 
 RigidTree UrdfTree(const std::string& relative) { return LoadUrdf(Source(relative)).tree; }
 
-
 struct NamedTree {
   std::string name;
   RigidTree tree;
 };
 
-// Every built-in plant, a chain with a prismatic link, and the URDF robots.
+// A branching random tree (random joint axes, so every joint is folded;
+// prismatic joints) with a frame at each body's origin, one at a random
+// placement on each body, and one on the world away from its origin.
+RigidTree RandomTreeWithFrames() {
+  std::mt19937 rng{7};
+  RandomTreeOptions options;
+  options.bodies = 9;
+  RigidTree tree = RandomRigidTree(options, rng);
+  std::uniform_real_distribution<double> offset(-0.3, 0.3);
+  tree.frames.push_back({"stand", -1, Eigen::Vector3d(offset(rng), offset(rng), offset(rng)), RandomRotation(rng)});
+  for (int i = 0; i < tree.num_dofs(); ++i) {
+    tree.frames.push_back({"body" + std::to_string(i), i, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
+    tree.frames.push_back(
+        {"tool" + std::to_string(i), i, Eigen::Vector3d(offset(rng), offset(rng), offset(rng)), RandomRotation(rng)});
+  }
+  return tree;
+}
+
+// Every built-in plant, a chain with a prismatic link, the URDF robots and fixtures, and a random tree.
 std::vector<NamedTree> AllTrees() {
   std::vector<NamedTree> trees;
   for (const testing::PlantCase& c : testing::AllPlantCases()) trees.push_back({c.name, MakeRigidTree(c.spec)});
   trees.push_back({"prismatic chain", MakeRigidTree(PlantSpec{PlanarChainOfTheFixture()})});
   trees.push_back({"panda", UrdfTree("config/robots/panda.urdf")});
   trees.push_back({"ur5", UrdfTree("config/robots/ur5.urdf")});
+  trees.push_back({"panda with hand (a mimic finger)", UrdfTree("config/robots/panda_hand.urdf")});
   trees.push_back({"fixed_chain", UrdfTree("tests/fixtures/urdf/fixed_chain.urdf")});
   trees.push_back({"branching", UrdfTree("tests/fixtures/urdf/branching.urdf")});
+  trees.push_back({"random tree", RandomTreeWithFrames()});
   return trees;
 }
 
@@ -293,11 +314,18 @@ TEST(FrameKinematics, CentreOfMassJacobiansGiveTheDynamicsGravityAndKineticEnerg
     SCOPED_TRACE(t.name);
     RigidTree tree = t.tree;
     tree.frames.clear();
-    for (int i = 0; i < tree.num_dofs(); ++i) {
+    for (int i = 0; i < tree.num_joints(); ++i) {
       tree.frames.push_back({"com" + std::to_string(i), i, tree.bodies[i].com, Eigen::Matrix3d::Identity()});
     }
     const Kinematics model(tree);
-    const SpatialDynamics dynamics(tree);
+    // With mimic joints, the energies' derivation (the recursive one runs on the free tree).
+    std::unique_ptr<Dynamics> derived;
+    if (tree.has_mimics()) {
+      derived = std::make_unique<LagrangianDynamics<RigidTree>>(tree);
+    } else {
+      derived = std::make_unique<SpatialDynamics>(tree);
+    }
+    const Dynamics& dynamics = *derived;
     auto data = model.MakeData();
     auto dynamics_data = dynamics.MakeData();
     const int n = model.num_dofs();
@@ -306,7 +334,7 @@ TEST(FrameKinematics, CentreOfMassJacobiansGiveTheDynamicsGravityAndKineticEnerg
       model.ComputeFrameKinematics(*data, q, qd);
       VectorXd G = VectorXd::Zero(n), G_rnea(n);
       double T = 0.0;
-      for (int i = 0; i < n; ++i) {
+      for (int i = 0; i < tree.num_joints(); ++i) {
         const RigidBody& b = tree.bodies[i];
         const Matrix6Xd& J = data->jacobian(i, FrameAxes::kWorldAligned);
         G -= b.mass * J.topRows<3>().transpose() * tree.gravity;
@@ -337,6 +365,117 @@ TEST(FrameKinematics, ComputingEveryFrameAllocatesNothing) {
     EXPECT_EQ(allocations, 0) << t.name;
   }
 }
+
+// Each entry point that computes a part, through a data that last computed
+// everything at another state, gives what ComputeFrameKinematics gives for
+// that part: every frame, both axes.
+TEST(FrameKinematics, EachPartsEntryPointAgreesWithComputeFrameKinematics) {
+  constexpr double kSameTol = 1e-14;  // the same arithmetic on the same state, m, rad or per unit velocity
+  constexpr FrameAxes kBothAxes[] = {FrameAxes::kWorldAligned, FrameAxes::kLocal};
+  std::mt19937 rng{42};
+  for (const NamedTree& t : AllTrees()) {
+    SCOPED_TRACE(t.name);
+    const Kinematics model(t.tree);
+    auto full = model.MakeData(), part = model.MakeData();
+    for (int s = 0; s < kStates; ++s) {
+      const auto [q, qd] = RandomStateFor(t.tree.joint_types(), rng);
+      const auto [q_other, qd_other] = RandomStateFor(t.tree.joint_types(), rng);
+      model.ComputeFrameKinematics(*full, q, qd);
+      // part last saw another state: whatever an entry point does not refresh would show.
+      const auto stale = [&] { model.ComputeFrameKinematics(*part, q_other, qd_other); };
+      const auto expect_pose = [&](int k, const char* entry) {
+        EXPECT_LT((part->rotation(k) - full->rotation(k)).cwiseAbs().maxCoeff(), kSameTol) << entry << " frame " << k;
+        EXPECT_LT((part->position(k) - full->position(k)).cwiseAbs().maxCoeff(), kSameTol) << entry << " frame " << k;
+      };
+      const auto expect_jacobian = [&](int k, FrameAxes axes, const char* entry) {
+        EXPECT_LT((part->jacobian(k, axes) - full->jacobian(k, axes)).cwiseAbs().maxCoeff(), kSameTol)
+            << entry << " frame " << k << " axes " << static_cast<int>(axes);
+      };
+      const auto expect_bias = [&](int k, FrameAxes axes, const char* entry) {
+        EXPECT_LT((part->bias_acceleration(k, axes) - full->bias_acceleration(k, axes)).cwiseAbs().maxCoeff(), kSameTol)
+            << entry << " frame " << k << " axes " << static_cast<int>(axes);
+      };
+      stale();
+      model.ComputeFramePlacements(*part, q);
+      for (int k = 0; k < model.num_frames(); ++k) expect_pose(k, "ComputeFramePlacements");
+      for (FrameAxes axes : kBothAxes) {
+        stale();
+        model.ComputeFrameJacobians(*part, q, axes);
+        for (int k = 0; k < model.num_frames(); ++k) {
+          expect_pose(k, "ComputeFrameJacobians");
+          expect_jacobian(k, axes, "ComputeFrameJacobians");
+        }
+      }
+      for (int k = 0; k < model.num_frames(); ++k) {
+        stale();
+        model.ComputeFramePlacement(*part, q, k);
+        expect_pose(k, "ComputeFramePlacement");
+        for (FrameAxes axes : kBothAxes) {
+          stale();
+          model.ComputeFrameJacobian(*part, q, k, axes);
+          expect_pose(k, "ComputeFrameJacobian");
+          expect_jacobian(k, axes, "ComputeFrameJacobian");
+          stale();
+          model.ComputeFrameBiasAcceleration(*part, q, qd, k, axes);
+          expect_pose(k, "ComputeFrameBiasAcceleration");
+          expect_bias(k, axes, "ComputeFrameBiasAcceleration");
+          stale();
+          model.ComputeFrameJacobianAndBias(*part, q, qd, k, axes);
+          expect_pose(k, "ComputeFrameJacobianAndBias");
+          expect_jacobian(k, axes, "ComputeFrameJacobianAndBias");
+          expect_bias(k, axes, "ComputeFrameJacobianAndBias");
+        }
+      }
+    }
+  }
+}
+
+TEST(FrameKinematics, EachPartsEntryPointAllocatesNothing) {
+  for (const NamedTree& t : AllTrees()) {
+    const Kinematics model(t.tree);
+    auto data = model.MakeData();
+    const int n = model.num_dofs();
+    const VectorXd q = VectorXd::Constant(n, 0.3), qd = VectorXd::Constant(n, -0.7);
+    std::int64_t allocations = 0;
+    {
+      testing::AllocationCounter counter;
+      for (FrameAxes axes : {FrameAxes::kWorldAligned, FrameAxes::kLocal}) {
+        model.ComputeFramePlacements(*data, q);
+        model.ComputeFrameJacobians(*data, q, axes);
+        for (int k = 0; k < model.num_frames(); ++k) {
+          model.ComputeFramePlacement(*data, q, k);
+          model.ComputeFrameJacobian(*data, q, k, axes);
+          model.ComputeFrameBiasAcceleration(*data, q, qd, k, axes);
+          model.ComputeFrameJacobianAndBias(*data, q, qd, k, axes);
+        }
+      }
+      allocations = counter.count();
+    }
+    EXPECT_EQ(allocations, 0) << t.name;
+  }
+}
+
+#ifndef NDEBUG
+// Debug builds check sizes, frame indices and the data's model at the top of
+// every entry point; NDEBUG compiles the checks out.
+TEST(SizeChecks, KinematicsRejectsMisSizedArgumentsBadFramesAndOtherModelsData) {
+  const Kinematics model(ToRigidTree(Arm2Params{}));
+  auto data = model.MakeData();
+  const VectorXd q2 = VectorXd::Zero(2), q3 = VectorXd::Zero(3);
+  const int frames = model.num_frames();
+  constexpr FrameAxes kWorld = FrameAxes::kWorldAligned;
+  EXPECT_DEATH(model.ComputeFrameKinematics(*data, q3, q2), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacements(*data, q3), "num_dofs");
+  EXPECT_DEATH(model.ComputeFrameJacobians(*data, q3, kWorld), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacement(*data, q3, 0), "num_dofs");
+  EXPECT_DEATH(model.ComputeFramePlacement(*data, q2, frames), "num_frames");
+  EXPECT_DEATH(model.ComputeFrameJacobian(*data, q2, -1, kWorld), "frame >= 0");
+  EXPECT_DEATH(model.ComputeFrameBiasAcceleration(*data, q2, q3, 0, kWorld), "num_dofs");
+  EXPECT_DEATH(model.ComputeFrameJacobianAndBias(*data, q2, q2, frames, kWorld), "num_frames");
+  const Kinematics other(ToRigidTree(Arm2Params{}));
+  EXPECT_DEATH(other.ComputeFrameJacobian(*data, q2, 0, kWorld), "another model");
+}
+#endif
 
 TEST(FrameKinematics, RefusesAFrameOnAMissingBodyOrARepeatedName) {
   RigidTree tree = ToRigidTree(Arm2Params{});
