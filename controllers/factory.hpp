@@ -14,6 +14,7 @@
 #include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
+#include "controllers/task_space.hpp"
 #include "plant/plant_factory.hpp"
 
 namespace lagrange {
@@ -27,11 +28,16 @@ enum class ControllerType : std::uint8_t {
   kLqr,                  // LQR about an equilibrium (cart-pole: upright)
   kSwingUp,              // energy swing-up handing over to LQR
   kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
+  kCartesianImpedance,   // Jᵀ (K e + D ė) + C qd + G + P τ0 on one frame's pose (task_space.hpp)
+  kOperationalSpace,     // Jᵀ Λ (ẍ_d + Kd ė + Kp e − J̇qd) + C qd + G + P τ0 (task_space.hpp)
 };
 
 std::string_view ToString(ControllerType type);
 std::optional<ControllerType> ParseControllerType(std::string_view name);
 std::string ControllerTypeNames();  // "none|pd|gravity-compensation|..."
+// cartesian-impedance and operational-space: a frame's pose is their target,
+// their gains are per task axis (6), and they are TaskSpaceControllers.
+bool IsTaskSpace(ControllerType type);
 
 struct LqrOptions {
   std::optional<VectorXd> equilibrium;       // q0; default: the cart-pole's upright (0, π)
@@ -55,11 +61,15 @@ struct ExternalOptions {
 
 struct ControllerConfig {
   ControllerType type = ControllerType::kNone;
-  Gains gains;     // kp, kd (n each); empty where a type does not use them
+  // kp, kd (n each; 6 each for a task-space type, per task axis x, y, z, rx,
+  // ry, rz); empty where a type does not use them. A cartesian-impedance
+  // config may leave kd empty: D from task.damping_ratio (ResolvedGains).
+  Gains gains;
   PdOptions pd;    // pd and gravity-compensation
   LqrOptions lqr;  // lqr and swing-up's balancer
   SwingUpOptions swing_up;
   ExternalOptions external;
+  TaskSpaceOptions task;  // cartesian-impedance and operational-space
   // The controller's own model: the plant's spec with these changes (a
   // model error), and its derivation method (default: the fastest).
   std::optional<PlantSpec> model;
