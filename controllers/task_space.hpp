@@ -208,8 +208,8 @@ class TaskSpaceController : public Controller {
 //         (ζ the damping ratio, default 1): axis i's own mass–spring
 //         Λ_ii ẍ + D_i ẋ + K_i x = 0 at the initial state is damped at ζ.
 //         (libfranka's 2·sqrt(K) is that with Λ_ii = 1 kg or kg·m², ζ = 1;
-//         a Panda's hand has Λ_ii of a few kg but a few hundredths of kg·m²,
-//         where 2·sqrt(K) would damp at ζ ≈ 5.)
+//         a Panda's hand has Λ_ii of a few kg but 0.005 to 0.15 kg·m²,
+//         where 2·sqrt(K) would damp the rotations at ζ ≈ 3 to 14.)
 //         Bounded by the tick h (ComputeGainBounds): at rest on the target with
 //         an exact model (C qd + G compensated, the posture task apart) the
 //         frame obeys Λ ẍ + D ẋ + K x = 0, a joint PD's equation with M → Λ;
