@@ -63,7 +63,8 @@ struct ControllerConfig {
   ControllerType type = ControllerType::kNone;
   // kp, kd (n each; 6 each for a task-space type, per task axis x, y, z, rx,
   // ry, rz); empty where a type does not use them. A cartesian-impedance
-  // config may leave kd empty: D from task.damping_ratio (ResolvedGains).
+  // config may leave kd empty: the controller is then built with
+  // D_i = 2 ζ sqrt(K_i Λ_ii(q0)), ζ = task.damping_ratio, Λ its model's.
   Gains gains;
   PdOptions pd;    // pd and gravity-compensation
   LqrOptions lqr;  // lqr and swing-up's balancer
@@ -91,19 +92,26 @@ struct ControllerConfig {
 };
 
 // Checks a config against the plant: the type suits the plant (cart-pole
-// controllers need a cart-pole), gain sizes, signs and bounds
-// (ComputeGainBounds), Q and R shapes and definiteness. Returns "key: what was expected".
+// controllers need a cart-pole, task-space ones a robot of 6 joints or more
+// with the frame), gain sizes, signs and bounds (ComputeGainBounds; a
+// task-space posture task's as a joint PD's, under null_space), Q and R
+// shapes and definiteness, a task-space trajectory and singularity damping.
+// Returns "key: what was expected".
 std::optional<std::string> ValidateController(const ControllerConfig& config, const PlantSpec& plant);
 
 // The gains a controller of this type accepts on `plant`, held over a tick of
-// `period` s from the initial q0 (n): the rules in joint_controllers.hpp and
-// cartpole_pd.hpp. Types without gains get n unbounded entries.
+// `period` s from the initial q0 (n): the rules in joint_controllers.hpp,
+// cartpole_pd.hpp and task_space.hpp. Types without gains get n unbounded entries.
 //   computed-torque                Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s)
 //   pd, gravity-compensation       Kp_i <= w_i/h²,      Kd_i <= 2 w_i/h    (N·m/rad, N·m·s/rad)
 //                                  with w_i = λmin(M) for every joint, or (the per-joint box, for
 //                                  n >= 2) w_i = M_ii/λmax(M⁻¹ diag M): kp within either, kd within either
 //   cartpole-pd (any sign)         |Kp_j| <= M_xx/h²,   |Kd_j| <= 2M_xx/h
-// with M = M(q0) of the plant: both PD boxes are evaluated at q0 only (the
+//   operational-space              Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s; per task axis)
+//   cartesian-impedance            K_i <= Λ_ii/(c h²),  D_i <= 2Λ_ii/(c h) (N/m or N·m/rad, N·s/m or N·m·s/rad)
+//                                  with Λ = Λ(q0) the frame's task inertia (task_space.hpp; the
+//                                  config's frame, the default for this overload) and c = λmax(Λ⁻¹ diag Λ)
+// with M = M(q0) of the plant (and Λ the plant's): both PD boxes are evaluated at q0 only (the
 // instance's initial q, or 0), and M changes with q, so they are exact there
 // and approximate elsewhere; the per-joint box is the more pose-sensitive.
 // The per-joint box is left out (empty) when M(q0) is not positive definite
