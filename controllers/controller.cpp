@@ -83,6 +83,12 @@ GainBounds GainBounds::Unbounded(int n) {
   return bounds;
 }
 
+GainBounds GainBounds::UnboundedTask() {
+  GainBounds bounds = Unbounded(6);
+  bounds.task_axes = true;
+  return bounds;
+}
+
 std::optional<GainFault> FindGainFault(const Gains& g, const GainBounds& b) {
   const int n = b.num_dofs();
   for (const bool kd : {false, true}) {
@@ -103,7 +109,8 @@ std::string DescribeGainFault(const GainFault& f, const Gains& g, const GainBoun
   const std::string key = f.kd ? "kd" : "kp";
   switch (f.kind) {
     case GainFault::Kind::kSize:
-      return key + ": expected " + std::to_string(b.num_dofs()) + " gains (one per joint), got " +
+      return key + ": expected " + std::to_string(b.num_dofs()) +
+             (b.task_axes ? " gains (one per task axis: x, y, z, rx, ry, rz), got " : " gains (one per joint), got ") +
              std::to_string((f.kd ? g.kd : g.kp).size());
     case GainFault::Kind::kNotFinite:
       return key + (b.any_sign ? ": expected finite gains" : ": expected finite gains >= 0");

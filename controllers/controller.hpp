@@ -39,7 +39,8 @@ double JointError(JointType type, double desired, double measured);
 // through 0, not through the stop at −2.9).
 std::vector<bool> WrappedJoints(const std::vector<JointType>& joints, const std::optional<JointLimits>& limits);
 
-// Proportional and derivative gains, one per joint (or per state for LQR-family controllers).
+// Proportional and derivative gains, one per joint (or per state for
+// LQR-family controllers, or per task axis for task-space ones).
 struct Gains {
   VectorXd kp;
   VectorXd kd;
@@ -64,10 +65,17 @@ struct GainBounds {
   VectorXd kd_max_per_joint;  // (n)
   std::string kp_rule_per_joint;
   std::string kd_rule_per_joint;
+  // The gains are per task axis (x, y, z, rx, ry, rz: a task-space
+  // controller's, controllers/task_space.hpp), not per joint: kp_max and
+  // kd_max then have 6 entries.
+  bool task_axes = false;
 
+  // How many gains: one per joint, or 6 with task_axes.
   int num_dofs() const { return static_cast<int>(kp_max.size()); }
   // Non-negative gains of any size on n joints.
   static GainBounds Unbounded(int n);
+  // Non-negative gains of any size on the 6 task axes.
+  static GainBounds UnboundedTask();
 };
 
 // The first way `gains` break `bounds`, found without allocating.

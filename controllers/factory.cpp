@@ -9,6 +9,7 @@
 
 #include "controllers/lqr.hpp"
 #include "plant/enum_names.hpp"
+#include "plant/escape.hpp"
 
 namespace lagrange {
 namespace {
@@ -22,6 +23,8 @@ constexpr EnumName<ControllerType> kControllerNames[] = {
     {ControllerType::kLqr, "lqr"},
     {ControllerType::kSwingUp, "swing-up"},
     {ControllerType::kExternal, "external"},
+    {ControllerType::kCartesianImpedance, "cartesian-impedance"},
+    {ControllerType::kOperationalSpace, "operational-space"},
 };
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
@@ -49,6 +52,112 @@ std::vector<int> Actuated(const LqrOptions& o, const PlantSpec& plant) {
   std::vector<int> all(static_cast<std::size_t>(plant.num_dofs()));
   for (int i = 0; i < plant.num_dofs(); ++i) all[static_cast<std::size_t>(i)] = i;
   return all;
+}
+
+// The initial q of a config (n), zeros when it gives none.
+VectorXd StartQ(const ControllerConfig& c, const PlantSpec& plant) {
+  return c.q0.size() == plant.num_dofs() ? c.q0 : VectorXd::Zero(plant.num_dofs());
+}
+
+// c = λmax(W⁻¹ diag W) of a symmetric "mass" W (n x n: M, or the task's Λ),
+// through the symmetric diag(W)^½ W⁻¹ diag(W)^½; NaN when W is not positive
+// definite or its diagonal not positive. c >= 1 (its eigenvalues average 1),
+// and ρ(W⁻¹ diag(k)) <= 1 for every k_i <= W_ii / c: the corner of that box is
+// its worst point, because ρ grows with every k_i.
+double CouplingFactor(const MatrixXd& W) {
+  const VectorXd diag = W.diagonal();
+  const Eigen::LLT<MatrixXd> llt(W);
+  if (llt.info() != Eigen::Success || !(diag.array() > 0.0).all()) return std::numeric_limits<double>::quiet_NaN();
+  const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * llt.solve(MatrixXd(diag.cwiseSqrt().asDiagonal()));
+  return Eigen::SelfAdjointEigenSolver<MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+}
+
+// Λ(q0) (task_space.hpp) of a task-space config's frame on the robot `spec`
+// (the plant's, for the gain bounds; the controller's model, for its damping).
+// The frame must exist (ValidateTaskSpace).
+Matrix6d StartTaskInertia(const ControllerConfig& c, const PlantSpec& spec) {
+  const std::unique_ptr<Dynamics> dynamics = MakeDynamics(spec, FastestMethod(spec.type()));
+  const Kinematics kinematics(MakeRigidTree(spec));
+  return TaskInertiaAt(*dynamics, kinematics, *FindTaskFrame(kinematics, c.task.frame), StartQ(c, spec),
+                       c.task.singularity);
+}
+
+// The gains a task-space controller is built with: a cartesian-impedance
+// config without kd gets D_i = 2 ζ sqrt(K_i Λ_ii(q0)) from its model's Λ
+// (task_space.hpp); everything else as given.
+Gains ResolvedGains(const ControllerConfig& c, const PlantSpec& plant) {
+  if (c.type != ControllerType::kCartesianImpedance || c.gains.kd.size() != 0 || c.gains.kp.size() != kTaskDims) {
+    return c.gains;
+  }
+  const Vector6d lambda = StartTaskInertia(c, c.model ? *c.model : plant).diagonal();
+  Gains g = c.gains;
+  g.kd = 2.0 * c.task.damping_ratio * (c.gains.kp.cwiseProduct(lambda)).cwiseSqrt();
+  return g;
+}
+
+// The task-space rules of task_space.hpp, held over c.period from c.q0.
+GainBounds TaskGainBounds(const ControllerConfig& c, const PlantSpec& plant) {
+  GainBounds b = GainBounds::UnboundedTask();
+  const double h = c.period;
+  if (!(h > 0.0)) return b;
+  char at[48];
+  std::snprintf(at, sizeof at, " at h = %.6g s", h);
+  if (c.type == ControllerType::kOperationalSpace) {  // unit-mass task error dynamics: computed torque's rule
+    b.kp_max.setConstant(1.0 / (h * h));
+    b.kd_max.setConstant(2.0 / h);
+    b.kp_rule = std::string("Kp·h² <= 1") + at;
+    b.kd_rule = std::string("Kd·h <= 2") + at;
+    return b;
+  }
+  const Matrix6d lambda = StartTaskInertia(c, plant);
+  const double coupling = CouplingFactor(lambda);  // NaN bounds (Λ not positive definite) admit nothing
+  b.kp_max = lambda.diagonal() / (coupling * h * h);
+  b.kd_max = 2.0 * lambda.diagonal() / (coupling * h);
+  char with[80];
+  std::snprintf(with, sizeof with, " with c = λmax(Λ⁻¹diag(Λ)) = %.6g, Λ = Λ(q0)", coupling);
+  b.kp_rule = std::string("K_i·h²·c/Λ_ii <= 1") + at + with;
+  b.kd_rule = std::string("D_i·h·c/Λ_ii <= 2") + at + with;
+  return b;
+}
+
+// A task-space config's own keys: the robot has the frame and 6 joints or
+// more, the posture task's gains fit the joint PD's bounds, the trajectory
+// and the singularity damping are well formed.
+std::optional<std::string> ValidateTaskSpace(const ControllerConfig& c, const PlantSpec& plant) {
+  const int n = plant.num_dofs();
+  if (n < kTaskDims) {
+    return "type: " + std::string(ToString(c.type)) + " needs a robot of at least 6 joints (a frame's 6-D pose), got " +
+           std::to_string(n);
+  }
+  for (const PlantSpec* spec : {&plant, c.model ? &*c.model : nullptr}) {
+    if (spec == nullptr) continue;
+    const Kinematics kinematics(MakeRigidTree(*spec));
+    if (FindTaskFrame(kinematics, c.task.frame)) continue;
+    std::string names;
+    for (const std::string& f : kinematics.frame_names()) names += (names.empty() ? "" : ", ") + Escape(f, 64);
+    return std::string("frame: expected a frame of ") + (spec == &plant ? "the robot" : "the controller's model") +
+           " (" + names + "), got '" + Escape(c.task.frame, 64) + "'";
+  }
+  const TaskSpaceOptions& t = c.task;
+  if (!(std::isfinite(t.damping_ratio) && t.damping_ratio > 0.0)) {
+    return std::string("damping_ratio: expected a positive number");
+  }
+  if (!(std::isfinite(t.singularity.threshold) && t.singularity.threshold > 0.0)) {
+    return std::string("singularity.threshold: expected a positive number (σmin(J) below which damping ramps in)");
+  }
+  if (!(std::isfinite(t.singularity.max_damping) && t.singularity.max_damping > 0.0)) {
+    return std::string("singularity.max_damping: expected a positive number (λ² at σmin(J) = 0)");
+  }
+  const NullSpaceOptions& ns = t.null_space;
+  if (ns.posture && (ns.posture->size() != n || !ns.posture->allFinite())) {
+    return "null_space.posture: expected " + std::to_string(n) + " finite values (one per joint)";
+  }
+  const Gains posture{ns.kp.size() > 0 ? ns.kp : VectorXd::Zero(n), ns.kd.size() > 0 ? ns.kd : VectorXd::Zero(n)};
+  GainBounds pd =
+      c.continuous ? GainBounds::Unbounded(n) : ComputeGainBounds(ControllerType::kPd, plant, c.q0, c.period);
+  if (auto fault = FindGainFault(posture, pd)) return "null_space." + DescribeGainFault(*fault, posture, pd);
+  if (auto err = ValidatePoseTrajectory(t.trajectory)) return "trajectory." + *err;
+  return std::nullopt;
 }
 
 // The weights as given, identity where left out.
@@ -96,13 +205,24 @@ std::string_view ToString(ControllerType type) { return NameOf(kControllerNames,
 std::optional<ControllerType> ParseControllerType(std::string_view name) { return ValueOf(kControllerNames, name); }
 std::string ControllerTypeNames() { return JoinedNames(kControllerNames); }
 
+bool IsTaskSpace(ControllerType type) {
+  return type == ControllerType::kCartesianImpedance || type == ControllerType::kOperationalSpace;
+}
+
 bool HasGains(ControllerType type) {
   return type == ControllerType::kPd || type == ControllerType::kGravityCompensation ||
-         type == ControllerType::kComputedTorque || type == ControllerType::kCartPolePd;
+         type == ControllerType::kComputedTorque || type == ControllerType::kCartPolePd || IsTaskSpace(type);
 }
 
 GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const VectorXd& q0, double h) {
   const int n = plant.num_dofs();
+  if (IsTaskSpace(type)) {  // the default frame, damping and q0
+    ControllerConfig c;
+    c.type = type;
+    c.q0 = q0;
+    c.period = h;
+    return TaskGainBounds(c, plant);
+  }
   GainBounds b = GainBounds::Unbounded(n);
   if (!HasGains(type) || !(h > 0.0)) return b;
   char at[48];
@@ -141,11 +261,8 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
   b.kd_rule = std::string("Kd·h/λmin(M) <= 2") + at + mass;
   if (n < 2) return b;  // one joint: the two boxes are one
   const VectorXd diag = M.diagonal();
-  const Eigen::LLT<MatrixXd> llt(M);
-  if (llt.info() != Eigen::Success || !(diag.array() > 0.0).all()) return b;  // M(q0) not positive definite
-  const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * llt.solve(MatrixXd(diag.cwiseSqrt().asDiagonal()));
-  const double c = Eigen::SelfAdjointEigenSolver<MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
-  if (!(std::isfinite(c) && c > 0.0)) return b;
+  const double c = CouplingFactor(M);
+  if (!(std::isfinite(c) && c > 0.0)) return b;  // M(q0) not positive definite
   b.kp_max_per_joint = diag / (c * h * h);
   b.kd_max_per_joint = 2.0 * diag / (c * h);
   std::snprintf(mass, sizeof mass, " with c = λmax(M⁻¹diag(M)) = %.6g", c);
@@ -156,10 +273,11 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
 
 GainBounds ComputeGainBounds(const ControllerConfig& c, const PlantSpec& plant) {
   if (c.continuous) {  // not held over a tick: the integrator's stages decide (sub-steps, variational)
-    GainBounds b = GainBounds::Unbounded(plant.num_dofs());
+    GainBounds b = IsTaskSpace(c.type) ? GainBounds::UnboundedTask() : GainBounds::Unbounded(plant.num_dofs());
     b.any_sign = c.type == ControllerType::kCartPolePd;
     return b;
   }
+  if (IsTaskSpace(c.type)) return TaskGainBounds(c, plant);
   return ComputeGainBounds(c.type, plant, c.q0, c.period);
 }
 
@@ -170,7 +288,7 @@ std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, c
 }
 
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains) {
-  GainBounds bounds = GainBounds::Unbounded(n);
+  GainBounds bounds = IsTaskSpace(type) ? GainBounds::UnboundedTask() : GainBounds::Unbounded(n);
   bounds.any_sign = type == ControllerType::kCartPolePd;
   return CheckGains(type, gains, bounds);
 }
@@ -201,8 +319,11 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
     return "q0: expected " + std::to_string(n) + " values (one per joint), got " + std::to_string(c.q0.size());
   }
   if (!(std::isfinite(c.period) && c.period > 0.0)) return std::string("period: expected a positive number of seconds");
+  if (IsTaskSpace(c.type)) {
+    if (auto err = ValidateTaskSpace(c, plant)) return err;
+  }
   if (HasGains(c.type)) {
-    if (auto err = CheckGains(c.type, c.gains, ComputeGainBounds(c, plant))) return err;
+    if (auto err = CheckGains(c.type, ResolvedGains(c, plant), ComputeGainBounds(c, plant))) return err;
   }
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;
@@ -228,6 +349,21 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
 }
 
 namespace {
+
+std::unique_ptr<Controller> MakeTaskSpace(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& limits,
+                                          const MethodModels& shared) {
+  auto kinematics = std::make_shared<const Kinematics>(MakeRigidTree(c.model ? *c.model : plant));
+  const int frame = *FindTaskFrame(*kinematics, c.task.frame);
+  const Gains gains = ResolvedGains(c, plant);
+  const std::vector<JointType> joints = JointTypesOf(plant);
+  std::shared_ptr<const Dynamics> model = ControllerModel(c, plant, shared);
+  if (c.type == ControllerType::kCartesianImpedance) {
+    return std::make_unique<CartesianImpedanceController>(joints, limits, gains, c.task, StartQ(c, plant),
+                                                          std::move(model), std::move(kinematics), frame);
+  }
+  return std::make_unique<OperationalSpaceController>(joints, limits, gains, c.task, StartQ(c, plant), std::move(model),
+                                                      std::move(kinematics), frame);
+}
 
 // The controller for a validated config.
 std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits,
@@ -258,6 +394,8 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
       return std::make_unique<ExternalController>(
           joints, torque_limits, c.external.compensate_gravity ? ControllerModel(c, plant, shared) : nullptr,
           c.external.compensate_gravity);
+    case ControllerType::kCartesianImpedance:
+    case ControllerType::kOperationalSpace: return MakeTaskSpace(c, plant, torque_limits, shared);
   }
   throw std::invalid_argument("unknown controller");
 }

@@ -14,6 +14,7 @@
 #include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
+#include "controllers/task_space.hpp"
 #include "plant/plant_factory.hpp"
 
 namespace lagrange {
@@ -27,11 +28,16 @@ enum class ControllerType : std::uint8_t {
   kLqr,                  // LQR about an equilibrium (cart-pole: upright)
   kSwingUp,              // energy swing-up handing over to LQR
   kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
+  kCartesianImpedance,   // Jᵀ (K e + D ė) + C qd + G + P τ0 on one frame's pose (task_space.hpp)
+  kOperationalSpace,     // Jᵀ Λ (ẍ_d + Kd ė + Kp e − J̇qd) + C qd + G + P τ0 (task_space.hpp)
 };
 
 std::string_view ToString(ControllerType type);
 std::optional<ControllerType> ParseControllerType(std::string_view name);
 std::string ControllerTypeNames();  // "none|pd|gravity-compensation|..."
+// cartesian-impedance and operational-space: a frame's pose is their target,
+// their gains are per task axis (6), and they are TaskSpaceControllers.
+bool IsTaskSpace(ControllerType type);
 
 struct LqrOptions {
   std::optional<VectorXd> equilibrium;       // q0; default: the cart-pole's upright (0, π)
@@ -55,11 +61,16 @@ struct ExternalOptions {
 
 struct ControllerConfig {
   ControllerType type = ControllerType::kNone;
-  Gains gains;     // kp, kd (n each); empty where a type does not use them
+  // kp, kd (n each; 6 each for a task-space type, per task axis x, y, z, rx,
+  // ry, rz); empty where a type does not use them. A cartesian-impedance
+  // config may leave kd empty: the controller is then built with
+  // D_i = 2 ζ sqrt(K_i Λ_ii(q0)), ζ = task.damping_ratio, Λ its model's.
+  Gains gains;
   PdOptions pd;    // pd and gravity-compensation
   LqrOptions lqr;  // lqr and swing-up's balancer
   SwingUpOptions swing_up;
   ExternalOptions external;
+  TaskSpaceOptions task;  // cartesian-impedance and operational-space
   // The controller's own model: the plant's spec with these changes (a
   // model error), and its derivation method (default: the fastest).
   std::optional<PlantSpec> model;
@@ -81,19 +92,26 @@ struct ControllerConfig {
 };
 
 // Checks a config against the plant: the type suits the plant (cart-pole
-// controllers need a cart-pole), gain sizes, signs and bounds
-// (ComputeGainBounds), Q and R shapes and definiteness. Returns "key: what was expected".
+// controllers need a cart-pole, task-space ones a robot of 6 joints or more
+// with the frame), gain sizes, signs and bounds (ComputeGainBounds; a
+// task-space posture task's as a joint PD's, under null_space), Q and R
+// shapes and definiteness, a task-space trajectory and singularity damping.
+// Returns "key: what was expected".
 std::optional<std::string> ValidateController(const ControllerConfig& config, const PlantSpec& plant);
 
 // The gains a controller of this type accepts on `plant`, held over a tick of
-// `period` s from the initial q0 (n): the rules in joint_controllers.hpp and
-// cartpole_pd.hpp. Types without gains get n unbounded entries.
+// `period` s from the initial q0 (n): the rules in joint_controllers.hpp,
+// cartpole_pd.hpp and task_space.hpp. Types without gains get n unbounded entries.
 //   computed-torque                Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s)
 //   pd, gravity-compensation       Kp_i <= w_i/h²,      Kd_i <= 2 w_i/h    (N·m/rad, N·m·s/rad)
 //                                  with w_i = λmin(M) for every joint, or (the per-joint box, for
 //                                  n >= 2) w_i = M_ii/λmax(M⁻¹ diag M): kp within either, kd within either
 //   cartpole-pd (any sign)         |Kp_j| <= M_xx/h²,   |Kd_j| <= 2M_xx/h
-// with M = M(q0) of the plant: both PD boxes are evaluated at q0 only (the
+//   operational-space              Kp_i <= 1/h²,        Kd_i <= 2/h        (1/s², 1/s; per task axis)
+//   cartesian-impedance            K_i <= Λ_ii/(c h²),  D_i <= 2Λ_ii/(c h) (N/m or N·m/rad, N·s/m or N·m·s/rad)
+//                                  with Λ = Λ(q0) the frame's task inertia (task_space.hpp; the
+//                                  config's frame, the default for this overload) and c = λmax(Λ⁻¹ diag Λ)
+// with M = M(q0) of the plant (and Λ the plant's): both PD boxes are evaluated at q0 only (the
 // instance's initial q, or 0), and M changes with q, so they are exact there
 // and approximate elsewhere; the per-joint box is the more pose-sensitive.
 // The per-joint box is left out (empty) when M(q0) is not positive definite

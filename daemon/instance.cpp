@@ -53,6 +53,7 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   for (const auto& c : controllers_) {
     scene_gains_.push_back(c->gains());
     externals_.push_back(dynamic_cast<ExternalController*>(c.get()));
+    task_spaces_.push_back(dynamic_cast<TaskSpaceController*>(c.get()));
   }
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;

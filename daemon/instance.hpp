@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
+#include "controllers/task_space.hpp"
 #include "controllers/trajectory.hpp"
 #include "daemon/instance_model.hpp"
 #include "daemon/scene.hpp"
@@ -86,6 +87,12 @@ class Instance {
   bool external_plant() const { return external_; }
   // The external controller at `index`, or null for another type.
   ExternalController* external_controller(std::size_t index) { return externals_[index]; }
+  // The task-space controller at `index` (cartesian-impedance, operational-space),
+  // or null for another type: where the tick sets a pose target
+  // (TaskSpaceController::SetPoseTarget, MoveTo: no allocation) and reads the
+  // frame's commanded pose and error.
+  TaskSpaceController* task_space_controller(std::size_t index) { return task_spaces_[index]; }
+  const TaskSpaceController* task_space_controller(std::size_t index) const { return task_spaces_[index]; }
   // The state to return to after a fault: steps, q, qd.
   struct Saved {
     std::int64_t steps = 0;
@@ -185,9 +192,10 @@ class Instance {
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller
   std::size_t active_ = 0;
-  std::vector<bool> continuous_;                // by controller index
-  std::vector<ExternalController*> externals_;  // by controller index, null for other types
-  std::vector<Gains> scene_gains_;              // by controller index: what Reset restores
+  std::vector<bool> continuous_;                   // by controller index
+  std::vector<ExternalController*> externals_;     // by controller index, null for other types
+  std::vector<TaskSpaceController*> task_spaces_;  // by controller index, null for other types
+  std::vector<Gains> scene_gains_;                 // by controller index: what Reset restores
   StageLaw stage_law_;
   std::unique_ptr<Trajectory> trajectory_;
   double trajectory_start_ = 0.0;  // s: the instance time the trajectory's time counts from

@@ -408,8 +408,9 @@ void Receiver::HandleCommand(std::size_t i, const std::uint8_t* data, std::size_
   slot->request_id = command_.request_id;
   slot->controller = v.controller;
   if (v.command == CommandKind::kSetGains) {
-    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), m.num_dofs);
-    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), m.num_dofs);
+    // num_gains was checked: n, or 6 for a task-space controller (the slot then resizes, here, off the tick).
+    slot->gains.kp = Eigen::Map<const VectorXd>(command_.kp.data(), command_.num_gains);
+    slot->gains.kd = Eigen::Map<const VectorXd>(command_.kd.data(), command_.num_gains);
   }
   slot->integrator = v.integrator;
   slot->default_max_steps = v.default_max_steps;

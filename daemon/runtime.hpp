@@ -88,7 +88,7 @@ struct CommandMessage {
   std::int64_t utime = 0;
   std::int64_t request_id = 0;  // the sender's, echoed with the verdict
   int controller = -1;          // switch: the target; set-gains: the controller the gains are for
-  Gains gains;                  // sized n
+  Gains gains;                  // sized n (6 for a task-space controller's)
   // set-integrator: the integrator as asked (CheckIntegratorConfig passed);
   // default_max_steps: dopri5 takes the scene's max_steps, lowered to what fits the period.
   IntegratorConfig integrator;

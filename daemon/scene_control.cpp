@@ -85,6 +85,102 @@ void ReadModel(const YamlReader& node, const PlantSpec& plant, ControllerConfig&
   }
 }
 
+// Gains per task axis (x, y, z, rx, ry, rz): one number for all six, a list
+// of six, or {translational: a number or [x, y, z], rotational: a number or [rx, ry, rz]}.
+VectorXd ReadTaskAxes(const YamlReader& node) {
+  if (!node.IsMap()) {
+    if (node.IsSequence() && node.Size() != kTaskDims) {
+      node.Fail("expected 6 values (x, y, z, rx, ry, rz), one for all, or {translational: ..., rotational: ...}, got " +
+                std::to_string(node.Size()) + " values");
+    }
+    return node.NumberOrVector(kTaskDims);
+  }
+  node.ExpectKeys({"translational", "rotational"});
+  VectorXd v(kTaskDims);
+  v.head<3>() = node.Required("translational").NumberOrVector(3);
+  v.tail<3>() = node.Required("rotational").NumberOrVector(3);
+  return v;
+}
+
+// {position: [x, y, z] (m), orientation: [w, x, y, z]}; the orientation
+// defaults to none (identity: the world's axes).
+Pose ReadPose(const YamlReader& node) {
+  node.ExpectKeys({"position", "orientation"});
+  Pose p;
+  p.position = node.Required("position").Vector(3);
+  if (auto o = node.Optional("orientation")) {
+    const VectorXd q = o->Vector(4);
+    p.orientation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+  }
+  return p;
+}
+
+// trajectory: {type: hold|min-jerk|circle, target: POSE, duration: s, center: [3], normal: [3], frequency: Hz, ramp: s}
+PoseTrajectoryConfig ReadPoseTrajectory(const YamlReader& node) {
+  PoseTrajectoryConfig t;
+  const std::string type = node.Has("type") ? node.Required("type").Text() : "hold";
+  if (type == "hold") {
+    node.ExpectKeys({"type", "target"});
+  } else if (type == "min-jerk") {
+    node.ExpectKeys({"type", "target", "duration"});
+    t.type = PoseTrajectory::Type::kMinimumJerk;
+    t.duration = node.Required("duration").PositiveNumber();
+    node.Required("target");
+  } else if (type == "circle") {
+    node.ExpectKeys({"type", "center", "normal", "frequency", "ramp"});
+    t.type = PoseTrajectory::Type::kCircle;
+    t.center = node.Required("center").Vector(3);
+    if (auto n = node.Optional("normal")) t.normal = n->Vector(3);
+    t.frequency = node.Required("frequency").PositiveNumber();
+    if (auto r = node.Optional("ramp")) t.ramp = r->NonNegativeNumber();
+  } else {
+    node.Required("type").Fail("expected hold, min-jerk or circle, got '" + Escape(type, 60) + "'");
+  }
+  if (auto target = node.Optional("target")) t.target = ReadPose(*target);
+  return t;
+}
+
+// The task-space keys: frame, stiffness/damping/damping_ratio (impedance) or
+// kp/kd (operational space), null_space, singularity, trajectory.
+void ReadTaskSpace(const YamlReader& node, int n, ControllerConfig& c) {
+  TaskSpaceOptions& t = c.task;
+  if (auto f = node.Optional("frame")) {
+    t.frame = f->Text();
+    if (t.frame.empty()) f->Fail("expected the name of one of the robot's frames, got ''");
+  }
+  const bool impedance = c.type == ControllerType::kCartesianImpedance;
+  const char* kp_key = impedance ? "stiffness" : "kp";
+  c.gains.kp = ReadTaskAxes(node.Required(kp_key));
+  if (auto d = node.Optional(impedance ? "damping" : "kd")) {
+    if (impedance && node.Has("damping_ratio")) d->Fail("expected damping or damping_ratio, not both");
+    c.gains.kd = ReadTaskAxes(*d);
+  } else if (!impedance) {
+    node.Fail("missing key 'kd'");
+  }
+  if (auto z = node.Optional("damping_ratio")) t.damping_ratio = z->PositiveNumber();
+  if (auto ns = node.Optional("null_space")) {
+    ns->ExpectKeys({"kp", "kd", "posture"});
+    if (auto v = ns->Optional("kp")) t.null_space.kp = v->NumberOrVector(n);
+    if (auto v = ns->Optional("kd")) t.null_space.kd = v->NumberOrVector(n);
+    if (auto v = ns->Optional("posture")) t.null_space.posture = v->Vector(n);
+  }
+  if (auto s = node.Optional("singularity")) {
+    s->ExpectKeys({"threshold", "max_damping"});
+    if (auto v = s->Optional("threshold")) t.singularity.threshold = v->PositiveNumber();
+    if (auto v = s->Optional("max_damping")) t.singularity.max_damping = v->PositiveNumber();
+  }
+  if (auto tr = node.Optional("trajectory")) t.trajectory = ReadPoseTrajectory(*tr);
+}
+
+// A cartesian-impedance config's gains are its stiffness and damping in the
+// file: the library's "kp[3]: ..." names them so.
+std::string SceneKey(const ControllerConfig& c, const YamlReader& node, const std::string& key) {
+  if (c.type != ControllerType::kCartesianImpedance) return key;
+  if (key.rfind("kp", 0) == 0) return "stiffness" + key.substr(2);
+  if (key.rfind("kd", 0) == 0) return (node.Has("damping") ? "damping" : "damping_ratio") + key.substr(2);
+  return key;
+}
+
 }  // namespace
 
 UrdfFiles::UrdfFiles(const std::string& scene_file) : dir_(std::filesystem::path(scene_file).parent_path().string()) {}
@@ -148,9 +244,18 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
     case ControllerType::kExternal:
       node.ExpectKeys({"type", "torque_timeout", "torque_channel", "fallback", "compensate_gravity", "model"});
       break;
+    case ControllerType::kCartesianImpedance:
+      node.ExpectKeys({"type", "frame", "stiffness", "damping", "damping_ratio", "null_space", "singularity",
+                       "trajectory", "model", "continuous"});
+      break;
+    case ControllerType::kOperationalSpace:
+      node.ExpectKeys({"type", "frame", "kp", "kd", "null_space", "singularity", "trajectory", "model", "continuous"});
+      break;
   }
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
-  if (HasGains(c.type)) {
+  if (IsTaskSpace(c.type)) {
+    ReadTaskSpace(node, n, c);
+  } else if (HasGains(c.type)) {
     for (const auto& [key, out] : {std::pair{"kp", &c.gains.kp}, std::pair{"kd", &c.gains.kd}}) {
       if (auto g = node.Optional(key))
         *out = g->NumberOrVector(n);
@@ -200,7 +305,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   if (auto err = ValidateController(c, plant)) {
     // "key: message" from the controller library; point at that key when it is in the file.
     const std::size_t colon = err->find(": ");
-    const std::string key = colon == std::string::npos ? "" : err->substr(0, colon);
+    const std::string key = colon == std::string::npos ? "" : SceneKey(c, node, err->substr(0, colon));
     const std::string first = key.substr(0, key.find_first_of(",.[ "));
     if (!key.empty() && node.Has(first)) node.Fail(key, err->substr(colon + 2));
     node.Fail(*err);

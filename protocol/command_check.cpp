@@ -49,13 +49,16 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
   if (v.command == CommandKind::kSetGains) {
     v.controller = out.controller.empty() ? active : FindController(rules, out.controller);
     if (v.controller < 0) return Reject(Unknown(rules, out.controller));
-    if (out.num_gains != rules.n) {
-      return Reject("gains: num_gains is " + std::to_string(out.num_gains) + ", expected " + std::to_string(rules.n));
-    }
-    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), rules.n),
-                  Eigen::Map<const VectorXd>(out.kd.data(), rules.n)};
     const auto c = static_cast<std::size_t>(v.controller);
-    if (auto err = CheckGains(rules.controller_types[c], g, rules.gain_bounds[c])) {
+    // One gain per joint, or per task axis (6) for a task-space controller: its bounds' size.
+    const GainBounds& bounds = rules.gain_bounds[c];
+    const int count = bounds.num_dofs();
+    if (out.num_gains != count) {
+      return Reject("gains: num_gains is " + std::to_string(out.num_gains) + ", expected " + std::to_string(count) +
+                    (bounds.task_axes ? " (one per task axis: x, y, z, rx, ry, rz)" : ""));
+    }
+    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), count), Eigen::Map<const VectorXd>(out.kd.data(), count)};
+    if (auto err = CheckGains(rules.controller_types[c], g, bounds)) {
       return Reject("gains for " + rules.controllers[c] + ": " + *err);
     }
   }

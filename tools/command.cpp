@@ -10,6 +10,7 @@
 
 #include <optional>
 
+#include "controllers/factory.hpp"
 #include "plant/effects.hpp"
 #include "plant/escape.hpp"
 #include "plant/integrators.hpp"
@@ -83,7 +84,9 @@ class CommandCommand final : public Command {
                          MethodNames() + "), or forces on|off (publish <NAME>_FORCES)")
         ->required()
         ->expected(1, -1);
-    app_->add_option("--kp", kp_, "gains: proportional gains, one for every joint or one per joint (a or a,b,..)")
+    app_->add_option("--kp", kp_,
+                     "gains: proportional gains, one for every joint or one per joint (a or a,b,..); a task-space "
+                     "controller's: one per task axis x, y, z, rx, ry, rz")
         ->delimiter(',')
         ->allow_extra_args(false)
         ->check(NonNegativeNumber());
@@ -108,7 +111,9 @@ class CommandCommand final : public Command {
     if (c.command == command_t::ESTOP) return Estop(link, c, out);
     const std::int64_t run = link.AwaitOneRun();
     if (c.command == command_t::SET_GAINS) {
-      const int n = link.state().num_dofs;
+      // One gain per joint, or per task axis (x, y, z, rx, ry, rz) for the active task-space controller.
+      const std::optional<ControllerType> active = ParseControllerType(link.state().controller);
+      const int n = active && IsTaskSpace(*active) ? kTaskDims : link.state().num_dofs;
       const VectorXd kp = JointValues("--kp", kp_, n, true);
       const VectorXd kd = JointValues("--kd", kd_, n, true);
       c.num_gains = n;
