@@ -156,6 +156,7 @@ class TaskSpaceController : public Controller {
   const Pose& pose() const { return pose_; }                    // measured
   const PoseSetpoint& commanded() const { return commanded_; }  // the target followed
   const Vector6d& pose_error() const { return e_; }             // e = commanded ⊖ measured (m, rad)
+  const Vector6d& twist() const { return xdot_; }               // measured J qd (m/s, rad/s), world axes
   const OperationalSpace& operational_space() const { return os_; }
   const TaskSpaceOptions& options() const { return options_; }
 

@@ -45,6 +45,17 @@ std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
   for (ControllerModel& m : controllers) {
     if (m.external) m.fallback = FallbackOf(controllers, m.config.external.fallback);
   }
+  // Pose setpoints: the frame each task-space controller moves, within the scene's workspace.
+  for (ControllerModel& m : controllers) {
+    if (!IsTaskSpace(m.config.type)) continue;
+    // The frames of the controller's own model, as MakeController finds its frame.
+    const Kinematics kinematics(MakeRigidTree(m.config.model ? *m.config.model : config.plant));
+    const std::optional<int> frame = FindTaskFrame(kinematics, m.config.task.frame);
+    if (!frame) throw std::logic_error("a validated task-space controller's frame is not the robot's");
+    m.pose_rules.frame = kinematics.frame_names()[static_cast<std::size_t>(*frame)];
+    m.pose_rules.lower = config.workspace_lower;
+    m.pose_rules.upper = config.workspace_upper;
+  }
   return controllers;
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "controllers/factory.hpp"
+#include "controllers/task_space.hpp"
 #include "daemon/scene.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
@@ -47,6 +48,10 @@ struct ControllerModel {
   bool external = false;
   Nanoseconds torque_timeout = 0;
   HoldBy fallback;
+  // A task-space controller (cartesian-impedance, operational-space): what a
+  // pose setpoint for it must satisfy, its frame's name resolved (the scene's
+  // frame, or the robot's last); frame "" for every other type.
+  PoseRules pose_rules;
 };
 
 struct InstanceModel {

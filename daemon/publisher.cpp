@@ -53,6 +53,7 @@ Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& 
     o.torque.num_dofs = m.num_dofs;
     o.torque.tau.resize(n);
     o.telemetry.run_id = run_id_;
+    o.task.run_id = run_id_;
     o.forces.run_id = run_id_;
     o.forces.num_dofs = m.num_dofs;
     for (auto* v : {&o.forces.gravity, &o.forces.coriolis, &o.forces.damping, &o.forces.friction, &o.forces.limits,
@@ -123,6 +124,7 @@ void Publisher::Publish(const TickRecord& record) {
     ++states_published_;
     if (r.telemetry) PublishTelemetry(i, r, record);
     if (r.publish_forces) PublishForces(i, r, record);
+    if (r.task) PublishTask(i, r, record);
     PublishReplies(i, r, record.utime);
   }
   LogEvents(record);
@@ -157,6 +159,29 @@ void Publisher::PublishTorque(std::size_t i, const InstanceRecord& r, std::int64
   t.state_tick = r.state_tick;
   std::copy_n(r.tau.data(), t.tau.size(), t.tau.data());
   bus_.PublishMessage(model_.instances[i].channels.torque_out, t);
+}
+
+// (record) => task_state_t: the active task-space controller's frame, measured and commanded.
+void Publisher::PublishTask(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
+  const ControllerModel& c = model_.instances[i].controllers[static_cast<std::size_t>(r.controller)];
+  task_state_t& m = out_[i].task;
+  m.utime = record.utime;
+  m.tick = record.tick;
+  m.t = r.t;
+  m.frame = c.pose_rules.frame;
+  m.controller = c.name;
+  const auto put_pose = [](const Pose& pose, double* position, double* orientation) {
+    std::copy_n(pose.position.data(), 3, position);
+    orientation[0] = pose.orientation.w();
+    orientation[1] = pose.orientation.x();
+    orientation[2] = pose.orientation.y();
+    orientation[3] = pose.orientation.z();
+  };
+  put_pose(r.task_pose, m.position, m.orientation);
+  put_pose(r.task_commanded, m.position_des, m.orientation_des);
+  std::copy_n(r.task_error.data(), 6, m.error);
+  std::copy_n(r.task_twist.data(), 6, m.twist);
+  bus_.PublishMessage(model_.instances[i].channels.task, m);
 }
 
 // (record) => telemetry_t: the balance, the integrator's work, the instance's compute.

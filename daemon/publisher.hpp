@@ -19,6 +19,7 @@
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -61,6 +62,7 @@ class Publisher {
   void PublishTorque(std::size_t i, const InstanceRecord& r, std::int64_t utime);
   void PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishTask(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
   std::string StatusReason(std::size_t i, const InstanceRecord& r) const;
@@ -71,6 +73,7 @@ class Publisher {
     state_t state{};
     torque_t torque{};  // an external plant's command; its sequence counts from 0
     telemetry_t telemetry{};
+    task_state_t task{};
     forces_t forces{};
     Mode mode = Mode::kRunning;
     const char* reason = nullptr;

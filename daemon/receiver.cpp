@@ -37,6 +37,7 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
     const InstanceChannelNames& c = model_.instances[i].channels;
     Listen(input_, c.setpoint,
            [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleSetpoint(i, d, n); });
+    Listen(input_, c.pose, [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandlePose(i, d, n); });
     Listen(input_, c.command,
            [this, i](std::string_view, const std::uint8_t* d, std::size_t n) { HandleCommand(i, d, n); });
     if (!c.torque_in.empty() && model_.instances[i].external_controller >= 0) {
@@ -52,7 +53,8 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
     std::vector<std::string> outputs = {model_.status_channel};
     for (const InstanceModel& m : model_.instances) {
       for (const std::string* ch :
-           {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces, &m.channels.torque_out}) {
+           {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces, &m.channels.task,
+            &m.channels.torque_out}) {
         if (!ch->empty()) outputs.push_back(*ch);
       }
     }
@@ -250,6 +252,33 @@ std::string Receiver::AgeReason(const AgeVerdict& age, const char* timeout_name,
   if (age.out_of_line) return age.out_of_line;
   return age.age > 0 ? fmt::format("stale: sent {:.6g} s ago ({} {:.6g} s)", age.age, timeout_name, timeout)
                      : fmt::format("timestamp {:.6g} s in the future (clocks out of step?)", -age.age);
+}
+
+// A pose setpoint, checked against the active controller's rules (its frame,
+// the workspace), counted with the setpoints.
+void Receiver::HandlePose(std::size_t i, const std::uint8_t* data, std::size_t size) {
+  const InstanceModel& m = model_.instances[i];
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  const ControllerModel& controller = m.controllers[static_cast<std::size_t>(active)];
+  const SetpointVerdict verdict = CheckPoseSetpoint(data, size, controller.pose_rules, pose_);
+  if (verdict.kind == SetpointVerdict::Kind::kUndecodable) return DecodeError(m.channels.pose, verdict.reason.c_str());
+  std::atomic<std::int64_t>& rejected = stats_.setpoints_rejected;
+  if (controller.pose_rules.frame.empty()) {
+    return RejectInput(i, rejected, "pose",
+                       "the instance is not running a task-space controller (active: " + controller.name + ")");
+  }
+  if (verdict.kind == SetpointVerdict::Kind::kRejected) return RejectInput(i, rejected, "pose", verdict.reason);
+  const AgeVerdict age = Age(data_[i].poses, m.config.setpoint_timeout, pose_.utime);
+  if (!age.ok) return RejectInput(i, rejected, "pose", AgeReason(age, "setpoint_timeout", m.config.setpoint_timeout));
+  PoseMessage& msg = runtime_.channels(i).poses.back();
+  msg.target.position = Eigen::Map<const Eigen::Vector3d>(pose_.position);
+  msg.target.orientation =
+      Eigen::Quaterniond(pose_.orientation[0], pose_.orientation[1], pose_.orientation[2], pose_.orientation[3])
+          .normalized();
+  msg.twist = Eigen::Map<const Vector6d>(pose_.twist);
+  msg.duration = pose_.duration;
+  runtime_.channels(i).poses.Publish();
+  stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
 void Receiver::RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what,

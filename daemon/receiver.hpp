@@ -4,8 +4,8 @@
 // protocol/bus.hpp, never through lcm::LCM (see there why). What it sends out
 // is the publisher's (daemon/publisher.hpp), but for its own refusals.
 //
-// Receiver: for each instance it subscribes to <NAME>_SETPOINT and
-// <NAME>_COMMAND on the input bus (and an external controller's torque
+// Receiver: for each instance it subscribes to <NAME>_SETPOINT, <NAME>_POSE
+// and <NAME>_COMMAND on the input bus (and an external controller's torque
 // channel, an external plant's state_channel), checks every packet's raw
 // layout before decoding (protocol/wire.hpp), validates what it decodes
 // (protocol/setpoint_check.hpp, command_check.hpp), and hands the good ones to
@@ -19,6 +19,7 @@
 // it is logged or published.
 
 #include <lagrange/command_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
@@ -127,6 +128,7 @@ class Receiver {
   // plant's source and last accepted tick.
   struct InstanceData {
     Timeline setpoints;
+    Timeline poses;
     Timeline torques;
     std::int64_t torque_source = 0;
     std::int64_t torque_sequence = 0;
@@ -146,6 +148,7 @@ class Receiver {
   // "stale: sent X s ago (NAME X s)" or "timestamp X s in the future ...".
   static std::string AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout);
   void HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size);
+  void HandlePose(std::size_t i, const std::uint8_t* data, std::size_t size);
   void HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size);
   void HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size);
   void RejectInput(std::size_t i, std::atomic<std::int64_t>& counter, const char* what, const std::string& why);
@@ -172,6 +175,7 @@ class Receiver {
   std::int64_t run_id_;
   std::vector<InstanceData> data_;  // by instance
   setpoint_t setpoint_;             // decoded into; keeps its capacity
+  pose_setpoint_t pose_;
   command_t command_;
   torque_t torque_;
   state_t measured_;

@@ -33,6 +33,7 @@ std::optional<Urgent> UrgentKind(CommandKind kind) {
 
 InstanceChannels::InstanceChannels(int n, std::size_t command_capacity)
     : setpoints(SetpointPrototype(n)),
+      poses(PoseMessage{}),
       torques(TorquePrototype(n)),
       measured(MeasuredPrototype(n)),
       commands(command_capacity, CommandPrototype(n)) {}
@@ -131,6 +132,7 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     TakeCommands(s, now, r);
     if (s.m.external_plant()) TakeMeasured(s, now);
     TakeSetpoint(s, now);
+    TakePose(s, now);
     TakeTorque(s, now);
     if (s.m.external_plant()) KeepPlantTime(s, now);
     ControlAndIntegrate(s);
@@ -407,6 +409,22 @@ void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
   if (s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout)) On(s, ModeEvent::kSetpointsTimedOut, now);
 }
 
+// (mailbox) => the active task-space controller's target: a move from the
+// measured pose, or the pose at once. A pose brings a held instance back to
+// running as a setpoint does; it latches (no stream, so no timeout).
+void Runtime::TakePose(Slot& s, Nanoseconds now) {
+  const PoseMessage* msg = s.channels.poses.Take();  // taken even when unused, so an old one never applies later
+  if (msg == nullptr) return;
+  TaskSpaceController* c = s.instance.task_space_controller(s.instance.active_controller());
+  if (c == nullptr) return;  // switched away since the receiver checked it
+  if (msg->duration > 0.0) {
+    c->MoveTo(msg->target, msg->duration);
+  } else {
+    c->SetPoseTarget(PoseSetpoint{msg->target, msg->twist, Vector6d::Zero()});
+  }
+  On(s, ModeEvent::kSetpointArrived, now);
+}
+
 // (mailbox) => the external controller's torque; its timeout.
 void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
   const TorqueMessage* msg = s.channels.torques.Take();  // taken even when unused, so an old one never applies later
@@ -483,6 +501,14 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.controller = static_cast<int>(inst.active_controller());
   r.mode = s.mode.mode;
   r.reason = s.mode.reason;
+  const TaskSpaceController* task = inst.task_space_controller(inst.active_controller());
+  r.task = task != nullptr;
+  if (task != nullptr) {
+    r.task_pose = task->pose();
+    r.task_commanded = task->commanded().pose;
+    r.task_error = task->pose_error();
+    r.task_twist = task->twist();
+  }
   r.publish_torque = inst.external_plant() && (Commands(s.mode.mode) || s.send_zero_once);
   r.state_tick = s.measured_tick;
   s.send_zero_once = false;

@@ -68,6 +68,16 @@ struct TorqueMessage {
   Nanoseconds sent = kSentUnknown;
 };
 
+// A pose setpoint for a task-space controller, validated (protocol/
+// setpoint_check.hpp: unit, finite, in the workspace, for its frame) and fresh.
+// duration > 0: a minimum-jerk move there from the measured pose; 0: the
+// target at once, with `twist` as its feed-forward.
+struct PoseMessage {
+  Pose target;
+  Vector6d twist = Vector6d::Zero();
+  double duration = 0.0;  // s
+};
+
 // An external plant's measured state, validated (size, finite, bounded) and fresh.
 struct MeasuredMessage {
   VectorXd q, qd;           // (n)
@@ -122,6 +132,7 @@ struct UrgentFlags {
 struct InstanceChannels {
   InstanceChannels(int n, std::size_t command_capacity);
   LatestMailbox<SetpointMessage> setpoints;
+  LatestMailbox<PoseMessage> poses;
   LatestMailbox<TorqueMessage> torques;
   LatestMailbox<MeasuredMessage> measured;
   // The first MeasuredProblem since the tick last looked (the receiver sets it
@@ -175,6 +186,12 @@ struct InstanceRecord {
   std::array<Verdict, kMaxVerdictsPerTick> verdicts;  // the first num_verdicts
   std::size_t num_verdicts = 0;
   const char* reason = nullptr;  // why the mode is not running (one of the k* reasons or a fault); null when running
+  // A task-space controller active (task_state_t): its frame as of its last
+  // computation, measured and commanded, e = commanded ⊖ measured and the
+  // measured twist (controllers/task_space.hpp).
+  bool task = false;
+  Pose task_pose, task_commanded;
+  Vector6d task_error = Vector6d::Zero(), task_twist = Vector6d::Zero();
   // External plant: publish tau on the torque channel this tick (it then
   // answers the measured state of tick state_tick).
   bool publish_torque = false;
@@ -260,6 +277,7 @@ class Runtime {
                     const CommandMessage* message = nullptr);
   void TakeMeasured(Slot& s, Nanoseconds now);
   void TakeSetpoint(Slot& s, Nanoseconds now);
+  void TakePose(Slot& s, Nanoseconds now);
   void TakeTorque(Slot& s, Nanoseconds now);
   void ControlAndIntegrate(Slot& s);
   void CheckHealth(Slot& s, InstanceRecord& r);

@@ -288,6 +288,14 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, Ur
       l->Fail("expected lower < upper for every joint");
   }
   if (auto t = node.Optional("setpoint_timeout")) inst.setpoint_timeout = t->PositiveNumber();
+  if (auto w = node.Optional("workspace")) {
+    w->ExpectKeys({"lower", "upper"});
+    inst.workspace_lower = w->Required("lower").VectorOrInfinity(3);
+    inst.workspace_upper = w->Required("upper").VectorOrInfinity(3);
+    if (!(inst.workspace_lower.array() < inst.workspace_upper.array()).all()) {
+      w->Fail("expected lower < upper in x, y and z (m, world frame)");
+    }
+  }
   if (auto b = node.Optional("on_timeout")) {
     const std::string v = b->Text();
     if (v == "hold-position")
@@ -403,8 +411,8 @@ EnergyBalanceBound ReadEnergyBalanceBound(const YamlReader& node, bool external_
 
 InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
-                   "setpoint", "setpoint_limits", "setpoint_timeout", "on_timeout", "max_energy", "energy_balance",
-                   "estop_damping", "telemetry", "forces"});
+                   "setpoint", "setpoint_limits", "setpoint_timeout", "workspace", "on_timeout", "max_energy",
+                   "energy_balance", "estop_damping", "telemetry", "forces"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();

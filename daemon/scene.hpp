@@ -81,6 +81,10 @@ struct InstanceConfig {
   TrajectoryConfig setpoint;
   VectorXd setpoint_lower, setpoint_upper;  // (n) a streamed q_d outside is rejected; default the joint limits or ±inf
   double setpoint_timeout = 0.5;            // s: streamed setpoints older than this, or none for this long, time out
+  // A task-space controller's pose targets (<NAME>_POSE): the box their
+  // positions must lie in, world frame, m (±inf: unbounded).
+  Eigen::Vector3d workspace_lower = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d workspace_upper = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   TimeoutBehaviour on_timeout = TimeoutBehaviour::kHoldPosition;
   std::optional<double> max_energy;             // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
   std::optional<EnergyBalanceBound> energy_balance;  // a bound on |ε| (none by default)

@@ -8,9 +8,11 @@
 #include <signal.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -912,6 +914,139 @@ TEST(Lagrangectl, SuggestsTheNearestCommandAndPrintsItsVersion) {
   r = RunCtl({"--version"});
   EXPECT_EQ(r.status, 0);
   EXPECT_EQ(r.out, std::string("lagrangectl ") + LAGRANGE_VERSION + "\n");
+}
+
+}  // namespace
+}  // namespace lagrange
+
+namespace lagrange {
+namespace {
+
+// The Panda under Cartesian impedance takes pose targets on PANDA_POSE and
+// publishes its frame on PANDA_TASK; lagrangectl send --pose drives it, and
+// every bad pose, from lagrangectl or raw off the bus, is refused by name.
+class LivePose : public LiveDaemon {
+ protected:
+  void StartPanda(int port) {
+    Start(port, {"--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_cartesian_impedance.yaml"});
+  }
+  // A pose_setpoint_t sent raw (as any program on the bus may), then the
+  // daemon's last rejection once its count moved.
+  std::string RawPoseRejection(pose_setpoint_t pose) {
+    const std::int64_t before = RejectedSetpoints();
+    lcm::LCM lcm(url_);
+    pose.utime = WallMicros();
+    lcm.publish("PANDA_POSE", &pose);
+    std::string reason;
+    collector_->WaitForLatest<status_t>(
+        "LAGRANGE_STATUS",
+        [&](const status_t& s) {
+          reason = s.last_rejection;
+          return s.setpoints_rejected > before;
+        },
+        10.0);
+    return reason;
+  }
+  std::int64_t RejectedSetpoints() {
+    const auto statuses = collector_->Decoded<status_t>("LAGRANGE_STATUS");
+    return statuses.empty() ? 0 : statuses.back().setpoints_rejected;
+  }
+  static std::int64_t WallMicros() {
+    return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  }
+  static pose_setpoint_t Pose(double x, double y, double z) {
+    pose_setpoint_t p{};
+    p.position[0] = x;
+    p.position[1] = y;
+    p.position[2] = z;
+    p.orientation[1] = 0.9238795325112867;  // the ready pose's hand: (w, x, y, z)
+    p.orientation[2] = -0.3826834323650898;
+    return p;
+  }
+};
+
+TEST_F(LivePose, SendPoseMovesThePandasFrameThereAndItsTaskStateShowsTargetAndError) {
+  StartPanda(7995);
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK", [](const task_state_t& t) { return t.frame == "panda_link8"; }, 20.0));
+  // The scene's own 2 s move ends first: from then on the target stands still.
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t& t) { return t.t > 2.2; },
+                                                      20.0));
+  const task_state_t first = collector_->Decoded<task_state_t>("PANDA_TASK").back();
+  EXPECT_EQ(first.controller, "cartesian-impedance");
+  EXPECT_NEAR(Eigen::Map<const Eigen::Vector4d>(first.orientation).norm(), 1.0, 1e-12);
+
+  const auto r = Ctl({"send", "panda", "--pose", "0.45,0.05,0.45", "--min-jerk", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("over 1 s, minimum jerk to PANDA_POSE; lagranged accepted it; panda_link8 is "),
+            std::string::npos)
+      << r.out;
+  // The target is latched as sent (the orientation kept), and the hand gets there.
+  const Eigen::Vector3d target(0.45, 0.05, 0.45);
+  constexpr double kThere = 1e-3;  // m: well past the move, the impedance has the hand within this
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK",
+      [&](const task_state_t& t) {
+        return (Eigen::Map<const Eigen::Vector3d>(t.position_des) - target).norm() < 1e-12 &&
+               (Eigen::Map<const Eigen::Vector3d>(t.position) - target).norm() < kThere;
+      },
+      20.0));
+  const task_state_t t = collector_->Decoded<task_state_t>("PANDA_TASK").back();
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(t.orientation_des[k], first.orientation_des[k], 1e-12) << k;
+  // error = desired − measured, position part.
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.error[k], t.position_des[k] - t.position[k], 1e-12) << k;
+}
+
+TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
+  StartPanda(7996);
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  ExpectOneLine(Ctl({"send", "panda", "--pose", "0.4,0,0.5,0.5,0.5,0,0"}), "send", 2,
+                "--pose: expected a unit quaternion QW,QX,QY,QZ, got norm 0.7071067811865476");
+  ExpectOneLine(Ctl({"send", "panda", "--pose", "0.4,0"}), "send", 2,
+                "--pose: expected X,Y,Z or X,Y,Z,QW,QX,QY,QZ (3 or 7 numbers), got 2");
+  ExpectOneLine(Ctl({"send", "panda", "--pose", "1.5,0,0.5"}), "send", 1,
+                "lagranged rejected the pose: panda: pose: position[0] = 1.5 m is outside the workspace [-0.9, 0.9]");
+  ExpectOneLine(Ctl({"send", "panda", "--pose", "0.4,0,0.5", "--frame", "panda_link7"}), "send", 1,
+                "panda: pose: frame 'panda_link7': the task-space controller moves 'panda_link8'");
+
+  pose_setpoint_t not_unit = Pose(0.4, 0.0, 0.5);
+  not_unit.orientation[1] = 2.0;
+  EXPECT_NE(RawPoseRejection(not_unit).find("panda: pose: orientation: expected a unit quaternion"), std::string::npos);
+  pose_setpoint_t nan = Pose(0.4, 0.0, 0.5);
+  nan.position[2] = std::nan("");
+  EXPECT_EQ(RawPoseRejection(nan), "panda: pose: non-finite value in position[2]");
+  pose_setpoint_t moving = Pose(0.4, 0.0, 0.5);
+  moving.duration = 1.0;
+  moving.twist[0] = 0.5;
+  EXPECT_EQ(RawPoseRejection(moving), "panda: pose: twist with duration 1 s: a timed move ends at rest (send zeros)");
+  pose_setpoint_t stale = Pose(0.4, 0.0, 0.5);
+  {
+    const std::int64_t before = RejectedSetpoints();
+    lcm::LCM lcm(url_);
+    stale.utime = WallMicros() - 10'000'000;  // 10 s old: beyond setpoint_timeout (0.5 s)
+    lcm.publish("PANDA_POSE", &stale);
+    std::string reason;
+    collector_->WaitForLatest<status_t>(
+        "LAGRANGE_STATUS",
+        [&](const status_t& s) {
+          reason = s.last_rejection;
+          return s.setpoints_rejected > before;
+        },
+        10.0);
+    EXPECT_EQ(reason.rfind("panda: pose: stale: sent ", 0), 0u) << reason;
+  }
+
+  // Under a joint-space controller a pose is refused, and lagrangectl says why before sending.
+  ASSERT_EQ(Ctl({"command", "panda", "controller", "gravity-compensation"}).status, 0);
+  EXPECT_EQ(RawPoseRejection(Pose(0.4, 0.0, 0.5)),
+            "panda: pose: the instance is not running a task-space controller (active: gravity-compensation)");
+  ExpectOneLine(Ctl({"send", "panda", "--pose", "0.4,0,0.5"}), "send", 1,
+                "panda publishes no task state on PANDA_TASK: it runs gravity-compensation, not a task-space "
+                "controller");
+  // Still alive and finite after all of it.
+  const state_t s = LastState("PANDA_STATE");
+  for (double q : s.q) EXPECT_TRUE(std::isfinite(q));
 }
 
 }  // namespace
