@@ -6,6 +6,11 @@
 //   panda    config/panda_minjerk.yaml: the 7-DOF Panda
 //            (config/robots/panda.urdf) under computed torque tracking a
 //            3 s minimum-jerk move, recursive dynamics, RK4, 1 kHz
+//   panda-impedance  config/panda_cartesian_impedance.yaml: the Panda's
+//            flange under Cartesian impedance (task-space: its pose,
+//            Jacobian, J̇q̇, M, Λ and the posture projection every tick)
+//   ur5-circle  config/ur5_circle.yaml: the UR5's tool under
+//            operational-space control along a circle
 //
 //   tick/<scene>/hot          ticks back to back (caches and predictors warm),
 //                             as shipped: the energy balance kept (telemetry on)
@@ -133,6 +138,8 @@ int main(int argc, char** argv) {
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   lagrange::bench::RegisterScene("default", lagrange::bench::ScenePath("default.yaml"));
   lagrange::bench::RegisterScene("panda", lagrange::bench::ScenePath("panda_minjerk.yaml"));
+  lagrange::bench::RegisterScene("panda-impedance", lagrange::bench::ScenePath("panda_cartesian_impedance.yaml"));
+  lagrange::bench::RegisterScene("ur5-circle", lagrange::bench::ScenePath("ur5_circle.yaml"));
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;
