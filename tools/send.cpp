@@ -9,6 +9,7 @@
 #include <lagrange/torque_t.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <thread>
 
@@ -47,6 +48,13 @@ struct Outcome {
   state_t state;
   status_t status;
 };
+
+// A distance as a reading: three significant digits ("0.0539").
+std::string ThreeDigits(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", x);
+  return text;
+}
 
 // "1 torque", "3 torques".
 std::string Count(std::int64_t n, const std::string& noun) {
@@ -257,8 +265,8 @@ class SendCommand final : public Command {
     if (const std::optional<task_state_t>& t = link.task_state()) {
       const Eigen::Vector3d p = Eigen::Map<const Eigen::Vector3d>(t->position) - Eigen::Map<const Eigen::Vector3d>(msg.position);
       // The rotation error is the task state's: the commanded orientation is the sent one once a move ends.
-      out << "; " << Escape(t->frame) << " is " << FormatDouble(1e3 * p.norm()) << " mm and "
-          << FormatDouble(1e3 * Eigen::Map<const Eigen::Vector3d>(t->error + 3).norm()) << " mrad from it";
+      out << "; " << Escape(t->frame) << " is " << ThreeDigits(1e3 * p.norm()) << " mm and "
+          << ThreeDigits(1e3 * Eigen::Map<const Eigen::Vector3d>(t->error + 3).norm()) << " mrad from it";
     }
     out << "\n";
     return 0;
