@@ -534,5 +534,33 @@ TEST(Loop, TheTickOfAUrdfRobotAllocatesNothingInAnyMode) {
   for (std::size_t i = 0; i < 2; ++i) EXPECT_NE(runtime.mode(i), Mode::kFault) << runtime.instance(i).name();
 }
 
+// Pose targets reach a task-space controller through the tick's mailbox, a
+// move and a target at once, and the record carries the frame for
+// task_state_t: none of it allocates, and the controller follows each target.
+TEST(Loop, PoseTargetsAndTheTaskRecordAllocateNothing) {
+  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_cartesian_impedance.yaml"));
+  CountedLoop loop(runtime);
+  loop.Run(10);
+  const TaskSpaceController& task = *runtime.instance(0).task_space_controller(0);
+  Pose target = task.pose();
+  target.position.z() += 0.02;
+  PoseMessage& move = runtime.channels(0).poses.back();
+  move.target = target;
+  move.duration = 0.1;
+  runtime.channels(0).poses.Publish();
+  loop.Run(300);  // the move, and the impedance settling on it
+  EXPECT_LT((task.commanded().pose.position - target.position).norm(), 1e-12);
+  target.position.x() -= 0.01;
+  PoseMessage& step = runtime.channels(0).poses.back();
+  step.target = target;
+  step.duration = 0.0;
+  step.twist.setZero();
+  runtime.channels(0).poses.Publish();
+  loop.Run(10);
+  EXPECT_LT((task.commanded().pose.position - target.position).norm(), 1e-12);
+  EXPECT_EQ(loop.allocations(), 0);
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+}
+
 }  // namespace
 }  // namespace lagrange
