@@ -108,16 +108,6 @@ std::vector<KdlState> ToKdl(const std::vector<State>& states) {
 
 // ---- agreement ---------------------------------------------------------------
 
-struct Difference {
-  double absolute = 0.0;  // max |lagrange − KDL|, in the term's units
-  double relative = 0.0;  // max |lagrange − KDL| / (1 + max |KDL|)
-};
-
-struct AgreementRow {
-  std::string robot, method, term;
-  Difference diff;
-};
-
 Difference Compare(const MatrixXd& ours, const MatrixXd& theirs) {
   const double gap = (ours - theirs).cwiseAbs().maxCoeff();
   return {gap, gap / (1.0 + theirs.cwiseAbs().maxCoeff())};
@@ -177,27 +167,8 @@ bool Agree(const std::string& csv_path) {
       for (AgreementRow& row : CheckAgreement(robot, method)) rows.push_back(std::move(row));
     }
   }
-  bool ok = true;
-  std::fprintf(stderr, "kdl_bench: lagrange against KDL, %d random states each (limit %.0e relative)\n", kCheckStates,
-               kAgreement);
-  std::fprintf(stderr, "  %-20s %-11s %-4s %12s %12s\n", "robot", "method", "term", "max |diff|", "relative");
-  for (const AgreementRow& r : rows) {
-    const bool good = r.diff.relative <= kAgreement;  // false for NaN too
-    ok = ok && good;
-    std::fprintf(stderr, "  %-20s %-11s %-4s %12.3e %12.3e%s\n", r.robot.c_str(), r.method.c_str(), r.term.c_str(),
-                 r.diff.absolute, r.diff.relative, good ? "" : "  DISAGREE");
-  }
-  if (!csv_path.empty()) {
-    std::ofstream csv(csv_path);
-    csv << "robot,method,term,max_abs_diff,max_rel_diff,limit_rel\n";
-    csv.precision(4);
-    for (const AgreementRow& r : rows) {
-      csv << r.robot << ',' << r.method << ',' << r.term << ',' << std::scientific << r.diff.absolute << ','
-          << r.diff.relative << ',' << kAgreement << '\n';
-    }
-    if (!csv) throw std::runtime_error("kdl_bench: cannot write " + csv_path);
-  }
-  return ok;
+  return ReportAgreement("kdl_bench", "lagrange against KDL, " + std::to_string(kCheckStates) + " random states each",
+                         "method", "term", rows, kAgreement, csv_path);
 }
 
 // ---- timing ------------------------------------------------------------------

@@ -1,5 +1,7 @@
 #include "bench/kdl_chain.hpp"
 
+#include <cstdio>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 
@@ -83,6 +85,30 @@ KdlFrameChain ToKdlFrameChain(const RigidTree& tree) {
     add_frames_of(i);
   }
   return out;
+}
+
+bool ReportAgreement(const std::string& program, const std::string& title, const char* first, const char* second,
+                     const std::vector<AgreementRow>& rows, double limit, const std::string& csv_path) {
+  bool ok = true;
+  std::fprintf(stderr, "%s: %s (limit %.0e relative)\n", program.c_str(), title.c_str(), limit);
+  std::fprintf(stderr, "  %-20s %-11s %-8s %12s %12s\n", "robot", first, second, "max |diff|", "relative");
+  for (const AgreementRow& r : rows) {
+    const bool good = r.diff.relative <= limit;  // false for NaN too
+    ok = ok && good;
+    std::fprintf(stderr, "  %-20s %-11s %-8s %12.3e %12.3e%s\n", r.robot.c_str(), r.first.c_str(), r.second.c_str(),
+                 r.diff.absolute, r.diff.relative, good ? "" : "  DISAGREE");
+  }
+  if (!csv_path.empty()) {
+    std::ofstream csv(csv_path);
+    csv << "robot," << first << ',' << second << ",max_abs_diff,max_rel_diff,limit_rel\n";
+    csv.precision(4);
+    for (const AgreementRow& r : rows) {
+      csv << r.robot << ',' << r.first << ',' << r.second << ',' << std::scientific << r.diff.absolute << ','
+          << r.diff.relative << ',' << limit << '\n';
+    }
+    if (!csv) throw std::runtime_error(program + ": cannot write " + csv_path);
+  }
+  return ok;
 }
 
 }  // namespace lagrange::bench

@@ -15,6 +15,7 @@
 #include <kdl/jntarray.hpp>
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "plant/rigid_tree.hpp"
@@ -43,5 +44,26 @@ struct KdlFrameChain {
   std::vector<int> segment;  // (num_frames)
 };
 KdlFrameChain ToKdlFrameChain(const RigidTree& tree);
+
+// ---- agreement with KDL, checked before anything is timed ----
+
+// The largest gap between lagrange and KDL on one quantity over the states checked.
+struct Difference {
+  double absolute = 0.0;  // max |lagrange − KDL|, in the quantity's units
+  double relative = 0.0;  // max |lagrange − KDL| / (1 + max |KDL|)
+  bool compared = false;  // some state was compared
+};
+// One line of the table: the robot and two labels (kdl_bench: method, term;
+// kinematics_bench: term, quantity).
+struct AgreementRow {
+  std::string robot, first, second;
+  Difference diff;
+};
+// Prints `rows` to stderr under `title`, columns robot, `first`, `second`, and
+// as CSV to `csv_path` when it is not empty (robot,FIRST,SECOND,max_abs_diff,
+// max_rel_diff,limit_rel); false when any row is above `limit` relative or
+// NaN. Throws std::runtime_error naming `program` when the CSV cannot be written.
+bool ReportAgreement(const std::string& program, const std::string& title, const char* first, const char* second,
+                     const std::vector<AgreementRow>& rows, double limit, const std::string& csv_path);
 
 }  // namespace lagrange::bench

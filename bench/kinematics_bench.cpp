@@ -210,12 +210,6 @@ constexpr KinematicsTerm kCheckedTerms[] = {KinematicsTerm::kPoses,    Kinematic
 enum Quantity { kPoseQ, kJacobianQ, kBiasQ, kQuantities };
 constexpr const char* kQuantityNames[] = {"pose", "J", "Jdot_qd"};
 
-struct Difference {
-  double absolute = 0.0;  // max |lagrange − KDL|: m or 1 (pose), m/s or rad/s (J), m/s² or rad/s² (J̇ qd)
-  double relative = 0.0;  // max |lagrange − KDL| / (1 + max |KDL|)
-  bool compared = false;
-};
-
 void Worsen(Difference& worst, const MatrixXd& ours, const MatrixXd& theirs) {
   const double gap = (ours - theirs).cwiseAbs().maxCoeff();
   worst.compared = true;
@@ -223,11 +217,6 @@ void Worsen(Difference& worst, const MatrixXd& ours, const MatrixXd& theirs) {
   worst.relative = std::max(worst.relative, gap / (1.0 + theirs.cwiseAbs().maxCoeff()));
   if (!(gap == gap)) worst.relative = gap;  // a NaN never passes
 }
-
-struct AgreementRow {
-  std::string robot, term, quantity;
-  Difference diff;
-};
 
 // Every term of lagrange against the KDL calls timed for it, at kCheckStates
 // states, for every frame (the single-frame terms called for each in turn).
@@ -314,28 +303,9 @@ bool Agree(const std::string& csv_path) {
   for (const NamedTree& robot : robots) {
     for (AgreementRow& row : CheckAgreement(robot)) rows.push_back(std::move(row));
   }
-  bool ok = true;
-  std::fprintf(stderr,
-               "kinematics_bench: lagrange against KDL, %d random states each, every frame (limit %.0e relative)\n",
-               kCheckStates, kAgreement);
-  std::fprintf(stderr, "  %-20s %-10s %-8s %12s %12s\n", "robot", "term", "quantity", "max |diff|", "relative");
-  for (const AgreementRow& r : rows) {
-    const bool good = r.diff.relative <= kAgreement;  // false for NaN too
-    ok = ok && good;
-    std::fprintf(stderr, "  %-20s %-10s %-8s %12.3e %12.3e%s\n", r.robot.c_str(), r.term.c_str(), r.quantity.c_str(),
-                 r.diff.absolute, r.diff.relative, good ? "" : "  DISAGREE");
-  }
-  if (!csv_path.empty()) {
-    std::ofstream csv(csv_path);
-    csv << "robot,term,quantity,max_abs_diff,max_rel_diff,limit_rel\n";
-    csv.precision(4);
-    for (const AgreementRow& r : rows) {
-      csv << r.robot << ',' << r.term << ',' << r.quantity << ',' << std::scientific << r.diff.absolute << ','
-          << r.diff.relative << ',' << kAgreement << '\n';
-    }
-    if (!csv) throw std::runtime_error("kinematics_bench: cannot write " + csv_path);
-  }
-  return ok;
+  return ReportAgreement("kinematics_bench",
+                         "lagrange against KDL, " + std::to_string(kCheckStates) + " random states each, every frame",
+                         "term", "quantity", rows, kAgreement, csv_path);
 }
 
 // ---- timing ------------------------------------------------------------------

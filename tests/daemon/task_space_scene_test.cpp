@@ -14,6 +14,7 @@
 
 #include "daemon/instance.hpp"
 #include "daemon/offline.hpp"
+#include "tests/support/shipped_scene.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
 #include "protocol/command_check.hpp"
@@ -25,23 +26,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Loaded {
-  Scene scene;
-  std::vector<Instance> instances;
-};
-
-Loaded Load(const std::string& name) {
-  Loaded l{LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/" + name), {}};
-  for (const InstanceConfig& c : l.scene.instances) l.instances.emplace_back(c);
-  return l;
-}
-
-// Runs every instance for `seconds` under lagranged's health check.
-void RunChecked(Loaded& l, double seconds, const StepObserver& observe) {
-  const std::vector<OfflineFault> faults =
-      RunOfflineChecked(l.instances, l.scene.period, std::llround(seconds / l.scene.period), observe);
-  for (const OfflineFault& f : faults) ADD_FAILURE() << l.instances[f.index].name() << " faulted: " << f.reason;
-}
+using Loaded = testing::LoadedScene;
+Loaded Load(const std::string& name) { return testing::LoadShippedScene(name); }
+void RunChecked(Loaded& l, double seconds, const StepObserver& observe) { testing::RunShippedScene(l, seconds, observe); }
 
 // The flange moves 15 cm over 2 s and holds its target pose; the law's
 // slowest mode (sqrt(K/Λ) ≈ 8 rad/s along the heaviest axis, critically

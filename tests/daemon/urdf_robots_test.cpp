@@ -12,28 +12,15 @@
 #include "daemon/health.hpp"
 #include "daemon/instance.hpp"
 #include "daemon/offline.hpp"
+#include "tests/support/shipped_scene.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {
 namespace {
 
-struct Loaded {
-  Scene scene;
-  std::vector<Instance> instances;
-};
-
-Loaded Load(const std::string& name) {
-  Loaded l{LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/" + name), {}};
-  for (const InstanceConfig& c : l.scene.instances) l.instances.emplace_back(c);
-  return l;
-}
-
-// Runs every instance for `seconds` under the health check; `observe` sees each step.
-void RunChecked(Loaded& l, double seconds, const StepObserver& observe) {
-  const std::vector<OfflineFault> faults =
-      RunOfflineChecked(l.instances, l.scene.period, std::llround(seconds / l.scene.period), observe);
-  for (const OfflineFault& f : faults) ADD_FAILURE() << l.instances[f.index].name() << " faulted: " << f.reason;
-}
+using Loaded = testing::LoadedScene;
+Loaded Load(const std::string& name) { return testing::LoadShippedScene(name); }
+void RunChecked(Loaded& l, double seconds, const StepObserver& observe) { testing::RunShippedScene(l, seconds, observe); }
 
 // Largest |q_des − q| over the joints.
 double TrackingError(const Instance& inst) { return (inst.q_des() - inst.q()).cwiseAbs().maxCoeff(); }
