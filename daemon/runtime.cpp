@@ -70,6 +70,11 @@ struct Runtime::Slot {
   ModeState mode;
   bool streaming = false;         // a streamed setpoint has been accepted since start or reset
   Nanoseconds last_setpoint = 0;  // when it was
+  // The task-space target is a streamed one with a twist (a pose setpoint of
+  // duration 0 and a non-zero twist): it must be refreshed within
+  // setpoint_timeout, or the target is held at rest where it was.
+  bool pose_streaming = false;
+  Nanoseconds last_pose = 0;
   Setpoint streamed, held, current;
   Instance::Saved good;  // the last state that passed the health check
   VectorXd zero, brake_torque;
@@ -267,6 +272,7 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       inst.Reset();
       inst.Save(s.good);
       s.streaming = false;
+      s.pose_streaming = false;
       s.source = 0;
       if (s.external_active()) s.last_torque = now;
       return On(s, ModeEvent::kReset, now);
@@ -412,17 +418,32 @@ void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
 // (mailbox) => the active task-space controller's target: a move from the
 // measured pose, or the pose at once. A pose brings a held instance back to
 // running as a setpoint does; it latches (no stream, so no timeout).
+//
+// A target streamed with a twist (a feed-forward that would otherwise stay
+// on) must come again within setpoint_timeout: when it does not, the target
+// stops where it is, at rest, and the instance holds as for a joint stream.
 void Runtime::TakePose(Slot& s, Nanoseconds now) {
   const PoseMessage* msg = s.channels.poses.Take();  // taken even when unused, so an old one never applies later
-  if (msg == nullptr) return;
   TaskSpaceController* c = s.instance.task_space_controller(s.instance.active_controller());
-  if (c == nullptr) return;  // switched away since the receiver checked it
-  if (msg->duration > 0.0) {
-    c->MoveTo(msg->target, msg->duration);
-  } else {
-    c->SetPoseTarget(PoseSetpoint{msg->target, msg->twist, Vector6d::Zero()});
+  if (c == nullptr) {  // switched away since the receiver checked it
+    s.pose_streaming = false;
+    return;
   }
-  On(s, ModeEvent::kSetpointArrived, now);
+  if (msg != nullptr) {
+    if (msg->duration > 0.0) {
+      c->MoveTo(msg->target, msg->duration);
+    } else {
+      c->SetPoseTarget(PoseSetpoint{msg->target, msg->twist, Vector6d::Zero()});
+    }
+    s.pose_streaming = msg->duration == 0.0 && !msg->twist.isZero(0.0);
+    s.last_pose = now;
+    On(s, ModeEvent::kSetpointArrived, now);
+  }
+  if (s.pose_streaming && TimedOut(now, s.last_pose, s.m.setpoint_timeout)) {
+    c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
+    s.pose_streaming = false;
+    On(s, ModeEvent::kSetpointsTimedOut, now);
+  }
 }
 
 // (mailbox) => the external controller's torque; its timeout.

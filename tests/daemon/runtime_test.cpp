@@ -562,5 +562,38 @@ TEST(Loop, PoseTargetsAndTheTaskRecordAllocateNothing) {
   EXPECT_EQ(runtime.mode(0), Mode::kRunning);
 }
 
+// A target streamed with a twist that stops coming: after setpoint_timeout
+// the target stands where it was, its feed-forward off (it would otherwise
+// drag the frame on forever), and the instance holds, as for a joint stream.
+TEST(Loop, AStreamedPoseWithATwistThatStopsLeavesTheTargetAtRestAndHolds) {
+  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_cartesian_impedance.yaml"));
+  CountedLoop loop(runtime);
+  loop.Run(10);
+  const TaskSpaceController& task = *runtime.instance(0).task_space_controller(0);
+  PoseMessage& streamed = runtime.channels(0).poses.back();
+  streamed.target = task.pose();
+  streamed.duration = 0.0;
+  streamed.twist << 0.01, 0.0, 0.0, 0.0, 0.0, 0.0;  // m/s along x
+  runtime.channels(0).poses.Publish();
+  loop.Run(10);
+  EXPECT_EQ(task.commanded().twist[0], 0.01);
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+  const auto timeout_ticks = static_cast<std::int64_t>(std::ceil(runtime.model().instances[0].config.setpoint_timeout /
+                                                                 runtime.period()));
+  loop.Run(timeout_ticks + 5);
+  EXPECT_TRUE(task.commanded().twist.isZero(0.0));
+  EXPECT_EQ(runtime.mode(0), Mode::kHold);
+  // A timed move needs no stream: it is never timed out.
+  PoseMessage& move = runtime.channels(0).poses.back();
+  move.target = task.pose();
+  move.target.position.z() += 0.01;
+  move.twist.setZero();
+  move.duration = 0.2;
+  runtime.channels(0).poses.Publish();
+  loop.Run(timeout_ticks * 2);
+  EXPECT_EQ(runtime.mode(0), Mode::kRunning);
+  EXPECT_EQ(loop.allocations(), 0);
+}
+
 }  // namespace
 }  // namespace lagrange
