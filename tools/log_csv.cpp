@@ -396,15 +396,20 @@ std::string SafeFileName(const std::string& channel) {
   return s;
 }
 
+// FILE.WHAT.csv for FILE.csv; PATH.WHAT.csv for any other PATH.
+std::string BesidePath(const std::string& csv_path, const char* what) {
+  constexpr std::string_view csv = ".csv";
+  const bool has_csv = csv_path.size() > csv.size() && csv_path.ends_with(csv);
+  return (has_csv ? csv_path.substr(0, csv_path.size() - csv.size()) : csv_path) + "." + what + ".csv";
+}
+
 }  // namespace
 
 std::string CsvText(const std::string& text) { return QuoteEscaped(Escape(text)); }
 
-std::string JointNamesPath(const std::string& csv_path) {
-  constexpr std::string_view csv = ".csv";
-  const bool has_csv = csv_path.size() > csv.size() && csv_path.ends_with(csv);
-  return (has_csv ? csv_path.substr(0, csv_path.size() - csv.size()) : csv_path) + ".joints.csv";
-}
+std::string JointNamesPath(const std::string& csv_path) { return BesidePath(csv_path, "joints"); }
+
+std::string TaskCsvPath(const std::string& csv_path) { return BesidePath(csv_path, "task"); }
 
 std::string WriteJointNames(const std::string& csv_path, const std::vector<std::string>& names) {
   const std::string path = JointNamesPath(csv_path);

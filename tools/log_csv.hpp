@@ -31,6 +31,11 @@ std::string CsvText(const std::string& text);
 std::string JointNamesPath(const std::string& csv_path);
 // Writes `names` to JointNamesPath(csv_path); returns that path. Throws "cannot write PATH".
 std::string WriteJointNames(const std::string& csv_path, const std::vector<std::string>& names);
+// A simulate CSV's commanded frame under a task-space controller, beside it:
+// FILE.task.csv for FILE.csv (".task.csv" appended to any other name), with
+// log2csv's task_state_t column names (TaskStateWriter) for what it holds:
+// t, frame (CsvText), position0..2, position_des0..2, error0..5. Plot draws it.
+std::string TaskCsvPath(const std::string& csv_path);
 
 struct ChannelCsv {
   std::string type;  // "state_t", ...

@@ -28,9 +28,10 @@ struct PlotInputs {
   std::string state, telemetry, forces;
   std::string status;  // the daemon's status CSV: joint names, integrator and method switches
   std::string joints;  // a simulate CSV's joint names (JointNamesPath)
+  std::string task;    // its task-space frame: simulate's TaskCsvPath or log2csv's <NAME>_TASK.csv
 };
 
-// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS; returns (status, its stdout and
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK; returns (status, its stdout and
 // stderr together).
 std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
@@ -42,7 +43,8 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
   const pid_t pid = Spawn(
-      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints}, options);
+      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints, in.task},
+      options);
   close(out_pipe[1]);
   if (pid < 0) {
     close(out_pipe[0]);
@@ -66,12 +68,14 @@ std::string LastLine(const std::string& text) {
 
 // The script's summary, "N rows in K segments" (the last line that says so;
 // matplotlib may warn before it), then "; joints: NAME, .." when it labelled
-// the joints by name, and "; telemetry: .." and "; forces: .." for the panels
-// it drew from those. The names come escaped from their CSV; a line with a
+// the joints by name, and "; task: .. of FRAME", "; telemetry: .." and
+// "; forces: .." for the panels it drew from those. The names come escaped from their CSV; a line with a
 // control character is not printed.
 std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
-  static const std::regex kExtra(R"(^(joints: [^\x00-\x1f\x7f]+|telemetry: \d+ rows|forces: \d+ rows of [a-z_, ]*)$)");
+  static const std::regex kExtra(
+      R"(^(joints: [^\x00-\x1f\x7f]+|task: \d+ rows of [^\x00-\x1f\x7f]+|telemetry: \d+ rows|)"
+      R"(forces: \d+ rows of [a-z_, ]*)$)");
   std::string found, extra;
   std::istringstream lines(output);
   for (std::string line; std::getline(lines, line);) {
@@ -108,10 +112,12 @@ std::string InstanceBase(const std::string& state_channel) {
 class PlotCommand final : public Command {
  public:
   explicit PlotCommand(CLI::App& parent)
-      : Command(parent.add_subcommand("plot",
-                                      "Plot q against q_des, torques, energy and tracking error (PNG), and the "
-                                      "instance's energy residual, cost per tick and forces when recorded; "
-                                      "lines break at a reset, a restart or a lost message")) {
+      : Command(parent.add_subcommand(
+            "plot",
+            "Plot q against q_des, torques, energy and tracking error (PNG), and the "
+            "instance's end effector (a task-space controller's frame), energy residual, cost per "
+            "tick and forces when recorded; "
+            "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
     app_->add_option("--channel", channel_, "For a log: the *_STATE channel to plot (default: the first one)");
@@ -153,7 +159,7 @@ class PlotCommand final : public Command {
 
  private:
   // Decodes the log's state channel (the first *_STATE, or --channel) and
-  // that instance's telemetry and forces into `scratch`; returns the state channel.
+  // that instance's task state, telemetry and forces into `scratch`; returns the state channel.
   std::string FromLog(const fs::path& scratch, PlotInputs& in) const {
     const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
     const auto state =
@@ -164,11 +170,13 @@ class PlotCommand final : public Command {
     const std::string base = InstanceBase(state->first);
     if (base.empty()) return state->first;
     const LogToCsvResult extra =
-        LogToCsv(input_, scratch.string(), RegexQuote(base) + "(" + kTelemetrySuffix + "|" + kForcesSuffix + ")");
+        LogToCsv(input_, scratch.string(),
+                 RegexQuote(base) + "(" + kTaskSuffix + "|" + kTelemetrySuffix + "|" + kForcesSuffix + ")");
     for (const auto& [channel, csv] : extra.written) {
       if (csv.rows == 0) continue;
       if (channel == base + kTelemetrySuffix && csv.type == "telemetry_t") in.telemetry = csv.path;
       if (channel == base + kForcesSuffix && csv.type == "forces_t") in.forces = csv.path;
+      if (channel == base + kTaskSuffix && csv.type == "task_state_t") in.task = csv.path;
     }
     // The status of the daemon that published it: the longest prefix of the base.
     const LogToCsvResult status = LogToCsv(input_, scratch.string(), std::string(".*") + kStatusChannel);
@@ -184,10 +192,12 @@ class PlotCommand final : public Command {
     return state->first;
   }
 
-  // For a simulate CSV: its joint names (JointNamesPath), where they exist.
-  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TELEMETRY.csv and DIR/NAME_FORCES.csv, where they exist.
+  // For a simulate CSV: its joint names (JointNamesPath) and task CSV (TaskCsvPath), where they exist.
+  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TASK.csv, DIR/NAME_TELEMETRY.csv and DIR/NAME_FORCES.csv,
+  // where they exist.
   static void Siblings(PlotInputs& in) {
     if (const std::string joints = JointNamesPath(in.state); fs::exists(joints)) in.joints = joints;
+    if (const std::string task = TaskCsvPath(in.state); fs::exists(task)) in.task = task;
     const fs::path state(in.state);
     const std::string base = InstanceBase(state.stem().string());
     if (base.empty() || state.extension() != ".csv") return;
@@ -195,6 +205,9 @@ class PlotCommand final : public Command {
     const fs::path forces = state.parent_path() / (base + kForcesSuffix + ".csv");
     if (fs::exists(telemetry)) in.telemetry = telemetry.string();
     if (fs::exists(forces)) in.forces = forces.string();
+    if (const fs::path task = state.parent_path() / (base + kTaskSuffix + ".csv"); fs::exists(task)) {
+      in.task = task.string();
+    }
     // DIR/PLAGRANGE_STATUS.csv for the longest prefix P of the base.
     for (std::size_t n = base.size() + 1; n-- > 0;) {
       const fs::path status = state.parent_path() / (base.substr(0, n) + kStatusChannel + ".csv");

@@ -1,11 +1,15 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV]]]`
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV]]]]`
 (any may be ""): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
 named as the daemon names them, and a dotted vertical line marks each switch
 of the integrator or the dynamics method; with a joints CSV (simulate's
-FILE.joints.csv beside FILE.csv) they are named by it; with a telemetry CSV
+FILE.joints.csv beside FILE.csv) they are named by it; with a task CSV
+(simulate's FILE.task.csv, or log2csv of <NAME>_TASK: the frame a task-space
+controller moves) two panels after the tracking error, the frame's position
+and its target, and the position error |p_des - p| in mm with the rotation
+error in mrad on a right-hand axis; with a telemetry CSV
 (log2csv of <NAME>_TELEMETRY) two more panels, the energy residual ε(t)
 against ± the quadrature bound and the cost per tick (evaluations, compute
 µs); with a forces CSV (<NAME>_FORCES) one panel per joint, each effect that
@@ -14,7 +18,8 @@ time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
 "joints: NAME, .." when it named the joints (else they are q0, q1, ..),
-"telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
+"task: N rows of FRAME", "telemetry: N rows" and "forces: N rows of EFFECT, .."
+for what it drew."""
 import bisect
 import csv
 import math
@@ -130,6 +135,38 @@ def telemetry_panels(axes, path):
     return "telemetry: %d rows" % len(eps), right
 
 
+def task_panels(axes, path):
+    """The commanded frame's position and target, and its error: |p_des - p| (mm, left
+    axis) and |rotation vector| (mrad, right axis: returned with the summary line).
+    A row with no measurement yet (simulate's first: nan) is a gap."""
+    header, columns = load(path)
+    wanted = (["t", "frame"] + ["position%d" % i for i in range(3)] + ["position_des%d" % i for i in range(3)]
+              + ["error%d" % i for i in range(6)])
+    missing = [n for n in wanted if n not in columns]
+    if missing:
+        fail("%s lacks the columns %s (a FILE.task.csv from lagrangectl simulate, or a *_TASK.csv from log2csv)"
+             % (path, ", ".join(missing)))
+    t, gap = series(path, columns)
+    frames = list(dict.fromkeys(columns["frame"]))  # in order of appearance: one unless its controller changed
+    for i, name in enumerate("xyz"):
+        color = "C%d" % i
+        axes[0].plot(t, gap(numbers(columns, "position%d" % i, path)), label=name, linewidth=1.2, color=color)
+        axes[0].plot(t, gap(numbers(columns, "position_des%d" % i, path)), label=name + " target", linewidth=1.0,
+                     color=color, linestyle="--")
+    axes[0].set_ylabel("x, y, z (m)")
+    axes[0].set_title("end effector: %s position (solid) and target (dashed)" % ", ".join(frames))
+    error = [numbers(columns, "error%d" % i, path) for i in range(6)]
+    axes[1].plot(t, gap([1e3 * math.hypot(*e) for e in zip(*error[:3])]), label="|p_des - p| (left axis)",
+                 linewidth=1.2, color="C0")
+    axes[1].set_ylabel("position error (mm)")
+    right = axes[1].twinx()
+    right.plot(t, gap([1e3 * math.hypot(*e) for e in zip(*error[3:])]), label="rotation error (right axis)",
+               linewidth=0.8, color="C3", alpha=0.7)
+    right.set_ylabel("rotation error (mrad)")
+    axes[1].set_title("end effector: position error |p_des − p| (mm)")
+    return "task: %d rows of %s" % (len(columns["t"]), ", ".join(frames)), right
+
+
 def forces_panels(axes, path, joint_names):
     header, columns = load(path)
     joints = len(indexed(header, r"tau_applied_(\d+)"))
@@ -160,8 +197,9 @@ LEGEND_ROWS = 8  # entries in one column of a legend: eight fit beside a panel
 
 def place_legends(fig, axes, twins):
     """Each panel's legend outside every panel's data: to the right of the
-    panels, all in one column past the cost panel's right-hand axis (its
-    ticks and label), each level with its panel's top. `twins` maps a panel
+    panels, all in one column past the widest right-hand axis (the cost
+    panel's, the task error panel's: ticks and label), each level with its
+    panel's top. `twins` maps a panel
     to its right-hand axis, whose lines join the panel's legend. The figure
     is laid out afterwards (tight_layout counts the legends in)."""
     import matplotlib.transforms
@@ -243,12 +281,13 @@ def named_joints(path, joints):
 
 
 def main():
-    if len(sys.argv) not in (4, 6, 7, 8):
-        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV]]]")
+    if len(sys.argv) not in (4, 6, 7, 8, 9):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV]]]]")
     path, png, title = sys.argv[1:4]
     telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
     status = sys.argv[6] if len(sys.argv) >= 7 else ""
-    joints_csv = sys.argv[7] if len(sys.argv) == 8 else ""
+    joints_csv = sys.argv[7] if len(sys.argv) >= 8 else ""
+    task = sys.argv[8] if len(sys.argv) >= 9 else ""
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_des(\d+)")
@@ -273,7 +312,9 @@ def main():
         axis.plot(t_gapped, with_gaps(values, starts), label=name, linewidth=1.2, **style)
 
     force_joints = len(indexed(load(forces)[0], r"tau_applied_(\d+)")) if forces else 0
-    panels = 4 + (2 if telemetry else 0) + force_joints
+    task_at = 4  # the task panels follow the tracking error, then the telemetry's, then the forces'
+    telemetry_at = task_at + (2 if task else 0)
+    panels = telemetry_at + (2 if telemetry else 0) + force_joints
     # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
     fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(12.5, 2.75 * panels), squeeze=False)
     axes = [row[0] for row in axes]
@@ -309,8 +350,11 @@ def main():
     axes[3].set_ylabel("q_des - q (rad or m)")
     axes[3].set_title("tracking error")
     extra, twins = [], {}
+    if task:
+        line, twins[axes[task_at + 1]] = task_panels(axes[task_at:task_at + 2], task)
+        extra.append(line)
     if telemetry:
-        line, twins[axes[5]] = telemetry_panels(axes[4:6], telemetry)
+        line, twins[axes[telemetry_at + 1]] = telemetry_panels(axes[telemetry_at:telemetry_at + 2], telemetry)
         extra.append(line)
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))

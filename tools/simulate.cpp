@@ -1,5 +1,7 @@
 // lagrangectl simulate: run a scene offline and write one CSV row per step,
-// and each instance's joint names beside its CSV (JointNamesPath).
+// and each instance's joint names beside its CSV (JointNamesPath); an
+// instance under a task-space controller also its commanded frame, one row per
+// CSV row (TaskCsvPath).
 // A scene with an external plant or controller is refused: it needs the bus.
 // An instance that fails lagranged's health check (daemon/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
@@ -7,8 +9,10 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 
+#include "controllers/task_space.hpp"
 #include "daemon/health.hpp"
 #include "daemon/instance_model.hpp"
 #include "daemon/offline.hpp"
@@ -46,6 +50,27 @@ void WriteRow(std::ostream& out, Instance& inst) {
   out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy()) << '\n';
 }
 
+// The task CSV's columns: log2csv's names for these fields of task_state_t (TaskStateWriter).
+void WriteTaskHeader(std::ostream& out) {
+  out << "t,frame" << JointColumns("position", 3) << JointColumns("position_des", 3) << JointColumns("error", 6)
+      << '\n';
+}
+
+// What the Compute that gave the row's tau measured and commanded, as
+// lagranged's task_state_t publishes with the same t; nan before the first
+// (the row at t = 0, whose tau is zero).
+void WriteTaskRow(std::ostream& out, const Instance& inst, const TaskSpaceController& task, bool computed) {
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Vector3d p = computed ? task.pose().position : Eigen::Vector3d::Constant(kNan);
+  const Eigen::Vector3d p_des = computed ? task.commanded().pose.position : Eigen::Vector3d::Constant(kNan);
+  const Vector6d e = computed ? task.pose_error() : Vector6d::Constant(kNan);
+  out << FormatDouble(inst.t()) << ',' << CsvText(task.frame_name());
+  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(p[i]);
+  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(p_des[i]);
+  for (int i = 0; i < 6; ++i) out << ',' << FormatDouble(e[i]);
+  out << '\n';
+}
+
 // One line for a fault: which instance, when, why, and where its CSV stops.
 std::string FaultLine(Instance& inst, const OfflineFault& f) {
   std::string line =
@@ -64,8 +89,10 @@ class SimulateCommand final : public Command {
     app_->add_option("scene", scene_, "Scene file (YAML)")->required();
     app_->add_option("--duration", duration_, "Simulated time, s")->required()->check(PositiveNumber());
     app_->add_option("--csv", csv_,
-                     "Output CSV ('-' for stdout), with its joint names in FILE.joints.csv beside it; a scene with "
-                     "several instances writes FILE.NAME.csv (and FILE.NAME.joints.csv) for each")
+                     "Output CSV ('-' for stdout), with its joint names in FILE.joints.csv beside it and, under a "
+                     "task-space controller, its frame's position, target and error (log2csv's task columns) in "
+                     "FILE.task.csv; a scene with several instances writes FILE.NAME.csv (and FILE.NAME.joints.csv, "
+                     "FILE.NAME.task.csv) for each")
         ->required();
   }
 
@@ -89,23 +116,38 @@ class SimulateCommand final : public Command {
     const bool several = instances.size() > 1;
     std::vector<std::unique_ptr<std::ofstream>> files;
     std::vector<std::ostream*> streams;
-    for (const Instance& inst : instances) {
+    std::vector<std::ostream*> task_streams(instances.size(), nullptr);  // null: no task CSV
+    const auto open = [&files](const std::string& path) {
+      files.push_back(std::make_unique<std::ofstream>(path));
+      if (!*files.back()) throw std::runtime_error("cannot write " + path);
+      return files.back().get();
+    };
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+      Instance& inst = instances[i];
       const std::string path = CsvPathFor(csv_, inst.name(), several);
       if (path == "-") {
         streams.push_back(&out);
         continue;
       }
-      files.push_back(std::make_unique<std::ofstream>(path));
-      if (!*files.back()) throw std::runtime_error("cannot write " + path);
-      streams.push_back(files.back().get());
+      streams.push_back(open(path));
       WriteJointNames(path, inst.instance_model().joint_names);
+      if (inst.task_space_controller(inst.active_controller()) != nullptr) {
+        task_streams[i] = open(TaskCsvPath(path));
+        WriteTaskHeader(*task_streams[i]);
+      }
       if (several) err << "lagrangectl simulate: " << inst.name() << " -> " << path << "\n";
     }
     for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i].num_dofs());
 
     const auto steps = static_cast<std::int64_t>(std::llround(duration_ / scene.period));
-    const std::vector<OfflineFault> faults = RunOfflineChecked(
-        instances, scene.period, steps, [&](std::size_t i, Instance& inst) { WriteRow(*streams[i], inst); });
+    std::vector<bool> stepped(instances.size(), false);  // observed once already: past t = 0
+    const std::vector<OfflineFault> faults =
+        RunOfflineChecked(instances, scene.period, steps, [&](std::size_t i, Instance& inst) {
+          WriteRow(*streams[i], inst);
+          const TaskSpaceController* task = inst.task_space_controller(inst.active_controller());
+          if (task_streams[i] != nullptr && task != nullptr) WriteTaskRow(*task_streams[i], inst, *task, stepped[i]);
+          stepped[i] = true;
+        });
     for (auto& f : files) {
       f->flush();
       if (!*f) throw std::runtime_error("writing the CSV failed");

@@ -963,8 +963,68 @@ TEST_F(Logs, PlotAddsTheResidualTheCostAndOneForcePanelPerJointWhenRecorded) {
   EXPECT_GT(height, state_height + 3 * 100);  // four panels more: ε, cost, and one per joint
 }
 
+// The arm's states with a task-space frame's beside them (<NAME>_TASK), the
+// frame going round a 0.1 m circle with a 1 mm error.
+std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTaskStates(int ticks) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (std::int64_t k = 0; k < ticks; ++k) {
+    const state_t s = MakeState(k);
+    events.emplace_back("ARM_STATE", Encode(s));
+    task_state_t task{};
+    task.run_id = s.run_id;
+    task.tick = s.tick;
+    task.t = s.t;
+    task.frame = "tool0";
+    task.controller = "operational-space";
+    task.position_des[0] = 0.1 * std::cos(s.t);
+    task.position_des[1] = 0.1 * std::sin(s.t);
+    task.position[0] = task.position_des[0] - 1e-3;
+    task.position[1] = task.position_des[1];
+    task.orientation[0] = task.orientation_des[0] = 1.0;
+    task.error[0] = 1e-3;
+    events.emplace_back("ARM_TASK", Encode(task));
+  }
+  return events;
+}
+
+// With a task-space frame beside the states (simulate's FILE.task.csv, a
+// log's <NAME>_TASK or log2csv's NAME_TASK.csv beside NAME_STATE.csv), plot
+// adds the end effector's position and error panels and says so.
+TEST_F(Logs, PlotAddsTheEndEffectorsPathAndErrorWhenATaskSpaceFrameIsBeside) {
+  const fs::path csv = dir_ / "ur5.csv", png = dir_ / "ur5.png";
+  auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml", "--duration", "0.2",
+                   "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.out.ends_with("; task: 201 rows of flange\n")) << r.out;
+  const auto [height, width] = ImageSize(png);
+  fs::remove(dir_ / "ur5.task.csv");
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find("task:"), std::string::npos) << r.out;
+  const auto [plain_height, plain_width] = ImageSize(png);
+  EXPECT_EQ(plain_width, width);
+  EXPECT_GT(height, plain_height + 2 * 100);  // two panels more
+
+  const fs::path log = dir_ / "arm.lcm";
+  testing::WriteLcmLog(log.string(), ArmRunWithTaskStates(200));
+  r = RunCtl({"plot", log.string(), "-o", (dir_ / "log.png").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, (dir_ / "log.png").string() + ": 200 rows in 1 segment; task: 200 rows of tool0\n");
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()}).status, 0);
+  r = RunCtl({"plot", (dir_ / "csv" / "ARM_STATE.csv").string(), "-o", (dir_ / "csv.png").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, (dir_ / "csv.png").string() + ": 200 rows in 1 segment; task: 200 rows of tool0\n");
+
+  std::ofstream(dir_ / "csv" / "ARM_TASK.csv") << "t,frame\n0,\"tool0\"\n";
+  r = RunCtl({"plot", (dir_ / "csv" / "ARM_STATE.csv").string(), "-o", (dir_ / "csv.png").string()});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("lacks the columns position0"), std::string::npos) << r.err;
+}
+
 // Runs the plot script lagrangectl embeds (tools/plot.py) with lagrangectl's
-// arguments (CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS) and, as the figure
+// arguments (CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS [TASK]) and, as the figure
 // is saved, prints a line for each legend: how many panels' data areas, and
 // how many axes' ticks and labels, its box overlaps, and whether it lies
 // within the figure (nothing of it cut off). The cost panel's right-hand axis
@@ -1023,8 +1083,8 @@ std::string ClearLegend(const std::string& first) {
 // Every panel's legend stands beside the panels: over no panel's data (the
 // cost panel's compute spikes were under its legend), over no axis's ticks or
 // labels (the cost panel's right-hand axis is between), and whole in the
-// picture. A run with every panel (states, ε, cost, forces), and a robot with
-// long joint names.
+// picture. A run with every panel (states, ε, cost, forces), a robot with
+// long joint names, and its end effector's panels beside a telemetry's.
 TEST_F(Logs, PlotLegendsCoverNoPanelsDataNorAnyAxisAndLieWithinThePicture) {
   const fs::path log = dir_ / "arm.lcm";
   testing::WriteLcmLog(log.string(), ArmRunWithTelemetryAndForces(200));
@@ -1045,6 +1105,21 @@ TEST_F(Logs, PlotLegendsCoverNoPanelsDataNorAnyAxisAndLieWithinThePicture) {
   EXPECT_EQ(LegendLines(dir_ / "ur5.png", {ur5.string(), "ur5.csv", "", "", "", (dir_ / "ur5.joints.csv").string()}),
             (std::vector<std::string>{ClearLegend("shoulder_pan_joint"), ClearLegend("shoulder_pan_joint"),
                                       ClearLegend("T"), ClearLegend("shoulder_pan_joint")}));
+
+  // The end effector's panels (a task-space controller's frame: position, and
+  // the error with its rotation on a right-hand axis) with the telemetry's.
+  const fs::path circle = dir_ / "circle.csv";
+  ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml", "--duration", "0.2",
+                    "--csv", circle.string()})
+                .status,
+            0);
+  EXPECT_EQ(
+      LegendLines(dir_ / "circle.png", {circle.string(), "circle.csv", (csv / "ARM_TELEMETRY.csv").string(), "", "",
+                                        (dir_ / "circle.joints.csv").string(), (dir_ / "circle.task.csv").string()}),
+      (std::vector<std::string>{ClearLegend("shoulder_pan_joint"), ClearLegend("shoulder_pan_joint"), ClearLegend("T"),
+                                ClearLegend("shoulder_pan_joint"), ClearLegend("x"),
+                                ClearLegend("|p_des - p| (left axis)"), ClearLegend("ε = E - E(0) - W"),
+                                ClearLegend("evaluations (left axis)")}));
 }
 
 }  // namespace
