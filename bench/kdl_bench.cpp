@@ -39,6 +39,7 @@
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
 #include "bench/kdl_chain.hpp"
+#include "bench/kdl_main.hpp"
 #include "plant/lagrangian.hpp"
 #include "plant/spatial_dynamics.hpp"
 
@@ -223,16 +224,5 @@ void RegisterAll() {
 
 int main(int argc, char** argv) {
   using namespace lagrange::bench;
-  const std::string csv = TakeFlag(argc, argv, "--agreement_csv=");
-  try {
-    if (!Agree(csv)) {
-      std::fprintf(stderr, "kdl_bench: lagrange and KDL disagree; not timing\n");
-      return 1;
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "kdl_bench: %s\n", e.what());
-    return 1;
-  }
-  benchmark::AddCustomContext("kdl_version", KDL_VERSION_STRING);
-  return RunBenchmarks(argc, argv, RegisterAll);
+  return RunAfterAgreement(argc, argv, "kdl_bench", Agree, RegisterAll);
 }

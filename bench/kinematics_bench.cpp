@@ -62,6 +62,7 @@
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
 #include "bench/kdl_chain.hpp"
+#include "bench/kdl_main.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/random_tree.hpp"
 
@@ -371,16 +372,5 @@ void RegisterAll() {
 
 int main(int argc, char** argv) {
   using namespace lagrange::bench;
-  const std::string csv = TakeFlag(argc, argv, "--agreement_csv=");
-  try {
-    if (!Agree(csv)) {
-      std::fprintf(stderr, "kinematics_bench: lagrange and KDL disagree; not timing\n");
-      return 1;
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "kinematics_bench: %s\n", e.what());
-    return 1;
-  }
-  benchmark::AddCustomContext("kdl_version", KDL_VERSION_STRING);
-  return RunBenchmarks(argc, argv, RegisterAll);
+  return RunAfterAgreement(argc, argv, "kinematics_bench", Agree, RegisterAll);
 }
