@@ -40,12 +40,15 @@ CLI::Option* AddNumberList(CLI::App& app, const std::string& name, std::vector<d
   return app.add_option(name, values, help)->delimiter(',')->allow_extra_args(false)->check(FiniteNumber());
 }
 
-VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok) {
+VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok,
+                     bool task_axes) {
   if (scalar_ok && values.size() == 1) return VectorXd::Constant(n, values[0]);
   if (static_cast<int>(values.size()) != n) {
+    const std::string each = task_axes ? " (one for every task axis, or one per task axis: x, y, z, rx, ry, rz)"
+                             : scalar_ok && n > 1 ? " (one for every joint, or one per joint)"
+                                                  : " (one per joint)";
     throw UsageError(std::string(option) + ": expected " + std::to_string(n) + (n == 1 ? " value" : " values") +
-                     (scalar_ok && n > 1 ? " (one for every joint, or one per joint)" : " (one per joint)") + ", got " +
-                     std::to_string(values.size()));
+                     each + ", got " + std::to_string(values.size()));
   }
   return Eigen::Map<const VectorXd>(values.data(), n);
 }

@@ -29,7 +29,9 @@ CLI::Option* AddNumberList(CLI::App& app, const std::string& name, std::vector<d
                            const std::string& help);
 
 // `values` (already validated finite) as one per joint: exactly `n`, or one
-// value for every joint when `scalar_ok`.
-VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok = false);
+// value for every joint when `scalar_ok`; `task_axes`: n = 6 gains of a
+// task-space controller, one per task axis (x, y, z, rx, ry, rz), for the message.
+VectorXd JointValues(std::string_view option, const std::vector<double>& values, int n, bool scalar_ok = false,
+                     bool task_axes = false);
 
 }  // namespace lagrange::cli

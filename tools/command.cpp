@@ -113,9 +113,10 @@ class CommandCommand final : public Command {
     if (c.command == command_t::SET_GAINS) {
       // One gain per joint, or per task axis (x, y, z, rx, ry, rz) for the active task-space controller.
       const std::optional<ControllerType> active = ParseControllerType(link.state().controller);
-      const int n = active && IsTaskSpace(*active) ? kTaskDims : link.state().num_dofs;
-      const VectorXd kp = JointValues("--kp", kp_, n, true);
-      const VectorXd kd = JointValues("--kd", kd_, n, true);
+      const bool task = active && IsTaskSpace(*active);
+      const int n = task ? kTaskDims : link.state().num_dofs;
+      const VectorXd kp = JointValues("--kp", kp_, n, true, task);
+      const VectorXd kd = JointValues("--kd", kd_, n, true, task);
       c.num_gains = n;
       c.kp.assign(kp.data(), kp.data() + n);
       c.kd.assign(kd.data(), kd.data() + n);

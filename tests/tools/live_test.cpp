@@ -998,6 +998,19 @@ TEST_F(LivePose, SendPoseMovesThePandasFrameThereAndItsTaskStateShowsTargetAndEr
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.error[k], t.position_des[k] - t.position[k], 1e-12) << k;
 }
 
+// A task-space controller's gains are one per task axis (x, y, z, rx, ry,
+// rz): lagrangectl sends six, and the daemon holds them to the impedance's
+// bound through Λ with the joint controllers' wording.
+TEST_F(LivePose, GainsForATaskSpaceControllerAreOnePerTaskAxisWithinItsBound) {
+  StartPanda(7997);
+  auto r = Ctl({"command", "panda", "gains", "--kp", "300,300,300,10,10,10", "--kd", "30,30,30,0.5,0.5,0.5"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  ExpectOneLine(Ctl({"command", "panda", "gains", "--kp", "1,2,3,4,5,6,7", "--kd", "1"}), "command", 2,
+                "--kp: expected 6 values (one for every task axis, or one per task axis: x, y, z, rx, ry, rz), got 7");
+  ExpectOneLine(Ctl({"command", "panda", "gains", "--kp", "5e7,300,300,10,10,10", "--kd", "30,30,30,0.5,0.5,0.5"}),
+                "command", 1, "gains for cartesian-impedance: kp[0]: expected |gain| <= ");
+}
+
 TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
   StartPanda(7996);
   ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
