@@ -24,7 +24,8 @@ using testing::RunCtl;
 
 struct Csv {
   std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
+  std::vector<std::vector<double>> rows;  // NaN in the text column
+  std::vector<std::string> texts;         // the text column's cells, one per row
   int Column(const std::string& name) const {
     for (std::size_t i = 0; i < header.size(); ++i) {
       if (header[i] == name) return static_cast<int>(i);
@@ -33,17 +34,23 @@ struct Csv {
   }
 };
 
-Csv ReadCsv(const fs::path& path) {
+// A CSV of numbers but for the column `text_column` (none by default), read as text.
+Csv ReadCsv(const fs::path& path, const std::string& text_column = "") {
   std::ifstream in(path);
   Csv csv;
   std::string line;
   std::getline(in, line);
   std::stringstream hs(line);
   for (std::string cell; std::getline(hs, cell, ',');) csv.header.push_back(cell);
+  const int text = text_column.empty() ? -1 : csv.Column(text_column);
   while (std::getline(in, line)) {
     std::stringstream ls(line);
     std::vector<double> row;
-    for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
+    int column = 0;
+    for (std::string cell; std::getline(ls, cell, ','); ++column) {
+      if (column == text) csv.texts.push_back(cell);
+      row.push_back(column == text ? std::nan("") : std::stod(cell));
+    }
     csv.rows.push_back(row);
   }
   return csv;
@@ -122,36 +129,6 @@ TEST_F(Simulate, WritesEachInstancesJointNamesBesideItsCsv) {
   EXPECT_EQ(ReadText(dir_ / "run.cartpole.joints.csv"), "joint,name\n0,\"x\"\n1,\"theta\"\n");
 }
 
-// A task CSV (FILE.task.csv): its frame column as text, the others as numbers.
-struct TaskCsv {
-  std::vector<std::string> header;
-  std::vector<std::string> frames;
-  std::vector<std::vector<double>> rows;  // every column but the frame's
-};
-
-TaskCsv ReadTaskCsv(const fs::path& path) {
-  std::ifstream in(path);
-  TaskCsv csv;
-  std::string line;
-  std::getline(in, line);
-  std::stringstream hs(line);
-  for (std::string cell; std::getline(hs, cell, ',');) csv.header.push_back(cell);
-  while (std::getline(in, line)) {
-    std::stringstream ls(line);
-    std::vector<double> row;
-    int column = 0;
-    for (std::string cell; std::getline(ls, cell, ','); ++column) {
-      if (column == 1) {
-        csv.frames.push_back(cell);
-      } else {
-        row.push_back(std::stod(cell));
-      }
-    }
-    csv.rows.push_back(row);
-  }
-  return csv;
-}
-
 // Under a task-space controller, simulate writes the frame's position, target
 // and error beside the CSV, one row per row, with log2csv's task column names:
 // the UR5's flange under operational-space control stays on the scene's
@@ -163,35 +140,39 @@ TEST_F(Simulate, WritesTheTaskSpaceFramesPathBesideItsCsvOnTheScenesCircle) {
   const fs::path csv = dir_ / "ur5.csv";
   auto r = RunCtl({"simulate", config + "ur5_circle.yaml", "--duration", "2", "--csv", csv.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  const TaskCsv task = ReadTaskCsv(dir_ / "ur5.task.csv");
+  const Csv task = ReadCsv(dir_ / "ur5.task.csv", "frame");
   EXPECT_EQ(task.header, (std::vector<std::string>{"t", "frame", "position0", "position1", "position2", "position_des0",
                                                    "position_des1", "position_des2", "error0", "error1", "error2",
                                                    "error3", "error4", "error5"}));
   const Csv state = ReadCsv(csv);
   ASSERT_EQ(task.rows.size(), state.rows.size());
   ASSERT_EQ(task.rows.size(), 2001u);
-  EXPECT_EQ(task.frames, std::vector<std::string>(task.rows.size(), "\"flange\""));
-  // Columns of a row without the frame: t, position 1-3, position_des 4-6, error 7-12.
-  for (std::size_t k = 0; k < task.rows.size(); ++k) EXPECT_EQ(task.rows[k][0], state.rows[k][0]) << k;
+  EXPECT_EQ(task.texts, std::vector<std::string>(task.rows.size(), "\"flange\""));
+  // Columns of a row: t 0, frame 1 (text), position 2-4, position_des 5-7, error 8-13.
+  constexpr int kT = 0, kPosition = 2, kTarget = 5, kError = 8;
+  for (std::size_t k = 0; k < task.rows.size(); ++k) EXPECT_EQ(task.rows[k][kT], state.rows[k][0]) << k;
   // The first row is before the first Compute, as its tau is: nothing measured yet.
-  for (std::size_t c = 1; c < task.rows[0].size(); ++c) EXPECT_TRUE(std::isnan(task.rows[0][c])) << c;
+  for (std::size_t c = kPosition; c < task.rows[0].size(); ++c) EXPECT_TRUE(std::isnan(task.rows[0][c])) << c;
 
   const PoseTrajectoryConfig circle = LoadScene(config + "ur5_circle.yaml").instances.at(0).controller.task.trajectory;
-  const Eigen::Vector3d start(task.rows[1][1], task.rows[1][2], task.rows[1][3]);  // measured at t = 0
+  const auto position = [&](std::size_t k) {
+    return Eigen::Vector3d(task.rows[k][kPosition], task.rows[k][kPosition + 1], task.rows[k][kPosition + 2]);
+  };
+  const Eigen::Vector3d start = position(1);  // measured at t = 0
   const Eigen::Vector3d centre = start + circle.center;
   const double radius = circle.center.norm();
   constexpr double kOnCircle = 1e-4;  // m: an exact model under Kp = 400 1/s² keeps it within microns
   constexpr double kErrorExact = 1e-12;
   for (std::size_t k = 1; k < task.rows.size(); ++k) {
     const std::vector<double>& row = task.rows[k];
-    for (int i = 0; i < 3; ++i) EXPECT_NEAR(row[7 + i], row[4 + i] - row[1 + i], kErrorExact) << k;
-    if (row[0] < circle.ramp) continue;
-    const Eigen::Vector3d p(row[1], row[2], row[3]);
-    EXPECT_NEAR((p - centre).norm(), radius, kOnCircle) << "t = " << row[0];
-    EXPECT_NEAR((p - centre).dot(circle.normal), 0.0, kOnCircle) << "t = " << row[0];  // in the circle's plane
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(row[kError + i], row[kTarget + i] - row[kPosition + i], kErrorExact) << k;
+    if (row[kT] < circle.ramp) continue;
+    const Eigen::Vector3d p = position(k);
+    EXPECT_NEAR((p - centre).norm(), radius, kOnCircle) << "t = " << row[kT];
+    EXPECT_NEAR((p - centre).dot(circle.normal), 0.0, kOnCircle) << "t = " << row[kT];  // in the circle's plane
   }
   // It goes round: at 0.25 Hz, half a turn from the start by t = 2 s past its 1 s ramp (at least a quarter).
-  EXPECT_GT((Eigen::Vector3d(task.rows.back()[1], task.rows.back()[2], task.rows.back()[3]) - start).norm(), radius);
+  EXPECT_GT((position(task.rows.size() - 1) - start).norm(), radius);
 
   r = RunCtl({"simulate", config + "ur5_pd_gravity.yaml", "--duration", "0.01", "--csv", (dir_ / "pd.csv").string()});
   ASSERT_EQ(r.status, 0) << r.err;
