@@ -38,6 +38,14 @@ inline std::string TakeFlag(int& argc, char** argv, std::string_view prefix) {
   return value;
 }
 
+// "GROUP/ROBOT/LIBRARY/TERM": the name of a peer benchmark (kdl_bench, kinematics_bench).
+inline std::string PeerBenchmarkName(std::string_view group, std::string_view robot, std::string_view library,
+                                     std::string_view term) {
+  std::string name(group);
+  for (std::string_view part : {robot, library, term}) name.append("/").append(part);
+  return name;
+}
+
 // Registers calib/sincos, then the program's own benchmarks, and runs them
 // with Google Benchmark's command line.
 inline int RunBenchmarks(int argc, char** argv, void (*register_benchmarks)()) {

@@ -201,10 +201,7 @@ void TimeLagrange(benchmark::State& bm, const RigidTree& tree, DynamicsTerm term
 
 // kdl/<robot>/<library>/<term>
 std::string BenchmarkName(const std::string& robot, std::string_view library, DynamicsTerm term) {
-  std::string name = "kdl/";
-  for (std::string_view part : {std::string_view(robot), library, TermName(term)}) name.append(part).append("/");
-  name.pop_back();
-  return name;
+  return PeerBenchmarkName("kdl", robot, library, TermName(term));
 }
 
 void RegisterAll() {

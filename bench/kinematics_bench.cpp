@@ -343,10 +343,7 @@ void TimeLagrange(benchmark::State& bm, const RigidTree& tree, KinematicsTerm te
 
 // kin/<robot>/<library>/<term>
 std::string BenchmarkName(const std::string& robot, std::string_view library, KinematicsTerm term) {
-  std::string name = "kin/";
-  for (std::string_view part : {std::string_view(robot), library, TermName(term)}) name.append(part).append("/");
-  name.pop_back();
-  return name;
+  return PeerBenchmarkName("kin", robot, library, TermName(term));
 }
 
 void RegisterAll() {
