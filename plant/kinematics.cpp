@@ -98,9 +98,7 @@ Kinematics::Kinematics(const RigidTree& tree) {
     const Matrix3d parent_fold = tj.parent < 0 ? Matrix3d::Identity() : fold[tj.parent];
     Joint j;
     j.parent = tj.parent;
-    j.dof = tree.DofOf(i);
-    j.scale = tj.mimic < 0 ? 1.0 : tj.multiplier;
-    j.offset = tj.mimic < 0 ? 0.0 : tj.offset;
+    j.map = tree.MapOf(i);
     j.revolute = tj.type == JointType::kRevolute;
     j.E = parent_fold.transpose() * tj.rotation * fold[i];
     j.identity = j.E == Matrix3d::Identity();
@@ -219,7 +217,10 @@ void Kinematics::PlaceBodies(KinematicsData& data, ConstVecRef q, std::span<cons
   const int n = static_cast<int>(joints_.size());
   const double* qj = q.data();  // each joint's position: q itself, unless a joint mimics another
   if (mimics_) {
-    for (int i = 0; i < n; ++i) data.qj_[i] = joints_[i].scale * q[joints_[i].dof] + joints_[i].offset;
+    for (int i = 0; i < n; ++i) {
+      const RigidTree::JointMap& m = joints_[i].map;
+      data.qj_[i] = m.scale * q[m.dof] + m.offset;
+    }
     qj = data.qj_.data();
   }
   spatial::SinCos(qj, data.cq_.data(), data.sq_.data(), n);
@@ -267,7 +268,7 @@ void Kinematics::MoveBodies(KinematicsData& data, ConstVecRef qd, std::span<cons
   for (const int i : joints) {
     const Joint& j = joints_[i];
     KinematicsData::Body& b = data.bodies_[i];
-    const Vector3d zqd = (j.scale * qd[j.dof]) * b.R.col(2);
+    const Vector3d zqd = (j.map.scale * qd[j.map.dof]) * b.R.col(2);
     if (j.parent < 0) {  // the world is still
       b.w.setZero();
       b.v.setZero();
@@ -311,7 +312,7 @@ void Kinematics::FillJacobian(KinematicsData& data, int k, FrameAxes axes) const
   const Vector3d& p = *f.p_at;
   Matrix6Xd& J = axes == FrameAxes::kLocal ? f.J_local : f.J_world;
   if (mimics_) {  // column d sums its joints' motions, each times its multiplier (J_joints S)
-    for (const int j : support_[k]) J.col(joints_[j].dof).setZero();
+    for (const int j : support_[k]) J.col(joints_[j].map.dof).setZero();
   }
   for (const int j : support_[k]) {
     const KinematicsData::Body& bj = data.bodies_[j];
@@ -320,8 +321,8 @@ void Kinematics::FillJacobian(KinematicsData& data, int k, FrameAxes axes) const
     const Vector3d linear = revolute ? Cross(z, Vector3d(p - bj.p)) : z;
     const Vector3d angular = revolute ? z : Vector3d::Zero();
     if (mimics_) {
-      const double m = joints_[j].scale;
-      const int d = joints_[j].dof;
+      const double m = joints_[j].map.scale;
+      const int d = joints_[j].map.dof;
       J.col(d).head<3>() += m * (axes == FrameAxes::kLocal ? MulT(R, linear) : linear);
       J.col(d).tail<3>() += m * (axes == FrameAxes::kLocal ? MulT(R, angular) : angular);
     } else if (axes == FrameAxes::kLocal) {

@@ -218,9 +218,7 @@ class Kinematics {
   // R_λ E Rz(q) (revolute) or R_λ E (prismatic, origin moved by q along z).
   struct Joint {
     int parent = -1;
-    int dof = 0;               // the degree of freedom moving it (RigidTree::DofOf)
-    double scale = 1.0;        // q_joint = scale q[dof] + offset: 1 and 0 but for a mimic
-    double offset = 0.0;
+    RigidTree::JointMap map;  // q_joint = scale q[dof] + offset: 1 and 0 but for a mimic
     bool revolute = true;
     bool identity = false;  // E is exactly the identity (most URDF joints): R_λ E is R_λ
     Eigen::Matrix3d E;

@@ -27,12 +27,7 @@ MimicDynamics::MimicDynamics(const RigidTree& tree, std::shared_ptr<const Dynami
     throw std::invalid_argument("MimicDynamics: expected the dynamics of the tree's " +
                                 std::to_string(tree.num_joints()) + " joints, each free");
   }
-  for (int i = 0; i < tree.num_joints(); ++i) {
-    const TreeJoint& j = tree.joints[static_cast<std::size_t>(i)];
-    dof_.push_back(tree.DofOf(i));
-    scale_.push_back(j.mimic < 0 ? 1.0 : j.multiplier);
-    offset_.push_back(j.mimic < 0 ? 0.0 : j.offset);
-  }
+  for (int i = 0; i < tree.num_joints(); ++i) maps_.push_back(tree.MapOf(i));
 }
 
 std::unique_ptr<DynamicsData> MimicDynamics::MakeData() const {
@@ -40,25 +35,27 @@ std::unique_ptr<DynamicsData> MimicDynamics::MakeData() const {
 }
 
 void MimicDynamics::ExpandPosition(Data& d, ConstVecRef q) const {
-  for (std::size_t i = 0; i < dof_.size(); ++i) d.q[static_cast<Eigen::Index>(i)] = scale_[i] * q[dof_[i]] + offset_[i];
+  for (std::size_t i = 0; i < maps_.size(); ++i) {
+    d.q[static_cast<Eigen::Index>(i)] = maps_[i].scale * q[maps_[i].dof] + maps_[i].offset;
+  }
 }
 
 void MimicDynamics::Expand(Data& d, ConstVecRef q, ConstVecRef qd) const {
   ExpandPosition(d, q);
-  for (std::size_t i = 0; i < dof_.size(); ++i) d.qd[static_cast<Eigen::Index>(i)] = scale_[i] * qd[dof_[i]];
+  for (std::size_t i = 0; i < maps_.size(); ++i) d.qd[static_cast<Eigen::Index>(i)] = maps_[i].scale * qd[maps_[i].dof];
 }
 
 void MimicDynamics::Reduce(ConstVecRef x_joints, VecRef out) const {
   out.setZero();
-  for (std::size_t i = 0; i < dof_.size(); ++i) out[dof_[i]] += scale_[i] * x_joints[static_cast<Eigen::Index>(i)];
+  for (std::size_t i = 0; i < maps_.size(); ++i) out[maps_[i].dof] += maps_[i].scale * x_joints[static_cast<Eigen::Index>(i)];
 }
 
 void MimicDynamics::Reduce(const MatrixXd& A_joints, MatRef out) const {
   out.setZero();
-  for (std::size_t c = 0; c < dof_.size(); ++c) {
-    for (std::size_t r = 0; r < dof_.size(); ++r) {
-      out(dof_[r], dof_[c]) +=
-          scale_[r] * scale_[c] * A_joints(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
+  for (std::size_t c = 0; c < maps_.size(); ++c) {
+    for (std::size_t r = 0; r < maps_.size(); ++r) {
+      out(maps_[r].dof, maps_[c].dof) +=
+          maps_[r].scale * maps_[c].scale * A_joints(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
     }
   }
 }

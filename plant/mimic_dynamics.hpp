@@ -62,9 +62,7 @@ class MimicDynamics final : public Dynamics {
   void Reduce(const MatrixXd& A_joints, MatRef out) const;
 
   std::shared_ptr<const Dynamics> free_;
-  std::vector<int> dof_;          // (num_joints) the degree of freedom moving each joint
-  std::vector<double> scale_;     // (num_joints) S's entry: 1, or a mimic's multiplier
-  std::vector<double> offset_;    // (num_joints) o: 0, or a mimic's offset
+  std::vector<RigidTree::JointMap> maps_;  // (num_joints) each joint's row of S and entry of o
 };
 
 }  // namespace lagrange

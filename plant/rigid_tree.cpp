@@ -22,6 +22,11 @@ int RigidTree::DofOf(int joint) const {
   return dof;
 }
 
+RigidTree::JointMap RigidTree::MapOf(int joint) const {
+  const TreeJoint& j = joints[static_cast<std::size_t>(joint)];
+  return j.mimic < 0 ? JointMap{DofOf(joint), 1.0, 0.0} : JointMap{DofOf(joint), j.multiplier, j.offset};
+}
+
 std::vector<JointType> RigidTree::joint_types() const {
   std::vector<JointType> types;
   types.reserve(joints.size());
@@ -244,7 +249,7 @@ Eigen::MatrixXd MassMatrixAtZero(const RigidTree& tree) {
     }
   }
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, tree.num_dofs());
-  for (int i = 0; i < n; ++i) S(i, tree.DofOf(i)) = tree.joints[i].mimic < 0 ? 1.0 : tree.joints[i].multiplier;
+  for (int i = 0; i < n; ++i) S(i, tree.MapOf(i).dof) = tree.MapOf(i).scale;
   return S.transpose() * M * S;
 }
 

@@ -90,6 +90,15 @@ struct RigidTree {
   // The degree of freedom that moves joint `joint` (its own, or that of the
   // joint it mimics), an index into q: joint order, mimics skipped. O(joint).
   int DofOf(int joint) const;
+  // How joint `joint` moves with q: q_joint = scale · q[dof] + offset,
+  // qd_joint = scale · qd[dof] (scale 1, offset 0 but for a mimic): its row of
+  // S and its entry of o. O(joint).
+  struct JointMap {
+    int dof = 0;
+    double scale = 1.0;
+    double offset = 0.0;
+  };
+  JointMap MapOf(int joint) const;
   // The degrees of freedom's joint types and names (n), in q's order.
   std::vector<JointType> joint_types() const;
   std::vector<std::string> joint_names() const;

@@ -152,17 +152,18 @@ Placement<S> MoveByJoint(const TreeJoint& j, const Placement<S>& joint, const S&
 
 // Joint i's position and velocity from the degrees of freedom's (q, qd):
 // its own, or for a mimic multiplier · the followed joint's (+ offset).
+// (A degree of freedom's own q is passed on untouched, not times 1 plus 0.)
 template <class S>
 S JointPosition(const RigidTree& tree, int i, std::span<const S> q) {
-  const TreeJoint& j = tree.joints[i];
-  const S& own = q[static_cast<std::size_t>(tree.DofOf(i))];
-  return j.mimic < 0 ? own : own * j.multiplier + j.offset;
+  const RigidTree::JointMap m = tree.MapOf(i);
+  const S& own = q[static_cast<std::size_t>(m.dof)];
+  return tree.joints[i].mimic < 0 ? own : own * m.scale + m.offset;
 }
 template <class S>
 S JointVelocity(const RigidTree& tree, int i, std::span<const S> qd) {
-  const TreeJoint& j = tree.joints[i];
-  const S& own = qd[static_cast<std::size_t>(tree.DofOf(i))];
-  return j.mimic < 0 ? own : own * j.multiplier;
+  const RigidTree::JointMap m = tree.MapOf(i);
+  const S& own = qd[static_cast<std::size_t>(m.dof)];
+  return tree.joints[i].mimic < 0 ? own : own * m.scale;
 }
 
 template <class S>
