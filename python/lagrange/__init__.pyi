@@ -1,0 +1,1 @@
+# Type stubs for the lagrange package (units SI; arrays float64 numpy).
