@@ -1,6 +1,10 @@
 #include "daemon/offline.hpp"
 
+#include <stdexcept>
+
 #include "daemon/health.hpp"
+#include "daemon/work_bound.hpp"
+#include "protocol/format.hpp"
 
 namespace lagrange {
 
@@ -33,12 +37,45 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
   return faults;
 }
 
+std::string OfflineFaultText(const Instance& inst, const OfflineFault& f) {
+  std::string text = inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
+  if (f.reason == kEnergyOutOfBound) text += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
+  if (f.reason == kResidualOutOfBound) {
+    text += ", |ε| > " + FormatDouble(inst.instance_model().residual_bound.bound) + " J";
+  }
+  return text;
+}
+
 const char* OfflineRefusal(const InstanceConfig& c) {
   if (c.external) return "its plant is external (measured over LCM): only lagranged runs it";
   if (c.controller.type == ControllerType::kExternal) {
     return "its controller is external (torques over LCM): only lagranged runs it";
   }
   return nullptr;
+}
+
+OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_label,
+                                 const std::function<bool(std::size_t)>& steps_external_controller) {
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    const InstanceConfig& c = scene.instances[i];
+    const bool stepped = !c.external && steps_external_controller && steps_external_controller(i);
+    if (const char* why = OfflineRefusal(c); why != nullptr && !stepped) {
+      throw std::runtime_error(scene_label + ": instance " + c.name + " cannot run offline: " + why);
+    }
+  }
+  // One rule with lagranged: a scene whose ticks would not fit its period
+  // in real time is refused here too, with the same message.
+  BuildOptions options;
+  options.measure_costs = true;
+  OfflineScene out;
+  out.model = BuildDaemonModel(scene, options);
+  if (const auto refusal = CheckWorkBounds(*out.model)) throw std::runtime_error(*refusal);
+  out.period = scene.period;
+  out.instances.reserve(out.model->instances.size());
+  for (const InstanceModel& m : out.model->instances) {
+    out.instances.emplace_back(std::shared_ptr<const InstanceModel>(out.model, &m));
+  }
+  return out;
 }
 
 bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe) {

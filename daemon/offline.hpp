@@ -5,9 +5,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "daemon/instance.hpp"
+#include "daemon/instance_model.hpp"
 
 namespace lagrange {
 
@@ -22,9 +25,30 @@ struct OfflineFault {
   double max_energy = 0.0;       // J: the instance's bound on |T + V|
 };
 
+// "NAME faulted at t = T s: REASON" and the bound it left, for a message.
+std::string OfflineFaultText(const Instance& instance, const OfflineFault& fault);
+
 // Why an instance cannot run offline (null when it can): an external plant
 // or an external controller needs the bus, so only lagranged runs them.
 const char* OfflineRefusal(const InstanceConfig& config);
+
+// A scene's instances, built for an offline run as lagrangectl simulate and
+// the Python module (lagrange.simulate, lagrange.Instance) build them: the
+// daemon's model (costs measured, as lagranged measures them) and one Instance
+// per scene instance, in scene order.
+struct OfflineScene {
+  std::shared_ptr<const DaemonModel> model;
+  std::vector<Instance> instances;  // reserved once: never reallocated
+  double period = 0.0;              // s
+};
+// Throws std::runtime_error, one line, when an instance cannot run offline
+// ("SCENE: instance NAME cannot run offline: " + OfflineRefusal) or the
+// scene's ticks would not fit its period in real time (CheckWorkBounds, the
+// daemon's rule and message). `steps_external_controller(i)`: instance i's
+// external controller gets its torques from the caller (a Python controller
+// stepping it), so that alone does not refuse it.
+OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_label,
+                                 const std::function<bool(std::size_t)>& steps_external_controller = {});
 
 // Runs `steps` steps of `period`. After every step the daemon's health check
 // runs (non-finite torque or state, a failed integrator, |T + V| > max_energy,

@@ -1,7 +1,362 @@
+// lagrange.simulate and lagrange.Instance: a scene run by the daemon's own
+// Instance code (daemon/instance.hpp) under its health rule
+// (daemon/health.hpp), prepared as lagrangectl simulate prepares it
+// (PrepareOfflineScene, daemon/offline.hpp). What simulate returns per row is
+// what lagrangectl simulate writes per CSV row, the same doubles.
+
+#include <pybind11/functional.h>
+#include <pybind11/stl.h>
+
+#include <filesystem>
+#include <map>
+#include <optional>
+
+#include "daemon/health.hpp"
+#include "daemon/offline.hpp"
+#include "daemon/scene.hpp"
+#include "daemon/yaml_reader.hpp"
 #include "python/bindings.hpp"
+#include "python/bus_arrays.hpp"
 
 namespace lagrange::python {
+namespace {
 
-void BindSimulate(pybind11::module_& /*m*/) {}
+// A scene argument: a path (str or os.PathLike), or YAML text (a str holding
+// a line break). ValueError for a scene the reader refuses, FileNotFoundError
+// for a path that names no file, each with the reader's one line.
+struct SceneSource {
+  Scene scene;
+  std::string label;  // the file, or "<scene text>"
+};
+
+SceneSource ReadSceneArgument(const py::handle& scene) {
+  const bool path_like = py::hasattr(scene, "__fspath__");
+  if (!path_like && !py::isinstance<py::str>(scene)) {
+    throw py::type_error("scene: expected a path or YAML text (str), got " +
+                         std::string(py::str(py::type::of(scene).attr("__name__"))));
+  }
+  const std::string text =
+      path_like ? py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>() : scene.cast<std::string>();
+  const bool yaml_text = !path_like && text.find('\n') != std::string::npos;
+  const std::string label = yaml_text ? "<scene text>" : text;
+  try {
+    return {yaml_text ? ParseScene(text, label) : LoadScene(text), label};
+  } catch (const ConfigError& e) {
+    std::error_code ec;
+    if (!yaml_text && !std::filesystem::exists(text, ec)) {
+      PyErr_SetString(PyExc_FileNotFoundError, e.what());
+      throw py::error_already_set();
+    }
+    throw py::value_error(e.what());
+  }
+}
+
+// The offline scene, or ValueError with the CLI's line (refused offline, ticks that do not fit the period).
+OfflineScene Prepare(const SceneSource& source, const std::function<bool(std::size_t)>& stepped = {}) {
+  try {
+    return PrepareOfflineScene(source.scene, source.label, stepped);
+  } catch (const py::error_already_set&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw py::value_error(e.what());
+  }
+}
+
+// (tau or none) => one step of `inst`, as lagranged steps a running instance:
+// without tau under its active controller and the scene's trajectory; with
+// tau, under an active external controller as the latest streamed torque
+// (its compensate_gravity and torque limits apply), else applied as given
+// (no controller: only the plant's saturation effect limits it).
+Instance::StepFailure StepOnce(Instance& inst, double period, const VectorXd* tau) {
+  if (tau == nullptr) return inst.Step(period);
+  if (ExternalController* external = inst.external_controller(inst.active_controller())) {
+    external->SetTorque(*tau);
+    return inst.Step(period);
+  }
+  return inst.StepWithTorque(period, *tau);
+}
+
+// ε, J: the energy balance's residual, nan when the instance keeps none (telemetry off).
+double Residual(const Instance& inst) {
+  return inst.accounting() ? inst.energy_balance().residual() : std::numeric_limits<double>::quiet_NaN();
+}
+
+// One instance's rows, as lagrangectl simulate writes them (t, q, qd, q_des, tau, T, V) and ε.
+struct Recording {
+  std::string name;
+  std::vector<std::string> joint_names;
+  int n = 0;
+  std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
+  std::optional<std::string> fault;
+
+  void Add(Instance& inst) {
+    t.push_back(inst.t());
+    for (const auto& [out, v] : {std::pair{&q, &inst.q()}, {&qd, &inst.qd()}, {&q_des, &inst.q_des()}, {&tau, &inst.tau()}}) {
+      out->insert(out->end(), v->data(), v->data() + v->size());
+    }
+    kinetic.push_back(inst.KineticEnergy());
+    potential.push_back(inst.PotentialEnergy());
+    residual.push_back(Residual(inst));
+  }
+};
+
+// The result of lagrange.simulate for one instance: numpy arrays, one row per step.
+struct SimulationResult {
+  std::string name;
+  std::vector<std::string> joint_names;
+  py::array_t<double> t, q, qd, q_des, tau, kinetic_energy, potential_energy, energy_residual;
+  std::optional<std::string> fault;
+
+  explicit SimulationResult(const Recording& r)
+      : name(r.name),
+        joint_names(r.joint_names),
+        t(ToArray(r.t)),
+        q(ToMatrix(r.q, static_cast<py::ssize_t>(r.t.size()), r.n)),
+        qd(ToMatrix(r.qd, static_cast<py::ssize_t>(r.t.size()), r.n)),
+        q_des(ToMatrix(r.q_des, static_cast<py::ssize_t>(r.t.size()), r.n)),
+        tau(ToMatrix(r.tau, static_cast<py::ssize_t>(r.t.size()), r.n)),
+        kinetic_energy(ToArray(r.kinetic)),
+        potential_energy(ToArray(r.potential)),
+        energy_residual(ToArray(r.residual)),
+        fault(r.fault) {}
+};
+
+using PyController = std::function<py::object(double, py::array_t<double>, py::array_t<double>)>;
+
+py::dict Simulate(const py::object& scene_arg, double duration, const py::object& controller) {
+  if (!(std::isfinite(duration) && duration > 0.0)) {
+    throw py::value_error("duration: expected a positive number of seconds, got " + FormatDouble(duration));
+  }
+  const SceneSource source = ReadSceneArgument(scene_arg);
+  // Which instances a Python controller steps: a callable for a one-instance
+  // scene, or a dict {instance name: callable}.
+  std::map<std::string, py::object> laws;
+  if (py::isinstance<py::dict>(controller)) {
+    for (const auto& [key, law] : controller.cast<py::dict>()) laws[py::str(key)] = py::reinterpret_borrow<py::object>(law);
+  } else if (!controller.is_none()) {
+    if (source.scene.instances.size() != 1) {
+      throw py::value_error("controller: the scene has " + std::to_string(source.scene.instances.size()) +
+                            " instances: give a dict {instance name: callable}");
+    }
+    laws[source.scene.instances[0].name] = controller;
+  }
+  for (const auto& [name, law] : laws) {
+    bool known = false;
+    for (const InstanceConfig& c : source.scene.instances) known = known || c.name == name;
+    if (!known) throw py::value_error("controller: the scene has no instance '" + name + "'");
+    if (!PyCallable_Check(law.ptr())) throw py::type_error("controller for '" + name + "': expected a callable (t, q, qd) -> tau");
+  }
+  std::vector<py::object> law_of(source.scene.instances.size());
+  for (std::size_t i = 0; i < law_of.size(); ++i) {
+    if (const auto it = laws.find(source.scene.instances[i].name); it != laws.end()) law_of[i] = it->second;
+  }
+  OfflineScene offline = Prepare(source, [&](std::size_t i) { return static_cast<bool>(law_of[i]); });
+  std::vector<Instance>& instances = offline.instances;
+
+  std::vector<Recording> recordings(instances.size());
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    recordings[i].name = instances[i].name();
+    recordings[i].joint_names = instances[i].instance_model().joint_names;
+    recordings[i].n = instances[i].num_dofs();
+  }
+  const auto steps = static_cast<std::int64_t>(std::llround(duration / offline.period));
+  const auto observe = [&](std::size_t i, Instance& inst) { recordings[i].Add(inst); };
+  std::vector<OfflineFault> faults;
+  if (laws.empty()) {
+    // The scene's own controllers: the same run as lagrangectl simulate, without the GIL.
+    py::gil_scoped_release release;
+    faults = RunOfflineChecked(instances, offline.period, steps, observe);
+  } else {
+    // A Python law is called before each of its instance's steps with the
+    // state it starts from; the health rule is RunOfflineChecked's.
+    std::vector<VectorXd> tau(instances.size());
+    std::vector<Instance::Saved> good;
+    std::vector<bool> healthy(instances.size(), true);
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+      good.push_back(instances[i].MakeSaved());
+      observe(i, instances[i]);
+    }
+    StepEnergies energies;
+    for (std::int64_t k = 0; k < steps; ++k) {
+      for (std::size_t i = 0; i < instances.size(); ++i) {
+        if (!healthy[i]) continue;
+        Instance& inst = instances[i];
+        const VectorXd* applied = nullptr;
+        if (law_of[i]) {
+          const py::object out = law_of[i](inst.t(), ToArray(inst.q()), ToArray(inst.qd()));
+          tau[i] = JointVector(out, inst.num_dofs(), ("controller for '" + inst.name() + "' returned tau").c_str());
+          applied = &tau[i];
+        }
+        const double max_energy = inst.instance_model().max_energy;
+        const Instance::StepFailure step = StepOnce(inst, offline.period, applied);
+        if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
+          faults.push_back({i, inst.t(), why, max_energy});
+          healthy[i] = false;
+          inst.Restore(good[i]);
+          continue;
+        }
+        inst.Save(good[i]);
+        observe(i, inst);
+      }
+    }
+  }
+  for (const OfflineFault& f : faults) {
+    recordings[f.index].fault = OfflineFaultText(instances[f.index], f);
+    PyErr_WarnEx(PyExc_RuntimeWarning, ("lagrange.simulate: " + *recordings[f.index].fault).c_str(), 1);
+  }
+  py::dict out;
+  for (const Recording& r : recordings) out[py::str(r.name)] = SimulationResult(r);
+  return out;
+}
+
+// lagrange.Instance: one scene instance stepped from Python.
+class PyInstance {
+ public:
+  PyInstance(const py::object& scene_arg, const std::optional<std::string>& name) {
+    const SceneSource source = ReadSceneArgument(scene_arg);
+    const std::vector<InstanceConfig>& all = source.scene.instances;
+    if (!name && all.size() != 1) {
+      std::string names;
+      for (const InstanceConfig& c : all) names += (names.empty() ? "" : ", ") + c.name;
+      throw py::value_error(source.label + ": " + std::to_string(all.size()) + " instances (" + names +
+                            "): name the one to step");
+    }
+    index_ = all.size();
+    for (std::size_t i = 0; i < all.size(); ++i) index_ = (name && all[i].name == *name) || !name ? i : index_;
+    if (index_ == all.size()) throw py::value_error(source.label + ": no instance '" + *name + "'");
+    // The stepped instance's external controller takes its torques from step(tau).
+    scene_ = Prepare(source, [&](std::size_t i) { return i == index_; });
+    good_ = inst().MakeSaved();
+  }
+
+  Instance& inst() { return scene_.instances[index_]; }
+
+  // One step; on a fault, back to the last healthy state and RuntimeError.
+  void Step(const py::object& tau_arg) {
+    std::optional<VectorXd> tau;
+    if (!tau_arg.is_none()) tau = JointVector(tau_arg, inst().num_dofs(), "tau");
+    else if (inst().external_controller(inst().active_controller()) != nullptr && !torque_given_) {
+      // As lagranged holds an external controller's instance until its first torque.
+      throw py::value_error(inst().name() + " runs an external controller: step(tau) needs a torque (none given yet)");
+    }
+    torque_given_ = torque_given_ || tau.has_value();
+    const double max_energy = inst().instance_model().max_energy;
+    const Instance::StepFailure step = StepOnce(inst(), scene_.period, tau ? &*tau : nullptr);
+    StepEnergies energies;
+    if (const char* why = CheckStepHealth(inst(), step, max_energy, inst().instance_model().residual_bound, energies)) {
+      const OfflineFault f{index_, inst().t(), why, max_energy};
+      const std::string text = OfflineFaultText(inst(), f);
+      inst().Restore(good_);
+      throw std::runtime_error(text + "; the instance is back at t = " + FormatDouble(inst().t()) +
+                               " s, the last healthy step");
+    }
+    inst().Save(good_);
+  }
+
+  void Reset() {
+    inst().Reset();
+    good_ = inst().MakeSaved();
+    torque_given_ = false;
+  }
+
+  double period() const { return scene_.period; }
+
+ private:
+  OfflineScene scene_;
+  std::size_t index_ = 0;
+  Instance::Saved good_;
+  bool torque_given_ = false;
+};
+
+}  // namespace
+
+void BindSimulate(py::module_& m) {
+  py::class_<SimulationResult>(m, "SimulationResult",
+                               "One instance's run from lagrange.simulate: one row per step, the first at t = 0.\n"
+                               "Each row holds what lagrangectl simulate writes in its CSV row, the same doubles.")
+      .def_readonly("name", &SimulationResult::name, "The instance's name (as in the scene).")
+      .def_readonly("joint_names", &SimulationResult::joint_names, "Joint names in q order (as the .joints.csv).")
+      .def_readonly("t", &SimulationResult::t, "Simulated time, s, shape (N,).")
+      .def_readonly("q", &SimulationResult::q, "Joint positions, rad or m, shape (N, n).")
+      .def_readonly("qd", &SimulationResult::qd, "Joint velocities, rad/s or m/s, shape (N, n).")
+      .def_readonly("q_des", &SimulationResult::q_des, "The setpoint's positions at each step, shape (N, n).")
+      .def_readonly("tau", &SimulationResult::tau,
+                    "Applied generalized force of the step that led to the row (after limits and saturation), "
+                    "N·m or N, shape (N, n); zero at t = 0.")
+      .def_readonly("kinetic_energy", &SimulationResult::kinetic_energy, "T, J, shape (N,).")
+      .def_readonly("potential_energy", &SimulationResult::potential_energy,
+                    "V, J, shape (N,) (zero at the base's height; joint limits' springs included).")
+      .def_readonly("energy_residual", &SimulationResult::energy_residual,
+                    "ε = E − E(0) − W, J, shape (N,): the energy balance's residual (telemetry_t.energy_residual); "
+                    "nan when the scene keeps no balance (telemetry: false and no energy_balance).")
+      .def_property_readonly("epsilon", [](const SimulationResult& r) { return r.energy_residual; },
+                             "Alias of energy_residual.")
+      .def_readonly("fault", &SimulationResult::fault,
+                    "None, or the health check's line when the instance faulted: its rows then end at the last "
+                    "healthy step.")
+      .def("__repr__", [](const SimulationResult& r) {
+        return "<lagrange.SimulationResult " + r.name + ": " + std::to_string(r.t.shape(0)) + " rows" +
+               (r.fault ? ", faulted" : "") + ">";
+      });
+
+  m.def("simulate", &Simulate, py::arg("scene"), py::arg("duration"), py::kw_only(), py::arg("controller") = py::none(),
+        R"(Run a scene offline with lagranged's Instance code, as fast as the machine goes.
+
+scene       a scene file (str or os.PathLike), or YAML text (a str with a line break)
+duration    simulated time, s (> 0): round(duration / period) steps after the row at t = 0
+controller  None: every instance under its scene controller and trajectory (the rows are
+            the doubles `lagrangectl simulate` writes, and the run releases the GIL);
+            or a callable (t, q, qd) -> tau (N·m or N, shape (n,)) called before every step
+            of a one-instance scene; or a dict {instance name: callable}. A Python law's tau
+            is the latest streamed torque of an instance under `controller: external`
+            (its compensate_gravity and torque limits apply, as in lagranged), and the
+            applied force of any other instance (its controller bypassed).
+
+Returns {instance name: SimulationResult}. Each step passes lagranged's health check; an
+instance that fails it stops at its last healthy row, its result's `fault` names why, and a
+RuntimeWarning says so. Raises ValueError (a bad scene, one an offline run refuses: an
+external plant, an external controller without a Python law; ticks that do not fit the
+period), FileNotFoundError (no such scene file), with lagrangectl's one-line messages.)");
+
+  py::class_<PyInstance>(m, "Instance",
+                         R"(One scene instance stepped from Python: lagranged's Instance, its controllers and health check.
+
+Instance(scene, name=None): scene as for simulate (a path or YAML text); name picks the
+instance of a scene with several. A scene instance under `controller: external` takes
+step(tau) as its streamed torque, as lagranged does; any other applies tau as given.)")
+      .def(py::init<const py::object&, const std::optional<std::string>&>(), py::arg("scene"),
+           py::arg("name") = py::none())
+      .def("step", &PyInstance::Step, py::arg("tau") = py::none(),
+           R"(Advance one period.
+
+tau None: under the active controller and the scene's trajectory (lagrangectl simulate's step).
+tau (n,) N·m or N: under an external controller, its streamed torque (+ G(q) with
+compensate_gravity, within torque_limits); otherwise applied as given, no controller.
+A step that fails lagranged's health check puts the instance back at its last healthy
+state and raises RuntimeError naming why.)")
+      .def("reset", &PyInstance::Reset, "Back to the scene's initial state at t = 0 (lagranged's reset).")
+      .def_property_readonly("name", [](PyInstance& s) { return s.inst().name(); })
+      .def_property_readonly("num_dofs", [](PyInstance& s) { return s.inst().num_dofs(); })
+      .def_property_readonly("joint_names", [](PyInstance& s) { return s.inst().instance_model().joint_names; })
+      .def_property_readonly("period", &PyInstance::period, "The scene's period, s: one step's length.")
+      .def_property_readonly("t", [](PyInstance& s) { return s.inst().t(); }, "Simulated time, s.")
+      .def_property_readonly("q", [](PyInstance& s) { return ToArray(s.inst().q()); }, "Positions, shape (n,).")
+      .def_property_readonly("qd", [](PyInstance& s) { return ToArray(s.inst().qd()); }, "Velocities, shape (n,).")
+      .def_property_readonly("qdd", [](PyInstance& s) { return ToArray(s.inst().qdd()); },
+                             "Accelerations at the current state under the last applied tau, shape (n,).")
+      .def_property_readonly("tau", [](PyInstance& s) { return ToArray(s.inst().tau()); },
+                             "The last step's applied force (after limits and saturation), shape (n,).")
+      .def_property_readonly("q_des", [](PyInstance& s) { return ToArray(s.inst().q_des()); },
+                             "The last step's setpoint positions, shape (n,).")
+      .def_property_readonly("kinetic_energy", [](PyInstance& s) { return s.inst().KineticEnergy(); }, "T, J.")
+      .def_property_readonly("potential_energy", [](PyInstance& s) { return s.inst().PotentialEnergy(); }, "V, J.")
+      .def_property_readonly("energy_residual", [](PyInstance& s) { return Residual(s.inst()); },
+                             "ε, J (nan without an energy balance).")
+      .def_property_readonly("controller", [](PyInstance& s) { return std::string(s.inst().controller().name()); },
+                             "The active controller's type.")
+      .def("__repr__", [](PyInstance& s) {
+        return "<lagrange.Instance " + s.inst().name() + " at t = " + FormatDouble(s.inst().t()) + " s>";
+      });
+}
 
 }  // namespace lagrange::python

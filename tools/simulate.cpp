@@ -17,7 +17,6 @@
 #include "daemon/instance_model.hpp"
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
-#include "daemon/work_bound.hpp"
 #include "protocol/format.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -73,13 +72,8 @@ void WriteTaskRow(std::ostream& out, const Instance& inst, const TaskSpaceContro
 
 // One line for a fault: which instance, when, why, and where its CSV stops.
 std::string FaultLine(Instance& inst, const OfflineFault& f) {
-  std::string line =
-      "lagrangectl simulate: " + inst.name() + " faulted at t = " + FormatDouble(f.t) + " s: " + f.reason;
-  if (f.reason == kEnergyOutOfBound) line += ", |T + V| > " + FormatDouble(f.max_energy) + " J";
-  if (f.reason == kResidualOutOfBound) {
-    line += ", |ε| > " + FormatDouble(inst.instance_model().residual_bound.bound) + " J";
-  }
-  return line + "; its CSV ends at t = " + FormatDouble(inst.t()) + " s, the last healthy step";
+  return "lagrangectl simulate: " + OfflineFaultText(inst, f) + "; its CSV ends at t = " + FormatDouble(inst.t()) +
+         " s, the last healthy step";
 }
 
 class SimulateCommand final : public Command {
@@ -98,20 +92,8 @@ class SimulateCommand final : public Command {
 
   int Run(std::ostream& out, std::ostream& err) override {
     const Scene scene = LoadScene(scene_);
-    for (const InstanceConfig& c : scene.instances) {
-      if (const char* why = OfflineRefusal(c)) {
-        throw std::runtime_error(scene_ + ": instance " + c.name + " cannot run offline: " + why);
-      }
-    }
-    // One rule with lagranged: a scene whose ticks would not fit its period
-    // in real time is refused here too, with the same message.
-    BuildOptions options;
-    options.measure_costs = true;
-    const std::shared_ptr<const DaemonModel> model = BuildDaemonModel(scene, options);
-    if (const auto refusal = CheckWorkBounds(*model)) throw std::runtime_error(*refusal);
-    std::vector<Instance> instances;
-    instances.reserve(model->instances.size());
-    for (const InstanceModel& m : model->instances) instances.emplace_back(std::shared_ptr<const InstanceModel>(model, &m));
+    OfflineScene offline = PrepareOfflineScene(scene, scene_);
+    std::vector<Instance>& instances = offline.instances;
 
     const bool several = instances.size() > 1;
     std::vector<std::unique_ptr<std::ofstream>> files;

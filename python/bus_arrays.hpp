@@ -1,0 +1,70 @@
+#pragma once
+// numpy arrays in and out for the simulator and the bus (simulate.cpp,
+// bus.cpp): float64, copied, shapes checked with the CLI's wording.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "plant/types.hpp"
+#include "protocol/format.hpp"
+
+namespace lagrange::python {
+
+namespace py = pybind11;
+
+// A copy of `v` as a float64 array of shape (n,).
+inline py::array_t<double> ToArray(const VectorXd& v) {
+  py::array_t<double> out(v.size());
+  std::copy(v.data(), v.data() + v.size(), out.mutable_data());
+  return out;
+}
+inline py::array_t<double> ToArray(const std::vector<double>& v) {
+  py::array_t<double> out(static_cast<py::ssize_t>(v.size()));
+  std::copy(v.begin(), v.end(), out.mutable_data());
+  return out;
+}
+
+// `rows` × `columns` values, row after row, as a float64 array of shape (rows, columns).
+inline py::array_t<double> ToMatrix(const std::vector<double>& values, py::ssize_t rows, py::ssize_t columns) {
+  py::array_t<double> out({rows, columns});
+  std::copy(values.begin(), values.end(), out.mutable_data());
+  return out;
+}
+
+// `what` (a name such as "tau") as n finite values: a sequence or array of
+// shape (n,), any dtype numpy casts to float64. ValueError otherwise, worded
+// as lagrangectl's: "tau: expected 2 values (one per joint), got 3".
+inline VectorXd JointVector(const py::handle& values, int n, const char* what, bool allow_one = false) {
+  py::array_t<double, py::array::forcecast> a;
+  try {
+    a = py::array_t<double, py::array::forcecast>::ensure(values);
+  } catch (const py::error_already_set&) {
+    a = {};
+  }
+  if (!a) throw py::value_error(std::string(what) + ": expected numbers, got " + std::string(py::str(py::type::of(values).attr("__name__"))));
+  if (a.ndim() > 1) throw py::value_error(std::string(what) + ": expected shape (" + std::to_string(n) + ",), got an array of " + std::to_string(a.ndim()) + " dimensions");
+  const py::ssize_t size = a.ndim() == 0 ? 1 : a.shape(0);
+  const bool one = allow_one && size == 1;
+  if (size != n && !one) {
+    throw py::value_error(std::string(what) + ": expected " + std::to_string(n) + (n == 1 ? " value" : " values") +
+                          (one && n > 1 ? "" : "") + (allow_one && n > 1 ? " (one for every joint, or one per joint)" : " (one per joint)") +
+                          ", got " + std::to_string(size));
+  }
+  VectorXd out(n);
+  const double* data = a.data();
+  for (int i = 0; i < n; ++i) {
+    const double x = data[one ? 0 : i];
+    if (!std::isfinite(x)) {
+      throw py::value_error(std::string(what) + ": expected finite values, got " + FormatDouble(x) + " at index " + std::to_string(i));
+    }
+    out[i] = x;
+  }
+  return out;
+}
+
+}  // namespace lagrange::python

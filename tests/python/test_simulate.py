@@ -1,0 +1,188 @@
+"""lagrange.simulate and lagrange.Instance against lagrangectl simulate: the same
+Instance code, so the same doubles; and the stepping interface a Python controller uses."""
+import os
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+import lagrange
+from bus_support import LAGRANGECTL, config, joint_block, numbers, read_csv
+
+DURATION = 1.0  # s: 1000 steps of the shipped scenes
+
+
+def lagrangectl_simulate(scene, duration, tmp_path):
+    csv = str(tmp_path / "run.csv")
+    r = subprocess.run([LAGRANGECTL, "simulate", scene, "--duration", str(duration), "--csv", csv],
+                       capture_output=True, text=True)
+    return r, csv
+
+
+def test_the_csv_text_reads_back_to_the_doubles_it_was_written_from(tmp_path):
+    # The premise of comparing bit for bit: lagrangectl writes the shortest text that reads back to the same double.
+    r, csv = lagrangectl_simulate(config("pendulum.yaml"), DURATION, tmp_path)
+    assert r.returncode == 0, r.stderr
+    for text in read_csv(csv)["q0"]:
+        assert repr(float(text)) == text or float(repr(float(text))) == float(text)
+
+
+@pytest.mark.parametrize("scene", ["default.yaml", "chain7_minjerk.yaml", "pendulum.yaml"])
+def test_simulate_returns_bit_for_bit_what_lagrangectl_simulate_writes(scene, tmp_path):
+    r, csv = lagrangectl_simulate(config(scene), DURATION, tmp_path)
+    assert r.returncode == 0, r.stderr
+    results = lagrange.simulate(config(scene), DURATION)
+    several = len(results) > 1
+    moved = False
+    for name, run in results.items():
+        path = csv.replace(".csv", "." + name + ".csv") if several else csv
+        columns = read_csv(path)
+        n = run.q.shape[1]
+        assert run.t.shape == (int(round(DURATION / 0.001)) + 1,)
+        np.testing.assert_array_equal(run.t, numbers(columns, "t"))
+        for field in ("q", "qd", "q_des", "tau"):
+            np.testing.assert_array_equal(getattr(run, field), joint_block(columns, field, n), err_msg=field)
+        np.testing.assert_array_equal(run.kinetic_energy, numbers(columns, "kinetic_energy"))
+        np.testing.assert_array_equal(run.potential_energy, numbers(columns, "potential_energy"))
+        names = read_csv(path.replace(".csv", ".joints.csv"))["name"]
+        assert run.joint_names == names
+        assert run.fault is None
+        moved = moved or np.ptp(run.q, axis=0).max() > 1e-3
+    assert moved  # a run that stands still would prove little
+
+
+def test_a_scene_given_as_yaml_text_runs_as_its_file_does():
+    path = config("pendulum.yaml")
+    with open(path) as f:
+        text = f.read()
+    from_file = lagrange.simulate(path, 0.2)["pendulum"]
+    from_text = lagrange.simulate(text, 0.2)["pendulum"]
+    np.testing.assert_array_equal(from_file.q, from_text.q)
+    # os.PathLike is a path too.
+    import pathlib
+    np.testing.assert_array_equal(lagrange.simulate(pathlib.Path(path), 0.2)["pendulum"].q, from_file.q)
+
+
+def test_the_energy_residual_of_a_free_pendulum_is_its_energy_drift():
+    # No torque, no damping: no work is done, so ε = E − E(0) − W is E − E(0), the integrator's drift.
+    run = lagrange.simulate(config("pendulum.yaml"), 2.0)["pendulum"]
+    energy = run.kinetic_energy + run.potential_energy
+    assert np.all(np.isfinite(run.energy_residual))
+    np.testing.assert_allclose(run.energy_residual, energy - energy[0], rtol=0, atol=1e-12)
+    assert np.max(np.abs(energy - energy[0])) < 1e-4 * np.max(np.abs(run.potential_energy))
+    np.testing.assert_array_equal(run.epsilon, run.energy_residual)
+
+
+def test_stepping_without_a_torque_is_the_simulation_step_for_step():
+    run = lagrange.simulate(config("default.yaml"), 0.5)["arm"]
+    inst = lagrange.Instance(config("default.yaml"), "arm")
+    assert inst.t == 0.0 and inst.period == 0.001
+    np.testing.assert_array_equal(inst.q, run.q[0])
+    for k in range(1, len(run.t)):
+        inst.step()
+        assert inst.t == run.t[k]
+        np.testing.assert_array_equal(inst.q, run.q[k])
+        np.testing.assert_array_equal(inst.qd, run.qd[k])
+        np.testing.assert_array_equal(inst.tau, run.tau[k])
+    assert inst.kinetic_energy == run.kinetic_energy[-1]
+    inst.reset()
+    assert inst.t == 0.0
+    np.testing.assert_array_equal(inst.q, run.q[0])
+
+
+def impedance(target, stiffness=40.0, damping=8.0):
+    """tau = K (q* − q) − D q̇: the scene adds G(q) (compensate_gravity: true)."""
+    target = np.asarray(target, dtype=float)
+    return lambda t, q, qd: stiffness * (target - q) - damping * qd
+
+
+def test_a_python_law_under_an_external_controller_holds_the_arm_at_its_target():
+    target = [0.3, 0.6]
+    run = lagrange.simulate(config("arm_impedance_client.yaml"), 3.0, controller=impedance(target))["arm"]
+    # Gravity compensated in the scene, a PD law in Python: the arm settles at the target, at rest.
+    np.testing.assert_allclose(run.q[-1], target, atol=1e-3)
+    np.testing.assert_allclose(run.qd[-1], [0.0, 0.0], atol=1e-3)
+    # The applied torque is the law's plus G(q): at rest it holds the arm against gravity.
+    assert abs(run.tau[-1][0]) > 1.0
+
+
+def test_stepping_a_python_law_is_simulate_with_that_law_step_for_step():
+    law = impedance([0.3, 0.6])
+    run = lagrange.simulate(config("arm_impedance_client.yaml"), 0.3, controller={"arm": law})["arm"]
+    inst = lagrange.Instance(config("arm_impedance_client.yaml"))
+    assert inst.controller == "external"
+    for k in range(1, len(run.t)):
+        inst.step(law(inst.t, inst.q, inst.qd))
+        np.testing.assert_array_equal(inst.q, run.q[k])
+        np.testing.assert_array_equal(inst.tau, run.tau[k])
+
+
+def test_bad_scenes_raise_the_cli_one_line_errors(tmp_path):
+    missing = str(tmp_path / "missing.yaml")
+    with pytest.raises(FileNotFoundError) as e:
+        lagrange.simulate(missing, 1.0)
+    r, _ = lagrangectl_simulate(missing, 1.0, tmp_path)
+    assert r.stderr.strip() == "lagrangectl simulate: " + str(e.value)
+    # An external controller needs a torque from somewhere: refused as the CLI refuses it.
+    scene = config("arm_impedance_client.yaml")
+    with pytest.raises(ValueError) as e:
+        lagrange.simulate(scene, 1.0)
+    r, _ = lagrangectl_simulate(scene, 1.0, tmp_path)
+    assert r.stderr.strip() == "lagrangectl simulate: " + str(e.value)
+    with pytest.raises(ValueError, match=r"<scene text>:1:9: period: expected a positive number, got -1"):
+        lagrange.simulate("period: -1\ninstances: []\n", 1.0)
+    with pytest.raises(ValueError, match="duration"):
+        lagrange.simulate(config("pendulum.yaml"), float("nan"))
+    with pytest.raises(TypeError):
+        lagrange.simulate(42, 1.0)
+    with pytest.raises(ValueError, match="no instance 'arn'"):
+        lagrange.simulate(config("default.yaml"), 1.0, controller={"arn": impedance([0, 0])})
+    with pytest.raises(ValueError, match="2 instances"):
+        lagrange.Instance(config("default.yaml"))
+
+
+def test_a_torque_of_the_wrong_shape_or_not_finite_is_refused_and_nothing_moves():
+    inst = lagrange.Instance(config("arm_impedance_client.yaml"))
+    with pytest.raises(ValueError, match=r"tau: expected 2 values \(one per joint\), got 3"):
+        inst.step([1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="tau: expected finite values, got nan at index 1"):
+        inst.step([1.0, float("nan")])
+    with pytest.raises(ValueError, match="needs a torque"):
+        inst.step()
+    with pytest.raises(ValueError, match="returned tau"):
+        lagrange.simulate(config("arm_impedance_client.yaml"), 0.1, controller=lambda t, q, qd: [0.0])
+    assert inst.t == 0.0
+    # An exception in the law reaches the caller as it was raised.
+    def broken(t, q, qd):
+        raise KeyError("law")
+    with pytest.raises(KeyError):
+        lagrange.simulate(config("arm_impedance_client.yaml"), 0.1, controller=broken)
+
+
+def test_a_step_that_fails_the_health_check_raises_and_leaves_the_last_healthy_state():
+    # A torque far beyond what max_energy allows on a bare arm (controller none): the energy leaves its bound.
+    scene = """period: 0.001
+instances:
+  - name: arm
+    plant: {type: arm2}
+    controller: {type: none}
+    max_energy: 5.0
+"""
+    inst = lagrange.Instance(scene)
+    inst.step([0.0, 0.0])
+    q, t = inst.q, inst.t
+    with pytest.raises(RuntimeError, match=r"arm faulted at t = .* s: the energy left its bound \(max_energy\)"):
+        for _ in range(100):
+            inst.step([1e6, 1e6])
+            q, t = inst.q, inst.t
+    assert np.all(np.isfinite(inst.q))
+    assert inst.t == t
+    np.testing.assert_array_equal(inst.q, q)
+    # simulate: the rows end at the last healthy step, and a RuntimeWarning says why.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run = lagrange.simulate(scene, 1.0, controller=lambda t, q, qd: [1e6, 1e6])["arm"]
+    assert run.fault is not None and "the energy left its bound" in run.fault
+    assert len(run.t) < 1001 and np.all(np.isfinite(run.q))
+    assert any(issubclass(w.category, RuntimeWarning) and run.fault in str(w.message) for w in caught)
