@@ -5,8 +5,10 @@
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/clock.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
+#include "protocol/mode.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -137,6 +139,7 @@ void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
   it->second.state = std::move(msg);
   it->second.received = std::chrono::steady_clock::now();
   ++it->second.count;
+  if (observer_ && have_run_ && it->first == run_id_) observer_(it->second.state, it->second.received);
 }
 
 void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
@@ -250,6 +253,55 @@ const status_t& DaemonLink::AwaitStatus() {
                              ") within " + FormatDouble(options_.wait) + " s");
   }
   return *status_;
+}
+
+void DaemonLink::SendCommand(command_t& c) {
+  const std::string channel = options_.Channel(instance_, kCommandSuffix);
+  c.utime = MonotonicClock().WallMicros();
+  if (!bus_->PublishMessage(channel, c)) throw std::runtime_error("could not send the command on " + channel);
+}
+
+reply_t DaemonLink::Command(command_t& c) {
+  c.request_id = NewRequestId();
+  ExpectReply(c.request_id);
+  SendCommand(c);
+  if (!PumpUntil([&] { return reply().has_value(); }, options_.wait)) {
+    throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run_id_) + ") within " +
+                             FormatDouble(options_.wait) + " s");
+  }
+  RequireOneRun("refusing to trust the verdict");
+  return *reply();
+}
+
+std::map<std::int64_t, std::optional<reply_t>> DaemonLink::Estop(command_t& c) {
+  c.request_id = NewRequestId();
+  ExpectReply(c.request_id);
+  SendCommand(c);
+  auto next_send = std::chrono::steady_clock::now() + kEstopResend;
+  const auto all_answered = [&] {
+    for (const auto& [id, seen] : runs_)
+      if (!seen.reply) return false;
+    return true;
+  };
+  PumpUntil(
+      [&] {
+        if (std::chrono::steady_clock::now() >= next_send) {
+          SendCommand(c);
+          next_send += kEstopResend;
+        }
+        return all_answered();
+      },
+      options_.wait);
+  std::map<std::int64_t, std::optional<reply_t>> verdicts;
+  for (const auto& [id, seen] : runs_) verdicts[id] = seen.reply;
+  return verdicts;
+}
+
+std::string DaemonLink::ModeAfterReply(std::int64_t run) {
+  const auto replied = std::chrono::steady_clock::now();
+  PumpUntil([&] { return state_received_at(run) > replied; }, 0.5);
+  const state_t& s = state(run);
+  return std::string(ModeName(s.mode)) + " with " + Escape(s.controller);
 }
 
 void DaemonLink::Pump(double seconds) {

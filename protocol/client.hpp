@@ -13,6 +13,7 @@
 // is the emergency stop, which is never withheld: it goes to every run
 // publishing the state (AwaitRuns), and each run's verdict is its own reply.
 
+#include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -20,6 +21,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -68,6 +70,10 @@ inline constexpr double kRunWindow = 0.3;  // s after the first state
 // instance's state, it is not coming (a mistyped instance, a forgotten
 // --channel-prefix), and the client says so without waiting out --wait.
 inline constexpr double kNoStateGrace = 0.5;  // s
+// An emergency stop is sent again this often until every run answered: under
+// a flood the kernel may drop a datagram before lagranged reads it, and a
+// repeated estop is applied once (it is latest-wins).
+inline constexpr std::chrono::milliseconds kEstopResend{20};
 
 // Listens to one instance's state and reply channels and the status channel
 // on the caller's thread, keeping the latest message of each run id.
@@ -79,6 +85,7 @@ class DaemonLink {
   DaemonLink& operator=(const DaemonLink&) = delete;
 
   Bus& bus() { return *bus_; }
+  const LinkOptions& options() const { return options_; }
 
   // Waits up to options.wait for the instance's first state (or kNoStateGrace
   // once a daemon's status is heard without it), listens kRunWindow longer, and
@@ -123,6 +130,29 @@ class DaemonLink {
   const state_t& state(std::int64_t run) const { return runs_.at(run).state; }
   std::chrono::steady_clock::time_point state_received_at(std::int64_t run) const { return runs_.at(run).received; }
 
+  // A command and its verdict. After AwaitOneRun: sends `command` (its
+  // request_id and utime set here) once to the instance's command channel (a
+  // repeat could apply twice) and returns the run's reply to it. Throws "no
+  // verdict from lagranged (run X) within W s" after options.wait, the
+  // two-runs error ("refusing to trust the verdict"), or "could not send the
+  // command on CHANNEL".
+  reply_t Command(command_t& command);
+  // The emergency stop, never withheld. After AwaitRuns: sends `command` to
+  // every run publishing the state, again every kEstopResend until every run
+  // answered or options.wait passed. Each run's reply by run id (none: no
+  // verdict in time).
+  std::map<std::int64_t, std::optional<reply_t>> Estop(command_t& command);
+
+  // "MODE with CONTROLLER" from run `run`'s first state after now (the tick
+  // applied a command before its reply went out), or its latest after 0.5 s.
+  std::string ModeAfterReply(std::int64_t run);
+
+  // Called with every state of the chosen run (after AwaitOneRun) as it is
+  // handled, and when it arrived: for a client that needs each one, not only
+  // the latest (lagrange.Client.states).
+  using StateObserver = std::function<void(const state_t&, std::chrono::steady_clock::time_point)>;
+  void ObserveStates(StateObserver observer) { observer_ = std::move(observer); }
+
   // Handles messages for `seconds`.
   void Pump(double seconds);
   // Handles messages until `done` holds or `seconds` pass; returns whether it held.
@@ -150,6 +180,7 @@ class DaemonLink {
   void OnReply(const std::uint8_t* data, std::size_t size);
   void OnTaskState(const std::uint8_t* data, std::size_t size);
   void OnAny(std::string_view channel);
+  void SendCommand(command_t& command);
   std::string TwoRunsMessage(const std::string& doing) const;
   // Waits up to options.wait for the instance's first state (else throws),
   // then kRunWindow longer.
@@ -170,6 +201,7 @@ class DaemonLink {
   std::int64_t task_states_received_ = 0;
   std::int64_t request_id_ = 0;
   bool every_run_ = false;  // AwaitRuns: replies from every run in runs_ count
+  StateObserver observer_;
 };
 
 }  // namespace lagrange

@@ -1,7 +1,649 @@
+// lagrange.Client and lagrange.read_log: the project's own client and log
+// reader bound, not re-implemented. A Client keeps one DaemonLink
+// (protocol/client.hpp) per instance it talks to: the hardened receive path
+// (wire checks before decoding), one lagranged run per instance (a second
+// run publishing the same state refuses to act), verdicts only from that run
+// carrying the request's own id, and signed traffic with a key. read_log is
+// log2csv's decoding (protocol/log_records.hpp) into numpy columns.
+// Every wait releases the GIL.
+
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/torque_t.hpp>
+
+#include <pybind11/stl.h>
+
+#include <poll.h>
+
+#include <atomic>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <regex>
+#include <thread>
+
+#include "controllers/factory.hpp"
+#include "plant/escape.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/client.hpp"
+#include "protocol/clock.hpp"
+#include "protocol/command_words.hpp"
+#include "protocol/ids.hpp"
+#include "protocol/lcm_log.hpp"
+#include "protocol/log_records.hpp"
+#include "protocol/mode.hpp"
 #include "python/bindings.hpp"
+#include "python/bus_arrays.hpp"
 
 namespace lagrange::python {
+namespace {
 
-void BindBus(pybind11::module_& /*m*/) {}
+// As lagrangectl command prints a refusal's reason: whole.
+constexpr std::size_t kMaxReasonShown = 2048;
+// The most states Client.states keeps that the caller has not taken yet; beyond, the oldest are dropped and counted.
+constexpr std::size_t kMaxQueuedStates = 100000;
+
+double SteadySeconds(std::chrono::steady_clock::time_point t) {
+  // CLOCK_MONOTONIC, as Python's time.monotonic().
+  return std::chrono::duration<double>(t.time_since_epoch()).count();
+}
+
+// One state_t, as Python sees it.
+struct State {
+  std::int64_t utime = 0, run_id = 0, tick = 0;
+  double t = 0.0;
+  int num_dofs = 0;
+  VectorXd q, qd, qdd, tau, q_des, qd_des;
+  double kinetic_energy = 0.0, potential_energy = 0.0;
+  std::string controller, mode;
+  double received = 0.0;  // s, time.monotonic() when it arrived
+
+  State(const state_t& s, std::chrono::steady_clock::time_point at)
+      : utime(s.utime),
+        run_id(s.run_id),
+        tick(s.tick),
+        t(s.t),
+        num_dofs(s.num_dofs),
+        kinetic_energy(s.kinetic_energy),
+        potential_energy(s.potential_energy),
+        controller(Escape(s.controller)),
+        mode(ModeName(s.mode)),
+        received(SteadySeconds(at)) {
+    for (const auto& [out, in] : {std::pair{&q, &s.q}, {&qd, &s.qd}, {&qdd, &s.qdd}, {&tau, &s.tau}, {&q_des, &s.q_des},
+                                  {&qd_des, &s.qd_des}}) {
+      *out = Eigen::Map<const VectorXd>(in->data(), static_cast<Eigen::Index>(in->size()));
+    }
+  }
+};
+
+// The daemon's verdict on a command.
+struct Verdict {
+  bool accepted = false;
+  std::string message;  // as lagrangectl command reports it: "arm: estop done; now estop with pd", "refused: REASON"
+  std::int64_t run_id = 0;
+};
+
+// The C++ errors a client meets, as Python's: a bad URL or key is the caller's argument.
+[[noreturn]] void Rethrow() {
+  try {
+    throw;
+  } catch (const py::error_already_set&) {
+    throw;
+  } catch (const py::builtin_exception&) {
+    throw;
+  } catch (const BusUrlError& e) {
+    throw py::value_error(e.what());
+  } catch (const BusKeyError& e) {
+    throw py::value_error(e.what());
+  } catch (const CommandWordsError& e) {
+    throw py::value_error(e.what());
+  } catch (const std::exception& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+class Client {
+ public:
+  Client(std::optional<std::string> url, std::string prefix, std::optional<std::string> key_file, double wait) {
+    if (!(std::isfinite(wait) && wait > 0.0)) throw py::value_error("wait: expected a positive number of seconds");
+    options_.lcm_url = url.value_or("");
+    options_.channel_prefix = std::move(prefix);
+    if (!options_.channel_prefix.empty()) {
+      if (const std::string why = CheckChannelName(options_.channel_prefix + "X"); !why.empty()) {
+        throw py::value_error("prefix: " + why);
+      }
+    }
+    options_.bus_key_file = key_file.value_or("");
+    options_.wait = wait;
+    try {
+      options_.Open();  // the URL and the key checked now, with lagrangectl's lines
+    } catch (...) {
+      Rethrow();
+    }
+  }
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+  ~Client() {
+    stop_ = true;
+    if (receiver_.joinable()) receiver_.join();
+  }
+
+  State GetState(const std::string& name, double timeout) {
+    CheckTimeout(timeout);
+    py::gil_scoped_release release;
+    try {
+      Link& link = LinkFor(name, timeout);
+      std::lock_guard lock(link.mutex);
+      CatchUp(*link.link);  // the latest, not the one the link last handled
+      return State(link.link->state(), link.link->state_received_at());
+    } catch (...) {
+      Rethrow();
+    }
+  }
+
+  // The next state of `name` from the queue the iterator fills; nullopt once `until` passes.
+  std::optional<State> NextState(const std::string& name, std::chrono::steady_clock::time_point until) {
+    py::gil_scoped_release release;
+    try {
+      Link& link = LinkFor(name, options_.wait);
+      std::lock_guard lock(link.mutex);
+      link.link->PumpUntil([&] { return !link.queue.empty(); },
+                           std::chrono::duration<double>(until - std::chrono::steady_clock::now()).count());
+      if (link.queue.empty()) return std::nullopt;
+      State s = std::move(link.queue.front());
+      link.queue.pop_front();
+      return s;
+    } catch (...) {
+      Rethrow();
+    }
+  }
+
+  // Starts queueing every state of `name` (Client.states).
+  void StartQueue(const std::string& name) {
+    py::gil_scoped_release release;
+    try {
+      Link& link = LinkFor(name, options_.wait);
+      std::lock_guard lock(link.mutex);
+      CatchUp(*link.link);  // states from now on, not those the socket kept since the last call
+      link.queue.clear();
+      link.queueing = true;
+    } catch (...) {
+      Rethrow();
+    }
+  }
+  void StopQueue(const std::string& name) {
+    if (Link* link = Find(name)) {
+      std::lock_guard lock(link->mutex);
+      link->queueing = false;
+      link->queue.clear();
+    }
+  }
+  std::int64_t states_dropped(const std::string& name) {
+    Link* link = Find(name);
+    if (link == nullptr) return 0;
+    std::lock_guard lock(link->mutex);
+    return link->dropped;
+  }
+
+  bool SendSetpoint(const std::string& name, const py::object& q, const py::object& qd, const py::object& qdd) {
+    const int n = LatestState(name).num_dofs;
+    setpoint_t msg;
+    msg.num_dofs = n;
+    const VectorXd vq = JointVector(q, n, "q");
+    const VectorXd vqd = qd.is_none() ? VectorXd::Zero(n) : JointVector(qd, n, "qd");
+    const VectorXd vqdd = qdd.is_none() ? VectorXd::Zero(n) : JointVector(qdd, n, "qdd");
+    msg.q.assign(vq.data(), vq.data() + n);
+    msg.qd.assign(vqd.data(), vqd.data() + n);
+    msg.qdd.assign(vqdd.data(), vqdd.data() + n);
+    py::gil_scoped_release release;
+    Link& link = *Find(name);
+    std::lock_guard lock(link.mutex);
+    msg.utime = MonotonicClock().WallMicros();
+    return link.link->bus().PublishMessage(options_.Channel(name, kSetpointSuffix), msg);
+  }
+
+  // One torque_t of this client's stream: its run id, the sequence from 1,
+  // state_tick the latest state's (or the one given).
+  bool SendTorque(const std::string& name, const py::object& tau, const std::optional<std::int64_t>& state_tick,
+                  const std::optional<std::string>& channel) {
+    const int n = LatestState(name).num_dofs;
+    const VectorXd v = JointVector(tau, n, "tau");
+    if (channel) {
+      if (const std::string why = CheckChannelName(*channel); !why.empty()) throw py::value_error("channel: " + why);
+    }
+    py::gil_scoped_release release;
+    Link& link = *Find(name);
+    std::lock_guard lock(link.mutex);
+    torque_t& msg = link.torque;
+    if (msg.run_id == 0) msg.run_id = NewRunId();
+    ++msg.sequence;  // grows even when a publish fails: lagranged sees a gap, not a repeat
+    msg.state_tick = state_tick.value_or(link.link->state().tick);
+    msg.num_dofs = n;
+    msg.tau.assign(v.data(), v.data() + n);
+    msg.utime = MonotonicClock().WallMicros();
+    return link.link->bus().PublishMessage(channel.value_or(options_.Channel(name, kTorqueSuffix)), msg);
+  }
+
+  Verdict SendCommand(const std::string& name, const std::vector<std::string>& words, const py::object& kp,
+                      const py::object& kd) {
+    command_t c;
+    try {
+      c = CommandFromWords(words);
+    } catch (...) {
+      Rethrow();
+    }
+    const bool gains = c.command == command_t::SET_GAINS;
+    if (gains && (kp.is_none() || kd.is_none())) throw py::value_error("gains: needs both kp and kd");
+    if (!gains && (!kp.is_none() || !kd.is_none())) throw py::value_error("kp, kd: only for gains");
+    std::string words_text;
+    for (const std::string& w : words) words_text += (words_text.empty() ? "" : " ") + Escape(w);
+    if (c.command == command_t::ESTOP) return Estop(name, c);
+    if (gains) {
+      // One gain per joint, or per task axis (x, y, z, rx, ry, rz) under a task-space controller; one value for all.
+      const state_t s = LatestState(name);
+      const std::optional<ControllerType> active = ParseControllerType(s.controller);
+      const int n = active && IsTaskSpace(*active) ? kTaskDims : s.num_dofs;
+      for (const auto& [gain, what, out] : {std::tuple{&kp, "kp", &c.kp}, {&kd, "kd", &c.kd}}) {
+        const VectorXd v = JointVector(*gain, n, what, true);
+        for (int i = 0; i < n; ++i) {
+          if (v[i] < 0.0) throw py::value_error(std::string(what) + ": expected gains >= 0, got " + FormatDouble(v[i]));
+        }
+        out->assign(v.data(), v.data() + n);
+      }
+      c.num_gains = n;
+    }
+    py::gil_scoped_release release;
+    try {
+      Link& link = LinkFor(name, options_.wait);
+      std::lock_guard lock(link.mutex);
+      CatchUp(*link.link);
+      const reply_t reply = link.link->Command(c);
+      if (!reply.accepted) return {false, "refused: " + Escape(reply.reason, kMaxReasonShown), reply.run_id};
+      return {true, name + ": " + words_text + " done; now " + link.link->ModeAfterReply(reply.run_id), reply.run_id};
+    } catch (...) {
+      Rethrow();
+    }
+  }
+
+  const LinkOptions& options() const { return options_; }
+
+ private:
+  // One instance's link and what the client keeps beside it, under its own
+  // mutex (a call and the receive thread take turns). Never erased.
+  struct Link {
+    std::mutex mutex;
+    std::unique_ptr<DaemonLink> link;
+    std::deque<State> queue;  // Client.states: every state, while queueing
+    bool queueing = false;
+    std::int64_t dropped = 0;
+    torque_t torque{};  // this client's torque stream to the instance
+  };
+
+  // Handles every datagram already waiting, so the link's latest state is
+  // the latest sent. Bounded, for a flood. Under the link's mutex.
+  static void CatchUp(DaemonLink& link) {
+    for (int k = 0; k < 64 && link.bus().Drain() > 0; ++k) {
+    }
+  }
+
+  static void CheckTimeout(double timeout) {
+    if (!(std::isfinite(timeout) && timeout > 0.0)) {
+      throw py::value_error("timeout: expected a positive number of seconds, got " + FormatDouble(timeout));
+    }
+  }
+
+  Link* Find(const std::string& name) {
+    std::lock_guard lock(links_mutex_);
+    const auto it = links_.find(name);
+    return it == links_.end() ? nullptr : it->second.get();
+  }
+
+  // The link to `name`'s one lagranged run, opened and awaited (up to `wait` s) on first use.
+  Link& LinkFor(const std::string& name, double wait) {
+    if (Link* link = Find(name)) return *link;
+    LinkOptions o = options_;
+    o.wait = wait;
+    auto link = std::make_unique<Link>();
+    link->link = std::make_unique<DaemonLink>(o, name);
+    link->link->AwaitOneRun();  // throws: no state, or two runs
+    Link* raw = link.get();
+    raw->link->ObserveStates([raw](const state_t& s, std::chrono::steady_clock::time_point at) {
+      if (!raw->queueing) return;
+      if (raw->queue.size() >= kMaxQueuedStates) {
+        raw->queue.pop_front();
+        ++raw->dropped;
+      }
+      raw->queue.emplace_back(s, at);
+    });
+    std::lock_guard lock(links_mutex_);
+    Link& out = *links_.try_emplace(name, std::move(link)).first->second;  // another thread's, if it came first
+    if (!receiver_.joinable()) receiver_ = std::thread([this] { Receive(); });
+    return out;
+  }
+
+  state_t LatestState(const std::string& name) {
+    py::gil_scoped_release release;
+    try {
+      Link& link = LinkFor(name, options_.wait);
+      std::lock_guard lock(link.mutex);
+      CatchUp(*link.link);
+      return link.link->state();
+    } catch (...) {
+      Rethrow();
+    }
+  }
+
+  Verdict Estop(const std::string& name, command_t& c) {
+    py::gil_scoped_release release;
+    try {
+      // Every run publishing the state (not only the one this client follows): a link of its own.
+      DaemonLink link(options_, name);
+      link.AwaitRuns();
+      const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(c);
+      std::size_t applied = 0;
+      std::string lines;
+      for (const auto& [run, reply] : verdicts) {
+        std::string line = verdicts.size() == 1 ? "" : name + ": run " + RunIdText(run) + ": estop ";
+        if (!reply) {
+          if (verdicts.size() == 1) {
+            throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " +
+                                     FormatDouble(options_.wait) + " s");
+          }
+          line += "no verdict within " + FormatDouble(options_.wait) + " s";
+        } else if (!reply->accepted) {
+          line += "refused: " + Escape(reply->reason, kMaxReasonShown);
+        } else {
+          ++applied;
+          line += (verdicts.size() == 1 ? name + ": estop done; now " : "done; now ") + link.ModeAfterReply(run);
+        }
+        lines += (lines.empty() ? "" : "\n") + line;
+      }
+      return {applied == verdicts.size(), lines, verdicts.size() == 1 ? verdicts.begin()->first : 0};
+    } catch (...) {
+      Rethrow();
+    }
+  }
+
+  // Between calls, a thread of the client's own handles what arrives on
+  // every link, so that the latest state is the latest sent however long
+  // Python waited between two calls, and no reply is lost to a receive
+  // buffer that filled up meanwhile. It waits for data holding no lock, and
+  // passes over a link a call is using (the call handles it).
+  void Receive() {
+    std::vector<pollfd> fds;
+    std::vector<Link*> links;
+    while (!stop_) {
+      fds.clear();
+      links.clear();
+      {
+        std::lock_guard lock(links_mutex_);
+        for (const auto& [name, link] : links_) {
+          links.push_back(link.get());
+          fds.push_back({link->link->bus().fd(), POLLIN, 0});
+        }
+      }
+      poll(fds.data(), fds.size(), kReceivePollMs);
+      for (Link* link : links) {
+        std::unique_lock lock(link->mutex, std::try_to_lock);
+        if (lock.owns_lock()) link->link->bus().Drain();
+      }
+    }
+  }
+  static constexpr int kReceivePollMs = 20;  // how soon the thread sees stop_ and a new link
+
+  LinkOptions options_;
+  std::mutex links_mutex_;  // links_ itself; each link has its own
+  std::map<std::string, std::unique_ptr<Link>> links_;
+  std::atomic<bool> stop_{false};
+  std::thread receiver_;  // Receive, from the first link on
+};
+
+// Client.states(name, duration): every state as it arrives, for `duration` seconds.
+class StateIterator {
+ public:
+  StateIterator(std::shared_ptr<Client> client, std::string name, double duration)
+      : client_(std::move(client)), name_(std::move(name)) {
+    client_->StartQueue(name_);
+    until_ = std::chrono::steady_clock::now() +
+             std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(duration));
+  }
+  ~StateIterator() { client_->StopQueue(name_); }
+  State Next() {
+    std::optional<State> s = client_->NextState(name_, until_);
+    if (!s) throw py::stop_iteration();
+    return std::move(*s);
+  }
+  std::int64_t dropped() const { return client_->states_dropped(name_); }
+
+ private:
+  std::shared_ptr<Client> client_;
+  std::string name_;
+  std::chrono::steady_clock::time_point until_;
+};
+
+// read_log: one channel's records while reading, and as Python sees them (columns as numpy arrays).
+struct LogChannelRows {
+  std::string channel;
+  std::optional<std::string> type;  // "state_t", ...; None for a type that is not lagrange's
+  std::int64_t rows = 0;
+  std::int64_t skipped = 0;  // did not decode, or another num_dofs than the channel's first message
+  std::vector<LogField> fields;
+  std::vector<std::vector<LogValue>> columns;  // by field: rows × max(width, 1) values
+};
+struct LogChannel {
+  std::string channel;
+  std::optional<std::string> type;
+  std::int64_t rows = 0;
+  std::int64_t skipped = 0;
+  py::dict columns;  // field name → array
+};
+
+py::object ColumnArray(const LogField& field, const std::vector<LogValue>& values, std::int64_t rows) {
+  const py::ssize_t width = std::max(field.width, 1);
+  std::vector<py::ssize_t> shape = {static_cast<py::ssize_t>(rows)};
+  if (field.width > 0) shape.push_back(width);
+  switch (field.kind) {
+    case LogFieldKind::kInt:
+    case LogFieldKind::kId: {
+      py::array_t<std::int64_t> a(shape);
+      std::int64_t* out = a.mutable_data();
+      for (std::size_t i = 0; i < values.size(); ++i) out[i] = std::get<std::int64_t>(values[i]);
+      return a;
+    }
+    case LogFieldKind::kReal: {
+      py::array_t<double> a(shape);
+      double* out = a.mutable_data();
+      for (std::size_t i = 0; i < values.size(); ++i) out[i] = std::get<double>(values[i]);
+      return a;
+    }
+    case LogFieldKind::kText: {
+      py::list texts;
+      for (const LogValue& v : values) texts.append(py::str(std::get<std::string>(v)));
+      return texts;
+    }
+  }
+  return py::none();
+}
+
+py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& channel_regex) {
+  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_arg));
+  std::map<std::string, LogChannelRows> channels;
+  {
+    py::gil_scoped_release release;
+    try {
+      ReadLogRecords(path, channel_regex.value_or(""), [&](const LogRecord& r) {
+        LogChannelRows& c = channels[std::string(r.channel)];
+        c.channel = r.channel;
+        if (r.fields == nullptr) {  // not lagrange's
+          ++c.skipped;
+          return;
+        }
+        c.type = ToString(r.type);
+        if (r.row == nullptr) {
+          ++c.skipped;
+          return;
+        }
+        if (c.fields.empty()) {
+          c.fields = *r.fields;
+          c.columns.resize(c.fields.size());
+        }
+        std::size_t v = 0;
+        for (std::size_t k = 0; k < c.fields.size(); ++k) {
+          for (int i = 0; i < std::max(c.fields[k].width, 1); ++i) c.columns[k].push_back(r.row->values[v++]);
+        }
+        ++c.rows;
+      });
+    } catch (const LcmLogError& e) {
+      py::gil_scoped_acquire acquire;
+      std::error_code ec;
+      if (!std::filesystem::exists(path, ec)) {
+        PyErr_SetString(PyExc_FileNotFoundError, e.what());
+        throw py::error_already_set();
+      }
+      throw py::value_error(e.what());
+    } catch (const std::regex_error& e) {
+      throw py::value_error("channel: not a regular expression: '" + channel_regex.value_or("") + "' (" + e.what() + ")");
+    }
+  }
+  py::dict out;
+  for (const auto& [name, c] : channels) {
+    LogChannel record{c.channel, c.type, c.rows, c.skipped, py::dict()};
+    for (std::size_t k = 0; k < c.fields.size(); ++k) {
+      record.columns[py::str(c.fields[k].name)] = ColumnArray(c.fields[k], c.columns[k], c.rows);
+    }
+    out[py::str(name)] = py::cast(std::move(record));
+  }
+  return out;
+}
+
+}  // namespace
+
+void BindBus(py::module_& m) {
+  py::class_<State>(m, "State", "One state_t of an instance, as lagranged published it (SI units; arrays shape (n,)).")
+      .def_readonly("utime", &State::utime, "Wall clock of the tick, µs since the epoch.")
+      .def_readonly("run_id", &State::run_id, "The lagranged run that published it.")
+      .def_readonly("tick", &State::tick, "Tick number (consecutive: a gap is a lost message).")
+      .def_readonly("t", &State::t, "Simulated time, s.")
+      .def_readonly("num_dofs", &State::num_dofs)
+      .def_property_readonly("q", [](const State& s) { return ToArray(s.q); }, "Positions, rad or m.")
+      .def_property_readonly("qd", [](const State& s) { return ToArray(s.qd); }, "Velocities.")
+      .def_property_readonly("qdd", [](const State& s) { return ToArray(s.qdd); }, "Accelerations.")
+      .def_property_readonly("tau", [](const State& s) { return ToArray(s.tau); },
+                             "Applied generalized force (after limits and saturation), N·m or N.")
+      .def_property_readonly("q_des", [](const State& s) { return ToArray(s.q_des); }, "Setpoint positions.")
+      .def_property_readonly("qd_des", [](const State& s) { return ToArray(s.qd_des); }, "Setpoint velocities.")
+      .def_readonly("kinetic_energy", &State::kinetic_energy, "T, J.")
+      .def_readonly("potential_energy", &State::potential_energy, "V, J.")
+      .def_readonly("controller", &State::controller, "The active controller (escaped).")
+      .def_readonly("mode", &State::mode, "running, hold, fault, paused, estop, stopped or waiting.")
+      .def_readonly("received", &State::received, "When this client received it, s on time.monotonic()'s clock.")
+      .def("__repr__", [](const State& s) {
+        return "<lagrange.State tick " + std::to_string(s.tick) + " t = " + FormatDouble(s.t) + " s, " + s.mode + ">";
+      });
+
+  py::class_<Verdict>(m, "Verdict", "lagranged's verdict on a command (its reply_t to this command's request id).")
+      .def_readonly("accepted", &Verdict::accepted)
+      .def_readonly("message", &Verdict::message,
+                    "As lagrangectl command reports it: 'arm: pause done; now paused with pd' or 'refused: REASON'.")
+      .def_readonly("run_id", &Verdict::run_id, "The run that answered (0: several, for an estop).")
+      .def("__bool__", [](const Verdict& v) { return v.accepted; })
+      .def("__repr__", [](const Verdict& v) { return "<lagrange.Verdict " + v.message + ">"; });
+
+  py::class_<StateIterator>(m, "StateIterator", "Every state of one instance as it arrives, for a duration.")
+      .def("__iter__", [](StateIterator& it) -> StateIterator& { return it; })
+      .def("__next__", &StateIterator::Next)
+      .def_property_readonly("dropped", &StateIterator::dropped,
+                             "States dropped because more than 100000 waited unread.");
+
+  py::class_<Client, std::shared_ptr<Client>>(m, "Client", R"(A client of lagranged on the bus: lagrangectl's own client code.
+
+Client(url=None, prefix="", key_file=None, wait=3.0)
+  url       LCM URL, udpm://GROUP:PORT?ttl=N (None: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0)
+  prefix    the daemon's --channel-prefix
+  key_file  the daemon's --bus-key: sign what is sent, believe only what the key signed
+            (None: $LAGRANGE_BUS_KEY_FILE, else unsigned)
+  wait      s to wait for an instance's first state (and for a verdict)
+Each instance is followed through one lagranged run: its first state is awaited, then 0.3 s
+more, and a second run publishing the same state refuses every action (RuntimeError naming
+both ids), except the emergency stop, which goes to every run. Waits release the GIL.
+Raises ValueError for a malformed URL or an unusable key file, RuntimeError when no daemon
+answers, with lagrangectl's one-line messages.)")
+      .def(py::init<std::optional<std::string>, std::string, std::optional<std::string>, double>(),
+           py::arg("url") = py::none(), py::arg("prefix") = "", py::arg("key_file") = py::none(), py::arg("wait") = 3.0)
+      .def("state", &Client::GetState, py::arg("name"), py::arg("timeout") = 3.0,
+           "The instance's latest state. The first call waits up to timeout s for it (RuntimeError if none).")
+      .def(
+          "states",
+          [](const std::shared_ptr<Client>& c, const std::string& name, double duration) {
+            if (!(std::isfinite(duration) && duration >= 0.0)) {
+              throw py::value_error("duration: expected a number of seconds >= 0, got " + FormatDouble(duration));
+            }
+            return std::make_unique<StateIterator>(c, name, duration);
+          },
+          py::arg("name"), py::arg("duration"),
+          "Every state of the instance as it arrives, for duration s (an iterator of State).")
+      .def("send_setpoint", &Client::SendSetpoint, py::arg("name"), py::arg("q"), py::arg("qd") = py::none(),
+           py::arg("qdd") = py::none(),
+           "One joint setpoint (setpoint_t: q, and qd, qdd default zeros; shape (n,)) on <PREFIX><NAME>_SETPOINT.\n"
+           "Returns whether it was sent; lagranged's counts (status) say whether it was accepted.")
+      .def("send_torque", &Client::SendTorque, py::arg("name"), py::arg("tau"), py::arg("state_tick") = py::none(),
+           py::arg("channel") = py::none(),
+           "One torque (torque_t, N·m or N, shape (n,)) for an instance under `controller: external`, on\n"
+           "<PREFIX><NAME>_TORQUE (or channel): this client's stream (its own run id, sequence from 1),\n"
+           "state_tick the latest state's tick unless given. Returns whether it was sent.")
+      .def(
+          "command",
+          [](Client& c, const std::string& name, const std::string& kind, const py::args& args, const py::object& kp,
+             const py::object& kd) {
+            std::vector<std::string> words = {kind};
+            for (const py::handle& a : args) words.push_back(py::str(a));
+            return c.SendCommand(name, words, kp, kd);
+          },
+          py::arg("name"), py::arg("kind"), py::arg("kp") = py::none(), py::arg("kd") = py::none(),
+          R"(Command an instance and return lagranged's verdict (Verdict: accepted, message).
+
+kind and its words as lagrangectl command takes them: command("arm", "estop"),
+command("arm", "controller", "pd"), command("arm", "effect", "damping", "on"),
+command("arm", "gains", kp=[200, 150], kd=30) (one value for every joint, or one per joint).
+A refusal is a Verdict with accepted False; no verdict within wait is RuntimeError; a word
+that is not a command is ValueError. An estop goes to every run publishing the state.)")
+      .def_property_readonly("url", [](const Client& c) { return c.options().Url(); })
+      .def_property_readonly("prefix", [](const Client& c) { return c.options().channel_prefix; });
+
+  py::class_<LogChannel>(m, "LogChannel", R"(One channel of an lcm-logger file, decoded as log2csv decodes it.
+
+Its columns are log2csv's: log_utime (µs, when the logger received it), then the message's
+fields; an array field is one (rows, n) array (log2csv's columns q0, q1, ..). Integers and ids
+are int64 arrays, numbers float64, text a list of str (escaped as in the CSV).)")
+      .def_readonly("channel", &LogChannel::channel)
+      .def_readonly("type", &LogChannel::type, "The LCM type (\"state_t\", ...), None for a type that is not lagrange's.")
+      .def_readonly("rows", &LogChannel::rows)
+      .def_readonly("skipped", &LogChannel::skipped,
+                    "Messages not decoded: undecodable, another num_dofs, or (type None) not lagrange's.")
+      .def_readonly("columns", &LogChannel::columns, "{field name: array or list}, in the message's order.")
+      .def("__getattr__",
+           [](const LogChannel& c, const std::string& name) -> py::object {
+             if (c.columns.contains(name)) return c.columns[py::str(name)];
+             throw py::attribute_error("channel " + c.channel + " has no field '" + name + "'");
+           })
+      .def("__getitem__", [](const LogChannel& c, const std::string& name) -> py::object {
+        if (c.columns.contains(name)) return c.columns[py::str(name)];
+        throw py::key_error(name);
+      })
+      .def("__len__", [](const LogChannel& c) { return c.rows; })
+      .def("__repr__", [](const LogChannel& c) {
+        return "<lagrange.LogChannel " + c.channel + ": " + std::to_string(c.rows) + " rows of " +
+               c.type.value_or("an unknown type") + ">";
+      });
+
+  m.def("read_log", &ReadLog, py::arg("path"), py::arg("channel") = py::none(),
+        R"(Decode an lcm-logger file: {channel: LogChannel}, the same decoding as lagrangectl log2csv.
+
+channel  only channels matching this regular expression (all when None)
+Every record is wire-checked before it is decoded (a recorded packet is as untrusted as a
+live one); signed traffic is decoded without checking its signature. Raises FileNotFoundError
+or ValueError ("PATH is not an LCM log ...") with log2csv's one-line messages.)");
+}
 
 }  // namespace lagrange::python

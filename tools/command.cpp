@@ -8,6 +8,7 @@
 
 #include <lagrange/command_t.hpp>
 
+#include <map>
 #include <optional>
 
 #include "controllers/factory.hpp"
@@ -17,7 +18,7 @@
 #include "plant/types.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
-#include "protocol/clock.hpp"
+#include "protocol/command_words.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
@@ -28,46 +29,9 @@
 namespace lagrange::cli {
 namespace {
 
-struct Action {
-  const char* verb;
-  std::int8_t code;
-  int operands;          // words after the verb
-  const char* expected;  // what they are, for messages
-};
-
-constexpr Action kActions[] = {{"controller", command_t::SWITCH_CONTROLLER, 1, "one controller name"},
-                               {"gains", command_t::SET_GAINS, 0, ""},
-                               {"reset", command_t::RESET, 0, ""},
-                               {"pause", command_t::PAUSE, 0, ""},
-                               {"resume", command_t::RESUME, 0, ""},
-                               {"estop", command_t::ESTOP, 0, ""},
-                               {"clear", command_t::CLEAR_ESTOP, 0, ""},
-                               {"integrator", command_t::SET_INTEGRATOR, 1, "one integrator TYPE"},
-                               {"effect", command_t::SET_EFFECT, 2, "an effect NAME and on or off"},
-                               {"method", command_t::SET_METHOD, 1, "one method NAME"},
-                               {"forces", command_t::SET_FORCES, 1, "on or off"}};
-
-constexpr std::chrono::milliseconds kEstopResend{20};
 // A refusal's reason is printed whole (a reply_t's reason passes the wire
 // check at up to 4 KiB); Escape's default would cut a gain refusal's bounds.
 constexpr std::size_t kMaxReasonShown = 2048;
-
-std::string Verbs() {
-  std::string verbs;
-  constexpr std::size_t n = std::size(kActions);
-  for (std::size_t i = 0; i < n; ++i) verbs += std::string(i == 0 ? "" : i + 1 == n ? " or " : ", ") + kActions[i].verb;
-  return verbs;
-}
-
-// Throws a UsageError listing the known names unless `known`.
-void RequireKnown(const std::string& what, const std::string& name, bool known, const std::string& names) {
-  if (!known) throw UsageError("unknown " + what + " '" + Escape(name, 60) + "' (expected " + names + ")");
-}
-
-bool OnOff(const std::string& what, const std::string& word) {
-  if (word != "on" && word != "off") throw UsageError(what + ": expected on or off, got '" + Escape(word, 60) + "'");
-  return word == "on";
-}
 
 class CommandCommand final : public Command {
  public:
@@ -121,56 +85,24 @@ class CommandCommand final : public Command {
       c.kp.assign(kp.data(), kp.data() + n);
       c.kd.assign(kd.data(), kd.data() + n);
     }
-    c.request_id = NewRequestId();
-    link.ExpectReply(c.request_id);
-    Send(link, c);
-    // Other commands are sent once: a repeat could apply twice.
-    if (!link.PumpUntil([&] { return link.reply().has_value(); }, bus_.wait)) {
-      throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " +
-                               FormatDouble(bus_.wait) + " s");
-    }
-    link.RequireOneRun("refusing to trust the verdict");
-    const reply_t& reply = *link.reply();
+    const reply_t reply = link.Command(c);  // sent once: a repeat could apply twice
     if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason, kMaxReasonShown));
     out << instance_ << ": " << Words() << " done; now " << StateAfterReply(link, run) << "\n";
     return 0;
   }
 
  private:
-  void Send(DaemonLink& link, command_t& c) const {
-    const std::string channel = bus_.Channel(instance_, kCommandSuffix);
-    c.utime = MonotonicClock().WallMicros();
-    if (!link.bus().PublishMessage(channel, c)) throw std::runtime_error("could not send the command on " + channel);
-  }
-
   // One line per run publishing the instance's state (or the usual one line
   // when there is one run); throws, after printing them, unless every run
-  // applied the estop. It is sent again every kEstopResend until every run
-  // answered: under a flood the kernel may drop a datagram before lagranged
-  // reads it, and a repeated estop is applied once (it is latest-wins).
+  // applied the estop (DaemonLink::Estop resends it until every run answered).
   int Estop(DaemonLink& link, command_t& c, std::ostream& out) const {
     link.AwaitRuns();
-    c.request_id = NewRequestId();
-    link.ExpectReply(c.request_id);
-    Send(link, c);
-    auto next_send = std::chrono::steady_clock::now() + kEstopResend;
-    auto all_answered = [&] {
-      for (const std::int64_t run : link.runs())
-        if (!link.reply(run)) return false;
-      return true;
-    };
-    link.PumpUntil(
-        [&] {
-          if (std::chrono::steady_clock::now() >= next_send) {
-            Send(link, c);
-            next_send += kEstopResend;
-          }
-          return all_answered();
-        },
-        bus_.wait);
-    const std::vector<std::int64_t> runs = link.runs();
+    const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(c);
+    const auto reply_of = [&](std::int64_t run) -> const std::optional<reply_t>& { return verdicts.at(run); };
+    std::vector<std::int64_t> runs;
+    for (const auto& [run, reply] : verdicts) runs.push_back(run);
     if (runs.size() == 1) {  // the one run's verdict, worded as every other command's
-      const std::optional<reply_t>& reply = link.reply(runs[0]);
+      const std::optional<reply_t>& reply = reply_of(runs[0]);
       if (!reply) {
         throw std::runtime_error("no verdict from lagranged (run " + RunIdText(runs[0]) + ") within " +
                                  FormatDouble(bus_.wait) + " s");
@@ -182,7 +114,7 @@ class CommandCommand final : public Command {
     std::size_t applied = 0;
     std::string ids;
     for (const std::int64_t run : runs) {
-      const std::optional<reply_t>& reply = link.reply(run);
+      const std::optional<reply_t>& reply = reply_of(run);
       const std::string id = RunIdText(run);
       ids += (ids.empty() ? "" : ", ") + id;
       out << instance_ << ": run " << id << ": estop ";
@@ -202,14 +134,7 @@ class CommandCommand final : public Command {
                              bus_.Channel(instance_, kStateSuffix) + " (ids " + ids + ")");
   }
 
-  // "MODE with CONTROLLER" from the run's first state after its reply (the
-  // tick applied the command before the reply went out), or its latest.
-  static std::string StateAfterReply(DaemonLink& link, std::int64_t run) {
-    const auto replied = std::chrono::steady_clock::now();
-    link.PumpUntil([&] { return link.state_received_at(run) > replied; }, 0.5);
-    const state_t& s = link.state(run);
-    return std::string(ModeName(s.mode)) + " with " + Escape(s.controller);
-  }
+  static std::string StateAfterReply(DaemonLink& link, std::int64_t run) { return link.ModeAfterReply(run); }
 
   std::string Words() const {
     std::string words;
@@ -220,51 +145,24 @@ class CommandCommand final : public Command {
   // The command from the arguments, before anything goes on the bus (gains
   // are sized once the instance's num_dofs is known).
   command_t Parse() const {
-    const std::string& verb = action_[0];
-    const Action* action = nullptr;
-    for (const Action& a : kActions) action = verb == a.verb ? &a : action;
-    if (!action) throw UsageError("unknown action '" + Escape(verb, 60) + "' (expected " + Verbs() + ")");
-    const std::vector<std::string> args(action_.begin() + 1, action_.end());
-    if (static_cast<int>(args.size()) != action->operands) {
-      if (verb == "gains") {
-        throw UsageError(
-            "gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
-            Escape(args[0], 60) + "'");
-      }
-      if (action->operands == 0) throw UsageError(verb + ": takes no arguments");
-      throw UsageError(verb + ": expected " + action->expected + ", got " + std::to_string(args.size()) +
-                       (args.size() == 1 ? " word" : " words"));
+    if (action_[0] == "gains" && action_.size() > 1) {
+      throw UsageError("gains: expected --kp A[,B..] --kd C[,D..] (one value for every joint, or one per joint), got '" +
+                       Escape(action_[1], 60) + "'");
     }
-    const bool gains = action->code == command_t::SET_GAINS;
+    command_t c;
+    try {
+      c = CommandFromWords(action_);
+    } catch (const CommandWordsError& e) {
+      throw UsageError(e.what());
+    }
+    const bool gains = c.command == command_t::SET_GAINS;
     if (gains && (kp_.empty() || kd_.empty())) throw UsageError("gains: needs both --kp and --kd");
     if (!gains && (!kp_.empty() || !kd_.empty())) throw UsageError("--kp, --kd: only for gains");
-    const bool integrator = action->code == command_t::SET_INTEGRATOR;
+    const bool integrator = c.command == command_t::SET_INTEGRATOR;
     if (!integrator && (substeps_ || rtol_ || atol_ || max_steps_)) {
       throw UsageError("--substeps, --rtol, --atol, --max-steps: only for integrator");
     }
-    command_t c{};  // every field zero: "the default" for the integrator's numbers
-    c.command = action->code;
-    switch (action->code) {
-      case command_t::SWITCH_CONTROLLER: c.controller = args[0]; break;
-      case command_t::SET_INTEGRATOR: {
-        const std::optional<IntegratorType> type = ParseIntegratorType(args[0]);
-        RequireKnown("integrator", args[0], type.has_value(), IntegratorTypeNames());
-        c.setting = args[0];
-        SetIntegratorNumbers(*type, c);
-        break;
-      }
-      case command_t::SET_EFFECT:
-        RequireKnown("effect", args[0], ParseEffectKind(args[0]).has_value(), EffectKindNames());
-        c.setting = args[0];
-        c.on = OnOff("effect " + args[0], args[1]);
-        break;
-      case command_t::SET_METHOD:
-        RequireKnown("method", args[0], ParseMethod(args[0]).has_value(), MethodNames());
-        c.setting = args[0];
-        break;
-      case command_t::SET_FORCES: c.on = OnOff("forces", args[0]); break;
-      default: break;
-    }
+    if (integrator) SetIntegratorNumbers(*ParseIntegratorType(c.setting), c);
     return c;
   }
 

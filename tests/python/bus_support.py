@@ -76,3 +76,43 @@ def wait_until(predicate, timeout):
         time.sleep(0.01)
     return predicate()
 
+
+@contextlib.contextmanager
+def lcm_logger(port, path):
+    """lcm-logger recording udpm://239.255.76.67:PORT?ttl=0 to `path` until exit (SIGINT: it closes the file)."""
+    import signal
+    p = subprocess.Popen(["lcm-logger", "--lcm-url=" + lcm_url(port), "-f", path],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        yield p
+    finally:
+        p.send_signal(signal.SIGINT)
+        try:
+            p.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+def record_run(scene, port, path, seconds, act=None, *extra):
+    """lagranged on `scene` for about `seconds`, recorded by lcm-logger to `path`;
+    `act(client)` runs while it records."""
+    import lagrange
+    with lagranged(scene, port, *extra):
+        client = lagrange.Client(url=lcm_url(port), wait=5.0)
+        with lcm_logger(port, path):
+            client.state(_first_instance(scene), timeout=5.0)
+            if act is not None:
+                act(client)
+            time.sleep(seconds)
+    return path
+
+
+def _first_instance(scene):
+    return _instance_names(scene)[0]
+
+
+def _instance_names(scene):
+    import re
+    with open(scene) as f:
+        return re.findall(r"^\s*- name:\s*(\w+)", f.read(), flags=re.M)

@@ -1,0 +1,158 @@
+"""lagrange.Client against a live lagranged on private LCM ports (8322-8327,
+this host only): states, setpoints, torques and commands through the
+project's own client, with the verdicts and errors lagrangectl reports."""
+import os
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lagrange
+from bus_support import LAGRANGECTL, config, lagranged, lcm_url
+
+PORT = 8322  # default.yaml: arm (computed torque) and cartpole
+TWO_RUNS_PORT = 8323
+SIGNED_PORT = 8324
+
+
+@pytest.fixture(scope="module")
+def daemon():
+    with lagranged(config("default.yaml"), PORT) as p:
+        client = lagrange.Client(url=lcm_url(PORT), wait=5.0)
+        client.state("arm", timeout=5.0)  # started
+        yield client
+        assert p.poll() is None  # nothing the tests sent stopped it
+
+
+def lagrangectl(*args, port=PORT):
+    return subprocess.run([LAGRANGECTL, *args, "--lcm-url", lcm_url(port)], capture_output=True, text=True)
+
+
+def test_the_latest_state_is_the_arms_held_at_its_initial_pose(daemon):
+    s = daemon.state("arm")
+    assert s.num_dofs == 2 and s.q.shape == (2,) and s.q.dtype == np.float64
+    assert s.run_id != 0 and s.controller == "computed-torque"
+    assert s.mode in ("running", "hold")
+    assert np.all(np.isfinite(s.q)) and np.all(np.isfinite(s.tau))
+    # Computed torque holds the arm where it started (pi/4, 0) against gravity: tau is G(q), not zero.
+    np.testing.assert_allclose(s.q, [np.pi / 4, 0.0], atol=1e-6)
+    assert abs(s.tau[0]) > 1.0
+    assert s.kinetic_energy == pytest.approx(0.0, abs=1e-9)
+    assert daemon.state("cartpole").num_dofs == 2
+
+
+def test_states_come_in_tick_order_from_one_run(daemon):
+    states = list(daemon.states("arm", duration=0.3))
+    assert len(states) > 0
+    ticks = [s.tick for s in states]
+    assert ticks == sorted(set(ticks))
+    assert len({s.run_id for s in states}) == 1
+    assert all(b.received >= a.received for a, b in zip(states, states[1:]))
+
+
+def test_waiting_for_states_releases_the_gil(daemon):
+    count = [0]
+    stop = threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            count[0] += 1
+
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        before = count[0]
+        for _ in daemon.states("arm", duration=0.3):
+            pass
+        during = count[0] - before
+    finally:
+        stop.set()
+        t.join()
+    assert during > 0
+
+
+def test_streamed_setpoints_move_the_arm_there(daemon):
+    target = np.array([0.5, -0.3])
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        assert daemon.send_setpoint("arm", q=target)
+        time.sleep(0.01)
+    s = daemon.state("arm")
+    np.testing.assert_allclose(s.q_des, target)
+    np.testing.assert_allclose(s.q, target, atol=1e-2)
+    with pytest.raises(ValueError, match=r"q: expected 2 values \(one per joint\), got 3"):
+        daemon.send_setpoint("arm", q=[0.1, 0.2, 0.3])
+    with pytest.raises(ValueError, match="qd: expected finite values"):
+        daemon.send_setpoint("arm", q=target, qd=[0.0, float("inf")])
+
+
+def test_commands_return_the_daemons_verdict_as_lagrangectl_reports_it(daemon):
+    r = daemon.command("arm", "pause")
+    assert r.accepted and bool(r)
+    assert r.message == "arm: pause done; now paused with computed-torque"
+    assert daemon.state("arm").mode == "paused"
+    cli = lagrangectl("command", "arm", "resume")
+    assert cli.returncode == 0, cli.stderr
+    # A refusal is lagranged's, word for word as lagrangectl prints it.
+    r = daemon.command("arm", "controller", "lqr-of-dreams")
+    assert not r.accepted and r.message.startswith("refused: unknown controller 'lqr-of-dreams' for arm")
+    cli = lagrangectl("command", "arm", "controller", "lqr-of-dreams")
+    assert cli.returncode == 1 and cli.stderr.strip() == "lagrangectl command: " + r.message
+    r = daemon.command("arm", "gains", kp=[150, 100], kd=20)
+    assert r.accepted, r.message
+    r = daemon.command("arm", "estop")
+    assert r.accepted and r.message.startswith("arm: estop done; now estop")
+    assert daemon.state("arm").mode == "estop"
+    assert daemon.command("arm", "clear").accepted
+
+
+def test_bad_words_and_arguments_raise_value_error_before_anything_is_sent(daemon):
+    with pytest.raises(ValueError) as e:
+        daemon.command("arm", "explode")
+    cli = lagrangectl("command", "arm", "explode")
+    assert cli.returncode == 2 and cli.stderr.strip() == "lagrangectl command: " + str(e.value)
+    with pytest.raises(ValueError, match="effect damping: expected on or off, got 'maybe'"):
+        daemon.command("arm", "effect", "damping", "maybe")
+    with pytest.raises(ValueError, match="gains: needs both kp and kd"):
+        daemon.command("arm", "gains", kp=1.0)
+    with pytest.raises(ValueError, match="kp: expected gains >= 0"):
+        daemon.command("arm", "gains", kp=-1.0, kd=1.0)
+    with pytest.raises(ValueError, match="LCM URL 'udp://x': not a udpm:// URL"):
+        lagrange.Client(url="udp://x")
+    with pytest.raises(ValueError, match="bus key"):
+        lagrange.Client(url=lcm_url(PORT), key_file="/nonexistent/key")
+
+
+def test_an_instance_nobody_publishes_is_a_runtime_error_naming_the_nearest(daemon):
+    with pytest.raises(RuntimeError, match=r"no state from instance 'arn' on ARN_STATE.*did you mean 'arm'\?"):
+        lagrange.Client(url=lcm_url(PORT)).state("arn", timeout=2.0)
+
+
+def test_two_runs_on_one_channel_refuse_to_act_but_both_take_the_estop():
+    with lagranged(config("default.yaml"), TWO_RUNS_PORT), lagranged(config("default.yaml"), TWO_RUNS_PORT):
+        client = lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0)
+        with pytest.raises(RuntimeError, match="two lagranged runs publish ARM_STATE"):
+            client.state("arm", timeout=5.0)
+        r = client.command("arm", "estop")
+        assert r.accepted
+        lines = r.message.splitlines()
+        assert len(lines) == 2 and all(": estop done; now estop" in line for line in lines)
+
+
+def test_a_signed_daemon_is_heard_only_with_its_key(tmp_path):
+    key = str(tmp_path / "bus.key")
+    assert subprocess.run([LAGRANGECTL, "keygen", key], capture_output=True).returncode == 0
+    with lagranged(config("default.yaml"), SIGNED_PORT, "--bus-key", key):
+        signed = lagrange.Client(url=lcm_url(SIGNED_PORT), key_file=key, wait=5.0)
+        assert signed.state("arm", timeout=5.0).num_dofs == 2
+        assert signed.command("arm", "pause").accepted
+        unsigned = lagrange.Client(url=lcm_url(SIGNED_PORT), key_file=None, wait=2.0)
+        env_key = os.environ.pop("LAGRANGE_BUS_KEY_FILE", None)
+        try:
+            with pytest.raises(RuntimeError, match="its states are signed; give the daemon's key"):
+                unsigned.state("arm", timeout=2.0)
+        finally:
+            if env_key is not None:
+                os.environ["LAGRANGE_BUS_KEY_FILE"] = env_key

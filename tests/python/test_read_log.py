@@ -1,0 +1,125 @@
+"""lagrange.read_log against lagrangectl log2csv: one decoding
+(protocol/log_records.hpp), so the same columns and the same values; and the
+same one-line errors. The log is a live run on a private port (8328)."""
+import math
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import lagrange
+from bus_support import LAGRANGECTL, config, read_csv, record_run
+
+PORT = 8328
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory):
+    path = str(tmp_path_factory.mktemp("log") / "run.lcm")
+
+    def act(client):
+        # Setpoints, a command and its reply, beside the states, statuses and telemetry.
+        for _ in range(20):
+            client.send_setpoint("arm", q=[0.6, -0.2])
+        assert client.command("arm", "pause").accepted
+        assert client.command("arm", "resume").accepted
+
+    return record_run(config("default.yaml"), PORT, path, 0.5, act)
+
+
+def columns_of(record):
+    """log2csv's column names from read_log's fields, in order."""
+    names = []
+    for name, values in record.columns.items():
+        if isinstance(values, np.ndarray) and values.ndim == 2:
+            names += ["%s%d" % (name, i) for i in range(values.shape[1])]
+        else:
+            names.append(name)
+    return names
+
+
+def same(value, text):
+    if isinstance(value, (float, np.floating)):
+        return (math.isnan(value) and text == "nan") or value == float(text)
+    return str(value) == text
+
+
+def test_read_log_decodes_every_channel_as_log2csv_writes_it(log, tmp_path):
+    out = tmp_path / "csv"
+    r = subprocess.run([LAGRANGECTL, "log2csv", log, "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    records = lagrange.read_log(log)
+    written = {os.path.splitext(f)[0]: str(out / f) for f in os.listdir(out)}
+    lagrange_channels = {c for c, rec in records.items() if rec.type is not None}
+    assert lagrange_channels == set(written)
+    for channel in ("ARM_STATE", "CARTPOLE_STATE", "LAGRANGE_STATUS", "ARM_SETPOINT", "ARM_COMMAND", "ARM_REPLY",
+                    "ARM_TELEMETRY"):
+        assert channel in records, channel
+    for channel, path in written.items():
+        rec = records[channel]
+        csv = read_csv(path)
+        assert list(csv) == columns_of(rec), channel
+        assert rec.rows == len(csv["log_utime"]) and len(rec) == rec.rows
+        for name, values in rec.columns.items():
+            if isinstance(values, list):  # text: the CSV's field, unquoted
+                assert values == csv[name], (channel, name)
+                continue
+            kind_id = name in ("run_id", "request_id", "last_foreign_run_id")
+            flat = values.reshape(rec.rows, -1)
+            for j in range(flat.shape[1]):
+                column = csv[name] if values.ndim == 1 else csv["%s%d" % (name, j)]
+                for v, text in zip(flat[:, j], column):
+                    if kind_id:
+                        assert format(int(v) & (2**64 - 1), "016x") == text, (channel, name)
+                    else:
+                        assert same(v, text), (channel, name, v, text)
+
+
+def test_a_state_channel_has_numpy_columns_of_the_instances_shape(log):
+    arm = lagrange.read_log(log, channel="ARM_STATE")
+    assert list(arm) == ["ARM_STATE"]
+    s = arm["ARM_STATE"]
+    assert s.type == "state_t" and s.rows > 100 and s.skipped == 0
+    assert s.q.shape == (s.rows, 2) and s.q.dtype == np.float64
+    assert s.tick.dtype == np.int64 and np.all(np.diff(s.tick) > 0)  # one run, in order
+    assert s["controller"][0] == "computed-torque"
+    # The arm under computed torque tracks its setpoint: q_des was the one streamed.
+    assert np.any(np.all(np.isclose(s.q_des, [0.6, -0.2]), axis=1))
+    assert np.all(np.isfinite(s.q))
+    reply = lagrange.read_log(log, channel="ARM_REPLY")["ARM_REPLY"]
+    assert list(reply.accepted) == [1, 1]
+    with pytest.raises(AttributeError, match="has no field 'nope'"):
+        s.nope
+    with pytest.raises(ValueError, match="not a regular expression"):
+        lagrange.read_log(log, channel="([")
+
+
+def test_a_log_cut_short_is_read_to_its_last_whole_event_as_log2csv_reads_it(log, tmp_path):
+    cut = str(tmp_path / "cut.lcm")
+    with open(log, "rb") as f:
+        data = f.read()
+    with open(cut, "wb") as f:
+        f.write(data[: len(data) // 2 + 7])
+    out = tmp_path / "csv"
+    r = subprocess.run([LAGRANGECTL, "log2csv", cut, "-o", str(out), "--channel", "ARM_STATE"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    arm = lagrange.read_log(cut, channel="ARM_STATE")["ARM_STATE"]
+    assert arm.rows == len(read_csv(str(out / "ARM_STATE.csv"))["log_utime"])
+    assert 0 < arm.rows < lagrange.read_log(log, channel="ARM_STATE")["ARM_STATE"].rows
+
+
+def test_what_is_not_a_log_raises_log2csvs_one_line(tmp_path):
+    missing = str(tmp_path / "missing.lcm")
+    with pytest.raises(FileNotFoundError) as e:
+        lagrange.read_log(missing)
+    r = subprocess.run([LAGRANGECTL, "log2csv", missing, "-o", str(tmp_path)], capture_output=True, text=True)
+    assert r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
+    text = tmp_path / "notes.txt"
+    text.write_text("not a log\n")
+    with pytest.raises(ValueError) as e:
+        lagrange.read_log(str(text))
+    r = subprocess.run([LAGRANGECTL, "log2csv", str(text), "-o", str(tmp_path)], capture_output=True, text=True)
+    assert r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
