@@ -275,7 +275,7 @@ class Client {
     std::mutex mutex;
     std::unique_ptr<DaemonLink> link;
     std::deque<State> queue;  // Client.states: every state, while queueing
-    bool queueing = false;
+    std::atomic<bool> queueing{false};  // a states() iterator handles the link: the receive thread leaves it alone
     std::int64_t dropped = 0;
     torque_t torque{};  // this client's torque stream to the instance
   };
@@ -379,6 +379,7 @@ class Client {
       {
         std::lock_guard lock(links_mutex_);
         for (const auto& [name, link] : links_) {
+          if (link->queueing) continue;  // its iterator's thread reads it, without a second reader waking per datagram
           links.push_back(link.get());
           fds.push_back({link->link->bus().fd(), POLLIN, 0});
         }
