@@ -186,3 +186,19 @@ instances:
     assert run.fault is not None and "the energy left its bound" in run.fault
     assert len(run.t) < 1001 and np.all(np.isfinite(run.q))
     assert any(issubclass(w.category, RuntimeWarning) and run.fault in str(w.message) for w in caught)
+
+
+def test_the_stubs_and_docstrings_name_every_simulator_and_bus_call():
+    import ast
+    import re
+    with open(os.path.join(os.path.dirname(lagrange.__file__), "__init__.pyi")) as f:
+        stub = f.read()
+    ast.parse(stub)
+    for name in ("simulate", "Instance", "SimulationResult", "read_log", "LogChannel", "Client", "State", "Verdict",
+                 "StateIterator"):
+        assert hasattr(lagrange, name), name
+        assert re.search(r"^(class|def) %s\b" % name, stub, re.M), name
+    for call in (lagrange.simulate, lagrange.read_log, lagrange.Instance.step, lagrange.Client.command,
+                 lagrange.Client.send_torque):
+        assert call.__doc__ and len(call.__doc__) > 80, call
+    assert "(N, n)" in lagrange.SimulationResult.q.__doc__
