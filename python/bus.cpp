@@ -109,10 +109,9 @@ class Client {
     if (!(std::isfinite(wait) && wait > 0.0)) throw py::value_error("wait: expected a positive number of seconds");
     options_.lcm_url = url.value_or("");
     options_.channel_prefix = std::move(prefix);
-    if (!options_.channel_prefix.empty()) {
-      if (const std::string why = CheckChannelName(options_.channel_prefix + "X"); !why.empty()) {
-        throw py::value_error("prefix: " + why);
-      }
+    if (!options_.channel_prefix.empty() && !CheckChannelName(options_.channel_prefix + "X").empty()) {
+      throw py::value_error("prefix: expected the start of an LCM channel name (printable ASCII without spaces, "
+                            "under 63 bytes), got '" + Escape(options_.channel_prefix, 64) + "'");
     }
     options_.bus_key_file = key_file.value_or("");
     options_.wait = wait;
@@ -136,6 +135,7 @@ class Client {
       Link& link = LinkFor(name, timeout);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);  // the latest, not the one the link last handled
+      link.link->RequireOneRun("refusing to act");
       return State(link.link->state(), link.link->state_received_at());
     } catch (...) {
       Rethrow();
@@ -150,6 +150,7 @@ class Client {
       std::lock_guard lock(link.mutex);
       link.link->PumpUntil([&] { return !link.queue.empty(); },
                            std::chrono::duration<double>(until - std::chrono::steady_clock::now()).count());
+      link.link->RequireOneRun("refusing to act");
       if (link.queue.empty()) return std::nullopt;
       State s = std::move(link.queue.front());
       link.queue.pop_front();
@@ -302,6 +303,12 @@ class Client {
   // The link to `name`'s one lagranged run, opened and awaited (up to `wait` s) on first use.
   Link& LinkFor(const std::string& name, double wait) {
     if (Link* link = Find(name)) return *link;
+    // Every channel of the instance is a valid LCM channel name, or the name is the caller's mistake.
+    if (name.empty()) throw py::value_error("name: expected an instance name (as in the scene), got ''");
+    if (const std::string why = CheckChannelName(options_.Channel(name, kTelemetrySuffix)); !why.empty()) {
+      throw py::value_error("name '" + Escape(name, 64) + "': its channel " + why.substr(0, why.find(", got")) +
+                            ", got " + Escape(options_.Channel(name, kTelemetrySuffix), 80));
+    }
     LinkOptions o = options_;
     o.wait = wait;
     auto link = std::make_unique<Link>();
@@ -328,6 +335,7 @@ class Client {
       Link& link = LinkFor(name, options_.wait);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);
+      link.link->RequireOneRun("refusing to act");
       return link.link->state();
     } catch (...) {
       Rethrow();
@@ -387,7 +395,11 @@ class Client {
       poll(fds.data(), fds.size(), kReceivePollMs);
       for (Link* link : links) {
         std::unique_lock lock(link->mutex, std::try_to_lock);
-        if (lock.owns_lock()) link->link->bus().Drain();
+        if (!lock.owns_lock()) continue;
+        try {
+          link->link->bus().Drain();
+        } catch (...) {  // (out of memory queueing a state) the next call's own pumping will say so
+        }
       }
     }
   }

@@ -121,7 +121,8 @@ struct SimulationResult {
         fault(r.fault) {}
 };
 
-using PyController = std::function<py::object(double, py::array_t<double>, py::array_t<double>)>;
+// Rows between two looks for a pending signal (KeyboardInterrupt) in a run.
+constexpr std::int64_t kSignalCheckRows = 1 << 16;
 
 py::dict Simulate(const py::object& scene_arg, double duration, const py::object& controller) {
   if (!(std::isfinite(duration) && duration > 0.0)) {
@@ -160,7 +161,16 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].n = instances[i].num_dofs();
   }
   const auto steps = static_cast<std::int64_t>(std::llround(duration / offline.period));
-  const auto observe = [&](std::size_t i, Instance& inst) { recordings[i].Add(inst); };
+  // Ctrl-C reaches a long run: every kSignalCheckRows rows the GIL is taken back to look.
+  std::int64_t rows = 0;
+  const auto observe = [&](std::size_t i, Instance& inst) {
+    recordings[i].Add(inst);
+    if (++rows % kSignalCheckRows != 0) return;
+    const bool released = PyGILState_Check() == 0;
+    std::optional<py::gil_scoped_acquire> gil;
+    if (released) gil.emplace();
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+  };
   std::vector<OfflineFault> faults;
   if (laws.empty()) {
     // The scene's own controllers: the same run as lagrangectl simulate, without the GIL.

@@ -123,6 +123,18 @@ def test_bad_words_and_arguments_raise_value_error_before_anything_is_sent(daemo
         lagrange.Client(url="udp://x")
     with pytest.raises(ValueError, match="bus key"):
         lagrange.Client(url=lcm_url(PORT), key_file="/nonexistent/key")
+    with pytest.raises(ValueError, match="prefix: expected the start of an LCM channel name"):
+        lagrange.Client(url=lcm_url(PORT), prefix="SIM ")
+    # A name no channel can carry is the caller's mistake, said before anything waits.
+    for name in ("arm rm", "a\x00b", "x" * 80, ""):
+        with pytest.raises(ValueError, match="name"):
+            daemon.state(name)
+    with pytest.raises(ValueError, match="timeout: expected a positive number of seconds"):
+        daemon.state("arm", timeout=-1.0)
+    with pytest.raises(ValueError, match=r"tau: expected 2 values \(one per joint\), got 1"):
+        daemon.send_torque("arm", tau=[1.0])
+    with pytest.raises(ValueError, match="channel: expected an LCM channel name"):
+        daemon.send_torque("arm", tau=[0.0, 0.0], channel="NO SPACES")
 
 
 def test_an_instance_nobody_publishes_is_a_runtime_error_naming_the_nearest(daemon):
