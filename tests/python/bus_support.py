@@ -100,8 +100,10 @@ def record_run(scene, port, path, seconds, act=None, *extra):
     import lagrange
     with lagranged(scene, port, *extra):
         client = lagrange.Client(url=lcm_url(port), wait=5.0)
+        client.state(_first_instance(scene), timeout=5.0)
         with lcm_logger(port, path):
-            client.state(_first_instance(scene), timeout=5.0)
+            # Recording once the file grows (the logger flushes every 0.1 s), so what `act` sends is in it.
+            assert wait_until(lambda: os.path.exists(path) and os.path.getsize(path) > 0, 20.0), "lcm-logger wrote nothing"
             if act is not None:
                 act(client)
             time.sleep(seconds)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import lagrange
-from bus_support import LAGRANGECTL, config, lagranged, lcm_url
+from bus_support import LAGRANGECTL, config, lagranged, lcm_url, wait_until
 
 PORT = 8322  # default.yaml: arm (computed torque) and cartpole
 TWO_RUNS_PORT = 8323
@@ -144,11 +144,16 @@ def test_an_instance_nobody_publishes_is_a_runtime_error_naming_the_nearest(daem
 
 def test_two_runs_on_one_channel_refuse_to_act_but_both_take_the_estop():
     with lagranged(config("default.yaml"), TWO_RUNS_PORT), lagranged(config("default.yaml"), TWO_RUNS_PORT):
-        client = lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0)
-        with pytest.raises(RuntimeError, match="two lagranged runs publish ARM_STATE"):
-            client.state("arm", timeout=5.0)
-        r = client.command("arm", "estop")
-        assert r.accepted
+        def refused():  # once both publish (a loaded machine may start one later)
+            try:
+                lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0).state("arm", timeout=5.0)
+                return False
+            except RuntimeError as e:
+                assert "two lagranged runs publish ARM_STATE" in str(e) and "refusing to act" in str(e)
+                return True
+        assert wait_until(refused, 30.0)
+        r = lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0).command("arm", "estop")
+        assert r.accepted, r.message
         lines = r.message.splitlines()
         assert len(lines) == 2 and all(": estop done; now estop" in line for line in lines)
 
