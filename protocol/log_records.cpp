@@ -158,11 +158,24 @@ class CommandDecoder final : public Decoder {
     command_t c;
     if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
     if (fields_.empty()) {
-      fields_ = Fields().Int("utime").Id("request_id").Int("command").Text("controller").Int("num_gains").Text("kp")
-                    .Text("kd").Take();
+      fields_ = Fields()
+                    .Int("utime")
+                    .Id("request_id")
+                    .Int("command")
+                    .Text("controller")
+                    .Int("num_gains")
+                    .Text("kp")
+                    .Text("kd")
+                    .Take();
     }
-    Row(out, log_utime).Int(c.utime).Int(c.request_id).Int(c.command).Text(Escape(c.controller)).Int(c.num_gains)
-        .Text(Escape(Join(c.kp))).Text(Escape(Join(c.kd)));
+    Row(out, log_utime)
+        .Int(c.utime)
+        .Int(c.request_id)
+        .Int(c.command)
+        .Text(Escape(c.controller))
+        .Int(c.num_gains)
+        .Text(Escape(Join(c.kp)))
+        .Text(Escape(Join(c.kd)));
     return true;
   }
 };
@@ -175,8 +188,8 @@ class StatusDecoder final : public Decoder {
     if (fields_.empty()) {
       Fields f;
       f.Int("utime").Id("run_id").Int("ticks").Int("ticks_in_window").Real("period");
-      for (const char* name : {"wake_latency_p50", "wake_latency_p99", "wake_latency_max", "compute_p50",
-                               "compute_p99", "compute_max"}) {
+      for (const char* name :
+           {"wake_latency_p50", "wake_latency_p99", "wake_latency_max", "compute_p50", "compute_p99", "compute_max"}) {
         f.Real(name);
       }
       f.Int("overruns").Int("state_messages_dropped");
@@ -196,8 +209,8 @@ class StatusDecoder final : public Decoder {
     // CHANNEL=count;..: the messages refused for their signature on each channel that had any.
     std::string unauthenticated;
     for (std::size_t k = 0; k < s.unauthenticated_channels.size() && k < s.unauthenticated_counts.size(); ++k) {
-      unauthenticated += (k ? ";" : "") + Escape(s.unauthenticated_channels[k]) + "=" +
-                         std::to_string(s.unauthenticated_counts[k]);
+      unauthenticated +=
+          (k ? ";" : "") + Escape(s.unauthenticated_channels[k]) + "=" + std::to_string(s.unauthenticated_counts[k]);
     }
     std::string instances, reasons, integrators, methods, effects, forces, joints;
     // NAME=j1,j2,..: each instance's share of joint_names (none when the
@@ -229,7 +242,9 @@ class StatusDecoder final : public Decoder {
                            s.measured_accepted, s.measured_rejected}) {
       row.Int(x);
     }
-    row.Text(Escape(s.last_rejection)).Int(s.commands_accepted).Int(s.commands_rejected)
+    row.Text(Escape(s.last_rejection))
+        .Int(s.commands_accepted)
+        .Int(s.commands_rejected)
         .Text(Escape(s.last_command_error));
     row.Int(s.decode_errors).Int(s.datagrams_dropped_kernel).Int(s.datagrams_malformed).Int(s.fragments_dropped);
     row.Int(s.foreign_messages).Int(s.last_foreign_run_id).Int(s.replies_suppressed).Int(s.bus_signed ? 1 : 0);
@@ -274,11 +289,22 @@ class PoseSetpointDecoder final : public Decoder {
     pose_setpoint_t m;
     if (!CheckedDecode(m, CheckPoseSetpointPacket, data, size)) return false;
     if (fields_.empty()) {
-      fields_ = Fields().Int("utime").Text("frame").Reals("position", 3).Reals("orientation", 4).Reals("twist", 6)
-                    .Real("duration").Take();
+      fields_ = Fields()
+                    .Int("utime")
+                    .Text("frame")
+                    .Reals("position", 3)
+                    .Reals("orientation", 4)
+                    .Reals("twist", 6)
+                    .Real("duration")
+                    .Take();
     }
-    Row(out, log_utime).Int(m.utime).Text(Escape(m.frame)).Reals(m.position, 3).Reals(m.orientation, 4)
-        .Reals(m.twist, 6).Real(m.duration);
+    Row(out, log_utime)
+        .Int(m.utime)
+        .Text(Escape(m.frame))
+        .Reals(m.position, 3)
+        .Reals(m.orientation, 4)
+        .Reals(m.twist, 6)
+        .Real(m.duration);
     return true;
   }
 };
@@ -289,13 +315,34 @@ class TaskStateDecoder final : public Decoder {
     task_state_t m;
     if (!CheckedDecode(m, CheckTaskStatePacket, data, size)) return false;
     if (fields_.empty()) {
-      fields_ = Fields().Int("utime").Id("run_id").Int("tick").Real("t").Text("frame").Text("controller")
-                    .Reals("position", 3).Reals("orientation", 4).Reals("position_des", 3).Reals("orientation_des", 4)
-                    .Reals("error", 6).Reals("twist", 6).Take();
+      fields_ = Fields()
+                    .Int("utime")
+                    .Id("run_id")
+                    .Int("tick")
+                    .Real("t")
+                    .Text("frame")
+                    .Text("controller")
+                    .Reals("position", 3)
+                    .Reals("orientation", 4)
+                    .Reals("position_des", 3)
+                    .Reals("orientation_des", 4)
+                    .Reals("error", 6)
+                    .Reals("twist", 6)
+                    .Take();
     }
-    Row(out, log_utime).Int(m.utime).Int(m.run_id).Int(m.tick).Real(m.t).Text(Escape(m.frame))
-        .Text(Escape(m.controller)).Reals(m.position, 3).Reals(m.orientation, 4).Reals(m.position_des, 3)
-        .Reals(m.orientation_des, 4).Reals(m.error, 6).Reals(m.twist, 6);
+    Row(out, log_utime)
+        .Int(m.utime)
+        .Int(m.run_id)
+        .Int(m.tick)
+        .Real(m.t)
+        .Text(Escape(m.frame))
+        .Text(Escape(m.controller))
+        .Reals(m.position, 3)
+        .Reals(m.orientation, 4)
+        .Reals(m.position_des, 3)
+        .Reals(m.orientation_des, 4)
+        .Reals(m.error, 6)
+        .Reals(m.twist, 6);
     return true;
   }
 };
@@ -331,7 +378,7 @@ class ForcesDecoder final : public Decoder {
 
  private:
   // forces_t's flags and rows, in its order.
-  static constexpr const char* kFlags[] = {"gravity_on", "coriolis_on",   "damping_on",   "friction_on",
+  static constexpr const char* kFlags[] = {"gravity_on", "coriolis_on",   "damping_on",    "friction_on",
                                            "limits_on",  "saturation_on", "disturbance_on"};
   static constexpr const char* kRows[] = {"gravity", "coriolis",    "damping", "friction",
                                           "limits",  "disturbance", "tau_cmd", "tau_applied"};
@@ -343,9 +390,15 @@ class ReplyDecoder final : public Decoder {
     reply_t r;
     if (!CheckedDecode(r, CheckReplyPacket, data, size)) return false;
     if (fields_.empty()) {
-      fields_ = Fields().Int("utime").Id("run_id").Id("request_id").Int("command").Int("accepted").Text("reason").Take();
+      fields_ =
+          Fields().Int("utime").Id("run_id").Id("request_id").Int("command").Int("accepted").Text("reason").Take();
     }
-    Row(out, log_utime).Int(r.utime).Int(r.run_id).Int(r.request_id).Int(r.command).Int(r.accepted ? 1 : 0)
+    Row(out, log_utime)
+        .Int(r.utime)
+        .Int(r.run_id)
+        .Int(r.request_id)
+        .Int(r.command)
+        .Int(r.accepted ? 1 : 0)
         .Text(Escape(r.reason));
     return true;
   }

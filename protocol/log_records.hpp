@@ -36,7 +36,7 @@ enum class LogFieldKind : std::uint8_t {
 struct LogField {
   std::string name;
   LogFieldKind kind = LogFieldKind::kReal;
-  int width = 0;          // 0: a scalar; k > 0: k values, columns NAME<separator>0 .. NAME<separator>k-1
+  int width = 0;               // 0: a scalar; k > 0: k values, columns NAME<separator>0 .. NAME<separator>k-1
   const char* separator = "";  // "" (q0, q1, ..) or "_" (forces_t's gravity_0, ..)
 };
 

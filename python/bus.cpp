@@ -70,7 +70,11 @@ struct State {
         controller(Escape(s.controller)),
         mode(ModeName(s.mode)),
         received(SteadySeconds(at)) {
-    for (const auto& [out, in] : {std::pair{&q, &s.q}, {&qd, &s.qd}, {&qdd, &s.qdd}, {&tau, &s.tau}, {&q_des, &s.q_des},
+    for (const auto& [out, in] : {std::pair{&q, &s.q},
+                                  {&qd, &s.qd},
+                                  {&qdd, &s.qdd},
+                                  {&tau, &s.tau},
+                                  {&q_des, &s.q_des},
                                   {&qd_des, &s.qd_des}}) {
       *out = Eigen::Map<const VectorXd>(in->data(), static_cast<Eigen::Index>(in->size()));
     }
@@ -110,8 +114,10 @@ class Client {
     options_.lcm_url = url.value_or("");
     options_.channel_prefix = std::move(prefix);
     if (!options_.channel_prefix.empty() && !CheckChannelName(options_.channel_prefix + "X").empty()) {
-      throw py::value_error("prefix: expected the start of an LCM channel name (printable ASCII without spaces, "
-                            "under 63 bytes), got '" + Escape(options_.channel_prefix, 64) + "'");
+      throw py::value_error(
+          "prefix: expected the start of an LCM channel name (printable ASCII without spaces, "
+          "under 63 bytes), got '" +
+          Escape(options_.channel_prefix, 64) + "'");
     }
     options_.bus_key_file = key_file.value_or("");
     options_.wait = wait;
@@ -275,7 +281,7 @@ class Client {
   struct Link {
     std::mutex mutex;
     std::unique_ptr<DaemonLink> link;
-    std::deque<State> queue;  // Client.states: every state, while queueing
+    std::deque<State> queue;            // Client.states: every state, while queueing
     std::atomic<bool> queueing{false};  // a states() iterator handles the link: the receive thread leaves it alone
     std::int64_t dropped = 0;
     torque_t torque{};  // this client's torque stream to the instance
@@ -516,7 +522,8 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
       }
       throw py::value_error(e.what());
     } catch (const std::regex_error& e) {
-      throw py::value_error("channel: not a regular expression: '" + channel_regex.value_or("") + "' (" + e.what() + ")");
+      throw py::value_error("channel: not a regular expression: '" + channel_regex.value_or("") + "' (" + e.what() +
+                            ")");
     }
   }
   py::dict out;
@@ -539,13 +546,19 @@ void BindBus(py::module_& m) {
       .def_readonly("tick", &State::tick, "Tick number (consecutive: a gap is a lost message).")
       .def_readonly("t", &State::t, "Simulated time, s.")
       .def_readonly("num_dofs", &State::num_dofs)
-      .def_property_readonly("q", [](const State& s) { return ToArray(s.q); }, "Positions, rad or m.")
-      .def_property_readonly("qd", [](const State& s) { return ToArray(s.qd); }, "Velocities.")
-      .def_property_readonly("qdd", [](const State& s) { return ToArray(s.qdd); }, "Accelerations.")
-      .def_property_readonly("tau", [](const State& s) { return ToArray(s.tau); },
-                             "Applied generalized force (after limits and saturation), N·m or N.")
-      .def_property_readonly("q_des", [](const State& s) { return ToArray(s.q_des); }, "Setpoint positions.")
-      .def_property_readonly("qd_des", [](const State& s) { return ToArray(s.qd_des); }, "Setpoint velocities.")
+      .def_property_readonly(
+          "q", [](const State& s) { return ToArray(s.q); }, "Positions, rad or m.")
+      .def_property_readonly(
+          "qd", [](const State& s) { return ToArray(s.qd); }, "Velocities.")
+      .def_property_readonly(
+          "qdd", [](const State& s) { return ToArray(s.qdd); }, "Accelerations.")
+      .def_property_readonly(
+          "tau", [](const State& s) { return ToArray(s.tau); },
+          "Applied generalized force (after limits and saturation), N·m or N.")
+      .def_property_readonly(
+          "q_des", [](const State& s) { return ToArray(s.q_des); }, "Setpoint positions.")
+      .def_property_readonly(
+          "qd_des", [](const State& s) { return ToArray(s.qd_des); }, "Setpoint velocities.")
       .def_readonly("kinetic_energy", &State::kinetic_energy, "T, J.")
       .def_readonly("potential_energy", &State::potential_energy, "V, J.")
       .def_readonly("controller", &State::controller, "The active controller (escaped).")
@@ -569,7 +582,8 @@ void BindBus(py::module_& m) {
       .def_property_readonly("dropped", &StateIterator::dropped,
                              "States dropped because more than 100000 waited unread.");
 
-  py::class_<Client, std::shared_ptr<Client>>(m, "Client", R"(A client of lagranged on the bus: lagrangectl's own client code.
+  py::class_<Client, std::shared_ptr<Client>>(m, "Client",
+                                              R"(A client of lagranged on the bus: lagrangectl's own client code.
 
 Client(url=None, prefix="", key_file=None, wait=3.0)
   url       LCM URL, udpm://GROUP:PORT?ttl=N (None: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0)
@@ -630,7 +644,8 @@ Its columns are log2csv's: log_utime (µs, when the logger received it), then th
 fields; an array field is one (rows, n) array (log2csv's columns q0, q1, ..). Integers and ids
 are int64 arrays, numbers float64, text a list of str (escaped as in the CSV).)")
       .def_readonly("channel", &LogChannel::channel)
-      .def_readonly("type", &LogChannel::type, "The LCM type (\"state_t\", ...), None for a type that is not lagrange's.")
+      .def_readonly("type", &LogChannel::type,
+                    "The LCM type (\"state_t\", ...), None for a type that is not lagrange's.")
       .def_readonly("rows", &LogChannel::rows)
       .def_readonly("skipped", &LogChannel::skipped,
                     "Messages not decoded: undecodable, another num_dofs, or (type None) not lagrange's.")
@@ -640,10 +655,11 @@ are int64 arrays, numbers float64, text a list of str (escaped as in the CSV).)"
              if (c.columns.contains(name)) return c.columns[py::str(name)];
              throw py::attribute_error("channel " + c.channel + " has no field '" + name + "'");
            })
-      .def("__getitem__", [](const LogChannel& c, const std::string& name) -> py::object {
-        if (c.columns.contains(name)) return c.columns[py::str(name)];
-        throw py::key_error(name);
-      })
+      .def("__getitem__",
+           [](const LogChannel& c, const std::string& name) -> py::object {
+             if (c.columns.contains(name)) return c.columns[py::str(name)];
+             throw py::key_error(name);
+           })
       .def("__len__", [](const LogChannel& c) { return c.rows; })
       .def("__repr__", [](const LogChannel& c) {
         return "<lagrange.LogChannel " + c.channel + ": " + std::to_string(c.rows) + " rows of " +

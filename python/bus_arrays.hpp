@@ -46,13 +46,18 @@ inline VectorXd JointVector(const py::handle& values, int n, const char* what, b
   } catch (const py::error_already_set&) {
     a = {};
   }
-  if (!a) throw py::value_error(std::string(what) + ": expected numbers, got " + std::string(py::str(py::type::of(values).attr("__name__"))));
-  if (a.ndim() > 1) throw py::value_error(std::string(what) + ": expected shape (" + std::to_string(n) + ",), got an array of " + std::to_string(a.ndim()) + " dimensions");
+  if (!a)
+    throw py::value_error(std::string(what) + ": expected numbers, got " +
+                          std::string(py::str(py::type::of(values).attr("__name__"))));
+  if (a.ndim() > 1)
+    throw py::value_error(std::string(what) + ": expected shape (" + std::to_string(n) + ",), got an array of " +
+                          std::to_string(a.ndim()) + " dimensions");
   const py::ssize_t size = a.ndim() == 0 ? 1 : a.shape(0);
   const bool one = allow_one && size == 1;
   if (size != n && !one) {
     throw py::value_error(std::string(what) + ": expected " + std::to_string(n) + (n == 1 ? " value" : " values") +
-                          (one && n > 1 ? "" : "") + (allow_one && n > 1 ? " (one for every joint, or one per joint)" : " (one per joint)") +
+                          (one && n > 1 ? "" : "") +
+                          (allow_one && n > 1 ? " (one for every joint, or one per joint)" : " (one per joint)") +
                           ", got " + std::to_string(size));
   }
   VectorXd out(n);
@@ -60,7 +65,8 @@ inline VectorXd JointVector(const py::handle& values, int n, const char* what, b
   for (int i = 0; i < n; ++i) {
     const double x = data[one ? 0 : i];
     if (!std::isfinite(x)) {
-      throw py::value_error(std::string(what) + ": expected finite values, got " + FormatDouble(x) + " at index " + std::to_string(i));
+      throw py::value_error(std::string(what) + ": expected finite values, got " + FormatDouble(x) + " at index " +
+                            std::to_string(i));
     }
     out[i] = x;
   }

@@ -35,8 +35,8 @@ SceneSource ReadSceneArgument(const py::handle& scene) {
     throw py::type_error("scene: expected a path or YAML text (str), got " +
                          std::string(py::str(py::type::of(scene).attr("__name__"))));
   }
-  const std::string text =
-      path_like ? py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>() : scene.cast<std::string>();
+  const std::string text = path_like ? py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>()
+                                     : scene.cast<std::string>();
   const bool yaml_text = !path_like && text.find('\n') != std::string::npos;
   const std::string label = yaml_text ? "<scene text>" : text;
   try {
@@ -91,7 +91,8 @@ struct Recording {
 
   void Add(Instance& inst) {
     t.push_back(inst.t());
-    for (const auto& [out, v] : {std::pair{&q, &inst.q()}, {&qd, &inst.qd()}, {&q_des, &inst.q_des()}, {&tau, &inst.tau()}}) {
+    for (const auto& [out, v] :
+         {std::pair{&q, &inst.q()}, {&qd, &inst.qd()}, {&q_des, &inst.q_des()}, {&tau, &inst.tau()}}) {
       out->insert(out->end(), v->data(), v->data() + v->size());
     }
     kinetic.push_back(inst.KineticEnergy());
@@ -133,7 +134,8 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
   // scene, or a dict {instance name: callable}.
   std::map<std::string, py::object> laws;
   if (py::isinstance<py::dict>(controller)) {
-    for (const auto& [key, law] : controller.cast<py::dict>()) laws[py::str(key)] = py::reinterpret_borrow<py::object>(law);
+    for (const auto& [key, law] : controller.cast<py::dict>())
+      laws[py::str(key)] = py::reinterpret_borrow<py::object>(law);
   } else if (!controller.is_none()) {
     if (source.scene.instances.size() != 1) {
       throw py::value_error("controller: the scene has " + std::to_string(source.scene.instances.size()) +
@@ -145,7 +147,8 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     bool known = false;
     for (const InstanceConfig& c : source.scene.instances) known = known || c.name == name;
     if (!known) throw py::value_error("controller: the scene has no instance '" + name + "'");
-    if (!PyCallable_Check(law.ptr())) throw py::type_error("controller for '" + name + "': expected a callable (t, q, qd) -> tau");
+    if (!PyCallable_Check(law.ptr()))
+      throw py::type_error("controller for '" + name + "': expected a callable (t, q, qd) -> tau");
   }
   std::vector<py::object> law_of(source.scene.instances.size());
   for (std::size_t i = 0; i < law_of.size(); ++i) {
@@ -244,7 +247,8 @@ class PyInstance {
   // One step; on a fault, back to the last healthy state and RuntimeError.
   void Step(const py::object& tau_arg) {
     std::optional<VectorXd> tau;
-    if (!tau_arg.is_none()) tau = JointVector(tau_arg, inst().num_dofs(), "tau");
+    if (!tau_arg.is_none())
+      tau = JointVector(tau_arg, inst().num_dofs(), "tau");
     else if (inst().external_controller(inst().active_controller()) != nullptr && !torque_given_) {
       // As lagranged holds an external controller's instance until its first torque.
       throw py::value_error(inst().name() + " runs an external controller: step(tau) needs a torque (none given yet)");
@@ -299,8 +303,8 @@ void BindSimulate(py::module_& m) {
       .def_readonly("energy_residual", &SimulationResult::energy_residual,
                     "ε = E − E(0) − W, J, shape (N,): the energy balance's residual (telemetry_t.energy_residual); "
                     "nan when the scene keeps no balance (telemetry: false and no energy_balance).")
-      .def_property_readonly("epsilon", [](const SimulationResult& r) { return r.energy_residual; },
-                             "Alias of energy_residual.")
+      .def_property_readonly(
+          "epsilon", [](const SimulationResult& r) { return r.energy_residual; }, "Alias of energy_residual.")
       .def_readonly("fault", &SimulationResult::fault,
                     "None, or the health check's line when the instance faulted: its rows then end at the last "
                     "healthy step.")
@@ -328,8 +332,9 @@ RuntimeWarning says so. Raises ValueError (a bad scene, one an offline run refus
 external plant, an external controller without a Python law; ticks that do not fit the
 period), FileNotFoundError (no such scene file), with lagrangectl's one-line messages.)");
 
-  py::class_<PyInstance>(m, "Instance",
-                         R"(One scene instance stepped from Python: lagranged's Instance, its controllers and health check.
+  py::class_<PyInstance>(
+      m, "Instance",
+      R"(One scene instance stepped from Python: lagranged's Instance, its controllers and health check.
 
 Instance(scene, name=None): scene as for simulate (a path or YAML text); name picks the
 instance of a scene with several. A scene instance under `controller: external` takes
@@ -349,21 +354,30 @@ state and raises RuntimeError naming why.)")
       .def_property_readonly("num_dofs", [](PyInstance& s) { return s.inst().num_dofs(); })
       .def_property_readonly("joint_names", [](PyInstance& s) { return s.inst().instance_model().joint_names; })
       .def_property_readonly("period", &PyInstance::period, "The scene's period, s: one step's length.")
-      .def_property_readonly("t", [](PyInstance& s) { return s.inst().t(); }, "Simulated time, s.")
-      .def_property_readonly("q", [](PyInstance& s) { return ToArray(s.inst().q()); }, "Positions, shape (n,).")
-      .def_property_readonly("qd", [](PyInstance& s) { return ToArray(s.inst().qd()); }, "Velocities, shape (n,).")
-      .def_property_readonly("qdd", [](PyInstance& s) { return ToArray(s.inst().qdd()); },
-                             "Accelerations at the current state under the last applied tau, shape (n,).")
-      .def_property_readonly("tau", [](PyInstance& s) { return ToArray(s.inst().tau()); },
-                             "The last step's applied force (after limits and saturation), shape (n,).")
-      .def_property_readonly("q_des", [](PyInstance& s) { return ToArray(s.inst().q_des()); },
-                             "The last step's setpoint positions, shape (n,).")
-      .def_property_readonly("kinetic_energy", [](PyInstance& s) { return s.inst().KineticEnergy(); }, "T, J.")
-      .def_property_readonly("potential_energy", [](PyInstance& s) { return s.inst().PotentialEnergy(); }, "V, J.")
-      .def_property_readonly("energy_residual", [](PyInstance& s) { return Residual(s.inst()); },
-                             "ε, J (nan without an energy balance).")
-      .def_property_readonly("controller", [](PyInstance& s) { return std::string(s.inst().controller().name()); },
-                             "The active controller's type.")
+      .def_property_readonly(
+          "t", [](PyInstance& s) { return s.inst().t(); }, "Simulated time, s.")
+      .def_property_readonly(
+          "q", [](PyInstance& s) { return ToArray(s.inst().q()); }, "Positions, shape (n,).")
+      .def_property_readonly(
+          "qd", [](PyInstance& s) { return ToArray(s.inst().qd()); }, "Velocities, shape (n,).")
+      .def_property_readonly(
+          "qdd", [](PyInstance& s) { return ToArray(s.inst().qdd()); },
+          "Accelerations at the current state under the last applied tau, shape (n,).")
+      .def_property_readonly(
+          "tau", [](PyInstance& s) { return ToArray(s.inst().tau()); },
+          "The last step's applied force (after limits and saturation), shape (n,).")
+      .def_property_readonly(
+          "q_des", [](PyInstance& s) { return ToArray(s.inst().q_des()); },
+          "The last step's setpoint positions, shape (n,).")
+      .def_property_readonly(
+          "kinetic_energy", [](PyInstance& s) { return s.inst().KineticEnergy(); }, "T, J.")
+      .def_property_readonly(
+          "potential_energy", [](PyInstance& s) { return s.inst().PotentialEnergy(); }, "V, J.")
+      .def_property_readonly(
+          "energy_residual", [](PyInstance& s) { return Residual(s.inst()); }, "ε, J (nan without an energy balance).")
+      .def_property_readonly(
+          "controller", [](PyInstance& s) { return std::string(s.inst().controller().name()); },
+          "The active controller's type.")
       .def("__repr__", [](PyInstance& s) {
         return "<lagrange.Instance " + s.inst().name() + " at t = " + FormatDouble(s.inst().t()) + " s>";
       });

@@ -114,9 +114,9 @@ TEST_F(LogRecords, AStateIsARowOfItsFieldsWithArraysOneColumnPerJoint) {
   std::size_t values = 0;
   for (const LogField& field : f) values += static_cast<std::size_t>(std::max(field.width, 1));
   ASSERT_EQ(seen[0].row.values.size(), values);
-  EXPECT_EQ(std::get<std::int64_t>(seen[0].row.values[0]), 5000);   // log_utime
-  EXPECT_EQ(std::get<std::int64_t>(seen[0].row.values[3]), 7);      // tick
-  EXPECT_EQ(std::get<double>(seen[0].row.values[7]), 7.5);          // q1
+  EXPECT_EQ(std::get<std::int64_t>(seen[0].row.values[0]), 5000);          // log_utime
+  EXPECT_EQ(std::get<std::int64_t>(seen[0].row.values[3]), 7);             // tick
+  EXPECT_EQ(std::get<double>(seen[0].row.values[7]), 7.5);                 // q1
   EXPECT_EQ(std::get<std::string>(seen[0].row.values[values - 2]), "pd");  // controller
 }
 
