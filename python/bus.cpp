@@ -49,6 +49,14 @@ double SteadySeconds(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(t.time_since_epoch()).count();
 }
 
+// Text that came off the bus or out of a log (escaped, but bytes >= 0x80
+// pass as they came) as a str: invalid UTF-8 is shown as \\xHH, never an error.
+py::str Text(const std::string& text) {
+  PyObject* o = PyUnicode_DecodeUTF8(text.data(), static_cast<Py_ssize_t>(text.size()), "backslashreplace");
+  if (o == nullptr) throw py::error_already_set();
+  return py::reinterpret_steal<py::str>(o);
+}
+
 // One state_t, as Python sees it.
 struct State {
   std::int64_t utime = 0, run_id = 0, tick = 0;
@@ -441,14 +449,35 @@ class StateIterator {
   std::chrono::steady_clock::time_point until_;
 };
 
-// read_log: one channel's records while reading, and as Python sees them (columns as numpy arrays).
+// read_log: one channel's records while reading (one typed buffer per
+// field: 8 bytes a number), and as Python sees them (columns as numpy arrays).
+struct LogColumn {
+  std::vector<std::int64_t> ints;  // kInt, kId
+  std::vector<double> reals;       // kReal
+  std::vector<std::string> texts;  // kText
+};
 struct LogChannelRows {
   std::string channel;
   std::optional<std::string> type;  // "state_t", ...; None for a type that is not lagrange's
   std::int64_t rows = 0;
   std::int64_t skipped = 0;  // did not decode, or another num_dofs than the channel's first message
   std::vector<LogField> fields;
-  std::vector<std::vector<LogValue>> columns;  // by field: rows × max(width, 1) values
+  std::vector<LogColumn> columns;  // by field: rows × max(width, 1) values
+
+  void Add(const LogRow& row) {
+    std::size_t v = 0;
+    for (std::size_t k = 0; k < fields.size(); ++k) {
+      for (int i = 0; i < std::max(fields[k].width, 1); ++i, ++v) {
+        switch (fields[k].kind) {
+          case LogFieldKind::kInt:
+          case LogFieldKind::kId: columns[k].ints.push_back(std::get<std::int64_t>(row.values[v])); break;
+          case LogFieldKind::kReal: columns[k].reals.push_back(std::get<double>(row.values[v])); break;
+          case LogFieldKind::kText: columns[k].texts.push_back(std::get<std::string>(row.values[v])); break;
+        }
+      }
+    }
+    ++rows;
+  }
 };
 struct LogChannel {
   std::string channel;
@@ -458,27 +487,24 @@ struct LogChannel {
   py::dict columns;  // field name → array
 };
 
-py::object ColumnArray(const LogField& field, const std::vector<LogValue>& values, std::int64_t rows) {
-  const py::ssize_t width = std::max(field.width, 1);
+py::object ColumnArray(const LogField& field, const LogColumn& column, std::int64_t rows) {
   std::vector<py::ssize_t> shape = {static_cast<py::ssize_t>(rows)};
-  if (field.width > 0) shape.push_back(width);
+  if (field.width > 0) shape.push_back(field.width);
   switch (field.kind) {
     case LogFieldKind::kInt:
     case LogFieldKind::kId: {
       py::array_t<std::int64_t> a(shape);
-      std::int64_t* out = a.mutable_data();
-      for (std::size_t i = 0; i < values.size(); ++i) out[i] = std::get<std::int64_t>(values[i]);
+      std::copy(column.ints.begin(), column.ints.end(), a.mutable_data());
       return a;
     }
     case LogFieldKind::kReal: {
       py::array_t<double> a(shape);
-      double* out = a.mutable_data();
-      for (std::size_t i = 0; i < values.size(); ++i) out[i] = std::get<double>(values[i]);
+      std::copy(column.reals.begin(), column.reals.end(), a.mutable_data());
       return a;
     }
     case LogFieldKind::kText: {
       py::list texts;
-      for (const LogValue& v : values) texts.append(py::str(std::get<std::string>(v)));
+      for (const std::string& t : column.texts) texts.append(Text(t));
       return texts;
     }
   }
@@ -507,11 +533,7 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
           c.fields = *r.fields;
           c.columns.resize(c.fields.size());
         }
-        std::size_t v = 0;
-        for (std::size_t k = 0; k < c.fields.size(); ++k) {
-          for (int i = 0; i < std::max(c.fields[k].width, 1); ++i) c.columns[k].push_back(r.row->values[v++]);
-        }
-        ++c.rows;
+        c.Add(*r.row);
       });
     } catch (const LcmLogError& e) {
       py::gil_scoped_acquire acquire;
@@ -561,7 +583,8 @@ void BindBus(py::module_& m) {
           "qd_des", [](const State& s) { return ToArray(s.qd_des); }, "Setpoint velocities.")
       .def_readonly("kinetic_energy", &State::kinetic_energy, "T, J.")
       .def_readonly("potential_energy", &State::potential_energy, "V, J.")
-      .def_readonly("controller", &State::controller, "The active controller (escaped).")
+      .def_property_readonly(
+          "controller", [](const State& s) { return Text(s.controller); }, "The active controller (escaped).")
       .def_readonly("mode", &State::mode, "running, hold, fault, paused, estop, stopped or waiting.")
       .def_readonly("received", &State::received, "When this client received it, s on time.monotonic()'s clock.")
       .def("__repr__", [](const State& s) {
@@ -570,11 +593,12 @@ void BindBus(py::module_& m) {
 
   py::class_<Verdict>(m, "Verdict", "lagranged's verdict on a command (its reply_t to this command's request id).")
       .def_readonly("accepted", &Verdict::accepted)
-      .def_readonly("message", &Verdict::message,
-                    "As lagrangectl command reports it: 'arm: pause done; now paused with pd' or 'refused: REASON'.")
+      .def_property_readonly(
+          "message", [](const Verdict& v) { return Text(v.message); },
+          "As lagrangectl command reports it: 'arm: pause done; now paused with pd' or 'refused: REASON'.")
       .def_readonly("run_id", &Verdict::run_id, "The run that answered (0: several, for an estop).")
       .def("__bool__", [](const Verdict& v) { return v.accepted; })
-      .def("__repr__", [](const Verdict& v) { return "<lagrange.Verdict " + v.message + ">"; });
+      .def("__repr__", [](const Verdict& v) { return Text("<lagrange.Verdict " + v.message + ">"); });
 
   py::class_<StateIterator>(m, "StateIterator", "Every state of one instance as it arrives, for a duration.")
       .def("__iter__", [](StateIterator& it) -> StateIterator& { return it; })

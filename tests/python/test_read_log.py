@@ -123,3 +123,16 @@ def test_what_is_not_a_log_raises_log2csvs_one_line(tmp_path):
         lagrange.read_log(str(text))
     r = subprocess.run([LAGRANGECTL, "log2csv", str(text), "-o", str(tmp_path)], capture_output=True, text=True)
     assert r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
+
+
+def test_text_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
+    # A hostile or broken recording: the controller's name replaced by bytes that are not UTF-8 (the same length).
+    with open(log, "rb") as f:
+        data = f.read()
+    assert b"computed-torque" in data
+    bad = str(tmp_path / "bad.lcm")
+    with open(bad, "wb") as f:
+        f.write(data.replace(b"computed-torque", b"\xff\xfe" + b"x" * 13))
+    arm = lagrange.read_log(bad, channel="ARM_STATE")["ARM_STATE"]
+    assert arm.rows == lagrange.read_log(log, channel="ARM_STATE")["ARM_STATE"].rows
+    assert arm.controller[0] == "\\xff\\xfe" + "x" * 13
