@@ -173,3 +173,35 @@ def test_a_signed_daemon_is_heard_only_with_its_key(tmp_path):
         finally:
             if env_key is not None:
                 os.environ["LAGRANGE_BUS_KEY_FILE"] = env_key
+
+
+HOSTILE_PORT = 8325
+
+
+def test_a_channel_name_that_is_not_utf8_on_the_bus_reaches_python_escaped():
+    # A datagram in LCM's format (LC02, seqno, channel NUL, payload) on a channel whose name is not UTF-8:
+    # the client's hint lists it, and the message reaches Python with those bytes as \xHH.
+    import socket
+    import struct
+    from bus_support import prepare_loopback_multicast
+    prepare_loopback_multicast()
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+    datagram = b"LC02" + struct.pack(">I", 1) + b"\xff\xfe_STATE\0" + b"not a state"
+    stop = threading.Event()
+
+    def send():
+        while not stop.is_set():
+            sock.sendto(datagram, ("239.255.76.67", HOSTILE_PORT))
+            time.sleep(0.01)
+
+    t = threading.Thread(target=send)
+    t.start()
+    try:
+        with pytest.raises(RuntimeError) as e:
+            lagrange.Client(url=lcm_url(HOSTILE_PORT), wait=1.0).state("arm", timeout=1.0)
+    finally:
+        stop.set()
+        t.join()
+        sock.close()
+    assert "\\xff\\xfe_STATE" in str(e.value)
