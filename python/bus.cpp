@@ -98,36 +98,6 @@ struct Verdict {
 };
 
 // The C++ errors a client meets, as Python's: a bad URL or key is the caller's argument.
-// A message that may quote the bus (Escape lets bytes >= 0x80 through) as
-// valid UTF-8, each byte of an invalid sequence as \xHH: Python makes the
-// exception's str from it, and would fail on invalid UTF-8. Written here, not
-// with Python's codec, because it runs without the GIL.
-std::string ValidUtf8(const std::string& text) {
-  std::string out;
-  const auto* b = reinterpret_cast<const unsigned char*>(text.data());
-  const std::size_t n = text.size();
-  for (std::size_t i = 0; i < n;) {
-    const unsigned char c = b[i];
-    const std::size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
-    bool ok = len > 0 && i + len <= n;
-    for (std::size_t k = 1; ok && k < len; ++k) ok = (b[i + k] & 0xc0) == 0x80;
-    // No overlong forms, surrogates or code points past U+10FFFF (Python's decoder refuses them too).
-    if (ok && len == 2) ok = c >= 0xc2;
-    if (ok && len == 3) ok = !(c == 0xe0 && b[i + 1] < 0xa0) && !(c == 0xed && b[i + 1] >= 0xa0);
-    if (ok && len == 4) ok = c <= 0xf4 && !(c == 0xf0 && b[i + 1] < 0x90) && !(c == 0xf4 && b[i + 1] >= 0x90);
-    if (ok) {
-      out.append(text, i, len);
-      i += len;
-      continue;
-    }
-    char hex[5];
-    std::snprintf(hex, sizeof hex, "\\x%02x", c);
-    out += hex;
-    ++i;
-  }
-  return out;
-}
-
 [[noreturn]] void Rethrow() {
   try {
     throw;

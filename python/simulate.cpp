@@ -44,10 +44,10 @@ SceneSource ReadSceneArgument(const py::handle& scene) {
   } catch (const ConfigError& e) {
     std::error_code ec;
     if (!yaml_text && !std::filesystem::exists(text, ec)) {
-      PyErr_SetString(PyExc_FileNotFoundError, e.what());
+      PyErr_SetString(PyExc_FileNotFoundError, ValidUtf8(e.what()).c_str());
       throw py::error_already_set();
     }
-    throw py::value_error(e.what());
+    throw py::value_error(ValidUtf8(e.what()));
   }
 }
 
@@ -58,7 +58,7 @@ OfflineScene Prepare(const SceneSource& source, const std::function<bool(std::si
   } catch (const py::error_already_set&) {
     throw;
   } catch (const std::exception& e) {
-    throw py::value_error(e.what());
+    throw py::value_error(ValidUtf8(e.what()));
   }
 }
 
@@ -261,7 +261,7 @@ class PyInstance {
       const OfflineFault f{index_, inst().t(), why, max_energy};
       const std::string text = OfflineFaultText(inst(), f);
       inst().Restore(good_);
-      throw std::runtime_error(text + "; the instance is back at t = " + FormatDouble(inst().t()) +
+      throw std::runtime_error(ValidUtf8(text) + "; the instance is back at t = " + FormatDouble(inst().t()) +
                                " s, the last healthy step");
     }
     inst().Save(good_);
