@@ -305,6 +305,18 @@ void BindSimulate(py::module_& m) {
                     "nan when the scene keeps no balance (telemetry: false and no energy_balance).")
       .def_property_readonly(
           "epsilon", [](const SimulationResult& r) { return r.energy_residual; }, "Alias of energy_residual.")
+      .def_property_readonly(
+          "energies",
+          [](const SimulationResult& r) {
+            const py::ssize_t rows = r.t.shape(0);
+            py::array_t<double> out({rows, py::ssize_t{2}});
+            for (py::ssize_t k = 0; k < rows; ++k) {
+              out.mutable_at(k, 0) = r.kinetic_energy.at(k);
+              out.mutable_at(k, 1) = r.potential_energy.at(k);
+            }
+            return out;
+          },
+          "T and V side by side, J, shape (N, 2) (kinetic_energy, potential_energy).")
       .def_readonly("fault", &SimulationResult::fault,
                     "None, or the health check's line when the instance faulted: its rows then end at the last "
                     "healthy step.")

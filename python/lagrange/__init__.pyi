@@ -27,6 +27,7 @@ class SimulationResult:
     potential_energy: _F64  # (N,) J
     energy_residual: _F64   # (N,) J: ε = E − E(0) − W; nan without an energy balance
     epsilon: _F64           # alias of energy_residual
+    energies: _F64          # (N, 2) J: kinetic_energy and potential_energy side by side
     fault: _Optional[str]   # the health check's line when the instance faulted (rows end at its last healthy step)
 
 def simulate(scene: _Scene, duration: float, *,

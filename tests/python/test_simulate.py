@@ -72,6 +72,7 @@ def test_the_energy_residual_of_a_free_pendulum_is_its_energy_drift():
     np.testing.assert_allclose(run.energy_residual, energy - energy[0], rtol=0, atol=1e-12)
     assert np.max(np.abs(energy - energy[0])) < 1e-4 * np.max(np.abs(run.potential_energy))
     np.testing.assert_array_equal(run.epsilon, run.energy_residual)
+    np.testing.assert_array_equal(run.energies, np.stack([run.kinetic_energy, run.potential_energy], axis=1))
 
 
 def test_stepping_without_a_torque_is_the_simulation_step_for_step():
