@@ -1,0 +1,60 @@
+#pragma once
+// numpy arrays at lagrange.Model's boundary: per-joint arguments of one state
+// (n,) or a batch (N, n), any layout and any real dtype, checked (shape,
+// finite) with messages in lagrangectl's words, and read row by row without
+// the GIL. Nothing here calls Python once the GIL is released: an argument
+// keeps its numpy array alive and is read through its pointer and strides.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+namespace lagrange::python {
+
+// One per-joint argument (q, qd, qdd or tau): a float64 view of what the caller
+// passed (converted only when it was not float64 already: a list, ints,
+// float32), with its shape. `rows` is -1 for a single state (n,), else N.
+class JointArray {
+ public:
+  // Checks `value` as argument `name` of a plant with n degrees of freedom:
+  // a number array of shape (n,) or (N, n), every element finite. Throws
+  // pybind11::value_error with one line: "q: expected 2 values (one per joint), got 3".
+  JointArray(const char* name, pybind11::handle value, int n);
+
+  const char* name() const { return name_; }
+  bool batched() const { return rows_ >= 0; }
+  pybind11::ssize_t rows() const { return rows_; }
+  // Row i's values: contiguous in the caller's array (no copy), or copied into
+  // `scratch` (n) when the array is strided along the joints. A single state's
+  // row is the same for every i (it is broadcast against a batch).
+  const double* Row(pybind11::ssize_t i, std::vector<double>& scratch) const;
+
+ private:
+  const char* name_;
+  pybind11::array_t<double, pybind11::array::forcecast> array_;
+  int n_;
+  pybind11::ssize_t rows_ = -1;
+  const char* data_ = nullptr;
+  pybind11::ssize_t row_stride_ = 0, col_stride_ = 0;  // bytes
+};
+
+// The batch size of a call: -1 when every argument is a single state, else the
+// rows shared by the batched ones (single states broadcast against them).
+// Throws value_error naming the argument whose row count differs.
+pybind11::ssize_t BatchRows(std::initializer_list<const JointArray*> args);
+
+// A new C-contiguous float64 array of `shape`, and its data.
+pybind11::array_t<double> NewArray(const std::vector<pybind11::ssize_t>& shape);
+
+// Copies a column-major Eigen matrix (rows x cols) into row-major `out`, as numpy lays (rows, cols) out.
+template <class Matrix>
+void CopyRowMajor(const Matrix& m, double* out) {
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(out, m.rows(), m.cols()) = m;
+}
+
+}  // namespace lagrange::python
