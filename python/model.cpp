@@ -62,6 +62,16 @@ struct Worker {
 
 using VecMap = Eigen::Map<const VectorXd>;
 
+// One output's shape for one state: a number (ndim 0), a vector or a matrix.
+struct Shape {
+  int ndim = 0;
+  std::array<py::ssize_t, 2> dims{};
+  py::ssize_t size() const { return ndim == 0 ? 1 : ndim == 1 ? dims[0] : dims[0] * dims[1]; }
+};
+constexpr Shape kNumber{};
+Shape Vector(py::ssize_t n) { return {1, {n, 0}}; }
+Shape Matrix(py::ssize_t rows, py::ssize_t cols) { return {2, {rows, cols}}; }
+
 class Model {
  public:
   Model(const PlantSpec& spec, Method method)
@@ -97,10 +107,9 @@ class Model {
   // into its output slots and returns whether they are finite. One state:
   // the outputs as arrays (a float for shape {}), a tuple when several; a
   // batch: each with a leading axis N, computed without the GIL.
-  template <std::size_t kArgs, class Kernel>
-  py::object Evaluate(const std::array<const JointArray*, kArgs>& args,
-                      const std::vector<std::vector<py::ssize_t>>& shapes, int threads, const char* what,
-                      Kernel kernel);
+  template <std::size_t kArgs, std::size_t kOuts, class Kernel>
+  py::object Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
+                      int threads, const char* what, Kernel kernel);
 
   double TimeForwardDynamics(const py::handle& q, const py::handle& qd, const py::handle& tau, long iterations);
 
@@ -211,10 +220,9 @@ std::unique_ptr<Model> Model::Builtin(const std::string& name, const py::object&
   return std::make_unique<Model>(spec, ChooseMethod(*type, method));
 }
 
-template <std::size_t kArgs, class Kernel>
-py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args,
-                           const std::vector<std::vector<py::ssize_t>>& shapes, int threads, const char* what,
-                           Kernel kernel) {
+template <std::size_t kArgs, std::size_t kOuts, class Kernel>
+py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
+                           int threads, const char* what, Kernel kernel) {
   if (threads < 1 || threads > kMaxThreads) {
     throw py::value_error("threads: expected 1.." + std::to_string(kMaxThreads) + ", got " + std::to_string(threads));
   }
@@ -223,39 +231,42 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args,
   if constexpr (kArgs == 2) rows = BatchRows({args[0], args[1]});
   if constexpr (kArgs == 3) rows = BatchRows({args[0], args[1], args[2]});
 
-  // The outputs, each (N, shape...) for a batch; a number's slot is a double.
-  std::vector<py::array_t<double>> arrays;
-  std::vector<double> numbers(shapes.size());
-  std::vector<double*> outputs(shapes.size());
-  std::vector<py::ssize_t> sizes(shapes.size());
-  for (std::size_t o = 0; o < shapes.size(); ++o) {
-    sizes[o] = 1;
-    for (py::ssize_t d : shapes[o]) sizes[o] *= d;
-    if (rows < 0 && shapes[o].empty()) {
+  // The outputs, each (N, shape...) for a batch; one state's number is a double. Fixed-size arrays: a single
+  // state's call allocates nothing but its result arrays (bench/python_bench.py times it).
+  std::array<py::object, kOuts> arrays;
+  std::array<double, kOuts> numbers{};
+  std::array<double*, kOuts> outputs{};
+  std::array<py::ssize_t, kOuts> sizes{};
+  for (std::size_t o = 0; o < kOuts; ++o) {
+    const Shape& shape = shapes[o];
+    sizes[o] = shape.size();
+    if (rows < 0 && shape.ndim == 0) {
       outputs[o] = &numbers[o];
-      arrays.emplace_back();
       continue;
     }
-    std::vector<py::ssize_t> shape = shapes[o];
-    if (rows >= 0) shape.insert(shape.begin(), rows);
-    arrays.push_back(NewArray(shape));
-    outputs[o] = arrays.back().mutable_data();
+    std::array<py::ssize_t, 3> dims{};
+    int ndim = 0;
+    if (rows >= 0) dims[static_cast<std::size_t>(ndim++)] = rows;
+    for (int d = 0; d < shape.ndim; ++d) dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
+    py::array_t<double> array = NewArray(ndim, dims.data());
+    outputs[o] = array.mutable_data();
+    arrays[o] = std::move(array);
   }
 
   // Rows [begin, end) with `worker`; returns the first state whose outputs are not finite, or end.
-  auto run = [&](Worker& worker, py::ssize_t begin, py::ssize_t end, std::vector<double*>& out) {
+  auto run = [&](Worker& worker, py::ssize_t begin, py::ssize_t end) {
     std::array<const double*, kArgs> row;
+    std::array<double*, kOuts> out;
     for (py::ssize_t i = begin; i < end; ++i) {
       for (std::size_t a = 0; a < kArgs; ++a) row[a] = args[a]->Row(i, worker.scratch[a]);
-      for (std::size_t o = 0; o < out.size(); ++o) out[o] = outputs[o] + (rows < 0 ? 0 : i * sizes[o]);
+      for (std::size_t o = 0; o < kOuts; ++o) out[o] = outputs[o] + (rows < 0 ? 0 : i * sizes[o]);
       if (!kernel(worker, row, out)) return i;
     }
     return end;
   };
 
   if (rows < 0) {
-    std::vector<double*> out(shapes.size());
-    if (run(own_, 0, 1, out) != 1) throw std::runtime_error(std::string(what) + " not finite at this state");
+    if (run(own_, 0, 1) != 1) throw std::runtime_error(std::string(what) + " not finite at this state");
   } else {
     const py::ssize_t workers = std::min<py::ssize_t>(threads, std::max<py::ssize_t>(rows, 1));
     const py::ssize_t chunk = (rows + workers - 1) / workers;
@@ -264,9 +275,8 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args,
     auto work = [&](py::ssize_t w) {
       try {
         Worker worker(*dynamics_, *kinematics_);
-        std::vector<double*> out(shapes.size());
         const py::ssize_t begin = std::min(rows, w * chunk), end = std::min(rows, begin + chunk);
-        const py::ssize_t i = run(worker, begin, end, out);
+        const py::ssize_t i = run(worker, begin, end);
         if (i != end) bad[static_cast<std::size_t>(w)] = i;
       } catch (...) {
         errors[static_cast<std::size_t>(w)] = std::current_exception();
@@ -291,31 +301,41 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args,
   }
 
   auto result = [&](std::size_t o) -> py::object {
-    if (rows < 0 && shapes[o].empty()) return py::float_(numbers[o]);
+    if (rows < 0 && shapes[o].ndim == 0) return py::float_(numbers[o]);
     return std::move(arrays[o]);
   };
-  if (shapes.size() == 1) return result(0);
-  py::tuple tuple(shapes.size());
-  for (std::size_t o = 0; o < shapes.size(); ++o) tuple[o] = result(o);
-  return tuple;
+  if constexpr (kOuts == 1) {
+    return result(0);
+  } else {
+    py::tuple tuple(kOuts);
+    for (std::size_t o = 0; o < kOuts; ++o) tuple[o] = result(o);
+    return tuple;
+  }
 }
 
-// The C++ call alone, `iterations` times at one state: what a call from Python costs beyond it (bench).
+// The C++ call alone, `iterations` times: at one state, or cycling through the rows of a batch (the same states a
+// batched call of the same arguments evaluates). What a call from Python costs beyond it (bench/python_bench.py).
 double Model::TimeForwardDynamics(const py::handle& q_arg, const py::handle& qd_arg, const py::handle& tau_arg,
                                   long iterations) {
   const int n = num_dofs();
   const JointArray aq("q", q_arg, n), aqd("qd", qd_arg, n), atau("tau", tau_arg, n);
-  if (aq.batched() || aqd.batched() || atau.batched()) throw py::value_error("expected one state, not a batch");
+  const py::ssize_t rows = BatchRows({&aq, &aqd, &atau});
+  if (rows == 0) throw py::value_error("q: expected at least one state");
   if (iterations < 1) throw py::value_error("iterations: expected a positive number, got " + std::to_string(iterations));
   Worker worker(*dynamics_, *kinematics_);
+  const py::ssize_t states = std::max<py::ssize_t>(rows, 1);
   std::vector<double> scratch(static_cast<std::size_t>(n));
-  const VectorXd q = VecMap(aq.Row(0, scratch), n), qd = VecMap(aqd.Row(0, scratch), n),
-                 tau = VecMap(atau.Row(0, scratch), n);
+  MatrixXd q(n, states), qd(n, states), tau(n, states);
+  for (py::ssize_t i = 0; i < states; ++i) {
+    q.col(i) = VecMap(aq.Row(i, scratch), n);
+    qd.col(i) = VecMap(aqd.Row(i, scratch), n);
+    tau.col(i) = VecMap(atau.Row(i, scratch), n);
+  }
   VectorXd qdd(n);
   py::gil_scoped_release release;
   const auto start = std::chrono::steady_clock::now();
-  for (long i = 0; i < iterations; ++i) {
-    dynamics_->ComputeForwardDynamics(*worker.dynamics, q, qd, tau, DynamicsTerms{}, qdd);
+  for (long i = 0, k = 0; i < iterations; ++i, k = k + 1 == states ? 0 : k + 1) {
+    dynamics_->ComputeForwardDynamics(*worker.dynamics, q.col(k), qd.col(k), tau.col(k), DynamicsTerms{}, qdd);
     asm volatile("" : : "r"(qdd.data()) : "memory");  // the result is used: the call is not optimised away
   }
   const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
@@ -400,19 +420,16 @@ void BindModel(py::module_& m) {
                self.method() + ">";
       });
 
-  auto nn = [](const Model& self) { return std::vector<py::ssize_t>{self.num_dofs(), self.num_dofs()}; };
-  auto vn = [](const Model& self) { return std::vector<py::ssize_t>{self.num_dofs()}; };
   using Row1 = std::array<const double*, 1>;
   using Row2 = std::array<const double*, 2>;
   using Row3 = std::array<const double*, 3>;
-  using Out = std::vector<double*>;
 
   model.def(
       "mass_matrix",
-      [nn](Model& self, py::handle q, int threads) {
+      [](Model& self, py::handle q, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n);
-        return self.Evaluate<1>({&aq}, {nn(self)}, threads, "M is", [&](Worker& w, const Row1& r, const Out& out) {
+        return self.Evaluate<1, 1>({&aq}, {Matrix(n, n)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
           self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], n), w.matrix);
           CopyRowMajor(w.matrix, out[0]);
           return w.matrix.allFinite();
@@ -422,11 +439,11 @@ void BindModel(py::module_& m) {
       py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "coriolis_matrix",
-      [nn](Model& self, py::handle q, py::handle qd, int threads) {
+      [](Model& self, py::handle q, py::handle qd, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2>({&aq, &aqd}, {nn(self)}, threads, "C is",
-                                [&](Worker& w, const Row2& r, const Out& out) {
+        return self.Evaluate<2, 1>({&aq, &aqd}, {Matrix(n, n)}, threads, "C is",
+                                [&](Worker& w, const Row2& r, auto& out) {
                                   self.dynamics().ComputeCoriolisMatrix(*w.dynamics, VecMap(r[0], n),
                                                                         VecMap(r[1], n), w.matrix);
                                   CopyRowMajor(w.matrix, out[0]);
@@ -438,10 +455,10 @@ void BindModel(py::module_& m) {
       py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "gravity",
-      [vn](Model& self, py::handle q, int threads) {
+      [](Model& self, py::handle q, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n);
-        return self.Evaluate<1>({&aq}, {vn(self)}, threads, "G is", [&](Worker& w, const Row1& r, const Out& out) {
+        return self.Evaluate<1, 1>({&aq}, {Vector(n)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
           Eigen::Map<VectorXd> G(out[0], n);
           self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], n), G);
           return G.allFinite();
@@ -451,11 +468,11 @@ void BindModel(py::module_& m) {
       py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "forward_dynamics",
-      [vn](Model& self, py::handle q, py::handle qd, py::handle tau, int threads) {
+      [](Model& self, py::handle q, py::handle qd, py::handle tau, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n), aqd("qd", qd, n), atau("tau", tau, n);
-        return self.Evaluate<3>({&aq, &aqd, &atau}, {vn(self)}, threads, "qdd is",
-                                [&](Worker& w, const Row3& r, const Out& out) {
+        return self.Evaluate<3, 1>({&aq, &aqd, &atau}, {Vector(n)}, threads, "qdd is",
+                                [&](Worker& w, const Row3& r, auto& out) {
                                   Eigen::Map<VectorXd> qdd(out[0], n);
                                   self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], n),
                                                                          VecMap(r[1], n), VecMap(r[2], n),
@@ -467,11 +484,11 @@ void BindModel(py::module_& m) {
       py::arg("qd"), py::arg("tau"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "inverse_dynamics",
-      [vn](Model& self, py::handle q, py::handle qd, py::handle qdd, int threads) {
+      [](Model& self, py::handle q, py::handle qd, py::handle qdd, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n), aqd("qd", qd, n), aqdd("qdd", qdd, n);
-        return self.Evaluate<3>({&aq, &aqd, &aqdd}, {vn(self)}, threads, "tau is",
-                                [&](Worker& w, const Row3& r, const Out& out) {
+        return self.Evaluate<3, 1>({&aq, &aqd, &aqdd}, {Vector(n)}, threads, "tau is",
+                                [&](Worker& w, const Row3& r, auto& out) {
                                   Eigen::Map<VectorXd> tau(out[0], n);
                                   self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], n),
                                                                          VecMap(r[1], n), VecMap(r[2], n),
@@ -486,7 +503,7 @@ void BindModel(py::module_& m) {
       [](Model& self, py::handle q, py::handle qd, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2>({&aq, &aqd}, std::vector<std::vector<py::ssize_t>>{std::vector<py::ssize_t>{}}, threads, "T is", [&](Worker& w, const Row2& r, const Out& out) {
+        return self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
           *out[0] = self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n));
           return std::isfinite(*out[0]);
         });
@@ -498,7 +515,7 @@ void BindModel(py::module_& m) {
       [](Model& self, py::handle q, int threads) {
         const int n = self.num_dofs();
         const JointArray aq("q", q, n);
-        return self.Evaluate<1>({&aq}, std::vector<std::vector<py::ssize_t>>{std::vector<py::ssize_t>{}}, threads, "V is", [&](Worker& w, const Row1& r, const Out& out) {
+        return self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
           *out[0] = self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], n));
           return std::isfinite(*out[0]);
         });
@@ -514,8 +531,8 @@ void BindModel(py::module_& m) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
         const JointArray aq("q", q, n);
-        return self.Evaluate<1>({&aq}, {{3, 3}, {3}}, threads, "the frame is",
-                                [&](Worker& w, const Row1& r, const Out& out) {
+        return self.Evaluate<1, 2>({&aq}, {Matrix(3, 3), Vector(3)}, threads, "the frame is",
+                                [&](Worker& w, const Row1& r, auto& out) {
                                   self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], n), k);
                                   const Eigen::Matrix3d& R = w.kinematics->rotation(k);
                                   const Eigen::Vector3d& p = w.kinematics->position(k);
@@ -535,8 +552,8 @@ void BindModel(py::module_& m) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
         const JointArray aq("q", q, n);
-        return self.Evaluate<1>({&aq}, {{6, n}}, threads, "the frame is",
-                                [&](Worker& w, const Row1& r, const Out& out) {
+        return self.Evaluate<1, 1>({&aq}, {Matrix(6, n)}, threads, "the frame is",
+                                [&](Worker& w, const Row1& r, auto& out) {
                                   self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k,
                                                                          FrameAxes::kWorldAligned);
                                   const Matrix6Xd& J = w.kinematics->jacobian(k, FrameAxes::kWorldAligned);
@@ -555,8 +572,8 @@ void BindModel(py::module_& m) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
         const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2>({&aq, &aqd}, {{6}}, threads, "the frame is",
-                                [&](Worker& w, const Row2& r, const Out& out) {
+        return self.Evaluate<2, 1>({&aq, &aqd}, {Vector(6)}, threads, "the frame is",
+                                [&](Worker& w, const Row2& r, auto& out) {
                                   self.kinematics().ComputeFrameBiasAcceleration(
                                       *w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k, FrameAxes::kWorldAligned);
                                   const Vector6d& b = w.kinematics->bias_acceleration(k, FrameAxes::kWorldAligned);
@@ -571,7 +588,8 @@ void BindModel(py::module_& m) {
       py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
-            "Seconds per C++ forward-dynamics call at one state, `iterations` in a loop (bench/python_bench.py).",
+            "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "
+            "rows (bench/python_bench.py).",
             py::arg("q"), py::arg("qd"), py::arg("tau"), py::arg("iterations"));
 }
 

@@ -24,7 +24,9 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
   const auto shapes = [n] { return "(" + std::to_string(n) + ",) or (N, " + std::to_string(n) + ")"; };
   // np.asarray(None, float) is a 0-d nan: say what it was instead.
   if (value.is_none()) throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got None");
-  array_ = py::array_t<double, py::array::forcecast>::ensure(value);
+  // A float64 array is read where it is; anything else is converted (np.asarray(value, float64)).
+  using Array = py::array_t<double, py::array::forcecast>;
+  array_ = Array::check_(value) ? py::reinterpret_borrow<Array>(value) : Array::ensure(value);
   if (!array_) {
     PyErr_Clear();
     throw py::value_error(std::string(name) + ": expected numbers, an array of shape " + shapes() + ", got " +
@@ -91,6 +93,14 @@ py::ssize_t BatchRows(std::initializer_list<const JointArray*> args) {
   return first ? first->rows() : -1;
 }
 
-py::array_t<double> NewArray(const std::vector<py::ssize_t>& shape) { return py::array_t<double>(shape); }
+// numpy's constructor through pybind11's table of it: py::array_t(shape) would first copy the shape into a vector.
+py::array_t<double> NewArray(int ndim, const py::ssize_t* dims) {
+  const auto& api = py::detail::npy_api::get();
+  PyObject* descr = api.PyArray_DescrFromType_(py::detail::npy_api::NPY_DOUBLE_);
+  if (!descr) throw py::error_already_set();
+  PyObject* array = api.PyArray_NewFromDescr_(api.PyArray_Type_, descr, ndim, dims, nullptr, nullptr, 0, nullptr);
+  if (!array) throw py::error_already_set();
+  return py::reinterpret_steal<py::array_t<double>>(array);
+}
 
 }  // namespace lagrange::python

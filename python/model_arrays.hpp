@@ -48,8 +48,8 @@ class JointArray {
 // Throws value_error naming the argument whose row count differs.
 pybind11::ssize_t BatchRows(std::initializer_list<const JointArray*> args);
 
-// A new C-contiguous float64 array of `shape`, and its data.
-pybind11::array_t<double> NewArray(const std::vector<pybind11::ssize_t>& shape);
+// A new C-contiguous float64 array of shape dims[0 .. ndim).
+pybind11::array_t<double> NewArray(int ndim, const pybind11::ssize_t* dims);
 
 // Copies a column-major Eigen matrix (rows x cols) into row-major `out`, as numpy lays (rows, cols) out.
 template <class Matrix>
