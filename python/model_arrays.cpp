@@ -9,15 +9,19 @@ namespace py = pybind11;
 
 namespace {
 
-std::string Shape(const py::array& a) {
-  std::string text = "(";
-  for (py::ssize_t d = 0; d < a.ndim(); ++d) text += (d ? ", " : "") + std::to_string(a.shape(d));
-  return text + (a.ndim() == 1 ? ",)" : ")");
-}
-
 std::string Values(int n) { return std::to_string(n) + (n == 1 ? " value" : " values"); }
 
 }  // namespace
+
+// A float64 numpy array in this machine's byte order, read from numpy's own
+// struct (pybind11's mirror of it): the check py::array_t::check_ makes, without
+// building a dtype to compare with, which took about half of a one-state call.
+bool IsNativeFloat64(PyObject* object) {
+  const auto& api = py::detail::npy_api::get();
+  if (!api.PyArray_Check_(object)) return false;
+  const auto* descr = py::detail::array_descriptor_proxy(py::detail::array_proxy(object)->descr);
+  return descr->type_num == py::detail::npy_api::NPY_DOUBLE_ && descr->byteorder != '>';
+}
 
 JointArray::JointArray(const char* name, py::handle value, int n) : name_(name), n_(n) {
   // (messages only: nothing is formatted on the good path)
@@ -25,37 +29,52 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
   // np.asarray(None, float) is a 0-d nan: say what it was instead.
   if (value.is_none()) throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got None");
   // A float64 array is read where it is; anything else is converted (np.asarray(value, float64)).
-  using Array = py::array_t<double, py::array::forcecast>;
-  array_ = Array::check_(value) ? py::reinterpret_borrow<Array>(value) : Array::ensure(value);
-  if (!array_) {
-    PyErr_Clear();
-    throw py::value_error(std::string(name) + ": expected numbers, an array of shape " + shapes() + ", got " +
-                          std::string(py::str(py::type::handle_of(value).attr("__name__"))));
-  }
-  const py::ssize_t ndim = array_.ndim();
-  if (ndim == 0 && n == 1) {  // a pendulum's angle as a plain number
-    data_ = reinterpret_cast<const char*>(array_.data());
-  } else if (ndim == 1) {
-    if (array_.shape(0) != n) {
-      throw py::value_error(std::string(name) + ": expected " + Values(n) + " (one per joint), got " +
-                            std::to_string(array_.shape(0)));
-    }
-    data_ = reinterpret_cast<const char*>(array_.data());
-    col_stride_ = array_.strides(0);
-  } else if (ndim == 2) {
-    if (array_.shape(1) != n) {
-      throw py::value_error(std::string(name) + ": expected shape (N, " + std::to_string(n) + "), one row of " +
-                            Values(n) + " per state, got " + Shape(array_));
-    }
-    rows_ = array_.shape(0);
-    data_ = reinterpret_cast<const char*>(array_.data());
-    row_stride_ = array_.strides(0);
-    col_stride_ = array_.strides(1);
+  if (IsNativeFloat64(value.ptr())) {
+    array_ = py::reinterpret_borrow<py::object>(value);
   } else {
-    throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got shape " +
-                          Shape(array_));
+    array_ = py::array_t<double, py::array::forcecast>::ensure(value);
+    if (!array_) {
+      PyErr_Clear();
+      throw py::value_error(std::string(name) + ": expected numbers, an array of shape " + shapes() + ", got " +
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+    }
   }
+  const auto* a = py::detail::array_proxy(array_.ptr());
+  const auto shape = [a] {
+    std::string text = "(";
+    for (int d = 0; d < a->nd; ++d) text += (d ? ", " : "") + std::to_string(a->dimensions[d]);
+    return text + (a->nd == 1 ? ",)" : ")");
+  };
+  data_ = a->data;
+  if (a->nd == 0 && n == 1) {  // a pendulum's angle as a plain number
+  } else if (a->nd == 1) {
+    if (a->dimensions[0] != n) {
+      throw py::value_error(std::string(name) + ": expected " + Values(n) + " (one per joint), got " +
+                            std::to_string(a->dimensions[0]));
+    }
+    col_stride_ = a->strides[0];
+  } else if (a->nd == 2) {
+    if (a->dimensions[1] != n) {
+      throw py::value_error(std::string(name) + ": expected shape (N, " + std::to_string(n) + "), one row of " +
+                            Values(n) + " per state, got " + shape());
+    }
+    rows_ = a->dimensions[0];
+    row_stride_ = a->strides[0];
+    col_stride_ = a->strides[1];
+  } else {
+    throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got shape " + shape());
+  }
+  // Rows read in place: every row's values adjacent and aligned (numpy aligns the float64 data it allocates; a
+  // view into a byte buffer may not be, and a strided view's are apart): those are copied row by row instead.
+  const auto aligned = [](py::ssize_t bytes) { return bytes % static_cast<py::ssize_t>(alignof(double)) == 0; };
+  in_place_ = (col_stride_ == static_cast<py::ssize_t>(sizeof(double)) || n == 1) &&
+              aligned(reinterpret_cast<std::uintptr_t>(data_)) && aligned(row_stride_);
   const py::ssize_t rows = rows_ < 0 ? 1 : rows_;
+  // Finite: one vectorised pass over a contiguous block (the common case), else element by element.
+  if (in_place_ && row_stride_ == n * static_cast<py::ssize_t>(sizeof(double)) &&
+      Eigen::Map<const Eigen::ArrayXd>(reinterpret_cast<const double*>(data_), rows * n).allFinite()) {
+    return;
+  }
   for (py::ssize_t i = 0; i < rows; ++i) {
     for (int j = 0; j < n; ++j) {
       double x;
@@ -67,16 +86,6 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
                             (std::isnan(x) ? "nan" : x > 0 ? "inf" : "-inf") + " at " + name + where);
     }
   }
-}
-
-const double* JointArray::Row(py::ssize_t i, std::vector<double>& scratch) const {
-  const char* row = data_ + (rows_ < 0 ? 0 : i * row_stride_);
-  if (col_stride_ == static_cast<py::ssize_t>(sizeof(double)) || n_ == 1) {
-    // numpy aligns float64 data it allocates; a view into a byte buffer may not be, so copy those.
-    if (reinterpret_cast<std::uintptr_t>(row) % alignof(double) == 0) return reinterpret_cast<const double*>(row);
-  }
-  for (int j = 0; j < n_; ++j) std::memcpy(&scratch[static_cast<std::size_t>(j)], row + j * col_stride_, sizeof(double));
-  return scratch.data();
 }
 
 py::ssize_t BatchRows(std::initializer_list<const JointArray*> args) {

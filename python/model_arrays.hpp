@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstring>
 #include <initializer_list>
 #include <string>
 #include <vector>
@@ -32,15 +33,21 @@ class JointArray {
   // Row i's values: contiguous in the caller's array (no copy), or copied into
   // `scratch` (n) when the array is strided along the joints. A single state's
   // row is the same for every i (it is broadcast against a batch).
-  const double* Row(pybind11::ssize_t i, std::vector<double>& scratch) const;
+  const double* Row(pybind11::ssize_t i, std::vector<double>& scratch) const {
+    const char* row = data_ + (rows_ < 0 ? 0 : i * row_stride_);
+    if (in_place_) return reinterpret_cast<const double*>(row);
+    for (int j = 0; j < n_; ++j) std::memcpy(&scratch[static_cast<std::size_t>(j)], row + j * col_stride_, sizeof(double));
+    return scratch.data();
+  }
 
  private:
   const char* name_;
-  pybind11::array_t<double, pybind11::array::forcecast> array_;
+  pybind11::object array_;  // a float64 numpy array: the caller's, or its conversion
   int n_;
   pybind11::ssize_t rows_ = -1;
   const char* data_ = nullptr;
   pybind11::ssize_t row_stride_ = 0, col_stride_ = 0;  // bytes
+  bool in_place_ = false;                              // Row reads the caller's array (no copy)
 };
 
 // The batch size of a call: -1 when every argument is a single state, else the
