@@ -157,7 +157,10 @@ std::unique_ptr<Model> Model::FromUrdf(const py::object& path, const py::object&
     throw py::value_error("gravity: expected (gx, gy, gz) (3 numbers, m/s²), got " + std::to_string(g.size()));
   }
   std::string text;
-  for (double x : g) text += (text.empty() ? "" : ",") + FormatDouble(x);
+  for (double x : g) {
+    if (!text.empty()) text += ',';
+    text += FormatDouble(x);
+  }
   if (auto e = SetPlantParam(spec, "gravity", text)) throw py::value_error("gravity: " + e->message);
   if (auto e = SetPlantParam(spec, "mass_scale", FormatDouble(mass_scale))) {
     throw py::value_error("mass_scale: " + e->message);

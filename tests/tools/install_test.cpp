@@ -45,7 +45,8 @@ int main() {
 // Runs a shell command line; its output on failure.
 testing::ProcessResult Shell(const std::string& command) { return RunProcess({"/bin/sh", "-c", command}, 120.0); }
 
-std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
+// Appended, not "'" + string: g++ 12 warns of an overlap (-Wrestrict) that operator+ cannot have.
+std::string Quote(const fs::path& p) { return std::string("'").append(p.string()).append("'"); }
 
 class Install : public ::testing::Test {
  protected:
@@ -212,12 +213,10 @@ TEST_F(Install, ThePythonPackageIsInstalledWhereTheInterpreterLooksUnderThePrefi
   if (fs::exists("/etc/debian_version")) {
     EXPECT_NE(std::find(entries.begin(), entries.end(), (fs::path("/usr/local") / dir).string()), entries.end()) << path.out;
   }
-  // Appended, not "text" + string: g++ 12 sees a false -Wrestrict overlap in that operator+ here.
-  std::string command = "cd / && PYTHONPATH=";
-  command.append(Quote(prefix_ / dir)).append(" ").append(python).append(" -c \"import lagrange; ");
-  command.append("m = lagrange.Model.from_urdf('").append((prefix_ / "share/lagrange/config/robots/panda.urdf").string());
-  command.append("'); print(m.num_dofs); print(lagrange.__file__)\"");
-  const auto run = Shell(command);
+  const std::string code = "import lagrange; m = lagrange.Model.from_urdf('" +
+                           (prefix_ / "share/lagrange/config/robots/panda.urdf").string() +
+                           "'); print(m.num_dofs); print(lagrange.__file__)";
+  const auto run = Shell("cd / && PYTHONPATH=" + Quote(prefix_ / dir) + " " + python + " -c \"" + code + "\"");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const std::vector<std::string> lines = testing::Lines(run.out);
   ASSERT_EQ(lines.size(), 2u) << run.out;
