@@ -127,7 +127,8 @@ Method ChooseMethod(PlantType type, const py::object& method) {
   if (method.is_none()) return FastestMethod(type);
   const std::string name = py::str(method);
   const std::optional<Method> m = ParseMethod(name);
-  if (!m) throw py::value_error("method: expected closed-form, lagrangian or recursive, got '" + Escape(name, 64) + "'");
+  if (!m)
+    throw py::value_error("method: expected closed-form, lagrangian or recursive, got '" + Escape(name, 64) + "'");
   if (!HasMethod(type, *m)) {
     const std::string what = type == PlantType::kUrdf ? "a urdf robot" : std::string(ToString(type));
     throw py::value_error("method: " + what + " has no " + name + " path (use lagrangian or recursive)");
@@ -250,7 +251,8 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
     std::array<py::ssize_t, 3> dims{};
     int ndim = 0;
     if (rows >= 0) dims[static_cast<std::size_t>(ndim++)] = rows;
-    for (int d = 0; d < shape.ndim; ++d) dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
+    for (int d = 0; d < shape.ndim; ++d)
+      dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
     py::array_t<double> array = NewArray(ndim, dims.data());
     outputs[o] = array.mutable_data();
     arrays[o] = std::move(array);
@@ -324,7 +326,8 @@ double Model::TimeForwardDynamics(const py::handle& q_arg, const py::handle& qd_
   const JointArray aq("q", q_arg, n), aqd("qd", qd_arg, n), atau("tau", tau_arg, n);
   const py::ssize_t rows = BatchRows({&aq, &aqd, &atau});
   if (rows == 0) throw py::value_error("q: expected at least one state");
-  if (iterations < 1) throw py::value_error("iterations: expected a positive number, got " + std::to_string(iterations));
+  if (iterations < 1)
+    throw py::value_error("iterations: expected a positive number, got " + std::to_string(iterations));
   Worker worker(*dynamics_, *kinematics_);
   const py::ssize_t states = std::max<py::ssize_t>(rows, 1);
   std::vector<double> scratch(static_cast<std::size_t>(n));
@@ -396,7 +399,82 @@ params:  SI units, defaults as the README's conventions
 Raises ValueError naming the parameter: "m1: expected a positive number (kg), got -1".
 )";
 
-constexpr const char* kBatchNote = "\nq and the other per-joint arguments: (n,) or (N, n); threads: worker threads for a batch.";
+constexpr const char* kMassMatrixDoc = R"(q => M(q), the mass matrix: symmetric positive definite, M = ∂²T/∂qd².
+
+q        (n,) | (N, n)     rad (revolute), m (prismatic)
+returns  (n, n) | (N, n, n)  kg·m² (revolute rows and columns), kg (prismatic))";
+
+constexpr const char* kCoriolisMatrixDoc =
+    R"((q, qd) => C(q, qd), the Christoffel factorisation: C qd is the Coriolis and centrifugal force, Ṁ − 2C is skew.
+
+q        (n,) | (N, n)     rad or m
+qd       (n,) | (N, n)     rad/s or m/s
+returns  (n, n) | (N, n, n)  C qd in N·m or N)";
+
+constexpr const char* kGravityDoc = R"(q => G(q) = ∂V/∂q, the generalized gravity force (tau = G holds the plant still).
+
+q        (n,) | (N, n)  rad or m
+returns  (n,) | (N, n)  N·m or N)";
+
+constexpr const char* kForwardDynamicsDoc = R"((q, qd, tau) => qdd = M⁻¹ (tau − C qd − G).
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+tau      (n,) | (N, n)  N·m or N
+returns  (n,) | (N, n)  qdd, rad/s² or m/s²)";
+
+constexpr const char* kInverseDynamicsDoc = R"((q, qd, qdd) => tau = M qdd + C qd + G.
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+qdd      (n,) | (N, n)  rad/s² or m/s²
+returns  (n,) | (N, n)  tau, N·m or N)";
+
+constexpr const char* kKineticEnergyDoc = R"((q, qd) => T = ½ qdᵀ M(q) qd.
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+returns  float | (N,)   J)";
+
+constexpr const char* kPotentialEnergyDoc =
+    R"(q => V(q): zero at the base's height (planar plants: V = Σ m g y_com), or with
+every centre of mass at the world origin (URDF: V = −Σ m gᵀ p_com).
+
+q        (n,) | (N, n)  rad or m
+returns  float | (N,)   J)";
+
+constexpr const char* kFramePoseDoc =
+    R"((frame, q) => (R, p): the frame's axes and origin in the world (root link) frame.
+
+frame    one of frame_names
+q        (n,) | (N, n)            rad or m
+returns  R (3, 3) | (N, 3, 3)     its x, y, z axes as columns, world coordinates
+         p (3,) | (N, 3)          its origin, m)";
+
+constexpr const char* kFrameJacobianDoc =
+    R"((frame, q) => J, world-aligned (as lagrangectl eval --frame; Pinocchio's LOCAL_WORLD_ALIGNED):
+(ṗ, ω) = J qd, ṗ the velocity of the frame's origin, ω its angular velocity, both in world axes.
+
+frame    one of frame_names
+q        (n,) | (N, n)        rad or m
+returns  (6, n) | (N, 6, n)   rows 0..2 linear (m/s), rows 3..5 angular (rad/s) per unit joint velocity)";
+
+constexpr const char* kFrameBiasAccelerationDoc =
+    R"((frame, q, qd) => J̇ qd, world-aligned (eval --frame's jdot_qdot): the frame origin's
+acceleration and its angular acceleration at qdd = 0, so (p̈, ω̇) = J qdd + J̇ qd.
+
+frame    one of frame_names
+q        (n,) | (N, n)   rad or m
+qd       (n,) | (N, n)   rad/s or m/s
+returns  (6,) | (N, 6)   m/s², then rad/s²)";
+
+// Every per-joint call's last paragraph.
+constexpr const char* kBatchNote = R"(
+
+A batch (N, n) of any argument gives results with a leading axis N (a single
+state is used for every row); it runs without the GIL over `threads` threads,
+each with its own data. ValueError for a wrong shape or a non-finite input,
+RuntimeError when a result is not finite (naming the state).)";
 
 std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
 
@@ -429,166 +507,149 @@ void BindModel(py::module_& m) {
 
   model.def(
       "mass_matrix",
-      [](Model& self, py::handle q, int threads) {
+      [](Model& self, ArrayArg q, int threads) {
         const int n = self.num_dofs();
-        const JointArray aq("q", q, n);
-        return self.Evaluate<1, 1>({&aq}, {Matrix(n, n)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
-          self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], n), w.matrix);
-          CopyRowMajor(w.matrix, out[0]);
-          return w.matrix.allFinite();
-        });
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{
+            self.Evaluate<1, 1>({&aq}, {Matrix(n, n)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
+              self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], n), w.matrix);
+              CopyRowMajor(w.matrix, out[0]);
+              return w.matrix.allFinite();
+            })};
       },
-      Doc("q => M(q) (n, n), kg·m² (kg for prismatic joints): symmetric positive definite; batch (N, n, n).").c_str(),
-      py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "coriolis_matrix",
-      [](Model& self, py::handle q, py::handle qd, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
         const int n = self.num_dofs();
-        const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2, 1>({&aq, &aqd}, {Matrix(n, n)}, threads, "C is",
-                                [&](Worker& w, const Row2& r, auto& out) {
-                                  self.dynamics().ComputeCoriolisMatrix(*w.dynamics, VecMap(r[0], n),
-                                                                        VecMap(r[1], n), w.matrix);
-                                  CopyRowMajor(w.matrix, out[0]);
-                                  return w.matrix.allFinite();
-                                });
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return ArrayResult{
+            self.Evaluate<2, 1>({&aq, &aqd}, {Matrix(n, n)}, threads, "C is", [&](Worker& w, const Row2& r, auto& out) {
+              self.dynamics().ComputeCoriolisMatrix(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), w.matrix);
+              CopyRowMajor(w.matrix, out[0]);
+              return w.matrix.allFinite();
+            })};
       },
-      Doc("(q, qd) => C(q, qd) (n, n), the Christoffel factorisation (Ṁ − 2C skew); C qd in N·m; batch (N, n, n).")
-          .c_str(),
-      py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "gravity",
-      [](Model& self, py::handle q, int threads) {
+      [](Model& self, ArrayArg q, int threads) {
         const int n = self.num_dofs();
-        const JointArray aq("q", q, n);
-        return self.Evaluate<1, 1>({&aq}, {Vector(n)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
-          Eigen::Map<VectorXd> G(out[0], n);
-          self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], n), G);
-          return G.allFinite();
-        });
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{
+            self.Evaluate<1, 1>({&aq}, {Vector(n)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
+              Eigen::Map<VectorXd> G(out[0], n);
+              self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], n), G);
+              return G.allFinite();
+            })};
       },
-      Doc("q => G(q) = ∂V/∂q (n,), N·m or N: the generalized force gravity asks of the joints; batch (N, n).").c_str(),
-      py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "forward_dynamics",
-      [](Model& self, py::handle q, py::handle qd, py::handle tau, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
         const int n = self.num_dofs();
-        const JointArray aq("q", q, n), aqd("qd", qd, n), atau("tau", tau, n);
-        return self.Evaluate<3, 1>({&aq, &aqd, &atau}, {Vector(n)}, threads, "qdd is",
-                                [&](Worker& w, const Row3& r, auto& out) {
-                                  Eigen::Map<VectorXd> qdd(out[0], n);
-                                  self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], n),
-                                                                         VecMap(r[1], n), VecMap(r[2], n),
-                                                                         DynamicsTerms{}, qdd);
-                                  return qdd.allFinite();
-                                });
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), atau("tau", tau.value, n);
+        return ArrayResult{self.Evaluate<3, 1>(
+            {&aq, &aqd, &atau}, {Vector(n)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> qdd(out[0], n);
+              self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
+                                                     DynamicsTerms{}, qdd);
+              return qdd.allFinite();
+            })};
       },
-      Doc("(q, qd, tau) => qdd = M⁻¹ (tau − C qd − G) (n,), rad/s² or m/s²; batch (N, n).").c_str(), py::arg("q"),
-      py::arg("qd"), py::arg("tau"), py::kw_only(), py::arg("threads") = 1);
-  model.def(
-      "inverse_dynamics",
-      [](Model& self, py::handle q, py::handle qd, py::handle qdd, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q, n), aqd("qd", qd, n), aqdd("qdd", qdd, n);
-        return self.Evaluate<3, 1>({&aq, &aqd, &aqdd}, {Vector(n)}, threads, "tau is",
-                                [&](Worker& w, const Row3& r, auto& out) {
-                                  Eigen::Map<VectorXd> tau(out[0], n);
-                                  self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], n),
-                                                                         VecMap(r[1], n), VecMap(r[2], n),
-                                                                         DynamicsTerms{}, tau);
-                                  return tau.allFinite();
-                                });
-      },
-      Doc("(q, qd, qdd) => tau = M qdd + C qd + G (n,), N·m or N; batch (N, n).").c_str(), py::arg("q"),
-      py::arg("qd"), py::arg("qdd"), py::kw_only(), py::arg("threads") = 1);
-  model.def(
-      "kinetic_energy",
-      [](Model& self, py::handle q, py::handle qd, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
-          *out[0] = self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n));
-          return std::isfinite(*out[0]);
-        });
-      },
-      Doc("(q, qd) => T = ½ qdᵀ M qd, J: a float; batch (N,).").c_str(), py::arg("q"), py::arg("qd"), py::kw_only(),
+      Doc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
       py::arg("threads") = 1);
   model.def(
-      "potential_energy",
-      [](Model& self, py::handle q, int threads) {
+      "inverse_dynamics",
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads) {
         const int n = self.num_dofs();
-        const JointArray aq("q", q, n);
-        return self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
-          *out[0] = self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], n));
-          return std::isfinite(*out[0]);
-        });
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), aqdd("qdd", qdd.value, n);
+        return ArrayResult{self.Evaluate<3, 1>(
+            {&aq, &aqd, &aqdd}, {Vector(n)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> tau(out[0], n);
+              self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
+                                                     DynamicsTerms{}, tau);
+              return tau.allFinite();
+            })};
       },
-      Doc("q => V, J: a float, zero at the base's height (planar plants) or with every centre of mass at the world "
-          "origin (URDF); batch (N,).")
-          .c_str(),
-      py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
+      py::arg("threads") = 1);
+  model.def(
+      "kinetic_energy",
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return NumberResult{
+            self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
+              *out[0] = self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n));
+              return std::isfinite(*out[0]);
+            })};
+      },
+      Doc(kKineticEnergyDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "potential_energy",
+      [](Model& self, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n);
+        return NumberResult{
+            self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
+              *out[0] = self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], n));
+              return std::isfinite(*out[0]);
+            })};
+      },
+      Doc(kPotentialEnergyDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
 
   model.def(
       "frame_pose",
-      [](Model& self, const std::string& frame, py::handle q, int threads) {
+      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
-        const JointArray aq("q", q, n);
-        return self.Evaluate<1, 2>({&aq}, {Matrix(3, 3), Vector(3)}, threads, "the frame is",
-                                [&](Worker& w, const Row1& r, auto& out) {
-                                  self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], n), k);
-                                  const Eigen::Matrix3d& R = w.kinematics->rotation(k);
-                                  const Eigen::Vector3d& p = w.kinematics->position(k);
-                                  CopyRowMajor(R, out[0]);
-                                  Eigen::Map<Eigen::Vector3d> p_out(out[1]);
-                                  p_out = p;
-                                  return R.allFinite() && p.allFinite();
-                                });
+        const JointArray aq("q", q.value, n);
+        return PoseResult{self.Evaluate<1, 2>(
+            {&aq}, {Matrix(3, 3), Vector(3)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
+              self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], n), k);
+              const Eigen::Matrix3d& R = w.kinematics->rotation(k);
+              const Eigen::Vector3d& p = w.kinematics->position(k);
+              CopyRowMajor(R, out[0]);
+              Eigen::Map<Eigen::Vector3d> p_out(out[1]);
+              p_out = p;
+              return R.allFinite() && p.allFinite();
+            })};
       },
-      Doc("(frame, q) => (R, p): the frame's axes R (3, 3) (its x, y, z as columns, world coordinates) and origin p "
-          "(3,), m, in the world (root link) frame; batch (N, 3, 3), (N, 3). frame: one of frame_names.")
-          .c_str(),
-      py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_jacobian",
-      [](Model& self, const std::string& frame, py::handle q, int threads) {
+      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
-        const JointArray aq("q", q, n);
-        return self.Evaluate<1, 1>({&aq}, {Matrix(6, n)}, threads, "the frame is",
-                                [&](Worker& w, const Row1& r, auto& out) {
-                                  self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k,
-                                                                         FrameAxes::kWorldAligned);
-                                  const Matrix6Xd& J = w.kinematics->jacobian(k, FrameAxes::kWorldAligned);
-                                  CopyRowMajor(J, out[0]);
-                                  return J.allFinite();
-                                });
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{self.Evaluate<1, 1>(
+            {&aq}, {Matrix(6, n)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
+              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k, FrameAxes::kWorldAligned);
+              const Matrix6Xd& J = w.kinematics->jacobian(k, FrameAxes::kWorldAligned);
+              CopyRowMajor(J, out[0]);
+              return J.allFinite();
+            })};
       },
-      Doc("(frame, q) => J (6, n), world-aligned (as lagrangectl eval --frame): (ṗ, ω) = J qd, rows 0..2 the linear "
-          "velocity of the frame's origin (m/s), rows 3..5 its angular velocity (rad/s), per unit joint velocity; "
-          "batch (N, 6, n).")
-          .c_str(),
-      py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_bias_acceleration",
-      [](Model& self, const std::string& frame, py::handle q, py::handle qd, int threads) {
+      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, int threads) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
-        const JointArray aq("q", q, n), aqd("qd", qd, n);
-        return self.Evaluate<2, 1>({&aq, &aqd}, {Vector(6)}, threads, "the frame is",
-                                [&](Worker& w, const Row2& r, auto& out) {
-                                  self.kinematics().ComputeFrameBiasAcceleration(
-                                      *w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k, FrameAxes::kWorldAligned);
-                                  const Vector6d& b = w.kinematics->bias_acceleration(k, FrameAxes::kWorldAligned);
-                                  Eigen::Map<Vector6d> b_out(out[0]);
-                                  b_out = b;
-                                  return b.allFinite();
-                                });
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return ArrayResult{self.Evaluate<2, 1>(
+            {&aq, &aqd}, {Vector(6)}, threads, "the frame is", [&](Worker& w, const Row2& r, auto& out) {
+              self.kinematics().ComputeFrameBiasAcceleration(*w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k,
+                                                             FrameAxes::kWorldAligned);
+              const Vector6d& b = w.kinematics->bias_acceleration(k, FrameAxes::kWorldAligned);
+              Eigen::Map<Vector6d> b_out(out[0]);
+              b_out = b;
+              return b.allFinite();
+            })};
       },
-      Doc("(frame, q, qd) => J̇ qd (6,), world-aligned (eval --frame's jdot_qdot): the frame origin's acceleration "
-          "(m/s²) and angular acceleration (rad/s²) at qdd = 0; batch (N, 6).")
-          .c_str(),
-      py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
+      py::arg("threads") = 1);
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
             "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "

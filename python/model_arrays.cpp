@@ -27,7 +27,8 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
   // (messages only: nothing is formatted on the good path)
   const auto shapes = [n] { return "(" + std::to_string(n) + ",) or (N, " + std::to_string(n) + ")"; };
   // np.asarray(None, float) is a 0-d nan: say what it was instead.
-  if (value.is_none()) throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got None");
+  if (value.is_none())
+    throw py::value_error(std::string(name) + ": expected an array of shape " + shapes() + ", got None");
   // A float64 array is read where it is; anything else is converted (np.asarray(value, float64)).
   if (IsNativeFloat64(value.ptr())) {
     array_ = py::reinterpret_borrow<py::object>(value);
@@ -80,10 +81,13 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
       double x;
       std::memcpy(&x, data_ + i * row_stride_ + j * col_stride_, sizeof x);
       if (std::isfinite(x)) continue;
-      const std::string where = rows_ < 0 ? "[" + std::to_string(j) + "]"
-                                          : "[" + std::to_string(i) + ", " + std::to_string(j) + "]";
+      const std::string where =
+          rows_ < 0 ? "[" + std::to_string(j) + "]" : "[" + std::to_string(i) + ", " + std::to_string(j) + "]";
       throw py::value_error(std::string(name) + ": expected finite numbers, got " +
-                            (std::isnan(x) ? "nan" : x > 0 ? "inf" : "-inf") + " at " + name + where);
+                            (std::isnan(x) ? "nan"
+                             : x > 0       ? "inf"
+                                           : "-inf") +
+                            " at " + name + where);
     }
   }
 }

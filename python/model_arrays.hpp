@@ -36,7 +36,8 @@ class JointArray {
   const double* Row(pybind11::ssize_t i, std::vector<double>& scratch) const {
     const char* row = data_ + (rows_ < 0 ? 0 : i * row_stride_);
     if (in_place_) return reinterpret_cast<const double*>(row);
-    for (int j = 0; j < n_; ++j) std::memcpy(&scratch[static_cast<std::size_t>(j)], row + j * col_stride_, sizeof(double));
+    for (int j = 0; j < n_; ++j)
+      std::memcpy(&scratch[static_cast<std::size_t>(j)], row + j * col_stride_, sizeof(double));
     return scratch.data();
   }
 
@@ -64,4 +65,59 @@ void CopyRowMajor(const Matrix& m, double* out) {
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(out, m.rows(), m.cols()) = m;
 }
 
+// What help() and the signatures say of an argument or a result (numpy.typing
+// names, as the stubs): each carries the Python object itself.
+struct ArrayArg {
+  pybind11::handle value;
+};
+struct ArrayResult {  // numpy.ndarray
+  pybind11::object value;
+};
+struct NumberResult {  // a float for one state, an array for a batch
+  pybind11::object value;
+};
+struct PoseResult {  // (R, p)
+  pybind11::object value;
+};
+
 }  // namespace lagrange::python
+
+namespace pybind11::detail {
+
+template <>
+struct type_caster<lagrange::python::ArrayArg> {
+  PYBIND11_TYPE_CASTER(lagrange::python::ArrayArg, const_name("numpy.typing.ArrayLike"));
+  bool load(handle src, bool) {
+    value.value = src;
+    return true;
+  }
+  static handle cast(const lagrange::python::ArrayArg& a, return_value_policy, handle) { return a.value.inc_ref(); }
+};
+
+// A result named `kName` in signatures, returned as the object it holds.
+template <class Result>
+struct named_result_caster {
+  bool load(handle, bool) { return false; }
+  static handle cast(Result result, return_value_policy, handle) { return result.value.release(); }
+};
+template <>
+struct type_caster<lagrange::python::ArrayResult> : named_result_caster<lagrange::python::ArrayResult> {
+  PYBIND11_TYPE_CASTER(lagrange::python::ArrayResult, const_name("numpy.ndarray[numpy.float64]"));
+  using named_result_caster<lagrange::python::ArrayResult>::cast;
+  using named_result_caster<lagrange::python::ArrayResult>::load;
+};
+template <>
+struct type_caster<lagrange::python::NumberResult> : named_result_caster<lagrange::python::NumberResult> {
+  PYBIND11_TYPE_CASTER(lagrange::python::NumberResult, const_name("float | numpy.ndarray[numpy.float64]"));
+  using named_result_caster<lagrange::python::NumberResult>::cast;
+  using named_result_caster<lagrange::python::NumberResult>::load;
+};
+template <>
+struct type_caster<lagrange::python::PoseResult> : named_result_caster<lagrange::python::PoseResult> {
+  PYBIND11_TYPE_CASTER(lagrange::python::PoseResult,
+                       const_name("tuple[numpy.ndarray[numpy.float64], numpy.ndarray[numpy.float64]]"));
+  using named_result_caster<lagrange::python::PoseResult>::cast;
+  using named_result_caster<lagrange::python::PoseResult>::load;
+};
+
+}  // namespace pybind11::detail
