@@ -16,6 +16,7 @@ SOURCE = os.environ["LAGRANGE_SOURCE_DIR"]
 LAGRANGECTL = os.environ["LAGRANGECTL"]
 PANDA = os.path.join(SOURCE, "config/robots/panda.urdf")
 UR5 = os.path.join(SOURCE, "config/robots/ur5.urdf")
+PANDA_HAND = os.path.join(SOURCE, "config/robots/panda_hand.urdf")  # a mimic finger: 8 dofs, 9 moving joints
 BRANCHING = os.path.join(SOURCE, "tests/fixtures/urdf/branching.urdf")
 
 # (name, how Model is built, eval's arguments for the same plant)
@@ -33,12 +34,14 @@ PLANTS = [
      ["--urdf", PANDA]),
     ("ur5", lambda m: lagrange.Model.from_urdf(UR5, gravity=(0.5, -1.0, -9.7), method=m),
      ["--urdf", UR5, "--gravity", "0.5,-1,-9.7"]),
+    ("panda_hand", lambda m: lagrange.Model.from_urdf(PANDA_HAND, method=m),
+     ["--urdf", PANDA_HAND]),
     ("branching", lambda m: lagrange.Model.from_urdf(BRANCHING, method=m, mass_scale=1.25),
      ["--urdf", BRANCHING, "--param", "mass_scale=1.25"]),
 ]
 METHODS = {"pendulum": ["closed-form", "lagrangian", "recursive"], "arm2": ["closed-form", "lagrangian", "recursive"],
            "cartpole": ["closed-form", "lagrangian", "recursive"], "chain": ["lagrangian", "recursive"],
-           "panda": ["recursive", "lagrangian"], "ur5": ["recursive"], "branching": ["recursive", "lagrangian"]}
+           "panda": ["recursive", "lagrangian"], "ur5": ["recursive"], "panda_hand": ["recursive", "lagrangian"], "branching": ["recursive", "lagrangian"]}
 CASES = [(name, build, args, method) for name, build, args in PLANTS for method in METHODS[name]]
 
 
