@@ -88,6 +88,29 @@ def test_every_function_gives_lagrangectl_evals_doubles_bit_for_bit(name, build,
     assert exactly(model.frame_bias_acceleration(frame, q, qd), f["jdot_qdot"])
 
 
+REFERENCE_CASES = [(kind, what, method) for kind, what, methods in [
+    ("--plant", "pendulum", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "arm2", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "cartpole", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "chain", ["lagrangian", "recursive"]),
+    ("--urdf", PANDA, ["recursive", "lagrangian"]),
+    ("--urdf", PANDA_HAND, ["recursive"]),
+] for method in methods]
+
+
+@pytest.mark.parametrize("kind,what,method", REFERENCE_CASES,
+                         ids=["%s-%s" % (os.path.basename(c[1]), c[2]) for c in REFERENCE_CASES])
+def test_inverse_dynamics_gives_the_librarys_doubles_bit_for_bit(kind, what, method):
+    # eval prints no inverse dynamics: tests/python/model_reference.cpp calls the library directly.
+    model = (lagrange.Model.from_urdf(what, method=method) if kind == "--urdf"
+             else lagrange.Model.builtin(what, method=method))
+    rng = np.random.default_rng(13)
+    q, qd, qdd = (rng.uniform(-2, 2, (3, model.num_dofs)))
+    r = subprocess.run([os.environ["LAGRANGE_MODEL_REFERENCE"], kind, what, method, numbers(q), numbers(qd),
+                        numbers(qdd)], capture_output=True, text=True, check=True)
+    assert exactly(model.inverse_dynamics(q, qd, qdd), [float(x) for x in r.stdout.split()])
+
+
 def test_inverse_dynamics_of_the_forward_dynamics_gives_back_the_torque():
     model = lagrange.Model.from_urdf(PANDA)
     rng = np.random.default_rng(7)
