@@ -32,6 +32,7 @@ from reporting.kinematics import kinematics_subsection, kinematics_targets
 from reporting.live import live_data, live_section
 from reporting.loop import delivery_section, loop_data, loop_section, tick_target
 from reporting.python_calls import python_target_rows
+from reporting.python_loop import python_loop_section
 from reporting.precision import long_horizon_section, work_precision, work_precision_section
 from reporting.targets import targets
 
@@ -107,6 +108,8 @@ def main(out):
         md.append(live_section(out, live_data(out)))
     if flood:
         md.append(flood_section(flood))
+    if (out / "python_loop.csv").exists():
+        md.append(python_loop_section(out))
     machine = (out / "machine.txt").read_text() if (out / "machine.txt").exists() else ""
     md += ["## Machine\n", "```\n" + machine.strip() + "\n```\n"]
     (out / "report.md").write_text("\n".join(md))

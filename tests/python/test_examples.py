@@ -44,7 +44,6 @@ def test_the_python_external_controller_holds_the_arm_at_its_target():
     assert len(r["latency_us"]) == r["torques"]
 
 
-@pytest.mark.skipif(not hasattr(lagrange, "Model"), reason="lagrange.Model is not in this build (branch py-model)")
 def test_payload_identification_finds_the_payload_from_a_logged_run(tmp_path):
     ident = example("payload_identification")
     scene = os.path.join(SOURCE, "examples", "python", "arm_payload.yaml")
