@@ -190,6 +190,7 @@ class Client {
   }
   void StopQueue(const std::string& name) {
     if (Link* link = Find(name)) {
+      py::gil_scoped_release release;
       std::lock_guard lock(link->mutex);
       link->queueing = false;
       link->queue.clear();
@@ -198,12 +199,13 @@ class Client {
   std::int64_t states_dropped(const std::string& name) {
     Link* link = Find(name);
     if (link == nullptr) return 0;
+    py::gil_scoped_release release;
     std::lock_guard lock(link->mutex);
     return link->dropped;
   }
 
   bool SendSetpoint(const std::string& name, const py::object& q, const py::object& qd, const py::object& qdd) {
-    const int n = LatestState(name).num_dofs;
+    const int n = NumDofs(name);
     setpoint_t msg;
     msg.num_dofs = n;
     const VectorXd vq = JointVector(q, n, "q");
@@ -215,6 +217,11 @@ class Client {
     py::gil_scoped_release release;
     Link& link = *Find(name);
     std::lock_guard lock(link.mutex);
+    try {
+      link.link->RequireOneRun("refusing to act");
+    } catch (...) {
+      Rethrow();
+    }
     msg.utime = MonotonicClock().WallMicros();
     return link.link->bus().PublishMessage(options_.Channel(name, kSetpointSuffix), msg);
   }
@@ -223,7 +230,7 @@ class Client {
   // state_tick the latest state's (or the one given).
   bool SendTorque(const std::string& name, const py::object& tau, const std::optional<std::int64_t>& state_tick,
                   const std::optional<std::string>& channel) {
-    const int n = LatestState(name).num_dofs;
+    const int n = NumDofs(name);
     const VectorXd v = JointVector(tau, n, "tau");
     if (channel) {
       if (const std::string why = CheckChannelName(*channel); !why.empty()) throw py::value_error("channel: " + why);
@@ -231,6 +238,11 @@ class Client {
     py::gil_scoped_release release;
     Link& link = *Find(name);
     std::lock_guard lock(link.mutex);
+    try {
+      link.link->RequireOneRun("refusing to act");
+    } catch (...) {
+      Rethrow();
+    }
     torque_t& msg = link.torque;
     if (msg.run_id == 0) msg.run_id = NewRunId();
     ++msg.sequence;  // grows even when a publish fails: lagranged sees a gap, not a repeat
@@ -355,6 +367,16 @@ class Client {
     } catch (...) {
       Rethrow();
     }
+  }
+
+  // The instance's joint count: its link's (a run's num_dofs does not change), opened on first use.
+  int NumDofs(const std::string& name) {
+    if (Link* link = Find(name)) {
+      py::gil_scoped_release release;  // a states() iterator may hold the link while it waits
+      std::lock_guard lock(link->mutex);
+      return link->link->state().num_dofs;
+    }
+    return LatestState(name).num_dofs;
   }
 
   Verdict Estop(const std::string& name, command_t& c) {
