@@ -157,23 +157,39 @@ class Client {
     }
   }
 
-  // The next state of `name` from the queue the iterator fills; nullopt once `until` passes.
+  // The next state of `name` from the queue the iterator fills; nullopt once
+  // `until` passes. Waits in slices of kSignalSliceS, looking for a signal
+  // (Ctrl-C) between them, so a daemon that went quiet does not hold the
+  // notebook for the rest of the duration.
   std::optional<State> NextState(const std::string& name, std::chrono::steady_clock::time_point until) {
-    py::gil_scoped_release release;
-    try {
-      Link& link = LinkFor(name, options_.wait);
-      std::lock_guard lock(link.mutex);
-      link.link->PumpUntil([&] { return !link.queue.empty(); },
-                           std::chrono::duration<double>(until - std::chrono::steady_clock::now()).count());
-      link.link->RequireOneRun("refusing to act");
-      if (link.queue.empty()) return std::nullopt;
-      State s = std::move(link.queue.front());
-      link.queue.pop_front();
-      return s;
-    } catch (...) {
-      Rethrow();
+    for (;;) {
+      std::optional<State> s;
+      bool over = false;
+      {
+        py::gil_scoped_release release;
+        try {
+          Link& link = LinkFor(name, options_.wait);
+          std::lock_guard lock(link.mutex);
+          const auto now = std::chrono::steady_clock::now();
+          const auto slice_end = std::min(until, now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                           std::chrono::duration<double>(kSignalSliceS)));
+          link.link->PumpUntil([&] { return !link.queue.empty(); },
+                               std::chrono::duration<double>(slice_end - now).count());
+          link.link->RequireOneRun("refusing to act");
+          if (!link.queue.empty()) {
+            s = std::move(link.queue.front());
+            link.queue.pop_front();
+          }
+          over = std::chrono::steady_clock::now() >= until;
+        } catch (...) {
+          Rethrow();
+        }
+      }
+      if (s || over) return s;
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     }
   }
+  static constexpr double kSignalSliceS = 0.05;  // s between two looks for a signal while no state comes
 
   // Starts queueing every state of `name` (Client.states).
   void StartQueue(const std::string& name) {
