@@ -94,9 +94,10 @@ def lcm_logger(port, path):
             p.wait()
 
 
-def record_run(scene, port, path, seconds, act=None, *extra):
-    """lagranged on `scene` for about `seconds`, recorded by lcm-logger to `path`;
-    `act(client)` runs while it records."""
+def record_run(scene, port, path, seconds, act=None, *extra, until=None):
+    """lagranged on `scene`, recorded by lcm-logger to `path`; `act(client)` runs while it records. Then it
+    records for `seconds`, and further until `until({channel: rows})` holds (the rows lcm-logger has caught
+    so far per channel: a loaded machine's logger drops datagrams), 60 s at most."""
     import lagrange
     with lagranged(scene, port, *extra):
         client = lagrange.Client(url=lcm_url(port), wait=5.0)
@@ -107,6 +108,9 @@ def record_run(scene, port, path, seconds, act=None, *extra):
             if act is not None:
                 act(client)
             time.sleep(seconds)
+            if until is not None:
+                caught = lambda: {c: r.rows for c, r in lagrange.read_log(path).items()}  # noqa: E731
+                wait_until(lambda: until(caught()), 60.0)
     return path
 
 

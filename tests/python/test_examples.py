@@ -59,7 +59,7 @@ def test_the_python_external_controller_holds_the_arm_at_its_target():
 def test_payload_identification_finds_the_payload_from_a_logged_run(tmp_path):
     ident = example("payload_identification")
     scene = os.path.join(SOURCE, "examples", "python", "arm_payload.yaml")
-    log = record_run(scene, PAYLOAD_PORT, str(tmp_path / "run.lcm"), 1.5)
+    log = record_run(scene, PAYLOAD_PORT, str(tmp_path / "run.lcm"), 1.0, until=lambda rows: rows.get("ARM_STATE", 0) >= 300)
     q, qd, qdd, tau = ident.states_of(log, "ARM_STATE")
     assert len(q) > 20  # as many as the logger caught: a loaded machine drops some, least squares needs few
     mass, rms = ident.identify_link_mass(q, qd, qdd, tau)

@@ -26,7 +26,8 @@ def log(tmp_path_factory):
         assert client.command("arm", "pause").accepted
         assert client.command("arm", "resume").accepted
 
-    return record_run(config("default.yaml"), PORT, path, 0.5, act)
+    return record_run(config("default.yaml"), PORT, path, 0.5, act,
+                      until=lambda rows: rows.get("ARM_STATE", 0) >= 50 and rows.get("CARTPOLE_STATE", 0) >= 50)
 
 
 def columns_of(record):
@@ -143,7 +144,9 @@ LIVE_PORT = 8329
 def test_a_live_lagranged_publishes_the_rows_simulate_computes_bit_for_bit(tmp_path):
     # One Instance code: the states lagranged published (read back from the log) are simulate's rows at the
     # same step, and its telemetry's ε is simulate's, with no tolerance, whatever the machine's timing did.
-    log = record_run(config("default.yaml"), LIVE_PORT, str(tmp_path / "live.lcm"), 0.5)
+    enough = lambda rows: all(rows.get(c, 0) >= 20 for c in  # noqa: E731
+                              ("ARM_STATE", "CARTPOLE_STATE", "ARM_TELEMETRY", "CARTPOLE_TELEMETRY"))
+    log = record_run(config("default.yaml"), LIVE_PORT, str(tmp_path / "live.lcm"), 0.5, until=enough)
     records = lagrange.read_log(log)
     for name in ("arm", "cartpole"):
         states = records[name.upper() + "_STATE"]
