@@ -13,7 +13,7 @@ using nlohmann::json;
 
 constexpr double kRodRadius = 0.02;    // m: the built-in plants' links
 constexpr double kJointRadius = 0.035;  // m: a sphere at each joint
-constexpr double kSkeletonRadius = 0.012;  // m: a URDF robot without <visual>
+constexpr double kSkeletonRadius = 0.025;  // m: a URDF robot without <visual>
 
 json Pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
   json a = json::array();
@@ -99,7 +99,7 @@ void ViewModel::BuiltInShapes(const PlantSpec& spec) {
       break;
     }
     case PlantType::kCartPole: {
-      shapes.push_back(Box(-1, {6.0, 0.02, 0.02}, {0.0, -0.09, 0.0}, joint));  // the rail
+      shapes.push_back(Box(-1, {3.0, 0.02, 0.02}, {0.0, -0.09, 0.0}, joint));  // the rail
       shapes.push_back(Box(Frame("cart"), {0.3, 0.15, 0.15}, Eigen::Vector3d::Zero(), body));
       shapes.push_back(Rod(Frame("pole"), Frame("pole_tip"), kRodRadius, link));
       shapes.push_back(Sphere(Frame("pole"), kJointRadius, joint));
@@ -156,7 +156,7 @@ void ViewModel::UrdfShapes(const UrdfParams& params, const std::vector<std::stri
     const int a = Frame(parent), b = Frame(child);
     if (b >= 0) shapes.push_back(Rod(a, b, kSkeletonRadius, color));
   }
-  for (int k = 0; k < kinematics_->num_frames(); ++k) shapes.push_back(Sphere(k, 1.8 * kSkeletonRadius, color));
+  for (int k = 0; k < kinematics_->num_frames(); ++k) shapes.push_back(Sphere(k, 1.5 * kSkeletonRadius, color));
 }
 
 json ViewModel::Poses(ConstVecRef q) const {

@@ -3,7 +3,7 @@
 // lagrangectl view serving a URDF, a live lagranged on a private LCM port,
 // and a log: the canvas is not blank, the page names the instances and their
 // modes, and every pose the page drew equals the plant's own kinematics at the
-// q it was drawn for to 1e-9. ViewServer.*: the server's answers to bad input,
+// q it was drawn for to 1e-9. ViewTest.*: the server's answers to bad input,
 // without a browser.
 //
 // The page writes what it drew into #lagrange-drawn (JSON: per instance, each
@@ -100,8 +100,8 @@ void ExpectPosesOf(const Kinematics& kinematics, const json& drawn, const json& 
   }
 }
 
-Kinematics SceneKinematics(const std::string& instance) {
-  const Scene scene = LoadScene(kDefaultScene);
+Kinematics SceneKinematics(const std::string& instance, const std::string& file = kDefaultScene) {
+  const Scene scene = LoadScene(file);
   for (const InstanceConfig& c : scene.instances)
     if (c.name == instance) return Kinematics(MakeRigidTree(c.plant));
   throw std::runtime_error("no instance " + instance);
@@ -137,7 +137,12 @@ class ViewTest : public ::testing::Test {
     if (!profile_.empty()) fs::remove_all(profile_, error);
   }
   // The page at `query` in headless chromium: the document after `budget_ms` of virtual time.
-  std::string DumpDom(const std::string& query, int budget_ms = 4000) {
+  std::string DumpDom(const std::string& query, int budget_ms = 4000) { return Chrome(query, budget_ms, "--dump-dom"); }
+  // The same, as a PNG in `path`.
+  void Screenshot(const std::string& query, const std::string& path, int budget_ms) {
+    Chrome(query, budget_ms, "--screenshot=" + path);
+  }
+  std::string Chrome(const std::string& query, int budget_ms, const std::string& what) {
     if (profile_.empty()) {
       profile_ = (fs::temp_directory_path() / ("lagrange_view_test_" + std::to_string(getpid()) + "_" +
                                                std::to_string(port_)))
@@ -147,7 +152,7 @@ class ViewTest : public ::testing::Test {
     const testing::ProcessResult r = testing::RunProcess(
         {Chromium(), "--headless=new", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox",
          "--user-data-dir=" + profile_, "--window-size=1000,700", "--virtual-time-budget=" + std::to_string(budget_ms),
-         "--dump-dom", "http://127.0.0.1:" + std::to_string(port_) + "/" + query},
+         what, "http://127.0.0.1:" + std::to_string(port_) + "/" + query},
         60.0);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.out;
@@ -231,6 +236,45 @@ TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
   EXPECT_NE(Probe(dom)["checksum"], probe_before["checksum"]);
   daemon.Signal(SIGTERM);
   EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// The README's picture: the Panda (its own lagranged, under --channel-prefix PANDA_, moving
+// along its minimum-jerk setpoint) beside the arm and the cart-pole of the default scene, one
+// view of two daemons. Its 7-joint poses are the spatial kinematics' to 1e-9.
+TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
+  constexpr int kLcmPort = 8368;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  const std::string panda_scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_minjerk.yaml";
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  BackgroundProcess panda({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config", panda_scene,
+                           "--channel-prefix", "PANDA_"});
+  StartView({"--lcm-url", url, "--channel-prefix", "", "--scene", kDefaultScene, "--channel-prefix", "PANDA_",
+             "--scene", panda_scene},
+            18369);
+  json drawn;
+  std::string dom;
+  for (int attempt = 0; attempt < 20 && !(drawn.contains("arm") && drawn.contains("PANDA_ panda")); ++attempt) {
+    dom = DumpDom("?probe=1&frames_max=3", 3000);
+    drawn = Drawn(dom);
+  }
+  ASSERT_TRUE(drawn.contains("arm") && drawn.contains("PANDA_ panda")) << drawn.dump();
+  ExpectPosesOf(SceneKinematics("panda", panda_scene), drawn["PANDA_ panda"]["measured"], drawn["PANDA_ panda"]["q"],
+                "panda");
+  ExpectPosesOf(SceneKinematics("panda", panda_scene), drawn["PANDA_ panda"]["ghost"],
+                drawn["PANDA_ panda"]["q_des"], "panda setpoint");
+  ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "arm");
+  std::error_code error;
+  fs::remove(VIEW_SCREENSHOT_PATH, error);
+  Screenshot("?frames_max=30", VIEW_SCREENSHOT_PATH, 3000);
+  std::ifstream png(VIEW_SCREENSHOT_PATH, std::ios::binary);
+  char magic[8] = {};
+  png.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG") << VIEW_SCREENSHOT_PATH;
+  for (BackgroundProcess* d : {&daemon, &panda}) {
+    d->Signal(SIGTERM);
+    EXPECT_EQ(d->Wait(10.0), 0);
+  }
 }
 
 // A log written here: the arm's state every millisecond, q = (0.1 k, −0.05 k) at k ms, a

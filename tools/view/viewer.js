@@ -83,11 +83,13 @@ function probeCanvas() {
   gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
   const bg = new THREE.Color(kBackground);
   const r = Math.round(bg.r * 255), g = Math.round(bg.g * 255), b = Math.round(bg.b * 255);
-  let lit = 0;
+  let lit = 0, checksum = 0;
   for (let i = 0; i < px.length; i += 4) {
     if (Math.abs(px[i] - r) + Math.abs(px[i + 1] - g) + Math.abs(px[i + 2] - b) > 24) ++lit;
+    checksum = (checksum * 31 + px[i] + 7 * px[i + 1] + 13 * px[i + 2]) % 1000000007;
   }
-  $('lagrange-probe').textContent = JSON.stringify({ nonblank: lit, width: w, height: h, draws: drawCount });
+  $('lagrange-probe').textContent = JSON.stringify({ nonblank: lit, checksum, width: w, height: h, draws: drawCount,
+    camera: camera.position.toArray(), target: controls.target.toArray(), fitted: fittedTo });
 }
 
 // ---- a robot: one object per frame, placed at the poses it is given ----
@@ -292,11 +294,9 @@ function showInstance(inst) {
   for (const k of ['eps', 'bound', 'tau']) if (h[k].length > 240) h[k].splice(0, h[k].length - 240);
 }
 
-let lastPlot = 0;
+let plotCount = 0;
 function plots() {
-  const now = performance.now();
-  if (now - lastPlot < 100) return;  // 10 Hz is plenty for a glance
-  lastPlot = now;
+  if (plotCount++ % 6 !== 0) return;  // every 6th frame: 10 Hz at 60 frames per second is plenty for a glance
   for (const name of Object.keys(cards)) {
     const h = history[name], c = cards[name];
     plot(c.eps, [h.eps, h.bound, h.bound.map((b) => (typeof b === 'number' ? -b : b))], ['#6cf', '#777', '#777'], null);
@@ -319,7 +319,7 @@ function plot(canvas, series, colors, fixed) {
     let started = false;
     s.forEach((v, k) => {
       if (typeof v !== 'number') { started = false; return; }
-      const x = (k / 239) * w, y = h / 2 - (v / lim) * (h / 2 - 2);
+      const x = w - ((s.length - 1 - k) / 239) * w, y = h / 2 - (v / lim) * (h / 2 - 2);  // the newest at the right
       if (started) ctx.lineTo(x, y); else ctx.moveTo(x, y);
       started = true;
     });
@@ -357,22 +357,29 @@ function apply(frame) {
         '   ticks ' + d.ticks + '   overruns ' + d.overruns).join('\n');
   }
   plots();
-  if (!fitted && seen.size > 0) fit();
+  for (const m of seen) posed.add(m);
+  if (!userMoved && posed.size > fittedTo) fit();
   requestDraw();
 }
 
-// Once, when the first poses are placed: the camera takes in every robot.
-let fitted = false;
+// Whenever a robot is placed for the first time, until the user moves the
+// camera: the camera takes in every robot placed so far.
+const posed = new Set();
+let fittedTo = 0, userMoved = false;
+renderer.domElement.addEventListener('pointerdown', () => { userMoved = true; });
+renderer.domElement.addEventListener('wheel', () => { userMoved = true; });
 function fit() {
-  fitted = true;
+  fittedTo = posed.size;
+  scene.updateMatrixWorld(true);  // the places' offsets and turns, before the first render
   const box = new THREE.Box3();
-  for (const r of robots) box.expandByObject(r.measured.root);
+  for (const m of posed) box.expandByObject(robots[m].measured.root);
   if (box.isEmpty()) return;
   const center = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3());
   const radius = Math.max(0.3, 0.5 * size.length());
-  const distance = radius / Math.tan((camera.fov * Math.PI) / 360) * 1.15;
+  const tan = Math.tan((camera.fov * Math.PI) / 360);
+  const distance = 1.1 * radius / (tan * Math.min(1, camera.aspect));  // the narrower of the two fields of view
   controls.target.copy(center);
-  camera.position.set(center.x + 0.35 * distance, center.y - 0.9 * distance, center.z + 0.35 * distance);
+  camera.position.set(center.x, center.y - 0.95 * distance, center.z + 0.3 * distance);
   controls.update();
 }
 
