@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <lagrange/state_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -402,6 +403,32 @@ TEST_F(ViewTest, StreamsToAtMostMaxClientsAndOutlivesOneThatLeaves) {
     if (later.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   EXPECT_GT(later.load(), 0);
+}
+
+TEST_F(ViewTest, ListensAndNeverPublishes) {
+  constexpr int kLcmPort = 8370;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good());
+  int heard = 0;
+  lcm.subscribeFunction(".*", +[](const lcm::ReceiveBuffer*, const std::string&, int* n) { ++*n; }, &heard);
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18371);
+  std::atomic<int> chunks{0};
+  std::thread browser([&] {  // a browser streaming meanwhile
+    httplib::Client c("127.0.0.1", 18371);
+    c.Get("/api/stream", [&](const char*, std::size_t) { return ++chunks < 20; });
+  });
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+  browser.join();
+  EXPECT_GE(chunks.load(), 20);
+  EXPECT_EQ(heard, 0);
+  // The subscriber hears what is published on that bus: the test can fail.
+  const char byte = 1;
+  lcm.publish("LAGRANGE_TEST_VIEW", &byte, 1);
+  for (int i = 0; i < 20 && heard == 0; ++i) lcm.handleTimeout(50);
+  EXPECT_EQ(heard, 1);
 }
 
 }  // namespace
