@@ -279,7 +279,8 @@ TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
 }
 
 // A log written here: the arm's state every millisecond, q = (0.1 k, −0.05 k) at k ms, a
-// malformed packet among them, and a state of an instance the scene lacks.
+// malformed packet among them, a state of an instance the scene lacks, and a controller
+// name that is markup.
 std::string WriteArmLog(const fs::path& path) {
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
   for (int k = 0; k <= 10; ++k) {
@@ -292,7 +293,8 @@ std::string WriteArmLog(const fs::path& path) {
     s.qd = s.qdd = s.tau = {0.0, 0.0};
     s.q_des = {0.3, -0.2};
     s.qd_des = {0.0, 0.0};
-    s.controller = "pd";
+    // A hostile controller name: markup and a terminal escape, which must reach the page as text.
+    s.controller = "pd<img src=x onerror=\"document.title='owned'\">\x1b[2J";
     s.mode = state_t::MODE_RUNNING;
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(s.getEncodedSize()));
     s.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
@@ -318,6 +320,11 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
   EXPECT_GT(Probe(dom)["nonblank"].get<int>(), 2000);
   EXPECT_NE(dom.find("STRANGER_STATE is in the log but not in the scene"), std::string::npos);
   EXPECT_NE(dom.find("1 states that do not decode were passed over"), std::string::npos);
+  // The bus's strings are text on the page: no element made of them, the escape written out.
+  EXPECT_EQ(dom.find("<img"), std::string::npos);
+  EXPECT_EQ(dom.find("owned</title>"), std::string::npos);
+  EXPECT_NE(dom.find("pd&lt;img src=x"), std::string::npos);
+  EXPECT_NE(dom.find("\\x1b[2J"), std::string::npos);
 }
 
 // ---- the server, without a browser ----
@@ -403,6 +410,40 @@ TEST_F(ViewTest, StreamsToAtMostMaxClientsAndOutlivesOneThatLeaves) {
     if (later.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   EXPECT_GT(later.load(), 0);
+}
+
+// lagranged runs the default scene (the arm, the cart-pole); the view is given a scene of the
+// pendulum alone: the daemon's instances are listed, as text, and not drawn.
+TEST_F(ViewTest, InstancesTheSceneLacksAreNamedNotDrawn) {
+  constexpr int kLcmPort = 8372;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  StartView({"--lcm-url", url, "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml"}, 18373);
+  // The stream's events ("data: JSON\n\n"), however the chunks fall, until one names the arm.
+  std::string stream, frame;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < end && frame.find("\"arm\"") == std::string::npos) {
+    httplib::Client c("127.0.0.1", 18373);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) frame = stream.substr(6, e - 6);
+        stream.erase(0, e + 2);
+      }
+      return frame.find("\"arm\"") == std::string::npos && std::chrono::steady_clock::now() < end;
+    });
+  }
+  ASSERT_NE(frame.find("\"arm\""), std::string::npos) << frame;
+  const json j = json::parse(frame);
+  for (const json& instance : j["instances"]) {
+    EXPECT_EQ(instance["model"], -1) << instance.dump();
+    EXPECT_FALSE(instance.contains("poses"));
+    EXPECT_NE(instance["note"].get<std::string>().find("not in the scene: not drawn"), std::string::npos);
+  }
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
 TEST_F(ViewTest, ListensAndNeverPublishes) {
