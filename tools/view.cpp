@@ -270,7 +270,7 @@ class ViewCommand final : public Command {
     if (mode_ == Mode::kLive) {
       json prefixes = json::array();
       for (const std::string& p : prefixes_) prefixes.push_back(Escape(p));
-      j["bus"] = {{"url", Escape(bus_.Url())}, {"prefixes", prefixes}, {"signed", !bus_.bus_key_file.empty()}};
+      j["bus"] = {{"url", Escape(bus_.Url())}, {"prefixes", prefixes}};
     }
     return j;
   }
