@@ -16,6 +16,7 @@
 
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
 #include <algorithm>
@@ -130,6 +131,7 @@ struct Tracked {
   std::set<std::int64_t> runs;  // run ids heard within kStale (two: which is which cannot be told)
   std::map<std::int64_t, SteadyClock::time_point> run_heard;
   std::optional<telemetry_t> telemetry;
+  std::optional<task_state_t> task;  // a task-space controller's frame and target (<NAME>_TASK)
   bool changed = false;
 };
 
@@ -142,6 +144,21 @@ struct LoggedTelemetry {
   double t = 0.0;
   double residual = 0.0, bound = 0.0;
 };
+struct LoggedTask {
+  double t = 0.0;
+  task_state_t task;
+};
+
+// A task-space controller's target pose as the page draws it (a ghost frame):
+// the frame's name, the target's position (m) and orientation (w, x, y, z), as
+// the daemon published them; null when not finite.
+json TargetJson(const task_state_t& task) {
+  const auto finite = [](const auto& a) { return std::all_of(std::begin(a), std::end(a), [](double x) { return std::isfinite(x); }); };
+  if (!finite(task.position_des) || !finite(task.orientation_des)) return nullptr;
+  return {{"frame", Escape(task.frame)},
+          {"p", {task.position_des[0], task.position_des[1], task.position_des[2]}},
+          {"q", {task.orientation_des[0], task.orientation_des[1], task.orientation_des[2], task.orientation_des[3]}}};
+}
 
 class ViewCommand final : public Command {
  public:
@@ -432,6 +449,14 @@ class ViewCommand final : public Command {
                       return;
                     tracked_[i].telemetry = std::move(m);
                   });
+    bus.Subscribe(link.Channel(tracked_[i].name, kTaskSuffix),
+                  [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
+                    task_state_t m;
+                    if (CheckTaskStatePacket(data, n) != WireCheck::kOk ||
+                        m.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
+                      return;
+                    tracked_[i].task = std::move(m);
+                  });
   }
 
   // Instances a daemon's status names that the scene has not: shown as text (no model to draw them by).
@@ -505,6 +530,7 @@ class ViewCommand final : public Command {
         j["eps"] = t.telemetry->energy_residual;
         j["eps_bound"] = t.telemetry->quadrature_bound;
       }
+      if (t.task && t.task->run_id == t.state->run_id && t.model >= 0) j["target"] = TargetJson(*t.task);
       instances.push_back(std::move(j));
     }
     json daemons = json::array();
@@ -525,14 +551,16 @@ class ViewCommand final : public Command {
 
   void ReadLog(std::ostream& err) {
     LcmLogReader reader(log_);  // LcmLogError: "cannot read F" / "F is not an LCM log ..."
-    std::map<std::string, std::size_t> state_channels, telemetry_channels;
+    std::map<std::string, std::size_t> state_channels, telemetry_channels, task_channels;
     for (std::size_t i = 0; i < tracked_.size(); ++i) {
       const LinkOptions link = Link(tracked_[i].prefix);
       state_channels[link.Channel(tracked_[i].name, kStateSuffix)] = i;
       telemetry_channels[link.Channel(tracked_[i].name, kTelemetrySuffix)] = i;
+      task_channels[link.Channel(tracked_[i].name, kTaskSuffix)] = i;
     }
     logged_.resize(tracked_.size());
     logged_telemetry_.resize(tracked_.size());
+    logged_task_.resize(tracked_.size());
     std::optional<std::int64_t> first;
     std::int64_t states = 0, dropped = 0, refused = 0;
     std::set<std::string> other_states;
@@ -561,6 +589,12 @@ class ViewCommand final : public Command {
           continue;
         if (logged_telemetry_[tt->second].size() < kMaxLogStates)
           logged_telemetry_[tt->second].push_back({t, m.energy_residual, m.quadrature_bound});
+      } else if (auto tk = task_channels.find(channel); tk != task_channels.end()) {
+        task_state_t m;
+        if (e->data == nullptr || CheckTaskStatePacket(e->data, e->size) != WireCheck::kOk ||
+            m.decode(e->data, 0, static_cast<int>(e->size)) != static_cast<int>(e->size))
+          continue;
+        if (logged_task_[tk->second].size() < kMaxLogStates) logged_task_[tk->second].push_back({t, std::move(m)});
       } else if (channel.size() > 6 && channel.compare(channel.size() - 6, 6, kStateSuffix) == 0 &&
                  other_states.size() < 16) {
         other_states.insert(Escape(channel, 64));
@@ -601,6 +635,10 @@ class ViewCommand final : public Command {
         j["eps"] = std::prev(jt)->residual;
         j["eps_bound"] = std::prev(jt)->bound;
       }
+      const auto& tasks = logged_task_[i];
+      auto kt = std::upper_bound(tasks.begin(), tasks.end(), *t, [](double x, const LoggedTask& m) { return x < m.t; });
+      if (kt != tasks.begin() && std::prev(kt)->task.run_id == s.state.run_id && tracked_[i].model >= 0)
+        j["target"] = TargetJson(std::prev(kt)->task);
       instances.push_back(std::move(j));
     }
     res.set_content(Dump({{"t", *t}, {"instances", instances}}), "application/json");
@@ -624,6 +662,7 @@ class ViewCommand final : public Command {
   std::map<std::size_t, std::pair<status_t, SteadyClock::time_point>> statuses_;  // by prefix index
   std::vector<std::vector<LoggedState>> logged_;
   std::vector<std::vector<LoggedTelemetry>> logged_telemetry_;
+  std::vector<std::vector<LoggedTask>> logged_task_;
   double log_duration_ = 0.0;
   std::vector<std::string> log_notes_;
   std::mutex poses_mutex_;  // the models' KinematicsData: one evaluation at a time

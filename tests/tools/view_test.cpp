@@ -30,6 +30,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Geometry>
+
 #include "daemon/scene.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
@@ -239,32 +241,41 @@ TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
-// The README's picture: the Panda (its own lagranged, under --channel-prefix PANDA_, moving
-// along its minimum-jerk setpoint) beside the arm and the cart-pole of the default scene, one
-// view of two daemons. Its 7-joint poses are the spatial kinematics' to 1e-9.
+// The README's picture: the Panda (its own lagranged, under --channel-prefix PANDA_, holding
+// a pose under Cartesian impedance after a 2 s move) beside the arm and the cart-pole of the
+// default scene, one view of two daemons. Its 7-joint poses are the spatial kinematics' to
+// 1e-9, and its controller's target frame is drawn where the scene puts it.
 TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
   constexpr int kLcmPort = 8368;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
   const std::string url = testing::TestLcmUrl(kLcmPort);
-  const std::string panda_scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_minjerk.yaml";
+  const std::string panda_scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_cartesian_impedance.yaml";
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
   BackgroundProcess panda({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config", panda_scene,
                            "--channel-prefix", "PANDA_"});
   StartView({"--lcm-url", url, "--channel-prefix", "", "--scene", kDefaultScene, "--channel-prefix", "PANDA_",
              "--scene", panda_scene},
             18369);
+  // Until both daemons are drawn and the Panda's 2 s move to its target is over.
+  const auto ready = [](const json& d) {
+    return d.contains("arm") && d.contains("PANDA_ panda") && d["PANDA_ panda"].value("t", 0.0) > 2.2;
+  };
   json drawn;
-  std::string dom;
-  for (int attempt = 0; attempt < 20 && !(drawn.contains("arm") && drawn.contains("PANDA_ panda")); ++attempt) {
-    dom = DumpDom("?probe=1&frames_max=3", 3000);
-    drawn = Drawn(dom);
+  for (int attempt = 0; attempt < 20 && !ready(drawn); ++attempt) {
+    drawn = Drawn(DumpDom("?frames_max=3", 3000));
+    if (!ready(drawn)) std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
-  ASSERT_TRUE(drawn.contains("arm") && drawn.contains("PANDA_ panda")) << drawn.dump();
-  ExpectPosesOf(SceneKinematics("panda", panda_scene), drawn["PANDA_ panda"]["measured"], drawn["PANDA_ panda"]["q"],
-                "panda");
-  ExpectPosesOf(SceneKinematics("panda", panda_scene), drawn["PANDA_ panda"]["ghost"],
-                drawn["PANDA_ panda"]["q_des"], "panda setpoint");
+  ASSERT_TRUE(ready(drawn)) << drawn.dump();
+  const json& p = drawn["PANDA_ panda"];
+  const Kinematics panda_kinematics = SceneKinematics("panda", panda_scene);
+  ExpectPosesOf(panda_kinematics, p["measured"], p["q"], "panda");
+  ExpectPosesOf(panda_kinematics, p["ghost"], p["q_des"], "panda setpoint");
   ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "arm");
+  // The target: the scene's, drawn at its position with its orientation (w, x, y, z).
+  ASSERT_TRUE(p.contains("target")) << p.dump();
+  EXPECT_EQ(p["target"]["frame"], "panda_link8");
+  const Eigen::Quaterniond orientation(0.0, 0.9238795325112867, -0.3826834323650898, 0.0);
+  ExpectPose(p["target"]["matrix"], orientation.toRotationMatrix(), Eigen::Vector3d(0.40, 0.10, 0.50), "target");
   std::error_code error;
   fs::remove(VIEW_SCREENSHOT_PATH, error);
   Screenshot("?frames_max=30", VIEW_SCREENSHOT_PATH, 3000);

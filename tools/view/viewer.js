@@ -235,7 +235,14 @@ function build(m) {
     b.visible = false;
     place.add(a);
     place.add(b);
-    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place };
+    // A task-space controller's target: a frame's axes and a translucent ball at its origin.
+    const target = new THREE.Group();
+    target.matrixAutoUpdate = false;
+    target.visible = false;
+    target.add(new THREE.AxesHelper(0.15));
+    target.add(new THREE.Mesh(new THREE.SphereBufferGeometry(0.025, 16, 12), material([0.95, 0.85, 0.2, 1], true)));
+    place.add(target);
+    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place, target };
     for (const line of g.missing) noteMissing(g.name + ': ' + line);
   });
   const span = Math.max(1, n) * kSpacing;
@@ -254,7 +261,7 @@ function applyToggles() {
     r.measured.showFrames(frames);
     r.ghost.showFrames(false);
     r.ghost.root.userData.allowed = ghost;
-    if (!ghost) r.ghost.root.visible = false;
+    if (!ghost) { r.ghost.root.visible = false; r.target.visible = false; }
   }
   requestDraw();
 }
@@ -348,7 +355,17 @@ function apply(frame) {
       record.q_des = inst.q_des;
       record.ghost = r.ghost.matrices();
     }
+    r.target.visible = Boolean(inst.target) && $('show-ghost').checked;
+    if (inst.target) {  // (w, x, y, z) and p, as published: placed, not computed
+      const [w, x, y, z] = inst.target.q;
+      const m = new THREE.Matrix4().makeRotationFromQuaternion(new THREE.Quaternion(x, y, z, w));
+      m.setPosition(new THREE.Vector3(inst.target.p[0], inst.target.p[1], inst.target.p[2]));
+      r.target.matrix.copy(m);
+      r.target.matrixWorldNeedsUpdate = true;
+      record.target = { frame: inst.target.frame, p: inst.target.p, q: inst.target.q, matrix: Array.from(r.target.matrix.elements) };
+    }
     record.mode = inst.mode;
+    record.t = inst.t;
     drawn[inst.name] = record;
   }
   if (frame.daemons) {
