@@ -457,6 +457,67 @@ TEST_F(ViewTest, InstancesTheSceneLacksAreNamedNotDrawn) {
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
+// The arm's frames from the stream for `seconds`: the q of every frame that drew it.
+std::vector<std::vector<double>> StreamedArmQ(int port, double seconds) {
+  std::vector<std::vector<double>> qs;
+  std::string stream;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    httplib::Client c("127.0.0.1", port);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) {
+          const json frame = json::parse(stream.substr(6, e - 6));
+          for (const json& i : frame["instances"])
+            if (i["name"] == "arm" && i.contains("poses")) qs.push_back(i["q"].get<std::vector<double>>());
+        }
+        stream.erase(0, e + 2);
+      }
+      return std::chrono::steady_clock::now() < end;
+    });
+  }
+  return qs;
+}
+
+// lagranged and the view share a key; a forger publishes unsigned arm states meanwhile: the view
+// draws the daemon's arm and never the forger's.
+TEST_F(ViewTest, OnASignedBusDrawsOnlySignedStates) {
+  constexpr int kLcmPort = 8374;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  const fs::path key = fs::temp_directory_path() / ("lagrange_view_key_" + std::to_string(getpid()));
+  fs::remove(key);
+  ASSERT_EQ(testing::RunCtl({"keygen", key.string()}).status, 0);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--bus-key", key.string()});
+  StartView({"--lcm-url", url, "--scene", kDefaultScene, "--bus-key", key.string()}, 18375);
+  std::atomic<bool> stop{false};
+  std::thread forger([&] {
+    lcm::LCM lcm(url);
+    state_t s{};
+    s.run_id = 7;
+    s.num_dofs = 2;
+    s.q = {2.5, 2.5};
+    s.qd = s.qdd = s.tau = s.q_des = s.qd_des = {0.0, 0.0};
+    s.controller = "forged";
+    while (!stop) {
+      ++s.tick;
+      lcm.publish("ARM_STATE", &s);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  std::vector<std::vector<double>> qs;
+  for (int i = 0; i < 10 && qs.empty(); ++i) qs = StreamedArmQ(18375, 1.0);
+  stop = true;
+  forger.join();
+  fs::remove(key);
+  ASSERT_FALSE(qs.empty()) << view_->Stderr() << daemon.Stderr();
+  for (const auto& q : qs) EXPECT_NE(q, std::vector<double>({2.5, 2.5}));
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
 TEST_F(ViewTest, ListensAndNeverPublishes) {
   constexpr int kLcmPort = 8370;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
