@@ -422,6 +422,7 @@ function startLive() {
 function startUrdf() {
   const g = model.models[0];
   $('status').textContent = g.name + ': ' + g.dofs + ' joints';
+  $('ghost-label').classList.add('hidden');  // a model alone has no setpoint
   const q = g.joints.map(() => 0);
   if (params.has('q')) params.get('q').split(',').forEach((v, j) => { if (j < q.length) q[j] = Number(v); });
   let inFlight = false, again = false;
