@@ -160,6 +160,17 @@ class ViewTest : public ::testing::Test {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.out;
   }
+  // DumpDom until the page has drawn `instance` (at most `attempts` loads): a loaded machine may
+  // let the virtual-time budget run out before the page's fetches return.
+  std::string DumpDomUntilDrawn(const std::string& query, const std::string& instance, int attempts = 3) {
+    std::string dom;
+    for (int a = 0; a < attempts; ++a) {
+      dom = DumpDom(query);
+      const std::string text = PreText(dom, "lagrange-drawn");
+      if (!text.empty() && json::parse(text).contains(instance)) break;
+    }
+    return dom;
+  }
   json Drawn(const std::string& dom) {
     const std::string text = PreText(dom, "lagrange-drawn");
     EXPECT_FALSE(text.empty()) << dom.substr(0, 2000);
@@ -186,7 +197,7 @@ class ViewBrowser : public ViewTest {
 
 TEST_F(ViewBrowser, UrdfPosesDrawnAreTheKinematicsAndAMissingMeshStillDraws) {
   StartView({"--urdf", kVisualArm}, 18360);
-  const std::string dom = DumpDom("?q=0.4,-0.7,1.1&probe=1&frames=1");
+  const std::string dom = DumpDomUntilDrawn("?q=0.4,-0.7,1.1&probe=1&frames=1", "visual_arm");
   const json drawn = Drawn(dom);
   ASSERT_TRUE(drawn.contains("visual_arm")) << drawn.dump();
   const json& arm = drawn["visual_arm"];
@@ -196,7 +207,7 @@ TEST_F(ViewBrowser, UrdfPosesDrawnAreTheKinematicsAndAMissingMeshStillDraws) {
   // The hand's pose is not the identity: the q reached the kinematics.
   EXPECT_GT(std::abs(arm["measured"][3][12].get<double>() - 0.0), 0.05);
   EXPECT_GT(Probe(dom)["nonblank"].get<int>(), 2000);
-  // The missing Collada mesh is named; the STL beside the file loaded (no "did not load").
+  // The missing Collada mesh is named; the STL and the Collada mesh beside the file loaded (no "did not load").
   EXPECT_NE(dom.find("package://absent/meshes/elbow.dae"), std::string::npos);
   EXPECT_EQ(dom.find("did not load"), std::string::npos);
   // A slider per joint, named as the file names them.
@@ -321,7 +332,7 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
   WriteArmLog(log);
   StartView({"--log", log.string(), "--scene", kDefaultScene}, 18362);
   // Events k at (k + 1) ms in the logger's clock: t = 5.5 ms shows the state of k = 5.
-  const std::string dom = DumpDom("?t=0.0055&probe=1");
+  const std::string dom = DumpDomUntilDrawn("?t=0.0055&probe=1", "arm");
   fs::remove(log);
   const json drawn = Drawn(dom);
   ASSERT_TRUE(drawn.contains("arm")) << drawn.dump();
@@ -378,7 +389,8 @@ TEST_F(ViewTest, PosesForBadJointValuesAreRefusedNotComputed) {
   // The server serves only the files it was given: the three.js directory and the URDF's resolved meshes.
   EXPECT_EQ(client.Get("/three/../../../../etc/passwd")->status, 404);
   EXPECT_EQ(client.Get("/mesh/0/0")->status, 200);
-  EXPECT_EQ(client.Get("/mesh/0/1")->status, 404);
+  EXPECT_EQ(client.Get("/mesh/0/1")->status, 200);
+  EXPECT_EQ(client.Get("/mesh/0/2")->status, 404);
   EXPECT_EQ(client.Get("/mesh/7/0")->status, 404);
 }
 

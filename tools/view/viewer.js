@@ -376,7 +376,8 @@ function apply(frame) {
   plots();
   for (const m of seen) posed.add(m);
   if (!userMoved && posed.size > fittedTo) fit();
-  requestDraw();
+  if (probe) draw();  // at once, not at the next animation frame: a headless test reads the document right after
+  else requestDraw();
 }
 
 // Whenever a robot is placed for the first time, until the user moves the
