@@ -41,7 +41,13 @@ std::optional<std::vector<double>> Numbers(const char* text, std::size_t count) 
   return out;
 }
 
-std::string Quoted(const char* text) { return "'" + Escape(text ? text : "") + "'"; }
+// Built by appending: g++ 12 warns falsely (-Wrestrict) on "'" + std::string.
+std::string Quoted(const char* text) {
+  std::string q(1, '\'');
+  q += Escape(text ? text : "");
+  q += '\'';
+  return q;
+}
 
 // The file a mesh's filename names, or "" with `why` set.
 std::string ResolveMesh(const std::string& name, const fs::path& urdf_dir, const std::vector<std::string>& package_path,
@@ -67,7 +73,10 @@ std::string ResolveMesh(const std::string& name, const fs::path& urdf_dir, const
     if (fs::is_regular_file(c, error)) return c.lexically_normal().string();
   }
   why = "not found (looked for";
-  for (const fs::path& c : candidates) why += " " + Escape(c.string());
+  for (const fs::path& c : candidates) {
+    why += ' ';
+    why += Escape(c.string());
+  }
   why += ")";
   return "";
 }
@@ -190,7 +199,7 @@ UrdfLooks ReadUrdfLooks(const std::string& path, const std::vector<std::string>&
         visual.kind = UrdfVisual::Kind::kMesh;
         visual.mesh_format = ext.substr(1);
       } else {
-        looks.missing.push_back(where + ": geometry " + Quoted(kind.c_str()) + " is not box, cylinder, sphere or mesh");
+        looks.missing.push_back(where + ": geometry " + Quoted(kind.c_str()) + " is not box, cylinder, sphere or mesh; not drawn");
         continue;
       }
       looks.visuals.push_back(std::move(visual));

@@ -375,6 +375,37 @@ TEST_F(ViewTest, RefusesABadUrdfInOneLine) {
   EXPECT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
 }
 
+// Visuals the viewer cannot draw are each named on the page, in one line, and the robot is
+// drawn without them: nothing about a <visual> stops the view.
+TEST_F(ViewTest, VisualsItCannotDrawAreNamedAndSkipped) {
+  const fs::path dir = fs::temp_directory_path() / ("lagrange_view_visuals_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string urdf = testing::ReadFile(kVisualArm);
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = urdf.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    urdf.replace(at, from.size(), to);
+  };
+  replace("<box size=\"0.2 0.2 0.05\"/>", "<box size=\"0.2 nan\"/>");
+  replace("<sphere radius=\"0.03\"/>", "<capsule radius=\"0.03\" length=\"0.1\"/>");
+  replace("meshes/tetra.stl", "meshes/tetra.obj");
+  std::ofstream(dir / "robot.urdf") << urdf;
+  fs::create_directories(dir / "meshes");
+  std::ofstream(dir / "meshes" / "tetra.obj") << "v 0 0 0\n";
+  fs::copy_file(fs::path(kVisualArm).parent_path() / "meshes" / "marker.dae", dir / "meshes" / "marker.dae");
+  StartView({"--urdf", (dir / "robot.urdf").string()}, 18376);
+  fs::remove_all(dir);
+  const json& missing = model_["models"][0]["missing"];
+  const std::string all = missing.dump();
+  EXPECT_EQ(missing.size(), 4u) << all;  // the three above and the package:// mesh
+  EXPECT_NE(all.find("link 'base' <visual> 1: <box size> is not 3 finite numbers; not drawn"), std::string::npos) << all;
+  EXPECT_NE(all.find("geometry 'capsule' is not box, cylinder, sphere or mesh; not drawn"), std::string::npos) << all;
+  EXPECT_NE(all.find("mesh 'meshes/tetra.obj' is neither STL nor Collada (.dae); its frame is drawn"), std::string::npos)
+      << all;
+  // What it can draw is still there: the two cylinders and the Collada marker.
+  EXPECT_EQ(model_["models"][0]["shapes"].size(), 3u) << model_["models"][0]["shapes"].dump();
+}
+
 TEST_F(ViewTest, PosesForBadJointValuesAreRefusedNotComputed) {
   StartView({"--urdf", kVisualArm}, 18366);
   httplib::Client client("127.0.0.1", 18366);
