@@ -132,6 +132,7 @@ struct Tracked {
   std::map<std::int64_t, SteadyClock::time_point> run_heard;
   std::optional<telemetry_t> telemetry;
   std::optional<task_state_t> task;  // a task-space controller's frame and target (<NAME>_TASK)
+  json event;  // the latest entry into fault, estop or stopped, from every state (not only the frames sent)
   bool changed = false;
 };
 
@@ -435,6 +436,10 @@ class ViewCommand final : public Command {
                         s.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
                       return;
                     Tracked& t = tracked_[i];
+                    const bool stopped = s.mode == state_t::MODE_FAULT || s.mode == state_t::MODE_ESTOP ||
+                                         s.mode == state_t::MODE_STOPPED;
+                    if (stopped && (!t.state || t.state->mode != s.mode || t.state->run_id != s.run_id))
+                      t.event = {{"mode", ModeName(s.mode)}, {"t", s.t}, {"tick", s.tick}, {"run", RunIdText(s.run_id)}};
                     t.received = SteadyClock::now();
                     t.run_heard[s.run_id] = t.received;
                     if (t.run_heard.size() > 8) t.run_heard.erase(t.run_heard.begin());
@@ -518,6 +523,7 @@ class ViewCommand final : public Command {
       const double age = std::chrono::duration<double>(now - t.received).count();
       json j = InstanceJson(t, *t.state, age);
       if (age > kStale) j["stale"] = true;
+      if (!t.event.is_null()) j["event"] = t.event;
       int live_runs = 0;
       for (const auto& [run, heard] : t.run_heard) live_runs += std::chrono::duration<double>(now - heard).count() <= kStale;
       if (live_runs > 1)

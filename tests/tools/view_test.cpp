@@ -561,6 +561,40 @@ TEST_F(ViewTest, OnASignedBusDrawsOnlySignedStates) {
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
+// An emergency stop, cleared at once: the frames sent afterwards still say when it happened.
+TEST_F(ViewTest, KeepsTheMomentAnInstanceWasStopped) {
+  constexpr int kLcmPort = 8376;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18377);
+  ASSERT_EQ(testing::RunCtl({"command", "arm", "estop", "--lcm-url", url}).status, 0);
+  ASSERT_EQ(testing::RunCtl({"command", "arm", "clear", "--lcm-url", url}).status, 0);
+  json arm;
+  std::string stream;
+  httplib::Client c("127.0.0.1", 18377);
+  c.set_read_timeout(5, 0);
+  c.Get("/api/stream", [&](const char* data, std::size_t n) {
+    stream.append(data, n);
+    for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+      if (stream.rfind("data: ", 0) == 0) {
+        const json frame = json::parse(stream.substr(6, e - 6));
+        for (const json& i : frame["instances"])
+          if (i["name"] == "arm") arm = i;
+      }
+      stream.erase(0, e + 2);
+    }
+    return arm.is_null() || arm["mode"] != "hold";  // the first frames may predate the clear
+  });
+  ASSERT_FALSE(arm.is_null());
+  EXPECT_EQ(arm["mode"], "hold");  // cleared: estop leaves into hold
+  ASSERT_TRUE(arm.contains("event")) << arm.dump();
+  EXPECT_EQ(arm["event"]["mode"], "estop");
+  EXPECT_LT(arm["event"]["tick"].get<std::int64_t>(), arm["tick"].get<std::int64_t>());
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
 TEST_F(ViewTest, ListensAndNeverPublishes) {
   constexpr int kLcmPort = 8370;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");

@@ -271,12 +271,13 @@ function card(name) {
   const c = el('div', undefined, 'card');
   const parts = {
     head: el('div'), line: el('div', '', 'small'), reason: el('div', '', 'warn small'), note: el('div', '', 'warn small'),
+    event: el('div', '', 'mode-fault small'),
     eps: el('canvas', undefined, 'plot'), tau: el('canvas', undefined, 'plot'),
   };
   parts.name = el('span', name, 'name');
   parts.mode = el('span', '');
   parts.head.append(parts.name, ' ', parts.mode);
-  c.append(parts.head, parts.line, parts.reason, parts.note, el('div', 'ε (J) and its quadrature bound', 'small'), parts.eps,
+  c.append(parts.head, parts.line, parts.reason, parts.event, parts.note, el('div', 'ε (J) and its quadrature bound', 'small'), parts.eps,
            el('div', 'τ / limit per joint', 'small'), parts.tau);
   $('instances').appendChild(c);
   cards[name] = parts;
@@ -295,6 +296,9 @@ function showInstance(inst) {
   c.reason.textContent = inst.reason || '';
   c.note.textContent = [inst.note, inst.warning].filter(Boolean).join('; ');
   const h = history[inst.name];
+  // The moment it faulted (or was stopped), as lagrangectl saw it in every state: kept after it leaves that mode.
+  const e = inst.event;
+  c.event.textContent = e ? 'entered ' + e.mode + ' at t = ' + fmt(e.t) + ' s (tick ' + e.tick + ', run ' + e.run + ')' : '';
   if (typeof inst.eps === 'number') { h.eps.push(inst.eps); h.bound.push(inst.eps_bound); }
   const g = inst.model >= 0 ? model.models[inst.model] : null;
   if (g && inst.tau) h.tau.push(inst.tau.map((t, j) => (g.tau_limits[j] ? t / g.tau_limits[j] : null)));
