@@ -7,7 +7,7 @@ CSV files and PNG plots (issue 6). Run by scripts/bench; usage:
 Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json,
 kdl.json and kinematics.json (Google Benchmark), kdl_agreement.csv, kinematics_agreement.csv, the CSV files of
 work_precision, loop_bench and hostile_bench, external_bench's external.json, live_bench's live.csv,
-live_offline.csv and live.json, flood_bench's flood_cases.csv, cyclictest's JSON files
+live_offline.csv and live.json, flood_bench's flood_cases.csv, python_bench.py's python.json, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
 are CPU time per call (the median of the repetitions); every one is also given
 as a multiple of calib/sincos, one sin and one cos measured in the same run
@@ -31,6 +31,7 @@ from reporting.hostile import hostile_data, hostile_section, hostile_targets
 from reporting.kinematics import kinematics_subsection, kinematics_targets
 from reporting.live import live_data, live_section
 from reporting.loop import delivery_section, loop_data, loop_section, tick_target
+from reporting.python_calls import python_target_rows
 from reporting.precision import long_horizon_section, work_precision, work_precision_section
 from reporting.targets import targets
 
@@ -92,6 +93,7 @@ def main(out):
     target_rows += kdl_rows + [tick_target(tick_runs)]
     target_rows += (hostile_targets(hostile) if hostile else []) + (external_target_rows(external) if external else [])
     target_rows += flood_targets(flood) if flood else []
+    target_rows += python_target_rows(out)
     write_csv(out / "targets.csv", ["target", "limit", "measured", "met"], target_rows)
     md = introduction(context, calib(derive_runs)) + [
         "## Targets\n", table(["target", "limit", "measured", "met"], target_rows),

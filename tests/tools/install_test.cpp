@@ -45,7 +45,8 @@ int main() {
 // Runs a shell command line; its output on failure.
 testing::ProcessResult Shell(const std::string& command) { return RunProcess({"/bin/sh", "-c", command}, 120.0); }
 
-std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
+// Appended, not "'" + string: g++ 12 warns of an overlap (-Wrestrict) that operator+ cannot have.
+std::string Quote(const fs::path& p) { return std::string("'").append(p.string()).append("'"); }
 
 class Install : public ::testing::Test {
  protected:
@@ -194,6 +195,33 @@ TEST_F(Install, AClientBuildsWithFindPackageLagrange) {
   ASSERT_EQ(build.exit_code, 0) << build.out << build.err;
   const auto run = RunProcess({(dir / "build/client").string()});
   EXPECT_EQ(run.exit_code, 0) << run.err;
+}
+
+// Debian's python3 finds the package under /usr/local without PYTHONPATH; under
+// another prefix the same relative directory holds it, and it imports from
+// there alone (no build tree), with the prefix's robot.
+TEST_F(Install, ThePythonPackageIsInstalledWhereTheInterpreterLooksUnderThePrefix) {
+  const std::string python = LAGRANGE_PYTHON_EXECUTABLE, dir = LAGRANGE_PYTHON_INSTALL_DIR;
+  if (python.empty()) GTEST_SKIP() << "built without the Python module";
+  const fs::path package = prefix_ / dir / "lagrange";
+  for (const char* file : {"__init__.py", "__init__.pyi", "py.typed"}) {
+    EXPECT_TRUE(fs::is_regular_file(package / file)) << file;
+  }
+  const auto path = RunProcess({python, "-c", "import sys; print('\\n'.join(sys.path))"});
+  ASSERT_EQ(path.exit_code, 0) << path.err;
+  const std::vector<std::string> entries = testing::Lines(path.out);
+  if (fs::exists("/etc/debian_version")) {
+    EXPECT_NE(std::find(entries.begin(), entries.end(), (fs::path("/usr/local") / dir).string()), entries.end()) << path.out;
+  }
+  const std::string code = "import lagrange; m = lagrange.Model.from_urdf('" +
+                           (prefix_ / "share/lagrange/config/robots/panda.urdf").string() +
+                           "'); print(m.num_dofs); print(lagrange.__file__)";
+  const auto run = Shell("cd / && PYTHONPATH=" + Quote(prefix_ / dir) + " " + python + " -c \"" + code + "\"");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<std::string> lines = testing::Lines(run.out);
+  ASSERT_EQ(lines.size(), 2u) << run.out;
+  EXPECT_EQ(lines[0], "7");
+  EXPECT_EQ(fs::path(lines[1]), package / "__init__.py");
 }
 
 }  // namespace

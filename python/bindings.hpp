@@ -1,0 +1,16 @@
+#pragma once
+// The native module _lagrange, one Bind function per part, each in its own
+// translation unit (module.cpp calls them in this order).
+
+#include <pybind11/pybind11.h>
+
+namespace lagrange::python {
+
+// lagrange.Model: dynamics and kinematics of one plant, single states and batches (model.cpp).
+void BindModel(pybind11::module_& m);
+// lagrange.simulate and the stepping interface: scenes run by the daemon's Instance code (simulate.cpp).
+void BindSimulate(pybind11::module_& m);
+// lagrange.Client and lagrange.read_log: the project's bus, client and log reader (bus.cpp).
+void BindBus(pybind11::module_& m);
+
+}  // namespace lagrange::python

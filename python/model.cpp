@@ -1,0 +1,660 @@
+// lagrange.Model: a plant's dynamics (plant/dynamics.hpp) and frame
+// kinematics (plant/kinematics.hpp) from Python, built as lagrangectl eval
+// builds them (tools/eval.cpp), so the numbers are the library's, bit for bit.
+//
+// Model and data apart: the Model holds the immutable Dynamics and Kinematics
+// and one data object of each for single states, used under the GIL. A batch
+// (N, n) runs with the GIL released, over `threads` threads, each with data
+// objects of its own made for that call, so other Python threads may use the
+// same Model meanwhile.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "plant/escape.hpp"
+#include "plant/kinematics.hpp"
+#include "plant/plant_factory.hpp"
+#include "plant/urdf.hpp"
+#include "protocol/format.hpp"
+#include "python/bindings.hpp"
+#include "python/model_arrays.hpp"
+
+namespace lagrange::python {
+namespace py = pybind11;
+namespace {
+
+constexpr int kMaxThreads = 1024;
+
+// Raises a Python exception of `type` with `message` (pybind11 has no
+// FileNotFoundError of its own).
+[[noreturn]] void Raise(PyObject* type, const std::string& message) {
+  PyErr_SetString(type, message.c_str());
+  throw py::error_already_set();
+}
+
+// What one user of the model writes: its data objects and scratch. The
+// Model's own serves single states (under the GIL); a batch makes one per thread.
+struct Worker {
+  Worker(const Dynamics& dynamics_model, const Kinematics& kinematics_model)
+      : dynamics(dynamics_model.MakeData()),
+        kinematics(kinematics_model.MakeData()),
+        matrix(dynamics_model.num_dofs(), dynamics_model.num_dofs()) {
+    for (auto& s : scratch) s.resize(static_cast<std::size_t>(dynamics_model.num_dofs()));
+  }
+  std::unique_ptr<DynamicsData> dynamics;
+  std::unique_ptr<KinematicsData> kinematics;
+  std::array<std::vector<double>, 3> scratch;  // rows of strided arguments (q, qd, third)
+  MatrixXd matrix;                             // M or C before it is laid out row-major
+};
+
+using VecMap = Eigen::Map<const VectorXd>;
+
+// One output's shape for one state: a number (ndim 0), a vector or a matrix.
+struct Shape {
+  int ndim = 0;
+  std::array<py::ssize_t, 2> dims{};
+  py::ssize_t size() const { return ndim == 0 ? 1 : ndim == 1 ? dims[0] : dims[0] * dims[1]; }
+};
+constexpr Shape kNumber{};
+Shape Vector(py::ssize_t n) { return {1, {n, 0}}; }
+Shape Matrix(py::ssize_t rows, py::ssize_t cols) { return {2, {rows, cols}}; }
+
+class Model {
+ public:
+  Model(const PlantSpec& spec, Method method)
+      : type_(spec.type()),
+        method_(method),
+        dynamics_(MakeDynamics(spec, method)),
+        kinematics_(std::make_shared<const Kinematics>(MakeRigidTree(spec))),
+        joint_names_(JointNamesOf(spec)),
+        own_(*dynamics_, *kinematics_) {}
+
+  static std::unique_ptr<Model> FromUrdf(const py::object& path, const py::object& gravity, const std::string& method,
+                                         double mass_scale);
+  static std::unique_ptr<Model> Builtin(const std::string& name, const py::object& method, const py::kwargs& params);
+
+  int num_dofs() const { return dynamics_->num_dofs(); }
+  const std::vector<std::string>& joint_names() const { return joint_names_; }
+  const std::vector<std::string>& frame_names() const { return kinematics_->frame_names(); }
+  std::string method() const { return std::string(ToString(method_)); }
+  std::string plant() const { return std::string(ToString(type_)); }
+  const Dynamics& dynamics() const { return *dynamics_; }
+  const Kinematics& kinematics() const { return *kinematics_; }
+
+  // The frame called `name`, or ValueError in eval --frame's words.
+  int Frame(const std::string& name) const {
+    const std::optional<int> k = kinematics_->FrameIndex(name);
+    if (!k) throw py::value_error("frame: no frame '" + Escape(name, 64) + "' in this plant (frame_names lists them)");
+    return *k;
+  }
+
+  // Evaluates `kernel` at one state or over a batch: `args` are the per-joint
+  // arguments, `shapes` each output's shape for one state ({} a number).
+  // kernel(worker, rows, outputs) computes one state from its argument rows
+  // into its output slots and returns whether they are finite. One state:
+  // the outputs as arrays (a float for shape {}), a tuple when several; a
+  // batch: each with a leading axis N, computed without the GIL.
+  template <std::size_t kArgs, std::size_t kOuts, class Kernel>
+  py::object Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
+                      int threads, const char* what, Kernel kernel);
+
+  double TimeForwardDynamics(const py::handle& q, const py::handle& qd, const py::handle& tau, long iterations);
+
+ private:
+  PlantType type_;
+  Method method_;
+  std::shared_ptr<const Dynamics> dynamics_;
+  std::shared_ptr<const Kinematics> kinematics_;
+  std::vector<std::string> joint_names_;
+  Worker own_;  // single states, under the GIL
+};
+
+// The method named by `method` (None: the plant's fastest exact path, as eval's default).
+Method ChooseMethod(PlantType type, const py::object& method) {
+  if (method.is_none()) return FastestMethod(type);
+  const std::string name = py::str(method);
+  const std::optional<Method> m = ParseMethod(name);
+  if (!m)
+    throw py::value_error("method: expected closed-form, lagrangian or recursive, got '" + Escape(name, 64) + "'");
+  if (!HasMethod(type, *m)) {
+    const std::string what = type == PlantType::kUrdf ? "a urdf robot" : std::string(ToString(type));
+    throw py::value_error("method: " + what + " has no " + name + " path (use lagrangian or recursive)");
+  }
+  return *m;
+}
+
+std::unique_ptr<Model> Model::FromUrdf(const py::object& path, const py::object& gravity, const std::string& method,
+                                       double mass_scale) {
+  const std::string file = py::str(py::module_::import("os").attr("fspath")(path));
+  PlantSpec spec;
+  try {
+    spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(file)));
+  } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
+    std::error_code ec;
+    Raise(std::filesystem::exists(file, ec) ? PyExc_ValueError : PyExc_FileNotFoundError, e.what());
+  } catch (const std::exception& e) {  // anything the parser below it throws
+    Raise(PyExc_ValueError, file + ": " + Escape(e.what(), 400));
+  }
+  std::vector<double> g;
+  try {
+    g = py::cast<std::vector<double>>(gravity);
+  } catch (const py::cast_error&) {
+    throw py::value_error("gravity: expected (gx, gy, gz), 3 numbers in m/s²");
+  }
+  if (g.size() != 3) {
+    throw py::value_error("gravity: expected (gx, gy, gz) (3 numbers, m/s²), got " + std::to_string(g.size()));
+  }
+  std::string text;
+  for (double x : g) {
+    if (!text.empty()) text += ',';
+    text += FormatDouble(x);
+  }
+  if (auto e = SetPlantParam(spec, "gravity", text)) throw py::value_error("gravity: " + e->message);
+  if (auto e = SetPlantParam(spec, "mass_scale", FormatDouble(mass_scale))) {
+    throw py::value_error("mass_scale: " + e->message);
+  }
+  if (auto e = ValidatePlantSpec(spec)) throw py::value_error(Escape(e->message, 400));
+  return std::make_unique<Model>(spec, ChooseMethod(PlantType::kUrdf, py::str(method)));
+}
+
+// A parameter's value as the text SetPlantParam reads: a string as it is, a
+// number as the shortest text that reads back to the same double.
+std::string ParamText(const std::string& name, const py::handle& value) {
+  if (py::isinstance<py::str>(value)) return py::cast<std::string>(value);
+  if (py::isinstance<py::bool_>(value)) return py::cast<bool>(value) ? "True" : "False";  // refused as a number
+  try {
+    return FormatDouble(py::cast<double>(value));
+  } catch (const py::cast_error&) {
+    throw py::value_error(name + ": expected a number or a string, got " +
+                          std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+  }
+}
+
+// A chain's per-link list (one value per link), as eval's --param m=1,0.8,0.5.
+void SetLinkParams(PlantSpec& spec, const std::string& name, const py::sequence& values) {
+  if (spec.type() != PlantType::kChain) throw py::value_error(name + ": expected a single value, got a sequence");
+  if (name == "links" || name == "g" || name == "base_angle") {
+    throw py::value_error(name + ": expected a single value, got a sequence");
+  }
+  const int links = spec.num_dofs();
+  if (static_cast<int>(values.size()) != links) {
+    throw py::value_error(name + ": expected " + std::to_string(links) + " values (one per link), got " +
+                          std::to_string(values.size()));
+  }
+  for (int i = 0; i < links; ++i) {
+    const std::string item = name + "[" + std::to_string(i) + "]";
+    if (auto e = SetPlantParam(spec, name, ParamText(item, values[static_cast<std::size_t>(i)]), i)) {
+      throw py::value_error(e->key + "[" + std::to_string(i) + "]: " + e->message);
+    }
+  }
+}
+
+std::unique_ptr<Model> Model::Builtin(const std::string& name, const py::object& method, const py::kwargs& params) {
+  const std::optional<PlantType> type = ParsePlantType(name);
+  if (!type || *type == PlantType::kUrdf) {
+    throw py::value_error("name: expected one of pendulum|arm2|cartpole|chain, got '" + Escape(name, 64) +
+                          "' (a URDF robot: Model.from_urdf)");
+  }
+  PlantSpec spec = DefaultPlantSpec(*type);
+  // The chain's link count first, so per-link lists are checked against it (as eval and a scene do).
+  std::vector<std::pair<std::string, py::handle>> items;
+  for (const auto& [key, value] : params) items.emplace_back(py::cast<std::string>(key), value);
+  std::stable_partition(items.begin(), items.end(), [](const auto& item) { return item.first == "links"; });
+  for (const auto& [key, value] : items) {
+    if (!py::isinstance<py::str>(value) && py::isinstance<py::sequence>(value)) {
+      SetLinkParams(spec, key, py::reinterpret_borrow<py::sequence>(value));
+    } else if (auto e = SetPlantParam(spec, key, ParamText(key, value))) {
+      throw py::value_error(e->key + ": " + e->message);
+    }
+  }
+  if (auto e = ValidatePlantSpec(spec)) throw py::value_error(e->key + ": " + e->message);
+  return std::make_unique<Model>(spec, ChooseMethod(*type, method));
+}
+
+template <std::size_t kArgs, std::size_t kOuts, class Kernel>
+py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
+                           int threads, const char* what, Kernel kernel) {
+  if (threads < 1 || threads > kMaxThreads) {
+    throw py::value_error("threads: expected 1.." + std::to_string(kMaxThreads) + ", got " + std::to_string(threads));
+  }
+  py::ssize_t rows = -1;
+  if constexpr (kArgs == 1) rows = BatchRows({args[0]});
+  if constexpr (kArgs == 2) rows = BatchRows({args[0], args[1]});
+  if constexpr (kArgs == 3) rows = BatchRows({args[0], args[1], args[2]});
+
+  // The outputs, each (N, shape...) for a batch; one state's number is a double. Fixed-size arrays: a single
+  // state's call allocates nothing but its result arrays (bench/python_bench.py times it).
+  std::array<py::object, kOuts> arrays;
+  std::array<double, kOuts> numbers{};
+  std::array<double*, kOuts> outputs{};
+  std::array<py::ssize_t, kOuts> sizes{};
+  for (std::size_t o = 0; o < kOuts; ++o) {
+    const Shape& shape = shapes[o];
+    sizes[o] = shape.size();
+    if (rows < 0 && shape.ndim == 0) {
+      outputs[o] = &numbers[o];
+      continue;
+    }
+    std::array<py::ssize_t, 3> dims{};
+    int ndim = 0;
+    if (rows >= 0) dims[static_cast<std::size_t>(ndim++)] = rows;
+    for (int d = 0; d < shape.ndim; ++d)
+      dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
+    py::array_t<double> array = NewArray(ndim, dims.data());
+    outputs[o] = array.mutable_data();
+    arrays[o] = std::move(array);
+  }
+
+  // Rows [begin, end) with `worker`; returns the first state whose outputs are not finite, or end.
+  auto run = [&](Worker& worker, py::ssize_t begin, py::ssize_t end) {
+    std::array<const double*, kArgs> row;
+    std::array<double*, kOuts> out;
+    for (py::ssize_t i = begin; i < end; ++i) {
+      for (std::size_t a = 0; a < kArgs; ++a) row[a] = args[a]->Row(i, worker.scratch[a]);
+      for (std::size_t o = 0; o < kOuts; ++o) out[o] = outputs[o] + (rows < 0 ? 0 : i * sizes[o]);
+      if (!kernel(worker, row, out)) return i;
+    }
+    return end;
+  };
+
+  if (rows < 0) {
+    if (run(own_, 0, 1) != 1) throw std::runtime_error(std::string(what) + " not finite at this state");
+  } else {
+    const py::ssize_t workers = std::min<py::ssize_t>(threads, std::max<py::ssize_t>(rows, 1));
+    const py::ssize_t chunk = (rows + workers - 1) / workers;
+    std::vector<py::ssize_t> bad(static_cast<std::size_t>(workers), rows);
+    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
+    auto work = [&](py::ssize_t w) {
+      try {
+        Worker worker(*dynamics_, *kinematics_);
+        const py::ssize_t begin = std::min(rows, w * chunk), end = std::min(rows, begin + chunk);
+        const py::ssize_t i = run(worker, begin, end);
+        if (i != end) bad[static_cast<std::size_t>(w)] = i;
+      } catch (...) {
+        errors[static_cast<std::size_t>(w)] = std::current_exception();
+      }
+    };
+    {
+      py::gil_scoped_release release;
+      std::vector<std::thread> pool;
+      try {
+        for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+      } catch (...) {  // no more threads: the calling thread does the rest
+        for (py::ssize_t w = static_cast<py::ssize_t>(pool.size()) + 1; w < workers; ++w) work(w);
+      }
+      work(0);
+      for (std::thread& t : pool) t.join();
+    }
+    for (const std::exception_ptr& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+    const py::ssize_t first = *std::min_element(bad.begin(), bad.end());
+    if (first < rows) throw std::runtime_error(std::string(what) + " not finite at state " + std::to_string(first));
+  }
+
+  auto result = [&](std::size_t o) -> py::object {
+    if (rows < 0 && shapes[o].ndim == 0) return py::float_(numbers[o]);
+    return std::move(arrays[o]);
+  };
+  if constexpr (kOuts == 1) {
+    return result(0);
+  } else {
+    py::tuple tuple(kOuts);
+    for (std::size_t o = 0; o < kOuts; ++o) tuple[o] = result(o);
+    return tuple;
+  }
+}
+
+// The C++ call alone, `iterations` times: at one state, or cycling through the rows of a batch (the same states a
+// batched call of the same arguments evaluates). What a call from Python costs beyond it (bench/python_bench.py).
+double Model::TimeForwardDynamics(const py::handle& q_arg, const py::handle& qd_arg, const py::handle& tau_arg,
+                                  long iterations) {
+  const int n = num_dofs();
+  const JointArray aq("q", q_arg, n), aqd("qd", qd_arg, n), atau("tau", tau_arg, n);
+  const py::ssize_t rows = BatchRows({&aq, &aqd, &atau});
+  if (rows == 0) throw py::value_error("q: expected at least one state");
+  if (iterations < 1)
+    throw py::value_error("iterations: expected a positive number, got " + std::to_string(iterations));
+  Worker worker(*dynamics_, *kinematics_);
+  const py::ssize_t states = std::max<py::ssize_t>(rows, 1);
+  std::vector<double> scratch(static_cast<std::size_t>(n));
+  MatrixXd q(n, states), qd(n, states), tau(n, states);
+  for (py::ssize_t i = 0; i < states; ++i) {
+    q.col(i) = VecMap(aq.Row(i, scratch), n);
+    qd.col(i) = VecMap(aqd.Row(i, scratch), n);
+    tau.col(i) = VecMap(atau.Row(i, scratch), n);
+  }
+  VectorXd qdd(n);
+  py::gil_scoped_release release;
+  const auto start = std::chrono::steady_clock::now();
+  for (long i = 0, k = 0; i < iterations; ++i, k = k + 1 == states ? 0 : k + 1) {
+    dynamics_->ComputeForwardDynamics(*worker.dynamics, q.col(k), qd.col(k), tau.col(k), DynamicsTerms{}, qdd);
+    asm volatile("" : : "r"(qdd.data()) : "memory");  // the result is used: the call is not optimised away
+  }
+  const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
+  return elapsed.count() / static_cast<double>(iterations);
+}
+
+// --- docstrings -------------------------------------------------------------
+
+constexpr const char* kModelDoc = R"(A plant's rigid-body dynamics and frame kinematics.
+
+    tau = M(q) qdd + C(q, qd) qd + G(q)
+
+Built once (Model.from_urdf, Model.builtin), then immutable. Units SI: q in
+rad (revolute) or m (prismatic), qd in rad/s or m/s, qdd in rad/s² or m/s²,
+tau in N·m or N, energies in J. n = num_dofs.
+
+Arguments are float64 arrays (any layout; lists and other real dtypes are
+converted): one state (n,), or a batch (N, n) whose results gain a leading
+axis N. In one call, batched arguments share N and a single state is used for
+every row. A batch runs in C++ without the GIL, over `threads` threads, each
+with its own data (the model is shared, read-only). Wrong shapes and
+non-finite input raise ValueError with lagrangectl eval's messages; a result
+that is not finite raises RuntimeError naming the first such state.
+
+The numbers are the C++ library's, bit for bit (the same as
+`lagrangectl eval`, whose JSON prints the shortest text of each double).
+)";
+
+constexpr const char* kFromUrdfDoc = R"(A robot from a URDF file (a fixed base).
+
+path:       the .urdf file (str or os.PathLike)
+gravity:    (gx, gy, gz), m/s², in the root link's (world) frame
+method:     "recursive" (RNEA, ABA, CRBA; the default) or "lagrangian"
+            (automatic differentiation of T and V), for cross-checks
+mass_scale: every link's mass and inertia × this (> 0)
+
+Raises FileNotFoundError when the file does not exist, ValueError when it is
+not a robot lagrange reads (one line: "FILE: ELEMENT: reason").
+)";
+
+constexpr const char* kBuiltinDoc = R"(A built-in planar plant, with the parameters of scenes and `lagrangectl eval`.
+
+name:    pendulum | arm2 | cartpole | chain
+method:  None (the fastest exact path: closed-form for pendulum, arm2,
+         cartpole; recursive for chain), "closed-form", "lagrangian" or
+         "recursive"
+params:  SI units, defaults as the README's conventions
+  pendulum  m (kg), L (m), g (m/s²), body ("point" | "rod")
+  arm2      m1, m2 (kg), L1, L2 (m), g; defaults 1.0, 0.8, 0.6, 0.5, 9.81
+  cartpole  mc, mp (kg), l (m), I (kg·m²), g
+  chain     links, m, L, com, I, joints ("revolute" | "prismatic"),
+            base_angle (rad), g; m, L, com, I and joints take one value for
+            every link or a sequence with one per link: m=[1, 0.8, 0.5]
+
+Raises ValueError naming the parameter: "m1: expected a positive number (kg), got -1".
+)";
+
+constexpr const char* kMassMatrixDoc = R"(q => M(q), the mass matrix: symmetric positive definite, M = ∂²T/∂qd².
+
+q        (n,) | (N, n)     rad (revolute), m (prismatic)
+returns  (n, n) | (N, n, n)  kg·m² (revolute rows and columns), kg (prismatic))";
+
+constexpr const char* kCoriolisMatrixDoc =
+    R"((q, qd) => C(q, qd), the Christoffel factorisation: C qd is the Coriolis and centrifugal force, Ṁ − 2C is skew.
+
+q        (n,) | (N, n)     rad or m
+qd       (n,) | (N, n)     rad/s or m/s
+returns  (n, n) | (N, n, n)  C qd in N·m or N)";
+
+constexpr const char* kGravityDoc = R"(q => G(q) = ∂V/∂q, the generalized gravity force (tau = G holds the plant still).
+
+q        (n,) | (N, n)  rad or m
+returns  (n,) | (N, n)  N·m or N)";
+
+constexpr const char* kForwardDynamicsDoc = R"((q, qd, tau) => qdd = M⁻¹ (tau − C qd − G).
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+tau      (n,) | (N, n)  N·m or N
+returns  (n,) | (N, n)  qdd, rad/s² or m/s²)";
+
+constexpr const char* kInverseDynamicsDoc = R"((q, qd, qdd) => tau = M qdd + C qd + G.
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+qdd      (n,) | (N, n)  rad/s² or m/s²
+returns  (n,) | (N, n)  tau, N·m or N)";
+
+constexpr const char* kKineticEnergyDoc = R"((q, qd) => T = ½ qdᵀ M(q) qd.
+
+q        (n,) | (N, n)  rad or m
+qd       (n,) | (N, n)  rad/s or m/s
+returns  float | (N,)   J)";
+
+constexpr const char* kPotentialEnergyDoc =
+    R"(q => V(q): zero at the base's height (planar plants: V = Σ m g y_com), or with
+every centre of mass at the world origin (URDF: V = −Σ m gᵀ p_com).
+
+q        (n,) | (N, n)  rad or m
+returns  float | (N,)   J)";
+
+constexpr const char* kFramePoseDoc =
+    R"((frame, q) => (R, p): the frame's axes and origin in the world (root link) frame.
+
+frame    one of frame_names
+q        (n,) | (N, n)            rad or m
+returns  R (3, 3) | (N, 3, 3)     its x, y, z axes as columns, world coordinates
+         p (3,) | (N, 3)          its origin, m)";
+
+constexpr const char* kFrameJacobianDoc =
+    R"((frame, q) => J, world-aligned (as lagrangectl eval --frame; Pinocchio's LOCAL_WORLD_ALIGNED):
+(ṗ, ω) = J qd, ṗ the velocity of the frame's origin, ω its angular velocity, both in world axes.
+
+frame    one of frame_names
+q        (n,) | (N, n)        rad or m
+returns  (6, n) | (N, 6, n)   rows 0..2 linear (m/s), rows 3..5 angular (rad/s) per unit joint velocity)";
+
+constexpr const char* kFrameBiasAccelerationDoc =
+    R"((frame, q, qd) => J̇ qd, world-aligned (eval --frame's jdot_qdot): the frame origin's
+acceleration and its angular acceleration at qdd = 0, so (p̈, ω̇) = J qdd + J̇ qd.
+
+frame    one of frame_names
+q        (n,) | (N, n)   rad or m
+qd       (n,) | (N, n)   rad/s or m/s
+returns  (6,) | (N, 6)   m/s², then rad/s²)";
+
+// Every per-joint call's last paragraph.
+constexpr const char* kBatchNote = R"(
+
+A batch (N, n) of any argument gives results with a leading axis N (a single
+state is used for every row); it runs without the GIL over `threads` threads,
+each with its own data. ValueError for a wrong shape or a non-finite input,
+RuntimeError when a result is not finite (naming the state).)";
+
+std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
+
+}  // namespace
+
+void BindModel(py::module_& m) {
+  py::class_<Model> model(m, "Model", kModelDoc);
+  model
+      .def_static("from_urdf", &Model::FromUrdf, kFromUrdfDoc, py::arg("path"),
+                  py::arg("gravity") = std::vector<double>{0.0, 0.0, -kStandardGravity},
+                  py::arg("method") = "recursive", py::arg("mass_scale") = 1.0)
+      .def_static("builtin", &Model::Builtin, kBuiltinDoc, py::arg("name"), py::arg("method") = py::none())
+      .def_property_readonly("num_dofs", &Model::num_dofs, "n: the degrees of freedom, q's length.")
+      .def_property_readonly("joint_names", &Model::joint_names,
+                             "The joints' names in q order (list of n str): a URDF's own; pendulum theta, arm2 q1 q2, "
+                             "cartpole x theta, chain q1..qn.")
+      .def_property_readonly("frame_names", &Model::frame_names,
+                             "The frames frame_pose and frame_jacobian take (list of str): a URDF's links; the planar "
+                             "plants' links and tip.")
+      .def_property_readonly("method", &Model::method, "How M, C, G are derived: closed-form, lagrangian or recursive.")
+      .def_property_readonly("plant", &Model::plant, "The plant type: pendulum, arm2, cartpole, chain or urdf.")
+      .def("__repr__", [](const Model& self) {
+        return "<lagrange.Model " + self.plant() + ", " + std::to_string(self.num_dofs()) + " dofs, method " +
+               self.method() + ">";
+      });
+
+  using Row1 = std::array<const double*, 1>;
+  using Row2 = std::array<const double*, 2>;
+  using Row3 = std::array<const double*, 3>;
+
+  model.def(
+      "mass_matrix",
+      [](Model& self, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{
+            self.Evaluate<1, 1>({&aq}, {Matrix(n, n)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
+              self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], n), w.matrix);
+              CopyRowMajor(w.matrix, out[0]);
+              return w.matrix.allFinite();
+            })};
+      },
+      Doc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "coriolis_matrix",
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return ArrayResult{
+            self.Evaluate<2, 1>({&aq, &aqd}, {Matrix(n, n)}, threads, "C is", [&](Worker& w, const Row2& r, auto& out) {
+              self.dynamics().ComputeCoriolisMatrix(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), w.matrix);
+              CopyRowMajor(w.matrix, out[0]);
+              return w.matrix.allFinite();
+            })};
+      },
+      Doc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "gravity",
+      [](Model& self, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{
+            self.Evaluate<1, 1>({&aq}, {Vector(n)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
+              Eigen::Map<VectorXd> G(out[0], n);
+              self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], n), G);
+              return G.allFinite();
+            })};
+      },
+      Doc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "forward_dynamics",
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), atau("tau", tau.value, n);
+        return ArrayResult{self.Evaluate<3, 1>(
+            {&aq, &aqd, &atau}, {Vector(n)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> qdd(out[0], n);
+              self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
+                                                     DynamicsTerms{}, qdd);
+              return qdd.allFinite();
+            })};
+      },
+      Doc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
+      py::arg("threads") = 1);
+  model.def(
+      "inverse_dynamics",
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), aqdd("qdd", qdd.value, n);
+        return ArrayResult{self.Evaluate<3, 1>(
+            {&aq, &aqd, &aqdd}, {Vector(n)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> tau(out[0], n);
+              self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
+                                                     DynamicsTerms{}, tau);
+              return tau.allFinite();
+            })};
+      },
+      Doc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
+      py::arg("threads") = 1);
+  model.def(
+      "kinetic_energy",
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return NumberResult{
+            self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
+              *out[0] = self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n));
+              return std::isfinite(*out[0]);
+            })};
+      },
+      Doc(kKineticEnergyDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "potential_energy",
+      [](Model& self, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const JointArray aq("q", q.value, n);
+        return NumberResult{
+            self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
+              *out[0] = self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], n));
+              return std::isfinite(*out[0]);
+            })};
+      },
+      Doc(kPotentialEnergyDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+
+  model.def(
+      "frame_pose",
+      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const int k = self.Frame(frame);
+        const JointArray aq("q", q.value, n);
+        return PoseResult{self.Evaluate<1, 2>(
+            {&aq}, {Matrix(3, 3), Vector(3)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
+              self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], n), k);
+              const Eigen::Matrix3d& R = w.kinematics->rotation(k);
+              const Eigen::Vector3d& p = w.kinematics->position(k);
+              CopyRowMajor(R, out[0]);
+              Eigen::Map<Eigen::Vector3d> p_out(out[1]);
+              p_out = p;
+              return R.allFinite() && p.allFinite();
+            })};
+      },
+      Doc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "frame_jacobian",
+      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
+        const int n = self.num_dofs();
+        const int k = self.Frame(frame);
+        const JointArray aq("q", q.value, n);
+        return ArrayResult{self.Evaluate<1, 1>(
+            {&aq}, {Matrix(6, n)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
+              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k, FrameAxes::kWorldAligned);
+              const Matrix6Xd& J = w.kinematics->jacobian(k, FrameAxes::kWorldAligned);
+              CopyRowMajor(J, out[0]);
+              return J.allFinite();
+            })};
+      },
+      Doc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "frame_bias_acceleration",
+      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, int threads) {
+        const int n = self.num_dofs();
+        const int k = self.Frame(frame);
+        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        return ArrayResult{self.Evaluate<2, 1>(
+            {&aq, &aqd}, {Vector(6)}, threads, "the frame is", [&](Worker& w, const Row2& r, auto& out) {
+              self.kinematics().ComputeFrameBiasAcceleration(*w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k,
+                                                             FrameAxes::kWorldAligned);
+              const Vector6d& b = w.kinematics->bias_acceleration(k, FrameAxes::kWorldAligned);
+              Eigen::Map<Vector6d> b_out(out[0]);
+              b_out = b;
+              return b.allFinite();
+            })};
+      },
+      Doc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
+      py::arg("threads") = 1);
+
+  model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
+            "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "
+            "rows (bench/python_bench.py).",
+            py::arg("q"), py::arg("qd"), py::arg("tau"), py::arg("iterations"));
+}
+
+}  // namespace lagrange::python

@@ -1,0 +1,351 @@
+"""lagrange.Model gives the C++ library's numbers bit for bit (against `lagrangectl eval`'s JSON, which prints the
+shortest text of each double), batches equal their single calls, and bad input raises one-line Python errors."""
+import json
+import os
+import pydoc
+import re
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import lagrange
+
+SOURCE = os.environ["LAGRANGE_SOURCE_DIR"]
+LAGRANGECTL = os.environ["LAGRANGECTL"]
+PANDA = os.path.join(SOURCE, "config/robots/panda.urdf")
+UR5 = os.path.join(SOURCE, "config/robots/ur5.urdf")
+PANDA_HAND = os.path.join(SOURCE, "config/robots/panda_hand.urdf")  # a mimic finger: 8 dofs, 9 moving joints
+BRANCHING = os.path.join(SOURCE, "tests/fixtures/urdf/branching.urdf")
+
+# (name, how Model is built, eval's arguments for the same plant)
+PLANTS = [
+    ("pendulum", lambda m: lagrange.Model.builtin("pendulum", method=m, L=0.7, body="rod"),
+     ["--plant", "pendulum", "--param", "L=0.7", "--param", "body=rod"]),
+    ("arm2", lambda m: lagrange.Model.builtin("arm2", method=m, m1=1.2, L2=0.45),
+     ["--plant", "arm2", "--param", "m1=1.2", "--param", "L2=0.45"]),
+    ("cartpole", lambda m: lagrange.Model.builtin("cartpole", method=m),
+     ["--plant", "cartpole"]),
+    ("chain", lambda m: lagrange.Model.builtin("chain", method=m, m=[1.0, 0.8, 0.5], links=3,
+                                               joints=["revolute", "prismatic", "revolute"]),
+     ["--plant", "chain", "--links", "3", "--param", "m=1,0.8,0.5", "--param", "joints=revolute,prismatic,revolute"]),
+    ("panda", lambda m: lagrange.Model.from_urdf(PANDA, method=m),
+     ["--urdf", PANDA]),
+    ("ur5", lambda m: lagrange.Model.from_urdf(UR5, gravity=(0.5, -1.0, -9.7), method=m),
+     ["--urdf", UR5, "--gravity", "0.5,-1,-9.7"]),
+    ("panda_hand", lambda m: lagrange.Model.from_urdf(PANDA_HAND, method=m),
+     ["--urdf", PANDA_HAND]),
+    ("branching", lambda m: lagrange.Model.from_urdf(BRANCHING, method=m, mass_scale=1.25),
+     ["--urdf", BRANCHING, "--param", "mass_scale=1.25"]),
+]
+METHODS = {"pendulum": ["closed-form", "lagrangian", "recursive"], "arm2": ["closed-form", "lagrangian", "recursive"],
+           "cartpole": ["closed-form", "lagrangian", "recursive"], "chain": ["lagrangian", "recursive"],
+           "panda": ["recursive", "lagrangian"], "ur5": ["recursive"], "panda_hand": ["recursive", "lagrangian"], "branching": ["recursive", "lagrangian"]}
+CASES = [(name, build, args, method) for name, build, args in PLANTS for method in METHODS[name]]
+
+
+def numbers(values):
+    return ",".join(repr(float(x)) for x in values)
+
+
+def evaluate(args, method, q, qd, tau, frames=()):
+    command = [LAGRANGECTL, "eval", *args, "--method", method, "--q", numbers(q), "--qd", numbers(qd),
+               "--tau", numbers(tau)]
+    for f in frames:
+        command += ["--frame", f]
+    r = subprocess.run(command, capture_output=True, text=True, check=True)
+    return json.loads(r.stdout)
+
+
+def exactly(a, b):
+    """Bit for bit: the same shape and the same doubles."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+@pytest.mark.parametrize("name,build,args,method", CASES, ids=[f"{c[0]}-{c[3]}" for c in CASES])
+def test_every_function_gives_lagrangectl_evals_doubles_bit_for_bit(name, build, args, method):
+    model = build(method)
+    rng = np.random.default_rng(42)
+    n = model.num_dofs
+    q, qd, tau = rng.uniform(-1.5, 1.5, n), rng.uniform(-2, 2, n), rng.uniform(-5, 5, n)
+    frame = model.frame_names[-1]
+    ref = evaluate(args, method, q, qd, tau, frames=[frame])
+    assert model.method == ref["method"]
+    assert model.num_dofs == ref["num_dofs"]
+    assert model.joint_names == ref["joints"]
+    assert exactly(model.mass_matrix(q), ref["M"])
+    assert exactly(model.coriolis_matrix(q, qd), ref["C"])
+    assert exactly(model.gravity(q), ref["G"])
+    assert exactly(model.forward_dynamics(q, qd, tau), ref["qdd"])
+    assert exactly(model.kinetic_energy(q, qd), ref["T"])
+    assert exactly(model.potential_energy(q), ref["V"])
+    f = ref["frames"][frame]
+    R, p = model.frame_pose(frame, q)
+    assert exactly(R, f["rotation"]) and exactly(p, f["position"])
+    assert exactly(model.frame_jacobian(frame, q), f["jacobian"])
+    assert exactly(model.frame_bias_acceleration(frame, q, qd), f["jdot_qdot"])
+
+
+REFERENCE_CASES = [(kind, what, method) for kind, what, methods in [
+    ("--plant", "pendulum", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "arm2", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "cartpole", ["closed-form", "lagrangian", "recursive"]),
+    ("--plant", "chain", ["lagrangian", "recursive"]),
+    ("--urdf", PANDA, ["recursive", "lagrangian"]),
+    ("--urdf", PANDA_HAND, ["recursive"]),
+] for method in methods]
+
+
+@pytest.mark.parametrize("kind,what,method", REFERENCE_CASES,
+                         ids=["%s-%s" % (os.path.basename(c[1]), c[2]) for c in REFERENCE_CASES])
+def test_inverse_dynamics_gives_the_librarys_doubles_bit_for_bit(kind, what, method):
+    # eval prints no inverse dynamics: tests/python/model_reference.cpp calls the library directly.
+    model = (lagrange.Model.from_urdf(what, method=method) if kind == "--urdf"
+             else lagrange.Model.builtin(what, method=method))
+    rng = np.random.default_rng(13)
+    q, qd, qdd = (rng.uniform(-2, 2, (3, model.num_dofs)))
+    r = subprocess.run([os.environ["LAGRANGE_MODEL_REFERENCE"], kind, what, method, numbers(q), numbers(qd),
+                        numbers(qdd)], capture_output=True, text=True, check=True)
+    assert exactly(model.inverse_dynamics(q, qd, qdd), [float(x) for x in r.stdout.split()])
+
+
+def test_inverse_dynamics_of_the_forward_dynamics_gives_back_the_torque():
+    model = lagrange.Model.from_urdf(PANDA)
+    rng = np.random.default_rng(7)
+    q, qd, tau = rng.uniform(-1, 1, (50, 7)), rng.uniform(-1, 1, (50, 7)), rng.uniform(-10, 10, (50, 7))
+    back = model.inverse_dynamics(q, qd, model.forward_dynamics(q, qd, tau))
+    np.testing.assert_allclose(back, tau, rtol=0, atol=1e-9)
+
+
+def test_the_lagrangian_and_recursive_paths_agree_for_the_panda():
+    rec, lag = lagrange.Model.from_urdf(PANDA), lagrange.Model.from_urdf(PANDA, method="lagrangian")
+    q = np.random.default_rng(3).uniform(-2, 2, (20, 7))
+    np.testing.assert_allclose(rec.mass_matrix(q), lag.mass_matrix(q), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(rec.gravity(q), lag.gravity(q), rtol=0, atol=1e-10)
+
+
+def test_the_default_method_is_evals_default():
+    assert lagrange.Model.builtin("arm2").method == "closed-form"
+    assert lagrange.Model.builtin("chain").method == "recursive"
+    assert lagrange.Model.from_urdf(PANDA).method == "recursive"
+    ref = json.loads(subprocess.run([LAGRANGECTL, "eval", "--plant", "arm2", "--q", "0.3,0.1", "--qd", "0,0"],
+                                    capture_output=True, text=True, check=True).stdout)
+    assert exactly(lagrange.Model.builtin("arm2").mass_matrix([0.3, 0.1]), ref["M"])
+
+
+def test_names_are_evals():
+    ref = json.loads(subprocess.run([LAGRANGECTL, "eval", "--urdf", PANDA, "--frames"], capture_output=True,
+                                    text=True, check=True).stdout)
+    assert lagrange.Model.from_urdf(PANDA).frame_names == ref["frame_names"]
+    assert lagrange.Model.builtin("cartpole").joint_names == ["x", "theta"]
+
+
+def test_gravity_off_leaves_no_gravity_force():
+    model = lagrange.Model.from_urdf(PANDA, gravity=(0, 0, 0))
+    q = np.random.default_rng(1).uniform(-1, 1, 7)
+    assert np.all(model.gravity(q) == 0.0)
+    assert model.potential_energy(q) == 0.0
+
+
+# --- batches ---------------------------------------------------------------
+
+def every_function(model, q, qd, x, threads=1):
+    frame = model.frame_names[-1]
+    return {
+        "M": model.mass_matrix(q, threads=threads),
+        "C": model.coriolis_matrix(q, qd, threads=threads),
+        "G": model.gravity(q, threads=threads),
+        "qdd": model.forward_dynamics(q, qd, x, threads=threads),
+        "tau": model.inverse_dynamics(q, qd, x, threads=threads),
+        "T": model.kinetic_energy(q, qd, threads=threads),
+        "V": model.potential_energy(q, threads=threads),
+        "pose": model.frame_pose(frame, q, threads=threads),
+        "J": model.frame_jacobian(frame, q, threads=threads),
+        "bias": model.frame_bias_acceleration(frame, q, qd, threads=threads),
+    }
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+def test_a_batch_equals_its_single_calls_row_by_row(threads):
+    model = lagrange.Model.from_urdf(PANDA)
+    rng = np.random.default_rng(11)
+    q, qd, x = rng.uniform(-2, 2, (7, 7)), rng.uniform(-2, 2, (7, 7)), rng.uniform(-9, 9, (7, 7))
+    batch = every_function(model, q, qd, x, threads)
+    assert batch["M"].shape == (7, 7, 7) and batch["T"].shape == (7,) and batch["J"].shape == (7, 6, 7)
+    assert batch["pose"][0].shape == (7, 3, 3) and batch["pose"][1].shape == (7, 3)
+    for i in range(7):
+        one = every_function(model, q[i], qd[i], x[i])
+        for key, value in one.items():
+            if key == "pose":
+                assert exactly(batch[key][0][i], value[0]) and exactly(batch[key][1][i], value[1])
+            else:
+                assert exactly(batch[key][i], value), key
+
+
+def test_arrays_in_any_layout_give_the_same_doubles():
+    model = lagrange.Model.builtin("chain", links=4)
+    rng = np.random.default_rng(5)
+    q, qd = rng.uniform(-2, 2, (6, 4)), rng.uniform(-2, 2, (6, 4))
+    want = model.coriolis_matrix(q, qd)
+    big = np.zeros((12, 8))
+    big[::2, ::2] = q                                    # strided rows and columns
+    assert exactly(model.coriolis_matrix(big[::2, ::2], qd), want)
+    assert exactly(model.coriolis_matrix(np.asfortranarray(q), qd), want)
+    assert exactly(model.coriolis_matrix(q.tolist(), qd.tolist()), want)
+    assert exactly(model.coriolis_matrix(q[::-1], qd[::-1]), want[::-1])
+    assert exactly(model.mass_matrix(q[2, ::-1][::-1]), model.mass_matrix(q[2]))
+    ints = np.array([[1, 0, -1, 2]])
+    assert exactly(model.gravity(ints), model.gravity(ints.astype(np.float64)))
+
+
+def test_a_single_state_is_used_for_every_row_of_a_batch():
+    model = lagrange.Model.builtin("arm2")
+    q = np.random.default_rng(9).uniform(-2, 2, (5, 2))
+    qd = np.array([0.3, -0.7])
+    out = model.kinetic_energy(q, qd)
+    assert exactly(out, [model.kinetic_energy(row, qd) for row in q])
+
+
+def test_an_empty_batch_gives_empty_results():
+    model = lagrange.Model.builtin("arm2")
+    assert model.mass_matrix(np.zeros((0, 2))).shape == (0, 2, 2)
+    assert model.potential_energy(np.zeros((0, 2)), threads=4).shape == (0,)
+
+
+def test_a_pendulums_angle_may_be_a_plain_number():
+    model = lagrange.Model.builtin("pendulum")
+    assert exactly(model.gravity(0.4), model.gravity([0.4]))
+    assert isinstance(model.potential_energy(0.4), float)
+
+
+def test_python_threads_share_one_model_during_batches():
+    # A batch releases the GIL and uses data of its own: single calls on other threads meanwhile give the same doubles.
+    model = lagrange.Model.from_urdf(PANDA)
+    q = np.random.default_rng(2).uniform(-2, 2, (2000, 7))
+    want = model.mass_matrix(q)
+    results, errors = [], []
+
+    def batch():
+        results.append(model.mass_matrix(q, threads=2))
+
+    def singles():
+        try:
+            for i in range(0, 2000, 50):
+                assert exactly(model.mass_matrix(q[i]), want[i])
+        except AssertionError as e:
+            errors.append(e)
+
+    workers = [threading.Thread(target=batch), threading.Thread(target=singles), threading.Thread(target=batch)]
+    for t in workers:
+        t.start()
+    for t in workers:
+        t.join()
+    assert not errors
+    assert len(results) == 2 and all(exactly(r, want) for r in results)
+
+
+# --- errors ----------------------------------------------------------------
+
+def raises(kind, message, call):
+    with pytest.raises(kind) as e:
+        call()
+    assert str(e.value) == message
+    assert "\n" not in str(e.value)
+
+
+def test_wrong_shapes_raise_value_errors_naming_the_argument():
+    m = lagrange.Model.builtin("arm2")
+    raises(ValueError, "q: expected 2 values (one per joint), got 3", lambda: m.mass_matrix([1, 2, 3]))
+    raises(ValueError, "qd: expected shape (N, 2), one row of 2 values per state, got (4, 3)",
+           lambda: m.coriolis_matrix([0, 0], np.zeros((4, 3))))
+    raises(ValueError, "q: expected an array of shape (2,) or (N, 2), got shape (1, 2, 2)",
+           lambda: m.gravity(np.zeros((1, 2, 2))))
+    raises(ValueError, "tau: expected 3 rows (as q), got 4",
+           lambda: m.forward_dynamics(np.zeros((3, 2)), [0, 0], np.zeros((4, 2))))
+    raises(ValueError, "q: expected numbers, an array of shape (2,) or (N, 2), got str", lambda: m.gravity("ab"))
+    raises(ValueError, "q: expected an array of shape (2,) or (N, 2), got None", lambda: m.gravity(None))
+    raises(ValueError, "threads: expected 1..1024, got 0", lambda: m.gravity(np.zeros((3, 2)), threads=0))
+
+
+def test_non_finite_input_raises_a_value_error_naming_the_element():
+    m = lagrange.Model.builtin("arm2")
+    raises(ValueError, "q: expected finite numbers, got nan at q[1]", lambda: m.mass_matrix([0, np.nan]))
+    q = np.zeros((5, 2))
+    q[3, 0] = -np.inf
+    raises(ValueError, "qdd: expected finite numbers, got -inf at qdd[3, 0]",
+           lambda: m.inverse_dynamics(np.zeros(2), np.zeros(2), q))
+
+
+def test_a_result_that_is_not_finite_raises_a_runtime_error_naming_the_state():
+    m = lagrange.Model.builtin("arm2")
+    qd = np.ones((4, 2))
+    qd[2] = 1e300  # T = ½ qdᵀ M qd overflows
+    raises(RuntimeError, "T is not finite at state 2", lambda: m.kinetic_energy(np.zeros((4, 2)), qd, threads=2))
+    raises(RuntimeError, "T is not finite at this state", lambda: m.kinetic_energy([0, 0], [1e300, 1e300]))
+
+
+def test_bad_models_raise_evals_messages():
+    raises(ValueError, "m1: expected a positive number (kg), got -1", lambda: lagrange.Model.builtin("arm2", m1=-1))
+    raises(ValueError, "zz: unknown parameter for arm2 (expected one of m1, m2, L1, L2, g)",
+           lambda: lagrange.Model.builtin("arm2", zz=1))
+    raises(ValueError, "m: expected 3 values (one per link), got 2",
+           lambda: lagrange.Model.builtin("chain", links=3, m=[1, 2]))
+    raises(ValueError, "method: chain has no closed-form path (use lagrangian or recursive)",
+           lambda: lagrange.Model.builtin("chain", method="closed-form"))
+    raises(ValueError, "method: a urdf robot has no closed-form path (use lagrangian or recursive)",
+           lambda: lagrange.Model.from_urdf(PANDA, method="closed-form"))
+    raises(ValueError, "method: expected closed-form, lagrangian or recursive, got 'fast'",
+           lambda: lagrange.Model.builtin("arm2", method="fast"))
+    raises(ValueError, "name: expected one of pendulum|arm2|cartpole|chain, got 'urdf' (a URDF robot: "
+           "Model.from_urdf)", lambda: lagrange.Model.builtin("urdf"))
+    raises(ValueError, "gravity: expected (gx, gy, gz) (3 numbers, m/s²), got 2",
+           lambda: lagrange.Model.from_urdf(PANDA, gravity=(0, -9.81)))
+    raises(ValueError, "frame: no frame 'tool' in this plant (frame_names lists them)",
+           lambda: lagrange.Model.builtin("arm2").frame_pose("tool", [0, 0]))
+
+
+def eval_error(args):
+    r = subprocess.run([LAGRANGECTL, "eval", *args, "--q", "0", "--qd", "0"], capture_output=True, text=True)
+    assert r.returncode == 2
+    return r.stderr.strip().removeprefix("lagrangectl eval: --urdf: ")
+
+
+def test_a_missing_urdf_raises_file_not_found_with_evals_message(tmp_path):
+    missing = str(tmp_path / "nothing.urdf")
+    raises(FileNotFoundError, eval_error(["--urdf", missing]), lambda: lagrange.Model.from_urdf(missing))
+
+
+def test_every_invalid_urdf_fixture_raises_a_value_error_with_evals_message():
+    folder = os.path.join(SOURCE, "tests/fixtures/urdf/invalid")
+    files = sorted(os.listdir(folder))
+    assert len(files) >= 10
+    for name in files:
+        path = os.path.join(folder, name)
+        raises(ValueError, eval_error(["--urdf", path]), lambda: lagrange.Model.from_urdf(path))
+
+
+# --- documentation ---------------------------------------------------------
+
+PUBLIC = ["from_urdf", "builtin", "num_dofs", "joint_names", "frame_names", "method", "plant", "mass_matrix",
+          "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
+          "frame_pose", "frame_jacobian", "frame_bias_acceleration"]
+
+
+def test_every_public_name_is_bound_documented_and_in_the_stubs():
+    stubs = open(os.path.join(os.path.dirname(lagrange.__file__), "__init__.pyi")).read()
+    model_stubs = stubs[stubs.index("class Model"):stubs.index("end of lagrange.Model")]
+    bound = sorted(name for name in dir(lagrange.Model) if not name.startswith("_"))
+    assert bound == sorted(PUBLIC)
+    for name in PUBLIC:
+        assert re.search(r"def %s\(" % name, model_stubs), name
+        assert getattr(lagrange.Model, name).__doc__, name
+
+
+def test_help_gives_units_and_shapes():
+    text = pydoc.render_doc(lagrange.Model, renderer=pydoc.plaintext)
+    for phrase in ["tau = M(q) qdd + C(q, qd) qd + G(q)", "(N, n, n)", "kg·m²", "rad/s²", "world-aligned",
+                   "FileNotFoundError"]:
+        assert phrase in text, phrase
+    assert "_time_forward_dynamics" not in text
