@@ -99,7 +99,7 @@ void ViewModel::BuiltInShapes(const PlantSpec& spec) {
       break;
     }
     case PlantType::kCartPole: {
-      shapes.push_back(Box(-1, {3.0, 0.02, 0.02}, {0.0, -0.09, 0.0}, joint));  // the rail
+      shapes.push_back(Box(-1, {2.0, 0.02, 0.02}, {0.0, -0.09, 0.0}, joint));  // the rail
       shapes.push_back(Box(Frame("cart"), {0.3, 0.15, 0.15}, Eigen::Vector3d::Zero(), body));
       shapes.push_back(Rod(Frame("pole"), Frame("pole_tip"), kRodRadius, link));
       shapes.push_back(Sphere(Frame("pole"), kJointRadius, joint));

@@ -157,7 +157,9 @@ class ViewTest : public ::testing::Test {
          "--user-data-dir=" + profile_, "--window-size=1000,700", "--virtual-time-budget=" + std::to_string(budget_ms),
          what, "http://127.0.0.1:" + std::to_string(port_) + "/" + query},
         60.0);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
+    // No EXPECT here: the tests load the page again when a load drew nothing (a loaded machine), and
+    // assert on what the page drew.
+    if (r.exit_code != 0) std::fprintf(stderr, "chromium: exit %d: %s\n", r.exit_code, r.err.substr(0, 500).c_str());
     return r.out;
   }
   // DumpDom until the page has drawn `instance` (at most `attempts` loads): a loaded machine may
@@ -171,14 +173,13 @@ class ViewTest : public ::testing::Test {
     }
     return dom;
   }
-  json Drawn(const std::string& dom) {
+  // What the page drew ({} when it drew nothing, or the load failed: the callers assert on its contents).
+  static json Drawn(const std::string& dom) {
     const std::string text = PreText(dom, "lagrange-drawn");
-    EXPECT_FALSE(text.empty()) << dom.substr(0, 2000);
     return text.empty() ? json::object() : json::parse(text);
   }
-  json Probe(const std::string& dom) {
+  static json Probe(const std::string& dom) {
     const std::string text = PreText(dom, "lagrange-probe");
-    EXPECT_FALSE(text.empty());
     return text.empty() ? json::object() : json::parse(text);
   }
 
@@ -206,7 +207,7 @@ TEST_F(ViewBrowser, UrdfPosesDrawnAreTheKinematicsAndAMissingMeshStillDraws) {
   ExpectPosesOf(Kinematics(robot.tree), arm["measured"], arm["q"], "urdf");
   // The hand's pose is not the identity: the q reached the kinematics.
   EXPECT_GT(std::abs(arm["measured"][3][12].get<double>() - 0.0), 0.05);
-  EXPECT_GT(Probe(dom)["nonblank"].get<int>(), 2000);
+  EXPECT_GT(Probe(dom).value("nonblank", 0), 2000);
   // The missing Collada mesh is named; the STL and the Collada mesh beside the file loaded (no "did not load").
   EXPECT_NE(dom.find("package://absent/meshes/elbow.dae"), std::string::npos);
   EXPECT_EQ(dom.find("did not load"), std::string::npos);
@@ -235,11 +236,11 @@ TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
   ExpectPosesOf(arm_kinematics, before["arm"]["ghost"], before["arm"]["q_des"], "arm setpoint");
   ExpectPosesOf(cart_kinematics, before["cartpole"]["measured"], before["cartpole"]["q"], "cartpole");
   const json probe_before = Probe(dom);
-  EXPECT_GT(probe_before["nonblank"].get<int>(), 2000);
+  EXPECT_GT(probe_before.value("nonblank", 0), 2000);
 
   const testing::CtlResult sent = testing::RunCtl({"send", "arm", "--q", "-0.5,1.2", "--for", "1", "--lcm-url", url});
   ASSERT_EQ(sent.status, 0) << sent.err;
-  dom = DumpDom("?probe=1&frames_max=3", 3000);
+  dom = DumpDomUntilDrawn("?probe=1&frames_max=3", "arm");
   const json after = Drawn(dom);
   ASSERT_TRUE(after.contains("arm")) << after.dump();
   ExpectPosesOf(arm_kinematics, after["arm"]["measured"], after["arm"]["q"], "arm after the setpoint");
@@ -247,7 +248,7 @@ TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
   EXPECT_NEAR(after["arm"]["q"][0].get<double>(), -0.5, 0.02);
   EXPECT_NEAR(after["arm"]["q"][1].get<double>(), 1.2, 0.02);
   // ...and the picture changed with it.
-  EXPECT_NE(Probe(dom)["checksum"], probe_before["checksum"]);
+  EXPECT_NE(Probe(dom).value("checksum", -1), probe_before.value("checksum", -1));
   daemon.Signal(SIGTERM);
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
@@ -339,7 +340,7 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
   EXPECT_EQ(drawn["arm"]["q"], json::array({0.1 * 5, -0.05 * 5}));
   ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "logged arm");
   ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["ghost"], json::array({0.3, -0.2}), "logged setpoint");
-  EXPECT_GT(Probe(dom)["nonblank"].get<int>(), 2000);
+  EXPECT_GT(Probe(dom).value("nonblank", 0), 2000);
   EXPECT_NE(dom.find("STRANGER_STATE is in the log but not in the scene"), std::string::npos);
   EXPECT_NE(dom.find("1 states that do not decode were passed over"), std::string::npos);
   // The bus's strings are text on the page: no element made of them, the escape written out.

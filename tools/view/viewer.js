@@ -18,7 +18,7 @@ import { ColladaLoader } from './three/examples/jsm/loaders/ColladaLoader.js';
 const params = new URLSearchParams(location.search);
 const probe = params.has('probe');
 const framesMax = params.has('frames_max') ? Number(params.get('frames_max')) : Infinity;
-const kSpacing = 2.5;  // m between instances along x
+const kSpacing = 1.9;  // m between instances along x
 const kBackground = 0x1b1d22;
 
 const $ = (id) => document.getElementById(id);
