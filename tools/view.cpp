@@ -209,6 +209,12 @@ class ViewCommand final : public Command {
 
     httplib::Server server;
     server.new_task_queue = [this] { return new httplib::ThreadPool(static_cast<std::size_t>(max_clients_) + 4); };
+    // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second view on the same
+    // port binds too and the kernel shares the browsers between them.
+    server.set_socket_options([](socket_t sock) {
+      int yes = 1;
+      setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
     Routes(server);
     if (!server.bind_to_port(bind_.c_str(), port_))
       throw std::runtime_error("cannot listen on " + Escape(bind_) + ":" + std::to_string(port_) +

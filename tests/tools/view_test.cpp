@@ -370,6 +370,14 @@ TEST_F(ViewTest, RefusesAMissingThreeJsDirectoryInOneLine) {
   EXPECT_NE(r.err.find("three.js not found in /nonexistent/three"), std::string::npos) << r.err;
 }
 
+TEST_F(ViewTest, SaysInOneLineWhenItsPortIsTaken) {
+  StartView({"--urdf", kVisualArm}, 18378);
+  const testing::CtlResult r = testing::RunCtl({"view", "--urdf", kVisualArm, "--port", "18378", "--bind", "127.0.0.1"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:18378"), std::string::npos) << r.err;
+}
+
 TEST_F(ViewTest, RefusesABadUrdfInOneLine) {
   const testing::CtlResult r = testing::RunCtl({"view", "--urdf", "/nonexistent.urdf", "--port", "18365"});
   EXPECT_EQ(r.status, 1) << r.err;
