@@ -30,6 +30,7 @@ std::unique_ptr<Command> MakeWatchCommand(CLI::App& parent);
 std::unique_ptr<Command> MakeLog2CsvCommand(CLI::App& parent);
 std::unique_ptr<Command> MakePlotCommand(CLI::App& parent);
 std::unique_ptr<Command> MakeKeygenCommand(CLI::App& parent);
+std::unique_ptr<Command> MakeViewCommand(CLI::App& parent);
 
 // Exit status: 0 success, 2 bad argument, 1 any other failure; an error is
 // one line on `err`: "lagrangectl <command>: <what is wrong>".

@@ -36,7 +36,7 @@ std::string UnknownCommand(const CLI::App& app, int argc, const char* const* arg
 
 int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CLI::App app{
-      "lagrangectl: evaluate and simulate plants; send, command and watch lagranged; turn logs into CSV and plots"};
+      "lagrangectl: evaluate and simulate plants; send, command, watch and view lagranged; turn logs into CSV and plots"};
   app.name("lagrangectl");
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("lagrangectl ") + LAGRANGE_VERSION);
@@ -49,6 +49,7 @@ int RunLagrangectl(int argc, const char* const* argv, std::ostream& out, std::os
   commands.push_back(MakeLog2CsvCommand(app));
   commands.push_back(MakePlotCommand(app));
   commands.push_back(MakeKeygenCommand(app));
+  commands.push_back(MakeViewCommand(app));
 
   std::string where = "lagrangectl";
   if (const std::string unknown = UnknownCommand(app, argc, argv); !unknown.empty()) {

@@ -1,0 +1,634 @@
+// lagrangectl view. ViewBrowser.*: the page in a real browser (Debian's
+// chromium, headless, software WebGL through SwiftShader) against
+// lagrangectl view serving a URDF, a live lagranged on a private LCM port,
+// and a log: the canvas is not blank, the page names the instances and their
+// modes, and every pose the page drew equals the plant's own kinematics at the
+// q it was drawn for to 1e-9. ViewTest.*: the server's answers to bad input,
+// without a browser.
+//
+// The page writes what it drew into #lagrange-drawn (JSON: per instance, each
+// frame object's three.js matrix, column-major) and, with ?probe=1, its
+// canvas's non-background pixel count and a checksum into #lagrange-probe;
+// chromium --dump-dom prints the document once --virtual-time-budget has run
+// out, and a live page stops listening after ?frames_max=N frames so the
+// budget can run out.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <lagrange/state_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <regex>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Geometry>
+
+#include "daemon/scene.hpp"
+#include "plant/kinematics.hpp"
+#include "plant/plant_factory.hpp"
+#include "plant/urdf.hpp"
+#include "tests/support/lcm_testing.hpp"
+#include "tests/support/process.hpp"
+#include "tests/tools/run_ctl.hpp"
+
+// Last: it includes <resolv.h>, whose macro _res would rename a parameter in Eigen's headers.
+#include <httplib.h>
+
+namespace lagrange {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::BackgroundProcess;
+
+constexpr double kPoseTolerance = 1e-9;
+const std::string kVisualArm = std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/urdf/view/visual_arm.urdf";
+const std::string kDefaultScene = std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml";
+
+std::string Chromium() {
+  for (const char* path : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
+    if (access(path, X_OK) == 0) return path;
+  }
+  return "";
+}
+
+// The text of <pre id="ID"> in a dumped document, entities decoded.
+std::string PreText(const std::string& dom, const std::string& id) {
+  const std::string open = "<pre id=\"" + id + "\"";
+  std::size_t at = dom.find(open);
+  if (at == std::string::npos) return "";
+  at = dom.find('>', at);
+  const std::size_t end = dom.find("</pre>", at);
+  if (at == std::string::npos || end == std::string::npos) return "";
+  std::string text = dom.substr(at + 1, end - at - 1);
+  for (const auto& [entity, c] : std::vector<std::pair<std::string, std::string>>{
+           {"&lt;", "<"}, {"&gt;", ">"}, {"&quot;", "\""}, {"&nbsp;", " "}, {"&amp;", "&"}}) {
+    for (std::size_t p = text.find(entity); p != std::string::npos; p = text.find(entity, p + 1))
+      text.replace(p, entity.size(), c);
+  }
+  return text;
+}
+
+// A three.js column-major matrix against a kinematics pose: R, p and the bottom row.
+void ExpectPose(const json& m, const Eigen::Matrix3d& R, const Eigen::Vector3d& p, const std::string& what) {
+  ASSERT_TRUE(m.is_array() && m.size() == 16u) << what << ": " << m.dump();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(m[j * 4 + i].get<double>(), R(i, j), kPoseTolerance) << what;
+    EXPECT_NEAR(m[12 + i].get<double>(), p(i), kPoseTolerance) << what;
+    EXPECT_EQ(m[i * 4 + 3].get<double>(), 0.0) << what;
+  }
+  EXPECT_EQ(m[15].get<double>(), 1.0) << what;
+}
+
+// Every frame the page drew for `q` equals the kinematics' pose at q.
+void ExpectPosesOf(const Kinematics& kinematics, const json& drawn, const json& q, const std::string& what) {
+  ASSERT_TRUE(q.is_array() && static_cast<int>(q.size()) == kinematics.num_dofs()) << what;
+  VectorXd qv(kinematics.num_dofs());
+  for (int k = 0; k < qv.size(); ++k) qv[k] = q[static_cast<std::size_t>(k)].get<double>();
+  auto data = kinematics.MakeData();
+  kinematics.ComputeFramePlacements(*data, qv);
+  ASSERT_TRUE(drawn.is_array() && static_cast<int>(drawn.size()) == kinematics.num_frames()) << what;
+  for (int f = 0; f < kinematics.num_frames(); ++f) {
+    ExpectPose(drawn[static_cast<std::size_t>(f)], data->rotation(f), data->position(f),
+               what + " frame " + kinematics.frame_names()[static_cast<std::size_t>(f)]);
+  }
+}
+
+Kinematics SceneKinematics(const std::string& instance, const std::string& file = kDefaultScene) {
+  const Scene scene = LoadScene(file);
+  for (const InstanceConfig& c : scene.instances)
+    if (c.name == instance) return Kinematics(MakeRigidTree(c.plant));
+  throw std::runtime_error("no instance " + instance);
+}
+
+class ViewTest : public ::testing::Test {
+ protected:
+  // Starts lagrangectl view on 127.0.0.1:`port` and waits for its model to answer.
+  void StartView(std::vector<std::string> args, int port) {
+    port_ = port;
+    args.insert(args.begin(), LAGRANGECTL_PATH);
+    args.insert(args.begin() + 1, "view");
+    for (const std::string& a : std::initializer_list<std::string>{"--port", std::to_string(port), "--bind", "127.0.0.1"})
+      args.push_back(a);
+    view_ = std::make_unique<BackgroundProcess>(args);
+    httplib::Client client("127.0.0.1", port);
+    for (int i = 0; i < 200; ++i) {
+      if (auto r = client.Get("/api/model"); r && r->status == 200) {
+        model_ = json::parse(r->body);
+        return;
+      }
+      ASSERT_TRUE(view_->Running()) << view_->Stderr();
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    FAIL() << "lagrangectl view did not answer on port " << port << ": " << view_->Stderr();
+  }
+  void TearDown() override {
+    if (view_) {
+      view_->Signal(SIGINT);
+      EXPECT_EQ(view_->Wait(10.0), 0) << view_->Stderr();
+    }
+    std::error_code error;
+    if (!profile_.empty()) fs::remove_all(profile_, error);
+  }
+  // The page at `query` in headless chromium: the document after `budget_ms` of virtual time.
+  std::string DumpDom(const std::string& query, int budget_ms = 4000) { return Chrome(query, budget_ms, "--dump-dom"); }
+  // The same, as a PNG in `path`.
+  void Screenshot(const std::string& query, const std::string& path, int budget_ms) {
+    Chrome(query, budget_ms, "--screenshot=" + path);
+  }
+  std::string Chrome(const std::string& query, int budget_ms, const std::string& what) {
+    if (profile_.empty()) {
+      profile_ = (fs::temp_directory_path() / ("lagrange_view_test_" + std::to_string(getpid()) + "_" +
+                                               std::to_string(port_)))
+                     .string();
+    }
+    // --no-sandbox: chromium refuses to run as root (CI containers) with its sandbox; the page is our own.
+    const testing::ProcessResult r = testing::RunProcess(
+        {Chromium(), "--headless=new", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox",
+         "--user-data-dir=" + profile_, "--window-size=1000,700", "--virtual-time-budget=" + std::to_string(budget_ms),
+         what, "http://127.0.0.1:" + std::to_string(port_) + "/" + query},
+        60.0);
+    // No EXPECT here: the tests load the page again when a load drew nothing (a loaded machine), and
+    // assert on what the page drew.
+    if (r.exit_code != 0) std::fprintf(stderr, "chromium: exit %d: %s\n", r.exit_code, r.err.substr(0, 500).c_str());
+    return r.out;
+  }
+  // DumpDom until the page has drawn `instance` (at most `attempts` loads): a loaded machine may
+  // let the virtual-time budget run out before the page's fetches return.
+  std::string DumpDomUntilDrawn(const std::string& query, const std::string& instance, int attempts = 3) {
+    std::string dom;
+    for (int a = 0; a < attempts; ++a) {
+      dom = DumpDom(query);
+      const std::string text = PreText(dom, "lagrange-drawn");
+      if (!text.empty() && json::parse(text).contains(instance)) break;
+    }
+    return dom;
+  }
+  // What the page drew ({} when it drew nothing, or the load failed: the callers assert on its contents).
+  static json Drawn(const std::string& dom) {
+    const std::string text = PreText(dom, "lagrange-drawn");
+    return text.empty() ? json::object() : json::parse(text);
+  }
+  static json Probe(const std::string& dom) {
+    const std::string text = PreText(dom, "lagrange-probe");
+    return text.empty() ? json::object() : json::parse(text);
+  }
+
+  int port_ = 0;
+  std::string profile_;
+  json model_;
+  std::unique_ptr<BackgroundProcess> view_;
+};
+
+class ViewBrowser : public ViewTest {
+ protected:
+  void SetUp() override {
+    if (Chromium().empty()) GTEST_SKIP() << "no chromium (Debian's chromium package)";
+  }
+};
+
+TEST_F(ViewBrowser, UrdfPosesDrawnAreTheKinematicsAndAMissingMeshStillDraws) {
+  StartView({"--urdf", kVisualArm}, 18360);
+  const std::string dom = DumpDomUntilDrawn("?q=0.4,-0.7,1.1&probe=1&frames=1", "visual_arm");
+  const json drawn = Drawn(dom);
+  ASSERT_TRUE(drawn.contains("visual_arm")) << drawn.dump();
+  const json& arm = drawn["visual_arm"];
+  EXPECT_EQ(arm["q"], json::array({0.4, -0.7, 1.1}));
+  const UrdfRobot robot = LoadUrdf(kVisualArm);
+  ExpectPosesOf(Kinematics(robot.tree), arm["measured"], arm["q"], "urdf");
+  // The hand's pose is not the identity: the q reached the kinematics.
+  EXPECT_GT(std::abs(arm["measured"][3][12].get<double>() - 0.0), 0.05);
+  EXPECT_GT(Probe(dom).value("nonblank", 0), 2000);
+  // The missing Collada mesh is named; the STL and the Collada mesh beside the file loaded (no "did not load").
+  EXPECT_NE(dom.find("package://absent/meshes/elbow.dae"), std::string::npos);
+  EXPECT_EQ(dom.find("did not load"), std::string::npos);
+  // A slider per joint, named as the file names them.
+  for (const char* joint : {"shoulder", "elbow", "wrist"}) EXPECT_NE(dom.find(joint), std::string::npos) << joint;
+}
+
+TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
+  constexpr int kLcmPort = 8360;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18361);
+  const Kinematics arm_kinematics = SceneKinematics("arm"), cart_kinematics = SceneKinematics("cartpole");
+
+  json before;
+  std::string dom;
+  for (int attempt = 0; attempt < 20 && !before.contains("arm"); ++attempt) {  // until lagranged is up
+    dom = DumpDom("?probe=1&frames_max=3", 3000);
+    before = Drawn(dom);
+  }
+  ASSERT_TRUE(before.contains("arm") && before.contains("cartpole")) << before.dump();
+  EXPECT_NE(dom.find("running"), std::string::npos);
+  EXPECT_NE(dom.find("computed-torque"), std::string::npos);
+  ExpectPosesOf(arm_kinematics, before["arm"]["measured"], before["arm"]["q"], "arm");
+  ExpectPosesOf(arm_kinematics, before["arm"]["ghost"], before["arm"]["q_des"], "arm setpoint");
+  ExpectPosesOf(cart_kinematics, before["cartpole"]["measured"], before["cartpole"]["q"], "cartpole");
+  const json probe_before = Probe(dom);
+  EXPECT_GT(probe_before.value("nonblank", 0), 2000);
+
+  const testing::CtlResult sent = testing::RunCtl({"send", "arm", "--q", "-0.5,1.2", "--for", "1", "--lcm-url", url});
+  ASSERT_EQ(sent.status, 0) << sent.err;
+  dom = DumpDomUntilDrawn("?probe=1&frames_max=3", "arm");
+  const json after = Drawn(dom);
+  ASSERT_TRUE(after.contains("arm")) << after.dump();
+  ExpectPosesOf(arm_kinematics, after["arm"]["measured"], after["arm"]["q"], "arm after the setpoint");
+  // The arm went to the setpoint (computed torque, ω = 10 rad/s: settled within the second it was sent)...
+  EXPECT_NEAR(after["arm"]["q"][0].get<double>(), -0.5, 0.02);
+  EXPECT_NEAR(after["arm"]["q"][1].get<double>(), 1.2, 0.02);
+  // ...and the picture changed with it.
+  EXPECT_NE(Probe(dom).value("checksum", -1), probe_before.value("checksum", -1));
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// The README's picture: the Panda (its own lagranged, under --channel-prefix PANDA_, holding
+// a pose under Cartesian impedance after a 2 s move) beside the arm and the cart-pole of the
+// default scene, one view of two daemons. Its 7-joint poses are the spatial kinematics' to
+// 1e-9, and its controller's target frame is drawn where the scene puts it.
+TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
+  constexpr int kLcmPort = 8368;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  const std::string panda_scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_cartesian_impedance.yaml";
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  BackgroundProcess panda({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config", panda_scene,
+                           "--channel-prefix", "PANDA_"});
+  StartView({"--lcm-url", url, "--channel-prefix", "", "--scene", kDefaultScene, "--channel-prefix", "PANDA_",
+             "--scene", panda_scene},
+            18369);
+  // Until both daemons are drawn and the Panda's 2 s move to its target is over.
+  const auto ready = [](const json& d) {
+    return d.contains("arm") && d.contains("PANDA_ panda") && d["PANDA_ panda"].value("t", 0.0) > 2.2;
+  };
+  json drawn;
+  for (int attempt = 0; attempt < 20 && !ready(drawn); ++attempt) {
+    drawn = Drawn(DumpDom("?frames_max=3", 3000));
+    if (!ready(drawn)) std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  ASSERT_TRUE(ready(drawn)) << drawn.dump();
+  const json& p = drawn["PANDA_ panda"];
+  const Kinematics panda_kinematics = SceneKinematics("panda", panda_scene);
+  ExpectPosesOf(panda_kinematics, p["measured"], p["q"], "panda");
+  ExpectPosesOf(panda_kinematics, p["ghost"], p["q_des"], "panda setpoint");
+  ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "arm");
+  // The target: the scene's, drawn at its position with its orientation (w, x, y, z).
+  ASSERT_TRUE(p.contains("target")) << p.dump();
+  EXPECT_EQ(p["target"]["frame"], "panda_link8");
+  const Eigen::Quaterniond orientation(0.0, 0.9238795325112867, -0.3826834323650898, 0.0);
+  ExpectPose(p["target"]["matrix"], orientation.toRotationMatrix(), Eigen::Vector3d(0.40, 0.10, 0.50), "target");
+  std::error_code error;
+  fs::remove(VIEW_SCREENSHOT_PATH, error);
+  Screenshot("?frames_max=30", VIEW_SCREENSHOT_PATH, 3000);
+  std::ifstream png(VIEW_SCREENSHOT_PATH, std::ios::binary);
+  char magic[8] = {};
+  png.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG") << VIEW_SCREENSHOT_PATH;
+  for (BackgroundProcess* d : {&daemon, &panda}) {
+    d->Signal(SIGTERM);
+    EXPECT_EQ(d->Wait(10.0), 0);
+  }
+}
+
+// A log written here: the arm's state every millisecond, q = (0.1 k, −0.05 k) at k ms, a
+// malformed packet among them, a state of an instance the scene lacks, and a controller
+// name that is markup.
+std::string WriteArmLog(const fs::path& path) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (int k = 0; k <= 10; ++k) {
+    state_t s{};
+    s.run_id = 42;
+    s.tick = k;
+    s.t = 1e-3 * k;
+    s.num_dofs = 2;
+    s.q = {0.1 * k, -0.05 * k};
+    s.qd = s.qdd = s.tau = {0.0, 0.0};
+    s.q_des = {0.3, -0.2};
+    s.qd_des = {0.0, 0.0};
+    // A hostile controller name: markup and a terminal escape, which must reach the page as text.
+    s.controller = "pd<img src=x onerror=\"document.title='owned'\">\x1b[2J";
+    s.mode = state_t::MODE_RUNNING;
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(s.getEncodedSize()));
+    s.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    events.emplace_back(k == 3 ? "STRANGER_STATE" : "ARM_STATE", bytes);
+    if (k == 6) events.emplace_back("ARM_STATE", std::vector<std::uint8_t>{1, 2, 3});
+  }
+  testing::WriteLcmLog(path.string(), events);
+  return path.string();
+}
+
+TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_log_" + std::to_string(getpid()) + ".lcm");
+  WriteArmLog(log);
+  StartView({"--log", log.string(), "--scene", kDefaultScene}, 18362);
+  // Events k at (k + 1) ms in the logger's clock: t = 5.5 ms shows the state of k = 5.
+  const std::string dom = DumpDomUntilDrawn("?t=0.0055&probe=1", "arm");
+  fs::remove(log);
+  const json drawn = Drawn(dom);
+  ASSERT_TRUE(drawn.contains("arm")) << drawn.dump();
+  EXPECT_EQ(drawn["arm"]["q"], json::array({0.1 * 5, -0.05 * 5}));
+  ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "logged arm");
+  ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["ghost"], json::array({0.3, -0.2}), "logged setpoint");
+  EXPECT_GT(Probe(dom).value("nonblank", 0), 2000);
+  EXPECT_NE(dom.find("STRANGER_STATE is in the log but not in the scene"), std::string::npos);
+  EXPECT_NE(dom.find("1 states that do not decode were passed over"), std::string::npos);
+  // The bus's strings are text on the page: no element made of them, the escape written out.
+  EXPECT_EQ(dom.find("<img"), std::string::npos);
+  EXPECT_EQ(dom.find("owned</title>"), std::string::npos);
+  EXPECT_NE(dom.find("pd&lt;img src=x"), std::string::npos);
+  EXPECT_NE(dom.find("\\x1b[2J"), std::string::npos);
+}
+
+// ---- the server, without a browser ----
+
+TEST_F(ViewTest, RefusesAFileThatIsNotALog) {
+  const fs::path bad = fs::temp_directory_path() / ("lagrange_view_notalog_" + std::to_string(getpid()));
+  std::ofstream(bad) << "not a log\n";
+  const testing::CtlResult r = testing::RunCtl({"view", "--log", bad.string(), "--port", "18363"});
+  fs::remove(bad);
+  EXPECT_EQ(r.status, 1) << r.err;
+  ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("is not an LCM log"), std::string::npos) << r.err;
+}
+
+TEST_F(ViewTest, RefusesAMissingThreeJsDirectoryInOneLine) {
+  const testing::CtlResult r =
+      testing::RunCtl({"view", "--urdf", kVisualArm, "--three", "/nonexistent/three", "--port", "18364"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("three.js not found in /nonexistent/three"), std::string::npos) << r.err;
+}
+
+TEST_F(ViewTest, SaysInOneLineWhenItsPortIsTaken) {
+  StartView({"--urdf", kVisualArm}, 18378);
+  const testing::CtlResult r = testing::RunCtl({"view", "--urdf", kVisualArm, "--port", "18378", "--bind", "127.0.0.1"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  ASSERT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:18378"), std::string::npos) << r.err;
+}
+
+TEST_F(ViewTest, RefusesABadUrdfInOneLine) {
+  const testing::CtlResult r = testing::RunCtl({"view", "--urdf", "/nonexistent.urdf", "--port", "18365"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(testing::Lines(r.err).size(), 1u) << r.err;
+}
+
+// Visuals the viewer cannot draw are each named on the page, in one line, and the robot is
+// drawn without them: nothing about a <visual> stops the view.
+TEST_F(ViewTest, VisualsItCannotDrawAreNamedAndSkipped) {
+  const fs::path dir = fs::temp_directory_path() / ("lagrange_view_visuals_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  std::string urdf = testing::ReadFile(kVisualArm);
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = urdf.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    urdf.replace(at, from.size(), to);
+  };
+  replace("<box size=\"0.2 0.2 0.05\"/>", "<box size=\"0.2 nan\"/>");
+  replace("<sphere radius=\"0.03\"/>", "<capsule radius=\"0.03\" length=\"0.1\"/>");
+  replace("meshes/tetra.stl", "meshes/tetra.obj");
+  std::ofstream(dir / "robot.urdf") << urdf;
+  fs::create_directories(dir / "meshes");
+  std::ofstream(dir / "meshes" / "tetra.obj") << "v 0 0 0\n";
+  fs::copy_file(fs::path(kVisualArm).parent_path() / "meshes" / "marker.dae", dir / "meshes" / "marker.dae");
+  StartView({"--urdf", (dir / "robot.urdf").string()}, 18376);
+  fs::remove_all(dir);
+  const json& missing = model_["models"][0]["missing"];
+  const std::string all = missing.dump();
+  EXPECT_EQ(missing.size(), 4u) << all;  // the three above and the package:// mesh
+  EXPECT_NE(all.find("link 'base' <visual> 1: <box size> is not 3 finite numbers; not drawn"), std::string::npos) << all;
+  EXPECT_NE(all.find("geometry 'capsule' is not box, cylinder, sphere or mesh; not drawn"), std::string::npos) << all;
+  EXPECT_NE(all.find("mesh 'meshes/tetra.obj' is neither STL nor Collada (.dae); its frame is drawn"), std::string::npos)
+      << all;
+  // What it can draw is still there: the two cylinders and the Collada marker.
+  EXPECT_EQ(model_["models"][0]["shapes"].size(), 3u) << model_["models"][0]["shapes"].dump();
+}
+
+TEST_F(ViewTest, PosesForBadJointValuesAreRefusedNotComputed) {
+  StartView({"--urdf", kVisualArm}, 18366);
+  httplib::Client client("127.0.0.1", 18366);
+  for (const char* q : {"1,2", "1,2,3,4", "nan,0,0", "1e999,0,0", "a,b,c"}) {
+    auto r = client.Get((std::string("/api/poses?q=") + q).c_str());
+    ASSERT_TRUE(r) << q;
+    EXPECT_EQ(r->status, 400) << q;
+  }
+  auto ok = client.Get("/api/poses?q=0.1,0.2,0.3");
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->status, 200);
+  // The server serves only the files it was given: the three.js directory and the URDF's resolved meshes.
+  EXPECT_EQ(client.Get("/three/../../../../etc/passwd")->status, 404);
+  EXPECT_EQ(client.Get("/mesh/0/0")->status, 200);
+  EXPECT_EQ(client.Get("/mesh/0/1")->status, 200);
+  EXPECT_EQ(client.Get("/mesh/0/2")->status, 404);
+  EXPECT_EQ(client.Get("/mesh/7/0")->status, 404);
+}
+
+TEST_F(ViewTest, StreamsToAtMostMaxClientsAndOutlivesOneThatLeaves) {
+  constexpr int kLcmPort = 8366;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  StartView({"--lcm-url", testing::TestLcmUrl(kLcmPort), "--scene", kDefaultScene, "--max-clients", "2"}, 18367);
+  // Two browsers stream (each its own connection, held open by a thread reading the stream)...
+  std::atomic<bool> stop{false};
+  std::atomic<int> chunks{0};
+  std::vector<std::thread> readers;
+  for (int i = 0; i < 2; ++i) {
+    readers.emplace_back([&] {
+      httplib::Client c("127.0.0.1", 18367);
+      c.set_read_timeout(5, 0);
+      c.Get("/api/stream", [&](const char*, std::size_t) {
+        ++chunks;
+        return !stop.load();  // false: the browser leaves mid-stream
+      });
+    });
+  }
+  for (int i = 0; i < 100 && chunks.load() < 4; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_GE(chunks.load(), 4);
+  // ...a third is refused while they do...
+  httplib::Client third("127.0.0.1", 18367);
+  auto refused = third.Get("/api/stream");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 503);
+  EXPECT_NE(refused->body.find("--max-clients"), std::string::npos);
+  // ...and once they leave, a new one is served.
+  stop = true;
+  for (std::thread& t : readers) t.join();
+  std::atomic<int> later{0};
+  for (int i = 0; i < 50 && later.load() == 0; ++i) {
+    httplib::Client c("127.0.0.1", 18367);
+    auto r = c.Get("/api/stream", [&](const char*, std::size_t) {
+      ++later;
+      return false;
+    });
+    if (later.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_GT(later.load(), 0);
+}
+
+// lagranged runs the default scene (the arm, the cart-pole); the view is given a scene of the
+// pendulum alone: the daemon's instances are listed, as text, and not drawn.
+TEST_F(ViewTest, InstancesTheSceneLacksAreNamedNotDrawn) {
+  constexpr int kLcmPort = 8372;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  StartView({"--lcm-url", url, "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml"}, 18373);
+  // The stream's events ("data: JSON\n\n"), however the chunks fall, until one names the arm.
+  std::string stream, frame;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < end && frame.find("\"arm\"") == std::string::npos) {
+    httplib::Client c("127.0.0.1", 18373);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) frame = stream.substr(6, e - 6);
+        stream.erase(0, e + 2);
+      }
+      return frame.find("\"arm\"") == std::string::npos && std::chrono::steady_clock::now() < end;
+    });
+  }
+  ASSERT_NE(frame.find("\"arm\""), std::string::npos) << frame;
+  const json j = json::parse(frame);
+  for (const json& instance : j["instances"]) {
+    EXPECT_EQ(instance["model"], -1) << instance.dump();
+    EXPECT_FALSE(instance.contains("poses"));
+    EXPECT_NE(instance["note"].get<std::string>().find("not in the scene: not drawn"), std::string::npos);
+  }
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// The arm's frames from the stream for `seconds`: the q of every frame that drew it.
+std::vector<std::vector<double>> StreamedArmQ(int port, double seconds) {
+  std::vector<std::vector<double>> qs;
+  std::string stream;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    httplib::Client c("127.0.0.1", port);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) {
+          const json frame = json::parse(stream.substr(6, e - 6));
+          for (const json& i : frame["instances"])
+            if (i["name"] == "arm" && i.contains("poses")) qs.push_back(i["q"].get<std::vector<double>>());
+        }
+        stream.erase(0, e + 2);
+      }
+      return std::chrono::steady_clock::now() < end;
+    });
+  }
+  return qs;
+}
+
+// lagranged and the view share a key; a forger publishes unsigned arm states meanwhile: the view
+// draws the daemon's arm and never the forger's.
+TEST_F(ViewTest, OnASignedBusDrawsOnlySignedStates) {
+  constexpr int kLcmPort = 8374;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  const fs::path key = fs::temp_directory_path() / ("lagrange_view_key_" + std::to_string(getpid()));
+  fs::remove(key);
+  ASSERT_EQ(testing::RunCtl({"keygen", key.string()}).status, 0);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--bus-key", key.string()});
+  StartView({"--lcm-url", url, "--scene", kDefaultScene, "--bus-key", key.string()}, 18375);
+  std::atomic<bool> stop{false};
+  std::thread forger([&] {
+    lcm::LCM lcm(url);
+    state_t s{};
+    s.run_id = 7;
+    s.num_dofs = 2;
+    s.q = {2.5, 2.5};
+    s.qd = s.qdd = s.tau = s.q_des = s.qd_des = {0.0, 0.0};
+    s.controller = "forged";
+    while (!stop) {
+      ++s.tick;
+      lcm.publish("ARM_STATE", &s);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  std::vector<std::vector<double>> qs;
+  for (int i = 0; i < 10 && qs.empty(); ++i) qs = StreamedArmQ(18375, 1.0);
+  stop = true;
+  forger.join();
+  fs::remove(key);
+  ASSERT_FALSE(qs.empty()) << view_->Stderr() << daemon.Stderr();
+  for (const auto& q : qs) EXPECT_NE(q, std::vector<double>({2.5, 2.5}));
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// An emergency stop, cleared at once: the frames sent afterwards still say when it happened.
+TEST_F(ViewTest, KeepsTheMomentAnInstanceWasStopped) {
+  constexpr int kLcmPort = 8376;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn"});
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18377);
+  ASSERT_EQ(testing::RunCtl({"command", "arm", "estop", "--lcm-url", url}).status, 0);
+  ASSERT_EQ(testing::RunCtl({"command", "arm", "clear", "--lcm-url", url}).status, 0);
+  json arm;
+  std::string stream;
+  httplib::Client c("127.0.0.1", 18377);
+  c.set_read_timeout(5, 0);
+  c.Get("/api/stream", [&](const char* data, std::size_t n) {
+    stream.append(data, n);
+    for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+      if (stream.rfind("data: ", 0) == 0) {
+        const json frame = json::parse(stream.substr(6, e - 6));
+        for (const json& i : frame["instances"])
+          if (i["name"] == "arm") arm = i;
+      }
+      stream.erase(0, e + 2);
+    }
+    return arm.is_null() || arm["mode"] != "hold";  // the first frames may predate the clear
+  });
+  ASSERT_FALSE(arm.is_null());
+  EXPECT_EQ(arm["mode"], "hold");  // cleared: estop leaves into hold
+  ASSERT_TRUE(arm.contains("event")) << arm.dump();
+  EXPECT_EQ(arm["event"]["mode"], "estop");
+  EXPECT_LT(arm["event"]["tick"].get<std::int64_t>(), arm["tick"].get<std::int64_t>());
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+TEST_F(ViewTest, ListensAndNeverPublishes) {
+  constexpr int kLcmPort = 8370;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good());
+  int heard = 0;
+  lcm.subscribeFunction(".*", +[](const lcm::ReceiveBuffer*, const std::string&, int* n) { ++*n; }, &heard);
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18371);
+  std::atomic<int> chunks{0};
+  std::thread browser([&] {  // a browser streaming meanwhile
+    httplib::Client c("127.0.0.1", 18371);
+    c.Get("/api/stream", [&](const char*, std::size_t) { return ++chunks < 20; });
+  });
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < end) lcm.handleTimeout(50);
+  browser.join();
+  EXPECT_GE(chunks.load(), 20);
+  EXPECT_EQ(heard, 0);
+  // The subscriber hears what is published on that bus: the test can fail.
+  const char byte = 1;
+  lcm.publish("LAGRANGE_TEST_VIEW", &byte, 1);
+  for (int i = 0; i < 20 && heard == 0; ++i) lcm.handleTimeout(50);
+  EXPECT_EQ(heard, 1);
+}
+
+}  // namespace
+}  // namespace lagrange

@@ -1,0 +1,66 @@
+#pragma once
+// What lagrangectl view draws of one plant instance: its geometry, sent to
+// the page once, and its frames' poses for a q, computed by the plant's own
+// kinematics (plant/kinematics.hpp, from the same tree the daemon runs:
+// MakeRigidTree of the scene's plant spec), sent per frame. The page places
+// its objects at exactly these poses; it computes none.
+//
+// Geometry (JSON, "shapes"), each on a frame of the tree (index into
+// "frames"; −1 the world):
+//   built-in plants   from their parameters: the arm's and the chain's rods
+//                     from joint to joint and to the tip, the pendulum's rod and
+//                     bob, the cart (a box) on its rail and its pole
+//   URDF robots       each link's <visual> (box, cylinder, sphere, STL or
+//                     Collada mesh; tools/urdf_visuals.hpp); a robot without
+//                     any is drawn as rods from each link frame to its children's
+// Planar plants live in the xy plane with gravity −y ("planar": the page turns
+// them so that −y points down); a URDF robot's world is z up.
+//
+// A pose is 12 numbers: R row by row (the frame's axes in world coordinates),
+// then p (m), as KinematicsData::rotation and position give them.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "plant/kinematics.hpp"
+#include "plant/plant_factory.hpp"
+
+namespace lagrange::cli {
+
+struct ViewModelOptions {
+  std::vector<std::string> package_path;  // for a URDF's package:// meshes
+  VectorXd torque_limits;                 // (n) the scene's; empty: none
+};
+
+class ViewModel {
+ public:
+  // Throws std::invalid_argument for an invalid spec (a urdf spec without a robot).
+  ViewModel(std::string name, const PlantSpec& spec, const ViewModelOptions& options);
+
+  const std::string& name() const { return name_; }
+  int num_dofs() const { return kinematics_->num_dofs(); }
+  const Kinematics& kinematics() const { return *kinematics_; }
+  // {name, plant, planar, dofs, joints [{name, lower, upper}], frames, shapes, missing, tau_limits, meshes}.
+  const nlohmann::json& geometry() const { return geometry_; }
+  // The files a URDF's meshes resolved to, served at /mesh/<model>/<k>.
+  const std::vector<std::string>& mesh_files() const { return mesh_files_; }
+  // q (num_dofs) => every frame's pose [R00 .. R22, px, py, pz], in the tree's frame order.
+  // Not thread-safe (one KinematicsData): call from one thread at a time.
+  nlohmann::json Poses(ConstVecRef q) const;
+
+ private:
+  void BuiltInShapes(const PlantSpec& spec);
+  void UrdfShapes(const UrdfParams& params, const std::vector<std::string>& package_path);
+  int Frame(const std::string& name) const;
+
+  std::string name_;
+  std::unique_ptr<Kinematics> kinematics_;
+  std::unique_ptr<KinematicsData> data_;
+  nlohmann::json geometry_;
+  std::vector<std::string> mesh_files_;
+};
+
+}  // namespace lagrange::cli
