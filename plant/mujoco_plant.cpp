@@ -1,0 +1,247 @@
+#include "plant/mujoco_plant.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+
+namespace lagrange {
+namespace {
+
+// MuJoCo prints a warning's text (and appends it to MUJOCO_LOG.TXT) the first
+// time mjData sees it; the tick does no I/O, and Step reads the counters.
+void DiscardWarning(const char* /*message*/) {}
+
+void InstallHandlers() {
+  static std::once_flag once;
+  std::call_once(once, [] { mju_user_warning = &DiscardWarning; });
+}
+
+// MuJoCo's messages run over several lines ("Error: ...\nElement 'x', line 3"): one line.
+std::string OneLine(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  std::string out;
+  for (char c : text) {
+    if (c == '\n') {
+      out += "; ";
+    } else if (c == '\r' || c == '\t') {
+      out += ' ';
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+[[noreturn]] void Refuse(const std::string& file, const std::string& why) {
+  throw std::invalid_argument(file + ": " + why);
+}
+
+std::string JointName(const mjModel* m, int j) {
+  const char* name = mj_id2name(m, mjOBJ_JOINT, j);
+  return name != nullptr ? std::string(name) : "#" + std::to_string(j);
+}
+
+// Body `body`'s mass, centre of mass and inertia from lagrange's `b`, the
+// tensor diagonalised to round-off: I = R diag(d) Rᵀ, R a proper rotation
+// (MuJoCo's body_iquat), d its principal moments (body_inertia).
+void SetBodyInertia(mjModel* m, int body, const RigidBody& b) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(b.inertia);
+  Eigen::Matrix3d R = eig.eigenvectors();
+  if (R.determinant() < 0.0) R.col(2) = -R.col(2);
+  const Eigen::Quaterniond quat(R);
+  m->body_mass[body] = b.mass;
+  for (int k = 0; k < 3; ++k) {
+    m->body_ipos[3 * body + k] = b.com[k];
+    m->body_inertia[3 * body + k] = std::max(0.0, eig.eigenvalues()[k]);  // PSD to the file's rounding
+  }
+  m->body_iquat[4 * body + 0] = quat.w();
+  m->body_iquat[4 * body + 1] = quat.x();
+  m->body_iquat[4 * body + 2] = quat.y();
+  m->body_iquat[4 * body + 3] = quat.z();
+}
+
+void SetExactInertias(mjModel* m, const RigidTree& tree, const std::string& file) {
+  for (const TreeJoint& joint : tree.joints) {
+    const int j = mj_name2id(m, mjOBJ_JOINT, joint.name.c_str());
+    if (j < 0) Refuse(file, "joint '" + joint.name + "' of lagrange's model is not MuJoCo's");
+  }
+  for (std::size_t i = 0; i < tree.joints.size(); ++i) {
+    const int j = mj_name2id(m, mjOBJ_JOINT, tree.joints[i].name.c_str());
+    SetBodyInertia(m, m->jnt_bodyid[j], tree.bodies[i]);
+  }
+  mjData* d = mj_makeData(m);
+  mj_setConst(m, d);  // the derived constants (subtree masses, dof_M0, ...) from the new inertias
+  mj_deleteData(d);
+}
+
+const char* WarningReason(int warning) {
+  switch (warning) {
+    case mjWARN_INERTIA: return "MuJoCo warned: singular inertia matrix (mjWARN_INERTIA)";
+    case mjWARN_CONTACTFULL: return "MuJoCo warned: too many contacts (mjWARN_CONTACTFULL)";
+    case mjWARN_CNSTRFULL: return "MuJoCo warned: too many constraints (mjWARN_CNSTRFULL)";
+    case mjWARN_VGEOMFULL: return "MuJoCo warned: too many visual geoms (mjWARN_VGEOMFULL)";
+    case mjWARN_BADQPOS: return "MuJoCo warned: qpos not finite or too large, the simulation diverged (mjWARN_BADQPOS)";
+    case mjWARN_BADQVEL: return "MuJoCo warned: qvel not finite or too large, the simulation diverged (mjWARN_BADQVEL)";
+    case mjWARN_BADQACC: return "MuJoCo warned: qacc not finite or too large, the simulation diverged (mjWARN_BADQACC)";
+    case mjWARN_BADCTRL: return "MuJoCo warned: bad control (mjWARN_BADCTRL)";
+    default: return "MuJoCo warned";
+  }
+}
+
+}  // namespace
+
+// One user's mjData, made once; Step runs MuJoCo's pipeline in its arena.
+class MujocoPlantData final : public SteppedPlantData {
+ public:
+  explicit MujocoPlantData(const MujocoPlantModel& model)
+      : model_(model), m_(model.model_), d_(mj_makeData(model.model_)), qpos_start_(model.num_dofs_),
+        qvel_start_(model.num_dofs_) {
+    if (d_ == nullptr) throw std::runtime_error(model.file_ + ": MuJoCo could not make its data");
+    mj_forward(m_, d_);
+  }
+  ~MujocoPlantData() override { mj_deleteData(d_); }
+  MujocoPlantData(const MujocoPlantData&) = delete;
+  MujocoPlantData& operator=(const MujocoPlantData&) = delete;
+
+  void SetState(ConstVecRef q, ConstVecRef qd) override {
+    const int n = model_.num_dofs_;
+    for (int i = 0; i < n; ++i) {
+      d_->qpos[i] = q[i];
+      d_->qvel[i] = qd[i];
+      d_->qfrc_applied[i] = 0.0;
+    }
+    mju_zero(d_->qacc_warmstart, m_->nv);
+    for (mjWarningStat& w : d_->warning) w.number = 0;
+    mj_forward(m_, d_);
+  }
+
+  const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) override {
+    const int n = model_.num_dofs_;
+    for (int i = 0; i < n; ++i) d_->qfrc_applied[i] = tau[i];
+    for (mjWarningStat& w : d_->warning) w.number = 0;
+    const double h = m_->opt.timestep;
+    other_work_ = 0.0;
+    double power_before = 0.0;
+    for (int k = 0; k < model_.substeps_; ++k) {
+      for (int i = 0; i < n; ++i) {
+        qpos_start_[i] = d_->qpos[i];
+        qvel_start_[i] = d_->qvel[i];
+      }
+      if (model_.integrator_ == MujocoIntegrator::kRk4) {
+        // mj_step's own sequence, so the forces of the step's start can be
+        // read before mj_RungeKutta's later stages overwrite them.
+        mj_checkPos(m_, d_);
+        mj_checkVel(m_, d_);
+        mj_forward(m_, d_);
+        mj_checkAcc(m_, d_);
+        const double power = OtherPower();
+        mj_RungeKutta(m_, d_, 4);
+        if (k > 0) other_work_ += 0.5 * h * (power_before + power);
+        power_before = power;
+      } else {
+        mj_step(m_, d_);  // Euler and implicit evaluate the forces once, at the step's start, and keep them
+        const double power = OtherPower();
+        if (k > 0) other_work_ += 0.5 * h * (power_before + power);
+        power_before = power;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      qpos_start_[i] = d_->qpos[i];
+      qvel_start_[i] = d_->qvel[i];
+    }
+    mj_forward(m_, d_);  // q̈ and the energies at the end state, under tau
+    other_work_ += 0.5 * h * (power_before + OtherPower());
+    for (int w = 0; w < mjNWARNING; ++w) {
+      if (d_->warning[w].number > 0) return WarningReason(w);
+    }
+    for (int i = 0; i < n; ++i) {
+      q[i] = d_->qpos[i];
+      qd[i] = d_->qvel[i];
+      qdd[i] = d_->qacc[i];
+    }
+    return nullptr;
+  }
+
+  double kinetic_energy() const override { return d_->energy[1]; }
+  double potential_energy() const override { return d_->energy[0]; }
+  double other_work() const override { return other_work_; }
+
+ private:
+  // W: qvelᵀ (passive + constraint forces) at (qpos_start_, qvel_start_),
+  // with the joint springs taken out (their energy is in V): damping, fluid,
+  // friction loss, limits, contacts, equality constraints. The forces are
+  // those mj_forward left in the data for that state.
+  double OtherPower() const {
+    double p = 0.0;
+    for (int i = 0; i < model_.num_dofs_; ++i) {
+      const double spring = -m_->jnt_stiffness[i] * (qpos_start_[i] - m_->qpos_spring[i]);
+      p += qvel_start_[i] * (d_->qfrc_passive[i] - spring + d_->qfrc_constraint[i]);
+    }
+    return p;
+  }
+
+  const MujocoPlantModel& model_;
+  const mjModel* m_;
+  mjData* d_;
+  VectorXd qpos_start_, qvel_start_;  // (n) the state a MuJoCo step started from
+  double other_work_ = 0.0;
+};
+
+MujocoPlantModel::~MujocoPlantModel() { mj_deleteModel(model_); }
+
+std::unique_ptr<SteppedPlantData> MujocoPlantModel::MakeData() const {
+  return std::make_unique<MujocoPlantData>(*this);
+}
+
+std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {
+  InstallHandlers();
+  if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
+  char error[1000] = "";
+  mjModel* m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
+  if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
+  std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
+  model->model_ = m;
+  model->file_ = file;
+  for (int j = 0; j < m->njnt; ++j) {
+    const int type = m->jnt_type[j];
+    if (type == mjJNT_FREE || type == mjJNT_BALL) {
+      Refuse(file, "joint '" + JointName(m, j) + "' is a " + (type == mjJNT_FREE ? "free" : "ball") +
+                       " joint: expected hinge or slide joints only (lagrange's messages are joint-space)");
+    }
+    model->joint_names_.push_back(JointName(m, j));
+    model->info_.limited.push_back(m->jnt_limited[j] != 0);
+    model->info_.lower.push_back(m->jnt_range[2 * j]);
+    model->info_.upper.push_back(m->jnt_range[2 * j + 1]);
+  }
+  if (m->njnt == 0) Refuse(file, "expected at least one hinge or slide joint, got none");
+  model->num_dofs_ = m->nv;  // hinge and slide joints only: nq = nv = njnt, in joint order
+  model->substeps_ = options.substeps;
+  model->integrator_ = options.integrator;
+  m->opt.timestep = options.period / options.substeps;
+  switch (options.integrator) {
+    case MujocoIntegrator::kEuler: m->opt.integrator = mjINT_EULER; break;
+    case MujocoIntegrator::kRk4: m->opt.integrator = mjINT_RK4; break;
+    case MujocoIntegrator::kImplicit: m->opt.integrator = mjINT_IMPLICIT; break;
+  }
+  m->opt.enableflags |= mjENBL_ENERGY;
+  m->opt.disableflags |= mjDSBL_ACTUATION;
+  if (options.gravity) {
+    for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*options.gravity)[k];
+  }
+  if (options.exact_inertia != nullptr) SetExactInertias(m, *options.exact_inertia, file);
+  model->info_.timestep = m->opt.timestep;
+  model->info_.num_geoms = m->ngeom;
+  model->info_.num_actuators = m->nu;
+  return model;
+}
+
+std::string MujocoVersion() {
+  const int v = mj_version();  // 222 for 2.2.2
+  return std::to_string(v / 100) + "." + std::to_string(v / 10 % 10) + "." + std::to_string(v % 10);
+}
+
+}  // namespace lagrange
