@@ -1,0 +1,78 @@
+// lagranged running a mujoco plant as a separate process on a private LCM
+// port: the Panda on MuJoCo follows a stream of setpoints sent by another
+// process, publishes only finite states, and stops with exit 0. Only what a
+// loaded machine cannot break is asserted (lagranged_test.cpp's rules).
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "tests/support/lcm_messages.hpp"
+#include "tests/support/lcm_testing.hpp"
+
+namespace lagrange {
+namespace {
+
+using testing::BackgroundProcess;
+using testing::LcmCollector;
+using testing::WallMicros;
+
+constexpr double kWait = 30.0;     // s: bound on waiting for an effect; a pass takes far less
+constexpr double kSettled = 2e-3;  // rad: the arm at its setpoint
+
+bool Finite(const state_t& s) {
+  bool ok = std::isfinite(s.t) && std::isfinite(s.kinetic_energy) && std::isfinite(s.potential_energy);
+  for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau}) {
+    for (const double x : *v) ok = ok && std::isfinite(x);
+  }
+  return ok;
+}
+
+TEST(MujocoLive, LagrangedRunsThePandaOnMujocoUnderASetpointStream) {
+  const int port = 8401;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::string url = testing::TestLcmUrl(port);
+  LcmCollector collector(url);
+  BackgroundProcess daemon(
+      {LAGRANGED_PATH, "--lcm-url", url, "--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_minjerk.yaml"});
+  ASSERT_TRUE(collector.WaitFor("PANDA_STATE", [](const auto& m) { return m.size() >= 100; }, kWait))
+      << daemon.Stderr();
+  // A stream: a setpoint per few milliseconds, moving from the ready pose towards the target, then holding it.
+  const std::vector<double> start = {0, -0.785, 0, -2.356, 0, 1.571, 0.785};
+  const std::vector<double> target = {0.2, -0.6, 0.1, -2.1, 0.0, 1.7, 0.5};
+  lcm::LCM sender(url);
+  int sent = 0;
+  const bool reached = testing::SendUntil(
+      [&] {
+        const double s = std::min(1.0, sent++ / 100.0);
+        std::vector<double> q(7);
+        for (std::size_t i = 0; i < 7; ++i) q[i] = start[i] + s * (target[i] - start[i]);
+        const setpoint_t sp = testing::MakeSetpoint(q, WallMicros());
+        sender.publish("PANDA_SETPOINT", &sp);
+      },
+      [&] {
+        const auto states = collector.Decoded<state_t>("PANDA_STATE");
+        if (states.empty() || states.back().q_des != target) return false;
+        double err = 0.0;
+        for (std::size_t i = 0; i < 7; ++i) err = std::max(err, std::abs(states.back().q[i] - target[i]));
+        return err < kSettled;
+      },
+      kWait, /*every_s=*/0.01);
+  EXPECT_TRUE(reached) << daemon.Stderr();
+  const std::vector<state_t> states = collector.Decoded<state_t>("PANDA_STATE");
+  for (const state_t& s : states) {
+    ASSERT_TRUE(Finite(s)) << "tick " << s.tick;
+    ASSERT_EQ(s.mode, state_t::MODE_RUNNING) << daemon.Stderr();
+  }
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+}
+
+}  // namespace
+}  // namespace lagrange
