@@ -133,7 +133,8 @@ class Instance {
     return energies_cached_ ? potential_ : model_.PotentialEnergy(q_);
   }
   // MuJoCo steps the plant (the scene's plant: {type: mujoco}); model() is then the controllers' model only.
-  bool stepped_plant() const { return stepped_ != nullptr; }
+  // Null for every other plant.
+  const SteppedPlantData* stepped_plant() const { return stepped_.get(); }
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }

@@ -167,6 +167,8 @@ class MujocoPlantData final : public SteppedPlantData {
   }
 
   double kinetic_energy() const override { return d_->energy[1]; }
+  const mjModel* m() const { return m_; }
+  const mjData* d() const { return d_; }
   double potential_energy() const override { return d_->energy[0]; }
   double other_work() const override { return other_work_; }
 
@@ -237,6 +239,27 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   model->info_.num_geoms = m->ngeom;
   model->info_.num_actuators = m->nu;
   return model;
+}
+
+std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, const std::string& geom) {
+  const auto* mujoco = dynamic_cast<const MujocoPlantData*>(&data);
+  if (mujoco == nullptr) return std::nullopt;
+  const mjModel* m = mujoco->m();
+  const mjData* d = mujoco->d();
+  const int id = mj_name2id(m, mjOBJ_GEOM, geom.c_str());
+  if (id < 0) return std::nullopt;
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& c = d->contact[i];
+    if (c.geom1 != id && c.geom2 != id) continue;
+    mjtNum f[6];
+    mj_contactForce(m, d, i, f);  // in the contact frame: normal, then the tangents; on geom2, from geom1
+    // frame: its axes (normal, tangent 1, tangent 2) in world coordinates, one per row.
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(c.frame);
+    const Eigen::Vector3d on_geom2 = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+    total += c.geom2 == id ? on_geom2 : Eigen::Vector3d(-on_geom2);
+  }
+  return total;
 }
 
 std::string MujocoVersion() {

@@ -90,6 +90,13 @@ class MujocoPlantModel final : public SteppedPlantModel {
 // Loads `file` as above. Throws std::invalid_argument (one line, naming the file).
 std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options);
 
+// The total contact force on geom `geom` (by name) at `data`'s current state
+// (after a Step or SetState), N, world frame: Σ over MuJoCo's active contacts
+// that involve it of the force the other geom exerts on it (mj_contactForce,
+// normal and friction). Zero when it touches nothing; nullopt when `data` is
+// not a MuJoCo plant's or the model has no such geom.
+std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, const std::string& geom);
+
 // The version of the MuJoCo library linked, e.g. "2.2.2".
 std::string MujocoVersion();
 

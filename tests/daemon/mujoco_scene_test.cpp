@@ -16,6 +16,7 @@
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/mujoco_plant.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace lagrange {
@@ -179,6 +180,75 @@ TEST(MujocoScene, RefusesAModelWhoseJointsAreNotMujocos) {
       <joint name="theta" axis="0 1 0"/><geom size="0.1" pos="0 0 -1"/></body></worldbody></mujoco>)");
   const std::string e = SceneError(PandaScene("{type: mujoco, file: " + path + ", model: " + kLagrangePlant + "}"));
   EXPECT_NE(e.find("MuJoCo's joints (theta) are not those of lagrange's model (panda_joint1"), std::string::npos) << e;
+}
+
+// config/panda_mujoco_table.yaml: the flange's target 0.05 m below touching.
+// At rest the table holds the impedance's force: F = K (commanded
+// penetration − how far the fingertip sank into MuJoCo's soft table).
+TEST(MujocoScene, PressingOnTheTableTheContactForceIsStiffnessTimesPenetration) {
+  const Scene s = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_table.yaml");
+  Instance inst(s.instances[0]);
+  const double K = 600.0, commanded = 0.05;  // N/m, m: the scene's
+  const double touching = 0.3 + 0.02;         // m: the flange's height when the fingertip touches the table top
+  for (int k = 0; k < 5000; ++k) ASSERT_EQ(inst.Step(s.period), nullptr) << "tick " << k;
+  const TaskSpaceController& c = *inst.task_space_controller(0);
+  const double z = c.pose().position.z();
+  const std::optional<Eigen::Vector3d> f = MujocoContactForce(*inst.stepped_plant(), "fingertip");
+  ASSERT_TRUE(f.has_value());
+  const double sank = touching - z;
+  std::printf("table: contact force (%.4g, %.4g, %.4g) N; K x commanded %.4g N; sank %.3g m; K (commanded - sank) %.5g N\n",
+              f->x(), f->y(), f->z(), K * commanded, sank, K * (commanded - sank));
+  EXPECT_GT(sank, 0.0);                    // soft contact: the fingertip is a little inside the table
+  EXPECT_LT(sank, 1e-3 * commanded);       // by less than 0.1 % of the commanded penetration
+  EXPECT_NEAR(f->z(), K * commanded, 2e-3 * K * commanded);  // stiffness × commanded penetration, to 0.2 %
+  EXPECT_NEAR(f->z(), K * (commanded - sank), 1e-3 * K * commanded);  // and the impedance's own balance closer
+  std::printf("table: W %.6g J, E - E(0) %.6g J, eps %.3g J\n", inst.energy_balance().work(),
+              inst.energy_balance().energy_change(), inst.energy_balance().residual());
+  // What lateral error the fingertip touched down with, friction holds: inside the cone (μ = 1, MuJoCo's default).
+  EXPECT_LT(std::hypot(f->x(), f->y()), 1.0 * f->z());
+}
+
+// config/cartpole_mujoco_stops.yaml: driven towards x = 1 m, the cart stops
+// at the rail's end, x = 0.5 m, to what MuJoCo's soft limit gives; lagrange's
+// own cart-pole (no stops) goes on to 1 m.
+TEST(MujocoScene, TheCartHitsItsEndStop) {
+  const Scene s = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mujoco_stops.yaml");
+  Instance inst(s.instances[0]);
+  double farthest = 0.0;
+  for (int k = 0; k < 6000; ++k) {
+    ASSERT_EQ(inst.Step(s.period), nullptr);
+    farthest = std::max(farthest, inst.q()[0]);
+  }
+  EXPECT_GT(farthest, 0.5);          // it reached the stop
+  EXPECT_LT(farthest, 0.5 + 5e-3);  // and did not pass it by more than 5 mm (the impact)
+  EXPECT_NEAR(inst.q()[0], 0.5, 1e-4);  // at rest pressed on it, 10 N on a stiff soft limit
+  std::printf("cart-pole: W %.6g J, E - E(0) %.6g J, eps %.3g J\n", inst.energy_balance().work(),
+              inst.energy_balance().energy_change(), inst.energy_balance().residual());
+  InstanceConfig free = s.instances[0];
+  free.mujoco.reset();  // lagrange's own cart-pole, its model
+  Instance ours(free);
+  for (int k = 0; k < 6000; ++k) ASSERT_EQ(ours.Step(s.period), nullptr);
+  EXPECT_NEAR(ours.q()[0], 1.0, 0.05);
+}
+
+// ε over the cart's impact on its stop: the stop's force, MuJoCo's
+// constraint, switches on inside a step, so its work by the trapezoid rule
+// per MuJoCo step is first order in the step: ε is the impact's resolution
+// (0.30 J at 1 ms, 0.020 J at 1/16 ms), and shrinks as the step does.
+TEST(MujocoScene, TheEnergyResidualOverAnImpactShrinksWithTheStep) {
+  std::ifstream f(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mujoco_stops.yaml");
+  const std::string scene((std::istreambuf_iterator<char>(f)), {});
+  std::vector<double> eps;
+  for (const int substeps : {1, 16}) {
+    std::string text = scene;
+    text.replace(text.find("{type: rk4}"), 11, "{type: rk4, substeps: " + std::to_string(substeps) + "}");
+    const Scene s = ParseScene(text, std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_substeps.yaml");
+    Instance inst(s.instances[0]);
+    for (int k = 0; k < 3000; ++k) ASSERT_EQ(inst.Step(s.period), nullptr);
+    eps.push_back(std::abs(inst.energy_balance().residual()));
+  }
+  EXPECT_GT(eps[0], 1e-3);           // J: the impact shows at 1 ms
+  EXPECT_LT(eps[1], eps[0] / 8.0);   // first order: 16 times smaller steps, about 16 times smaller
 }
 
 TEST(MujocoScene, ShippedSceneLoadsAndRuns) {
