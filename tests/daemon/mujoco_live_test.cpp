@@ -74,5 +74,43 @@ TEST(MujocoLive, LagrangedRunsThePandaOnMujocoUnderASetpointStream) {
   EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
 }
 
+// The reference driver (tools/examples/mujoco_driver.cpp) in the loop: MuJoCo
+// as the robot behind lagranged's external plant, lagranged's computed torque
+// (config/panda_external_mujoco.yaml) driving it through the 3 s min-jerk move
+// to its target over the bus.
+TEST(MujocoLive, TheReferenceDriverClosesTheLoopWithLagranged) {
+  const int port = 8402;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::string url = testing::TestLcmUrl(port);
+  LcmCollector collector(url);
+  const std::string source = LAGRANGE_SOURCE_DIR;
+  BackgroundProcess driver({MUJOCO_DRIVER_PATH, "--model", source + "/config/robots/panda.urdf", "--initial",
+                            "0,-0.785,0,-2.356,0,1.571,0.785", "--url", url});
+  ASSERT_TRUE(collector.WaitFor("PANDA_ROBOT_STATE", [](const auto& m) { return !m.empty(); }, kWait))
+      << driver.Stderr();
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--config", source + "/config/panda_external_mujoco.yaml"});
+  const std::vector<double> target = {0.6, -0.3, -0.4, -1.9, 0.5, 2.1, 0.3};
+  const auto at_target = [&](const std::vector<state_t>& states) {
+    if (states.empty() || states.back().mode != state_t::MODE_RUNNING) return false;
+    double err = 0.0;
+    for (std::size_t i = 0; i < 7; ++i) err = std::max(err, std::abs(states.back().q[i] - target[i]));
+    return err < kSettled;
+  };
+  EXPECT_TRUE(testing::WaitUntil([&] { return at_target(collector.Decoded<state_t>("PANDA_ROBOT_STATE")); }, kWait))
+      << daemon.Stderr() << driver.Stderr();
+  const std::vector<state_t> states = collector.Decoded<state_t>("PANDA_ROBOT_STATE");
+  bool commanded = false;
+  for (const state_t& s : states) {
+    ASSERT_TRUE(Finite(s)) << "tick " << s.tick;
+    commanded = commanded || s.controller == "external";
+  }
+  EXPECT_TRUE(commanded);  // lagranged's torques were taken
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+  driver.Signal(SIGTERM);
+  EXPECT_EQ(driver.Wait(kWait), 0) << driver.Stderr();
+  EXPECT_NE(driver.Stderr().find("0 torques refused"), std::string::npos) << driver.Stderr();
+}
+
 }  // namespace
 }  // namespace lagrange
