@@ -112,6 +112,8 @@ TEST_P(ShippedRobot, AgreesWithLagrangeToRoundOffAfterTheInertiaFix) {
 TEST(MujocoPlant, OwnInertiasOfThePandaDifferBeyondRoundOff) {
   const Agreement a = Compare(Load("panda.urdf", /*exact=*/false));
   EXPECT_GT(std::max(a.M, a.fd), 100 * kRoundOff);
+  std::printf("panda.urdf, MuJoCo's own inertias: M %.2g, bias %.2g, FD %.2g, ID %.2g, T %.2g, V %.2g (relative)\n",
+              a.M, a.bias, a.fd, a.id, a.T, a.V);
 }
 
 INSTANTIATE_TEST_SUITE_P(MujocoPlant, ShippedRobot, ::testing::Values("panda.urdf", "ur5.urdf"),
