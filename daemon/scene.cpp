@@ -283,6 +283,10 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, Ur
     inst.setpoint_lower = inst.effects.limits->lower;
     inst.setpoint_upper = inst.effects.limits->upper;
   }
+  if (inst.mujoco) {  // MuJoCo's joint ranges, where it limits a joint
+    inst.setpoint_lower = inst.mujoco->lower;
+    inst.setpoint_upper = inst.mujoco->upper;
+  }
   if (auto l = node.Optional("setpoint_limits")) {
     l->ExpectKeys({"lower", "upper"});
     inst.setpoint_lower = l->Required("lower").VectorOrInfinity(n);
@@ -401,21 +405,16 @@ void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urd
     robot = urdf.Load(file);
     options.exact_inertia = &robot->tree;
   }
+  options.joint_order = JointNamesOf(inst.plant);  // q in lagrange's model's order, the joints matched by name
+  std::shared_ptr<const MujocoPlantModel> model;
   try {
-    c.model = LoadMujocoPlant(c.file, options);
+    model = LoadMujocoPlant(c.file, options);
   } catch (const std::exception& e) {
     file.Fail(Escape(e.what(), 400));
   }
-  const std::vector<std::string> model_names = JointNamesOf(inst.plant);
-  if (c.model->joint_names() != model_names) {
-    auto list = [](const std::vector<std::string>& names) {
-      std::string out;
-      for (const std::string& n : names) out += (out.empty() ? "" : ", ") + Escape(n, 40);
-      return out;
-    };
-    file.Fail("MuJoCo's joints (" + list(c.model->joint_names()) + ") are not those of lagrange's model (" +
-              list(model_names) + "): expected the same joints in the same order");
-  }
+  c.model = model;
+  c.lower = Eigen::Map<const VectorXd>(model->info().lower.data(), model->num_dofs());
+  c.upper = Eigen::Map<const VectorXd>(model->info().upper.data(), model->num_dofs());
 #else
   (void)period;
   (void)urdf;

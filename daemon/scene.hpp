@@ -65,6 +65,7 @@ struct MujocoPlantConfig {
   MujocoIntegrator integrator = MujocoIntegrator::kRk4;
   int substeps = 1;
   std::shared_ptr<const SteppedPlantModel> model;  // loaded once, at period / substeps
+  VectorXd lower, upper;  // (n) its joints' ranges where MuJoCo limits them, ∓inf elsewhere: the default setpoint limits
 };
 
 // A mujoco plant's integrator and effects are MuJoCo's: the scene's keys and

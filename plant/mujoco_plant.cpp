@@ -4,8 +4,14 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 
 namespace lagrange {
@@ -78,6 +84,45 @@ void SetExactInertias(mjModel* m, const RigidTree& tree, const std::string& file
   mj_deleteData(d);
 }
 
+// A URDF as lagrange has MuJoCo read it (the reasons in mujoco_plant.hpp):
+// every <collision> whose geometry is a <mesh> removed, and a <mujoco>
+// compiler element bounding mass and inertia from below inserted as the
+// robot's first child. Plain text edits: MuJoCo parses the result.
+std::string PrepareUrdf(std::string text) {
+  for (std::size_t at = text.find("<collision"); at != std::string::npos; at = text.find("<collision", at)) {
+    const std::size_t end = text.find("</collision>", at);
+    if (end == std::string::npos) break;
+    const std::size_t after = end + std::string("</collision>").size();
+    if (text.substr(at, after - at).find("<mesh") != std::string::npos) {
+      text.erase(at, after - at);
+    } else {
+      at = after;
+    }
+  }
+  const std::size_t robot = text.find("<robot");
+  const std::size_t open_end = robot == std::string::npos ? robot : text.find('>', robot);
+  if (open_end != std::string::npos && text[open_end - 1] != '/') {
+    text.insert(open_end + 1, R"(<mujoco><compiler boundmass="1e-9" boundinertia="1e-12"/></mujoco>)");
+  }
+  return text;
+}
+
+// mj_loadXML of `text` under `file`'s name (so that MuJoCo's messages name it), through a virtual file system.
+mjModel* LoadXmlText(const std::string& file, const std::string& text, char* error, int error_size) {
+  const auto vfs = std::make_unique<mjVFS>();  // 2 MB of names: not on the stack
+  mj_defaultVFS(vfs.get());
+  const std::string name = file.substr(file.find_last_of('/') + 1);
+  if (mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(text.size())) != 0) {
+    std::snprintf(error, static_cast<std::size_t>(error_size), "could not hold the file in memory");
+    return nullptr;
+  }
+  const int i = mj_findFileVFS(vfs.get(), name.c_str());
+  std::memcpy(vfs->filedata[i], text.data(), text.size());
+  mjModel* m = mj_loadXML(file.c_str(), vfs.get(), error, error_size);
+  mj_deleteVFS(vfs.get());
+  return m;
+}
+
 const char* WarningReason(int warning) {
   switch (warning) {
     case mjWARN_INERTIA: return "MuJoCo warned: singular inertia matrix (mjWARN_INERTIA)";
@@ -108,11 +153,11 @@ class MujocoPlantData final : public SteppedPlantData {
   MujocoPlantData& operator=(const MujocoPlantData&) = delete;
 
   void SetState(ConstVecRef q, ConstVecRef qd) override {
-    const int n = model_.num_dofs_;
-    for (int i = 0; i < n; ++i) {
-      d_->qpos[i] = q[i];
-      d_->qvel[i] = qd[i];
-      d_->qfrc_applied[i] = 0.0;
+    for (int i = 0; i < model_.num_dofs_; ++i) {
+      const int k = model_.dof_[static_cast<std::size_t>(i)];
+      d_->qpos[k] = q[i];
+      d_->qvel[k] = qd[i];
+      d_->qfrc_applied[k] = 0.0;
     }
     mju_zero(d_->qacc_warmstart, m_->nv);
     for (mjWarningStat& w : d_->warning) w.number = 0;
@@ -121,7 +166,7 @@ class MujocoPlantData final : public SteppedPlantData {
 
   const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) override {
     const int n = model_.num_dofs_;
-    for (int i = 0; i < n; ++i) d_->qfrc_applied[i] = tau[i];
+    for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];
     for (mjWarningStat& w : d_->warning) w.number = 0;
     const double h = m_->opt.timestep;
     other_work_ = 0.0;
@@ -159,9 +204,10 @@ class MujocoPlantData final : public SteppedPlantData {
       if (d_->warning[w].number > 0) return WarningReason(w);
     }
     for (int i = 0; i < n; ++i) {
-      q[i] = d_->qpos[i];
-      qd[i] = d_->qvel[i];
-      qdd[i] = d_->qacc[i];
+      const int k = model_.dof_[static_cast<std::size_t>(i)];
+      q[i] = d_->qpos[k];
+      qd[i] = d_->qvel[k];
+      qdd[i] = d_->qacc[k];
     }
     return nullptr;
   }
@@ -203,23 +249,50 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   InstallHandlers();
   if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
   char error[1000] = "";
-  mjModel* m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
+  mjModel* m = nullptr;
+  if (options.exact_inertia != nullptr) {  // a URDF whose inertias lagrange sets
+    std::ifstream in(file);
+    if (!in) Refuse(file, "MuJoCo: could not open the file");
+    std::stringstream text;
+    text << in.rdbuf();
+    m = LoadXmlText(file, PrepareUrdf(text.str()), error, sizeof error);
+  } else {
+    m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
+  }
   if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
   std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
   model->model_ = m;
   model->file_ = file;
+  std::vector<std::string> names;
   for (int j = 0; j < m->njnt; ++j) {
     const int type = m->jnt_type[j];
     if (type == mjJNT_FREE || type == mjJNT_BALL) {
       Refuse(file, "joint '" + JointName(m, j) + "' is a " + (type == mjJNT_FREE ? "free" : "ball") +
                        " joint: expected hinge or slide joints only (lagrange's messages are joint-space)");
     }
-    model->joint_names_.push_back(JointName(m, j));
-    model->info_.limited.push_back(m->jnt_limited[j] != 0);
-    model->info_.lower.push_back(m->jnt_range[2 * j]);
-    model->info_.upper.push_back(m->jnt_range[2 * j + 1]);
+    names.push_back(JointName(m, j));
   }
   if (m->njnt == 0) Refuse(file, "expected at least one hinge or slide joint, got none");
+  model->joint_names_ = options.joint_order.empty() ? names : options.joint_order;
+  std::vector<bool> used(names.size(), false);
+  for (const std::string& name : model->joint_names_) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    const auto j = static_cast<std::size_t>(it - names.begin());
+    if (it == names.end() || used[j] || model->joint_names_.size() != names.size()) {
+      std::string theirs, ours;
+      for (const std::string& n : names) theirs += (theirs.empty() ? "" : ", ") + n;
+      for (const std::string& n : model->joint_names_) ours += (ours.empty() ? "" : ", ") + n;
+      Refuse(file, "MuJoCo's joints (" + theirs + ") are not those of lagrange's model (" + ours +
+                       "): expected the same joints");
+    }
+    used[j] = true;
+    model->dof_.push_back(static_cast<int>(j));  // hinge and slide only: joint j is qpos[j] and qvel[j]
+    const bool limited = m->jnt_limited[j] != 0;
+    const double inf = std::numeric_limits<double>::infinity();
+    model->info_.limited.push_back(limited);
+    model->info_.lower.push_back(limited ? m->jnt_range[2 * j] : -inf);
+    model->info_.upper.push_back(limited ? m->jnt_range[2 * j + 1] : inf);
+  }
   model->num_dofs_ = m->nv;  // hinge and slide joints only: nq = nv = njnt, in joint order
   model->substeps_ = options.substeps;
   model->integrator_ = options.integrator;

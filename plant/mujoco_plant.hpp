@@ -8,10 +8,19 @@
 // <collision> only; no actuators). Then, before the model is shared:
 //   - its degrees of freedom are its joints, which must all be hinge or slide
 //     (free and ball joints are refused: lagrange's messages are joint-space),
-//     so q = qpos, qd = qvel in the model's joint order;
+//     so q = qpos, qd = qvel in the model's joint order, or in `joint_order`
+//     (lagrange's model's order, the same joints by name: a branching URDF
+//     may be ordered differently by MuJoCo's importer and by lagrange's);
 //   - timestep = period / substeps, the integrator as asked, energy on;
 //     actuators off (mjDSBL_ACTUATION: lagrange's controller applies the
 //     joint force, qfrc_applied);
+//   - given `exact_inertia` (the file is a URDF lagrange read too), MuJoCo
+//     reads it with two edits: every <collision> whose geometry is a <mesh> is
+//     dropped (MuJoCo 2.2.2 cannot resolve package:// meshes, and lagrange
+//     reads no geometry: a URDF robot's contacts are the primitive shapes
+//     only), and <mujoco><compiler boundmass boundinertia/> is added, so that
+//     MuJoCo's compiler takes the massless or point-mass links lagrange takes
+//     (their exact values replace the bounds below);
 //   - given `exact_inertia` (lagrange's tree of the same URDF), every moving
 //     body's mass, centre of mass and inertia are replaced by the tree's, the
 //     inertia diagonalised by Eigen's self-adjoint eigensolver (to round-off)
@@ -51,6 +60,9 @@ struct MujocoOptions {
   // The lagrange tree of the same URDF: its bodies' inertias replace MuJoCo's
   // (matched by the joint that carries each body, by name). Null: MuJoCo's own.
   const RigidTree* exact_inertia = nullptr;
+  // q's order by joint name (lagrange's model's: JointNamesOf); empty:
+  // MuJoCo's own joint order. Must name MuJoCo's joints, each once.
+  std::vector<std::string> joint_order;
   // m/s², world frame; unset: the file's (MuJoCo's default (0, 0, −9.81)).
   std::optional<Eigen::Vector3d> gravity;
 };
@@ -60,8 +72,8 @@ struct MujocoModelInfo {
   double timestep = 0.0;  // s
   int num_geoms = 0;
   int num_actuators = 0;  // in the file; not used
-  std::vector<bool> limited;             // per joint: MuJoCo enforces its range
-  std::vector<double> lower, upper;      // its range, rad or m (meaningful where limited)
+  std::vector<bool> limited;             // per degree of freedom, in q order: MuJoCo enforces its range
+  std::vector<double> lower, upper;      // its range, rad or m; ∓inf where not limited
 };
 
 class MujocoPlantModel final : public SteppedPlantModel {
@@ -83,6 +95,7 @@ class MujocoPlantModel final : public SteppedPlantModel {
   int substeps_ = 1;
   MujocoIntegrator integrator_ = MujocoIntegrator::kRk4;
   std::vector<std::string> joint_names_;
+  std::vector<int> dof_;  // (n) MuJoCo's qpos / qvel index of q[i]
   MujocoModelInfo info_;
   friend class MujocoPlantData;
 };

@@ -169,9 +169,78 @@ TEST(MujocoPlant, RefusesAMissingFile) {
   EXPECT_NE(e.find("MuJoCo: "), std::string::npos) << e;
 }
 
+// What MuJoCo's compiler refuses as written and lagrange takes: a point mass
+// (l1), a massless link between two joints (virt), a mesh collision MuJoCo
+// cannot find (package://). Loaded with the edits of mujoco_plant.hpp, the
+// dynamics agree with lagrange's to round-off.
+constexpr char kAwkwardUrdf[] = R"(<?xml version="1.0"?>
+<robot name="awkward">
+  <link name="base"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="20" velocity="2"/>
+  </joint>
+  <link name="l1">
+    <inertial><origin xyz="0.3 0 0"/><mass value="1.0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>
+  </link>
+  <joint name="j2" type="continuous">
+    <parent link="l1"/><child link="virt"/><origin xyz="0.5 0 0" rpy="0.3 0 0"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="virt"/>
+  <joint name="j3" type="prismatic">
+    <parent link="virt"/><child link="l3"/><axis xyz="1 0 0"/>
+    <limit lower="-0.2" upper="0.2" effort="20" velocity="2"/>
+  </joint>
+  <link name="l3">
+    <inertial><origin xyz="0.2 0.01 0"/><mass value="0.5"/>
+      <inertia ixx="0.001" ixy="0.0001" ixz="0" iyy="0.002" iyz="0" izz="0.002"/></inertial>
+    <collision><geometry><mesh filename="package://awkward/meshes/l3.stl"/></geometry></collision>
+  </link>
+</robot>
+)";
+
+TEST(MujocoPlant, AUrdfWithAPointMassAMasslessLinkAndAMeshCollisionLoadsAndAgrees) {
+  const std::string path = ::testing::TempDir() + "awkward.urdf";
+  std::ofstream(path) << kAwkwardUrdf;
+  Loaded l{LoadUrdf(path), nullptr};
+  MujocoOptions o;
+  o.exact_inertia = &l.robot.tree;
+  l.mujoco = LoadMujocoPlant(path, o);
+  EXPECT_EQ(l.mujoco->info().num_geoms, 0);  // the mesh collision dropped
+  const Agreement a = Compare(l);
+  EXPECT_LT(a.M, kRoundOff);
+  EXPECT_LT(a.bias, kRoundOff);
+  EXPECT_LT(a.fd, kRoundOff);
+  EXPECT_LT(a.id, kRoundOff);
+  EXPECT_LT(a.T, kRoundOff);
+  EXPECT_LT(a.V, kRoundOff);
+}
+
 // A pendulum: one hinge, 1 kg at 1 m below the pivot.
 constexpr char kPendulum[] = R"(<mujoco><worldbody><body name="bob"><joint name="theta" axis="0 1 0"/>
     <geom type="sphere" size="0.05" pos="0 0 -1" mass="1" contype="0" conaffinity="0"/></body></worldbody></mujoco>)";
+
+// MuJoCo's order here is (theta, x); asked for lagrange's (x, theta), q follows the names.
+TEST(MujocoPlant, QFollowsTheGivenJointOrderByName) {
+  const std::string path = WriteTemp("two_order.xml", R"(<mujoco><worldbody>
+      <body name="pole"><joint name="theta" axis="0 1 0"/><geom size="0.05" pos="0 0 -1" mass="1"/></body>
+      <body name="cart" pos="0 1 0"><joint name="x" type="slide" axis="1 0 0"/><geom size="0.05" mass="1"/></body>
+      </worldbody></mujoco>)");
+  MujocoOptions o;
+  o.joint_order = {"x", "theta"};
+  const auto model = LoadMujocoPlant(path, o);
+  EXPECT_EQ(model->joint_names(), (std::vector<std::string>{"x", "theta"}));
+  auto data = model->MakeData();
+  VectorXd q(2), qd = VectorXd::Zero(2), qdd(2), tau = VectorXd::Zero(2);
+  q << 0.1, 0.5;
+  data->SetState(q, qd);
+  ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EXPECT_DOUBLE_EQ(qdd[0], 0.0);  // the cart, level, under no force
+  EXPECT_LT(qdd[1], -1.0);        // the pendulum at 0.5 rad falls back
+  EXPECT_NEAR(q[0], 0.1, 1e-15);
+  o.joint_order = {"x", "phi"};
+  EXPECT_THROW(LoadMujocoPlant(path, o), std::invalid_argument);
+}
 
 TEST(MujocoPlant, SteppingAllocatesNothing) {
   for (MujocoIntegrator integrator : {MujocoIntegrator::kEuler, MujocoIntegrator::kRk4, MujocoIntegrator::kImplicit}) {
