@@ -117,6 +117,14 @@ TEST(MujocoScene, DivergingSimulationFailsTheStepWithMujocosWarning) {
   EXPECT_EQ(inst.Step(s.period), nullptr);  // MuJoCo runs on from the restored state
 }
 
+TEST(MujocoScene, TheIntegratorAndEffectCommandsAreRefused) {
+  const Scene s = ParseScene(PandaScene(kMujocoPlant), kLabel);
+  Instance inst(s.instances[0]);
+  EXPECT_STREQ(inst.SetIntegrator(IntegratorConfig{}), kMujocoIntegrated);
+  EXPECT_STREQ(inst.SetEffect(EffectKind::kGravity, false), kMujocoEffects);
+  EXPECT_EQ(inst.Step(s.period), nullptr);  // and it runs on
+}
+
 TEST(MujocoScene, RefusesLagrangesEffects) {
   const std::string e = SceneError(PandaScene(kMujocoPlant, "    effects: {damping: 0.1}\n"));
   EXPECT_NE(e.find("effects"), std::string::npos) << e;
