@@ -32,7 +32,7 @@ std::string OneLine(std::string text) {
   std::string out;
   for (char c : text) {
     if (c == '\n') {
-      out += "; ";
+      out += !out.empty() && out.back() == ':' ? " " : "; ";
     } else if (c == '\r' || c == '\t') {
       out += ' ';
     } else {
