@@ -13,6 +13,7 @@
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace lagrange {
 namespace {
@@ -142,10 +143,14 @@ const char* WarningReason(int warning) {
 // One user's mjData, made once; Step runs MuJoCo's pipeline in its arena.
 class MujocoPlantData final : public SteppedPlantData {
  public:
-  explicit MujocoPlantData(const MujocoPlantModel& model)
-      : model_(model), m_(model.model_), d_(mj_makeData(model.model_)), qpos_start_(model.num_dofs_),
-        qvel_start_(model.num_dofs_) {
-    if (d_ == nullptr) throw std::runtime_error(model.file_ + ": MuJoCo could not make its data");
+  explicit MujocoPlantData(std::shared_ptr<const MujocoPlantModel> shared)
+      : shared_(std::move(shared)),
+        model_(*shared_),
+        m_(model_.model_),
+        d_(mj_makeData(model_.model_)),
+        qpos_start_(model_.num_dofs_),
+        qvel_start_(model_.num_dofs_) {
+    if (d_ == nullptr) throw std::runtime_error(model_.file_ + ": MuJoCo could not make its data");
     mj_forward(m_, d_);
   }
   ~MujocoPlantData() override { mj_deleteData(d_); }
@@ -232,6 +237,7 @@ class MujocoPlantData final : public SteppedPlantData {
     return p;
   }
 
+  std::shared_ptr<const MujocoPlantModel> shared_;  // the model outlives its data
   const MujocoPlantModel& model_;
   const mjModel* m_;
   mjData* d_;
@@ -242,7 +248,7 @@ class MujocoPlantData final : public SteppedPlantData {
 MujocoPlantModel::~MujocoPlantModel() { mj_deleteModel(model_); }
 
 std::unique_ptr<SteppedPlantData> MujocoPlantModel::MakeData() const {
-  return std::make_unique<MujocoPlantData>(*this);
+  return std::make_unique<MujocoPlantData>(shared_from_this());
 }
 
 std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {

@@ -76,11 +76,12 @@ struct MujocoModelInfo {
   std::vector<double> lower, upper;      // its range, rad or m; ∓inf where not limited
 };
 
-class MujocoPlantModel final : public SteppedPlantModel {
+class MujocoPlantModel final : public SteppedPlantModel, public std::enable_shared_from_this<MujocoPlantModel> {
  public:
   ~MujocoPlantModel() override;
   int num_dofs() const override { return num_dofs_; }
   const std::vector<std::string>& joint_names() const override { return joint_names_; }
+  // Data that keeps this model alive (it must be held by a shared_ptr: LoadMujocoPlant's is).
   std::unique_ptr<SteppedPlantData> MakeData() const override;
   const MujocoModelInfo& info() const { return info_; }
   const std::string& file() const { return file_; }
