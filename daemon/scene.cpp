@@ -362,16 +362,33 @@ bool IsUrdfFile(const std::string& name) {
 }
 
 // Lagrange's model of a mujoco plant: `model:`, else the URDF file itself.
+// With the URDF itself as the model, `gravity` and `method` are a urdf plant's
+// keys (gravity then MuJoCo's too), so a urdf scene becomes a mujoco one by its type alone.
 PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urdf) {
-  node.ExpectKeys({"type", "file", "model"});
+  node.ExpectKeys({"type", "file", "model", "gravity", "method"});
   const YamlReader file = node.Required("file");
-  if (auto model = node.Optional("model")) return ReadPlant(*model, method, urdf);
+  if (auto model = node.Optional("model")) {
+    for (const char* key : {"gravity", "method"}) {
+      if (node.Has(key)) {
+        node.Required(key).Fail("with model: given, this is the model's key (model." + std::string(key) +
+                                "); MuJoCo's gravity is its file's");
+      }
+    }
+    return ReadPlant(*model, method, urdf);
+  }
   if (!IsUrdfFile(file.Text())) {
     file.Fail("an MJCF file needs model: {type: urdf, file: ...} (lagrange's model of the robot, for the controllers)");
   }
   PlantSpec spec = UrdfPlantSpec(urdf.Load(file));
+  if (auto g = node.Optional("gravity")) SetUrdfParam(spec, "gravity", *g);
   if (auto err = ValidatePlantSpec(spec)) file.Fail(err->message);
   *method = FastestMethod(PlantType::kUrdf);
+  if (auto m = node.Optional("method")) {
+    const std::optional<Method> parsed = ParseMethod(m->Text());
+    if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
+    if (const char* why = NoMethodReason(PlantType::kUrdf, *parsed)) m->Fail(why);
+    *method = *parsed;
+  }
   return spec;
 }
 
@@ -405,6 +422,7 @@ void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urd
     robot = urdf.Load(file);
     options.exact_inertia = &robot->tree;
   }
+  if (!plant_node.Has("model")) options.gravity = std::get<UrdfParams>(inst.plant.params).gravity;  // plant.gravity
   options.joint_order = JointNamesOf(inst.plant);  // q in lagrange's model's order, the joints matched by name
   std::shared_ptr<const MujocoPlantModel> model;
   try {

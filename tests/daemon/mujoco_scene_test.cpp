@@ -125,6 +125,25 @@ TEST(MujocoScene, TheIntegratorAndEffectCommandsAreRefused) {
   EXPECT_EQ(inst.Step(s.period), nullptr);  // and it runs on
 }
 
+// A urdf scene's plant keys (gravity, method) mean the same with type mujoco:
+// gravity along +x here, on MuJoCo and on lagrange's model alike.
+TEST(MujocoScene, AUrdfScenesGravityAndMethodKeysCarryOver) {
+  const std::string keys = "gravity: [9.81, 0, 0], method: lagrangian}";
+  std::string ours_plant = kLagrangePlant, theirs_plant = kMujocoPlant;
+  ours_plant.replace(ours_plant.size() - 1, 1, ", " + keys);
+  theirs_plant.replace(theirs_plant.size() - 1, 1, ", " + keys);
+  const Scene ours = ParseScene(PandaScene(ours_plant), kLabel);
+  const Scene theirs = ParseScene(PandaScene(theirs_plant), kLabel);
+  EXPECT_EQ(theirs.instances[0].method, Method::kLagrangian);
+  Instance a(ours.instances[0]), b(theirs.instances[0]);
+  for (int k = 0; k < 300; ++k) {
+    ASSERT_EQ(a.Step(ours.period), nullptr);
+    ASSERT_EQ(b.Step(theirs.period), nullptr);
+  }
+  EXPECT_LT((a.q() - b.q()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(a.PotentialEnergy(), b.PotentialEnergy(), 1e-9);
+}
+
 TEST(MujocoScene, RefusesLagrangesEffects) {
   const std::string e = SceneError(PandaScene(kMujocoPlant, "    effects: {damping: 0.1}\n"));
   EXPECT_NE(e.find("effects"), std::string::npos) << e;
