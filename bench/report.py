@@ -5,7 +5,8 @@ CSV files and PNG plots (issue 6). Run by scripts/bench; usage:
     bench/report.py RESULTS_DIR
 
 Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json,
-kdl.json and kinematics.json (Google Benchmark), kdl_agreement.csv, kinematics_agreement.csv, the CSV files of
+kdl.json and kinematics.json (Google Benchmark), kdl_agreement.csv, kinematics_agreement.csv, mujoco.json and
+mujoco_agreement.csv (when MuJoCo was found), the CSV files of
 work_precision, loop_bench and hostile_bench, external_bench's external.json, live_bench's live.csv,
 live_offline.csv and live.json, flood_bench's flood_cases.csv, python_bench.py's python.json, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
@@ -29,6 +30,7 @@ from reporting.flood import flood_data, flood_section, flood_targets
 from reporting.external import external_data, external_section, external_target_rows
 from reporting.hostile import hostile_data, hostile_section, hostile_targets
 from reporting.kinematics import kinematics_subsection, kinematics_targets
+from reporting.mujoco import mujoco_subsection
 from reporting.live import live_data, live_section
 from reporting.loop import delivery_section, loop_data, loop_section, tick_target
 from reporting.python_calls import python_target_rows
@@ -66,6 +68,9 @@ def derivation(out, derive_runs, derive_calib, context):
         kin_md, kin_worst = kinematics_subsection(out, *kinematics)
         md += "\n" + kin_md
         kdl_rows += kinematics_targets(kin_worst)
+    mujoco = optional_benchmarks(out / "mujoco.json")  # only where MuJoCo was found
+    if mujoco:
+        md += "\n" + mujoco_subsection(out, *mujoco)
     return md, derive, kdl_rows
 
 

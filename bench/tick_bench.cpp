@@ -11,6 +11,10 @@
 //            Jacobian, J̇q̇, M, Λ and the posture projection every tick)
 //   ur5-circle  config/ur5_circle.yaml: the UR5's tool under
 //            operational-space control along a circle
+//   panda-mujoco  config/panda_mujoco_minjerk.yaml: the panda scene with
+//            MuJoCo as its plant (where MuJoCo was found)
+//   panda-mujoco-table  config/panda_mujoco_table.yaml: the Panda on MuJoCo
+//            pressing on a table (contact) under Cartesian impedance
 //
 //   tick/<scene>/hot          ticks back to back (caches and predictors warm),
 //                             as shipped: the energy balance kept (telemetry on)
@@ -140,6 +144,10 @@ int main(int argc, char** argv) {
   lagrange::bench::RegisterScene("panda", lagrange::bench::ScenePath("panda_minjerk.yaml"));
   lagrange::bench::RegisterScene("panda-impedance", lagrange::bench::ScenePath("panda_cartesian_impedance.yaml"));
   lagrange::bench::RegisterScene("ur5-circle", lagrange::bench::ScenePath("ur5_circle.yaml"));
+#if LAGRANGE_HAVE_MUJOCO
+  lagrange::bench::RegisterScene("panda-mujoco", lagrange::bench::ScenePath("panda_mujoco_minjerk.yaml"));
+  lagrange::bench::RegisterScene("panda-mujoco-table", lagrange::bench::ScenePath("panda_mujoco_table.yaml"));
+#endif
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

@@ -16,6 +16,7 @@ Instance::Instance(const InstanceConfig& config)
 Instance::Instance(std::shared_ptr<const InstanceModel> model)
     : instance_model_(std::move(model)),
       external_(instance_model_->external_plant()),
+      stepped_(instance_model_->config.mujoco ? instance_model_->config.mujoco->model->MakeData() : nullptr),
       model_(instance_model_->dynamics[static_cast<std::size_t>(instance_model_->config.method)],
              instance_model_->config.effects),
       trajectory_(MakeTrajectory(instance_model_->config)),
@@ -57,14 +58,15 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   }
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
+  if (stepped_) stepped_->SetState(q_, qd_);
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
   ResetBalance();
 }
 
 void Instance::ResetBalance() {
-  balance_.Reset(model_.Energy(q_, qd_));
+  balance_.Reset(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
   rest_power_ = power_end_ = 0.0;
-  if (accounting_) ComputePowers();
+  if (accounting_ && !stepped_) ComputePowers();
 }
 
 void Instance::ComputePowers() {
@@ -105,6 +107,7 @@ void Instance::ComputeForces(EffectForces& out) {
 
 const char* Instance::CheckIntegrator(const IntegratorConfig& config) const {
   if (external_) return kExternalNotIntegrated;
+  if (stepped_) return kMujocoIntegrated;
   if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis) {
     return kVariationalNeedsCoriolis;
   }
@@ -120,6 +123,7 @@ const char* Instance::SetIntegrator(const IntegratorConfig& config) {
 }
 
 const char* Instance::SetEffect(EffectKind kind, bool on) {
+  if (stepped_) return kMujocoEffects;
   if (kind == EffectKind::kCoriolis && !on && !external_ && integrator_->type() == IntegratorType::kVariational) {
     return kVariationalNeedsCoriolis;
   }
@@ -144,9 +148,24 @@ void Instance::RestartTrajectory() {
   trajectory_start_ = t_;
 }
 
+Instance::StepFailure Instance::StepPlant(double dt) {
+  q_start_ = q_;
+  const StepFailure failed = stepped_->Step(tau_, q_, qd_, qdd_);  // the state unchanged when it failed
+  t_ = static_cast<double>(++steps_) * dt;
+  if (failed) return failed;
+  if (accounting_) {
+    // The command held over the tick does tau·Δq exactly; the rest's work is the simulator's sum.
+    balance_.AddTickWithWork(dt, tau_.dot(q_ - q_start_) + stepped_->other_work(), 0.0, 0.0,
+                             KineticEnergy() + PotentialEnergy());
+    power_end_ = qd_.dot(tau_);
+  }
+  return nullptr;
+}
+
 Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
   energies_cached_ = false;
+  if (stepped_) return StepPlant(dt);
   q_start_ = q_;
   qd_start_ = qd_;
   const bool ok = external_ || integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
@@ -190,7 +209,7 @@ Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) { retu
 
 Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint, std::size_t index) {
   q_des_ = setpoint.q;
-  if (continuous_[index] && !external_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
+  if (continuous_[index] && !external_ && !stepped_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
   const bool controlled = controllers_[index]->Compute(t_, q_, qd_, setpoint, tau_cmd_);
   const StepFailure integrated = Integrate(dt, tau_cmd_);
   return controlled ? integrated : kControllerNotFinite;
@@ -225,6 +244,7 @@ void Instance::Restore(const Saved& saved) {
   qdd_.setZero();
   tau_.setZero();
   tau_cmd_.setZero();  // frozen under zero torque: nothing of the undone step is left
+  if (stepped_) stepped_->SetState(q_, qd_);
   balance_ = saved.balance;
   rest_power_ = saved.rest_power;
   power_end_ = saved.power_end;
@@ -268,6 +288,7 @@ void Instance::Reset() {
   RestartTrajectory();  // from the scene's initial state at t = 0, as built
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
+  if (stepped_) stepped_->SetState(q_, qd_);
   model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
   ResetBalance();
 }

@@ -20,6 +20,7 @@
 #include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
+#include "plant/stepped_plant.hpp"
 
 namespace lagrange {
 
@@ -121,9 +122,19 @@ class Instance {
   // and every controller's gains back to the scene's.
   void Reset();
 
-  // T and V at the current state: the balance's, when it computed them at this state.
-  double KineticEnergy() { return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_); }
-  double PotentialEnergy() { return energies_cached_ ? potential_ : model_.PotentialEnergy(q_); }
+  // T and V at the current state: the balance's, when it computed them at
+  // this state; a stepped (mujoco) plant's are its simulator's.
+  double KineticEnergy() {
+    if (stepped_) return stepped_->kinetic_energy();
+    return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_);
+  }
+  double PotentialEnergy() {
+    if (stepped_) return stepped_->potential_energy();
+    return energies_cached_ ? potential_ : model_.PotentialEnergy(q_);
+  }
+  // MuJoCo steps the plant (the scene's plant: {type: mujoco}); model() is then the controllers' model only.
+  // Null for every other plant.
+  const SteppedPlantData* stepped_plant() const { return stepped_.get(); }
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }
@@ -149,6 +160,10 @@ class Instance {
   Method method() const { return model_.method(); }
 
   // The energy balance (plant/energy_balance.hpp) over every step since
+  // start or Reset. A stepped (mujoco) plant's: E its simulator's T + V,
+  // the command's work tau·Δq and the rest's (damping, friction loss, limits,
+  // contacts) as the simulator's forces give it (SteppedPlantData::other_work).
+  // Otherwise:
   // start or Reset: each step adds its tick, a held command's work exactly
   // (tau·Δq) and the rest's by the trapezoid rule (a continuous law's too). Kept when `accounting` (the
   // scene's telemetry, or its energy_balance bound) is on; it then costs one ComputeEffectForces without
@@ -184,9 +199,12 @@ class Instance {
   // effects as they are now), without a tick to account.
   void ComputePowers();
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
+  // A stepped plant's step of length dt under tau_ (held), and its balance.
+  StepFailure StepPlant(double dt);
 
   std::shared_ptr<const InstanceModel> instance_model_;
   bool external_;  // the plant is outside: nothing is integrated
+  std::unique_ptr<SteppedPlantData> stepped_;  // MuJoCo steps the plant; null: lagrange integrates model_
   PlantModel model_;
   Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType

@@ -26,7 +26,11 @@ HoldBy FallbackOf(const std::vector<ControllerModel>& controllers, const std::op
 
 std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
   // A joint with a stop is driven the way the stop allows; only free revolute joints wrap.
-  const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), config.effects.limits);
+  // A mujoco plant's stops are MuJoCo's joint ranges.
+  const std::optional<JointLimits> stops =
+      config.mujoco ? std::optional<JointLimits>(JointLimits{config.mujoco->lower, config.mujoco->upper})
+                    : config.effects.limits;
+  const std::vector<bool> wrap = WrappedJoints(JointTypesOf(config.plant), stops);
   std::vector<ControllerConfig> configs;
   for (const ControllerConfig* c : ControllerConfigs(config)) configs.push_back(*c);
   if (config.controller.type != ControllerType::kNone) configs.emplace_back();  // none, to switch to

@@ -9,6 +9,9 @@
 #include "daemon/yaml_reader.hpp"
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#ifdef LAGRANGE_HAVE_MUJOCO
+#include "plant/mujoco_plant.hpp"
+#endif
 
 namespace lagrange {
 namespace {
@@ -280,6 +283,10 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, Ur
     inst.setpoint_lower = inst.effects.limits->lower;
     inst.setpoint_upper = inst.effects.limits->upper;
   }
+  if (inst.mujoco) {  // MuJoCo's joint ranges, where it limits a joint
+    inst.setpoint_lower = inst.mujoco->lower;
+    inst.setpoint_upper = inst.mujoco->upper;
+  }
   if (auto l = node.Optional("setpoint_limits")) {
     l->ExpectKeys({"lower", "upper"});
     inst.setpoint_lower = l->Required("lower").VectorOrInfinity(n);
@@ -345,6 +352,95 @@ ExternalPlantConfig ReadExternalPlant(const YamlReader& node, double period) {
   return e;
 }
 
+// plant: {type: mujoco, file: F, model: {...}}
+bool IsMujocoPlant(const YamlReader& plant) {
+  return plant.IsMap() && plant.Has("type") && plant.Required("type").Text() == "mujoco";
+}
+
+bool IsUrdfFile(const std::string& name) {
+  return name.size() > 5 && name.compare(name.size() - 5, 5, ".urdf") == 0;
+}
+
+// Lagrange's model of a mujoco plant: `model:`, else the URDF file itself.
+// With the URDF itself as the model, `gravity` and `method` are a urdf plant's
+// keys (gravity then MuJoCo's too), so a urdf scene becomes a mujoco one by its type alone.
+PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urdf) {
+  node.ExpectKeys({"type", "file", "model", "gravity", "method"});
+  const YamlReader file = node.Required("file");
+  if (auto model = node.Optional("model")) {
+    for (const char* key : {"gravity", "method"}) {
+      if (node.Has(key)) {
+        node.Required(key).Fail("with model: given, this is the model's key (model." + std::string(key) +
+                                "); MuJoCo's gravity is its file's");
+      }
+    }
+    return ReadPlant(*model, method, urdf);
+  }
+  if (!IsUrdfFile(file.Text())) {
+    file.Fail("an MJCF file needs model: {type: urdf, file: ...} (lagrange's model of the robot, for the controllers)");
+  }
+  PlantSpec spec = UrdfPlantSpec(urdf.Load(file));
+  if (auto g = node.Optional("gravity")) SetUrdfParam(spec, "gravity", *g);
+  if (auto err = ValidatePlantSpec(spec)) file.Fail(err->message);
+  *method = FastestMethod(PlantType::kUrdf);
+  if (auto m = node.Optional("method")) {
+    const std::optional<Method> parsed = ParseMethod(m->Text());
+    if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
+    if (const char* why = NoMethodReason(PlantType::kUrdf, *parsed)) m->Fail(why);
+    *method = *parsed;
+  }
+  return spec;
+}
+
+// integrator: {type: euler|rk4|implicit, substeps: N}: MuJoCo's, as 2.2.2 has them.
+void ReadMujocoIntegrator(const YamlReader& node, MujocoPlantConfig& c) {
+  node.ExpectKeys({"type", "substeps"});
+  if (auto v = node.Optional("type")) {
+    const std::optional<MujocoIntegrator> t = ParseMujocoIntegrator(v->Text());
+    if (!t) {
+      v->Fail("expected one of " + std::string(kMujocoIntegratorNames) + " for a mujoco plant (MuJoCo 2.2.2's), got '" +
+              Escape(v->Text(), 60) + "'");
+    }
+    c.integrator = *t;
+  }
+  if (auto v = node.Optional("substeps")) c.substeps = v->Integer(1, 1000);
+}
+
+// Loads the MuJoCo model at period / substeps; its joints must be the model's, in order.
+void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urdf, InstanceConfig& inst) {
+  const YamlReader file = plant_node.Required("file");
+  if (file.Text().empty()) file.Fail("expected the path of an MJCF or URDF file, got ''");
+  MujocoPlantConfig& c = *inst.mujoco;
+  c.file = (std::filesystem::path(plant_node.file()).parent_path() / file.Text()).lexically_normal().string();
+#ifdef LAGRANGE_HAVE_MUJOCO
+  MujocoOptions options;
+  options.period = period;
+  options.substeps = c.substeps;
+  options.integrator = c.integrator;
+  std::shared_ptr<const UrdfRobot> robot;
+  if (IsUrdfFile(file.Text())) {  // the exact inertias of lagrange's reading of the same file (unscaled)
+    robot = urdf.Load(file);
+    options.exact_inertia = &robot->tree;
+  }
+  if (!plant_node.Has("model")) options.gravity = std::get<UrdfParams>(inst.plant.params).gravity;  // plant.gravity
+  options.joint_order = JointNamesOf(inst.plant);  // q in lagrange's model's order, the joints matched by name
+  std::shared_ptr<const MujocoPlantModel> model;
+  try {
+    model = LoadMujocoPlant(c.file, options);
+  } catch (const std::exception& e) {
+    file.Fail(Escape(e.what(), 400));
+  }
+  c.model = model;
+  c.lower = Eigen::Map<const VectorXd>(model->info().lower.data(), model->num_dofs());
+  c.upper = Eigen::Map<const VectorXd>(model->info().upper.data(), model->num_dofs());
+#else
+  (void)period;
+  (void)urdf;
+  plant_node.Required("type").Fail(
+      "this lagrange was built without MuJoCo (libmujoco-dev was not found when it was configured)");
+#endif
+}
+
 // The YAML node of each controller, in the order of InstanceConfig's controller, alternates.
 std::vector<YamlReader> ControllerNodes(const YamlReader& node) {
   std::vector<YamlReader> nodes;
@@ -373,6 +469,9 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
     }
     if (inst.external && c.continuous) {
       nodes[k].Required("continuous").Fail("an external plant's controller runs once per tick on the measured state");
+    }
+    if (inst.mujoco && c.continuous) {
+      nodes[k].Required("continuous").Fail("a mujoco plant's controller runs once per tick (MuJoCo holds the force over its steps)");
     }
     if (c.type != ControllerType::kExternal || !c.external.fallback) continue;
     const std::string& f = *c.external.fallback;
@@ -423,6 +522,9 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   if (IsExternalPlant(plant_node)) {
     inst.external = ReadExternalPlant(plant_node, period);
     inst.plant = ReadPlant(plant_node.Required("model"), &inst.method, urdf);
+  } else if (IsMujocoPlant(plant_node)) {
+    inst.mujoco = MujocoPlantConfig{};
+    inst.plant = ReadMujocoModel(plant_node, &inst.method, urdf);
   } else {
     inst.plant = ReadPlant(plant_node, &inst.method, urdf);
   }
@@ -435,15 +537,23 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     if (auto qd = init->Optional("qd")) inst.qd0 = qd->Vector(n);
   }
   // A URDF's effects, then the scene's keys over them; the merged result is what is validated.
-  const auto* urdf_params = std::get_if<UrdfParams>(&inst.plant.params);
+  const auto* urdf_params = inst.mujoco ? nullptr : std::get_if<UrdfParams>(&inst.plant.params);
   if (urdf_params) inst.effects = UrdfEffects(*urdf_params->robot);
+  if (inst.mujoco && node.Has("effects")) node.Required("effects").Fail(std::string(kMujocoEffects) + ": expected no effects");
   const std::vector<std::string> names = JointNamesOf(inst.plant);
   if (auto e = node.Optional("effects")) {
     inst.effects = ReadEffects(*e, names, inst.effects);
   } else if (auto err = urdf_params ? CheckEffects(inst.effects, names) : std::nullopt) {
     node.Required("plant").Fail("file", Escape(urdf_params->file) + ": its joints' " + err->key + ": " + err->message);
   }
-  if (auto i = node.Optional("integrator")) {
+  if (inst.mujoco) {
+    if (auto i = node.Optional("integrator")) ReadMujocoIntegrator(*i, *inst.mujoco);
+    // What the status reports (MuJoCo's Euler is semi-implicit); the instance never runs it.
+    inst.integrator.type = inst.mujoco->integrator == MujocoIntegrator::kEuler ? IntegratorType::kSemiImplicitEuler
+                                                                                 : IntegratorType::kRk4;
+    inst.integrator.substeps = inst.mujoco->substeps;
+    LoadMujocoModel(plant_node, period, urdf, inst);
+  } else if (auto i = node.Optional("integrator")) {
     if (inst.external) i->Fail(kExternalNotIntegrated);  // as the integrator command says
     inst.integrator = ReadIntegrator(*i);
     const bool coriolis = inst.effects.coriolis && std::find(inst.effects.off.begin(), inst.effects.off.end(),

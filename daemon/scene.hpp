@@ -12,6 +12,7 @@
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/stepped_plant.hpp"
 
 namespace lagrange {
 
@@ -55,6 +56,25 @@ struct ExternalPlantConfig {
 inline constexpr char kExternalNotIntegrated[] =
     "an external plant is not integrated by lagranged (its state is measured)";
 
+// plant: {type: mujoco, file: F, model: {...}}: MuJoCo steps the plant
+// (plant/mujoco_plant.hpp), the MJCF or URDF file F as MuJoCo loads it; the
+// instance's plant spec is then lagrange's model of it, for the controllers
+// (by default the URDF F itself; an MJCF needs `model:`, as an external plant).
+struct MujocoPlantConfig {
+  std::string file;  // as resolved (relative to the scene's directory)
+  MujocoIntegrator integrator = MujocoIntegrator::kRk4;
+  int substeps = 1;
+  std::shared_ptr<const SteppedPlantModel> model;  // loaded once, at period / substeps
+  VectorXd lower, upper;  // (n) its joints' ranges where MuJoCo limits them, ∓inf elsewhere: the default setpoint limits
+};
+
+// A mujoco plant's integrator and effects are MuJoCo's: the scene's keys and
+// the run-time commands are refused with these.
+inline constexpr char kMujocoIntegrated[] =
+    "a mujoco plant is integrated by MuJoCo (its integrator is the scene's: euler, rk4 or implicit)";
+inline constexpr char kMujocoEffects[] =
+    "a mujoco plant's effects are MuJoCo's (contacts, joint limits, damping, friction loss from its file)";
+
 // energy_balance: {bound: J, on_exceed: warn|fault}. The energy-balance
 // residual ε (plant/energy_balance.hpp; telemetry_t.energy_residual) is the
 // one sign that an integrator is making or losing energy while the state
@@ -90,6 +110,7 @@ struct InstanceConfig {
   std::optional<EnergyBalanceBound> energy_balance;  // a bound on |ε| (none by default)
   std::optional<VectorXd> estop_damping;        // (n) brake B during an emergency stop (default 20/s × diag M(q0))
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
+  std::optional<MujocoPlantConfig> mujoco;      // set: MuJoCo steps the plant; `plant` is its model
   bool telemetry = true;                        // keep the energy balance and publish <NAME>_TELEMETRY every tick
   bool forces = false;  // publish <NAME>_FORCES from the start (a command may turn it on or off)
 };

@@ -326,8 +326,11 @@ int Serve(const Options& o, const LogFiles& logs) {
   }
   for (const InstanceModel& m : model->instances) {
     const InstanceChannelNames& c = m.channels;
-    spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", m.name(), m.external_plant() ? "external plant, model " : "",
-                 ToString(m.config.plant.type()), m.controllers.front().name, c.state, c.setpoint, c.command,
+    const std::string plant = m.external_plant() ? "external plant, model "
+                              : m.config.mujoco ? "MuJoCo plant " + m.config.mujoco->file + " (" +
+                                                      std::string(ToString(m.config.mujoco->integrator)) + "), model "
+                                                : "";
+    spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", m.name(), plant, ToString(m.config.plant.type()), m.controllers.front().name, c.state, c.setpoint, c.command,
                  c.torque_in.empty() ? "" : ", torques from " + c.torque_in,
                  m.external_plant() ? ", measured state from " + c.measured_in + ", torque to " + c.torque_out : "");
   }

@@ -99,8 +99,28 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   return fastest;
 }
 
+double MeasureSteppedSeconds(const InstanceConfig& config) {
+  const std::unique_ptr<SteppedPlantData> data = config.mujoco->model->MakeData();
+  VectorXd q = config.q0, qd = config.qd0, qdd(config.q0.size());
+  const VectorXd tau = VectorXd::Zero(config.q0.size());
+  const double fastest = FastestSample(kMeasureBudget, [&] {
+    data->SetState(config.q0, config.qd0);  // every step from the initial state
+    const Steady::time_point start = Steady::now();
+    data->Step(tau, q, qd, qdd);
+    return SecondsSince(start);
+  });
+  return std::isfinite(fastest) ? fastest : 0.0;
+}
+
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config) {
   std::array<double, 3> costs{};
+  if (config.mujoco) {  // one tick of MuJoCo's steps, by whichever method the controllers' model is derived
+    const double step = MeasureSteppedSeconds(config);
+    for (const Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+      if (HasMethod(config.plant.type(), m)) costs[static_cast<std::size_t>(m)] = step;
+    }
+    return costs;
+  }
   for (const Method m : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
     if (!HasMethod(config.plant.type(), m)) continue;
     InstanceConfig c = config;
@@ -154,6 +174,7 @@ WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Me
   const double cost = m.evaluation_s[static_cast<std::size_t>(method)];
   const double overhead = m.tick_overhead_s + (forces ? m.forces_s : 0.0);
   if (m.external_plant()) return {m.name(), 0, cost, overhead};  // nothing is integrated
+  if (m.config.mujoco) return {m.name(), 1, cost, overhead};     // the cost is one tick of MuJoCo's steps
   return {m.name(), WorstCaseEvaluations(config, m.num_dofs), cost, overhead};
 }
 

@@ -53,6 +53,11 @@ double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps);
 // Worst-case right-hand-side evaluations of one tick (see above).
 std::int64_t WorstCaseEvaluations(const IntegratorConfig& config, int num_dofs);
 
+// A mujoco plant (MuJoCo steps it) counts one evaluation per tick, whose cost
+// is one SteppedPlantData::Step (its substeps of mj_step and the end state's
+// mj_forward) from (q0, qd0) under zero force, timed the same way
+// (MeasureSteppedSeconds); its integrator is MuJoCo's, so nothing else is.
+double MeasureSteppedSeconds(const InstanceConfig& config);
 // The cost of one ComputeAcceleration for `config` at (q0, qd0), zero torque,
 // s: the fastest of up to 20 batches, within 50 ms.
 double MeasureEvaluationSeconds(const InstanceConfig& config);

@@ -1,0 +1,64 @@
+#pragma once
+// A plant another simulator steps (MuJoCo: plant/mujoco_plant.hpp, library
+// lagrange_mujoco): the instance hands it the applied joint force for one
+// tick and reads the state back; lagrange's own dynamics model is then the
+// controllers' only. Model and data apart, as everywhere: the model is loaded
+// once (immutable, shared), each user makes its data once, holding every
+// buffer a step needs, so Step allocates nothing.
+//
+//   (q, qd at t; tau held over the tick) => (q, qd, qdd at t + tick)
+//
+// Energies E = T + V as the simulator computes them (V: gravity and joint
+// springs), and the work over the tick of every force but tau (damping,
+// friction loss, joint limits, contacts), so that the energy balance of
+// plant/energy_balance.hpp reads ε = E − E(0) − W with W = Σ tau·Δq + that.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "plant/types.hpp"
+
+namespace lagrange {
+
+class SteppedPlantData {
+ public:
+  virtual ~SteppedPlantData() = default;
+  // Sets the state (n each) and evaluates it (energies, qdd under zero force); no allocation.
+  virtual void SetState(ConstVecRef q, ConstVecRef qd) = 0;
+  // (tau (n), N·m or N, held over the tick) => q, qd at the tick's end and
+  // qdd there under tau (n each). Null, or why it failed (a static string: a
+  // warning of the simulator, a state that is not finite); the outputs are
+  // then left unchanged and the caller restores a good state (SetState).
+  virtual const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) = 0;
+  virtual double kinetic_energy() const = 0;    // J, at the current state
+  virtual double potential_energy() const = 0;  // J, at the current state
+  // J: the work over the last Step of every force but tau (non-conservative:
+  // springs are in V), by the trapezoid rule over the simulator's steps.
+  virtual double other_work() const = 0;
+};
+
+class SteppedPlantModel {
+ public:
+  virtual ~SteppedPlantModel() = default;
+  virtual int num_dofs() const = 0;
+  virtual const std::vector<std::string>& joint_names() const = 0;  // in q order
+  virtual std::unique_ptr<SteppedPlantData> MakeData() const = 0;
+};
+
+// The integrators of a MuJoCo plant, as MuJoCo 2.2.2 has them (mjtIntegrator).
+enum class MujocoIntegrator : std::uint8_t {
+  kEuler,     // mjINT_EULER: semi-implicit Euler (velocity first, then position with the new velocity)
+  kRk4,       // mjINT_RK4: the classic 4th-order Runge–Kutta, the force held over the step
+  kImplicit,  // mjINT_IMPLICIT: implicit in velocity (damping and the velocity derivatives of passive forces)
+};
+// "euler", "semi-implicit-euler" (lagrange's name for the same method), "rk4", "implicit".
+std::optional<MujocoIntegrator> ParseMujocoIntegrator(std::string_view name);
+std::string_view ToString(MujocoIntegrator integrator);
+// "euler (= semi-implicit-euler), rk4, implicit"
+inline constexpr char kMujocoIntegratorNames[] = "euler (= semi-implicit-euler), rk4, implicit";
+
+}  // namespace lagrange

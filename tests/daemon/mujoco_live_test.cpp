@@ -1,0 +1,135 @@
+// lagranged running a mujoco plant as a separate process on a private LCM
+// port: the Panda on MuJoCo follows a stream of setpoints sent by another
+// process, publishes only finite states, and stops with exit 0. Only what a
+// loaded machine cannot break is asserted (lagranged_test.cpp's rules).
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <lagrange/command_t.hpp>
+#include <lagrange/setpoint_t.hpp>
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "tests/support/lcm_messages.hpp"
+#include "tests/support/lcm_testing.hpp"
+
+namespace lagrange {
+namespace {
+
+using testing::BackgroundProcess;
+using testing::LcmCollector;
+using testing::WallMicros;
+
+constexpr double kWait = 30.0;     // s: bound on waiting for an effect; a pass takes far less
+constexpr double kSettled = 2e-3;  // rad: the arm at its setpoint
+
+bool Finite(const state_t& s) {
+  bool ok = std::isfinite(s.t) && std::isfinite(s.kinetic_energy) && std::isfinite(s.potential_energy);
+  for (const auto* v : {&s.q, &s.qd, &s.qdd, &s.tau}) {
+    for (const double x : *v) ok = ok && std::isfinite(x);
+  }
+  return ok;
+}
+
+TEST(MujocoLive, LagrangedRunsThePandaOnMujocoUnderASetpointStream) {
+  const int port = 8401;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::string url = testing::TestLcmUrl(port);
+  LcmCollector collector(url);
+  BackgroundProcess daemon(
+      {LAGRANGED_PATH, "--lcm-url", url, "--config", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_minjerk.yaml"});
+  ASSERT_TRUE(collector.WaitFor("PANDA_STATE", [](const auto& m) { return m.size() >= 100; }, kWait))
+      << daemon.Stderr();
+  // A stream: a setpoint per few milliseconds, moving from the ready pose towards the target, then holding it.
+  const std::vector<double> start = {0, -0.785, 0, -2.356, 0, 1.571, 0.785};
+  const std::vector<double> target = {0.2, -0.6, 0.1, -2.1, 0.0, 1.7, 0.5};
+  lcm::LCM sender(url);
+  int sent = 0;
+  const bool reached = testing::SendUntil(
+      [&] {
+        const double s = std::min(1.0, sent++ / 100.0);
+        std::vector<double> q(7);
+        for (std::size_t i = 0; i < 7; ++i) q[i] = start[i] + s * (target[i] - start[i]);
+        const setpoint_t sp = testing::MakeSetpoint(q, WallMicros());
+        sender.publish("PANDA_SETPOINT", &sp);
+      },
+      [&] {
+        const auto states = collector.Decoded<state_t>("PANDA_STATE");
+        if (states.empty() || states.back().q_des != target) return false;
+        double err = 0.0;
+        for (std::size_t i = 0; i < 7; ++i) err = std::max(err, std::abs(states.back().q[i] - target[i]));
+        return err < kSettled;
+      },
+      kWait, /*every_s=*/0.01);
+  EXPECT_TRUE(reached) << daemon.Stderr();
+  const std::vector<state_t> states = collector.Decoded<state_t>("PANDA_STATE");
+  for (const state_t& s : states) {
+    ASSERT_TRUE(Finite(s)) << "tick " << s.tick;
+    // Running, or holding where a stalled (loaded) machine let the stream's setpoints go stale; never a fault.
+    ASSERT_TRUE(s.mode == state_t::MODE_RUNNING || s.mode == state_t::MODE_HOLD) << int{s.mode} << daemon.Stderr();
+  }
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+}
+
+// The reference driver (tools/examples/mujoco_driver.cpp) in the loop: MuJoCo
+// as the robot behind lagranged's external plant, lagranged's computed torque
+// (config/panda_external_mujoco.yaml) driving it over the bus through the
+// 3 s min-jerk move to its target. Both are ordinary processes on a shared
+// machine: the watchdogs get 0.5 s here instead of the shipped 0.05 s, and a
+// tripped lagranged is re-armed (clear), as an operator would.
+TEST(MujocoLive, TheReferenceDriverClosesTheLoopWithLagranged) {
+  const int port = 8402;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::string url = testing::TestLcmUrl(port);
+  const std::string source = LAGRANGE_SOURCE_DIR;
+  std::ifstream in(source + "/config/panda_external_mujoco.yaml");
+  std::string scene((std::istreambuf_iterator<char>(in)), {});
+  scene.replace(scene.find("state_timeout: 0.05"), 19, "state_timeout: 0.5");
+  scene.replace(scene.find("file: robots/panda.urdf"), 23, "file: " + source + "/config/robots/panda.urdf");
+  const std::string scene_path = ::testing::TempDir() + "panda_external_mujoco_" + std::to_string(::getpid()) + ".yaml";
+  std::ofstream(scene_path) << scene;
+  LcmCollector collector(url);
+  BackgroundProcess driver({MUJOCO_DRIVER_PATH, "--model", source + "/config/robots/panda.urdf", "--initial",
+                            "0,-0.785,0,-2.356,0,1.571,0.785", "--url", url, "--torque-timeout", "0.5"});
+  ASSERT_TRUE(collector.WaitFor("PANDA_ROBOT_STATE", [](const auto& m) { return !m.empty(); }, kWait))
+      << driver.Stderr();
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--config", scene_path});
+  const std::vector<double> target = {0.6, -0.3, -0.4, -1.9, 0.5, 2.1, 0.3};
+  lcm::LCM sender(url);
+  std::int64_t request = 0;
+  const bool reached = testing::SendUntil(
+      [&] {  // re-arm a watchdog that a stalled process tripped
+        const auto ours = collector.Decoded<state_t>("PANDA_STATE");
+        if (ours.empty() || ours.back().mode != state_t::MODE_STOPPED) return;
+        const command_t clear = testing::MakeCommand(command_t::CLEAR_ESTOP, ++request, WallMicros());
+        sender.publish("PANDA_COMMAND", &clear);
+      },
+      [&] {
+        const auto states = collector.Decoded<state_t>("PANDA_ROBOT_STATE");
+        if (states.empty() || states.back().mode != state_t::MODE_RUNNING) return false;
+        double err = 0.0;
+        for (std::size_t i = 0; i < 7; ++i) err = std::max(err, std::abs(states.back().q[i] - target[i]));
+        return err < kSettled;
+      },
+      kWait);
+  EXPECT_TRUE(reached) << daemon.Stderr() << driver.Stderr();
+  for (const state_t& s : collector.Decoded<state_t>("PANDA_ROBOT_STATE")) ASSERT_TRUE(Finite(s)) << "tick " << s.tick;
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+  driver.Signal(SIGTERM);
+  EXPECT_EQ(driver.Wait(kWait), 0) << driver.Stderr();
+  std::remove(scene_path.c_str());
+}
+
+}  // namespace
+}  // namespace lagrange
