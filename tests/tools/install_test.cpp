@@ -141,6 +141,7 @@ TEST_F(Install, TheInstalledReadmesLinksResolveAndTheExampleSourceIsThere) {
   }
   EXPECT_GT(links, 0);
   EXPECT_TRUE(fs::is_regular_file(doc / "tools/examples/impedance_client.cpp"));
+  EXPECT_TRUE(fs::is_regular_file(doc / "examples/python/external_controller.py"));
 }
 
 TEST_F(Install, TheLcmTypesAreInstalledAsDefinitionsHeadersAndJar) {
