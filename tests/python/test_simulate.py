@@ -37,7 +37,8 @@ def test_the_csv_holds_the_shortest_text_that_reads_back_to_each_double(tmp_path
     assert max(len(significant_digits(t)) for t in texts) >= 16  # every digit a double needs, not %g's six
 
 
-@pytest.mark.parametrize("scene", ["default.yaml", "chain7_minjerk.yaml", "pendulum.yaml"])
+# panda_mujoco_minjerk.yaml: a MuJoCo plant (issue 25) runs through the same Instance code.
+@pytest.mark.parametrize("scene", ["default.yaml", "chain7_minjerk.yaml", "pendulum.yaml", "panda_mujoco_minjerk.yaml"])
 def test_simulate_returns_bit_for_bit_what_lagrangectl_simulate_writes(scene, tmp_path):
     r, csv = lagrangectl_simulate(config(scene), DURATION, tmp_path)
     assert r.returncode == 0, r.stderr
