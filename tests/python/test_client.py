@@ -3,6 +3,7 @@ this host only): states, setpoints, torques and commands through the
 project's own client, with the verdicts and errors lagrangectl reports."""
 import os
 import subprocess
+import sys
 import threading
 import time
 
@@ -53,16 +54,22 @@ def test_states_come_in_tick_order_from_one_run(daemon):
 
 
 def test_waiting_for_states_releases_the_gil(daemon):
+    # With a switch interval of 1000 s, another Python thread runs only while this one gives the GIL up of its
+    # own accord (the interpreter never takes it from this one): a thread that counts, sleeping 1 ms between
+    # counts so that this one gets the GIL back, counts during the wait only if the wait released it.
     count = [0]
     stop = threading.Event()
 
     def spin():
         while not stop.is_set():
             count[0] += 1
+            time.sleep(0.001)
 
+    interval = sys.getswitchinterval()
     t = threading.Thread(target=spin)
-    t.start()
+    sys.setswitchinterval(1000.0)
     try:
+        t.start()
         before = count[0]
         for _ in daemon.states("arm", duration=0.3):
             pass
@@ -70,6 +77,7 @@ def test_waiting_for_states_releases_the_gil(daemon):
     finally:
         stop.set()
         t.join()
+        sys.setswitchinterval(interval)
     assert during > 0
 
 
