@@ -53,6 +53,22 @@ def test_states_come_in_tick_order_from_one_run(daemon):
     assert all(b.received >= a.received for a, b in zip(states, states[1:]))
 
 
+def test_a_states_iterator_gets_every_state_whatever_another_one_does(daemon):
+    # Each iterator has its own queue: two at once both see the states that came while both listened (one
+    # shared queue would hand each state to one of them), and one that goes (`it = c.states(...)` again)
+    # leaves the other listening (it had stopped the queue they shared).
+    one, two = daemon.states("arm", duration=10.0), daemon.states("arm", duration=10.0)
+    ticks_one, ticks_two = [], []
+    for _ in range(5):
+        ticks_one.append(next(one).tick)
+        ticks_two.append(next(two).tick)
+    assert set(ticks_one) & set(ticks_two)
+    del one
+    a, b = next(two), next(two)
+    assert b.tick > a.tick > ticks_two[-1]
+    del two
+
+
 def test_waiting_for_states_releases_the_gil(daemon):
     # With a switch interval of 1000 s, another Python thread runs only while this one gives the GIL up of its
     # own accord (the interpreter never takes it from this one): a thread that counts, sleeping 1 ms between
