@@ -604,11 +604,14 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
   }
   py::dict out;
   for (const auto& [name, c] : channels) {
-    LogChannel record{c.channel, c.type, c.rows, c.skipped, py::dict()};
+    // A channel name is whatever bytes came on the bus: one that is not UTF-8 is keyed and named with them as
+    // \xHH, as the client's messages show it (a str cannot hold it, and one such channel would fail the read).
+    const std::string channel = ValidUtf8(name);
+    LogChannel record{channel, c.type, c.rows, c.skipped, py::dict()};
     for (std::size_t k = 0; k < c.fields.size(); ++k) {
       record.columns[py::str(c.fields[k].name)] = ColumnArray(c.fields[k], c.columns[k], c.rows);
     }
-    out[py::str(name)] = py::cast(std::move(record));
+    out[py::str(channel)] = py::cast(std::move(record));
   }
   return out;
 }

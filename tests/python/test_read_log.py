@@ -3,7 +3,6 @@
 same one-line errors. The log is a live run on a private port (8328)."""
 import math
 import os
-import shutil
 import subprocess
 
 import numpy as np
@@ -123,6 +122,22 @@ def test_what_is_not_a_log_raises_log2csvs_one_line(tmp_path):
         lagrange.read_log(str(text))
     r = subprocess.run([LAGRANGECTL, "log2csv", str(text), "-o", str(tmp_path)], capture_output=True, text=True)
     assert r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
+
+
+def test_a_channel_name_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
+    # lcm-logger records whatever channel a datagram names: a hostile one is a key like any other, never an error.
+    with open(log, "rb") as f:
+        data = f.read()
+    bad = str(tmp_path / "bad_channel.lcm")
+    with open(bad, "wb") as f:
+        f.write(data.replace(b"CARTPOLE_STATE", b"\xff\xfeRTPOLE_STATE"))  # the same length: still a log
+    records = lagrange.read_log(bad)
+    escaped = "\\xff\\xfeRTPOLE_STATE"
+    assert "CARTPOLE_STATE" not in records and records[escaped].channel == escaped
+    want = lagrange.read_log(log, channel="CARTPOLE_STATE")["CARTPOLE_STATE"]
+    assert records[escaped].rows == want.rows > 0
+    np.testing.assert_array_equal(records[escaped].q, want.q)
+    assert escaped in repr(records[escaped])
 
 
 def test_text_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
