@@ -181,37 +181,14 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     faults = RunOfflineChecked(instances, offline.period, steps, observe);
   } else {
     // A Python law is called before each of its instance's steps with the
-    // state it starts from; the health rule is RunOfflineChecked's.
+    // state it starts from; the run and its health rule are RunOfflineChecked's.
     std::vector<VectorXd> tau(instances.size());
-    std::vector<Instance::Saved> good;
-    std::vector<bool> healthy(instances.size(), true);
-    for (std::size_t i = 0; i < instances.size(); ++i) {
-      good.push_back(instances[i].MakeSaved());
-      observe(i, instances[i]);
-    }
-    StepEnergies energies;
-    for (std::int64_t k = 0; k < steps; ++k) {
-      for (std::size_t i = 0; i < instances.size(); ++i) {
-        if (!healthy[i]) continue;
-        Instance& inst = instances[i];
-        const VectorXd* applied = nullptr;
-        if (law_of[i]) {
-          const py::object out = law_of[i](inst.t(), ToArray(inst.q()), ToArray(inst.qd()));
-          tau[i] = JointVector(out, inst.num_dofs(), ("controller for '" + inst.name() + "' returned tau").c_str());
-          applied = &tau[i];
-        }
-        const double max_energy = inst.instance_model().max_energy;
-        const Instance::StepFailure step = StepOnce(inst, offline.period, applied);
-        if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
-          faults.push_back({i, inst.t(), why, max_energy});
-          healthy[i] = false;
-          inst.Restore(good[i]);
-          continue;
-        }
-        inst.Save(good[i]);
-        observe(i, inst);
-      }
-    }
+    faults = RunOfflineChecked(instances, offline.period, steps, observe, [&](std::size_t i, Instance& inst) {
+      if (!law_of[i]) return StepOnce(inst, offline.period, nullptr);
+      const py::object out = law_of[i](inst.t(), ToArray(inst.q()), ToArray(inst.qd()));
+      tau[i] = JointVector(out, inst.num_dofs(), ("controller for '" + inst.name() + "' returned tau").c_str());
+      return StepOnce(inst, offline.period, &tau[i]);
+    });
   }
   for (const OfflineFault& f : faults) {
     recordings[f.index].fault = OfflineFaultText(instances[f.index], f);
@@ -254,17 +231,12 @@ class PyInstance {
       throw py::value_error(inst().name() + " runs an external controller: step(tau) needs a torque (none given yet)");
     }
     torque_given_ = torque_given_ || tau.has_value();
-    const double max_energy = inst().instance_model().max_energy;
     const Instance::StepFailure step = StepOnce(inst(), scene_.period, tau ? &*tau : nullptr);
     StepEnergies energies;
-    if (const char* why = CheckStepHealth(inst(), step, max_energy, inst().instance_model().residual_bound, energies)) {
-      const OfflineFault f{index_, inst().t(), why, max_energy};
-      const std::string text = OfflineFaultText(inst(), f);
-      inst().Restore(good_);
-      throw std::runtime_error(ValidUtf8(text) + "; the instance is back at t = " + FormatDouble(inst().t()) +
-                               " s, the last healthy step");
+    if (const std::optional<OfflineFault> fault = CheckOfflineStep(index_, inst(), step, good_, energies)) {
+      throw std::runtime_error(ValidUtf8(OfflineFaultText(inst(), *fault)) + "; the instance is back at t = " +
+                               FormatDouble(inst().t()) + " s, the last healthy step");
     }
-    inst().Save(good_);
   }
 
   void Reset() {
