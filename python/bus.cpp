@@ -36,6 +36,7 @@
 #include "protocol/mode.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
+#include "python/paths.hpp"
 
 namespace lagrange::python {
 namespace {
@@ -566,7 +567,7 @@ py::object ColumnArray(const LogField& field, const LogColumn& column, std::int6
 }
 
 py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& channel_regex) {
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_arg));
+  const std::string path = FsPath(path_arg, "path");
   std::map<std::string, LogChannelRows> channels;
   {
     py::gil_scoped_release release;
@@ -593,10 +594,10 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
       py::gil_scoped_acquire acquire;
       std::error_code ec;
       if (!std::filesystem::exists(path, ec)) {
-        PyErr_SetString(PyExc_FileNotFoundError, e.what());
+        PyErr_SetString(PyExc_FileNotFoundError, ValidUtf8(e.what()).c_str());
         throw py::error_already_set();
       }
-      throw py::value_error(e.what());
+      throw py::value_error(ValidUtf8(e.what()));
     } catch (const std::regex_error& e) {
       throw py::value_error("channel: not a regular expression: '" + channel_regex.value_or("") + "' (" + e.what() +
                             ")");

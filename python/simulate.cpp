@@ -15,8 +15,10 @@
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/escape.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
+#include "python/paths.hpp"
 
 namespace lagrange::python {
 namespace {
@@ -30,14 +32,14 @@ struct SceneSource {
 };
 
 SceneSource ReadSceneArgument(const py::handle& scene) {
-  const bool path_like = py::hasattr(scene, "__fspath__");
+  const bool path_like = py::isinstance<py::bytes>(scene) || py::hasattr(scene, "__fspath__");
   if (!path_like && !py::isinstance<py::str>(scene)) {
     throw py::type_error("scene: expected a path or YAML text (str), got " +
                          std::string(py::str(py::type::of(scene).attr("__name__"))));
   }
-  const std::string text = path_like ? py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>()
-                                     : scene.cast<std::string>();
-  const bool yaml_text = !path_like && text.find('\n') != std::string::npos;
+  // A str holding a line break is YAML text; any other argument names a file (its bytes, as open() takes it).
+  const bool yaml_text = !path_like && PySequence_Contains(scene.ptr(), py::str("\n").ptr()) == 1;
+  const std::string text = yaml_text ? scene.cast<std::string>() : FsPath(scene, "scene");
   const std::string label = yaml_text ? "<scene text>" : text;
   try {
     return {yaml_text ? ParseScene(text, label) : LoadScene(text), label};
@@ -208,12 +210,13 @@ class PyInstance {
     if (!name && all.size() != 1) {
       std::string names;
       for (const InstanceConfig& c : all) names += (names.empty() ? "" : ", ") + c.name;
-      throw py::value_error(source.label + ": " + std::to_string(all.size()) + " instances (" + names +
-                            "): name the one to step");
+      throw py::value_error(ValidUtf8(source.label + ": " + std::to_string(all.size()) + " instances (" + names +
+                                      "): name the one to step"));
     }
     index_ = all.size();
     for (std::size_t i = 0; i < all.size(); ++i) index_ = (name && all[i].name == *name) || !name ? i : index_;
-    if (index_ == all.size()) throw py::value_error(source.label + ": no instance '" + *name + "'");
+    if (index_ == all.size())
+      throw py::value_error(ValidUtf8(source.label) + ": no instance '" + Escape(*name, 64) + "'");
     // The stepped instance's external controller takes its torques from step(tau).
     scene_ = Prepare(source, [&](std::size_t i) { return i == index_; });
     good_ = inst().MakeSaved();
@@ -300,7 +303,7 @@ void BindSimulate(py::module_& m) {
   m.def("simulate", &Simulate, py::arg("scene"), py::arg("duration"), py::kw_only(), py::arg("controller") = py::none(),
         R"(Run a scene offline with lagranged's Instance code, as fast as the machine goes.
 
-scene       a scene file (str or os.PathLike), or YAML text (a str with a line break)
+scene       a scene file (str, bytes or os.PathLike), or YAML text (a str with a line break)
 duration    simulated time, s (> 0): round(duration / period) steps after the row at t = 0
 controller  None: every instance under its scene controller and trajectory (the rows are
             the doubles `lagrangectl simulate` writes, and the run releases the GIL);

@@ -3,6 +3,7 @@
 same one-line errors. The log is a live run on a private port (8328)."""
 import math
 import os
+import shutil
 import subprocess
 
 import numpy as np
@@ -138,6 +139,16 @@ def test_a_channel_name_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_p
     assert records[escaped].rows == want.rows > 0
     np.testing.assert_array_equal(records[escaped].q, want.q)
     assert escaped in repr(records[escaped])
+
+
+def test_a_log_path_may_be_bytes_or_a_file_name_that_is_not_utf8(log, tmp_path):
+    name = os.path.join(os.fsencode(tmp_path), b"run\xff.lcm")
+    shutil.copyfile(log, name)
+    want = lagrange.read_log(log, channel="ARM_STATE")["ARM_STATE"].q
+    np.testing.assert_array_equal(lagrange.read_log(name, channel="ARM_STATE")["ARM_STATE"].q, want)
+    np.testing.assert_array_equal(lagrange.read_log(os.fsdecode(name), channel="ARM_STATE")["ARM_STATE"].q, want)
+    with pytest.raises(FileNotFoundError, match=r"nothing\\xff\.lcm"):
+        lagrange.read_log(os.path.join(os.fsencode(tmp_path), b"nothing\xff.lcm"))
 
 
 def test_text_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
