@@ -7,6 +7,11 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -91,6 +96,11 @@ struct Recording {
   std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
   std::optional<std::string> fault;
 
+  void Reserve(std::size_t rows) {
+    for (std::vector<double>* v : {&t, &kinetic, &potential, &residual}) v->reserve(rows);
+    for (std::vector<double>* v : {&q, &qd, &q_des, &tau}) v->reserve(rows * static_cast<std::size_t>(n));
+  }
+
   void Add(Instance& inst) {
     t.push_back(inst.t());
     for (const auto& [out, v] :
@@ -126,6 +136,35 @@ struct SimulationResult {
 
 // Rows between two looks for a pending signal (KeyboardInterrupt) in a run.
 constexpr std::int64_t kSignalCheckRows = 1 << 16;
+
+// The most of this machine's physical memory a run's rows may take: simulate
+// keeps every row, and holds them twice at the end (its vectors, then the
+// numpy arrays), so a run that outgrew the memory would end in the kernel's
+// OOM killer, not in a MemoryError.
+constexpr double kRowsMemoryShare = 0.25;
+
+// round(duration / period), or ValueError when the rows of that many steps
+// would take more than kRowsMemoryShare of the memory (before anything runs).
+std::int64_t StepsThatFit(double duration, double period, const std::vector<Instance>& instances) {
+  double row_bytes = 0.0;  // t, T, V, ε and q, qd, q_des, tau, each instance's
+  for (const Instance& inst : instances) row_bytes += sizeof(double) * (4.0 + 4.0 * inst.num_dofs());
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  const double memory = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0x1p53;
+  const double budget = kRowsMemoryShare * memory;
+  const double steps = std::round(duration / period);
+  const double most = std::min(std::floor(budget / row_bytes) - 1.0, 0x1p53);  // steps whose rows fit
+  if (steps <= most) return static_cast<std::int64_t>(steps);
+  const auto text = [](double x, const char* unit) {
+    char buffer[48];
+    std::snprintf(buffer, sizeof buffer, "%.4g%s", x, unit);
+    return std::string(buffer);
+  };
+  throw py::value_error("duration: " + text(duration, " s") + " is " + text(steps, " steps") + " of " +
+                        text(period, " s") + ", " + text((steps + 1.0) * row_bytes / 1e9, " GB") +
+                        " of rows; a quarter of this machine's memory (" + text(budget / 1e9, " GB") + ") holds " +
+                        text(std::max(most, 0.0) * period, " s") +
+                        " of this scene: simulate it in shorter pieces, or step an Instance");
+}
 
 py::dict Simulate(const py::object& scene_arg, double duration, const py::object& controller) {
   if (!(std::isfinite(duration) && duration > 0.0)) {
@@ -165,7 +204,8 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].joint_names = instances[i].instance_model().joint_names;
     recordings[i].n = instances[i].num_dofs();
   }
-  const auto steps = static_cast<std::int64_t>(std::llround(duration / offline.period));
+  const std::int64_t steps = StepsThatFit(duration, offline.period, instances);
+  for (Recording& r : recordings) r.Reserve(static_cast<std::size_t>(steps) + 1);
   // Ctrl-C reaches a long run: every kSignalCheckRows rows the GIL is taken back to look.
   std::int64_t rows = 0;
   const auto observe = [&](std::size_t i, Instance& inst) {
@@ -317,7 +357,9 @@ Returns {instance name: SimulationResult}. Each step passes lagranged's health c
 instance that fails it stops at its last healthy row, its result's `fault` names why, and a
 RuntimeWarning says so. Raises ValueError (a bad scene, one an offline run refuses: an
 external plant, an external controller without a Python law; ticks that do not fit the
-period), FileNotFoundError (no such scene file), with lagrangectl's one-line messages.)");
+period; a duration whose rows would take more than a quarter of this machine's memory,
+before anything runs), FileNotFoundError (no such scene file), with lagrangectl's
+one-line messages.)");
 
   py::class_<PyInstance>(
       m, "Instance",

@@ -113,7 +113,8 @@ def simulate(scene: _Scene, duration: float, *,
 
     duration s (> 0): round(duration / period) steps. controller: a Python law for a one-instance
     scene, or {name: law}; the torque of an instance under `controller: external`, else applied as given.
-    Raises ValueError (bad or refused scene), FileNotFoundError (no such file); a fault is a RuntimeWarning.
+    Raises ValueError (bad or refused scene; rows that would take over a quarter of the memory),
+    FileNotFoundError (no such file); a fault is a RuntimeWarning.
     """
 
 class Instance:

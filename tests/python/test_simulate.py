@@ -141,6 +141,18 @@ def test_a_scene_path_may_be_bytes_or_a_file_name_that_is_not_utf8(tmp_path):
         lagrange.simulate(os.path.join(os.fsencode(tmp_path), b"nothing\xff.yaml"), 0.05)
 
 
+def test_a_run_whose_rows_would_not_fit_in_memory_is_refused_before_it_starts():
+    # simulate keeps every row: 1e12 s of the pendulum at 1 kHz would be 6.4e16 bytes. Refused at once, in one
+    # line that says how long a run fits, never left to grow until the kernel kills the interpreter.
+    for duration in (1e12, 1e300):
+        with pytest.raises(ValueError) as e:
+            lagrange.simulate(config("pendulum.yaml"), duration)
+        assert str(e.value).startswith("duration: ") and "of rows; a quarter of this machine's memory" in str(e.value)
+        assert "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="of rows"):
+        lagrange.simulate(config("pendulum.yaml"), 1e12, controller=lambda t, q, qd: [0.0])
+
+
 def test_bad_scenes_raise_the_cli_one_line_errors(tmp_path):
     missing = str(tmp_path / "missing.yaml")
     with pytest.raises(FileNotFoundError) as e:
