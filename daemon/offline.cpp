@@ -8,8 +8,20 @@
 
 namespace lagrange {
 
+std::optional<OfflineFault> CheckOfflineStep(std::size_t index, Instance& inst, Instance::StepFailure step,
+                                             Instance::Saved& good, StepEnergies& energies) {
+  const double max_energy = inst.instance_model().max_energy;
+  if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
+    const OfflineFault fault{index, inst.t(), why, max_energy};
+    inst.Restore(good);
+    return fault;
+  }
+  inst.Save(good);
+  return std::nullopt;
+}
+
 std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, double period, std::int64_t steps,
-                                            const StepObserver& observe) {
+                                            const StepObserver& observe, const StepFunction& step) {
   std::vector<OfflineFault> faults;
   std::vector<bool> healthy(instances.size(), true);
   std::vector<Instance::Saved> good;
@@ -22,15 +34,12 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
     for (std::size_t i = 0; i < instances.size(); ++i) {
       if (!healthy[i]) continue;
       Instance& inst = instances[i];
-      const double max_energy = inst.instance_model().max_energy;
-      const Instance::StepFailure step = inst.Step(period);
-      if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
-        faults.push_back({i, inst.t(), why, max_energy});
+      const Instance::StepFailure outcome = step ? step(i, inst) : inst.Step(period);
+      if (const std::optional<OfflineFault> fault = CheckOfflineStep(i, inst, outcome, good[i], energies)) {
+        faults.push_back(*fault);
         healthy[i] = false;
-        inst.Restore(good[i]);
         continue;
       }
-      inst.Save(good[i]);
       observe(i, inst);
     }
   }

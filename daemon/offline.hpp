@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,8 @@
 #include "daemon/instance_model.hpp"
 
 namespace lagrange {
+
+struct StepEnergies;  // daemon/health.hpp
 
 // Called at t = 0 and after every healthy step with the instance's index.
 using StepObserver = std::function<void(std::size_t index, Instance& instance)>;
@@ -50,6 +53,17 @@ struct OfflineScene {
 OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_label,
                                  const std::function<bool(std::size_t)>& steps_external_controller = {});
 
+// How instance `index` takes one step; empty: Instance::Step(period), under
+// its scene controller and trajectory. (The Python module steps an instance
+// with a Python law's torque.)
+using StepFunction = std::function<Instance::StepFailure(std::size_t index, Instance& instance)>;
+
+// The daemon's health check (daemon/health.hpp) of the step `instance` has
+// just taken (`step`: its outcome): when it fails, the instance is put back
+// to `good` and the fault returned; else `good` becomes its state.
+std::optional<OfflineFault> CheckOfflineStep(std::size_t index, Instance& instance, Instance::StepFailure step,
+                                             Instance::Saved& good, StepEnergies& energies);
+
 // Runs `steps` steps of `period`. After every step the daemon's health check
 // runs (non-finite torque or state, a failed integrator, |T + V| > max_energy,
 // |ε| > energy_balance.bound under on_exceed: fault);
@@ -57,7 +71,7 @@ OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_la
 // healthy state and stops there, the others go on. Returns the faults in the
 // order they happened (empty: every instance ran every step).
 std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, double period, std::int64_t steps,
-                                            const StepObserver& observe);
+                                            const StepObserver& observe, const StepFunction& step = {});
 
 // The same; true when no instance faulted.
 bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe);

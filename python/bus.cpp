@@ -36,6 +36,7 @@
 #include "protocol/mode.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
+#include "python/paths.hpp"
 
 namespace lagrange::python {
 namespace {
@@ -157,11 +158,20 @@ class Client {
     }
   }
 
+  // The states one Client.states iterator has not taken yet: each iterator
+  // has its own, so two iterators of one instance (two threads, or one that
+  // replaces another) each get every state, and one that goes takes only its own.
+  struct StateQueue {
+    std::deque<State> states;
+    std::int64_t dropped = 0;  // beyond kMaxQueuedStates, the oldest
+  };
+
   // The next state of `name` from the queue the iterator fills; nullopt once
   // `until` passes. Waits in slices of kSignalSliceS, looking for a signal
   // (Ctrl-C) between them, so a daemon that went quiet does not hold the
   // notebook for the rest of the duration.
-  std::optional<State> NextState(const std::string& name, std::chrono::steady_clock::time_point until) {
+  std::optional<State> NextState(const std::string& name, StateQueue& queue,
+                                 std::chrono::steady_clock::time_point until) {
     for (;;) {
       std::optional<State> s;
       bool over = false;
@@ -173,12 +183,12 @@ class Client {
           const auto now = std::chrono::steady_clock::now();
           const auto slice_end = std::min(until, now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                            std::chrono::duration<double>(kSignalSliceS)));
-          link.link->PumpUntil([&] { return !link.queue.empty(); },
+          link.link->PumpUntil([&] { return !queue.states.empty(); },
                                std::chrono::duration<double>(slice_end - now).count());
           link.link->RequireOneRun("refusing to act");
-          if (!link.queue.empty()) {
-            s = std::move(link.queue.front());
-            link.queue.pop_front();
+          if (!queue.states.empty()) {
+            s = std::move(queue.states.front());
+            queue.states.pop_front();
           }
           over = std::chrono::steady_clock::now() >= until;
         } catch (...) {
@@ -191,33 +201,35 @@ class Client {
   }
   static constexpr double kSignalSliceS = 0.05;  // s between two looks for a signal while no state comes
 
-  // Starts queueing every state of `name` (Client.states).
-  void StartQueue(const std::string& name) {
+  // A new queue of every state of `name` from now on (Client.states).
+  std::shared_ptr<StateQueue> StartQueue(const std::string& name) {
     py::gil_scoped_release release;
     try {
       Link& link = LinkFor(name, options_.wait);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);  // states from now on, not those the socket kept since the last call
-      link.queue.clear();
-      link.queueing = true;
+      auto queue = std::make_shared<StateQueue>();
+      link.queues.push_back(queue);
+      link.queueing = static_cast<int>(link.queues.size());
+      return queue;
     } catch (...) {
       Rethrow();
     }
   }
-  void StopQueue(const std::string& name) {
+  void StopQueue(const std::string& name, const std::shared_ptr<StateQueue>& queue) {
     if (Link* link = Find(name)) {
       py::gil_scoped_release release;
       std::lock_guard lock(link->mutex);
-      link->queueing = false;
-      link->queue.clear();
+      std::erase(link->queues, queue);
+      link->queueing = static_cast<int>(link->queues.size());
     }
   }
-  std::int64_t states_dropped(const std::string& name) {
+  std::int64_t states_dropped(const std::string& name, const StateQueue& queue) {
     Link* link = Find(name);
     if (link == nullptr) return 0;
     py::gil_scoped_release release;
     std::lock_guard lock(link->mutex);
-    return link->dropped;
+    return queue.dropped;
   }
 
   bool SendSetpoint(const std::string& name, const py::object& q, const py::object& qd, const py::object& qdd) {
@@ -318,9 +330,8 @@ class Client {
   struct Link {
     std::mutex mutex;
     std::unique_ptr<DaemonLink> link;
-    std::deque<State> queue;            // Client.states: every state, while queueing
-    std::atomic<bool> queueing{false};  // a states() iterator handles the link: the receive thread leaves it alone
-    std::int64_t dropped = 0;
+    std::vector<std::shared_ptr<StateQueue>> queues;  // Client.states: one per live iterator, each every state
+    std::atomic<int> queueing{0};  // queues.size(): iterators handle the link, the receive thread leaves it alone
     torque_t torque{};  // this client's torque stream to the instance
   };
 
@@ -359,12 +370,13 @@ class Client {
     link->link->AwaitOneRun();  // throws: no state, or two runs
     Link* raw = link.get();
     raw->link->ObserveStates([raw](const state_t& s, std::chrono::steady_clock::time_point at) {
-      if (!raw->queueing) return;
-      if (raw->queue.size() >= kMaxQueuedStates) {
-        raw->queue.pop_front();
-        ++raw->dropped;
+      for (const std::shared_ptr<StateQueue>& queue : raw->queues) {
+        if (queue->states.size() >= kMaxQueuedStates) {
+          queue->states.pop_front();
+          ++queue->dropped;
+        }
+        queue->states.emplace_back(s, at);
       }
-      raw->queue.emplace_back(s, at);
     });
     std::lock_guard lock(links_mutex_);
     Link& out = *links_.try_emplace(name, std::move(link)).first->second;  // another thread's, if it came first
@@ -440,7 +452,7 @@ class Client {
       {
         std::lock_guard lock(links_mutex_);
         for (const auto& [name, link] : links_) {
-          if (link->queueing) continue;  // its iterator's thread reads it, without a second reader waking per datagram
+          if (link->queueing > 0) continue;  // its iterator's thread reads it, without a second reader waking per datagram
           links.push_back(link.get());
           fds.push_back({link->link->bus().fd(), POLLIN, 0});
         }
@@ -465,26 +477,30 @@ class Client {
   std::thread receiver_;  // Receive, from the first link on
 };
 
-// Client.states(name, duration): every state as it arrives, for `duration` seconds.
+// Client.states(name, duration): every state as it arrives, for `duration` seconds, from a queue of its own.
 class StateIterator {
  public:
   StateIterator(std::shared_ptr<Client> client, std::string name, double duration)
-      : client_(std::move(client)), name_(std::move(name)) {
-    client_->StartQueue(name_);
-    until_ = std::chrono::steady_clock::now() +
-             std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(duration));
+      : client_(std::move(client)), name_(std::move(name)), queue_(client_->StartQueue(name_)) {
+    // Beyond kForever s, no end (a double of nanoseconds past about 292 years does not convert to the clock's).
+    using Clock = std::chrono::steady_clock;
+    until_ = duration > kForever
+                 ? Clock::time_point::max()
+                 : Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(duration));
   }
-  ~StateIterator() { client_->StopQueue(name_); }
+  static constexpr double kForever = 1e9;  // s (32 years)
+  ~StateIterator() { client_->StopQueue(name_, queue_); }
   State Next() {
-    std::optional<State> s = client_->NextState(name_, until_);
+    std::optional<State> s = client_->NextState(name_, *queue_, until_);
     if (!s) throw py::stop_iteration();
     return std::move(*s);
   }
-  std::int64_t dropped() const { return client_->states_dropped(name_); }
+  std::int64_t dropped() const { return client_->states_dropped(name_, *queue_); }
 
  private:
   std::shared_ptr<Client> client_;
   std::string name_;
+  std::shared_ptr<Client::StateQueue> queue_;
   std::chrono::steady_clock::time_point until_;
 };
 
@@ -551,7 +567,7 @@ py::object ColumnArray(const LogField& field, const LogColumn& column, std::int6
 }
 
 py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& channel_regex) {
-  const std::string path = py::str(py::module_::import("os").attr("fspath")(path_arg));
+  const std::string path = FsPath(path_arg, "path");
   std::map<std::string, LogChannelRows> channels;
   {
     py::gil_scoped_release release;
@@ -578,10 +594,10 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
       py::gil_scoped_acquire acquire;
       std::error_code ec;
       if (!std::filesystem::exists(path, ec)) {
-        PyErr_SetString(PyExc_FileNotFoundError, e.what());
+        PyErr_SetString(PyExc_FileNotFoundError, ValidUtf8(e.what()).c_str());
         throw py::error_already_set();
       }
-      throw py::value_error(e.what());
+      throw py::value_error(ValidUtf8(e.what()));
     } catch (const std::regex_error& e) {
       throw py::value_error("channel: not a regular expression: '" + channel_regex.value_or("") + "' (" + e.what() +
                             ")");
@@ -589,11 +605,14 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
   }
   py::dict out;
   for (const auto& [name, c] : channels) {
-    LogChannel record{c.channel, c.type, c.rows, c.skipped, py::dict()};
+    // A channel name is whatever bytes came on the bus: one that is not UTF-8 is keyed and named with them as
+    // \xHH, as the client's messages show it (a str cannot hold it, and one such channel would fail the read).
+    const std::string channel = ValidUtf8(name);
+    LogChannel record{channel, c.type, c.rows, c.skipped, py::dict()};
     for (std::size_t k = 0; k < c.fields.size(); ++k) {
       record.columns[py::str(c.fields[k].name)] = ColumnArray(c.fields[k], c.columns[k], c.rows);
     }
-    out[py::str(name)] = py::cast(std::move(record));
+    out[py::str(channel)] = py::cast(std::move(record));
   }
   return out;
 }
@@ -643,7 +662,7 @@ void BindBus(py::module_& m) {
       .def("__iter__", [](StateIterator& it) -> StateIterator& { return it; })
       .def("__next__", &StateIterator::Next)
       .def_property_readonly("dropped", &StateIterator::dropped,
-                             "States dropped because more than 100000 waited unread.");
+                             "States this iterator dropped because more than 100000 waited unread.");
 
   py::class_<Client, std::shared_ptr<Client>>(m, "Client",
                                               R"(A client of lagranged on the bus: lagrangectl's own client code.

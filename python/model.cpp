@@ -30,7 +30,9 @@
 #include "plant/urdf.hpp"
 #include "protocol/format.hpp"
 #include "python/bindings.hpp"
+#include "python/bus_arrays.hpp"
 #include "python/model_arrays.hpp"
+#include "python/paths.hpp"
 
 namespace lagrange::python {
 namespace py = pybind11;
@@ -39,9 +41,10 @@ namespace {
 constexpr int kMaxThreads = 1024;
 
 // Raises a Python exception of `type` with `message` (pybind11 has no
-// FileNotFoundError of its own).
+// FileNotFoundError of its own), valid UTF-8: a file name's bytes that are not
+// are shown as \xHH (Python would otherwise drop the message).
 [[noreturn]] void Raise(PyObject* type, const std::string& message) {
-  PyErr_SetString(type, message.c_str());
+  PyErr_SetString(type, ValidUtf8(message).c_str());
   throw py::error_already_set();
 }
 
@@ -138,7 +141,7 @@ Method ChooseMethod(PlantType type, const py::object& method) {
 
 std::unique_ptr<Model> Model::FromUrdf(const py::object& path, const py::object& gravity, const std::string& method,
                                        double mass_scale) {
-  const std::string file = py::str(py::module_::import("os").attr("fspath")(path));
+  const std::string file = FsPath(path, "path");
   PlantSpec spec;
   try {
     spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(file)));
@@ -372,7 +375,7 @@ The numbers are the C++ library's, bit for bit (the same as
 
 constexpr const char* kFromUrdfDoc = R"(A robot from a URDF file (a fixed base).
 
-path:       the .urdf file (str or os.PathLike)
+path:       the .urdf file (str, bytes or os.PathLike, as open() takes it)
 gravity:    (gx, gy, gz), m/s², in the root link's (world) frame
 method:     "recursive" (RNEA, ABA, CRBA; the default) or "lagrangian"
             (automatic differentiation of T and V), for cross-checks

@@ -7,6 +7,11 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -15,8 +20,10 @@
 #include "daemon/offline.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/escape.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
+#include "python/paths.hpp"
 
 namespace lagrange::python {
 namespace {
@@ -30,14 +37,14 @@ struct SceneSource {
 };
 
 SceneSource ReadSceneArgument(const py::handle& scene) {
-  const bool path_like = py::hasattr(scene, "__fspath__");
+  const bool path_like = py::isinstance<py::bytes>(scene) || py::hasattr(scene, "__fspath__");
   if (!path_like && !py::isinstance<py::str>(scene)) {
     throw py::type_error("scene: expected a path or YAML text (str), got " +
                          std::string(py::str(py::type::of(scene).attr("__name__"))));
   }
-  const std::string text = path_like ? py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>()
-                                     : scene.cast<std::string>();
-  const bool yaml_text = !path_like && text.find('\n') != std::string::npos;
+  // A str holding a line break is YAML text; any other argument names a file (its bytes, as open() takes it).
+  const bool yaml_text = !path_like && PySequence_Contains(scene.ptr(), py::str("\n").ptr()) == 1;
+  const std::string text = yaml_text ? scene.cast<std::string>() : FsPath(scene, "scene");
   const std::string label = yaml_text ? "<scene text>" : text;
   try {
     return {yaml_text ? ParseScene(text, label) : LoadScene(text), label};
@@ -89,6 +96,11 @@ struct Recording {
   std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
   std::optional<std::string> fault;
 
+  void Reserve(std::size_t rows) {
+    for (std::vector<double>* v : {&t, &kinetic, &potential, &residual}) v->reserve(rows);
+    for (std::vector<double>* v : {&q, &qd, &q_des, &tau}) v->reserve(rows * static_cast<std::size_t>(n));
+  }
+
   void Add(Instance& inst) {
     t.push_back(inst.t());
     for (const auto& [out, v] :
@@ -124,6 +136,35 @@ struct SimulationResult {
 
 // Rows between two looks for a pending signal (KeyboardInterrupt) in a run.
 constexpr std::int64_t kSignalCheckRows = 1 << 16;
+
+// The most of this machine's physical memory a run's rows may take: simulate
+// keeps every row, and holds them twice at the end (its vectors, then the
+// numpy arrays), so a run that outgrew the memory would end in the kernel's
+// OOM killer, not in a MemoryError.
+constexpr double kRowsMemoryShare = 0.25;
+
+// round(duration / period), or ValueError when the rows of that many steps
+// would take more than kRowsMemoryShare of the memory (before anything runs).
+std::int64_t StepsThatFit(double duration, double period, const std::vector<Instance>& instances) {
+  double row_bytes = 0.0;  // t, T, V, ε and q, qd, q_des, tau, each instance's
+  for (const Instance& inst : instances) row_bytes += sizeof(double) * (4.0 + 4.0 * inst.num_dofs());
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  const double memory = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0x1p53;
+  const double budget = kRowsMemoryShare * memory;
+  const double steps = std::round(duration / period);
+  const double most = std::min(std::floor(budget / row_bytes) - 1.0, 0x1p53);  // steps whose rows fit
+  if (steps <= most) return static_cast<std::int64_t>(steps);
+  const auto text = [](double x, const char* unit) {
+    char buffer[48];
+    std::snprintf(buffer, sizeof buffer, "%.4g%s", x, unit);
+    return std::string(buffer);
+  };
+  throw py::value_error("duration: " + text(duration, " s") + " is " + text(steps, " steps") + " of " +
+                        text(period, " s") + ", " + text((steps + 1.0) * row_bytes / 1e9, " GB") +
+                        " of rows; a quarter of this machine's memory (" + text(budget / 1e9, " GB") + ") holds " +
+                        text(std::max(most, 0.0) * period, " s") +
+                        " of this scene: simulate it in shorter pieces, or step an Instance");
+}
 
 py::dict Simulate(const py::object& scene_arg, double duration, const py::object& controller) {
   if (!(std::isfinite(duration) && duration > 0.0)) {
@@ -163,7 +204,8 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].joint_names = instances[i].instance_model().joint_names;
     recordings[i].n = instances[i].num_dofs();
   }
-  const auto steps = static_cast<std::int64_t>(std::llround(duration / offline.period));
+  const std::int64_t steps = StepsThatFit(duration, offline.period, instances);
+  for (Recording& r : recordings) r.Reserve(static_cast<std::size_t>(steps) + 1);
   // Ctrl-C reaches a long run: every kSignalCheckRows rows the GIL is taken back to look.
   std::int64_t rows = 0;
   const auto observe = [&](std::size_t i, Instance& inst) {
@@ -181,37 +223,14 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     faults = RunOfflineChecked(instances, offline.period, steps, observe);
   } else {
     // A Python law is called before each of its instance's steps with the
-    // state it starts from; the health rule is RunOfflineChecked's.
+    // state it starts from; the run and its health rule are RunOfflineChecked's.
     std::vector<VectorXd> tau(instances.size());
-    std::vector<Instance::Saved> good;
-    std::vector<bool> healthy(instances.size(), true);
-    for (std::size_t i = 0; i < instances.size(); ++i) {
-      good.push_back(instances[i].MakeSaved());
-      observe(i, instances[i]);
-    }
-    StepEnergies energies;
-    for (std::int64_t k = 0; k < steps; ++k) {
-      for (std::size_t i = 0; i < instances.size(); ++i) {
-        if (!healthy[i]) continue;
-        Instance& inst = instances[i];
-        const VectorXd* applied = nullptr;
-        if (law_of[i]) {
-          const py::object out = law_of[i](inst.t(), ToArray(inst.q()), ToArray(inst.qd()));
-          tau[i] = JointVector(out, inst.num_dofs(), ("controller for '" + inst.name() + "' returned tau").c_str());
-          applied = &tau[i];
-        }
-        const double max_energy = inst.instance_model().max_energy;
-        const Instance::StepFailure step = StepOnce(inst, offline.period, applied);
-        if (const char* why = CheckStepHealth(inst, step, max_energy, inst.instance_model().residual_bound, energies)) {
-          faults.push_back({i, inst.t(), why, max_energy});
-          healthy[i] = false;
-          inst.Restore(good[i]);
-          continue;
-        }
-        inst.Save(good[i]);
-        observe(i, inst);
-      }
-    }
+    faults = RunOfflineChecked(instances, offline.period, steps, observe, [&](std::size_t i, Instance& inst) {
+      if (!law_of[i]) return StepOnce(inst, offline.period, nullptr);
+      const py::object out = law_of[i](inst.t(), ToArray(inst.q()), ToArray(inst.qd()));
+      tau[i] = JointVector(out, inst.num_dofs(), ("controller for '" + inst.name() + "' returned tau").c_str());
+      return StepOnce(inst, offline.period, &tau[i]);
+    });
   }
   for (const OfflineFault& f : faults) {
     recordings[f.index].fault = OfflineFaultText(instances[f.index], f);
@@ -231,12 +250,13 @@ class PyInstance {
     if (!name && all.size() != 1) {
       std::string names;
       for (const InstanceConfig& c : all) names += (names.empty() ? "" : ", ") + c.name;
-      throw py::value_error(source.label + ": " + std::to_string(all.size()) + " instances (" + names +
-                            "): name the one to step");
+      throw py::value_error(ValidUtf8(source.label + ": " + std::to_string(all.size()) + " instances (" + names +
+                                      "): name the one to step"));
     }
     index_ = all.size();
     for (std::size_t i = 0; i < all.size(); ++i) index_ = (name && all[i].name == *name) || !name ? i : index_;
-    if (index_ == all.size()) throw py::value_error(source.label + ": no instance '" + *name + "'");
+    if (index_ == all.size())
+      throw py::value_error(ValidUtf8(source.label) + ": no instance '" + Escape(*name, 64) + "'");
     // The stepped instance's external controller takes its torques from step(tau).
     scene_ = Prepare(source, [&](std::size_t i) { return i == index_; });
     good_ = inst().MakeSaved();
@@ -254,17 +274,12 @@ class PyInstance {
       throw py::value_error(inst().name() + " runs an external controller: step(tau) needs a torque (none given yet)");
     }
     torque_given_ = torque_given_ || tau.has_value();
-    const double max_energy = inst().instance_model().max_energy;
     const Instance::StepFailure step = StepOnce(inst(), scene_.period, tau ? &*tau : nullptr);
     StepEnergies energies;
-    if (const char* why = CheckStepHealth(inst(), step, max_energy, inst().instance_model().residual_bound, energies)) {
-      const OfflineFault f{index_, inst().t(), why, max_energy};
-      const std::string text = OfflineFaultText(inst(), f);
-      inst().Restore(good_);
-      throw std::runtime_error(ValidUtf8(text) + "; the instance is back at t = " + FormatDouble(inst().t()) +
-                               " s, the last healthy step");
+    if (const std::optional<OfflineFault> fault = CheckOfflineStep(index_, inst(), step, good_, energies)) {
+      throw std::runtime_error(ValidUtf8(OfflineFaultText(inst(), *fault)) + "; the instance is back at t = " +
+                               FormatDouble(inst().t()) + " s, the last healthy step");
     }
-    inst().Save(good_);
   }
 
   void Reset() {
@@ -328,7 +343,7 @@ void BindSimulate(py::module_& m) {
   m.def("simulate", &Simulate, py::arg("scene"), py::arg("duration"), py::kw_only(), py::arg("controller") = py::none(),
         R"(Run a scene offline with lagranged's Instance code, as fast as the machine goes.
 
-scene       a scene file (str or os.PathLike), or YAML text (a str with a line break)
+scene       a scene file (str, bytes or os.PathLike), or YAML text (a str with a line break)
 duration    simulated time, s (> 0): round(duration / period) steps after the row at t = 0
 controller  None: every instance under its scene controller and trajectory (the rows are
             the doubles `lagrangectl simulate` writes, and the run releases the GIL);
@@ -342,7 +357,9 @@ Returns {instance name: SimulationResult}. Each step passes lagranged's health c
 instance that fails it stops at its last healthy row, its result's `fault` names why, and a
 RuntimeWarning says so. Raises ValueError (a bad scene, one an offline run refuses: an
 external plant, an external controller without a Python law; ticks that do not fit the
-period), FileNotFoundError (no such scene file), with lagrangectl's one-line messages.)");
+period; a duration whose rows would take more than a quarter of this machine's memory,
+before anything runs), FileNotFoundError (no such scene file), with lagrangectl's
+one-line messages.)");
 
   py::class_<PyInstance>(
       m, "Instance",

@@ -300,6 +300,17 @@ class ViewCommand final : public Command {
   }
 
   void Routes(httplib::Server& server) {
+    // The page only reads: every other method is refused before its body is read. (cpp-httplib reads a POST's
+    // body into memory whole, with no bound on a chunked one, whatever its payload limit; a route-less POST of
+    // gigabytes would otherwise be held here.)
+    server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+      if (req.method == "GET" || req.method == "HEAD") return httplib::Server::HandlerResponse::Unhandled;
+      res.status = 405;
+      res.set_header("Allow", "GET, HEAD");
+      res.set_header("Connection", "close");  // an unread body is not a next request
+      res.set_content("lagrangectl view only serves GET (it takes nothing from a browser)", "text/plain");
+      return httplib::Server::HandlerResponse::Handled;
+    });
     server.Get("/", [](const httplib::Request&, httplib::Response& res) {
       res.set_content(kViewIndexHtml, "text/html; charset=utf-8");
     });

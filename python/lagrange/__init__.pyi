@@ -22,7 +22,7 @@ class Model:
 
     @staticmethod
     def from_urdf(
-        path: Union[str, PathLike[str]],
+        path: Union[str, bytes, PathLike[str], PathLike[bytes]],
         gravity: Sequence[float] = (0.0, 0.0, -9.81),
         method: _Method = "recursive",
         mass_scale: float = 1.0,
@@ -88,7 +88,7 @@ import numpy.typing as _npt
 
 _F64 = _npt.NDArray[_np.float64]
 _I64 = _npt.NDArray[_np.int64]
-_Scene = _Union[str, "_os.PathLike[str]"]  # a scene file, or YAML text (a str holding a line break)
+_Scene = _Union[str, bytes, "_os.PathLike[str]", "_os.PathLike[bytes]"]  # a scene file, or YAML text (a str holding a line break)
 _Law = _Callable[[float, _F64, _F64], _npt.ArrayLike]  # (t s, q (n,), qd (n,)) -> tau (n,) N·m or N
 
 class SimulationResult:
@@ -113,7 +113,8 @@ def simulate(scene: _Scene, duration: float, *,
 
     duration s (> 0): round(duration / period) steps. controller: a Python law for a one-instance
     scene, or {name: law}; the torque of an instance under `controller: external`, else applied as given.
-    Raises ValueError (bad or refused scene), FileNotFoundError (no such file); a fault is a RuntimeWarning.
+    Raises ValueError (bad or refused scene; rows that would take over a quarter of the memory),
+    FileNotFoundError (no such file); a fault is a RuntimeWarning.
     """
 
 class Instance:
@@ -194,5 +195,5 @@ class LogChannel:
     def __getitem__(self, name: str) -> _Union[_F64, _I64, _List[str]]: ...
     def __len__(self) -> int: ...
 
-def read_log(path: _Union[str, "_os.PathLike[str]"], channel: _Optional[str] = None) -> _Dict[str, LogChannel]:
+def read_log(path: _Union[str, bytes, "_os.PathLike[str]", "_os.PathLike[bytes]"], channel: _Optional[str] = None) -> _Dict[str, LogChannel]:
     """An lcm-logger file as {channel: LogChannel}; channel: a regular expression. FileNotFoundError / ValueError."""

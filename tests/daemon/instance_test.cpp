@@ -47,6 +47,29 @@ TEST(ShippedScenes, DefaultArmHoldsItsPoseAndTheCartPoleBalances) {
   EXPECT_NEAR(instances[1].q()[0], 0.0, 0.05);
 }
 
+// One health rule for every offline stepper (lagrangectl simulate's scene controllers, lagrange.simulate's
+// Python laws through a step function): a failed step stops that instance at its last healthy state, never
+// observed again, and the others go on.
+TEST(OfflineRun, AStepFunctionsFailureStopsItsInstanceAtItsLastHealthyState) {
+  double period = 0;
+  auto instances = Load("default.yaml", &period);
+  std::vector<int> observed(2, 0);
+  const std::vector<OfflineFault> faults = RunOfflineChecked(
+      instances, period, 10, [&](std::size_t i, Instance&) { ++observed[i]; },
+      [&](std::size_t i, Instance& inst) -> Instance::StepFailure {
+        const Instance::StepFailure outcome = inst.Step(period);
+        return i == 0 && inst.t() > 4.5 * period ? "injected" : outcome;
+      });
+  ASSERT_EQ(faults.size(), 1u);
+  EXPECT_EQ(faults[0].index, 0u);
+  EXPECT_STREQ(faults[0].reason, "injected");
+  EXPECT_NEAR(faults[0].t, 5 * period, 1e-12);  // the time the failed step reached
+  EXPECT_EQ(observed[0], 5);                    // t = 0 and its four healthy steps
+  EXPECT_NEAR(instances[0].t(), 4 * period, 1e-12);
+  EXPECT_EQ(observed[1], 11);
+  EXPECT_NEAR(instances[1].t(), 10 * period, 1e-12);
+}
+
 TEST(ShippedScenes, TheArticlesGravityCompensationHoldsTheArm) {
   double period = 0;
   auto instances = Load("gravity_compensation.yaml", &period);

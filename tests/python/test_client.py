@@ -3,6 +3,7 @@ this host only): states, setpoints, torques and commands through the
 project's own client, with the verdicts and errors lagrangectl reports."""
 import os
 import subprocess
+import sys
 import threading
 import time
 
@@ -52,17 +53,39 @@ def test_states_come_in_tick_order_from_one_run(daemon):
     assert all(b.received >= a.received for a, b in zip(states, states[1:]))
 
 
+def test_a_states_iterator_gets_every_state_whatever_another_one_does(daemon):
+    # Each iterator has its own queue: two at once both see the states that came while both listened (one
+    # shared queue would hand each state to one of them), and one that goes (`it = c.states(...)` again)
+    # leaves the other listening (it had stopped the queue they shared).
+    one, two = daemon.states("arm", duration=10.0), daemon.states("arm", duration=10.0)
+    ticks_one, ticks_two = [], []
+    for _ in range(5):
+        ticks_one.append(next(one).tick)
+        ticks_two.append(next(two).tick)
+    assert set(ticks_one) & set(ticks_two)
+    del one
+    a, b = next(two), next(two)
+    assert b.tick > a.tick > ticks_two[-1]
+    del two
+
+
 def test_waiting_for_states_releases_the_gil(daemon):
+    # With a switch interval of 1000 s, another Python thread runs only while this one gives the GIL up of its
+    # own accord (the interpreter never takes it from this one): a thread that counts, sleeping 1 ms between
+    # counts so that this one gets the GIL back, counts during the wait only if the wait released it.
     count = [0]
     stop = threading.Event()
 
     def spin():
         while not stop.is_set():
             count[0] += 1
+            time.sleep(0.001)
 
+    interval = sys.getswitchinterval()
     t = threading.Thread(target=spin)
-    t.start()
+    sys.setswitchinterval(1000.0)
     try:
+        t.start()
         before = count[0]
         for _ in daemon.states("arm", duration=0.3):
             pass
@@ -70,6 +93,7 @@ def test_waiting_for_states_releases_the_gil(daemon):
     finally:
         stop.set()
         t.join()
+        sys.setswitchinterval(interval)
     assert during > 0
 
 

@@ -4,6 +4,7 @@ import json
 import os
 import pydoc
 import re
+import shutil
 import subprocess
 import threading
 
@@ -315,6 +316,22 @@ def eval_error(args):
 def test_a_missing_urdf_raises_file_not_found_with_evals_message(tmp_path):
     missing = str(tmp_path / "nothing.urdf")
     raises(FileNotFoundError, eval_error(["--urdf", missing]), lambda: lagrange.Model.from_urdf(missing))
+
+
+def test_a_urdf_path_may_be_bytes_or_a_file_name_that_is_not_utf8(tmp_path):
+    # As open() takes them: bytes, and the str os.listdir gives for a name that is not UTF-8 (surrogate escapes).
+    name = os.path.join(os.fsencode(tmp_path), b"panda\xff.urdf")
+    shutil.copyfile(PANDA, name)
+    q = np.random.default_rng(6).uniform(-1, 1, 7)
+    want = lagrange.Model.from_urdf(PANDA).mass_matrix(q)
+    assert exactly(lagrange.Model.from_urdf(name).mass_matrix(q), want)
+    assert exactly(lagrange.Model.from_urdf(os.fsdecode(name)).mass_matrix(q), want)
+    # A missing one is named in the message, its byte written out: one line, not an empty message.
+    missing = os.path.join(os.fsencode(tmp_path), b"nothing\xff.urdf")
+    with pytest.raises(FileNotFoundError) as e:
+        lagrange.Model.from_urdf(missing)
+    assert "nothing\\xff.urdf" in str(e.value) and "\n" not in str(e.value)
+    raises(ValueError, "path: embedded null byte", lambda: lagrange.Model.from_urdf(PANDA + "\0.txt"))
 
 
 def test_every_invalid_urdf_fixture_raises_a_value_error_with_evals_message():

@@ -125,6 +125,32 @@ def test_what_is_not_a_log_raises_log2csvs_one_line(tmp_path):
     assert r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
 
 
+def test_a_channel_name_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
+    # lcm-logger records whatever channel a datagram names: a hostile one is a key like any other, never an error.
+    with open(log, "rb") as f:
+        data = f.read()
+    bad = str(tmp_path / "bad_channel.lcm")
+    with open(bad, "wb") as f:
+        f.write(data.replace(b"CARTPOLE_STATE", b"\xff\xfeRTPOLE_STATE"))  # the same length: still a log
+    records = lagrange.read_log(bad)
+    escaped = "\\xff\\xfeRTPOLE_STATE"
+    assert "CARTPOLE_STATE" not in records and records[escaped].channel == escaped
+    want = lagrange.read_log(log, channel="CARTPOLE_STATE")["CARTPOLE_STATE"]
+    assert records[escaped].rows == want.rows > 0
+    np.testing.assert_array_equal(records[escaped].q, want.q)
+    assert escaped in repr(records[escaped])
+
+
+def test_a_log_path_may_be_bytes_or_a_file_name_that_is_not_utf8(log, tmp_path):
+    name = os.path.join(os.fsencode(tmp_path), b"run\xff.lcm")
+    shutil.copyfile(log, name)
+    want = lagrange.read_log(log, channel="ARM_STATE")["ARM_STATE"].q
+    np.testing.assert_array_equal(lagrange.read_log(name, channel="ARM_STATE")["ARM_STATE"].q, want)
+    np.testing.assert_array_equal(lagrange.read_log(os.fsdecode(name), channel="ARM_STATE")["ARM_STATE"].q, want)
+    with pytest.raises(FileNotFoundError, match=r"nothing\\xff\.lcm"):
+        lagrange.read_log(os.path.join(os.fsencode(tmp_path), b"nothing\xff.lcm"))
+
+
 def test_text_that_is_not_utf8_reads_with_its_bytes_escaped(log, tmp_path):
     # A hostile or broken recording: the controller's name replaced by bytes that are not UTF-8 (the same length).
     with open(log, "rb") as f:

@@ -1,6 +1,7 @@
 """lagrange.simulate and lagrange.Instance against lagrangectl simulate: the same
 Instance code, so the same doubles; and the stepping interface a Python controller uses."""
 import os
+import shutil
 import subprocess
 import warnings
 
@@ -127,6 +128,29 @@ def test_stepping_a_python_law_is_simulate_with_that_law_step_for_step():
         inst.step(law(inst.t, inst.q, inst.qd))
         np.testing.assert_array_equal(inst.q, run.q[k])
         np.testing.assert_array_equal(inst.tau, run.tau[k])
+
+
+def test_a_scene_path_may_be_bytes_or_a_file_name_that_is_not_utf8(tmp_path):
+    want = lagrange.simulate(config("pendulum.yaml"), 0.05)["pendulum"].q
+    name = os.path.join(os.fsencode(tmp_path), b"pendulum\xff.yaml")
+    shutil.copyfile(config("pendulum.yaml"), name)
+    np.testing.assert_array_equal(lagrange.simulate(name, 0.05)["pendulum"].q, want)
+    np.testing.assert_array_equal(lagrange.simulate(os.fsdecode(name), 0.05)["pendulum"].q, want)
+    assert lagrange.Instance(name).name == "pendulum"
+    with pytest.raises(FileNotFoundError, match=r"nothing\\xff\.yaml"):
+        lagrange.simulate(os.path.join(os.fsencode(tmp_path), b"nothing\xff.yaml"), 0.05)
+
+
+def test_a_run_whose_rows_would_not_fit_in_memory_is_refused_before_it_starts():
+    # simulate keeps every row: 1e12 s of the pendulum at 1 kHz would be 6.4e16 bytes. Refused at once, in one
+    # line that says how long a run fits, never left to grow until the kernel kills the interpreter.
+    for duration in (1e12, 1e300):
+        with pytest.raises(ValueError) as e:
+            lagrange.simulate(config("pendulum.yaml"), duration)
+        assert str(e.value).startswith("duration: ") and "of rows; a quarter of this machine's memory" in str(e.value)
+        assert "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="of rows"):
+        lagrange.simulate(config("pendulum.yaml"), 1e12, controller=lambda t, q, qd: [0.0])
 
 
 def test_bad_scenes_raise_the_cli_one_line_errors(tmp_path):

@@ -436,6 +436,44 @@ TEST_F(ViewTest, PosesForBadJointValuesAreRefusedNotComputed) {
   EXPECT_EQ(client.Get("/mesh/7/0")->status, 404);
 }
 
+// The page only reads: any other method is refused before its body is read, so nothing a client sends
+// is held (cpp-httplib would read a POST's body whole, a chunked one without any bound, and route it: 404).
+TEST_F(ViewTest, RefusesEveryMethodButGetBeforeReadingItsBody) {
+  constexpr int kPort = 18470;
+  signal(SIGPIPE, SIG_IGN);  // the view closes a refused request's connection: a client still sending gets EPIPE
+  StartView({"--urdf", kVisualArm}, kPort);
+  const auto post = httplib::Client("127.0.0.1", kPort).Post("/api/poses", "q=0,0,0", "text/plain");
+  ASSERT_TRUE(post);
+  EXPECT_EQ(post->status, 405);
+  EXPECT_EQ(post->get_header_value("Allow"), "GET, HEAD");
+  const auto put = httplib::Client("127.0.0.1", kPort).Put("/", "q=1", "text/plain");
+  ASSERT_TRUE(put);
+  EXPECT_EQ(put->status, 405);
+  // A body of 1 MB, and a chunked one of no stated length: refused as soon as the headers are in (or the
+  // connection closed under the client still sending), never read to its end and routed.
+  const auto big = httplib::Client("127.0.0.1", kPort).Post("/", std::string(1 << 20, 'x'), "text/plain");
+  if (big) EXPECT_EQ(big->status, 405);
+  std::size_t sent = 0;
+  const std::string chunk(1 << 16, 'x');
+  const auto chunked = httplib::Client("127.0.0.1", kPort)
+                           .Post(
+                               "/api/model",
+                               [&](std::size_t, httplib::DataSink& sink) {
+                                 if (sent >= (16u << 20)) {
+                                   sink.done();
+                                   return true;
+                                 }
+                                 sent += chunk.size();
+                                 return sink.write(chunk.data(), chunk.size());
+                               },
+                               "application/octet-stream");
+  if (chunked) EXPECT_EQ(chunked->status, 405);
+  // The view serves on.
+  const auto model = httplib::Client("127.0.0.1", kPort).Get("/api/model");
+  ASSERT_TRUE(model);
+  EXPECT_EQ(model->status, 200);
+}
+
 TEST_F(ViewTest, StreamsToAtMostMaxClientsAndOutlivesOneThatLeaves) {
   constexpr int kLcmPort = 8366;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
