@@ -406,7 +406,8 @@ void ReadMujocoIntegrator(const YamlReader& node, MujocoPlantConfig& c) {
   if (auto v = node.Optional("substeps")) c.substeps = v->Integer(1, 1000);
 }
 
-// Loads the MuJoCo model at period / substeps; its joints must be the model's, in order.
+// Loads the MuJoCo model at period / substeps; its joints must be the model's degrees of freedom (matched
+// by name, in its order) and its mimics, each coupled by a joint equality (plant/mujoco_plant.hpp).
 void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urdf, InstanceConfig& inst) {
   const YamlReader file = plant_node.Required("file");
   if (file.Text().empty()) file.Fail("expected the path of an MJCF or URDF file, got ''");
