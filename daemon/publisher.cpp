@@ -141,6 +141,7 @@ void Publisher::Publish(const TickRecord& record) {
     last_.instances[i].reason = record.instances[i].reason;
     last_.instances[i].integrator = record.instances[i].integrator;
     last_.instances[i].external_plant = record.instances[i].external_plant;
+    last_.instances[i].mujoco_integrator = record.instances[i].mujoco_integrator;
     last_.instances[i].method = record.instances[i].method;
     last_.instances[i].effects = record.instances[i].effects;
     last_.instances[i].forces_on = record.instances[i].forces_on;
@@ -196,7 +197,7 @@ void Publisher::PublishTelemetry(std::size_t i, const InstanceRecord& r, const T
   m.quadrature_bound = r.quadrature_bound;
   m.work = r.work;
   m.power = r.power;
-  m.integrator = r.external_plant ? "none" : ToString(r.integrator.type);
+  m.integrator = IntegratorName(r.integrator.type, r.external_plant, r.mujoco_integrator);
   m.substeps = r.integrator.substeps;
   m.method = ToString(r.method);
   const IntegratorWork& w = r.integrator_work;
@@ -393,7 +394,7 @@ void Publisher::PublishStatus(const TickRecord& last) {
   for (std::size_t i = 0; i < last.instances.size(); ++i) {
     const InstanceRecord& r = last.instances[i];
     s.instance_reasons.push_back(StatusReason(i, r));
-    s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant));
+    s.instance_integrators.push_back(IntegratorDescription(r.integrator, r.external_plant, r.mujoco_integrator));
     s.instance_methods.emplace_back(ToString(r.method));
     s.instance_effects.push_back(EffectsDescription(r.effects));
     s.instance_forces.push_back(r.forces_on);

@@ -545,6 +545,7 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.integrator_work = r.integrated ? inst.integrator().work() : IntegratorWork{};
   r.integrator = inst.integrator().config();
   r.external_plant = inst.external_plant();
+  r.mujoco_integrator = s.m.config.mujoco ? std::optional(s.m.config.mujoco->integrator) : std::nullopt;
   r.method = inst.method();
   r.effects = inst.model().effects().flags();
   r.forces_on = s.forces;

@@ -211,6 +211,7 @@ struct InstanceRecord {
   // What the instance runs with now (status_t).
   IntegratorConfig integrator;
   bool external_plant = false;
+  std::optional<MujocoIntegrator> mujoco_integrator;  // set: MuJoCo steps the plant with this; `integrator` never runs
   Method method = Method::kClosedForm;
   EffectFlags effects;
   // Forces (forces_t): every effect's force at the tick's end state, when

@@ -406,7 +406,8 @@ void ReadMujocoIntegrator(const YamlReader& node, MujocoPlantConfig& c) {
   if (auto v = node.Optional("substeps")) c.substeps = v->Integer(1, 1000);
 }
 
-// Loads the MuJoCo model at period / substeps; its joints must be the model's, in order.
+// Loads the MuJoCo model at period / substeps; its joints must be the model's degrees of freedom (matched
+// by name, in its order) and its mimics, each coupled by a joint equality (plant/mujoco_plant.hpp).
 void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urdf, InstanceConfig& inst) {
   const YamlReader file = plant_node.Required("file");
   if (file.Text().empty()) file.Fail("expected the path of an MJCF or URDF file, got ''");
@@ -424,6 +425,9 @@ void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urd
   }
   if (!plant_node.Has("model")) options.gravity = std::get<UrdfParams>(inst.plant.params).gravity;  // plant.gravity
   options.joint_order = JointNamesOf(inst.plant);  // q in lagrange's model's order, the joints matched by name
+  if (const auto* p = std::get_if<UrdfParams>(&inst.plant.params); p != nullptr && p->robot) {
+    options.mimics = MimicsOf(p->robot->tree);  // coupled in MuJoCo by its joint equality
+  }
   std::shared_ptr<const MujocoPlantModel> model;
   try {
     model = LoadMujocoPlant(c.file, options);
@@ -548,7 +552,8 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   }
   if (inst.mujoco) {
     if (auto i = node.Optional("integrator")) ReadMujocoIntegrator(*i, *inst.mujoco);
-    // What the status reports (MuJoCo's Euler is semi-implicit); the instance never runs it.
+    // Lagrange's nearest (MuJoCo's Euler is semi-implicit), for the switch
+    // checks' sake; never run: status and telemetry name MuJoCo's (IntegratorName).
     inst.integrator.type = inst.mujoco->integrator == MujocoIntegrator::kEuler ? IntegratorType::kSemiImplicitEuler
                                                                                  : IntegratorType::kRk4;
     inst.integrator.substeps = inst.mujoco->substeps;

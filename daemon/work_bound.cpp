@@ -10,6 +10,7 @@
 #include "daemon/instance.hpp"
 #include "daemon/instance_model.hpp"
 #include "plant/plant_model.hpp"
+#include "protocol/status.hpp"
 
 namespace lagrange {
 namespace {
@@ -49,9 +50,14 @@ std::string WhatToLower(const IntegratorConfig& config, double evaluations_that_
   return fmt::format("integrator.max_steps (at most {:.0f} fits) or integrator.substeps", max_steps);
 }
 
-// "rk4 worst case 5 evaluations × 0.03 µs + 2.1 µs".
-std::string Describe(const WorkBound& b, const IntegratorConfig& config) {
-  return fmt::format("{} worst case {} evaluations × {:.3g} µs + {:.3g} µs", ToString(config.type), b.evaluations,
+// "rk4 worst case 5 evaluations × 0.03 µs + 2.1 µs"; a MuJoCo plant's
+// integrator by MuJoCo's name ("mujoco-implicit worst case 1 evaluations ...":
+// one evaluation is one tick of MuJoCo's steps).
+std::string Describe(const WorkBound& b, const InstanceConfig& instance) {
+  const std::optional<MujocoIntegrator> mujoco =
+      instance.mujoco ? std::optional(instance.mujoco->integrator) : std::nullopt;
+  return fmt::format("{} worst case {} evaluations × {:.3g} µs + {:.3g} µs",
+                     IntegratorName(instance.integrator.type, instance.external.has_value(), mujoco), b.evaluations,
                      b.evaluation_s * 1e6, b.overhead_s * 1e6);
 }
 
@@ -195,7 +201,7 @@ std::optional<std::string> CheckWorkBounds(const DaemonModel& model) {
     total += bounds[i].tick_s();
     if (bounds[i].tick_s() > bounds[largest].tick_s()) largest = i;
     parts += fmt::format("{}{}: {} = {:.3g} ms", parts.empty() ? "" : ", ", bounds[i].instance,
-                         Describe(bounds[i], model.instances[i].config.integrator), bounds[i].tick_s() * 1e3);
+                         Describe(bounds[i], model.instances[i].config), bounds[i].tick_s() * 1e3);
   }
   const double budget = kTickBudgetFraction * model.period;
   if (bounds.empty() || total <= budget) return std::nullopt;

@@ -1,19 +1,32 @@
 #include "plant/mujoco_plant.hpp"
 
 #include <mujoco/mujoco.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
+
+// MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
+// exported by 2.2.2 but not in its public headers; MuJoCo's tests raise it to
+// 17 digits the same way). At its default, 6 digits, a URDF written back as
+// MJCF moves its joints by up to 5e-7 m and rad.
+extern "C" {
+int _mjPRIVATE__get_xml_precision();
+void _mjPRIVATE__set_xml_precision(int precision);
+}
 
 namespace lagrange {
 namespace {
@@ -69,6 +82,24 @@ void SetBodyInertia(mjModel* m, int body, const RigidBody& b) {
   m->body_iquat[4 * body + 1] = quat.x();
   m->body_iquat[4 * body + 2] = quat.y();
   m->body_iquat[4 * body + 3] = quat.z();
+  // MuJoCo's compiler marked what coincided with the file's inertial frame
+  // (body_sameframe: it is the body frame, so kinematics skips ipos and iquat;
+  // geom and site sameframe 2: placed at it) and bodies whose mass matrix is
+  // diagonal (body_simple, dof_simplenum). The new frame need not keep any
+  // of it (a finger whose inertia sits at its origin had its iquat ignored),
+  // and each is a shortcut only: cleared. Geoms and sites are then placed by
+  // their own pos and quat, which are relative to the body frame.
+  m->body_sameframe[body] = 0;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] == body && m->geom_sameframe[g] == 2) m->geom_sameframe[g] = 0;
+  }
+  for (int k = 0; k < m->nsite; ++k) {
+    if (m->site_bodyid[k] == body && m->site_sameframe[k] == 2) m->site_sameframe[k] = 0;
+  }
+  if (m->body_simple[body] != 0) {
+    m->body_simple[body] = 0;
+    for (int i = 0; i < m->nv; ++i) m->dof_simplenum[i] = 0;
+  }
 }
 
 void SetExactInertias(mjModel* m, const RigidTree& tree, const std::string& file) {
@@ -108,6 +139,13 @@ std::string PrepareUrdf(std::string text) {
   return text;
 }
 
+// MuJoCo keeps the last XML it loaded process-wide (for mj_saveLastXML):
+// every load of ours holds this, and CoupleMimics across its load and save.
+std::recursive_mutex& LastXmlMutex() {
+  static std::recursive_mutex mutex;
+  return mutex;
+}
+
 // mj_loadXML of `text` under `file`'s name (so that MuJoCo's messages name it), through a virtual file system.
 mjModel* LoadXmlText(const std::string& file, const std::string& text, char* error, int error_size) {
   const auto vfs = std::make_unique<mjVFS>();  // 2 MB of names: not on the stack
@@ -119,9 +157,134 @@ mjModel* LoadXmlText(const std::string& file, const std::string& text, char* err
   }
   const int i = mj_findFileVFS(vfs.get(), name.c_str());
   std::memcpy(vfs->filedata[i], text.data(), text.size());
-  mjModel* m = mj_loadXML(file.c_str(), vfs.get(), error, error_size);
+  mjModel* m = nullptr;
+  {
+    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
+    m = mj_loadXML(file.c_str(), vfs.get(), error, error_size);
+  }
   mj_deleteVFS(vfs.get());
   return m;
+}
+
+std::string ReadText(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) Refuse(file, "MuJoCo: could not open the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Whether the XML's root element is a URDF's <robot> (MuJoCo's own test:
+// the root's name), skipping the declaration and comments before it.
+bool IsUrdfText(const std::string& text) {
+  std::size_t at = 0;
+  while ((at = text.find('<', at)) != std::string::npos) {
+    if (text.compare(at, 4, "<!--") == 0) {
+      at = text.find("-->", at);
+    } else if (text.compare(at, 2, "<?") == 0 || text.compare(at, 2, "<!") == 0) {
+      at = text.find('>', at);
+    } else {
+      return text.compare(at, 6, "<robot") == 0 && (at + 6 == text.size() || !std::isalnum(text[at + 6]));
+    }
+    if (at == std::string::npos) return false;
+  }
+  return false;
+}
+
+// The shortest of 15 to 17 significant digits that reads back as x.
+std::string Number(double x) {
+  char text[32];
+  for (int digits = 15; digits <= 17; ++digits) {
+    std::snprintf(text, sizeof text, "%.*g", digits, x);
+    if (std::strtod(text, nullptr) == x) break;
+  }
+  return text;
+}
+
+// MuJoCo's joint equality of a mimic: joint1 = the mimic (y), joint2 = its
+// leader (x), y − y0 = a0 + a1 (x − x0) + ... with y0, x0 their qpos0, so
+// that y = multiplier x + offset: a0 = multiplier x0 + offset − y0, a1 = multiplier.
+struct Coupling {
+  int mimic = -1, leader = -1;  // MuJoCo's joint ids
+  double a0 = 0.0, a1 = 1.0;
+};
+
+Coupling CouplingOf(const mjModel* m, const MujocoMimic& mimic) {
+  Coupling c;
+  c.mimic = mj_name2id(m, mjOBJ_JOINT, mimic.joint.c_str());
+  c.leader = mj_name2id(m, mjOBJ_JOINT, mimic.leader.c_str());
+  const double y0 = m->qpos0[m->jnt_qposadr[c.mimic]], x0 = m->qpos0[m->jnt_qposadr[c.leader]];
+  c.a0 = mimic.multiplier * x0 + mimic.offset - y0;
+  c.a1 = mimic.multiplier;
+  return c;
+}
+
+// <equality><joint joint1="MIMIC" joint2="LEADER" polycoef="a0 a1 0 0 0" ATTRIBUTES/></equality>
+std::string EqualityElement(const MujocoMimic& mimic, const Coupling& c, const std::string& attributes = "") {
+  return "<equality><joint joint1=\"" + mimic.joint + "\" joint2=\"" + mimic.leader + "\" polycoef=\"" + Number(c.a0) +
+         " " + Number(c.a1) + " 0 0 0\"" + attributes + "/></equality>";
+}
+
+// The equality coupling `mimic` in `m`, or why there is none as expected.
+std::optional<std::string> CheckCoupled(const mjModel* m, const MujocoMimic& mimic) {
+  const Coupling c = CouplingOf(m, mimic);
+  const auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 * (1.0 + std::abs(b)); };
+  std::string found;
+  for (int e = 0; e < m->neq; ++e) {
+    if (m->eq_type[e] != mjEQ_JOINT || m->eq_obj1id[e] != c.mimic || m->eq_obj2id[e] != c.leader) continue;
+    const double* a = m->eq_data + static_cast<std::ptrdiff_t>(e) * mjNEQDATA;
+    if (m->eq_active[e] != 0 && near(a[0], c.a0) && near(a[1], c.a1) && a[2] == 0.0 && a[3] == 0.0 && a[4] == 0.0) {
+      return std::nullopt;
+    }
+    found = std::string(m->eq_active[e] != 0 ? "" : "an inactive one, ") + "polycoef " + Number(a[0]) + " " +
+            Number(a[1]) + " " + Number(a[2]) + " " + Number(a[3]) + " " + Number(a[4]);
+  }
+  return "joint '" + mimic.joint + "' mimics '" + mimic.leader +
+         "' in lagrange's model (q = " + Number(mimic.multiplier) + " q_leader + " + Number(mimic.offset) +
+         "): expected " + EqualityElement(mimic, c) + " in the MJCF, got " + (found.empty() ? "none" : found);
+}
+
+// A URDF's model with every mimic coupled: MuJoCo loads the URDF's text (as
+// LoadMujocoPlant prepared it) and writes it back as MJCF (mj_saveLastXML:
+// MuJoCo's only URDF-to-MJCF path in 2.2.2, at 17 digits); the equalities, as
+// stiff as MuJoCo allows at `timestep`, go before its end, and MuJoCo loads
+// that. Null (and MuJoCo's message in `error`) if MuJoCo refuses either.
+mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const std::vector<MujocoMimic>& mimics,
+                      double timestep, char* error, int error_size) {
+  std::string path = (std::filesystem::temp_directory_path() / "lagrange_mujoco_XXXXXX").string();
+  const int fd = mkstemp(path.data());
+  if (fd < 0) Refuse(file, "could not make a temporary file for MuJoCo's MJCF of it");
+  ::close(fd);
+  std::string equalities;
+  int saved = 0;
+  {
+    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());  // no other load between the two calls
+    mjModel* m = LoadXmlText(file, urdf, error, error_size);
+    if (m == nullptr) {
+      std::remove(path.c_str());
+      return nullptr;
+    }
+    const std::string attributes = " solref=\"" + Number(kMimicTimeConstantSteps * timestep) + " 1\" solimp=\"" +
+                                   Number(kMimicImpedance) + " " + Number(kMimicImpedance) + " 0.001 0.5 2\"";
+    for (const MujocoMimic& mimic : mimics)
+      equalities += EqualityElement(mimic, CouplingOf(m, mimic), attributes) + "\n";
+    const int precision = _mjPRIVATE__get_xml_precision();
+    _mjPRIVATE__set_xml_precision(17);
+    saved = mj_saveLastXML(path.c_str(), m, error, error_size);
+    _mjPRIVATE__set_xml_precision(precision);
+    mj_deleteModel(m);
+  }
+  std::ifstream in(path);
+  std::stringstream all;
+  all << in.rdbuf();
+  std::string text = all.str();
+  std::remove(path.c_str());
+  const std::size_t end = text.rfind("</mujoco>");
+  if (saved == 0 || end == std::string::npos) {
+    Refuse(file, "MuJoCo could not write it as MJCF to couple its mimic joints: " + OneLine(error));
+  }
+  text.insert(end, equalities);
+  return LoadXmlText(file, text, error, error_size);
 }
 
 const char* WarningReason(int warning) {
@@ -148,8 +311,8 @@ class MujocoPlantData final : public SteppedPlantData {
         model_(*shared_),
         m_(model_.model_),
         d_(mj_makeData(model_.model_)),
-        qpos_start_(model_.num_dofs_),
-        qvel_start_(model_.num_dofs_) {
+        qpos_start_(model_.model_->nv),
+        qvel_start_(model_.model_->nv) {
     if (d_ == nullptr) throw std::runtime_error(model_.file_ + ": MuJoCo could not make its data");
     mj_forward(m_, d_);
   }
@@ -157,13 +320,18 @@ class MujocoPlantData final : public SteppedPlantData {
   MujocoPlantData(const MujocoPlantData&) = delete;
   MujocoPlantData& operator=(const MujocoPlantData&) = delete;
 
+  // A mimic is placed on its leader: q_mimic = multiplier q_leader + offset, qd likewise.
   void SetState(ConstVecRef q, ConstVecRef qd) override {
     for (int i = 0; i < model_.num_dofs_; ++i) {
       const int k = model_.dof_[static_cast<std::size_t>(i)];
       d_->qpos[k] = q[i];
       d_->qvel[k] = qd[i];
-      d_->qfrc_applied[k] = 0.0;
     }
+    for (const MujocoPlantModel::Mimic& mimic : model_.mimics_) {
+      d_->qpos[mimic.joint] = mimic.multiplier * q[mimic.leader] + mimic.offset;
+      d_->qvel[mimic.joint] = mimic.multiplier * qd[mimic.leader];
+    }
+    mju_zero(d_->qfrc_applied, m_->nv);
     mju_zero(d_->qacc_warmstart, m_->nv);
     for (mjWarningStat& w : d_->warning) w.number = 0;
     mj_forward(m_, d_);
@@ -171,13 +339,13 @@ class MujocoPlantData final : public SteppedPlantData {
 
   const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) override {
     const int n = model_.num_dofs_;
-    for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];
+    for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];  // a mimic's: 0
     for (mjWarningStat& w : d_->warning) w.number = 0;
     const double h = m_->opt.timestep;
     other_work_ = 0.0;
     double power_before = 0.0;
     for (int k = 0; k < model_.substeps_; ++k) {
-      for (int i = 0; i < n; ++i) {
+      for (int i = 0; i < m_->nv; ++i) {
         qpos_start_[i] = d_->qpos[i];
         qvel_start_[i] = d_->qvel[i];
       }
@@ -199,7 +367,7 @@ class MujocoPlantData final : public SteppedPlantData {
         power_before = power;
       }
     }
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < m_->nv; ++i) {
       qpos_start_[i] = d_->qpos[i];
       qvel_start_[i] = d_->qvel[i];
     }
@@ -226,11 +394,12 @@ class MujocoPlantData final : public SteppedPlantData {
  private:
   // W: qvelᵀ (passive + constraint forces) at (qpos_start_, qvel_start_),
   // with the joint springs taken out (their energy is in V): damping, fluid,
-  // friction loss, limits, contacts, equality constraints. The forces are
-  // those mj_forward left in the data for that state.
+  // friction loss, limits, contacts, equality constraints (a mimic's
+  // coupling). The forces are those mj_forward left in the data for that
+  // state. Over every MuJoCo joint, mimics too (hinge and slide: joint = dof).
   double OtherPower() const {
     double p = 0.0;
-    for (int i = 0; i < model_.num_dofs_; ++i) {
+    for (int i = 0; i < m_->nv; ++i) {
       const double spring = -m_->jnt_stiffness[i] * (qpos_start_[i] - m_->qpos_spring[i]);
       p += qvel_start_[i] * (d_->qfrc_passive[i] - spring + d_->qfrc_constraint[i]);
     }
@@ -241,34 +410,40 @@ class MujocoPlantData final : public SteppedPlantData {
   const MujocoPlantModel& model_;
   const mjModel* m_;
   mjData* d_;
-  VectorXd qpos_start_, qvel_start_;  // (n) the state a MuJoCo step started from
+  VectorXd qpos_start_, qvel_start_;  // (nv) the state a MuJoCo step started from, mimics too
   double other_work_ = 0.0;
 };
 
-MujocoPlantModel::~MujocoPlantModel() { mj_deleteModel(model_); }
+MujocoPlantModel::~MujocoPlantModel() {
+  if (model_ != nullptr) mj_deleteModel(model_);
+}
 
 std::unique_ptr<SteppedPlantData> MujocoPlantModel::MakeData() const {
   return std::make_unique<MujocoPlantData>(shared_from_this());
 }
 
-std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {
-  InstallHandlers();
-  if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
-  char error[1000] = "";
-  mjModel* m = nullptr;
-  if (options.exact_inertia != nullptr) {  // a URDF whose inertias lagrange sets
-    std::ifstream in(file);
-    if (!in) Refuse(file, "MuJoCo: could not open the file");
-    std::stringstream text;
-    text << in.rdbuf();
-    m = LoadXmlText(file, PrepareUrdf(text.str()), error, sizeof error);
-  } else {
-    m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
+std::vector<MujocoMimic> MimicsOf(const RigidTree& tree) {
+  std::vector<MujocoMimic> mimics;
+  for (const TreeJoint& j : tree.joints) {
+    if (j.mimic < 0) continue;
+    mimics.push_back({j.name, tree.joints[static_cast<std::size_t>(j.mimic)].name, j.multiplier, j.offset});
   }
-  if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
-  std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
-  model->model_ = m;
-  model->file_ = file;
+  return mimics;
+}
+
+namespace {
+
+std::string List(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& n : names) text += (text.empty() ? "" : ", ") + n;
+  return text;
+}
+
+// MuJoCo's joints must be hinge or slide joints, lagrange's degrees of
+// freedom (`dofs`; empty: MuJoCo's joints but the mimics, which it then
+// lists) and its mimics, each once; the index in MuJoCo of each degree of freedom.
+std::vector<int> MatchJoints(const std::string& file, const mjModel* m, std::vector<std::string>& dofs,
+                             const std::vector<MujocoMimic>& mimics) {
   std::vector<std::string> names;
   for (int j = 0; j < m->njnt; ++j) {
     const int type = m->jnt_type[j];
@@ -279,30 +454,93 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
     names.push_back(JointName(m, j));
   }
   if (m->njnt == 0) Refuse(file, "expected at least one hinge or slide joint, got none");
-  model->joint_names_ = options.joint_order.empty() ? names : options.joint_order;
-  std::vector<bool> used(names.size(), false);
-  for (const std::string& name : model->joint_names_) {
-    const auto it = std::find(names.begin(), names.end(), name);
-    const auto j = static_cast<std::size_t>(it - names.begin());
-    if (it == names.end() || used[j] || model->joint_names_.size() != names.size()) {
-      std::string theirs, ours;
-      for (const std::string& n : names) theirs += (theirs.empty() ? "" : ", ") + n;
-      for (const std::string& n : model->joint_names_) ours += (ours.empty() ? "" : ", ") + n;
-      Refuse(file, "MuJoCo's joints (" + theirs + ") are not those of lagrange's model (" + ours +
-                       "): expected the same joints");
+  if (dofs.empty()) {
+    for (const std::string& name : names) {
+      const bool mimic =
+          std::any_of(mimics.begin(), mimics.end(), [&](const MujocoMimic& x) { return x.joint == name; });
+      if (!mimic) dofs.push_back(name);
     }
+  }
+  std::vector<std::string> ours = dofs;
+  for (const MujocoMimic& mimic : mimics) ours.push_back(mimic.joint);
+  std::vector<bool> used(names.size(), false);
+  std::vector<int> index;
+  bool same = ours.size() == names.size();
+  for (const std::string& name : ours) {
+    const auto j = static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    same = same && j < names.size() && !used[j];
+    if (!same) break;
     used[j] = true;
-    model->dof_.push_back(static_cast<int>(j));  // hinge and slide only: joint j is qpos[j] and qvel[j]
+    index.push_back(static_cast<int>(j));
+  }
+  if (!same) {
+    std::vector<std::string> mimic_names;
+    for (const MujocoMimic& mimic : mimics) mimic_names.push_back(mimic.joint);
+    Refuse(file, "MuJoCo's joints (" + List(names) + ") are not those of lagrange's model (" + List(dofs) +
+                     (mimics.empty() ? "" : "; mimics " + List(mimic_names)) + "): expected the same joints");
+  }
+  index.resize(dofs.size());
+  return index;
+}
+
+}  // namespace
+
+std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {
+  InstallHandlers();
+  if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
+  char error[1000] = "";
+  mjModel* m = nullptr;
+  std::string urdf;                        // the URDF's text as MuJoCo reads it (exact_inertia: with the edits above)
+  if (options.exact_inertia != nullptr) {  // a URDF whose inertias lagrange sets
+    urdf = PrepareUrdf(ReadText(file));
+    m = LoadXmlText(file, urdf, error, sizeof error);
+  } else {
+    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
+    m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
+  }
+  if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
+  std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
+  model->model_ = m;  // deleted with the model, whatever is refused below
+  model->file_ = file;
+  std::vector<std::string> dofs = options.joint_order;
+  model->dof_ = MatchJoints(file, m, dofs, options.mimics);
+  const double timestep = options.period / options.substeps;
+  if (!options.mimics.empty() && urdf.empty()) urdf = ReadText(file);
+  const bool couple = !options.mimics.empty() && IsUrdfText(urdf);
+  if (couple) {  // a URDF cannot say it: lagrange adds it
+    mj_deleteModel(m);
+    model->model_ = nullptr;
+    m = CoupleMimics(file, urdf, options.mimics, timestep, error, sizeof error);
+    if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
+    model->model_ = m;
+    model->dof_ = MatchJoints(file, m, dofs, options.mimics);  // the same joints, in MuJoCo's MJCF of the URDF
+  }
+  model->joint_names_ = dofs;
+  for (const MujocoMimic& mimic : options.mimics) {
+    if (auto why = CheckCoupled(m, mimic)) Refuse(file, *why);
+    const auto leader = std::find(dofs.begin(), dofs.end(), mimic.leader);
+    if (leader == dofs.end()) {
+      Refuse(file, "joint '" + mimic.joint + "' mimics '" + mimic.leader + "': expected a degree of freedom");
+    }
+    const int j = mj_name2id(m, mjOBJ_JOINT, mimic.joint.c_str());
+    model->mimics_.push_back({j, static_cast<int>(leader - dofs.begin()), mimic.multiplier, mimic.offset});
+    if (couple) {  // as lagrange reads a URDF mimic (plant/urdf.hpp): its own <dynamics> and <limit> unused
+      m->dof_damping[m->jnt_dofadr[j]] = 0.0;
+      m->dof_frictionloss[m->jnt_dofadr[j]] = 0.0;
+      m->jnt_limited[j] = 0;
+    }
+  }
+  for (const int j : model->dof_) {
     const bool limited = m->jnt_limited[j] != 0;
     const double inf = std::numeric_limits<double>::infinity();
     model->info_.limited.push_back(limited);
     model->info_.lower.push_back(limited ? m->jnt_range[2 * j] : -inf);
     model->info_.upper.push_back(limited ? m->jnt_range[2 * j + 1] : inf);
   }
-  model->num_dofs_ = m->nv;  // hinge and slide joints only: nq = nv = njnt, in joint order
+  model->num_dofs_ = static_cast<int>(dofs.size());  // MuJoCo's nv less the mimics
   model->substeps_ = options.substeps;
   model->integrator_ = options.integrator;
-  m->opt.timestep = options.period / options.substeps;
+  m->opt.timestep = timestep;
   switch (options.integrator) {
     case MujocoIntegrator::kEuler: m->opt.integrator = mjINT_EULER; break;
     case MujocoIntegrator::kRk4: m->opt.integrator = mjINT_RK4; break;
@@ -339,6 +577,14 @@ std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, 
     total += c.geom2 == id ? on_geom2 : Eigen::Vector3d(-on_geom2);
   }
   return total;
+}
+
+std::optional<double> MujocoJointPosition(const SteppedPlantData& data, const std::string& joint) {
+  const auto* mujoco = dynamic_cast<const MujocoPlantData*>(&data);
+  if (mujoco == nullptr) return std::nullopt;
+  const int id = mj_name2id(mujoco->m(), mjOBJ_JOINT, joint.c_str());
+  if (id < 0) return std::nullopt;
+  return mujoco->d()->qpos[mujoco->m()->jnt_qposadr[id]];
 }
 
 std::string MujocoVersion() {

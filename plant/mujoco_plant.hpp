@@ -6,11 +6,31 @@
 // discardvisual, strippath forced; joints limited where lower < upper;
 // damping and friction loss from <dynamics>; armature 0; geoms from
 // <collision> only; no actuators). Then, before the model is shared:
-//   - its degrees of freedom are its joints, which must all be hinge or slide
-//     (free and ball joints are refused: lagrange's messages are joint-space),
-//     so q = qpos, qd = qvel in the model's joint order, or in `joint_order`
-//     (lagrange's model's order, the same joints by name: a branching URDF
-//     may be ordered differently by MuJoCo's importer and by lagrange's);
+//   - its joints must all be hinge or slide (free and ball joints are
+//     refused: lagrange's messages are joint-space); its degrees of freedom
+//     are its joints but the mimics of lagrange's model (`mimics`), so q =
+//     qpos, qd = qvel of those joints in the model's joint order, or in
+//     `joint_order` (lagrange's model's order, the same joints by name: a
+//     branching URDF may be ordered differently by MuJoCo's importer and by
+//     lagrange's); MuJoCo's joints must be exactly those and the mimics;
+//   - a mimic joint (q_mimic = multiplier · q_leader + offset) is coupled by
+//     MuJoCo's joint equality constraint, <equality><joint joint1="MIMIC"
+//     joint2="LEADER" polycoef="a0 multiplier 0 0 0"/>, a0 = offset when
+//     both joints' reference positions (qpos0) are 0. An MJCF must hold it
+//     (else it is refused, naming the element to add); a URDF cannot say it
+//     (MuJoCo 2.2.2's importer ignores <mimic>), so lagrange adds it: MuJoCo
+//     imports the URDF, writes it back as MJCF (mj_saveLastXML, at 17
+//     digits), the equality is appended, and MuJoCo loads that. The added
+//     constraint is as stiff as MuJoCo allows at the step h: solref (2 h, 1),
+//     solimp (0.9999, 0.9999, 0.001) (kMimicTimeConstantSteps,
+//     kMimicImpedance). MuJoCo's equality is
+//     soft, so the mimic follows its leader to the constraint's violation,
+//     not exactly (README, "MuJoCo plants": the figures). A URDF mimic's own
+//     <dynamics> and <limit> are cleared in MuJoCo (damping, friction loss,
+//     range), as lagrange reads them: unused, its leader's apply (an MJCF's
+//     are its own, MuJoCo's world). A mimic's q, qd are
+//     never in q: SetState places it on its leader; Step applies no force
+//     to it (tau acts on the leader; the constraint carries its share);
 //   - timestep = period / substeps, the integrator as asked, energy on;
 //     actuators off (mjDSBL_ACTUATION: lagrange's controller applies the
 //     joint force, qfrc_applied);
@@ -37,8 +57,9 @@
 // text is discarded (mju_user_warning, set once per process): the tick does no
 // I/O, and the counters in mjData say everything.
 //
-// Errors. A file MuJoCo refuses, or a refused joint, throws
-// std::invalid_argument with one line: "FILE: MuJoCo: <its message>" or
+// Errors. A file MuJoCo refuses, a refused joint, joints that are not
+// lagrange's model's, a mimic the MJCF does not couple, throw
+// std::invalid_argument with one line: "FILE: MuJoCo: <its message>",
 // "FILE: joint 'j' is a ball joint: expected hinge or slide joints only ...".
 
 #include <Eigen/Core>
@@ -53,6 +74,14 @@ struct mjModel_;  // MuJoCo's (mujoco/mjmodel.h): only lagrange_mujoco includes 
 
 namespace lagrange {
 
+// A mimic joint of lagrange's model: q_joint = multiplier · q_leader + offset.
+struct MujocoMimic {
+  std::string joint, leader;
+  double multiplier = 1.0;
+  double offset = 0.0;  // rad or m
+};
+std::vector<MujocoMimic> MimicsOf(const RigidTree& tree);
+
 struct MujocoOptions {
   double period = 1e-3;  // s, one Step
   int substeps = 1;      // MuJoCo steps per Step: timestep = period / substeps
@@ -61,11 +90,21 @@ struct MujocoOptions {
   // (matched by the joint that carries each body, by name). Null: MuJoCo's own.
   const RigidTree* exact_inertia = nullptr;
   // q's order by joint name (lagrange's model's: JointNamesOf); empty:
-  // MuJoCo's own joint order. Must name MuJoCo's joints, each once.
+  // MuJoCo's own joint order, mimics skipped. With the mimics, must name
+  // MuJoCo's joints, each once.
   std::vector<std::string> joint_order;
   // m/s², world frame; unset: the file's (MuJoCo's default (0, 0, −9.81)).
   std::optional<Eigen::Vector3d> gravity;
+  // Lagrange's model's mimic joints (MimicsOf its tree): no degrees of
+  // freedom; each must be MuJoCo's joint, coupled to its leader as above.
+  std::vector<MujocoMimic> mimics;
 };
+
+// The equality lagrange adds to a URDF with mimics: the stiffest MuJoCo
+// allows, its time constant twice the step (MuJoCo's own floor unless
+// mjDSBL_REFSAFE), critically damped; impedance 0.9999 at every violation.
+inline constexpr double kMimicTimeConstantSteps = 2.0;
+inline constexpr double kMimicImpedance = 0.9999;
 
 // The loaded model's facts, for tests and the README.
 struct MujocoModelInfo {
@@ -97,6 +136,12 @@ class MujocoPlantModel final : public SteppedPlantModel, public std::enable_shar
   MujocoIntegrator integrator_ = MujocoIntegrator::kRk4;
   std::vector<std::string> joint_names_;
   std::vector<int> dof_;  // (n) MuJoCo's qpos / qvel index of q[i]
+  struct Mimic {
+    int joint = 0;   // MuJoCo's qpos / qvel index of the mimic
+    int leader = 0;  // the index into q of the joint it follows
+    double multiplier = 1.0, offset = 0.0;
+  };
+  std::vector<Mimic> mimics_;
   MujocoModelInfo info_;
   friend class MujocoPlantData;
 };
@@ -110,6 +155,12 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
 // normal and friction). Zero when it touches nothing; nullopt when `data` is
 // not a MuJoCo plant's or the model has no such geom.
 std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, const std::string& geom);
+
+// MuJoCo's position of joint `joint` (by name, any joint, mimics too) at
+// `data`'s current state, rad or m; nullopt when `data` is not a MuJoCo
+// plant's or the model has no such joint. A mimic's is how far MuJoCo's soft
+// equality lets it stray from multiplier · q_leader + offset.
+std::optional<double> MujocoJointPosition(const SteppedPlantData& data, const std::string& joint);
 
 // The version of the MuJoCo library linked, e.g. "2.2.2".
 std::string MujocoVersion();

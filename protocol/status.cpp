@@ -45,10 +45,23 @@ bool StatusFits(const std::vector<std::string>& instances, const std::vector<std
   return s.getEncodedSize() <= static_cast<int>(kMaxMessageSize);
 }
 
-std::string IntegratorDescription(const IntegratorConfig& c, bool external_plant) {
+std::string_view IntegratorName(IntegratorType type, bool external_plant, std::optional<MujocoIntegrator> mujoco) {
   if (external_plant) return "none";
-  std::string text(ToString(c.type));
-  if (c.type == IntegratorType::kDormandPrince) {
+  if (mujoco) {
+    switch (*mujoco) {
+      case MujocoIntegrator::kEuler: return "mujoco-euler";
+      case MujocoIntegrator::kRk4: return "mujoco-rk4";
+      case MujocoIntegrator::kImplicit: return "mujoco-implicit";
+    }
+  }
+  return ToString(type);
+}
+
+std::string IntegratorDescription(const IntegratorConfig& c, bool external_plant,
+                                  std::optional<MujocoIntegrator> mujoco) {
+  std::string text(IntegratorName(c.type, external_plant, mujoco));
+  if (external_plant) return text;
+  if (!mujoco && c.type == IntegratorType::kDormandPrince) {
     char settings[96];
     std::snprintf(settings, sizeof settings, " rtol=%g atol=%g max_steps=%d", c.rtol, c.atol, c.max_steps);
     text += settings;

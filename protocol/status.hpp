@@ -15,10 +15,12 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
+#include "plant/stepped_plant.hpp"
 
 namespace lagrange {
 
@@ -34,9 +36,16 @@ inline constexpr std::size_t kMaxJointNameBytes = 60;
 bool StatusFits(const std::vector<std::string>& instances, const std::vector<std::int32_t>& dofs,
                 const std::vector<std::string>& joints);
 
+// The integrator's name (telemetry_t.integrator): lagrange's (ToString of
+// config.type), "none" for an external plant, and for a plant MuJoCo steps
+// (`mujoco` set) MuJoCo's own, "mujoco-euler", "mujoco-rk4" or
+// "mujoco-implicit": lagrange's integrator then never runs.
+std::string_view IntegratorName(IntegratorType type, bool external_plant,
+                                std::optional<MujocoIntegrator> mujoco = std::nullopt);
 // status_t.instance_integrators: "rk4", "rk4 x4", "dopri5 rtol=1e-08 atol=1e-10
-// max_steps=200"; "none" for an external plant.
-std::string IntegratorDescription(const IntegratorConfig& config, bool external_plant);
+// max_steps=200", "mujoco-implicit x4"; "none" for an external plant.
+std::string IntegratorDescription(const IntegratorConfig& config, bool external_plant,
+                                  std::optional<MujocoIntegrator> mujoco = std::nullopt);
 // status_t.instance_effects: the effects on, comma-separated in EffectKind order.
 std::string EffectsDescription(const EffectFlags& flags);
 

@@ -6,18 +6,31 @@
 // MuJoCo's warning; a tick allocates nothing.
 
 #include <gtest/gtest.h>
+#include <lagrange/status_t.hpp>
+#include <lagrange/telemetry_t.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "daemon/health.hpp"
 #include "daemon/instance.hpp"
+#include "daemon/loop.hpp"
 #include "daemon/offline.hpp"
+#include "daemon/publisher.hpp"
+#include "daemon/receiver.hpp"
+#include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
 #include "plant/mujoco_plant.hpp"
+#include "protocol/bus.hpp"
+#include "protocol/status.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/fake_clock.hpp"
 
 namespace lagrange {
 namespace {
@@ -237,6 +250,83 @@ TEST(MujocoScene, PressingOnTheTableTheContactForceIsStiffnessTimesPenetration) 
   EXPECT_LT(std::hypot(f->x(), f->y()), 1.0 * f->z());
 }
 
+// The Panda with its hand (panda_hand.urdf: 8 degrees of freedom, the right
+// finger mimicking the left), on lagrange's plant and on MuJoCo, where the
+// mimic is MuJoCo's soft joint equality: computed torque through a 2 s
+// min-jerk move that opens the fingers too.
+std::string PandaHandScene(const std::string& plant) {
+  return R"(period: 0.001
+instances:
+  - name: panda
+    plant: )" +
+         plant + R"(
+    initial: {q: [0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.01]}
+    integrator: {type: rk4}
+    controller: {type: computed-torque, kp: 400, kd: 40}
+    setpoint: {type: min-jerk, target: [0.6, -0.3, -0.4, -1.9, 0.5, 2.1, 0.3, 0.035], duration: 2.0}
+)";
+}
+
+// What MuJoCo's soft equality lets the two runs drift apart by (the mimic's
+// violation, through the coupling, on the whole arm), and the mimic's own.
+constexpr double kHandTrajectoryTolerance = 1e-6;  // rad or m
+constexpr double kHandMimicTolerance = 1e-6;       // m
+
+TEST(MujocoScene, PandaWithItsHandRunsLagrangesTrajectoryToTheMimicsSoftness) {
+  const Scene ours = ParseScene(PandaHandScene("{type: urdf, file: robots/panda_hand.urdf}"), kLabel);
+  const Scene theirs = ParseScene(PandaHandScene("{type: mujoco, file: robots/panda_hand.urdf}"), kLabel);
+  Instance a(ours.instances[0]), b(theirs.instances[0]);
+  ASSERT_EQ(b.num_dofs(), 8);
+  double worst = 0.0, gap = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    ASSERT_EQ(a.Step(ours.period), nullptr);
+    ASSERT_EQ(b.Step(theirs.period), nullptr);
+    worst = std::max(worst, (a.q() - b.q()).cwiseAbs().maxCoeff());
+    gap = std::max(gap, std::abs(*MujocoJointPosition(*b.stepped_plant(), "panda_finger_joint2") - b.q()[7]));
+  }
+  EXPECT_NEAR(b.q()[7], 0.035, 1e-3);  // the fingers opened
+  EXPECT_LT(worst, kHandTrajectoryTolerance);
+  EXPECT_LT(gap, kHandMimicTolerance);
+  std::printf(
+      "Panda with its hand, computed torque, RK4 1 ms, 2 s: max |q_lagrange - q_mujoco| = %.2g, "
+      "max |q_finger2 - q_finger1| on MuJoCo = %.2g m\n",
+      worst, gap);
+}
+
+// config/panda_hand_mujoco_table.yaml: the TCP's target 0.05 m below where
+// the fingertips touch the table. At rest the table holds the impedance's
+// force on the two fingers together: F = K (commanded penetration − how far
+// the fingertips sank into MuJoCo's soft table).
+TEST(MujocoScene, PandaWithItsHandPressingOnTheTableTheContactForceIsStiffnessTimesPenetration) {
+  const Scene s = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_hand_mujoco_table.yaml");
+  Instance inst(s.instances[0]);
+  const double K = 600.0, commanded = 0.05;  // N/m, m: the scene's
+  const double touching = 0.3 + 0.009;       // m: the TCP's height when the fingertips touch the table top
+  double gap = 0.0;
+  for (int k = 0; k < 5000; ++k) {
+    ASSERT_EQ(inst.Step(s.period), nullptr) << "tick " << k;
+    gap = std::max(gap, std::abs(*MujocoJointPosition(*inst.stepped_plant(), "panda_finger_joint2") - inst.q()[7]));
+  }
+  const double z = inst.task_space_controller(0)->pose().position.z();
+  const std::optional<Eigen::Vector3d> left = MujocoContactForce(*inst.stepped_plant(), "leftfinger_pad");
+  const std::optional<Eigen::Vector3d> right = MujocoContactForce(*inst.stepped_plant(), "rightfinger_pad");
+  ASSERT_TRUE(left && right);
+  const Eigen::Vector3d f = *left + *right;
+  const double sank = touching - z;
+  std::printf(
+      "hand on table: contact force (%.4g, %.4g, %.6g) N (left %.4g N, right %.4g N); K x commanded %.4g N; "
+      "sank %.3g m; K (commanded - sank) %.5g N; finger gap %.2g m, fingers at %.5g m\n",
+      f.x(), f.y(), f.z(), left->z(), right->z(), K * commanded, sank, K * (commanded - sank), gap, inst.q()[7]);
+  EXPECT_GT(left->z(), 0.25 * K * commanded);  // both fingers bear on the table
+  EXPECT_GT(right->z(), 0.25 * K * commanded);
+  EXPECT_GT(sank, 0.0);               // soft contact: the fingertips are a little inside the table
+  EXPECT_LT(sank, 1e-3 * commanded);  // by less than 0.1 % of the commanded penetration
+  EXPECT_NEAR(f.z(), K * commanded, 1e-3 * K * commanded);           // stiffness × commanded penetration, to 0.1 %
+  EXPECT_NEAR(f.z(), K * (commanded - sank), 1e-3 * K * commanded);  // and the impedance's own balance closer
+  EXPECT_LT(std::hypot(f.x(), f.y()), 1.0 * f.z());                  // inside the friction cone (μ = 1)
+  EXPECT_LT(gap, kHandMimicTolerance);
+}
+
 // config/cartpole_mujoco_stops.yaml: driven towards x = 1 m, the cart stops
 // at the rail's end, x = 0.5 m, to what MuJoCo's soft limit gives; lagrange's
 // own cart-pole (no stops) goes on to 1 m.
@@ -278,6 +368,46 @@ TEST(MujocoScene, TheEnergyResidualOverAnImpactShrinksWithTheStep) {
   }
   EXPECT_GT(eps[0], 1e-3);           // J: the impact shows at 1 ms
   EXPECT_LT(eps[1], eps[0] / 8.0);   // first order: 16 times smaller steps, about 16 times smaller
+}
+
+// What lagranged publishes names MuJoCo's integrator, not lagrange's nearest:
+// the status (lagrangectl status, watch) "mujoco-implicit x2", the telemetry
+// "mujoco-implicit" with 2 substeps.
+TEST(MujocoScene, TheStatusAndTelemetryNameMujocosIntegrator) {
+  std::string text = PandaScene(kMujocoPlant, "    telemetry: true\n");
+  text.replace(text.find("{type: rk4}"), 11, "{type: implicit, substeps: 2}");
+  Runtime runtime(ParseScene(text, kLabel));
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  InProcessBus output;
+  std::optional<status_t> status;
+  std::optional<telemetry_t> telemetry;
+  output.Subscribe("LAGRANGE_STATUS", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    status_t m;
+    if (m.decode(d, 0, static_cast<int>(n)) >= 0) status = m;
+  });
+  output.Subscribe("PANDA_TELEMETRY", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    telemetry_t m;
+    if (m.decode(d, 0, static_cast<int>(n)) >= 0) telemetry = m;
+  });
+  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
+  Loop loop{runtime, clock, {1'000'000, OverrunPolicy::kSkip, 0}, ring};
+  Publisher publisher{output, runtime, ring, loop, stats, -1, 1};
+  std::atomic<bool> stop{false};
+  for (int tick = 100; tick <= 500; tick += 100) {  // drained every 0.1 s, within the ring
+    loop.Run(stop, tick);
+    publisher.Drain();
+    while (output.Drain() > 0) {
+    }
+  }
+  ASSERT_TRUE(status && telemetry);
+  EXPECT_EQ(status->instance_integrators, std::vector<std::string>{"mujoco-implicit x2"});
+  EXPECT_EQ(telemetry->integrator, "mujoco-implicit");
+  EXPECT_EQ(telemetry->substeps, 2);
+  for (const auto [type, name] :
+       {std::pair{MujocoIntegrator::kEuler, "mujoco-euler"}, std::pair{MujocoIntegrator::kRk4, "mujoco-rk4"}}) {
+    EXPECT_EQ(IntegratorDescription(IntegratorConfig{}, false, type), name);
+  }
 }
 
 TEST(MujocoScene, ShippedSceneLoadsAndRuns) {

@@ -303,6 +303,181 @@ TEST(MujocoPlant, DampingsWorkIsTheEnergyLost) {
   EXPECT_NEAR(change, work, 1e-6 * std::abs(change));
 }
 
+// ------------------------------------------------------------------ mimic joints
+
+// panda_hand.urdf as a scene loads it: lagrange's degrees of freedom in its
+// order, its mimic (the right finger) coupled by the equality lagrange adds.
+Loaded LoadPandaHand(MujocoIntegrator integrator = MujocoIntegrator::kRk4) {
+  Loaded l{LoadUrdf(kRobots + "panda_hand.urdf"), nullptr};
+  MujocoOptions o;
+  o.exact_inertia = &l.robot.tree;
+  o.joint_order = l.robot.tree.joint_names();
+  o.mimics = MimicsOf(l.robot.tree);
+  o.integrator = integrator;
+  l.mujoco = LoadMujocoPlant(kRobots + "panda_hand.urdf", o);
+  return l;
+}
+
+// MuJoCo's 9 joints, lagrange's 8 degrees of freedom: with the mimic placed
+// on its leader (q_joints = S q + o), Sᵀ M S, Sᵀ (bias), T and V of MuJoCo's
+// model are lagrange's to round-off, so the URDF written back as MJCF (17
+// digits) kept every number.
+TEST(MujocoPlant, PandaWithItsHandReducedToItsDegreesOfFreedomAgreesToRoundOff) {
+  const Loaded l = LoadPandaHand();
+  const mjModel* m = l.mujoco->mj_model();
+  const RigidTree& tree = l.robot.tree;
+  ASSERT_EQ(m->nv, 9);
+  ASSERT_EQ(m->neq, 1);
+  EXPECT_EQ(l.mujoco->num_dofs(), 8);
+  EXPECT_EQ(l.mujoco->joint_names(), tree.joint_names());
+  MatrixXd S = MatrixXd::Zero(9, 8);  // MuJoCo's joint order
+  VectorXd o = VectorXd::Zero(9);
+  for (int j = 0; j < tree.num_joints(); ++j) {
+    const int k = mj_name2id(m, mjOBJ_JOINT, tree.joints[static_cast<std::size_t>(j)].name.c_str());
+    ASSERT_GE(k, 0);
+    const RigidTree::JointMap map = tree.MapOf(j);
+    S(k, map.dof) = map.scale;
+    o[k] = map.offset;
+  }
+  const auto dynamics = MakeDynamics(UrdfPlantSpec(std::make_shared<UrdfRobot>(l.robot)), Method::kRecursive);
+  auto data = dynamics->MakeData();
+  mjData* d = mj_makeData(m);
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(0.05, 0.95), v(-1.5, 1.5);
+  Agreement worst;
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(8), qd(8);
+    for (int i = 0; i < 8; ++i) {
+      const double lo = l.mujoco->info().lower[static_cast<std::size_t>(i)];
+      const double hi = l.mujoco->info().upper[static_cast<std::size_t>(i)];
+      q[i] = lo + u(rng) * (hi - lo);
+      qd[i] = v(rng) * (i == 7 ? 0.1 : 1.0);  // m/s for the finger
+    }
+    const VectorXd qpos = S * q + o, qvel = S * qd;
+    mju_copy(d->qpos, qpos.data(), 9);
+    mju_copy(d->qvel, qvel.data(), 9);
+    mju_zero(d->qfrc_applied, 9);
+    mj_forward(m, d);
+    MatrixXd Mj(9, 9), Ml(8, 8);
+    mj_fullM(m, Mj.data(), d->qM);
+    dynamics->ComputeMassMatrix(*data, q, Ml);
+    VectorXd c(8), g(8);
+    dynamics->ComputeCoriolisForce(*data, q, qd, c);
+    dynamics->ComputeGravityForce(*data, q, g);
+    worst.M = std::max(worst.M, RelativeDifference(S.transpose() * Mj * S, Ml));
+    const double T = dynamics->ComputeKineticEnergy(*data, q, qd), V = dynamics->ComputePotentialEnergy(*data, q);
+    worst.T = std::max(worst.T, std::abs(d->energy[1] - T) / std::max(1.0, std::abs(T)));
+    worst.V = std::max(worst.V, std::abs(d->energy[0] - V) / std::max(1.0, std::abs(V)));
+  }
+  mj_deleteData(d);
+  EXPECT_LT(worst.M, kRoundOff);
+  EXPECT_LT(worst.bias, kRoundOff);
+  EXPECT_LT(worst.T, kRoundOff);
+  EXPECT_LT(worst.V, kRoundOff);
+  std::printf("panda_hand.urdf reduced (S^T M S, S^T bias): M %.2g, bias %.2g, T %.2g, V %.2g (relative)\n", worst.M,
+              worst.bias, worst.T, worst.V);
+}
+
+// MuJoCo's equality is soft: the right finger follows the left to its
+// violation. The arm falls under gravity from the ready pose for 0.5 s, the
+// fingers opening from 0.2 m/s (Franka's limit), every force on the fingers
+// inertial, the left one's damping or the constraint's. The largest
+// |q_right − q_left| allowed, m, per integrator (measured: 1.4e-7, 1.4e-8,
+// 6.0e-6; MuJoCo's implicit integrator keeps the coupling the least well).
+TEST(MujocoPlant, TheMimicFingerFollowsItsLeaderToTheEqualitysSoftness) {
+  for (const auto [integrator, tolerance] :
+       {std::pair{MujocoIntegrator::kEuler, 1e-6}, std::pair{MujocoIntegrator::kRk4, 1e-7},
+        std::pair{MujocoIntegrator::kImplicit, 1e-5}}) {
+    const Loaded l = LoadPandaHand(integrator);
+    auto data = l.mujoco->MakeData();
+    VectorXd q(8), qd = VectorXd::Zero(8), qdd(8), tau = VectorXd::Zero(8);
+    q << 0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.01;
+    qd[7] = 0.2;
+    data->SetState(q, qd);
+    EXPECT_DOUBLE_EQ(*MujocoJointPosition(*data, "panda_finger_joint2"), 0.01);  // placed on its leader
+    double gap = 0.0;
+    for (int k = 0; k < 500; ++k) {
+      ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+      gap = std::max(gap, std::abs(*MujocoJointPosition(*data, "panda_finger_joint2") - q[7]));
+    }
+    EXPECT_GT(q[7], 0.015);  // the fingers did open
+    EXPECT_LT(gap, tolerance) << ToString(integrator);
+    std::printf("panda_hand free fall 0.5 s, %s: max |q_finger2 - q_finger1| = %.2g m\n",
+                std::string(ToString(integrator)).c_str(), gap);
+    testing::AllocationCounter counter;
+    for (int k = 0; k < 20; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+    data->SetState(q, qd);
+    EXPECT_EQ(counter.count(), 0);
+  }
+}
+
+// Two sliders a and b in an MJCF; lagrange's model says b mimics a.
+std::string Sliders(const std::string& equality) {
+  return R"(<mujoco><worldbody>
+      <body name="ba"><joint name="a" type="slide" axis="1 0 0"/><geom size="0.05" mass="1"/></body>
+      <body name="bb" pos="0 1 0"><joint name="b" type="slide" axis="1 0 0"/><geom size="0.05" mass="1"/></body>
+      </worldbody>)" +
+         equality + "</mujoco>";
+}
+
+std::string MimicLoadError(const std::string& path, const std::vector<MujocoMimic>& mimics) {
+  MujocoOptions o;
+  o.mimics = mimics;
+  try {
+    LoadMujocoPlant(path, o);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(MujocoPlant, AnMjcfWithoutTheMimicsEqualityIsRefusedNamingTheElementToAdd) {
+  const std::string path = WriteTemp("uncoupled.xml", Sliders(""));
+  const std::string e = MimicLoadError(path, {{"b", "a", 1.0, 0.0}});
+  EXPECT_NE(
+      e.find("joint 'b' mimics 'a' in lagrange's model (q = 1 q_leader + 0): expected "
+             "<equality><joint joint1=\"b\" joint2=\"a\" polycoef=\"0 1 0 0 0\"/></equality> in the MJCF, got none"),
+      std::string::npos)
+      << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+}
+
+TEST(MujocoPlant, AnMjcfWhoseEqualityIsNotTheMimicsIsRefusedWithWhatItHolds) {
+  const std::string path = WriteTemp(
+      "miscoupled.xml", Sliders(R"(<equality><joint joint1="b" joint2="a" polycoef="0 2 0 0 0"/></equality>)"));
+  const std::string e = MimicLoadError(path, {{"b", "a", 1.0, 0.0}});
+  EXPECT_NE(e.find("got polycoef 0 2 0 0 0"), std::string::npos) << e;
+}
+
+TEST(MujocoPlant, AMimicThatIsNotMujocosJointIsRefused) {
+  const std::string path = WriteTemp("no_mimic.xml", Sliders(""));
+  const std::string e = MimicLoadError(path, {{"c", "a", 1.0, 0.0}});
+  EXPECT_NE(e.find("MuJoCo's joints (a, b) are not those of lagrange's model (a, b; mimics c)"), std::string::npos)
+      << e;
+}
+
+// A coupled MJCF: q is (a) alone; b is placed at 2 a + 0.1 and follows it.
+TEST(MujocoPlant, ACoupledMjcfsMimicIsNoDegreeOfFreedomAndFollowsItsLeader) {
+  const std::string path = WriteTemp(
+      "coupled.xml", Sliders(R"(<equality><joint joint1="b" joint2="a" polycoef="0.1 2 0 0 0"/></equality>)"));
+  MujocoOptions o;
+  o.mimics = {{"b", "a", 2.0, 0.1}};
+  const auto model = LoadMujocoPlant(path, o);
+  EXPECT_EQ(model->joint_names(), std::vector<std::string>{"a"});
+  auto data = model->MakeData();
+  VectorXd q(1), qd(1), qdd(1), tau(1);
+  q << 0.2;
+  qd << 0.0;
+  tau << 3.0;  // N on a: 1 kg of a plus 2² × 1 kg of b through the coupling, q̈ = 3 / 5 m/s²
+  data->SetState(q, qd);
+  EXPECT_NEAR(*MujocoJointPosition(*data, "b"), 0.5, 1e-15);
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EXPECT_NEAR(qdd[0], 3.0 / 5.0, 0.05 * 3.0 / 5.0);  // MuJoCo's default solref, soft: to 5 %
+  EXPECT_NEAR(*MujocoJointPosition(*data, "b"), 2.0 * q[0] + 0.1, 1e-2);
+  std::printf("coupled sliders (default solref): qdd %.6g m/s² against 0.6; |b - (2a + 0.1)| = %.2g m\n", qdd[0],
+              std::abs(*MujocoJointPosition(*data, "b") - 2.0 * q[0] - 0.1));
+}
+
 TEST(MujocoPlant, ADivergingSimulationFailsTheStepWithMujocosWarning) {
   const auto model = LoadMujocoPlant(WriteTemp("diverge.xml", kPendulum), MujocoOptions{});
   auto data = model->MakeData();

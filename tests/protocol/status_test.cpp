@@ -96,6 +96,22 @@ TEST(StatusDescriptions, AnIntegratorIsDescribedByItsNameAndWhatItWasGiven) {
   EXPECT_EQ(IntegratorDescription(c, true), "none");  // an external plant integrates nothing
 }
 
+// A plant MuJoCo steps: MuJoCo's integrator by its own name, whatever
+// lagrange's nearest (which never runs) is; semi-implicit Euler is not
+// called rk4, nor MuJoCo's implicit.
+TEST(StatusDescriptions, AMujocoPlantsIntegratorIsMujocosByName) {
+  IntegratorConfig c;  // rk4: what the scene loader sets for MuJoCo's implicit
+  EXPECT_EQ(IntegratorDescription(c, false, MujocoIntegrator::kImplicit), "mujoco-implicit");
+  EXPECT_EQ(IntegratorName(c.type, false, MujocoIntegrator::kImplicit), "mujoco-implicit");
+  c.type = IntegratorType::kSemiImplicitEuler;
+  c.substeps = 4;
+  EXPECT_EQ(IntegratorDescription(c, false, MujocoIntegrator::kEuler), "mujoco-euler x4");
+  EXPECT_EQ(IntegratorName(c.type, false, MujocoIntegrator::kEuler), "mujoco-euler");
+  EXPECT_EQ(IntegratorName(IntegratorType::kRk4, false, MujocoIntegrator::kRk4), "mujoco-rk4");
+  EXPECT_EQ(IntegratorName(IntegratorType::kRk4, false), "rk4");  // lagrange's own
+  EXPECT_EQ(IntegratorName(IntegratorType::kRk4, true), "none");
+}
+
 TEST(StatusDescriptions, TheEffectsOnAreListedInTheirOrder) {
   EffectFlags flags;
   EXPECT_EQ(EffectsDescription(flags), "");
