@@ -243,13 +243,8 @@ class Client {
     msg.qd.assign(vqd.data(), vqd.data() + n);
     msg.qdd.assign(vqdd.data(), vqdd.data() + n);
     py::gil_scoped_release release;
-    Link& link = *Find(name);
-    std::lock_guard lock(link.mutex);
-    try {
-      link.link->RequireOneRun("refusing to act");
-    } catch (...) {
-      Rethrow();
-    }
+    Link& link = *Find(name);  // opened by NumDofs
+    const std::unique_lock lock = LockToAct(link);
     msg.utime = MonotonicClock().WallMicros();
     return link.link->bus().PublishMessage(options_.Channel(name, kSetpointSuffix), msg);
   }
@@ -264,13 +259,8 @@ class Client {
       if (const std::string why = CheckChannelName(*channel); !why.empty()) throw py::value_error("channel: " + why);
     }
     py::gil_scoped_release release;
-    Link& link = *Find(name);
-    std::lock_guard lock(link.mutex);
-    try {
-      link.link->RequireOneRun("refusing to act");
-    } catch (...) {
-      Rethrow();
-    }
+    Link& link = *Find(name);  // opened by NumDofs
+    const std::unique_lock lock = LockToAct(link);
     torque_t& msg = link.torque;
     if (msg.run_id == 0) msg.run_id = NewRunId();
     ++msg.sequence;  // grows even when a publish fails: lagranged sees a gap, not a repeat
@@ -346,6 +336,18 @@ class Client {
     if (!(std::isfinite(timeout) && timeout > 0.0)) {
       throw py::value_error("timeout: expected a positive number of seconds, got " + FormatDouble(timeout));
     }
+  }
+
+  // `link` locked for sending, once it is known to follow one lagranged run
+  // (RequireOneRun's refusal raised as the Python error).
+  static std::unique_lock<std::mutex> LockToAct(Link& link) {
+    std::unique_lock lock(link.mutex);
+    try {
+      link.link->RequireOneRun("refusing to act");
+    } catch (...) {
+      Rethrow();
+    }
+    return lock;
   }
 
   Link* Find(const std::string& name) {
