@@ -19,31 +19,18 @@
 
 #include "protocol/lcm_log.hpp"
 #include "protocol/signing.hpp"
+#include "tests/support/lcm_log_bytes.hpp"
 
 namespace lagrange {
 namespace {
 
 namespace fs = std::filesystem;
-using Bytes = std::vector<std::uint8_t>;
+using testing::Bytes;
 
-void Put32(Bytes& out, std::uint32_t v) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<std::uint8_t>(v >> shift));
-}
-
-void Put64(Bytes& out, std::uint64_t v) {
-  Put32(out, static_cast<std::uint32_t>(v >> 32));
-  Put32(out, static_cast<std::uint32_t>(v));
-}
-
-// One event as lcm-logger writes it.
+// One event as lcm-logger writes it, appended to `log` (tests/support/lcm_log_bytes.hpp).
 void AddEvent(Bytes& log, std::int64_t number, std::int64_t utime, const std::string& channel, const Bytes& payload) {
-  Put32(log, kLcmLogSyncWord);
-  Put64(log, static_cast<std::uint64_t>(number));
-  Put64(log, static_cast<std::uint64_t>(utime));
-  Put32(log, static_cast<std::uint32_t>(channel.size()));
-  Put32(log, static_cast<std::uint32_t>(payload.size()));
-  log.insert(log.end(), channel.begin(), channel.end());
-  log.insert(log.end(), payload.begin(), payload.end());
+  const Bytes event = testing::LogEvent(number, utime, channel, payload);
+  log.insert(log.end(), event.begin(), event.end());
 }
 
 template <class Message>
