@@ -52,12 +52,22 @@ SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const Setpoint
   return {SetpointVerdict::Kind::kAccepted, ""};
 }
 
+std::string RefusedByController(TargetKind kind, bool task_space, const std::string& controller) {
+  if (kind == TargetKind::kPose && !task_space) {
+    return "the instance is not running a task-space controller (active: " + controller + ")";
+  }
+  if (kind == TargetKind::kJointSetpoint && task_space) {
+    return "the instance is running a task-space controller (active: " + controller +
+           "), which follows pose setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints";
+  }
+  return "";
+}
+
 SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out) {
   if (const WireCheck w = CheckPoseSetpointPacket(data, size); w != WireCheck::kOk) {
     return {SetpointVerdict::Kind::kUndecodable, ToString(w)};
   }
   if (out.decode(data, 0, static_cast<int>(size)) < 0) return {SetpointVerdict::Kind::kUndecodable, "decode failed"};
-  if (rules.frame.empty()) return Reject("no task-space controller on this instance (a pose needs one)");
   if (!out.frame.empty() && out.frame != rules.frame) {
     return Reject("frame '" + Escape(out.frame, 64) + "': the task-space controller moves '" + rules.frame + "'");
   }

@@ -158,7 +158,17 @@ TEST(PoseSetpointCheck, EveryBadPoseIsRejectedNamingTheField) {
   m.duration = 2.0;
   m.twist[0] = 0.1;
   EXPECT_EQ(reason(m), "twist with duration 2 s: a timed move ends at rest (send zeros)");
-  EXPECT_EQ(reason(Pose(0.4, 0.0, 0.5), PoseRules{}), "no task-space controller on this instance (a pose needs one)");
+}
+
+// One rule for both targets: each is refused while the active controller follows the other.
+TEST(TargetRule, AJointControllerRefusesPosesAndATaskSpaceOneRefusesJointSetpoints) {
+  EXPECT_EQ(RefusedByController(TargetKind::kPose, false, "pd"),
+            "the instance is not running a task-space controller (active: pd)");
+  EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, true, "cartesian-impedance"),
+            "the instance is running a task-space controller (active: cartesian-impedance), which follows pose "
+            "setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints");
+  EXPECT_EQ(RefusedByController(TargetKind::kPose, true, "operational-space"), "");
+  EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, false, "computed-torque"), "");
 }
 
 TEST(PoseSetpointCheck, AFrameNameFromTheBusIsEscapedInTheReason) {
