@@ -3,6 +3,7 @@
 #include <cmath>
 #include <span>
 #include <sstream>
+#include <tuple>
 
 #include "plant/escape.hpp"
 #include "protocol/wire.hpp"
@@ -94,6 +95,15 @@ SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const Pose
   }
   if (out.duration > 0.0 && Eigen::Map<const Eigen::Matrix<double, 6, 1>>(out.twist).cwiseAbs().maxCoeff() > 0.0) {
     return Reject("twist with duration " + Number(out.duration) + " s: a timed move ends at rest (send zeros)");
+  }
+  for (const auto& [part, at, bound, unit] : {std::tuple{"linear", 0, rules.max_linear_speed, "m/s"},
+                                              std::tuple{"angular", 3, rules.max_angular_speed, "rad/s"}}) {
+    const double speed = Eigen::Map<const Eigen::Vector3d>(out.twist + at).norm();
+    if (speed > bound) {
+      return Reject("twist: " + std::string(part) + " speed " + Number(speed) + " " + unit +
+                    " is more than the joints' velocity limits allow '" + rules.frame + "' (at most " + Number(bound) +
+                    " " + unit + " anywhere)");
+    }
   }
   return {SetpointVerdict::Kind::kAccepted, ""};
 }

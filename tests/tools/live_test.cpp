@@ -1048,6 +1048,35 @@ TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
   for (double q : s.q) EXPECT_TRUE(std::isfinite(q));
 }
 
+// A pose's feed-forward twist is bounded by what the joints' velocity limits
+// allow the frame (plant/frame_speed.hpp): the Panda's flange turns at most
+// 4 × 2.175 + 3 × 2.61 = 16.53 rad/s. Issue 32: 264 rad/s about z (and anything
+// up to 1e6) was accepted, and the wrist spun at 264 rad/s.
+TEST_F(LivePose, AFeedForwardTwistBeyondWhatTheJointVelocityLimitsAllowIsRefused) {
+  StartPanda(8668);
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  pose_setpoint_t spin = Pose(0.4, 0.0, 0.5);
+  spin.twist[5] = 264.0;
+  EXPECT_EQ(RawPoseRejection(spin),
+            "panda: pose: twist: angular speed 264 rad/s is more than the joints' velocity limits allow 'panda_link8' "
+            "(at most 16.53 rad/s anywhere)");
+  pose_setpoint_t huge = Pose(0.4, 0.0, 0.5);
+  huge.twist[0] = 1e6;
+  EXPECT_EQ(RawPoseRejection(huge).rfind("panda: pose: twist: linear speed 1e+06 m/s is more than", 0), 0u);
+  // Within the bound it is taken (and, streamed once, stops at rest after setpoint_timeout).
+  const auto accepted = [&] {
+    const auto statuses = collector_->Decoded<status_t>("LAGRANGE_STATUS");
+    return statuses.empty() ? 0 : statuses.back().setpoints_accepted;
+  };
+  const std::int64_t before = accepted();
+  pose_setpoint_t turn = Pose(0.4, 0.0, 0.5);
+  turn.twist[5] = 0.2;
+  turn.utime = WallMicros();
+  lcm::LCM(url_).publish("PANDA_POSE", &turn);
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [&](const status_t& st) { return st.setpoints_accepted > before; }, 10.0));
+}
+
 // The mirror of the pose refused by a joint controller: joint setpoints sent
 // to the Panda under Cartesian impedance are refused by name (never counted
 // as accepted and ignored), so no joint stream can time out under it; and a
