@@ -180,13 +180,13 @@ bool TimedOut(Nanoseconds now, Nanoseconds last, Nanoseconds timeout) { return n
 
 const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault) {
   const bool task_space = s.task_space_active();
-  const ModeContext context{.external_plant = s.m.external_plant(),
-                            .external_controller = s.external_active(),
-                            .task_space = task_space,
-                            .setpoints_timed_out =
-                                !task_space && s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
-                            .estop_this_tick = s.estop_this_tick,
-                            .fault = fault};
+  const ModeContext context{
+      .external_plant = s.m.external_plant(),
+      .external_controller = s.external_active(),
+      .task_space = task_space,
+      .setpoints_timed_out = !task_space && s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
+      .estop_this_tick = s.estop_this_tick,
+      .fault = fault};
   const ModeOutcome out = Transition(s.mode, event, context);
   const Mode before = s.mode.mode;
   s.mode = out.next;
@@ -410,7 +410,8 @@ void Runtime::LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived) {
 // controller follows poses: a setpoint the receiver let through before a
 // switch to one is dropped, as TakePose drops a pose after a switch away.
 void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
-  const SetpointMessage* msg = s.channels.setpoints.Take();  // taken even when unused, so an old one never applies later
+  // Taken even when unused, so an old one never applies later.
+  const SetpointMessage* msg = s.channels.setpoints.Take();
   if (s.task_space_active()) return;
   if (msg != nullptr) {
     s.streamed.q = msg->setpoint.q;

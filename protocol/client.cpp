@@ -277,8 +277,9 @@ void DaemonLink::AwaitFirstState() {
     const bool early = daemon_without_it();
     const std::string missing = "no state from instance '" + instance_ + "' on " + state_channel_ +
                                 (early ? "" : " within " + FormatDouble(options_.wait) + " s");
-    throw std::runtime_error(missing + " on " + options_.Url() + (early ? ", though a lagranged is publishing there" : "") +
-                             "; " + WhatWasHeard(signing_.heard(), options_.channel_prefix, instance_, heard_));
+    throw std::runtime_error(missing + " on " + options_.Url() +
+                             (early ? ", though a lagranged is publishing there" : "") + "; " +
+                             WhatWasHeard(signing_.heard(), options_.channel_prefix, instance_, heard_));
   }
   Pump(kRunWindow);
 }

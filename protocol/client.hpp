@@ -228,8 +228,8 @@ class DaemonLink {
   std::unique_ptr<Bus> bus_;
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
   std::set<std::string> heard_;         // channels heard before the first state, for HeardHint
-  SigningCensus signing_;              // what was dropped, or could not be checked, for its signature
-  std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
+  SigningCensus signing_;               // what was dropped, or could not be checked, for its signature
+  std::int64_t run_id_ = 0;             // chosen by AwaitOneRun
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;

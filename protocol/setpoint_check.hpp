@@ -55,7 +55,7 @@ struct PoseRules {
   std::string frame;  // the frame the task-space controller moves ("" for another controller)
   Eigen::Vector3d lower = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
   Eigen::Vector3d upper = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  double max_duration = 600.0;                                          // s
+  double max_duration = 600.0;                                         // s
   double max_linear_speed = std::numeric_limits<double>::infinity();   // m/s: ‖twist[0..2]‖
   double max_angular_speed = std::numeric_limits<double>::infinity();  // rad/s: ‖twist[3..5]‖
 };

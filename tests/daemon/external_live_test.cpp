@@ -293,16 +293,16 @@ TEST_F(ExternalLive, ImpedanceExampleSaysWhichRunItFollowedAndHowManyTorquesItSe
   EXPECT_NE(timed.err.find("impedance_client: following lagranged run " + run + " on ARM_STATE"), std::string::npos)
       << timed.err;
   long sent = 0;
-  ASSERT_EQ(std::sscanf(timed.out.c_str(), "impedance_client: sent %ld torques to ARM_TORQUE answering lagranged run",
-                        &sent),
-            1)
+  ASSERT_EQ(
+      std::sscanf(timed.out.c_str(), "impedance_client: sent %ld torques to ARM_TORQUE answering lagranged run", &sent),
+      1)
       << timed.out;
   EXPECT_GT(sent, 0);
   EXPECT_NE(timed.out.find("answering lagranged run " + run + "\n"), std::string::npos) << timed.out;
 
   BackgroundProcess until_killed({IMPEDANCE_CLIENT_PATH, "--lcm-url", url_, "--target", "0.3,0.6"});
   ASSERT_TRUE(testing::WaitUntil([&] { return until_killed.Stderr().find("following") != std::string::npos; }, kWait));
-  const std::int64_t torques = collector_->Count(kArmTorque);
+  const std::size_t torques = collector_->Count(kArmTorque);
   ASSERT_TRUE(testing::WaitUntil([&] { return collector_->Count(kArmTorque) > torques; }, kWait));
   until_killed.Signal(SIGTERM);
   EXPECT_EQ(until_killed.Wait(kWait), 0) << until_killed.Stderr();

@@ -34,7 +34,8 @@ double Fastest(Replay& r, double budget) {
 
 constexpr double kPreempted = 12.6e-3;  // s: the sample issue 32 saw
 constexpr double kTrue = 3e-6;          // s: what the same work costs unpreempted
-constexpr double kBudget = 50e-3 / 4;   // s: 50 ms shared by the default cart-pole's 4 controllers (LQR, PD, swing-up, none)
+constexpr double kBudget =
+    50e-3 / 4;  // s: 50 ms shared by the default cart-pole's 4 controllers (LQR, PD, swing-up, none)
 
 TEST(WorkBound, APreemptedFirstSampleThatSpendsTheBudgetIsNotTheCost) {
   Replay r{{kPreempted, kTrue}};

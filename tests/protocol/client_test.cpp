@@ -177,10 +177,10 @@ TEST(HeardHint, SuggestsOnlyAPrefixAStatusConfirms) {
 
 // The README's two-daemon loop: arm_controller under CTRL_, the plant's arm without a prefix.
 TEST(HeardHint, UnderAPrefixADaemonUsesTheNearestInstanceThereComesFirst) {
-  EXPECT_EQ(HeardHint("CTRL_", "arm",
-                      {"LAGRANGE_STATUS", "CTRL_LAGRANGE_STATUS", "ARM_STATE", "CTRL_ARM_CONTROLLER_STATE"}),
-            "state channels heard: ARM_STATE, CTRL_ARM_CONTROLLER_STATE; did you mean 'arm_controller'? (or a "
-            "lagranged publishes ARM_STATE: without --channel-prefix?)");
+  EXPECT_EQ(
+      HeardHint("CTRL_", "arm", {"LAGRANGE_STATUS", "CTRL_LAGRANGE_STATUS", "ARM_STATE", "CTRL_ARM_CONTROLLER_STATE"}),
+      "state channels heard: ARM_STATE, CTRL_ARM_CONTROLLER_STATE; did you mean 'arm_controller'? (or a "
+      "lagranged publishes ARM_STATE: without --channel-prefix?)");
 }
 
 TEST(SigningHint, EachReasonHeardIsAClauseAndNoneIsNothing) {

@@ -176,9 +176,10 @@ TEST(PoseSetpointCheck, ATwistFasterThanTheJointsAllowTheFrameIsRejected) {
             "16.5 rad/s anywhere)");
   m.twist[5] = 0.0;
   m.twist[0] = 3.0;  // ‖(3, 0, 3)‖ = 4.24 m/s
-  EXPECT_EQ(CheckPose(m, rules).reason,
-            "twist: linear speed 4.24264 m/s is more than the joints' velocity limits allow 'panda_hand_tcp' (at most 4 "
-            "m/s anywhere)");
+  EXPECT_EQ(
+      CheckPose(m, rules).reason,
+      "twist: linear speed 4.24264 m/s is more than the joints' velocity limits allow 'panda_hand_tcp' (at most 4 "
+      "m/s anywhere)");
 }
 
 // One rule for both targets: each is refused while the active controller follows the other.

@@ -27,7 +27,7 @@ using testing::BackgroundProcess;
 using testing::RunCtl;
 
 constexpr double kStartWait = 20.0;  // s: bound on a daemon's start; a pass takes far less
-const std::string kWait = "1";        // s: lagrangectl's --wait where nothing it can believe will come
+const std::string kWait = "1";       // s: lagrangectl's --wait where nothing it can believe will come
 
 class HeardDaemon : public ::testing::Test {
  protected:
@@ -54,8 +54,7 @@ class HeardDaemon : public ::testing::Test {
     argv.insert(argv.end(), extra.begin(), extra.end());
     daemons_.push_back(std::make_unique<BackgroundProcess>(argv));
     ready.insert(ready.end(), {"--lcm-url", url_, "--wait", "5"});
-    ASSERT_TRUE(testing::WaitUntil([&] { return RunCtl(ready).status == 0; }, kStartWait))
-        << daemons_.back()->Stderr();
+    ASSERT_TRUE(testing::WaitUntil([&] { return RunCtl(ready).status == 0; }, kStartWait)) << daemons_.back()->Stderr();
   }
   testing::CtlResult Ctl(std::vector<std::string> args) {
     args.insert(args.end(), {"--lcm-url", url_, "--wait", kWait});
@@ -77,8 +76,9 @@ void ExpectHeard(const testing::CtlResult& r, const std::string& what) {
 
 TEST_F(HeardDaemon, AClientWithAnotherKeyIsToldTheDaemonSignsWithAnotherKey) {
   Start(8661, {"--bus-key", Key("daemon.key")}, {"watch", "--frames", "1", "--bus-key", Key("daemon.key")});
-  const std::string other = "messages signed with another key (their tags do not verify with this client's): give "
-                            "the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)";
+  const std::string other =
+      "messages signed with another key (their tags do not verify with this client's): give "
+      "the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)";
   ExpectHeard(Ctl({"command", "arm", "pause", "--bus-key", Key("other.key")}), other);
   ExpectHeard(Ctl({"send", "arm", "--q", "0.5,0", "--once", "--bus-key", Key("other.key")}), other);
   ExpectHeard(Ctl({"watch", "--frames", "1", "--bus-key", Key("other.key")}), other);
@@ -86,8 +86,9 @@ TEST_F(HeardDaemon, AClientWithAnotherKeyIsToldTheDaemonSignsWithAnotherKey) {
 
 TEST_F(HeardDaemon, AClientWithAKeyIsToldTheDaemonIsUnsigned) {
   Start(8662, {}, {"watch", "--frames", "1"});
-  const std::string unsigned_daemon = "unsigned messages, which a client with a key refuses: the daemon runs without "
-                                      "one (give it --bus-key FILE too, or run this client without a key)";
+  const std::string unsigned_daemon =
+      "unsigned messages, which a client with a key refuses: the daemon runs without "
+      "one (give it --bus-key FILE too, or run this client without a key)";
   ExpectHeard(Ctl({"command", "arm", "pause", "--bus-key", Key("daemon.key")}), unsigned_daemon);
   ExpectHeard(Ctl({"watch", "--frames", "1", "--bus-key", Key("daemon.key")}), unsigned_daemon);
 }
@@ -95,8 +96,9 @@ TEST_F(HeardDaemon, AClientWithAKeyIsToldTheDaemonIsUnsigned) {
 TEST_F(HeardDaemon, AClientWithoutAKeyIsToldTheDaemonSigns) {
   Start(8663, {"--bus-key", Key("daemon.key")}, {"watch", "--frames", "1", "--bus-key", Key("daemon.key")});
   unsetenv(kBusKeyEnv);  // without a key: none from the environment either
-  const std::string signed_daemon = "signed messages, which a client without a key cannot check: its states are "
-                                    "signed; give the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)";
+  const std::string signed_daemon =
+      "signed messages, which a client without a key cannot check: its states are "
+      "signed; give the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)";
   ExpectHeard(Ctl({"command", "arm", "pause"}), signed_daemon);
   ExpectHeard(Ctl({"watch", "--frames", "1"}), signed_daemon);
 }

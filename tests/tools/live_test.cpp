@@ -1054,7 +1054,8 @@ TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
 // up to 1e6) was accepted, and the wrist spun at 264 rad/s.
 TEST_F(LivePose, AFeedForwardTwistBeyondWhatTheJointVelocityLimitsAllowIsRefused) {
   StartPanda(8668);
-  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
   pose_setpoint_t spin = Pose(0.4, 0.0, 0.5);
   spin.twist[5] = 264.0;
   EXPECT_EQ(RawPoseRejection(spin),
@@ -1085,7 +1086,8 @@ TEST_F(LivePose, AFeedForwardTwistBeyondWhatTheJointVelocityLimitsAllowIsRefused
 // to hold for a tick, and lagrangectl said it did not follow the pose).
 TEST_F(LivePose, AJointSetpointIsRefusedByATaskSpaceInstanceAndAPoseKeepsItRunning) {
   StartPanda(8660);
-  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>("PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
   const std::string q = "0,-0.785,0,-2.356,0,1.571,0.785";
   ExpectOneLine(Ctl({"send", "panda", "--q", q, "--for", "0.2"}), "send", 1,
                 "panda: the instance is running a task-space controller (active: cartesian-impedance), which follows "

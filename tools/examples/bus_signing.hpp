@@ -37,11 +37,13 @@ class BusSigning {
     if (key_file.empty()) return;
     if (sodium_init() < 0) throw std::runtime_error("libsodium cannot be initialised");
     struct stat st {};
-    if (stat(key_file.c_str(), &st) != 0) throw std::invalid_argument("bus key " + key_file + ": " + std::strerror(errno));
+    if (stat(key_file.c_str(), &st) != 0)
+      throw std::invalid_argument("bus key " + key_file + ": " + std::strerror(errno));
     if ((st.st_mode & 077) != 0) throw std::invalid_argument("bus key " + key_file + ": readable by group or others");
     std::ifstream in(key_file, std::ios::binary);
     key_.assign(std::istreambuf_iterator<char>(in), {});
-    if (key_.size() < 32 || key_.size() > 64) throw std::invalid_argument("bus key " + key_file + ": not 32 to 64 bytes");
+    if (key_.size() < 32 || key_.size() > 64)
+      throw std::invalid_argument("bus key " + key_file + ": not 32 to 64 bytes");
     randombytes_buf(&sender_, sizeof sender_);
   }
 

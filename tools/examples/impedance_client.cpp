@@ -30,11 +30,11 @@ struct Impedance {
   std::vector<double> target;                   // q*, rad or m
   double K, D;                                  // N·m/rad, N·m·s/rad
   BusSigning* bus;                              // unsigned without a key
-  lagrange::torque_t out;                       // run_id: this stream's; sequence: +1 per torque, from 1
+  lagrange::torque_t out{};                     // run_id: this stream's; sequence: +1 per torque, from 1
   std::int64_t locked_run = 0, last_heard = 0;  // the lagranged run followed, and when (µs) it was last heard
   std::int64_t unverified = 0, applied = 0;     // states BusSigning refused; states with our torque applied
-  std::set<std::string> heard;                  // state channels heard (for a mistyped --instance)
-  std::string error;                            // set: main stops and reports it
+  std::set<std::string> heard{};                // state channels heard (for a mistyped --instance)
+  std::string error{};                          // set: main stops and reports it
 
   void OnState(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     if (channel != state_channel) return void(heard.size() < 8 && heard.insert(channel).second);
