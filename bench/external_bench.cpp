@@ -75,10 +75,10 @@
 #include "bench/options.hpp"
 #include "bench/stats.hpp"
 #include "daemon/realtime.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/scene_channels.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "sim/scene.hpp"
+#include "sim/scene_channels.hpp"
 
 namespace lagrange::bench {
 namespace {

@@ -79,12 +79,12 @@
 #include "bench/options.hpp"
 #include "bench/stats.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/instance.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/scene_channels.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
+#include "sim/instance.hpp"
+#include "sim/scene.hpp"
+#include "sim/scene_channels.hpp"
 
 namespace lagrange::bench {
 namespace {

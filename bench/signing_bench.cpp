@@ -31,9 +31,9 @@
 #include <vector>
 
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
 #include "protocol/big_endian.hpp"
 #include "protocol/signing.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange::bench {
 namespace {

@@ -43,8 +43,8 @@
 
 #include "bench/stats.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
 #include "protocol/clock.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange::bench {
 namespace {

@@ -1,7 +1,7 @@
 #include "daemon/runtime.hpp"
 
-#include "daemon/health.hpp"
-#include "daemon/work_bound.hpp"
+#include "sim/health.hpp"
+#include "sim/work_bound.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -49,7 +49,7 @@ InstanceRecord::InstanceRecord(int n)
 
 // The tick's data for one instance: its Instance, its mailboxes, its mode
 // and the timers and state the tick keeps between ticks. Everything fixed
-// is the model's (`m`, daemon/instance_model.hpp).
+// is the model's (`m`, sim/instance_model.hpp).
 struct Runtime::Slot {
   explicit Slot(std::shared_ptr<const InstanceModel> model)
       : m(*model),
@@ -92,7 +92,7 @@ struct Runtime::Slot {
   bool send_zero_once = false;    // fault or stopped: command zero torque in this tick's record, once
   bool forces;                    // publish <NAME>_FORCES
   bool integrated = false;        // this tick ran the integrator
-  double worst_s = 0.0;           // this instance's worst case per tick as it runs now (daemon/work_bound.hpp)
+  double worst_s = 0.0;           // this instance's worst case per tick as it runs now (sim/work_bound.hpp)
   bool estop_this_tick = false;   // an estop was posted for this tick (a clear_estop in it is refused)
   WorkFigures refusal;            // the figures of the last switch the work bound refused
 
@@ -503,7 +503,7 @@ void Runtime::ControlAndIntegrate(Slot& s) {
   }
 }
 
-// (step, state) => energies; fault (daemon/health.hpp's rule), or remember
+// (step, state) => energies; fault (sim/health.hpp's rule), or remember
 // the state as good. The energies computed here are the ones the record publishes.
 void Runtime::CheckHealth(Slot& s, InstanceRecord& r) {
   if (!Commands(s.mode.mode)) return;  // nothing moved (or nothing was measured); the energies stand

@@ -41,14 +41,14 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
-#include "daemon/instance.hpp"
-#include "daemon/instance_model.hpp"
 #include "daemon/mailbox.hpp"
 #include "daemon/mode_machine.hpp"
-#include "daemon/scene.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/command_kind.hpp"
 #include "protocol/mode.hpp"
+#include "sim/instance.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange {
 
@@ -143,7 +143,7 @@ struct InstanceChannels {
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
 };
 
-// Why a run-time switch was refused by the work bound (daemon/work_bound.hpp);
+// Why a run-time switch was refused by the work bound (sim/work_bound.hpp);
 // the reply adds the figures (WorkFigures).
 inline constexpr char kSwitchDoesNotFit[] =
     "the instances' worst case per tick would not fit the period (as lagranged refuses such a scene): lower "

@@ -18,23 +18,23 @@
 #include <thread>
 #include <variant>
 
-#include "daemon/default_scene.hpp"
-#include "daemon/instance_model.hpp"
 #include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/publisher.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
 #include "daemon/timing_csv.hpp"
-#include "daemon/work_bound.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/signing.hpp"
 #include "protocol/status.hpp"
+#include "sim/default_scene.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/scene.hpp"
+#include "sim/work_bound.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace lagrange {
 namespace {
@@ -172,7 +172,7 @@ std::variant<int, Prepared> Prepare(const Options& o) {
   // The run's model, built once, with each method's measured cost: a tick
   // must end within the period whatever the scene does, and the run-time
   // integrator and method commands are held to the same bound
-  // (daemon/work_bound.hpp).
+  // (sim/work_bound.hpp).
   try {
     BuildOptions options;
     options.channel_prefix = o.channel_prefix;

@@ -13,7 +13,7 @@ namespace lagrange {
 
 // main() of lagranged. Exit status: 0 after SIGINT/SIGTERM or --duration;
 // 2 for a bad option, LCM URL, log file or scene, or a scene whose worst-case
-// tick does not fit its period (daemon/work_bound.hpp), each named in one line
+// tick does not fit its period (sim/work_bound.hpp), each named in one line
 // before the loop starts; 3 when --require-rt is given and real-time set-up
 // of the tick thread or the memory lock failed; 1 for other failures.
 int RunLagranged(int argc, char** argv);

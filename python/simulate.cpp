@@ -1,7 +1,7 @@
 // lagrange.simulate and lagrange.Instance: a scene run by the daemon's own
-// Instance code (daemon/instance.hpp) under its health rule
-// (daemon/health.hpp), prepared as lagrangectl simulate prepares it
-// (PrepareOfflineScene, daemon/offline.hpp). What simulate returns per row is
+// Instance code (sim/instance.hpp) under its health rule
+// (sim/health.hpp), prepared as lagrangectl simulate prepares it
+// (PrepareOfflineScene, sim/offline.hpp). What simulate returns per row is
 // what lagrangectl simulate writes per CSV row, the same doubles.
 
 #include <pybind11/functional.h>
@@ -16,14 +16,14 @@
 #include <map>
 #include <optional>
 
-#include "daemon/health.hpp"
-#include "daemon/offline.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "plant/escape.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
 #include "python/paths.hpp"
+#include "sim/health.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace lagrange::python {
 namespace {

@@ -3,7 +3,7 @@
 // instance under a task-space controller also its commanded frame, one row per
 // CSV row (TaskCsvPath).
 // A scene with an external plant or controller is refused: it needs the bus.
-// An instance that fails lagranged's health check (daemon/health.hpp) stops at
+// An instance that fails lagranged's health check (sim/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
 
 #include <cmath>
@@ -13,11 +13,11 @@
 #include <memory>
 
 #include "controllers/task_space.hpp"
-#include "daemon/health.hpp"
-#include "daemon/instance_model.hpp"
-#include "daemon/offline.hpp"
-#include "daemon/scene.hpp"
 #include "protocol/format.hpp"
+#include "sim/health.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 #include "tools/log_csv.hpp"

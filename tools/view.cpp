@@ -35,8 +35,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "daemon/default_scene.hpp"
-#include "daemon/scene.hpp"
 #include "plant/escape.hpp"
 #include "plant/urdf.hpp"
 #include "protocol/channels.hpp"
@@ -45,6 +43,8 @@
 #include "protocol/mode.hpp"
 #include "protocol/status.hpp"
 #include "protocol/wire.hpp"
+#include "sim/default_scene.hpp"
+#include "sim/scene.hpp"
 #include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"

@@ -24,7 +24,7 @@
 #include <random>
 #include <thread>
 
-#include "daemon/instance.hpp"
+#include "sim/instance.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 

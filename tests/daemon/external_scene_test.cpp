@@ -6,11 +6,11 @@
 
 #include <string>
 
-#include "daemon/instance_model.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/scene_channels.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "protocol/channels.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/scene.hpp"
+#include "sim/scene_channels.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace lagrange {
 namespace {

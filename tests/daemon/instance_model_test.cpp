@@ -1,13 +1,13 @@
-// The instance model (daemon/instance_model.hpp): each fact about an instance
+// The instance model (sim/instance_model.hpp): each fact about an instance
 // is built once from the scene and every thread reads that one copy.
 
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "daemon/instance_model.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/yaml_reader.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/yaml_reader.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "daemon/instance.hpp"
-#include "daemon/offline.hpp"
+#include "sim/instance.hpp"
+#include "sim/offline.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace lagrange {

@@ -17,18 +17,18 @@
 #include <utility>
 #include <vector>
 
-#include "daemon/health.hpp"
-#include "daemon/instance.hpp"
 #include "daemon/loop.hpp"
-#include "daemon/offline.hpp"
 #include "daemon/publisher.hpp"
 #include "daemon/receiver.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "plant/mujoco_plant.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/status.hpp"
+#include "sim/health.hpp"
+#include "sim/instance.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 

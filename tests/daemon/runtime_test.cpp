@@ -6,9 +6,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "daemon/health.hpp"
 #include "daemon/loop.hpp"
 #include "daemon/runtime.hpp"
+#include "sim/health.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <regex>
 
-#include "daemon/offline.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 #include "tests/support/mujoco_scenes.hpp"
 
 namespace lagrange {

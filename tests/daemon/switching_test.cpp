@@ -7,10 +7,10 @@
 
 #include <cmath>
 
-#include "daemon/instance.hpp"
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
+#include "sim/instance.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace lagrange {
 namespace {

@@ -12,14 +12,14 @@
 #include <filesystem>
 #include <fstream>
 
-#include "daemon/instance.hpp"
-#include "daemon/offline.hpp"
-#include "tests/support/shipped_scene.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "protocol/command_check.hpp"
+#include "sim/instance.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/lcm_messages.hpp"
+#include "tests/support/shipped_scene.hpp"
 
 namespace lagrange {
 namespace {

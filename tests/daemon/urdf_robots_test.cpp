@@ -1,5 +1,5 @@
 // The shipped URDF scenes, run offline as lagrangectl simulate runs them
-// (daemon/offline.hpp, lagranged's health check at every step), do what
+// (sim/offline.hpp, lagranged's health check at every step), do what
 // their comments say: the Panda held by gravity compensation stays put, the
 // Panda under computed torque tracks its minimum-jerk move, the UR5 under PD
 // with gravity compensation settles at its setpoint, and a heavier model
@@ -9,11 +9,11 @@
 
 #include <cmath>
 
-#include "daemon/health.hpp"
-#include "daemon/instance.hpp"
-#include "daemon/offline.hpp"
-#include "tests/support/shipped_scene.hpp"
+#include "sim/health.hpp"
+#include "sim/instance.hpp"
+#include "sim/offline.hpp"
 #include "tests/support/plant_cases.hpp"
+#include "tests/support/shipped_scene.hpp"
 
 namespace lagrange {
 namespace {

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <limits>
 
-#include "daemon/instance.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
+#include "sim/instance.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 #include "tests/support/plant_cases.hpp"
 
 namespace lagrange {

@@ -1,4 +1,4 @@
-// How lagranged times a cost before the loop (daemon/work_bound.hpp,
+// How lagranged times a cost before the loop (sim/work_bound.hpp,
 // FastestOfSamples), with an injected sample source and clock: nothing here is
 // timed. Issue 32: the default scene was refused on a busy host because one
 // controller's tick overhead was timed by a single sample the scheduler had
@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "daemon/work_bound.hpp"
+#include "sim/work_bound.hpp"
 
 namespace lagrange {
 namespace {

@@ -8,8 +8,8 @@
 #include <string>
 
 #include "daemon/runtime.hpp"
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace lagrange;

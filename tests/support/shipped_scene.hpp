@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "daemon/instance.hpp"
-#include "daemon/offline.hpp"
-#include "daemon/scene.hpp"
+#include "sim/instance.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange::testing {
 

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "daemon/offline.hpp"
-#include "daemon/scene.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
 #include "tests/support/process.hpp"
 
 namespace lagrange {

@@ -10,8 +10,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "daemon/scene.hpp"
 #include "protocol/format.hpp"
+#include "sim/scene.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 #include "tools/cli_support.hpp"

@@ -32,10 +32,10 @@
 
 #include <Eigen/Geometry>
 
-#include "daemon/scene.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
+#include "sim/scene.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"

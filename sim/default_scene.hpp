@@ -4,8 +4,8 @@
 // installed with it, P/share/lagrange/config/default.yaml; a lagranged in a
 // build tree runs this checkout's config/default.yaml.
 //
-// Compiled into lagrange_daemon and what links it (lagrangectl view shows that
-// scene by default): daemon/CMakeLists.txt defines
+// Compiled into lagrange_sim and what links it (lagrangectl view shows that
+// scene by default): sim/CMakeLists.txt defines
 //   LAGRANGE_DEFAULT_SCENE    this checkout's config/default.yaml (absolute)
 //   LAGRANGE_INSTALLED_SCENE  the installed default.yaml relative to the
 //                             installed lagranged's directory

@@ -1,4 +1,4 @@
-#include "daemon/instance.hpp"
+#include "sim/instance.hpp"
 
 namespace lagrange {
 namespace {

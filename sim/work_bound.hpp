@@ -39,7 +39,7 @@
 #include <string>
 #include <vector>
 
-#include "daemon/scene.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange {
 

@@ -1,15 +1,15 @@
-#include "daemon/instance_model.hpp"
+#include "sim/instance_model.hpp"
 
 #include <limits>
 #include <stdexcept>
 #include <utility>
 #include <variant>
 
-#include "daemon/health.hpp"
-#include "daemon/scene_channels.hpp"
-#include "daemon/work_bound.hpp"
 #include "plant/frame_speed.hpp"
 #include "plant/urdf.hpp"
+#include "sim/health.hpp"
+#include "sim/scene_channels.hpp"
+#include "sim/work_bound.hpp"
 
 namespace lagrange {
 namespace {

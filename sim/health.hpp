@@ -1,6 +1,6 @@
 #pragma once
 // The health rule of one step, in one place for the tick (daemon/runtime.cpp)
-// and the offline runner (daemon/offline.cpp, lagrangectl simulate). A step is
+// and the offline runner (sim/offline.cpp, lagrangectl simulate). A step is
 // a fault, named by the first rule it breaks, when
 //   1. the step itself failed: the controller's output was not finite, or the
 //      integrator failed its tolerance (Instance::StepFailure);
@@ -13,8 +13,8 @@
 
 #include <cmath>
 
-#include "daemon/instance.hpp"
 #include "plant/plant_factory.hpp"
+#include "sim/instance.hpp"
 
 namespace lagrange {
 

@@ -6,9 +6,9 @@
 #include <memory>
 #include <string>
 
-#include "daemon/scene.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "plant/urdf.hpp"
+#include "sim/scene.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace lagrange {
 

@@ -1,4 +1,4 @@
-#include "daemon/yaml_reader.hpp"
+#include "sim/yaml_reader.hpp"
 
 #include "plant/bounded_file.hpp"
 

@@ -4,7 +4,7 @@
 // an instance that is fixed before the loop is built once from the scene
 // (BuildDaemonModel), immutable afterwards, and read by const reference by
 // the receive thread, the tick and the publish thread. Each thread keeps only
-// its own data: the tick its Instance (daemon/instance.hpp) and mode
+// its own data: the tick its Instance (sim/instance.hpp) and mode
 // (Runtime), the receiver its timelines and senders, the publisher its
 // messages.
 
@@ -18,11 +18,11 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/task_space.hpp"
-#include "daemon/scene.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/command_check.hpp"
 #include "protocol/setpoint_check.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange {
 
@@ -92,7 +92,7 @@ struct DaemonModel {
 
 struct BuildOptions {
   std::string channel_prefix;  // --channel-prefix
-  bool measure_costs = false;  // time each method's evaluation (daemon/work_bound.hpp), for the switch commands
+  bool measure_costs = false;  // time each method's evaluation (sim/work_bound.hpp), for the switch commands
   // Given costs instead (by Method, s; the rest of a tick 0), for every
   // instance: tests that need the bound exact.
   std::optional<std::array<double, kNumMethods>> evaluation_s;

@@ -1,6 +1,6 @@
 #pragma once
 // One running plant instance, the tick's data for one InstanceModel
-// (daemon/instance_model.hpp): its plant (data for the shared dynamics
+// (sim/instance_model.hpp): its plant (data for the shared dynamics
 // models, the effects' switches), integrators, controllers, trajectory and
 // state. Everything is allocated in the constructor; nothing after allocates.
 //
@@ -15,12 +15,12 @@
 #include "controllers/controller.hpp"
 #include "controllers/task_space.hpp"
 #include "controllers/trajectory.hpp"
-#include "daemon/instance_model.hpp"
-#include "daemon/scene.hpp"
 #include "plant/energy_balance.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
 #include "plant/stepped_plant.hpp"
+#include "sim/instance_model.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange {
 

@@ -1,4 +1,4 @@
-#include "daemon/scene_control.hpp"
+#include "sim/scene_control.hpp"
 
 #include "protocol/channels.hpp"
 

@@ -1,14 +1,14 @@
-#include "daemon/scene.hpp"
+#include "sim/scene.hpp"
 
 #include <algorithm>
 #include <filesystem>
 #include <limits>
 #include <set>
 
-#include "daemon/scene_control.hpp"
-#include "daemon/yaml_reader.hpp"
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#include "sim/scene_control.hpp"
+#include "sim/yaml_reader.hpp"
 #ifdef LAGRANGE_HAVE_MUJOCO
 #include "plant/mujoco_plant.hpp"
 #endif

@@ -1,10 +1,10 @@
-#include "daemon/offline.hpp"
+#include "sim/offline.hpp"
 
 #include <stdexcept>
 
-#include "daemon/health.hpp"
-#include "daemon/work_bound.hpp"
 #include "protocol/format.hpp"
+#include "sim/health.hpp"
+#include "sim/work_bound.hpp"
 
 namespace lagrange {
 

@@ -1,4 +1,4 @@
-#include "daemon/work_bound.hpp"
+#include "sim/work_bound.hpp"
 
 #include <fmt/format.h>
 
@@ -7,10 +7,10 @@
 #include <cmath>
 #include <limits>
 
-#include "daemon/instance.hpp"
-#include "daemon/instance_model.hpp"
 #include "plant/plant_model.hpp"
 #include "protocol/status.hpp"
+#include "sim/instance.hpp"
+#include "sim/instance_model.hpp"
 
 namespace lagrange {
 namespace {

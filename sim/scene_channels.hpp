@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "daemon/scene.hpp"
 #include "protocol/channels.hpp"
+#include "sim/scene.hpp"
 
 namespace lagrange {
 

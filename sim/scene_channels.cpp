@@ -1,4 +1,4 @@
-#include "daemon/scene_channels.hpp"
+#include "sim/scene_channels.hpp"
 
 namespace lagrange {
 

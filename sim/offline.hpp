@@ -1,7 +1,7 @@
 #pragma once
 // Running a scene offline: every instance from its initial state under its
 // scene controller and trajectory, as fast as the machine goes, under the
-// daemon's health rule (daemon/health.hpp) after every step.
+// daemon's health rule (sim/health.hpp) after every step.
 
 #include <cstdint>
 #include <functional>
@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "daemon/instance.hpp"
-#include "daemon/instance_model.hpp"
+#include "sim/instance.hpp"
+#include "sim/instance_model.hpp"
 
 namespace lagrange {
 
-struct StepEnergies;  // daemon/health.hpp
+struct StepEnergies;  // sim/health.hpp
 
 // Called at t = 0 and after every healthy step with the instance's index.
 using StepObserver = std::function<void(std::size_t index, Instance& instance)>;
@@ -58,7 +58,7 @@ OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_la
 // with a Python law's torque.)
 using StepFunction = std::function<Instance::StepFailure(std::size_t index, Instance& instance)>;
 
-// The daemon's health check (daemon/health.hpp) of the step `instance` has
+// The daemon's health check (sim/health.hpp) of the step `instance` has
 // just taken (`step`: its outcome): when it fails, the instance is put back
 // to `good` and the fault returned; else `good` becomes its state.
 std::optional<OfflineFault> CheckOfflineStep(std::size_t index, Instance& instance, Instance::StepFailure step,

@@ -136,7 +136,7 @@ struct ExternalControllerRef {
 };
 ExternalControllerRef ExternalControllerOf(const InstanceConfig& config);
 
-// Throw ConfigError (daemon/yaml_reader.hpp) naming file, line, key and reason.
+// Throw ConfigError (sim/yaml_reader.hpp) naming file, line, key and reason.
 Scene LoadScene(const std::string& path);
 // The instance's initial trajectory.
 std::unique_ptr<Trajectory> MakeTrajectory(const InstanceConfig& config);
