@@ -176,8 +176,9 @@ std::variant<int, Prepared> Prepare(const Options& o) {
   try {
     BuildOptions options;
     options.channel_prefix = o.channel_prefix;
-    options.measure_costs = true;
-    p.model = BuildDaemonModel(scene, options);
+    const std::shared_ptr<DaemonModel> model = BuildDaemonModel(scene, options);
+    MeasureCosts(*model);
+    p.model = model;
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", o.config, e.what());
     return 2;

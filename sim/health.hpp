@@ -5,7 +5,8 @@
 //   1. the step itself failed: the controller's output was not finite, or the
 //      integrator failed its tolerance (Instance::StepFailure);
 //   2. q, q̇ or q̈ is not finite;
-//   3. T + V is not finite or |T + V| > max_energy (J);
+//   3. T + V is not finite or |T + V| > max_energy (J; the scene's default,
+//      MaxEnergy in sim/scene.hpp);
 //   4. the scene bounds the energy-balance residual with on_exceed: fault,
 //      and |ε| > energy_balance.bound (J). (With on_exceed: warn, exceeding
 //      it is no fault: ResidualExceeds tells the caller to say so.)
@@ -13,7 +14,6 @@
 
 #include <cmath>
 
-#include "plant/plant_factory.hpp"
 #include "sim/instance.hpp"
 
 namespace lagrange {
@@ -24,11 +24,6 @@ namespace lagrange {
 inline constexpr char kStateNotFinite[] = "the state became non-finite";
 inline constexpr char kEnergyOutOfBound[] = "the energy left its bound (max_energy)";
 inline constexpr char kResidualOutOfBound[] = "the energy-balance residual left its bound (energy_balance.bound)";
-
-// J: an instance's bound on |T + V|: the scene's max_energy, else DefaultMaxEnergy.
-inline double MaxEnergy(const InstanceConfig& config) {
-  return config.max_energy.value_or(DefaultMaxEnergy(config.plant));
-}
 
 // The energies the check computes, for the caller to record (computed once per step).
 struct StepEnergies {

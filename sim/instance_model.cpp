@@ -7,9 +7,7 @@
 
 #include "plant/frame_speed.hpp"
 #include "plant/urdf.hpp"
-#include "sim/health.hpp"
 #include "sim/scene_channels.hpp"
-#include "sim/work_bound.hpp"
 
 namespace lagrange {
 namespace {
@@ -133,16 +131,11 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
   m.state_timeout = config.external ? ToNanoseconds(config.external->state_timeout) : 0;
   m.setpoint_rules = SetpointRules{m.num_dofs, config.setpoint_lower, config.setpoint_upper};
   m.command_rules = CommandRulesOf(m);
-  if (options.measure_costs) {
-    m.evaluation_s = MeasureEvaluationCosts(config);
-    m.tick_overhead_s = MeasureTickOverheadSeconds(config, m.evaluation_s[static_cast<std::size_t>(config.method)]);
-    if (!m.external_plant()) m.forces_s = MeasureForcesSeconds(config);
-  }
   if (options.evaluation_s) m.evaluation_s = *options.evaluation_s;
   return m;
 }
 
-std::shared_ptr<const DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options) {
+std::shared_ptr<DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options) {
   auto model = std::make_shared<DaemonModel>();
   model->file = scene.file;
   model->period = scene.period;

@@ -72,9 +72,10 @@ struct InstanceModel {
   Nanoseconds state_timeout = 0;     // an external plant's; 0: not external
   SetpointRules setpoint_rules;      // what the receiver accepts as a setpoint
   CommandRules command_rules;        // ... and as a command
-  // Measured before the loop (BuildOptions::measure_costs): one right-hand-side
-  // evaluation's cost by Method, s, with every configured effect on; 0: not
-  // measured (nothing is then refused for cost).
+  // Measured before the loop, by a pass over the built model (MeasureCosts,
+  // sim/work_bound.hpp): one right-hand-side evaluation's cost by Method, s,
+  // with every configured effect on; 0: not measured (nothing is then refused
+  // for cost).
   std::array<double, kNumMethods> evaluation_s{};
   double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
   double forces_s = 0.0;         // computing its per-effect forces, s, while SET_FORCES is on (MeasureForcesSeconds)
@@ -92,7 +93,6 @@ struct DaemonModel {
 
 struct BuildOptions {
   std::string channel_prefix;  // --channel-prefix
-  bool measure_costs = false;  // time each method's evaluation (sim/work_bound.hpp), for the switch commands
   // Given costs instead (by Method, s; the rest of a tick 0), for every
   // instance: tests that need the bound exact.
   std::optional<std::array<double, kNumMethods>> evaluation_s;
@@ -110,9 +110,12 @@ struct BuildOptions {
 };
 
 // One instance's model. Throws std::invalid_argument for a controller that
-// cannot be built (ValidateController's message).
+// cannot be built (ValidateController's message). Building one builds no
+// Instance and times nothing: its costs are measured by a pass over the
+// built model (MeasureCosts, sim/work_bound.hpp).
 InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOptions& options = {});
-// Every instance of the scene, in order.
-std::shared_ptr<const DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options = {});
+// Every instance of the scene, in order; mutable until it is shared (as
+// const) with the threads of a run, so that MeasureCosts can fill it in.
+std::shared_ptr<DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options = {});
 
 }  // namespace lagrange

@@ -74,10 +74,10 @@ OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_la
   }
   // One rule with lagranged: a scene whose ticks would not fit its period
   // in real time is refused here too, with the same message.
-  BuildOptions options;
-  options.measure_costs = true;
   OfflineScene out;
-  out.model = BuildDaemonModel(scene, options);
+  const std::shared_ptr<DaemonModel> model = BuildDaemonModel(scene);
+  MeasureCosts(*model);
+  out.model = model;
   if (const auto refusal = CheckWorkBounds(*out.model)) throw std::runtime_error(*refusal);
   out.period = scene.period;
   out.instances.reserve(out.model->instances.size());

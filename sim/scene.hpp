@@ -13,21 +13,9 @@
 #include "plant/integrators.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/stepped_plant.hpp"
+#include "sim/trajectory_config.hpp"
 
 namespace lagrange {
-
-// The scene's own setpoint source, used until (and unless) setpoints arrive
-// over LCM. Times are from the start of the run.
-struct TrajectoryConfig {
-  enum class Type : std::uint8_t { kHold, kStep, kSine, kMinimumJerk } type = Type::kHold;
-  std::optional<VectorXd> q;       // hold: the held position (default: the initial q)
-  VectorXd target;                 // step, min-jerk
-  double at = 0.0;                 // step: when, s
-  VectorXd amplitude;              // sine, rad or m
-  VectorXd frequency;              // sine, Hz
-  std::optional<VectorXd> center;  // sine (default: the initial q)
-  double duration = 1.0;           // min-jerk, s
-};
 
 // What an instance does when its streamed setpoints go stale.
 enum class TimeoutBehaviour : std::uint8_t {
@@ -135,6 +123,11 @@ struct ExternalControllerRef {
   const ControllerConfig* config = nullptr;
 };
 ExternalControllerRef ExternalControllerOf(const InstanceConfig& config);
+// J: an instance's bound on |T + V| (the health rule's, sim/health.hpp): the
+// scene's max_energy, else the plant's default (DefaultMaxEnergy).
+inline double MaxEnergy(const InstanceConfig& config) {
+  return config.max_energy.value_or(DefaultMaxEnergy(config.plant));
+}
 
 // Throw ConfigError (sim/yaml_reader.hpp) naming file, line, key and reason.
 Scene LoadScene(const std::string& path);

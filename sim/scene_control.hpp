@@ -6,8 +6,10 @@
 #include <memory>
 #include <string>
 
+#include "controllers/factory.hpp"
+#include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
-#include "sim/scene.hpp"
+#include "sim/trajectory_config.hpp"
 #include "sim/yaml_reader.hpp"
 
 namespace lagrange {

@@ -180,6 +180,16 @@ double MeasureForcesSeconds(const InstanceConfig& config) {
   return std::isfinite(fastest) ? fastest : 0.0;
 }
 
+void MeasureCosts(InstanceModel& m) {
+  m.evaluation_s = MeasureEvaluationCosts(m.config);
+  m.tick_overhead_s = MeasureTickOverheadSeconds(m.config, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
+  m.forces_s = m.external_plant() ? 0.0 : MeasureForcesSeconds(m.config);
+}
+
+void MeasureCosts(DaemonModel& model) {
+  for (InstanceModel& m : model.instances) MeasureCosts(m);
+}
+
 WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Method method, bool forces) {
   const double cost = m.evaluation_s[static_cast<std::size_t>(method)];
   const double overhead = m.tick_overhead_s + (forces ? m.forces_s : 0.0);

@@ -79,7 +79,7 @@ double MeasureEvaluationSeconds(const InstanceConfig& config);
 // The same by every method the plant has (by Method; 0 for a method it lacks),
 // with every effect the scene configures on (gravity, Coriolis and those in
 // effects.off included): the costliest combination a command can switch to.
-// (InstanceModel::evaluation_s, BuildOptions::measure_costs.)
+// (InstanceModel::evaluation_s, MeasureCosts.)
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
 // The rest of one tick of the instance besides its integrator's evaluations
@@ -92,6 +92,14 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
 // What publishing <NAME>_FORCES adds to its tick (Instance::ComputeForces), s:
 // the fastest of a few batches within 50 ms. Counted while forces are on.
 double MeasureForcesSeconds(const InstanceConfig& config);
+
+// A pass over a built model: each instance's costs measured into it
+// (evaluation_s by MeasureEvaluationCosts, tick_overhead_s by
+// MeasureTickOverheadSeconds, forces_s by MeasureForcesSeconds; an
+// external plant's forces are not computed: 0), before the loop starts and
+// before CheckWorkBounds. Up to about 150 ms per instance.
+void MeasureCosts(InstanceModel& m);
+void MeasureCosts(DaemonModel& model);
 
 // One instance's worst case per tick.
 struct WorkBound {
