@@ -8,8 +8,9 @@
 // Every program the project starts goes through here: lagrangectl plot
 // (python3), the process benchmarks (lagranged, cyclictest, lcm-logger,
 // bench/harness) and the tests (RunProcess, BackgroundProcess,
-// tests/support/process). It is lagrange_tools' (lagrangectl's), not the
-// daemon's: lagranged starts no process. It is the one place because the callers have
+// tests/support/process). It is a library of its own in tools/ (lagrange_spawn),
+// which lagrangectl, the tests and the benchmarks link; not the daemon's:
+// lagranged starts no process. It is the one place because the callers have
 // threads, and after fork in a threaded process the child may only make
 // async-signal-safe calls until exec: another thread may hold malloc's lock
 // (or any other) at the moment of the fork, and in the child that lock is
