@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
+#include "sim/instance_model.hpp"
+#include "sim/scene.hpp"
 #include "sim/work_bound.hpp"
 
 namespace lagrange {
@@ -61,6 +64,42 @@ TEST(WorkBound, NoBudgetStillTakesTheMinimumNumberOfSamples) {
   Replay r{{kPreempted, 2.0 * kTrue, kTrue}};
   EXPECT_EQ(Fastest(r, 0.0), kTrue);
   EXPECT_EQ(r.taken, static_cast<std::size_t>(kMinCostSamples));
+}
+
+// Building the model times nothing and builds no Instance (sim/ has no
+// include back up: instance_model does not know work_bound); the costs are
+// a pass over the built model, which fills exactly what the bound reads.
+TEST(WorkBound, CostsAreMeasuredByAPassOverTheBuiltModelNotByBuildingIt) {
+  const Scene scene = ParseScene(R"(
+instances:
+  - name: arm
+    plant: {type: arm2}
+    controller: {type: pd, kp: 10, kd: 1}
+)",
+                                 "inline");
+  const std::shared_ptr<DaemonModel> model = BuildDaemonModel(scene);
+  InstanceModel& m = model->instances.at(0);
+  for (const double cost : m.evaluation_s) EXPECT_EQ(cost, 0.0);
+  EXPECT_EQ(m.tick_overhead_s, 0.0);
+  EXPECT_EQ(m.forces_s, 0.0);
+  EXPECT_EQ(CheckWorkBounds(*model), std::nullopt) << "nothing measured: nothing refused for cost";
+
+  MeasureCosts(*model);
+  for (const Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+    const double cost = m.evaluation_s[static_cast<std::size_t>(method)];
+    if (HasMethod(PlantType::kArm2, method)) {
+      EXPECT_GT(cost, 0.0) << ToString(method);
+    } else {
+      EXPECT_EQ(cost, 0.0) << ToString(method) << ": a method the plant lacks costs nothing";
+    }
+  }
+  EXPECT_GT(m.forces_s, 0.0);
+  EXPECT_GE(m.tick_overhead_s, 0.0);
+  // The bound reads what the pass filled: rk4's default 1 substep is 4 + 1 evaluations.
+  const WorkBound b = WorkBoundsOf(*model).at(0);
+  EXPECT_EQ(b.evaluations, 5);
+  EXPECT_EQ(b.evaluation_s, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
+  EXPECT_EQ(b.overhead_s, m.tick_overhead_s);
 }
 
 }  // namespace
