@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
@@ -96,11 +97,12 @@ std::unique_ptr<Bus> LinkOptions::Open() const {
   const std::string url = Url();
   // ParseUdpmUrl first: it names what is wrong with any URL that is not a
   // udpm:// one (OpenBus only says which providers it speaks).
-  if (url.rfind("inprocess://", 0) != 0) ParseUdpmUrl(url);
+  if (url != kInProcessUrl) ParseUdpmUrl(url);
   const std::string key_file = ResolveBusKeyFile(bus_key_file);
+  const std::string domain = ResolveBusDomain(bus_domain);  // refused even when unsigned: a mistake either way
   if (key_file.empty()) return OpenBus(url);  // BusError when the socket cannot be set up
   const BusKey key = BusKey::FromFile(key_file);
-  return OpenBus(url, &key);
+  return OpenBus(url, &key, domain);
 }
 
 DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
@@ -140,6 +142,9 @@ void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
   it->second.received = std::chrono::steady_clock::now();
   ++it->second.count;
   if (observer_ && have_run_ && it->first == run_id_) observer_(it->second.state, it->second.received);
+  if (it->first == estop_watch_run_ && !estop_left_ && !KeepsEstop(it->second.state.mode)) {
+    estop_left_ = it->second.state;
+  }
 }
 
 void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
@@ -227,6 +232,15 @@ void DaemonLink::AwaitFirstState() {
     const bool early = daemon_without_it();
     const std::string missing = "no state from instance '" + instance_ + "' on " + state_channel_ +
                                 (early ? "" : " within " + FormatDouble(options_.wait) + " s");
+    if (const std::int64_t refused = bus_->unauthenticated_on(state_channel_); refused > 0) {
+      // Signed states that did not verify: another key, another bus domain, or the format before domains.
+      const std::string why = bus_->stats().old_format > 0
+                                  ? "signed in lagrange's old format (LGS1, before bus domains): update that lagranged"
+                                  : "unsigned, forged, or signed with another key or for another bus domain (this "
+                                    "client's is " + bus_->domain() + ": the daemon's --bus-domain?)";
+      throw std::runtime_error(missing + " that verifies: " + std::to_string(refused) +
+                               " refused for their signature, " + why);
+    }
     if (signed_states_seen_) {
       throw std::runtime_error(missing + " that this unsigned client can read: its states are signed; give the " +
                                "daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
@@ -302,6 +316,26 @@ std::string DaemonLink::ModeAfterReply(std::int64_t run) {
   PumpUntil([&] { return state_received_at(run) > replied; }, 0.5);
   const state_t& s = state(run);
   return std::string(ModeName(s.mode)) + " with " + Escape(s.controller);
+}
+
+bool KeepsEstop(std::int8_t mode) {
+  return mode == state_t::MODE_ESTOP || mode == state_t::MODE_STOPPED || mode == state_t::MODE_WAITING ||
+         mode == state_t::MODE_FAULT;
+}
+
+std::string DaemonLink::EstopDidNotStay(std::int64_t run) {
+  if (runs_.find(run) == runs_.end()) return "";
+  const state_t applied = state(run);  // the latest state when the verdict came
+  estop_watch_run_ = run;
+  estop_left_.reset();
+  Pump(kEstopWatch);
+  estop_watch_run_ = 0;
+  if (!estop_left_) return "";
+  const double after = static_cast<double>(estop_left_->utime - applied.utime) * 1e-6;
+  return "the estop did not stay: " + std::string(ModeName(estop_left_->mode)) + " with " +
+         Escape(estop_left_->controller) + " " + FormatDouble(std::round(std::max(after, 0.0) * 1e3) / 1e3) +
+         " s after it was applied (a clear_estop from another sender? an estop lasts the scene's estop_dwell on a "
+         "lagranged that has it)";
 }
 
 void DaemonLink::Pump(double seconds) {

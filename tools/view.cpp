@@ -193,6 +193,9 @@ class ViewCommand final : public Command {
     app_->add_option("--bus-key", bus_.bus_key_file,
                      "Believe only what the key signed (the daemon's --bus-key FILE); default: $" +
                          std::string(kBusKeyEnv));
+    app_->add_option("--bus-domain", bus_.bus_domain,
+                     "The domain signatures are bound to (the daemon's --bus-domain); default: $" +
+                         std::string(kBusDomainEnv) + ", else the bus's own");
   }
 
   int Run(std::ostream& out, std::ostream& err) override {

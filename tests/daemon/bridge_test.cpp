@@ -440,7 +440,7 @@ TEST_F(Bridge, EveryCommandGetsExactlyOneReplyWithItsRequestId) {
   };
   for (const Case& c : cases) {
     SendCommand(c.command);
-    Ticks(2);
+    Ticks(c.command.command == command_t::ESTOP ? 500 : 2);  // an estop lasts its dwell (0.5 s) before a clear
   }
   const auto by_id = RepliesById();
   EXPECT_EQ(replies_.size(), cases.size());
@@ -669,6 +669,7 @@ TEST_F(Bridge, UrgentCommandsWithinOneTickAreAnsweredInOrderAndTheEstopWins) {
   EXPECT_EQ(record.instances[0].verdicts[1].request_id, 2);
   EXPECT_STREQ(record.instances[0].verdicts[1].error, kClearWithEstop);
   EXPECT_EQ(runtime_.mode(0), Mode::kEstop);
+  Ticks(499);                                        // the estop's dwell (0.5 s) out
   SendCommand(Command(command_t::CLEAR_ESTOP, 3));  // a tick of its own: leaves the estop
   record = TickByHand();
   EXPECT_EQ(runtime_.mode(0), Mode::kHold);

@@ -131,6 +131,7 @@ def test_commands_return_the_daemons_verdict_as_lagrangectl_reports_it(daemon):
     r = daemon.command("arm", "estop")
     assert r.accepted and r.message.startswith("arm: estop done; now estop")
     assert daemon.state("arm").mode == "estop"
+    time.sleep(0.5)  # an estop lasts the scene's estop_dwell (0.5 s) before a clear can end it
     assert daemon.command("arm", "clear").accepted
 
 

@@ -610,8 +610,9 @@ TEST(LcmSpy, TheTypesJarDecodesASignedStateAsLcmSpyDoes) {
   std::vector<std::uint8_t> bytes = testing::Encode(state);
   const std::size_t n = bytes.size();
   bytes.resize(n + kSignatureTrailerBytes);
-  std::vector<std::uint8_t> key(kBusKeyMinBytes, 7);
-  Signer signer(BusKey::FromBytes(key));
+  std::vector<std::uint8_t> key(kBusKeyMinBytes);
+  for (std::size_t i = 0; i < key.size(); ++i) key[i] = static_cast<std::uint8_t>(7 + 31 * i);
+  Signer signer(BusKey::FromBytes(key), "inprocess://");
   signer.Sign("ARM_STATE", bytes.data(), n, bytes.data() + n);
   std::ofstream(dir / "state.bin", std::ios::binary)
       .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));

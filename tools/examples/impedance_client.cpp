@@ -16,7 +16,8 @@
 
 const char* const kUsage =
     "usage: impedance_client --target Q1,Q2,.. [--stiffness 40] [--damping 8] [--instance arm] [--url URL]\n"
-    "                        [--duration S (0: until killed)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n";
+    "                        [--duration S (0: until killed)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n"
+    "                        [--bus-domain D (else $LAGRANGE_BUS_DOMAIN, else udpm://GROUP:PORT of the URL)]\n";
 
 struct Impedance {
   lcm::LCM* lcm;
@@ -61,7 +62,7 @@ double Number(const std::string& text) {  // a finite number, or an exception na
 int main(int argc, char** argv) try {
   std::map<std::string, std::string> opt = {{"--url", ""},         {"--instance", "arm"}, {"--target", ""},
                                             {"--stiffness", "40"}, {"--damping", "8"},    {"--duration", "0"},
-                                            {"--bus-key", ""}};
+                                            {"--bus-key", ""},     {"--bus-domain", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (argv[i] == std::string("--help") || argv[i] == std::string("-h")) return std::fputs(kUsage, stdout), 0;
     if (!opt.count(argv[i]) || i + 1 == argc) throw std::invalid_argument(std::string("bad option ") + argv[i]);
@@ -75,7 +76,7 @@ int main(int argc, char** argv) try {
   if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--url"] + "'");
   std::string name = opt["--instance"];
   for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  BusSigning bus(opt["--bus-key"]);  // "" → $LAGRANGE_BUS_KEY_FILE → unsigned; refuses a key others can read
+  BusSigning bus(GivenOption(argc, argv, "--bus-key"), GivenOption(argc, argv, "--bus-domain"), opt["--url"]);
   Impedance law{&lcm, name + "_TORQUE", q_target, Number(opt["--stiffness"]), Number(opt["--damping"]), &bus, {}, 0, 0,
                 {}};
   law.out.run_id = static_cast<std::int64_t>(std::mt19937_64{std::random_device{}()}() | 1);  // random, never 0

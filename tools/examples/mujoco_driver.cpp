@@ -25,7 +25,8 @@
 const char* const kUsage =
     "usage: mujoco_driver --model FILE (MJCF or URDF) [--state-channel PANDA_ROBOT_STATE] [--torque-channel PANDA_ROBOT_TORQUE]\n"
     "                     [--initial Q1,Q2,..] [--period 0.001] [--substeps 1] [--torque-timeout 0.02] [--url URL]\n"
-    "                     [--duration S (0: until SIGINT/SIGTERM)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n";
+    "                     [--duration S (0: until SIGINT/SIGTERM)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n"
+    "                     [--bus-domain D (else $LAGRANGE_BUS_DOMAIN, else udpm://GROUP:PORT of the URL)]\n";
 
 volatile std::sig_atomic_t g_stop = 0;
 
@@ -68,7 +69,7 @@ int main(int argc, char** argv) try {
       {"--model", ""},   {"--state-channel", "PANDA_ROBOT_STATE"}, {"--torque-channel", "PANDA_ROBOT_TORQUE"},
       {"--initial", ""}, {"--period", "0.001"},                 {"--substeps", "1"},
       {"--url", ""},     {"--torque-timeout", "0.02"},          {"--duration", "0"},
-      {"--bus-key", ""}};
+      {"--bus-key", ""}, {"--bus-domain", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (argv[i] == std::string("--help") || argv[i] == std::string("-h")) return std::fputs(kUsage, stdout), 0;
     if (!opt.count(argv[i]) || i + 1 == argc) throw std::invalid_argument(std::string("bad option ") + argv[i]);
@@ -98,7 +99,7 @@ int main(int argc, char** argv) try {
 
   lcm::LCM lcm(opt["--url"]);  // "" → $LCM_DEFAULT_URL or LCM's default
   if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--url"] + "'");
-  BusSigning bus(opt["--bus-key"]);
+  BusSigning bus(GivenOption(argc, argv, "--bus-key"), GivenOption(argc, argv, "--bus-domain"), opt["--url"]);
   Watchdog watchdog;
   watchdog.n = n;
   watchdog.timeout_s = Number(opt["--torque-timeout"]);
