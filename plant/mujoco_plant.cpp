@@ -19,6 +19,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "plant/mujoco_files.hpp"
+
 // MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
 // exported by 2.2.2 but not in its public headers; MuJoCo's tests raise it to
 // 17 digits the same way). At its default, 6 digits, a URDF written back as
@@ -146,32 +148,12 @@ std::recursive_mutex& LastXmlMutex() {
   return mutex;
 }
 
-// mj_loadXML of `text` under `file`'s name (so that MuJoCo's messages name it), through a virtual file system.
-mjModel* LoadXmlText(const std::string& file, const std::string& text, char* error, int error_size) {
-  const auto vfs = std::make_unique<mjVFS>();  // 2 MB of names: not on the stack
-  mj_defaultVFS(vfs.get());
-  const std::string name = file.substr(file.find_last_of('/') + 1);
-  if (mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(text.size())) != 0) {
-    std::snprintf(error, static_cast<std::size_t>(error_size), "could not hold the file in memory");
-    return nullptr;
-  }
-  const int i = mj_findFileVFS(vfs.get(), name.c_str());
-  std::memcpy(vfs->filedata[i], text.data(), text.size());
-  mjModel* m = nullptr;
-  {
-    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
-    m = mj_loadXML(file.c_str(), vfs.get(), error, error_size);
-  }
-  mj_deleteVFS(vfs.get());
-  return m;
-}
-
-std::string ReadText(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) Refuse(file, "MuJoCo: could not open the file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+// mj_loadXML of `files` (files[0] the model, under `file`'s name, so that MuJoCo's messages name it) from
+// memory: MuJoCo reads no file itself (plant/mujoco_files.hpp).
+mjModel* LoadFiles(const std::string& file, const std::vector<MujocoFile>& files, char* error, int error_size) {
+  const MujocoVfs vfs = MakeMujocoVfs(file, files);
+  const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
+  return mj_loadXML(file.c_str(), vfs.get(), error, error_size);
 }
 
 // Whether the XML's root element is a URDF's <robot> (MuJoCo's own test:
@@ -249,7 +231,7 @@ std::optional<std::string> CheckCoupled(const mjModel* m, const MujocoMimic& mim
 // MuJoCo's only URDF-to-MJCF path in 2.2.2, at 17 digits); the equalities, as
 // stiff as MuJoCo allows at `timestep`, go before its end, and MuJoCo loads
 // that. Null (and MuJoCo's message in `error`) if MuJoCo refuses either.
-mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const std::vector<MujocoMimic>& mimics,
+mjModel* CoupleMimics(const std::string& file, std::vector<MujocoFile> files, const std::vector<MujocoMimic>& mimics,
                       double timestep, char* error, int error_size) {
   std::string path = (std::filesystem::temp_directory_path() / "lagrange_mujoco_XXXXXX").string();
   const int fd = mkstemp(path.data());
@@ -259,7 +241,7 @@ mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const st
   int saved = 0;
   {
     const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());  // no other load between the two calls
-    mjModel* m = LoadXmlText(file, urdf, error, error_size);
+    mjModel* m = LoadFiles(file, files, error, error_size);
     if (m == nullptr) {
       std::remove(path.c_str());
       return nullptr;
@@ -284,7 +266,8 @@ mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const st
     Refuse(file, "MuJoCo could not write it as MJCF to couple its mimic joints: " + OneLine(error));
   }
   text.insert(end, equalities);
-  return LoadXmlText(file, text, error, error_size);
+  files[0].data = std::move(text);  // the MJCF in the URDF's place; the files it names stay
+  return LoadFiles(file, files, error, error_size);
 }
 
 const char* WarningReason(int warning) {
@@ -489,15 +472,13 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   InstallHandlers();
   if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
   char error[1000] = "";
-  mjModel* m = nullptr;
-  std::string urdf;                        // the URDF's text as MuJoCo reads it (exact_inertia: with the edits above)
-  if (options.exact_inertia != nullptr) {  // a URDF whose inertias lagrange sets
-    urdf = PrepareUrdf(ReadText(file));
-    m = LoadXmlText(file, urdf, error, sizeof error);
-  } else {
-    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
-    m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
-  }
+  // The model's text as MuJoCo reads it (exact_inertia: a URDF whose inertias lagrange sets, with the edits
+  // above), and every file it names, read bounded before MuJoCo sees them.
+  std::string text = ReadMujocoModelText(file);
+  if (options.exact_inertia != nullptr) text = PrepareUrdf(std::move(text));
+  const bool urdf = IsUrdfText(text);
+  std::vector<MujocoFile> files = ReadMujocoFiles(file, std::move(text));
+  mjModel* m = LoadFiles(file, files, error, sizeof error);
   if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
   std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
   model->model_ = m;  // deleted with the model, whatever is refused below
@@ -505,12 +486,11 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   std::vector<std::string> dofs = options.joint_order;
   model->dof_ = MatchJoints(file, m, dofs, options.mimics);
   const double timestep = options.period / options.substeps;
-  if (!options.mimics.empty() && urdf.empty()) urdf = ReadText(file);
-  const bool couple = !options.mimics.empty() && IsUrdfText(urdf);
+  const bool couple = !options.mimics.empty() && urdf;
   if (couple) {  // a URDF cannot say it: lagrange adds it
     mj_deleteModel(m);
     model->model_ = nullptr;
-    m = CoupleMimics(file, urdf, options.mimics, timestep, error, sizeof error);
+    m = CoupleMimics(file, std::move(files), options.mimics, timestep, error, sizeof error);
     if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
     model->model_ = m;
     model->dof_ = MatchJoints(file, m, dofs, options.mimics);  // the same joints, in MuJoCo's MJCF of the URDF

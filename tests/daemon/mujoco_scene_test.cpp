@@ -9,8 +9,15 @@
 #include <lagrange/status_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <future>
 #include <fstream>
 #include <optional>
 #include <string>
@@ -201,6 +208,38 @@ TEST(MujocoScene, RefusesABrokenMjcfWithMujocosMessageOnOneLine) {
   EXPECT_NE(e.find("plant.file"), std::string::npos) << e;
   EXPECT_NE(e.find(": MuJoCo: "), std::string::npos) << e;
   EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+}
+
+// A MuJoCo model's files are read as a URDF is, before MuJoCo sees them
+// (plant/mujoco_files.hpp): a 50 MB MJCF is refused naming it and the 2 MiB
+// bound; an <include> of a FIFO is refused at once (were it to block, the
+// test releases it after 30 s by opening the FIFO for writing, and fails).
+TEST(MujocoScene, AnOversizedMjcfOrAnIncludedFifoIsRefusedBeforeTheLoopWithOneLine) {
+  const std::string big = WriteTemp("big_scene.xml", "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" +
+                                                         "<worldbody/></mujoco>");
+  std::string e = SceneError(PandaScene("{type: mujoco, file: " + big + ", model: " + kLagrangePlant + "}"));
+  EXPECT_NE(e.find("plant.file: " + big + ": larger than 2 MiB"), std::string::npos) << e.substr(0, 300);
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  std::remove(big.c_str());
+
+  const std::string fifo = ::testing::TempDir() + "scene_parts.xml";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string world = WriteTemp("scene_world.xml", "<mujoco><include file=\"scene_parts.xml\"/></mujoco>");
+  auto refusal = std::async(std::launch::async, [&] {
+    return SceneError(PandaScene("{type: mujoco, file: " + world + ", model: " + kLagrangePlant + "}"));
+  });
+  if (refusal.wait_for(std::chrono::seconds(30)) == std::future_status::timeout) {
+    ::close(::open(fifo.c_str(), O_WRONLY | O_NONBLOCK));  // the blocked reader gets end of file
+    FAIL() << "blocked on the FIFO for 30 s";
+  }
+  e = refusal.get();
+  EXPECT_NE(e.find("plant.file: " + world + ": <include file=\"scene_parts.xml\">: " + fifo +
+                   ": not a regular file (a FIFO)"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  std::remove(fifo.c_str());
 }
 
 TEST(MujocoScene, RefusesAFreeJoint) {

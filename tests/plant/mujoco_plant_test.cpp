@@ -7,8 +7,16 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
+#include <future>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -165,8 +173,8 @@ TEST(MujocoPlant, RefusesABrokenMjcfWithMujocosMessageOnOneLine) {
 }
 
 TEST(MujocoPlant, RefusesAMissingFile) {
-  const std::string e = LoadError(::testing::TempDir() + "no_such_model.xml");
-  EXPECT_NE(e.find("MuJoCo: "), std::string::npos) << e;
+  const std::string path = ::testing::TempDir() + "no_such_model.xml";
+  EXPECT_EQ(LoadError(path), path + ": cannot be opened (No such file or directory)");
 }
 
 // What MuJoCo's compiler refuses as written and lagrange takes: a point mass
@@ -301,6 +309,114 @@ TEST(MujocoPlant, DampingsWorkIsTheEnergyLost) {
   const double change = data->kinetic_energy() + data->potential_energy() - e0;
   EXPECT_LT(change, -0.1);  // it lost energy
   EXPECT_NEAR(change, work, 1e-6 * std::abs(change));
+}
+
+// ------------------------------------------------------------------ files
+
+// A fresh directory of the test's own under the temporary directory.
+std::filesystem::path FreshDirectory(const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+void WriteFile(const std::filesystem::path& path, const std::string& bytes) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// kPendulum's elements after <mujoco>, for models that add their own first.
+std::string PendulumBody() { return std::string(kPendulum).substr(std::string("<mujoco>").size()); }
+
+// Within a 2 MiB bound, as a URDF: a 50 MB MJCF (a valid model behind a 50 MB
+// comment) is refused with one line naming it and the bound, unparsed.
+TEST(MujocoPlant, AnMjcfLargerThanTheUrdfBoundIsRefusedNamingTheFileAndTheBound) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_big");
+  const std::string path = (dir / "big.xml").string();
+  WriteFile(path, "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" + PendulumBody());
+  EXPECT_EQ(LoadError(path), path + ": larger than 2 MiB");
+  std::filesystem::remove_all(dir);
+}
+
+// MuJoCo would open an included FIFO and wait for a writer forever: lagrange
+// reads every file first, non-blocking, and refuses it at once. (Were it to
+// block, the test releases it after 30 s, by opening the FIFO for writing, and fails.)
+TEST(MujocoPlant, AnIncludedFifoIsRefusedAtOnceNamingIt) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_fifo");
+  const std::string fifo = (dir / "parts.xml").string(), path = (dir / "world.xml").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  WriteFile(path, "<mujoco><include file=\"parts.xml\"/>" + PendulumBody());
+  auto refusal = std::async(std::launch::async, [&] { return LoadError(path); });
+  if (refusal.wait_for(std::chrono::seconds(30)) == std::future_status::timeout) {
+    ::close(::open(fifo.c_str(), O_WRONLY | O_NONBLOCK));  // the blocked reader gets end of file
+    FAIL() << "blocked on the FIFO for 30 s";
+  }
+  EXPECT_EQ(refusal.get(), path + ": <include file=\"parts.xml\">: " + fifo + ": not a regular file (a FIFO)");
+  std::filesystem::remove_all(dir);
+}
+
+// A binary STL: a tetrahedron of 0.1 m.
+std::string Tetrahedron() {
+  const float v[4][3] = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  std::string stl(80, '\0');
+  const std::uint32_t count = 4;
+  stl.append(reinterpret_cast<const char*>(&count), 4);
+  for (const auto& face : faces) {
+    stl.append(12, '\0');  // the normal: MuJoCo computes its own
+    for (int k : face) stl.append(reinterpret_cast<const char*>(v[k]), 12);
+    stl.append(2, '\0');
+  }
+  return stl;
+}
+
+// A 1 x 1 grey PNG.
+std::string Png() {
+  const unsigned char bytes[] = {
+      0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x00,
+      0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00, 0x00, 0x90, 0x77, 0x53, 0xde, 0x00, 0x00, 0x00,
+      0x0c, 0x49, 0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0x68, 0x68, 0x68, 0x00, 0x00, 0x03, 0x04, 0x01, 0x81, 0x4b,
+      0xd3, 0xd2, 0x10, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+  return std::string(reinterpret_cast<const char*>(bytes), sizeof bytes);
+}
+
+// Includes (nested ones too) relative to the model's directory, meshes under
+// meshdir, textures under texturedir, as MuJoCo 2.2.2 finds them: lagrange
+// reads the same files and the model loads; one missing, or a FIFO, or a
+// second file of the same name elsewhere, is refused naming it.
+TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_files");
+  const std::string path = (dir / "world.xml").string();
+  WriteFile(path, R"(<mujoco>
+      <compiler meshdir="assets" texturedir="assets/textures/"/>
+      <include file="parts/assets.xml"/>
+      <worldbody><body name="bob"><joint name="theta" axis="0 1 0"/>
+        <geom type="sphere" size="0.05" pos="0 0 -1" mass="1" contype="0" conaffinity="0"/>
+        <geom type="mesh" mesh="tet" contype="0" conaffinity="0"/></body></worldbody></mujoco>)");
+  WriteFile(dir / "parts" / "assets.xml", R"(<mujoco><include file="parts/textures.xml"/>
+      <asset><mesh name="tet" file="tet.stl"/></asset></mujoco>)");
+  WriteFile(dir / "parts" / "textures.xml", R"(<mujoco><asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
+  WriteFile(dir / "assets" / "tet.stl", Tetrahedron());
+  WriteFile(dir / "assets" / "textures" / "grey.png", Png());
+  const auto model = LoadMujocoPlant(path, MujocoOptions{});
+  EXPECT_EQ(model->info().num_geoms, 2);
+  EXPECT_EQ(model->mj_model()->nmesh, 1);
+  EXPECT_EQ(model->mj_model()->ntex, 1);
+
+  const std::string mesh = (dir / "assets" / "tet.stl").string();
+  std::filesystem::remove(mesh);
+  EXPECT_EQ(LoadError(path), path + ": <mesh file=\"tet.stl\">: " + mesh + ": cannot be opened (No such file or directory)");
+  ASSERT_EQ(::mkfifo(mesh.c_str(), 0600), 0);
+  EXPECT_EQ(LoadError(path), path + ": <mesh file=\"tet.stl\">: " + mesh + ": not a regular file (a FIFO)");
+  std::filesystem::remove(mesh);
+  WriteFile(mesh, Tetrahedron());
+
+  WriteFile(dir / "parts" / "textures.xml", R"(<mujoco><include file="other/assets.xml"/>
+      <asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
+  WriteFile(dir / "other" / "assets.xml", "<mujoco/>");
+  EXPECT_NE(LoadError(path).find("share the name 'assets.xml'"), std::string::npos) << LoadError(path);
+  std::filesystem::remove_all(dir);
 }
 
 // ------------------------------------------------------------------ mimic joints
