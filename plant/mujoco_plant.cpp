@@ -295,7 +295,9 @@ class MujocoPlantData final : public SteppedPlantData {
         m_(model_.model_),
         d_(mj_makeData(model_.model_)),
         qpos_start_(model_.model_->nv),
-        qvel_start_(model_.model_->nv) {
+        qvel_start_(model_.model_->nv),
+        jacp_(3 * static_cast<std::size_t>(model_.model_->nv)),
+        full_(VectorXd::Zero(model_.model_->nv)) {
     if (d_ == nullptr) throw std::runtime_error(model_.file_ + ": MuJoCo could not make its data");
     mj_forward(m_, d_);
   }
@@ -374,7 +376,105 @@ class MujocoPlantData final : public SteppedPlantData {
   double potential_energy() const override { return d_->energy[0]; }
   double other_work() const override { return other_work_; }
 
+  // MuJoCo's M qacc = qfrc_applied + qfrc_passive + qfrc_constraint − qfrc_bias, each term
+  // as mj_forward left it at the current state, reduced to the degrees of freedom (Sᵀ).
+  void ComputeForces(EffectForces& out) override {
+    const MujocoPlantModel::Terms& has = model_.terms_;
+    out.active.gravity = has.gravity;
+    out.active.coriolis = true;
+    out.active.damping = has.passive;
+    out.active.friction = has.friction_loss;
+    out.active.limits = has.limits;
+    out.constraint_on = has.constraint;
+    out.limit_springs.setZero();  // MuJoCo's limits are constraints, with no spring energy in V
+    ComputeGravity(full_);
+    Reduce(full_, out.gravity);
+    for (int i = 0; i < m_->nv; ++i) full_[i] = d_->qfrc_bias[i] - full_[i];
+    Reduce(full_, out.coriolis);
+    Reduce(Eigen::Map<const VectorXd>(d_->qfrc_passive, m_->nv), out.damping);
+    ConstraintShare(ConstraintKind::kFrictionLoss, out.friction);
+    ConstraintShare(ConstraintKind::kLimit, out.limits);
+    ConstraintShare(ConstraintKind::kContactOrEquality, out.constraint);
+    ListContacts(out);
+  }
+
  private:
+  enum class ConstraintKind : std::uint8_t { kFrictionLoss, kLimit, kContactOrEquality };
+  static ConstraintKind KindOf(int efc_type) {
+    switch (efc_type) {
+      case mjCNSTR_FRICTION_DOF:
+      case mjCNSTR_FRICTION_TENDON: return ConstraintKind::kFrictionLoss;
+      case mjCNSTR_LIMIT_JOINT:
+      case mjCNSTR_LIMIT_TENDON: return ConstraintKind::kLimit;
+      default: return ConstraintKind::kContactOrEquality;  // equality, and contacts of every cone
+    }
+  }
+
+  // (nv) => (n): Sᵀ f, S the coupling q_full = S q + offset: a mimic's force acts on its leader times its multiplier.
+  void Reduce(const Eigen::Ref<const VectorXd>& full, VecRef out) const {
+    for (int i = 0; i < model_.num_dofs_; ++i) out[i] = full[model_.dof_[static_cast<std::size_t>(i)]];
+    for (const MujocoPlantModel::Mimic& mimic : model_.mimics_) out[mimic.leader] += mimic.multiplier * full[mimic.joint];
+  }
+
+  // (q) => G (nv) = −Σ_bodies m J_comᵀ g: the gravity part of qfrc_bias.
+  void ComputeGravity(VectorXd& g_force) {
+    g_force.setZero();
+    if (!model_.terms_.gravity) return;
+    const int nv = m_->nv;
+    for (int b = 1; b < m_->nbody; ++b) {
+      const double mass = m_->body_mass[b];
+      if (mass == 0.0) continue;
+      mj_jacBodyCom(m_, d_, jacp_.data(), nullptr, b);
+      for (int k = 0; k < 3; ++k) {
+        const double weight = mass * m_->opt.gravity[k];
+        for (int i = 0; i < nv; ++i) g_force[i] -= weight * jacp_[static_cast<std::size_t>(k * nv + i)];
+      }
+    }
+  }
+
+  // (efc rows of `kind`) => Sᵀ Jᵀ efc_force over them: the kinds add up to qfrc_constraint.
+  void ConstraintShare(ConstraintKind kind, VecRef out) {
+    full_.setZero();
+    const int nv = m_->nv;
+    const bool sparse = mj_isSparse(m_) != 0;
+    for (int r = 0; r < d_->nefc; ++r) {
+      if (KindOf(d_->efc_type[r]) != kind) continue;
+      const double f = d_->efc_force[r];
+      if (sparse) {
+        const int start = d_->efc_J_rowadr[r];
+        for (int k = 0; k < d_->efc_J_rownnz[r]; ++k) full_[d_->efc_J_colind[start + k]] += d_->efc_J[start + k] * f;
+      } else {
+        const mjtNum* row = d_->efc_J + static_cast<std::ptrdiff_t>(r) * nv;
+        for (int i = 0; i < nv; ++i) full_[i] += row[i] * f;
+      }
+    }
+    Reduce(full_, out);
+  }
+
+  // MuJoCo's active contacts (those in the constraint), the first kMaxContacts in its order, world frame.
+  void ListContacts(EffectForces& out) const {
+    out.contacts_total = 0;
+    out.num_contacts = 0;
+    for (int i = 0; i < d_->ncon; ++i) {
+      const mjContact& c = d_->contact[i];
+      if (c.efc_address < 0) continue;  // excluded, or not in the constraint
+      ++out.contacts_total;
+      if (out.num_contacts == kMaxContacts) continue;
+      ContactWrench& w = out.contacts[static_cast<std::size_t>(out.num_contacts++)];
+      mjtNum f[6];
+      mj_contactForce(m_, d_, i, f);  // contact frame: normal, tangent 1, tangent 2; on geom2 from geom1
+      // frame: its axes (normal, tangent 1, tangent 2) in world coordinates, one per row.
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(c.frame);
+      w.geom1 = c.geom1;
+      w.geom2 = c.geom2;
+      w.distance = c.dist;
+      w.position = Eigen::Map<const Eigen::Vector3d>(c.pos);
+      w.normal = frame.row(0).transpose();
+      w.force = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+      w.torque = frame.transpose() * Eigen::Vector3d(f[3], f[4], f[5]);
+    }
+  }
+
   // W: qvelᵀ (passive + constraint forces) at (qpos_start_, qvel_start_),
   // with the joint springs taken out (their energy is in V): damping, fluid,
   // friction loss, limits, contacts, equality constraints (a mimic's
@@ -395,6 +495,8 @@ class MujocoPlantData final : public SteppedPlantData {
   mjData* d_;
   VectorXd qpos_start_, qvel_start_;  // (nv) the state a MuJoCo step started from, mimics too
   double other_work_ = 0.0;
+  std::vector<mjtNum> jacp_;  // (3 x nv) scratch: a body's centre-of-mass Jacobian
+  VectorXd full_;             // (nv) scratch: one term over every MuJoCo joint, mimics too
 };
 
 MujocoPlantModel::~MujocoPlantModel() {
@@ -466,7 +568,30 @@ std::vector<int> MatchJoints(const std::string& file, const mjModel* m, std::vec
   return index;
 }
 
+template <class T>
+bool AnyNonZero(const T* v, int n) {
+  return std::any_of(v, v + n, [](T x) { return x != 0; });
+}
+
 }  // namespace
+
+// The terms of the equation of motion `m` has, as its options and elements say.
+MujocoPlantModel::Terms MujocoPlantModel::TermsOf(const mjModel* m) {
+  const auto disabled = [&](int flag) { return (m->opt.disableflags & flag) != 0; };
+  const bool constraints = !disabled(mjDSBL_CONSTRAINT);
+  Terms t;
+  t.gravity = !disabled(mjDSBL_GRAVITY) && AnyNonZero(m->opt.gravity, 3);
+  t.passive = !disabled(mjDSBL_PASSIVE) &&
+              (AnyNonZero(m->dof_damping, m->nv) || AnyNonZero(m->jnt_stiffness, m->njnt) ||
+               AnyNonZero(m->tendon_damping, m->ntendon) || AnyNonZero(m->tendon_stiffness, m->ntendon) ||
+               m->opt.density > 0.0 || m->opt.viscosity > 0.0);
+  t.friction_loss = constraints && !disabled(mjDSBL_FRICTIONLOSS) &&
+                    (AnyNonZero(m->dof_frictionloss, m->nv) || AnyNonZero(m->tendon_frictionloss, m->ntendon));
+  t.limits = constraints && !disabled(mjDSBL_LIMIT) &&
+             (AnyNonZero(m->jnt_limited, m->njnt) || AnyNonZero(m->tendon_limited, m->ntendon));
+  t.constraint = constraints && ((!disabled(mjDSBL_CONTACT) && m->ngeom > 0) || (!disabled(mjDSBL_EQUALITY) && m->neq > 0));
+  return t;
+}
 
 std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {
   InstallHandlers();
@@ -532,6 +657,7 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
     for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*options.gravity)[k];
   }
   if (options.exact_inertia != nullptr) SetExactInertias(m, *options.exact_inertia, file);
+  model->terms_ = MujocoPlantModel::TermsOf(m);
   model->info_.timestep = m->opt.timestep;
   model->info_.num_geoms = m->ngeom;
   model->info_.num_actuators = m->nu;

@@ -419,6 +419,136 @@ TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
   std::filesystem::remove_all(dir);
 }
 
+// ------------------------------------------------------------------ forces
+
+// A slider on a floor (a contact) with damping, a spring, friction loss; an
+// arm pushed into its stop (a limit), with a second hinge held to it by a
+// joint equality. Every kind of MuJoCo force at once.
+constexpr char kEveryForce[] = R"(<mujoco model="every_force">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.001"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="slider" pos="0 0 0.1">
+      <joint name="z" type="slide" axis="0 0 1" damping="0.5" frictionloss="0.3" stiffness="20" springref="0.05"/>
+      <geom name="ball" type="sphere" size="0.1" mass="1"/>
+      <body name="arm" pos="0 0 0.3">
+        <joint name="a" type="hinge" axis="0 1 0" range="-0.5 0.5" damping="0.1" frictionloss="0.05"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.2" contype="0" conaffinity="0"/>
+        <body pos="0.3 0 0">
+          <joint name="b" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.1" contype="0" conaffinity="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality><joint joint1="b" joint2="a" polycoef="0 0.5 0 0 0"/></equality>
+</mujoco>)";
+
+// The rows are MuJoCo's own terms at the published state: they add up to its
+// M(q) q̈ (mj_fullM at that q) to round-off; damping is −b q̇ − k (q − q_ref)
+// (qfrc_passive); the stop's force is in limits, the friction loss in
+// friction (bounded by the loss), the floor's and the equality's in constraint.
+TEST(MujocoPlant, ForcesAreMujocosOwnTermsAndAddUpToItsMTimesQdd) {
+  const auto model = LoadMujocoPlant(WriteTemp("every_force.xml", kEveryForce), MujocoOptions{});
+  auto data = model->MakeData();
+  const int n = model->num_dofs();
+  ASSERT_EQ(n, 3);
+  VectorXd q = VectorXd::Zero(n), qd = VectorXd::Zero(n), qdd(n), tau(n);
+  tau << 0.0, 2.0, 0.0;  // N·m on a: into its stop at 0.5 rad
+  data->SetState(q, qd);
+  for (int k = 0; k < 500; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EffectForces f(n);
+  data->ComputeForces(f);
+  f.tau_cmd = f.tau_applied = tau;
+  EXPECT_TRUE(f.active.gravity && f.active.coriolis && f.active.damping && f.active.friction && f.active.limits &&
+              f.constraint_on);
+  // MuJoCo's M at q, from data of its own.
+  const mjModel* m = model->mj_model();
+  mjData* d = mj_makeData(m);
+  mju_copy(d->qpos, q.data(), n);
+  mju_copy(d->qvel, qd.data(), n);
+  mj_forward(m, d);
+  MatrixXd M(n, n);
+  mj_fullM(m, M.data(), d->qM);
+  VectorXd net(n);
+  f.NetForce(net);
+  const double scale = std::max(f.gravity.cwiseAbs().maxCoeff(), f.constraint.cwiseAbs().maxCoeff());
+  std::printf("every force: |sum - M qdd| = %.2g (terms up to %.3g); limits %.4g, friction %.4g N, constraint %.4g %.4g %.4g\n",
+              (net - M * qdd).cwiseAbs().maxCoeff(), scale, f.limits[1], f.friction[0], f.constraint[0],
+              f.constraint[1], f.constraint[2]);
+  EXPECT_LT((net - M * qdd).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  // G + C q̇ is MuJoCo's bias force at (q, q̇).
+  EXPECT_LT((f.gravity + f.coriolis - Eigen::Map<VectorXd>(d->qfrc_bias, n)).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  EXPECT_NEAR(f.gravity[0], (1.0 + 0.2 + 0.1) * 9.81, 1e-12 * scale);  // the slider carries every mass
+  EXPECT_NEAR(f.damping[0], -0.5 * qd[0] - 20.0 * (q[0] - 0.05), 1e-12);
+  EXPECT_NEAR(f.damping[1], -0.1 * qd[1], 1e-12);
+  EXPECT_NEAR(q[1], 0.5, 0.01);        // at the stop ...
+  EXPECT_LT(f.limits[1], -0.5);        // ... which pushes back
+  EXPECT_EQ(f.limits[0], 0.0);         // z has no range
+  EXPECT_LE(std::abs(f.friction[0]), 0.3 + 1e-12);
+  EXPECT_LE(std::abs(f.friction[1]), 0.05 + 1e-12);
+  EXPECT_GT(f.constraint[0], 5.0);     // the floor carries the weight (N)
+  // The one contact: the ball on the floor, pushed up.
+  ASSERT_EQ(f.num_contacts, 1);
+  EXPECT_EQ(f.contacts_total, 1);
+  const ContactWrench& c = f.contacts[0];
+  EXPECT_EQ(c.geom1, mj_name2id(m, mjOBJ_GEOM, "floor"));
+  EXPECT_EQ(c.geom2, mj_name2id(m, mjOBJ_GEOM, "ball"));
+  EXPECT_NEAR(c.normal.z(), 1.0, 1e-12);
+  EXPECT_NEAR(c.force.z(), f.constraint[0], 1e-9 * scale);  // the slider's row is the contact's normal force
+  EXPECT_NEAR(c.position.z(), 0.0, 1e-3);
+  mj_deleteData(d);
+}
+
+// The gravity row (Σ −J_comᵀ m g over MuJoCo's bodies) and the Coriolis row
+// (MuJoCo's bias less it) are lagrange's G(q) and C(q, q̇) q̇ on the Panda
+// with the inertia fix, to round-off: two independent implementations.
+TEST(MujocoPlant, GravityAndCoriolisRowsAreLagrangesToRoundOff) {
+  const Loaded l = Load("panda.urdf", /*exact=*/true);
+  const auto dynamics = MakeDynamics(UrdfPlantSpec(std::make_shared<UrdfRobot>(l.robot)), Method::kRecursive);
+  auto ours = dynamics->MakeData();
+  auto data = l.mujoco->MakeData();
+  const int n = l.mujoco->num_dofs();
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  EffectForces f(n);
+  double worst = 0.0;
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd q(n), qd(n), g(n), c(n);
+    for (int i = 0; i < n; ++i) {
+      q[i] = 0.5 * u(rng) + (i == 3 ? -1.5 : 0.0) + (i == 5 ? 1.5 : 0.0);  // inside every range
+      qd[i] = 1.5 * u(rng);
+    }
+    data->SetState(q, qd);
+    data->ComputeForces(f);
+    dynamics->ComputeGravityForce(*ours, q, g);
+    dynamics->ComputeCoriolisForce(*ours, q, qd, c);
+    worst = std::max({worst, RelativeDifference(f.gravity, g), RelativeDifference(f.coriolis, c)});
+    EXPECT_EQ(f.constraint.cwiseAbs().maxCoeff(), 0.0);  // panda.urdf has no collision geometry
+    EXPECT_EQ(f.num_contacts, 0);
+  }
+  EXPECT_LT(worst, kRoundOff);
+  EXPECT_FALSE(f.constraint_on);
+  std::printf("Panda: MuJoCo's gravity and Coriolis rows against lagrange's: %.2g relative\n", worst);
+}
+
+TEST(MujocoPlant, ComputingForcesAllocatesNothing) {
+  const auto model = LoadMujocoPlant(WriteTemp("every_force_alloc.xml", kEveryForce), MujocoOptions{});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(3), qd = VectorXd::Zero(3), qdd(3), tau = VectorXd::Constant(3, 1.0);
+  data->SetState(q, qd);
+  EffectForces f(3);
+  ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  testing::AllocationCounter counter;
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+    data->ComputeForces(f);
+  }
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_EQ(f.num_contacts, 1);
+}
+
 // ------------------------------------------------------------------ mimic joints
 
 // panda_hand.urdf as a scene loads it: lagrange's degrees of freedom in its
@@ -592,6 +722,32 @@ TEST(MujocoPlant, ACoupledMjcfsMimicIsNoDegreeOfFreedomAndFollowsItsLeader) {
   EXPECT_NEAR(*MujocoJointPosition(*data, "b"), 2.0 * q[0] + 0.1, 1e-2);
   std::printf("coupled sliders (default solref): qdd %.6g m/s² against 0.6; |b - (2a + 0.1)| = %.2g m\n", qdd[0],
               std::abs(*MujocoJointPosition(*data, "b") - 2.0 * q[0] - 0.1));
+}
+
+// A mimic's forces act on its leader times its multiplier (Sᵀ, as lagrange's
+// reduction): the equality's share cancels there exactly, and the rows add
+// up to Sᵀ M S q̈ = (1 + 2²) kg q̈ to the equality's softness.
+TEST(MujocoPlant, AMimicsForcesActOnItsLeaderWhereTheEqualitysShareCancels) {
+  const std::string path = WriteTemp(
+      "coupled_forces.xml", Sliders(R"(<equality><joint joint1="b" joint2="a" polycoef="0.1 2 0 0 0"/></equality>)"));
+  MujocoOptions o;
+  o.mimics = {{"b", "a", 2.0, 0.1}};
+  const auto model = LoadMujocoPlant(path, o);
+  auto data = model->MakeData();
+  VectorXd q(1), qd(1), qdd(1), tau(1);
+  q << 0.2;
+  qd << 0.0;
+  tau << 3.0;
+  data->SetState(q, qd);
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EffectForces f(1);
+  data->ComputeForces(f);
+  f.tau_cmd = f.tau_applied = tau;
+  EXPECT_TRUE(f.constraint_on);                   // the equality
+  EXPECT_LT(std::abs(f.constraint[0]), 1e-12);  // −2 λ on a, λ on b: Sᵀ adds 2 λ back
+  VectorXd net(1);
+  f.NetForce(net);
+  EXPECT_NEAR(net[0], 5.0 * qdd[0], 0.05 * 3.0);  // MuJoCo's default solref, soft: to 5 %
 }
 
 TEST(MujocoPlant, ADivergingSimulationFailsTheStepWithMujocosWarning) {
