@@ -166,6 +166,8 @@ class FileReader {
     } catch (const FileReadError& e) {
       Refuse(model_, element + ": " + path + ": " + e.what());
     }
+    // MuJoCo's VFS takes no empty file (mj_makeEmptyFileVFS ends the process), and no model, mesh or image is empty.
+    if (data.empty()) Refuse(model_, element + ": " + path + ": empty");
     total_ += data.size();
     if (total_ > kMaxMujocoModelBytes) {
       Refuse(model_, element + ": " + path + ": the model's files together are larger than " +
@@ -187,11 +189,14 @@ class FileReader {
 }  // namespace
 
 std::string ReadMujocoModelText(const std::string& model_path) {
+  std::string text;
   try {
-    return ReadBoundedFile(model_path, kMaxMujocoXmlBytes);
+    text = ReadBoundedFile(model_path, kMaxMujocoXmlBytes);
   } catch (const FileReadError& e) {
     Refuse(model_path, e.what());
   }
+  if (text.empty()) Refuse(model_path, "empty: expected an MJCF or URDF model");
+  return text;
 }
 
 std::vector<MujocoFile> ReadMujocoFiles(const std::string& model_path, std::string model_text) {
@@ -207,12 +212,11 @@ MujocoVfs MakeMujocoVfs(const std::string& model_path, const std::vector<MujocoF
   MujocoVfs vfs(new mjVFS);
   mj_defaultVFS(vfs.get());
   for (const MujocoFile& f : files) {
-    const int size = static_cast<int>(f.data.size());
-    if (mj_makeEmptyFileVFS(vfs.get(), f.name.c_str(), size) != 0) {
+    // Not empty (ReadMujocoFiles): MuJoCo 2.2.2 ends the process for an empty file.
+    if (f.data.empty() || mj_makeEmptyFileVFS(vfs.get(), f.name.c_str(), static_cast<int>(f.data.size())) != 0) {
       Refuse(model_path, f.path + ": MuJoCo could not hold it in memory");
     }
-    const int i = mj_findFileVFS(vfs.get(), f.name.c_str());
-    if (size > 0) std::memcpy(vfs->filedata[i], f.data.data(), f.data.size());
+    std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), f.name.c_str())], f.data.data(), f.data.size());
   }
   return vfs;
 }

@@ -25,7 +25,9 @@
 // (2 MiB); a mesh, texture, height field or skin kMaxMujocoAssetBytes
 // (64 MiB); all of them together kMaxMujocoModelBytes (256 MiB); at most
 // mjMAXVFS (2000) files. MuJoCo's VFS holds one file per name, so two files
-// of one name in different directories are refused.
+// of one name in different directories are refused; and no empty file (2.2.2
+// ends the process for one), so an empty file is refused (no model, mesh or
+// image is empty).
 //
 // Errors: std::invalid_argument, one line naming the model and the file:
 //   "/d/world.xml: larger than 2 MiB"

@@ -177,6 +177,11 @@ TEST(MujocoPlant, RefusesAMissingFile) {
   EXPECT_EQ(LoadError(path), path + ": cannot be opened (No such file or directory)");
 }
 
+TEST(MujocoPlant, RefusesAnEmptyFile) {
+  const std::string path = WriteTemp("empty.xml", "");
+  EXPECT_EQ(LoadError(path), path + ": empty: expected an MJCF or URDF model");
+}
+
 // What MuJoCo's compiler refuses as written and lagrange takes: a point mass
 // (l1), a massless link between two joints (virt), a mesh collision MuJoCo
 // cannot find (package://). Loaded with the edits of mujoco_plant.hpp, the
@@ -419,6 +424,8 @@ TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
   EXPECT_EQ(LoadErrorUnlessBlocked(path, mesh),
             path + ": <mesh file=\"tet.stl\">: " + mesh + ": not a regular file (a FIFO)");
   std::filesystem::remove(mesh);
+  WriteFile(mesh, "");  // MuJoCo 2.2.2's VFS would end the process for it
+  EXPECT_EQ(LoadError(path), path + ": <mesh file=\"tet.stl\">: " + mesh + ": empty");
   WriteFile(mesh, Tetrahedron());
 
   WriteFile(dir / "parts" / "textures.xml", R"(<mujoco><include file="other/assets.xml"/>
