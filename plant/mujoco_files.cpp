@@ -31,9 +31,9 @@ std::string Bound(std::size_t bytes) { return std::to_string(bytes >> 20) + " Mi
 
 // A file the model names, found while walking it, read once the compiler's settings are known.
 struct Reference {
-  std::string element;    // <mesh file="F">, for messages
-  std::string file;       // F
-  bool texture = false;   // under texturedir, else meshdir
+  std::string element;   // <mesh file="F">, for messages
+  std::string file;      // F
+  bool texture = false;  // under texturedir, else meshdir
 };
 
 // What <compiler> says of where files are (the last element to say it wins, as in MuJoCo's reader).
@@ -78,8 +78,7 @@ class FileReader {
       if (const char* v = e.Attribute("meshdir")) directories_.meshdir = v;
       if (const char* v = e.Attribute("texturedir")) directories_.texturedir = v;
       if (const char* v = e.Attribute("strippath")) directories_.strippath = std::strcmp(v, "true") == 0;
-    } else if (std::strcmp(name, "mesh") == 0 || std::strcmp(name, "skin") == 0 ||
-               std::strcmp(name, "hfield") == 0) {
+    } else if (std::strcmp(name, "mesh") == 0 || std::strcmp(name, "skin") == 0 || std::strcmp(name, "hfield") == 0) {
       Refer(e, "file", false);
     } else if (std::strcmp(name, "texture") == 0) {
       for (const char* a : {"file", "fileright", "fileleft", "fileup", "filedown", "filefront", "fileback"}) {
@@ -170,8 +169,8 @@ class FileReader {
     if (data.empty()) Refuse(model_, element + ": " + path + ": empty");
     total_ += data.size();
     if (total_ > kMaxMujocoModelBytes) {
-      Refuse(model_, element + ": " + path + ": the model's files together are larger than " +
-                         Bound(kMaxMujocoModelBytes));
+      Refuse(model_,
+             element + ": " + path + ": the model's files together are larger than " + Bound(kMaxMujocoModelBytes));
     }
     names_[name] = path;
     files_.push_back({path, name, std::move(data)});

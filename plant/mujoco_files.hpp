@@ -45,8 +45,8 @@ struct mjVFS_;  // MuJoCo's (mujoco/mjmodel.h)
 namespace lagrange {
 
 inline constexpr std::size_t kMaxMujocoXmlBytes = kMaxUrdfBytes;  // a URDF's bound (plant/urdf.hpp): 2 MiB
-inline constexpr std::size_t kMaxMujocoAssetBytes = 64u << 20;  // a mesh, texture, height field or skin
-inline constexpr std::size_t kMaxMujocoModelBytes = 256u << 20;  // every file of the model together
+inline constexpr std::size_t kMaxMujocoAssetBytes = 64u << 20;    // a mesh, texture, height field or skin
+inline constexpr std::size_t kMaxMujocoModelBytes = 256u << 20;   // every file of the model together
 
 struct MujocoFile {
   std::string path;  // as read (the model's directory joined as MuJoCo joins it)

@@ -413,7 +413,8 @@ class MujocoPlantData final : public SteppedPlantData {
   // (nv) => (n): Sᵀ f, S the coupling q_full = S q + offset: a mimic's force acts on its leader times its multiplier.
   void Reduce(const Eigen::Ref<const VectorXd>& full, VecRef out) const {
     for (int i = 0; i < model_.num_dofs_; ++i) out[i] = full[model_.dof_[static_cast<std::size_t>(i)]];
-    for (const MujocoPlantModel::Mimic& mimic : model_.mimics_) out[mimic.leader] += mimic.multiplier * full[mimic.joint];
+    for (const MujocoPlantModel::Mimic& mimic : model_.mimics_)
+      out[mimic.leader] += mimic.multiplier * full[mimic.joint];
   }
 
   // (q) => G (nv) = −Σ_bodies m J_comᵀ g: the gravity part of qfrc_bias.
@@ -589,7 +590,8 @@ MujocoPlantModel::Terms MujocoPlantModel::TermsOf(const mjModel* m) {
                     (AnyNonZero(m->dof_frictionloss, m->nv) || AnyNonZero(m->tendon_frictionloss, m->ntendon));
   t.limits = constraints && !disabled(mjDSBL_LIMIT) &&
              (AnyNonZero(m->jnt_limited, m->njnt) || AnyNonZero(m->tendon_limited, m->ntendon));
-  t.constraint = constraints && ((!disabled(mjDSBL_CONTACT) && m->ngeom > 0) || (!disabled(mjDSBL_EQUALITY) && m->neq > 0));
+  t.constraint =
+      constraints && ((!disabled(mjDSBL_CONTACT) && m->ngeom > 0) || (!disabled(mjDSBL_EQUALITY) && m->neq > 0));
   return t;
 }
 

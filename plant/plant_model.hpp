@@ -33,8 +33,8 @@ class ControlLaw {
 // One contact of a plant another simulator steps (MuJoCo), at the state its
 // forces were read at; world frame. What forces_t.contacts carries.
 struct ContactWrench {
-  int geom1 = -1, geom2 = -1;  // the simulator's geom ids
-  double distance = 0.0;       // m: between the surfaces, < 0 where they overlap
+  int geom1 = -1, geom2 = -1;                          // the simulator's geom ids
+  double distance = 0.0;                               // m: between the surfaces, < 0 where they overlap
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  // m: the contact point
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();    // unit, from geom1 towards geom2
   Eigen::Vector3d force = Eigen::Vector3d::Zero();     // N, on geom2 from geom1

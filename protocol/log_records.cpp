@@ -370,16 +370,16 @@ forces_t ForcesFromV1(const std::uint8_t* p) {
   f.run_id = int64();
   f.tick = int64();
   f.t = real();
-  for (std::int8_t* flag : {&f.gravity_on, &f.coriolis_on, &f.damping_on, &f.friction_on, &f.limits_on, &f.saturation_on,
-                     &f.disturbance_on}) {
+  for (std::int8_t* flag : {&f.gravity_on, &f.coriolis_on, &f.damping_on, &f.friction_on, &f.limits_on,
+                            &f.saturation_on, &f.disturbance_on}) {
     *flag = p[at++] != 0;
   }
   f.constraint_on = false;
   f.num_dofs = static_cast<std::int32_t>(ReadBigEndian32(p + at));
   at += 4;
   const auto n = static_cast<std::size_t>(f.num_dofs);
-  for (auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd,
-                  &f.tau_applied}) {
+  for (auto* v :
+       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
     v->resize(n);
     for (double& x : *v) x = real();
   }
@@ -435,8 +435,8 @@ class ForcesDecoder final : public Decoder {
       row.Int(on ? 1 : 0);
     }
     row.Int(f.num_dofs);
-    for (const auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.constraint,
-                          &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+    for (const auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.constraint, &f.disturbance,
+                          &f.tau_cmd, &f.tau_applied}) {
       row.Reals(*v);
     }
     row.Int(f.contacts_total).Int(f.num_contacts);
@@ -452,12 +452,12 @@ class ForcesDecoder final : public Decoder {
 
  private:
   // forces_t's flags and rows, in its order.
-  static constexpr const char* kFlags[] = {"gravity_on",    "coriolis_on",    "damping_on",   "friction_on",
-                                           "limits_on",     "saturation_on",  "disturbance_on", "constraint_on"};
+  static constexpr const char* kFlags[] = {"gravity_on", "coriolis_on",   "damping_on",     "friction_on",
+                                           "limits_on",  "saturation_on", "disturbance_on", "constraint_on"};
   static constexpr const char* kRows[] = {"gravity",    "coriolis",    "damping", "friction",   "limits",
                                           "constraint", "disturbance", "tau_cmd", "tau_applied"};
   // Its contacts, one text column per field: the contacts' values joined by ';' (3 per contact for a vector).
-  static constexpr const char* kContactColumns[] = {"contact_geom1",  "contact_geom2", "contact_distance",
+  static constexpr const char* kContactColumns[] = {"contact_geom1",    "contact_geom2",  "contact_distance",
                                                     "contact_position", "contact_normal", "contact_force",
                                                     "contact_torque"};
 };

@@ -101,9 +101,9 @@ TEST(MujocoLive, LagrangedRefusesAnOversizedMjcfAndAnIncludedFifoAtStartWithOneL
   std::ofstream(world) << "<mujoco><include file=\"parts.xml\"/></mujoco>";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   const std::string urdf = std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf";
-  for (const auto& [file, why] : {std::pair{big, big + ": larger than 2 MiB"},
-                                  std::pair{world, world + ": <include file=\"parts.xml\">: " + fifo +
-                                                       ": not a regular file (a FIFO)"}}) {
+  for (const auto& [file, why] :
+       {std::pair{big, big + ": larger than 2 MiB"},
+        std::pair{world, world + ": <include file=\"parts.xml\">: " + fifo + ": not a regular file (a FIFO)"}}) {
     const std::string scene = (dir / "scene.yaml").string();
     std::ofstream(scene) << "period: 0.001\ninstances:\n  - name: panda\n    plant: {type: mujoco, file: " << file
                          << ", model: {type: urdf, file: " << urdf

@@ -19,11 +19,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <future>
 #include <iterator>
 #include <map>
 #include <memory>
-#include <fstream>
 #include <optional>
 #include <string>
 #include <utility>
@@ -224,8 +224,8 @@ TEST(MujocoScene, RefusesABrokenMjcfWithMujocosMessageOnOneLine) {
 // bound; an <include> of a FIFO is refused at once (were it to block, the
 // test releases it after 30 s by opening the FIFO for writing, and fails).
 TEST(MujocoScene, AnOversizedMjcfOrAnIncludedFifoIsRefusedBeforeTheLoopWithOneLine) {
-  const std::string big = WriteTemp("big_scene.xml", "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" +
-                                                         "<worldbody/></mujoco>");
+  const std::string big =
+      WriteTemp("big_scene.xml", "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" + "<worldbody/></mujoco>");
   std::string e = SceneError(PandaScene("{type: mujoco, file: " + big + ", model: " + kLagrangePlant + "}"));
   EXPECT_NE(e.find("plant.file: " + big + ": larger than 2 MiB"), std::string::npos) << e.substr(0, 300);
   EXPECT_EQ(e.find('\n'), std::string::npos);
@@ -319,9 +319,10 @@ TEST(MujocoScene, OnTheTableTheForcesAddUpToMTimesQddAndTheContactCarriesThirtyN
   f.NetForce(net);
   const VectorXd residual = net - M * inst.qdd();
   const double scale = f.gravity.cwiseAbs().maxCoeff();  // N·m: the largest term
-  std::printf("table forces: |sum - M qdd| = %.2g N·m (terms up to %.3g N·m, M qdd %.2g N·m, constraint up to %.3g N·m)\n",
-              residual.cwiseAbs().maxCoeff(), scale, (M * inst.qdd()).cwiseAbs().maxCoeff(),
-              f.constraint.cwiseAbs().maxCoeff());
+  std::printf(
+      "table forces: |sum - M qdd| = %.2g N·m (terms up to %.3g N·m, M qdd %.2g N·m, constraint up to %.3g N·m)\n",
+      residual.cwiseAbs().maxCoeff(), scale, (M * inst.qdd()).cwiseAbs().maxCoeff(),
+      f.constraint.cwiseAbs().maxCoeff());
   EXPECT_GT(scale, 1.0);
   EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6 * scale);
   // The contact: fingertip (geom 1) on the table (geom 0), 30 N up, as the README says.
@@ -331,8 +332,9 @@ TEST(MujocoScene, OnTheTableTheForcesAddUpToMTimesQddAndTheContactCarriesThirtyN
   const ContactWrench& c = f.contacts[0];
   EXPECT_EQ(std::minmax(c.geom1, c.geom2), std::minmax(0, 1));
   const Eigen::Vector3d up = c.geom2 == 1 ? c.force : Eigen::Vector3d(-c.force);  // on the fingertip
-  std::printf("table forces: contact of geoms %d and %d, force on the fingertip (%.4g, %.4g, %.6g) N, distance %.2g m\n",
-              c.geom1, c.geom2, up.x(), up.y(), up.z(), c.distance);
+  std::printf(
+      "table forces: contact of geoms %d and %d, force on the fingertip (%.4g, %.4g, %.6g) N, distance %.2g m\n",
+      c.geom1, c.geom2, up.x(), up.y(), up.z(), c.distance);
   EXPECT_NEAR(up.z(), K * commanded, 2e-3 * K * commanded);
   EXPECT_LT((up - *MujocoContactForce(*inst.stepped_plant(), "fingertip")).norm(), 1e-12 * K * commanded);
   EXPECT_LT(c.distance, 0.0);  // soft contact: a little inside the table
@@ -351,7 +353,8 @@ TEST(MujocoScene, OnTheTableTheForcesAddUpToMTimesQddAndTheContactCarriesThirtyN
   const MatrixXd Jp = J.topRows(3) - skew * J.bottomRows(3);  // the contact point's velocity: v + ω × r
   const Eigen::Vector3d torque = c.geom2 == 1 ? c.torque : Eigen::Vector3d(-c.torque);
   const VectorXd through_contact = Jp.transpose() * up + J.bottomRows(3).transpose() * torque;
-  std::printf("table forces: |constraint - J_p^T F| = %.2g N·m\n", (f.constraint - through_contact).cwiseAbs().maxCoeff());
+  std::printf("table forces: |constraint - J_p^T F| = %.2g N·m\n",
+              (f.constraint - through_contact).cwiseAbs().maxCoeff());
   EXPECT_LT((f.constraint - through_contact).cwiseAbs().maxCoeff(), 1e-9 * K * commanded);
   // What the model has: limits (its joint ranges; none reached at rest), no damping, no friction loss.
   EXPECT_TRUE(f.active.gravity && f.active.coriolis && f.active.limits);
@@ -450,7 +453,8 @@ TEST(MujocoScene, PandaWithItsHandPressingOnTheTableTheContactForceIsStiffnessTi
   VectorXd net(inst.num_dofs());
   forces.NetForce(net);
   double listed = 0.0;
-  for (int k = 0; k < forces.num_contacts; ++k) listed += std::abs(forces.contacts[static_cast<std::size_t>(k)].force.z());
+  for (int k = 0; k < forces.num_contacts; ++k)
+    listed += std::abs(forces.contacts[static_cast<std::size_t>(k)].force.z());
   const double scale = forces.gravity.cwiseAbs().maxCoeff();
   std::printf("hand on table forces: |sum - M qdd| = %.2g (terms up to %.3g), %d contacts carrying %.6g N\n",
               (net - M * inst.qdd()).cwiseAbs().maxCoeff(), scale, forces.contacts_total, listed);

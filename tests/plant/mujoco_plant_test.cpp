@@ -386,11 +386,11 @@ std::string Tetrahedron() {
 
 // A 1 x 1 grey PNG.
 std::string Png() {
-  const unsigned char bytes[] = {
-      0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x00,
-      0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00, 0x00, 0x90, 0x77, 0x53, 0xde, 0x00, 0x00, 0x00,
-      0x0c, 0x49, 0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0x68, 0x68, 0x68, 0x00, 0x00, 0x03, 0x04, 0x01, 0x81, 0x4b,
-      0xd3, 0xd2, 0x10, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+  const unsigned char bytes[] = {0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+                                 0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
+                                 0x00, 0x90, 0x77, 0x53, 0xde, 0x00, 0x00, 0x00, 0x0c, 0x49, 0x44, 0x41, 0x54, 0x78,
+                                 0x9c, 0x63, 0x68, 0x68, 0x68, 0x00, 0x00, 0x03, 0x04, 0x01, 0x81, 0x4b, 0xd3, 0xd2,
+                                 0x10, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
   return std::string(reinterpret_cast<const char*>(bytes), sizeof bytes);
 }
 
@@ -409,7 +409,8 @@ TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
         <geom type="mesh" mesh="tet" contype="0" conaffinity="0"/></body></worldbody></mujoco>)");
   WriteFile(dir / "parts" / "assets.xml", R"(<mujoco><include file="parts/textures.xml"/>
       <asset><mesh name="tet" file="tet.stl"/></asset></mujoco>)");
-  WriteFile(dir / "parts" / "textures.xml", R"(<mujoco><asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
+  WriteFile(dir / "parts" / "textures.xml",
+            R"(<mujoco><asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
   WriteFile(dir / "assets" / "tet.stl", Tetrahedron());
   WriteFile(dir / "assets" / "textures" / "grey.png", Png());
   const auto model = LoadMujocoPlant(path, MujocoOptions{});
@@ -419,7 +420,8 @@ TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
 
   const std::string mesh = (dir / "assets" / "tet.stl").string();
   std::filesystem::remove(mesh);
-  EXPECT_EQ(LoadError(path), path + ": <mesh file=\"tet.stl\">: " + mesh + ": cannot be opened (No such file or directory)");
+  EXPECT_EQ(LoadError(path),
+            path + ": <mesh file=\"tet.stl\">: " + mesh + ": cannot be opened (No such file or directory)");
   ASSERT_EQ(::mkfifo(mesh.c_str(), 0600), 0);
   EXPECT_EQ(LoadErrorUnlessBlocked(path, mesh),
             path + ": <mesh file=\"tet.stl\">: " + mesh + ": not a regular file (a FIFO)");
@@ -490,21 +492,22 @@ TEST(MujocoPlant, ForcesAreMujocosOwnTermsAndAddUpToItsMTimesQdd) {
   VectorXd net(n);
   f.NetForce(net);
   const double scale = std::max(f.gravity.cwiseAbs().maxCoeff(), f.constraint.cwiseAbs().maxCoeff());
-  std::printf("every force: |sum - M qdd| = %.2g (terms up to %.3g); limits %.4g, friction %.4g N, constraint %.4g %.4g %.4g\n",
-              (net - M * qdd).cwiseAbs().maxCoeff(), scale, f.limits[1], f.friction[0], f.constraint[0],
-              f.constraint[1], f.constraint[2]);
+  std::printf(
+      "every force: |sum - M qdd| = %.2g (terms up to %.3g); limits %.4g, friction %.4g N, constraint %.4g %.4g %.4g\n",
+      (net - M * qdd).cwiseAbs().maxCoeff(), scale, f.limits[1], f.friction[0], f.constraint[0], f.constraint[1],
+      f.constraint[2]);
   EXPECT_LT((net - M * qdd).cwiseAbs().maxCoeff(), 1e-12 * scale);
   // G + C q̇ is MuJoCo's bias force at (q, q̇).
   EXPECT_LT((f.gravity + f.coriolis - Eigen::Map<VectorXd>(d->qfrc_bias, n)).cwiseAbs().maxCoeff(), 1e-12 * scale);
   EXPECT_NEAR(f.gravity[0], (1.0 + 0.2 + 0.1) * 9.81, 1e-12 * scale);  // the slider carries every mass
   EXPECT_NEAR(f.damping[0], -0.5 * qd[0] - 20.0 * (q[0] - 0.05), 1e-12);
   EXPECT_NEAR(f.damping[1], -0.1 * qd[1], 1e-12);
-  EXPECT_NEAR(q[1], 0.5, 0.01);        // at the stop ...
-  EXPECT_LT(f.limits[1], -0.5);        // ... which pushes back
-  EXPECT_EQ(f.limits[0], 0.0);         // z has no range
+  EXPECT_NEAR(q[1], 0.5, 0.01);  // at the stop ...
+  EXPECT_LT(f.limits[1], -0.5);  // ... which pushes back
+  EXPECT_EQ(f.limits[0], 0.0);   // z has no range
   EXPECT_LE(std::abs(f.friction[0]), 0.3 + 1e-12);
   EXPECT_LE(std::abs(f.friction[1]), 0.05 + 1e-12);
-  EXPECT_GT(f.constraint[0], 5.0);     // the floor carries the weight (N)
+  EXPECT_GT(f.constraint[0], 5.0);  // the floor carries the weight (N)
   // The one contact: the ball on the floor, pushed up.
   ASSERT_EQ(f.num_contacts, 1);
   EXPECT_EQ(f.contacts_total, 1);
@@ -759,7 +762,7 @@ TEST(MujocoPlant, AMimicsForcesActOnItsLeaderWhereTheEqualitysShareCancels) {
   EffectForces f(1);
   data->ComputeForces(f);
   f.tau_cmd = f.tau_applied = tau;
-  EXPECT_TRUE(f.constraint_on);                   // the equality
+  EXPECT_TRUE(f.constraint_on);                 // the equality
   EXPECT_LT(std::abs(f.constraint[0]), 1e-12);  // −2 λ on a, λ on b: Sᵀ adds 2 λ back
   VectorXd net(1);
   f.NetForce(net);

@@ -951,14 +951,14 @@ TEST_F(Logs, Log2CsvWritesAForcesContactsOneColumnPerFieldJoinedBySemicolons) {
   EXPECT_EQ(forces.Numbers("constraint_1"), std::vector<double>{ForceValue(5, 1, 1)});
   EXPECT_EQ(forces.Numbers("contacts_total"), std::vector<double>{3});
   EXPECT_EQ(forces.Numbers("num_contacts"), std::vector<double>{2});
-  for (const auto& [column, text] : std::vector<std::pair<std::string, std::string>>{
-           {"contact_geom1", "0;0"},
-           {"contact_geom2", "1;2"},
-           {"contact_distance", "-2.5e-05;-2.5e-05"},
-           {"contact_position", "0;0;0;0.25;0;0"},
-           {"contact_normal", "0;0;1;0;0;1"},
-           {"contact_force", "0;0;15;0;0;16"},
-           {"contact_torque", "0;0.5;0;0;0.5;0"}}) {
+  for (const auto& [column, text] :
+       std::vector<std::pair<std::string, std::string>>{{"contact_geom1", "0;0"},
+                                                        {"contact_geom2", "1;2"},
+                                                        {"contact_distance", "-2.5e-05;-2.5e-05"},
+                                                        {"contact_position", "0;0;0;0.25;0;0"},
+                                                        {"contact_normal", "0;0;1;0;0;1"},
+                                                        {"contact_force", "0;0;15;0;0;16"},
+                                                        {"contact_torque", "0;0.5;0;0;0.5;0"}}) {
     EXPECT_EQ(forces.Texts(column), std::vector<std::string>{"\"" + text + "\""}) << column;
   }
 }
@@ -1002,7 +1002,8 @@ TEST_F(Logs, Log2CsvReadsTheForcesOfAnEarlierLagrangeWithoutConstraintOrContacts
   EXPECT_EQ(forces.Numbers("friction_on"), (std::vector<double>{1, 0}));
   for (std::size_t row = 0; row < std::size(kForceRows); ++row) {
     if (std::string(kForceRows[row]) == "constraint") continue;
-    EXPECT_EQ(forces.Numbers(std::string(kForceRows[row]) + "_1")[0], (row == 2 || row == 4 || row == 6) ? 0.0 : ForceValue(row, 1, 4))
+    EXPECT_EQ(forces.Numbers(std::string(kForceRows[row]) + "_1")[0],
+              (row == 2 || row == 4 || row == 6) ? 0.0 : ForceValue(row, 1, 4))
         << kForceRows[row];
   }
 }
