@@ -44,14 +44,18 @@ inline std::optional<std::string> GivenOption(int argc, char** argv, const std::
 class BusSigning {
  public:
   // `key_file` none → $LAGRANGE_BUS_KEY_FILE → unsigned; `domain` none → $LAGRANGE_BUS_DOMAIN → "udpm://GROUP:PORT"
-  // of `url` (the URL given to lcm::LCM; "" → $LCM_DEFAULT_URL or LCM's default). Throws for an empty path, a
-  // key file that is a symbolic link, readable by group or others, not 32 to 64 bytes or all one byte value, and
-  // for a domain that cannot be one.
+  // of `url` (the URL given to lcm::LCM; "" → $LCM_DEFAULT_URL or LCM's default). Throws std::invalid_argument
+  // (the caller's mistake) for an empty path, a key file that is missing, a symbolic link, readable by group or
+  // others, not 32 to 64 bytes or all one byte value, and for a domain that cannot be one.
   BusSigning(std::optional<std::string> key_file, std::optional<std::string> domain, std::string url) {
     const char* env = std::getenv("LAGRANGE_BUS_KEY_FILE");
     if (!key_file && env != nullptr) key_file = env;
-    if (key_file && key_file->empty()) throw std::runtime_error("bus key '': an empty path (an unset variable?)");
-    domain_ = lagrange::ResolveBusDomain(domain);
+    if (key_file && key_file->empty()) throw std::invalid_argument("bus key '': an empty path (an unset variable?)");
+    try {
+      domain_ = lagrange::ResolveBusDomain(domain);
+    } catch (const lagrange::BusKeyError& e) {
+      throw std::invalid_argument(e.what());
+    }
     if (!key_file) return;
     if (url.empty()) url = std::getenv("LCM_DEFAULT_URL") != nullptr ? std::getenv("LCM_DEFAULT_URL") : "";
     if (url.empty()) url = "udpm://239.255.76.67:7667?ttl=0";  // LCM's default
@@ -60,16 +64,17 @@ class BusSigning {
     const std::string& path = *key_file;
     const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);  // a symbolic link is refused (ELOOP)
     struct stat st {};
-    if (fd < 0 && errno == ELOOP) throw std::runtime_error("bus key " + path + ": a symbolic link; name the file itself");
-    if (fd < 0 || fstat(fd, &st) != 0) throw std::runtime_error("bus key " + path + ": " + std::strerror(errno));
+    if (fd < 0 && errno == ELOOP)
+      throw std::invalid_argument("bus key " + path + ": a symbolic link; name the file itself");
+    if (fd < 0 || fstat(fd, &st) != 0) throw std::invalid_argument("bus key " + path + ": " + std::strerror(errno));
     key_.resize(65);  // one more than a key can be: a longer file is seen
     const ssize_t n = S_ISREG(st.st_mode) && (st.st_mode & 077) == 0 ? read(fd, key_.data(), 65) : -1;
     close(fd);
     key_.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
     if (!S_ISREG(st.st_mode) || (st.st_mode & 077) != 0)
-      throw std::runtime_error("bus key " + path + ": not a regular file readable by its owner only");
+      throw std::invalid_argument("bus key " + path + ": not a regular file readable by its owner only");
     if (key_.size() < 32 || key_.size() > 64 || std::all_of(key_.begin(), key_.end(), [&](auto b) { return b == key_[0]; }))
-      throw std::runtime_error("bus key " + path + ": not 32 to 64 random bytes");
+      throw std::invalid_argument("bus key " + path + ": not 32 to 64 random bytes");
     personal_ = lagrange::BusDomainBytes(domain_);  // "LGS2" ‖ domain ‖ NUL, absorbed after the key
     randombytes_buf(&sender_, sizeof sender_);
   }
