@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
-#include <unistd.h>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
 #include <lagrange/pose_setpoint_t.hpp>
