@@ -3,8 +3,7 @@
 // answering every <NAME>_STATE with one torque_t on <NAME>_TORQUE, so it runs at the daemon's rate.
 // Only the generated types, lcm::LCM and libsodium (bus_signing.hpp, signed traffic): copy it, change the law.
 // LCM 1.3.1 crashes on forged fragments (docs/lcm-fragment-bug.md): use a bus only you reach (ttl=0), and a key.
-// It names the run it follows and, at the end (--duration, SIGINT, SIGTERM), what it sent (exit 0); no state
-// within --wait (no daemon; another URL, instance or key) or no torque applied: one line, exit 1.
+// It names the run it follows and, at the end, what it sent (exit 0); no state within --wait or none applied: exit 1.
 #include <lagrange/state_t.hpp>
 #include <lagrange/torque_t.hpp>
 #include <lcm/lcm-cpp.hpp>
