@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -37,9 +38,27 @@ namespace {
 // time mjData sees it; the tick does no I/O, and Step reads the counters.
 void DiscardWarning(const char* /*message*/) {}
 
+// A MuJoCo error (mju_error: "Stack overflow" when a step's contacts outgrow
+// the file's nstack, "Could not allocate mjData stack", ...) is fatal by
+// default: MuJoCo prints "Press Enter to exit ...", waits on stdin and calls
+// exit(1), so one scene file could end or hang lagranged. Thrown instead
+// (MuJoCo's Python bindings do the same): MujocoPlantData::Step catches it and
+// faults the instance with MuJoCo's message; elsewhere it is a load error.
+// MuJoCo 2.2.2's C frames unwind (x86-64 builds carry unwind tables); the
+// mjData's arena mark is left raised, and Step resets it after the catch.
+class MujocoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void ThrowError(const char* message) { throw MujocoError(std::string("MuJoCo: ") + message); }
+
 void InstallHandlers() {
   static std::once_flag once;
-  std::call_once(once, [] { mju_user_warning = &DiscardWarning; });
+  std::call_once(once, [] {
+    mju_user_warning = &DiscardWarning;
+    mju_user_error = &ThrowError;
+  });
 }
 
 // MuJoCo's messages run over several lines ("Error: ...\nElement 'x', line 3"): one line.
@@ -323,6 +342,19 @@ class MujocoPlantData final : public SteppedPlantData {
   }
 
   const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) override {
+    try {
+      return StepOnce(tau, q, qd, qdd);
+    } catch (const MujocoError& error) {
+      // The fault path only (the throw allocated): the instance stops here with
+      // MuJoCo's words, and its arena is free again for a later SetState.
+      d_->pstack = 0;
+      std::snprintf(error_.data(), error_.size(), "%s", error.what());
+      return error_.data();
+    }
+  }
+
+ private:
+  const char* StepOnce(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) {
     const int n = model_.num_dofs_;
     for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];  // a mimic's: 0
     for (mjWarningStat& w : d_->warning) w.number = 0;
@@ -370,6 +402,7 @@ class MujocoPlantData final : public SteppedPlantData {
     return nullptr;
   }
 
+ public:
   double kinetic_energy() const override { return d_->energy[1]; }
   const mjModel* m() const { return m_; }
   const mjData* d() const { return d_; }
@@ -498,6 +531,7 @@ class MujocoPlantData final : public SteppedPlantData {
   double other_work_ = 0.0;
   std::vector<mjtNum> jacp_;  // (3 x nv) scratch: a body's centre-of-mass Jacobian
   VectorXd full_;             // (nv) scratch: one term over every MuJoCo joint, mimics too
+  std::array<char, 256> error_{};  // the reason of a Step that MuJoCo ended with an error
 };
 
 MujocoPlantModel::~MujocoPlantModel() {

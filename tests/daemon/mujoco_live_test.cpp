@@ -137,7 +137,7 @@ TEST(MujocoLive, TheReferenceDriverClosesTheLoopWithLagranged) {
   std::ofstream(scene_path) << scene;
   LcmCollector collector(url);
   BackgroundProcess driver({MUJOCO_DRIVER_PATH, "--model", source + "/config/robots/panda.urdf", "--initial",
-                            "0,-0.785,0,-2.356,0,1.571,0.785", "--url", url, "--torque-timeout", "0.5"});
+                            "0,-0.785,0,-2.356,0,1.571,0.785", "--lcm-url", url, "--torque-timeout", "0.5"});
   ASSERT_TRUE(collector.WaitFor("PANDA_ROBOT_STATE", [](const auto& m) { return !m.empty(); }, kWait))
       << driver.Stderr();
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--config", scene_path});

@@ -293,6 +293,33 @@ TEST(MujocoPlant, FreePendulumKeepsItsEnergyUnderRk4) {
   EXPECT_DOUBLE_EQ(data->other_work(), 0.0);
 }
 
+// A MuJoCo error in a step (here "Stack overflow": the block's contacts with
+// the floor outgrow the file's nstack) faults that step with MuJoCo's words;
+// by MuJoCo's default it printed "Press Enter to exit ...", read stdin and
+// ended the process. The data is usable again after SetState.
+TEST(MujocoPlant, AnErrorInAStepFaultsTheStepInsteadOfEndingTheProcess) {
+  const auto model = LoadMujocoPlant(WriteTemp("small_stack.xml", R"(<mujoco><size nstack="300"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.3"><joint name="z" type="slide" axis="0 0 1"/><geom type="box" size="0.1 0.1 0.1"/>
+      <geom type="box" pos="0.2 0 0" size="0.1 0.1 0.1"/><geom type="box" pos="0.4 0 0" size="0.1 0.1 0.1"/></body>
+    </worldbody></mujoco>)"),
+                                     MujocoOptions{});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(1), qd = VectorXd::Zero(1), qdd(1), tau = VectorXd::Zero(1);
+  data->SetState(q, qd);  // falling, 0.2 m above the floor
+  const char* reason = nullptr;
+  int steps = 0;
+  for (; steps < 2000 && reason == nullptr; ++steps) reason = data->Step(tau, q, qd, qdd);
+  ASSERT_NE(reason, nullptr) << "the block never touched the floor";
+  EXPECT_NE(std::string(reason).find("MuJoCo: Stack overflow"), std::string::npos) << reason;
+  EXPECT_GT(steps, 100);  // not at once: when it reached the floor
+  q << 0.0;
+  qd << 0.0;
+  data->SetState(q, qd);  // in the air again: its steps run until the floor
+  EXPECT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EXPECT_LT(q[0], 0.0);
+}
+
 // Damping's work is counted: E(t) − E(0) = W to the trapezoid rule's error.
 TEST(MujocoPlant, DampingsWorkIsTheEnergyLost) {
   std::string xml = kPendulum;
@@ -650,7 +677,7 @@ TEST(MujocoPlant, PandaWithItsHandReducedToItsDegreesOfFreedomAgreesToRoundOff) 
 // |q_right − q_left| allowed, m, per integrator (measured: 1.4e-7, 1.4e-8,
 // 6.0e-6; MuJoCo's implicit integrator keeps the coupling the least well).
 TEST(MujocoPlant, TheMimicFingerFollowsItsLeaderToTheEqualitysSoftness) {
-  for (const auto [integrator, tolerance] :
+  for (const auto& [integrator, tolerance] :
        {std::pair{MujocoIntegrator::kEuler, 1e-6}, std::pair{MujocoIntegrator::kRk4, 1e-7},
         std::pair{MujocoIntegrator::kImplicit, 1e-5}}) {
     const Loaded l = LoadPandaHand(integrator);
