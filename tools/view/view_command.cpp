@@ -105,6 +105,10 @@ class ViewCommand final : public Command {
   int Run(std::ostream& out, std::ostream& err) override {
     CheckOptions();
     LoadModels();
+    for (const auto& model : models_) {  // visuals not drawn, meshes missing or refused: on the page, and here
+      for (const auto& line : model->geometry()["missing"])
+        err << "lagrangectl view: " << Escape(model->name()) << ": " << line.get<std::string>() << "\n";
+    }
     if (mode_ == Mode::kLog) log_view_ = std::make_unique<view::LogView>(log_, models_, instances_, bus_, err);
     if (!IsLoopback(bind_)) {
       err << "lagrangectl view: WARNING: --bind " << Escape(bind_)
