@@ -105,10 +105,6 @@ class ViewCommand final : public Command {
   int Run(std::ostream& out, std::ostream& err) override {
     CheckOptions();
     LoadModels();
-    for (const auto& model : models_) {  // visuals not drawn, meshes missing or refused: on the page, and here
-      for (const auto& line : model->geometry()["missing"])
-        err << "lagrangectl view: " << Escape(model->name()) << ": " << line.get<std::string>() << "\n";
-    }
     if (mode_ == Mode::kLog) log_view_ = std::make_unique<view::LogView>(log_, models_, instances_, bus_, err);
     if (!IsLoopback(bind_)) {
       err << "lagrangectl view: WARNING: --bind " << Escape(bind_)
@@ -120,16 +116,12 @@ class ViewCommand final : public Command {
     view::ViewRoutes routes(Site());
     view::GatedServer server(max_clients_ + kSpareThreads);
     routes.Install(server);
-    // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second view on the same
-    // port binds too and the kernel shares the browsers between them.
-    server.set_socket_options([](socket_t sock) {
-      int yes = 1;
-      setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-    });
-    if (!server.bind_to_port(bind_.c_str(), port_))
-      throw std::runtime_error("cannot listen on " + Escape(bind_) + ":" + std::to_string(port_) +
-                               " (in use, or not an address of this host)");
-    server.RaiseListenBacklog();
+    Bind(server);
+    // Serving (an error before is one line): visuals not drawn, meshes missing or refused, as on the page.
+    for (const auto& model : models_) {
+      for (const auto& line : model->geometry()["missing"])
+        err << "lagrangectl view: " << Escape(model->name()) << ": " << line.get<std::string>() << "\n";
+    }
     std::thread http([&] { server.listen_after_bind(); });
     out << "lagrangectl view: http://" << (bind_ == "0.0.0.0" ? "127.0.0.1" : bind_) << ":" << port_ << "/"
         << (mode_ == Mode::kLive ? "" : mode_ == Mode::kLog ? " (log " + Escape(log_) + ")" : " (urdf)")
@@ -172,6 +164,19 @@ class ViewCommand final : public Command {
         instances_.push_back(i);
       }
     }
+  }
+
+  void Bind(view::GatedServer& server) const {
+    // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second view on the same
+    // port binds too and the kernel shares the browsers between them.
+    server.set_socket_options([](socket_t sock) {
+      int yes = 1;
+      setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
+    if (!server.bind_to_port(bind_.c_str(), port_))
+      throw std::runtime_error("cannot listen on " + Escape(bind_) + ":" + std::to_string(port_) +
+                               " (in use, or not an address of this host)");
+    server.RaiseListenBacklog();
   }
 
   view::ViewSite Site() {
