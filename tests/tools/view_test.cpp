@@ -30,6 +30,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <regex>
 #include <thread>
@@ -711,6 +712,93 @@ TEST_F(ViewTest, KeepsTheMomentAnInstanceWasStopped) {
   EXPECT_LT(arm["event"]["tick"].get<std::int64_t>(), arm["tick"].get<std::int64_t>());
   daemon.Signal(SIGTERM);
   EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// The arm as the view streams it while `publish` sends its states: the first frame of at most
+// `seconds` that draws it and satisfies `done` (or the last that drew it).
+json StreamedArmUntil(int port, double seconds, const std::function<bool(const json&)>& done) {
+  json arm;
+  std::string stream;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end && !(arm.is_object() && done(arm))) {
+    httplib::Client c("127.0.0.1", port);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) {
+          const json frame = json::parse(stream.substr(6, e - 6));
+          for (const json& i : frame["instances"])
+            if (i["name"] == "arm" && i.contains("poses") && !(arm.is_object() && done(arm))) arm = i;
+        }
+        stream.erase(0, e + 2);
+      }
+      return !(arm.is_object() && done(arm)) && std::chrono::steady_clock::now() < end;
+    });
+  }
+  return arm;
+}
+
+// Every frame's pose in a streamed instance (R row by row, then p: 12 numbers) equals the
+// kinematics' at q.
+void ExpectStreamedPosesOf(const Kinematics& kinematics, const json& poses, const std::vector<double>& q,
+                           const std::string& what) {
+  auto data = kinematics.MakeData();
+  kinematics.ComputeFramePlacements(*data, Eigen::Map<const VectorXd>(q.data(), static_cast<Eigen::Index>(q.size())));
+  ASSERT_TRUE(poses.is_array() && static_cast<int>(poses.size()) == kinematics.num_frames()) << what;
+  for (int f = 0; f < kinematics.num_frames(); ++f) {
+    const json& m = poses[static_cast<std::size_t>(f)];
+    ASSERT_EQ(m.size(), 12u) << what;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) EXPECT_NEAR(m[i * 3 + j].get<double>(), data->rotation(f)(i, j), kPoseTolerance);
+      EXPECT_NEAR(m[9 + i].get<double>(), data->position(f)(i), kPoseTolerance) << what << " frame " << f;
+    }
+  }
+}
+
+// The plant half of a two-process loop (config/arm_external_plant.yaml) runs the arm under the
+// external controller: while running it applies the torques streamed to it, and its q_des is only
+// the hold it falls back to, followed by nothing, so no ghost is drawn of it; once held (streamed
+// torques timed out) the hold follows q_des and its ghost is drawn there. The states are the
+// view's input as such a daemon publishes them (controller "external", mode running, then hold).
+TEST_F(ViewTest, UnderTheExternalControllerDrawsNoGhostWhileItAppliesStreamedTorques) {
+  constexpr int kLcmPort = 8601;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18406);
+  std::atomic<std::int8_t> mode{state_t::MODE_RUNNING};
+  std::atomic<bool> stop{false};
+  std::thread plant([&] {
+    lcm::LCM lcm(url);
+    state_t s{};
+    s.run_id = 11;
+    s.num_dofs = 2;
+    s.q = {0.4, -0.3};
+    s.q_des = {0.0, 0.0};  // the hold: where the arm started, 0.5 rad away
+    s.qd = s.qdd = s.tau = s.qd_des = {0.0, 0.0};
+    s.controller = "external";
+    while (!stop) {
+      ++s.tick;
+      s.t = 1e-3 * static_cast<double>(s.tick);
+      s.mode = mode;
+      lcm.publish("ARM_STATE", &s);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  const json running = StreamedArmUntil(18406, 20.0, [](const json& a) { return a["mode"] == "running"; });
+  mode = state_t::MODE_HOLD;
+  const json held = StreamedArmUntil(18406, 20.0, [](const json& a) { return a["mode"] == "hold"; });
+  stop = true;
+  plant.join();
+  ASSERT_EQ(running.value("mode", ""), "running") << running.dump() << view_->Stderr();
+  EXPECT_EQ(running["controller"], "external");
+  EXPECT_FALSE(running.contains("ghost")) << "the external controller, running, follows no joint setpoint: "
+                                          << running.dump();
+  ASSERT_EQ(held.value("mode", ""), "hold") << held.dump();
+  ASSERT_TRUE(held.contains("ghost")) << "held, it follows q_des: " << held.dump();
+  const Kinematics kinematics = SceneKinematics("arm");
+  ExpectStreamedPosesOf(kinematics, held["ghost"], {0.0, 0.0}, "arm's hold");
+  ExpectStreamedPosesOf(kinematics, held["poses"], {0.4, -0.3}, "arm");
 }
 
 TEST_F(ViewTest, ListensAndNeverPublishes) {
