@@ -1090,7 +1090,9 @@ std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTaskSta
 
 // With a task-space frame beside the states (simulate's FILE.task.csv, a
 // log's <NAME>_TASK or log2csv's NAME_TASK.csv beside NAME_STATE.csv), plot
-// adds the end effector's position and error panels and says so.
+// adds the end effector's panels and says so: its tracking error to its task
+// target takes the joints' tracking panel's place (no row followed q_des), and
+// its position against the target follows.
 TEST_F(Logs, PlotAddsTheEndEffectorsPathAndErrorWhenATaskSpaceFrameIsBeside) {
   const fs::path csv = dir_ / "ur5.csv", png = dir_ / "ur5.png";
   auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml", "--duration", "0.2",
@@ -1106,22 +1108,74 @@ TEST_F(Logs, PlotAddsTheEndEffectorsPathAndErrorWhenATaskSpaceFrameIsBeside) {
   EXPECT_EQ(r.out.find("task:"), std::string::npos) << r.out;
   const auto [plain_height, plain_width] = ImageSize(png);
   EXPECT_EQ(plain_width, width);
-  EXPECT_GT(height, plain_height + 2 * 100);  // two panels more
+  EXPECT_GT(height, plain_height + 100);  // one panel more: the task's error replaced the joints'
 
   const fs::path log = dir_ / "arm.lcm";
   testing::WriteLcmLog(log.string(), ArmRunWithTaskStates(200));
+  const std::string tracking = "; tracking: tool0 to its task target on 200 rows, max |p_des - p| 1 mm, rotation 0 mrad";
   r = RunCtl({"plot", log.string(), "-o", (dir_ / "log.png").string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out, (dir_ / "log.png").string() + ": 200 rows in 1 segment; task: 200 rows of tool0\n");
+  EXPECT_EQ(r.out, (dir_ / "log.png").string() + ": 200 rows in 1 segment" + tracking + "; task: 200 rows of tool0\n");
   ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()}).status, 0);
   r = RunCtl({"plot", (dir_ / "csv" / "ARM_STATE.csv").string(), "-o", (dir_ / "csv.png").string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out, (dir_ / "csv.png").string() + ": 200 rows in 1 segment; task: 200 rows of tool0\n");
+  EXPECT_EQ(r.out, (dir_ / "csv.png").string() + ": 200 rows in 1 segment" + tracking + "; task: 200 rows of tool0\n");
 
   std::ofstream(dir_ / "csv" / "ARM_TASK.csv") << "t,frame\n0,\"tool0\"\n";
   r = RunCtl({"plot", (dir_ / "csv" / "ARM_STATE.csv").string(), "-o", (dir_ / "csv.png").string()});
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("lacks the columns position0"), std::string::npos) << r.err;
+}
+
+// "max |p_des - p| X mm" of plot's tracking line, or NaN.
+double MaxTaskErrorMm(const std::string& out) {
+  const std::string key = "max |p_des - p| ";
+  const std::size_t at = out.find(key);
+  return at == std::string::npos ? std::nan("") : std::stod(out.substr(at + key.size()));
+}
+
+// The UR5's flange runs a circle under operational-space control: the controller follows the
+// flange's task target and never the joint setpoint, which stays at the start pose (0.49 rad from
+// the arm once it moves). plot's tracking panel is the flange's error to its target, within
+// micrometres, and no joint is said to miss its setpoint.
+TEST_F(Logs, PlotTracksTheFrameToItsTaskTargetUnderATaskSpaceController) {
+  const fs::path csv = dir_ / "ur5.csv";
+  auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml", "--duration", "1.5",
+                   "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = RunCtl({"plot", csv.string(), "-o", (dir_ / "ur5.png").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; tracking: flange to its task target on 1500 rows, max |p_des - p| "), std::string::npos)
+      << r.out;  // every row but t = 0, before the controller's first evaluation
+  EXPECT_LT(MaxTaskErrorMm(r.out), 0.05) << r.out;
+  EXPECT_EQ(r.out.find("q_des"), std::string::npos) << r.out;
+}
+
+// An arm under the external controller: held (its fallback follows q_des) for 100 ticks, then
+// driven by streamed torques for 200 more, moving 0.49 rad away from the hold's q_des. plot compares
+// q with q_des only over the hold; with no hold at all, it says no row followed a setpoint.
+TEST_F(Logs, PlotComparesQWithTheSetpointOnlyWhereAControllerFollowedIt) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> held_then_driven, driven;
+  for (std::int64_t k = 0; k < 300; ++k) {
+    state_t s = MakeState(k);
+    s.controller = "external";
+    s.mode = k < 100 ? state_t::MODE_HOLD : state_t::MODE_RUNNING;
+    s.q_des = {0.25, 0.25};
+    s.q = {0.25 + (k < 100 ? 0.0 : 0.49 * static_cast<double>(k - 100) / 199.0), 0.25};
+    held_then_driven.emplace_back("ARM_STATE", Encode(s));
+    if (k >= 100) driven.emplace_back("ARM_STATE", Encode(s));
+  }
+  const fs::path log = dir_ / "external.lcm", only_driven = dir_ / "driven.lcm";
+  testing::WriteLcmLog(log.string(), held_then_driven);
+  testing::WriteLcmLog(only_driven.string(), driven);
+  auto r = RunCtl({"plot", log.string(), "-o", (dir_ / "external.png").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, (dir_ / "external.png").string() +
+                       ": 300 rows in 1 segment; tracking: joints to q_des on 100 of 300 rows, max |q_des - q| 0\n");
+  r = RunCtl({"plot", only_driven.string(), "-o", (dir_ / "driven.png").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, (dir_ / "driven.png").string() +
+                       ": 200 rows in 1 segment; tracking: none (no row followed a joint setpoint or a task target)\n");
 }
 
 // Runs the plot script lagrangectl embeds (tools/plot.py) with lagrangectl's
@@ -1207,8 +1261,9 @@ TEST_F(Logs, PlotLegendsCoverNoPanelsDataNorAnyAxisAndLieWithinThePicture) {
             (std::vector<std::string>{ClearLegend("shoulder_pan_joint"), ClearLegend("shoulder_pan_joint"),
                                       ClearLegend("T"), ClearLegend("shoulder_pan_joint")}));
 
-  // The end effector's panels (a task-space controller's frame: position, and
-  // the error with its rotation on a right-hand axis) with the telemetry's.
+  // The end effector's panels (a task-space controller's frame: the tracking
+  // error with its rotation on a right-hand axis, in the joints' tracking
+  // panel's place, then its position) with the telemetry's.
   const fs::path circle = dir_ / "circle.csv";
   ASSERT_EQ(RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml", "--duration", "0.2",
                     "--csv", circle.string()})
@@ -1218,9 +1273,8 @@ TEST_F(Logs, PlotLegendsCoverNoPanelsDataNorAnyAxisAndLieWithinThePicture) {
       LegendLines(dir_ / "circle.png", {circle.string(), "circle.csv", (csv / "ARM_TELEMETRY.csv").string(), "", "",
                                         (dir_ / "circle.joints.csv").string(), (dir_ / "circle.task.csv").string()}),
       (std::vector<std::string>{ClearLegend("shoulder_pan_joint"), ClearLegend("shoulder_pan_joint"), ClearLegend("T"),
-                                ClearLegend("shoulder_pan_joint"), ClearLegend("x"),
-                                ClearLegend("|p_des - p| (left axis)"), ClearLegend("ε = E - E(0) - W"),
-                                ClearLegend("evaluations (left axis)")}));
+                                ClearLegend("|p_des - p| (left axis)"), ClearLegend("x"),
+                                ClearLegend("ε = E - E(0) - W"), ClearLegend("evaluations (left axis)")}));
 }
 
 }  // namespace
