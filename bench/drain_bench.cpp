@@ -59,7 +59,7 @@ Bytes RefusedState(bool trailer) {
     std::uint8_t* t = b.data() + b.size() - kSignatureTrailerBytes;
     WriteBigEndian64(0xf100d, t);
     WriteBigEndian64(static_cast<std::uint64_t>(bench::WallMicros()), t + 8);  // in the window: the tag is computed
-    std::memcpy(t + 32, "LGS1", 4);
+    std::memcpy(t + 32, "LGS2", 4);
   }
   return b;
 }
@@ -67,7 +67,8 @@ Bytes RefusedState(bool trailer) {
 // A bus's receive socket opened by subscribing; a key for the signed cases.
 const BusKey& TestKey() {
   static const BusKey key = [] {
-    std::vector<std::uint8_t> bytes(32, 7);
+    std::vector<std::uint8_t> bytes(32);
+    for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(7 + 31 * i);
     return BusKey::FromBytes(bytes);
   }();
   return key;

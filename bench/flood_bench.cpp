@@ -22,6 +22,17 @@
 // The flood goes to the group and port both daemons listen on: the
 // controller reads ARM_STATE there, the plant watches its own output channels.
 //
+// --cpu-hogs N adds CPU contention to every window: N processes of this
+// program that only spin, at nice 0, beside the daemons and the flood (a
+// build on the same machine); each case then reports the 1-minute load
+// average at its window's end. --bench-nice N runs the flooding and
+// observing threads at nice N: below 0 (privileged) the hogs slow the flood
+// less (an attacker with CPU to spare) and what the observer counts is the
+// daemons' doing, not its own starvation. (Not SCHED_FIFO: a flood thread
+// that cannot keep its rate never sleeps, and real-time throttling,
+// sched_rt_runtime_us, would then stall every real-time thread for 50 ms a
+// second, the daemons' included.) --bus and --cases pick a part of the matrix.
+//
 // Per case: the flood's rate; the controller's status at both ends of the
 // window (measured states accepted and refused, kernel drops at its socket,
 // datagrams refused for their signature) and every status in between (how
@@ -30,6 +41,11 @@
 // showed the arm not running). The loop kept running when neither left
 // running. Files in --out: flood_cases.csv and the daemons' logs.
 
+#include <pthread.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <lagrange/state_t.hpp>
@@ -66,7 +82,6 @@ constexpr const char* kControllerPrefix = "CTRL_";
 constexpr const char* kFloodMark = "flood";  // state_t.controller of the flood's states
 
 enum class Case { kQuiet, kRefused, kGarbage };
-constexpr std::array kCases = {Case::kQuiet, Case::kRefused, Case::kGarbage};
 const char* Name(Case c) {
   switch (c) {
     case Case::kQuiet: return "quiet";
@@ -91,7 +106,51 @@ struct Options : DaemonOptions {
   // baseline in the same run: Debian's net.core.rmem_default, what lagranged
   // had before it asked 2 MiB)
   int baseline_buffer = 212992;
+  int cpu_hogs = 0;              // spinning processes beside the daemons during each window
+  int bench_nice = 0;            // the flooding and observing threads' nice value (< 0: privileged)
+  std::string bus = "both";      // unsigned | signed | both
+  std::vector<std::string> cases = {"quiet", "refused", "garbage"};
 };
+
+// ---- CPU contention ---------------------------------------------------------------------------
+
+// `n` child processes that spin at nice 0 until destroyed (SIGKILL, by pid); each also dies with this program.
+class CpuHogs {
+ public:
+  explicit CpuHogs(int n) {
+    for (int k = 0; k < n; ++k) {
+      const pid_t pid = fork();
+      if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        volatile std::uint64_t spins = 0;
+        for (;;) spins = spins + 1;
+      }
+      if (pid > 0) pids_.push_back(pid);
+    }
+  }
+  ~CpuHogs() {
+    for (const pid_t pid : pids_) kill(pid, SIGKILL);
+    for (const pid_t pid : pids_) waitpid(pid, nullptr, 0);
+  }
+  CpuHogs(const CpuHogs&) = delete;
+  CpuHogs& operator=(const CpuHogs&) = delete;
+
+ private:
+  std::vector<pid_t> pids_;
+};
+
+// Sets the calling thread's nice value (Linux: per thread); false when not permitted.
+bool ReniceThisThread(int nice) {
+  return setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), nice) == 0;
+}
+
+// The 1-minute load average (/proc/loadavg), or -1.
+double LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  double one = -1.0;
+  in >> one;
+  return one;
+}
 
 // ---- the flood --------------------------------------------------------------------------------
 
@@ -111,7 +170,7 @@ Bytes RefusedState(std::int64_t plant_run_id, bool signed_bus, std::uint64_t sen
     const std::size_t at = b.size();
     b.resize(at + kSignatureTrailerBytes, 0xa5);
     WriteBigEndian64(sender, b.data() + at);
-    std::memcpy(b.data() + at + 32, "LGS1", 4);
+    std::memcpy(b.data() + at + 32, "LGS2", 4);
   }
   return b;
 }
@@ -126,14 +185,16 @@ Bytes Garbage(std::mt19937& rng) {
 struct FloodResult {
   std::int64_t sent = 0;
   double seconds = 0.0;
+  bool reniced = false;  // the thread took --bench-nice
 };
 
 // Sends `c`'s datagrams to the group on `port` as fast as one thread can until `stop`.
 // `rate` > 0: at most that many datagrams/s, in bursts of 64 on an absolute schedule.
-FloodResult Flood(Case c, int port, bool signed_bus, std::int64_t plant_run_id, int index, double rate,
+FloodResult Flood(Case c, int port, bool signed_bus, std::int64_t plant_run_id, int index, double rate, int nice,
                   const std::atomic<bool>& stop) {
   FloodResult r;
   if (c == Case::kQuiet) return r;
+  r.reniced = nice == 0 || ReniceThisThread(nice);
   RawSender out(port);
   if (!out.ok()) return r;
   std::mt19937 rng(static_cast<std::uint32_t>(42 + index));
@@ -253,6 +314,8 @@ struct CaseResult {
   std::array<std::int64_t, 4> counts{};
   std::string controller_reason;
   std::int64_t observer_drops = 0;
+  int cpu_hogs = 0;
+  double load_average = -1.0;  // 1 min, at the window's end
 };
 
 std::vector<std::string> DaemonArgs(const Options& o, const std::string& url, const char* scene,
@@ -289,6 +352,9 @@ CaseResult RunCase(const Options& o, const std::string& bus_name, const std::str
     r.plant_a = observer.plant_status();
     r.ctrl_a = observer.controller_status();
     const std::int64_t drops_before = observer.kernel_drops();
+    std::optional<CpuHogs> hogs;
+    if (o.cpu_hogs > 0) hogs.emplace(o.cpu_hogs);
+    r.cpu_hogs = o.cpu_hogs;
     observer.OpenWindow();
     std::atomic<bool> stop{false};
     std::vector<FloodResult> floods(static_cast<std::size_t>(o.senders));
@@ -296,18 +362,21 @@ CaseResult RunCase(const Options& o, const std::string& bus_name, const std::str
     for (int k = 0; k < o.senders; ++k) {
       senders.emplace_back([&, k] {
         floods[static_cast<std::size_t>(k)] =
-            Flood(c, o.port, !key_file.empty(), observer.plant_run_id(), k, o.rate / o.senders, stop);
+            Flood(c, o.port, !key_file.empty(), observer.plant_run_id(), k, o.rate / o.senders, o.bench_nice, stop);
       });
     }
     std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
     stop = true;
     for (auto& t : senders) t.join();
     for (const FloodResult& f : floods) {
+      r.flood.reniced = f.reniced;
       r.flood.sent += f.sent;
       r.flood.seconds = std::max(r.flood.seconds, f.seconds);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // a status from after the flood
     observer.CloseWindow();
+    r.load_average = LoadAverage();
+    hogs.reset();
     r.counts = observer.window_counts();
     r.plant_b = observer.plant_status();
     r.ctrl_b = observer.controller_status();
@@ -327,9 +396,9 @@ void Write(const fs::path& path, const std::vector<CaseResult>& results) {
   csv << "bus,case,daemon_recv_buf_size,problem,flood_datagrams,flood_rate_per_s,loop_kept_running,controller_statuses,"
          "controller_statuses_not_running,controller_reason,controller_ticks,measured_accepted,measured_rejected,"
          "controller_kernel_drops,controller_unauthenticated,plant_states_seen,plant_states_not_running,plant_ticks,"
-         "torques_accepted,plant_kernel_drops,observer_kernel_drops\n";
+         "torques_accepted,plant_kernel_drops,observer_kernel_drops,cpu_hogs,load_average,bench_nice_taken\n";
   std::cout << "bus        case     buffer   flood/s   loop  ctrl: not-running  accepted/ticks  kernel drops | plant: "
-               "not-running  torques/ticks  kernel drops\n";
+               "not-running  torques/ticks  kernel drops | hogs  load\n";
   for (const CaseResult& r : results) {
     const bool have = r.plant_a && r.plant_b && r.ctrl_a && r.ctrl_b;
     const auto d = [&](const std::optional<status_t>& a, const std::optional<status_t>& b,
@@ -346,17 +415,20 @@ void Write(const fs::path& path, const std::vector<CaseResult>& results) {
         << d(r.ctrl_a, r.ctrl_b, &status_t::datagrams_dropped_kernel) << ','
         << d(r.ctrl_a, r.ctrl_b, &status_t::datagrams_unauthenticated) << ',' << r.counts[0] << ',' << r.counts[1]
         << ',' << plant_ticks << ',' << torques << ',' << d(r.plant_a, r.plant_b, &status_t::datagrams_dropped_kernel)
-        << ',' << r.observer_drops << '\n';
+        << ',' << r.observer_drops << ',' << r.cpu_hogs << ',' << r.load_average << ',' << (r.flood.reniced ? 1 : 0)
+        << '\n';
     char line[256];
     const std::string buffer = r.recv_buf_size > 0 ? std::to_string(r.recv_buf_size) : "default";
-    std::snprintf(line, sizeof line, "%-10s %-8s %-8s %8.0f  %-4s  %6lld/%-6lld  %13.3f  %12lld | %6lld/%-6lld  %13.3f  %12lld\n",
+    std::snprintf(line, sizeof line,
+                  "%-10s %-8s %-8s %8.0f  %-4s  %6lld/%-6lld  %13.3f  %12lld | %6lld/%-6lld  %13.3f  %12lld | %4d  %4.1f\n",
                   r.bus.c_str(), Name(r.c), buffer.c_str(), rate, kept ? "yes" : "NO", static_cast<long long>(r.counts[3]),
                   static_cast<long long>(r.counts[2]),
                   ctrl_ticks > 0 ? static_cast<double>(accepted) / static_cast<double>(ctrl_ticks) : 0.0,
                   static_cast<long long>(d(r.ctrl_a, r.ctrl_b, &status_t::datagrams_dropped_kernel)),
                   static_cast<long long>(r.counts[1]), static_cast<long long>(r.counts[0]),
                   plant_ticks > 0 ? static_cast<double>(torques) / static_cast<double>(plant_ticks) : 0.0,
-                  static_cast<long long>(d(r.plant_a, r.plant_b, &status_t::datagrams_dropped_kernel)));
+                  static_cast<long long>(d(r.plant_a, r.plant_b, &status_t::datagrams_dropped_kernel)), r.cpu_hogs,
+                  r.load_average);
     std::cout << line;
     if (!r.problem.empty()) std::cout << "  " << r.problem << '\n';
   }
@@ -395,6 +467,19 @@ int Main(int argc, char** argv) {
                [&o, seconds] { QuickDefault(seconds, o.seconds, 2.0); });
   app.add_option("--rt-priority", o.rt_priority, "Run the daemons with --mlockall --rt-priority N")
       ->check(CLI::Range(1, 99));
+  app.add_option("--bench-nice", o.bench_nice,
+                 "Nice value of the flooding and observing threads (negative: privileged; the hogs then slow them less)")
+      ->check(CLI::Range(-20, 19))
+      ->capture_default_str();
+  app.add_option("--cpu-hogs", o.cpu_hogs, "Processes spinning at nice 0 beside the daemons in every window")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
+  app.add_option("--bus", o.bus, "Which buses: unsigned, signed or both")
+      ->check(CLI::IsMember({"unsigned", "signed", "both"}))
+      ->capture_default_str();
+  app.add_option("--cases", o.cases, "Which cases, in order (quiet, refused, garbage)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"quiet", "refused", "garbage"}));
   CLI11_PARSE(app, argc, argv);
   if (const int status = PrepareRun("flood_bench", o, {o.port})) return status;
   char scratch_template[] = "/tmp/flood_bench.XXXXXX";
@@ -403,10 +488,15 @@ int Main(int argc, char** argv) {
   const BusKey key = BusKey::FromFile(key_file);
   std::vector<CaseResult> results;
   for (const bool signed_bus : {false, true}) {
+    if (o.bus != "both" && o.bus != (signed_bus ? "signed" : "unsigned")) continue;
     Observer observer(Url(o.port), signed_bus ? &key : nullptr);
     std::atomic<bool> stop{false};
-    std::thread observe([&] { observer.Run(stop); });
-    for (Case c : kCases) {
+    std::thread observe([&] {
+      if (o.bench_nice != 0) ReniceThisThread(o.bench_nice);  // the measuring instrument, as the flood
+      observer.Run(stop);
+    });
+    for (const std::string& name : o.cases) {
+      const Case c = name == "quiet" ? Case::kQuiet : name == "refused" ? Case::kRefused : Case::kGarbage;
       std::vector<int> buffers = {o.recv_buf_size};
       if (o.baseline_buffer > 0 && o.baseline_buffer != o.recv_buf_size) buffers.push_back(o.baseline_buffer);
       for (const int buffer : buffers) {

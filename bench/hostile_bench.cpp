@@ -20,9 +20,10 @@
 //     its states of this run, per instance, are counted against the ticks the
 //     daemon ran in the window (from its status_t.ticks just after the window
 //     opened to just after it closed): ticks lost at an external logger;
-//   - an estop every 0.5 s to the arm (a request_id each, resent every 20 ms
+//   - an estop every 1 s to the arm (a request_id each, resent every 20 ms
 //     until seen, as lagrangectl does), then clear_estop
-//     once the arm is seen in MODE_ESTOP (resent until it leaves it): an
+//     once the arm is seen in MODE_ESTOP (resent every 50 ms until it leaves
+//     it, which it does once the scene's estop_dwell, 0.5 s, is over): an
 //     estop counts as applied when a state shows the arm in MODE_ESTOP or
 //     its reply_t says accepted;
 //   - a setpoint prober: a new cartpole setpoint every 20 ms (+ up to 1 ms of
@@ -428,7 +429,8 @@ struct Estop {
 
 constexpr auto kEstopPoll = std::chrono::microseconds(200);
 
-// An estop every 0.5 s (the first after 0.25 s) until `stop`; after each, clear_estop until the arm leaves it.
+// An estop every 1 s (the first after 0.25 s) until `stop`; after each, clear_estop until the arm leaves it
+// (refused until the estop has lasted the scene's estop_dwell, 0.5 s).
 std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, std::int64_t& next_id,
                               const std::atomic<bool>& stop) {
   std::unique_ptr<Bus> bus = OpenBus(input_url);
@@ -438,7 +440,7 @@ std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, 
   while (!stop.load()) {
     std::this_thread::sleep_until(next);
     if (stop.load()) break;
-    next += std::chrono::milliseconds(500);
+    next += std::chrono::milliseconds(1000);
     Estop e;
     e.request_id = kEstopTag | next_id++;
     e.sent_ns = MonotonicNs();
@@ -456,7 +458,7 @@ std::vector<Estop> SendEstops(const std::string& input_url, Observer& observer, 
     do {
       ++e.clears;
       bus->PublishMessage(channel, CommandMessage(command_t::CLEAR_ESTOP, kEstopTag | next_id++));
-    } while (!Await([&] { return observer.estop_since() < 0; }, 0.050, kEstopPoll) && e.clears < 10);
+    } while (!Await([&] { return observer.estop_since() < 0; }, 0.050, kEstopPoll) && e.clears < 15);
     estops.push_back(e);
   }
   return estops;

@@ -92,7 +92,8 @@ struct HmacMac {
   crypto_auth_hmacsha256_state keyed;
   explicit HmacMac(const BusKey& key) {
     crypto_auth_hmacsha256_init(&keyed, key.bytes().data(), key.bytes().size());
-    crypto_auth_hmacsha256_update(&keyed, reinterpret_cast<const unsigned char*>("LGS1"), 4);
+    const std::string personal = BusDomainBytes("udpm://239.255.76.67:7667");  // "LGS2" ‖ domain ‖ NUL, as KeyedMac
+    crypto_auth_hmacsha256_update(&keyed, reinterpret_cast<const unsigned char*>(personal.data()), personal.size());
   }
   void Tag(const Datagram& d, std::uint64_t stamp, std::uint8_t* tag16) const {
     crypto_auth_hmacsha256_state s = keyed;
@@ -119,8 +120,8 @@ void TimeSigning(benchmark::State& bm, Mac mac, bool telemetry) {
   Runtime runtime(std::move(scene));
   TickRecord record = runtime.MakeRecord();
   const BusKey key = BenchKey();
-  Signer daemon(key), client(key);
-  Verifier verifier(key);
+  Signer daemon(key, "udpm://239.255.76.67:7667"), client(key, "udpm://239.255.76.67:7667");
+  Verifier verifier(key, "udpm://239.255.76.67:7667");
   const HmacMac hmac(key);
   std::vector<std::array<std::uint8_t, kSignatureTagBytes>> sent_tags(in.size());
   Nanoseconds now = 0;

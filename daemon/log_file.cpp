@@ -9,8 +9,25 @@
 namespace lagrange {
 namespace {
 
-// Opens for writing (append or truncate), close-on-exec; never creates directories.
+// What a file that is not a regular one is, for the refusal.
+const char* KindOf(mode_t mode) {
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISDIR(mode)) return "a directory";
+  return "not a regular file";
+}
+
+// Opens for writing (append or truncate), close-on-exec; never creates directories. Anything but a regular
+// file is refused before it is opened (opening a FIFO for writing would wait for a reader).
 std::FILE* OpenFile(const std::string& path, const char* mode, std::string& error, std::size_t& size) {
+  struct stat before {};
+  if (stat(path.c_str(), &before) == 0 && !S_ISREG(before.st_mode)) {
+    error = std::string("not a regular file (") + KindOf(before.st_mode) +
+            "): the log is rotated by renaming it; name a file";
+    return nullptr;
+  }
   std::FILE* f = std::fopen(path.c_str(), mode);
   if (f == nullptr) {
     error = std::strerror(errno);
@@ -54,17 +71,53 @@ void LogFileSink::Close() {
   file_ = nullptr;
 }
 
+std::string LogFileSink::write_error() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return error_ != 0 ? std::strerror(error_) : "";
+}
+
+std::size_t LogFileSink::lines_lost() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return lines_lost_;
+}
+
+// The first failure after a success is said on stderr at once (the lines that
+// would say it go to this file too); later ones are only counted.
+void LogFileSink::Wrote(int errno_value) {
+  if (errno_value != 0 && error_ == 0) {
+    std::fprintf(stderr, "lagranged: --log-file '%s': cannot write: %s; its lines are lost until it can be\n",
+                 path_.c_str(), std::strerror(errno_value));
+  }
+  error_ = errno_value;
+}
+
 void LogFileSink::sink_it_(const spdlog::details::log_msg& msg) {
   if (file_ == nullptr) return;
   spdlog::memory_buf_t formatted;
   formatter_->format(msg, formatted);
   if (max_files_ > 0 && size_ > 0 && size_ + formatted.size() > max_size_) Rotate();
   if (file_ == nullptr) return;
-  size_ += std::fwrite(formatted.data(), 1, formatted.size(), file_);
+  errno = 0;
+  const std::size_t put = std::fwrite(formatted.data(), 1, formatted.size(), file_);
+  size_ += put;
+  if (put < formatted.size()) {
+    ++lines_lost_;
+    Wrote(errno != 0 ? errno : EIO);
+    std::clearerr(file_);
+  }
 }
 
+// A failed flush loses what the buffer held: counted as one line at least.
 void LogFileSink::flush_() {
-  if (file_ != nullptr) std::fflush(file_);
+  if (file_ == nullptr) return;
+  errno = 0;
+  if (std::fflush(file_) != 0) {
+    ++lines_lost_;
+    Wrote(errno != 0 ? errno : EIO);
+    std::clearerr(file_);
+  } else if (error_ != 0) {
+    Wrote(0);
+  }
 }
 
 // PATH.N-1 → PATH.N, …, PATH → PATH.1, then a new PATH. A failed rename only

@@ -8,7 +8,13 @@
 //                once the loop runs: no flood of later lines can rotate them away
 //
 // Both are opened before anything else happens, with fopen: a missing
-// directory is an error (never created), as is a directory or an unwritable path.
+// directory is an error (never created), as is a directory, an unwritable
+// path or anything but a regular file (/dev/full, a FIFO: a log is rotated by
+// renaming it, and a device would lose its lines). A write that fails later
+// (a full disk, a file size limit) loses lines, never the daemon: the first
+// failure is said at once on stderr, the lines lost are counted
+// (lines_lost), and the start-up checks that its own lines were written
+// (write_error) before the loop runs.
 
 #include <spdlog/sinks/base_sink.h>
 
@@ -39,6 +45,11 @@ class LogFileSink final : public spdlog::sinks::base_sink<std::mutex> {
   std::string Reopen();
   // Flushes and closes the file; later lines are not written to it.
   void Close();
+  // Why the latest write or flush failed ("No space left on device"), or "" when
+  // the latest succeeded.
+  std::string write_error();
+  // Lines that could not be written since the file was opened.
+  std::size_t lines_lost();
 
  protected:
   void sink_it_(const spdlog::details::log_msg& msg) override;
@@ -46,12 +57,16 @@ class LogFileSink final : public spdlog::sinks::base_sink<std::mutex> {
 
  private:
   void Rotate();
+  // A write or flush that failed with `errno_value` (0: it succeeded).
+  void Wrote(int errno_value);
 
   std::string path_;
   std::size_t max_size_;
   int max_files_;
   std::FILE* file_ = nullptr;
   std::size_t size_ = 0;  // bytes in the current file
+  int error_ = 0;               // errno of the latest failed write or flush; 0 after one that succeeded
+  std::size_t lines_lost_ = 0;  // lines not written (whole or in part)
 };
 
 }  // namespace lagrange

@@ -46,6 +46,7 @@ ModeOutcome OnEstop(ModeState s) {
 ModeOutcome OnClearEstop(ModeState s, const ModeContext& c) {
   if (c.estop_this_tick) return Refuse(s, kClearWithEstop);  // the estop wins its tick
   if (s.mode == Mode::kStopped) return Rearm(s);      // the watchdog re-armed; a latched estop stays
+  if (s.estop_latched && c.estop_dwelling) return Refuse(s, kClearWithinDwell);  // it brakes its dwell out
   if (s.mode == Mode::kWaiting && s.estop_latched) {  // the estop cleared: the first state holds
     s.estop_latched = false;
     s.hold_on_arrival = true;

@@ -40,8 +40,12 @@
 // The stop is sacred: an estop is taken before anything else in a tick, and
 // a clear_estop that arrives in the same tick as an estop is refused
 // (kClearWithEstop) whichever was sent first, so no flood of clears can
-// cancel an estop as it lands. Leaving an estop takes a clear_estop in a
-// later tick: a deliberate command of its own (a key holder's when the bus is
+// cancel an estop as it lands. Nor can one shorten it: a clear_estop is
+// refused until the latest estop has lasted the scene's estop_dwell
+// (kClearWithinDwell; default 0.5 s, restarted by every estop), so an estop
+// always brakes that long whoever sends clears, a key holder's flood or
+// anyone's on an unsigned bus. Leaving an estop takes a clear_estop after
+// that: a deliberate command of its own (a key holder's when the bus is
 // signed). A latched estop survives a fault, the watchdog and reset. Under an external controller the torques decide,
 //   never the setpoints. An instance also holds when an external controller
 //   becomes active (until its first torque) and after clear_estop.
@@ -93,6 +97,7 @@ struct ModeContext {
   bool task_space = false;           // the active controller (after the event) follows poses, not joint setpoints
   bool setpoints_timed_out = false;  // streamed setpoints were accepted and then stopped for setpoint_timeout
   bool estop_this_tick = false;      // an estop arrived in the same tick as this event (kClearEstop)
+  bool estop_dwelling = false;       // the latched estop has not yet lasted estop_dwell (kClearEstop)
   const char* fault = nullptr;       // kFault: why (a static string)
 };
 
@@ -132,6 +137,9 @@ inline constexpr char kEstopWhileFaulted[] = "estop: the instance is faulted (fr
 inline constexpr char kClearWithoutEstop[] = "clear_estop: the instance is not in an emergency stop";
 inline constexpr char kClearWithEstop[] =
     "clear_estop: an estop arrived in the same tick, and an estop wins; send clear_estop again to leave it";
+inline constexpr char kClearWithinDwell[] =
+    "clear_estop: an emergency stop lasts at least the scene's estop_dwell (default 0.5 s) before a clear can end "
+    "it; send clear_estop again once it has";
 inline constexpr char kPauseExternalPlant[] =
     "pause: an external plant keeps moving and cannot be frozen (estop brakes it)";
 inline constexpr char kPauseNotRunning[] = "pause: the instance is not running or holding";

@@ -122,6 +122,15 @@ void Receiver::UpdateBusStats() {
     total.oversized += out.oversized;
     total.fragments_dropped += out.fragments_dropped;
   }
+  // Signed before bus domains: refused like any unauthenticated datagram, but named once (the sender needs updating).
+  total.old_format += listener_apart ? output_listener_->stats().old_format : 0;
+  std::int64_t held = 0;
+  if (total.old_format > old_format_said_ && old_format_throttle_.Allow(clock_.WallMicros(), held)) {  // 1 line/s
+    spdlog::warn("{} datagram(s) signed in lagrange's old format (LGS1, before bus domains) refused: update their "
+                 "senders (README, \"Signed traffic\")",
+                 total.old_format - old_format_said_);
+    old_format_said_ = total.old_format;
+  }
   stats_.datagrams_dropped_kernel.store(total.kernel_drops, std::memory_order_relaxed);
   stats_.datagrams_malformed.store(total.malformed + total.oversized, std::memory_order_relaxed);
   stats_.fragments_dropped.store(total.fragments_dropped, std::memory_order_relaxed);

@@ -184,7 +184,8 @@ class Receiver {
   torque_t torque_;
   state_t measured_;
   reply_t reply_;
-  LogThrottle log_throttle_, foreign_throttle_;
+  LogThrottle log_throttle_, foreign_throttle_, old_format_throttle_;
+  std::int64_t old_format_said_ = 0;  // datagrams in the old signature format (LGS1) the log has told of
   TokenBucket reply_budget_{kMaxRepliesPerSecond, kMaxRepliesPerSecond};
 };
 

@@ -94,6 +94,7 @@ struct Runtime::Slot {
   bool integrated = false;        // this tick ran the integrator
   double worst_s = 0.0;           // this instance's worst case per tick as it runs now (sim/work_bound.hpp)
   bool estop_this_tick = false;   // an estop was posted for this tick (a clear_estop in it is refused)
+  Nanoseconds estop_at = 0;       // when the latest estop was applied (estop_dwell counts from there)
   WorkFigures refusal;            // the figures of the last switch the work bound refused
 
   const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
@@ -186,6 +187,7 @@ const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* f
       .task_space = task_space,
       .setpoints_timed_out = !task_space && s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
       .estop_this_tick = s.estop_this_tick,
+      .estop_dwelling = s.mode.estop_latched && now - s.estop_at < s.m.estop_dwell,
       .fault = fault};
   const ModeOutcome out = Transition(s.mode, event, context);
   const Mode before = s.mode.mode;
@@ -288,7 +290,11 @@ const char* Runtime::Apply(Slot& s, CommandKind kind, int controller, const Gain
       if (refused == nullptr) s.last_setpoint = now;
       return refused;
     }
-    case CommandKind::kEstop: return On(s, ModeEvent::kEstop, now);
+    case CommandKind::kEstop: {
+      const char* refused = On(s, ModeEvent::kEstop, now);
+      if (refused == nullptr) s.estop_at = now;  // every estop brakes a dwell of its own
+      return refused;
+    }
     case CommandKind::kClearEstop: return On(s, ModeEvent::kClearEstop, now);
   }
   return "unknown command";

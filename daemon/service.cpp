@@ -75,7 +75,8 @@ struct Options {
   double spin_us = 0.0;
   bool require_rt = false;
   std::string timing_csv;  // per-tick wake latency and compute, written off the publish path
-  std::string bus_key;     // --bus-key; else $LAGRANGE_BUS_KEY_FILE; else the scene's bus.key_file
+  std::optional<std::string> bus_key;     // --bus-key; else $LAGRANGE_BUS_KEY_FILE; else the scene's bus.key_file
+  std::optional<std::string> bus_domain;  // --bus-domain; else $LAGRANGE_BUS_DOMAIN; else the scene's; else the URL's
 };
 
 // --log-file: the rotating log and its start-up record (daemon/log_file.hpp); null without the option.
@@ -117,12 +118,27 @@ sigset_t HandledSignals() {
 
 // Signals whose default action would end the daemon and that mean nothing to
 // it: SIGPIPE (stderr or a log pipe closed by the reader: the write fails
-// with EPIPE instead), SIGUSR1, SIGUSR2, SIGALRM.
+// with EPIPE instead), SIGXFSZ (a log file at the file size limit: the write
+// fails with EFBIG instead, and the lines are counted as lost), SIGUSR1,
+// SIGUSR2, SIGALRM.
 void IgnoreStraySignals() {
   struct sigaction ignore {};
   ignore.sa_handler = SIG_IGN;
   sigemptyset(&ignore.sa_mask);
-  for (int s : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM}) sigaction(s, &ignore, nullptr);
+  for (int s : {SIGPIPE, SIGXFSZ, SIGUSR1, SIGUSR2, SIGALRM}) sigaction(s, &ignore, nullptr);
+}
+
+// Why the log file could not take the lines logged so far ("" when it could,
+// or there is none): flushed first, so a full disk or a size limit shows now.
+std::string LogFileProblem(const LogFiles& logs) {
+  if (!logs.log) return "";
+  spdlog::default_logger()->flush();
+  for (const auto& file : {logs.log, logs.start}) {
+    if (const std::string why = file->write_error(); !why.empty()) {
+      return "--log-file '" + file->path() + "': cannot write: " + why;
+    }
+  }
+  return "";
 }
 
 // SIGHUP: the log file by its name again, announced in the new file.
@@ -268,10 +284,14 @@ int Serve(const Options& o, const LogFiles& logs) {
   const std::string url = ResolveLcmUrl(o.lcm_url);
   const std::string input_url = o.input_lcm_url.empty() ? url : o.input_lcm_url;
   // Signed traffic: with a key every bus signs what it sends and takes only what verifies.
-  std::string key_file = ResolveBusKeyFile(o.bus_key);
-  if (key_file.empty()) key_file = scene.bus_key_file;
+  // An empty --bus-key (an unset variable) is refused, never read as "unsigned".
+  std::string key_file, domain;
   std::optional<BusKey> key;
   try {
+    key_file = ResolveBusKeyFile(o.bus_key);
+    if (key_file.empty()) key_file = scene.bus_key_file;
+    domain = ResolveBusDomain(o.bus_domain);
+    if (domain.empty()) domain = scene.bus_domain;  // still "": each bus its own (udpm://GROUP:PORT)
     if (!key_file.empty()) key = BusKey::FromFile(key_file);
   } catch (const BusKeyError& e) {
     spdlog::error("{}", e.what());
@@ -283,10 +303,10 @@ int Serve(const Options& o, const LogFiles& logs) {
   const std::string in_url = WithDefaultReceiveBuffer(input_url, kDaemonReceiveBuffer);
   const std::string listen_url = WithDefaultReceiveBuffer(url, kDaemonReceiveBuffer);
   try {
-    bus_out = OpenBus(url, signing);
-    bus_in = OpenBus(in_url, signing);
-    bus_replies = OpenBus(url, signing);
-    if (input_url != url) bus_listen = OpenBus(listen_url, signing);
+    bus_out = OpenBus(url, signing, domain);
+    bus_in = OpenBus(in_url, signing, domain);
+    bus_replies = OpenBus(url, signing, domain);
+    if (input_url != url) bus_listen = OpenBus(listen_url, signing, domain);
   } catch (const BusError& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -322,8 +342,15 @@ int Serve(const Options& o, const LogFiles& logs) {
                names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
                static_cast<std::uint64_t>(run_id));
   if (key) {
-    spdlog::info("bus signed with the key in {}: unsigned, forged, replayed and stale messages are dropped and counted",
-                 key_file);
+    spdlog::info(
+        "bus signed with the key in {}, domain {}{}: unsigned, forged, replayed, stale and other domains' messages are "
+        "dropped and counted",
+        key_file, bus_out->domain(), bus_in->domain() != bus_out->domain() ? " (inputs: " + bus_in->domain() + ")" : "");
+  } else {
+    spdlog::info(
+        "bus unsigned: anyone who can send to {} can command these instances (--bus-key FILE signs it; README, "
+        "\"Signed traffic\")",
+        input_url);
   }
   for (const InstanceModel& m : model->instances) {
     const InstanceChannelNames& c = m.channels;
@@ -334,6 +361,13 @@ int Serve(const Options& o, const LogFiles& logs) {
     spdlog::info("  {}: {}{} with {}, {} / {} / {}{}{}", m.name(), plant, ToString(m.config.plant.type()), m.controllers.front().name, c.state, c.setpoint, c.command,
                  c.torque_in.empty() ? "" : ", torques from " + c.torque_in,
                  m.external_plant() ? ", measured state from " + c.measured_in + ", torque to " + c.torque_out : "");
+  }
+
+  // The start-up lines must have reached --log-file: a log that loses them would lose every later one too.
+  if (const std::string why = LogFileProblem(logs); !why.empty()) {
+    spdlog::error("lagranged: {}", why);
+    close(notify_fd);
+    return 2;
   }
 
   std::atomic<bool> stop_loop{false}, stop_io{false};
@@ -410,6 +444,10 @@ int Serve(const Options& o, const LogFiles& logs) {
   spdlog::info("stopped{} after {} ticks: {} overruns, {} state messages published, {} records dropped",
                signal_number > 0 ? fmt::format(" by signal {}", signal_number) : std::string(), loop.ticks(),
                loop.overruns(), publisher.states_published(), loop.records_dropped());
+  if (logs.log && logs.log->lines_lost() > 0) {
+    spdlog::warn("--log-file '{}': {} line(s) could not be written ({})", logs.log->path(), logs.log->lines_lost(),
+                 logs.log->write_error().empty() ? "it can be again" : logs.log->write_error());
+  }
   spdlog::default_logger()->flush();
   return 0;
 }
@@ -428,7 +466,7 @@ int RunLagranged(int argc, char** argv) {
   app.set_version_flag("--version", std::string("lagranged ") + LAGRANGE_VERSION);
   app.footer(
       "Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
-      "SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
+      "SIGXFSZ, SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
   app.add_option("--config", o.config, "Scene file")->capture_default_str();
   app.add_option("--lcm-url", o.lcm_url,
                  "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
@@ -440,6 +478,9 @@ int RunLagranged(int argc, char** argv) {
                  "Sign and check every message with the shared key in FILE (readable by its owner only; "
                  "lagrangectl keygen FILE makes one); default: $LAGRANGE_BUS_KEY_FILE, else the scene's "
                  "bus.key_file");
+  app.add_option("--bus-domain", o.bus_domain,
+                 "Bind signatures to this domain (every program on the bus gives the same); default: "
+                 "$LAGRANGE_BUS_DOMAIN, else the scene's bus.domain, else the bus's own (udpm://GROUP:PORT)");
   app.add_option("--log-file", o.log_file,
                  "Also log to this file (rotating: 5 MiB x 3; reopened on SIGHUP; flushed every second); the latest "
                  "start's start-up lines are also kept in FILE.start, never rotated");

@@ -3,7 +3,7 @@
 //
 // Signals: SIGINT and SIGTERM stop it after the current tick (every state
 // published, the final status logged, exit 0); SIGHUP reopens --log-file by
-// name (logrotate); SIGPIPE, SIGUSR1, SIGUSR2 and SIGALRM are ignored. The
+// name (logrotate); SIGPIPE, SIGXFSZ, SIGUSR1, SIGUSR2 and SIGALRM are ignored. The
 // handled ones are blocked in every thread and taken by the main thread.
 //
 // Threads under --rt-priority P: tick SCHED_FIFO P, publish P-1, receive P-2

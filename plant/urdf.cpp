@@ -26,7 +26,6 @@
 namespace lagrange {
 namespace {
 
-constexpr std::size_t kMaxUrdfBytes = 2u << 20;  // a real robot's URDF is well under 1 MiB
 constexpr std::size_t kMaxNameChars = 64;        // of a name quoted in a message
 constexpr int kMaxXmlDepth = 64;                 // element nesting; a URDF needs about 5
 // Elements, links and joints: what one file may cost (its DOM, the tree's
@@ -280,6 +279,7 @@ struct FileRobot {
   std::string name;
   std::vector<FileLink> links;    // file order
   std::vector<FileJoint> joints;  // file order
+  UrdfLooks looks;                // <visual>s: read leniently (ReadLooks), for viewers
 };
 
 // Whether `text` is exactly out.size() finite decimal numbers separated by
@@ -486,6 +486,117 @@ bool IsVersionOne(std::string_view version) {
   return dot != std::string_view::npos && field(version.substr(0, dot), 1) && field(version.substr(dot + 1), 0);
 }
 
+// ---------------------------------------------------------------------------
+// How the links look (<visual>, <material>), for viewers. Read leniently: the
+// dynamics never use a visual, so one that does not read is a note naming it
+// and what is wrong, never a refusal of the robot. Its numbers and rpy are
+// read as every other number and rpy of the file (ParseFiniteNumbers,
+// RotationFromRpy).
+
+// `attribute` of `e` as out.size() finite numbers into `out`; false when absent or not such numbers.
+bool LenientNumbers(const TiXmlElement& e, const char* attribute, std::span<double> out) {
+  const char* text = e.Attribute(attribute);
+  return text != nullptr && ParseFiniteNumbers(text, out);
+}
+
+// <material><color rgba> of a <material>, when it gives one that reads.
+std::optional<std::array<double, 4>> ColorOf(const TiXmlElement& material) {
+  const TiXmlElement* color = material.FirstChildElement("color");
+  std::array<double, 4> rgba{};
+  if (color == nullptr || !LenientNumbers(*color, "rgba", rgba)) return std::nullopt;
+  return rgba;
+}
+
+// A <visual>'s <origin> into `v`; why not, when it does not read.
+std::optional<std::string> ReadVisualOrigin(const TiXmlElement& visual, UrdfVisual& v) {
+  const TiXmlElement* origin = visual.FirstChildElement("origin");
+  if (origin == nullptr) return std::nullopt;
+  std::array<double, 3> xyz{}, rpy{};
+  if ((origin->Attribute("xyz") && !LenientNumbers(*origin, "xyz", xyz)) ||
+      (origin->Attribute("rpy") && !LenientNumbers(*origin, "rpy", rpy))) {
+    return "<origin> is not xyz/rpy of 3 finite numbers";
+  }
+  v.p = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+  v.R = RotationFromRpy(rpy[0], rpy[1], rpy[2]);
+  return std::nullopt;
+}
+
+// A <visual>'s <geometry> into `v`; why not, when it does not read.
+std::optional<std::string> ReadVisualGeometry(const TiXmlElement& visual, UrdfVisual& v) {
+  const TiXmlElement* geometry = visual.FirstChildElement("geometry");
+  const TiXmlElement* shape = geometry ? geometry->FirstChildElement() : nullptr;
+  if (shape == nullptr) return "no <geometry>";
+  const std::string_view kind = shape->Value();
+  std::array<double, 3> a{};
+  double radius = 0.0, length = 0.0;
+  if (kind == "box") {
+    if (!LenientNumbers(*shape, "size", a)) return "<box size> is not 3 finite numbers";
+    v.geometry = UrdfVisual::Geometry::kBox;
+    v.size = Eigen::Vector3d(a[0], a[1], a[2]);
+  } else if (kind == "cylinder") {
+    if (!LenientNumbers(*shape, "radius", {&radius, 1}) || !LenientNumbers(*shape, "length", {&length, 1}))
+      return "<cylinder> needs radius and length";
+    v.geometry = UrdfVisual::Geometry::kCylinder;
+    v.size = Eigen::Vector3d(radius, length, 0.0);
+  } else if (kind == "sphere") {
+    if (!LenientNumbers(*shape, "radius", {&radius, 1})) return "<sphere> needs a radius";
+    v.geometry = UrdfVisual::Geometry::kSphere;
+    v.size = Eigen::Vector3d(radius, 0.0, 0.0);
+  } else if (kind == "mesh") {
+    const char* filename = shape->Attribute("filename");
+    if (filename == nullptr || *filename == '\0') return "<mesh> has no filename";
+    if (shape->Attribute("scale") && !LenientNumbers(*shape, "scale", a)) return "<mesh scale> is not 3 finite numbers";
+    if (shape->Attribute("scale")) v.scale = Eigen::Vector3d(a[0], a[1], a[2]);
+    v.geometry = UrdfVisual::Geometry::kMesh;
+    v.mesh = filename;
+  } else {
+    return "geometry " + Quoted(kind) + " is not box, cylinder, sphere or mesh";
+  }
+  return std::nullopt;
+}
+
+// One <visual> of `link`: into looks.visuals, or a note into looks.notes.
+void ReadVisual(const TiXmlElement& visual, const std::string& link, int index,
+                const std::map<std::string, std::array<double, 4>>& named, UrdfLooks& looks) {
+  UrdfVisual v;
+  v.link = link;
+  v.index = index;
+  std::optional<std::string> why = ReadVisualOrigin(visual, v);
+  if (!why) why = ReadVisualGeometry(visual, v);
+  if (why) {
+    looks.notes.push_back(LinkElement(link) + " <visual> " + std::to_string(index) + ": " + *why);
+    return;
+  }
+  if (const TiXmlElement* material = visual.FirstChildElement("material")) {
+    const char* name = material->Attribute("name");
+    if (const auto rgba = ColorOf(*material)) {
+      v.rgba = *rgba;
+    } else if (name != nullptr && named.contains(name)) {
+      v.rgba = named.at(name);
+    }
+  }
+  looks.visuals.push_back(std::move(v));
+}
+
+// Every link's <visual>s, the robot's named <material>s, and which link hangs from which.
+UrdfLooks ReadLooks(const TiXmlElement& robot, const std::vector<FileJoint>& joints) {
+  UrdfLooks looks;
+  std::map<std::string, std::array<double, 4>> named;  // <material name><color> at the robot's level
+  for (const TiXmlElement* m = robot.FirstChildElement("material"); m; m = m->NextSiblingElement("material")) {
+    const auto rgba = ColorOf(*m);
+    if (m->Attribute("name") && rgba) named[m->Attribute("name")] = *rgba;
+  }
+  for (const TiXmlElement* e = robot.FirstChildElement("link"); e; e = e->NextSiblingElement("link")) {
+    const std::string link = e->Attribute("name");  // present: ReadRobot read the links first
+    int index = 1;
+    for (const TiXmlElement* v = e->FirstChildElement("visual"); v; v = v->NextSiblingElement("visual"), ++index) {
+      ReadVisual(*v, link, index, named, looks);
+    }
+  }
+  for (const FileJoint& j : joints) looks.links.push_back({j.parent, j.child});
+  return looks;
+}
+
 FileRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) Fail(file, "<robot>", "no <robot> element at the top level");
@@ -496,7 +607,7 @@ FileRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
   }
   CheckCount(*robot, "link", kMaxLinks, file, name);
   CheckCount(*robot, "joint", kMaxJoints, file, name);
-  FileRobot out{name, {}, {}};
+  FileRobot out{name, {}, {}, {}};
   int index = 0;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"), ++index) {
     std::string link = RequiredName(*e, "link", index, file);
@@ -507,6 +618,7 @@ FileRobot ReadRobot(const TiXmlDocument& doc, const std::string& file) {
   for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"), ++index) {
     out.joints.push_back(ReadJoint(*e, index, file));
   }
+  out.looks = ReadLooks(*robot, out.joints);
   return out;
 }
 
@@ -661,6 +773,7 @@ class TreeBuilder {
     }
     out_.name = robot_.name;
     out_.file = file_;
+    out_.looks = robot_.looks;
     return std::move(out_);
   }
 

@@ -9,8 +9,10 @@
 // <limit lower/upper> or <dynamics> attribute as 0, and reports errors only
 // through console_bridge's process-wide output handler. The checks it made on
 // what we read are made here (see "Checks"); what we do not read is not
-// checked: <visual>, <collision>, <material>, <safety_controller>,
-// <calibration>, <transmission>, <gazebo>.
+// checked: <collision>, <safety_controller>, <calibration>, <transmission>,
+// <gazebo>. <visual> and <material> are read for viewers (UrdfLooks below),
+// from the same DOM, leniently: the dynamics never use them, so a visual that
+// does not read is noted and skipped, never a refusal of the robot.
 //
 // What is read:
 //   joints     revolute, continuous (revolute without position limits),
@@ -95,6 +97,8 @@
 // (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
 // name: the message is one line, safe to print as it is; do not escape it again.
 
+#include <array>
+#include <cstddef>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -115,17 +119,48 @@ struct UrdfJointProperties {
   std::optional<double> friction;      // Coulomb, N·m or N
 };
 
+// One <visual> of a link: how it looks, never how it moves. Its <origin> is
+// read as a joint's (rpy: R = Rz(yaw) Ry(pitch) Rx(roll)), its numbers as
+// every number of the file (finite, decimal).
+struct UrdfVisual {
+  enum class Geometry { kBox, kCylinder, kSphere, kMesh };
+  std::string link;    // the link's name, as in the file
+  int index = 1;       // its place among the link's <visual> elements, from 1
+  Geometry geometry = Geometry::kBox;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // <origin rpy> in the link frame
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();      // <origin xyz> in the link frame, m
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();   // box: x y z; cylinder: radius, length; sphere: radius (m)
+  std::string mesh;                                 // mesh: <mesh filename> as written (a viewer resolves it)
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();  // mesh: <mesh scale>
+  std::array<double, 4> rgba{0.7, 0.7, 0.75, 1.0};  // <material><color rgba>, inline or named at the robot's level
+};
+
+// What a URDF says of how its links look: the <visual> elements that read,
+// one line for each that did not ("link 'l2' <visual> 1: <box size> is not 3
+// finite numbers"; names escaped), and which link hangs from which (a robot
+// without any <visual> can be drawn as a skeleton of its link frames).
+struct UrdfLooks {
+  std::vector<UrdfVisual> visuals;                // file order
+  std::vector<std::string> notes;                 // the visuals not read, one line each
+  std::vector<std::array<std::string, 2>> links;  // (parent link, child link) of every joint, file order
+};
+
 struct UrdfRobot {
   std::string name;                             // <robot name="...">
   std::string file;                             // the path it was read from (ParseUrdf: its `file`)
   RigidTree tree;                               // moving joints in depth-first order, fixed joints merged
   std::vector<UrdfJointProperties> properties;  // one per degree of freedom (moving joints but mimics), q's order
+  UrdfLooks looks;                              // <visual>s, for viewers
 };
 
 class UrdfError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// The most of a URDF file read (a real robot's is well under 1 MiB); a MuJoCo
+// model's XML files are bounded alike (plant/mujoco_files.hpp).
+inline constexpr std::size_t kMaxUrdfBytes = 2u << 20;
 
 // Reads and checks a URDF file. Throws UrdfError with the one-line message above.
 UrdfRobot LoadUrdf(const std::string& path);

@@ -98,6 +98,7 @@ void CountRefusal(SignatureVerdict verdict, Counters& counters, std::atomic<std:
   switch (verdict) {
     case SignatureVerdict::kOk: return;
     case SignatureVerdict::kUnsigned: Bump(counters.unsigned_dropped); break;
+    case SignatureVerdict::kOldFormat: Bump(counters.old_format); break;
     case SignatureVerdict::kStale: Bump(counters.stale); break;
     case SignatureVerdict::kReplayed: Bump(counters.replayed); break;
     case SignatureVerdict::kBadTag: Bump(counters.bad_tags); break;
@@ -146,7 +147,7 @@ void Dispatch(const Subscriptions& subscriptions, std::deque<ChannelDrops>& drop
 // LCM's UDP multicast transport for unfragmented messages (see bus.hpp).
 class UdpmBus final : public Bus {
  public:
-  UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key);
+  UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key, const std::string& domain);
   ~UdpmBus() override;
   UdpmBus(const UdpmBus&) = delete;
   UdpmBus& operator=(const UdpmBus&) = delete;
@@ -159,12 +160,13 @@ class UdpmBus final : public Bus {
   BusStats stats() const override;
   std::int64_t unauthenticated_on(std::string_view channel) const override { return DropsOn(drops_, channel); }
   bool signs() const override { return signer_ != nullptr; }
+  const std::string& domain() const override { return domain_; }
   int receive_buffer_bytes() const override;
 
  private:
   struct Counters {
     std::atomic<std::int64_t> received{0}, delivered{0}, fragments_dropped{0}, malformed{0}, oversized{0},
-        kernel_drops{0}, send_failures{0}, unsigned_dropped{0}, stale{0}, replayed{0}, bad_tags{0};
+        kernel_drops{0}, send_failures{0}, unsigned_dropped{0}, old_format{0}, stale{0}, replayed{0}, bad_tags{0};
   };
   [[noreturn]] void ThrowSocketError(const char* what) const;
   void OpenReceiveSocket();
@@ -184,17 +186,19 @@ class UdpmBus final : public Bus {
   Subscriptions subscriptions_;
   std::deque<ChannelDrops> drops_;
   Counters counters_;
+  std::string domain_;                  // "" unsigned
   std::unique_ptr<Signer> signer_;      // publishing thread only
   std::unique_ptr<Verifier> verifier_;  // receiving thread only
 };
 
-UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key)
+UdpmBus::UdpmBus(const std::string& url_text, const UdpmUrl& url, const BusKey* key, const std::string& domain)
     : url_text_(url_text),
       url_(url),
       send_buffer_(MaxDatagramSize(kMaxSignedPayload)),
       receive_buffer_(kReceiveSlotSize * kReceiveBatch),
-      signer_(key != nullptr ? std::make_unique<Signer>(*key) : nullptr),
-      verifier_(key != nullptr ? std::make_unique<Verifier>(*key) : nullptr) {
+      domain_(key != nullptr ? domain : ""),
+      signer_(key != nullptr ? std::make_unique<Signer>(*key, domain) : nullptr),
+      verifier_(key != nullptr ? std::make_unique<Verifier>(*key, domain) : nullptr) {
   group_.sin_family = AF_INET;
   group_.sin_port = htons(url_.port);
   if (inet_pton(AF_INET, url_.group.c_str(), &group_.sin_addr) != 1) ThrowUrlError(url_text_, "bad group address");
@@ -358,6 +362,7 @@ BusStats UdpmBus::stats() const {
   s.kernel_drops = counters_.kernel_drops.load(kRelaxed);
   s.send_failures = counters_.send_failures.load(kRelaxed);
   s.unsigned_dropped = counters_.unsigned_dropped.load(kRelaxed);
+  s.old_format = counters_.old_format.load(kRelaxed);
   s.stale = counters_.stale.load(kRelaxed);
   s.replayed = counters_.replayed.load(kRelaxed);
   s.bad_tags = counters_.bad_tags.load(kRelaxed);
@@ -474,9 +479,10 @@ bool FormatDatagram(std::uint32_t seqno, std::string_view channel, const void* p
   return true;
 }
 
-InProcessBus::InProcessBus(const BusKey* key, WallClockMicros clock)
-    : signer_(key != nullptr ? std::make_unique<Signer>(*key, 0, clock) : nullptr),
-      verifier_(key != nullptr ? std::make_unique<Verifier>(*key, clock) : nullptr) {}
+InProcessBus::InProcessBus(const BusKey* key, WallClockMicros clock, const std::string& domain)
+    : domain_(key != nullptr ? (domain.empty() ? BusDomainOf(kInProcessUrl) : domain) : ""),
+      signer_(key != nullptr ? std::make_unique<Signer>(*key, domain_, 0, clock) : nullptr),
+      verifier_(key != nullptr ? std::make_unique<Verifier>(*key, domain_, clock) : nullptr) {}
 
 InProcessBus::~InProcessBus() = default;
 
@@ -519,9 +525,17 @@ int InProcessBus::Drain(int max) {
 
 int InProcessBus::Handle(int /*timeout_ms*/) { return Drain(1024); }
 
-std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key) {
-  if (url.rfind("udpm://", 0) == 0) return std::make_unique<UdpmBus>(url, ParseUdpmUrl(url), key);
-  if (url == "inprocess://") return std::make_unique<InProcessBus>(key);
+std::string BusDomainOf(const std::string& url) {
+  if (url != kInProcessUrl) ParseUdpmUrl(url);  // BusUrlError for a malformed one
+  return BusDomainOfUrl(url);
+}
+
+std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key, const std::string& domain) {
+  if (url.rfind("udpm://", 0) == 0) {
+    const UdpmUrl parsed = ParseUdpmUrl(url);
+    return std::make_unique<UdpmBus>(url, parsed, key, domain.empty() ? BusDomainOf(url) : domain);
+  }
+  if (url == kInProcessUrl) return std::make_unique<InProcessBus>(key, SystemWallMicros, domain);
   throw BusUrlError("LCM URL '" + url +
                     "': lagrange speaks only udpm://GROUP:PORT?ttl=N (and inprocess:// in tests); see "
                     "docs/lcm-fragment-bug.md, 'Why lagrange has its own LCM transport'");

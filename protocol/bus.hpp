@@ -21,7 +21,9 @@
 // signature trailer to every message it publishes, and hands a subscriber
 // only messages whose trailer verifies (the trailer stripped); the others are
 // dropped and counted, in total (BusStats) and per channel
-// (unauthenticated_on). Without a key a bus neither signs nor checks.
+// (unauthenticated_on). Without a key a bus neither signs nor checks. The
+// tags are bound to a domain: the one given, else the bus's own (BusDomainOf
+// its URL), so what was signed on one bus is refused on another.
 //
 // Threads: subscribe before the bus is shared. After that one thread may
 // Publish while another receives (Handle/Drain); neither may be called from
@@ -89,11 +91,12 @@ struct BusStats {
   std::int64_t send_failures = 0;      // Publish calls that sent nothing (too large, would block, error)
   // With a key, messages on subscribed channels refused (SignatureVerdict), each counted once:
   std::int64_t unsigned_dropped = 0;  // no signature trailer
+  std::int64_t old_format = 0;        // an LGS1 trailer: signed by a sender from before bus domains
   std::int64_t stale =
       0;  // stamp outside the window of this host's clock or before the bus opened (a replayed recording)
   std::int64_t replayed = 0;  // stamp not above its sender's last
   std::int64_t bad_tags = 0;  // forged or altered
-  std::int64_t unauthenticated() const { return unsigned_dropped + stale + replayed + bad_tags; }
+  std::int64_t unauthenticated() const { return unsigned_dropped + old_format + stale + replayed + bad_tags; }
 };
 
 // Subscribe's channel for every message, whatever its channel (a client
@@ -133,6 +136,8 @@ class Bus {
   virtual std::int64_t unauthenticated_on(std::string_view channel) const = 0;
   // Whether this bus signs what it sends and checks what it receives.
   virtual bool signs() const = 0;
+  // The domain its tags are bound to; "" when it does not sign.
+  virtual const std::string& domain() const = 0;
   // The receive socket's buffer as the kernel granted it (SO_RCVBUF, which the
   // kernel reports doubled for its bookkeeping), bytes; 0 without one (nothing
   // subscribed, or an InProcessBus).
@@ -166,17 +171,30 @@ struct ChannelDrops {
   std::atomic<std::int64_t> count{0};
 };
 
+// The URL of the in-process bus.
+inline constexpr const char* kInProcessUrl = "inprocess://";
+
+// The domain a signed bus on `url` has unless it is given one: the bus
+// itself, "udpm://GROUP:PORT" (not its ttl or receive buffer, which hosts on
+// one bus may set differently); "inprocess://" for that bus. BusUrlError for
+// a malformed URL.
+std::string BusDomainOf(const std::string& url);
+
 // Opens a bus for `url` (see above); throws BusError with one line naming the
 // URL and the reason (socket, bind or multicast membership failed), a
 // BusUrlError for a bad URL.
-// With `key`, the bus signs and verifies (see above); it keeps its own copy.
-std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key = nullptr);
+// With `key`, the bus signs and verifies (see above) for `domain` ("":
+// BusDomainOf(url)); it keeps its own copy. BusKeyError for a domain that
+// cannot be one (BusDomainProblem).
+std::unique_ptr<Bus> OpenBus(const std::string& url, const BusKey* key = nullptr, const std::string& domain = "");
 
 // A bus inside one process: Publish queues, Drain delivers in order to the
 // subscribers of this same object. Every count is exact; for tests.
 class InProcessBus final : public Bus {
  public:
-  explicit InProcessBus(const BusKey* key = nullptr, WallClockMicros clock = SystemWallMicros);
+  // With `key`: signed for `domain` ("": "inprocess://").
+  explicit InProcessBus(const BusKey* key = nullptr, WallClockMicros clock = SystemWallMicros,
+                        const std::string& domain = "");
   ~InProcessBus() override;
   bool Publish(std::string_view channel, const void* data, std::size_t size) override;
   void Subscribe(const std::string& channel, Handler handler) override;
@@ -186,6 +204,7 @@ class InProcessBus final : public Bus {
   BusStats stats() const override { return stats_; }
   std::int64_t unauthenticated_on(std::string_view channel) const override;
   bool signs() const override { return signer_ != nullptr; }
+  const std::string& domain() const override { return domain_; }
   int receive_buffer_bytes() const override { return 0; }
 
   // Queues a raw datagram as UdpmBus would read it from the wire (LC02/LC03
@@ -201,6 +220,7 @@ class InProcessBus final : public Bus {
   std::deque<ChannelDrops> drops_;  // one per distinct subscribed channel
   BusStats stats_;
   std::uint32_t seqno_ = 0;
+  std::string domain_;  // "" unsigned
   std::unique_ptr<Signer> signer_;
   std::unique_ptr<Verifier> verifier_;
 };

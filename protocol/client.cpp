@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
@@ -103,8 +104,13 @@ std::string SigningHint(const SigningHeard& heard) {
   const auto add = [&](std::int64_t n, const std::string& clause) {
     if (n > 0) hint += (hint.empty() ? "" : "; ") + clause;
   };
+  const std::string domain = heard.domain.empty() ? "" : "this client's is " + Escape(heard.domain, 80) + "; ";
   add(heard.other_key, "heard " + std::to_string(heard.other_key) + (heard.other_key == 1 ? " message" : " messages") +
-                           " signed with another key (their tags do not verify with this client's): " + give_key);
+                           " signed with another key or for another bus domain (" + domain +
+                           "their tags do not verify with this client's): " + give_key +
+                           ", and its --bus-domain if it has one (or " + kBusDomainEnv + ")");
+  add(heard.old_format, messages(heard.old_format, "signed") +
+                            " in lagrange's old format (LGS1, before bus domains), refused: update that lagranged");
   add(heard.unsigned_refused, messages(heard.unsigned_refused, "unsigned") +
                                   ", which a client with a key refuses: the daemon runs without one (give it "
                                   "--bus-key FILE too, or run this client without a key)");
@@ -134,7 +140,9 @@ SigningHeard SigningCensus::heard() const {
   return {.other_key = now.bad_tags - at_start_.bad_tags,
           .unsigned_refused = now.unsigned_dropped - at_start_.unsigned_dropped,
           .out_of_window = (now.stale - at_start_.stale) + (now.replayed - at_start_.replayed),
-          .signed_unreadable = signed_unreadable_};
+          .signed_unreadable = signed_unreadable_,
+          .old_format = now.old_format - at_start_.old_format,
+          .domain = bus_.domain()};
 }
 
 std::string LinkOptions::Url() const { return ResolveLcmUrl(lcm_url); }
@@ -149,11 +157,12 @@ std::unique_ptr<Bus> LinkOptions::Open() const {
   const std::string url = Url();
   // ParseUdpmUrl first: it names what is wrong with any URL that is not a
   // udpm:// one (OpenBus only says which providers it speaks).
-  if (url.rfind("inprocess://", 0) != 0) ParseUdpmUrl(url);
+  if (url != kInProcessUrl) ParseUdpmUrl(url);
   const std::string key_file = ResolveBusKeyFile(bus_key_file);
+  const std::string domain = ResolveBusDomain(bus_domain);  // refused even when unsigned: a mistake either way
   if (key_file.empty()) return OpenBus(url);  // BusError when the socket cannot be set up
   const BusKey key = BusKey::FromFile(key_file);
-  return OpenBus(url, &key);
+  return OpenBus(url, &key, domain);
 }
 
 DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
@@ -190,6 +199,9 @@ void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
   it->second.received = std::chrono::steady_clock::now();
   ++it->second.count;
   if (observer_ && have_run_ && it->first == run_id_) observer_(it->second.state, it->second.received);
+  if (it->first == estop_watch_run_ && !estop_left_ && !KeepsEstop(it->second.state.mode)) {
+    estop_left_ = it->second.state;
+  }
 }
 
 void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
@@ -349,6 +361,26 @@ std::string DaemonLink::ModeAfterReply(std::int64_t run) {
   PumpUntil([&] { return state_received_at(run) > replied; }, 0.5);
   const state_t& s = state(run);
   return std::string(ModeName(s.mode)) + " with " + Escape(s.controller);
+}
+
+bool KeepsEstop(std::int8_t mode) {
+  return mode == state_t::MODE_ESTOP || mode == state_t::MODE_STOPPED || mode == state_t::MODE_WAITING ||
+         mode == state_t::MODE_FAULT;
+}
+
+std::string DaemonLink::EstopDidNotStay(std::int64_t run) {
+  if (runs_.find(run) == runs_.end()) return "";
+  const state_t applied = state(run);  // the latest state when the verdict came
+  estop_watch_run_ = run;
+  estop_left_.reset();
+  Pump(kEstopWatch);
+  estop_watch_run_ = 0;
+  if (!estop_left_) return "";
+  const double after = static_cast<double>(estop_left_->utime - applied.utime) * 1e-6;
+  return "the estop did not stay: " + std::string(ModeName(estop_left_->mode)) + " with " +
+         Escape(estop_left_->controller) + " " + FormatDouble(std::round(std::max(after, 0.0) * 1e3) / 1e3) +
+         " s after it was applied (a clear_estop from another sender? an estop lasts the scene's estop_dwell on a "
+         "lagranged that has it)";
 }
 
 void DaemonLink::Pump(double seconds) {

@@ -38,7 +38,10 @@ struct LinkOptions {
   std::string lcm_url;         // "" → $LCM_DEFAULT_URL → udpm://239.255.76.67:7667?ttl=0
   std::string channel_prefix;  // as given to lagranged --channel-prefix
   double wait = 3.0;           // s to wait for the daemon before giving up
-  std::string bus_key_file;    // "" → $LAGRANGE_BUS_KEY_FILE → unsigned (protocol/signing.hpp)
+  // The key file: none → $LAGRANGE_BUS_KEY_FILE → unsigned; an empty path is refused (ResolveBusKeyFile).
+  std::optional<std::string> bus_key_file;
+  // The bus domain: none → $LAGRANGE_BUS_DOMAIN → the bus's own (ResolveBusDomain, BusDomainOf).
+  std::optional<std::string> bus_domain;
 
   // lcm_url resolved (ResolveLcmUrl, protocol/channels.hpp).
   std::string Url() const;
@@ -46,8 +49,8 @@ struct LinkOptions {
   std::string Channel(const std::string& instance, const char* suffix) const;
   std::string StatusChannel() const;
   // Opens the bus, signed when a key is given: BusUrlError for a malformed URL
-  // (worded by ParseUdpmUrl), BusKeyError for a key file that cannot be used, a
-  // BusError when it cannot be opened.
+  // (worded by ParseUdpmUrl), BusKeyError for a key file or domain that cannot
+  // be used, a BusError when it cannot be opened.
   std::unique_ptr<Bus> Open() const;
 };
 
@@ -71,10 +74,12 @@ struct SigningHeard {
   std::int64_t unsigned_refused = 0;   // with a key: messages without a signature
   std::int64_t out_of_window = 0;      // with a key: stamps more than 2 s from this clock, or replayed
   std::int64_t signed_unreadable = 0;  // without a key: signed messages, which it cannot check
+  std::int64_t old_format = 0;         // with a key: signed in the format before bus domains (LGS1)
+  std::string domain;                  // with a key: the bus domain the client's tags are bound to
 };
 // What they say, one clause per reason heard, for the end of a client's error
-// ("heard 812 messages signed with another key ...: give the daemon's key
-// ..."); "" when none was heard.
+// ("heard 812 messages signed with another key or for another bus domain
+// ...: give the daemon's key ... and bus domain ..."); "" when none was heard.
 std::string SigningHint(const SigningHeard& heard);
 // What was heard while a client waited in vain, in one place for every client
 // (lagrangectl's commands and watch, the Python module): SigningHint when any
@@ -110,6 +115,18 @@ inline constexpr double kNoStateGrace = 0.5;  // s
 // a flood the kernel may drop a datagram before lagranged reads it, and a
 // repeated estop is applied once (it is latest-wins).
 inline constexpr std::chrono::milliseconds kEstopResend{20};
+// After an applied estop a client watches the run's states this long, and
+// says so when the estop did not stay (EstopDidNotStay): a clear_estop from
+// another sender, on an unsigned bus anyone's, or a daemon without the
+// estop_dwell rule. Shorter than the default dwell (0.5 s), so a deliberate
+// clear after it is never taken for one.
+inline constexpr double kEstopWatch = 0.2;  // s after the verdict
+
+// Whether a state's mode keeps an applied estop: estop itself, an external
+// plant that commands nothing (stopped, or waiting, its estop still latched)
+// or a faulted instance (frozen; the estop stays latched through a fault).
+// Running, hold and paused mean it was cleared.
+bool KeepsEstop(std::int8_t mode);
 
 // Listens to one instance's state and reply channels and the status channel
 // on the caller's thread, keeping the latest message of each run id.
@@ -183,6 +200,13 @@ class DaemonLink {
   // applied a command before its reply went out), or its latest after 0.5 s.
   std::string ModeAfterReply(std::int64_t run);
 
+  // After run `run` applied an estop: watches every state it publishes for
+  // kEstopWatch and returns "" when each one kept the estop (KeepsEstop),
+  // else why the estop did not stay, one line: "the estop did not stay: hold
+  // with pd 0.001 s after it was applied (a clear_estop from another sender?
+  // an estop lasts the scene's estop_dwell on a lagranged that has it)".
+  std::string EstopDidNotStay(std::int64_t run);
+
   // Called with every state of the chosen run (after AwaitOneRun) as it is
   // handled, and when it arrived: for a client that needs each one, not only
   // the latest (lagrange.Client.states).
@@ -237,6 +261,8 @@ class DaemonLink {
   std::int64_t task_states_received_ = 0;
   std::int64_t request_id_ = 0;
   bool every_run_ = false;  // AwaitRuns: replies from every run in runs_ count
+  std::int64_t estop_watch_run_ = 0;  // EstopDidNotStay: the run whose states are checked (0: none)
+  std::optional<state_t> estop_left_;  // its first state that did not keep the estop
   StateObserver observer_;
 };
 

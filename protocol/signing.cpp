@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -16,7 +17,8 @@
 namespace lagrange {
 namespace {
 
-constexpr std::uint8_t kTrailerMagic[4] = {'L', 'G', 'S', '1'};
+constexpr std::uint8_t kTrailerMagic[4] = {'L', 'G', 'S', '2'};
+constexpr std::uint8_t kOldTrailerMagic[4] = {'L', 'G', 'S', '1'};  // before domains: refused as kOldFormat
 static_assert(sizeof(crypto_generichash_state) <= 384 && alignof(crypto_generichash_state) <= 64);
 static_assert(kSignatureTagBytes >= crypto_generichash_BYTES_MIN && kBusKeyMaxBytes <= crypto_generichash_KEYBYTES_MAX);
 
@@ -30,6 +32,31 @@ void InitSodium() {
   throw BusKeyError("bus key " + path + ": " + why);
 }
 
+// Why a key of these bytes is no key: every byte one value (a file of zeros
+// left as a placeholder), or "".
+std::string PlaceholderProblem(std::span<const std::uint8_t> bytes) {
+  if (bytes.empty() || std::any_of(bytes.begin(), bytes.end(), [&](std::uint8_t b) { return b != bytes[0]; })) return "";
+  char value[8];
+  std::snprintf(value, sizeof value, "0x%02x", bytes[0]);
+  return std::string("every byte is ") + value + ": a placeholder, not a random key (lagrangectl keygen FILE makes one)";
+}
+
+// The refusal of a key path that is a symbolic link: where it points, and the
+// file it resolves to, which is what to name instead.
+std::string SymlinkProblem(const std::string& path) {
+  std::string why = "a symbolic link";
+  std::array<char, 4096> target{};
+  const ssize_t n = readlink(path.c_str(), target.data(), target.size() - 1);
+  if (n > 0) why += " (to " + std::string(target.data(), static_cast<std::size_t>(n)) + ")";
+  why += ", refused: whoever can write the link's directory could point it at another key; name the key file itself";
+  if (char* resolved = realpath(path.c_str(), nullptr)) {
+    why += std::string(" (") + resolved + ")";
+    std::free(resolved);
+  }
+  return why;
+}
+
+
 }  // namespace
 
 BusKey BusKey::FromBytes(std::span<const std::uint8_t> bytes) {
@@ -37,6 +64,7 @@ BusKey BusKey::FromBytes(std::span<const std::uint8_t> bytes) {
     throw BusKeyError("a bus key is " + std::to_string(kBusKeyMinBytes) + " to " + std::to_string(kBusKeyMaxBytes) +
                       " bytes, got " + std::to_string(bytes.size()));
   }
+  if (const std::string why = PlaceholderProblem(bytes); !why.empty()) throw BusKeyError("bus key: " + why);
   BusKey key;
   std::memcpy(key.bytes_.data(), bytes.data(), bytes.size());
   key.size_ = bytes.size();
@@ -46,7 +74,12 @@ BusKey BusKey::FromBytes(std::span<const std::uint8_t> bytes) {
 BusKey BusKey::FromFile(const std::string& path) {
   // Opened first and checked through the descriptor, so what is checked is what is read.
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
-  if (fd < 0) Refuse(path, std::strerror(errno));
+  if (fd < 0) {
+    const int saved = errno;
+    struct stat link {};
+    if (saved == ELOOP && lstat(path.c_str(), &link) == 0 && S_ISLNK(link.st_mode)) Refuse(path, SymlinkProblem(path));
+    Refuse(path, std::strerror(saved));
+  }
   struct stat st {};
   if (fstat(fd, &st) != 0) {
     const int saved = errno;
@@ -77,15 +110,29 @@ BusKey BusKey::FromFile(const std::string& path) {
     got += static_cast<std::size_t>(n);
   }
   close(fd);
+  if (const std::string why = PlaceholderProblem({bytes.data(), got}); !why.empty()) Refuse(path, why);
   BusKey key = FromBytes({bytes.data(), got});
   sodium_memzero(bytes.data(), bytes.size());
   return key;
 }
 
-std::string ResolveBusKeyFile(const std::string& option) {
-  if (!option.empty()) return option;
+std::string ResolveBusKeyFile(const std::optional<std::string>& option) {
+  if (option) {
+    if (option->empty()) {
+      throw BusKeyError(
+          "bus key '': an empty path (an unset variable in a unit or script?); name the key file, or give no key "
+          "to run unsigned");
+    }
+    return *option;
+  }
   const char* env = std::getenv(kBusKeyEnv);
-  return env != nullptr ? env : "";
+  if (env == nullptr) return "";
+  if (*env == '\0') {
+    throw BusKeyError(std::string("bus key: $") + kBusKeyEnv +
+                      " is set but empty (an unset variable in a unit or script?); name the key file, or unset it "
+                      "to run unsigned");
+  }
+  return env;
 }
 
 void WriteNewBusKey(const std::string& path) {
@@ -118,11 +165,12 @@ std::int64_t SystemWallMicros() {
       .count();
 }
 
-KeyedMac::KeyedMac(const BusKey& key) {
+KeyedMac::KeyedMac(const BusKey& key, std::string_view domain) {
+  const std::string personal = BusDomainBytes(domain);  // "LGS2" ‖ domain ‖ NUL; BusKeyError for a bad domain
   InitSodium();
   auto* state = reinterpret_cast<crypto_generichash_state*>(state_.data());
   crypto_generichash_init(state, key.bytes().data(), key.bytes().size(), kSignatureTagBytes);
-  crypto_generichash_update(state, kTrailerMagic, sizeof kTrailerMagic);
+  crypto_generichash_update(state, reinterpret_cast<const unsigned char*>(personal.data()), personal.size());
 }
 
 void KeyedMac::Tag(std::string_view channel, const std::uint8_t* message, std::size_t size, std::uint64_t sender_id,
@@ -140,8 +188,8 @@ void KeyedMac::Tag(std::string_view channel, const std::uint8_t* message, std::s
   crypto_generichash_final(&state, tag, kSignatureTagBytes);
 }
 
-Signer::Signer(const BusKey& key, std::uint64_t sender_id, WallClockMicros clock)
-    : mac_(key), sender_id_(sender_id), clock_(std::move(clock)) {
+Signer::Signer(const BusKey& key, std::string_view domain, std::uint64_t sender_id, WallClockMicros clock)
+    : mac_(key, domain), sender_id_(sender_id), clock_(std::move(clock)) {
   while (sender_id_ == 0) randombytes_buf(&sender_id_, sizeof sender_id_);
 }
 
@@ -157,11 +205,14 @@ void Signer::Sign(std::string_view channel, const std::uint8_t* message, std::si
 
 std::size_t MessageSizeBeforeTrailer(const std::uint8_t* wire, std::size_t size) {
   if (wire == nullptr || size < kSignatureTrailerBytes) return size;
-  const bool marked = std::memcmp(wire + size - sizeof kTrailerMagic, kTrailerMagic, sizeof kTrailerMagic) == 0;
+  const std::uint8_t* magic = wire + size - sizeof kTrailerMagic;
+  const bool marked = std::memcmp(magic, kTrailerMagic, sizeof kTrailerMagic) == 0 ||
+                      std::memcmp(magic, kOldTrailerMagic, sizeof kOldTrailerMagic) == 0;
   return marked ? size - kSignatureTrailerBytes : size;
 }
 
-Verifier::Verifier(const BusKey& key, WallClockMicros clock) : mac_(key), clock_(std::move(clock)), opened_(clock_()) {}
+Verifier::Verifier(const BusKey& key, std::string_view domain, WallClockMicros clock)
+    : mac_(key, domain), clock_(std::move(clock)), opened_(clock_()) {}
 
 Verifier::Sender* Verifier::Find(std::uint64_t id) {
   for (Sender& s : senders_) {
@@ -189,7 +240,10 @@ SignatureVerdict Verifier::Verify(std::string_view channel, const std::uint8_t* 
   if (wire == nullptr || wire_size < kSignatureTrailerBytes) return SignatureVerdict::kUnsigned;
   const std::size_t size = wire_size - kSignatureTrailerBytes;
   const std::uint8_t* trailer = wire + size;
-  if (std::memcmp(trailer + 32, kTrailerMagic, sizeof kTrailerMagic) != 0) return SignatureVerdict::kUnsigned;
+  if (std::memcmp(trailer + 32, kTrailerMagic, sizeof kTrailerMagic) != 0) {
+    const bool old = std::memcmp(trailer + 32, kOldTrailerMagic, sizeof kOldTrailerMagic) == 0;
+    return old ? SignatureVerdict::kOldFormat : SignatureVerdict::kUnsigned;
+  }
   const std::uint64_t sender_id = ReadBigEndian64(trailer);
   const std::uint64_t stamp = ReadBigEndian64(trailer + 8);
   // The cheap checks first: a forger's datagram costs a MAC only when it could pass them.

@@ -119,7 +119,8 @@ struct Verdict {
 
 class Client {
  public:
-  Client(std::optional<std::string> url, std::string prefix, std::optional<std::string> key_file, double wait) {
+  Client(std::optional<std::string> url, std::string prefix, std::optional<std::string> key_file, double wait,
+         std::optional<std::string> bus_domain) {
     if (!(std::isfinite(wait) && wait > 0.0)) throw py::value_error("wait: expected a positive number of seconds");
     options_.lcm_url = url.value_or("");
     options_.channel_prefix = std::move(prefix);
@@ -129,7 +130,8 @@ class Client {
           "under 63 bytes), got '" +
           Escape(options_.channel_prefix, 64) + "'");
     }
-    options_.bus_key_file = key_file.value_or("");
+    options_.bus_key_file = std::move(key_file);
+    options_.bus_domain = std::move(bus_domain);
     options_.wait = wait;
     try {
       options_.Open();  // the URL and the key checked now, with lagrangectl's lines
@@ -428,6 +430,8 @@ class Client {
           line += "no verdict within " + FormatDouble(options_.wait) + " s";
         } else if (!reply->accepted) {
           line += "refused: " + Escape(reply->reason, kMaxReasonShown);
+        } else if (const std::string left = link.EstopDidNotStay(run); !left.empty()) {
+          line += (verdicts.size() == 1 ? "estop applied, but " : "applied, but ") + left;
         } else {
           ++applied;
           line += (verdicts.size() == 1 ? name + ": estop done; now " : "done; now ") + link.ModeAfterReply(run);
@@ -669,19 +673,23 @@ void BindBus(py::module_& m) {
   py::class_<Client, std::shared_ptr<Client>>(m, "Client",
                                               R"(A client of lagranged on the bus: lagrangectl's own client code.
 
-Client(url=None, prefix="", key_file=None, wait=3.0)
-  url       LCM URL, udpm://GROUP:PORT?ttl=N (None: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0)
-  prefix    the daemon's --channel-prefix
-  key_file  the daemon's --bus-key: sign what is sent, believe only what the key signed
-            (None: $LAGRANGE_BUS_KEY_FILE, else unsigned)
-  wait      s to wait for an instance's first state (and for a verdict)
+Client(url=None, prefix="", key_file=None, wait=3.0, bus_domain=None)
+  url         LCM URL, udpm://GROUP:PORT?ttl=N (None: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0)
+  prefix      the daemon's --channel-prefix
+  key_file    the daemon's --bus-key: sign what is sent, believe only what the key signed
+              (None: $LAGRANGE_BUS_KEY_FILE, else unsigned; "" is refused)
+  wait        s to wait for an instance's first state (and for a verdict)
+  bus_domain  the daemon's --bus-domain, what signatures are bound to
+              (None: $LAGRANGE_BUS_DOMAIN, else the bus's own, udpm://GROUP:PORT)
 Each instance is followed through one lagranged run: its first state is awaited, then 0.3 s
 more, and a second run publishing the same state refuses every action (RuntimeError naming
 both ids), except the emergency stop, which goes to every run. Waits release the GIL.
-Raises ValueError for a malformed URL or an unusable key file, RuntimeError when no daemon
+Raises ValueError for a malformed URL, an unusable key file or domain, RuntimeError when no daemon
 answers, with lagrangectl's one-line messages.)")
-      .def(py::init<std::optional<std::string>, std::string, std::optional<std::string>, double>(),
-           py::arg("url") = py::none(), py::arg("prefix") = "", py::arg("key_file") = py::none(), py::arg("wait") = 3.0)
+      .def(py::init<std::optional<std::string>, std::string, std::optional<std::string>, double,
+                    std::optional<std::string>>(),
+           py::arg("url") = py::none(), py::arg("prefix") = "", py::arg("key_file") = py::none(), py::arg("wait") = 3.0,
+           py::arg("bus_domain") = py::none())
       .def("state", &Client::GetState, py::arg("name"), py::arg("timeout") = 3.0,
            "The instance's latest state. The first call waits up to timeout s for it (RuntimeError if none).")
       .def(

@@ -128,6 +128,7 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
   m.max_energy = MaxEnergy(config);
   m.residual_bound = config.energy_balance.value_or(EnergyBalanceBound{});
   m.setpoint_timeout = ToNanoseconds(config.setpoint_timeout);
+  m.estop_dwell = ToNanoseconds(config.estop_dwell);
   m.state_timeout = config.external ? ToNanoseconds(config.external->state_timeout) : 0;
   m.setpoint_rules = SetpointRules{m.num_dofs, config.setpoint_lower, config.setpoint_upper};
   m.command_rules = CommandRulesOf(m);

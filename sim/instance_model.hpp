@@ -69,6 +69,7 @@ struct InstanceModel {
   double max_energy = 0.0;           // J: |T + V| above this faults (MaxEnergy)
   EnergyBalanceBound residual_bound;  // the scene's energy_balance (bound +inf: none)
   Nanoseconds setpoint_timeout = 0;  // the scene's setpoint_timeout
+  Nanoseconds estop_dwell = 0;       // the scene's estop_dwell: how long an estop lasts before a clear can end it
   Nanoseconds state_timeout = 0;     // an external plant's; 0: not external
   SetpointRules setpoint_rules;      // what the receiver accepts as a setpoint
   CommandRules command_rules;        // ... and as a command

@@ -7,6 +7,7 @@
 
 #include "plant/escape.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/signing.hpp"
 #include "sim/scene_control.hpp"
 #include "sim/yaml_reader.hpp"
 #ifdef LAGRANGE_HAVE_MUJOCO
@@ -317,6 +318,12 @@ void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, Ur
     inst.estop_damping = d->NumberOrVector(n);
     if ((inst.estop_damping->array() <= 0.0).any()) d->Fail("expected positive damping (N·m·s/rad or N·s/m)");
   }
+  if (auto d = node.Optional("estop_dwell")) {
+    inst.estop_dwell = d->NonNegativeNumber();
+    if (inst.estop_dwell > kMaxEstopDwell) {
+      d->Fail("expected 0 to 3600 s (how long an emergency stop lasts before a clear can end it), got " + d->Text());
+    }
+  }
 }
 
 // plant: {type: external, model: {...}, state_channel: CH, torque_channel: CH2, state_timeout: s}
@@ -515,7 +522,7 @@ EnergyBalanceBound ReadEnergyBalanceBound(const YamlReader& node, bool external_
 InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& urdf) {
   node.ExpectKeys({"name", "plant", "initial", "effects", "integrator", "controller", "controllers", "torque_limits",
                    "setpoint", "setpoint_limits", "setpoint_timeout", "workspace", "on_timeout", "max_energy",
-                   "energy_balance", "estop_damping", "telemetry", "forces"});
+                   "energy_balance", "estop_damping", "estop_dwell", "telemetry", "forces"});
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();
@@ -581,11 +588,22 @@ Scene ReadScene(const YamlReader& root) {
   Scene scene;
   scene.file = root.file();
   if (auto bus = root.Optional("bus")) {
-    bus->ExpectKeys({"key_file"});
-    const YamlReader key = bus->Required("key_file");
-    if (key.Text().empty()) key.Fail("expected the path of a bus key file, got ''");
-    // Like a URDF file's path: relative to the scene's directory; an absolute one replaces it.
-    scene.bus_key_file = (std::filesystem::path(scene.file).parent_path() / key.Text()).lexically_normal().string();
+    bus->ExpectKeys({"key_file", "domain"});
+    const std::optional<YamlReader> key = bus->Optional("key_file");
+    const std::optional<YamlReader> domain = bus->Optional("domain");
+    if (!key && !domain) bus->Fail("expected key_file (the bus key) and/or domain (what signatures are bound to)");
+    if (key) {
+      if (key->Text().empty()) key->Fail("expected the path of a bus key file, got ''");
+      // Like a URDF file's path: relative to the scene's directory; an absolute one replaces it.
+      scene.bus_key_file = (std::filesystem::path(scene.file).parent_path() / key->Text()).lexically_normal().string();
+    }
+    if (domain) {
+      if (const std::string why = BusDomainProblem("domain", domain->Text()); !why.empty()) {
+        domain->Fail("expected 1 to " + std::to_string(kMaxBusDomainBytes) + " printable ASCII characters, got '" +
+                     Escape(domain->Text(), 80) + "'");
+      }
+      scene.bus_domain = domain->Text();
+    }
   }
   if (auto d = root.Optional("description")) scene.description = d->Text();
   if (auto p = root.Optional("period")) {

@@ -75,6 +75,12 @@ struct EnergyBalanceBound {
   OnResidualExceeded on_exceed = OnResidualExceeded::kWarn;
 };
 
+// The scene's default estop_dwell, s: the default brake (20/s × diag M) takes
+// about e^-10 of the speed off in it.
+inline constexpr double kDefaultEstopDwell = 0.5;
+// The longest estop_dwell a scene may ask, s.
+inline constexpr double kMaxEstopDwell = 3600.0;
+
 struct InstanceConfig {
   std::string name;  // [a-z][a-z0-9_]*, unique in the scene
   PlantSpec plant;
@@ -97,6 +103,9 @@ struct InstanceConfig {
   std::optional<double> max_energy;             // J: |T + V| above this faults the instance (default DefaultMaxEnergy)
   std::optional<EnergyBalanceBound> energy_balance;  // a bound on |ε| (none by default)
   std::optional<VectorXd> estop_damping;        // (n) brake B during an emergency stop (default 20/s × diag M(q0))
+  // s: an emergency stop lasts at least this long before a clear_estop can end it, however many clears
+  // arrive (a flood cannot shorten it); 0: only a clear in the estop's own tick is refused.
+  double estop_dwell = kDefaultEstopDwell;
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
   std::optional<MujocoPlantConfig> mujoco;      // set: MuJoCo steps the plant; `plant` is its model
   bool telemetry = true;                        // keep the energy balance and publish <NAME>_TELEMETRY every tick
@@ -112,6 +121,9 @@ struct Scene {
   // relative to the scene file's directory; "" for none. --bus-key and
   // $LAGRANGE_BUS_KEY_FILE take precedence. Read only by lagranged, when it starts.
   std::string bus_key_file;
+  // bus: {domain: NAME}: the domain signatures are bound to (protocol/signing.hpp); "" for
+  // the bus's own (udpm://GROUP:PORT). --bus-domain and $LAGRANGE_BUS_DOMAIN take precedence.
+  std::string bus_domain;
 };
 
 // The instance's configured controllers in controller-index order: the

@@ -11,6 +11,9 @@ void BusOptions::AddTo(CLI::App& app) {
   app.add_option("--bus-key", bus_key_file,
                  "Sign what is sent and believe only what the key signed (the daemon's --bus-key FILE); default: $" +
                      std::string(kBusKeyEnv));
+  app.add_option("--bus-domain", bus_domain,
+                 "The domain signatures are bound to (the daemon's --bus-domain); default: $" +
+                     std::string(kBusDomainEnv) + ", else the bus's own (udpm://GROUP:PORT of the URL)");
   app.add_option("--wait", wait, "Seconds to wait for the daemon")->check(CLI::PositiveNumber)->capture_default_str();
 }
 

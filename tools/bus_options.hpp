@@ -1,6 +1,6 @@
 #pragma once
 // lagrangectl's options for reaching a daemon (--lcm-url, --channel-prefix,
-// --bus-key, --wait): the client's LinkOptions (protocol/client.hpp) as CLI11 flags. A
+// --bus-key, --bus-domain, --wait): the client's LinkOptions (protocol/client.hpp) as CLI11 flags. A
 // malformed URL surfaces as a BusUrlError, which lagrangectl reports as a bad
 // argument (exit 2).
 

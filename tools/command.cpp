@@ -94,7 +94,8 @@ class CommandCommand final : public Command {
  private:
   // One line per run publishing the instance's state (or the usual one line
   // when there is one run); throws, after printing them, unless every run
-  // applied the estop (DaemonLink::Estop resends it until every run answered).
+  // applied the estop (DaemonLink::Estop resends it until every run answered)
+  // and kept it while its states were watched (DaemonLink::EstopDidNotStay).
   int Estop(DaemonLink& link, command_t& c, std::ostream& out) const {
     link.AwaitRuns();
     const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(c);
@@ -108,6 +109,9 @@ class CommandCommand final : public Command {
                                  FormatDouble(bus_.wait) + " s");
       }
       if (!reply->accepted) throw std::runtime_error("refused: " + Escape(reply->reason, kMaxReasonShown));
+      if (const std::string left = link.EstopDidNotStay(runs[0]); !left.empty()) {
+        throw std::runtime_error("estop applied, but " + left);
+      }
       out << instance_ << ": estop done; now " << StateAfterReply(link, runs[0]) << "\n";
       return 0;
     }
@@ -122,6 +126,8 @@ class CommandCommand final : public Command {
         out << "no verdict within " << FormatDouble(bus_.wait) << " s\n";
       } else if (!reply->accepted) {
         out << "refused: " << Escape(reply->reason, kMaxReasonShown) << "\n";
+      } else if (const std::string left = link.EstopDidNotStay(run); !left.empty()) {
+        out << "applied, but " << left << "\n";
       } else {
         ++applied;
         out << "done; now " << StateAfterReply(link, run) << "\n";

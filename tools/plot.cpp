@@ -8,8 +8,10 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <optional>
 #include <sstream>
 
+#include "controllers/factory.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
 #include "tools/cli_support.hpp"
@@ -31,8 +33,19 @@ struct PlotInputs {
   std::string task;    // its task-space frame: simulate's TaskCsvPath or log2csv's <NAME>_TASK.csv
 };
 
-// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK; returns (status, its stdout and
-// stderr together).
+// The task-space controllers' names, comma-separated: a state row under one follows a task target, not q_des.
+std::string TaskSpaceControllerNames() {
+  std::string names, all = ControllerTypeNames();
+  std::istringstream in(all);
+  for (std::string name; std::getline(in, name, '|');) {
+    const std::optional<ControllerType> type = ParseControllerType(name);
+    if (type && IsTaskSpace(*type)) names += (names.empty() ? "" : ",") + name;
+  }
+  return names;
+}
+
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK TASK_SPACE; returns (status, its
+// stdout and stderr together).
 std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
   if (pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
@@ -43,7 +56,8 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
   const pid_t pid = Spawn(
-      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints, in.task},
+      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints, in.task,
+       TaskSpaceControllerNames()},
       options);
   close(out_pipe[1]);
   if (pid < 0) {
@@ -68,13 +82,15 @@ std::string LastLine(const std::string& text) {
 
 // The script's summary, "N rows in K segments" (the last line that says so;
 // matplotlib may warn before it), then "; joints: NAME, .." when it labelled
-// the joints by name, and "; task: .. of FRAME", "; telemetry: .." and
-// "; forces: .." for the panels it drew from those. The names come escaped from their CSV; a line with a
+// the joints by name, "; tracking: .." for what its tracking panels measured (joints to q_des, a frame to
+// its task target, or none), and "; task: .. of FRAME", "; telemetry: .." and "; forces: .." for the panels
+// it drew from those. The names come escaped from their CSV; a line with a
 // control character is not printed.
 std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
   static const std::regex kExtra(
-      R"(^(joints: [^\x00-\x1f\x7f]+|task: \d+ rows of [^\x00-\x1f\x7f]+|telemetry: \d+ rows|)"
+      R"(^(joints: [^\x00-\x1f\x7f]+|tracking: [^\x00-\x1f\x7f]+|task: \d+ rows of [^\x00-\x1f\x7f]+|)"
+      R"(telemetry: \d+ rows|)"
       R"(forces: \d+ rows of [a-z_, ]*)$)");
   std::string found, extra;
   std::istringstream lines(output);
@@ -126,7 +142,8 @@ class PlotCommand final : public Command {
   int Run(std::ostream& out, std::ostream&) override {
     if (!fs::exists(input_)) throw std::runtime_error("cannot read " + input_);
     const std::string png = output_.empty() ? fs::path(input_).replace_extension(".png").string() : output_;
-    PlotInputs in{input_, "", ""};
+    PlotInputs in;
+    in.state = input_;
     std::string title = fs::path(input_).filename().string();
     fs::path scratch;
     if (IsLcmLog(input_)) {

@@ -1,15 +1,22 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV]]]]`
-(any may be ""): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE]]]]]`
+(any may be ""; TASK_SPACE: the task-space controllers' names, comma-separated): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
 named as the daemon names them, and a dotted vertical line marks each switch
 of the integrator or the dynamics method; with a joints CSV (simulate's
 FILE.joints.csv beside FILE.csv) they are named by it; with a task CSV
 (simulate's FILE.task.csv, or log2csv of <NAME>_TASK: the frame a task-space
-controller moves) two panels after the tracking error, the frame's position
-and its target, and the position error |p_des - p| in mm with the rotation
-error in mrad on a right-hand axis; with a telemetry CSV
+controller moves) two panels: the tracking error of that frame to its task
+target, |p_des - p| in mm with the rotation error in mrad on a right-hand
+axis, and the frame's position against its target. The joint setpoint q_des
+(dashed, and q_des - q in the joints' tracking panel) is drawn only on rows
+where a controller followed it: not under a task-space controller (a row with
+a task row of the same run and tick, or the same t, or a task-space
+controller's name), not while the external controller applied streamed
+torques (controller "external", mode running); the joints' tracking panel is
+left out when no row followed it and a task target was tracked instead, and
+says so when neither was. With a telemetry CSV
 (log2csv of <NAME>_TELEMETRY) two more panels, the energy residual ε(t)
 against ± the quadrature bound and the cost per tick (evaluations, compute
 µs); with a forces CSV (<NAME>_FORCES) one panel per joint, each effect that
@@ -17,9 +24,12 @@ was on as a line. A reset or restart (the simulated
 time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
-"joints: NAME, .." when it named the joints (else they are q0, q1, ..),
-"task: N rows of FRAME", "telemetry: N rows" and "forces: N rows of EFFECT, .."
-for what it drew."""
+"joints: NAME, .." when it named the joints (else they are q0, q1, ..), what
+its tracking panels measured unless every row followed its joint setpoint
+("tracking: joints to q_des on N of M rows, max |q_des - q| X", "tracking:
+FRAME to its task target on N rows, max |p_des - p| X mm, rotation Y mrad",
+or "tracking: none (...)"), "task: N rows of FRAME",
+"telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
 import bisect
 import csv
 import math
@@ -97,8 +107,11 @@ def with_gaps(values, starts):
 # published, which enter M q̈ with a minus.
 FORCE_ROWS = (("gravity", "gravity_on", "G (gravity)"), ("coriolis", "coriolis_on", "C qd (coriolis)"),
               ("damping", "damping_on", "damping"), ("friction", "friction_on", "friction"),
-              ("limits", "limits_on", "limits"), ("disturbance", "disturbance_on", "disturbance"),
+              ("limits", "limits_on", "limits"), ("constraint", "constraint_on", "constraint (contacts, equalities)"),
+              ("disturbance", "disturbance_on", "disturbance"),
               ("tau_cmd", "saturation_on", "tau_cmd (before saturation)"), ("tau_applied", None, "tau_applied"))
+# Rows a CSV of an earlier lagrange lacks: not drawn there.
+OPTIONAL_FORCE_ROWS = ("constraint",)
 
 
 def series(path, columns):
@@ -135,10 +148,7 @@ def telemetry_panels(axes, path):
     return "telemetry: %d rows" % len(eps), right
 
 
-def task_panels(axes, path):
-    """The commanded frame's position and target, and its error: |p_des - p| (mm, left
-    axis) and |rotation vector| (mrad, right axis: returned with the summary line).
-    A row with no measurement yet (simulate's first: nan) is a gap."""
+def load_task(path):
     header, columns = load(path)
     wanted = (["t", "frame"] + ["position%d" % i for i in range(3)] + ["position_des%d" % i for i in range(3)]
               + ["error%d" % i for i in range(6)])
@@ -146,37 +156,74 @@ def task_panels(axes, path):
     if missing:
         fail("%s lacks the columns %s (a FILE.task.csv from lagrangectl simulate, or a *_TASK.csv from log2csv)"
              % (path, ", ".join(missing)))
+    return columns
+
+
+def task_rows(state_columns, task_columns, task_space_names):
+    """Which state rows a task-space controller commanded: those with a task row of the same run
+    and tick (a log), else of the same t (simulate writes both with one format), and those whose
+    controller is a task-space controller by name."""
+    rows = len(state_columns["t"])
+    if task_columns is None:
+        keys, own = set(), None
+    elif all(c in task_columns and c in state_columns for c in ("run_id", "tick")):
+        keys = set(zip(task_columns["run_id"], task_columns["tick"]))
+        own = list(zip(state_columns["run_id"], state_columns["tick"]))
+    else:
+        keys, own = set(task_columns["t"]), state_columns["t"]
+    controller = state_columns.get("controller")
+    return [(own is not None and own[k] in keys) or (controller is not None and controller[k] in task_space_names)
+            for k in range(rows)]
+
+
+def followed_rows(columns, under_task):
+    """Rows whose joint setpoint q_des a controller followed: not under a task-space controller, not
+    while the external controller applied streamed torques (controller external, mode running: 0)."""
+    controller, mode = columns.get("controller"), columns.get("mode")
+    return [not under_task[k] and not (controller is not None and mode is not None and controller[k] == "external"
+                                       and mode[k] == "0") for k in range(len(columns["t"]))]
+
+
+def task_panels(axes, path, columns):
+    """The commanded frame's tracking error to its task target: |p_des - p| (mm, left axis) and
+    |rotation vector| (mrad, right axis: returned with the summary lines); then its position and
+    target. A row with no measurement yet (simulate's first: nan) is a gap."""
     t, gap = series(path, columns)
     frames = list(dict.fromkeys(columns["frame"]))  # in order of appearance: one unless its controller changed
+    error = [numbers(columns, "error%d" % i, path) for i in range(6)]
+    position_mm = [1e3 * math.hypot(*e) for e in zip(*error[:3])]
+    rotation_mrad = [1e3 * math.hypot(*e) for e in zip(*error[3:])]
+    axes[0].plot(t, gap(position_mm), label="|p_des - p| (left axis)", linewidth=1.2, color="C0")
+    axes[0].set_ylabel("position error (mm)")
+    right = axes[0].twinx()
+    right.plot(t, gap(rotation_mrad), label="rotation error (right axis)", linewidth=0.8, color="C3", alpha=0.7)
+    right.set_ylabel("rotation error (mrad)")
+    axes[0].set_title("tracking error: %s to its task target, |p_des − p| (mm) and rotation (mrad)" % ", ".join(frames))
     for i, name in enumerate("xyz"):
         color = "C%d" % i
-        axes[0].plot(t, gap(numbers(columns, "position%d" % i, path)), label=name, linewidth=1.2, color=color)
-        axes[0].plot(t, gap(numbers(columns, "position_des%d" % i, path)), label=name + " target", linewidth=1.0,
+        axes[1].plot(t, gap(numbers(columns, "position%d" % i, path)), label=name, linewidth=1.2, color=color)
+        axes[1].plot(t, gap(numbers(columns, "position_des%d" % i, path)), label=name + " target", linewidth=1.0,
                      color=color, linestyle="--")
-    axes[0].set_ylabel("x, y, z (m)")
-    axes[0].set_title("end effector: %s position (solid) and target (dashed)" % ", ".join(frames))
-    error = [numbers(columns, "error%d" % i, path) for i in range(6)]
-    axes[1].plot(t, gap([1e3 * math.hypot(*e) for e in zip(*error[:3])]), label="|p_des - p| (left axis)",
-                 linewidth=1.2, color="C0")
-    axes[1].set_ylabel("position error (mm)")
-    right = axes[1].twinx()
-    right.plot(t, gap([1e3 * math.hypot(*e) for e in zip(*error[3:])]), label="rotation error (right axis)",
-               linewidth=0.8, color="C3", alpha=0.7)
-    right.set_ylabel("rotation error (mrad)")
-    axes[1].set_title("end effector: position error |p_des − p| (mm)")
-    return "task: %d rows of %s" % (len(columns["t"]), ", ".join(frames)), right
+    axes[1].set_ylabel("x, y, z (m)")
+    axes[1].set_title("end effector: %s position (solid) and target (dashed)" % ", ".join(frames))
+    finite = [(p, r) for p, r in zip(position_mm, rotation_mrad) if math.isfinite(p) and math.isfinite(r)]
+    tracking = "tracking: %s to its task target on %d rows, max |p_des - p| %.3g mm, rotation %.3g mrad" % (
+        ", ".join(frames), len(finite), max([p for p, _ in finite], default=0.0),
+        max([r for _, r in finite], default=0.0))
+    return [tracking, "task: %d rows of %s" % (len(columns["t"]), ", ".join(frames))], right
 
 
 def forces_panels(axes, path, joint_names):
     header, columns = load(path)
     joints = len(indexed(header, r"tau_applied_(\d+)"))
-    missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in FORCE_ROWS for j in range(joints)]
+    rows = [r for r in FORCE_ROWS if r[0] not in OPTIONAL_FORCE_ROWS or "%s_0" % r[0] in columns]
+    missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in rows for j in range(joints)]
                if n not in columns]
     if missing or joints != len(axes):
         fail("%s lacks the columns %s (a *_FORCES.csv from log2csv)" % (path, ", ".join(missing[:3]) or "tau_applied_0.."))
     t, gap = series(path, columns)
     drawn = []
-    for row, flag, label in FORCE_ROWS:
+    for row, flag, label in rows:
         on = numbers(columns, flag, path) if flag else [1.0] * len(t)
         if not any(on):
             continue  # off throughout: not computed, not drawn
@@ -188,7 +235,8 @@ def forces_panels(axes, path, joint_names):
     joint = joint_names if joint_names and len(joint_names) == joints else ["joint %d" % j for j in range(joints)]
     for j, axis in enumerate(axes):
         axis.set_ylabel("%s (N·m or N)" % joint[j])
-        axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % joint[j])
+        axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits + constraint - C qd - G"
+                       % joint[j])
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
 
 
@@ -280,14 +328,36 @@ def named_joints(path, joints):
     return columns["name"]
 
 
+def joint_tracking_panel(axis, draw, columns, path, q, qdes, joint, colors, followed):
+    """q_des - q on the rows where a controller followed q_des (a gap elsewhere); the summary line
+    when some row did not follow it (None when every row did: the common case says nothing)."""
+    worst = 0.0
+    for i, (qn, dn) in enumerate(zip(q, qdes)):
+        err = [d - x if f else math.nan
+               for d, x, f in zip(numbers(columns, dn, path), numbers(columns, qn, path), followed)]
+        worst = max([worst] + [abs(e) for e in err if math.isfinite(e)])
+        draw(axis, joint[i], err, color=colors[i % len(colors)])
+    axis.set_ylabel("q_des - q (rad or m)")
+    axis.set_title("tracking error: q_des − q (where a controller followed the joint setpoint)")
+    count = sum(followed)
+    if count == 0:
+        axis.text(0.5, 0.5, "no row followed the joint setpoint (the external controller's torques came from the bus)",
+                  transform=axis.transAxes, ha="center", va="center", color="dimgray")
+        return "tracking: none (no row followed a joint setpoint or a task target)"
+    if count == len(followed):
+        return None
+    return "tracking: joints to q_des on %d of %d rows, max |q_des - q| %.3g" % (count, len(followed), worst)
+
+
 def main():
-    if len(sys.argv) not in (4, 6, 7, 8, 9):
-        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV]]]]")
+    if len(sys.argv) not in (4, 6, 7, 8, 9, 10):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE]]]]]")
     path, png, title = sys.argv[1:4]
     telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
     status = sys.argv[6] if len(sys.argv) >= 7 else ""
     joints_csv = sys.argv[7] if len(sys.argv) >= 8 else ""
     task = sys.argv[8] if len(sys.argv) >= 9 else ""
+    task_space_names = set(filter(None, sys.argv[9].split(","))) if len(sys.argv) >= 10 else set()
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_des(\d+)")
@@ -299,6 +369,8 @@ def main():
     if missing:
         fail("%s lacks the columns %s (a CSV from lagrangectl simulate, or a *_STATE.csv from log2csv)"
              % (path, ", ".join(missing)))
+    task_columns = load_task(task) if task else None
+    followed = followed_rows(columns, task_rows(columns, task_columns, task_space_names))
 
     import matplotlib
     matplotlib.use("Agg")
@@ -311,8 +383,10 @@ def main():
     def draw(axis, name, values, **style):
         axis.plot(t_gapped, with_gaps(values, starts), label=name, linewidth=1.2, **style)
 
+    # The tracking panels follow the energy: the joints' (unless only a task target was tracked), the task's two.
     force_joints = len(indexed(load(forces)[0], r"tau_applied_(\d+)")) if forces else 0
-    task_at = 4  # the task panels follow the tracking error, then the telemetry's, then the forces'
+    joint_tracking = any(followed) or not task
+    task_at = 3 + (1 if joint_tracking else 0)
     telemetry_at = task_at + (2 if task else 0)
     panels = telemetry_at + (2 if telemetry else 0) + force_joints
     # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
@@ -326,9 +400,12 @@ def main():
     for i, (qn, dn) in enumerate(zip(q, qdes)):
         color = colors[i % len(colors)]
         draw(axes[0], joint[i], numbers(columns, qn, path), color=color)
-        draw(axes[0], joint[i] + " setpoint", numbers(columns, dn, path), color=color, linestyle="--")
+        if any(followed):
+            setpoint = [d if f else math.nan for d, f in zip(numbers(columns, dn, path), followed)]
+            draw(axes[0], joint[i] + " setpoint", setpoint, color=color, linestyle="--")
     axes[0].set_ylabel("q, q_des (rad or m)")
-    axes[0].set_title("joint positions (solid) and setpoints (dashed)")
+    axes[0].set_title("joint positions (solid) and setpoints (dashed, where a controller followed them)"
+                      if any(followed) else "joint positions (no controller followed a joint setpoint)")
     # A segment's first row carries no applied torque yet (a row's tau is the
     # one held over the tick that led to it): not drawn, so no line from 0.
     first_rows = set(starts)
@@ -344,15 +421,13 @@ def main():
     draw(axes[2], "E", [a + b for a, b in zip(T, V)], color="black")
     axes[2].set_ylabel("energy (J)")
     axes[2].set_title("kinetic T, potential V and total E")
-    for i, (qn, dn) in enumerate(zip(q, qdes)):
-        err = [d - x for d, x in zip(numbers(columns, dn, path), numbers(columns, qn, path))]
-        draw(axes[3], joint[i], err, color=colors[i % len(colors)])
-    axes[3].set_ylabel("q_des - q (rad or m)")
-    axes[3].set_title("tracking error")
     extra, twins = [], {}
+    if joint_tracking:
+        line = joint_tracking_panel(axes[3], draw, columns, path, q, qdes, joint, colors, followed)
+        extra += [line] if line else []
     if task:
-        line, twins[axes[task_at + 1]] = task_panels(axes[task_at:task_at + 2], task)
-        extra.append(line)
+        lines, twins[axes[task_at]] = task_panels(axes[task_at:task_at + 2], task, task_columns)
+        extra += lines
     if telemetry:
         line, twins[axes[telemetry_at + 1]] = telemetry_panels(axes[telemetry_at:telemetry_at + 2], telemetry)
         extra.append(line)

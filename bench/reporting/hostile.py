@@ -108,8 +108,8 @@ def hostile_section(out, data):
           "During every case, the quiet one too: Debian's `lcm-logger` records the output channels (a new log per "
           "case; its states of this run, per instance, are counted against the ticks the daemon ran in the window, "
           "from its status just after the window opened to just after it closed), an estop goes to the arm every "
-          "0.5 s with a request_id (applied: a state shows the arm in MODE_ESTOP, or its reply says accepted; then "
-          "clear_estop), a prober sends a cart-pole setpoint every 20 ms and times it to the first state carrying "
+          "1 s with a request_id (applied: a state shows the arm in MODE_ESTOP, or its reply says accepted; then "
+          "clear_estop, until the arm leaves the estop once its 0.5 s estop_dwell is over), a prober sends a cart-pole setpoint every 20 ms and times it to the first state carrying "
           "it, and the daemon's VmRSS is read every 0.1 s. Counters are status_t deltas over the window; "
           "`records dropped` is status_t.state_messages_dropped, the daemon's total. Multiples in brackets are "
           "against the quiet case of the same bus in the same run.\n",

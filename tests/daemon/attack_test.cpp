@@ -684,5 +684,94 @@ TEST_F(Attack, HostileSwitchCommandsAreRefusedAndNeverStopTheLoop) {
   Stop();
 }
 
+// ---------------------------------------------------------------- a flood of clears (issue 32)
+
+constexpr double kEstopDwell = 0.5;        // s: the default scene's (the scene reader's default) estop_dwell
+constexpr std::int64_t kUtimeSlack = 1000;  // µs: a state's utime is read a few µs before its tick's clock
+
+// Sends clear_estop to the arm from a thread of its own, every 0.2 ms, under
+// fresh request ids, until destroyed: anyone on an unsigned bus can.
+class ClearFlood {
+ public:
+  explicit ClearFlood(const std::string& url) {
+    thread_ = std::thread([this, url] {
+      std::unique_ptr<Bus> bus = OpenBus(url);
+      command_t c{};
+      c.command = command_t::CLEAR_ESTOP;
+      for (std::int64_t k = 1; !stop_; ++k) {
+        c.utime = WallMicros();
+        c.request_id = 0x0c1ea2000000 + k;
+        bus->PublishMessage("ARM_COMMAND", c);
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+    });
+  }
+  ~ClearFlood() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// The arm's states of one run from its first estop on: the first in estop
+// and the first after it that was not.
+std::pair<std::optional<state_t>, std::optional<state_t>> EstopSpan(const std::vector<state_t>& states) {
+  std::optional<state_t> first, left;
+  for (const state_t& s : states) {
+    if (!first && s.mode == state_t::MODE_ESTOP) first = s;
+    if (first && !left && s.run_id == first->run_id && s.tick > first->tick && s.mode != state_t::MODE_ESTOP) left = s;
+  }
+  return {first, left};
+}
+
+// Issue 32: an estop lasted one tick against a flood of clears (on an
+// unsigned bus anyone can send them; on a signed one any key holder). Now it
+// lasts the scene's estop_dwell whatever clears arrive, lagrangectl says it
+// stayed, and the flood ends it only once the dwell is over (into hold),
+// as the daemon's own state timestamps show.
+TEST_F(Attack, AFloodOfClearsCannotShortenAnEstopBelowItsDwell) {
+  Start(8554);
+  ClearFlood flood(url_);
+  const testing::ProcessResult r = testing::RunProcess({LAGRANGECTL_PATH, "command", "arm", "estop", "--lcm-url", url_});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_EQ(r.out.rfind("arm: estop done; now estop with computed-torque", 0), 0u) << r.out << r.err;
+  ASSERT_TRUE(outputs_->WaitForLatest<state_t>("ARM_STATE", [](const state_t& s) {
+    return s.mode == state_t::MODE_HOLD;
+  })) << "the flood of clears never ended the estop";
+  const auto [estop, left] = EstopSpan(outputs_->Decoded<state_t>("ARM_STATE"));
+  ASSERT_TRUE(estop && left);
+  EXPECT_EQ(left->mode, state_t::MODE_HOLD);
+  EXPECT_GE(left->utime - estop->utime, static_cast<std::int64_t>(kEstopDwell * 1e6) - kUtimeSlack)
+      << "the estop lasted ticks " << estop->tick << " to " << left->tick;
+  Stop();
+}
+
+// The client's check: a scene with no dwell (estop_dwell: 0) under the same
+// flood loses its estop the tick after it landed, and lagrangectl says so
+// and exits 1 instead of "done".
+TEST_F(Attack, LagrangectlExitsOneWhenAnEstopDidNotStay) {
+  const fs::path scene = fs::temp_directory_path() / ("lagrange_no_dwell_" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(scene) << R"(
+instances:
+  - name: arm
+    plant: {type: arm2}
+    initial: {q: [0.7853981633974483, 0.0]}
+    controller: {type: computed-torque, kp: 100, kd: 20}
+    estop_dwell: 0
+)";
+  Start(8555, {"--config", scene.string()});
+  ClearFlood flood(url_);
+  const testing::ProcessResult r = testing::RunProcess({LAGRANGECTL_PATH, "command", "arm", "estop", "--lcm-url", url_});
+  fs::remove(scene);
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_EQ(r.out.find("done"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("estop applied, but the estop did not stay: hold with computed-torque"), std::string::npos)
+      << r.err;
+  Stop();
+}
+
 }  // namespace
 }  // namespace lagrange

@@ -955,8 +955,13 @@ TEST_F(ExternalPlantWatchdog, AnEstopTheWatchdogInterruptedBrakesAfterClearAndAS
   SendState(500);
   controller_.Ticks(1);
   EXPECT_EQ(ModeNow(), Mode::kEstop);
+  for (int k = 1; k < 500; ++k) {  // the estop's dwell (0.5 s) out, braking from fresh states
+    SendState(500 + k);
+    controller_.Ticks(1);
+  }
+  ASSERT_EQ(ModeNow(), Mode::kEstop);
   controller_.SendCommand(command_t::CLEAR_ESTOP, 3);
-  SendState(501);
+  SendState(1000);
   controller_.Ticks(1);
   EXPECT_EQ(ModeNow(), Mode::kHold);
   EXPECT_EQ(controller_.reason(), kLeftEstop);

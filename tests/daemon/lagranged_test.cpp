@@ -411,7 +411,8 @@ TEST_F(Lagranged, CommandsAreAnsweredWithTheirRequestIdSwitchStopAndAreRefusedWh
   EXPECT_TRUE(request(command_t::ESTOP).accepted);
   ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_ESTOP; }));
   EXPECT_EQ(collector.Decoded<state_t>("CARTPOLE_STATE").back().mode, state_t::MODE_RUNNING);  // the other runs on
-  request(command_t::CLEAR_ESTOP);
+  // An estop lasts the scene's estop_dwell (0.5 s) before a clear can end it: cleared once a clear is accepted.
+  EXPECT_TRUE(testing::WaitUntil([&] { return request(command_t::CLEAR_ESTOP).accepted; }, kWait));
   ASSERT_TRUE(await_state([](const state_t& s) { return s.mode == state_t::MODE_HOLD; }));
   const reply_t unknown = request(command_t::SWITCH_CONTROLLER, "mpc");
   EXPECT_FALSE(unknown.accepted);

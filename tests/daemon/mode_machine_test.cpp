@@ -221,6 +221,34 @@ TEST(ModeMachine, AnEstopStaysLatchedThroughTheWatchdogAndBrakesTheFirstStateAft
   EXPECT_FALSE(first.next.hold_on_arrival);
 }
 
+// Until a latched estop has lasted the scene's estop_dwell, no clear lifts
+// it: refused in estop and in a waiting external plant whose estop is
+// latched. Re-arming a plant its watchdog stopped lifts no estop, so it is
+// allowed; the estop stays latched. After the dwell the same clear holds.
+TEST(ModeMachine, AClearWithinTheEstopsDwellIsRefusedAndTheEstopStaysLatched) {
+  const ModeOutcome estop = Transition(In(Mode::kEstop), ModeEvent::kClearEstop, {.estop_dwelling = true});
+  EXPECT_EQ(estop.refused, kClearWithinDwell);
+  EXPECT_EQ(estop.next.mode, Mode::kEstop);
+  EXPECT_TRUE(estop.next.estop_latched);
+  ModeState waiting = In(Mode::kWaiting);
+  waiting.estop_latched = true;
+  waiting.reason = kWaitingEstopLatched;
+  const ModeOutcome held = Transition(waiting, ModeEvent::kClearEstop, {.external_plant = true, .estop_dwelling = true});
+  EXPECT_EQ(held.refused, kClearWithinDwell);
+  EXPECT_TRUE(held.next.estop_latched);
+  ModeState stopped = In(Mode::kStopped);
+  stopped.estop_latched = true;
+  const ModeOutcome rearmed =
+      Transition(stopped, ModeEvent::kClearEstop, {.external_plant = true, .estop_dwelling = true});
+  EXPECT_EQ(rearmed.refused, nullptr);
+  EXPECT_EQ(rearmed.next.mode, Mode::kWaiting);
+  EXPECT_TRUE(rearmed.next.estop_latched);
+  const ModeOutcome after = Transition(In(Mode::kEstop), ModeEvent::kClearEstop, {.estop_dwelling = false});
+  EXPECT_EQ(after.refused, nullptr);
+  EXPECT_EQ(after.next.mode, Mode::kHold);
+  EXPECT_FALSE(after.next.estop_latched);
+}
+
 TEST(ModeMachine, AClearInTheEstopsOwnTickIsRefusedInEveryMode) {
   for (const Mode m : kModes) {
     const ModeOutcome out = Transition(In(m), ModeEvent::kClearEstop, {.estop_this_tick = true});

@@ -194,12 +194,44 @@ TEST_F(RuntimeTest, AClearInTheSameTickAsAnEstopNeverCancelsIt) {
     Ticks(1);
     EXPECT_EQ(Arm().mode, Mode::kEstop) << "clear first: " << clear_first;
     EXPECT_STREQ(Arm().command_error, kClearWithEstop);
-    Ticks(5);
+    Ticks(499);  // the estop's dwell (0.5 s) out
     EXPECT_EQ(Arm().mode, Mode::kEstop);
     runtime.PostUrgent(0, Urgent::kClearEstop, 9000);  // deliberate, in a tick of its own
     Ticks(1);
     EXPECT_EQ(Arm().mode, Mode::kHold);
   }
+}
+
+// Nor can a flood shorten an estop: with a clear_estop posted before every
+// tick, the estop lasts exactly the scene's estop_dwell (0.5 s: 500 ticks of
+// 1 ms) and ends at the first tick after it; a second estop starts a dwell of
+// its own.
+TEST_F(RuntimeTest, AFloodOfClearsCannotShortenAnEstopBelowItsDwell) {
+  Ticks(10);
+  runtime.PostUrgent(0, Urgent::kEstop, 1);
+  Ticks(1);
+  const Nanoseconds estop_at = now;
+  int estop_ticks = 1;
+  for (std::int64_t k = 2; Arm().mode == Mode::kEstop && k < 2000; ++k) {
+    runtime.PostUrgent(0, Urgent::kClearEstop, k);
+    Ticks(1);
+    if (Arm().mode == Mode::kEstop) {
+      ++estop_ticks;
+      EXPECT_STREQ(Arm().command_error, kClearWithinDwell);
+    }
+  }
+  EXPECT_EQ(Arm().mode, Mode::kHold);
+  EXPECT_EQ(estop_ticks, 500);
+  EXPECT_EQ(now - estop_at, 500 * kMs) << "left at the first tick a dwell after the estop";
+  // A later estop: its own dwell, however long the instance was stopped before.
+  runtime.PostUrgent(0, Urgent::kEstop, 3000);
+  Ticks(1);
+  runtime.PostUrgent(0, Urgent::kClearEstop, 3001);
+  Ticks(499);
+  EXPECT_EQ(Arm().mode, Mode::kEstop);
+  runtime.PostUrgent(0, Urgent::kClearEstop, 3002);
+  Ticks(1);
+  EXPECT_EQ(Arm().mode, Mode::kHold);
 }
 
 class FaultTest : public RuntimeTest {

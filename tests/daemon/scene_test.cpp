@@ -129,6 +129,30 @@ TEST(SceneParsing, TheBusKeyFileIsRelativeToTheSceneAndAbsoluteStaysAbsolute) {
   }
 }
 
+TEST(SceneParsing, TheBusDomainAndTheEstopDwellAreReadAndCheckedNamingTheKey) {
+  const std::string instances = "instances:\n  - {name: p, plant: {type: pendulum}}\n";
+  EXPECT_EQ(ParseScene(instances, "s.yaml").bus_domain, "");
+  EXPECT_EQ(ParseScene("bus: {domain: cell-7}\n" + instances, "s.yaml").bus_domain, "cell-7");
+  EXPECT_EQ(ParseScene("bus: {key_file: k, domain: cell-7}\n" + instances, "s.yaml").bus_key_file, "k");
+  for (const std::string bad : {std::string("bus: {domain: ''}\n"), "bus: {domain: " + std::string(65, 'd') + "}\n"}) {
+    EXPECT_THROW(ParseScene(bad + instances, "s.yaml"), ConfigError) << bad;
+  }
+  EXPECT_EQ(ParseScene(instances, "s.yaml").instances[0].estop_dwell, kDefaultEstopDwell);
+  EXPECT_EQ(ParseScene("instances:\n  - {name: p, plant: {type: pendulum}, estop_dwell: 0}\n", "s.yaml")
+                .instances[0]
+                .estop_dwell,
+            0.0);
+  for (const char* dwell : {"-0.1", "3601", ".nan", "soon"}) {
+    try {
+      ParseScene(std::string("instances:\n  - {name: p, plant: {type: pendulum}, estop_dwell: ") + dwell + "}\n",
+                 "s.yaml");
+      ADD_FAILURE() << dwell;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("estop_dwell"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(SceneParsing, ChainParametersTakeScalarsOrPerLinkListsInAnyOrder) {
   // 'links' written last still sizes the per-link lists.
   const Scene scene = ParseScene(R"(

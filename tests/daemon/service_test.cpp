@@ -3,7 +3,7 @@
 // reopens the log, SIGTERM stops it with its final status; the log reaches
 // its file while it runs; a scene whose worst-case tick exceeds the period is
 // refused; the I/O threads run SCHED_FIFO below the tick; --version and
-// --log-level debug say more. Private LCM ports 7960-7979.
+// --log-level debug say more. Private LCM ports 7960-7979 and 8557-8559.
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <random>
 #include <sstream>
 #include <thread>
 #include <tuple>
@@ -103,6 +104,66 @@ TEST_F(Service, AnUnwritableLogFileExitsTwoWithOneLineAndCreatesNothing) {
     ExpectOneLineRefusal(r, "lagranged: --log-file '" + path + "': cannot open");
   }
   EXPECT_FALSE(fs::exists("/nonexistent/lagrange_dir"));  // a missing directory is never created
+}
+
+// Issue 32: a log file that takes no line (/dev/full took every one, silently,
+// and exited 0; at a file size limit SIGXFSZ killed the daemon) is refused at
+// start, exit 2, saying why.
+TEST_F(Service, ALogFileThatCannotBeWrittenExitsTwoAtStartSayingWhy) {
+  Prepare(8558);
+  const auto full = testing::RunProcess(Argv({"--log-file", "/dev/full", "--duration", "0.1"}), 60.0);
+  ExpectOneLineRefusal(full, "lagranged: --log-file '/dev/full': cannot open: not a regular file (a character device)");
+  const fs::path log = dir_ / "limited.log";
+  std::vector<std::string> argv = {"/bin/sh", "-c", "ulimit -f 0 && exec \"$@\"", "sh"};
+  for (const std::string& a : Argv({"--log-file", log.string(), "--duration", "0.1"})) argv.push_back(a);
+  const auto limited = testing::RunProcess(argv, 60.0);
+  EXPECT_EQ(limited.exit_code, 2) << limited.err;
+  EXPECT_NE(limited.err.find("--log-file '" + log.string() + "': cannot write: File too large"), std::string::npos)
+      << limited.err;
+}
+
+// Issue 32: an empty key path (an unset variable in a unit or a script) ran
+// unsigned without a word; an all-zero key was taken; a key behind a
+// symbolic link (a Kubernetes secret mount) was refused as "Too many levels
+// of symbolic links". Each is refused in one line saying what it is.
+TEST_F(Service, AnEmptyKeyPathAZeroKeyOrASymlinkedKeyIsRefusedSayingWhy) {
+  Prepare(8559);
+  ExpectOneLineRefusal(testing::RunProcess(Argv({"--bus-key", "", "--duration", "0.1"}), 60.0),
+                       "bus key '': an empty path (an unset variable in a unit or script?)");
+  ExpectOneLineRefusal(
+      testing::RunProcess({"/usr/bin/env", "LAGRANGE_BUS_KEY_FILE=", LAGRANGED_PATH, "--lcm-url", url_, "--duration",
+                           "0.1"},
+                          60.0),
+      "$LAGRANGE_BUS_KEY_FILE is set but empty");
+  const fs::path zeros = dir_ / "zeros.key";
+  std::ofstream(zeros, std::ios::binary) << std::string(32, '\0');
+  fs::permissions(zeros, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  ExpectOneLineRefusal(testing::RunProcess(Argv({"--bus-key", zeros.string(), "--duration", "0.1"}), 60.0),
+                       "bus key " + zeros.string() + ": every byte is 0x00: a placeholder, not a random key");
+  const fs::path key = dir_ / "..data" / "bus.key";
+  fs::create_directories(key.parent_path());
+  std::string bytes(32, '\0');
+  std::mt19937 rng{42};
+  for (char& b : bytes) b = static_cast<char>(rng());
+  std::ofstream(key, std::ios::binary) << bytes;
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  const fs::path link = dir_ / "bus.key";
+  fs::create_symlink("..data/bus.key", link);
+  const auto linked = testing::RunProcess(Argv({"--bus-key", link.string(), "--duration", "0.1"}), 60.0);
+  ExpectOneLineRefusal(linked, "bus key " + link.string() + ": a symbolic link (to ..data/bus.key)");
+  EXPECT_NE(linked.err.find("name the key file itself (" + fs::canonical(key).string() + ")"), std::string::npos)
+      << linked.err;
+  EXPECT_EQ(linked.err.find("Too many levels"), std::string::npos) << linked.err;
+}
+
+// Issue 32: a daemon without a key says at start that its bus is unsigned.
+TEST_F(Service, AnUnsignedBusIsSaidAtStart) {
+  Prepare(8557);
+  const auto r = testing::RunProcess(Argv({"--duration", "0.2"}), 60.0);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("bus unsigned: anyone who can send to " + url_ + " can command these instances"),
+            std::string::npos)
+      << r.err;
 }
 
 TEST_F(Service, BadLcmUrlsAndOptionsExitTwoWithOneLine) {

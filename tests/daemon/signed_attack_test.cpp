@@ -6,7 +6,8 @@
 // replies. Each moves nothing, and the daemon counts it on its channel in the
 // status. A key holder's messages are still obeyed (the control that proves
 // the test could see an effect). The same attacks without a key are
-// attack_test.cpp's. Private ports 8101-8106, 8109, 8110, 8112 and 8113 (8107-8108: logs_test.cpp); nothing here measures time.
+// attack_test.cpp's. Private ports 8101-8106, 8109, 8110, 8112, 8113 and 8550-8553, 8556 (8107-8108: logs_test.cpp);
+// nothing here measures time.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -76,8 +77,10 @@ BusKey MakeKey(const fs::path& path) {
 // channel and the latest status per first instance name.
 class SignedObserver {
  public:
-  SignedObserver(const std::string& url, const BusKey& key, const std::vector<std::string>& state_channels)
-      : bus_(OpenBus(url, &key)) {
+  // Signed for `domain` ("": the bus's own, as the daemons' default).
+  SignedObserver(const std::string& url, const BusKey& key, const std::vector<std::string>& state_channels,
+                 const std::string& domain = "")
+      : bus_(OpenBus(url, &key, domain)) {
     for (const std::string& channel : state_channels) {
       bus_->Subscribe(channel, [this](std::string_view name, const std::uint8_t* d, std::size_t n) {
         state_t s;
@@ -165,9 +168,11 @@ class SignedAttack : public ::testing::Test {
   // `payload` on `channel` from a process without the key: unsigned, and signed with another key.
   void Forge(const std::string& channel, const Bytes& payload) {
     raw_->Send(Datagram(channel, payload));
-    Signer forger(*other_key_);
+    Signer forger(*other_key_, Domain());
     raw_->Send(Datagram(channel, SignedBy(forger, channel, payload)));
   }
+  // What the daemons on this port sign for: the bus's own domain (udpm://GROUP:PORT).
+  std::string Domain() const { return BusDomainOf(url_); }
   static void Stop(BackgroundProcess& daemon) {
     daemon.Signal(SIGTERM);
     EXPECT_EQ(daemon.Wait(60.0), 0) << daemon.Stderr();
@@ -236,7 +241,7 @@ TEST_F(SignedAttack, ACapturedSignedCommandReplayedAndAStaleOneAreDroppedAndCoun
   ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
 
   // A key holder's pause, exactly as it went over the wire: it is obeyed.
-  Signer holder(*key_);
+  Signer holder(*key_, Domain());
   const Bytes pause = testing::Encode(testing::MakeCommand(command_t::PAUSE, 0x8102001, WallMicros()));
   const Bytes captured = Datagram("ARM_COMMAND", SignedBy(holder, "ARM_COMMAND", pause));
   ASSERT_TRUE(testing::SendUntil([&] { raw_->Send(captured); },
@@ -255,7 +260,7 @@ TEST_F(SignedAttack, ACapturedSignedCommandReplayedAndAStaleOneAreDroppedAndCoun
         return st && st->mode == state_t::MODE_RUNNING;
       },
       kWait));
-  Signer recorded(*key_, 0, [] { return WallMicros() - 10'000'000; });
+  Signer recorded(*key_, Domain(), 0, [] { return WallMicros() - 10'000'000; });
   const Bytes stale =
       Datagram("ARM_COMMAND",
                SignedBy(recorded, "ARM_COMMAND",
@@ -323,7 +328,7 @@ TEST_F(SignedAttack, ForgedTorquesAndMeasuredStatesCannotTakeOverTheExternalLoop
   EXPECT_EQ(p.instance_modes[0], state_t::MODE_RUNNING);
   EXPECT_EQ(c.instance_modes[0], state_t::MODE_RUNNING) << c.instance_reasons[0];
   EXPECT_EQ(p.torques_rejected, 0) << "dropped by the bus, before the torque checks";
-  EXPECT_EQ(c.measured_rejected, 0) << "no second source ever reached the controller";
+  EXPECT_EQ(c.measured_rejected, 0) << "no second source ever reached the controller: " << c.last_rejection;
   EXPECT_LT(observer.max_abs(), kBounded) << "the arm stayed under its own controller";
   Stop(*controller);
   Stop(*plant);
@@ -579,6 +584,193 @@ TEST_F(SignedAttack, ADaemonWithAKeyReadableByOthersOrOfTheWrongSizeRefusesToSta
       testing::RunProcess({LAGRANGED_PATH, "--lcm-url", url_, "--bus-key", short_key.string(), "--duration", "0.1"});
   EXPECT_EQ(s.exit_code, 2);
   EXPECT_NE(s.err.find("bus key " + short_key.string() + ": 10 bytes"), std::string::npos) << s.err;
+}
+
+// ---------------------------------------------------------------- relays between buses (issue 32)
+
+// What a process without the key reads off one bus: every datagram on the
+// arm's command and setpoint channels, as it was sent (message and trailer).
+class Capture {
+ public:
+  explicit Capture(const std::string& url) : bus_(OpenBus(url)) {
+    for (const char* channel : {"ARM_COMMAND", "ARM_SETPOINT"}) {
+      bus_->Subscribe(channel, [this](std::string_view name, const std::uint8_t* d, std::size_t n) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        seen_.emplace_back(std::string(name), Bytes(d, d + n));
+      });
+    }
+    thread_ = std::thread([this] {
+      while (!stop_) bus_->Handle(5);
+    });
+  }
+  ~Capture() {
+    stop_ = true;
+    thread_.join();
+  }
+  // The latest command of `kind` captured (waits for one), as it was on the wire.
+  std::optional<Bytes> Command(std::int8_t kind) {
+    std::optional<Bytes> found;
+    testing::WaitUntil(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          for (const auto& [channel, bytes] : seen_) {
+            command_t c;
+            if (channel == "ARM_COMMAND" && c.decode(bytes.data(), 0, static_cast<int>(bytes.size())) > 0 &&
+                c.command == kind)
+              found = bytes;
+          }
+          return found.has_value();
+        },
+        kWait);
+    return found;
+  }
+  std::optional<Bytes> Setpoint() {
+    std::optional<Bytes> found;
+    testing::WaitUntil(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          for (const auto& [channel, bytes] : seen_)
+            if (channel == "ARM_SETPOINT") found = bytes;
+          return found.has_value();
+        },
+        kWait);
+    return found;
+  }
+
+ private:
+  std::unique_ptr<Bus> bus_;
+  std::mutex mutex_;
+  std::vector<std::pair<std::string, Bytes>> seen_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// Issue 32: two lagranged sharing one key on two buses (as two cells of one
+// deployment run them); a pause, a setpoint and a clear_estop that a key
+// holder (lagrangectl) sent to the first, read off its bus by a process
+// without the key and resent at once to the second (well within the 2 s
+// stamp window, from a sender the second never heard). Each is obeyed by the
+// first and refused, counted, by the second: the tag is bound to the bus's
+// domain (udpm://GROUP:PORT by default). The relayed clear arrives after the
+// second daemon's estop has lasted its dwell, so only the domain refuses it.
+TEST_F(SignedAttack, ASignedPauseSetpointOrClearRelayedToAnotherBusSharingTheKeyIsRefused) {
+  Prepare(8550);
+  const std::string url_a = url_;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(8551), "");
+  const std::string url_b = testing::TestLcmUrl(8551);
+  auto first = Lagranged();
+  BackgroundProcess second({LAGRANGED_PATH, "--lcm-url", url_b, "--bus-key", key_path_, "--log-level", "warn"});
+  SignedObserver a(url_a, *key_, {"ARM_STATE"}), b(url_b, *key_, {"ARM_STATE"});
+  Capture capture(url_a);
+  testing::RawUdpSender to_b(testing::kTestLcmGroup, 8551);
+  ASSERT_TRUE(testing::WaitUntil([&] { return a.Status("arm") && b.Status("arm"); }, kWait))
+      << first->Stderr() << second.Stderr();
+  const auto ctl = [&](const std::string& url, std::vector<std::string> words) {
+    std::vector<std::string> argv = {LagrangectlPath()};
+    argv.insert(argv.end(), words.begin(), words.end());
+    argv.insert(argv.end(), {"--lcm-url", url, "--bus-key", key_path_});
+    return testing::RunProcess(argv);
+  };
+  const auto relay = [&](const std::string& channel, const Bytes& wire) {
+    for (int k = 0; k < 3; ++k) to_b.Send(Datagram(channel, wire));  // UDP: the first copy may be the one lost
+  };
+  const auto refused_on_b = [&](const std::string& channel) {
+    const auto s = b.Status("arm");
+    return s ? RefusedOn(*s, channel) : 0;
+  };
+
+  // A pause: the first pauses; the second, sent the same datagram, runs on.
+  ASSERT_EQ(ctl(url_a, {"command", "arm", "pause"}).exit_code, 0);
+  const std::optional<Bytes> pause = capture.Command(command_t::PAUSE);
+  ASSERT_TRUE(pause);
+  relay("ARM_COMMAND", *pause);
+  EXPECT_TRUE(testing::WaitUntil([&] { return refused_on_b("ARM_COMMAND") >= 1; }, kWait));
+  EXPECT_EQ(b.State("ARM_STATE")->mode, state_t::MODE_RUNNING);
+  EXPECT_EQ(b.Status("arm")->commands_accepted, 0);
+  ASSERT_EQ(ctl(url_a, {"command", "arm", "resume"}).exit_code, 0);
+
+  // A setpoint: taken by the first, refused by the second before its checks.
+  const auto sent = ctl(url_a, {"send", "arm", "--q", "1.0,0.5", "--once"});
+  ASSERT_EQ(sent.exit_code, 0) << sent.err;
+  const std::optional<Bytes> setpoint = capture.Setpoint();
+  ASSERT_TRUE(setpoint);
+  relay("ARM_SETPOINT", *setpoint);
+  EXPECT_TRUE(testing::WaitUntil([&] { return refused_on_b("ARM_SETPOINT") >= 1; }, kWait));
+  EXPECT_GE(a.Status("arm")->setpoints_accepted, 1);
+  EXPECT_EQ(b.Status("arm")->setpoints_accepted, 0);
+
+  // Both stopped; once the second's estop has lasted its dwell (by its own
+  // states' clock), the first is cleared and its clear relayed to the second.
+  ASSERT_EQ(ctl(url_a, {"command", "arm", "estop"}).exit_code, 0);
+  ASSERT_EQ(ctl(url_b, {"command", "arm", "estop"}).exit_code, 0);
+  const std::int64_t stopped_at = b.State("ARM_STATE")->utime;
+  ASSERT_TRUE(testing::WaitUntil([&] { return b.State("ARM_STATE")->utime > stopped_at + 600'000; }, kWait));
+  const std::int64_t refused_before = refused_on_b("ARM_COMMAND");
+  const auto cleared = ctl(url_a, {"command", "arm", "clear"});
+  ASSERT_EQ(cleared.exit_code, 0) << cleared.err;
+  EXPECT_TRUE(testing::WaitUntil([&] { return a.State("ARM_STATE")->mode == state_t::MODE_HOLD; }, kWait));
+  const std::optional<Bytes> clear = capture.Command(command_t::CLEAR_ESTOP);
+  ASSERT_TRUE(clear);
+  relay("ARM_COMMAND", *clear);
+  EXPECT_TRUE(testing::WaitUntil([&] { return refused_on_b("ARM_COMMAND") > refused_before; }, kWait));
+  EXPECT_EQ(b.State("ARM_STATE")->mode, state_t::MODE_ESTOP) << "a clear meant for another robot";
+  EXPECT_EQ(b.Status("arm")->instance_modes[0], state_t::MODE_ESTOP);
+  Stop(second);
+  Stop(*first);
+}
+
+// The other side of the domain: two buses bridged on purpose (lcm-tunnel) are
+// one deployment when every program is given one --bus-domain; then what is
+// signed on one is taken on the other.
+TEST_F(SignedAttack, DaemonsGivenOneBusDomainTakeWhatIsRelayedBetweenTheirBuses) {
+  Prepare(8552);
+  const std::string url_a = url_;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(8553), "");
+  const std::string url_b = testing::TestLcmUrl(8553);
+  const std::string domain = "cell-7";
+  BackgroundProcess first({LAGRANGED_PATH, "--lcm-url", url_a, "--bus-key", key_path_, "--bus-domain", domain,
+                           "--log-level", "warn"});
+  BackgroundProcess second({LAGRANGED_PATH, "--lcm-url", url_b, "--bus-key", key_path_, "--bus-domain", domain,
+                            "--log-level", "warn"});
+  SignedObserver b(url_b, *key_, {"ARM_STATE"}, domain);
+  Capture capture(url_a);
+  testing::RawUdpSender to_b(testing::kTestLcmGroup, 8553);
+  ASSERT_TRUE(testing::WaitUntil([&] { return b.State("ARM_STATE").has_value(); }, kWait)) << second.Stderr();
+  const auto r = testing::RunProcess({LagrangectlPath(), "command", "arm", "pause", "--lcm-url", url_a, "--bus-key",
+                                      key_path_, "--bus-domain", domain});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::optional<Bytes> pause = capture.Command(command_t::PAUSE);
+  ASSERT_TRUE(pause);
+  EXPECT_TRUE(testing::SendUntil([&] { to_b.Send(Datagram("ARM_COMMAND", *pause)); },
+                                 [&] { return b.State("ARM_STATE")->mode == state_t::MODE_PAUSED; }, kWait));
+  Stop(second);
+  Stop(first);
+}
+
+// A key holder's flood of clears (signing cannot tell one key holder from
+// another) cannot shorten an estop either: lagrangectl's estop stays.
+TEST_F(SignedAttack, AKeyHoldersFloodOfClearsCannotShortenAnEstopBelowItsDwell) {
+  Prepare(8556);
+  auto daemon = Lagranged();
+  SignedObserver observer(url_, *key_, {"ARM_STATE"});
+  ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
+  std::atomic<bool> stop{false};
+  std::thread flood([&] {
+    std::unique_ptr<Bus> bus = OpenBus(url_, &*key_);
+    for (std::int64_t k = 1; !stop; ++k) {
+      bus->PublishMessage("ARM_COMMAND", testing::MakeCommand(command_t::CLEAR_ESTOP, 0x8556000 + k, WallMicros()));
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  });
+  const testing::ProcessResult r =
+      testing::RunProcess({LagrangectlPath(), "command", "arm", "estop", "--lcm-url", url_, "--bus-key", key_path_});
+  const bool estop_seen = observer.State("ARM_STATE")->mode == state_t::MODE_ESTOP;
+  stop = true;
+  flood.join();
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_EQ(r.out.rfind("arm: estop done; now estop", 0), 0u) << r.out << r.err;
+  EXPECT_TRUE(estop_seen);
+  Stop(*daemon);
 }
 
 }  // namespace

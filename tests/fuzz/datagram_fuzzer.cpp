@@ -73,7 +73,9 @@ enum class Alteration : std::uint8_t { kNone, kFlip, kCut, kAppend, kAppendSent,
 
 // The layout of the trailer (protocol/signing.hpp), written out again for the model.
 constexpr std::size_t kTrailerSender = 0, kTrailerStamp = 8, kTrailerTag = 16, kTrailerMagic = 32;
-constexpr std::uint8_t kTrailerMagicBytes[4] = {'L', 'G', 'S', '1'};
+constexpr std::uint8_t kTrailerMagicBytes[4] = {'L', 'G', 'S', '2'};
+constexpr std::uint8_t kOldTrailerMagicBytes[4] = {'L', 'G', 'S', '1'};  // before domains: refused as old
+constexpr const char* kDomain = "inprocess://";                           // the in-process bus's own
 
 void Put32(Bytes& out, std::uint32_t v) {
   for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<std::uint8_t>(v >> shift));
@@ -210,10 +212,13 @@ void FuzzUnsignedDatagram(const std::uint8_t* data, std::size_t size) {
 // ---------------------------------------------------------------- with a key
 
 // Which counter one datagram moves on the signed bus.
-enum class Fate : std::uint8_t { kDelivered, kUnsigned, kStale, kReplayed, kBadTag, kMalformed, kFragment, kOversized };
+enum class Fate : std::uint8_t {
+  kDelivered, kUnsigned, kOldFormat, kStale, kReplayed, kBadTag, kMalformed, kFragment, kOversized
+};
 
 bool IsRefusal(Fate f) {
-  return f == Fate::kUnsigned || f == Fate::kStale || f == Fate::kReplayed || f == Fate::kBadTag;
+  return f == Fate::kUnsigned || f == Fate::kOldFormat || f == Fate::kStale || f == Fate::kReplayed ||
+         f == Fate::kBadTag;
 }
 
 // `s` with one more datagram received, counted as `fate`.
@@ -222,6 +227,7 @@ BusStats Counted(BusStats s, Fate fate) {
   switch (fate) {
     case Fate::kDelivered: ++s.delivered; break;
     case Fate::kUnsigned: ++s.unsigned_dropped; break;
+    case Fate::kOldFormat: ++s.old_format; break;
     case Fate::kStale: ++s.stale; break;
     case Fate::kReplayed: ++s.replayed; break;
     case Fate::kBadTag: ++s.bad_tags; break;
@@ -235,15 +241,17 @@ BusStats Counted(BusStats s, Fate fate) {
 bool SameStats(const BusStats& a, const BusStats& b) {
   return a.received == b.received && a.delivered == b.delivered && a.fragments_dropped == b.fragments_dropped &&
          a.malformed == b.malformed && a.oversized == b.oversized && a.kernel_drops == b.kernel_drops &&
-         a.send_failures == b.send_failures && a.unsigned_dropped == b.unsigned_dropped && a.stale == b.stale &&
+         a.send_failures == b.send_failures && a.unsigned_dropped == b.unsigned_dropped &&
+         a.old_format == b.old_format && a.stale == b.stale &&
          a.replayed == b.replayed && a.bad_tags == b.bad_tags;
 }
 
-// A message whose payload ends in what looks like a signature trailer.
-bool HasTrailer(const Datagram& d) {
+// A message whose payload ends in what looks like a signature trailer of `magic`.
+bool EndsIn(const Datagram& d, const std::uint8_t (&magic)[4]) {
   return d.kind == Datagram::Kind::kMessage && d.payload_size >= kSignatureTrailerBytes &&
-         std::memcmp(d.payload + d.payload_size - kSignatureTrailerBytes + kTrailerMagic, kTrailerMagicBytes, 4) == 0;
+         std::memcmp(d.payload + d.payload_size - kSignatureTrailerBytes + kTrailerMagic, magic, 4) == 0;
 }
+bool HasTrailer(const Datagram& d) { return EndsIn(d, kTrailerMagicBytes); }
 
 // The Verifier's rules (protocol/signing.hpp), written out again to predict
 // each datagram's fate: no trailer, unsigned; a stamp outside the window of
@@ -273,7 +281,7 @@ class VerifierModel {
       case Datagram::Kind::kMalformed: return Fate::kMalformed;
       case Datagram::Kind::kOversized: return Fate::kOversized;
     }
-    if (!HasTrailer(d)) return Fate::kUnsigned;
+    if (!HasTrailer(d)) return EndsIn(d, kOldTrailerMagicBytes) ? Fate::kOldFormat : Fate::kUnsigned;
     const std::uint8_t* trailer = d.payload + d.payload_size - kSignatureTrailerBytes;
     const std::uint64_t sender = ReadBigEndian64(trailer + kTrailerSender);
     const std::uint64_t stamp = ReadBigEndian64(trailer + kTrailerStamp);
@@ -319,7 +327,7 @@ Bytes SignedDatagram(const BusKey& key, std::string_view channel, const Bytes& m
   std::size_t written = 0;
   if (!FormatDatagram(seqno, channel, message.data(), message.size(), out.data(), out.size(), written)) return {};
   // A new Signer's first stamp is its clock's reading, so any stamp can be had, an old one too.
-  Signer signer(key, sender_id, [stamp] { return static_cast<std::int64_t>(stamp); });
+  Signer signer(key, kDomain, sender_id, [stamp] { return static_cast<std::int64_t>(stamp); });
   signer.Sign(channel, out.data() + written - message.size(), message.size(), out.data() + written);
   return out;
 }
@@ -467,7 +475,7 @@ class SignedRun {
 
 void FuzzSignedScript(const std::uint8_t* data, std::size_t size) {
   static const BusKey key = TestKey();
-  static const KeyedMac mac(key);
+  static const KeyedMac mac(key, kDomain);
   Reader in(data, size);
   SignedRun run(key, mac);
   run.Play(in);

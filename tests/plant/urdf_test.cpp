@@ -512,6 +512,32 @@ TEST(UrdfUnreadElements, AreNotCheckedSoABrokenVisualDoesNotStopTheDynamics) {
   EXPECT_EQ(RefusalOf(xml), "accepted");
 }
 
+// <visual>s are read from the same parse as the rest, for viewers: the origin's rpy as a joint's
+// (the same rotation to the last bit), the mesh's filename as written, a colour inline or named at the
+// robot's level; a visual that does not read is a note naming it, and the robot still loads.
+TEST(UrdfLooks, VisualsAreReadWithTheJointsNumbersAndABadOneIsANote) {
+  const std::string visuals =
+      "<material name=\"steel\"><color rgba=\"0.6 0.62 0.68 1\"/></material>"
+      "<link name=\"shell\"><visual><origin xyz=\"0.1 0 0\" rpy=\"0.3 -0.2 1.1\"/>"
+      "<geometry><mesh filename=\"package://pkg/shell.stl\" scale=\"0.001 0.001 0.001\"/></geometry>"
+      "<material name=\"steel\"/></visual>"
+      "<visual><geometry><box size=\"0.2 nan 0.1\"/></geometry></visual></link>"
+      "<joint name=\"glue\" type=\"fixed\"><parent link=\"l1\"/><child link=\"shell\"/></joint>";
+  const UrdfRobot robot = ParseUrdf(OneJointRobot("<origin rpy=\"0.3 -0.2 1.1\"/>", "", visuals), "inline.urdf");
+  ASSERT_EQ(robot.looks.visuals.size(), 1u);
+  const UrdfVisual& v = robot.looks.visuals[0];
+  EXPECT_EQ(v.link, "shell");
+  EXPECT_EQ(v.geometry, UrdfVisual::Geometry::kMesh);
+  EXPECT_EQ(v.mesh, "package://pkg/shell.stl");
+  EXPECT_EQ(v.scale, Eigen::Vector3d(0.001, 0.001, 0.001));
+  EXPECT_EQ(v.p, Eigen::Vector3d(0.1, 0.0, 0.0));
+  EXPECT_EQ(v.R, robot.tree.joints[0].rotation);  // the joint's <origin rpy> is the same text
+  EXPECT_EQ(v.rgba, (std::array<double, 4>{0.6, 0.62, 0.68, 1.0}));
+  EXPECT_EQ(robot.looks.notes, std::vector<std::string>{"link 'shell' <visual> 2: <box size> is not 3 finite numbers"});
+  ASSERT_EQ(robot.looks.links.size(), 2u);
+  EXPECT_EQ(robot.looks.links[1], (std::array<std::string, 2>{"l1", "shell"}));
+}
+
 // A list of numbers may be separated by any white space (tab, newline), as in
 // an XML attribute value; each is the double nearest to what is written, so
 // the loader's copy equals the literal exactly.

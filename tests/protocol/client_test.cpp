@@ -186,8 +186,16 @@ TEST(HeardHint, UnderAPrefixADaemonUsesTheNearestInstanceThereComesFirst) {
 TEST(SigningHint, EachReasonHeardIsAClauseAndNoneIsNothing) {
   EXPECT_EQ(SigningHint({}), "");
   EXPECT_EQ(SigningHint({.other_key = 1}),
-            "heard 1 message signed with another key (their tags do not verify with this client's): give the "
-            "daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)");
+            "heard 1 message signed with another key or for another bus domain (their tags do not verify with this "
+            "client's): give the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE), and its --bus-domain if it "
+            "has one (or LAGRANGE_BUS_DOMAIN)");
+  // With a key the client names its own domain; the format before domains is named apart.
+  EXPECT_EQ(SigningHint({.other_key = 2, .old_format = 1, .domain = "udpm://239.255.76.67:8550"}),
+            "heard 2 messages signed with another key or for another bus domain (this client's is "
+            "udpm://239.255.76.67:8550; their tags do not verify with this client's): give the daemon's key "
+            "(--bus-key FILE or LAGRANGE_BUS_KEY_FILE), and its --bus-domain if it has one (or LAGRANGE_BUS_DOMAIN); "
+            "heard 1 signed message in lagrange's old format (LGS1, before bus domains), refused: update that "
+            "lagranged");
   EXPECT_EQ(SigningHint({.unsigned_refused = 5, .out_of_window = 2}),
             "heard 5 unsigned messages, which a client with a key refuses: the daemon runs without one (give it "
             "--bus-key FILE too, or run this client without a key); heard 2 signed messages stamped more than 2 s "

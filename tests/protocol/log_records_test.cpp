@@ -137,9 +137,10 @@ TEST_F(LogRecords, APacketWhoseLengthsLieHasNoRowAndAForeignTypeNoFields) {
 }
 
 TEST_F(LogRecords, ASignedMessageDecodesWithoutItsTrailer) {
-  const Bytes key_bytes(kBusKeyMinBytes, 7);
+  Bytes key_bytes(kBusKeyMinBytes);
+  for (std::size_t i = 0; i < key_bytes.size(); ++i) key_bytes[i] = static_cast<std::uint8_t>(7 + 31 * i);
   const BusKey key = BusKey::FromBytes(key_bytes);
-  Signer signer(key);
+  Signer signer(key, "inprocess://");
   torque_t t{};
   t.run_id = 9;
   t.sequence = 1;

@@ -27,6 +27,7 @@ namespace fs = std::filesystem;
 using Bytes = std::vector<std::uint8_t>;
 
 constexpr std::int64_t kNow = 1'700'000'000'000'000;  // µs since the epoch: the fake wall clock's start
+constexpr const char* kDomain = "inprocess://";       // the in-process bus's own domain
 
 BusKey TestKey(std::uint8_t seed = 1) {
   Bytes bytes(kBusKeyMinBytes);
@@ -62,19 +63,19 @@ const Bytes kMessage = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
 
 TEST(Signing, TrailerCarriesSenderStampTagAndMagicAfterTheMessage) {
   FakeWall wall;
-  Signer signer(TestKey(), 0x0102030405060708ull, wall.Clock());
+  Signer signer(TestKey(), kDomain, 0x0102030405060708ull, wall.Clock());
   const Bytes wire = SignedWire(signer, "ARM_STATE", kMessage);
   ASSERT_EQ(wire.size(), kMessage.size() + 36);
   EXPECT_TRUE(std::equal(kMessage.begin(), kMessage.end(), wire.begin())) << "the message comes first, unchanged";
   const std::uint8_t* trailer = wire.data() + kMessage.size();
   EXPECT_EQ(ReadBigEndian64(trailer), 0x0102030405060708ull);
   EXPECT_EQ(ReadBigEndian64(trailer + 8), static_cast<std::uint64_t>(kNow));
-  EXPECT_EQ(std::string(reinterpret_cast<const char*>(trailer + 32), 4), "LGS1");
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(trailer + 32), 4), "LGS2");
 }
 
 TEST(Signing, StampsGrowStrictlyEvenWhenTheClockStandsStillOrStepsBack) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
   std::uint64_t last = 0;
   for (int k = 0; k < 100; ++k) {
     if (k == 50) wall.now -= 1'000'000;  // the clock steps back a second
@@ -87,7 +88,7 @@ TEST(Signing, StampsGrowStrictlyEvenWhenTheClockStandsStillOrStepsBack) {
 
 TEST(Signing, RandomSenderIdsDiffer) {
   FakeWall wall;
-  Signer a(TestKey(), 0, wall.Clock()), b(TestKey(), 0, wall.Clock());
+  Signer a(TestKey(), kDomain, 0, wall.Clock()), b(TestKey(), kDomain, 0, wall.Clock());
   EXPECT_NE(a.sender_id(), 0u);
   EXPECT_NE(a.sender_id(), b.sender_id());
 }
@@ -96,8 +97,8 @@ TEST(Signing, RandomSenderIdsDiffer) {
 
 TEST(Signing, VerifierAcceptsASignedMessageAndGivesItsSize) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
-  Verifier verifier(TestKey(), wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
   const Bytes wire = SignedWire(signer, "ARM_SETPOINT", kMessage);
   std::size_t size = 0;
   EXPECT_EQ(verifier.Verify("ARM_SETPOINT", wire.data(), wire.size(), size), SignatureVerdict::kOk);
@@ -106,10 +107,10 @@ TEST(Signing, VerifierAcceptsASignedMessageAndGivesItsSize) {
 
 TEST(Signing, EveryAlteredByteOfMessageOrTrailerIsRefused) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
   const Bytes wire = SignedWire(signer, "ARM_SETPOINT", kMessage);
   for (std::size_t i = 0; i < wire.size(); ++i) {
-    Verifier verifier(TestKey(), wall.Clock());  // fresh: a replay is not what refuses it
+    Verifier verifier(TestKey(), kDomain, wall.Clock());  // fresh: a replay is not what refuses it
     Bytes altered = wire;
     altered[i] ^= 0x01;
     EXPECT_NE(VerifyWire(verifier, "ARM_SETPOINT", altered), SignatureVerdict::kOk) << "byte " << i;
@@ -118,19 +119,65 @@ TEST(Signing, EveryAlteredByteOfMessageOrTrailerIsRefused) {
 
 TEST(Signing, AnotherChannelOrAnotherKeyIsRefused) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
   const Bytes wire = SignedWire(signer, "ARM_SETPOINT", kMessage);
-  Verifier same_key(TestKey(), wall.Clock());
+  Verifier same_key(TestKey(), kDomain, wall.Clock());
   EXPECT_EQ(VerifyWire(same_key, "ARM_SETPOINU", wire), SignatureVerdict::kBadTag);
   EXPECT_EQ(VerifyWire(same_key, "ARM_SETPOINT_", wire), SignatureVerdict::kBadTag);
-  Verifier other_key(TestKey(2), wall.Clock());
+  Verifier other_key(TestKey(2), kDomain, wall.Clock());
   EXPECT_EQ(VerifyWire(other_key, "ARM_SETPOINT", wire), SignatureVerdict::kBadTag);
+}
+
+// A relay: the same key on two buses, a datagram signed for one resent to
+// the other at once (well within the stamp window). The domain is in the tag.
+TEST(Signing, ADatagramSignedForOneBusDomainIsRefusedInAnother) {
+  FakeWall wall;
+  Signer signer(TestKey(), "udpm://239.255.76.67:7667", 7, wall.Clock());
+  const Bytes wire = SignedWire(signer, "ARM_COMMAND", kMessage);
+  for (const char* other : {"udpm://239.255.76.67:7668", "udpm://239.255.76.68:7667", "cell-2"}) {
+    Verifier verifier(TestKey(), other, wall.Clock());
+    EXPECT_EQ(VerifyWire(verifier, "ARM_COMMAND", wire), SignatureVerdict::kBadTag) << other;
+  }
+  Verifier same(TestKey(), "udpm://239.255.76.67:7667", wall.Clock());
+  EXPECT_EQ(VerifyWire(same, "ARM_COMMAND", wire), SignatureVerdict::kOk);
+}
+
+// The format before domains ("LGS1") is told apart from an unsigned message, so it can be named.
+TEST(Signing, AnOldFormatTrailerIsRefusedAsSuch) {
+  FakeWall wall;
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
+  Bytes wire = SignedWire(signer, "A", kMessage);
+  wire[wire.size() - 1] = '1';
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
+  EXPECT_EQ(VerifyWire(verifier, "A", wire), SignatureVerdict::kOldFormat);
+  EXPECT_EQ(MessageSizeBeforeTrailer(wire.data(), wire.size()), kMessage.size()) << "log2csv still strips it";
+}
+
+TEST(BusDomain, TheDefaultIsTheBusGroupAndPortWhateverItsTtlOrBuffer) {
+  EXPECT_EQ(BusDomainOf("udpm://239.255.76.67:7667?ttl=0"), "udpm://239.255.76.67:7667");
+  EXPECT_EQ(BusDomainOf("udpm://239.255.76.67:7667?ttl=1&recv_buf_size=2097152"), "udpm://239.255.76.67:7667");
+  EXPECT_EQ(BusDomainOf("udpm://239.255.76.67:7668"), "udpm://239.255.76.67:7668");
+  EXPECT_EQ(BusDomainOf("inprocess://"), "inprocess://");
+  EXPECT_THROW(BusDomainOf("tcpq://localhost:7700"), BusUrlError);
+}
+
+TEST(BusDomain, OptionWinsOverTheEnvironmentAndAnEmptyOrUnprintableOneIsRefused) {
+  setenv(kBusDomainEnv, "cell-7", 1);
+  EXPECT_EQ(ResolveBusDomain(std::string("cell-3")), "cell-3");
+  EXPECT_EQ(ResolveBusDomain(std::nullopt), "cell-7");
+  setenv(kBusDomainEnv, "", 1);
+  EXPECT_THROW(ResolveBusDomain(std::nullopt), BusKeyError) << "set but empty: an unset variable";
+  unsetenv(kBusDomainEnv);
+  EXPECT_EQ(ResolveBusDomain(std::nullopt), "") << "none: the bus's own";
+  for (const std::string bad : {std::string(""), std::string(65, 'd'), std::string("a\nb"), std::string("caf\xc3\xa9")}) {
+    EXPECT_THROW(ResolveBusDomain(bad), BusKeyError) << bad;
+  }
 }
 
 TEST(Signing, AReplayedDatagramIsRefusedAndTheNextOneAccepted) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
-  Verifier verifier(TestKey(), wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
   const Bytes first = SignedWire(signer, "A", kMessage);
   const Bytes second = SignedWire(signer, "A", kMessage);
   EXPECT_EQ(VerifyWire(verifier, "A", first), SignatureVerdict::kOk);
@@ -142,9 +189,9 @@ TEST(Signing, AReplayedDatagramIsRefusedAndTheNextOneAccepted) {
 
 TEST(Signing, AStampOutsideTheWindowIsRefusedEitherWay) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
   const Bytes recorded = SignedWire(signer, "A", kMessage);
-  Verifier later(TestKey(), wall.Clock());
+  Verifier later(TestKey(), kDomain, wall.Clock());
   wall.now += kStampWindowMicros + 1;  // replayed a little over the window later (lcm-logplayer)
   EXPECT_EQ(VerifyWire(later, "A", recorded), SignatureVerdict::kStale);
   wall.now = kNow - kStampWindowMicros - 1;  // the receiver's clock behind the sender's
@@ -156,17 +203,17 @@ TEST(Signing, AStampOutsideTheWindowIsRefusedEitherWay) {
 TEST(Signing, AnythingStampedBeforeTheReceiverOpenedIsStale) {
   // A recording made before a receiver started, replayed to it at once (within the window).
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
   const Bytes recorded = SignedWire(signer, "A", kMessage);
   wall.now += 1000;
-  Verifier started_after(TestKey(), wall.Clock());
+  Verifier started_after(TestKey(), kDomain, wall.Clock());
   EXPECT_EQ(VerifyWire(started_after, "A", recorded), SignatureVerdict::kStale);
   EXPECT_EQ(VerifyWire(started_after, "A", SignedWire(signer, "A", kMessage)), SignatureVerdict::kOk);
 }
 
 TEST(Signing, UnsignedAndShortMessagesAreRefusedAsUnsigned) {
   FakeWall wall;
-  Verifier verifier(TestKey(), wall.Clock());
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
   EXPECT_EQ(VerifyWire(verifier, "A", kMessage), SignatureVerdict::kUnsigned);
   EXPECT_EQ(VerifyWire(verifier, "A", Bytes{}), SignatureVerdict::kUnsigned);
   EXPECT_EQ(VerifyWire(verifier, "A", Bytes(kSignatureTrailerBytes, 0)), SignatureVerdict::kUnsigned);
@@ -177,12 +224,12 @@ TEST(Signing, UnsignedAndShortMessagesAreRefusedAsUnsigned) {
 
 TEST(Signing, ForgedSendersCannotEvictARealOneFromTheReplayWindow) {
   FakeWall wall;
-  Signer real(TestKey(), 7, wall.Clock());
-  Verifier verifier(TestKey(), wall.Clock());
+  Signer real(TestKey(), kDomain, 7, wall.Clock());
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
   const Bytes first = SignedWire(real, "A", kMessage);
   ASSERT_EQ(VerifyWire(verifier, "A", first), SignatureVerdict::kOk);
   for (std::size_t k = 0; k < 4 * Verifier::kMaxSenders; ++k) {
-    Signer cycling(TestKey(9), 1000 + k, wall.Clock());  // a new sender id each time, without the key
+    Signer cycling(TestKey(9), kDomain, 1000 + k, wall.Clock());  // a new sender id each time, without the key
     EXPECT_EQ(VerifyWire(verifier, "A", SignedWire(cycling, "A", kMessage)), SignatureVerdict::kBadTag);
   }
   EXPECT_EQ(VerifyWire(verifier, "A", first), SignatureVerdict::kReplayed);
@@ -190,8 +237,8 @@ TEST(Signing, ForgedSendersCannotEvictARealOneFromTheReplayWindow) {
 
 TEST(Signing, SigningAndVerifyingAllocateNothing) {
   FakeWall wall;
-  Signer signer(TestKey(), 7, wall.Clock());
-  Verifier verifier(TestKey(), wall.Clock());
+  Signer signer(TestKey(), kDomain, 7, wall.Clock());
+  Verifier verifier(TestKey(), kDomain, wall.Clock());
   Bytes wire(kMessage.size() + kSignatureTrailerBytes);
   std::copy(kMessage.begin(), kMessage.end(), wire.begin());
   testing::AllocationCounter allocations;
@@ -214,7 +261,9 @@ class BusKeyFile : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
   std::string Write(const std::string& name, std::size_t bytes, mode_t mode) {
     const fs::path p = dir_ / name;
-    std::ofstream(p, std::ios::binary) << std::string(bytes, 'k');
+    std::string content(bytes, 'k');
+    for (std::size_t i = 0; i < bytes; ++i) content[i] = static_cast<char>('a' + i % 26);  // not all one value
+    std::ofstream(p, std::ios::binary) << content;
     chmod(p.c_str(), mode);
     return p.string();
   }
@@ -257,7 +306,22 @@ TEST_F(BusKeyFile, RefusesAMissingFileADirectoryAndASymlink) {
   EXPECT_NE(Refusal(dir_.string()).find("bus key " + dir_.string() + ": "), std::string::npos);
   const std::string target = Write("target", 32, 0600);
   fs::create_symlink(target, dir_ / "link");
-  EXPECT_NE(Refusal((dir_ / "link").string()), "");
+  const std::string why = Refusal((dir_ / "link").string());
+  EXPECT_NE(why.find("a symbolic link (to " + target + ")"), std::string::npos) << why;
+  EXPECT_NE(why.find("name the key file itself (" + fs::canonical(target).string() + ")"), std::string::npos) << why;
+  EXPECT_EQ(why.find("Too many levels"), std::string::npos) << why;
+}
+
+TEST_F(BusKeyFile, RefusesAKeyWhoseBytesAreAllOneValue) {
+  for (const char fill : {'\0', '\xff', 'k'}) {
+    const fs::path p = dir_ / ("fill" + std::to_string(static_cast<unsigned char>(fill)));
+    std::ofstream(p, std::ios::binary) << std::string(32, fill);
+    chmod(p.c_str(), 0600);
+    const std::string why = Refusal(p.string());
+    EXPECT_NE(why.find("bus key " + p.string() + ": every byte is 0x"), std::string::npos) << why;
+    EXPECT_NE(why.find("not a random key"), std::string::npos) << why;
+  }
+  EXPECT_THROW(BusKey::FromBytes(Bytes(kBusKeyMinBytes, 0)), BusKeyError);
 }
 
 TEST_F(BusKeyFile, KeygenWritesAnOwnerOnlyKeyThatLoadsAndNeverOverwrites) {
@@ -277,12 +341,19 @@ TEST_F(BusKeyFile, KeygenWritesAnOwnerOnlyKeyThatLoadsAndNeverOverwrites) {
   EXPECT_NE(std::string(std::istreambuf_iterator<char>(a), {}), std::string(std::istreambuf_iterator<char>(b), {}));
 }
 
+TEST(BusKeyEnv, AnEmptyPathGivenOrAnEmptyVariableIsRefusedNeverUnsigned) {
+  EXPECT_THROW(ResolveBusKeyFile(std::string()), BusKeyError);
+  setenv(kBusKeyEnv, "", 1);
+  EXPECT_THROW(ResolveBusKeyFile(std::nullopt), BusKeyError);
+  unsetenv(kBusKeyEnv);
+}
+
 TEST(BusKeyEnv, OptionWinsOverTheEnvironment) {
   setenv(kBusKeyEnv, "/from/env", 1);
   EXPECT_EQ(ResolveBusKeyFile("/from/option"), "/from/option");
-  EXPECT_EQ(ResolveBusKeyFile(""), "/from/env");
+  EXPECT_EQ(ResolveBusKeyFile(std::nullopt), "/from/env");
   unsetenv(kBusKeyEnv);
-  EXPECT_EQ(ResolveBusKeyFile(""), "");
+  EXPECT_EQ(ResolveBusKeyFile(std::nullopt), "");
 }
 
 // ---------------------------------------------------------------- a signed bus
@@ -327,8 +398,8 @@ TEST(SignedBus, RefusesUnsignedForgedReplayedAndStaleDatagramsCountingEachOnItsC
   std::vector<Seen> got;
   bus.Subscribe("ARM_SETPOINT", Recorder(got));
   bus.Subscribe("ARM_COMMAND", Recorder(got));
-  Signer holder(key, 42, wall.Clock());
-  Signer forger(TestKey(3), 43, wall.Clock());
+  Signer holder(key, kDomain, 42, wall.Clock());
+  Signer forger(TestKey(3), kDomain, 43, wall.Clock());
   const Bytes good = SignedWire(holder, "ARM_SETPOINT", kMessage);
 
   const Bytes unsigned_setpoint = Lc02("ARM_SETPOINT", kMessage);
@@ -388,7 +459,7 @@ TEST(SignedBus, AnUnsignedBusReceivesTheMessageFollowedByTheTrailer) {
   std::vector<Seen> raw;
   InProcessBus plain;
   plain.Subscribe("A", Recorder(raw));
-  Signer signer(TestKey());
+  Signer signer(TestKey(), kDomain);
   const Bytes datagram = Lc02("A", SignedWire(signer, "A", kMessage));
   plain.InjectDatagram(datagram.data(), datagram.size());
   plain.Drain();
@@ -425,7 +496,7 @@ TEST(SignedBus, SigningOnAUdpmBusAndVerifyingOnReceiptAllocateNothing) {
   InProcessBus bus(&key);
   int delivered = 0;
   bus.Subscribe("ARM_SETPOINT", [&](std::string_view, const std::uint8_t*, std::size_t) { ++delivered; });
-  Signer sender(key);
+  Signer sender(key, kDomain);
   for (int k = 0; k < 100; ++k) {
     const Bytes d = Lc02("ARM_SETPOINT", SignedWire(sender, "ARM_SETPOINT", kMessage));
     bus.InjectDatagram(d.data(), d.size());

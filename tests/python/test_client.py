@@ -131,6 +131,7 @@ def test_commands_return_the_daemons_verdict_as_lagrangectl_reports_it(daemon):
     r = daemon.command("arm", "estop")
     assert r.accepted and r.message.startswith("arm: estop done; now estop")
     assert daemon.state("arm").mode == "estop"
+    time.sleep(0.5)  # an estop lasts the scene's estop_dwell (0.5 s) before a clear can end it
     assert daemon.command("arm", "clear").accepted
 
 
@@ -149,6 +150,11 @@ def test_bad_words_and_arguments_raise_value_error_before_anything_is_sent(daemo
         lagrange.Client(url="udp://x")
     with pytest.raises(ValueError, match="bus key"):
         lagrange.Client(url=lcm_url(PORT), key_file="/nonexistent/key")
+    # An empty path (an unset variable) is refused, never read as "unsigned"; an empty domain likewise.
+    with pytest.raises(ValueError, match="bus key '': an empty path"):
+        lagrange.Client(url=lcm_url(PORT), key_file="")
+    with pytest.raises(ValueError, match="--bus-domain: an empty bus domain"):
+        lagrange.Client(url=lcm_url(PORT), bus_domain="")
     with pytest.raises(ValueError, match="prefix: expected the start of an LCM channel name"):
         lagrange.Client(url=lcm_url(PORT), prefix="SIM ")
     # A name no channel can carry is the caller's mistake, said before anything waits.
@@ -191,6 +197,10 @@ def test_a_signed_daemon_is_heard_only_with_its_key(tmp_path):
         signed = lagrange.Client(url=lcm_url(SIGNED_PORT), key_file=key, wait=5.0)
         assert signed.state("arm", timeout=5.0).num_dofs == 2
         assert signed.command("arm", "pause").accepted
+        # The key and another bus domain: its tags are not the daemon's, nothing verifies, and it says why.
+        elsewhere = lagrange.Client(url=lcm_url(SIGNED_PORT), key_file=key, bus_domain="cell-9", wait=2.0)
+        with pytest.raises(RuntimeError, match=r"another bus domain \(this client's is cell-9"):
+            elsewhere.state("arm", timeout=2.0)
         unsigned = lagrange.Client(url=lcm_url(SIGNED_PORT), key_file=None, wait=2.0)
         env_key = os.environ.pop("LAGRANGE_BUS_KEY_FILE", None)
         try:

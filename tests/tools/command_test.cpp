@@ -94,5 +94,13 @@ TEST(CommandArguments, WellFormedFormsGetPastTheChecksToTheBus) {
   }
 }
 
+// Issue 32: an empty --bus-key (an unset variable in a script) sent the
+// command unsigned; an empty --bus-domain would fall back to the bus's own.
+// Both are refused before anything goes on the bus.
+TEST(CommandArguments, AnEmptyBusKeyPathOrBusDomainIsRefusedNotSentUnsigned) {
+  ExpectRefused({{"estop", "--bus-key", ""}, "bus key '': an empty path (an unset variable in a unit or script?)"});
+  ExpectRefused({{"estop", "--bus-domain", ""}, "--bus-domain: an empty bus domain"});
+}
+
 }  // namespace
 }  // namespace lagrange

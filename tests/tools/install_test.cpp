@@ -178,6 +178,25 @@ TEST_F(Install, AClientCompilesAgainstTheInstalledHeadersWithPkgConfig) {
   EXPECT_EQ(run.exit_code, 0) << run.err;
 }
 
+// The example client as a user copies it from the installed documentation
+// builds against the installation alone: the types, lcm::LCM, libsodium and
+// <lagrange/bus_domain.hpp>, the bus domain of signed traffic.
+TEST_F(Install, TheInstalledExampleClientBuildsAgainstTheInstallationAlone) {
+  const fs::path examples = prefix_ / "share/doc/lagrange/tools/examples";
+  ASSERT_TRUE(fs::is_regular_file(prefix_ / "include/lagrange/bus_domain.hpp"));
+  const fs::path dir = prefix_ / "example_copy";
+  fs::create_directories(dir);
+  for (const char* file : {"impedance_client.cpp", "bus_signing.hpp"}) fs::copy_file(examples / file, dir / file);
+  const std::string env = "PKG_CONFIG_PATH=" + Quote(prefix_ / "share/pkgconfig") + " ";
+  const auto build = Shell(std::string(CXX_COMPILER) + " -std=c++20 -o " + Quote(dir / "impedance_client") + " " +
+                           Quote(dir / "impedance_client.cpp") + " $(" + env +
+                           "pkg-config --cflags --libs lagrange-lcmtypes) -lsodium");
+  ASSERT_EQ(build.exit_code, 0) << build.err;
+  const auto help = RunProcess({(dir / "impedance_client").string(), "--help"});
+  EXPECT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_NE(help.out.find("--bus-domain"), std::string::npos) << help.out;
+}
+
 TEST_F(Install, AClientBuildsWithFindPackageLagrange) {
   const fs::path dir = prefix_ / "cmake_client";
   fs::create_directories(dir);

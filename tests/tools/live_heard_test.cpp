@@ -77,8 +77,9 @@ void ExpectHeard(const testing::CtlResult& r, const std::string& what) {
 TEST_F(HeardDaemon, AClientWithAnotherKeyIsToldTheDaemonSignsWithAnotherKey) {
   Start(8661, {"--bus-key", Key("daemon.key")}, {"watch", "--frames", "1", "--bus-key", Key("daemon.key")});
   const std::string other =
-      "messages signed with another key (their tags do not verify with this client's): give "
-      "the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)";
+      "messages signed with another key or for another bus domain (this client's is " + BusDomainOfUrl(url_) +
+      "; their tags do not verify with this client's): give the daemon's key (--bus-key FILE or "
+      "LAGRANGE_BUS_KEY_FILE)";
   ExpectHeard(Ctl({"command", "arm", "pause", "--bus-key", Key("other.key")}), other);
   ExpectHeard(Ctl({"send", "arm", "--q", "0.5,0", "--once", "--bus-key", Key("other.key")}), other);
   ExpectHeard(Ctl({"watch", "--frames", "1", "--bus-key", Key("other.key")}), other);

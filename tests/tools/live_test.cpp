@@ -637,6 +637,7 @@ class FakeDaemon {
     bool wrong_request_id = false;  // answer with another request_id than the command's
     bool accept = true;
     std::string reason;
+    bool estop_stays = true;  // an accepted estop shows in the states after it (false: a daemon that lost it)
   };
   FakeDaemon(const std::string& url, Config config) : lcm_(url), config_(std::move(config)) {
     lcm_.subscribeFunction("ARM_COMMAND", &FakeDaemon::OnCommand, this);
@@ -662,6 +663,10 @@ class FakeDaemon {
     r.command = c.command;
     r.accepted = self->config_.accept;
     r.reason = self->config_.reason;
+    // An applied estop stays, as lagranged's does: the states after it say so (lagrangectl watches them).
+    if (r.accepted && c.command == command_t::ESTOP && self->config_.estop_stays) {
+      self->config_.mode = state_t::MODE_ESTOP;
+    }
     self->lcm_.publish("ARM_REPLY", &r);
     if (!self->config_.every_run_answers) return;
     for (std::size_t k = 1; k < self->config_.run_ids.size(); ++k) {
@@ -798,8 +803,8 @@ TEST(BelievesNobody, AnEstopGoesToEveryRunOnTheStateChannelAndReportsEachVerdict
   const auto r = RunCtl({"command", "arm", "estop", "--wait", "2", "--lcm-url", url});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out,
-            "arm: run 00000000000000aa: estop done; now running with pd\n"
-            "arm: run 00000000000000bb: estop done; now running with pd\n");
+            "arm: run 00000000000000aa: estop done; now estop with pd\n"
+            "arm: run 00000000000000bb: estop done; now estop with pd\n");
   EXPECT_GE(fake.commands(), 1);
 }
 
@@ -813,8 +818,22 @@ TEST(BelievesNobody, AnEstopThatOneRunDidNotApplyIsNamedAndFails) {
   ExpectOneLine(r, "command", 1,
                 "estop applied by 1 of the 2 runs publishing ARM_STATE (ids 00000000000000aa, 00000000000000bb)");
   EXPECT_EQ(r.out,
-            "arm: run 00000000000000aa: estop done; now running with pd\n"
+            "arm: run 00000000000000aa: estop done; now estop with pd\n"
             "arm: run 00000000000000bb: estop no verdict within 1 s\n");
+}
+
+// Issue 32: a daemon that answers "accepted" to an estop whose states then
+// show it running (its estop cleared at once, as a flood of clears did) is
+// not reported as done: lagrangectl says the estop did not stay, exit 1.
+TEST(BelievesNobody, AnEstopWhoseStatesDoNotKeepItIsNotReportedDone) {
+  const std::string url = Url(8560);
+  FakeDaemon::Config config;
+  config.answer = true;
+  config.estop_stays = false;
+  FakeDaemon fake(url, config);
+  const auto r = RunCtl({"command", "arm", "estop", "--wait", "2", "--lcm-url", url});
+  ExpectOneLine(r, "command", 1, "estop applied, but the estop did not stay: running with pd");
+  EXPECT_EQ(r.out, "");
 }
 
 // A gain refusal names the per-joint bounds before anything cuts it: whole in

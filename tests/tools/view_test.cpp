@@ -13,17 +13,24 @@
 // out, and a live page stops listening after ?frames_max=N frames so the
 // budget can run out.
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <lagrange/state_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <regex>
 #include <thread>
@@ -76,6 +83,26 @@ std::string PreText(const std::string& dom, const std::string& id) {
       text.replace(p, entity.size(), c);
   }
   return text;
+}
+
+// A TCP connection to 127.0.0.1:`port`, or -1.
+int Connect(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (fd >= 0 && connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0) return fd;
+  if (fd >= 0) close(fd);
+  return -1;
+}
+
+void SendAll(int fd, const std::string& bytes) {
+  for (std::size_t done = 0; done < bytes.size();) {
+    const ssize_t n = send(fd, bytes.data() + done, bytes.size() - done, MSG_NOSIGNAL);
+    if (n <= 0) return;
+    done += static_cast<std::size_t>(n);
+  }
 }
 
 // A three.js column-major matrix against a kinematics pose: R, p and the bottom row.
@@ -260,7 +287,8 @@ TEST_F(ViewBrowser, LiveViewNamesInstancesAndFollowsTheArmToANewSetpoint) {
 // The README's picture: the Panda (its own lagranged, under --channel-prefix PANDA_, holding
 // a pose under Cartesian impedance after a 2 s move) beside the arm and the cart-pole of the
 // default scene, one view of two daemons. Its 7-joint poses are the spatial kinematics' to
-// 1e-9, and its controller's target frame is drawn where the scene puts it.
+// 1e-9, and its controller's target frame is drawn where the scene puts it (no joint ghost:
+// the controller follows the target, not q_des).
 TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
   constexpr int kLcmPort = 8368;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
@@ -285,7 +313,7 @@ TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
   const json& p = drawn["PANDA_ panda"];
   const Kinematics panda_kinematics = SceneKinematics("panda", panda_scene);
   ExpectPosesOf(panda_kinematics, p["measured"], p["q"], "panda");
-  ExpectPosesOf(panda_kinematics, p["ghost"], p["q_des"], "panda setpoint");
+  EXPECT_FALSE(p.contains("ghost")) << "a task-space controller follows its target, not q_des";
   ExpectPosesOf(SceneKinematics("arm"), drawn["arm"]["measured"], drawn["arm"]["q"], "arm");
   // The target: the scene's, drawn at its position with its orientation (w, x, y, z).
   ASSERT_TRUE(p.contains("target")) << p.dump();
@@ -301,6 +329,44 @@ TEST_F(ViewBrowser, ScreenshotOfThePandaAndTheArm) {
     d->Signal(SIGTERM);
     EXPECT_EQ(d->Wait(10.0), 0);
   }
+}
+
+// The UR5 runs a Cartesian circle under operational-space control (config/ur5_circle.yaml): its
+// controller follows the flange's task target, and q_des, the joint setpoint it does not use, stays
+// at the start pose, 0.49 rad from the arm. The page draws the target where the flange is (the
+// controller tracks it within micrometres) and no ghost of q_des.
+TEST_F(ViewBrowser, UnderATaskSpaceControllerDrawsTheTaskTargetAndNoJointGhost) {
+  constexpr int kLcmPort = 8600;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  const std::string scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/ur5_circle.yaml";
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config", scene});
+  StartView({"--lcm-url", url, "--scene", scene}, 18405);
+  const auto ready = [](const json& d) { return d.contains("ur5") && d["ur5"].value("t", 0.0) > 1.5; };
+  json drawn;
+  for (int attempt = 0; attempt < 20 && !ready(drawn); ++attempt) {  // until lagranged is up and the ramp is over
+    drawn = Drawn(DumpDom("?frames_max=3", 3000));
+    if (!ready(drawn)) std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  ASSERT_TRUE(ready(drawn)) << drawn.dump();
+  const json& ur5 = drawn["ur5"];
+  const Kinematics kinematics = SceneKinematics("ur5", scene);
+  ExpectPosesOf(kinematics, ur5["measured"], ur5["q"], "ur5");
+  EXPECT_FALSE(ur5.contains("ghost")) << ur5.dump();
+  ASSERT_TRUE(ur5.contains("target")) << ur5.dump();
+  EXPECT_EQ(ur5["target"]["frame"], "flange");
+  // The target is where the flange is: within the 0.16 mm the circle moves per tick, for the
+  // few ticks between the state and the task state the frame was made of.
+  const int flange = kinematics.FrameIndex("flange").value_or(-1);
+  ASSERT_GE(flange, 0);
+  const json& m = ur5["measured"][static_cast<std::size_t>(flange)];
+  const Eigen::Vector3d drawn_flange(m[12].get<double>(), m[13].get<double>(), m[14].get<double>());
+  const Eigen::Vector3d target(ur5["target"]["p"][0].get<double>(), ur5["target"]["p"][1].get<double>(),
+                               ur5["target"]["p"][2].get<double>());
+  EXPECT_LT((target - drawn_flange).norm(), 5e-3) << "target " << target.transpose() << ", flange "
+                                                   << drawn_flange.transpose();
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
 // A log written here: the arm's state every millisecond, q = (0.1 k, −0.05 k) at k ms, a
@@ -452,7 +518,9 @@ TEST_F(ViewTest, RefusesEveryMethodButGetBeforeReadingItsBody) {
   // A body of 1 MB, and a chunked one of no stated length: refused as soon as the headers are in (or the
   // connection closed under the client still sending), never read to its end and routed.
   const auto big = httplib::Client("127.0.0.1", kPort).Post("/", std::string(1 << 20, 'x'), "text/plain");
-  if (big) EXPECT_EQ(big->status, 405);
+  if (big) {
+    EXPECT_EQ(big->status, 405);
+  }
   std::size_t sent = 0;
   const std::string chunk(1 << 16, 'x');
   const auto chunked = httplib::Client("127.0.0.1", kPort)
@@ -467,7 +535,9 @@ TEST_F(ViewTest, RefusesEveryMethodButGetBeforeReadingItsBody) {
                                  return sink.write(chunk.data(), chunk.size());
                                },
                                "application/octet-stream");
-  if (chunked) EXPECT_EQ(chunked->status, 405);
+  if (chunked) {
+    EXPECT_EQ(chunked->status, 405);
+  }
   // The view serves on.
   const auto model = httplib::Client("127.0.0.1", kPort).Get("/api/model");
   ASSERT_TRUE(model);
@@ -644,6 +714,93 @@ TEST_F(ViewTest, KeepsTheMomentAnInstanceWasStopped) {
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
+// The arm as the view streams it while `publish` sends its states: the first frame of at most
+// `seconds` that draws it and satisfies `done` (or the last that drew it).
+json StreamedArmUntil(int port, double seconds, const std::function<bool(const json&)>& done) {
+  json arm;
+  std::string stream;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end && !(arm.is_object() && done(arm))) {
+    httplib::Client c("127.0.0.1", port);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) {
+          const json frame = json::parse(stream.substr(6, e - 6));
+          for (const json& i : frame["instances"])
+            if (i["name"] == "arm" && i.contains("poses") && !(arm.is_object() && done(arm))) arm = i;
+        }
+        stream.erase(0, e + 2);
+      }
+      return !(arm.is_object() && done(arm)) && std::chrono::steady_clock::now() < end;
+    });
+  }
+  return arm;
+}
+
+// Every frame's pose in a streamed instance (R row by row, then p: 12 numbers) equals the
+// kinematics' at q.
+void ExpectStreamedPosesOf(const Kinematics& kinematics, const json& poses, const std::vector<double>& q,
+                           const std::string& what) {
+  auto data = kinematics.MakeData();
+  kinematics.ComputeFramePlacements(*data, Eigen::Map<const VectorXd>(q.data(), static_cast<Eigen::Index>(q.size())));
+  ASSERT_TRUE(poses.is_array() && static_cast<int>(poses.size()) == kinematics.num_frames()) << what;
+  for (int f = 0; f < kinematics.num_frames(); ++f) {
+    const json& m = poses[static_cast<std::size_t>(f)];
+    ASSERT_EQ(m.size(), 12u) << what;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) EXPECT_NEAR(m[i * 3 + j].get<double>(), data->rotation(f)(i, j), kPoseTolerance);
+      EXPECT_NEAR(m[9 + i].get<double>(), data->position(f)(i), kPoseTolerance) << what << " frame " << f;
+    }
+  }
+}
+
+// The plant half of a two-process loop (config/arm_external_plant.yaml) runs the arm under the
+// external controller: while running it applies the torques streamed to it, and its q_des is only
+// the hold it falls back to, followed by nothing, so no ghost is drawn of it; once held (streamed
+// torques timed out) the hold follows q_des and its ghost is drawn there. The states are the
+// view's input as such a daemon publishes them (controller "external", mode running, then hold).
+TEST_F(ViewTest, UnderTheExternalControllerDrawsNoGhostWhileItAppliesStreamedTorques) {
+  constexpr int kLcmPort = 8601;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  StartView({"--lcm-url", url, "--scene", kDefaultScene}, 18406);
+  std::atomic<std::int8_t> mode{state_t::MODE_RUNNING};
+  std::atomic<bool> stop{false};
+  std::thread plant([&] {
+    lcm::LCM lcm(url);
+    state_t s{};
+    s.run_id = 11;
+    s.num_dofs = 2;
+    s.q = {0.4, -0.3};
+    s.q_des = {0.0, 0.0};  // the hold: where the arm started, 0.5 rad away
+    s.qd = s.qdd = s.tau = s.qd_des = {0.0, 0.0};
+    s.controller = "external";
+    while (!stop) {
+      ++s.tick;
+      s.t = 1e-3 * static_cast<double>(s.tick);
+      s.mode = mode;
+      lcm.publish("ARM_STATE", &s);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  const json running = StreamedArmUntil(18406, 20.0, [](const json& a) { return a["mode"] == "running"; });
+  mode = state_t::MODE_HOLD;
+  const json held = StreamedArmUntil(18406, 20.0, [](const json& a) { return a["mode"] == "hold"; });
+  stop = true;
+  plant.join();
+  ASSERT_EQ(running.value("mode", ""), "running") << running.dump() << view_->Stderr();
+  EXPECT_EQ(running["controller"], "external");
+  EXPECT_FALSE(running.contains("ghost")) << "the external controller, running, follows no joint setpoint: "
+                                          << running.dump();
+  ASSERT_EQ(held.value("mode", ""), "hold") << held.dump();
+  ASSERT_TRUE(held.contains("ghost")) << "held, it follows q_des: " << held.dump();
+  const Kinematics kinematics = SceneKinematics("arm");
+  ExpectStreamedPosesOf(kinematics, held["ghost"], {0.0, 0.0}, "arm's hold");
+  ExpectStreamedPosesOf(kinematics, held["poses"], {0.4, -0.3}, "arm");
+}
+
 TEST_F(ViewTest, ListensAndNeverPublishes) {
   constexpr int kLcmPort = 8370;
   ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
@@ -668,6 +825,191 @@ TEST_F(ViewTest, ListensAndNeverPublishes) {
   lcm.publish("LAGRANGE_TEST_VIEW", &byte, 1);
   for (int i = 0; i < 20 && heard == 0; ++i) lcm.handleTimeout(50);
   EXPECT_EQ(heard, 1);
+}
+
+// ---- the connections: slow, idle and oversized clients ----
+
+// 30 clients send a request header a byte at a time and go on (slowloris) while a browser asks
+// for the page: cpp-httplib alone gave each a thread of its --max-clients + 4 for as long as it
+// went on, and the page was never answered. The gate holds them apart from the threads and
+// closes each when its header is not in within its deadline.
+TEST_F(ViewTest, AnswersThePageWhileThirtySlowlorisClientsTrickleTheirHeaders) {
+  constexpr int kPort = 18400;
+  StartView({"--urdf", kVisualArm}, kPort);
+  std::vector<int> slow;
+  for (int i = 0; i < 30; ++i) {
+    const int fd = Connect(kPort);
+    ASSERT_GE(fd, 0) << i;
+    SendAll(fd, "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ");
+    slow.push_back(fd);
+  }
+  std::atomic<bool> stop{false};
+  std::thread trickle([&] {
+    while (!stop) {
+      for (int fd : slow) send(fd, "a", 1, MSG_NOSIGNAL | MSG_DONTWAIT);
+      for (int i = 0; i < 5 && !stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // they are in
+  httplib::Client browser("127.0.0.1", kPort);
+  browser.set_connection_timeout(30);
+  browser.set_read_timeout(30);
+  const auto page = browser.Get("/");
+  stop = true;
+  trickle.join();
+  for (int fd : slow) close(fd);
+  ASSERT_TRUE(page) << "no answer within 30 s";
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("viewer.js"), std::string::npos);
+}
+
+// 1000 clients connect and say nothing, and stay: the page is still answered. (cpp-httplib alone
+// gave each idle connection a thread for its keep-alive timeout, 5 s, one --max-clients + 4 at a
+// time: the page waited minutes.) The gate keeps at most 32 waiting connections of one address,
+// closing the oldest for a new one.
+TEST_F(ViewTest, AnswersThePageWhileAThousandIdleConnectionsStayOpen) {
+  constexpr int kPort = 18401, kIdle = 1000;
+  rlimit files{};
+  ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &files), 0);
+  files.rlim_cur = std::max<rlim_t>(files.rlim_cur, std::min<rlim_t>(files.rlim_max, 4096));
+  setrlimit(RLIMIT_NOFILE, &files);  // the test's connections, and the view's (it inherits the limit)
+  ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &files), 0);
+  if (files.rlim_cur < 2 * kIdle + 200) GTEST_SKIP() << "open files limited to " << files.rlim_cur;
+  StartView({"--urdf", kVisualArm}, kPort);
+  std::vector<int> idle;
+  for (int i = 0; i < kIdle; ++i) {
+    const int fd = Connect(kPort);
+    ASSERT_GE(fd, 0) << i << ": " << std::strerror(errno);
+    idle.push_back(fd);
+  }
+  httplib::Client browser("127.0.0.1", kPort);
+  browser.set_connection_timeout(30);
+  browser.set_read_timeout(30);
+  const auto page = browser.Get("/");
+  for (int fd : idle) close(fd);
+  ASSERT_TRUE(page) << "no answer within 30 s";
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("viewer.js"), std::string::npos);
+}
+
+// A request header that does not end within 16 KiB is answered 431 and closed (httplib would read
+// header lines without end), and the view serves on.
+TEST_F(ViewTest, RefusesARequestHeaderLongerThan16KiB) {
+  constexpr int kPort = 18402;
+  StartView({"--urdf", kVisualArm}, kPort);
+  const int fd = Connect(kPort);
+  ASSERT_GE(fd, 0);
+  std::string header = "GET / HTTP/1.1\r\n";
+  while (header.size() < (16u << 10)) header += "X-Filler: 0123456789abcdef0123456789abcdef\r\n";
+  header.resize(16u << 10);  // exactly the bound, no blank line: all of it read, none left over
+  SendAll(fd, header);
+  timeval timeout{30, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  std::string reply;
+  char buffer[1024];
+  for (ssize_t n; (n = recv(fd, buffer, sizeof buffer, 0)) > 0;) reply.append(buffer, static_cast<std::size_t>(n));
+  close(fd);
+  EXPECT_TRUE(reply.starts_with("HTTP/1.1 431 ")) << reply.substr(0, 200);
+  const auto model = httplib::Client("127.0.0.1", kPort).Get("/api/model");
+  ASSERT_TRUE(model);
+  EXPECT_EQ(model->status, 200);
+}
+
+// ---- a robot package's meshes ----
+
+// A binary STL of `triangles` triangles whose count field says `count`.
+std::string BinaryStl(std::uint32_t triangles, std::uint32_t count) {
+  std::string bytes(80, ' ');
+  bytes.replace(0, 6, "binary");
+  for (int k = 0; k < 4; ++k) bytes += static_cast<char>((count >> (8 * k)) & 0xff);
+  return bytes + std::string(50 * triangles, '\0');
+}
+
+// A package whose URDF names meshes inside it and out of it, directly, by "..", by symlinks (one to
+// /etc/shadow) and through --package-path, and files whose bytes are not what their names say. Only
+// the meshes whose canonical path lies under the URDF's folder or a --package-path, and whose bytes
+// are an STL or Collada file, are served; each of the others is named on the page, not drawn, its
+// link's frame drawn instead. A mesh swapped for a symlink after the start is not served either.
+TEST_F(ViewTest, ServesOnlyMeshesInsideTheRobotsPackageThatAreMeshes) {
+  const fs::path base = fs::temp_directory_path() / ("lagrange_view_package_" + std::to_string(getpid()));
+  fs::remove_all(base);
+  for (const char* dir : {"secret", "robot/meshes", "share/pkg/meshes"}) fs::create_directories(base / dir);
+  const std::string mesh = BinaryStl(1, 1), secret = BinaryStl(2, 2);
+  std::ofstream(base / "secret/secret.stl") << secret;
+  std::ofstream(base / "outside.stl") << secret;
+  std::ofstream(base / "robot/meshes/ok.stl") << mesh;
+  std::ofstream(base / "share/pkg/meshes/ok.stl") << mesh;
+  std::ofstream(base / "robot/meshes/fake.stl") << "root:x:0:0:root:/root:/bin/bash\n";
+  std::ofstream(base / "robot/meshes/short.stl") << BinaryStl(1, 5);
+  std::ofstream(base / "robot/meshes/fake.dae") << "<?xml version=\"1.0\"?>\n<html><body>no mesh</body></html>\n";
+  fs::create_symlink("ok.stl", base / "robot/meshes/in_link.stl");
+  fs::create_symlink("../../secret/secret.stl", base / "robot/meshes/out_link.stl");
+  fs::create_symlink("/etc/shadow", base / "robot/meshes/shadow.stl");
+  fs::create_symlink("../../../secret/secret.stl", base / "share/pkg/meshes/escape.stl");
+  const std::vector<std::string> meshes = {
+      "meshes/ok.stl", "meshes/in_link.stl", "package://pkg/meshes/ok.stl",  // served
+      "../outside.stl", "meshes/out_link.stl", "meshes/shadow.stl", "package://pkg/meshes/escape.stl",
+      "file://" + (base / "secret/secret.stl").string(), "meshes/fake.stl", "meshes/short.stl", "meshes/fake.dae"};
+  std::string visuals;
+  for (const std::string& m : meshes) visuals += "<visual><geometry><mesh filename=\"" + m + "\"/></geometry></visual>";
+  std::ofstream(base / "robot/robot.urdf")
+      << "<robot name=\"package_arm\"><link name=\"base\">" << visuals << "</link>"
+      << "<link name=\"arm\"><inertial><origin xyz=\"0.1 0 0\"/><mass value=\"1\"/>"
+      << "<inertia ixx=\"0.001\" ixy=\"0\" ixz=\"0\" iyy=\"0.001\" iyz=\"0\" izz=\"0.001\"/></inertial></link>"
+      << "<joint name=\"j\" type=\"revolute\"><parent link=\"base\"/><child link=\"arm\"/><axis xyz=\"0 0 1\"/>"
+      << "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint></robot>";
+  constexpr int kPort = 18403;
+  StartView({"--urdf", (base / "robot/robot.urdf").string(), "--package-path", (base / "share").string()}, kPort);
+  const json& model = model_["models"][0];
+  EXPECT_EQ(model["shapes"].size(), 3u) << model["shapes"].dump();
+  const std::string missing = model["missing"].dump();
+  EXPECT_EQ(model["missing"].size(), meshes.size() - 3) << missing;
+  for (std::size_t k = 3; k < meshes.size(); ++k) {
+    const std::string name = "mesh '" + meshes[k] + "' ";
+    const std::size_t at = missing.find(name);
+    ASSERT_NE(at, std::string::npos) << name << " in " << missing;
+    EXPECT_NE(missing.find("; its frame is drawn", at), std::string::npos) << name;
+    const std::string why = k < 8 ? "leads outside the URDF's folder and every --package-path: not served"
+                                  : k == 10 ? "is not a Collada file" : "is not an STL file";
+    EXPECT_EQ(missing.find(why, at), at + name.size()) << name << " in " << missing;
+  }
+  httplib::Client client("127.0.0.1", kPort);
+  for (int k = 0; k < 3; ++k) {
+    const auto r = client.Get(("/mesh/0/" + std::to_string(k)).c_str());
+    ASSERT_TRUE(r) << k;
+    EXPECT_EQ(r->status, 200) << k;
+    EXPECT_EQ(r->body, mesh) << k;
+  }
+  EXPECT_EQ(client.Get("/mesh/0/3")->status, 404);
+  // Swapped for a symlink out after the check: the file served is no longer the file checked.
+  fs::remove(base / "robot/meshes/ok.stl");
+  fs::create_symlink("../../secret/secret.stl", base / "robot/meshes/ok.stl");
+  const auto swapped = client.Get("/mesh/0/0");
+  ASSERT_TRUE(swapped);
+  EXPECT_EQ(swapped->status, 404);
+  EXPECT_NE(swapped->body, secret);
+  fs::remove_all(base);
+}
+
+// --bind beyond this host is said loudly on stderr when the view starts. (Here the port is taken
+// on 127.0.0.1, so the view warns, then cannot listen: nothing is ever served beyond loopback.)
+TEST_F(ViewTest, WarnsLoudlyWhenBoundToEveryAddress) {
+  StartView({"--urdf", kVisualArm}, 18404);
+  const testing::CtlResult r = testing::RunCtl({"view", "--urdf", kVisualArm, "--port", "18404", "--bind", "0.0.0.0"});
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("lagrangectl view: WARNING: --bind 0.0.0.0 serves this view to every host that can reach "
+                       "this one, with no login and no encryption"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("cannot listen on 0.0.0.0:18404"), std::string::npos) << r.err;
+}
+
+// The page's URL options (a live screenshot never finishes without frames_max) are in --help.
+TEST_F(ViewTest, HelpNamesThePagesUrlOptions) {
+  const testing::CtlResult r = testing::RunCtl({"view", "--help"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  for (const char* option : {"frames=1", "frames_max=N", "t=SECONDS", "q=a,b,..", "probe=1", "never finishes"})
+    EXPECT_NE(r.out.find(option), std::string::npos) << option << " in " << r.out;
 }
 
 }  // namespace

@@ -3,8 +3,7 @@
 // answering every <NAME>_STATE with one torque_t on <NAME>_TORQUE, so it runs at the daemon's rate.
 // Only the generated types, lcm::LCM and libsodium (bus_signing.hpp, signed traffic): copy it, change the law.
 // LCM 1.3.1 crashes on forged fragments (docs/lcm-fragment-bug.md): use a bus only you reach (ttl=0), and a key.
-// It names the run it follows and, at the end (--duration, SIGINT, SIGTERM), what it sent (exit 0); no state
-// within --wait (no daemon; another URL, instance or key) or no torque applied: one line, exit 1.
+// It names the run it follows and, at the end, what it sent (exit 0); no state within --wait or none applied: exit 1.
 #include <lagrange/state_t.hpp>
 #include <lagrange/torque_t.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -21,7 +20,8 @@
 
 const char* const kUsage =
     "usage: impedance_client --target Q1,Q2,.. [--stiffness 40] [--damping 8] [--instance arm] [--lcm-url URL]\n"
-    "         [--duration S (0: until SIGINT or SIGTERM)] [--wait 3] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n";
+    "         [--duration S (0: until SIGINT or SIGTERM)] [--wait 3] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n"
+    "         [--bus-domain D (else $LAGRANGE_BUS_DOMAIN, else udpm://GROUP:PORT of the URL)]\n";
 volatile std::sig_atomic_t stop = 0;
 
 struct Impedance {
@@ -73,7 +73,7 @@ double Number(const std::string& text) {  // a finite number, or an exception na
 int main(int argc, char** argv) try {
   std::map<std::string, std::string> opt = {{"--lcm-url", ""},     {"--instance", "arm"}, {"--target", ""},
                                             {"--stiffness", "40"}, {"--damping", "8"},    {"--duration", "0"},
-                                            {"--wait", "3"},       {"--bus-key", ""}};
+                                            {"--wait", "3"},       {"--bus-key", ""},     {"--bus-domain", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (argv[i] == std::string("--help") || argv[i] == std::string("-h")) return std::fputs(kUsage, stdout), 0;
     if (argv[i] == std::string("--url")) throw std::invalid_argument("--url is now --lcm-url, as in lagrangectl");
@@ -88,7 +88,7 @@ int main(int argc, char** argv) try {
   if (!lcm.good()) throw std::invalid_argument("cannot open LCM '" + opt["--lcm-url"] + "'");
   std::string name = opt["--instance"];
   for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  BusSigning bus(opt["--bus-key"]);  // "" → $LAGRANGE_BUS_KEY_FILE → unsigned; refuses a key others can read
+  BusSigning bus(GivenOption(argc, argv, "--bus-key"), GivenOption(argc, argv, "--bus-domain"), opt["--lcm-url"]);
   Impedance law{&lcm, name + "_STATE", name + "_TORQUE", q_target, Number(opt["--stiffness"]), Number(opt["--damping"]),
                 &bus};
   law.out.run_id = static_cast<std::int64_t>(std::mt19937_64{std::random_device{}()}() | 1);  // random, never 0
@@ -103,7 +103,7 @@ int main(int argc, char** argv) try {
   if (!law.error.empty()) return std::fprintf(stderr, "impedance_client: %s\n", law.error.c_str()), 2;
   std::string heard;  // no daemon there, or not this instance, or not this key
   for (const std::string& c : law.heard) heard += (heard.empty() ? "; heard only " : ", ") + c;
-  if (law.unverified) heard = "; its states do not verify with this key (--bus-key)";
+  if (law.unverified) heard = "; its states do not verify with this key and bus domain (--bus-key, --bus-domain)";
   const std::string url = opt["--lcm-url"].empty() ? "LCM's default URL ($LCM_DEFAULT_URL)" : opt["--lcm-url"];
   if (!law.locked_run)
     throw std::runtime_error("no " + law.state_channel + " within " + opt["--wait"] + " s on " + url + heard);

@@ -24,8 +24,9 @@
 
 const char* const kUsage =
     "usage: mujoco_driver --model FILE (MJCF or URDF) [--state-channel PANDA_ROBOT_STATE] [--torque-channel PANDA_ROBOT_TORQUE]\n"
-    "                     [--initial Q1,Q2,..] [--period 0.001] [--substeps 1] [--torque-timeout 0.02] [--url URL]\n"
-    "                     [--duration S (0: until SIGINT/SIGTERM)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n";
+    "                     [--initial Q1,Q2,..] [--period 0.001] [--substeps 1] [--torque-timeout 0.02] [--lcm-url URL]\n"
+    "                     [--duration S (0: until SIGINT/SIGTERM)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n"
+    "                     [--bus-domain D (else $LAGRANGE_BUS_DOMAIN, else udpm://GROUP:PORT of the URL)]\n";
 
 volatile std::sig_atomic_t g_stop = 0;
 
@@ -67,8 +68,8 @@ int main(int argc, char** argv) try {
   std::map<std::string, std::string> opt = {
       {"--model", ""},   {"--state-channel", "PANDA_ROBOT_STATE"}, {"--torque-channel", "PANDA_ROBOT_TORQUE"},
       {"--initial", ""}, {"--period", "0.001"},                 {"--substeps", "1"},
-      {"--url", ""},     {"--torque-timeout", "0.02"},          {"--duration", "0"},
-      {"--bus-key", ""}};
+      {"--lcm-url", ""}, {"--torque-timeout", "0.02"},          {"--duration", "0"},
+      {"--bus-key", ""}, {"--bus-domain", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (argv[i] == std::string("--help") || argv[i] == std::string("-h")) return std::fputs(kUsage, stdout), 0;
     if (!opt.count(argv[i]) || i + 1 == argc) throw std::invalid_argument(std::string("bad option ") + argv[i]);
@@ -96,9 +97,9 @@ int main(int argc, char** argv) try {
   mj_fullM(m, M.data(), d->qM);
   for (int i = 0; i < n; ++i) brake[i] = 20.0 * M[static_cast<std::size_t>(i * n + i)];
 
-  lcm::LCM lcm(opt["--url"]);  // "" → $LCM_DEFAULT_URL or LCM's default
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--url"] + "'");
-  BusSigning bus(opt["--bus-key"]);
+  lcm::LCM lcm(opt["--lcm-url"]);  // "" → $LCM_DEFAULT_URL or LCM's default
+  if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--lcm-url"] + "'");
+  BusSigning bus(GivenOption(argc, argv, "--bus-key"), GivenOption(argc, argv, "--bus-domain"), opt["--lcm-url"]);
   Watchdog watchdog;
   watchdog.n = n;
   watchdog.timeout_s = Number(opt["--torque-timeout"]);

@@ -5,10 +5,11 @@
 // three.js keeps it) for the measured pose and the setpoint's ghost.
 // Text from the server goes into the page only as text (textContent).
 //
-// Query parameters: q=a,b,.. (--urdf: the joints' start), t=SECONDS (--log:
-// the time shown first), frames=1 (draw every frame's axes), frames_max=N
-// (live: stop listening after N frames), probe=1 (count the canvas's
-// non-background pixels into #lagrange-probe after each draw).
+// Query parameters (documented for users in the README's "The 3-D view" and
+// in `lagrangectl view --help`): q=a,b,.. (--urdf: the joints' start),
+// t=SECONDS (--log: the time shown first), frames=1 (draw every frame's axes),
+// frames_max=N (live: stop listening after N frames), probe=1 (count the
+// canvas's non-background pixels into #lagrange-probe after each draw).
 
 import * as THREE from './three/build/three.module.js';
 import { OrbitControls } from './three/examples/jsm/controls/OrbitControls.js';
@@ -353,12 +354,14 @@ function apply(frame) {
       record.measured = r.measured.matrices();
       seen.add(inst.model);
     }
+    // The setpoint's ghost only where a controller follows q_des (not under a task-space controller: its
+    // target is drawn instead; not while the external controller applies streamed torques).
     if (inst.ghost) {
       r.ghost.setPoses(inst.ghost);
-      r.ghost.root.visible = r.ghost.root.userData.allowed !== false;
       record.q_des = inst.q_des;
       record.ghost = r.ghost.matrices();
     }
+    r.ghost.root.visible = Boolean(inst.ghost) && r.ghost.root.userData.allowed !== false;
     r.target.visible = Boolean(inst.target) && $('show-ghost').checked;
     if (inst.target) {  // (w, x, y, z) and p, as published: placed, not computed
       const [w, x, y, z] = inst.target.q;

@@ -1,12 +1,11 @@
-#include "tools/view_model.hpp"
+#include "tools/view/view_model.hpp"
 
 #include <cmath>
 #include <stdexcept>
 
 #include "plant/escape.hpp"
-#include "tools/urdf_visuals.hpp"
 
-namespace lagrange::cli {
+namespace lagrange::cli::view {
 namespace {
 
 using nlohmann::json;
@@ -73,7 +72,7 @@ ViewModel::ViewModel(std::string name, const PlantSpec& spec, const ViewModelOpt
   if (planar)
     BuiltInShapes(spec);
   else
-    UrdfShapes(std::get<UrdfParams>(spec.params), options.package_path);
+    UrdfShapes(*std::get<UrdfParams>(spec.params).robot, options.package_path);
 }
 
 int ViewModel::Frame(const std::string& name) const { return kinematics_->FrameIndex(name).value_or(-1); }
@@ -110,47 +109,67 @@ void ViewModel::BuiltInShapes(const PlantSpec& spec) {
   }
 }
 
-void ViewModel::UrdfShapes(const UrdfParams& params, const std::vector<std::string>& package_path) {
+// Quoted and escaped, for a line on the page.
+static std::string Quoted(const std::string& text) {
+  std::string q(1, '\'');  // appended: g++ 12 warns falsely (-Wrestrict) on "'" + std::string
+  q += Escape(text, 256);
+  q += '\'';
+  return q;
+}
+
+void ViewModel::UrdfShapes(const UrdfRobot& robot, const std::vector<std::string>& package_path) {
   json& shapes = geometry_["shapes"];
   json& missing = geometry_["missing"];
-  const std::string& file = params.robot->file.empty() ? params.file : params.robot->file;
-  UrdfLooks looks;
-  try {
-    looks = ReadUrdfLooks(file, package_path);
-  } catch (const std::exception& e) {
-    missing.push_back(e.what());
-  }
-  for (const std::string& m : looks.missing) missing.push_back(m);
-  for (const UrdfVisual& v : looks.visuals) {
-    const int frame = Frame(v.link);
-    json shape = {{"frame", frame}, {"origin", Pose(v.R, v.p)},
-                  {"rgba", {v.rgba[0], v.rgba[1], v.rgba[2], v.rgba[3]}}};
-    switch (v.kind) {
-      case UrdfVisual::Kind::kBox:
+  for (const std::string& note : robot.looks.notes) missing.push_back(note + "; not drawn");
+  const MeshRoots roots(robot.file, package_path);
+  int drawn = 0;
+  for (const UrdfVisual& v : robot.looks.visuals) {
+    json shape = {{"frame", Frame(v.link)}, {"origin", Pose(v.R, v.p)}, {"rgba", {v.rgba[0], v.rgba[1], v.rgba[2], v.rgba[3]}}};
+    switch (v.geometry) {
+      case UrdfVisual::Geometry::kBox:
         shape["type"] = "box";
         shape["size"] = {v.size.x(), v.size.y(), v.size.z()};
         break;
-      case UrdfVisual::Kind::kCylinder:
+      case UrdfVisual::Geometry::kCylinder:
         shape["type"] = "cylinder";
         shape["size"] = {v.size.x(), v.size.y()};
         break;
-      case UrdfVisual::Kind::kSphere:
+      case UrdfVisual::Geometry::kSphere:
         shape["type"] = "sphere";
         shape["size"] = {v.size.x()};
         break;
-      case UrdfVisual::Kind::kMesh:
-        shape["type"] = "mesh";
-        shape["format"] = v.mesh_format;
-        shape["scale"] = {v.scale.x(), v.scale.y(), v.scale.z()};
-        shape["mesh"] = static_cast<int>(mesh_files_.size());
-        mesh_files_.push_back(v.mesh_file);
+      case UrdfVisual::Geometry::kMesh:
+        UrdfMesh(v, roots, shape);
+        if (shape.is_null()) continue;
         break;
     }
     shapes.push_back(std::move(shape));
+    ++drawn;
   }
-  geometry_["skeleton"] = looks.visuals.empty();
-  if (!looks.visuals.empty()) return;
-  // No <visual> at all: a rod from each link's frame to each child link's, a sphere at each.
+  geometry_["skeleton"] = drawn == 0;
+  if (drawn == 0) UrdfSkeleton(robot.looks);
+}
+
+// A mesh visual's shape, with the file to serve; null (and a line in "missing") when it is missing or refused.
+void ViewModel::UrdfMesh(const UrdfVisual& v, const MeshRoots& roots, json& shape) {
+  const auto found = roots.Find(v.mesh);
+  if (const std::string* why = std::get_if<std::string>(&found)) {
+    geometry_["missing"].push_back("link " + Quoted(v.link) + " <visual> " + std::to_string(v.index) + ": mesh " +
+                                   Quoted(v.mesh) + " " + *why + "; its frame is drawn");
+    shape = nullptr;
+    return;
+  }
+  const MeshFile& file = std::get<MeshFile>(found);
+  shape["type"] = "mesh";
+  shape["format"] = file.format == MeshFormat::kStl ? "stl" : "dae";
+  shape["scale"] = {v.scale.x(), v.scale.y(), v.scale.z()};
+  shape["mesh"] = static_cast<int>(mesh_files_.size());
+  mesh_files_.push_back(file);
+}
+
+// No <visual> at all: a rod from each link's frame to each child link's, a sphere at each.
+void ViewModel::UrdfSkeleton(const UrdfLooks& looks) {
+  json& shapes = geometry_["shapes"];
   const json color = Rgba(0.6, 0.62, 0.7);
   for (const auto& [parent, child] : looks.links) {
     const int a = Frame(parent), b = Frame(child);
@@ -160,10 +179,11 @@ void ViewModel::UrdfShapes(const UrdfParams& params, const std::vector<std::stri
 }
 
 json ViewModel::Poses(ConstVecRef q) const {
+  std::lock_guard lock(data_mutex_);
   kinematics_->ComputeFramePlacements(*data_, q);
   json poses = json::array();
   for (int k = 0; k < kinematics_->num_frames(); ++k) poses.push_back(Pose(data_->rotation(k), data_->position(k)));
   return poses;
 }
 
-}  // namespace lagrange::cli
+}  // namespace lagrange::cli::view

@@ -11,8 +11,12 @@
 //                     from joint to joint and to the tip, the pendulum's rod and
 //                     bob, the cart (a box) on its rail and its pole
 //   URDF robots       each link's <visual> (box, cylinder, sphere, STL or
-//                     Collada mesh; tools/urdf_visuals.hpp); a robot without
-//                     any is drawn as rods from each link frame to its children's
+//                     Collada mesh), as plant/urdf.hpp read them (UrdfLooks),
+//                     meshes found and checked by tools/view/meshes.hpp; a
+//                     robot without any is drawn as rods from each link frame
+//                     to its children's. A visual that did not read and a mesh
+//                     that is missing or refused are named ("missing"), and
+//                     the link's frame drawn
 // Planar plants live in the xy plane with gravity −y ("planar": the page turns
 // them so that −y points down); a URDF robot's world is z up.
 //
@@ -20,6 +24,7 @@
 // then p (m), as KinematicsData::rotation and position give them.
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -27,8 +32,9 @@
 
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
+#include "tools/view/meshes.hpp"
 
-namespace lagrange::cli {
+namespace lagrange::cli::view {
 
 struct ViewModelOptions {
   std::vector<std::string> package_path;  // for a URDF's package:// meshes
@@ -45,22 +51,25 @@ class ViewModel {
   const Kinematics& kinematics() const { return *kinematics_; }
   // {name, plant, planar, dofs, joints [{name, lower, upper}], frames, shapes, missing, tau_limits, meshes}.
   const nlohmann::json& geometry() const { return geometry_; }
-  // The files a URDF's meshes resolved to, served at /mesh/<model>/<k>.
-  const std::vector<std::string>& mesh_files() const { return mesh_files_; }
+  // The files a URDF's meshes resolved to (checked: meshes.hpp), served at /mesh/<model>/<k>.
+  const std::vector<MeshFile>& mesh_files() const { return mesh_files_; }
   // q (num_dofs) => every frame's pose [R00 .. R22, px, py, pz], in the tree's frame order.
-  // Not thread-safe (one KinematicsData): call from one thread at a time.
+  // Thread-safe: one evaluation at a time (the model keeps one KinematicsData).
   nlohmann::json Poses(ConstVecRef q) const;
 
  private:
   void BuiltInShapes(const PlantSpec& spec);
-  void UrdfShapes(const UrdfParams& params, const std::vector<std::string>& package_path);
+  void UrdfShapes(const UrdfRobot& robot, const std::vector<std::string>& package_path);
+  void UrdfMesh(const UrdfVisual& v, const MeshRoots& roots, nlohmann::json& shape);
+  void UrdfSkeleton(const UrdfLooks& looks);
   int Frame(const std::string& name) const;
 
   std::string name_;
   std::unique_ptr<Kinematics> kinematics_;
   std::unique_ptr<KinematicsData> data_;
+  mutable std::mutex data_mutex_;  // data_: one evaluation at a time
   nlohmann::json geometry_;
-  std::vector<std::string> mesh_files_;
+  std::vector<MeshFile> mesh_files_;
 };
 
-}  // namespace lagrange::cli
+}  // namespace lagrange::cli::view

@@ -1,0 +1,53 @@
+#pragma once
+// What lagrangectl view sends the page of one instance at one moment, live
+// (live.hpp) or from a log (log_view.hpp): its state, the poses of its frames
+// at q, and what it is steered to:
+//   ghost   the poses at q_des, where a controller follows that joint setpoint
+//   target  a task-space controller's target frame (<NAME>_TASK), as published.
+// q_des is the joint setpoint lagranged holds (state_t). A task-space
+// controller does not follow it (its target is a frame's pose), nor does
+// the external controller while it applies streamed torques (running): there
+// q_des is only where the instance would be held, and no ghost is drawn for it.
+// Every string from the bus is escaped (plant/escape.hpp); the page puts text
+// in the document only as text.
+
+#include <lagrange/state_t.hpp>
+#include <lagrange/task_state_t.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tools/view/view_model.hpp"
+
+namespace lagrange::cli::view {
+
+// One instance the view knows of: its daemon's channel prefix, its name, and its model (an index into the
+// view's models; −1 when the scene has none of that name).
+struct ViewInstance {
+  std::string prefix, name;
+  int model = -1;
+  std::string Label() const { return prefix.empty() ? name : prefix + " " + name; }
+};
+
+using ViewModels = std::vector<std::unique_ptr<ViewModel>>;
+
+// JSON text of `j`; bytes that are not UTF-8 (from the bus) become U+FFFD.
+std::string Dump(const nlohmann::json& j);
+// Numbers for JSON: null for a non-finite one (JSON has none).
+nlohmann::json Numbers(const std::vector<double>& v);
+
+// Whether `task` is the target of the controller `s` runs: the same run and controller, published within
+// 0.1 s of simulated time of `s` (a controller switched away stops publishing it).
+bool TaskIsCurrent(const state_t& s, const task_state_t& task);
+// Whether a controller follows s.q_des (above): not a task-space controller, not `external` while running.
+bool FollowsJointSetpoint(const state_t& s);
+
+// Instance `instance` at state `s`, `age` s after it was published (or logged), with its latest task state
+// (null: none): {model, name, run, mode, controller, t, tick, age, q, q_des, tau, poses, ghost, target, note}.
+nlohmann::json InstanceJson(const ViewInstance& instance, const ViewModels& models, const state_t& s, double age,
+                            const task_state_t* task);
+
+}  // namespace lagrange::cli::view
