@@ -346,8 +346,7 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
   const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
   if (active != m.external_controller) {
     return RejectInput(i, rejected, "torque",
-                       "the instance is not running its external controller (active: " +
-                           m.command_rules.controllers[static_cast<std::size_t>(active)] + ")");
+                       NotRunningExternalReason(m.command_rules.controllers[static_cast<std::size_t>(active)]));
   }
   if (torque_.run_id == 0) return RejectInput(i, rejected, "torque", "run_id 0: expected the sender's non-zero id");
   // One sender at a time: while the current stream is fresh (a torque within

@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <system_error>
+#include <utility>
 
 namespace lagrange {
 namespace {
@@ -28,6 +29,7 @@ class FileDescriptor {
     if (fd_ >= 0) ::close(fd_);
   }
   int get() const { return fd_; }
+  int release() { return std::exchange(fd_, -1); }
 
  private:
   int fd_;
@@ -37,9 +39,9 @@ std::string SystemReason(int error) { return std::generic_category().message(err
 
 }  // namespace
 
-std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes) {
+int OpenRegularFile(const std::string& path) {
   // Non-blocking: opening a FIFO for reading would wait for a writer. Only a regular file is read.
-  const FileDescriptor fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC));
+  FileDescriptor fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC));
   if (fd.get() < 0) {
     const int error = errno;
     throw FileReadError("cannot be opened (" + SystemReason(error) + ")");
@@ -50,6 +52,11 @@ std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes) {
     throw FileReadError("cannot be read (" + SystemReason(error) + ")");
   }
   if (!S_ISREG(status.st_mode)) throw FileReadError("not a regular file (" + FileKind(status.st_mode) + ")");
+  return fd.release();
+}
+
+std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes) {
+  const FileDescriptor fd(OpenRegularFile(path));
   std::string text;
   char buffer[1 << 16];
   while (true) {

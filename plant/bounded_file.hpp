@@ -1,9 +1,10 @@
 #pragma once
-// Reading a file someone else may have named: a URDF robot, a scene. Only a
-// regular file is read, opened without blocking (a FIFO would wait for a
-// writer forever), and only up to a bound (/dev/zero, or a file grown by
-// mistake, would read until memory runs out). Part of lagrange_urdf, the
-// part of plant/ that reads files; the daemon's scene reader uses it too.
+// Reading a file someone else may have named: a URDF robot, a scene, an
+// lcm-logger file. Only a regular file is read, opened without blocking (a
+// FIFO would wait for a writer forever, a device never end), and a whole file
+// only up to a bound (/dev/zero, or a file grown by mistake, would read until
+// memory runs out). Part of lagrange_urdf, the part of plant/ that reads
+// files; the daemon's scene reader and protocol/'s log reader use it too.
 
 #include <cstddef>
 #include <stdexcept>
@@ -21,5 +22,10 @@ class FileReadError : public std::runtime_error {
 
 // The whole of `path`, at most `max_bytes` of it. Throws FileReadError.
 std::string ReadBoundedFile(const std::string& path, std::size_t max_bytes);
+
+// `path` opened for reading (O_RDONLY | O_CLOEXEC; opened without blocking,
+// and a regular file, so reads from it never wait for a writer): a file
+// descriptor the caller closes. Throws FileReadError.
+int OpenRegularFile(const std::string& path);
 
 }  // namespace lagrange

@@ -927,14 +927,14 @@ UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
   return robot;
 }
 
-UrdfRobot LoadUrdf(const std::string& path) {
-  std::string text;
+std::string ReadUrdfFile(const std::string& path) {
   try {
-    text = ReadBoundedFile(path, kMaxUrdfBytes);
+    return ReadBoundedFile(path, kMaxUrdfBytes);
   } catch (const FileReadError& e) {
     Fail(path, "file", e.what());
   }
-  return ParseUrdf(text, path);
 }
+
+UrdfRobot LoadUrdf(const std::string& path) { return ParseUrdf(ReadUrdfFile(path), path); }
 
 }  // namespace lagrange

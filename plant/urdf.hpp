@@ -164,6 +164,10 @@ inline constexpr std::size_t kMaxUrdfBytes = 2u << 20;
 
 // Reads and checks a URDF file. Throws UrdfError with the one-line message above.
 UrdfRobot LoadUrdf(const std::string& path);
+// The text of a URDF file as LoadUrdf reads it (a regular file, within the
+// size bound; UrdfError "FILE: file: reason" otherwise), for a caller that
+// keeps it: LoadUrdf(path) is ParseUrdf(ReadUrdfFile(path), path).
+std::string ReadUrdfFile(const std::string& path);
 // The same from text; `file` names it in messages.
 UrdfRobot ParseUrdf(std::string_view xml, const std::string& file);
 

@@ -171,6 +171,7 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
       state_channel_(options.Channel(instance, kStateSuffix)),
       bus_(options.Open()),
       signing_(*bus_) {
+  if (const std::string why = CheckWait(options.wait); !why.empty()) throw std::invalid_argument("wait: " + why);
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
   bus_->Subscribe(options.Channel(instance, kReplySuffix),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
@@ -385,6 +386,12 @@ std::string DaemonLink::EstopDidNotStay(std::int64_t run) {
 
 void DaemonLink::Pump(double seconds) {
   PumpUntil([] { return false; }, seconds);
+}
+
+std::string CheckWait(double seconds, std::string_view shown) {
+  if (seconds > 0.0 && seconds <= kMaxWaitSeconds) return "";  // false for nan
+  return "expected a positive number of seconds up to " + FormatDouble(kMaxWaitSeconds) + " (a day), got " +
+         (shown.empty() ? FormatDouble(seconds) : std::string(shown));
 }
 
 }  // namespace lagrange

@@ -33,11 +33,22 @@
 
 namespace lagrange {
 
+// The longest a client waits for a daemon, a state or a verdict
+// (LinkOptions::wait: lagrangectl --wait, Python's Client(wait=) and
+// Client.state(timeout=)): a day. More is a slip (1e9 s is 32 years) that
+// would hold the caller for good, as inf or nan would.
+inline constexpr double kMaxWaitSeconds = 86400.0;
+// "" when `seconds` is a wait a client takes (in (0, kMaxWaitSeconds]), else
+// what was expected, the end of the option's or argument's message:
+// "expected a positive number of seconds up to 86400 (a day), got 1e+09"
+// (`shown`, when given, is what the user typed, in place of the number).
+std::string CheckWait(double seconds, std::string_view shown = {});
+
 // Where a client finds a daemon, and how long it waits for one.
 struct LinkOptions {
   std::string lcm_url;         // "" → $LCM_DEFAULT_URL → udpm://239.255.76.67:7667?ttl=0
   std::string channel_prefix;  // as given to lagranged --channel-prefix
-  double wait = 3.0;           // s to wait for the daemon before giving up
+  double wait = 3.0;           // s to wait for the daemon before giving up (CheckWait)
   // The key file: none → $LAGRANGE_BUS_KEY_FILE → unsigned; an empty path is refused (ResolveBusKeyFile).
   std::optional<std::string> bus_key_file;
   // The bus domain: none → $LAGRANGE_BUS_DOMAIN → the bus's own (ResolveBusDomain, BusDomainOf).
@@ -133,6 +144,7 @@ bool KeepsEstop(std::int8_t mode);
 class DaemonLink {
  public:
   // Opens the bus (options.Open(): BusUrlError, BusError) and subscribes.
+  // std::invalid_argument ("wait: " + CheckWait's reason) for a wait it refuses.
   DaemonLink(const LinkOptions& options, const std::string& instance);
   DaemonLink(const DaemonLink&) = delete;
   DaemonLink& operator=(const DaemonLink&) = delete;

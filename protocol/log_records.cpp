@@ -535,6 +535,8 @@ void ReadLogRecords(const std::string& log_path, const std::string& channel_rege
     const LogRecord record{e->channel, types.find(e->channel)->second, &decoder.fields(), ok ? &row : nullptr};
     visit(record);
   }
+  if (log.end() == LcmLogReader::End::kTruncated) throw LcmLogCutShortError(log_path + ": " + log.EndReason());
+  if (log.end() == LcmLogReader::End::kCorrupt) throw LcmLogError(log_path + ": " + log.EndReason());
 }
 
 }  // namespace lagrange

@@ -64,8 +64,11 @@ struct LogRecord {
 
 // Calls `visit` for every event whose channel matches `channel_regex` (every
 // one when empty), in the log's order. Throws LcmLogError (one line) when
-// `log_path` cannot be read or is not an LCM log, std::regex_error for a bad
-// expression.
+// `log_path` cannot be read or is not an LCM log, and, after visiting every
+// whole event, when the log is corrupt or cut short (LcmLogCutShortError: a
+// logger stopped or still writing), naming the byte offset ("run.lcm: cut
+// short inside the event at byte 1234: ..."; LcmLogReader's EndReason);
+// std::regex_error for a bad expression.
 void ReadLogRecords(const std::string& log_path, const std::string& channel_regex,
                     const std::function<void(const LogRecord&)>& visit);
 

@@ -108,4 +108,8 @@ SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const Pose
   return {SetpointVerdict::Kind::kAccepted, ""};
 }
 
+std::string NotRunningExternalReason(std::string_view active) {
+  return "the instance is not running its external controller (active: " + std::string(active) + ")";
+}
+
 }  // namespace lagrange

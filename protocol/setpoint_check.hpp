@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 
 #include "plant/types.hpp"
 
@@ -73,5 +74,12 @@ inline constexpr double kUnitQuaternionTolerance = 1e-6;
 // move within the joints' velocity limits. Whether the instance's active controller takes poses at all is
 // RefusedByController's rule, checked by the caller.
 SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out);
+
+// Why a torque (torque_t, on <NAME>_TORQUE) is refused while the instance runs
+// `active` (a controller's name, as its states carry it) instead of its
+// external controller: "the instance is not running its external controller
+// (active: pd)". lagranged's receiver counts such a torque as rejected with
+// it; Python's Client.send_torque refuses to send one with it.
+std::string NotRunningExternalReason(std::string_view active);
 
 }  // namespace lagrange

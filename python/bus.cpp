@@ -34,6 +34,7 @@
 #include "protocol/lcm_log.hpp"
 #include "protocol/log_records.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/setpoint_check.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
 #include "python/paths.hpp"
@@ -121,7 +122,7 @@ class Client {
  public:
   Client(std::optional<std::string> url, std::string prefix, std::optional<std::string> key_file, double wait,
          std::optional<std::string> bus_domain) {
-    if (!(std::isfinite(wait) && wait > 0.0)) throw py::value_error("wait: expected a positive number of seconds");
+    if (const std::string why = CheckWait(wait); !why.empty()) throw py::value_error("wait: " + why);
     options_.lcm_url = url.value_or("");
     options_.channel_prefix = std::move(prefix);
     if (!options_.channel_prefix.empty() && !CheckChannelName(options_.channel_prefix + "X").empty()) {
@@ -252,9 +253,12 @@ class Client {
   }
 
   // One torque_t of this client's stream: its run id, the sequence from 1,
-  // state_tick the latest state's (or the one given).
-  bool SendTorque(const std::string& name, const py::object& tau, const std::optional<std::int64_t>& state_tick,
-                  const std::optional<std::string>& channel) {
+  // state_tick the latest state's (or the one given). Refused, unsent, while
+  // the instance's latest state says it runs another controller than its
+  // external one (lagranged would count the torque rejected, with the same
+  // reason); a Verdict accepted once the datagram went out.
+  Verdict SendTorque(const std::string& name, const py::object& tau, const std::optional<std::int64_t>& state_tick,
+                     const std::optional<std::string>& channel) {
     const int n = NumDofs(name);
     const VectorXd v = JointVector(tau, n, "tau");
     if (channel) {
@@ -263,6 +267,10 @@ class Client {
     py::gil_scoped_release release;
     Link& link = *Find(name);  // opened by NumDofs
     const std::unique_lock lock = LockToAct(link);
+    const std::int64_t run = link.link->run_id();
+    if (const std::string& active = link.link->state().controller; active != ToString(ControllerType::kExternal)) {
+      return {false, "refused: " + NotRunningExternalReason(Escape(active, 64)), run};
+    }
     torque_t& msg = link.torque;
     if (msg.run_id == 0) msg.run_id = NewRunId();
     ++msg.sequence;  // grows even when a publish fails: lagranged sees a gap, not a repeat
@@ -270,7 +278,9 @@ class Client {
     msg.num_dofs = n;
     msg.tau.assign(v.data(), v.data() + n);
     msg.utime = MonotonicClock().WallMicros();
-    return link.link->bus().PublishMessage(channel.value_or(options_.Channel(name, kTorqueSuffix)), msg);
+    const std::string on = channel.value_or(options_.Channel(name, kTorqueSuffix));
+    if (!link.link->bus().PublishMessage(on, msg)) return {false, "could not send the torque on " + on, run};
+    return {true, name + ": torque " + std::to_string(msg.sequence) + " sent on " + on, run};
   }
 
   Verdict SendCommand(const std::string& name, const std::vector<std::string>& words, const py::object& kp,
@@ -334,10 +344,9 @@ class Client {
     }
   }
 
+  // lagrangectl --wait's rule (CheckWait, protocol/client.hpp).
   static void CheckTimeout(double timeout) {
-    if (!(std::isfinite(timeout) && timeout > 0.0)) {
-      throw py::value_error("timeout: expected a positive number of seconds, got " + FormatDouble(timeout));
-    }
+    if (const std::string why = CheckWait(timeout); !why.empty()) throw py::value_error("timeout: " + why);
   }
 
   // `link` locked for sending, once it is known to follow one lagranged run
@@ -572,7 +581,7 @@ py::object ColumnArray(const LogField& field, const LogColumn& column, std::int6
   return py::none();
 }
 
-py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& channel_regex) {
+py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& channel_regex, bool partial) {
   const std::string path = FsPath(path_arg, "path");
   std::map<std::string, LogChannelRows> channels;
   {
@@ -596,6 +605,9 @@ py::dict ReadLog(const py::object& path_arg, const std::optional<std::string>& c
         }
         c.Add(*r.row);
       });
+    } catch (const LcmLogCutShortError& e) {
+      // Every whole event before the cut was read: with `partial` that is the log (one still being written).
+      if (!partial) throw py::value_error(ValidUtf8(e.what()));
     } catch (const LcmLogError& e) {
       py::gil_scoped_acquire acquire;
       std::error_code ec;
@@ -655,7 +667,9 @@ void BindBus(py::module_& m) {
         return "<lagrange.State tick " + std::to_string(s.tick) + " t = " + FormatDouble(s.t) + " s, " + s.mode + ">";
       });
 
-  py::class_<Verdict>(m, "Verdict", "lagranged's verdict on a command (its reply_t to this command's request id).")
+  py::class_<Verdict>(m, "Verdict",
+                      "lagranged's verdict on a command (its reply_t to this command's request id); or\n"
+                      "send_torque's outcome (accepted: sent; refused: not sent, in lagranged's words).")
       .def_readonly("accepted", &Verdict::accepted)
       .def_property_readonly(
           "message", [](const Verdict& v) { return Text(v.message); },
@@ -710,7 +724,10 @@ answers, with lagrangectl's one-line messages.)")
            py::arg("channel") = py::none(),
            "One torque (torque_t, N·m or N, shape (n,)) for an instance under `controller: external`, on\n"
            "<PREFIX><NAME>_TORQUE (or channel): this client's stream (its own run id, sequence from 1),\n"
-           "state_tick the latest state's tick unless given. Returns whether it was sent.")
+           "state_tick the latest state's tick unless given. Returns a Verdict: accepted once sent\n"
+           "('arm: torque 12 sent on ARM_TORQUE'; lagranged's status counts say whether it applied it);\n"
+           "refused, and nothing sent, while the instance runs another controller, in lagranged's words\n"
+           "('refused: the instance is not running its external controller (active: pd)').")
       .def(
           "command",
           [](Client& c, const std::string& name, const std::string& kind, const py::args& args, const py::object& kp,
@@ -758,13 +775,19 @@ are int64 arrays, numbers float64, text a list of str (escaped as in the CSV).)"
                c.type.value_or("an unknown type") + ">";
       });
 
-  m.def("read_log", &ReadLog, py::arg("path"), py::arg("channel") = py::none(),
-        R"(Decode an lcm-logger file: {channel: LogChannel}, the same decoding as lagrangectl log2csv.
+  m.def("read_log", &ReadLog, py::arg("path"), py::arg("channel") = py::none(), py::kw_only(),
+        py::arg("partial") = false,
+        R"doc(Decode an lcm-logger file: {channel: LogChannel}, the same decoding as lagrangectl log2csv.
 
 channel  only channels matching this regular expression (all when None)
+partial  True: a log cut short (a logger stopped, or one still writing) is read to its
+         last whole event; False (the default): it raises ValueError, as log2csv refuses it
 Every record is wire-checked before it is decoded (a recorded packet is as untrusted as a
 live one); signed traffic is decoded without checking its signature. Raises FileNotFoundError
-or ValueError ("PATH is not an LCM log ...") with log2csv's one-line messages.)");
+or ValueError with log2csv's one-line messages: a file that is not a regular file ("cannot read
+PATH: not a regular file (a FIFO)": nothing waits for a writer), not a log ("PATH is not an LCM
+log ..."), or a log cut short or corrupt, naming the event's byte offset ("PATH: cut short inside
+the event at byte 1234: it declares a 2147483647-byte payload, of which the file holds 8").)doc");
 }
 
 }  // namespace lagrange::python

@@ -77,17 +77,31 @@ Shape Matrix(py::ssize_t rows, py::ssize_t cols) { return {2, {rows, cols}}; }
 
 class Model {
  public:
-  Model(const PlantSpec& spec, Method method)
+  // `source`: what built it, all a pickle needs to build it again (SetState).
+  Model(const PlantSpec& spec, Method method, py::tuple source)
       : type_(spec.type()),
         method_(method),
         dynamics_(MakeDynamics(spec, method)),
         kinematics_(std::make_shared<const Kinematics>(MakeRigidTree(spec))),
         joint_names_(JointNamesOf(spec)),
-        own_(*dynamics_, *kinematics_) {}
+        own_(*dynamics_, *kinematics_),
+        source_(std::move(source)) {}
 
-  static std::unique_ptr<Model> FromUrdf(const py::object& path, const py::object& gravity, const std::string& method,
+  // `urdf`: URDF text (a str whose first character other than white space is
+  // '<', as an XML document's is) or a file's path (anything else).
+  static std::unique_ptr<Model> FromUrdf(const py::object& urdf, const py::object& gravity, const std::string& method,
                                          double mass_scale);
   static std::unique_ptr<Model> Builtin(const std::string& name, const py::object& method, const py::kwargs& params);
+  // The robot in URDF `text`, named `name` in messages (its file, or "<urdf text>").
+  static std::unique_ptr<Model> FromUrdfText(const std::string& text, const std::string& name,
+                                             const py::object& gravity, const std::string& method, double mass_scale);
+
+  // pickle: (kPickleVersion, "urdf", text, name, gravity, method, mass_scale) or
+  // (kPickleVersion, "builtin", name, method or None, {parameter: value}): the
+  // URDF's text, not its path, so a process without the file unpickles it.
+  py::tuple GetState() const { return source_; }
+  static std::unique_ptr<Model> SetState(const py::tuple& state);
+  static constexpr int kPickleVersion = 1;
 
   int num_dofs() const { return dynamics_->num_dofs(); }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
@@ -122,8 +136,26 @@ class Model {
   std::shared_ptr<const Dynamics> dynamics_;
   std::shared_ptr<const Kinematics> kinematics_;
   std::vector<std::string> joint_names_;
-  Worker own_;  // single states, under the GIL
+  Worker own_;        // single states, under the GIL
+  py::tuple source_;  // GetState's
 };
+
+// Pinocchio's names for the axes a frame's Jacobian and J̇ qd are given in
+// (plant/kinematics.hpp, FrameAxes).
+constexpr const char* kLocalWorldAligned = "local_world_aligned";
+constexpr const char* kLocal = "local";
+
+// The axes `reference` names, or ValueError.
+FrameAxes ReferenceAxes(const std::string& reference) {
+  if (reference == kLocalWorldAligned) return FrameAxes::kWorldAligned;
+  if (reference == kLocal) return FrameAxes::kLocal;
+  if (reference == "world") {
+    throw py::value_error(
+        "reference: 'world' (Pinocchio's WORLD: the motion of the point at the world's origin) is not given; "
+        "'local_world_aligned' is the frame origin's motion in world axes, 'local' in the frame's own");
+  }
+  throw py::value_error("reference: expected 'local_world_aligned' or 'local', got '" + Escape(reference, 64) + "'");
+}
 
 // The method named by `method` (None: the plant's fastest exact path, as eval's default).
 Method ChooseMethod(PlantType type, const py::object& method) {
@@ -139,18 +171,61 @@ Method ChooseMethod(PlantType type, const py::object& method) {
   return *m;
 }
 
-std::unique_ptr<Model> Model::FromUrdf(const py::object& path, const py::object& gravity, const std::string& method,
-                                       double mass_scale) {
-  const std::string file = FsPath(path, "path");
-  PlantSpec spec;
+// What messages call URDF text given as an argument (a file is called by its path).
+constexpr const char* kUrdfTextName = "<urdf text>";
+
+// Whether `urdf` is URDF text rather than a path: a str whose first character
+// other than white space is '<' (an XML document's first; a file whose name
+// begins with '<' is named by a pathlib.Path or bytes).
+bool IsUrdfText(const py::handle& urdf) {
+  // Asked of the str itself: a file name that is not UTF-8 comes as a str with surrogates, which has no UTF-8 text.
+  return py::isinstance<py::str>(urdf) && py::cast<bool>(urdf.attr("lstrip")().attr("startswith")("<"));
+}
+
+// The robot in `text` (named `name` in messages) as a plant, or ValueError with the loader's line.
+PlantSpec UrdfSpec(const std::string& text, const std::string& name) {
   try {
-    spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(file)));
+    return UrdfPlantSpec(std::make_shared<const UrdfRobot>(ParseUrdf(text, name)));
   } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
-    std::error_code ec;
-    Raise(std::filesystem::exists(file, ec) ? PyExc_ValueError : PyExc_FileNotFoundError, e.what());
+    Raise(PyExc_ValueError, e.what());
   } catch (const std::exception& e) {  // anything the parser below it throws
-    Raise(PyExc_ValueError, file + ": " + Escape(e.what(), 400));
+    Raise(PyExc_ValueError, name + ": " + Escape(e.what(), 400));
   }
+}
+
+std::unique_ptr<Model> Model::FromUrdf(const py::object& urdf, const py::object& gravity, const std::string& method,
+                                       double mass_scale) {
+  std::string text, name;
+  if (IsUrdfText(urdf)) {
+    text = py::cast<std::string>(urdf);
+    name = kUrdfTextName;
+  } else {
+    if (!py::isinstance<py::str>(urdf) && !py::isinstance<py::bytes>(urdf) && !py::hasattr(urdf, "__fspath__")) {
+      throw py::type_error("urdf: expected a URDF file (str, bytes or os.PathLike) or URDF text (str), got " +
+                           std::string(py::str(py::type::handle_of(urdf).attr("__name__"))) +
+                           " (a built-in plant: Model.builtin)");
+    }
+    name = FsPath(urdf, "urdf");
+    try {
+      text = ReadUrdfFile(name);
+    } catch (const UrdfError& e) {
+      std::error_code ec;
+      if (std::filesystem::exists(name, ec)) Raise(PyExc_ValueError, e.what());
+      // A built-in plant's name is not a file: say where it is made.
+      const std::optional<PlantType> builtin = ParsePlantType(name);
+      if (builtin && *builtin != PlantType::kUrdf) {
+        throw py::value_error("urdf: '" + name + "' is a built-in plant, not a URDF file: Model.builtin('" + name +
+                              "', ...)");
+      }
+      Raise(PyExc_FileNotFoundError, e.what());
+    }
+  }
+  return FromUrdfText(text, name, gravity, method, mass_scale);
+}
+
+std::unique_ptr<Model> Model::FromUrdfText(const std::string& text, const std::string& name, const py::object& gravity,
+                                           const std::string& method, double mass_scale) {
+  PlantSpec spec = UrdfSpec(text, name);
   std::vector<double> g;
   try {
     g = py::cast<std::vector<double>>(gravity);
@@ -160,17 +235,20 @@ std::unique_ptr<Model> Model::FromUrdf(const py::object& path, const py::object&
   if (g.size() != 3) {
     throw py::value_error("gravity: expected (gx, gy, gz) (3 numbers, m/s²), got " + std::to_string(g.size()));
   }
-  std::string text;
+  std::string g_text;
   for (double x : g) {
-    if (!text.empty()) text += ',';
-    text += FormatDouble(x);
+    if (!g_text.empty()) g_text += ',';
+    g_text += FormatDouble(x);
   }
-  if (auto e = SetPlantParam(spec, "gravity", text)) throw py::value_error("gravity: " + e->message);
+  if (auto e = SetPlantParam(spec, "gravity", g_text)) throw py::value_error("gravity: " + e->message);
   if (auto e = SetPlantParam(spec, "mass_scale", FormatDouble(mass_scale))) {
     throw py::value_error("mass_scale: " + e->message);
   }
   if (auto e = ValidatePlantSpec(spec)) throw py::value_error(Escape(e->message, 400));
-  return std::make_unique<Model>(spec, ChooseMethod(PlantType::kUrdf, py::str(method)));
+  const Method chosen = ChooseMethod(PlantType::kUrdf, py::str(method));
+  py::tuple source = py::make_tuple(kPickleVersion, "urdf", py::bytes(text), py::bytes(name), py::tuple(py::cast(g)),
+                                    std::string(ToString(chosen)), mass_scale);
+  return std::make_unique<Model>(spec, chosen, std::move(source));
 }
 
 // A parameter's value as the text SetPlantParam reads: a string as it is, a
@@ -224,7 +302,29 @@ std::unique_ptr<Model> Model::Builtin(const std::string& name, const py::object&
     }
   }
   if (auto e = ValidatePlantSpec(spec)) throw py::value_error(e->key + ": " + e->message);
-  return std::make_unique<Model>(spec, ChooseMethod(*type, method));
+  py::dict kept;  // the parameters as given (sequences as lists), for pickle
+  for (const auto& [key, value] : params) {
+    kept[key] = !py::isinstance<py::str>(value) && py::isinstance<py::sequence>(value)
+                    ? py::list(py::reinterpret_borrow<py::sequence>(value))
+                    : py::reinterpret_borrow<py::object>(value);
+  }
+  py::tuple source = py::make_tuple(kPickleVersion, "builtin", name, method, kept);
+  return std::make_unique<Model>(spec, ChooseMethod(*type, method), std::move(source));
+}
+
+std::unique_ptr<Model> Model::SetState(const py::tuple& state) {
+  const auto bad = [] { return py::value_error("Model.__setstate__: not a pickled lagrange.Model"); };
+  if (state.size() < 2 || !py::isinstance<py::int_>(state[0]) || py::cast<int>(state[0]) != kPickleVersion) throw bad();
+  const std::string kind = py::str(state[1]);
+  if (kind == "urdf" && state.size() == 7) {
+    // The text as the file held it, parsed as from_urdf parsed it, under the same name.
+    return FromUrdfText(py::cast<std::string>(state[2]), py::cast<std::string>(state[3]), state[4],
+                        py::cast<std::string>(state[5]), py::cast<double>(state[6]));
+  }
+  if (kind == "builtin" && state.size() == 5) {
+    return Builtin(py::cast<std::string>(state[2]), state[3], py::kwargs(py::dict(state[4])));
+  }
+  throw bad();
 }
 
 template <std::size_t kArgs, std::size_t kOuts, class Kernel>
@@ -357,7 +457,9 @@ constexpr const char* kModelDoc = R"(A plant's rigid-body dynamics and frame kin
 
     tau = M(q) qdd + C(q, qd) qd + G(q)
 
-Built once (Model.from_urdf, Model.builtin), then immutable. Units SI: q in
+Built once (Model(urdf) or Model.from_urdf for a URDF robot, Model.builtin for
+a planar one), then immutable. A Model pickles (copy, multiprocessing) as what
+built it: a URDF's text (not its path) or a built-in plant's parameters. Units SI: q in
 rad (revolute) or m (prismatic), qd in rad/s or m/s, qdd in rad/s² or m/s²,
 tau in N·m or N, energies in J. n = num_dofs.
 
@@ -373,16 +475,26 @@ The numbers are the C++ library's, bit for bit (the same as
 `lagrangectl eval`, whose JSON prints the shortest text of each double).
 )";
 
-constexpr const char* kFromUrdfDoc = R"(A robot from a URDF file (a fixed base).
+constexpr const char* kFromUrdfDoc = R"(A robot from URDF (a fixed base): a file, or its text.
 
-path:       the .urdf file (str, bytes or os.PathLike, as open() takes it)
+urdf:       the .urdf file (str, bytes or os.PathLike, as open() takes it), or
+            the URDF's text: a str whose first character other than white
+            space is '<' is text (an XML document begins so), any other
+            argument a path (a file whose name begins with '<': pathlib.Path)
 gravity:    (gx, gy, gz), m/s², in the root link's (world) frame
 method:     "recursive" (RNEA, ABA, CRBA; the default) or "lagrangian"
             (automatic differentiation of T and V), for cross-checks
 mass_scale: every link's mass and inertia × this (> 0)
 
 Raises FileNotFoundError when the file does not exist, ValueError when it is
-not a robot lagrange reads (one line: "FILE: ELEMENT: reason").
+not a robot lagrange reads (one line: "FILE: ELEMENT: reason", FILE
+"<urdf text>" for text), TypeError for an argument that is neither.
+)";
+
+constexpr const char* kInitDoc = R"(Model(urdf, *, gravity=(0, 0, -9.81), method="recursive", mass_scale=1.0):
+a robot from a URDF file (or its text), as Model.from_urdf (and pinocchio.buildModelFromUrdf).
+
+A built-in planar plant: Model.builtin(name, ...).
 )";
 
 constexpr const char* kBuiltinDoc = R"(A built-in planar plant, with the parameters of scenes and `lagrangectl eval`.
@@ -455,21 +567,26 @@ returns  R (3, 3) | (N, 3, 3)     its x, y, z axes as columns, world coordinates
          p (3,) | (N, 3)          its origin, m)";
 
 constexpr const char* kFrameJacobianDoc =
-    R"((frame, q) => J, world-aligned (as lagrangectl eval --frame; Pinocchio's LOCAL_WORLD_ALIGNED):
-(ṗ, ω) = J qd, ṗ the velocity of the frame's origin, ω its angular velocity, both in world axes.
+    R"((frame, q) => J: (ṗ, ω) = J qd, ṗ the velocity of the frame's origin, ω its angular velocity.
 
-frame    one of frame_names
-q        (n,) | (N, n)        rad or m
-returns  (6, n) | (N, 6, n)   rows 0..2 linear (m/s), rows 3..5 angular (rad/s) per unit joint velocity)";
+frame      one of frame_names
+q          (n,) | (N, n)        rad or m
+reference  in which axes (Pinocchio's reference frames):
+           "local_world_aligned" (the default; as lagrangectl eval --frame): the world's axes
+           "local": the frame's own axes, J_local = blockdiag(Rᵀ, Rᵀ) J, R from frame_pose
+returns    (6, n) | (N, 6, n)   rows 0..2 linear (m/s), rows 3..5 angular (rad/s) per unit joint velocity)";
 
 constexpr const char* kFrameBiasAccelerationDoc =
-    R"((frame, q, qd) => J̇ qd, world-aligned (eval --frame's jdot_qdot): the frame origin's
-acceleration and its angular acceleration at qdd = 0, so (p̈, ω̇) = J qdd + J̇ qd.
+    R"((frame, q, qd) => J̇ qd (eval --frame's jdot_qdot): the frame origin's acceleration and its
+angular acceleration at qdd = 0, so (p̈, ω̇) = J qdd + J̇ qd.
 
-frame    one of frame_names
-q        (n,) | (N, n)   rad or m
-qd       (n,) | (N, n)   rad/s or m/s
-returns  (6,) | (N, 6)   m/s², then rad/s²)";
+frame      one of frame_names
+q          (n,) | (N, n)   rad or m
+qd         (n,) | (N, n)   rad/s or m/s
+reference  "local_world_aligned" (the default): in world axes; "local": the same physical
+           acceleration in the frame's own axes, blockdiag(Rᵀ, Rᵀ) times the world-aligned one
+           (Pinocchio's classical acceleration in LOCAL, not d/dt(J_local) qd)
+returns    (6,) | (N, 6)   m/s², then rad/s²)";
 
 // Every per-joint call's last paragraph.
 constexpr const char* kBatchNote = R"(
@@ -485,9 +602,11 @@ std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
 
 void BindModel(py::module_& m) {
   py::class_<Model> model(m, "Model", kModelDoc);
+  const std::vector<double> standard_gravity = {0.0, 0.0, -kStandardGravity};
   model
-      .def_static("from_urdf", &Model::FromUrdf, kFromUrdfDoc, py::arg("path"),
-                  py::arg("gravity") = std::vector<double>{0.0, 0.0, -kStandardGravity},
+      .def(py::init(&Model::FromUrdf), kInitDoc, py::arg("urdf"), py::kw_only(),
+           py::arg("gravity") = standard_gravity, py::arg("method") = "recursive", py::arg("mass_scale") = 1.0)
+      .def_static("from_urdf", &Model::FromUrdf, kFromUrdfDoc, py::arg("urdf"), py::arg("gravity") = standard_gravity,
                   py::arg("method") = "recursive", py::arg("mass_scale") = 1.0)
       .def_static("builtin", &Model::Builtin, kBuiltinDoc, py::arg("name"), py::arg("method") = py::none())
       .def_property_readonly("num_dofs", &Model::num_dofs, "n: the degrees of freedom, q's length.")
@@ -499,10 +618,14 @@ void BindModel(py::module_& m) {
                              "plants' links and tip.")
       .def_property_readonly("method", &Model::method, "How M, C, G are derived: closed-form, lagrangian or recursive.")
       .def_property_readonly("plant", &Model::plant, "The plant type: pendulum, arm2, cartpole, chain or urdf.")
-      .def("__repr__", [](const Model& self) {
-        return "<lagrange.Model " + self.plant() + ", " + std::to_string(self.num_dofs()) + " dofs, method " +
-               self.method() + ">";
-      });
+      .def("__repr__",
+           [](const Model& self) {
+             return "<lagrange.Model " + self.plant() + ", " + std::to_string(self.num_dofs()) + " dofs, method " +
+                    self.method() + ">";
+           })
+      // What built it (a URDF's text, or a built-in plant's parameters), so pickle, copy and multiprocessing take it.
+      .def(py::pickle([](const Model& self) { return self.GetState(); },
+                      [](const py::tuple& state) { return Model::SetState(state); }));
 
   using Row1 = std::array<const double*, 1>;
   using Row2 = std::array<const double*, 2>;
@@ -622,37 +745,40 @@ void BindModel(py::module_& m) {
       Doc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_jacobian",
-      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
+      [](Model& self, const std::string& frame, ArrayArg q, const std::string& reference, int threads) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
+        const FrameAxes axes = ReferenceAxes(reference);
         const JointArray aq("q", q.value, n);
         return ArrayResult{self.Evaluate<1, 1>(
             {&aq}, {Matrix(6, n)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
-              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k, FrameAxes::kWorldAligned);
-              const Matrix6Xd& J = w.kinematics->jacobian(k, FrameAxes::kWorldAligned);
+              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k, axes);
+              const Matrix6Xd& J = w.kinematics->jacobian(k, axes);
               CopyRowMajor(J, out[0]);
               return J.allFinite();
             })};
       },
-      Doc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      Doc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(),
+      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
   model.def(
       "frame_bias_acceleration",
-      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, int threads) {
+      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, const std::string& reference, int threads) {
         const int n = self.num_dofs();
         const int k = self.Frame(frame);
+        const FrameAxes axes = ReferenceAxes(reference);
         const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
         return ArrayResult{self.Evaluate<2, 1>(
             {&aq, &aqd}, {Vector(6)}, threads, "the frame is", [&](Worker& w, const Row2& r, auto& out) {
               self.kinematics().ComputeFrameBiasAcceleration(*w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k,
-                                                             FrameAxes::kWorldAligned);
-              const Vector6d& b = w.kinematics->bias_acceleration(k, FrameAxes::kWorldAligned);
+                                                             axes);
+              const Vector6d& b = w.kinematics->bias_acceleration(k, axes);
               Eigen::Map<Vector6d> b_out(out[0]);
               b_out = b;
               return b.allFinite();
             })};
       },
       Doc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
-      py::arg("threads") = 1);
+      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
             "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "

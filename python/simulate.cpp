@@ -88,20 +88,28 @@ double Residual(const Instance& inst) {
   return inst.accounting() ? inst.energy_balance().residual() : std::numeric_limits<double>::quiet_NaN();
 }
 
-// One instance's rows, as lagrangectl simulate writes them (t, q, qd, q_des, tau, T, V) and ε.
+// One instance's rows, as lagrangectl simulate writes them (t, q, qd, q_des,
+// tau, T, V) and ε; under a task-space controller (`task` non-null) also its
+// FILE.task.csv rows (TaskRowOf).
 struct Recording {
   std::string name;
   std::vector<std::string> joint_names;
   int n = 0;
   std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
   std::optional<std::string> fault;
+  const TaskSpaceController* task = nullptr;
+  std::vector<double> position, position_des, error;  // 3, 3 and 6 per row, with `task`
 
   void Reserve(std::size_t rows) {
     for (std::vector<double>* v : {&t, &kinetic, &potential, &residual}) v->reserve(rows);
     for (std::vector<double>* v : {&q, &qd, &q_des, &tau}) v->reserve(rows * static_cast<std::size_t>(n));
+    if (task == nullptr) return;
+    for (std::vector<double>* v : {&position, &position_des}) v->reserve(rows * 3);
+    error.reserve(rows * 6);
   }
 
   void Add(Instance& inst) {
+    const bool computed = !t.empty();  // past the row at t = 0
     t.push_back(inst.t());
     for (const auto& [out, v] :
          {std::pair{&q, &inst.q()}, {&qd, &inst.qd()}, {&q_des, &inst.q_des()}, {&tau, &inst.tau()}}) {
@@ -110,7 +118,18 @@ struct Recording {
     kinetic.push_back(inst.KineticEnergy());
     potential.push_back(inst.PotentialEnergy());
     residual.push_back(Residual(inst));
+    if (task == nullptr) return;
+    const OfflineTaskRow row = TaskRowOf(*task, computed);
+    position.insert(position.end(), row.position.data(), row.position.data() + 3);
+    position_des.insert(position_des.end(), row.position_des.data(), row.position_des.data() + 3);
+    error.insert(error.end(), row.error.data(), row.error.data() + 6);
   }
+};
+
+// SimulationResult.task: the frame a task-space controller moved, one row per step.
+struct TaskRows {
+  std::string frame;
+  py::array_t<double> position, position_des, error;
 };
 
 // The result of lagrange.simulate for one instance: numpy arrays, one row per step.
@@ -119,6 +138,7 @@ struct SimulationResult {
   std::vector<std::string> joint_names;
   py::array_t<double> t, q, qd, q_des, tau, kinetic_energy, potential_energy, energy_residual;
   std::optional<std::string> fault;
+  std::optional<TaskRows> task;
 
   explicit SimulationResult(const Recording& r)
       : name(r.name),
@@ -131,7 +151,12 @@ struct SimulationResult {
         kinetic_energy(ToArray(r.kinetic)),
         potential_energy(ToArray(r.potential)),
         energy_residual(ToArray(r.residual)),
-        fault(r.fault) {}
+        fault(r.fault) {
+    if (r.task == nullptr) return;
+    const auto rows = static_cast<py::ssize_t>(r.t.size());
+    task = TaskRows{r.task->frame_name(), ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3),
+                    ToMatrix(r.error, rows, 6)};
+  }
 };
 
 // Rows between two looks for a pending signal (KeyboardInterrupt) in a run.
@@ -203,6 +228,9 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].name = instances[i].name();
     recordings[i].joint_names = instances[i].instance_model().joint_names;
     recordings[i].n = instances[i].num_dofs();
+    // The task space of an instance under its scene's task-space controller, as lagrangectl simulate writes it
+    // (a Python law bypasses the controller: it computes nothing to record).
+    if (!law_of[i]) recordings[i].task = instances[i].task_space_controller(instances[i].active_controller());
   }
   const std::int64_t steps = StepsThatFit(duration, offline.period, instances);
   for (Recording& r : recordings) r.Reserve(static_cast<std::size_t>(steps) + 1);
@@ -282,6 +310,15 @@ class PyInstance {
     }
   }
 
+  // (q or None, qd or None) => the instance there (Instance::SetState), the last healthy state.
+  void SetState(const py::object& q_arg, const py::object& qd_arg) {
+    const int n = inst().num_dofs();
+    const VectorXd q = q_arg.is_none() ? inst().q() : JointVector(q_arg, n, "q");
+    const VectorXd qd = qd_arg.is_none() ? inst().qd() : JointVector(qd_arg, n, "qd");
+    inst().SetState(q, qd);
+    good_ = inst().MakeSaved();
+  }
+
   void Reset() {
     inst().Reset();
     good_ = inst().MakeSaved();
@@ -300,6 +337,21 @@ class PyInstance {
 }  // namespace
 
 void BindSimulate(py::module_& m) {
+  py::class_<TaskRows>(m, "TaskRows",
+                       "The frame a task-space controller moved (cartesian-impedance, operational-space), one row\n"
+                       "per step of its SimulationResult: lagrangectl simulate's FILE.task.csv, the same doubles\n"
+                       "(lagranged publishes them as task_state_t). nan in the row at t = 0, before the first "
+                       "control step.")
+      .def_readonly("frame", &TaskRows::frame, "The frame's name (as frame_names gives it).")
+      .def_readonly("position", &TaskRows::position, "Its origin, m, world frame, shape (N, 3).")
+      .def_readonly("position_des", &TaskRows::position_des, "The commanded origin, m, shape (N, 3).")
+      .def_readonly("error", &TaskRows::error,
+                    "The pose error e = commanded ⊖ measured: position (m), then rotation (rad, world axes), "
+                    "shape (N, 6).")
+      .def("__repr__", [](const TaskRows& r) {
+        return "<lagrange.TaskRows " + r.frame + ": " + std::to_string(r.position.shape(0)) + " rows>";
+      });
+
   py::class_<SimulationResult>(m, "SimulationResult",
                                "One instance's run from lagrange.simulate: one row per step, the first at t = 0.\n"
                                "Each row holds what lagrangectl simulate writes in its CSV row, the same doubles.")
@@ -335,6 +387,9 @@ void BindSimulate(py::module_& m) {
       .def_readonly("fault", &SimulationResult::fault,
                     "None, or the health check's line when the instance faulted: its rows then end at the last "
                     "healthy step.")
+      .def_readonly("task", &SimulationResult::task,
+                    "TaskRows under a task-space controller (the frame's position, target and error per row, as "
+                    "lagrangectl simulate's FILE.task.csv); None for any other controller, or a Python law.")
       .def("__repr__", [](const SimulationResult& r) {
         return "<lagrange.SimulationResult " + r.name + ": " + std::to_string(r.t.shape(0)) + " rows" +
                (r.fault ? ", faulted" : "") + ">";
@@ -385,10 +440,23 @@ state and raises RuntimeError naming why.)")
       .def_property_readonly("period", &PyInstance::period, "The scene's period, s: one step's length.")
       .def_property_readonly(
           "t", [](PyInstance& s) { return s.inst().t(); }, "Simulated time, s.")
-      .def_property_readonly(
-          "q", [](PyInstance& s) { return ToArray(s.inst().q()); }, "Positions, shape (n,).")
-      .def_property_readonly(
-          "qd", [](PyInstance& s) { return ToArray(s.inst().qd()); }, "Velocities, shape (n,).")
+      .def_property(
+          "q", [](PyInstance& s) { return ToArray(s.inst().q()); },
+          [](PyInstance& s, const py::object& q) { s.SetState(q, py::none()); },
+          "Positions, shape (n,), rad or m (a copy). Assigning one moves the instance there (set_state).")
+      .def_property(
+          "qd", [](PyInstance& s) { return ToArray(s.inst().qd()); },
+          [](PyInstance& s, const py::object& qd) { s.SetState(py::none(), qd); },
+          "Velocities, shape (n,), rad/s or m/s (a copy). Assigning them sets them (set_state).")
+      .def("set_state", &PyInstance::SetState, py::arg("q") = py::none(), py::arg("qd") = py::none(),
+           R"(Put the instance at (q, qd) at the current time, as moving the robot by hand.
+
+q   (n,) rad or m; None keeps the current positions
+qd  (n,) rad/s or m/s; None keeps the current velocities
+The next step starts there, under the same controller and trajectory (time runs on); qdd is
+recomputed there under the last applied tau; the energy balance is re-based, so
+energy_residual runs on (the jump in energy is no work done), and the state becomes the one a
+faulting step returns to. ValueError for a wrong shape or a value that is not finite.)")
       .def_property_readonly(
           "qdd", [](PyInstance& s) { return ToArray(s.inst().qdd()); },
           "Accelerations at the current state under the last applied tau, shape (n,).")

@@ -260,6 +260,17 @@ void Instance::Restore(const Saved& saved) {
   power_end_ = saved.power_end;
 }
 
+void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
+  q_ = q;
+  qd_ = qd;
+  energies_cached_ = false;
+  if (stepped_) stepped_->SetState(q_, qd_);
+  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);  // as a step ends: its command, through the effects
+  if (!accounting_) return;
+  balance_.Rebase(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
+  if (!stepped_) ComputePowers();
+}
+
 std::vector<std::string> Instance::controller_names() const {
   std::vector<std::string> names;
   for (const ControllerModel& c : instance_model_->controllers) names.push_back(c.name);

@@ -106,6 +106,13 @@ class Instance {
   void Save(Saved& out) const;
   // Restores a saved state with zero torque and acceleration; no allocation.
   void Restore(const Saved& saved);
+  // Puts the instance at (q, qd) (n each) at the current time, as a user
+  // moves a simulated robot by hand (Python's Instance.q = ...): the next
+  // step starts there, under the same controller and trajectory; q̈ follows
+  // at it under the last applied tau; the energy balance is re-based, so ε
+  // runs on continuously (the jump in energy is no work done); a stepped
+  // plant's simulator is set there too. No allocation.
+  void SetState(ConstVecRef q, ConstVecRef qd);
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }

@@ -1,5 +1,6 @@
 #include "sim/offline.hpp"
 
+#include <limits>
 #include <stdexcept>
 
 #include "protocol/format.hpp"
@@ -89,6 +90,14 @@ OfflineScene PrepareOfflineScene(const Scene& scene, const std::string& scene_la
 
 bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe) {
   return RunOfflineChecked(instances, period, steps, observe).empty();
+}
+
+OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed) {
+  if (!computed) {
+    constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+    return {Eigen::Vector3d::Constant(kNan), Eigen::Vector3d::Constant(kNan), Vector6d::Constant(kNan)};
+  }
+  return {task.pose().position, task.commanded().pose.position, task.pose_error()};
 }
 
 }  // namespace lagrange

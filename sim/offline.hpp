@@ -76,4 +76,16 @@ std::vector<OfflineFault> RunOfflineChecked(std::vector<Instance>& instances, do
 // The same; true when no instance faulted.
 bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t steps, const StepObserver& observe);
 
+// One row of an offline run's task space (lagrangectl simulate's FILE.task.csv,
+// Python's SimulationResult.task): what the task-space controller's Compute
+// that gave the row's tau measured and commanded, as lagranged's task_state_t
+// publishes them with the same t; nan before the first Compute (`computed`
+// false: the row at t = 0, whose tau is zero).
+struct OfflineTaskRow {
+  Eigen::Vector3d position;      // the frame's origin, m, world
+  Eigen::Vector3d position_des;  // the commanded one
+  Vector6d error;                // e = commanded ⊖ measured: m, then rad
+};
+OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed);
+
 }  // namespace lagrange

@@ -1,5 +1,9 @@
 #include "tools/bus_options.hpp"
 
+#include <limits>
+#include <optional>
+
+#include "plant/plant_factory.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/signing.hpp"
 
@@ -14,7 +18,16 @@ void BusOptions::AddTo(CLI::App& app) {
   app.add_option("--bus-domain", bus_domain,
                  "The domain signatures are bound to (the daemon's --bus-domain); default: $" +
                      std::string(kBusDomainEnv) + ", else the bus's own (udpm://GROUP:PORT of the URL)");
-  app.add_option("--wait", wait, "Seconds to wait for the daemon")->check(CLI::PositiveNumber)->capture_default_str();
+  // The client's one rule for a wait (protocol/client.hpp, CheckWait), as Python's Client refuses it too.
+  app.add_option("--wait", wait, "Seconds to wait for the daemon (at most a day)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            // A number is shown as Python's Client shows it (1e9: 1e+09); anything else as typed.
+            const std::optional<double> v = ParseFiniteNumber(text);
+            return v ? CheckWait(*v) : CheckWait(std::numeric_limits<double>::quiet_NaN(), text);
+          },
+          "SECONDS"))
+      ->capture_default_str();
 }
 
 }  // namespace lagrange::cli

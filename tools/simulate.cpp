@@ -9,7 +9,6 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
-#include <limits>
 #include <memory>
 
 #include "controllers/task_space.hpp"
@@ -55,18 +54,13 @@ void WriteTaskHeader(std::ostream& out) {
       << '\n';
 }
 
-// What the Compute that gave the row's tau measured and commanded, as
-// lagranged's task_state_t publishes with the same t; nan before the first
-// (the row at t = 0, whose tau is zero).
+// The row's task space (TaskRowOf, daemon/offline.hpp: nan at t = 0).
 void WriteTaskRow(std::ostream& out, const Instance& inst, const TaskSpaceController& task, bool computed) {
-  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
-  const Eigen::Vector3d p = computed ? task.pose().position : Eigen::Vector3d::Constant(kNan);
-  const Eigen::Vector3d p_des = computed ? task.commanded().pose.position : Eigen::Vector3d::Constant(kNan);
-  const Vector6d e = computed ? task.pose_error() : Vector6d::Constant(kNan);
+  const OfflineTaskRow row = TaskRowOf(task, computed);
   out << FormatDouble(inst.t()) << ',' << CsvText(task.frame_name());
-  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(p[i]);
-  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(p_des[i]);
-  for (int i = 0; i < 6; ++i) out << ',' << FormatDouble(e[i]);
+  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(row.position[i]);
+  for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(row.position_des[i]);
+  for (int i = 0; i < 6; ++i) out << ',' << FormatDouble(row.error[i]);
   out << '\n';
 }
 

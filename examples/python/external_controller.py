@@ -41,7 +41,9 @@ def run(client, name, law, duration):
         if last is not None and s.tick == last.tick + 1:
             next_utime[last.tick] = s.utime
         tau = law(s.q, s.qd)
-        client.send_torque(name, tau, state_tick=s.tick)
+        sent = client.send_torque(name, tau, state_tick=s.tick)
+        if not sent:  # the instance left its external controller (a command switched it): nothing was sent
+            sys.exit("external_controller: " + sent.message)
         now = time.time_ns() // 1000  # the wall clock of state_t.utime (µs since the epoch)
         latency_us.append(now - s.utime)
         sent_at.append(now)
@@ -70,7 +72,7 @@ def main(argv=None):
 
     client = lagrange.Client(url=args.url, prefix=args.prefix, key_file=args.key_file)
     target = np.array([float(x) for x in args.target.split(",")])
-    first = client.state(args.instance, timeout=3.0)
+    first = client.state(args.instance, timeout=10.0)  # a lagranged started just before may take a moment
     if first.num_dofs != len(target):
         sys.exit("external_controller: %s has %d joints, --target gives %d" % (args.instance, first.num_dofs, len(target)))
     r = run(client, args.instance, impedance(target, args.stiffness, args.damping), args.duration)

@@ -16,20 +16,30 @@ python_version: str
 _ArrayLike = npt.ArrayLike
 _Array = npt.NDArray[np.float64]
 _Method = Literal["closed-form", "lagrangian", "recursive"]
+# The axes of a frame's Jacobian and J̇ qd, by Pinocchio's names: the world's (LOCAL_WORLD_ALIGNED) or the frame's own (LOCAL).
+_Reference = Literal["local_world_aligned", "local"]
+# A URDF file (str, bytes, os.PathLike), or its text: a str whose first character other than white space is '<'.
+_Urdf = Union[str, bytes, PathLike[str], PathLike[bytes]]
 
 class Model:
-    """A plant's rigid-body dynamics and frame kinematics: tau = M(q) qdd + C(q, qd) qd + G(q)."""
+    """A plant's rigid-body dynamics and frame kinematics: tau = M(q) qdd + C(q, qd) qd + G(q).
 
+    Picklable (copy, multiprocessing): it pickles as what built it (a URDF's text, or a built-in plant's parameters)."""
+
+    def __init__(self, urdf: _Urdf, *, gravity: Sequence[float] = (0.0, 0.0, -9.81), method: _Method = "recursive",
+                 mass_scale: float = 1.0) -> None:
+        """A robot from a URDF file or its text, as Model.from_urdf (pinocchio.buildModelFromUrdf)."""
     @staticmethod
     def from_urdf(
-        path: Union[str, bytes, PathLike[str], PathLike[bytes]],
+        urdf: _Urdf,
         gravity: Sequence[float] = (0.0, 0.0, -9.81),
         method: _Method = "recursive",
         mass_scale: float = 1.0,
     ) -> Model:
-        """A robot from a URDF file; gravity (gx, gy, gz) m/s² in the root link's frame.
+        """A robot from a URDF file, or its text (a str beginning with '<'); gravity (gx, gy, gz) m/s² in the root
+        link's frame.
 
-        Raises FileNotFoundError (no such file) or ValueError (not a robot lagrange reads)."""
+        Raises FileNotFoundError (no such file), ValueError (not a robot lagrange reads), TypeError (neither)."""
         ...
     @staticmethod
     def builtin(name: Literal["pendulum", "arm2", "cartpole", "chain"], method: _Method | None = None,
@@ -70,10 +80,13 @@ class Model:
         """q => V, J: a float | (N,)."""
     def frame_pose(self, frame: str, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
         """(frame, q) => (R (3, 3) | (N, 3, 3), p (3,) | (N, 3)): the frame's axes and origin (m), world frame."""
-    def frame_jacobian(self, frame: str, q: _ArrayLike, *, threads: int = 1) -> _Array:
-        """(frame, q) => J (6, n) | (N, 6, n), world-aligned: (ṗ m/s, ω rad/s) = J qd."""
-    def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> _Array:
-        """(frame, q, qd) => J̇ qd (6,) | (N, 6), world-aligned: (m/s², rad/s²) at qdd = 0."""
+    def frame_jacobian(self, frame: str, q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
+                       threads: int = 1) -> _Array:
+        """(frame, q) => J (6, n) | (N, 6, n): (ṗ m/s, ω rad/s) = J qd of the frame's origin, in world axes or
+        (reference="local") the frame's own."""
+    def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
+                                reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
+        """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
 
 # ---- end of lagrange.Model ------------------------------------------------
 
@@ -91,6 +104,13 @@ _I64 = _npt.NDArray[_np.int64]
 _Scene = _Union[str, bytes, "_os.PathLike[str]", "_os.PathLike[bytes]"]  # a scene file, or YAML text (a str holding a line break)
 _Law = _Callable[[float, _F64, _F64], _npt.ArrayLike]  # (t s, q (n,), qd (n,)) -> tau (n,) N·m or N
 
+class TaskRows:
+    """The frame a task-space controller moved, one row per step: lagrangectl simulate's FILE.task.csv (nan at t = 0)."""
+    frame: str
+    position: _F64          # (N, 3) m, world frame
+    position_des: _F64      # (N, 3) m, the commanded origin
+    error: _F64             # (N, 6) commanded ⊖ measured: m, then rad
+
 class SimulationResult:
     """One instance's offline run: one row per step, the first at t = 0; each row the doubles lagrangectl simulate writes."""
     name: str
@@ -106,6 +126,7 @@ class SimulationResult:
     epsilon: _F64           # alias of energy_residual
     energies: _F64          # (N, 2) J: kinetic_energy and potential_energy side by side
     fault: _Optional[str]   # the health check's line when the instance faulted (rows end at its last healthy step)
+    task: _Optional[TaskRows]  # under a task-space controller (not a Python law): its frame per row
 
 def simulate(scene: _Scene, duration: float, *,
              controller: _Union[None, _Law, _Mapping[str, _Law]] = None) -> _Dict[str, SimulationResult]:
@@ -124,13 +145,15 @@ class Instance:
         """One period: tau None under the scene's controller; else (n,) N·m or N (an external controller's torque).
         A failed health check restores the last healthy state and raises RuntimeError."""
     def reset(self) -> None: ...
+    def set_state(self, q: _Optional[_npt.ArrayLike] = None, qd: _Optional[_npt.ArrayLike] = None) -> None:
+        """Put the instance at (q, qd) now (None keeps one): the next step starts there; ε runs on (re-based)."""
     name: str
     num_dofs: int
     joint_names: _List[str]
     period: float            # s
     t: float                 # s
-    q: _F64                  # (n,)
-    qd: _F64                 # (n,)
+    q: _F64                  # (n,); assigning one moves the instance there (set_state)
+    qd: _F64                 # (n,); assignable too
     qdd: _F64                # (n,) at the current state under the last applied tau
     tau: _F64                # (n,) the last step's applied force
     q_des: _F64              # (n,)
@@ -159,7 +182,7 @@ class State:
     received: float          # s on time.monotonic()'s clock: when this client received it
 
 class Verdict:
-    """lagranged's reply to one command."""
+    """lagranged's reply to one command; or send_torque's outcome (sent, or refused unsent)."""
     accepted: bool
     message: str             # as lagrangectl command prints it: "arm: pause done; now paused with pd" / "refused: ..."
     run_id: int
@@ -172,7 +195,8 @@ class StateIterator(_Iterator[State]):
 class Client:
     """lagranged on the bus through lagrangectl's own client: one run per instance, verdicts, signed traffic."""
     def __init__(self, url: _Optional[str] = None, prefix: str = "", key_file: _Optional[str] = None,
-                 wait: float = 3.0, bus_domain: _Optional[str] = None) -> None: ...
+                 wait: float = 3.0, bus_domain: _Optional[str] = None) -> None:
+        """wait: s, in (0, 86400] (lagrangectl --wait's bound); state(timeout=) is held to the same."""
     url: str
     prefix: str
     def state(self, name: str, timeout: float = 3.0) -> State: ...
@@ -180,7 +204,9 @@ class Client:
     def send_setpoint(self, name: str, q: _npt.ArrayLike, qd: _Optional[_npt.ArrayLike] = None,
                       qdd: _Optional[_npt.ArrayLike] = None) -> bool: ...
     def send_torque(self, name: str, tau: _npt.ArrayLike, state_tick: _Optional[int] = None,
-                    channel: _Optional[str] = None) -> bool: ...
+                    channel: _Optional[str] = None) -> Verdict:
+        """Accepted once sent; refused, unsent, while the instance runs another controller than its external one
+        ("refused: the instance is not running its external controller (active: pd)")."""
     def command(self, name: str, kind: str, *words: str, kp: _Optional[_npt.ArrayLike] = None,
                 kd: _Optional[_npt.ArrayLike] = None) -> Verdict: ...
 
@@ -196,4 +222,7 @@ class LogChannel:
     def __len__(self) -> int: ...
 
 def read_log(path: _Union[str, bytes, "_os.PathLike[str]", "_os.PathLike[bytes]"], channel: _Optional[str] = None) -> _Dict[str, LogChannel]:
-    """An lcm-logger file as {channel: LogChannel}; channel: a regular expression. FileNotFoundError / ValueError."""
+    """An lcm-logger file as {channel: LogChannel}; channel: a regular expression.
+
+    FileNotFoundError; ValueError for a file that is not a regular file (a FIFO) or not a log, and for a log cut
+    short or corrupt, naming the event's byte offset."""

@@ -149,6 +149,40 @@ TEST(Instance, ResetReturnsToTheInitialStateAtTimeZero) {
   EXPECT_EQ(cp.qd(), cp.config().qd0);
 }
 
+// A state set from outside (Python's Instance.q = ...) is where the next step
+// starts: the free pendulum set at (0.3, 0.5) moves as one that started
+// there; ε runs on through the jump in energy (no work was done); nothing is
+// allocated.
+TEST(Instance, SetStateStartsTheNextStepThereAndTheEnergyBalanceRunsOn) {
+  double period = 0;
+  auto moved = Load("pendulum.yaml", &period);
+  InstanceConfig config = moved[0].config();
+  config.q0 = VectorXd::Constant(1, 0.3);
+  config.qd0 = VectorXd::Constant(1, 0.5);
+  Instance started(config);
+  Instance& inst = moved[0];
+  const VectorXd q = VectorXd::Constant(1, 0.3), qd = VectorXd::Constant(1, 0.5);
+  {
+    testing::AllocationCounter counter;
+    inst.SetState(q, qd);
+    EXPECT_EQ(counter.count(), 0);
+  }
+  EXPECT_EQ(inst.qdd(), started.qdd());
+  for (int k = 0; k < 200; ++k) {
+    inst.Step(period);
+    started.Step(period);
+  }
+  EXPECT_EQ(inst.q(), started.q());
+  EXPECT_EQ(inst.qd(), started.qd());
+  // Mid-run: a jump of about 1 J in E, and ε where it was.
+  for (int k = 0; k < 50; ++k) inst.Step(period);
+  const double before = inst.energy_balance().residual();
+  inst.SetState(inst.q().array() + 0.4, inst.qd().array() + 1.0);
+  EXPECT_NEAR(inst.energy_balance().residual(), before, 1e-12);  // to rounding in E(0)'s move by the jump
+  for (int k = 0; k < 50; ++k) inst.Step(period);
+  EXPECT_NEAR(inst.energy_balance().residual(), before, 1e-6);
+}
+
 // A scene's arm under PD with the given integrator and `continuous` flag.
 Instance ArmUnderPd(const std::string& integrator, bool continuous) {
   const std::string yaml =

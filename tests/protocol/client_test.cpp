@@ -11,6 +11,8 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
+#include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -251,6 +253,26 @@ TEST(DaemonLink, OnlyTheRunsStatusIsKept) {
   link.bus().PublishMessage("LAGRANGE_STATUS", Status(kRun));
   EXPECT_EQ(link.AwaitStatus().run_id, kRun);
   EXPECT_EQ(link.statuses_received(), 1);
+}
+
+// A wait is bounded as inf and nan are refused (issue 32: Client.state(timeout=1e9) and --wait 1e9 held the
+// caller for 32 years): one rule for lagrangectl --wait and Python's Client, and the link refuses what it breaks.
+TEST(CheckWait, AWaitIsAPositiveNumberOfSecondsUpToADay) {
+  for (const double ok : {1e-3, 3.0, kMaxWaitSeconds}) EXPECT_EQ(CheckWait(ok), "") << ok;
+  EXPECT_EQ(CheckWait(1e9), "expected a positive number of seconds up to 86400 (a day), got 1e+09");
+  EXPECT_EQ(CheckWait(-1.0), "expected a positive number of seconds up to 86400 (a day), got -1");
+  for (const double bad : {0.0, 86400.5, std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN()}) {
+    EXPECT_NE(CheckWait(bad), "") << bad;
+  }
+  EXPECT_EQ(CheckWait(std::numeric_limits<double>::quiet_NaN(), "forever"),
+            "expected a positive number of seconds up to 86400 (a day), got forever");
+  try {
+    DaemonLink link(InProcess(1e9), "arm");
+    FAIL() << "a link that waits 32 years";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "wait: expected a positive number of seconds up to 86400 (a day), got 1e+09");
+  }
 }
 
 }  // namespace

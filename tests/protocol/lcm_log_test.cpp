@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -174,7 +176,7 @@ TEST_F(LcmLog, AFileThatIsNotALogIsRefusedInOneLine) {
     LcmLogReader reader(missing);
     FAIL() << "read a missing file";
   } catch (const LcmLogError& e) {
-    EXPECT_EQ(std::string(e.what()), "cannot read " + missing);
+    EXPECT_EQ(std::string(e.what()), "cannot read " + missing + ": cannot be opened (No such file or directory)");
   }
   for (const Bytes& bytes : {Bytes{}, Bytes{0xED, 0xA1, 0xDA}, Bytes{'h', 'e', 'l', 'l', 'o'}}) {
     const fs::path path = Write("not.log", bytes);
@@ -185,6 +187,77 @@ TEST_F(LcmLog, AFileThatIsNotALogIsRefusedInOneLine) {
       EXPECT_EQ(std::string(e.what()), path.string() + " is not an LCM log (no LCM sync word at its start)");
     }
   }
+}
+
+// Opening a FIFO for reading waits for a writer, and a device may never end:
+// only a regular file is opened (issue 32: read_log of a FIFO blocked forever).
+TEST_F(LcmLog, AFifoOrADirectoryIsRefusedWithoutWaiting) {
+  const fs::path fifo = dir_ / "run.lcm";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    LcmLogReader reader(fifo.string());
+    FAIL() << "opened a FIFO";
+  } catch (const LcmLogError& e) {
+    EXPECT_EQ(std::string(e.what()), "cannot read " + fifo.string() + ": not a regular file (a FIFO)");
+  }
+  try {
+    LcmLogReader reader(dir_.string());
+    FAIL() << "opened a directory";
+  } catch (const LcmLogError& e) {
+    EXPECT_EQ(std::string(e.what()), "cannot read " + dir_.string() + ": not a regular file (a directory)");
+  }
+}
+
+// Where a log that does not end cleanly ends, and why, naming the byte
+// offset of the event it ends in (issue 32: such logs read as nothing).
+TEST_F(LcmLog, ALogThatEndsBadlySaysAtWhichByteAndWhy) {
+  const Bytes first = Event(0, 1, "ARM_STATE", Bytes(16, 1));
+  const auto at = std::to_string(first.size());
+  const auto with = [&](const Bytes& second) {
+    Bytes log = first;
+    log.insert(log.end(), second.begin(), second.end());
+    return log;
+  };
+  Bytes huge_channel = Event(1, 2, "X", {2});
+  huge_channel[20] = 0;  // channel length 5000
+  huge_channel[21] = 0;
+  huge_channel[22] = 0x13;
+  huge_channel[23] = 0x88;
+  const Bytes header = Event(1, 2, "ARM_STATE", {});
+  const Bytes cut = Event(1, 2, "CUT", Bytes(100, 0));
+  const struct Case {
+    Bytes log;
+    LcmLogReader::End end;
+    std::string reason;
+  } cases[] = {
+      {with(Event(1, 2, "LIE", Bytes(8, 0), 0x7fffffff)), LcmLogReader::End::kTruncated,
+       "cut short inside the event at byte " + at + ": it declares a 2147483647-byte payload, of which the file holds 8"},
+      {with(Bytes(cut.begin(), cut.end() - 40)), LcmLogReader::End::kTruncated,
+       "cut short inside the event at byte " + at + ": it declares a 100-byte payload, of which the file holds 60"},
+      {with(Bytes(header.begin(), header.begin() + 10)), LcmLogReader::End::kTruncated,
+       "cut short inside the event at byte " + at + " (in its header)"},
+      {with(Bytes(header.begin(), header.begin() + 30)), LcmLogReader::End::kTruncated,
+       "cut short inside the event at byte " + at + " (in its 9-byte channel name)"},
+      {with(huge_channel), LcmLogReader::End::kCorrupt,
+       "the event at byte " + at + " declares a 5000-byte channel name (an LCM log's are 1 to 999 bytes)"},
+      {with(Event(1, 2, "X", {2}, 0xffffffff)), LcmLogReader::End::kCorrupt,
+       "the event at byte " + at + " declares a payload of -1 bytes"},
+      {with({0x00, 0x42, 0xED}), LcmLogReader::End::kTruncated,
+       "cut short: the 3 bytes from byte " + at + " to the end hold no whole event"},
+  };
+  for (const Case& c : cases) {
+    LcmLogReader reader(Write("bad.log", c.log).string());
+    ASSERT_NE(reader.Next(), nullptr);
+    EXPECT_EQ(reader.Next(), nullptr);
+    EXPECT_EQ(reader.end(), c.end) << c.reason;
+    EXPECT_EQ(reader.end_offset(), static_cast<std::int64_t>(first.size())) << c.reason;
+    EXPECT_EQ(reader.EndReason(), c.reason);
+  }
+  LcmLogReader whole(Write("whole.log", first).string());
+  ASSERT_NE(whole.Next(), nullptr);
+  EXPECT_EQ(whole.Next(), nullptr);
+  EXPECT_EQ(whole.end_offset(), static_cast<std::int64_t>(first.size()));
+  EXPECT_EQ(whole.EndReason(), "");
 }
 
 }  // namespace

@@ -181,5 +181,43 @@ TEST_F(LogRecords, AFileThatIsNotALogIsRefusedInOneLine) {
   }
 }
 
+// Every whole event is visited, then a log that ends inside an event or at a
+// length out of range is refused naming the byte offset where that event
+// starts (issue 32: log2csv and read_log gave the events before it and said
+// nothing); a log cut short as its own error, which a reader of a log still
+// being written may take.
+TEST_F(LogRecords, ALogCutShortOrCorruptIsRefusedNamingTheByteOffsetAfterItsWholeEvents) {
+  Bytes log;
+  AddEvent(log, 0, 1, "ARM_STATE", Encode(State(2, 1)));
+  const std::string at = std::to_string(log.size());
+  Bytes cut = log;
+  AddEvent(cut, 1, 2, "ARM_STATE", Encode(State(2, 2)));
+  cut.resize(cut.size() - 5);
+  std::vector<std::string> visited;
+  try {
+    Read(cut);
+    FAIL() << "no error";
+  } catch (const LcmLogCutShortError& e) {
+    EXPECT_EQ(std::string(e.what()), path_.string() + ": cut short inside the event at byte " + at + ": it declares a " +
+                                         std::to_string(Encode(State(2, 2)).size()) +
+                                         "-byte payload, of which the file holds " +
+                                         std::to_string(Encode(State(2, 2)).size() - 5));
+  }
+  Bytes corrupt = log;
+  const Bytes lie = testing::LogEvent(1, 2, "ARM_STATE", {}, 0xffffffff);
+  corrupt.insert(corrupt.end(), lie.begin(), lie.end());
+  std::ofstream(path_, std::ios::binary)
+      .write(reinterpret_cast<const char*>(corrupt.data()), static_cast<std::streamsize>(corrupt.size()));
+  try {
+    ReadLogRecords(path_.string(), "", [&](const LogRecord& r) { visited.emplace_back(r.channel); });
+    FAIL() << "no error";
+  } catch (const LcmLogCutShortError&) {
+    FAIL() << "a corrupt log is not one cut short";
+  } catch (const LcmLogError& e) {
+    EXPECT_EQ(std::string(e.what()), path_.string() + ": the event at byte " + at + " declares a payload of -1 bytes");
+  }
+  EXPECT_EQ(visited, std::vector<std::string>{"ARM_STATE"});  // the whole event before it
+}
+
 }  // namespace
 }  // namespace lagrange

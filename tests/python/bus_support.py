@@ -109,7 +109,8 @@ def record_run(scene, port, path, seconds, act=None, *extra, until=None):
                 act(client)
             time.sleep(seconds)
             if until is not None:
-                caught = lambda: {c: r.rows for c, r in lagrange.read_log(path).items()}  # noqa: E731
+                # partial: the logger is still writing, so the file may end inside an event.
+                caught = lambda: {c: r.rows for c, r in lagrange.read_log(path, partial=True).items()}  # noqa: E731
                 wait_until(lambda: until(caught()), 60.0)
     return path
 

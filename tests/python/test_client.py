@@ -241,3 +241,53 @@ def test_a_channel_name_that_is_not_utf8_on_the_bus_reaches_python_escaped():
         t.join()
         sock.close()
     assert "\\xff\\xfe_STATE" in str(e.value)
+
+
+# ---- issue 32 ----------------------------------------------------------------------------------------------------
+
+TORQUE_PORT = 8500  # arm_impedance_client.yaml: the arm under its external controller
+
+
+def test_a_torque_to_an_instance_that_takes_none_is_refused_unsent(daemon):
+    # default.yaml's arm runs computed torque and its scene lists no external controller: nothing listens for
+    # torques, so none is sent, and the refusal is in lagranged's words.
+    v = daemon.send_torque("arm", tau=[1.0, 0.2])
+    assert isinstance(v, lagrange.Verdict) and not v and not v.accepted
+    assert v.message == "refused: the instance is not running its external controller (active: computed-torque)"
+    assert v.run_id == daemon.state("arm").run_id
+
+
+def test_a_torque_is_sent_to_a_running_external_controller_and_refused_as_lagranged_refuses_it():
+    with lagranged(config("arm_impedance_client.yaml"), TORQUE_PORT):
+        client = lagrange.Client(url=lcm_url(TORQUE_PORT), wait=5.0)
+        assert client.state("arm", timeout=5.0).controller == "external"
+        v = client.send_torque("arm", tau=[0.5, 0.1])
+        assert v.accepted and bool(v) and v.message == "arm: torque 1 sent on ARM_TORQUE", v.message
+        assert client.send_torque("arm", tau=[0.5, 0.1]).message == "arm: torque 2 sent on ARM_TORQUE"
+        assert client.command("arm", "controller", "gravity-compensation").accepted
+        v = client.send_torque("arm", tau=[0.5, 0.1])
+        assert not v.accepted
+        reason = "the instance is not running its external controller (active: gravity-compensation)"
+        assert v.message == "refused: " + reason
+        # The one wording: lagranged, sent such a torque by lagrangectl, refuses it with the same reason.
+        cli = subprocess.run([LAGRANGECTL, "send", "arm", "--tau", "0.5,0.1", "--for", "0.3", "--lcm-url",
+                              lcm_url(TORQUE_PORT)], capture_output=True, text=True)
+        assert cli.returncode == 1 and "torque: " + reason in cli.stderr, cli.stderr
+
+
+def test_a_wait_beyond_a_day_is_refused_in_lagrangectl_s_words():
+    # inf and nan were refused; 1e9 s (32 years) was accepted and held the caller. The bound is the client's one
+    # rule (protocol/client.hpp: CheckWait), which lagrangectl --wait applies too.
+    expected = "expected a positive number of seconds up to 86400 (a day), got 1e+09"
+    with pytest.raises(ValueError) as e:
+        lagrange.Client(url=lcm_url(PORT), wait=1e9)
+    assert str(e.value) == "wait: " + expected
+    cli = lagrangectl("command", "arm", "pause", "--wait", "1e9")
+    assert cli.returncode == 2 and cli.stderr.strip().endswith("--wait: " + expected), cli.stderr
+    client = lagrange.Client(url=lcm_url(PORT), wait=1.0)
+    for bad in (1e9, float("inf"), float("nan"), 0.0, -1.0):
+        with pytest.raises(ValueError, match=r"^timeout: expected a positive number of seconds up to 86400 \(a day\)"):
+            client.state("arm", timeout=bad)
+        with pytest.raises(ValueError, match=r"^wait: expected a positive number of seconds up to 86400"):
+            lagrange.Client(url=lcm_url(PORT), wait=bad)
+    lagrange.Client(url=lcm_url(PORT), wait=86400.0)  # a day is still a wait

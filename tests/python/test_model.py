@@ -331,7 +331,7 @@ def test_a_urdf_path_may_be_bytes_or_a_file_name_that_is_not_utf8(tmp_path):
     with pytest.raises(FileNotFoundError) as e:
         lagrange.Model.from_urdf(missing)
     assert "nothing\\xff.urdf" in str(e.value) and "\n" not in str(e.value)
-    raises(ValueError, "path: embedded null byte", lambda: lagrange.Model.from_urdf(PANDA + "\0.txt"))
+    raises(ValueError, "urdf: embedded null byte", lambda: lagrange.Model.from_urdf(PANDA + "\0.txt"))
 
 
 def test_every_invalid_urdf_fixture_raises_a_value_error_with_evals_message():
@@ -362,7 +362,150 @@ def test_every_public_name_is_bound_documented_and_in_the_stubs():
 
 def test_help_gives_units_and_shapes():
     text = pydoc.render_doc(lagrange.Model, renderer=pydoc.plaintext)
-    for phrase in ["tau = M(q) qdd + C(q, qd) qd + G(q)", "(N, n, n)", "kg·m²", "rad/s²", "world-aligned",
+    for phrase in ["tau = M(q) qdd + C(q, qd) qd + G(q)", "(N, n, n)", "kg·m²", "rad/s²", "local_world_aligned", "pickle",
                    "FileNotFoundError"]:
         assert phrase in text, phrase
     assert "_time_forward_dynamics" not in text
+
+
+# ---- issue 32 ----------------------------------------------------------------------------------------------------
+
+LOCAL_CASES = [("--urdf", PANDA, "panda_link8"), ("--urdf", PANDA_HAND, "panda_leftfinger"),
+               ("--plant", "arm2", "tip"), ("--plant", "chain", "link2")]
+
+
+@pytest.mark.parametrize("kind,what,frame", LOCAL_CASES, ids=[c[2] for c in LOCAL_CASES])
+def test_the_local_frame_jacobian_is_the_librarys_in_the_frames_own_axes(kind, what, frame):
+    # reference="local" is the C++ library's FrameAxes::kLocal (model_reference calls it), bit for bit, and it is
+    # the world-aligned Jacobian and J̇ qd turned into the frame's axes: blockdiag(Rᵀ, Rᵀ).
+    model = lagrange.Model.from_urdf(what) if kind == "--urdf" else lagrange.Model.builtin(what)
+    n = model.num_dofs
+    rng = np.random.default_rng(21)
+    q, qd = rng.uniform(-1.5, 1.5, (2, n))
+    r = subprocess.run([os.environ["LAGRANGE_MODEL_REFERENCE"], kind, what, model.method, numbers(q), numbers(qd),
+                        numbers(np.zeros(n)), frame], capture_output=True, text=True, check=True)
+    ref = [float(x) for x in r.stdout.split()][n:]
+    J = model.frame_jacobian(frame, q, reference="local")
+    b = model.frame_bias_acceleration(frame, q, qd, reference="local")
+    assert exactly(J, np.reshape(ref[:6 * n], (6, n)))
+    assert exactly(b, ref[6 * n:])
+    R, _ = model.frame_pose(frame, q)
+    J_world = model.frame_jacobian(frame, q)
+    assert exactly(model.frame_jacobian(frame, q, reference="local_world_aligned"), J_world)
+    np.testing.assert_allclose(J, np.vstack([R.T @ J_world[:3], R.T @ J_world[3:]]), rtol=0, atol=1e-13)
+    b_world = model.frame_bias_acceleration(frame, q, qd)
+    np.testing.assert_allclose(b, np.concatenate([R.T @ b_world[:3], R.T @ b_world[3:]]), rtol=0, atol=1e-13)
+    # A batch gives each state's own.
+    Q = rng.uniform(-1.5, 1.5, (4, n))
+    batch = model.frame_jacobian(frame, Q, reference="local", threads=2)
+    assert all(exactly(batch[i], model.frame_jacobian(frame, Q[i], reference="local")) for i in range(4))
+
+
+def test_the_local_jacobian_gives_the_body_angular_velocity_rt_rdot():
+    # Physics, not arithmetic: the angular rows of J_local q̇ are ω in the frame's axes, [ω]× = Rᵀ Ṙ (central
+    # differences of R along q̇).
+    model = lagrange.Model.from_urdf(PANDA)
+    rng = np.random.default_rng(4)
+    q, qd = rng.uniform(-1.5, 1.5, (2, 7))
+    h = 1e-6
+    R, _ = model.frame_pose("panda_link7", q)
+    Rp, _ = model.frame_pose("panda_link7", q + h * qd)
+    Rm, _ = model.frame_pose("panda_link7", q - h * qd)
+    W = R.T @ (Rp - Rm) / (2 * h)
+    omega = model.frame_jacobian("panda_link7", q, reference="local")[3:] @ qd
+    np.testing.assert_allclose(omega, [W[2, 1], W[0, 2], W[1, 0]], rtol=0, atol=1e-7)
+
+
+def test_a_reference_frame_the_model_does_not_give_raises_a_value_error():
+    m = lagrange.Model.builtin("arm2")
+    raises(ValueError, "reference: expected 'local_world_aligned' or 'local', got 'LOCAL'",
+           lambda: m.frame_jacobian("tip", [0, 0], reference="LOCAL"))
+    with pytest.raises(ValueError, match="reference: 'world'.* is not given"):
+        m.frame_bias_acceleration("tip", [0, 0], [0, 0], reference="world")
+
+
+def test_model_of_a_urdf_path_is_the_robot_from_urdf_builds():
+    q = np.random.default_rng(8).uniform(-1, 1, 7)
+    want = lagrange.Model.from_urdf(PANDA, gravity=(0, 0, -3.7))
+    got = lagrange.Model(PANDA, gravity=(0, 0, -3.7))
+    assert exactly(got.mass_matrix(q), want.mass_matrix(q)) and exactly(got.gravity(q), want.gravity(q))
+    assert got.joint_names == want.joint_names and got.method == "recursive"
+    assert lagrange.Model(PANDA, method="lagrangian").method == "lagrangian"
+
+
+def test_model_of_anything_but_a_urdf_says_what_it_takes():
+    raises(ValueError, "urdf: 'arm2' is a built-in plant, not a URDF file: Model.builtin('arm2', ...)",
+           lambda: lagrange.Model("arm2"))
+    with pytest.raises(TypeError, match=r"urdf: expected a URDF file \(str, bytes or os.PathLike\) or URDF text "
+                                        r"\(str\), got int \(a built-in plant: Model.builtin\)"):
+        lagrange.Model(42)
+    with pytest.raises(TypeError):
+        lagrange.Model()
+
+
+def test_from_urdf_takes_urdf_text_as_its_file():
+    # A str whose first character other than white space is '<' is the URDF itself (as simulate takes YAML text).
+    with open(PANDA) as f:
+        text = f.read()
+    q = np.random.default_rng(9).uniform(-1, 1, 7)
+    from_file, from_text = lagrange.Model.from_urdf(PANDA), lagrange.Model.from_urdf("\n  " + text)
+    assert exactly(from_text.mass_matrix(q), from_file.mass_matrix(q))
+    assert from_text.frame_names == from_file.frame_names
+    assert exactly(lagrange.Model(text).gravity(q), from_file.gravity(q))
+
+def test_urdf_texts_errors_are_its_files_named_urdf_text(tmp_path):
+    for bad in ("<robot name='r'>", "<robot/>", text_without_inertia()):
+        path = tmp_path / "bad.urdf"
+        path.write_text(bad)
+        with pytest.raises(ValueError) as from_file:
+            lagrange.Model.from_urdf(str(path))
+        with pytest.raises(ValueError) as from_text:
+            lagrange.Model.from_urdf(bad)
+        assert str(from_file.value).startswith(str(path) + ": ")
+        assert str(from_text.value) == "<urdf text>: " + str(from_file.value)[len(str(path)) + 2:]
+
+
+def text_without_inertia():
+    return ("<robot name='r'><link name='a'/><link name='b'/>"
+            "<joint name='j' type='revolute'><parent link='a'/><child link='b'/><axis xyz='0 0 1'/>"
+            "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>")
+
+
+def test_a_model_pickles_as_what_built_it_and_computes_the_same_doubles(tmp_path):
+    import copy
+    import pickle
+    # A URDF robot pickles its text, not its path: it unpickles where the file is gone.
+    path = tmp_path / "robot.urdf"
+    shutil.copyfile(BRANCHING, path)
+    models = [lagrange.Model.from_urdf(str(path), gravity=(0.5, -1.0, -9.7), method="lagrangian", mass_scale=1.25),
+              lagrange.Model.builtin("chain", links=3, m=[1.0, 0.8, 0.5], joints=["revolute", "prismatic", "revolute"]),
+              lagrange.Model.builtin("arm2", method="recursive", m1=1.2)]
+    blobs = [pickle.dumps(m) for m in models]
+    path.unlink()
+    for model, blob in zip(models, blobs):
+        back = pickle.loads(blob)
+        q, qd = np.random.default_rng(5).uniform(-1, 1, (2, model.num_dofs))
+        assert (back.plant, back.method, back.joint_names, back.frame_names) == \
+            (model.plant, model.method, model.joint_names, model.frame_names)
+        assert exactly(back.mass_matrix(q), model.mass_matrix(q))
+        assert exactly(back.coriolis_matrix(q, qd), model.coriolis_matrix(q, qd))
+        assert exactly(back.gravity(q), model.gravity(q))
+        assert exactly(copy.deepcopy(model).gravity(q), model.gravity(q))
+    for state in [(99, "builtin", "arm2", None, {}), (1, "urdf"), ()]:  # another version, too short, nothing
+        blank = lagrange.Model.__new__(lagrange.Model)
+        with pytest.raises(ValueError, match="not a pickled lagrange.Model"):
+            blank.__setstate__(state)
+
+
+def _mass_matrices(model, states):
+    return model.mass_matrix(states)
+
+
+def test_a_model_goes_to_worker_processes_with_multiprocessing():
+    import multiprocessing
+    model = lagrange.Model.from_urdf(PANDA)
+    states = np.random.default_rng(11).uniform(-1, 1, (4, 20, 7))
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        results = pool.starmap(_mass_matrices, [(model, s) for s in states])
+    for s, got in zip(states, results):
+        assert exactly(got, model.mass_matrix(s))

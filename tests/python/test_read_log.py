@@ -3,8 +3,11 @@
 same one-line errors. The log is a live run on a private port (8328)."""
 import math
 import os
+import re
 import shutil
+import struct
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -96,19 +99,76 @@ def test_a_state_channel_has_numpy_columns_of_the_instances_shape(log):
         lagrange.read_log(log, channel="([")
 
 
-def test_a_log_cut_short_is_read_to_its_last_whole_event_as_log2csv_reads_it(log, tmp_path):
+def test_a_log_cut_short_raises_naming_the_byte_offset_as_log2csv_refuses_it(log, tmp_path):
+    # Issue 32: it gave the events before the cut silently. It raises log2csv's line, naming where the cut event
+    # starts; partial=True reads the events before it (a logger still writing), as many as log2csv wrote.
     cut = str(tmp_path / "cut.lcm")
     with open(log, "rb") as f:
         data = f.read()
     with open(cut, "wb") as f:
         f.write(data[: len(data) // 2 + 7])
+    with pytest.raises(ValueError) as e:
+        lagrange.read_log(cut, channel="ARM_STATE")
+    assert re.fullmatch(re.escape(cut) + r": cut short inside the event at byte (\d+)(: .*| \(.*\))", str(e.value))
+    at = int(re.search(r"at byte (\d+)", str(e.value)).group(1))
+    assert data[at:at + 4] == b"\xed\xa1\xda\x01" and at < len(data) // 2 + 7  # a sync word: the event's start
     out = tmp_path / "csv"
     r = subprocess.run([LAGRANGECTL, "log2csv", cut, "-o", str(out), "--channel", "ARM_STATE"],
                        capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    arm = lagrange.read_log(cut, channel="ARM_STATE")["ARM_STATE"]
+    assert r.returncode == 1 and r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
+    arm = lagrange.read_log(cut, channel="ARM_STATE", partial=True)["ARM_STATE"]
     assert arm.rows == len(read_csv(str(out / "ARM_STATE.csv"))["log_utime"])
     assert 0 < arm.rows < lagrange.read_log(log, channel="ARM_STATE")["ARM_STATE"].rows
+
+
+def event(channel, payload, declared=None):
+    """One lcm-logger event (big-endian): sync word, number, utime, channel length, payload length, both."""
+    size = len(payload) if declared is None else declared
+    return struct.pack(">IqqiI", 0xEDA1DA01, 0, 1, len(channel), size) + channel + payload
+
+
+def test_a_log_declaring_a_2_gib_body_or_a_huge_channel_raises_naming_the_byte_offset(tmp_path):
+    # Issue 32: each read as {} without a word. The first event is whole; the second lies.
+    first = event(b"ARM_STATE", b"\0" * 16)
+    cases = {
+        "body.lcm": (first + event(b"ARM_STATE", b"\0" * 8, declared=0x7FFFFFFF),
+                     "cut short inside the event at byte %d: it declares a 2147483647-byte payload, of which the "
+                     "file holds 8" % len(first)),
+        "channel.lcm": (first + struct.pack(">IqqiI", 0xEDA1DA01, 1, 2, 5000, 0) + b"X" * 64,
+                        "the event at byte %d declares a 5000-byte channel name (an LCM log's are 1 to 999 bytes)"
+                        % len(first)),
+        "negative.lcm": (first + event(b"X", b"", declared=0xFFFFFFFF),
+                         "the event at byte %d declares a payload of -1 bytes" % len(first)),
+        "header.lcm": (first + event(b"ARM_STATE", b"")[:10],
+                       "cut short inside the event at byte %d (in its header)" % len(first)),
+    }
+    for name, (data, why) in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(ValueError) as e:
+            lagrange.read_log(str(path))
+        assert str(e.value) == "%s: %s" % (path, why)
+        r = subprocess.run([LAGRANGECTL, "log2csv", str(path), "-o", str(tmp_path / "csv")],
+                           capture_output=True, text=True)
+        assert r.returncode == 1 and r.stderr.strip() == "lagrangectl log2csv: " + str(e.value)
+    # partial reads a log cut short to its last whole event; a corrupt one raises all the same.
+    assert lagrange.read_log(str(tmp_path / "body.lcm"), partial=True)["ARM_STATE"].skipped == 1
+    with pytest.raises(ValueError, match="5000-byte channel name"):
+        lagrange.read_log(str(tmp_path / "channel.lcm"), partial=True)
+
+
+def test_read_log_refuses_a_fifo_at_once_instead_of_waiting_for_a_writer(tmp_path):
+    # Issue 32: opening a FIFO for reading blocked forever. In a child process, so a hang fails the test.
+    fifo = str(tmp_path / "run.lcm")
+    os.mkfifo(fifo)
+    code = ("import lagrange, sys\n"
+            "try:\n    lagrange.read_log(sys.argv[1])\nexcept ValueError as e:\n    print(e)\n")
+    r = subprocess.run([sys.executable, "-c", code, fifo], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "cannot read %s: not a regular file (a FIFO)" % fifo
+    log2csv = subprocess.run([LAGRANGECTL, "log2csv", fifo, "-o", str(tmp_path / "csv")], capture_output=True,
+                             text=True, timeout=30)
+    assert log2csv.stderr.strip() == "lagrangectl log2csv: " + r.stdout.strip()
 
 
 def test_what_is_not_a_log_raises_log2csvs_one_line(tmp_path):

@@ -237,3 +237,83 @@ def test_the_stubs_and_docstrings_name_every_simulator_and_bus_call():
                  lagrange.Client.send_torque):
         assert call.__doc__ and len(call.__doc__) > 80, call
     assert "(N, n)" in lagrange.SimulationResult.q.__doc__
+
+
+# Issue 32: the task space that lagrangectl simulate writes to FILE.task.csv comes with simulate's result.
+@pytest.mark.parametrize("scene", ["panda_cartesian_impedance.yaml", "ur5_circle.yaml"])
+def test_simulate_returns_the_task_rows_lagrangectl_simulate_writes_bit_for_bit(scene, tmp_path):
+    r, csv = lagrangectl_simulate(config(scene), DURATION, tmp_path)
+    assert r.returncode == 0, r.stderr
+    (run,) = lagrange.simulate(config(scene), DURATION).values()
+    columns = read_csv(csv.replace(".csv", ".task.csv"))
+    task = run.task
+    assert task is not None and task.frame == columns["frame"][0]
+    assert task.position.shape == (len(run.t), 3) and task.error.shape == (len(run.t), 6)
+    np.testing.assert_array_equal(numbers(columns, "t"), run.t)
+    for field, width in (("position", 3), ("position_des", 3), ("error", 6)):
+        np.testing.assert_array_equal(getattr(task, field), joint_block(columns, field, width), err_msg=field)
+    # The row at t = 0 precedes the first control step; the frame then moves and is held near its target.
+    assert np.all(np.isnan(task.position[0])) and np.all(np.isfinite(task.position[1:]))
+    assert np.ptp(task.position[1:], axis=0).max() > 1e-3
+    assert np.abs(task.error[-1, :3]).max() < 0.05
+
+
+def test_results_of_other_controllers_and_python_laws_carry_no_task_rows():
+    assert lagrange.simulate(config("pendulum.yaml"), 0.01)["pendulum"].task is None
+    # A Python law bypasses the scene's task-space controller: it computes nothing to record.
+    run = lagrange.simulate(config("panda_cartesian_impedance.yaml"), 0.01, controller=lambda t, q, qd: np.zeros(7))
+    assert next(iter(run.values())).task is None
+
+
+# Issue 32: an Instance's q and q̇ can be set, as a simulated robot is moved by hand.
+def test_an_instance_set_to_a_state_steps_on_from_it_as_one_that_started_there():
+    # The free pendulum (no controller, no trajectory) put at (0.3 rad, 0.5 rad/s) at t = 0 moves as the same
+    # scene started there does, bit for bit; set again mid-run, it runs on from there.
+    with open(config("pendulum.yaml")) as f:
+        text = f.read()
+    started = lagrange.Instance(text.replace("q: [1.5707963267948966]", "q: [0.3]\n      qd: [0.5]"))
+    moved = lagrange.Instance(text)
+    moved.q = [0.3]
+    moved.qd = np.array([0.5])
+    np.testing.assert_array_equal(moved.q, [0.3])
+    np.testing.assert_array_equal(moved.qd, [0.5])
+    np.testing.assert_array_equal(moved.qdd, started.qdd)  # recomputed there: −g sin(0.3) / L
+    for _ in range(200):
+        moved.step()
+        started.step()
+    np.testing.assert_array_equal(moved.q, started.q)
+    np.testing.assert_array_equal(moved.qd, started.qd)
+    t = moved.t
+    moved.set_state(q=[-0.2], qd=[0.0])
+    assert moved.t == t
+    moved.step()
+    assert moved.q[0] == pytest.approx(-0.2, abs=1e-4) and moved.qd[0] > 0.0  # from rest at −0.2 rad, falling back
+
+
+def test_setting_an_instances_state_keeps_its_energy_balance_running_on():
+    # The jump in energy is no work done: ε stays what it was, then follows the integrator's drift alone.
+    inst = lagrange.Instance(config("pendulum.yaml"))  # free: no torque, no damping, so ε is the drift alone
+    for _ in range(50):
+        inst.step()
+    before = inst.energy_residual
+    assert np.isfinite(before)
+    energy = inst.kinetic_energy + inst.potential_energy
+    inst.set_state(q=inst.q + 0.4, qd=inst.qd + 1.0)
+    assert abs(inst.kinetic_energy + inst.potential_energy - energy) > 0.1  # a real jump in E
+    assert inst.energy_residual == pytest.approx(before, abs=1e-12)  # to rounding in E(0)'s move by the jump
+    for _ in range(50):
+        inst.step()
+    assert abs(inst.energy_residual - before) < 1e-6
+
+
+def test_an_instances_state_of_the_wrong_shape_or_not_finite_is_refused_and_nothing_changes():
+    inst = lagrange.Instance(config("pendulum.yaml"))
+    q = inst.q
+    with pytest.raises(ValueError, match=r"q: expected 1 value \(one per joint\), got 2"):
+        inst.q = [0.1, 0.2]
+    with pytest.raises(ValueError, match="qd: expected finite values, got nan at index 0"):
+        inst.qd = [float("nan")]
+    with pytest.raises(ValueError, match="q: expected finite values, got inf at index 0"):
+        inst.set_state(q=[float("inf")], qd=[1.0])
+    np.testing.assert_array_equal(inst.q, q)
+    assert inst.qd[0] == 0.0
