@@ -1,5 +1,7 @@
 #include "tools/bus_options.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include "protocol/channels.hpp"
 #include "protocol/signing.hpp"
 
