@@ -1,5 +1,6 @@
 #include "tools/bus_options.hpp"
 
+#include <CLI/CLI.hpp>
 #include <limits>
 #include <optional>
 

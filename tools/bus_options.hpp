@@ -4,9 +4,11 @@
 // malformed URL surfaces as a BusUrlError, which lagrangectl reports as a bad
 // argument (exit 2).
 
-#include <CLI/CLI.hpp>
-
 #include "protocol/client.hpp"
+
+namespace CLI {
+class App;  // CLI/CLI.hpp in the .cpp (see tools/commands.hpp)
+}  // namespace CLI
 
 namespace lagrange::cli {
 

@@ -6,7 +6,12 @@
 #include <memory>
 #include <ostream>
 
-#include <CLI/CLI.hpp>
+// CLI11 is header-only and costly to compile (its validators are built in every file that
+// includes it): this header names CLI::App only by reference, so the files that merely run
+// lagrangectl (main.cpp, the tests) never include it.
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace lagrange::cli {
 

@@ -1,5 +1,7 @@
 // lagrangectl keygen: a new shared secret for signed bus traffic (protocol/signing.hpp).
 
+#include <CLI/CLI.hpp>
+
 #include "protocol/signing.hpp"
 #include "tools/commands.hpp"
 

@@ -19,7 +19,6 @@
 #include "protocol/format.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
-#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {

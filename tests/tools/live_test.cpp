@@ -29,7 +29,6 @@
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
-#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {

@@ -14,7 +14,6 @@
 #include "sim/scene.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
-#include "tools/cli_support.hpp"
 
 namespace lagrange {
 namespace {
