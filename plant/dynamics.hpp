@@ -77,9 +77,11 @@ class DynamicsData {
   VectorXd term_;
   Eigen::LLT<MatrixXd> llt_;
   // Scratch of the generic derivatives: two (n x n) results a caller did not
-  // ask for, zeros (n).
+  // ask for, zeros (n), and the solve's right-hand sides, one row of the
+  // system per column (3n x n: M⁻¹ [I, −∂tau/∂q, −∂tau/∂qd] row by row).
   MatrixXd unused_a_, unused_b_;
   VectorXd zeros_;
+  MatrixXd rows_;
 };
 
 class Dynamics {
