@@ -103,7 +103,7 @@ def main():
     runs = [
         ("python", [sys.executable, os.path.join(SOURCE, "examples", "python", "external_controller.py"), "--url",
                     url(args.port), "--target", target, "--duration", str(args.seconds)]),
-        ("c++", [os.path.join(args.build, "tools", "examples", "impedance_client"), "--url", url(args.port), "--target",
+        ("c++", [os.path.join(args.build, "tools", "examples", "impedance_client"), "--lcm-url", url(args.port), "--target",
                  target, "--duration", str(args.seconds)]),
     ]
     rows = []

@@ -102,7 +102,17 @@ void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
 }
 
 void Instance::ComputeForces(EffectForces& out) {
-  model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/true);
+  if (!stepped_) {
+    model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/true);
+    return;
+  }
+  // The simulator's own terms at the state it holds, under the force it applied (tau_).
+  stepped_->ComputeForces(out);
+  out.tau_cmd = tau_cmd_;
+  out.tau_applied = tau_;
+  out.active.saturation = model_.effects().flags().saturation;
+  out.active.disturbance = false;
+  out.disturbance.setZero();
 }
 
 const char* Instance::CheckIntegrator(const IntegratorConfig& config) const {

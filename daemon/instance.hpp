@@ -173,6 +173,8 @@ class Instance {
   double power() const { return power_end_; }  // W, at the last step's end under its command
   // Every effect's force at the current state under the last step's command
   // (what <NAME>_FORCES carries); `out` sized for this plant. No allocation.
+  // A stepped (mujoco) plant's are its simulator's own terms, constraint
+  // forces and contacts (SteppedPlantData::ComputeForces).
   void ComputeForces(EffectForces& out);
 
  private:

@@ -3,10 +3,13 @@
 #include <limits>
 #include <stdexcept>
 #include <utility>
+#include <variant>
 
 #include "daemon/health.hpp"
 #include "daemon/scene_channels.hpp"
 #include "daemon/work_bound.hpp"
+#include "plant/frame_speed.hpp"
+#include "plant/urdf.hpp"
 
 namespace lagrange {
 namespace {
@@ -22,6 +25,27 @@ HoldBy FallbackOf(const std::vector<ControllerModel>& controllers, const std::op
     if (named || model_based) return {HoldBy::Kind::kController, k};
   }
   return {HoldBy::Kind::kBrake, 0};
+}
+
+// The fastest the frame `frame` of `spec`'s robot can move within its joints'
+// velocity limits (plant/frame_speed.hpp): a URDF's <limit velocity> (none,
+// or 0, which some files write for "unspecified": unbounded, as
+// UrdfTorqueLimits reads effort) and, for a prismatic joint's travel, its
+// <limit lower upper>. The built-in plants have no velocity limits: unbounded.
+FrameSpeedBound FrameSpeedOf(const PlantSpec& spec, int frame) {
+  const auto* urdf = std::get_if<UrdfParams>(&spec.params);
+  if (urdf == nullptr || !urdf->robot) return {};
+  const UrdfRobot& robot = *urdf->robot;
+  const int n = robot.tree.num_dofs();
+  const double inf = std::numeric_limits<double>::infinity();
+  VectorXd speed(n), lower(n), upper(n);
+  for (int d = 0; d < n; ++d) {
+    const UrdfJointProperties& p = robot.properties[static_cast<std::size_t>(d)];
+    speed[d] = p.velocity && *p.velocity > 0.0 ? *p.velocity : inf;
+    lower[d] = p.lower.value_or(-inf);
+    upper[d] = p.upper.value_or(inf);
+  }
+  return MaxFrameSpeed(robot.tree, frame, speed, lower, upper);
 }
 
 std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
@@ -59,6 +83,9 @@ std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
     m.pose_rules.frame = kinematics.frame_names()[static_cast<std::size_t>(*frame)];
     m.pose_rules.lower = config.workspace_lower;
     m.pose_rules.upper = config.workspace_upper;
+    const FrameSpeedBound fastest = FrameSpeedOf(m.config.model ? *m.config.model : config.plant, *frame);
+    m.pose_rules.max_linear_speed = fastest.linear;
+    m.pose_rules.max_angular_speed = fastest.angular;
   }
   return controllers;
 }

@@ -103,6 +103,25 @@ ModeOutcome Resume(ModeState s) {
   return {s, nullptr, true};
 }
 
+// The inputs whose arrival and timeout decide running and hold: the ones the
+// active controller follows.
+enum class Stream : std::uint8_t { kSetpoints, kPoses, kTorques };
+Stream DecidingStream(const ModeContext& c) {
+  if (c.external_controller) return Stream::kTorques;
+  return c.task_space ? Stream::kPoses : Stream::kSetpoints;
+}
+
+// An input of `stream` arrived: it resumes a hold when it is the deciding one.
+ModeOutcome OnArrived(const ModeState& s, Stream stream, const ModeContext& c) {
+  return DecidingStream(c) == stream ? Resume(s) : Stay(s);
+}
+
+// `stream` timed out: a running instance that follows it holds, for `reason`.
+ModeOutcome OnTimedOut(const ModeState& s, Stream stream, const ModeContext& c, const char* reason) {
+  if (DecidingStream(c) != stream || s.mode != Mode::kRunning) return Stay(s);
+  return Enter(s, Mode::kHold, reason);
+}
+
 ModeOutcome OnMeasuredArrived(ModeState s, const ModeContext& c) {
   if (s.mode != Mode::kWaiting) return Stay(s);
   const bool hold = s.hold_on_arrival;
@@ -141,14 +160,12 @@ ModeOutcome Transition(const ModeState& s, ModeEvent e, const ModeContext& c) {
     case ModeEvent::kPause: return OnPause(s, c);
     case ModeEvent::kResume: return OnResume(s);
     case ModeEvent::kControllerSwitched: return OnControllerSwitched(s, c);
-    case ModeEvent::kSetpointArrived: return c.external_controller ? Stay(s) : Resume(s);
-    case ModeEvent::kSetpointsTimedOut:
-      if (c.external_controller || s.mode != Mode::kRunning) return Stay(s);
-      return Enter(s, Mode::kHold, kSetpointsTimedOut);
-    case ModeEvent::kTorqueArrived: return c.external_controller ? Resume(s) : Stay(s);
-    case ModeEvent::kTorquesTimedOut:
-      if (!c.external_controller || s.mode != Mode::kRunning) return Stay(s);
-      return Enter(s, Mode::kHold, kTorquesTimedOut);
+    case ModeEvent::kSetpointArrived: return OnArrived(s, Stream::kSetpoints, c);
+    case ModeEvent::kSetpointsTimedOut: return OnTimedOut(s, Stream::kSetpoints, c, kSetpointsTimedOut);
+    case ModeEvent::kPoseArrived: return OnArrived(s, Stream::kPoses, c);
+    case ModeEvent::kPosesTimedOut: return OnTimedOut(s, Stream::kPoses, c, kSetpointsTimedOut);
+    case ModeEvent::kTorqueArrived: return OnArrived(s, Stream::kTorques, c);
+    case ModeEvent::kTorquesTimedOut: return OnTimedOut(s, Stream::kTorques, c, kTorquesTimedOut);
     case ModeEvent::kMeasuredArrived: return OnMeasuredArrived(s, c);
     case ModeEvent::kMeasuredTimedOut:
     case ModeEvent::kMeasuredNotFinite:

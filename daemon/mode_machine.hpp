@@ -30,6 +30,12 @@
 //     controller's torques, then holds; an external plant stops.
 //   The next accepted input (kSetpointArrived, kTorqueArrived) resumes
 //   running from hold.
+//   One stream decides, the one the active controller follows: an external
+//   controller's torques, a task-space controller's poses (kPoseArrived; a
+//   pose latches, so only one streamed with a twist times out:
+//   kPosesTimedOut), else the joint setpoints. The others' events change
+//   nothing (DecidingStream), so a joint stream that timed out under another
+//   controller cannot send a task-space instance back to hold.
 //
 // The stop is sacred: an estop is taken before anything else in a tick, and
 // a clear_estop that arrives in the same tick as an estop is refused
@@ -56,6 +62,8 @@ enum class ModeEvent : std::uint8_t {
   kControllerSwitched,    // command switch (the new controller is active)
   kSetpointArrived,       // an accepted streamed setpoint was taken
   kSetpointsTimedOut,     // streamed setpoints stopped for setpoint_timeout
+  kPoseArrived,           // an accepted pose for the active task-space controller was taken
+  kPosesTimedOut,         // a pose streamed with a twist was not followed by another within setpoint_timeout
   kTorqueArrived,         // an accepted torque for the active external controller was taken
   kTorquesTimedOut,       // its torques stopped for torque_timeout
   kMeasuredArrived,       // an external plant's accepted measured state was taken
@@ -65,7 +73,7 @@ enum class ModeEvent : std::uint8_t {
   kMeasuredSecondSource,  // ... one from a second run id
   kFault,                 // the health check failed (ModeContext::fault says why)
 };
-inline constexpr int kNumModeEvents = 17;
+inline constexpr int kNumModeEvents = 19;
 
 // The machine's state: the mode, why it is not running, and what it
 // remembers across events.
@@ -82,6 +90,7 @@ struct ModeState {
 struct ModeContext {
   bool external_plant = false;       // the plant is outside lagranged
   bool external_controller = false;  // the active controller (after the event) streams torques over LCM
+  bool task_space = false;           // the active controller (after the event) follows poses, not joint setpoints
   bool setpoints_timed_out = false;  // streamed setpoints were accepted and then stopped for setpoint_timeout
   bool estop_this_tick = false;      // an estop arrived in the same tick as this event (kClearEstop)
   const char* fault = nullptr;       // kFault: why (a static string)

@@ -57,9 +57,10 @@ Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& 
     o.forces.run_id = run_id_;
     o.forces.num_dofs = m.num_dofs;
     for (auto* v : {&o.forces.gravity, &o.forces.coriolis, &o.forces.damping, &o.forces.friction, &o.forces.limits,
-                    &o.forces.disturbance, &o.forces.tau_cmd, &o.forces.tau_applied}) {
+                    &o.forces.constraint, &o.forces.disturbance, &o.forces.tau_cmd, &o.forces.tau_applied}) {
       v->resize(n);
     }
+    o.forces.contacts.reserve(kMaxContacts);  // a tick's contacts resize within it: no allocation
     out_.push_back(std::move(o));
     status_.instance_names.push_back(m.name());
     status_.instance_dofs.push_back(m.num_dofs);
@@ -229,15 +230,33 @@ void Publisher::PublishForces(std::size_t i, const InstanceRecord& r, const Tick
   f.limits_on = e.active.limits;
   f.saturation_on = e.active.saturation;
   f.disturbance_on = e.active.disturbance;
+  f.constraint_on = e.constraint_on;
   const auto n = static_cast<std::size_t>(f.num_dofs);
   std::copy_n(e.gravity.data(), n, f.gravity.data());
   std::copy_n(e.coriolis.data(), n, f.coriolis.data());
   std::copy_n(e.damping.data(), n, f.damping.data());
   std::copy_n(e.friction.data(), n, f.friction.data());
   std::copy_n(e.limits.data(), n, f.limits.data());
+  std::copy_n(e.constraint.data(), n, f.constraint.data());
   std::copy_n(e.disturbance.data(), n, f.disturbance.data());
   std::copy_n(e.tau_cmd.data(), n, f.tau_cmd.data());
   std::copy_n(e.tau_applied.data(), n, f.tau_applied.data());
+  f.contacts_total = e.contacts_total;
+  f.num_contacts = e.num_contacts;
+  f.contacts.resize(static_cast<std::size_t>(e.num_contacts));
+  for (std::size_t k = 0; k < f.contacts.size(); ++k) {
+    const ContactWrench& w = e.contacts[k];
+    contact_t& c = f.contacts[k];
+    c.geom1 = w.geom1;
+    c.geom2 = w.geom2;
+    c.distance = w.distance;
+    for (int a = 0; a < 3; ++a) {
+      c.position[a] = w.position[a];
+      c.normal[a] = w.normal[a];
+      c.force[a] = w.force[a];
+      c.torque[a] = w.torque[a];
+    }
+  }
   bus_.PublishMessage(model_.instances[i].channels.forces, f);
 }
 

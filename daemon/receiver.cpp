@@ -231,6 +231,7 @@ void Receiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size
     DecodeError(m.channels.setpoint, verdict.reason.c_str());
     return;
   }
+  if (std::string why = Refusal(i, TargetKind::kJointSetpoint); !why.empty()) return RejectSetpoint(i, why);
   if (verdict.kind == SetpointVerdict::Kind::kRejected) {
     RejectSetpoint(i, verdict.reason);
     return;
@@ -248,6 +249,17 @@ void Receiver::HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size
   stats_.setpoints_accepted.fetch_add(1, std::memory_order_relaxed);
 }
 
+const ControllerModel& Receiver::ActiveController(std::size_t i) const {
+  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
+  return model_.instances[i].controllers[static_cast<std::size_t>(active)];
+}
+
+// Whether the active controller follows a `kind` target (protocol/setpoint_check.hpp's one rule).
+std::string Receiver::Refusal(std::size_t i, TargetKind kind) const {
+  const ControllerModel& c = ActiveController(i);
+  return RefusedByController(kind, !c.pose_rules.frame.empty(), c.name);
+}
+
 std::string Receiver::AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout) {
   if (age.out_of_line) return age.out_of_line;
   return age.age > 0 ? fmt::format("stale: sent {:.6g} s ago ({} {:.6g} s)", age.age, timeout_name, timeout)
@@ -258,15 +270,11 @@ std::string Receiver::AgeReason(const AgeVerdict& age, const char* timeout_name,
 // the workspace), counted with the setpoints.
 void Receiver::HandlePose(std::size_t i, const std::uint8_t* data, std::size_t size) {
   const InstanceModel& m = model_.instances[i];
-  const int active = runtime_.channels(i).active_controller.load(std::memory_order_acquire);
-  const ControllerModel& controller = m.controllers[static_cast<std::size_t>(active)];
+  const ControllerModel& controller = ActiveController(i);
   const SetpointVerdict verdict = CheckPoseSetpoint(data, size, controller.pose_rules, pose_);
   if (verdict.kind == SetpointVerdict::Kind::kUndecodable) return DecodeError(m.channels.pose, verdict.reason.c_str());
   std::atomic<std::int64_t>& rejected = stats_.setpoints_rejected;
-  if (controller.pose_rules.frame.empty()) {
-    return RejectInput(i, rejected, "pose",
-                       "the instance is not running a task-space controller (active: " + controller.name + ")");
-  }
+  if (std::string why = Refusal(i, TargetKind::kPose); !why.empty()) return RejectInput(i, rejected, "pose", why);
   if (verdict.kind == SetpointVerdict::Kind::kRejected) return RejectInput(i, rejected, "pose", verdict.reason);
   const AgeVerdict age = Age(data_[i].poses, m.config.setpoint_timeout, pose_.utime);
   if (!age.ok) return RejectInput(i, rejected, "pose", AgeReason(age, "setpoint_timeout", m.config.setpoint_timeout));

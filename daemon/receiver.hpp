@@ -147,6 +147,10 @@ class Receiver {
   AgeVerdict Age(Timeline& line, double timeout, std::int64_t utime);
   // "stale: sent X s ago (NAME X s)" or "timestamp X s in the future ...".
   static std::string AgeReason(const AgeVerdict& age, const char* timeout_name, double timeout);
+  // Instance i's active controller as the tick last published it, and why it
+  // refuses a `kind` target ("" when it follows it).
+  const ControllerModel& ActiveController(std::size_t i) const;
+  std::string Refusal(std::size_t i, TargetKind kind) const;
   void HandleSetpoint(std::size_t i, const std::uint8_t* data, std::size_t size);
   void HandlePose(std::size_t i, const std::uint8_t* data, std::size_t size);
   void HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size);

@@ -98,6 +98,7 @@ struct Runtime::Slot {
 
   const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
   bool external_active() const { return active().external; }
+  bool task_space_active() const { return !active().pose_rules.frame.empty(); }
 };
 
 Runtime::Runtime(const Scene& scene, const BuildOptions& options) : Runtime(BuildDaemonModel(scene, options)) {}
@@ -178,11 +179,14 @@ bool TimedOut(Nanoseconds now, Nanoseconds last, Nanoseconds timeout) { return n
 }  // namespace
 
 const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault) {
-  const ModeContext context{.external_plant = s.m.external_plant(),
-                            .external_controller = s.external_active(),
-                            .setpoints_timed_out = s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
-                            .estop_this_tick = s.estop_this_tick,
-                            .fault = fault};
+  const bool task_space = s.task_space_active();
+  const ModeContext context{
+      .external_plant = s.m.external_plant(),
+      .external_controller = s.external_active(),
+      .task_space = task_space,
+      .setpoints_timed_out = !task_space && s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
+      .estop_this_tick = s.estop_this_tick,
+      .fault = fault};
   const ModeOutcome out = Transition(s.mode, event, context);
   const Mode before = s.mode.mode;
   s.mode = out.next;
@@ -402,9 +406,14 @@ void Runtime::LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived) {
 
 // (mailbox) => the streamed setpoint; its timeout. Stale setpoints never get
 // here (the receiver refuses them) and so cannot cause hold: only the
-// timeout does (daemon/mode_machine.hpp has the whole rule).
+// timeout does (daemon/mode_machine.hpp has the whole rule). A task-space
+// controller follows poses: a setpoint the receiver let through before a
+// switch to one is dropped, as TakePose drops a pose after a switch away.
 void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
-  if (const SetpointMessage* msg = s.channels.setpoints.Take()) {
+  // Taken even when unused, so an old one never applies later.
+  const SetpointMessage* msg = s.channels.setpoints.Take();
+  if (s.task_space_active()) return;
+  if (msg != nullptr) {
     s.streamed.q = msg->setpoint.q;
     s.streamed.qd = msg->setpoint.qd;
     s.streamed.qdd = msg->setpoint.qdd;
@@ -437,12 +446,12 @@ void Runtime::TakePose(Slot& s, Nanoseconds now) {
     }
     s.pose_streaming = msg->duration == 0.0 && !msg->twist.isZero(0.0);
     s.last_pose = now;
-    On(s, ModeEvent::kSetpointArrived, now);
+    On(s, ModeEvent::kPoseArrived, now);
   }
   if (s.pose_streaming && TimedOut(now, s.last_pose, s.m.setpoint_timeout)) {
     c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
     s.pose_streaming = false;
-    On(s, ModeEvent::kSetpointsTimedOut, now);
+    On(s, ModeEvent::kPosesTimedOut, now);
   }
 }
 

@@ -16,8 +16,8 @@ namespace lagrange {
 namespace {
 
 constexpr int kWarmUpCalls = 20;
-constexpr int kBatches = 20;        // 20 batches of 10: the ~200 timed calls
-constexpr int kCallsPerBatch = 10;  // a batch amortises the clock read over several calls
+constexpr int kBatches = kMaxCostSamples;  // 20 batches of 10: the ~200 timed calls
+constexpr int kCallsPerBatch = 10;         // a batch amortises the clock read over several calls
 // The most one measurement may take, warm-up included: a slow evaluation (a
 // Lagrangian 64-link chain takes ~10 ms) is timed over fewer batches, at
 // least one call, so start-up stays short whatever the scene.
@@ -27,14 +27,10 @@ using Steady = std::chrono::steady_clock;
 
 double SecondsSince(Steady::time_point t) { return std::chrono::duration<double>(Steady::now() - t).count(); }
 
-// The least of `sample()`'s values (s), over up to kBatches calls made while
-// less than `budget` s have passed since the first; +inf when none was made.
-template <class Sample>
-double FastestSample(double budget, Sample sample) {
+// FastestOfSamples on the steady clock, from now.
+double FastestSample(double budget, const std::function<double()>& sample) {
   const Steady::time_point begin = Steady::now();
-  double fastest = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < kBatches && SecondsSince(begin) < budget; ++b) fastest = std::min(fastest, sample());
-  return fastest;
+  return FastestOfSamples(sample, budget, [&] { return SecondsSince(begin); });
 }
 
 std::int64_t SaturatingMul(std::int64_t a, std::int64_t b) {
@@ -62,6 +58,14 @@ std::string Describe(const WorkBound& b, const InstanceConfig& instance) {
 }
 
 }  // namespace
+
+double FastestOfSamples(const std::function<double()>& sample, double budget, const std::function<double()>& elapsed) {
+  double fastest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < kMaxCostSamples && (k < kMinCostSamples || elapsed() < budget); ++k) {
+    fastest = std::min(fastest, sample());
+  }
+  return fastest;
+}
 
 double LargestMaxStepsThatFit(double evaluations_that_fit, int substeps) {
   return std::floor(((evaluations_that_fit - 1.0) / std::max(1, substeps) - 1.0) / 6.0);
@@ -93,16 +97,16 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
   for (int i = 0; i < kWarmUpCalls && SecondsSince(begin) < 0.1 * kMeasureBudget; ++i) {
     model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
   }
-  double fastest = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < kBatches; ++b) {
-    const Steady::time_point start = Steady::now();
-    for (int i = 0; i < calls; ++i) model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
-    const double batch = SecondsSince(start);
-    fastest = std::min(fastest, batch / calls);
-    if (SecondsSince(begin) > kMeasureBudget) break;
-    if (batch > kMeasureBudget / kBatches) calls = 1;  // slow calls: one per batch
-  }
-  return fastest;
+  return FastestOfSamples(
+      [&] {
+        const Steady::time_point start = Steady::now();
+        for (int i = 0; i < calls; ++i) model.ComputeAcceleration(0.0, config.q0, config.qd0, tau, qdd);
+        const double batch = SecondsSince(start);
+        const double each = batch / calls;
+        if (batch > kMeasureBudget / kBatches) calls = 1;  // slow calls: one per batch
+        return each;
+      },
+      kMeasureBudget, [&] { return SecondsSince(begin); });
 }
 
 double MeasureSteppedSeconds(const InstanceConfig& config) {

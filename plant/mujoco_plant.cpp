@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +19,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <utility>
+
+#include "plant/mujoco_files.hpp"
 
 // MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
 // exported by 2.2.2 but not in its public headers; MuJoCo's tests raise it to
@@ -35,9 +38,27 @@ namespace {
 // time mjData sees it; the tick does no I/O, and Step reads the counters.
 void DiscardWarning(const char* /*message*/) {}
 
+// A MuJoCo error (mju_error: "Stack overflow" when a step's contacts outgrow
+// the file's nstack, "Could not allocate mjData stack", ...) is fatal by
+// default: MuJoCo prints "Press Enter to exit ...", waits on stdin and calls
+// exit(1), so one scene file could end or hang lagranged. Thrown instead
+// (MuJoCo's Python bindings do the same): MujocoPlantData::Step catches it and
+// faults the instance with MuJoCo's message; elsewhere it is a load error.
+// MuJoCo 2.2.2's C frames unwind (x86-64 builds carry unwind tables); the
+// mjData's arena mark is left raised, and Step resets it after the catch.
+class MujocoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void ThrowError(const char* message) { throw MujocoError(std::string("MuJoCo: ") + message); }
+
 void InstallHandlers() {
   static std::once_flag once;
-  std::call_once(once, [] { mju_user_warning = &DiscardWarning; });
+  std::call_once(once, [] {
+    mju_user_warning = &DiscardWarning;
+    mju_user_error = &ThrowError;
+  });
 }
 
 // MuJoCo's messages run over several lines ("Error: ...\nElement 'x', line 3"): one line.
@@ -146,32 +167,12 @@ std::recursive_mutex& LastXmlMutex() {
   return mutex;
 }
 
-// mj_loadXML of `text` under `file`'s name (so that MuJoCo's messages name it), through a virtual file system.
-mjModel* LoadXmlText(const std::string& file, const std::string& text, char* error, int error_size) {
-  const auto vfs = std::make_unique<mjVFS>();  // 2 MB of names: not on the stack
-  mj_defaultVFS(vfs.get());
-  const std::string name = file.substr(file.find_last_of('/') + 1);
-  if (mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(text.size())) != 0) {
-    std::snprintf(error, static_cast<std::size_t>(error_size), "could not hold the file in memory");
-    return nullptr;
-  }
-  const int i = mj_findFileVFS(vfs.get(), name.c_str());
-  std::memcpy(vfs->filedata[i], text.data(), text.size());
-  mjModel* m = nullptr;
-  {
-    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
-    m = mj_loadXML(file.c_str(), vfs.get(), error, error_size);
-  }
-  mj_deleteVFS(vfs.get());
-  return m;
-}
-
-std::string ReadText(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) Refuse(file, "MuJoCo: could not open the file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+// mj_loadXML of `files` (files[0] the model, under `file`'s name, so that MuJoCo's messages name it) from
+// memory: MuJoCo reads no file itself (plant/mujoco_files.hpp).
+mjModel* LoadFiles(const std::string& file, const std::vector<MujocoFile>& files, char* error, int error_size) {
+  const MujocoVfs vfs = MakeMujocoVfs(file, files);
+  const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
+  return mj_loadXML(file.c_str(), vfs.get(), error, error_size);
 }
 
 // Whether the XML's root element is a URDF's <robot> (MuJoCo's own test:
@@ -249,7 +250,7 @@ std::optional<std::string> CheckCoupled(const mjModel* m, const MujocoMimic& mim
 // MuJoCo's only URDF-to-MJCF path in 2.2.2, at 17 digits); the equalities, as
 // stiff as MuJoCo allows at `timestep`, go before its end, and MuJoCo loads
 // that. Null (and MuJoCo's message in `error`) if MuJoCo refuses either.
-mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const std::vector<MujocoMimic>& mimics,
+mjModel* CoupleMimics(const std::string& file, std::vector<MujocoFile> files, const std::vector<MujocoMimic>& mimics,
                       double timestep, char* error, int error_size) {
   std::string path = (std::filesystem::temp_directory_path() / "lagrange_mujoco_XXXXXX").string();
   const int fd = mkstemp(path.data());
@@ -259,7 +260,7 @@ mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const st
   int saved = 0;
   {
     const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());  // no other load between the two calls
-    mjModel* m = LoadXmlText(file, urdf, error, error_size);
+    mjModel* m = LoadFiles(file, files, error, error_size);
     if (m == nullptr) {
       std::remove(path.c_str());
       return nullptr;
@@ -284,7 +285,8 @@ mjModel* CoupleMimics(const std::string& file, const std::string& urdf, const st
     Refuse(file, "MuJoCo could not write it as MJCF to couple its mimic joints: " + OneLine(error));
   }
   text.insert(end, equalities);
-  return LoadXmlText(file, text, error, error_size);
+  files[0].data = std::move(text);  // the MJCF in the URDF's place; the files it names stay
+  return LoadFiles(file, files, error, error_size);
 }
 
 const char* WarningReason(int warning) {
@@ -312,7 +314,9 @@ class MujocoPlantData final : public SteppedPlantData {
         m_(model_.model_),
         d_(mj_makeData(model_.model_)),
         qpos_start_(model_.model_->nv),
-        qvel_start_(model_.model_->nv) {
+        qvel_start_(model_.model_->nv),
+        jacp_(3 * static_cast<std::size_t>(model_.model_->nv)),
+        full_(VectorXd::Zero(model_.model_->nv)) {
     if (d_ == nullptr) throw std::runtime_error(model_.file_ + ": MuJoCo could not make its data");
     mj_forward(m_, d_);
   }
@@ -338,6 +342,19 @@ class MujocoPlantData final : public SteppedPlantData {
   }
 
   const char* Step(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) override {
+    try {
+      return StepOnce(tau, q, qd, qdd);
+    } catch (const MujocoError& error) {
+      // The fault path only (the throw allocated): the instance stops here with
+      // MuJoCo's words, and its arena is free again for a later SetState.
+      d_->pstack = 0;
+      std::snprintf(error_.data(), error_.size(), "%s", error.what());
+      return error_.data();
+    }
+  }
+
+ private:
+  const char* StepOnce(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) {
     const int n = model_.num_dofs_;
     for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];  // a mimic's: 0
     for (mjWarningStat& w : d_->warning) w.number = 0;
@@ -385,13 +402,113 @@ class MujocoPlantData final : public SteppedPlantData {
     return nullptr;
   }
 
+ public:
   double kinetic_energy() const override { return d_->energy[1]; }
   const mjModel* m() const { return m_; }
   const mjData* d() const { return d_; }
   double potential_energy() const override { return d_->energy[0]; }
   double other_work() const override { return other_work_; }
 
+  // MuJoCo's M qacc = qfrc_applied + qfrc_passive + qfrc_constraint − qfrc_bias, each term
+  // as mj_forward left it at the current state, reduced to the degrees of freedom (Sᵀ).
+  void ComputeForces(EffectForces& out) override {
+    const MujocoPlantModel::Terms& has = model_.terms_;
+    out.active.gravity = has.gravity;
+    out.active.coriolis = true;
+    out.active.damping = has.passive;
+    out.active.friction = has.friction_loss;
+    out.active.limits = has.limits;
+    out.constraint_on = has.constraint;
+    out.limit_springs.setZero();  // MuJoCo's limits are constraints, with no spring energy in V
+    ComputeGravity(full_);
+    Reduce(full_, out.gravity);
+    for (int i = 0; i < m_->nv; ++i) full_[i] = d_->qfrc_bias[i] - full_[i];
+    Reduce(full_, out.coriolis);
+    Reduce(Eigen::Map<const VectorXd>(d_->qfrc_passive, m_->nv), out.damping);
+    ConstraintShare(ConstraintKind::kFrictionLoss, out.friction);
+    ConstraintShare(ConstraintKind::kLimit, out.limits);
+    ConstraintShare(ConstraintKind::kContactOrEquality, out.constraint);
+    ListContacts(out);
+  }
+
  private:
+  enum class ConstraintKind : std::uint8_t { kFrictionLoss, kLimit, kContactOrEquality };
+  static ConstraintKind KindOf(int efc_type) {
+    switch (efc_type) {
+      case mjCNSTR_FRICTION_DOF:
+      case mjCNSTR_FRICTION_TENDON: return ConstraintKind::kFrictionLoss;
+      case mjCNSTR_LIMIT_JOINT:
+      case mjCNSTR_LIMIT_TENDON: return ConstraintKind::kLimit;
+      default: return ConstraintKind::kContactOrEquality;  // equality, and contacts of every cone
+    }
+  }
+
+  // (nv) => (n): Sᵀ f, S the coupling q_full = S q + offset: a mimic's force acts on its leader times its multiplier.
+  void Reduce(const Eigen::Ref<const VectorXd>& full, VecRef out) const {
+    for (int i = 0; i < model_.num_dofs_; ++i) out[i] = full[model_.dof_[static_cast<std::size_t>(i)]];
+    for (const MujocoPlantModel::Mimic& mimic : model_.mimics_)
+      out[mimic.leader] += mimic.multiplier * full[mimic.joint];
+  }
+
+  // (q) => G (nv) = −Σ_bodies m J_comᵀ g: the gravity part of qfrc_bias.
+  void ComputeGravity(VectorXd& g_force) {
+    g_force.setZero();
+    if (!model_.terms_.gravity) return;
+    const int nv = m_->nv;
+    for (int b = 1; b < m_->nbody; ++b) {
+      const double mass = m_->body_mass[b];
+      if (mass == 0.0) continue;
+      mj_jacBodyCom(m_, d_, jacp_.data(), nullptr, b);
+      for (int k = 0; k < 3; ++k) {
+        const double weight = mass * m_->opt.gravity[k];
+        for (int i = 0; i < nv; ++i) g_force[i] -= weight * jacp_[static_cast<std::size_t>(k * nv + i)];
+      }
+    }
+  }
+
+  // (efc rows of `kind`) => Sᵀ Jᵀ efc_force over them: the kinds add up to qfrc_constraint.
+  void ConstraintShare(ConstraintKind kind, VecRef out) {
+    full_.setZero();
+    const int nv = m_->nv;
+    const bool sparse = mj_isSparse(m_) != 0;
+    for (int r = 0; r < d_->nefc; ++r) {
+      if (KindOf(d_->efc_type[r]) != kind) continue;
+      const double f = d_->efc_force[r];
+      if (sparse) {
+        const int start = d_->efc_J_rowadr[r];
+        for (int k = 0; k < d_->efc_J_rownnz[r]; ++k) full_[d_->efc_J_colind[start + k]] += d_->efc_J[start + k] * f;
+      } else {
+        const mjtNum* row = d_->efc_J + static_cast<std::ptrdiff_t>(r) * nv;
+        for (int i = 0; i < nv; ++i) full_[i] += row[i] * f;
+      }
+    }
+    Reduce(full_, out);
+  }
+
+  // MuJoCo's active contacts (those in the constraint), the first kMaxContacts in its order, world frame.
+  void ListContacts(EffectForces& out) const {
+    out.contacts_total = 0;
+    out.num_contacts = 0;
+    for (int i = 0; i < d_->ncon; ++i) {
+      const mjContact& c = d_->contact[i];
+      if (c.efc_address < 0) continue;  // excluded, or not in the constraint
+      ++out.contacts_total;
+      if (out.num_contacts == kMaxContacts) continue;
+      ContactWrench& w = out.contacts[static_cast<std::size_t>(out.num_contacts++)];
+      mjtNum f[6];
+      mj_contactForce(m_, d_, i, f);  // contact frame: normal, tangent 1, tangent 2; on geom2 from geom1
+      // frame: its axes (normal, tangent 1, tangent 2) in world coordinates, one per row.
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(c.frame);
+      w.geom1 = c.geom1;
+      w.geom2 = c.geom2;
+      w.distance = c.dist;
+      w.position = Eigen::Map<const Eigen::Vector3d>(c.pos);
+      w.normal = frame.row(0).transpose();
+      w.force = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+      w.torque = frame.transpose() * Eigen::Vector3d(f[3], f[4], f[5]);
+    }
+  }
+
   // W: qvelᵀ (passive + constraint forces) at (qpos_start_, qvel_start_),
   // with the joint springs taken out (their energy is in V): damping, fluid,
   // friction loss, limits, contacts, equality constraints (a mimic's
@@ -412,6 +529,9 @@ class MujocoPlantData final : public SteppedPlantData {
   mjData* d_;
   VectorXd qpos_start_, qvel_start_;  // (nv) the state a MuJoCo step started from, mimics too
   double other_work_ = 0.0;
+  std::vector<mjtNum> jacp_;  // (3 x nv) scratch: a body's centre-of-mass Jacobian
+  VectorXd full_;             // (nv) scratch: one term over every MuJoCo joint, mimics too
+  std::array<char, 256> error_{};  // the reason of a Step that MuJoCo ended with an error
 };
 
 MujocoPlantModel::~MujocoPlantModel() {
@@ -483,21 +603,43 @@ std::vector<int> MatchJoints(const std::string& file, const mjModel* m, std::vec
   return index;
 }
 
+template <class T>
+bool AnyNonZero(const T* v, int n) {
+  return std::any_of(v, v + n, [](T x) { return x != 0; });
+}
+
 }  // namespace
+
+// The terms of the equation of motion `m` has, as its options and elements say.
+MujocoPlantModel::Terms MujocoPlantModel::TermsOf(const mjModel* m) {
+  const auto disabled = [&](int flag) { return (m->opt.disableflags & flag) != 0; };
+  const bool constraints = !disabled(mjDSBL_CONSTRAINT);
+  Terms t;
+  t.gravity = !disabled(mjDSBL_GRAVITY) && AnyNonZero(m->opt.gravity, 3);
+  t.passive = !disabled(mjDSBL_PASSIVE) &&
+              (AnyNonZero(m->dof_damping, m->nv) || AnyNonZero(m->jnt_stiffness, m->njnt) ||
+               AnyNonZero(m->tendon_damping, m->ntendon) || AnyNonZero(m->tendon_stiffness, m->ntendon) ||
+               m->opt.density > 0.0 || m->opt.viscosity > 0.0);
+  t.friction_loss = constraints && !disabled(mjDSBL_FRICTIONLOSS) &&
+                    (AnyNonZero(m->dof_frictionloss, m->nv) || AnyNonZero(m->tendon_frictionloss, m->ntendon));
+  t.limits = constraints && !disabled(mjDSBL_LIMIT) &&
+             (AnyNonZero(m->jnt_limited, m->njnt) || AnyNonZero(m->tendon_limited, m->ntendon));
+  t.constraint =
+      constraints && ((!disabled(mjDSBL_CONTACT) && m->ngeom > 0) || (!disabled(mjDSBL_EQUALITY) && m->neq > 0));
+  return t;
+}
 
 std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file, const MujocoOptions& options) {
   InstallHandlers();
   if (!(options.period > 0.0) || options.substeps < 1) Refuse(file, "expected a positive period and substeps >= 1");
   char error[1000] = "";
-  mjModel* m = nullptr;
-  std::string urdf;                        // the URDF's text as MuJoCo reads it (exact_inertia: with the edits above)
-  if (options.exact_inertia != nullptr) {  // a URDF whose inertias lagrange sets
-    urdf = PrepareUrdf(ReadText(file));
-    m = LoadXmlText(file, urdf, error, sizeof error);
-  } else {
-    const std::lock_guard<std::recursive_mutex> lock(LastXmlMutex());
-    m = mj_loadXML(file.c_str(), nullptr, error, sizeof error);
-  }
+  // The model's text as MuJoCo reads it (exact_inertia: a URDF whose inertias lagrange sets, with the edits
+  // above), and every file it names, read bounded before MuJoCo sees them.
+  std::string text = ReadMujocoModelText(file);
+  if (options.exact_inertia != nullptr) text = PrepareUrdf(std::move(text));
+  const bool urdf = IsUrdfText(text);
+  std::vector<MujocoFile> files = ReadMujocoFiles(file, std::move(text));
+  mjModel* m = LoadFiles(file, files, error, sizeof error);
   if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
   std::shared_ptr<MujocoPlantModel> model(new MujocoPlantModel);
   model->model_ = m;  // deleted with the model, whatever is refused below
@@ -505,12 +647,11 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   std::vector<std::string> dofs = options.joint_order;
   model->dof_ = MatchJoints(file, m, dofs, options.mimics);
   const double timestep = options.period / options.substeps;
-  if (!options.mimics.empty() && urdf.empty()) urdf = ReadText(file);
-  const bool couple = !options.mimics.empty() && IsUrdfText(urdf);
+  const bool couple = !options.mimics.empty() && urdf;
   if (couple) {  // a URDF cannot say it: lagrange adds it
     mj_deleteModel(m);
     model->model_ = nullptr;
-    m = CoupleMimics(file, urdf, options.mimics, timestep, error, sizeof error);
+    m = CoupleMimics(file, std::move(files), options.mimics, timestep, error, sizeof error);
     if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
     model->model_ = m;
     model->dof_ = MatchJoints(file, m, dofs, options.mimics);  // the same joints, in MuJoCo's MJCF of the URDF
@@ -552,6 +693,7 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
     for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*options.gravity)[k];
   }
   if (options.exact_inertia != nullptr) SetExactInertias(m, *options.exact_inertia, file);
+  model->terms_ = MujocoPlantModel::TermsOf(m);
   model->info_.timestep = m->opt.timestep;
   model->info_.num_geoms = m->ngeom;
   model->info_.num_actuators = m->nu;

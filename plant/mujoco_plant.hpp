@@ -142,6 +142,16 @@ class MujocoPlantModel final : public SteppedPlantModel, public std::enable_shar
     double multiplier = 1.0, offset = 0.0;
   };
   std::vector<Mimic> mimics_;
+  // Which terms of the equation of motion the model has (forces_t's flags), resolved at load.
+  struct Terms {
+    bool gravity = false;        // gravity on and not zero
+    bool passive = false;        // damping, springs, fluid forces (qfrc_passive)
+    bool friction_loss = false;  // dof or tendon friction loss
+    bool limits = false;         // limited joints or tendons
+    bool constraint = false;     // geoms that may touch, or equality constraints
+  };
+  Terms terms_;
+  static Terms TermsOf(const ::mjModel_* m);
   MujocoModelInfo info_;
   friend class MujocoPlantData;
 };

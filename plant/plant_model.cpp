@@ -67,13 +67,15 @@ EffectForces::EffectForces(int n)
       friction(VectorXd::Zero(n)),
       limits(VectorXd::Zero(n)),
       limit_springs(VectorXd::Zero(n)),
+      constraint(VectorXd::Zero(n)),
       disturbance(VectorXd::Zero(n)),
       tau_cmd(VectorXd::Zero(n)),
       tau_applied(VectorXd::Zero(n)) {}
 
 void EffectForces::NetForce(VecRef out) const {
   for (int i = 0; i < out.size(); ++i) {
-    out[i] = tau_applied[i] + disturbance[i] + damping[i] + friction[i] + limits[i] - coriolis[i] - gravity[i];
+    out[i] = tau_applied[i] + disturbance[i] + damping[i] + friction[i] + limits[i] + constraint[i] - coriolis[i] -
+             gravity[i];
   }
 }
 
@@ -153,6 +155,9 @@ void PlantModel::ComputeEffectForces(ControlLaw* law, double t, ConstVecRef q, C
   out.limits.setZero();
   out.limit_springs.setZero();
   effects_.AddLimits(q, qd, out.limits, out.limit_springs);
+  out.constraint.setZero();  // lagrange's plants have no constraints (their stops are the limits)
+  out.constraint_on = false;
+  out.contacts_total = out.num_contacts = 0;
 }
 
 double PlantModel::KineticEnergy(ConstVecRef q, ConstVecRef qd) {

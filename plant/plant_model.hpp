@@ -12,6 +12,7 @@
 // the joint-limit springs' energy; along the vector field
 // dE/dt = qdᵀ (sat(tau_cmd) + pushes) − DissipatedPower.
 
+#include <array>
 #include <memory>
 
 #include "plant/dynamics.hpp"
@@ -29,11 +30,22 @@ class ControlLaw {
   virtual void Compute(double t, ConstVecRef q, ConstVecRef qd, VecRef tau_cmd) = 0;
 };
 
+// One contact of a plant another simulator steps (MuJoCo), at the state its
+// forces were read at; world frame. What forces_t.contacts carries.
+struct ContactWrench {
+  int geom1 = -1, geom2 = -1;                          // the simulator's geom ids
+  double distance = 0.0;                               // m: between the surfaces, < 0 where they overlap
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // m: the contact point
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();    // unit, from geom1 towards geom2
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();     // N, on geom2 from geom1
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();    // N·m, on geom2 from geom1, about `position`
+};
+
 // Each term of the equation of motion at one (t, q, qd, tau_cmd), separately,
 // every vector (n) in N·m (revolute) or N (prismatic). Signed as the terms
 // act on the joints, so that
 //
-//   M(q) qdd = tau_applied + disturbance + damping + friction + limits − coriolis − gravity
+//   M(q) qdd = tau_applied + disturbance + damping + friction + limits + constraint − coriolis − gravity
 //
 // which NetForce sums. `gravity` and `coriolis` keep the signs of the
 // dynamics contract (G = ∂V/∂q, C qd; plant/dynamics.hpp), so they enter
@@ -45,21 +57,29 @@ class ControlLaw {
 //   limits         tau_lim(q, qd), the stops' one-sided spring-damper
 //   limit_springs  its spring part, −k × penetration (its energy is in V);
 //                  limits − limit_springs is the stops' damping, power <= 0
+//   constraint     a stepped plant's contacts and equality constraints, Jᵀ λ
+//                  (SteppedPlantData::ComputeForces); zero for lagrange's plants
 //   disturbance    Σ pushes acting at t
 //   tau_cmd        the command: as given, or the ControlLaw's output
 //   tau_applied    sat(tau_cmd); tau_cmd itself when saturation is off
-// A term whose effect is off (see `active`) is zero and was not computed;
-// tau_cmd and tau_applied are always filled. Sized by the constructor, so
-// filling it allocates nothing.
+// A term whose effect is off (see `active`, `constraint_on`) is zero and was
+// not computed; tau_cmd and tau_applied are always filled. A stepped plant
+// fills its rows from its simulator's own terms (plant/stepped_plant.hpp) and
+// lists its contacts: the first kMaxContacts of `contacts_total`. Sized by
+// the constructor, so filling it allocates nothing.
 struct EffectForces {
   explicit EffectForces(int n);
 
   // (this) => M qdd (n), the sum above.
   void NetForce(VecRef out) const;
 
-  VectorXd gravity, coriolis, damping, friction, limits, limit_springs, disturbance;
+  VectorXd gravity, coriolis, damping, friction, limits, limit_springs, constraint, disturbance;
   VectorXd tau_cmd, tau_applied;
-  EffectFlags active;  // the plant's Effects::flags() at the last fill
+  EffectFlags active;          // the plant's Effects::flags() at the last fill (a stepped plant's: its simulator's)
+  bool constraint_on = false;  // a stepped plant whose simulator has contacts or equality constraints
+  int contacts_total = 0;      // the simulator's active contacts
+  int num_contacts = 0;        // min(contacts_total, kMaxContacts): contacts[0 .. num_contacts)
+  std::array<ContactWrench, kMaxContacts> contacts;
 };
 
 class PlantModel {

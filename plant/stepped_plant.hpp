@@ -12,6 +12,8 @@
 // springs), and the work over the tick of every force but tau (damping,
 // friction loss, joint limits, contacts), so that the energy balance of
 // plant/energy_balance.hpp reads ε = E − E(0) − W with W = Σ tau·Δq + that.
+// And each term of its equation of motion at the current state, from the
+// simulator's own terms (ComputeForces), which add up to its M(q) qdd.
 
 #include <cstdint>
 #include <memory>
@@ -20,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "plant/plant_model.hpp"
 #include "plant/types.hpp"
 
 namespace lagrange {
@@ -39,6 +42,14 @@ class SteppedPlantData {
   // J: the work over the last Step of every force but tau (non-conservative:
   // springs are in V), by the trapezoid rule over the simulator's steps.
   virtual double other_work() const = 0;
+  // Every term of the equation of motion at the current state (after a Step
+  // or SetState), as the simulator computed it there, so that they add up to
+  // its M(q) qdd under the force it applied (EffectForces: gravity, coriolis,
+  // damping, friction, limits, constraint; `active` and `constraint_on` say
+  // which the model has) and its contacts. tau_cmd, tau_applied and the
+  // effects the simulator has not (disturbance, saturation) are the caller's.
+  // `out` sized for this plant; no allocation.
+  virtual void ComputeForces(EffectForces& out) = 0;
 };
 
 class SteppedPlantModel {

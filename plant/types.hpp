@@ -30,6 +30,7 @@ using MatRef = Eigen::Ref<MatrixXd>;
 
 inline constexpr double kStandardGravity = 9.81;  // m/s², along −y
 inline constexpr int kMaxDofs = 256;              // tested up to 64
+inline constexpr int kMaxContacts = 32;           // contacts a forces record lists (forces_t.contacts)
 
 enum class JointType : std::uint8_t { kRevolute, kPrismatic };
 

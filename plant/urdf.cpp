@@ -26,7 +26,6 @@
 namespace lagrange {
 namespace {
 
-constexpr std::size_t kMaxUrdfBytes = 2u << 20;  // a real robot's URDF is well under 1 MiB
 constexpr std::size_t kMaxNameChars = 64;        // of a name quoted in a message
 constexpr int kMaxXmlDepth = 64;                 // element nesting; a URDF needs about 5
 // Elements, links and joints: what one file may cost (its DOM, the tree's

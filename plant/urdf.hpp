@@ -95,6 +95,7 @@
 // (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
 // name: the message is one line, safe to print as it is; do not escape it again.
 
+#include <cstddef>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -126,6 +127,10 @@ class UrdfError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// The most of a URDF file read (a real robot's is well under 1 MiB); a MuJoCo
+// model's XML files are bounded alike (plant/mujoco_files.hpp).
+inline constexpr std::size_t kMaxUrdfBytes = 2u << 20;
 
 // Reads and checks a URDF file. Throws UrdfError with the one-line message above.
 UrdfRobot LoadUrdf(const std::string& path);

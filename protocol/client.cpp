@@ -59,12 +59,19 @@ std::string HeardHint(const std::string& prefix, const std::string& instance, co
   if (channels.contains(prefix + bare))
     return "heard " + Escape(prefix + bare, 64) + ", but no valid state_t on it (not a lagranged?)";
   // The instance under another prefix (one a status confirms, when any came).
+  std::string elsewhere;
   for (const std::string& c : states) {
     if (!EndsWith(c, bare) || c == prefix + bare) continue;
     const std::string other = c.substr(0, c.size() - bare.size());
     if (!prefixes.empty() && !prefixes.contains(other)) continue;
-    return "a lagranged publishes " + Escape(c, 64) + use_prefix(other);
+    elsewhere = "a lagranged publishes " + Escape(c, 64) + use_prefix(other);
+    break;
   }
+  // A lagranged runs under this very prefix: the name is what is wrong there
+  // (--channel-prefix CTRL_ and instance arm, where arm_controller runs),
+  // whatever another daemon publishes without it.
+  const bool prefix_in_use = !prefix.empty() && prefixes.contains(prefix);
+  if (!elsewhere.empty() && !prefix_in_use) return elsewhere;
   // Another instance under this prefix: the nearest name.
   std::string best;
   std::size_t best_distance = std::string::npos;
@@ -78,10 +85,56 @@ std::string HeardHint(const std::string& prefix, const std::string& instance, co
     }
   }
   const std::string heard = "state channels heard: " + List(states);
-  if (!best.empty()) return heard + "; did you mean '" + Escape(best, 64) + "'?";
+  if (!best.empty()) {
+    return heard + "; did you mean '" + Escape(best, 64) + "'?" + (elsewhere.empty() ? "" : " (or " + elsewhere + ")");
+  }
+  if (!elsewhere.empty()) return elsewhere;
   std::string shown;
   for (const std::string& p : prefixes) shown += (shown.empty() ? "" : ", ") + (p.empty() ? "none" : Escape(p, 64));
   return heard + (prefixes.empty() ? "" : " (channel prefixes: " + shown + ")");
+}
+
+std::string SigningHint(const SigningHeard& heard) {
+  const std::string give_key = std::string("give the daemon's key (--bus-key FILE or ") + kBusKeyEnv + ")";
+  const auto messages = [](std::int64_t n, const char* what) {
+    return "heard " + std::to_string(n) + " " + what + (n == 1 ? " message" : " messages");
+  };
+  std::string hint;
+  const auto add = [&](std::int64_t n, const std::string& clause) {
+    if (n > 0) hint += (hint.empty() ? "" : "; ") + clause;
+  };
+  add(heard.other_key, "heard " + std::to_string(heard.other_key) + (heard.other_key == 1 ? " message" : " messages") +
+                           " signed with another key (their tags do not verify with this client's): " + give_key);
+  add(heard.unsigned_refused, messages(heard.unsigned_refused, "unsigned") +
+                                  ", which a client with a key refuses: the daemon runs without one (give it "
+                                  "--bus-key FILE too, or run this client without a key)");
+  add(heard.out_of_window, messages(heard.out_of_window, "signed") +
+                               " stamped more than 2 s from this host's clock, or replayed: keep the hosts' clocks "
+                               "in step (chrony or NTP)");
+  add(heard.signed_unreadable, messages(heard.signed_unreadable, "signed") +
+                                   ", which a client without a key cannot check: its states are signed; " + give_key);
+  return hint;
+}
+
+std::string WhatWasHeard(const SigningHeard& signing, const std::string& prefix, const std::string& instance,
+                         const std::set<std::string>& channels) {
+  if (std::string hint = SigningHint(signing); !hint.empty()) return hint;
+  return HeardHint(prefix, instance, channels);
+}
+
+SigningCensus::SigningCensus(Bus& bus) : bus_(bus), at_start_(bus.stats()) {
+  if (bus_.signs()) return;  // the bus itself counts what it refuses, by reason
+  bus_.Subscribe(kEveryChannel, [this](std::string_view, const std::uint8_t* data, std::size_t size) {
+    if (MessageSizeBeforeTrailer(data, size) != size) ++signed_unreadable_;
+  });
+}
+
+SigningHeard SigningCensus::heard() const {
+  const BusStats now = bus_.stats();
+  return {.other_key = now.bad_tags - at_start_.bad_tags,
+          .unsigned_refused = now.unsigned_dropped - at_start_.unsigned_dropped,
+          .out_of_window = (now.stale - at_start_.stale) + (now.replayed - at_start_.replayed),
+          .signed_unreadable = signed_unreadable_};
 }
 
 std::string LinkOptions::Url() const { return ResolveLcmUrl(lcm_url); }
@@ -107,7 +160,8 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
     : options_(options),
       instance_(instance),
       state_channel_(options.Channel(instance, kStateSuffix)),
-      bus_(options.Open()) {
+      bus_(options.Open()),
+      signing_(*bus_) {
   bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
   bus_->Subscribe(options.Channel(instance, kReplySuffix),
                   [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
@@ -124,11 +178,7 @@ void DaemonLink::OnAny(std::string_view channel) {
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
-  if (CheckStatePacket(data, size) != WireCheck::kOk) {
-    // A signed daemon's state, seen without the key: worth a hint if nothing else comes.
-    if (!bus_->signs() && MessageSizeBeforeTrailer(data, size) != size) signed_states_seen_ = true;
-    return;
-  }
+  if (CheckStatePacket(data, size) != WireCheck::kOk) return;  // a signed daemon's, without the key: signing_ counts it
   state_t msg;
   if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
   auto it = runs_.find(msg.run_id);
@@ -227,12 +277,9 @@ void DaemonLink::AwaitFirstState() {
     const bool early = daemon_without_it();
     const std::string missing = "no state from instance '" + instance_ + "' on " + state_channel_ +
                                 (early ? "" : " within " + FormatDouble(options_.wait) + " s");
-    if (signed_states_seen_) {
-      throw std::runtime_error(missing + " that this unsigned client can read: its states are signed; give the " +
-                               "daemon's key (--bus-key FILE or " + kBusKeyEnv + ")");
-    }
-    throw std::runtime_error(missing + " on " + options_.Url() + (early ? ", though a lagranged is publishing there" : "") +
-                             "; " + HeardHint(options_.channel_prefix, instance_, heard_));
+    throw std::runtime_error(missing + " on " + options_.Url() +
+                             (early ? ", though a lagranged is publishing there" : "") + "; " +
+                             WhatWasHeard(signing_.heard(), options_.channel_prefix, instance_, heard_));
   }
   Pump(kRunWindow);
 }

@@ -62,6 +62,42 @@ struct LinkOptions {
 std::string HeardHint(const std::string& prefix, const std::string& instance, const std::set<std::string>& channels);
 inline constexpr std::size_t kMaxHeardChannels = 32;
 
+// Messages a client's bus heard but could not believe for their signature,
+// by reason: a daemon signing with another key, an unsigned daemon heard by a
+// client with a key, a signed one heard by a client without. Counted from when
+// the client opened its bus (SigningCensus).
+struct SigningHeard {
+  std::int64_t other_key = 0;          // with a key: tags that do not verify (another key, or a forger's)
+  std::int64_t unsigned_refused = 0;   // with a key: messages without a signature
+  std::int64_t out_of_window = 0;      // with a key: stamps more than 2 s from this clock, or replayed
+  std::int64_t signed_unreadable = 0;  // without a key: signed messages, which it cannot check
+};
+// What they say, one clause per reason heard, for the end of a client's error
+// ("heard 812 messages signed with another key ...: give the daemon's key
+// ..."); "" when none was heard.
+std::string SigningHint(const SigningHeard& heard);
+// What was heard while a client waited in vain, in one place for every client
+// (lagrangectl's commands and watch, the Python module): SigningHint when any
+// message was dropped for its signature (it explains why nothing else came),
+// else HeardHint.
+std::string WhatWasHeard(const SigningHeard& signing, const std::string& prefix, const std::string& instance,
+                         const std::set<std::string>& channels);
+
+// Keeps a SigningHeard for one bus: subscribes to every channel (before the
+// bus is shared) and reads the bus's refusal counts by reason.
+class SigningCensus {
+ public:
+  explicit SigningCensus(Bus& bus);
+  SigningCensus(const SigningCensus&) = delete;
+  SigningCensus& operator=(const SigningCensus&) = delete;
+  SigningHeard heard() const;
+
+ private:
+  Bus& bus_;
+  BusStats at_start_;
+  std::int64_t signed_unreadable_ = 0;
+};
+
 // How long a client listens to an instance before acting, so that a second
 // run publishing on the same channel (two daemons, or a spoofer) shows.
 inline constexpr double kRunWindow = 0.3;  // s after the first state
@@ -192,8 +228,8 @@ class DaemonLink {
   std::unique_ptr<Bus> bus_;
   std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
   std::set<std::string> heard_;         // channels heard before the first state, for HeardHint
-  std::int64_t run_id_ = 0;            // chosen by AwaitOneRun
-  bool signed_states_seen_ = false;    // states with a signature trailer came to this unsigned link
+  SigningCensus signing_;               // what was dropped, or could not be checked, for its signature
+  std::int64_t run_id_ = 0;             // chosen by AwaitOneRun
   bool have_run_ = false;
   std::optional<status_t> status_;  // the run's latest
   std::int64_t statuses_received_ = 0;

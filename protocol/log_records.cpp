@@ -11,11 +11,13 @@
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
+#include <cstring>
 #include <map>
 #include <optional>
 #include <regex>
 
 #include "plant/escape.hpp"
+#include "protocol/big_endian.hpp"
 #include "protocol/format.hpp"
 #include "protocol/lcm_log.hpp"
 #include "protocol/signing.hpp"
@@ -347,11 +349,73 @@ class TaskStateDecoder final : public Decoder {
   }
 };
 
+// A forces_t of lagrange before the constraint row and the contacts (kForcesV1Fingerprint), read into
+// today's: constraint_on false and its row zeros (not computed then), no contacts. Its check has passed.
+forces_t ForcesFromV1(const std::uint8_t* p) {
+  forces_t f;
+  std::size_t at = 8;
+  const auto int64 = [&] {
+    const auto v = static_cast<std::int64_t>(ReadBigEndian64(p + at));
+    at += 8;
+    return v;
+  };
+  const auto real = [&] {
+    const std::uint64_t bits = ReadBigEndian64(p + at);
+    at += 8;
+    double v;
+    std::memcpy(&v, &bits, sizeof v);
+    return v;
+  };
+  f.utime = int64();
+  f.run_id = int64();
+  f.tick = int64();
+  f.t = real();
+  for (std::int8_t* flag : {&f.gravity_on, &f.coriolis_on, &f.damping_on, &f.friction_on, &f.limits_on,
+                            &f.saturation_on, &f.disturbance_on}) {
+    *flag = p[at++] != 0;
+  }
+  f.constraint_on = false;
+  f.num_dofs = static_cast<std::int32_t>(ReadBigEndian32(p + at));
+  at += 4;
+  const auto n = static_cast<std::size_t>(f.num_dofs);
+  for (auto* v :
+       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+    v->resize(n);
+    for (double& x : *v) x = real();
+  }
+  f.constraint.assign(n, 0.0);
+  f.contacts_total = f.num_contacts = 0;
+  return f;
+}
+
+// A forces packet of today's layout or lagrange's earlier one (ForcesFromV1), checked before it is decoded.
+bool DecodeForces(forces_t& f, const void* data, std::size_t size) {
+  if (CheckedDecode(f, CheckForcesPacket, data, size)) return true;
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  for (const std::size_t n : {size, MessageSizeBeforeTrailer(p, size)}) {
+    if (CheckForcesV1Packet(data, n) == WireCheck::kOk) {
+      f = ForcesFromV1(p);
+      return true;
+    }
+  }
+  return false;
+}
+
+// Values joined by ';' (a contact's three coordinates in a row, contact after contact).
+template <class Get>
+std::string JoinContacts(const forces_t& f, int width, Get get) {
+  std::string s;
+  for (const contact_t& c : f.contacts) {
+    for (int k = 0; k < width; ++k) s += (s.empty() ? "" : ";") + FormatDouble(get(c, k));
+  }
+  return s;
+}
+
 class ForcesDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     forces_t f;
-    if (!CheckedDecode(f, CheckForcesPacket, data, size)) return false;
+    if (!DecodeForces(f, data, size)) return false;
     if (n_ < 0) {
       n_ = f.num_dofs;
       Fields fields;
@@ -359,29 +423,43 @@ class ForcesDecoder final : public Decoder {
       for (const char* flag : kFlags) fields.Int(flag);
       fields.Int("num_dofs");
       for (const char* row : kRows) fields.Reals(row, n_, "_");
+      fields.Int("contacts_total").Int("num_contacts");
+      for (const char* column : kContactColumns) fields.Text(column);
       fields_ = fields.Take();
     }
     if (f.num_dofs != n_) return false;
     Row row(out, log_utime);
     row.Int(f.utime).Int(f.run_id).Int(f.tick).Real(f.t);
-    for (bool on :
-         {f.gravity_on, f.coriolis_on, f.damping_on, f.friction_on, f.limits_on, f.saturation_on, f.disturbance_on}) {
+    for (bool on : {f.gravity_on, f.coriolis_on, f.damping_on, f.friction_on, f.limits_on, f.saturation_on,
+                    f.disturbance_on, f.constraint_on}) {
       row.Int(on ? 1 : 0);
     }
     row.Int(f.num_dofs);
-    for (const auto* v :
-         {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+    for (const auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.constraint, &f.disturbance,
+                          &f.tau_cmd, &f.tau_applied}) {
       row.Reals(*v);
     }
+    row.Int(f.contacts_total).Int(f.num_contacts);
+    row.Text(JoinContacts(f, 1, [](const contact_t& c, int) { return c.geom1; }))
+        .Text(JoinContacts(f, 1, [](const contact_t& c, int) { return c.geom2; }))
+        .Text(JoinContacts(f, 1, [](const contact_t& c, int) { return c.distance; }))
+        .Text(JoinContacts(f, 3, [](const contact_t& c, int k) { return c.position[k]; }))
+        .Text(JoinContacts(f, 3, [](const contact_t& c, int k) { return c.normal[k]; }))
+        .Text(JoinContacts(f, 3, [](const contact_t& c, int k) { return c.force[k]; }))
+        .Text(JoinContacts(f, 3, [](const contact_t& c, int k) { return c.torque[k]; }));
     return true;
   }
 
  private:
   // forces_t's flags and rows, in its order.
-  static constexpr const char* kFlags[] = {"gravity_on", "coriolis_on",   "damping_on",    "friction_on",
-                                           "limits_on",  "saturation_on", "disturbance_on"};
-  static constexpr const char* kRows[] = {"gravity", "coriolis",    "damping", "friction",
-                                          "limits",  "disturbance", "tau_cmd", "tau_applied"};
+  static constexpr const char* kFlags[] = {"gravity_on", "coriolis_on",   "damping_on",     "friction_on",
+                                           "limits_on",  "saturation_on", "disturbance_on", "constraint_on"};
+  static constexpr const char* kRows[] = {"gravity",    "coriolis",    "damping", "friction",   "limits",
+                                          "constraint", "disturbance", "tau_cmd", "tau_applied"};
+  // Its contacts, one text column per field: the contacts' values joined by ';' (3 per contact for a vector).
+  static constexpr const char* kContactColumns[] = {"contact_geom1",    "contact_geom2",  "contact_distance",
+                                                    "contact_position", "contact_normal", "contact_force",
+                                                    "contact_torque"};
 };
 
 class ReplyDecoder final : public Decoder {
@@ -439,7 +517,11 @@ void ReadLogRecords(const std::string& log_path, const std::string& channel_rege
       if (!std::regex_match(channel, wanted)) continue;
       // A channel's type is that of its first message of a lagrange type
       // (log2csv's rule); a later message of another type does not decode.
-      const MessageType type = TypeOf(e->data, e->size);
+      MessageType type = TypeOf(e->data, e->size);
+      // An earlier lagrange's forces_t is read too (DecodeForces).
+      if (type == MessageType::kUnknown && Fingerprint(e->data, e->size) == kForcesV1Fingerprint) {
+        type = MessageType::kForces;
+      }
       std::unique_ptr<Decoder> decoder = DecoderFor(type);
       if (!decoder) {
         visit(LogRecord{e->channel, MessageType::kUnknown, nullptr, nullptr});

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <span>
 #include <sstream>
+#include <tuple>
 
 #include "plant/escape.hpp"
 #include "protocol/wire.hpp"
@@ -52,12 +53,22 @@ SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const Setpoint
   return {SetpointVerdict::Kind::kAccepted, ""};
 }
 
+std::string RefusedByController(TargetKind kind, bool task_space, const std::string& controller) {
+  if (kind == TargetKind::kPose && !task_space) {
+    return "the instance is not running a task-space controller (active: " + controller + ")";
+  }
+  if (kind == TargetKind::kJointSetpoint && task_space) {
+    return "the instance is running a task-space controller (active: " + controller +
+           "), which follows pose setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints";
+  }
+  return "";
+}
+
 SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out) {
   if (const WireCheck w = CheckPoseSetpointPacket(data, size); w != WireCheck::kOk) {
     return {SetpointVerdict::Kind::kUndecodable, ToString(w)};
   }
   if (out.decode(data, 0, static_cast<int>(size)) < 0) return {SetpointVerdict::Kind::kUndecodable, "decode failed"};
-  if (rules.frame.empty()) return Reject("no task-space controller on this instance (a pose needs one)");
   if (!out.frame.empty() && out.frame != rules.frame) {
     return Reject("frame '" + Escape(out.frame, 64) + "': the task-space controller moves '" + rules.frame + "'");
   }
@@ -84,6 +95,15 @@ SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const Pose
   }
   if (out.duration > 0.0 && Eigen::Map<const Eigen::Matrix<double, 6, 1>>(out.twist).cwiseAbs().maxCoeff() > 0.0) {
     return Reject("twist with duration " + Number(out.duration) + " s: a timed move ends at rest (send zeros)");
+  }
+  for (const auto& [part, at, bound, unit] : {std::tuple{"linear", 0, rules.max_linear_speed, "m/s"},
+                                              std::tuple{"angular", 3, rules.max_angular_speed, "rad/s"}}) {
+    const double speed = Eigen::Map<const Eigen::Vector3d>(out.twist + at).norm();
+    if (speed > bound) {
+      return Reject("twist: " + std::string(part) + " speed " + Number(speed) + " " + unit +
+                    " is more than the joints' velocity limits allow '" + rules.frame + "' (at most " + Number(bound) +
+                    " " + unit + " anywhere)");
+    }
   }
   return {SetpointVerdict::Kind::kAccepted, ""};
 }

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -32,15 +33,31 @@ inline constexpr double kMaxSetpointMagnitude = 1e6;
 // decoding it into `out` (whose vectors keep their capacity).
 SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const SetpointRules& rules, setpoint_t& out);
 
+// The two targets an instance takes over LCM, and the controllers that follow
+// each: joint setpoints (setpoint_t on <NAME>_SETPOINT) a joint-space
+// controller, poses (pose_setpoint_t on <NAME>_POSE) a task-space one
+// (cartesian-impedance, operational-space). The other kind is refused, never
+// taken and ignored: a target the active controller does not follow would
+// otherwise be counted as accepted and, streamed, time out into a hold.
+enum class TargetKind : std::uint8_t { kJointSetpoint, kPose };
+// Why a `kind` target is refused while `controller` is the active controller
+// (`task_space`: it moves a frame), or "" when it follows it. The one rule for
+// both kinds; the receiver checks it after decoding and before the content.
+std::string RefusedByController(TargetKind kind, bool task_space, const std::string& controller);
+
 // What a pose setpoint (pose_setpoint_t, on <NAME>_POSE) must satisfy for one
 // instance: the frame its task-space controller moves, the scene's workspace
-// box for the target's position (world frame, m; ±inf where unbounded), and
-// the longest timed move.
+// box for the target's position (world frame, m; ±inf where unbounded), the
+// longest timed move, and the fastest feed-forward twist: the most the
+// joints' velocity limits allow the frame anywhere (plant/frame_speed.hpp;
+// +inf for a robot without velocity limits).
 struct PoseRules {
-  std::string frame;  // "" : the instance has no task-space controller (every pose refused)
+  std::string frame;  // the frame the task-space controller moves ("" for another controller)
   Eigen::Vector3d lower = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
   Eigen::Vector3d upper = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  double max_duration = 600.0;  // s
+  double max_duration = 600.0;                                         // s
+  double max_linear_speed = std::numeric_limits<double>::infinity();   // m/s: ‖twist[0..2]‖
+  double max_angular_speed = std::numeric_limits<double>::infinity();  // rad/s: ‖twist[3..5]‖
 };
 
 // |‖q‖ − 1| above this and a quaternion is refused as not a rotation (a sender
@@ -52,7 +69,9 @@ inline constexpr double kUnitQuaternionTolerance = 1e-6;
 // that is not unit, a position outside the workspace box, a frame other than
 // rules.frame ("" in the message means rules.frame), a duration outside
 // [0, max_duration], a non-zero twist with a duration (a timed move ends at
-// rest), and any pose for an instance without a task-space controller.
+// rest), a twist whose linear or angular part is faster than the frame can
+// move within the joints' velocity limits. Whether the instance's active controller takes poses at all is
+// RefusedByController's rule, checked by the caller.
 SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out);
 
 }  // namespace lagrange

@@ -22,6 +22,7 @@ std::int64_t ReadInt64(const std::uint8_t* p) { return static_cast<std::int64_t>
 std::int32_t ReadInt32(const std::uint8_t* p) { return static_cast<std::int32_t>(ReadBigEndian32(p)); }
 
 constexpr std::size_t kHash = 8, kInt64 = 8, kInt32 = 4, kInt8 = 1, kDouble = 8;
+constexpr std::size_t kContactBytes = 2 * kInt32 + 13 * kDouble;  // contact_t: geom1, geom2, distance, 4 vectors
 constexpr std::int32_t kMaxString = 256;  // bytes, including the terminating NUL
 
 }  // namespace
@@ -246,9 +247,20 @@ WireCheck CheckTelemetryPacket(const void* data, std::size_t size) {
 
 WireCheck CheckForcesPacket(const void* data, std::size_t size) {
   PacketWalker w(data, size, forces_t::getHash());
+  w.Skip(3 * kInt64 + kDouble + 8 * kInt8);  // utime, run_id, tick, t, the eight *_on
+  const std::int32_t n = w.Length(kMaxDofs);
+  w.Skip(9 * kDouble * static_cast<std::size_t>(n));  // gravity .. tau_applied
+  w.Skip(kInt32);                                     // contacts_total
+  const std::int32_t c = w.Length(kMaxContacts);      // num_contacts
+  w.Skip(kContactBytes * static_cast<std::size_t>(c));
+  return w.Finish();
+}
+
+WireCheck CheckForcesV1Packet(const void* data, std::size_t size) {
+  PacketWalker w(data, size, kForcesV1Fingerprint);
   w.Skip(3 * kInt64 + kDouble + 7 * kInt8);  // utime, run_id, tick, t, the seven *_on
   const std::int32_t n = w.Length(kMaxDofs);
-  w.Skip(8 * kDouble * static_cast<std::size_t>(n));  // gravity .. tau_applied
+  w.Skip(8 * kDouble * static_cast<std::size_t>(n));  // gravity .. tau_applied (no constraint)
   return w.Finish();
 }
 

@@ -61,8 +61,14 @@ inline constexpr std::int32_t kMaxStatusChannels = 16;
 WireCheck CheckStatusPacket(const void* data, std::size_t size);
 // telemetry_t: every fixed field and its two strings.
 WireCheck CheckTelemetryPacket(const void* data, std::size_t size);
-// forces_t: the fixed fields, num_dofs (≤ kMaxDofs), 8 × num_dofs doubles.
+// forces_t: the fixed fields, num_dofs (≤ kMaxDofs), 9 × num_dofs doubles, contacts_total, num_contacts (≤
+// kMaxContacts) contact_t.
 WireCheck CheckForcesPacket(const void* data, std::size_t size);
+// The forces_t of lagrange before the constraint row and the contacts (its own fingerprint, which lcm-gen
+// derives from the fields): seven flags, num_dofs (≤ kMaxDofs), 8 × num_dofs doubles. Only logs are read
+// with it (protocol/log_records.hpp); a live one is another type.
+inline constexpr std::int64_t kForcesV1Fingerprint = static_cast<std::int64_t>(0xbcdb73cfe7e9ba20ULL);
+WireCheck CheckForcesV1Packet(const void* data, std::size_t size);
 // reply_t: fingerprint, utime, run_id, request_id, command, accepted, reason.
 WireCheck CheckReplyPacket(const void* data, std::size_t size);
 // pose_setpoint_t: fingerprint, utime, frame (string), 14 doubles.

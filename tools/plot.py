@@ -97,8 +97,11 @@ def with_gaps(values, starts):
 # published, which enter M q̈ with a minus.
 FORCE_ROWS = (("gravity", "gravity_on", "G (gravity)"), ("coriolis", "coriolis_on", "C qd (coriolis)"),
               ("damping", "damping_on", "damping"), ("friction", "friction_on", "friction"),
-              ("limits", "limits_on", "limits"), ("disturbance", "disturbance_on", "disturbance"),
+              ("limits", "limits_on", "limits"), ("constraint", "constraint_on", "constraint (contacts, equalities)"),
+              ("disturbance", "disturbance_on", "disturbance"),
               ("tau_cmd", "saturation_on", "tau_cmd (before saturation)"), ("tau_applied", None, "tau_applied"))
+# Rows a CSV of an earlier lagrange lacks: not drawn there.
+OPTIONAL_FORCE_ROWS = ("constraint",)
 
 
 def series(path, columns):
@@ -170,13 +173,14 @@ def task_panels(axes, path):
 def forces_panels(axes, path, joint_names):
     header, columns = load(path)
     joints = len(indexed(header, r"tau_applied_(\d+)"))
-    missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in FORCE_ROWS for j in range(joints)]
+    rows = [r for r in FORCE_ROWS if r[0] not in OPTIONAL_FORCE_ROWS or "%s_0" % r[0] in columns]
+    missing = [n for n in ["t"] + ["%s_%d" % (row, j) for row, _, _ in rows for j in range(joints)]
                if n not in columns]
     if missing or joints != len(axes):
         fail("%s lacks the columns %s (a *_FORCES.csv from log2csv)" % (path, ", ".join(missing[:3]) or "tau_applied_0.."))
     t, gap = series(path, columns)
     drawn = []
-    for row, flag, label in FORCE_ROWS:
+    for row, flag, label in rows:
         on = numbers(columns, flag, path) if flag else [1.0] * len(t)
         if not any(on):
             continue  # off throughout: not computed, not drawn
@@ -188,7 +192,8 @@ def forces_panels(axes, path, joint_names):
     joint = joint_names if joint_names and len(joint_names) == joints else ["joint %d" % j for j in range(joints)]
     for j, axis in enumerate(axes):
         axis.set_ylabel("%s (N·m or N)" % joint[j])
-        axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits - C qd - G" % joint[j])
+        axis.set_title("%s: M qdd = tau_applied + disturbance + damping + friction + limits + constraint - C qd - G"
+                       % joint[j])
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
 
 

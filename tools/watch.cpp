@@ -172,6 +172,7 @@ class WatchCommand final : public Command {
 
   int Run(std::ostream& out, std::ostream&) override {
     bus_handle_ = bus_.Open();
+    const SigningCensus signing(*bus_handle_);  // for the error if no status comes: dropped for its signature?
     bus_handle_->Subscribe(bus_.StatusChannel(),
                            [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
     for (const std::string& name : only_) SubscribeInstance(name);
@@ -195,7 +196,7 @@ class WatchCommand final : public Command {
     waiting = false;
     if (statuses_.empty()) {
       throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) + " s on " +
-                               bus_.Url() + "; " + HeardHint(bus_.channel_prefix, "", heard));
+                               bus_.Url() + "; " + WhatWasHeard(signing.heard(), bus_.channel_prefix, "", heard));
     }
     for (const std::string& name : only_) {
       if (instances_.at(name).states.empty()) {

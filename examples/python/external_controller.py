@@ -58,7 +58,7 @@ def run(client, name, law, duration):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--url", default=None, help="LCM URL (default: $LCM_DEFAULT_URL, else LCM's)")
+    p.add_argument("--lcm-url", dest="url", default=None, help="LCM URL (default: $LCM_DEFAULT_URL, else LCM's)")
     p.add_argument("--prefix", default="", help="lagranged's --channel-prefix")
     p.add_argument("--key-file", default=None, help="lagranged's --bus-key (default: $LAGRANGE_BUS_KEY_FILE)")
     p.add_argument("--instance", default="arm")

@@ -850,7 +850,7 @@ TEST_F(Bridge, BadSwitchSettingsAreRefusedByTheReceiverNamingWhatWasExpected) {
 }
 
 // forces_t rows are the terms of M(q) qdd = tau_applied + disturbance +
-// damping + friction + limits − coriolis − gravity at the tick's end state:
+// damping + friction + limits + constraint − coriolis − gravity at the tick's end state:
 // checked against the arm's closed form at the q, qd, qdd of the same tick's
 // state_t, on a swinging arm so that every row that is on is not zero.
 TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQdd) {
@@ -882,7 +882,10 @@ TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQ
     EXPECT_EQ(f.utime, s.utime);
     EXPECT_DOUBLE_EQ(f.t, s.t);
     EXPECT_TRUE(f.gravity_on && f.coriolis_on);
-    EXPECT_FALSE(f.damping_on || f.friction_on || f.limits_on || f.saturation_on || f.disturbance_on);
+    EXPECT_FALSE(f.damping_on || f.friction_on || f.limits_on || f.saturation_on || f.disturbance_on ||
+                 f.constraint_on);
+    EXPECT_EQ(f.num_contacts, 0);  // lagrange's own plant: no constraints, no contacts
+    EXPECT_EQ(f.contacts_total, 0);
     const Eigen::Map<const VectorXd> q(s.q.data(), 2), qd(s.qd.data(), 2), qdd(s.qdd.data(), 2);
     arm.ComputeMassMatrix(*arm_data, q, M);
     arm.ComputeGravityForce(*arm_data, q, G);
@@ -890,12 +893,14 @@ TEST_F(Bridge, ForcesArePublishedOnlyWhileAskedAndTheirRowsSumToTheStatesMTimesQ
     const VectorXd Mqdd = M * qdd;
     for (std::size_t j = 0; j < 2; ++j) {
       const auto k = static_cast<Eigen::Index>(j);
-      const double sum = f.tau_applied[j] + f.disturbance[j] + f.damping[j] + f.friction[j] + f.limits[j] -
-                         f.coriolis[j] - f.gravity[j];
+      const double sum = f.tau_applied[j] + f.disturbance[j] + f.damping[j] + f.friction[j] + f.limits[j] +
+                         f.constraint[j] - f.coriolis[j] - f.gravity[j];
       EXPECT_NEAR(sum, Mqdd[k], kForceBalance) << "tick " << f.tick << ", row " << j;
       EXPECT_NEAR(f.gravity[j], G[k], kForceBalance) << "tick " << f.tick;
       EXPECT_NEAR(f.coriolis[j], c[k], kForceBalance) << "tick " << f.tick;
-      for (const auto* off : {&f.damping, &f.friction, &f.limits, &f.disturbance}) EXPECT_DOUBLE_EQ((*off)[j], 0.0);
+      for (const auto* off : {&f.damping, &f.friction, &f.limits, &f.constraint, &f.disturbance}) {
+        EXPECT_DOUBLE_EQ((*off)[j], 0.0);
+      }
       EXPECT_DOUBLE_EQ(f.tau_applied[j], s.tau[j]);      // state_t's tau is as applied
       EXPECT_DOUBLE_EQ(f.tau_cmd[j], f.tau_applied[j]);  // saturation is off
       largest_coriolis = std::max(largest_coriolis, std::abs(f.coriolis[j]));

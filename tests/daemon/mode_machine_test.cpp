@@ -27,6 +27,8 @@ const char* EventName(ModeEvent e) {
                                                   "controller switched",
                                                   "setpoint arrived",
                                                   "setpoints timed out",
+                                                  "pose arrived",
+                                                  "poses timed out",
                                                   "torque arrived",
                                                   "torques timed out",
                                                   "measured arrived",
@@ -103,6 +105,8 @@ TEST(ModeMachine, EveryModeUnderEveryEventInASimulatedPlant) {
       {ModeEvent::kControllerSwitched, {R, H, F, P, E, S, W}},
       {ModeEvent::kSetpointArrived, {R, R, F, P, E, S, W}},
       {ModeEvent::kSetpointsTimedOut, {H, H, F, P, E, S, W}},
+      {ModeEvent::kPoseArrived, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPosesTimedOut, {R, H, F, P, E, S, W}},
       {ModeEvent::kTorqueArrived, {R, H, F, P, E, S, W}},
       {ModeEvent::kTorquesTimedOut, {R, H, F, P, E, S, W}},
       {ModeEvent::kMeasuredArrived, {R, H, F, P, E, S, R}},
@@ -143,6 +147,7 @@ TEST(ModeMachine, UnderAnExternalControllerTheTorquesDecide) {
   const Row rows[] = {
       //                                 running hold fault paused estop stopped waiting
       {ModeEvent::kSetpointArrived, {R, H, F, P, E, S, W}},    {ModeEvent::kSetpointsTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPoseArrived, {R, H, F, P, E, S, W}},        {ModeEvent::kPosesTimedOut, {R, H, F, P, E, S, W}},
       {ModeEvent::kTorqueArrived, {R, R, F, P, E, S, W}},      {ModeEvent::kTorquesTimedOut, {H, H, F, P, E, S, W}},
       {ModeEvent::kControllerSwitched, {H, H, F, P, E, S, W}},
   };
@@ -151,6 +156,26 @@ TEST(ModeMachine, UnderAnExternalControllerTheTorquesDecide) {
   const ModeOutcome switched = Transition(In(Mode::kHold), ModeEvent::kControllerSwitched, external);
   EXPECT_EQ(switched.next.reason, kNoTorqueYet);
   EXPECT_TRUE(switched.entered) << "a hold entered anew captures the position again";
+}
+
+// Under a task-space controller the poses decide: a joint setpoint's arrival
+// or timeout (a stream from before a switch) changes nothing, so a pose that
+// ends a hold leaves the instance running for good.
+TEST(ModeMachine, UnderATaskSpaceControllerThePosesDecide) {
+  const ModeContext task{.task_space = true};
+  const Row rows[] = {
+      //                                 running hold fault paused estop stopped waiting
+      {ModeEvent::kSetpointArrived, {R, H, F, P, E, S, W}},    {ModeEvent::kSetpointsTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPoseArrived, {R, R, F, P, E, S, W}},        {ModeEvent::kPosesTimedOut, {H, H, F, P, E, S, W}},
+      {ModeEvent::kTorqueArrived, {R, H, F, P, E, S, W}},      {ModeEvent::kTorquesTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kControllerSwitched, {R, H, F, P, E, S, W}},
+  };
+  for (const Row& row : rows) ExpectRow(row, task, "task-space controller");
+  EXPECT_EQ(Transition(In(Mode::kRunning), ModeEvent::kPosesTimedOut, task).next.reason, kSetpointsTimedOut);
+  const ModeOutcome resumed = Transition(In(Mode::kHold), ModeEvent::kPoseArrived, task);
+  EXPECT_TRUE(resumed.entered);
+  EXPECT_EQ(Transition(resumed.next, ModeEvent::kSetpointsTimedOut, task).next.mode, Mode::kRunning)
+      << "a joint stream that timed out before does not flip it back to hold";
 }
 
 TEST(ModeMachine, LeavingATorqueHoldLetsTheSetpointsDecide) {

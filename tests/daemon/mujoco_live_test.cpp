@@ -10,10 +10,12 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -21,6 +23,7 @@
 
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
+#include "tests/support/process.hpp"
 
 namespace lagrange {
 namespace {
@@ -81,6 +84,40 @@ TEST(MujocoLive, LagrangedRunsThePandaOnMujocoUnderASetpointStream) {
   EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
 }
 
+// A live start (`lagranged --config`) whose MuJoCo model is refused before
+// the loop, as a URDF would be: a 50 MB MJCF names the file and the 2 MiB
+// bound; an <include> of a FIFO is refused at once instead of blocking the
+// start until a SIGTERM (RunProcess's 30 s bound: exit −1 had it blocked).
+// Exit 2 with one line, as every bad scene.
+TEST(MujocoLive, LagrangedRefusesAnOversizedMjcfAndAnIncludedFifoAtStartWithOneLine) {
+  const int port = 8700;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "mujoco_live_files";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string big = (dir / "big.xml").string(), world = (dir / "world.xml").string(),
+                    fifo = (dir / "parts.xml").string();
+  std::ofstream(big) << "<mujoco><!--" << std::string(50'000'000, ' ') << "--><worldbody/></mujoco>";
+  std::ofstream(world) << "<mujoco><include file=\"parts.xml\"/></mujoco>";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string urdf = std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf";
+  for (const auto& [file, why] :
+       {std::pair{big, big + ": larger than 2 MiB"},
+        std::pair{world, world + ": <include file=\"parts.xml\">: " + fifo + ": not a regular file (a FIFO)"}}) {
+    const std::string scene = (dir / "scene.yaml").string();
+    std::ofstream(scene) << "period: 0.001\ninstances:\n  - name: panda\n    plant: {type: mujoco, file: " << file
+                         << ", model: {type: urdf, file: " << urdf
+                         << "}}\n    initial: {q: [0, -0.785, 0, -2.356, 0, 1.571, 0.785]}\n"
+                            "    controller: {type: gravity-compensation}\n";
+    const testing::ProcessResult r =
+        testing::RunProcess({LAGRANGED_PATH, "--lcm-url", testing::TestLcmUrl(port), "--config", scene}, 30.0);
+    EXPECT_EQ(r.exit_code, 2) << r.err.substr(0, 300);
+    EXPECT_EQ(testing::Lines(r.err).size(), 1u) << r.err.substr(0, 300);
+    EXPECT_NE(r.err.find("instances[0].plant.file: " + why), std::string::npos) << r.err.substr(0, 300);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 // The reference driver (tools/examples/mujoco_driver.cpp) in the loop: MuJoCo
 // as the robot behind lagranged's external plant, lagranged's computed torque
 // (config/panda_external_mujoco.yaml) driving it over the bus through the
@@ -100,7 +137,7 @@ TEST(MujocoLive, TheReferenceDriverClosesTheLoopWithLagranged) {
   std::ofstream(scene_path) << scene;
   LcmCollector collector(url);
   BackgroundProcess driver({MUJOCO_DRIVER_PATH, "--model", source + "/config/robots/panda.urdf", "--initial",
-                            "0,-0.785,0,-2.356,0,1.571,0.785", "--url", url, "--torque-timeout", "0.5"});
+                            "0,-0.785,0,-2.356,0,1.571,0.785", "--lcm-url", url, "--torque-timeout", "0.5"});
   ASSERT_TRUE(collector.WaitFor("PANDA_ROBOT_STATE", [](const auto& m) { return !m.empty(); }, kWait))
       << driver.Stderr();
   BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--config", scene_path});

@@ -6,12 +6,24 @@
 // MuJoCo's warning; a tick allocates nothing.
 
 #include <gtest/gtest.h>
+#include <lagrange/forces_t.hpp>
+#include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <future>
+#include <iterator>
+#include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -26,9 +38,13 @@
 #include "daemon/runtime.hpp"
 #include "daemon/scene.hpp"
 #include "daemon/yaml_reader.hpp"
+#include "plant/kinematics.hpp"
 #include "plant/mujoco_plant.hpp"
+#include "plant/plant_factory.hpp"
+#include "plant/urdf.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/status.hpp"
+#include "protocol/wire.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/fake_clock.hpp"
 
@@ -203,6 +219,38 @@ TEST(MujocoScene, RefusesABrokenMjcfWithMujocosMessageOnOneLine) {
   EXPECT_EQ(e.find('\n'), std::string::npos) << e;
 }
 
+// A MuJoCo model's files are read as a URDF is, before MuJoCo sees them
+// (plant/mujoco_files.hpp): a 50 MB MJCF is refused naming it and the 2 MiB
+// bound; an <include> of a FIFO is refused at once (were it to block, the
+// test releases it after 30 s by opening the FIFO for writing, and fails).
+TEST(MujocoScene, AnOversizedMjcfOrAnIncludedFifoIsRefusedBeforeTheLoopWithOneLine) {
+  const std::string big =
+      WriteTemp("big_scene.xml", "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" + "<worldbody/></mujoco>");
+  std::string e = SceneError(PandaScene("{type: mujoco, file: " + big + ", model: " + kLagrangePlant + "}"));
+  EXPECT_NE(e.find("plant.file: " + big + ": larger than 2 MiB"), std::string::npos) << e.substr(0, 300);
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  std::remove(big.c_str());
+
+  const std::string fifo = ::testing::TempDir() + "scene_parts.xml";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string world = WriteTemp("scene_world.xml", "<mujoco><include file=\"scene_parts.xml\"/></mujoco>");
+  auto refusal = std::async(std::launch::async, [&] {
+    return SceneError(PandaScene("{type: mujoco, file: " + world + ", model: " + kLagrangePlant + "}"));
+  });
+  if (refusal.wait_for(std::chrono::seconds(30)) == std::future_status::timeout) {
+    ::close(::open(fifo.c_str(), O_WRONLY | O_NONBLOCK));  // the blocked reader gets end of file
+    FAIL() << "blocked on the FIFO for 30 s";
+  }
+  e = refusal.get();
+  EXPECT_NE(e.find("plant.file: " + world + ": <include file=\"scene_parts.xml\">: " + fifo +
+                   ": not a regular file (a FIFO)"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  std::remove(fifo.c_str());
+}
+
 TEST(MujocoScene, RefusesAFreeJoint) {
   const std::string path = WriteTemp("free_scene.xml", R"(<mujoco><worldbody><body name="b"><freejoint name="float"/>
       <geom size="0.1"/></body></worldbody></mujoco>)");
@@ -248,6 +296,77 @@ TEST(MujocoScene, PressingOnTheTableTheContactForceIsStiffnessTimesPenetration) 
               inst.energy_balance().energy_change(), inst.energy_balance().residual());
   // What lateral error the fingertip touched down with, friction holds: inside the cone (μ = 1, MuJoCo's default).
   EXPECT_LT(std::hypot(f->x(), f->y()), 1.0 * f->z());
+}
+
+// config/panda_mujoco_table.yaml at rest on the table: what <NAME>_FORCES
+// carries adds up to M(q) q̈ (lagrange's M of panda.urdf; the MJCF holds its
+// numbers, its inertias MuJoCo's diagonalisation, within 3e-8 relative) once
+// MuJoCo's constraint force is a row of its own; that row is the contact's
+// wrench through the Jacobian of the contact point (lagrange's kinematics of
+// panda.urdf), and the contact listed carries the README's 30 N.
+TEST(MujocoScene, OnTheTableTheForcesAddUpToMTimesQddAndTheContactCarriesThirtyNewtons) {
+  const Scene s = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_table.yaml");
+  Instance inst(s.instances[0]);
+  const int n = inst.num_dofs();
+  const double K = 600.0, commanded = 0.05;  // N/m, m: the scene's
+  for (int k = 0; k < 5000; ++k) ASSERT_EQ(inst.Step(s.period), nullptr) << "tick " << k;
+  EffectForces f(n);
+  inst.ComputeForces(f);
+  // M q̈ = tau_applied + damping + friction + limits + constraint − C q̇ − G.
+  MatrixXd M(n, n);
+  inst.model().dynamics().ComputeMassMatrix(inst.model().data(), inst.q(), M);
+  VectorXd net(n);
+  f.NetForce(net);
+  const VectorXd residual = net - M * inst.qdd();
+  const double scale = f.gravity.cwiseAbs().maxCoeff();  // N·m: the largest term
+  std::printf(
+      "table forces: |sum - M qdd| = %.2g N·m (terms up to %.3g N·m, M qdd %.2g N·m, constraint up to %.3g N·m)\n",
+      residual.cwiseAbs().maxCoeff(), scale, (M * inst.qdd()).cwiseAbs().maxCoeff(),
+      f.constraint.cwiseAbs().maxCoeff());
+  EXPECT_GT(scale, 1.0);
+  EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6 * scale);
+  // The contact: fingertip (geom 1) on the table (geom 0), 30 N up, as the README says.
+  ASSERT_TRUE(f.constraint_on);
+  ASSERT_EQ(f.contacts_total, 1);
+  ASSERT_EQ(f.num_contacts, 1);
+  const ContactWrench& c = f.contacts[0];
+  EXPECT_EQ(std::minmax(c.geom1, c.geom2), std::minmax(0, 1));
+  const Eigen::Vector3d up = c.geom2 == 1 ? c.force : Eigen::Vector3d(-c.force);  // on the fingertip
+  std::printf(
+      "table forces: contact of geoms %d and %d, force on the fingertip (%.4g, %.4g, %.6g) N, distance %.2g m\n",
+      c.geom1, c.geom2, up.x(), up.y(), up.z(), c.distance);
+  EXPECT_NEAR(up.z(), K * commanded, 2e-3 * K * commanded);
+  EXPECT_LT((up - *MujocoContactForce(*inst.stepped_plant(), "fingertip")).norm(), 1e-12 * K * commanded);
+  EXPECT_LT(c.distance, 0.0);  // soft contact: a little inside the table
+  EXPECT_GT(c.distance, -1e-3 * commanded);
+  EXPECT_NEAR(std::abs(c.normal.z()), 1.0, 1e-12);
+  // Joint space: constraint = J_pᵀ F + J_ωᵀ τ on the fingertip at the contact point p.
+  const UrdfRobot robot = LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf");
+  const Kinematics kinematics(robot.tree);
+  const auto data = kinematics.MakeData();
+  const int flange = *kinematics.FrameIndex("panda_link8");
+  kinematics.ComputeFrameJacobian(*data, inst.q(), flange, FrameAxes::kWorldAligned);
+  const Matrix6Xd& J = data->jacobian(flange, FrameAxes::kWorldAligned);
+  const Eigen::Vector3d r = c.position - data->position(flange);
+  Eigen::Matrix3d skew;
+  skew << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+  const MatrixXd Jp = J.topRows(3) - skew * J.bottomRows(3);  // the contact point's velocity: v + ω × r
+  const Eigen::Vector3d torque = c.geom2 == 1 ? c.torque : Eigen::Vector3d(-c.torque);
+  const VectorXd through_contact = Jp.transpose() * up + J.bottomRows(3).transpose() * torque;
+  std::printf("table forces: |constraint - J_p^T F| = %.2g N·m\n",
+              (f.constraint - through_contact).cwiseAbs().maxCoeff());
+  EXPECT_LT((f.constraint - through_contact).cwiseAbs().maxCoeff(), 1e-9 * K * commanded);
+  // What the model has: limits (its joint ranges; none reached at rest), no damping, no friction loss.
+  EXPECT_TRUE(f.active.gravity && f.active.coriolis && f.active.limits);
+  EXPECT_FALSE(f.active.damping || f.active.friction || f.active.saturation || f.active.disturbance);
+  EXPECT_EQ(f.limits.cwiseAbs().maxCoeff(), 0.0);
+  // Computing them allocates nothing, the contacts included.
+  testing::AllocationCounter counter;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_EQ(inst.Step(s.period), nullptr);
+    inst.ComputeForces(f);
+  }
+  EXPECT_EQ(counter.count(), 0);
 }
 
 // The Panda with its hand (panda_hand.urdf: 8 degrees of freedom, the right
@@ -325,6 +444,23 @@ TEST(MujocoScene, PandaWithItsHandPressingOnTheTableTheContactForceIsStiffnessTi
   EXPECT_NEAR(f.z(), K * (commanded - sank), 1e-3 * K * commanded);  // and the impedance's own balance closer
   EXPECT_LT(std::hypot(f.x(), f.y()), 1.0 * f.z());                  // inside the friction cone (μ = 1)
   EXPECT_LT(gap, kHandMimicTolerance);
+  // forces_t: the rows, Sᵀ of MuJoCo's (the right finger's on the left), add up to lagrange's
+  // Sᵀ M S q̈ to what the soft equality leaves of the mimic's acceleration; two contacts per finger pad or more.
+  EffectForces forces(inst.num_dofs());
+  inst.ComputeForces(forces);
+  MatrixXd M(inst.num_dofs(), inst.num_dofs());
+  inst.model().dynamics().ComputeMassMatrix(inst.model().data(), inst.q(), M);
+  VectorXd net(inst.num_dofs());
+  forces.NetForce(net);
+  double listed = 0.0;
+  for (int k = 0; k < forces.num_contacts; ++k)
+    listed += std::abs(forces.contacts[static_cast<std::size_t>(k)].force.z());
+  const double scale = forces.gravity.cwiseAbs().maxCoeff();
+  std::printf("hand on table forces: |sum - M qdd| = %.2g (terms up to %.3g), %d contacts carrying %.6g N\n",
+              (net - M * inst.qdd()).cwiseAbs().maxCoeff(), scale, forces.contacts_total, listed);
+  EXPECT_LT((net - M * inst.qdd()).cwiseAbs().maxCoeff(), 1e-8 * scale);
+  EXPECT_EQ(forces.num_contacts, forces.contacts_total);  // all listed (box on box: several per pad)
+  EXPECT_NEAR(listed, f.z(), 1e-9 * K * commanded);       // the pads' contacts, every one
 }
 
 // config/cartpole_mujoco_stops.yaml: driven towards x = 1 m, the cart stops
@@ -408,6 +544,65 @@ TEST(MujocoScene, TheStatusAndTelemetryNameMujocosIntegrator) {
        {std::pair{MujocoIntegrator::kEuler, "mujoco-euler"}, std::pair{MujocoIntegrator::kRk4, "mujoco-rk4"}}) {
     EXPECT_EQ(IntegratorDescription(IntegratorConfig{}, false, type), name);
   }
+}
+
+// What lagranged publishes on PANDA_FORCES for config/panda_mujoco_table.yaml
+// (scene key forces: true), through the publisher to the bus and decoded:
+// the constraint row and the contact, and rows that add up to M(q) q̈ at the
+// q, q̈ of the same tick's state_t.
+TEST(MujocoScene, PublishedForcesCarryTheConstraintRowAndTheContactAndAddUp) {
+  std::ifstream in(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_table.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("    integrator:"), 0, "    forces: true\n");
+  const std::string label = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_table_forces.yaml";
+  Runtime runtime(ParseScene(text, label));
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  InProcessBus output;
+  std::optional<forces_t> forces;
+  std::map<std::int64_t, state_t> states;
+  output.Subscribe("PANDA_FORCES", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    forces_t m;
+    if (CheckForcesPacket(d, n) == WireCheck::kOk && m.decode(d, 0, static_cast<int>(n)) >= 0) forces = m;
+  });
+  output.Subscribe("PANDA_STATE", [&](std::string_view, const std::uint8_t* d, std::size_t n) {
+    state_t m;
+    if (m.decode(d, 0, static_cast<int>(n)) >= 0) states[m.tick] = m;
+  });
+  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
+  Loop loop{runtime, clock, {1'000'000, OverrunPolicy::kSkip, 0}, ring};
+  Publisher publisher{output, runtime, ring, loop, stats, -1, 1};
+  std::atomic<bool> stop{false};
+  for (int tick = 100; tick <= 3000; tick += 100) {  // drained every 0.1 s, within the ring
+    loop.Run(stop, tick);
+    publisher.Drain();
+    while (output.Drain() > 0) {
+    }
+  }
+  ASSERT_TRUE(forces.has_value());
+  ASSERT_EQ(states.count(forces->tick), 1u);
+  const state_t& s = states.at(forces->tick);
+  EXPECT_TRUE(forces->constraint_on);
+  ASSERT_EQ(forces->num_contacts, 1);
+  EXPECT_EQ(forces->contacts_total, 1);
+  const contact_t& c = forces->contacts[0];
+  EXPECT_NEAR(std::abs(c.force[2]), 30.0, 0.1 * 30.0);  // pressing (settling: 1 s after the move)
+  EXPECT_LT(c.distance, 0.0);
+  const UrdfRobot robot = LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf");
+  const auto dynamics = MakeDynamics(UrdfPlantSpec(std::make_shared<UrdfRobot>(robot)), Method::kRecursive);
+  const auto data = dynamics->MakeData();
+  MatrixXd M(7, 7);
+  dynamics->ComputeMassMatrix(*data, Eigen::Map<const VectorXd>(s.q.data(), 7), M);
+  const VectorXd Mqdd = M * Eigen::Map<const VectorXd>(s.qdd.data(), 7);
+  double worst = 0.0, largest = 0.0;
+  for (std::size_t j = 0; j < 7; ++j) {
+    const double sum = forces->tau_applied[j] + forces->disturbance[j] + forces->damping[j] + forces->friction[j] +
+                       forces->limits[j] + forces->constraint[j] - forces->coriolis[j] - forces->gravity[j];
+    worst = std::max(worst, std::abs(sum - Mqdd[static_cast<Eigen::Index>(j)]));
+    largest = std::max(largest, std::abs(forces->constraint[j]));
+  }
+  EXPECT_GT(largest, 1.0);  // N·m: the table's share
+  EXPECT_LT(worst, 1e-6 * largest);
 }
 
 TEST(MujocoScene, ShippedSceneLoadsAndRuns) {

@@ -334,7 +334,7 @@ TEST_F(SignedAttack, TheExampleClientWithTheKeyClosesTheLoopOnASignedDaemon) {
   auto daemon = Lagranged("arm_impedance_client.yaml");
   SignedObserver observer(url_, *key_, {"ARM_STATE"});
   ASSERT_TRUE(testing::WaitUntil([&] { return observer.State("ARM_STATE").has_value(); }, kWait)) << daemon->Stderr();
-  BackgroundProcess client({IMPEDANCE_CLIENT_PATH, "--url", url_, "--target", "0.3,0.6", "--bus-key", key_path_});
+  BackgroundProcess client({IMPEDANCE_CLIENT_PATH, "--lcm-url", url_, "--target", "0.3,0.6", "--bus-key", key_path_});
   constexpr double kNear = 1e-2;  // rad: on its way to the target under the client's torques
   EXPECT_TRUE(testing::WaitUntil(
       [&] {

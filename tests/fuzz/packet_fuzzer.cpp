@@ -109,10 +109,16 @@ void WriteSeeds(const std::string& dir) {
   f.run_id = 7;
   f.gravity_on = f.coriolis_on = 1;
   f.num_dofs = 2;
-  for (auto* v :
-       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+  for (auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.constraint, &f.disturbance,
+                  &f.tau_cmd, &f.tau_applied}) {
     v->assign(2, 0.5);
   }
+  f.constraint_on = 1;
+  f.contacts_total = f.num_contacts = 1;  // a MuJoCo plant's contact
+  f.contacts.resize(1);
+  f.contacts[0].geom2 = 1;
+  f.contacts[0].normal[2] = 1.0;
+  f.contacts[0].force[2] = 30.0;
   WriteSeed(dir + "/forces", f);
   lagrange::status_t status{};
   status.num_instances = 1;

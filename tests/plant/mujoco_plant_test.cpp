@@ -7,8 +7,16 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
+#include <future>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -165,8 +173,13 @@ TEST(MujocoPlant, RefusesABrokenMjcfWithMujocosMessageOnOneLine) {
 }
 
 TEST(MujocoPlant, RefusesAMissingFile) {
-  const std::string e = LoadError(::testing::TempDir() + "no_such_model.xml");
-  EXPECT_NE(e.find("MuJoCo: "), std::string::npos) << e;
+  const std::string path = ::testing::TempDir() + "no_such_model.xml";
+  EXPECT_EQ(LoadError(path), path + ": cannot be opened (No such file or directory)");
+}
+
+TEST(MujocoPlant, RefusesAnEmptyFile) {
+  const std::string path = WriteTemp("empty.xml", "");
+  EXPECT_EQ(LoadError(path), path + ": empty: expected an MJCF or URDF model");
 }
 
 // What MuJoCo's compiler refuses as written and lagrange takes: a point mass
@@ -280,6 +293,33 @@ TEST(MujocoPlant, FreePendulumKeepsItsEnergyUnderRk4) {
   EXPECT_DOUBLE_EQ(data->other_work(), 0.0);
 }
 
+// A MuJoCo error in a step (here "Stack overflow": the block's contacts with
+// the floor outgrow the file's nstack) faults that step with MuJoCo's words;
+// by MuJoCo's default it printed "Press Enter to exit ...", read stdin and
+// ended the process. The data is usable again after SetState.
+TEST(MujocoPlant, AnErrorInAStepFaultsTheStepInsteadOfEndingTheProcess) {
+  const auto model = LoadMujocoPlant(WriteTemp("small_stack.xml", R"(<mujoco><size nstack="300"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.3"><joint name="z" type="slide" axis="0 0 1"/><geom type="box" size="0.1 0.1 0.1"/>
+      <geom type="box" pos="0.2 0 0" size="0.1 0.1 0.1"/><geom type="box" pos="0.4 0 0" size="0.1 0.1 0.1"/></body>
+    </worldbody></mujoco>)"),
+                                     MujocoOptions{});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(1), qd = VectorXd::Zero(1), qdd(1), tau = VectorXd::Zero(1);
+  data->SetState(q, qd);  // falling, 0.2 m above the floor
+  const char* reason = nullptr;
+  int steps = 0;
+  for (; steps < 2000 && reason == nullptr; ++steps) reason = data->Step(tau, q, qd, qdd);
+  ASSERT_NE(reason, nullptr) << "the block never touched the floor";
+  EXPECT_NE(std::string(reason).find("MuJoCo: Stack overflow"), std::string::npos) << reason;
+  EXPECT_GT(steps, 100);  // not at once: when it reached the floor
+  q << 0.0;
+  qd << 0.0;
+  data->SetState(q, qd);  // in the air again: its steps run until the floor
+  EXPECT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EXPECT_LT(q[0], 0.0);
+}
+
 // Damping's work is counted: E(t) − E(0) = W to the trapezoid rule's error.
 TEST(MujocoPlant, DampingsWorkIsTheEnergyLost) {
   std::string xml = kPendulum;
@@ -301,6 +341,258 @@ TEST(MujocoPlant, DampingsWorkIsTheEnergyLost) {
   const double change = data->kinetic_energy() + data->potential_energy() - e0;
   EXPECT_LT(change, -0.1);  // it lost energy
   EXPECT_NEAR(change, work, 1e-6 * std::abs(change));
+}
+
+// ------------------------------------------------------------------ files
+
+// A fresh directory of the test's own under the temporary directory.
+std::filesystem::path FreshDirectory(const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+void WriteFile(const std::filesystem::path& path, const std::string& bytes) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// kPendulum's elements after <mujoco>, for models that add their own first.
+std::string PendulumBody() { return std::string(kPendulum).substr(std::string("<mujoco>").size()); }
+
+// Within a 2 MiB bound, as a URDF: a 50 MB MJCF (a valid model behind a 50 MB
+// comment) is refused with one line naming it and the bound, unparsed.
+TEST(MujocoPlant, AnMjcfLargerThanTheUrdfBoundIsRefusedNamingTheFileAndTheBound) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_big");
+  const std::string path = (dir / "big.xml").string();
+  WriteFile(path, "<mujoco><!--" + std::string(50'000'000, ' ') + "-->" + PendulumBody());
+  EXPECT_EQ(LoadError(path), path + ": larger than 2 MiB");
+  std::filesystem::remove_all(dir);
+}
+
+// LoadError(path) where the model names the FIFO `fifo`: were the load to
+// block on it, after 30 s the FIFO is opened for writing (the blocked reader
+// gets end of file) and "blocked on the FIFO" is returned, so a test never hangs.
+std::string LoadErrorUnlessBlocked(const std::string& path, const std::string& fifo) {
+  auto refusal = std::async(std::launch::async, [&] { return LoadError(path); });
+  if (refusal.wait_for(std::chrono::seconds(30)) == std::future_status::timeout) {
+    ::close(::open(fifo.c_str(), O_WRONLY | O_NONBLOCK));
+    refusal.wait();
+    return "blocked on the FIFO";
+  }
+  return refusal.get();
+}
+
+// MuJoCo would open an included FIFO and wait for a writer forever: lagrange
+// reads every file first, non-blocking, and refuses it at once.
+TEST(MujocoPlant, AnIncludedFifoIsRefusedAtOnceNamingIt) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_fifo");
+  const std::string fifo = (dir / "parts.xml").string(), path = (dir / "world.xml").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  WriteFile(path, "<mujoco><include file=\"parts.xml\"/>" + PendulumBody());
+  EXPECT_EQ(LoadErrorUnlessBlocked(path, fifo),
+            path + ": <include file=\"parts.xml\">: " + fifo + ": not a regular file (a FIFO)");
+  std::filesystem::remove_all(dir);
+}
+
+// A binary STL: a tetrahedron of 0.1 m.
+std::string Tetrahedron() {
+  const float v[4][3] = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  std::string stl(80, '\0');
+  const std::uint32_t count = 4;
+  stl.append(reinterpret_cast<const char*>(&count), 4);
+  for (const auto& face : faces) {
+    stl.append(12, '\0');  // the normal: MuJoCo computes its own
+    for (int k : face) stl.append(reinterpret_cast<const char*>(v[k]), 12);
+    stl.append(2, '\0');
+  }
+  return stl;
+}
+
+// A 1 x 1 grey PNG.
+std::string Png() {
+  const unsigned char bytes[] = {0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+                                 0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
+                                 0x00, 0x90, 0x77, 0x53, 0xde, 0x00, 0x00, 0x00, 0x0c, 0x49, 0x44, 0x41, 0x54, 0x78,
+                                 0x9c, 0x63, 0x68, 0x68, 0x68, 0x00, 0x00, 0x03, 0x04, 0x01, 0x81, 0x4b, 0xd3, 0xd2,
+                                 0x10, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+  return std::string(reinterpret_cast<const char*>(bytes), sizeof bytes);
+}
+
+// Includes (nested ones too) relative to the model's directory, meshes under
+// meshdir, textures under texturedir, as MuJoCo 2.2.2 finds them: lagrange
+// reads the same files and the model loads; one missing, or a FIFO, or a
+// second file of the same name elsewhere, is refused naming it.
+TEST(MujocoPlant, IncludesMeshesAndTexturesAreReadWhereMujocoFindsThem) {
+  const std::filesystem::path dir = FreshDirectory("mujoco_files");
+  const std::string path = (dir / "world.xml").string();
+  WriteFile(path, R"(<mujoco>
+      <compiler meshdir="assets" texturedir="assets/textures/"/>
+      <include file="parts/assets.xml"/>
+      <worldbody><body name="bob"><joint name="theta" axis="0 1 0"/>
+        <geom type="sphere" size="0.05" pos="0 0 -1" mass="1" contype="0" conaffinity="0"/>
+        <geom type="mesh" mesh="tet" contype="0" conaffinity="0"/></body></worldbody></mujoco>)");
+  WriteFile(dir / "parts" / "assets.xml", R"(<mujoco><include file="parts/textures.xml"/>
+      <asset><mesh name="tet" file="tet.stl"/></asset></mujoco>)");
+  WriteFile(dir / "parts" / "textures.xml",
+            R"(<mujoco><asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
+  WriteFile(dir / "assets" / "tet.stl", Tetrahedron());
+  WriteFile(dir / "assets" / "textures" / "grey.png", Png());
+  const auto model = LoadMujocoPlant(path, MujocoOptions{});
+  EXPECT_EQ(model->info().num_geoms, 2);
+  EXPECT_EQ(model->mj_model()->nmesh, 1);
+  EXPECT_EQ(model->mj_model()->ntex, 1);
+
+  const std::string mesh = (dir / "assets" / "tet.stl").string();
+  std::filesystem::remove(mesh);
+  EXPECT_EQ(LoadError(path),
+            path + ": <mesh file=\"tet.stl\">: " + mesh + ": cannot be opened (No such file or directory)");
+  ASSERT_EQ(::mkfifo(mesh.c_str(), 0600), 0);
+  EXPECT_EQ(LoadErrorUnlessBlocked(path, mesh),
+            path + ": <mesh file=\"tet.stl\">: " + mesh + ": not a regular file (a FIFO)");
+  std::filesystem::remove(mesh);
+  WriteFile(mesh, "");  // MuJoCo 2.2.2's VFS would end the process for it
+  EXPECT_EQ(LoadError(path), path + ": <mesh file=\"tet.stl\">: " + mesh + ": empty");
+  WriteFile(mesh, Tetrahedron());
+
+  WriteFile(dir / "parts" / "textures.xml", R"(<mujoco><include file="other/assets.xml"/>
+      <asset><texture name="grey" type="2d" file="grey.png"/></asset></mujoco>)");
+  WriteFile(dir / "other" / "assets.xml", "<mujoco/>");
+  EXPECT_NE(LoadError(path).find("share the name 'assets.xml'"), std::string::npos) << LoadError(path);
+  std::filesystem::remove_all(dir);
+}
+
+// ------------------------------------------------------------------ forces
+
+// A slider on a floor (a contact) with damping, a spring, friction loss; an
+// arm pushed into its stop (a limit), with a second hinge held to it by a
+// joint equality. Every kind of MuJoCo force at once.
+constexpr char kEveryForce[] = R"(<mujoco model="every_force">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.001"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="slider" pos="0 0 0.1">
+      <joint name="z" type="slide" axis="0 0 1" damping="0.5" frictionloss="0.3" stiffness="20" springref="0.05"/>
+      <geom name="ball" type="sphere" size="0.1" mass="1"/>
+      <body name="arm" pos="0 0 0.3">
+        <joint name="a" type="hinge" axis="0 1 0" range="-0.5 0.5" damping="0.1" frictionloss="0.05"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.2" contype="0" conaffinity="0"/>
+        <body pos="0.3 0 0">
+          <joint name="b" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.1" contype="0" conaffinity="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality><joint joint1="b" joint2="a" polycoef="0 0.5 0 0 0"/></equality>
+</mujoco>)";
+
+// The rows are MuJoCo's own terms at the published state: they add up to its
+// M(q) q̈ (mj_fullM at that q) to round-off; damping is −b q̇ − k (q − q_ref)
+// (qfrc_passive); the stop's force is in limits, the friction loss in
+// friction (bounded by the loss), the floor's and the equality's in constraint.
+TEST(MujocoPlant, ForcesAreMujocosOwnTermsAndAddUpToItsMTimesQdd) {
+  const auto model = LoadMujocoPlant(WriteTemp("every_force.xml", kEveryForce), MujocoOptions{});
+  auto data = model->MakeData();
+  const int n = model->num_dofs();
+  ASSERT_EQ(n, 3);
+  VectorXd q = VectorXd::Zero(n), qd = VectorXd::Zero(n), qdd(n), tau(n);
+  tau << 0.0, 2.0, 0.0;  // N·m on a: into its stop at 0.5 rad
+  data->SetState(q, qd);
+  for (int k = 0; k < 500; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EffectForces f(n);
+  data->ComputeForces(f);
+  f.tau_cmd = f.tau_applied = tau;
+  EXPECT_TRUE(f.active.gravity && f.active.coriolis && f.active.damping && f.active.friction && f.active.limits &&
+              f.constraint_on);
+  // MuJoCo's M at q, from data of its own.
+  const mjModel* m = model->mj_model();
+  mjData* d = mj_makeData(m);
+  mju_copy(d->qpos, q.data(), n);
+  mju_copy(d->qvel, qd.data(), n);
+  mj_forward(m, d);
+  MatrixXd M(n, n);
+  mj_fullM(m, M.data(), d->qM);
+  VectorXd net(n);
+  f.NetForce(net);
+  const double scale = std::max(f.gravity.cwiseAbs().maxCoeff(), f.constraint.cwiseAbs().maxCoeff());
+  std::printf(
+      "every force: |sum - M qdd| = %.2g (terms up to %.3g); limits %.4g, friction %.4g N, constraint %.4g %.4g %.4g\n",
+      (net - M * qdd).cwiseAbs().maxCoeff(), scale, f.limits[1], f.friction[0], f.constraint[0], f.constraint[1],
+      f.constraint[2]);
+  EXPECT_LT((net - M * qdd).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  // G + C q̇ is MuJoCo's bias force at (q, q̇).
+  EXPECT_LT((f.gravity + f.coriolis - Eigen::Map<VectorXd>(d->qfrc_bias, n)).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  EXPECT_NEAR(f.gravity[0], (1.0 + 0.2 + 0.1) * 9.81, 1e-12 * scale);  // the slider carries every mass
+  EXPECT_NEAR(f.damping[0], -0.5 * qd[0] - 20.0 * (q[0] - 0.05), 1e-12);
+  EXPECT_NEAR(f.damping[1], -0.1 * qd[1], 1e-12);
+  EXPECT_NEAR(q[1], 0.5, 0.01);  // at the stop ...
+  EXPECT_LT(f.limits[1], -0.5);  // ... which pushes back
+  EXPECT_EQ(f.limits[0], 0.0);   // z has no range
+  EXPECT_LE(std::abs(f.friction[0]), 0.3 + 1e-12);
+  EXPECT_LE(std::abs(f.friction[1]), 0.05 + 1e-12);
+  EXPECT_GT(f.constraint[0], 5.0);  // the floor carries the weight (N)
+  // The one contact: the ball on the floor, pushed up.
+  ASSERT_EQ(f.num_contacts, 1);
+  EXPECT_EQ(f.contacts_total, 1);
+  const ContactWrench& c = f.contacts[0];
+  EXPECT_EQ(c.geom1, mj_name2id(m, mjOBJ_GEOM, "floor"));
+  EXPECT_EQ(c.geom2, mj_name2id(m, mjOBJ_GEOM, "ball"));
+  EXPECT_NEAR(c.normal.z(), 1.0, 1e-12);
+  EXPECT_NEAR(c.force.z(), f.constraint[0], 1e-9 * scale);  // the slider's row is the contact's normal force
+  EXPECT_NEAR(c.position.z(), 0.0, 1e-3);
+  mj_deleteData(d);
+}
+
+// The gravity row (Σ −J_comᵀ m g over MuJoCo's bodies) and the Coriolis row
+// (MuJoCo's bias less it) are lagrange's G(q) and C(q, q̇) q̇ on the Panda
+// with the inertia fix, to round-off: two independent implementations.
+TEST(MujocoPlant, GravityAndCoriolisRowsAreLagrangesToRoundOff) {
+  const Loaded l = Load("panda.urdf", /*exact=*/true);
+  const auto dynamics = MakeDynamics(UrdfPlantSpec(std::make_shared<UrdfRobot>(l.robot)), Method::kRecursive);
+  auto ours = dynamics->MakeData();
+  auto data = l.mujoco->MakeData();
+  const int n = l.mujoco->num_dofs();
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  EffectForces f(n);
+  double worst = 0.0;
+  for (int trial = 0; trial < 10; ++trial) {
+    VectorXd q(n), qd(n), g(n), c(n);
+    for (int i = 0; i < n; ++i) {
+      q[i] = 0.5 * u(rng) + (i == 3 ? -1.5 : 0.0) + (i == 5 ? 1.5 : 0.0);  // inside every range
+      qd[i] = 1.5 * u(rng);
+    }
+    data->SetState(q, qd);
+    data->ComputeForces(f);
+    dynamics->ComputeGravityForce(*ours, q, g);
+    dynamics->ComputeCoriolisForce(*ours, q, qd, c);
+    worst = std::max({worst, RelativeDifference(f.gravity, g), RelativeDifference(f.coriolis, c)});
+    EXPECT_EQ(f.constraint.cwiseAbs().maxCoeff(), 0.0);  // panda.urdf has no collision geometry
+    EXPECT_EQ(f.num_contacts, 0);
+  }
+  EXPECT_LT(worst, kRoundOff);
+  EXPECT_FALSE(f.constraint_on);
+  std::printf("Panda: MuJoCo's gravity and Coriolis rows against lagrange's: %.2g relative\n", worst);
+}
+
+TEST(MujocoPlant, ComputingForcesAllocatesNothing) {
+  const auto model = LoadMujocoPlant(WriteTemp("every_force_alloc.xml", kEveryForce), MujocoOptions{});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(3), qd = VectorXd::Zero(3), qdd(3), tau = VectorXd::Constant(3, 1.0);
+  data->SetState(q, qd);
+  EffectForces f(3);
+  ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  testing::AllocationCounter counter;
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+    data->ComputeForces(f);
+  }
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_EQ(f.num_contacts, 1);
 }
 
 // ------------------------------------------------------------------ mimic joints
@@ -385,7 +677,7 @@ TEST(MujocoPlant, PandaWithItsHandReducedToItsDegreesOfFreedomAgreesToRoundOff) 
 // |q_right − q_left| allowed, m, per integrator (measured: 1.4e-7, 1.4e-8,
 // 6.0e-6; MuJoCo's implicit integrator keeps the coupling the least well).
 TEST(MujocoPlant, TheMimicFingerFollowsItsLeaderToTheEqualitysSoftness) {
-  for (const auto [integrator, tolerance] :
+  for (const auto& [integrator, tolerance] :
        {std::pair{MujocoIntegrator::kEuler, 1e-6}, std::pair{MujocoIntegrator::kRk4, 1e-7},
         std::pair{MujocoIntegrator::kImplicit, 1e-5}}) {
     const Loaded l = LoadPandaHand(integrator);
@@ -476,6 +768,32 @@ TEST(MujocoPlant, ACoupledMjcfsMimicIsNoDegreeOfFreedomAndFollowsItsLeader) {
   EXPECT_NEAR(*MujocoJointPosition(*data, "b"), 2.0 * q[0] + 0.1, 1e-2);
   std::printf("coupled sliders (default solref): qdd %.6g m/s² against 0.6; |b - (2a + 0.1)| = %.2g m\n", qdd[0],
               std::abs(*MujocoJointPosition(*data, "b") - 2.0 * q[0] - 0.1));
+}
+
+// A mimic's forces act on its leader times its multiplier (Sᵀ, as lagrange's
+// reduction): the equality's share cancels there exactly, and the rows add
+// up to Sᵀ M S q̈ = (1 + 2²) kg q̈ to the equality's softness.
+TEST(MujocoPlant, AMimicsForcesActOnItsLeaderWhereTheEqualitysShareCancels) {
+  const std::string path = WriteTemp(
+      "coupled_forces.xml", Sliders(R"(<equality><joint joint1="b" joint2="a" polycoef="0.1 2 0 0 0"/></equality>)"));
+  MujocoOptions o;
+  o.mimics = {{"b", "a", 2.0, 0.1}};
+  const auto model = LoadMujocoPlant(path, o);
+  auto data = model->MakeData();
+  VectorXd q(1), qd(1), qdd(1), tau(1);
+  q << 0.2;
+  qd << 0.0;
+  tau << 3.0;
+  data->SetState(q, qd);
+  for (int k = 0; k < 1000; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  EffectForces f(1);
+  data->ComputeForces(f);
+  f.tau_cmd = f.tau_applied = tau;
+  EXPECT_TRUE(f.constraint_on);                 // the equality
+  EXPECT_LT(std::abs(f.constraint[0]), 1e-12);  // −2 λ on a, λ on b: Sᵀ adds 2 λ back
+  VectorXd net(1);
+  f.NetForce(net);
+  EXPECT_NEAR(net[0], 5.0 * qdd[0], 0.05 * 3.0);  // MuJoCo's default solref, soft: to 5 %
 }
 
 TEST(MujocoPlant, ADivergingSimulationFailsTheStepWithMujocosWarning) {

@@ -175,6 +175,30 @@ TEST(HeardHint, SuggestsOnlyAPrefixAStatusConfirms) {
             "state channels heard: FARM_STATE; did you mean 'farm'?");
 }
 
+// The README's two-daemon loop: arm_controller under CTRL_, the plant's arm without a prefix.
+TEST(HeardHint, UnderAPrefixADaemonUsesTheNearestInstanceThereComesFirst) {
+  EXPECT_EQ(
+      HeardHint("CTRL_", "arm", {"LAGRANGE_STATUS", "CTRL_LAGRANGE_STATUS", "ARM_STATE", "CTRL_ARM_CONTROLLER_STATE"}),
+      "state channels heard: ARM_STATE, CTRL_ARM_CONTROLLER_STATE; did you mean 'arm_controller'? (or a "
+      "lagranged publishes ARM_STATE: without --channel-prefix?)");
+}
+
+TEST(SigningHint, EachReasonHeardIsAClauseAndNoneIsNothing) {
+  EXPECT_EQ(SigningHint({}), "");
+  EXPECT_EQ(SigningHint({.other_key = 1}),
+            "heard 1 message signed with another key (their tags do not verify with this client's): give the "
+            "daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)");
+  EXPECT_EQ(SigningHint({.unsigned_refused = 5, .out_of_window = 2}),
+            "heard 5 unsigned messages, which a client with a key refuses: the daemon runs without one (give it "
+            "--bus-key FILE too, or run this client without a key); heard 2 signed messages stamped more than 2 s "
+            "from this host's clock, or replayed: keep the hosts' clocks in step (chrony or NTP)");
+  // What was heard for its signature explains the silence before any channel name does.
+  EXPECT_EQ(WhatWasHeard({.signed_unreadable = 3}, "", "arm", {"ARM_STATE"}),
+            "heard 3 signed messages, which a client without a key cannot check: its states are signed; give the "
+            "daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)");
+  EXPECT_EQ(WhatWasHeard({}, "", "arm", {}), HeardHint("", "arm", {}));
+}
+
 TEST(DaemonLink, OnlyTheRunsReplyToItsOwnRequestCounts) {
   DaemonLink link(InProcess(), "arm");
   link.bus().PublishMessage("ARM_STATE", State(kRun));

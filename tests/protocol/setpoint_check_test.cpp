@@ -158,7 +158,39 @@ TEST(PoseSetpointCheck, EveryBadPoseIsRejectedNamingTheField) {
   m.duration = 2.0;
   m.twist[0] = 0.1;
   EXPECT_EQ(reason(m), "twist with duration 2 s: a timed move ends at rest (send zeros)");
-  EXPECT_EQ(reason(Pose(0.4, 0.0, 0.5), PoseRules{}), "no task-space controller on this instance (a pose needs one)");
+}
+
+// A feed-forward twist faster than the frame can move within the joints'
+// velocity limits is refused, its linear and angular parts each against its own bound.
+TEST(PoseSetpointCheck, ATwistFasterThanTheJointsAllowTheFrameIsRejected) {
+  PoseRules rules = TcpRules();
+  rules.max_linear_speed = 4.0;    // m/s
+  rules.max_angular_speed = 16.5;  // rad/s
+  pose_setpoint_t m = Pose(0.4, 0.0, 0.5);
+  m.twist[2] = 3.0;
+  m.twist[5] = 16.0;
+  EXPECT_EQ(CheckPose(m, rules).kind, Kind::kAccepted);
+  m.twist[5] = 264.0;  // issue 32: the Panda's wrist spun at this
+  EXPECT_EQ(CheckPose(m, rules).reason,
+            "twist: angular speed 264 rad/s is more than the joints' velocity limits allow 'panda_hand_tcp' (at most "
+            "16.5 rad/s anywhere)");
+  m.twist[5] = 0.0;
+  m.twist[0] = 3.0;  // ‖(3, 0, 3)‖ = 4.24 m/s
+  EXPECT_EQ(
+      CheckPose(m, rules).reason,
+      "twist: linear speed 4.24264 m/s is more than the joints' velocity limits allow 'panda_hand_tcp' (at most 4 "
+      "m/s anywhere)");
+}
+
+// One rule for both targets: each is refused while the active controller follows the other.
+TEST(TargetRule, AJointControllerRefusesPosesAndATaskSpaceOneRefusesJointSetpoints) {
+  EXPECT_EQ(RefusedByController(TargetKind::kPose, false, "pd"),
+            "the instance is not running a task-space controller (active: pd)");
+  EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, true, "cartesian-impedance"),
+            "the instance is running a task-space controller (active: cartesian-impedance), which follows pose "
+            "setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints");
+  EXPECT_EQ(RefusedByController(TargetKind::kPose, true, "operational-space"), "");
+  EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, false, "computed-torque"), "");
 }
 
 TEST(PoseSetpointCheck, AFrameNameFromTheBusIsEscapedInTheReason) {

@@ -44,6 +44,11 @@ void WriteInt32(std::vector<std::uint8_t>& buf, std::size_t at, std::int32_t v) 
   for (std::size_t i = 0; i < 4; ++i) buf.at(at + i) = static_cast<std::uint8_t>(u >> (24 - 8 * i));
 }
 
+void WriteInt64(std::vector<std::uint8_t>& buf, std::size_t at, std::uint64_t v) {
+  WriteInt32(buf, at, static_cast<std::int32_t>(v >> 32));
+  WriteInt32(buf, at + 4, static_cast<std::int32_t>(v & 0xffffffffu));
+}
+
 TEST(Wire, AValidSetpointPassesAndEveryTruncationIsCaught) {
   const auto buf = Encode(ValidSetpoint(7));
   EXPECT_EQ(CheckSetpointPacket(buf.data(), buf.size()), WireCheck::kOk);
@@ -199,21 +204,30 @@ telemetry_t ValidTelemetry() {
 // The integrator's length: after fingerprint, utime, run_id, tick, t, mode, energy .. power.
 constexpr std::size_t kTelemetryStringAt = 8 + 3 * 8 + 8 + 1 + 5 * 8;
 
-forces_t ValidForces(int n) {
+forces_t ValidForces(int n, int contacts = 0) {
   forces_t f{};
   f.utime = 1;
   f.run_id = 0x5678;
   f.tick = 7;
   f.gravity_on = f.coriolis_on = true;
   f.num_dofs = n;
-  for (auto* v :
-       {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.disturbance, &f.tau_cmd, &f.tau_applied}) {
+  for (auto* v : {&f.gravity, &f.coriolis, &f.damping, &f.friction, &f.limits, &f.constraint, &f.disturbance,
+                  &f.tau_cmd, &f.tau_applied}) {
     v->assign(static_cast<std::size_t>(n), 0.25);
+  }
+  f.contacts_total = f.num_contacts = contacts;
+  f.contacts.resize(static_cast<std::size_t>(contacts));
+  for (contact_t& c : f.contacts) {
+    c.geom2 = 1;
+    c.normal[2] = 1.0;
+    c.force[2] = 30.0;
   }
   return f;
 }
-// num_dofs: after fingerprint, utime, run_id, tick, t and the seven flags.
-constexpr std::size_t kForcesDofsAt = 8 + 3 * 8 + 8 + 7;
+// num_dofs: after fingerprint, utime, run_id, tick, t and the eight flags.
+constexpr std::size_t kForcesDofsAt = 8 + 3 * 8 + 8 + 8;
+// num_contacts of a forces_t on n joints: after num_dofs, the nine rows and contacts_total.
+std::size_t ForcesContactsAt(int n) { return kForcesDofsAt + 4 + 9 * 8 * static_cast<std::size_t>(n) + 4; }
 
 TEST(Wire, ATelemetryPassesAndEveryTruncationOrExtraByteIsCaught) {
   const auto buf = Encode(ValidTelemetry());
@@ -284,13 +298,16 @@ TEST(Wire, ATelemetryWithACraftedOrOversizedStringIsRefused) {
 
 TEST(Wire, ForcesPassForEverySizeUpToTheBoundAndEveryTruncationIsCaught) {
   for (int n : {0, 1, 2, kMaxDofs}) {
-    const auto buf = Encode(ValidForces(n));
-    ASSERT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kOk) << n;
-    forces_t out;
-    EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-    EXPECT_EQ(out.num_dofs, n);
+    for (int contacts : {0, 1, kMaxContacts}) {
+      const auto buf = Encode(ValidForces(n, contacts));
+      ASSERT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kOk) << n << " " << contacts;
+      forces_t out;
+      EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+      EXPECT_EQ(out.num_dofs, n);
+      EXPECT_EQ(out.num_contacts, contacts);
+    }
   }
-  const auto buf = Encode(ValidForces(2));
+  const auto buf = Encode(ValidForces(2, 2));
   for (std::size_t len = 0; len < buf.size(); ++len) {
     EXPECT_NE(CheckForcesPacket(buf.data(), len), WireCheck::kOk) << len;
   }
@@ -310,7 +327,38 @@ TEST(Wire, ForcesOverKMaxDofsOrNegativeOrMiscountedAreRefused) {
   WriteInt32(buf, kForcesDofsAt, 3);  // plausible, but the packet holds 2
   EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kTooShort);
   WriteInt32(buf, kForcesDofsAt, 1);
+  EXPECT_NE(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kOk);
+}
+
+// The contacts' count is bounded (kMaxContacts) and must match the packet,
+// before anything is decoded.
+TEST(Wire, ForcesWithMoreContactsThanTheBoundOrAMiscountAreRefused) {
+  const auto over = Encode(ValidForces(2, kMaxContacts + 1));  // really that many
+  EXPECT_EQ(CheckForcesPacket(over.data(), over.size()), WireCheck::kBadLength);
+  auto buf = Encode(ValidForces(2, 2));
+  for (const std::int32_t count : {-1, 0x7fffffff, kMaxContacts + 1}) {
+    WriteInt32(buf, ForcesContactsAt(2), count);
+    EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kBadLength) << count;
+  }
+  WriteInt32(buf, ForcesContactsAt(2), 3);  // plausible, but the packet holds 2
+  EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kTooShort);
+  WriteInt32(buf, ForcesContactsAt(2), 1);
   EXPECT_EQ(CheckForcesPacket(buf.data(), buf.size()), WireCheck::kSizeMismatch);
+}
+
+// An earlier lagrange's forces_t (no constraint row, no contacts: its own
+// fingerprint) is another type live, and its own layout's check takes it.
+TEST(Wire, AnEarlierForcesLayoutIsToldApartByItsFingerprint) {
+  std::vector<std::uint8_t> v1(8 + 3 * 8 + 8 + 7 + 4 + 8 * 8 * 2, 0);
+  WriteInt64(v1, 0, static_cast<std::uint64_t>(kForcesV1Fingerprint));
+  WriteInt32(v1, 8 + 3 * 8 + 8 + 7, 2);
+  EXPECT_EQ(CheckForcesV1Packet(v1.data(), v1.size()), WireCheck::kOk);
+  EXPECT_EQ(CheckForcesPacket(v1.data(), v1.size()), WireCheck::kFingerprint);
+  EXPECT_EQ(TypeOf(v1.data(), v1.size()), MessageType::kUnknown);
+  for (std::size_t len = 0; len < v1.size(); ++len) EXPECT_NE(CheckForcesV1Packet(v1.data(), len), WireCheck::kOk);
+  const auto now = Encode(ValidForces(2));
+  EXPECT_EQ(CheckForcesV1Packet(now.data(), now.size()), WireCheck::kFingerprint);
+  EXPECT_NE(forces_t::getHash(), kForcesV1Fingerprint);
 }
 
 // ------------------------------------------------------------------ status_t with the switch fields

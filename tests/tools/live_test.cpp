@@ -1048,5 +1048,70 @@ TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
   for (double q : s.q) EXPECT_TRUE(std::isfinite(q));
 }
 
+// A pose's feed-forward twist is bounded by what the joints' velocity limits
+// allow the frame (plant/frame_speed.hpp): the Panda's flange turns at most
+// 4 × 2.175 + 3 × 2.61 = 16.53 rad/s. Issue 32: 264 rad/s about z (and anything
+// up to 1e6) was accepted, and the wrist spun at 264 rad/s.
+TEST_F(LivePose, AFeedForwardTwistBeyondWhatTheJointVelocityLimitsAllowIsRefused) {
+  StartPanda(8668);
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  pose_setpoint_t spin = Pose(0.4, 0.0, 0.5);
+  spin.twist[5] = 264.0;
+  EXPECT_EQ(RawPoseRejection(spin),
+            "panda: pose: twist: angular speed 264 rad/s is more than the joints' velocity limits allow 'panda_link8' "
+            "(at most 16.53 rad/s anywhere)");
+  pose_setpoint_t huge = Pose(0.4, 0.0, 0.5);
+  huge.twist[0] = 1e6;
+  EXPECT_EQ(RawPoseRejection(huge).rfind("panda: pose: twist: linear speed 1e+06 m/s is more than", 0), 0u);
+  // Within the bound it is taken (and, streamed once, stops at rest after setpoint_timeout).
+  const auto accepted = [&] {
+    const auto statuses = collector_->Decoded<status_t>("LAGRANGE_STATUS");
+    return statuses.empty() ? 0 : statuses.back().setpoints_accepted;
+  };
+  const std::int64_t before = accepted();
+  pose_setpoint_t turn = Pose(0.4, 0.0, 0.5);
+  turn.twist[5] = 0.2;
+  turn.utime = WallMicros();
+  lcm::LCM(url_).publish("PANDA_POSE", &turn);
+  EXPECT_TRUE(collector_->WaitForLatest<status_t>(
+      "LAGRANGE_STATUS", [&](const status_t& st) { return st.setpoints_accepted > before; }, 10.0));
+}
+
+// The mirror of the pose refused by a joint controller: joint setpoints sent
+// to the Panda under Cartesian impedance are refused by name (never counted
+// as accepted and ignored), so no joint stream can time out under it; and a
+// joint stream from before a switch to it cannot either: after a pose the
+// instance runs, and keeps running (issue 32: every later pose flipped it back
+// to hold for a tick, and lagrangectl said it did not follow the pose).
+TEST_F(LivePose, AJointSetpointIsRefusedByATaskSpaceInstanceAndAPoseKeepsItRunning) {
+  StartPanda(8660);
+  ASSERT_TRUE(collector_->WaitForLatest<task_state_t>(
+      "PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
+  const std::string q = "0,-0.785,0,-2.356,0,1.571,0.785";
+  ExpectOneLine(Ctl({"send", "panda", "--q", q, "--for", "0.2"}), "send", 1,
+                "panda: the instance is running a task-space controller (active: cartesian-impedance), which follows "
+                "pose setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints");
+
+  // A joint stream under gravity compensation, then back to the task-space
+  // controller: that stream times out (setpoint_timeout 0.5 s) while the poses decide.
+  ASSERT_EQ(Ctl({"command", "panda", "controller", "gravity-compensation"}).status, 0);
+  ASSERT_EQ(Ctl({"send", "panda", "--q", q, "--for", "0.2"}).status, 0);
+  ASSERT_EQ(Ctl({"command", "panda", "controller", "cartesian-impedance"}).status, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  for (const char* pose : {"0.4,0.05,0.5", "0.42,0.05,0.5"}) {
+    const auto r = Ctl({"send", "panda", "--pose", pose});
+    ASSERT_EQ(r.status, 0) << r.err;
+  }
+  // Running in every state from here on: no hold, not even for a tick.
+  const std::size_t from = collector_->Count("PANDA_STATE");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const auto states = collector_->Decoded<state_t>("PANDA_STATE");
+  ASSERT_GT(states.size(), from + 100) << "states kept coming";
+  for (std::size_t k = from; k < states.size(); ++k) {
+    ASSERT_EQ(states[k].mode, state_t::MODE_RUNNING) << "tick " << states[k].tick;
+  }
+}
+
 }  // namespace
 }  // namespace lagrange

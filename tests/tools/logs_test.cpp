@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
+
+#include <algorithm>
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
 #include <lagrange/pose_setpoint_t.hpp>
@@ -22,6 +24,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -29,6 +32,8 @@
 
 #include "daemon/runtime.hpp"
 #include "protocol/signing.hpp"
+#include "protocol/wire.hpp"
+#include "tests/support/lcm_log_bytes.hpp"
 #include "tests/support/lcm_messages.hpp"
 #include "tests/support/lcm_testing.hpp"
 #include "tests/support/process.hpp"
@@ -338,16 +343,17 @@ std::vector<std::array<double, 2>> MotionAfterFirstSetpoint(const std::vector<st
   return q;
 }
 
-// The largest distance from a point of `b` (every `stride`-th) to the nearest point of `a`.
-double WorstDistance(const std::vector<std::array<double, 2>>& a, const std::vector<std::array<double, 2>>& b,
-                     std::size_t stride) {
-  double worst = 0.0;
+// The distances from the points of `b` (every `stride`-th) to the nearest point of `a`, sorted.
+std::vector<double> DistancesToPath(const std::vector<std::array<double, 2>>& a,
+                                    const std::vector<std::array<double, 2>>& b, std::size_t stride) {
+  std::vector<double> d;
   for (std::size_t k = 0; k < b.size(); k += stride) {
     double nearest = 1e9;
     for (const auto& p : a) nearest = std::min(nearest, std::hypot(p[0] - b[k][0], p[1] - b[k][1]));
-    worst = std::max(worst, nearest);
+    d.push_back(nearest);
   }
-  return worst;
+  std::sort(d.begin(), d.end());
+  return d;
 }
 
 TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
@@ -394,14 +400,19 @@ TEST_F(Logs, SetpointsRecordedInOneRunDriveTheSameTrajectoryWhenPlayedBack) {
   // moves each setpoint by some milliseconds on a loaded machine (and a state
   // may be lost); along this path, at up to 1 rad/s, each millisecond moves the
   // arm's response up to 1e-3 rad off run A's, so 2e-2 allows replay jitter of
-  // 20 ms, while a motion other than run A's (0.5 rad wide) is far outside it.
+  // 20 ms for 95 % of the states, and 0.1 a stall of the player of up to 100 ms
+  // for the rest (seen on a loaded machine: 0.049 at one state), while a motion
+  // other than run A's (0.5 rad wide) is far outside both.
   double lo = 1e9, hi = -1e9;
   for (const auto& qa : a) {
     lo = std::min(lo, qa[1]);
     hi = std::max(hi, qa[1]);
   }
   EXPECT_GT(hi - lo, 0.5);                      // a real motion ...
-  EXPECT_LT(WorstDistance(a, b, 5), 2e-2);  // ... along the same path
+  const std::vector<double> d = DistancesToPath(a, b, 5);
+  ASSERT_FALSE(d.empty());
+  EXPECT_LT(d[d.size() * 95 / 100], 2e-2);  // ... along the same path
+  EXPECT_LT(d.back(), 0.1);
 }
 
 // Signed traffic (--bus-key): lcm-logger records it, log2csv decodes it (the
@@ -671,8 +682,8 @@ telemetry_t SomeTelemetry(std::int64_t tick, double residual) {
 }
 
 // forces_t's rows in its order.
-constexpr const char* kForceRows[] = {"gravity", "coriolis",    "damping", "friction",
-                                      "limits",  "disturbance", "tau_cmd", "tau_applied"};
+constexpr const char* kForceRows[] = {"gravity",    "coriolis",    "damping", "friction",   "limits",
+                                      "constraint", "disturbance", "tau_cmd", "tau_applied"};
 
 // A distinct value for each row, joint and tick, exact in decimal.
 double ForceValue(std::size_t row, int joint, std::int64_t tick) {
@@ -680,10 +691,10 @@ double ForceValue(std::size_t row, int joint, std::int64_t tick) {
 }
 
 // Forces on n joints at `tick`; the effects on are the first of `on` (gravity,
-// coriolis, damping, friction, limits, saturation, disturbance; the rest off).
-// A row whose effect is off is zeros, as lagranged sends it.
+// coriolis, damping, friction, limits, saturation, disturbance, constraint;
+// the rest off). A row whose effect is off is zeros, as lagranged sends it.
 forces_t SomeForces(std::int64_t tick, std::vector<bool> on, int n) {
-  on.resize(7, false);
+  on.resize(8, false);
   forces_t f{};
   f.utime = 1'700'000'000'000'000 + 1000 * tick;
   f.run_id = 0x1234;
@@ -696,12 +707,13 @@ forces_t SomeForces(std::int64_t tick, std::vector<bool> on, int n) {
   f.limits_on = on[4];
   f.saturation_on = on[5];
   f.disturbance_on = on[6];
+  f.constraint_on = on[7];
   f.num_dofs = n;
   // Row → its effect's flag in `on` (tau_cmd: saturation; tau_applied: always there).
-  const int flag[] = {0, 1, 2, 3, 4, 6, -1, -1};
-  std::vector<double>* rows[] = {&f.gravity, &f.coriolis,    &f.damping, &f.friction,
-                                 &f.limits,  &f.disturbance, &f.tau_cmd, &f.tau_applied};
-  for (std::size_t r = 0; r < 8; ++r) {
+  const int flag[] = {0, 1, 2, 3, 4, 7, 6, -1, -1};
+  std::vector<double>* rows[] = {&f.gravity,    &f.coriolis,    &f.damping, &f.friction,   &f.limits,
+                                 &f.constraint, &f.disturbance, &f.tau_cmd, &f.tau_applied};
+  for (std::size_t r = 0; r < std::size(rows); ++r) {
     for (int j = 0; j < n; ++j)
       rows[r]->push_back(flag[r] < 0 || on[static_cast<std::size_t>(flag[r])] ? ForceValue(r, j, tick) : 0.0);
   }
@@ -851,7 +863,7 @@ TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
   for (std::size_t k = 0; k < residuals.size(); ++k)
     events.emplace_back("ARM_TELEMETRY", Encode(SomeTelemetry(static_cast<std::int64_t>(k) + 1, residuals[k])));
   std::vector<std::uint8_t> lying = Encode(SomeForces(3, {true, true}, 2));
-  PutInt32(lying, 8 + 4 * 8 + 7, 0x7fffffff);              // num_dofs, after utime, run_id, tick, t and the seven flags
+  PutInt32(lying, 8 + 4 * 8 + 8, 0x7fffffff);              // num_dofs, after utime, run_id, tick, t and the eight flags
   const std::vector<bool> on = {true, true, false, true};  // gravity, coriolis, friction; damping off
   events.emplace_back("ARM_FORCES", Encode(SomeForces(1, on, 2)));
   events.emplace_back("ARM_FORCES", lying);
@@ -891,11 +903,15 @@ TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
   }
 
   const Csv forces = ReadCsv(out / "ARM_FORCES.csv");
-  std::vector<std::string> header = {"log_utime",     "utime",          "run_id",     "tick",        "t",
-                                     "gravity_on",    "coriolis_on",    "damping_on", "friction_on", "limits_on",
-                                     "saturation_on", "disturbance_on", "num_dofs"};
+  std::vector<std::string> header = {"log_utime",     "utime",          "run_id",        "tick",        "t",
+                                     "gravity_on",    "coriolis_on",    "damping_on",    "friction_on", "limits_on",
+                                     "saturation_on", "disturbance_on", "constraint_on", "num_dofs"};
   for (const char* row : kForceRows) {
     for (int j = 0; j < 2; ++j) header.push_back(std::string(row) + "_" + std::to_string(j));
+  }
+  for (const char* column : {"contacts_total", "num_contacts", "contact_geom1", "contact_geom2", "contact_distance",
+                             "contact_position", "contact_normal", "contact_force", "contact_torque"}) {
+    header.push_back(column);
   }
   EXPECT_EQ(forces.header, header);
   ASSERT_EQ(forces.rows.size(), 2u);
@@ -906,13 +922,97 @@ TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {
   }
   for (std::size_t row = 0; row < std::size(kForceRows); ++row) {
     const bool off = std::string(kForceRows[row]) == "damping" || std::string(kForceRows[row]) == "limits" ||
-                     std::string(kForceRows[row]) == "disturbance";
+                     std::string(kForceRows[row]) == "disturbance" || std::string(kForceRows[row]) == "constraint";
     for (int j = 0; j < 2; ++j) {
       const std::string column = std::string(kForceRows[row]) + "_" + std::to_string(j);
       EXPECT_EQ(forces.Numbers(column),
                 (std::vector<double>{off ? 0.0 : ForceValue(row, j, 1), off ? 0.0 : ForceValue(row, j, 2)}))
           << column;
     }
+  }
+}
+
+// A plant MuJoCo steps: its constraint row and its contacts, each contact
+// field a column of the contacts' values joined by ';' (a vector's three in a
+// row, contact after contact), so that every row keeps the channel's columns.
+TEST_F(Logs, Log2CsvWritesAForcesContactsOneColumnPerFieldJoinedBySemicolons) {
+  forces_t f = SomeForces(1, {true, true, false, false, true, false, false, true}, 2);
+  f.contacts_total = 3;  // one more than listed
+  f.num_contacts = 2;
+  f.contacts.resize(2);
+  for (int k = 0; k < 2; ++k) {
+    contact_t& c = f.contacts[static_cast<std::size_t>(k)];
+    c.geom1 = 0;
+    c.geom2 = k + 1;
+    c.distance = -2.5e-5;
+    c.position[0] = 0.25 * k;
+    c.normal[2] = 1.0;
+    c.force[2] = 15.0 + k;
+    c.torque[1] = 0.5;
+  }
+  const fs::path log = dir_ / "contacts.lcm";
+  testing::WriteLcmLog(log.string(), {{"PANDA_FORCES", Encode(f)}});
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()}).status, 0);
+  const Csv forces = ReadCsv(dir_ / "csv" / "PANDA_FORCES.csv");
+  ASSERT_EQ(forces.rows.size(), 1u);
+  EXPECT_EQ(forces.Numbers("constraint_on"), std::vector<double>{1});
+  EXPECT_EQ(forces.Numbers("constraint_1"), std::vector<double>{ForceValue(5, 1, 1)});
+  EXPECT_EQ(forces.Numbers("contacts_total"), std::vector<double>{3});
+  EXPECT_EQ(forces.Numbers("num_contacts"), std::vector<double>{2});
+  for (const auto& [column, text] :
+       std::vector<std::pair<std::string, std::string>>{{"contact_geom1", "0;0"},
+                                                        {"contact_geom2", "1;2"},
+                                                        {"contact_distance", "-2.5e-05;-2.5e-05"},
+                                                        {"contact_position", "0;0;0;0.25;0;0"},
+                                                        {"contact_normal", "0;0;1;0;0;1"},
+                                                        {"contact_force", "0;0;15;0;0;16"},
+                                                        {"contact_torque", "0;0.5;0;0;0.5;0"}}) {
+    EXPECT_EQ(forces.Texts(column), std::vector<std::string>{"\"" + text + "\""}) << column;
+  }
+}
+
+// A log of an earlier lagrange, whose forces_t had no constraint row and no
+// contacts (another fingerprint), still reads: constraint_on 0 and its row
+// zeros (not computed then), no contacts, every other value as recorded.
+TEST_F(Logs, Log2CsvReadsTheForcesOfAnEarlierLagrangeWithoutConstraintOrContacts) {
+  const forces_t now = SomeForces(4, {true, true, false, true}, 2);
+  testing::Bytes v1;
+  testing::Put64(v1, static_cast<std::uint64_t>(kForcesV1Fingerprint));
+  testing::Put64(v1, static_cast<std::uint64_t>(now.utime));
+  testing::Put64(v1, static_cast<std::uint64_t>(now.run_id));
+  testing::Put64(v1, static_cast<std::uint64_t>(now.tick));
+  const auto put_double = [&](double x) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    testing::Put64(v1, bits);
+  };
+  put_double(now.t);
+  for (std::int8_t flag : {now.gravity_on, now.coriolis_on, now.damping_on, now.friction_on, now.limits_on,
+                           now.saturation_on, now.disturbance_on}) {
+    v1.push_back(static_cast<std::uint8_t>(flag));
+  }
+  testing::Put32(v1, 2);
+  for (const auto* row : {&now.gravity, &now.coriolis, &now.damping, &now.friction, &now.limits, &now.disturbance,
+                          &now.tau_cmd, &now.tau_applied}) {
+    for (double x : *row) put_double(x);
+  }
+  const fs::path log = dir_ / "v1.lcm";
+  testing::WriteLcmLog(log.string(), {{"ARM_FORCES", v1}, {"ARM_FORCES", Encode(SomeForces(5, {true}, 2))}});
+  const auto r = RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("ARM_FORCES.csv: 2 rows of forces_t\n"), std::string::npos) << r.out;
+  const Csv forces = ReadCsv(dir_ / "csv" / "ARM_FORCES.csv");
+  ASSERT_EQ(forces.rows.size(), 2u);
+  EXPECT_EQ(forces.Numbers("tick"), (std::vector<double>{4, 5}));
+  EXPECT_EQ(forces.Numbers("constraint_on"), (std::vector<double>{0, 0}));
+  EXPECT_EQ(forces.Numbers("constraint_0"), (std::vector<double>{0, 0}));
+  EXPECT_EQ(forces.Numbers("num_contacts"), (std::vector<double>{0, 0}));
+  EXPECT_EQ(forces.Numbers("friction_on"), (std::vector<double>{1, 0}));
+  for (std::size_t row = 0; row < std::size(kForceRows); ++row) {
+    if (std::string(kForceRows[row]) == "constraint") continue;
+    EXPECT_EQ(forces.Numbers(std::string(kForceRows[row]) + "_1")[0],
+              (row == 2 || row == 4 || row == 6) ? 0.0 : ForceValue(row, 1, 4))
+        << kForceRows[row];
   }
 }
 

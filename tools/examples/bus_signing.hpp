@@ -28,19 +28,22 @@ inline std::int64_t WallMicros() {
 
 class BusSigning {
  public:
-  // `key_file` "" → $LAGRANGE_BUS_KEY_FILE → unsigned. Throws for a key file
-  // that is readable by group or others, or not 32 to 64 bytes.
+  // `key_file` "" → $LAGRANGE_BUS_KEY_FILE → unsigned. Throws std::invalid_argument
+  // (the caller's mistake) for a key file that is missing, readable by group or
+  // others, or not 32 to 64 bytes.
   explicit BusSigning(std::string key_file) {
     if (key_file.empty() && std::getenv("LAGRANGE_BUS_KEY_FILE") != nullptr)
       key_file = std::getenv("LAGRANGE_BUS_KEY_FILE");
     if (key_file.empty()) return;
     if (sodium_init() < 0) throw std::runtime_error("libsodium cannot be initialised");
     struct stat st {};
-    if (stat(key_file.c_str(), &st) != 0) throw std::runtime_error("bus key " + key_file + ": " + std::strerror(errno));
-    if ((st.st_mode & 077) != 0) throw std::runtime_error("bus key " + key_file + ": readable by group or others");
+    if (stat(key_file.c_str(), &st) != 0)
+      throw std::invalid_argument("bus key " + key_file + ": " + std::strerror(errno));
+    if ((st.st_mode & 077) != 0) throw std::invalid_argument("bus key " + key_file + ": readable by group or others");
     std::ifstream in(key_file, std::ios::binary);
     key_.assign(std::istreambuf_iterator<char>(in), {});
-    if (key_.size() < 32 || key_.size() > 64) throw std::runtime_error("bus key " + key_file + ": not 32 to 64 bytes");
+    if (key_.size() < 32 || key_.size() > 64)
+      throw std::invalid_argument("bus key " + key_file + ": not 32 to 64 bytes");
     randombytes_buf(&sender_, sizeof sender_);
   }
 

@@ -24,7 +24,7 @@
 
 const char* const kUsage =
     "usage: mujoco_driver --model FILE (MJCF or URDF) [--state-channel PANDA_ROBOT_STATE] [--torque-channel PANDA_ROBOT_TORQUE]\n"
-    "                     [--initial Q1,Q2,..] [--period 0.001] [--substeps 1] [--torque-timeout 0.02] [--url URL]\n"
+    "                     [--initial Q1,Q2,..] [--period 0.001] [--substeps 1] [--torque-timeout 0.02] [--lcm-url URL]\n"
     "                     [--duration S (0: until SIGINT/SIGTERM)] [--bus-key FILE (else $LAGRANGE_BUS_KEY_FILE)]\n";
 
 volatile std::sig_atomic_t g_stop = 0;
@@ -67,7 +67,7 @@ int main(int argc, char** argv) try {
   std::map<std::string, std::string> opt = {
       {"--model", ""},   {"--state-channel", "PANDA_ROBOT_STATE"}, {"--torque-channel", "PANDA_ROBOT_TORQUE"},
       {"--initial", ""}, {"--period", "0.001"},                 {"--substeps", "1"},
-      {"--url", ""},     {"--torque-timeout", "0.02"},          {"--duration", "0"},
+      {"--lcm-url", ""}, {"--torque-timeout", "0.02"},          {"--duration", "0"},
       {"--bus-key", ""}};
   for (int i = 1; i < argc; i += 2) {
     if (argv[i] == std::string("--help") || argv[i] == std::string("-h")) return std::fputs(kUsage, stdout), 0;
@@ -96,8 +96,8 @@ int main(int argc, char** argv) try {
   mj_fullM(m, M.data(), d->qM);
   for (int i = 0; i < n; ++i) brake[i] = 20.0 * M[static_cast<std::size_t>(i * n + i)];
 
-  lcm::LCM lcm(opt["--url"]);  // "" → $LCM_DEFAULT_URL or LCM's default
-  if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--url"] + "'");
+  lcm::LCM lcm(opt["--lcm-url"]);  // "" → $LCM_DEFAULT_URL or LCM's default
+  if (!lcm.good()) throw std::runtime_error("cannot open LCM '" + opt["--lcm-url"] + "'");
   BusSigning bus(opt["--bus-key"]);
   Watchdog watchdog;
   watchdog.n = n;
