@@ -3,6 +3,7 @@
 step, batches equal their single calls, and bad input raises one-line Python errors."""
 import json
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -163,3 +164,43 @@ def test_bad_input_is_one_line_naming_the_argument():
         model.forward_dynamics_derivatives([0, 0], [0, 0], [0, 0], threads=0)
     with pytest.raises(RuntimeError, match=r"^the derivatives are not finite at state 1$"):
         model.forward_dynamics_derivatives([[0, 0], [0, 0]], [[0, 0], [1e200, 0]], [0, 0])
+
+
+def readme_examples():
+    """The README's "Derivatives" section: each ```python block with the ``` block after "prints" that follows it."""
+    with open(os.path.join(SOURCE, "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    section = text[text.index("\n## Derivatives\n"):]
+    section = section[:section.index("\n## ", 1)]
+    return re.findall(r"```python\n(.*?)```\n\nprints\n\n```\n(.*?)```", section, re.S)
+
+
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def test_the_readmes_derivatives_examples_run_as_written_and_print_what_it_quotes(monkeypatch, capsys):
+    examples = readme_examples()
+    assert len(examples) == 2  # linearising the Panda; continuous and discrete LQR
+    monkeypatch.chdir(SOURCE)  # its paths are the checkout's
+    for code, quoted in examples:
+        scope = {}
+        exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 - the README's own example
+        printed = capsys.readouterr().out
+        # The same lines but for the numbers, and the numbers to within a factor of 2 (round-off of the
+        # differences, another build's last bits).
+        assert NUMBER.sub("#", printed) == NUMBER.sub("#", quoted)
+        for got, want in zip(NUMBER.findall(printed), NUMBER.findall(quoted)):
+            got, want = float(got), float(want)
+            assert (got == want == 0) or 0.5 <= got / want <= 2, (got, want)
+        if "panda" in scope:
+            # The linearisation matches the differences to far better than their own 1e-6 step allows,
+            # and the step's A leaves I + h A by O(h²): a quarter of it at half the step.
+            assert scope["worst"] < 1e-6
+            panda, q, qd, tau, A = (scope[k] for k in ("panda", "q", "qd", "tau", "A"))
+            gap = [np.abs(panda.step_derivatives(q, qd, tau, h, "rk4")[0] - (np.eye(14) + h * A)).max()
+                   for h in (1e-3, 5e-4)]
+            assert 3.5 < gap[0] / gap[1] < 4.5
+        else:
+            late = {name: np.abs(np.remainder(run.q[run.t > 10.0, 1], 2 * np.pi) - np.pi).max()
+                    for name, run in scope["runs"].items()}
+            assert late["continuous"] > 0.1 and late["discrete"] < 1e-4
