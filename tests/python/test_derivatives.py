@@ -5,6 +5,8 @@ import json
 import os
 import re
 import subprocess
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -145,6 +147,37 @@ def test_a_batch_equals_its_single_calls_row_by_row(threads):
     shared = model.forward_dynamics_derivatives(q, qd[0], tau[0])
     for i in range(5):
         assert exactly(shared[0][i], model.forward_dynamics_derivatives(q[i], qd[0], tau[0])[0])
+
+
+
+@pytest.mark.parametrize("call", ["forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"])
+def test_a_batch_lets_other_python_threads_run_meanwhile(call):
+    # Another thread counts in Python, giving the interpreter lock up at every count (time.sleep(0)). While a
+    # batch holds the lock, that count cannot move; while it runs with the lock released, it does.
+    model = lagrange.Model.from_urdf(PANDA)
+    q, qd, tau = state(model, 5, count=3000)
+    args = (q, qd, tau, 1e-3) if call == "step_derivatives" else (q, qd, tau)
+    count, stop = [0], threading.Event()
+
+    def counter():
+        while not stop.is_set():
+            count[0] += 1
+            time.sleep(0)
+
+    worker = threading.Thread(target=counter)
+    worker.start()
+    try:
+        while count[0] < 100:  # running
+            time.sleep(0.001)
+        moved = []
+        for _ in range(3):
+            before = count[0]
+            getattr(model, call)(*args)
+            moved.append(count[0] - before)
+    finally:
+        stop.set()
+        worker.join()
+    assert max(moved) > 100, moved
 
 
 def test_bad_input_is_one_line_naming_the_argument():
