@@ -11,6 +11,7 @@
 //   dID           ComputeInverseDynamicsDerivatives: ∂tau/∂q, ∂tau/∂qd, M
 //   dFD_forward   ∂qdd/∂q and ∂qdd/∂qd by forward differences of FD: 2n + 1 calls (no ∂qdd/∂tau)
 //   dFD_central   the same by central differences: 4n + 1 calls (the LQR's Linearize before exact derivatives)
+//   dID_central   ∂tau/∂q and ∂tau/∂qd by central differences of inverse dynamics: 4n calls
 //   dFD_lagrangian, dID_lagrangian   the Lagrangian path's dFD and dID
 //   step_rk4      StepDerivatives: A and B of one RK4 step (4 acceleration derivatives and block products)
 // Each call cycles through 16 seeded random states. After Google Benchmark's
@@ -56,7 +57,7 @@ std::vector<Robot> Robots() {
           {"panda_hand", urdf("panda_hand.urdf")}};
 }
 
-enum class What { kFD, kDFD, kDID, kForward, kCentral, kStepRk4 };
+enum class What { kFD, kDFD, kDID, kForward, kCentral, kIdCentral, kStepRk4 };
 
 // Everything one benchmark needs, built before its loop.
 struct Bench {
@@ -121,6 +122,20 @@ void Evaluate(Bench& w, What what, const State& s) {
       }
       break;
     }
+    case What::kIdCentral:
+      for (int k = 0; k < 2; ++k) {  // q, then qd
+        w.x = k == 0 ? s.q : s.qd;
+        for (int j = 0; j < n; ++j) {
+          const double x0 = w.x[j];
+          w.x[j] = x0 + kStep;
+          d.ComputeInverseDynamics(*w.data, k == 0 ? w.x : s.q, k == 0 ? s.qd : w.x, s.qdd, DynamicsTerms{}, w.plus);
+          w.x[j] = x0 - kStep;
+          d.ComputeInverseDynamics(*w.data, k == 0 ? w.x : s.q, k == 0 ? s.qd : w.x, s.qdd, DynamicsTerms{}, w.minus);
+          w.x[j] = x0;
+          (k == 0 ? w.a : w.b).col(j) = (w.plus - w.minus) / (2.0 * kStep);
+        }
+      }
+      break;
     case What::kStepRk4: w.step.Step(w.plant, 0.0, 1e-3, s.q, s.qd, s.tau, w.A, w.B); break;
   }
 }
@@ -145,6 +160,7 @@ void Register() {
                                                {What::kDID, "dID"},
                                                {What::kForward, "dFD_forward"},
                                                {What::kCentral, "dFD_central"},
+                                               {What::kIdCentral, "dID_central"},
                                                {What::kStepRk4, "step_rk4"}};
   for (const Robot& r : Robots()) {
     const std::shared_ptr<const Dynamics> model = MakeDynamics(r.spec, FastestMethod(r.spec.type()));
@@ -203,18 +219,19 @@ std::string Ratio(double a, double b, const char* format = "%.2f") {
 void PrintSummary(const Collector& c) {
   std::printf(
       "\nsummary (CPU time per call; × FD: a multiple of the same robot's forward dynamics in this run)\n"
-      "%-11s %3s %8s %10s %10s %12s %12s %13s %13s %13s\n",
-      "robot", "n", "FD ns", "dFD × FD", "dID × FD", "central/dFD", "forward/dFD", "lagr/rec dFD", "lagr/rec dID",
-      "rk4 A,B × FD");
+      "%-11s %3s %8s %10s %10s %12s %12s %12s %13s %13s %13s\n",
+      "robot", "n", "FD ns", "dFD × FD", "dID × FD", "central/dFD", "forward/dFD", "central/dID", "lagr/rec dFD",
+      "lagr/rec dID", "rk4 A,B × FD");
   bool any = false;
   for (const Robot& r : Robots()) {
     const auto t = [&](const char* what) { return c.Time("deriv/" + r.name + "/" + what); };
     const double fd = t("FD");
     if (fd <= 0.0) continue;  // filtered out
     any = true;
-    std::printf("%-11s %3d %8.0f %10s %10s %12s %12s %13s %13s %13s\n", r.name.c_str(), r.spec.num_dofs(), fd,
+    std::printf("%-11s %3d %8.0f %10s %10s %12s %12s %12s %13s %13s %13s\n", r.name.c_str(), r.spec.num_dofs(), fd,
                 Ratio(t("dFD"), fd).c_str(), Ratio(t("dID"), fd).c_str(), Ratio(t("dFD_central"), t("dFD")).c_str(),
-                Ratio(t("dFD_forward"), t("dFD")).c_str(), Ratio(t("dFD_lagrangian"), t("dFD"), "%.0f").c_str(),
+                Ratio(t("dFD_forward"), t("dFD")).c_str(), Ratio(t("dID_central"), t("dID")).c_str(),
+                Ratio(t("dFD_lagrangian"), t("dFD"), "%.0f").c_str(),
                 Ratio(t("dID_lagrangian"), t("dID"), "%.0f").c_str(), Ratio(t("step_rk4"), fd, "%.1f").c_str());
   }
   if (!any) return;
