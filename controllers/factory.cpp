@@ -194,6 +194,12 @@ std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& 
   const std::shared_ptr<const Dynamics> model = ControllerModel(c, plant, shared);
   const std::vector<int> act = Actuated(c.lqr, plant);
   const int m = static_cast<int>(act.size());
+  if (c.lqr.discrete) {
+    const LinearModel lin =
+        LinearizeStep(model, Equilibrium(c.lqr, plant), act, c.integrator.type, c.integrator.substeps, c.period);
+    const LqrResult lqr = DiscreteLinearQuadraticRegulator(lin.A, lin.B, LqrQ(c.lqr, n), LqrR(c.lqr, m));
+    return std::make_unique<StateFeedbackController>("lqr", model->joint_types(), limits, act, lqr.K, lin.u0);
+  }
   const LinearModel lin = Linearize(*model, Equilibrium(c.lqr, plant), act);
   const LqrResult lqr = LinearQuadraticRegulator(lin.A, lin.B, LqrQ(c.lqr, n), LqrR(c.lqr, m));
   return std::make_unique<StateFeedbackController>("lqr", model->joint_types(), limits, act, lqr.K, lin.u0);
@@ -327,6 +333,13 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   }
   if (c.type == ControllerType::kLqr || c.type == ControllerType::kSwingUp) {
     if (auto err = ValidateLqr(c.lqr, plant)) return err;
+    if (c.lqr.discrete && c.continuous) {
+      return std::string("design: discrete is the design of a law held over the tick (continuous: false)");
+    }
+    if (const char* reason = c.lqr.discrete ? NoStepDerivativesReason(c.integrator.type) : nullptr) {
+      return "design: discrete needs the step derivatives of the instance's integrator: " + std::string(reason);
+    }
+    if (c.lqr.discrete && c.integrator.substeps < 1) return std::string("design: expected integrator substeps >= 1");
   }
   if (c.type == ControllerType::kExternal) {
     if (!(std::isfinite(c.external.torque_timeout) && c.external.torque_timeout > 0.0)) {

@@ -15,6 +15,7 @@
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
 #include "controllers/task_space.hpp"
+#include "plant/integrators.hpp"
 #include "plant/plant_factory.hpp"
 
 namespace lagrange {
@@ -44,6 +45,11 @@ struct LqrOptions {
   std::optional<std::vector<int>> actuated;  // default: the cart for a cart-pole, else every joint
   MatrixXd Q;                                // (2n x 2n); empty: identity
   MatrixXd R;                                // (m x m); empty: identity
+  // Scene key design: continuous (false: K from the continuous Riccati
+  // equation of the exact linearisation, held over the tick) or discrete
+  // (true: from the discrete one of the tick itself, x⁺ = A x + B u by the
+  // instance's integrator and period: ControllerConfig::integrator, period).
+  bool discrete = false;
 };
 
 // An external controller: torques come over LCM from a program of the user's.
@@ -84,6 +90,9 @@ struct ControllerConfig {
   // The scene loader sets the scene's period and the instance's initial q.
   double period = 1e-3;
   VectorXd q0;
+  // The instance's integrator (type, substeps), for a discrete-time LQR
+  // design (LqrOptions::discrete); the scene loader sets it.
+  IntegratorConfig integrator;
   // Which joints' errors wrap to (−π, π] (WrappedJoints, controllers/
   // controller.hpp), n flags; empty: every revolute joint's. The instance
   // sets it from its plant's joints and its effects.limits (Instance), so a

@@ -3,8 +3,11 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace lagrange {
 namespace {
@@ -79,18 +82,53 @@ LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const M
   return result;
 }
 
-LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
-  const std::unique_ptr<DynamicsData> data = model.MakeData();
+LqrResult DiscreteLinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q,
+                                           const MatrixXd& R) {
+  const Eigen::Index n = A.rows(), m = B.cols();
+  if (A.cols() != n || B.rows() != n || Q.rows() != n || Q.cols() != n || R.rows() != m || R.cols() != m) {
+    throw std::invalid_argument("LQR: expected A (n x n), B (n x m), Q (n x n), R (m x m)");
+  }
+  if (auto err = CheckLqrWeights(Q, R)) throw std::invalid_argument(*err);
+  const MatrixXd I = MatrixXd::Identity(n, n);
+  MatrixXd Ak = A, Gk = B * R.ldlt().solve(B.transpose()), Hk = Q;
+  bool converged = false;
+  for (int it = 0; it < 100 && !converged; ++it) {
+    const Eigen::PartialPivLU<MatrixXd> lu(I + Gk * Hk);
+    const MatrixXd V1 = lu.solve(Ak), V2 = lu.solve(Gk);
+    const MatrixXd H_next = Hk + Ak.transpose() * Hk * V1;
+    Gk = Gk + Ak * V2 * Ak.transpose();
+    Ak = Ak * V1;
+    const double change = (H_next - Hk).norm();
+    Hk = 0.5 * (H_next + H_next.transpose());
+    Gk = 0.5 * (Gk + Gk.transpose());
+    if (!Hk.allFinite() || !Gk.allFinite() || !Ak.allFinite()) break;
+    converged = change <= 1e-13 * Hk.norm();
+  }
+  const MatrixXd& S = Hk;
+  const MatrixXd BtS = B.transpose() * S;
+  LqrResult result{(R + BtS * B).ldlt().solve(BtS * A), S};
+  const MatrixXd residual = A.transpose() * S * A - S - A.transpose() * S * B * result.K + Q;
+  const Eigen::VectorXcd poles = (A - B * result.K).eigenvalues();
+  if (!converged || !S.allFinite() || residual.norm() > 1e-8 * std::max(1.0, S.norm() * A.norm() * A.norm() + Q.norm()) ||
+      poles.cwiseAbs().maxCoeff() >= 1.0) {
+    throw std::invalid_argument("LQR: no stabilizing solution ((A, B) not stabilizable?)");
+  }
+  return result;
+}
+
+namespace {
+
+// u0 = G(q0) on the actuated joints (m), and the full tau0 (n) with it; throws
+// when q0 is not an equilibrium of the unactuated joints.
+VectorXd EquilibriumForce(const Dynamics& model, DynamicsData& data, const VectorXd& q0,
+                          const std::vector<int>& actuated, VectorXd& u0) {
   const int n = model.num_dofs();
-  const int m = static_cast<int>(actuated.size());
-  constexpr double kStep = 1e-6;
-  VectorXd G(n), qd = VectorXd::Zero(n), qdd_p(n), qdd_m(n);
-  model.ComputeGravityForce(*data, q0, G);
-  VectorXd tau0 = VectorXd::Zero(n);
-  LinearModel lin{MatrixXd::Zero(2 * n, 2 * n), MatrixXd::Zero(2 * n, m), VectorXd(m)};
-  for (int k = 0; k < m; ++k) {
+  VectorXd G(n), tau0 = VectorXd::Zero(n);
+  model.ComputeGravityForce(data, q0, G);
+  u0.resize(static_cast<Eigen::Index>(actuated.size()));
+  for (std::size_t k = 0; k < actuated.size(); ++k) {
     tau0[actuated[k]] = G[actuated[k]];
-    lin.u0[k] = G[actuated[k]];
+    u0[static_cast<Eigen::Index>(k)] = G[actuated[k]];
   }
   for (int i = 0; i < n; ++i) {
     const bool is_actuated = std::find(actuated.begin(), actuated.end(), i) != actuated.end();
@@ -99,32 +137,41 @@ LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vect
                                   std::to_string(i));
     }
   }
+  return tau0;
+}
+
+}  // namespace
+
+LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated) {
+  const std::unique_ptr<DynamicsData> data = model.MakeData();
+  const int n = model.num_dofs();
+  const int m = static_cast<int>(actuated.size());
+  LinearModel lin{MatrixXd::Zero(2 * n, 2 * n), MatrixXd::Zero(2 * n, m), VectorXd(m)};
+  const VectorXd tau0 = EquilibriumForce(model, *data, q0, actuated, lin.u0);
+  VectorXd qdd(n);
+  MatrixXd dq(n, n), dqd(n, n), dtau(n, n);
+  model.ComputeForwardDynamicsDerivatives(*data, q0, VectorXd::Zero(n), tau0, DynamicsTerms{}, qdd, dq, dqd, dtau);
   lin.A.topRightCorner(n, n).setIdentity();
-  VectorXd q = q0;
-  for (int j = 0; j < n; ++j) {  // ∂qdd/∂q
-    q[j] = q0[j] + kStep;
-    model.ComputeForwardDynamics(*data, q, qd, tau0, DynamicsTerms{}, qdd_p);
-    q[j] = q0[j] - kStep;
-    model.ComputeForwardDynamics(*data, q, qd, tau0, DynamicsTerms{}, qdd_m);
-    q[j] = q0[j];
-    lin.A.block(n, j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
-  }
-  for (int j = 0; j < n; ++j) {  // ∂qdd/∂qd
-    qd[j] = kStep;
-    model.ComputeForwardDynamics(*data, q0, qd, tau0, DynamicsTerms{}, qdd_p);
-    qd[j] = -kStep;
-    model.ComputeForwardDynamics(*data, q0, qd, tau0, DynamicsTerms{}, qdd_m);
-    qd[j] = 0.0;
-    lin.A.block(n, n + j, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
-  }
-  for (int k = 0; k < m; ++k) {  // ∂qdd/∂u
-    VectorXd tau = tau0;
-    tau[actuated[k]] += kStep;
-    model.ComputeForwardDynamics(*data, q0, qd, tau, DynamicsTerms{}, qdd_p);
-    tau[actuated[k]] -= 2 * kStep;
-    model.ComputeForwardDynamics(*data, q0, qd, tau, DynamicsTerms{}, qdd_m);
-    lin.B.block(n, k, n, 1) = (qdd_p - qdd_m) / (2 * kStep);
-  }
+  lin.A.bottomLeftCorner(n, n) = dq;
+  lin.A.bottomRightCorner(n, n) = dqd;
+  for (int k = 0; k < m; ++k) lin.B.block(n, k, n, 1) = dtau.col(actuated[static_cast<std::size_t>(k)]);
+  return lin;
+}
+
+LinearModel LinearizeStep(std::shared_ptr<const Dynamics> model, const VectorXd& q0,
+                          const std::vector<int>& actuated, IntegratorType type, int substeps, double period) {
+  if (model == nullptr) throw std::invalid_argument("LinearizeStep: expected a model, got null");
+  if (const char* reason = NoStepDerivativesReason(type)) throw std::invalid_argument(reason);
+  if (substeps < 1 || !(period > 0.0)) throw std::invalid_argument("LinearizeStep: expected substeps >= 1, period > 0");
+  const int n = model->num_dofs();
+  const int m = static_cast<int>(actuated.size());
+  LinearModel lin{MatrixXd(2 * n, 2 * n), MatrixXd(2 * n, m), VectorXd(m)};
+  const VectorXd tau0 = EquilibriumForce(*model, *model->MakeData(), q0, actuated, lin.u0);
+  PlantModel plant(std::move(model), EffectsConfig{});
+  StepDerivatives step(type, n);
+  MatrixXd B(2 * n, n);
+  step.Advance(plant, 0.0, period, substeps, q0, VectorXd::Zero(n), tau0, lin.A, B);
+  for (int k = 0; k < m; ++k) lin.B.col(k) = B.col(actuated[static_cast<std::size_t>(k)]);
   return lin;
 }
 

@@ -2,11 +2,13 @@
 // Linear-quadratic regulation: design-time math (free functions returning
 // result structs) and the state-feedback controller that uses it.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "controllers/controller.hpp"
+#include "plant/integrators.hpp"
 
 namespace lagrange {
 
@@ -38,17 +40,39 @@ std::optional<std::string> CheckLqrWeights(const MatrixXd& Q, const MatrixXd& R)
 // solution exists (e.g. (A, B) not stabilizable).
 LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R);
 
+// Discrete-time LQR for x⁺ = A x + B u minimising Σ xᵀQx + uᵀRu:
+//   S = Aᵀ S A − Aᵀ S B (R + Bᵀ S B)⁻¹ Bᵀ S A + Q,   K = (R + Bᵀ S B)⁻¹ Bᵀ S A.
+// Solved by the structure-preserving doubling algorithm (Chu, Fan and Lin
+// 2005: A ← A (I + G H)⁻¹ A, G ← G + A (I + G H)⁻¹ G Aᵀ, H ← H + Aᵀ H (I + G H)⁻¹ A
+// from G = B R⁻¹ Bᵀ, H = Q; H → S quadratically). With the same Q and R per
+// step as the continuous cost per second, K tends to the continuous K as
+// the step shrinks (a common factor h on Q and R does not change K). Throws
+// std::invalid_argument as LinearQuadraticRegulator does; the closed loop's
+// poles are inside the unit circle.
+LqrResult DiscreteLinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q,
+                                           const MatrixXd& R);
+
 struct LinearModel {
   MatrixXd A;   // (2n x 2n), state x = (q − q0, qd)
   MatrixXd B;   // (2n x m), inputs: the actuated joints' generalized forces
   VectorXd u0;  // (m) the actuated forces that hold q0 at rest: G(q0) on those joints
 };
 
-// Linearises qdd = M⁻¹ (tau − C qd − G) at (q0, qd = 0) by central differences
-// of the model's forward dynamics (step 1e-6). `actuated` lists the joints
-// that take a force. Throws std::invalid_argument when q0 is not an
-// equilibrium of the unactuated joints.
+// Linearises qdd = M⁻¹ (tau − C qd − G) at (q0, qd = 0, tau = u0) with the
+// model's exact derivatives (Dynamics::ComputeForwardDynamicsDerivatives):
+// A = [[0, I], [∂qdd/∂q, ∂qdd/∂qd]], B = the actuated columns of [[0], [M⁻¹]].
+// `actuated` lists the joints that take a force. Throws
+// std::invalid_argument when q0 is not an equilibrium of the unactuated joints.
 LinearModel Linearize(const Dynamics& model, const VectorXd& q0, const std::vector<int>& actuated);
+
+// The same point through one tick of an integrator, for a discrete-time
+// design: x⁺ = Φ(x, u) of `substeps` sub-steps of `type` over `period` s with
+// u held (the tick's zero-order hold), A = ∂x⁺/∂x, B = ∂x⁺/∂u
+// (StepDerivatives, plant/integrators.hpp; the model's dynamics with gravity
+// and Coriolis, no other effect, as the continuous design). Throws
+// std::invalid_argument as Linearize does, or with NoStepDerivativesReason.
+LinearModel LinearizeStep(std::shared_ptr<const Dynamics> model, const VectorXd& q0,
+                          const std::vector<int>& actuated, IntegratorType type, int substeps, double period);
 
 // Law:    u = u_eq − K (x − x_d),  x − x_d = (wrap(q − q_d), qd − qd_d);
 //         tau = u on the actuated joints, 0 on the others.

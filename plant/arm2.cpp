@@ -123,4 +123,66 @@ void Arm2ClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, C
   qdd[1] = (m00 * r1 - m01 * r0) * inv_det;
 }
 
+// tau0 = (a + 2b c2) qdd0 + (d + b c2) qdd1 + h (2 qd0 + qd1) qd1 + g1 c1 + g2 c12,
+// tau1 = (d + b c2) qdd0 + d qdd1 − h qd0² + g2 c12, h = −b s2.
+void Arm2ClosedForm::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                       ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                       MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  Checked(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd);
+  CountTerms(data, terms);
+  const double s2 = std::sin(q[1]), c2 = std::cos(q[1]);
+  const double bc = b_ * c2, bs = b_ * s2;
+  dtau_dqdd(0, 0) = a_ + 2.0 * bc;
+  dtau_dqdd(0, 1) = d_ + bc;
+  dtau_dqdd(1, 0) = d_ + bc;
+  dtau_dqdd(1, 1) = d_;
+  dtau_dq(0, 0) = 0.0;
+  dtau_dq(1, 0) = 0.0;
+  dtau_dq(0, 1) = -bs * (2.0 * qdd[0] + qdd[1]);
+  dtau_dq(1, 1) = -bs * qdd[0];
+  dtau_dqd.setZero();
+  if (terms.coriolis) {
+    const double h = -bs;
+    dtau_dq(0, 1) -= bc * (2.0 * qd[0] + qd[1]) * qd[1];
+    dtau_dq(1, 1) += bc * qd[0] * qd[0];
+    dtau_dqd(0, 0) = 2.0 * h * qd[1];
+    dtau_dqd(0, 1) = 2.0 * h * (qd[0] + qd[1]);
+    dtau_dqd(1, 0) = -2.0 * h * qd[0];
+  }
+  if (terms.gravity) {
+    const double gs12 = g2_ * std::sin(q[0] + q[1]);
+    dtau_dq(0, 0) -= g1_ * std::sin(q[0]) + gs12;
+    dtau_dq(0, 1) -= gs12;
+    dtau_dq(1, 0) -= gs12;
+    dtau_dq(1, 1) -= gs12;
+  }
+}
+
+void Arm2ClosedForm::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  Checked(data, q, dG_dq);
+  const double gs12 = g2_ * std::sin(q[0] + q[1]);
+  dG_dq(0, 0) = -g1_ * std::sin(q[0]) - gs12;
+  dG_dq(0, 1) = -gs12;
+  dG_dq(1, 0) = -gs12;
+  dG_dq(1, 1) = -gs12;
+}
+
+void Arm2ClosedForm::ComputeForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                       ConstVecRef tau, DynamicsTerms terms, VecRef qdd,
+                                                       MatRef dqdd_dq, MatRef dqdd_dqd, MatRef dqdd_dtau) const {
+  Checked(data, q, qd, tau, qdd, dqdd_dq, dqdd_dqd, dqdd_dtau);
+  const StageCounts counts = SavedCounts(data);
+  ComputeForwardDynamics(data, q, qd, tau, terms, qdd);
+  Eigen::Matrix2d dq, dqd, M;
+  ComputeInverseDynamicsDerivatives(data, q, qd, qdd, terms, dq, dqd, M);
+  RestoreCounts(data, counts);
+  CountTerms(data, terms);
+  const double inv_det = 1.0 / (M(0, 0) * M(1, 1) - M(0, 1) * M(0, 1));
+  Eigen::Matrix2d Minv;
+  Minv << M(1, 1) * inv_det, -M(0, 1) * inv_det, -M(0, 1) * inv_det, M(0, 0) * inv_det;
+  dqdd_dtau = Minv;
+  dqdd_dq.noalias() = -Minv * dq;
+  dqdd_dqd.noalias() = -Minv * dqd;
+}
+
 }  // namespace lagrange

@@ -62,6 +62,8 @@ RigidTree ToRigidTree(const Arm2Params& p);
 // M = [[a + 2b cos q2, d + b cos q2], [d + b cos q2, d]],  a = m1L1²/3 + m2L1² + m2L2²/3,
 // b = m2 L1 L2 / 2, d = m2 L2²/3;  C = h [[q̇2, q̇1 + q̇2], [−q̇1, 0]], h = −b sin q2;
 // G = [g1 cos q1 + g2 cos q12, g2 cos q12], g1 = (m1 L1/2 + m2 L1) g, g2 = m2 L2 g / 2.
+// Derivatives by hand from these: ∂M/∂q2 = −b sin q2 [[2, 1], [1, 0]], ∂h/∂q2 = −b cos q2,
+// ∂G/∂q from the cosines; forward dynamics' with M⁻¹ written out (2 x 2).
 class Arm2ClosedForm final : public Dynamics {
  public:
   explicit Arm2ClosedForm(Arm2Params p);
@@ -77,6 +79,13 @@ class Arm2ClosedForm final : public Dynamics {
                               VecRef tau) const override;
   void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
+  void ComputeForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                         DynamicsTerms terms, VecRef qdd, MatRef dqdd_dq, MatRef dqdd_dqd,
+                                         MatRef dqdd_dtau) const override;
 
  private:
   Arm2Params p_;

@@ -104,4 +104,51 @@ void CartPoleClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef 
   qdd[1] = (mt_ * r1 - m01 * r0) * inv_det;
 }
 
+// tau0 = mt ẍ + ml c θ̈ − ml s θ̇², tau1 = ml c ẍ + Ip θ̈ + mgl s: only θ and θ̇ enter.
+void CartPoleClosedForm::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                           ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                           MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  Checked(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd);
+  CountTerms(data, terms);
+  const double s = std::sin(q[1]), c = std::cos(q[1]);
+  dtau_dqdd(0, 0) = mt_;
+  dtau_dqdd(0, 1) = ml_ * c;
+  dtau_dqdd(1, 0) = ml_ * c;
+  dtau_dqdd(1, 1) = Ip_;
+  dtau_dq.setZero();
+  dtau_dqd.setZero();
+  dtau_dq(0, 1) = -ml_ * s * qdd[1];
+  dtau_dq(1, 1) = -ml_ * s * qdd[0];
+  if (terms.coriolis) {
+    dtau_dq(0, 1) -= ml_ * c * qd[1] * qd[1];
+    dtau_dqd(0, 1) = -2.0 * ml_ * s * qd[1];
+  }
+  if (terms.gravity) dtau_dq(1, 1) += mgl_ * c;
+}
+
+void CartPoleClosedForm::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  Checked(data, q, dG_dq);
+  dG_dq.setZero();
+  dG_dq(1, 1) = mgl_ * std::cos(q[1]);
+}
+
+void CartPoleClosedForm::ComputeForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                           ConstVecRef tau, DynamicsTerms terms, VecRef qdd,
+                                                           MatRef dqdd_dq, MatRef dqdd_dqd,
+                                                           MatRef dqdd_dtau) const {
+  Checked(data, q, qd, tau, qdd, dqdd_dq, dqdd_dqd, dqdd_dtau);
+  const StageCounts counts = SavedCounts(data);
+  ComputeForwardDynamics(data, q, qd, tau, terms, qdd);
+  Eigen::Matrix2d dq, dqd, M;
+  ComputeInverseDynamicsDerivatives(data, q, qd, qdd, terms, dq, dqd, M);
+  RestoreCounts(data, counts);
+  CountTerms(data, terms);
+  const double inv_det = 1.0 / (M(0, 0) * M(1, 1) - M(0, 1) * M(0, 1));
+  Eigen::Matrix2d Minv;
+  Minv << M(1, 1) * inv_det, -M(0, 1) * inv_det, -M(0, 1) * inv_det, M(0, 0) * inv_det;
+  dqdd_dtau = Minv;
+  dqdd_dq.noalias() = -Minv * dq;
+  dqdd_dqd.noalias() = -Minv * dqd;
+}
+
 }  // namespace lagrange

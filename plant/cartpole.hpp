@@ -58,6 +58,7 @@ RigidTree ToRigidTree(const CartPoleParams& p);
 
 // M = [[mc + mp, mp l cos θ], [mp l cos θ, mp l² + I]], C = [[0, −mp l θ̇ sin θ], [0, 0]],
 // G = [0, mp g l sin θ].
+// Derivatives by hand from these (only θ and θ̇ enter); forward dynamics' with M⁻¹ written out (2 x 2).
 class CartPoleClosedForm final : public Dynamics {
  public:
   explicit CartPoleClosedForm(CartPoleParams p);
@@ -73,6 +74,13 @@ class CartPoleClosedForm final : public Dynamics {
                               VecRef tau) const override;
   void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
+  void ComputeForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                         DynamicsTerms terms, VecRef qdd, MatRef dqdd_dq, MatRef dqdd_dqd,
+                                         MatRef dqdd_dtau) const override;
 
  private:
   double mt_;   // mc + mp

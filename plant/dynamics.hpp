@@ -25,6 +25,18 @@
 // model and that its arguments are sized for it, vectors (n) and matrices
 // (n x n) (eigen_assert: on in debug and sanitizer builds, compiled out under
 // NDEBUG).
+//
+// Derivatives. Every model also gives the exact first derivatives of its
+// inverse dynamics, forward dynamics and gravity (below, after the calls they
+// differentiate); each method derives them its own way (recursive: analytic
+// sweeps, plant/spatial_dynamics.hpp; lagrangian: nested duals of the
+// energies, plant/lagrangian.hpp; closed form: by hand), and forward dynamics
+// follows from inverse dynamics by the identity ID(q, qd, FD(q, qd, tau)) = tau:
+//   ∂qdd/∂q = −M⁻¹ ∂tau/∂q,  ∂qdd/∂qd = −M⁻¹ ∂tau/∂qd,  ∂qdd/∂tau = M⁻¹
+// with ∂tau/∂(q, qd) taken at (q, qd, qdd = FD(q, qd, tau)) (Carpentier and
+// Mansard, RSS 2018). Matrices are (n x n): row i is output i, column j the
+// input j (∂qdd_i/∂q_j). The effects and the integrator step are
+// differentiated on top of these (PlantModel, StepDerivatives).
 
 #include <Eigen/Cholesky>
 #include <memory>
@@ -64,6 +76,12 @@ class DynamicsData {
   MatrixXd M_;
   VectorXd term_;
   Eigen::LLT<MatrixXd> llt_;
+  // Scratch of the generic derivatives: two (n x n) results a caller did not
+  // ask for, zeros (n), and the solve's right-hand sides, one row of the
+  // system per column (3n x n: M⁻¹ [I, −∂tau/∂q, −∂tau/∂qd] row by row).
+  MatrixXd unused_a_, unused_b_;
+  VectorXd zeros_;
+  MatrixXd rows_;
 };
 
 class Dynamics {
@@ -104,9 +122,41 @@ class Dynamics {
   virtual void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
                                       DynamicsTerms terms, VecRef qdd) const;
 
+  // (q, qd, qdd) => ∂tau/∂q, ∂tau/∂qd and ∂tau/∂qdd = M (n x n each) of
+  // tau = M qdd + [C qd] + [G], `terms` as in ComputeInverseDynamics (without
+  // the Coriolis term ∂tau/∂qd is zero). Units: ∂tau/∂q in N·m/rad (N/m, ...),
+  // ∂tau/∂qd in N·m·s/rad, M in kg·m². The gated terms count once per call.
+  // Cost: recursive O(Σ d) (one forward and one backward sweep), lagrangian
+  // O(n²) energy evaluations in nested duals, closed forms a few products
+  // (bench/derivatives_bench.cpp).
+  virtual void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                 ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                 MatRef dtau_dqd, MatRef dtau_dqdd) const = 0;
+  // (q, qd, tau) => qdd = FD(q, qd, tau) (n) and its derivatives ∂qdd/∂q,
+  // ∂qdd/∂qd, ∂qdd/∂tau = M⁻¹ (n x n each), by the identity above: the
+  // model's forward dynamics, its inverse-dynamics derivatives at that qdd,
+  // and one Cholesky factorisation of M (O(n³), n² solves). The gated terms
+  // count once per call (bench/derivatives_bench.cpp).
+  virtual void ComputeForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                                 DynamicsTerms terms, VecRef qdd, MatRef dqdd_dq, MatRef dqdd_dqd,
+                                                 MatRef dqdd_dtau) const;
+  // q => ∂G/∂q (n x n), the Hessian of V: symmetric. Generic: the
+  // inverse-dynamics derivatives at qd = qdd = 0 with gravity alone; a method
+  // may do it cheaper (recursive: one sweep without the velocity terms).
+  virtual void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const;
+
  protected:
   static void CountGravity(DynamicsData& data) { ++data.counts_.gravity; }
   static void CountCoriolis(DynamicsData& data) { ++data.counts_.coriolis; }
+  // Each term that is on in `terms`, counted once.
+  static void CountTerms(DynamicsData& data, DynamicsTerms terms) {
+    if (terms.gravity) CountGravity(data);
+    if (terms.coriolis) CountCoriolis(data);
+  }
+  // The counts of `data`, to restore after calls whose own counting a caller
+  // replaces with its own (a derivative call counts once).
+  static StageCounts SavedCounts(const DynamicsData& data) { return data.counts_; }
+  static void RestoreCounts(DynamicsData& data, const StageCounts& counts) { data.counts_ = counts; }
 
   // The boundary check at the top of each Compute*: `data` is this model's
   // and every argument is sized for this plant, a vector (n), a matrix

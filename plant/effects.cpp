@@ -211,6 +211,42 @@ void Effects::ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, C
   AddLimits(q, qd, tau);
 }
 
+void Effects::ComputeGeneralizedForceDerivatives(ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef dtau_dq,
+                                                 VecRef dtau_dqd, VecRef dtau_dcmd) const {
+  const int n = static_cast<int>(q.size());
+  for (int i = 0; i < n; ++i) {
+    dtau_dq[i] = 0.0;
+    dtau_dqd[i] = 0.0;
+    dtau_dcmd[i] = 1.0;
+  }
+  if (flags_.saturation) {
+    const VectorXd& max = *config_.saturation;
+    for (int i = 0; i < n; ++i) dtau_dcmd[i] = std::abs(tau_cmd[i]) <= max[i] ? 1.0 : 0.0;
+  }
+  if (flags_.damping) {
+    for (int i = 0; i < n; ++i) dtau_dqd[i] -= (*config_.damping)[i];
+  }
+  if (flags_.friction) {
+    const CoulombFriction& f = *config_.friction;
+    for (int i = 0; i < n; ++i) {
+      const double t = std::tanh(qd[i] / f.velocity_scale);
+      dtau_dqd[i] -= f.coulomb[i] / f.velocity_scale * (1.0 - t * t);
+    }
+  }
+  if (flags_.limits) {
+    const JointLimits& l = *config_.limits;
+    for (int i = 0; i < n; ++i) {
+      // Where LimitForce takes its spring-damper branch (strictly nonzero).
+      const bool upper = q[i] > l.upper[i] && -l.stiffness * (q[i] - l.upper[i]) - l.damping * qd[i] < 0.0;
+      const bool lower = q[i] < l.lower[i] && -l.stiffness * (q[i] - l.lower[i]) - l.damping * qd[i] > 0.0;
+      if (upper || lower) {
+        dtau_dq[i] -= l.stiffness;
+        dtau_dqd[i] -= l.damping;
+      }
+    }
+  }
+}
+
 // The stages loop over the joints by index: n is small (1 to a few tens), where
 // Eigen's vectorised loops cost more in set-up than they save.
 void Effects::Saturate(ConstVecRef tau_cmd, VecRef tau) {

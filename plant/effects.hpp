@@ -15,6 +15,19 @@
 //              stop): past the upper limit, tau = min(0, −k (q − upper) − d qd),
 //              past the lower, tau = max(0, −k (q − lower) − d qd); it pushes out
 //              and never pulls the joint into the stop
+//
+// Derivatives (ComputeGeneralizedForceDerivatives): every effect acts joint by
+// joint, so ∂tau/∂q, ∂tau/∂qd and ∂tau/∂tau_cmd are diagonal:
+//   sat        1 where |tau_cmd| <= tau_max (the bound itself included: the
+//              clamp returns tau_cmd there), 0 beyond
+//   pushes     none (they depend on t alone)
+//   damping    −b on ∂/∂qd
+//   friction   −(Fc/v_s)(1 − tanh²(qd/v_s)) on ∂/∂qd: smooth, exact everywhere
+//              (its largest, −Fc/v_s, at qd = 0)
+//   limits     −k on ∂/∂q and −d on ∂/∂qd where the stop pushes (past it, and
+//              its force strictly nonzero); 0 elsewhere, at the kinks too: on
+//              the limit itself and where the damper would pull, the force is
+//              the zero branch and so is its derivative
 
 #include <optional>
 #include <vector>
@@ -115,6 +128,12 @@ class Effects {
 
   // (t, q, qd, tau_cmd) => tau, the sum above.
   void ComputeGeneralizedForce(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef tau);
+
+  // (q, qd, tau_cmd) => the diagonals of ∂tau/∂q, ∂tau/∂qd and ∂tau/∂tau_cmd
+  // (n each) of ComputeGeneralizedForce, as above: each effect that is on
+  // adds its part; nothing is counted. Allocates nothing.
+  void ComputeGeneralizedForceDerivatives(ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef dtau_dq,
+                                          VecRef dtau_dqd, VecRef dtau_dcmd) const;
 
   // The stages, each adding its term to tau (saturation writes it).
   void Saturate(ConstVecRef tau_cmd, VecRef tau);

@@ -351,4 +351,154 @@ std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {
   throw std::invalid_argument("unknown integrator");
 }
 
+const char* NoStepDerivativesReason(IntegratorType type) {
+  switch (type) {
+    case IntegratorType::kExplicitEuler:
+    case IntegratorType::kSemiImplicitEuler:
+    case IntegratorType::kRk4: return nullptr;
+    case IntegratorType::kDormandPrince:
+      return "integrator dopri5 has no step derivatives (explicit-euler, semi-implicit-euler or rk4 have)";
+    case IntegratorType::kVariational:
+      return "integrator variational has no step derivatives (explicit-euler, semi-implicit-euler or rk4 have)";
+  }
+  return "unknown integrator (explicit-euler, semi-implicit-euler or rk4 have step derivatives)";
+}
+
+StepDerivatives::StepDerivatives(IntegratorType type, int n)
+    : type_(type),
+      n_(n),
+      Aq_(n, n),
+      Av_(n, n),
+      Bt_(n, n),
+      Kx_(2 * n, 2 * n),
+      Kt_(2 * n, n),
+      Sx_(2 * n, 2 * n),
+      St_(2 * n, n),
+      Xq_(n, 2 * n),
+      Xv_(n, 2 * n),
+      Yq_(n, n),
+      Yv_(n, n),
+      Ak_(2 * n, 2 * n),
+      Bk_(2 * n, n),
+      PA_(2 * n, 2 * n),
+      PB_(2 * n, n),
+      qs_(n),
+      qds_(n),
+      kq_(n),
+      kqd_(n),
+      qdd_(n),
+      sum_q_(n),
+      sum_qd_(n),
+      x_q_(n),
+      x_qd_(n),
+      q_next_(n),
+      qd_next_(n) {
+  if (const char* reason = NoStepDerivativesReason(type)) throw std::invalid_argument(reason);
+}
+
+void StepDerivatives::Step(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                           MatRef A, MatRef B) {
+  eigen_assert(q.size() == n_ && qd.size() == n_ && tau_cmd.size() == n_ && model.num_dofs() == n_);
+  eigen_assert(A.rows() == 2 * n_ && A.cols() == 2 * n_ && B.rows() == 2 * n_ && B.cols() == n_);
+  if (type_ == IntegratorType::kRk4) {
+    Rk4Step(model, t, h, q, qd, tau_cmd, A, B);
+  } else {
+    EulerStep(model, t, h, q, qd, tau_cmd, A, B);
+  }
+}
+
+void StepDerivatives::EulerStep(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd,
+                                ConstVecRef tau, MatRef A, MatRef B) {
+  const int n = n_;
+  model.ComputeAccelerationDerivatives(t, q, qd, tau, qdd_, Aq_, Av_, Bt_);
+  // qd⁺ = qd + h qdd: its rows are the same for both.
+  A.bottomLeftCorner(n, n) = h * Aq_;
+  A.bottomRightCorner(n, n) = h * Av_;
+  A.bottomRightCorner(n, n).diagonal().array() += 1.0;
+  B.topRows(n).setZero();
+  B.bottomRows(n) = h * Bt_;
+  qd_next_ = qd + h * qdd_;
+  if (type_ == IntegratorType::kSemiImplicitEuler) {  // q⁺ = q + h qd⁺
+    A.topRows(n) = h * A.bottomRows(n);
+    A.topLeftCorner(n, n).diagonal().array() += 1.0;
+    B.topRows(n) = h * B.bottomRows(n);
+    q_next_ = q + h * qd_next_;
+  } else {  // q⁺ = q + h qd
+    A.topLeftCorner(n, n).setIdentity();
+    A.topRightCorner(n, n).setZero();
+    A.topRightCorner(n, n).diagonal().setConstant(h);
+    q_next_ = q + h * qd;
+  }
+}
+
+// The stages of Rk4::Stages, each with its derivative (see the header).
+void StepDerivatives::Rk4Step(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                              MatRef A, MatRef B) {
+  const int n = n_;
+  // Stage 1 at x: ∂k1/∂x = F1, ∂k1/∂tau = G1.
+  model.ComputeAccelerationDerivatives(t, q, qd, tau, qdd_, Aq_, Av_, Bt_);
+  Kx_.topLeftCorner(n, n).setZero();
+  Kx_.topRightCorner(n, n).setIdentity();
+  Kx_.bottomLeftCorner(n, n) = Aq_;
+  Kx_.bottomRightCorner(n, n) = Av_;
+  Kt_.topRows(n).setZero();
+  Kt_.bottomRows(n) = Bt_;
+  Sx_ = Kx_;
+  St_ = Kt_;
+  kq_ = qd;
+  kqd_ = qdd_;
+  sum_q_ = kq_;
+  sum_qd_ = kqd_;
+  // Stages 2 and 3 at the midpoint, stage 4 at the end.
+  for (int stage = 2; stage <= 4; ++stage) {
+    const double a = stage == 4 ? h : 0.5 * h;
+    const double w = stage == 4 ? 1.0 : 2.0;
+    qs_ = q + a * kq_;
+    qds_ = qd + a * kqd_;
+    // The stage point's derivative I + a ∂k_{s−1}, by rows (q's, qd's).
+    Xq_ = a * Kx_.topRows(n);
+    Xq_.leftCols(n).diagonal().array() += 1.0;
+    Xv_ = a * Kx_.bottomRows(n);
+    Xv_.rightCols(n).diagonal().array() += 1.0;
+    Yq_ = a * Kt_.topRows(n);
+    Yv_ = a * Kt_.bottomRows(n);
+    model.ComputeAccelerationDerivatives(t + a, qs_, qds_, tau, qdd_, Aq_, Av_, Bt_);
+    // ∂k = (∂qd_s, ∂qdd_s) = (Xv, Aq Xq + Av Xv) [+ Bt].
+    Kx_.topRows(n) = Xv_;
+    Kx_.bottomRows(n).noalias() = Aq_ * Xq_;
+    Kx_.bottomRows(n).noalias() += Av_ * Xv_;
+    Kt_.topRows(n) = Yv_;
+    Kt_.bottomRows(n) = Bt_;
+    Kt_.bottomRows(n).noalias() += Aq_ * Yq_;
+    Kt_.bottomRows(n).noalias() += Av_ * Yv_;
+    Sx_ += w * Kx_;
+    St_ += w * Kt_;
+    kq_ = qds_;
+    kqd_ = qdd_;
+    sum_q_ += w * kq_;
+    sum_qd_ += w * kqd_;
+  }
+  A = (h / 6.0) * Sx_;
+  A.diagonal().array() += 1.0;
+  B = (h / 6.0) * St_;
+  q_next_ = q + (h / 6.0) * sum_q_;
+  qd_next_ = qd + (h / 6.0) * sum_qd_;
+}
+
+void StepDerivatives::Advance(PlantModel& model, double t, double dt, int substeps, ConstVecRef q, ConstVecRef qd,
+                              ConstVecRef tau_cmd, MatRef A, MatRef B) {
+  eigen_assert(substeps >= 1);
+  const double h = dt / substeps;
+  Step(model, t, h, q, qd, tau_cmd, A, B);
+  for (int k = 1; k < substeps; ++k) {
+    x_q_ = q_next_;
+    x_qd_ = qd_next_;
+    Step(model, t + k * h, h, x_q_, x_qd_, tau_cmd, Ak_, Bk_);
+    PA_.noalias() = Ak_ * A;
+    A = PA_;
+    PB_.noalias() = Ak_ * B;
+    B = PB_ + Bk_;
+  }
+}
+
 }  // namespace lagrange

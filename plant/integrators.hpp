@@ -218,4 +218,67 @@ class Rk4 final : public Integrator {
 // Throws std::invalid_argument with CheckIntegratorConfig's reason for a bad config.
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& config, int n);
 
+// Why `type` has no step derivatives (a static string that names the
+// integrators that have them), or null: explicit-euler, semi-implicit-euler
+// and rk4 have them; dopri5 (adaptive: its step sizes are decided, not
+// differentiable) and variational (an implicit solve) do not.
+const char* NoStepDerivativesReason(IntegratorType type);
+
+// Exact derivatives of one integrator step with the command held (the tick's
+// zero-order hold), x = (q, qd) (2n):
+//
+//   x⁺ = Φ(x, tau_cmd, h),   A = ∂x⁺/∂x (2n x 2n),   B = ∂x⁺/∂tau_cmd (2n x n)
+//
+// by the chain rule through the integrator's own stages, not by differencing
+// the step. At each stage the plant's acceleration derivatives
+// (PlantModel::ComputeAccelerationDerivatives: the dynamics' and the effects')
+// give F = ∂f/∂x = [[0, I], [∂qdd/∂q, ∂qdd/∂qd]] and G = ∂f/∂tau_cmd =
+// [[0], [∂qdd/∂tau_cmd]] of f(x) = (qd, qdd); then
+//   explicit Euler       x⁺ = x + h f(x):            A = I + h F,  B = h G
+//   semi-implicit Euler  qd⁺ = qd + h qdd(x), q⁺ = q + h qd⁺: qd⁺'s rows as
+//                        explicit Euler's, q⁺'s = [I 0] + h (qd⁺'s rows)
+//   RK4                  k_s = f(x + c_s h k_{s−1}), c = (0, ½, ½, 1):
+//                        ∂k_s = F_s (I + c_s h ∂k_{s−1}) [+ G_s],
+//                        A = I + h/6 Σ w_s ∂k_s/∂x, B = h/6 Σ w_s ∂k_s/∂tau, w = (1, 2, 2, 1)
+// and over a tick of `substeps` sub-steps, A = A_s ⋯ A_1, B = Σ_k A_s ⋯ A_{k+1} B_k.
+// As h → 0, A = I + h F + O(h²) for each.
+//
+// Per-user data, like an Integrator: every buffer is allocated when it is
+// made; Step and Advance allocate nothing. Cost per step: one (Euler) or four
+// (RK4) acceleration derivatives, plus (RK4) about 18 n³ multiply-adds of
+// block products.
+class StepDerivatives {
+ public:
+  // Throws std::invalid_argument with NoStepDerivativesReason for the others.
+  StepDerivatives(IntegratorType type, int n);
+
+  IntegratorType type() const { return type_; }
+
+  // (model, t, h, q, qd, tau_cmd) => A, B of one step of length h from (q, qd)
+  // at t, and its end x⁺ (q_next, qd_next): the integrator's Step, to round-off.
+  void Step(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, MatRef A,
+            MatRef B);
+  // The same over one tick of length dt in `substeps` (>= 1) equal sub-steps, as Integrator::Advance.
+  void Advance(PlantModel& model, double t, double dt, int substeps, ConstVecRef q, ConstVecRef qd,
+               ConstVecRef tau_cmd, MatRef A, MatRef B);
+
+  // The state at the end of the last Step or Advance.
+  const VectorXd& q_next() const { return q_next_; }
+  const VectorXd& qd_next() const { return qd_next_; }
+
+ private:
+  void EulerStep(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, MatRef A,
+                 MatRef B);
+  void Rk4Step(PlantModel& model, double t, double h, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, MatRef A,
+               MatRef B);
+
+  IntegratorType type_;
+  int n_;
+  MatrixXd Aq_, Av_, Bt_;          // (n x n) ∂qdd/∂q, ∂qdd/∂qd, ∂qdd/∂tau at a stage
+  MatrixXd Kx_, Kt_, Sx_, St_;     // (2n x 2n), (2n x n): a stage's ∂k, and their weighted sums
+  MatrixXd Xq_, Xv_, Yq_, Yv_;     // (n x 2n), (n x n): a stage point's derivative, by rows
+  MatrixXd Ak_, Bk_, PA_, PB_;     // (2n x 2n), (2n x n): Advance's sub-step and products
+  VectorXd qs_, qds_, kq_, kqd_, qdd_, sum_q_, sum_qd_, x_q_, x_qd_, q_next_, qd_next_;  // (n)
+};
+
 }  // namespace lagrange

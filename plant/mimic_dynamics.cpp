@@ -13,10 +13,12 @@ struct MimicDynamics::Data final : DynamicsData {
         q(joints),
         qd(joints),
         x(joints),
-        A(joints, joints) {}
+        A(joints, joints),
+        B(joints, joints),
+        C(joints, joints) {}
   std::unique_ptr<DynamicsData> free;  // the free tree's data
-  VectorXd q, qd, x;                   // (num_joints) q_j, qd_j, a joint-space result
-  MatrixXd A;                          // (num_joints²) a joint-space matrix
+  VectorXd q, qd, x;                   // (num_joints) q_j, qd_j, a joint-space result (or qdd_j)
+  MatrixXd A, B, C;                    // (num_joints²) joint-space matrices
 };
 
 MimicDynamics::MimicDynamics(const RigidTree& tree, std::shared_ptr<const Dynamics> free)
@@ -100,6 +102,26 @@ double MimicDynamics::ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, Co
   Data& d = Checked<Data>(data, q, qd);
   Expand(d, q, qd);
   return free_->ComputeKineticEnergy(*d.free, d.q, d.qd);
+}
+
+void MimicDynamics::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                      ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                      MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  Data& d = Checked<Data>(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd);
+  CountTerms(d, terms);
+  Expand(d, q, qd);
+  for (std::size_t i = 0; i < maps_.size(); ++i) d.x[static_cast<Eigen::Index>(i)] = maps_[i].scale * qdd[maps_[i].dof];
+  free_->ComputeInverseDynamicsDerivatives(*d.free, d.q, d.qd, d.x, terms, d.A, d.B, d.C);
+  Reduce(d.A, dtau_dq);
+  Reduce(d.B, dtau_dqd);
+  Reduce(d.C, dtau_dqdd);
+}
+
+void MimicDynamics::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  Data& d = Checked<Data>(data, q, dG_dq);
+  ExpandPosition(d, q);
+  free_->ComputeGravityDerivatives(*d.free, d.q, d.A);
+  Reduce(d.A, dG_dq);
 }
 
 double MimicDynamics::ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const {

@@ -10,6 +10,8 @@
 //   C qd      = Sᵀ (C_j qd_j)
 //   G(q)      = Sᵀ G_j(q_j)
 //   ∂T/∂q     = Sᵀ ∂T_j/∂q_j,  T and V unchanged
+//   ∂tau/∂x   = Sᵀ ∂tau_j/∂x_j S  for x = q, qd, qdd (tau = Sᵀ tau_j(S q + o, S qd, S qdd))
+//   ∂G/∂q     = Sᵀ ∂G_j/∂q_j S
 //
 // since T(q, qd) = T_j(S q + o, S qd) and V(q) = V_j(S q + o). A mimic's
 // generalized force lands on the joint it follows, scaled by its multiplier
@@ -49,6 +51,10 @@ class MimicDynamics final : public Dynamics {
   void ComputeKineticEnergyGradient(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef dTdq) const override;
   double ComputeKineticEnergy(DynamicsData& data, ConstVecRef q, ConstVecRef qd) const override;
   double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
 
  private:
   struct Data;

@@ -64,4 +64,20 @@ void PendulumClosedForm::ComputeForwardDynamics(DynamicsData& data, ConstVecRef 
   qdd[0] = rhs / inertia_;
 }
 
+// tau = I qdd + mgl sin θ: ∂tau/∂θ = mgl cos θ, ∂tau/∂θ̇ = 0, ∂tau/∂θ̈ = I.
+void PendulumClosedForm::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                           ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                           MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  Checked(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd);
+  CountTerms(data, terms);
+  dtau_dq(0, 0) = terms.gravity ? mgl_ * std::cos(q[0]) : 0.0;
+  dtau_dqd(0, 0) = 0.0;
+  dtau_dqdd(0, 0) = inertia_;
+}
+
+void PendulumClosedForm::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  Checked(data, q, dG_dq);
+  dG_dq(0, 0) = mgl_ * std::cos(q[0]);
+}
+
 }  // namespace lagrange

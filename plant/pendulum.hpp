@@ -69,6 +69,10 @@ class PendulumClosedForm final : public Dynamics {
   double ComputePotentialEnergy(DynamicsData& data, ConstVecRef q) const override;
   void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
 
  private:
   double inertia_;  // about the pivot, kg·m²

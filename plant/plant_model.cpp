@@ -19,7 +19,10 @@ PlantModel::PlantModel(std::shared_ptr<const Dynamics> dynamics, EffectsConfig e
     : dynamics_(&NonNull(dynamics)),
       effects_(std::move(effects), dynamics_->num_dofs()),
       tau_(dynamics_->num_dofs()),
-      tau_law_(dynamics_->num_dofs()) {
+      tau_law_(dynamics_->num_dofs()),
+      dtau_dq_(dynamics_->num_dofs()),
+      dtau_dqd_(dynamics_->num_dofs()),
+      dtau_dcmd_(dynamics_->num_dofs()) {
   all_.push_back({std::move(dynamics), dynamics_->MakeData()});
   data_ = all_.back().data.get();
 }
@@ -89,6 +92,25 @@ void PlantModel::ComputeAccelerationWithEffects(ControlLaw* law, double t, Const
     effects_.ComputeGeneralizedForce(t, q, qd, tau_law_, tau_);
   }
   dynamics_->ComputeForwardDynamics(*data_, q, qd, tau_, effects_.terms(), qdd);
+}
+
+void PlantModel::ComputeAccelerationDerivatives(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
+                                                VecRef qdd, MatRef dqdd_dq, MatRef dqdd_dqd, MatRef dqdd_dtau) {
+  if (effects_.passes_command_through()) {
+    dynamics_->ComputeForwardDynamicsDerivatives(*data_, q, qd, tau_cmd, effects_.terms(), qdd, dqdd_dq, dqdd_dqd,
+                                                 dqdd_dtau);
+    return;
+  }
+  effects_.ComputeGeneralizedForce(t, q, qd, tau_cmd, tau_);
+  effects_.ComputeGeneralizedForceDerivatives(q, qd, tau_cmd, dtau_dq_, dtau_dqd_, dtau_dcmd_);
+  dynamics_->ComputeForwardDynamicsDerivatives(*data_, q, qd, tau_, effects_.terms(), qdd, dqdd_dq, dqdd_dqd,
+                                               dqdd_dtau);
+  // dqdd_dtau is M⁻¹ here; its columns scaled by each diagonal.
+  for (int j = 0; j < num_dofs(); ++j) {
+    if (dtau_dq_[j] != 0.0) dqdd_dq.col(j) += dtau_dq_[j] * dqdd_dtau.col(j);
+    if (dtau_dqd_[j] != 0.0) dqdd_dqd.col(j) += dtau_dqd_[j] * dqdd_dtau.col(j);
+    dqdd_dtau.col(j) *= dtau_dcmd_[j];
+  }
 }
 
 void PlantModel::ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,

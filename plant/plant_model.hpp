@@ -120,6 +120,18 @@ class PlantModel {
   void ComputeAcceleration(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd) {
     ComputeAcceleration(nullptr, t, q, qd, tau_cmd, qdd);
   }
+  // (t, q, qd, tau_cmd) => qdd (n) and its exact derivatives ∂qdd/∂q,
+  // ∂qdd/∂qd and ∂qdd/∂tau_cmd (n x n each), tau_cmd held (no ControlLaw),
+  // through the effects that are on (their diagonal derivatives and kinks:
+  // plant/effects.hpp) and the dynamics' terms:
+  //   ∂qdd/∂q   = ∂FD/∂q  + M⁻¹ diag(∂tau/∂q)
+  //   ∂qdd/∂qd  = ∂FD/∂qd + M⁻¹ diag(∂tau/∂qd)
+  //   ∂qdd/∂tau_cmd = M⁻¹ diag(∂tau/∂tau_cmd)
+  // with FD's derivatives at the effects' tau (Dynamics::
+  // ComputeForwardDynamicsDerivatives). Allocates nothing.
+  void ComputeAccelerationDerivatives(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd, VecRef qdd,
+                                      MatRef dqdd_dq, MatRef dqdd_dqd, MatRef dqdd_dtau);
+
   // (law, t, q, qd, tau_cmd) => tau, the effects' generalized force; `law` as above.
   void ComputeGeneralizedForce(ControlLaw* law, double t, ConstVecRef q, ConstVecRef qd, ConstVecRef tau_cmd,
                                VecRef tau);
@@ -164,6 +176,7 @@ class PlantModel {
   Effects effects_;
   VectorXd tau_;             // scratch (n)
   VectorXd tau_law_;         // scratch (n)
+  VectorXd dtau_dq_, dtau_dqd_, dtau_dcmd_;  // the effects' diagonal derivatives (n each)
   StageCounts term_counts_;  // gravity and Coriolis terms ComputeEffectForces evaluated
 };
 

@@ -1,7 +1,10 @@
 #include "plant/recursive_dynamics.hpp"
 
 #include <cmath>
+#include <string>
 #include <utility>
+
+#include "plant/spatial_dynamics.hpp"
 
 namespace lagrange {
 namespace {
@@ -102,6 +105,7 @@ struct RecursiveDynamics::Data final : DynamicsData {
     D.resize(N);
     u.resize(N);
     zeros = VectorXd::Zero(n);
+    spatial = model.spatial_->MakeData();
   }
   std::vector<Xform> X;
   std::vector<Eigen::Vector3d> v, a, f, c, pA, U;
@@ -111,10 +115,43 @@ struct RecursiveDynamics::Data final : DynamicsData {
   std::vector<Eigen::Matrix3d> IA;
   std::vector<double> D, u;
   VectorXd zeros;  // qd or qdd = 0 for the gravity and Coriolis passes
+  std::unique_ptr<DynamicsData> spatial;  // the derivatives' (spatial_)
 };
 
-RecursiveDynamics::RecursiveDynamics(PlanarChain chain) : Dynamics(chain.joint_types()), chain_(std::move(chain)) {
+RigidTree PlanarChainTree(const PlanarChain& chain) {
+  RigidTree tree;
+  tree.gravity = PlanarGravity(chain.g);
+  for (int i = 0; i < chain.num_dofs(); ++i) {
+    const PlanarJoint& j = chain.joints[static_cast<std::size_t>(i)];
+    const PlanarBody& b = chain.bodies[static_cast<std::size_t>(i)];
+    std::string name = std::to_string(i + 1);
+    name.insert(0, 1, 'q');  // (not "q" + ...: GCC 12 warns falsely of overlap there, -Wrestrict)
+    tree.joints.push_back(PlanarTreeJoint(name, j.type, i - 1, j.position.x(), j.position.y(), j.angle));
+    tree.bodies.push_back(PlanarTreeBody(b.mass, b.com.x(), b.com.y(), b.inertia));
+  }
+  return tree;
+}
+
+RecursiveDynamics::RecursiveDynamics(PlanarChain chain)
+    : Dynamics(chain.joint_types()),
+      chain_(std::move(chain)),
+      spatial_(std::make_unique<const SpatialDynamics>(PlanarChainTree(chain_))) {
   for (const PlanarBody& b : chain_.bodies) inertia_.push_back(SpatialInertia(b));
+}
+
+RecursiveDynamics::~RecursiveDynamics() = default;
+
+void RecursiveDynamics::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                          ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                          MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  Data& d = Checked<Data>(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd);
+  CountTerms(d, terms);
+  spatial_->ComputeInverseDynamicsDerivatives(*d.spatial, q, qd, qdd, terms, dtau_dq, dtau_dqd, dtau_dqdd);
+}
+
+void RecursiveDynamics::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  Data& d = Checked<Data>(data, q, dG_dq);
+  spatial_->ComputeGravityDerivatives(*d.spatial, q, dG_dq);
 }
 
 std::unique_ptr<DynamicsData> RecursiveDynamics::MakeData() const { return std::make_unique<Data>(*this); }

@@ -20,6 +20,7 @@
 // joint and (0, 1, 0) for a prismatic joint.
 
 #include <Eigen/Core>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -28,6 +29,8 @@
 #include "plant/rigid_tree.hpp"
 
 namespace lagrange {
+
+class SpatialDynamics;  // plant/spatial_dynamics.hpp
 
 struct PlanarJoint {
   JointType type = JointType::kRevolute;
@@ -72,9 +75,15 @@ std::optional<PlanarChain> PlanarChainOf(const RigidTree& tree);
 //     composite inertias, their rates and momenta (Pinocchio's
 //     computeCoriolisMatrix); O(n) passes, O(n²) to fill C
 //   ∂T/∂q: ∂T/∂q_j = −S_jᵀ (v_{j−1} ×* Σ_{i≥j} I_i v_i), O(n)
+//   derivatives of inverse dynamics and of G: the spatial sweeps
+//     (SpatialDynamics) on the chain's tree, the same bodies in the xy plane
+//     (built once here); forward dynamics' by the planar ABA and those
 class RecursiveDynamics final : public Dynamics {
  public:
+  // Throws std::invalid_argument when the chain's tree is not a valid model
+  // (ValidateRigidTree: M(0) not positive definite, a massless link, ...).
   explicit RecursiveDynamics(PlanarChain chain);
+  ~RecursiveDynamics() override;
 
   const PlanarChain& chain() const { return chain_; }
   Method method() const override { return Method::kRecursive; }
@@ -91,6 +100,10 @@ class RecursiveDynamics final : public Dynamics {
                               VecRef tau) const override;
   void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
 
   // Parent-to-child motion transform of one joint: the child frame sits at r
   // (parent coordinates) rotated by θ; (c, s) = (cos θ, sin θ).
@@ -112,8 +125,13 @@ class RecursiveDynamics final : public Dynamics {
   void Rnea(Data& d, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
 
   PlanarChain chain_;
-  std::vector<Eigen::Matrix3d> inertia_;  // spatial inertia of each body about its frame origin
+  std::vector<Eigen::Matrix3d> inertia_;            // spatial inertia of each body about its frame origin
+  std::unique_ptr<const SpatialDynamics> spatial_;  // the chain's tree, for the derivatives
 };
+
+// The chain as the RigidTree it came from (PlanarChainOf's inverse): joints
+// "q1" .. "qn", each body a lamina in the xy plane (PlanarTreeBody).
+RigidTree PlanarChainTree(const PlanarChain& chain);
 
 // ---- templated energies -------------------------------------------------
 

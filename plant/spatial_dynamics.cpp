@@ -76,6 +76,9 @@ struct SpatialScratch {
   std::vector<Force> pA, U;
   std::vector<double> D, u;  // D: 1/D in the ABA
   std::vector<double> H;     // M's lower triangle, row-major n x n, then its Lᵀ D L factors
+  // Derivatives (world frame): ∂a_i/∂q_i's column, zeros (qdd = 0, qd = 0).
+  std::vector<Motion> dAdq;
+  std::vector<double> zeros;
 };
 
 struct SpatialDynamics::Data final : DynamicsData {
@@ -144,6 +147,8 @@ void Size(SpatialScratch& s, int n) {
   s.D.resize(N);
   s.u.resize(N);
   s.H.assign(N * N, 0.0);
+  s.dAdq.resize(N);
+  s.zeros.assign(N, 0.0);
 }
 
 // Motion subspace S = (z, 0) for a revolute joint, (0, z) for a prismatic one:
@@ -220,6 +225,24 @@ LAGRANGE_SPATIAL_INLINE Inertia WorldInertia(const Inertia& I, const Matrix3d& R
     Ib(c, c) += d;
   }
   return {I.m, ho + I.m * o, Ib};
+}
+
+// İ = v ×* I − I v×, the rate of a world inertia I carried with velocity v:
+// (D, ḣ) with ḣ = ω × h + m v, D = A + Aᵀ − (h vᵀ + v hᵀ) + 2 (v · h) 1,
+// A = [ω]× Ib; its mass part is zero. Symmetric, like I.
+LAGRANGE_SPATIAL_INLINE Inertia InertiaRate(const Inertia& I, const Motion& v) {
+  Matrix3d A;
+  for (int k = 0; k < 3; ++k) A.col(k) = Cross(v.w, Vector3d(I.Ib.col(k)));
+  Matrix3d D;
+  const double vh = 2.0 * (v.v.x() * I.h.x() + v.v.y() * I.h.y() + v.v.z() * I.h.z());
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r <= c; ++r) {
+      D(r, c) = A(r, c) + A(c, r) - I.h[r] * v.v[c] - v.v[r] * I.h[c];
+      D(c, r) = D(r, c);
+    }
+    D(c, c) += vh;
+  }
+  return Inertia{0.0, Cross(v.w, I.h) + I.m * v.v, D};
 }
 
 // ---- recursive Newton–Euler ---------------------------------------------
@@ -496,6 +519,102 @@ void Aba(const SpatialModel& m, SpatialScratch& s, const double* qd, const doubl
   }
 }
 
+// ---- derivatives of inverse dynamics ---------------------------------------
+
+// (X, qd, qdd) => ∂tau/∂q, ∂tau/∂qd, M = ∂tau/∂qdd in world coordinates, one
+// forward and one backward sweep (the structure of Carpentier and Mansard,
+// RSS 2018, derived here for this algebra). Turning q_j moves the subtree of
+// j rigidly with the screw J_j, so every world quantity of a body k at or
+// below j changes as it would moving with velocity J_j, except where it
+// depends on the ancestors of j (their velocity and acceleration):
+//   ∂J_k/∂q_j = J_j × J_k,  ∂I_k/∂q_j = J_j ×* I_k − I_k J_j×,
+//   ∂v_k/∂q_j = J_j × v_k + J̇_j,
+//   ∂a_k/∂q_j = J_j × a_k + ψ_j + J̇_j × v_k,
+// with J̇_j = v_λ(j) × J_j and ψ_j = a_λ(j) × J_j + v_λ(j) × J̇_j; and
+// ∂v_k/∂qd_j = J_j, ∂a_k/∂qd_j = 2 J̇_j + J_j × v_k. With f_k = I_k a_k +
+// v_k ×* I_k v_k, the subtree sums F, Ic, İc = Σ (v ×* I − I v×), momentum hc,
+// and Ω x = İc x + x ×* hc (Ωᵀ x = İc x − x ×* hc), the J_j ×* terms of
+// ∂F_i cancel against ∂J_i in tau_i = J_i · F_i, leaving, for j at or above i,
+//   ∂tau_i/∂q_j  = (Ic_i J_i) · ψ_j + (Ωᵀ_i J_i) · J̇_j
+//   ∂tau_j/∂q_i  = J_j · (J_i ×* F_i + Ic_i ψ_i + Ω_i J̇_i)
+//   ∂tau_i/∂qd_j = (Ic_i J_i) · 2 J̇_j + (Ωᵀ_i J_i) · J_j
+//   ∂tau_j/∂qd_i = J_j · (2 Ic_i J̇_i + Ω_i J_i)
+//   M_ij         = J_j · (Ic_i J_i)
+// and zero where i and j are on different branches (left untouched: the
+// caller zeroes them). The backward sweep fills row and column i against
+// each ancestor: a handful of 6-D dot products per pair. kVelocity false: qd
+// = 0 (no velocity terms, ∂tau/∂qd untouched), as for G or without Coriolis.
+template <bool kVelocity>
+void RneaDerivatives(const SpatialModel& m, SpatialScratch& s, const double* qd, const double* qdd, bool gravity,
+                     MatRef dq, MatRef dqd, MatRef M) {
+  WorldPlacements(m, s);
+  const Motion root{Vector3d::Zero(), gravity ? Vector3d(-m.gravity) : Vector3d::Zero()};
+  for (int i = 0; i < m.n; ++i) {
+    const int p = m.parent[i];
+    const Motion& J = s.J[i];
+    const Motion& ap = p >= 0 ? s.a[p] : root;
+    const Inertia I = WorldInertia(m.inertia[i], s.R[i], s.o[i]);
+    s.Ic[i] = I;
+    if (kVelocity) {
+      const Motion vp = p >= 0 ? s.v[p] : Motion{};
+      const Motion dJ = Cross(vp, J);
+      s.dJ[i] = dJ;
+      s.v[i] = vp + qd[i] * J;
+      s.a[i] = ap + qdd[i] * J + qd[i] * dJ;
+      s.dAdq[i] = Cross(ap, J) + Cross(vp, dJ);
+      const Force h = I * s.v[i];
+      s.hc[i] = h;
+      s.Idot[i] = InertiaRate(I, s.v[i]);
+      s.f[i] = I * s.a[i] + CrossStar(s.v[i], h);
+    } else {
+      s.a[i] = ap + qdd[i] * J;
+      s.dAdq[i] = Cross(ap, J);
+      s.f[i] = I * s.a[i];
+    }
+  }
+  for (int i = m.n - 1; i >= 0; --i) {
+    const Motion& J = s.J[i];
+    const Inertia& Ic = s.Ic[i];
+    const Force U = Ic * J;
+    Force Q = CrossStar(J, s.f[i]) + Ic * s.dAdq[i];
+    Force W, R;  // Ωᵀ J and 2 Ic J̇ + Ω J
+    if (kVelocity) {
+      const Motion& dJ = s.dJ[i];
+      const Force IdJ = s.Idot[i] * J;
+      const Force Jh = CrossStar(J, s.hc[i]);
+      W = IdJ - Jh;
+      R = 2.0 * (Ic * dJ) + IdJ + Jh;
+      Q += s.Idot[i] * dJ + CrossStar(dJ, s.hc[i]);
+    }
+    M(i, i) = Dot(J, U);
+    dq(i, i) = Dot(J, Q);
+    if (kVelocity) dqd(i, i) = Dot(J, R);
+    for (int j = m.parent[i]; j >= 0; j = m.parent[j]) {
+      const Motion& Jj = s.J[j];
+      const double Mij = Dot(Jj, U);
+      M(i, j) = Mij;
+      M(j, i) = Mij;
+      dq(j, i) = Dot(Jj, Q);
+      if (kVelocity) {
+        dq(i, j) = Dot(s.dAdq[j], U) + Dot(s.dJ[j], W);
+        dqd(j, i) = Dot(Jj, R);
+        dqd(i, j) = 2.0 * Dot(s.dJ[j], U) + Dot(Jj, W);
+      } else {
+        dq(i, j) = Dot(s.dAdq[j], U);
+      }
+    }
+    const int p = m.parent[i];
+    if (p >= 0) {
+      s.Ic[p] += Ic;
+      s.f[p] += s.f[i];
+      if (kVelocity) {
+        s.Idot[p] += s.Idot[i];
+        s.hc[p] += s.hc[i];
+      }
+    }
+  }
+}
+
 }  // namespace
 
 SpatialDynamics::SpatialDynamics(RigidTree tree) : Dynamics(tree.joint_types()), tree_(std::move(tree)) {
@@ -565,19 +684,7 @@ void SpatialDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, C
     const Inertia I = WorldInertia(m.inertia[i], s.R[i], s.o[i]);
     s.Ic[i] = I;
     s.hc[i] = I * v;
-    // İ = (D, ḣ): ḣ = ω × h + m v, D = A + Aᵀ − (h vᵀ + v hᵀ) + 2 (v · h) 1 with A = [ω]× Ib.
-    Matrix3d A;
-    for (int k = 0; k < 3; ++k) A.col(k) = Cross(v.w, Vector3d(I.Ib.col(k)));
-    Matrix3d D;
-    const double vh = 2.0 * (v.v.x() * I.h.x() + v.v.y() * I.h.y() + v.v.z() * I.h.z());
-    for (int c = 0; c < 3; ++c) {
-      for (int r = 0; r <= c; ++r) {
-        D(r, c) = A(r, c) + A(c, r) - I.h[r] * v.v[c] - v.v[r] * I.h[c];
-        D(c, r) = D(r, c);
-      }
-      D(c, c) += vh;
-    }
-    s.Idot[i] = Inertia{0.0, Cross(v.w, I.h) + I.m * v.v, D};
+    s.Idot[i] = InertiaRate(I, v);
   }
   for (int i = m.n - 1; i >= 0; --i) {
     const Motion& J = s.J[i];
@@ -716,6 +823,39 @@ void SpatialDynamics::ComputeForwardDynamics(DynamicsData& data, ForwardAlgorith
     return;
   }
   CompositeForwardDynamics<true>(m, s, tau.data(), qdd.data());
+}
+
+}  // namespace lagrange
+
+namespace lagrange {
+
+void SpatialDynamics::ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd,
+                                                        ConstVecRef qdd, DynamicsTerms terms, MatRef dtau_dq,
+                                                        MatRef dtau_dqd, MatRef dtau_dqdd) const {
+  SpatialScratch& s = Checked<Data>(data, q, qd, qdd, dtau_dq, dtau_dqd, dtau_dqdd).s;
+  CountTerms(data, terms);
+  const SpatialModel& m = *model_;
+  if (!m.chain) {
+    dtau_dq.setZero();
+    dtau_dqd.setZero();
+    dtau_dqdd.setZero();
+  }
+  Transforms(m, s, q.data());
+  if (terms.coriolis) {
+    RneaDerivatives<true>(m, s, qd.data(), qdd.data(), terms.gravity, dtau_dq, dtau_dqd, dtau_dqdd);
+  } else {
+    RneaDerivatives<false>(m, s, nullptr, qdd.data(), terms.gravity, dtau_dq, dtau_dqd, dtau_dqdd);
+    dtau_dqd.setZero();
+  }
+}
+
+void SpatialDynamics::ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const {
+  SpatialScratch& s = Checked<Data>(data, q, dG_dq).s;
+  const SpatialModel& m = *model_;
+  if (!m.chain) dG_dq.setZero();
+  Transforms(m, s, q.data());
+  Eigen::Map<MatrixXd> unused(s.H.data(), m.n, m.n);  // M, not asked for
+  RneaDerivatives<false>(m, s, nullptr, s.zeros.data(), true, dG_dq, unused, unused);
 }
 
 }  // namespace lagrange

@@ -74,6 +74,13 @@ class SpatialDynamics final : public Dynamics {
                               VecRef tau) const override;
   void ComputeForwardDynamics(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override;
+  // Derivatives: RneaDerivatives in the .cpp, one forward and one backward
+  // sweep in world coordinates, O(Σ d) with a few 6-D products per
+  // (joint, ancestor) pair; ∂G/∂q by the same sweep without velocities.
+  void ComputeInverseDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef dtau_dq, MatRef dtau_dqd,
+                                         MatRef dtau_dqdd) const override;
+  void ComputeGravityDerivatives(DynamicsData& data, ConstVecRef q, MatRef dG_dq) const override;
 
   // The exact forward-dynamics algorithms, qdd = M⁻¹ (tau − [C qd] − [G]):
   //   kArticulatedBody     ABA in world coordinates (a subtree's articulated

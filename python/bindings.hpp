@@ -4,10 +4,20 @@
 
 #include <pybind11/pybind11.h>
 
+#include <memory>
+
+namespace lagrange {
+class Dynamics;
+}  // namespace lagrange
+
 namespace lagrange::python {
 
 // lagrange.Model: dynamics and kinematics of one plant, single states and batches (model.cpp).
 void BindModel(pybind11::module_& m);
+// The dynamics of a lagrange.Model object (model.cpp), for calls bound in other files; TypeError for another object.
+std::shared_ptr<const Dynamics> ModelDynamics(pybind11::handle model);
+// lagrange.Model's derivative calls, added to the class BindModel made (derivatives.cpp).
+void BindDerivatives(pybind11::module_& m);
 // lagrange.simulate and the stepping interface: scenes run by the daemon's Instance code (simulate.cpp).
 void BindSimulate(pybind11::module_& m);
 // lagrange.Client and lagrange.read_log: the project's bus, client and log reader (bus.cpp).

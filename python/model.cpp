@@ -109,6 +109,7 @@ class Model {
   std::string method() const { return std::string(ToString(method_)); }
   std::string plant() const { return std::string(ToString(type_)); }
   const Dynamics& dynamics() const { return *dynamics_; }
+  const std::shared_ptr<const Dynamics>& shared_dynamics() const { return dynamics_; }
   const Kinematics& kinematics() const { return *kinematics_; }
 
   // The frame called `name`, or ValueError in eval --frame's words.
@@ -599,6 +600,8 @@ RuntimeError when a result is not finite (naming the state).)";
 std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
 
 }  // namespace
+
+std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return py::cast<Model&>(model).shared_dynamics(); }
 
 void BindModel(py::module_& m) {
   py::class_<Model> model(m, "Model", kModelDoc);

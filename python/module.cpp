@@ -6,6 +6,7 @@ PYBIND11_MODULE(_lagrange, m) {
   m.attr("python_executable") = LAGRANGE_PYTHON_EXECUTABLE;
   m.attr("python_version") = LAGRANGE_PYTHON_VERSION;
   lagrange::python::BindModel(m);
+  lagrange::python::BindDerivatives(m);
   lagrange::python::BindSimulate(m);
   lagrange::python::BindBus(m);
 }

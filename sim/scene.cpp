@@ -259,12 +259,14 @@ VectorXd UrdfTorqueLimits(const UrdfRobot& robot) {
 // controller, controllers, torque_limits, setpoint, setpoint_limits, setpoint_timeout, on_timeout.
 void ReadControl(const YamlReader& node, double period, InstanceConfig& inst, UrdfFiles& urdf) {
   const int n = inst.plant.num_dofs();
-  if (auto c = node.Optional("controller")) inst.controller = ReadController(*c, inst.plant, period, inst.q0, urdf);
+  if (auto c = node.Optional("controller")) {
+    inst.controller = ReadController(*c, inst.plant, period, inst.q0, inst.integrator, urdf);
+  }
   if (auto list = node.Optional("controllers")) {
     std::set<ControllerType> seen = {inst.controller.type};
     for (std::size_t i = 0; i < list->Size(); ++i) {
       const YamlReader item = list->At(i);
-      inst.alternates.push_back(ReadController(item, inst.plant, period, inst.q0, urdf));
+      inst.alternates.push_back(ReadController(item, inst.plant, period, inst.q0, inst.integrator, urdf));
       if (!seen.insert(inst.alternates.back().type).second) {
         item.Required("type").Fail("a second " + std::string(ToString(inst.alternates.back().type)) +
                                    " controller (each type once per instance)");

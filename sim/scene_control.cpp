@@ -217,7 +217,7 @@ void SetUrdfParam(PlantSpec& spec, const std::string& key, const YamlReader& val
 }
 
 ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
-                                UrdfFiles& urdf) {
+                                const IntegratorConfig& integrator, UrdfFiles& urdf) {
   const int n = plant.num_dofs();
   const YamlReader type_node = node.Required("type");
   const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
@@ -226,6 +226,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   c.type = *type;
   c.period = period;
   c.q0 = q0;
+  c.integrator = integrator;
   switch (c.type) {
     case ControllerType::kNone: node.ExpectKeys({"type", "continuous"}); break;
     case ControllerType::kPd:
@@ -235,11 +236,11 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
     case ControllerType::kComputedTorque: node.ExpectKeys({"type", "kp", "kd", "model", "continuous"}); break;
     case ControllerType::kCartPolePd: node.ExpectKeys({"type", "kp", "kd", "continuous"}); break;
     case ControllerType::kLqr:
-      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "continuous"});
+      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "design", "model", "continuous"});
       break;
     case ControllerType::kSwingUp:
-      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "model", "energy_gain", "max_accel", "cart_gain",
-                       "cart_damping", "switch_angle", "switch_rate", "continuous"});
+      node.ExpectKeys({"type", "equilibrium", "actuated", "Q", "R", "design", "model", "energy_gain", "max_accel",
+                       "cart_gain", "cart_damping", "switch_angle", "switch_rate", "continuous"});
       break;
     case ControllerType::kExternal:
       node.ExpectKeys({"type", "torque_timeout", "torque_channel", "fallback", "compensate_gravity", "model"});
@@ -276,6 +277,13 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
     c.lqr.actuated = act;
   }
   if (auto v = node.Optional("Q")) c.lqr.Q = ReadSquareMatrix(*v, 2 * n);
+  if (auto v = node.Optional("design")) {
+    const std::string design = v->Text();
+    if (design != "continuous" && design != "discrete") {
+      v->Fail("expected continuous or discrete, got '" + Escape(design, 60) + "'");
+    }
+    c.lqr.discrete = design == "discrete";
+  }
   if (auto v = node.Optional("R")) {
     const int m =
         c.lqr.actuated ? static_cast<int>(c.lqr.actuated->size()) : (plant.type() == PlantType::kCartPole ? 1 : n);

@@ -33,10 +33,11 @@ class UrdfFiles {
 };
 
 // A controller run every `period` s on `plant` starting from q0 (n): both
-// bound its gains (ComputeGainBounds). A urdf plant's `model: {file: ...}`
-// is read through `urdf`.
+// bound its gains (ComputeGainBounds); the instance's `integrator` is what a
+// discrete-time LQR (design: discrete) is designed for. A urdf plant's
+// `model: {file: ...}` is read through `urdf`.
 ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
-                                UrdfFiles& urdf);
+                                const IntegratorConfig& integrator, UrdfFiles& urdf);
 TrajectoryConfig ReadTrajectory(const YamlReader& node, int n);
 
 // Sets a urdf spec's parameter from YAML: gravity: [gx, gy, gz] (m/s²) or

@@ -1,7 +1,9 @@
 // lagrangectl eval: M, C, G, qdd, T and V of a plant at one state, as JSON:
 // a built-in plant (--plant) or a robot from a URDF file (--urdf); with
 // --frame NAME, that frame's pose, Jacobian and J̇ qd (plant/kinematics.hpp,
-// world-aligned axes); with --frames, the plant's frame names alone.
+// world-aligned axes); with --frames, the plant's frame names alone; with
+// --derivatives, the exact derivatives of forward and inverse dynamics at the
+// state (plant/dynamics.hpp).
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
@@ -89,6 +91,26 @@ nlohmann::ordered_json FramesJson(const PlantSpec& spec, const std::vector<std::
   return json;
 }
 
+// ∂qdd/∂(q, qd, tau) at (q, qd, tau) and ∂tau/∂(q, qd) at (q, qd, qdd), the
+// model's exact derivatives: {NAME: rows}. Not finite is an error (JSON has no nan).
+nlohmann::ordered_json DerivativesJson(const Dynamics& dynamics, DynamicsData& data, const VectorXd& q,
+                                       const VectorXd& qd, const VectorXd& tau, const VectorXd& qdd) {
+  const int n = dynamics.num_dofs();
+  VectorXd qdd_again(n);
+  MatrixXd dqdd_dq(n, n), dqdd_dqd(n, n), dqdd_dtau(n, n), dtau_dq(n, n), dtau_dqd(n, n), M(n, n);
+  dynamics.ComputeForwardDynamicsDerivatives(data, q, qd, tau, DynamicsTerms{}, qdd_again, dqdd_dq, dqdd_dqd,
+                                             dqdd_dtau);
+  dynamics.ComputeInverseDynamicsDerivatives(data, q, qd, qdd, DynamicsTerms{}, dtau_dq, dtau_dqd, M);
+  for (const MatrixXd* m : {&dqdd_dq, &dqdd_dqd, &dqdd_dtau, &dtau_dq, &dtau_dqd}) {
+    if (!m->allFinite()) throw std::runtime_error("the derivatives are not finite at this state");
+  }
+  return {{"dqdd_dq", JsonRows(dqdd_dq)},
+          {"dqdd_dqd", JsonRows(dqdd_dqd)},
+          {"dqdd_dtau", JsonRows(dqdd_dtau)},
+          {"dtau_dq", JsonRows(dtau_dq)},
+          {"dtau_dqd", JsonRows(dtau_dqd)}};
+}
+
 class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
@@ -114,7 +136,12 @@ class EvalCommand final : public Command {
     auto* frame = app_->add_option("--frame", frames_,
                                    "NAME, repeatable: add the frame's position, rotation, Jacobian (6 x n) and "
                                    "J̇ qd, world-aligned axes, under \"frames\"");
-    app_->add_flag("--frames", list_frames_, "Print the plant's frame names (no state needed)")->excludes(frame);
+    auto* frames = app_->add_flag("--frames", list_frames_, "Print the plant's frame names (no state needed)");
+    frames->excludes(frame);
+    app_->add_flag("--derivatives", derivatives_,
+                   "Add the exact derivatives under \"derivatives\": dqdd_dq, dqdd_dqd, dqdd_dtau at (q, qd, tau) and "
+                   "dtau_dq, dtau_dqd at (q, qd, qdd) with the printed qdd (rows per output, joint order of \"joints\")")
+        ->excludes(frames);
   }
 
   int Run(std::ostream& out, std::ostream&) override {
@@ -173,6 +200,7 @@ class EvalCommand final : public Command {
                                    {"T", T},
                                    {"V", V}};
     if (!frames_.empty()) json["frames"] = FramesJson(spec, frames_, q, qd);
+    if (derivatives_) json["derivatives"] = DerivativesJson(*dynamics, *data, q, qd, tau, qdd);
     // A URDF's names are the file's bytes: JSON escapes control characters, and replaces invalid UTF-8.
     out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
     return 0;
@@ -245,6 +273,7 @@ class EvalCommand final : public Command {
   std::optional<std::string> method_;
   std::vector<std::string> frames_;
   bool list_frames_ = false;
+  bool derivatives_ = false;
 };
 
 }  // namespace

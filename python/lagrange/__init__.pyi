@@ -87,6 +87,17 @@ class Model:
     def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
                                 reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
         """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
+    def forward_dynamics_derivatives(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *,
+                                     threads: int = 1) -> tuple[_Array, _Array, _Array]:
+        """(q, qd, tau) => (∂qdd/∂q, ∂qdd/∂qd, ∂qdd/∂tau = M⁻¹), each (n, n) | (N, n, n): exact, [i, j] = ∂qdd_i/∂x_j."""
+    def inverse_dynamics_derivatives(self, q: _ArrayLike, qd: _ArrayLike, qdd: _ArrayLike, *,
+                                     threads: int = 1) -> tuple[_Array, _Array, _Array]:
+        """(q, qd, qdd) => (∂tau/∂q, ∂tau/∂qd, ∂tau/∂qdd = M), each (n, n) | (N, n, n): exact."""
+    def step_derivatives(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, dt: float,
+                         integrator: Literal["explicit-euler", "semi-implicit-euler", "rk4"] = "rk4", *,
+                         threads: int = 1) -> tuple[_Array, _Array]:
+        """(q, qd, tau, dt) => (A = ∂x⁺/∂x (2n, 2n) | (N, 2n, 2n), B = ∂x⁺/∂tau (2n, n) | (N, 2n, n)), x = (q, qd):
+        one step of the integrator with tau held, differentiated through its stages (gravity and Coriolis only)."""
 
 # ---- end of lagrange.Model ------------------------------------------------
 

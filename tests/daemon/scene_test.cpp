@@ -7,8 +7,10 @@
 #include <unistd.h>
 
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <regex>
 
 #include "sim/offline.hpp"
@@ -48,6 +50,26 @@ TEST(ShippedScenes, EveryConfigSceneLoadsAndRunsTenSecondsWithFiniteStates) {
     EXPECT_TRUE(finite) << file;
     for (const Instance& inst : instances) EXPECT_NEAR(inst.t(), 10.0, 1e-9) << file;
   }
+}
+
+// config/cartpole_lqr_discrete.yaml: at its 0.25 s tick the LQR designed for
+// the tick (design: discrete) settles the pole; the continuous-time gain
+// held over the same tick never does.
+TEST(ShippedScenes, AtACoarseTickOnlyTheDiscreteLqrDesignSettlesThePole) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_lqr_discrete.yaml");
+  ASSERT_EQ(scene.instances.size(), 2u);
+  std::vector<Instance> instances;
+  for (const InstanceConfig& c : scene.instances) instances.emplace_back(c);
+  double worst[2] = {0.0, 0.0};  // the largest |θ − π| over the last 10 s of 20
+  ASSERT_TRUE(RunOffline(instances, scene.period, static_cast<std::int64_t>(std::llround(20.0 / scene.period)),
+                         [&](std::size_t i, Instance& inst) {
+                           if (inst.t() > 10.0) {
+                             worst[i] = std::max(worst[i], std::abs(std::remainder(inst.q()[1] - std::numbers::pi, 2 * std::numbers::pi)));
+                           }
+                         }));
+  EXPECT_EQ(scene.instances[0].name, "continuous");
+  EXPECT_GT(worst[0], 0.1);
+  EXPECT_LT(worst[1], 1e-4);
 }
 
 // Each fixture's first line is "# expect: <message>"; the error must read

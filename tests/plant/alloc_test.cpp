@@ -149,6 +149,50 @@ TEST(NoAllocation, SwitchingEffectsMethodsAndIntegratorSettingsAllocatesNothing)
   }
 }
 
+// The exact derivatives (plant/dynamics.hpp) and a step's (StepDerivatives):
+// every plant type, URDF robots with a prismatic finger and a mimic, every
+// method, every effect on, every integrator that has them, sub-steps.
+TEST(NoAllocation, ComputingDerivativesAllocatesNothing) {
+  std::vector<PlantSpec> specs;
+  for (PlantType type : {PlantType::kPendulum, PlantType::kArm2, PlantType::kCartPole, PlantType::kChain}) {
+    specs.push_back(DefaultPlantSpec(type));
+  }
+  for (const char* file : {"/config/robots/panda.urdf", "/config/robots/panda_hand.urdf"}) {
+    specs.push_back(UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + file))));
+  }
+  for (const PlantSpec& spec : specs) {
+    const int n = spec.num_dofs();
+    for (Method method : {Method::kClosedForm, Method::kLagrangian, Method::kRecursive}) {
+      if (!HasMethod(spec.type(), method)) continue;
+      PlantModel model(MakeDynamics(spec, method), testing::AllEffectsOn(n));
+      const Dynamics& dynamics = model.dynamics();
+      StepDerivatives euler(IntegratorType::kExplicitEuler, n), semi(IntegratorType::kSemiImplicitEuler, n),
+          rk4(IntegratorType::kRk4, n);
+      VectorXd q = VectorXd::Constant(n, 0.4), qd = VectorXd::Constant(n, 0.3), tau = VectorXd::Constant(n, 0.2);
+      VectorXd qdd(n);
+      MatrixXd a(n, n), b(n, n), c(n, n), A(2 * n, 2 * n), B(2 * n, n);
+      std::int64_t allocations = 0;
+      {
+        testing::AllocationCounter counter;
+        for (int k = 0; k < 3; ++k) {
+          dynamics.ComputeForwardDynamicsDerivatives(model.data(), q, qd, tau, DynamicsTerms{}, qdd, a, b, c);
+          dynamics.ComputeForwardDynamicsDerivatives(model.data(), q, qd, tau, {.gravity = true, .coriolis = false},
+                                                     qdd, a, b, c);
+          dynamics.ComputeInverseDynamicsDerivatives(model.data(), q, qd, qdd, DynamicsTerms{}, a, b, c);
+          dynamics.ComputeGravityDerivatives(model.data(), q, a);
+          model.ComputeAccelerationDerivatives(k * 1e-3, q, qd, tau, qdd, a, b, c);
+          euler.Step(model, k * 1e-3, 1e-3, q, qd, tau, A, B);
+          semi.Step(model, k * 1e-3, 1e-3, q, qd, tau, A, B);
+          rk4.Advance(model, k * 1e-3, 1e-3, 2, q, qd, tau, A, B);
+        }
+        allocations = counter.count();
+      }
+      EXPECT_EQ(allocations, 0) << ToString(spec.type()) << " " << n << " " << ToString(method);
+      EXPECT_TRUE(A.allFinite() && B.allFinite());
+    }
+  }
+}
+
 TEST(NoAllocation, TheCounterSeesEigenAndStandardAllocations) {
   testing::AllocationCounter counter;
   VectorXd v(1000);

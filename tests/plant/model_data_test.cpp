@@ -96,6 +96,54 @@ TEST(ModelData, ThreadsSharingOneModelEachWithItsOwnDataGetWhatOneThreadGets) {
   }
 }
 
+// Every derivative one state's queries produce (∂FD, ∂ID at that qdd, ∂G), flattened.
+VectorXd EvaluateDerivatives(const Dynamics& model, DynamicsData& data, const VectorXd& q, const VectorXd& qd) {
+  const int n = model.num_dofs();
+  VectorXd qdd(n);
+  MatrixXd a(n, n), b(n, n), c(n, n), d(n, n), e(n, n), f(n, n), g(n, n);
+  model.ComputeForwardDynamicsDerivatives(data, q, qd, qd, DynamicsTerms{}, qdd, a, b, c);
+  model.ComputeInverseDynamicsDerivatives(data, q, qd, qdd, DynamicsTerms{}, d, e, f);
+  model.ComputeGravityDerivatives(data, q, g);
+  VectorXd out(7 * n * n + n);
+  out << a.reshaped(), b.reshaped(), c.reshaped(), d.reshaped(), e.reshaped(), f.reshaped(), g.reshaped(), qdd;
+  return out;
+}
+
+TEST(ModelData, ThreadsSharingOneModelGetTheDerivativesOneThreadGets) {
+  constexpr int kDerivativeStates = 40;  // the Lagrangian path's are costly under ThreadSanitizer
+  std::vector<Case> cases = Cases();
+  cases.push_back({"panda with hand recursive (mimic)",
+                   UrdfPlantSpec(std::make_shared<const UrdfRobot>(
+                       LoadUrdf(LAGRANGE_SOURCE_DIR "/config/robots/panda_hand.urdf"))),
+                   Method::kRecursive});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::shared_ptr<const Dynamics> model = MakeDynamics(c.spec, c.method);
+    std::mt19937 rng{7};
+    std::vector<testing::RandomState> states;
+    for (int k = 0; k < kDerivativeStates; ++k) states.push_back(testing::RandomStateFor(model->joint_types(), rng));
+    std::vector<VectorXd> expected;
+    const std::unique_ptr<DynamicsData> alone = model->MakeData();
+    for (const auto& s : states) expected.push_back(EvaluateDerivatives(*model, *alone, s.q, s.qd));
+    std::vector<std::vector<VectorXd>> got(kThreads);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t) {
+      threads.emplace_back([&, t] {
+        const std::unique_ptr<DynamicsData> data = model->MakeData();
+        got[t].resize(states.size());
+        for (int k = 0; k < kDerivativeStates; ++k) {
+          const int i = t % 2 == 0 ? k : kDerivativeStates - 1 - k;
+          got[t][i] = EvaluateDerivatives(*model, *data, states[i].q, states[i].qd);
+        }
+      });
+    }
+    for (std::thread& th : threads) th.join();
+    for (int t = 0; t < kThreads; ++t) {
+      for (int k = 0; k < kDerivativeStates; ++k) ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
+    }
+  }
+}
+
 // Every frame's pose, Jacobians and biases, flattened.
 VectorXd EvaluateFrames(const Kinematics& model, KinematicsData& data, const VectorXd& q, const VectorXd& qd) {
   model.ComputeFrameKinematics(data, q, qd);

@@ -347,7 +347,8 @@ def test_every_invalid_urdf_fixture_raises_a_value_error_with_evals_message():
 
 PUBLIC = ["from_urdf", "builtin", "num_dofs", "joint_names", "frame_names", "method", "plant", "mass_matrix",
           "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
-          "frame_pose", "frame_jacobian", "frame_bias_acceleration"]
+          "frame_pose", "frame_jacobian", "frame_bias_acceleration",
+          "forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"]  # derivatives.cpp
 
 
 def test_every_public_name_is_bound_documented_and_in_the_stubs():

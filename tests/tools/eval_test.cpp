@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -333,6 +334,91 @@ TEST(EvalUrdf, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
   };
   ExpectEachRefused(cases);
   fs::remove_all(dir);
+}
+
+// --derivatives: the model's exact derivatives, each double as the library
+// computes it, for every method; the methods agree with each other.
+TEST(EvalDerivatives, EveryMethodPrintsTheLibrarysDerivativesAndTheyAgree) {
+  struct Case {
+    std::vector<std::string> args;
+    PlantSpec spec;
+    std::vector<Method> methods;
+    std::string q, qd, tau;
+  };
+  const std::vector<Case> cases = {
+      {{"--plant", "arm2"},
+       DefaultPlantSpec(PlantType::kArm2),
+       {Method::kClosedForm, Method::kLagrangian, Method::kRecursive},
+       "0.3,-1.2",
+       "1.5,-0.7",
+       "0.2,-0.1"},
+      {{"--urdf", kPanda},
+       UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(kPanda))),
+       {Method::kRecursive, Method::kLagrangian},
+       kPandaPose,
+       kPandaVelocity,
+       "1,2,3,4,0.5,0.6,0.7"},
+  };
+  const char* keys[] = {"dqdd_dq", "dqdd_dqd", "dqdd_dtau", "dtau_dq", "dtau_dqd"};
+  for (const Case& c : cases) {
+    std::vector<std::map<std::string, MatrixXd>> printed;
+    for (Method method : c.methods) {
+      std::vector<std::string> args = c.args;
+      for (const std::string& a : {std::string("--q"), c.q, std::string("--qd"), c.qd, std::string("--tau"), c.tau,
+                                   std::string("--method"), std::string(ToString(method)), std::string("--derivatives")}) {
+        args.push_back(a);
+      }
+      const json out = Eval(args);
+      const int n = out.at("num_dofs").get<int>();
+      const json& d = out.at("derivatives");
+      std::map<std::string, MatrixXd> m;
+      for (const char* key : keys) {
+        const Rows rows = d.at(key).get<Rows>();
+        ASSERT_EQ(rows.size(), static_cast<std::size_t>(n)) << key;
+        m[key] = MatrixXd(n, n);
+        for (int i = 0; i < n; ++i) {
+          for (int j = 0; j < n; ++j) m[key](i, j) = rows[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+        }
+      }
+      // The library's doubles at the same state, ∂tau at the printed qdd.
+      const std::unique_ptr<Dynamics> model = MakeDynamics(c.spec, method);
+      const std::unique_ptr<DynamicsData> data = model->MakeData();
+      const auto vector = [n](const std::string& text) {
+        VectorXd v(n);
+        std::stringstream ss(text);
+        std::string item;
+        for (int i = 0; i < n && std::getline(ss, item, ','); ++i) v[i] = std::stod(item);
+        return v;
+      };
+      const VectorXd q = vector(c.q), qd = vector(c.qd), tau = vector(c.tau);
+      VectorXd qdd(n);
+      MatrixXd a(n, n), b(n, n), e(n, n), f(n, n), g(n, n), M(n, n);
+      model->ComputeForwardDynamicsDerivatives(*data, q, qd, tau, DynamicsTerms{}, qdd, a, b, e);
+      const Numbers printed_qdd = out.at("qdd").get<Numbers>();
+      for (int i = 0; i < n; ++i) EXPECT_EQ(printed_qdd[static_cast<std::size_t>(i)], qdd[i]);
+      model->ComputeInverseDynamicsDerivatives(*data, q, qd, qdd, DynamicsTerms{}, f, g, M);
+      EXPECT_EQ(m["dqdd_dq"], a) << ToString(method);
+      EXPECT_EQ(m["dqdd_dqd"], b) << ToString(method);
+      EXPECT_EQ(m["dqdd_dtau"], e) << ToString(method);
+      EXPECT_EQ(m["dtau_dq"], f) << ToString(method);
+      EXPECT_EQ(m["dtau_dqd"], g) << ToString(method);
+      printed.push_back(std::move(m));
+    }
+    for (std::size_t k = 1; k < printed.size(); ++k) {
+      for (const char* key : keys) {
+        const MatrixXd& x = printed[0][key];
+        EXPECT_LT((printed[k][key] - x).norm(), 1e-10 * std::max(1.0, x.norm())) << c.args[1] << " " << key;
+      }
+    }
+  }
+}
+
+TEST(EvalDerivatives, DerivativesWithFramesOrWithoutAStateAreRefused) {
+  const std::vector<BadEval> cases = {
+      {{"--plant", "arm2", "--frames", "--derivatives"}, "--frames excludes --derivatives"},
+      {{"--plant", "arm2", "--derivatives"}, "--q is required"},
+  };
+  ExpectEachRefused(cases);
 }
 
 // --frame NAME: the frame's pose, world-aligned Jacobian and J̇ qd; --frames: the names.
