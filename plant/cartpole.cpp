@@ -136,19 +136,7 @@ void CartPoleClosedForm::ComputeForwardDynamicsDerivatives(DynamicsData& data, C
                                                            ConstVecRef tau, DynamicsTerms terms, VecRef qdd,
                                                            MatRef dqdd_dq, MatRef dqdd_dqd,
                                                            MatRef dqdd_dtau) const {
-  Checked(data, q, qd, tau, qdd, dqdd_dq, dqdd_dqd, dqdd_dtau);
-  const StageCounts counts = SavedCounts(data);
-  ComputeForwardDynamics(data, q, qd, tau, terms, qdd);
-  Eigen::Matrix2d dq, dqd, M;
-  ComputeInverseDynamicsDerivatives(data, q, qd, qdd, terms, dq, dqd, M);
-  RestoreCounts(data, counts);
-  CountTerms(data, terms);
-  const double inv_det = 1.0 / (M(0, 0) * M(1, 1) - M(0, 1) * M(0, 1));
-  Eigen::Matrix2d Minv;
-  Minv << M(1, 1) * inv_det, -M(0, 1) * inv_det, -M(0, 1) * inv_det, M(0, 0) * inv_det;
-  dqdd_dtau = Minv;
-  dqdd_dq.noalias() = -Minv * dq;
-  dqdd_dqd.noalias() = -Minv * dqd;
+  TwoJointForwardDynamicsDerivatives(data, q, qd, tau, terms, qdd, dqdd_dq, dqdd_dqd, dqdd_dtau);
 }
 
 }  // namespace lagrange

@@ -158,6 +158,13 @@ class Dynamics {
   static StageCounts SavedCounts(const DynamicsData& data) { return data.counts_; }
   static void RestoreCounts(DynamicsData& data, const StageCounts& counts) { data.counts_ = counts; }
 
+  // ComputeForwardDynamicsDerivatives of a two-joint model (the closed forms):
+  // its forward dynamics, its inverse-dynamics derivatives at that qdd, and
+  // M⁻¹ as the explicit 2 x 2 inverse (cheaper than the generic Cholesky).
+  void TwoJointForwardDynamicsDerivatives(DynamicsData& data, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                          DynamicsTerms terms, VecRef qdd, MatRef dqdd_dq, MatRef dqdd_dqd,
+                                          MatRef dqdd_dtau) const;
+
   // The boundary check at the top of each Compute*: `data` is this model's
   // and every argument is sized for this plant, a vector (n), a matrix
   // (n x n). Returns the data as the model's own type.
