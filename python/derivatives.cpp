@@ -11,11 +11,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <exception>
 #include <memory>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "plant/dynamics.hpp"
@@ -130,34 +128,7 @@ py::tuple Evaluate(const std::shared_ptr<const Dynamics>& dynamics, std::optiona
   if (rows < 0) {
     if (run(0, 1) != 1) throw std::runtime_error("the derivatives are not finite at this state");
   } else {
-    const py::ssize_t workers = std::min<py::ssize_t>(threads, std::max<py::ssize_t>(rows, 1));
-    const py::ssize_t chunk = (rows + workers - 1) / workers;
-    std::vector<py::ssize_t> bad(static_cast<std::size_t>(workers), rows);
-    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
-    auto work = [&](py::ssize_t w) {
-      try {
-        const py::ssize_t begin = std::min(rows, w * chunk), end = std::min(rows, begin + chunk);
-        const py::ssize_t i = run(begin, end);
-        if (i != end) bad[static_cast<std::size_t>(w)] = i;
-      } catch (...) {
-        errors[static_cast<std::size_t>(w)] = std::current_exception();
-      }
-    };
-    {
-      py::gil_scoped_release release;
-      std::vector<std::thread> pool;
-      try {
-        for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-      } catch (...) {  // no more threads: the calling thread does the rest
-        for (py::ssize_t w = static_cast<py::ssize_t>(pool.size()) + 1; w < workers; ++w) work(w);
-      }
-      work(0);
-      for (std::thread& t : pool) t.join();
-    }
-    for (const std::exception_ptr& e : errors) {
-      if (e) std::rethrow_exception(e);
-    }
-    const py::ssize_t first = *std::min_element(bad.begin(), bad.end());
+    const py::ssize_t first = RunBatch(rows, threads, run);
     if (first < rows) throw std::runtime_error("the derivatives are not finite at state " + std::to_string(first));
   }
   py::tuple result(kOuts);

@@ -16,12 +16,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "plant/escape.hpp"
@@ -377,35 +375,10 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
   if (rows < 0) {
     if (run(own_, 0, 1) != 1) throw std::runtime_error(std::string(what) + " not finite at this state");
   } else {
-    const py::ssize_t workers = std::min<py::ssize_t>(threads, std::max<py::ssize_t>(rows, 1));
-    const py::ssize_t chunk = (rows + workers - 1) / workers;
-    std::vector<py::ssize_t> bad(static_cast<std::size_t>(workers), rows);
-    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
-    auto work = [&](py::ssize_t w) {
-      try {
-        Worker worker(*dynamics_, *kinematics_);
-        const py::ssize_t begin = std::min(rows, w * chunk), end = std::min(rows, begin + chunk);
-        const py::ssize_t i = run(worker, begin, end);
-        if (i != end) bad[static_cast<std::size_t>(w)] = i;
-      } catch (...) {
-        errors[static_cast<std::size_t>(w)] = std::current_exception();
-      }
-    };
-    {
-      py::gil_scoped_release release;
-      std::vector<std::thread> pool;
-      try {
-        for (py::ssize_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-      } catch (...) {  // no more threads: the calling thread does the rest
-        for (py::ssize_t w = static_cast<py::ssize_t>(pool.size()) + 1; w < workers; ++w) work(w);
-      }
-      work(0);
-      for (std::thread& t : pool) t.join();
-    }
-    for (const std::exception_ptr& e : errors) {
-      if (e) std::rethrow_exception(e);
-    }
-    const py::ssize_t first = *std::min_element(bad.begin(), bad.end());
+    const py::ssize_t first = RunBatch(rows, threads, [&](py::ssize_t begin, py::ssize_t end) {
+      Worker worker(*dynamics_, *kinematics_);
+      return run(worker, begin, end);
+    });
     if (first < rows) throw std::runtime_error(std::string(what) + " not finite at state " + std::to_string(first));
   }
 

@@ -9,10 +9,13 @@
 #include <pybind11/pybind11.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
 #include <cstring>
+#include <exception>
 #include <initializer_list>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace lagrange::python {
@@ -63,6 +66,45 @@ pybind11::array_t<double> NewArray(int ndim, const pybind11::ssize_t* dims);
 template <class Matrix>
 void CopyRowMajor(const Matrix& m, double* out) {
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(out, m.rows(), m.cols()) = m;
+}
+
+// A batch of `rows` states over up to `threads` threads without the GIL: the
+// calling thread is one of them, and when no more threads can start it does
+// the remaining chunks itself. work(begin, end) computes the states [begin,
+// end) with its own data and returns the first whose outputs are not finite,
+// or end; an exception in any chunk is rethrown here. Returns the first such
+// state over the batch, or rows.
+template <class Work>
+pybind11::ssize_t RunBatch(pybind11::ssize_t rows, int threads, Work work) {
+  using pybind11::ssize_t;
+  const ssize_t workers = std::min<ssize_t>(threads, std::max<ssize_t>(rows, 1));
+  const ssize_t chunk = (rows + workers - 1) / workers;
+  std::vector<ssize_t> bad(static_cast<std::size_t>(workers), rows);
+  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
+  auto one = [&](ssize_t w) {
+    try {
+      const ssize_t begin = std::min(rows, w * chunk), end = std::min(rows, begin + chunk);
+      const ssize_t i = work(begin, end);
+      if (i != end) bad[static_cast<std::size_t>(w)] = i;
+    } catch (...) {
+      errors[static_cast<std::size_t>(w)] = std::current_exception();
+    }
+  };
+  {
+    pybind11::gil_scoped_release release;
+    std::vector<std::thread> pool;
+    try {
+      for (ssize_t w = 1; w < workers; ++w) pool.emplace_back(one, w);
+    } catch (...) {  // no more threads: the calling thread does the rest
+      for (ssize_t w = static_cast<ssize_t>(pool.size()) + 1; w < workers; ++w) one(w);
+    }
+    one(0);
+    for (std::thread& t : pool) t.join();
+  }
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return *std::min_element(bad.begin(), bad.end());
 }
 
 // What help() and the signatures say of an argument or a result (numpy.typing
