@@ -29,28 +29,13 @@
 namespace lagrange {
 namespace {
 
+using testing::CentralDifferences;
 using testing::RelativeDifference;
 
 constexpr double kDifferenceTol = 1e-6;   // against central differences, relative
 constexpr double kDerivationTol = 1e-10;  // between derivations, relative
 constexpr double kIdentityTol = 1e-12;    // ∂qdd/∂tau · M − I, on well-conditioned M
 constexpr double kStep = 1e-5;            // central-difference step, × max(1, |x|)
-
-// The Jacobian of f: R^n → R^m at x by central differences.
-MatrixXd CentralDifferences(const std::function<void(const VectorXd&, VectorXd&)>& f, const VectorXd& x, int m) {
-  MatrixXd J(m, x.size());
-  VectorXd xs = x, plus(m), minus(m);
-  for (int j = 0; j < x.size(); ++j) {
-    const double h = kStep * std::max(1.0, std::abs(x[j]));
-    xs[j] = x[j] + h;
-    f(xs, plus);
-    xs[j] = x[j] - h;
-    f(xs, minus);
-    xs[j] = x[j];
-    J.col(j) = (plus - minus) / (2.0 * h);
-  }
-  return J;
-}
 
 // Every derivative of one model at one state: inverse dynamics' at qdd = FD.
 struct Derivatives {
@@ -86,14 +71,14 @@ Derivatives DifferencesOf(const Dynamics& model, const VectorXd& q, const Vector
   const auto id = [&](const VectorXd& qs, const VectorXd& qds, const VectorXd& qdds, VectorXd& out) {
     model.ComputeInverseDynamics(*data, qs, qds, qdds, terms, out);
   };
-  d.dqdd_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(x, qd, tau, out); }, q, n);
-  d.dqdd_dqd = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(q, x, tau, out); }, qd, n);
-  d.dqdd_dtau = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(q, qd, x, out); }, tau, n);
-  d.dtau_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(x, qd, d.qdd, out); }, q, n);
-  d.dtau_dqd = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(q, x, d.qdd, out); }, qd, n);
-  d.M = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(q, qd, x, out); }, d.qdd, n);
-  d.dG_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { model.ComputeGravityForce(*data, x, out); },
-                               q, n);
+  d.dqdd_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(x, qd, tau, out); }, q, n, kStep);
+  d.dqdd_dqd = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(q, x, tau, out); }, qd, n, kStep);
+  d.dqdd_dtau = CentralDifferences([&](const VectorXd& x, VectorXd& out) { fd(q, qd, x, out); }, tau, n, kStep);
+  d.dtau_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(x, qd, d.qdd, out); }, q, n, kStep);
+  d.dtau_dqd = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(q, x, d.qdd, out); }, qd, n, kStep);
+  d.M = CentralDifferences([&](const VectorXd& x, VectorXd& out) { id(q, qd, x, out); }, d.qdd, n, kStep);
+  d.dG_dq = CentralDifferences([&](const VectorXd& x, VectorXd& out) { model.ComputeGravityForce(*data, x, out); }, q,
+                               n, kStep);
   return d;
 }
 

@@ -20,25 +20,11 @@
 namespace lagrange {
 namespace {
 
+using testing::CentralDifferences;
 using testing::RelativeDifference;
 
 constexpr double kDifferenceTol = 1e-6;  // against central differences, relative
 constexpr double kStep = 1e-6;           // central-difference step, × max(1, |x|)
-
-MatrixXd CentralDifferences(const std::function<void(const VectorXd&, VectorXd&)>& f, const VectorXd& x, int m) {
-  MatrixXd J(m, x.size());
-  VectorXd xs = x, plus(m), minus(m);
-  for (int j = 0; j < x.size(); ++j) {
-    const double h = kStep * std::max(1.0, std::abs(x[j]));
-    xs[j] = x[j] + h;
-    f(xs, plus);
-    xs[j] = x[j] - h;
-    f(xs, minus);
-    xs[j] = x[j];
-    J.col(j) = (plus - minus) / (2.0 * h);
-  }
-  return J;
-}
 
 // Smooth effects that act at this state: damping, friction, a stop pressed
 // (joint 0 past its upper limit at 1, moving out), saturation not reached.
@@ -83,17 +69,20 @@ TEST(AccelerationDerivatives, WithEveryEffectOnMatchDifferencesOfTheSimulatedAcc
       acc(s.q, s.qd, s.tau, expected);
       const std::string what = c.name + " " + std::string(ToString(method));
       EXPECT_LT((qdd - expected).norm(), 1e-12 * std::max(1.0, expected.norm())) << what;
-      EXPECT_LT(RelativeDifference(
-                    dq, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(x, s.qd, s.tau, o); }, s.q, n)),
-                kDifferenceTol)
+      EXPECT_LT(
+          RelativeDifference(
+              dq, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(x, s.qd, s.tau, o); }, s.q, n, kStep)),
+          kDifferenceTol)
           << what;
-      EXPECT_LT(RelativeDifference(
-                    dqd, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(s.q, x, s.tau, o); }, s.qd, n)),
-                kDifferenceTol)
+      EXPECT_LT(
+          RelativeDifference(
+              dqd, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(s.q, x, s.tau, o); }, s.qd, n, kStep)),
+          kDifferenceTol)
           << what;
-      EXPECT_LT(RelativeDifference(
-                    dtau, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(s.q, s.qd, x, o); }, s.tau, n)),
-                kDifferenceTol)
+      EXPECT_LT(
+          RelativeDifference(
+              dtau, CentralDifferences([&](const VectorXd& x, VectorXd& o) { acc(s.q, s.qd, x, o); }, s.tau, n, kStep)),
+          kDifferenceTol)
           << what;
     }
   }
@@ -152,12 +141,12 @@ void ExpectStepMatchesDifferences(const PlantSpec& spec, Method method, Integrat
   EXPECT_LT((derivatives.q_next() - end.head(n)).norm() + (derivatives.qd_next() - end.tail(n)).norm(),
             1e-12 * std::max(1.0, end.norm()))
       << what;
-  EXPECT_LT(RelativeDifference(A, CentralDifferences([&](const VectorXd& y, VectorXd& o) { step(y, s.tau, o); }, x,
-                                                     2 * n)),
+  EXPECT_LT(RelativeDifference(
+                A, CentralDifferences([&](const VectorXd& y, VectorXd& o) { step(y, s.tau, o); }, x, 2 * n, kStep)),
             kDifferenceTol)
       << what;
-  EXPECT_LT(RelativeDifference(B, CentralDifferences([&](const VectorXd& y, VectorXd& o) { step(x, y, o); }, s.tau,
-                                                     2 * n)),
+  EXPECT_LT(RelativeDifference(
+                B, CentralDifferences([&](const VectorXd& y, VectorXd& o) { step(x, y, o); }, s.tau, 2 * n, kStep)),
             kDifferenceTol)
       << what;
 }

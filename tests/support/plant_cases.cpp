@@ -1,5 +1,7 @@
 #include "tests/support/plant_cases.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <numbers>
 
 namespace lagrange::testing {
@@ -62,6 +64,22 @@ EffectsConfig AllEffectsOn(int n) {
   c.saturation = VectorXd::Constant(n, 4.0);
   c.disturbance = {Push{0.0, 10.0, VectorXd::Constant(n, 0.7)}};
   return c;
+}
+
+MatrixXd CentralDifferences(const std::function<void(const VectorXd&, VectorXd&)>& f, const VectorXd& x, int m,
+                            double step) {
+  MatrixXd J(m, x.size());
+  VectorXd xs = x, plus(m), minus(m);
+  for (int j = 0; j < x.size(); ++j) {
+    const double h = step * std::max(1.0, std::abs(x[j]));
+    xs[j] = x[j] + h;
+    f(xs, plus);
+    xs[j] = x[j] - h;
+    f(xs, minus);
+    xs[j] = x[j];
+    J.col(j) = (plus - minus) / (2.0 * h);
+  }
+  return J;
 }
 
 double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor) {

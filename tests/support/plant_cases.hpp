@@ -1,6 +1,7 @@
 #pragma once
 // Plants every physics test runs over, and seeded random states.
 
+#include <functional>
 #include <ostream>
 #include <random>
 #include <string>
@@ -48,5 +49,10 @@ MatrixXd MassMatrixOf(const PlantSpec& spec, Method method, const VectorXd& q);
 
 // Relative difference ‖a − b‖ / max(‖a‖, ‖b‖, floor).
 double RelativeDifference(const MatrixXd& a, const MatrixXd& b, double floor = 1.0);
+
+// The Jacobian (m x n) of f: Rⁿ → Rᵐ at x by central differences, each step
+// `step` × max(1, |x_j|).
+MatrixXd CentralDifferences(const std::function<void(const VectorXd&, VectorXd&)>& f, const VectorXd& x, int m,
+                            double step);
 
 }  // namespace lagrange::testing
