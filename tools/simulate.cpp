@@ -54,7 +54,7 @@ void WriteTaskHeader(std::ostream& out) {
       << '\n';
 }
 
-// The row's task space (TaskRowOf, daemon/offline.hpp: nan at t = 0).
+// The row's task space (TaskRowOf, sim/offline.hpp: nan at t = 0).
 void WriteTaskRow(std::ostream& out, const Instance& inst, const TaskSpaceController& task, bool computed) {
   const OfflineTaskRow row = TaskRowOf(task, computed);
   out << FormatDouble(inst.t()) << ',' << CsvText(task.frame_name());
