@@ -1,4 +1,4 @@
-"""Every Python command in the README runs as written (issue 32), so a stale line fails here.
+"""Every Python command in the README, and its two-daemon loop, run as written (issue 32), so a stale line fails here.
 
 What runs, found in README.md itself (nothing listed here):
   - the "## Python" section: every fenced block, in order, as one shell session, as a user following it runs
@@ -114,3 +114,38 @@ def test_the_readmes_python_commands_run_as_written(name, blocks, root, tmp_path
     r = subprocess.run(["bash", "-c", script(blocks, str(tmp_path))], cwd=root, env=env, capture_output=True,
                        text=True, timeout=SECTION_TIMEOUT)
     assert r.returncode == 0, "%s\n--- stdout\n%s\n--- stderr\n%s" % (name, r.stdout[-4000:], r.stderr[-4000:])
+
+
+def two_daemon_block(text):
+    """The README's two-daemon loop: the fenced block that starts the plant and the controller under CTRL_."""
+    blocks = [code for _, kind, code in readme_blocks(text)
+              if kind == "shell" and "arm_external_plant.yaml" in code and "--channel-prefix CTRL_" in code]
+    assert len(blocks) == 1, "expected one block with the two-daemon loop, found %d" % len(blocks)
+    return blocks[0]
+
+
+def test_the_readmes_two_daemon_loop_runs_as_written(root, tmp_path):
+    # Line by line as a user types them, on a private port: both daemons start (with the real-time options the
+    # block sets; they warn and go on where not permitted), watch finds the controller's instance by the name the
+    # block gives, and clear either re-arms it or is refused in lagranged's words (it re-arms only a stopped one).
+    prepare_loopback_multicast()
+    with open(os.path.join(SOURCE, "README.md")) as f:
+        block = two_daemon_block(f.read())
+    lines = [line for line in block.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    watch = [k for k, line in enumerate(lines) if "lagrangectl watch" in line]
+    clear = [k for k, line in enumerate(lines) if "lagrangectl command" in line and " clear" in line]
+    assert len(watch) == 1 and len(clear) == 1, lines
+    env = {k: v for k, v in os.environ.items() if k not in ("LAGRANGE_BUS_KEY_FILE", "PYTHONPATH")}
+    env["LCM_DEFAULT_URL"] = "udpm://239.255.76.67:%d?ttl=0" % (PORT + 1)
+    steps = ["trap 'kill $(jobs -p) 2> /dev/null || true' EXIT"]
+    for k, line in enumerate(lines):
+        steps.append(line)
+        if k in (watch[0], clear[0]):
+            steps.append("echo \"== exit $? after line %d\"" % k)
+    r = subprocess.run(["bash", "-c", "\n".join(steps) + "\n"], cwd=root, env=env, capture_output=True, text=True,
+                       timeout=SECTION_TIMEOUT)
+    out = r.stdout + r.stderr
+    assert "== exit 0 after line %d" % watch[0] in out, out[-4000:]
+    assert re.search(r"arm_controller\s.*(running|stopped|waiting)", out), out[-4000:]  # watch's row of it
+    cleared = "== exit 0 after line %d" % clear[0] in out
+    assert cleared or "refused: clear" in out, out[-4000:]
