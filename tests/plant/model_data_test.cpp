@@ -61,38 +61,41 @@ std::vector<Case> Cases() {
   };
 }
 
+// kThreads threads evaluate `evaluate` at `count` seeded random states of
+// `model` at once, each through its own data and in its own order so that
+// they overlap on different states: each gets, bit for bit, what one thread
+// alone gets (the same code on the same inputs, whatever else runs).
+template <class Evaluate>
+void ExpectEveryThreadGetsWhatOneThreadGets(const Dynamics& model, int count, unsigned seed, Evaluate evaluate) {
+  std::mt19937 rng{seed};
+  std::vector<testing::RandomState> states;
+  for (int k = 0; k < count; ++k) states.push_back(testing::RandomStateFor(model.joint_types(), rng));
+  std::vector<VectorXd> expected;
+  const std::unique_ptr<DynamicsData> alone = model.MakeData();
+  for (const auto& s : states) expected.push_back(evaluate(model, *alone, s.q, s.qd));
+  std::vector<std::vector<VectorXd>> got(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      const std::unique_ptr<DynamicsData> data = model.MakeData();
+      got[t].resize(states.size());
+      for (int k = 0; k < count; ++k) {
+        const int i = t % 2 == 0 ? k : count - 1 - k;
+        got[t][i] = evaluate(model, *data, states[i].q, states[i].qd);
+      }
+    });
+  }
+  for (std::thread& th : threads) th.join();
+  for (int t = 0; t < kThreads; ++t) {
+    for (int k = 0; k < count; ++k) ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
+  }
+}
+
 TEST(ModelData, ThreadsSharingOneModelEachWithItsOwnDataGetWhatOneThreadGets) {
   for (const Case& c : Cases()) {
     SCOPED_TRACE(c.name);
     const std::shared_ptr<const Dynamics> model = MakeDynamics(c.spec, c.method);
-    std::mt19937 rng{42};
-    std::vector<testing::RandomState> states;
-    for (int k = 0; k < kStates; ++k) states.push_back(testing::RandomStateFor(model->joint_types(), rng));
-    // One thread alone.
-    std::vector<VectorXd> expected;
-    const std::unique_ptr<DynamicsData> alone = model->MakeData();
-    for (const auto& s : states) expected.push_back(EvaluateAll(*model, *alone, s.q, s.qd));
-    // kThreads at once on the same model, each through its own data, each in
-    // its own order so that they overlap on different states.
-    std::vector<std::vector<VectorXd>> got(kThreads);
-    std::vector<std::thread> threads;
-    for (int t = 0; t < kThreads; ++t) {
-      threads.emplace_back([&, t] {
-        const std::unique_ptr<DynamicsData> data = model->MakeData();
-        got[t].resize(states.size());
-        for (int k = 0; k < kStates; ++k) {
-          const int i = t % 2 == 0 ? k : kStates - 1 - k;
-          got[t][i] = EvaluateAll(*model, *data, states[i].q, states[i].qd);
-        }
-      });
-    }
-    for (std::thread& th : threads) th.join();
-    for (int t = 0; t < kThreads; ++t) {
-      for (int k = 0; k < kStates; ++k) {
-        // Bit for bit: the same code on the same inputs, whatever else runs.
-        ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
-      }
-    }
+    ExpectEveryThreadGetsWhatOneThreadGets(*model, kStates, 42, EvaluateAll);
   }
 }
 
@@ -119,28 +122,7 @@ TEST(ModelData, ThreadsSharingOneModelGetTheDerivativesOneThreadGets) {
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     const std::shared_ptr<const Dynamics> model = MakeDynamics(c.spec, c.method);
-    std::mt19937 rng{7};
-    std::vector<testing::RandomState> states;
-    for (int k = 0; k < kDerivativeStates; ++k) states.push_back(testing::RandomStateFor(model->joint_types(), rng));
-    std::vector<VectorXd> expected;
-    const std::unique_ptr<DynamicsData> alone = model->MakeData();
-    for (const auto& s : states) expected.push_back(EvaluateDerivatives(*model, *alone, s.q, s.qd));
-    std::vector<std::vector<VectorXd>> got(kThreads);
-    std::vector<std::thread> threads;
-    for (int t = 0; t < kThreads; ++t) {
-      threads.emplace_back([&, t] {
-        const std::unique_ptr<DynamicsData> data = model->MakeData();
-        got[t].resize(states.size());
-        for (int k = 0; k < kDerivativeStates; ++k) {
-          const int i = t % 2 == 0 ? k : kDerivativeStates - 1 - k;
-          got[t][i] = EvaluateDerivatives(*model, *data, states[i].q, states[i].qd);
-        }
-      });
-    }
-    for (std::thread& th : threads) th.join();
-    for (int t = 0; t < kThreads; ++t) {
-      for (int k = 0; k < kDerivativeStates; ++k) ASSERT_EQ(got[t][k], expected[k]) << "thread " << t << " state " << k;
-    }
+    ExpectEveryThreadGetsWhatOneThreadGets(*model, kDerivativeStates, 7, EvaluateDerivatives);
   }
 }
 
