@@ -619,27 +619,37 @@ TEST_F(ViewTest, InstancesTheSceneLacksAreNamedNotDrawn) {
   EXPECT_EQ(daemon.Wait(10.0), 0);
 }
 
-// The arm's frames from the stream for `seconds`: the q of every frame that drew it.
-std::vector<std::vector<double>> StreamedArmQ(int port, double seconds) {
-  std::vector<std::vector<double>> qs;
+// Reads the view's stream for at most `seconds`, calling `on_arm` with the arm
+// of each frame that draws it (its instance has poses), until `on_arm` returns false.
+void ForEachStreamedArm(int port, double seconds, const std::function<bool(const json&)>& on_arm) {
   std::string stream;
+  bool more = true;
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (std::chrono::steady_clock::now() < end) {
+  while (more && std::chrono::steady_clock::now() < end) {
     httplib::Client c("127.0.0.1", port);
     c.set_read_timeout(2, 0);
     c.Get("/api/stream", [&](const char* data, std::size_t n) {
       stream.append(data, n);
-      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+      for (std::size_t e = stream.find("\n\n"); more && e != std::string::npos; e = stream.find("\n\n")) {
         if (stream.rfind("data: ", 0) == 0) {
           const json frame = json::parse(stream.substr(6, e - 6));
           for (const json& i : frame["instances"])
-            if (i["name"] == "arm" && i.contains("poses")) qs.push_back(i["q"].get<std::vector<double>>());
+            if (more && i["name"] == "arm" && i.contains("poses")) more = on_arm(i);
         }
         stream.erase(0, e + 2);
       }
-      return std::chrono::steady_clock::now() < end;
+      return more && std::chrono::steady_clock::now() < end;
     });
   }
+}
+
+// The arm's frames from the stream for `seconds`: the q of every frame that drew it.
+std::vector<std::vector<double>> StreamedArmQ(int port, double seconds) {
+  std::vector<std::vector<double>> qs;
+  ForEachStreamedArm(port, seconds, [&](const json& arm) {
+    qs.push_back(arm["q"].get<std::vector<double>>());
+    return true;
+  });
   return qs;
 }
 
@@ -718,24 +728,10 @@ TEST_F(ViewTest, KeepsTheMomentAnInstanceWasStopped) {
 // `seconds` that draws it and satisfies `done` (or the last that drew it).
 json StreamedArmUntil(int port, double seconds, const std::function<bool(const json&)>& done) {
   json arm;
-  std::string stream;
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (std::chrono::steady_clock::now() < end && !(arm.is_object() && done(arm))) {
-    httplib::Client c("127.0.0.1", port);
-    c.set_read_timeout(2, 0);
-    c.Get("/api/stream", [&](const char* data, std::size_t n) {
-      stream.append(data, n);
-      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
-        if (stream.rfind("data: ", 0) == 0) {
-          const json frame = json::parse(stream.substr(6, e - 6));
-          for (const json& i : frame["instances"])
-            if (i["name"] == "arm" && i.contains("poses") && !(arm.is_object() && done(arm))) arm = i;
-        }
-        stream.erase(0, e + 2);
-      }
-      return !(arm.is_object() && done(arm)) && std::chrono::steady_clock::now() < end;
-    });
-  }
+  ForEachStreamedArm(port, seconds, [&](const json& a) {
+    arm = a;
+    return !done(arm);
+  });
   return arm;
 }
 
