@@ -182,15 +182,6 @@ integrator  "explicit-euler", "semi-implicit-euler" or "rk4" (the others, adapti
             or implicit, have none: ValueError naming these three)
 returns     A (2n, 2n) | (N, 2n, 2n), B (2n, n) | (N, 2n, n))";
 
-constexpr const char* kBatchNote = R"(
-
-A batch (N, n) of any argument gives results with a leading axis N (a single
-state is used for every row); it runs without the GIL over `threads` threads,
-each with its own data. ValueError for a wrong shape or a non-finite input,
-RuntimeError when a result is not finite (naming the state).)";
-
-std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
-
 }  // namespace
 
 void BindDerivatives(py::module_& m) {
@@ -216,7 +207,7 @@ void BindDerivatives(py::module_& m) {
               return dq.allFinite() && dqd.allFinite() && dtau.allFinite();
             })};
       },
-      Doc(kForwardDoc), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kForwardDoc), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(), py::arg("threads") = 1);
 
   def(
       "inverse_dynamics_derivatives",
@@ -234,7 +225,7 @@ void BindDerivatives(py::module_& m) {
               return dq.allFinite() && dqd.allFinite() && M.allFinite();
             })};
       },
-      Doc(kInverseDoc), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kInverseDoc), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(), py::arg("threads") = 1);
 
   def(
       "step_derivatives",
@@ -256,7 +247,7 @@ void BindDerivatives(py::module_& m) {
                                          return w.A.allFinite() && w.B.allFinite();
                                        })};
       },
-      Doc(kStepDoc), py::arg("q"), py::arg("qd"), py::arg("tau"), py::arg("dt"), py::arg("integrator") = "rk4",
+      BatchDoc(kStepDoc), py::arg("q"), py::arg("qd"), py::arg("tau"), py::arg("dt"), py::arg("integrator") = "rk4",
       py::kw_only(), py::arg("threads") = 1);
 }
 

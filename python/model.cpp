@@ -562,16 +562,6 @@ reference  "local_world_aligned" (the default): in world axes; "local": the same
            (Pinocchio's classical acceleration in LOCAL, not d/dt(J_local) qd)
 returns    (6,) | (N, 6)   m/s², then rad/s²)";
 
-// Every per-joint call's last paragraph.
-constexpr const char* kBatchNote = R"(
-
-A batch (N, n) of any argument gives results with a leading axis N (a single
-state is used for every row); it runs without the GIL over `threads` threads,
-each with its own data. ValueError for a wrong shape or a non-finite input,
-RuntimeError when a result is not finite (naming the state).)";
-
-std::string Doc(const char* text) { return std::string(text) + kBatchNote; }
-
 }  // namespace
 
 std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return py::cast<Model&>(model).shared_dynamics(); }
@@ -619,7 +609,7 @@ void BindModel(py::module_& m) {
               return w.matrix.allFinite();
             })};
       },
-      Doc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "coriolis_matrix",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
@@ -632,7 +622,7 @@ void BindModel(py::module_& m) {
               return w.matrix.allFinite();
             })};
       },
-      Doc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "gravity",
       [](Model& self, ArrayArg q, int threads) {
@@ -645,7 +635,7 @@ void BindModel(py::module_& m) {
               return G.allFinite();
             })};
       },
-      Doc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "forward_dynamics",
       [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
@@ -659,7 +649,7 @@ void BindModel(py::module_& m) {
               return qdd.allFinite();
             })};
       },
-      Doc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
+      BatchDoc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
       py::arg("threads") = 1);
   model.def(
       "inverse_dynamics",
@@ -674,7 +664,7 @@ void BindModel(py::module_& m) {
               return tau.allFinite();
             })};
       },
-      Doc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
+      BatchDoc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
       py::arg("threads") = 1);
   model.def(
       "kinetic_energy",
@@ -687,7 +677,7 @@ void BindModel(py::module_& m) {
               return std::isfinite(*out[0]);
             })};
       },
-      Doc(kKineticEnergyDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kKineticEnergyDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "potential_energy",
       [](Model& self, ArrayArg q, int threads) {
@@ -699,7 +689,7 @@ void BindModel(py::module_& m) {
               return std::isfinite(*out[0]);
             })};
       },
-      Doc(kPotentialEnergyDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kPotentialEnergyDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
 
   model.def(
       "frame_pose",
@@ -718,7 +708,7 @@ void BindModel(py::module_& m) {
               return R.allFinite() && p.allFinite();
             })};
       },
-      Doc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_jacobian",
       [](Model& self, const std::string& frame, ArrayArg q, const std::string& reference, int threads) {
@@ -734,7 +724,7 @@ void BindModel(py::module_& m) {
               return J.allFinite();
             })};
       },
-      Doc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(),
+      BatchDoc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
   model.def(
       "frame_bias_acceleration",
@@ -753,7 +743,7 @@ void BindModel(py::module_& m) {
               return b.allFinite();
             })};
       },
-      Doc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
+      BatchDoc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,

@@ -107,6 +107,17 @@ pybind11::ssize_t RunBatch(pybind11::ssize_t rows, int threads, Work work) {
   return *std::min_element(bad.begin(), bad.end());
 }
 
+// help()'s text of a per-joint call (Model's and its derivatives'): `text`, then
+// the paragraph every such call ends with.
+inline std::string BatchDoc(const char* text) {
+  return std::string(text) + R"(
+
+A batch (N, n) of any argument gives results with a leading axis N (a single
+state is used for every row); it runs without the GIL over `threads` threads,
+each with its own data. ValueError for a wrong shape or a non-finite input,
+RuntimeError when a result is not finite (naming the state).)";
+}
+
 // What help() and the signatures say of an argument or a result (numpy.typing
 // names, as the stubs): each carries the Python object itself.
 struct ArrayArg {
