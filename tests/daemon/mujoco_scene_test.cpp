@@ -506,6 +506,24 @@ TEST(MujocoScene, TheEnergyResidualOverAnImpactShrinksWithTheStep) {
   EXPECT_LT(eps[1], eps[0] / 8.0);   // first order: 16 times smaller steps, about 16 times smaller
 }
 
+// Runs `runtime` through the loop for `ticks` ticks of a fake clock, its
+// publisher draining every 0.1 s (within the ring) into `output`, whose
+// subscribers get what was published as it goes.
+void RunPublishing(Runtime& runtime, InProcessBus& output, int ticks) {
+  testing::FakeClock clock;
+  ReceiverStats stats;
+  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
+  Loop loop{runtime, clock, {1'000'000, OverrunPolicy::kSkip, 0}, ring};
+  Publisher publisher{output, runtime, ring, loop, stats, -1, 1};
+  std::atomic<bool> stop{false};
+  for (int tick = 100; tick <= ticks; tick += 100) {  // drained every 0.1 s, within the ring
+    loop.Run(stop, tick);
+    publisher.Drain();
+    while (output.Drain() > 0) {
+    }
+  }
+}
+
 // What lagranged publishes names MuJoCo's integrator, not lagrange's nearest:
 // the status (lagrangectl status, watch) "mujoco-implicit x2", the telemetry
 // "mujoco-implicit" with 2 substeps.
@@ -513,8 +531,6 @@ TEST(MujocoScene, TheStatusAndTelemetryNameMujocosIntegrator) {
   std::string text = PandaScene(kMujocoPlant, "    telemetry: true\n");
   text.replace(text.find("{type: rk4}"), 11, "{type: implicit, substeps: 2}");
   Runtime runtime(ParseScene(text, kLabel));
-  testing::FakeClock clock;
-  ReceiverStats stats;
   InProcessBus output;
   std::optional<status_t> status;
   std::optional<telemetry_t> telemetry;
@@ -526,16 +542,7 @@ TEST(MujocoScene, TheStatusAndTelemetryNameMujocosIntegrator) {
     telemetry_t m;
     if (m.decode(d, 0, static_cast<int>(n)) >= 0) telemetry = m;
   });
-  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
-  Loop loop{runtime, clock, {1'000'000, OverrunPolicy::kSkip, 0}, ring};
-  Publisher publisher{output, runtime, ring, loop, stats, -1, 1};
-  std::atomic<bool> stop{false};
-  for (int tick = 100; tick <= 500; tick += 100) {  // drained every 0.1 s, within the ring
-    loop.Run(stop, tick);
-    publisher.Drain();
-    while (output.Drain() > 0) {
-    }
-  }
+  RunPublishing(runtime, output, 500);
   ASSERT_TRUE(status && telemetry);
   EXPECT_EQ(status->instance_integrators, std::vector<std::string>{"mujoco-implicit x2"});
   EXPECT_EQ(telemetry->integrator, "mujoco-implicit");
@@ -556,8 +563,6 @@ TEST(MujocoScene, PublishedForcesCarryTheConstraintRowAndTheContactAndAddUp) {
   text.replace(text.find("    integrator:"), 0, "    forces: true\n");
   const std::string label = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mujoco_table_forces.yaml";
   Runtime runtime(ParseScene(text, label));
-  testing::FakeClock clock;
-  ReceiverStats stats;
   InProcessBus output;
   std::optional<forces_t> forces;
   std::map<std::int64_t, state_t> states;
@@ -569,16 +574,7 @@ TEST(MujocoScene, PublishedForcesCarryTheConstraintRowAndTheContactAndAddUp) {
     state_t m;
     if (m.decode(d, 0, static_cast<int>(n)) >= 0) states[m.tick] = m;
   });
-  SpscRing<TickRecord> ring{256, runtime.MakeRecord()};
-  Loop loop{runtime, clock, {1'000'000, OverrunPolicy::kSkip, 0}, ring};
-  Publisher publisher{output, runtime, ring, loop, stats, -1, 1};
-  std::atomic<bool> stop{false};
-  for (int tick = 100; tick <= 3000; tick += 100) {  // drained every 0.1 s, within the ring
-    loop.Run(stop, tick);
-    publisher.Drain();
-    while (output.Drain() > 0) {
-    }
-  }
+  RunPublishing(runtime, output, 3000);
   ASSERT_TRUE(forces.has_value());
   ASSERT_EQ(states.count(forces->tick), 1u);
   const state_t& s = states.at(forces->tick);
