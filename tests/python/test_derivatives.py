@@ -5,6 +5,7 @@ import json
 import os
 import re
 import subprocess
+import sys
 import threading
 import time
 
@@ -152,10 +153,11 @@ def test_a_batch_equals_its_single_calls_row_by_row(threads):
 
 @pytest.mark.parametrize("call", ["forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"])
 def test_a_batch_lets_other_python_threads_run_meanwhile(call):
-    # Another thread counts in Python, giving the interpreter lock up at every count (time.sleep(0)). While a
-    # batch holds the lock, that count cannot move; while it runs with the lock released, it does.
+    # With a switch interval of 1000 s the interpreter never takes the GIL from this thread: another thread that
+    # counts runs only while this one gives the GIL up of its own accord. Held through a batch, the count cannot
+    # move at all; released, it moves as soon as the counting thread is scheduled (the batch lasts milliseconds).
     model = lagrange.Model.from_urdf(PANDA)
-    q, qd, tau = state(model, 5, count=3000)
+    q, qd, tau = state(model, 5, count=10000)
     args = (q, qd, tau, 1e-3) if call == "step_derivatives" else (q, qd, tau)
     count, stop = [0], threading.Event()
 
@@ -164,10 +166,12 @@ def test_a_batch_lets_other_python_threads_run_meanwhile(call):
             count[0] += 1
             time.sleep(0)
 
+    interval = sys.getswitchinterval()
     worker = threading.Thread(target=counter)
-    worker.start()
+    sys.setswitchinterval(1000.0)
     try:
-        while count[0] < 100:  # running
+        worker.start()
+        while count[0] < 100:  # running (this sleep gives the GIL up)
             time.sleep(0.001)
         moved = []
         for _ in range(3):
@@ -177,7 +181,8 @@ def test_a_batch_lets_other_python_threads_run_meanwhile(call):
     finally:
         stop.set()
         worker.join()
-    assert max(moved) > 100, moved
+        sys.setswitchinterval(interval)
+    assert max(moved) > 0, moved
 
 
 def test_bad_input_is_one_line_naming_the_argument():
