@@ -6,7 +6,7 @@ external`, gravity compensated) on a private LCM URL, and lcm-logger records
 its ARM_STATE and ARM_TORQUE, while, one after the other for --seconds each,
   1. examples/python/external_controller.py (lagrange.Client: the project's
      client code, a torque_t for every state_t), and
-  2. tools/examples/impedance_client (the same law in C++ over lcm::LCM), the
+  2. examples/cpp/impedance_client (the same law in C++ over lcm::LCM), the
      baseline measured in the same run,
 hold the arm at (0.3, 0.6). From the log (lagrange.read_log) for every torque
 answering state k:
@@ -103,7 +103,7 @@ def main():
     runs = [
         ("python", [sys.executable, os.path.join(SOURCE, "examples", "python", "external_controller.py"), "--url",
                     url(args.port), "--target", target, "--duration", str(args.seconds)]),
-        ("c++", [os.path.join(args.build, "tools", "examples", "impedance_client"), "--lcm-url", url(args.port), "--target",
+        ("c++", [os.path.join(args.build, "examples", "cpp", "impedance_client"), "--lcm-url", url(args.port), "--target",
                  target, "--duration", str(args.seconds)]),
     ]
     rows = []

@@ -16,7 +16,7 @@ def python_loop_section(out):
              "%.0f / %.0f / %.0f" % (float(r["latency_p50_us"]), float(r["latency_p99_us"]), float(r["latency_max_us"])),
              "%.2f %%" % (100 * float(r["late_fraction"]))] for r in rows]
     text = ["## A controller in Python closing the loop\n",
-            "examples/python/external_controller.py (lagrange.Client) and tools/examples/impedance_client (C++), "
+            "examples/python/external_controller.py (lagrange.Client) and examples/cpp/impedance_client (C++), "
             "one after the other on lagranged with config/arm_impedance_client.yaml, measured from an lcm-logger "
             "recording: state → torque = the torque's utime − the state's; late = sent after the next tick began.\n",
             table(["controller", "states", "answered", "state → torque p50 / p99 / max (µs)", "late"], body)]

@@ -183,7 +183,7 @@ TEST_F(ExternalLive, ImpedanceExampleSettlesTheArmAtItsTarget) {
   // usage, failed loudly on a wrong number of targets and followed a restarted
   // lagranged (issue 21); 120 since it also says what it did and fails loudly
   // when no daemon answers (issue 32). The signing is in bus_signing.hpp beside it.
-  const fs::path example = fs::path(LAGRANGE_SOURCE_DIR) / "tools/examples/impedance_client.cpp";
+  const fs::path example = fs::path(LAGRANGE_SOURCE_DIR) / "examples/cpp/impedance_client.cpp";
   EXPECT_LE(testing::Lines(ReadFile(example)).size(), 120u) << example;
 
   Prepare(7720);

@@ -118,7 +118,7 @@ TEST(MujocoLive, LagrangedRefusesAnOversizedMjcfAndAnIncludedFifoAtStartWithOneL
   std::filesystem::remove_all(dir);
 }
 
-// The reference driver (tools/examples/mujoco_driver.cpp) in the loop: MuJoCo
+// The reference driver (examples/cpp/mujoco_driver.cpp) in the loop: MuJoCo
 // as the robot behind lagranged's external plant, lagranged's computed torque
 // (config/panda_external_mujoco.yaml) driving it over the bus through the
 // 3 s min-jerk move to its target. Both are ordinary processes on a shared

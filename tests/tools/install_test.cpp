@@ -140,7 +140,7 @@ TEST_F(Install, TheInstalledReadmesLinksResolveAndTheExampleSourceIsThere) {
     ++links;
   }
   EXPECT_GT(links, 0);
-  EXPECT_TRUE(fs::is_regular_file(doc / "tools/examples/impedance_client.cpp"));
+  EXPECT_TRUE(fs::is_regular_file(doc / "examples/cpp/impedance_client.cpp"));
   EXPECT_TRUE(fs::is_regular_file(doc / "examples/python/external_controller.py"));
 }
 
@@ -182,7 +182,7 @@ TEST_F(Install, AClientCompilesAgainstTheInstalledHeadersWithPkgConfig) {
 // builds against the installation alone: the types, lcm::LCM, libsodium and
 // <lagrange/bus_domain.hpp>, the bus domain of signed traffic.
 TEST_F(Install, TheInstalledExampleClientBuildsAgainstTheInstallationAlone) {
-  const fs::path examples = prefix_ / "share/doc/lagrange/tools/examples";
+  const fs::path examples = prefix_ / "share/doc/lagrange/examples/cpp";
   ASSERT_TRUE(fs::is_regular_file(prefix_ / "include/lagrange/bus_domain.hpp"));
   const fs::path dir = prefix_ / "example_copy";
   fs::create_directories(dir);
