@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
+
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
