@@ -216,18 +216,11 @@ void SetUrdfParam(PlantSpec& spec, const std::string& key, const YamlReader& val
   if (auto err = SetPlantParam(spec, key, text)) value.Fail(err->message);
 }
 
-ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
-                                const IntegratorConfig& integrator, UrdfFiles& urdf) {
-  const int n = plant.num_dofs();
-  const YamlReader type_node = node.Required("type");
-  const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
-  if (!type) type_node.Fail("expected one of " + ControllerTypeNames() + ", got '" + type_node.Text() + "'");
-  ControllerConfig c;
-  c.type = *type;
-  c.period = period;
-  c.q0 = q0;
-  c.integrator = integrator;
-  switch (c.type) {
+namespace {
+
+// The keys a controller of `type` takes; any other is refused, named.
+void ExpectControllerKeys(const YamlReader& node, ControllerType type) {
+  switch (type) {
     case ControllerType::kNone: node.ExpectKeys({"type", "continuous"}); break;
     case ControllerType::kPd:
     case ControllerType::kGravityCompensation:
@@ -253,6 +246,10 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
       node.ExpectKeys({"type", "frame", "kp", "kd", "null_space", "singularity", "trajectory", "model", "continuous"});
       break;
   }
+}
+
+// kp and kd: the task-space gains, or one number or n per joint (gravity compensation's default to zero).
+void ReadGains(const YamlReader& node, int n, ControllerConfig& c) {
   const bool gains_optional = c.type == ControllerType::kGravityCompensation;
   if (IsTaskSpace(c.type)) {
     ReadTaskSpace(node, n, c);
@@ -266,10 +263,10 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
         node.Fail(std::string("missing key '") + key + "'");
     }
   }
-  if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
-  if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
-  if (auto m = node.Optional("model")) ReadModel(*m, plant, c, urdf);
-  if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
+}
+
+// LQR (and swing-up's LQR near the top): equilibrium, actuated, Q, design, R.
+void ReadLqr(const YamlReader& node, const PlantSpec& plant, int n, ControllerConfig& c) {
   if (auto v = node.Optional("equilibrium")) c.lqr.equilibrium = v->Vector(n);
   if (auto v = node.Optional("actuated")) {
     std::vector<int> act;
@@ -289,6 +286,10 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
         c.lqr.actuated ? static_cast<int>(c.lqr.actuated->size()) : (plant.type() == PlantType::kCartPole ? 1 : n);
     c.lqr.R = ReadSquareMatrix(*v, m);
   }
+}
+
+// Swing-up's energy pump and its switch to LQR.
+void ReadSwingUp(const YamlReader& node, ControllerConfig& c) {
   SwingUpOptions& s = c.swing_up;
   for (const auto& [key, out] :
        {std::pair{"energy_gain", &s.energy_gain}, std::pair{"max_accel", &s.max_accel},
@@ -298,6 +299,10 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   for (const auto& [key, out] : {std::pair{"cart_gain", &s.cart_gain}, std::pair{"cart_damping", &s.cart_damping}}) {
     if (auto v = node.Optional(key)) *out = v->NonNegativeNumber();
   }
+}
+
+// The external controller: its torque stream's timeout and channel, the fallback, gravity compensation.
+void ReadExternal(const YamlReader& node, double period, ControllerConfig& c) {
   if (auto v = node.Optional("torque_timeout")) {
     c.external.torque_timeout = v->PositiveNumber();
     if (c.external.torque_timeout < 2.0 * period) {
@@ -310,6 +315,10 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   }
   if (auto v = node.Optional("fallback")) c.external.fallback = v->Text();
   if (auto v = node.Optional("compensate_gravity")) c.external.compensate_gravity = v->Bool();
+}
+
+// The controller library's verdict on `c`; a refusal names the key in the file when there is one.
+void Validate(const YamlReader& node, const PlantSpec& plant, const ControllerConfig& c) {
   if (auto err = ValidateController(c, plant)) {
     // "key: message" from the controller library; point at that key when it is in the file.
     const std::size_t colon = err->find(": ");
@@ -318,6 +327,31 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
     if (!key.empty() && node.Has(first)) node.Fail(key, err->substr(colon + 2));
     node.Fail(*err);
   }
+}
+
+}  // namespace
+
+ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, double period, const VectorXd& q0,
+                                const IntegratorConfig& integrator, UrdfFiles& urdf) {
+  const int n = plant.num_dofs();
+  const YamlReader type_node = node.Required("type");
+  const std::optional<ControllerType> type = ParseControllerType(type_node.Text());
+  if (!type) type_node.Fail("expected one of " + ControllerTypeNames() + ", got '" + type_node.Text() + "'");
+  ControllerConfig c;
+  c.type = *type;
+  c.period = period;
+  c.q0 = q0;
+  c.integrator = integrator;
+  ExpectControllerKeys(node, c.type);
+  ReadGains(node, n, c);
+  if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
+  if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
+  if (auto m = node.Optional("model")) ReadModel(*m, plant, c, urdf);
+  if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
+  ReadLqr(node, plant, n, c);
+  ReadSwingUp(node, c);
+  ReadExternal(node, period, c);
+  Validate(node, plant, c);
   return c;
 }
 
