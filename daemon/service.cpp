@@ -16,6 +16,7 @@
 #include <iostream>
 #include <optional>
 #include <thread>
+#include <utility>
 #include <variant>
 
 #include "daemon/log_file.hpp"
@@ -155,14 +156,20 @@ void ReopenLogFile(const LogFiles& logs) {
   spdlog::default_logger()->flush();
 }
 
+// The real-time set-up's problems in one line, "; " between them.
+std::string Joined(const std::vector<std::string>& problems) {
+  std::string all;
+  for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
+  return all;
+}
+
 // Logs a thread's real-time outcome at debug; a refusal is warned about once per process.
 void ReportThreadRealtime(const char* thread, const std::vector<std::string>& problems, std::atomic<bool>& warned) {
   if (problems.empty()) {
     spdlog::debug("real-time: {} thread runs {}", thread, DescribeThisThreadScheduling());
     return;
   }
-  std::string all;
-  for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
+  const std::string all = Joined(problems);
   spdlog::debug("real-time: {} thread: {}", thread, all);
   if (!warned.exchange(true)) spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);
 }
@@ -267,92 +274,109 @@ void WhileAnsweringSignals(const LogFiles& logs, Work&& work) {
   if (failure) std::rethrow_exception(failure);
 }
 
-int Serve(const Options& o, const LogFiles& logs) {
-  std::variant<int, Prepared> prepared = 2;
-  WhileAnsweringSignals(logs, [&] { prepared = Prepare(o); });
-  if (const int* refused = std::get_if<int>(&prepared)) return *refused;
-  Prepared& ready = std::get<Prepared>(prepared);
-  const Scene& scene = ready.scene;
-  const std::shared_ptr<const DaemonModel>& model = ready.model;
-  std::unique_ptr<Runtime>& runtime = ready.runtime;
-  std::vector<std::string> names;
-  for (const InstanceModel& m : model->instances) names.push_back(m.name());
-  // Outputs (state, status, replies) go to --lcm-url; inputs (setpoints,
-  // commands) come from --input-lcm-url, the same bus unless given. The
-  // receive thread also listens on the output bus for another publisher of
-  // this run's channels. Each bus object is used by one thread per direction.
-  const std::string url = ResolveLcmUrl(o.lcm_url);
-  const std::string input_url = o.input_lcm_url.empty() ? url : o.input_lcm_url;
+// The buses of a run. Outputs (state, status, replies) go to --lcm-url; inputs
+// (setpoints, commands) come from --input-lcm-url, the same bus unless given.
+// The receive thread also listens on the output bus for another publisher of
+// this run's channels. Each bus object is used by one thread per direction.
+struct Buses {
+  std::string url;                 // outputs
+  std::string input_url;           // inputs
+  std::string in_url, listen_url;  // the two it reads, as opened: asking kDaemonReceiveBuffer unless they name a size
+  std::string key_file;            // the bus key's file ("": unsigned)
+  std::optional<BusKey> key;
+  std::unique_ptr<Bus> out, in, replies, listen;  // listen: only when the inputs have a bus of their own
+};
+
+// Fills `b` (in place: the buses sign with its key); false when the key or a bus is refused (logged).
+bool OpenBuses(const Options& o, const Scene& scene, Buses& b) {
+  b.url = ResolveLcmUrl(o.lcm_url);
+  b.input_url = o.input_lcm_url.empty() ? b.url : o.input_lcm_url;
   // Signed traffic: with a key every bus signs what it sends and takes only what verifies.
   // An empty --bus-key (an unset variable) is refused, never read as "unsigned".
-  std::string key_file, domain;
-  std::optional<BusKey> key;
+  std::string domain;
   try {
-    key_file = ResolveBusKeyFile(o.bus_key);
-    if (key_file.empty()) key_file = scene.bus_key_file;
+    b.key_file = ResolveBusKeyFile(o.bus_key);
+    if (b.key_file.empty()) b.key_file = scene.bus_key_file;
     domain = ResolveBusDomain(o.bus_domain);
     if (domain.empty()) domain = scene.bus_domain;  // still "": each bus its own (udpm://GROUP:PORT)
-    if (!key_file.empty()) key = BusKey::FromFile(key_file);
+    if (!b.key_file.empty()) b.key = BusKey::FromFile(b.key_file);
   } catch (const BusKeyError& e) {
     spdlog::error("{}", e.what());
-    return 2;
+    return false;
   }
-  const BusKey* signing = key ? &*key : nullptr;
-  std::unique_ptr<Bus> bus_out, bus_in, bus_replies, bus_listen;
-  // The buses it reads ask for kDaemonReceiveBuffer unless their URL names a size.
-  const std::string in_url = WithDefaultReceiveBuffer(input_url, kDaemonReceiveBuffer);
-  const std::string listen_url = WithDefaultReceiveBuffer(url, kDaemonReceiveBuffer);
+  const BusKey* signing = b.key ? &*b.key : nullptr;
+  b.in_url = WithDefaultReceiveBuffer(b.input_url, kDaemonReceiveBuffer);
+  b.listen_url = WithDefaultReceiveBuffer(b.url, kDaemonReceiveBuffer);
   try {
-    bus_out = OpenBus(url, signing, domain);
-    bus_in = OpenBus(in_url, signing, domain);
-    bus_replies = OpenBus(url, signing, domain);
-    if (input_url != url) bus_listen = OpenBus(listen_url, signing, domain);
+    b.out = OpenBus(b.url, signing, domain);
+    b.in = OpenBus(b.in_url, signing, domain);
+    b.replies = OpenBus(b.url, signing, domain);
+    if (b.input_url != b.url) b.listen = OpenBus(b.listen_url, signing, domain);
   } catch (const BusError& e) {
     spdlog::error("{}", e.what());
-    return 2;
+    return false;
   }
-  const std::int64_t run_id = NewRunId();
+  return true;
+}
 
-  std::vector<std::string> rt_problems = LockMemory(o.rt);
-  const int notify_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  MonotonicClock clock(static_cast<Nanoseconds>(o.spin_us * 1e3));
-  SpscRing<TickRecord> ring(1024, runtime->MakeRecord());
-  const LoopTimerOptions timer{ToNanoseconds(scene.period),
-                               o.overrun == "catch-up" ? OverrunPolicy::kCatchUp : OverrunPolicy::kSkip,
-                               o.max_catch_up};
-  Loop loop(*runtime, clock, timer, ring, notify_fd);
+// A run's threads' parts over its buses: the tick's loop on its clock, the
+// receive and publish sides, meeting at the ring and the counters, and the
+// eventfd by which the loop wakes the publisher.
+struct Service {
+  Service(const Options& o, const Scene& scene, Runtime& runtime, const Buses& buses, std::int64_t run_id)
+      : notify_fd(eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)),
+        clock(static_cast<Nanoseconds>(o.spin_us * 1e3)),
+        ring(1024, runtime.MakeRecord()),
+        loop(runtime, clock,
+             {ToNanoseconds(scene.period), o.overrun == "catch-up" ? OverrunPolicy::kCatchUp : OverrunPolicy::kSkip,
+              o.max_catch_up},
+             ring, notify_fd),
+        receiver(*buses.in, buses.listen ? buses.listen.get() : buses.in.get(), *buses.replies, runtime, clock, stats,
+                 o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id),
+        publisher(*buses.out, runtime, ring, loop, stats, notify_fd, run_id) {}
+  ~Service() { close(notify_fd); }
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  const int notify_fd;
+  MonotonicClock clock;
+  SpscRing<TickRecord> ring;
+  Loop loop;
   ReceiverStats stats;
-  Receiver receiver(*bus_in, bus_listen ? bus_listen.get() : bus_in.get(), *bus_replies, *runtime, clock, stats,
-                    o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id);
-  Publisher publisher(*bus_out, *runtime, ring, loop, stats, notify_fd, run_id);
-  WarnSmallReceiveBuffer(bus_in.get(), in_url);
-  WarnSmallReceiveBuffer(bus_listen.get(), listen_url);
+  Receiver receiver;
+  Publisher publisher;
   TimingCsvWriter timing;
-  if (!o.timing_csv.empty()) {
-    if (!timing.Open(o.timing_csv)) {
-      spdlog::error("--timing-csv: cannot write {}", o.timing_csv);
-      close(notify_fd);
-      return 2;
-    }
-    timing.Start();
-    publisher.SetTimingWriter(&timing);
-  }
+};
 
+// --timing-csv: its writer started and handed to the publisher; false when the file cannot be written (logged).
+bool StartTimingCsv(const Options& o, Service& s) {
+  if (o.timing_csv.empty()) return true;
+  if (!s.timing.Open(o.timing_csv)) {
+    spdlog::error("--timing-csv: cannot write {}", o.timing_csv);
+    return false;
+  }
+  s.timing.Start();
+  s.publisher.SetTimingWriter(&s.timing);
+  return true;
+}
+
+// The start-up lines: the scene, the buses and the run; whether the bus is signed; each instance.
+void LogStartup(const Options& o, const Scene& scene, const DaemonModel& model, const Buses& b, std::int64_t run_id) {
   spdlog::info("scene {} ({}), {} instance(s) at {} Hz, LCM {}{}, run id {:016x}", o.config, scene.description,
-               names.size(), 1.0 / scene.period, url, input_url != url ? " (inputs from " + input_url + ")" : "",
-               static_cast<std::uint64_t>(run_id));
-  if (key) {
+               model.instances.size(), 1.0 / scene.period, b.url,
+               b.input_url != b.url ? " (inputs from " + b.input_url + ")" : "", static_cast<std::uint64_t>(run_id));
+  if (b.key) {
     spdlog::info(
         "bus signed with the key in {}, domain {}{}: unsigned, forged, replayed, stale and other domains' messages are "
         "dropped and counted",
-        key_file, bus_out->domain(), bus_in->domain() != bus_out->domain() ? " (inputs: " + bus_in->domain() + ")" : "");
+        b.key_file, b.out->domain(), b.in->domain() != b.out->domain() ? " (inputs: " + b.in->domain() + ")" : "");
   } else {
     spdlog::info(
         "bus unsigned: anyone who can send to {} can command these instances (--bus-key FILE signs it; README, "
         "\"Signed traffic\")",
-        input_url);
+        b.input_url);
   }
-  for (const InstanceModel& m : model->instances) {
+  for (const InstanceModel& m : model.instances) {
     const InstanceChannelNames& c = m.channels;
     const std::string plant = m.external_plant() ? "external plant, model "
                               : m.config.mujoco ? "MuJoCo plant " + m.config.mujoco->file + " (" +
@@ -362,111 +386,148 @@ int Serve(const Options& o, const LogFiles& logs) {
                  c.torque_in.empty() ? "" : ", torques from " + c.torque_in,
                  m.external_plant() ? ", measured state from " + c.measured_in + ", torque to " + c.torque_out : "");
   }
+}
 
-  // The start-up lines must have reached --log-file: a log that loses them would lose every later one too.
-  if (const std::string why = LogFileProblem(logs); !why.empty()) {
-    spdlog::error("lagranged: {}", why);
-    close(notify_fd);
-    return 2;
-  }
-
-  std::atomic<bool> stop_loop{false}, stop_io{false};
-  const std::int64_t max_ticks = o.duration > 0.0 ? std::llround(o.duration / scene.period) : -1;
-  // Real-time set-up: the tick thread reports it, then runs the loop only once told to.
-  const ThreadPriorities priorities = PrioritiesBelow(o.rt.priority);
-  spdlog::debug("real-time: memory {}", !o.rt.lock_memory     ? "not locked (no --mlockall)"
-                                        : rt_problems.empty() ? "locked (mlockall)"
-                                                              : rt_problems.front());
-  std::promise<std::vector<std::string>> rt_result;
-  auto rt_future = rt_result.get_future();
-  std::promise<bool> run_loop;  // false: --require-rt refused, the tick thread returns
-  auto run_loop_future = run_loop.get_future();
-  std::thread tick([&] {
-    rt_result.set_value(ApplyToThisThread(o.rt));
-    if (!run_loop_future.get()) return;
-    loop.Run(stop_loop, max_ticks);
+// Starts the tick thread (lagranged-tick): it applies the real-time set-up to
+// itself and hands back what was refused (in `refused`, before this returns),
+// then runs the loop once `go` is true; on false it returns at once.
+std::thread StartTickThread(const Options& o, Loop& loop, const std::atomic<bool>& stop, std::int64_t max_ticks,
+                            std::future<bool> go, std::vector<std::string>& refused) {
+  std::promise<std::vector<std::string>> applied;
+  auto result = applied.get_future();
+  std::thread tick([&o, &loop, &stop, max_ticks, go = std::move(go), applied = std::move(applied)]() mutable {
+    applied.set_value(ApplyToThisThread(o.rt));
+    if (!go.get()) return;
+    loop.Run(stop, max_ticks);
   });
   pthread_setname_np(tick.native_handle(), "lagranged-tick");
-  std::vector<std::string> tick_problems = rt_future.get();
-  if (tick_problems.empty()) {
+  refused = result.get();
+  if (refused.empty()) {
     spdlog::debug("real-time: tick thread runs {}{}",
                   o.rt.priority > 0 ? fmt::format("SCHED_FIFO {}", o.rt.priority) : "SCHED_OTHER (no --rt-priority)",
                   o.rt.cpu >= 0 ? fmt::format(" on CPU {}", o.rt.cpu) : "");
   }
-  for (std::string& p : tick_problems) rt_problems.push_back(std::move(p));
-  if (!rt_problems.empty()) {
-    std::string all;
-    for (const std::string& p : rt_problems) all += (all.empty() ? "" : "; ") + p;
-    if (o.require_rt) {
-      run_loop.set_value(false);
-      tick.join();
-      close(notify_fd);
-      spdlog::error("--require-rt: real-time set-up not permitted: {}", all);
-      return 3;
-    }
-    spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);  // once
+  return tick;
+}
+
+// Whether the loop may run on the real-time set-up's outcome (memory and the
+// tick thread): what was refused is warned about once, or with --require-rt
+// refuses the run (logged).
+bool RealtimeAccepted(const Options& o, const std::vector<std::string>& problems) {
+  if (problems.empty()) return true;
+  const std::string all = Joined(problems);
+  if (o.require_rt) {
+    spdlog::error("--require-rt: real-time set-up not permitted: {}", all);
+    return false;
   }
-  run_loop.set_value(true);
-  std::atomic<bool> rt_warned{!rt_problems.empty()};
-  std::thread receive([&] {
-    ReportThreadRealtime("receive", SetThisThreadPriority(priorities.receive), rt_warned);
-    receiver.Run(stop_io);
+  spdlog::warn("real-time set-up not permitted, continuing without it: {}", all);  // once
+  return true;
+}
+
+// The receive and publish threads (lagranged-recv, lagranged-pub), each at its priority below the tick's.
+std::pair<std::thread, std::thread> StartIoThreads(Service& s, const ThreadPriorities& priorities,
+                                                   const std::atomic<bool>& stop, std::atomic<bool>& rt_warned) {
+  std::thread receive([&s, &stop, &rt_warned, priority = priorities.receive] {
+    ReportThreadRealtime("receive", SetThisThreadPriority(priority), rt_warned);
+    s.receiver.Run(stop);
   });
-  std::thread publish([&] {
-    ReportThreadRealtime("publish", SetThisThreadPriority(priorities.publish), rt_warned);
-    publisher.Run(stop_io);
+  std::thread publish([&s, &stop, &rt_warned, priority = priorities.publish] {
+    ReportThreadRealtime("publish", SetThisThreadPriority(priority), rt_warned);
+    s.publisher.Run(stop);
   });
   pthread_setname_np(receive.native_handle(), "lagranged-recv");
   pthread_setname_np(publish.native_handle(), "lagranged-pub");
-  if (logs.start) logs.start->Close();  // the start-up record ends here (daemon/log_file.hpp)
+  return {std::move(receive), std::move(publish)};
+}
 
-  // Wait for SIGINT or SIGTERM, reopen the log on SIGHUP, or stop when --duration runs out.
+// Waits for SIGINT or SIGTERM (its number returned), reopening the log on
+// SIGHUP, or until --duration's ticks have run (0 returned).
+int WaitForStop(const LogFiles& logs, const Loop& loop, std::int64_t max_ticks) {
   const sigset_t signals = HandledSignals();
-  int signal_number = 0;
   while (max_ticks < 0 || loop.ticks() < max_ticks) {
     const timespec wait{0, 20'000'000};
     const int got = sigtimedwait(&signals, nullptr, &wait);
     if (got == SIGHUP) {
       ReopenLogFile(logs);
     } else if (got > 0) {
-      signal_number = got;
-      break;
+      return got;
     }
   }
-  stop_loop = true;
-  tick.join();
-  stop_io = true;
-  receive.join();
-  publish.join();
-  publisher.Drain();  // the last records and a final status
-  timing.Stop();      // writes what the publisher offered
-  close(notify_fd);
+  return 0;
+}
+
+// The final status, and what --log-file could not take.
+void LogStopped(const LogFiles& logs, const Service& s, int signal_number) {
   spdlog::info("stopped{} after {} ticks: {} overruns, {} state messages published, {} records dropped",
-               signal_number > 0 ? fmt::format(" by signal {}", signal_number) : std::string(), loop.ticks(),
-               loop.overruns(), publisher.states_published(), loop.records_dropped());
+               signal_number > 0 ? fmt::format(" by signal {}", signal_number) : std::string(), s.loop.ticks(),
+               s.loop.overruns(), s.publisher.states_published(), s.loop.records_dropped());
   if (logs.log && logs.log->lines_lost() > 0) {
     spdlog::warn("--log-file '{}': {} line(s) could not be written ({})", logs.log->path(), logs.log->lines_lost(),
                  logs.log->write_error().empty() ? "it can be again" : logs.log->write_error());
   }
   spdlog::default_logger()->flush();
+}
+
+// The run's threads, from the real-time set-up to the last record: 0, or 3
+// when --require-rt refuses the set-up. `rt_problems`: what locking memory refused.
+int RunThreads(const Options& o, const LogFiles& logs, const Scene& scene, Service& s,
+               std::vector<std::string> rt_problems) {
+  std::atomic<bool> stop_loop{false}, stop_io{false};
+  const std::int64_t max_ticks = o.duration > 0.0 ? std::llround(o.duration / scene.period) : -1;
+  spdlog::debug("real-time: memory {}", !o.rt.lock_memory     ? "not locked (no --mlockall)"
+                                        : rt_problems.empty() ? "locked (mlockall)"
+                                                              : rt_problems.front());
+  std::promise<bool> run_loop;  // false: --require-rt refused, the tick thread returns
+  std::vector<std::string> tick_problems;
+  std::thread tick = StartTickThread(o, s.loop, stop_loop, max_ticks, run_loop.get_future(), tick_problems);
+  for (std::string& p : tick_problems) rt_problems.push_back(std::move(p));
+  if (!RealtimeAccepted(o, rt_problems)) {
+    run_loop.set_value(false);
+    tick.join();
+    return 3;
+  }
+  run_loop.set_value(true);
+  std::atomic<bool> rt_warned{!rt_problems.empty()};
+  auto [receive, publish] = StartIoThreads(s, PrioritiesBelow(o.rt.priority), stop_io, rt_warned);
+  if (logs.start) logs.start->Close();  // the start-up record ends here (daemon/log_file.hpp)
+
+  const int signal_number = WaitForStop(logs, s.loop, max_ticks);
+  stop_loop = true;
+  tick.join();
+  stop_io = true;
+  receive.join();
+  publish.join();
+  s.publisher.Drain();  // the last records and a final status
+  s.timing.Stop();      // writes what the publisher offered
+  LogStopped(logs, s, signal_number);
   return 0;
 }
 
-}  // namespace
+int Serve(const Options& o, const LogFiles& logs) {
+  std::variant<int, Prepared> prepared = 2;
+  WhileAnsweringSignals(logs, [&] { prepared = Prepare(o); });
+  if (const int* refused = std::get_if<int>(&prepared)) return *refused;
+  Prepared& ready = std::get<Prepared>(prepared);
+  Buses buses;
+  if (!OpenBuses(o, ready.scene, buses)) return 2;
+  const std::int64_t run_id = NewRunId();
 
-int RunLagranged(int argc, char** argv) {
-  // Before any thread starts: stray signals ignored, the handled ones blocked (the main thread waits for them).
-  IgnoreStraySignals();
-  const sigset_t signals = HandledSignals();
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  std::vector<std::string> rt_problems = LockMemory(o.rt);
+  Service service(o, ready.scene, *ready.runtime, buses, run_id);
+  WarnSmallReceiveBuffer(buses.in.get(), buses.in_url);
+  WarnSmallReceiveBuffer(buses.listen.get(), buses.listen_url);
+  if (!StartTimingCsv(o, service)) return 2;
+  LogStartup(o, ready.scene, *ready.model, buses, run_id);
+  // The start-up lines must have reached --log-file: a log that loses them would lose every later one too.
+  if (const std::string why = LogFileProblem(logs); !why.empty()) {
+    spdlog::error("lagranged: {}", why);
+    return 2;
+  }
+  return RunThreads(o, logs, ready.scene, service, std::move(rt_problems));
+}
 
-  Options o;
-  CLI::App app{"lagranged: simulates and controls the plants of a scene at a fixed rate, over LCM"};
-  app.name("lagranged");
-  app.set_version_flag("--version", std::string("lagranged ") + LAGRANGE_VERSION);
-  app.footer(
-      "Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
-      "SIGXFSZ, SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
+// --config and the buses: what runs and where it talks.
+void AddSceneAndBusOptions(CLI::App& app, Options& o) {
   app.add_option("--config", o.config, "Scene file")->capture_default_str();
   app.add_option("--lcm-url", o.lcm_url,
                  "LCM URL (default: $LCM_DEFAULT_URL, else " + std::string(kDefaultLcmUrl) + ")");
@@ -481,12 +542,20 @@ int RunLagranged(int argc, char** argv) {
   app.add_option("--bus-domain", o.bus_domain,
                  "Bind signatures to this domain (every program on the bus gives the same); default: "
                  "$LAGRANGE_BUS_DOMAIN, else the scene's bus.domain, else the bus's own (udpm://GROUP:PORT)");
+}
+
+// --log-file, --log-level.
+void AddLogOptions(CLI::App& app, Options& o) {
   app.add_option("--log-file", o.log_file,
                  "Also log to this file (rotating: 5 MiB x 3; reopened on SIGHUP; flushed every second); the latest "
                  "start's start-up lines are also kept in FILE.start, never rotated");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
+}
+
+// How the loop keeps time: overruns, setpoints' age, --duration.
+void AddLoopOptions(CLI::App& app, Options& o) {
   app.add_option("--overrun", o.overrun, "Missed deadlines: skip them (count only) or catch-up (run late ticks)")
       ->check(CLI::IsMember({"skip", "catch-up"}))
       ->capture_default_str();
@@ -500,6 +569,10 @@ int RunLagranged(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--duration", o.duration, "Stop after this many seconds of ticks (default: run until signalled)")
       ->check(CLI::NonNegativeNumber);
+}
+
+// The real-time set-up and its check (--timing-csv).
+void AddRealtimeOptions(CLI::App& app, Options& o) {
   app.add_flag("--mlockall", o.rt.lock_memory, "Lock the process's memory (mlockall)");
   app.add_option("--rt-priority", o.rt.priority,
                  "SCHED_FIFO priority P of the tick thread (1-99); the publish thread runs at P-1 and the receive "
@@ -512,6 +585,23 @@ int RunLagranged(int argc, char** argv) {
   app.add_option("--timing-csv", o.timing_csv,
                  "Write every tick's wake-up latency and compute time (ns) to this CSV, to check a real-time "
                  "set-up tick by tick (written by a thread of its own; a slow disk drops rows, never ticks)");
+}
+
+// lagranged's command line, its options in the order --help lists them, read into `o`.
+void DescribeCommandLine(CLI::App& app, Options& o) {
+  app.name("lagranged");
+  app.set_version_flag("--version", std::string("lagranged ") + LAGRANGE_VERSION);
+  app.footer(
+      "Signals: SIGINT and SIGTERM stop it (exit 0, final status logged); SIGHUP reopens --log-file; SIGPIPE, "
+      "SIGXFSZ, SIGUSR1, SIGUSR2 and SIGALRM are ignored.");
+  AddSceneAndBusOptions(app, o);
+  AddLogOptions(app, o);
+  AddLoopOptions(app, o);
+  AddRealtimeOptions(app, o);
+}
+
+// The exit status when the command line ends the run (--help, --version: 0; an error: 2, said); nothing to go on.
+std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
@@ -524,13 +614,11 @@ int RunLagranged(int argc, char** argv) {
     std::cerr << "lagranged: " << e.what() << "\n";
     return 2;
   }
-  LogFiles logs;
-  try {
-    logs = SetUpLogging(o);
-  } catch (const LogFileError& e) {
-    std::cerr << "lagranged: " << e.what() << "\n";
-    return 2;
-  }
+  return std::nullopt;
+}
+
+// Serve, with what escapes it logged: 2 for a bus that cannot be opened, 1 for anything else.
+int ServeLoggingErrors(const Options& o, const LogFiles& logs) {
   try {
     return Serve(o, logs);
   } catch (const BusError& e) {  // a bad --lcm-url, or the bus could not be opened: named before the loop
@@ -540,6 +628,28 @@ int RunLagranged(int argc, char** argv) {
     spdlog::error("{}", e.what());
     return 1;
   }
+}
+
+}  // namespace
+
+int RunLagranged(int argc, char** argv) {
+  // Before any thread starts: stray signals ignored, the handled ones blocked (the main thread waits for them).
+  IgnoreStraySignals();
+  const sigset_t signals = HandledSignals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  Options o;
+  CLI::App app{"lagranged: simulates and controls the plants of a scene at a fixed rate, over LCM"};
+  DescribeCommandLine(app, o);
+  if (const std::optional<int> status = ParseCommandLine(app, argc, argv)) return *status;
+  LogFiles logs;
+  try {
+    logs = SetUpLogging(o);
+  } catch (const LogFileError& e) {
+    std::cerr << "lagranged: " << e.what() << "\n";
+    return 2;
+  }
+  return ServeLoggingErrors(o, logs);
 }
 
 }  // namespace lagrange
