@@ -503,6 +503,8 @@ int RunThreads(const Options& o, const LogFiles& logs, const Scene& scene, Servi
   return 0;
 }
 
+// One run: the scene prepared (signals answered meanwhile), its buses, the
+// threads' parts and the start-up lines, then the threads; the exit status.
 int Serve(const Options& o, const LogFiles& logs) {
   std::variant<int, Prepared> prepared = 2;
   WhileAnsweringSignals(logs, [&] { prepared = Prepare(o); });
