@@ -25,8 +25,6 @@ namespace {
 
 using namespace external_test;
 
-// ------------------------------------------------------------------ A. external controller, simulated plant
-
 constexpr double kHoldDrift = 1e-9;    // rad: an exact gravity compensation holds a pose at rest to round-off
 constexpr double kHoldTorque = 1e-6;   // N·m: pushing G(q) and nothing more
 constexpr double kMoved = 1e-3;        // rad: a pose told apart from another
@@ -288,7 +286,7 @@ TEST_F(ExternalControllerLoop, HoldingOnForANewReasonIsLoggedAsStillHoldNowTheNe
   for (const std::string& line : log.Lines()) EXPECT_EQ(line.find("hold -> hold"), std::string::npos) << line;
 }
 
-// ------------------------------------------------------------------ A4. switching controllers
+// ------------------------------------------------------------------ switching controllers
 
 TEST_F(ExternalControllerLoop, SwitchingToTheExternalControllerHoldsUntilItsFirstTorqueAndAwayFromATorqueHoldRuns) {
   arm_.Ticks(10);

@@ -17,8 +17,6 @@ namespace {
 
 using namespace external_test;
 
-// ------------------------------------------------------------------ B. two runtimes closing the loop
-
 // P (the simulated arm under an external controller) and C (computed torque
 // for the external arm, following a sine) in one process, each on its own
 // fake clock. Each step P ticks, its state crosses to C, C ticks, its torque

@@ -18,8 +18,6 @@ namespace {
 
 using namespace external_test;
 
-// ------------------------------------------------------------------ C. the watchdog of an external plant
-
 class ExternalPlantWatchdog : public ::testing::Test {
  protected:
   ExternalPlantWatchdog() : controller_(LoadScene(Config("arm_external_controller.yaml")), "CTRL_", kControllerRunId) {}
@@ -337,6 +335,8 @@ TEST_F(ExternalPlantWatchdog, PauseIsRefusedForAnExternalPlant) {
   EXPECT_EQ(ModeNow(), Mode::kRunning);
   EXPECT_EQ(Torques(), 2u);
 }
+
+// ------------------------------------------------------------------ where its trajectory starts
 
 // An external plant's controller that starts (or restarts) on a robot that
 // is not where its scene assumed starts its trajectory from the measured

@@ -126,7 +126,7 @@ instances:
                ConfigError);
 }
 
-// ------------------------------------------------------------------ D. the ticks allocate nothing
+// ------------------------------------------------------------------ the ticks allocate nothing
 
 // Heap allocations of `ticks` ticks of `runtime`, 1 ms apart from `now`,
 // after `before_each` (the receiver's part, not counted) each time.

@@ -21,8 +21,6 @@ using namespace external_test;
 
 using testing::Encode;
 
-// ------------------------------------------------------------------ A3. what the receiver refuses
-
 TEST_F(ExternalControllerLoop, EveryBadTorqueIsRefusedCountedWithItsReasonAndNeverApplied) {
   SendTorque({1.0, 0.5});
   arm_.Ticks(1);
