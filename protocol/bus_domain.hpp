@@ -2,7 +2,7 @@
 // The bus domain of signed traffic (protocol/signing.hpp): the one definition
 // of what a domain is, where a program finds it and the bytes the MAC absorbs
 // for it, shared by lagrange's own signing and by the example clients
-// (tools/examples/bus_signing.hpp). Header-only, the standard library alone:
+// (examples/cpp/bus_signing.hpp). Header-only, the standard library alone:
 // installed beside the message types as <lagrange/bus_domain.hpp>, so a copy
 // of an example builds against an installed lagrange.
 //
