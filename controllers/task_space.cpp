@@ -57,7 +57,7 @@ Matrix6d TaskInertiaAt(const Dynamics& dynamics, const Kinematics& kinematics, i
                        SingularityDamping damping) {
   const int n = dynamics.num_dofs();
   const std::unique_ptr<KinematicsData> kd = kinematics.MakeData();
-  kinematics.ComputeFrameKinematics(*kd, q, VectorXd::Zero(n));
+  kinematics.ComputeFrameJacobian(*kd, q, frame, FrameAxes::kWorldAligned);
   MatrixXd M(n, n);
   dynamics.ComputeMassMatrix(*dynamics.MakeData(), q, M);
   OperationalSpace os(n, damping);
@@ -143,7 +143,7 @@ void TaskSpaceController::StartTrajectory(const PoseTrajectoryConfig& config) {
 void TaskSpaceController::Reset() { StartTrajectory(options_.trajectory); }
 
 void TaskSpaceController::MeasureFrame(ConstVecRef q, ConstVecRef qd) {
-  kinematics_->ComputeFrameKinematics(*kinematics_data_, q, qd);
+  kinematics_->ComputeFrameJacobianAndBias(*kinematics_data_, q, qd, frame_, FrameAxes::kWorldAligned);
   pose_.position = kinematics_data_->position(frame_);
   pose_.orientation = Eigen::Quaterniond(kinematics_data_->rotation(frame_));
   bias_ = kinematics_data_->bias_acceleration(frame_, FrameAxes::kWorldAligned);

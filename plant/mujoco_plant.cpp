@@ -21,6 +21,7 @@
 #include <utility>
 
 #include "plant/mujoco_files.hpp"
+#include "plant/number_text.hpp"
 
 // MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
 // exported by 2.2.2 but not in its public headers; MuJoCo's tests raise it to
@@ -192,16 +193,6 @@ bool IsUrdfText(const std::string& text) {
   return false;
 }
 
-// The shortest of 15 to 17 significant digits that reads back as x.
-std::string Number(double x) {
-  char text[32];
-  for (int digits = 15; digits <= 17; ++digits) {
-    std::snprintf(text, sizeof text, "%.*g", digits, x);
-    if (std::strtod(text, nullptr) == x) break;
-  }
-  return text;
-}
-
 // MuJoCo's joint equality of a mimic: joint1 = the mimic (y), joint2 = its
 // leader (x), y − y0 = a0 + a1 (x − x0) + ... with y0, x0 their qpos0, so
 // that y = multiplier x + offset: a0 = multiplier x0 + offset − y0, a1 = multiplier.
@@ -222,8 +213,8 @@ Coupling CouplingOf(const mjModel* m, const MujocoMimic& mimic) {
 
 // <equality><joint joint1="MIMIC" joint2="LEADER" polycoef="a0 a1 0 0 0" ATTRIBUTES/></equality>
 std::string EqualityElement(const MujocoMimic& mimic, const Coupling& c, const std::string& attributes = "") {
-  return "<equality><joint joint1=\"" + mimic.joint + "\" joint2=\"" + mimic.leader + "\" polycoef=\"" + Number(c.a0) +
-         " " + Number(c.a1) + " 0 0 0\"" + attributes + "/></equality>";
+  return "<equality><joint joint1=\"" + mimic.joint + "\" joint2=\"" + mimic.leader + "\" polycoef=\"" +
+         FormatDouble(c.a0) + " " + FormatDouble(c.a1) + " 0 0 0\"" + attributes + "/></equality>";
 }
 
 // The equality coupling `mimic` in `m`, or why there is none as expected.
@@ -237,11 +228,11 @@ std::optional<std::string> CheckCoupled(const mjModel* m, const MujocoMimic& mim
     if (m->eq_active[e] != 0 && near(a[0], c.a0) && near(a[1], c.a1) && a[2] == 0.0 && a[3] == 0.0 && a[4] == 0.0) {
       return std::nullopt;
     }
-    found = std::string(m->eq_active[e] != 0 ? "" : "an inactive one, ") + "polycoef " + Number(a[0]) + " " +
-            Number(a[1]) + " " + Number(a[2]) + " " + Number(a[3]) + " " + Number(a[4]);
+    found = std::string(m->eq_active[e] != 0 ? "" : "an inactive one, ") + "polycoef " + FormatDouble(a[0]) + " " +
+            FormatDouble(a[1]) + " " + FormatDouble(a[2]) + " " + FormatDouble(a[3]) + " " + FormatDouble(a[4]);
   }
   return "joint '" + mimic.joint + "' mimics '" + mimic.leader +
-         "' in lagrange's model (q = " + Number(mimic.multiplier) + " q_leader + " + Number(mimic.offset) +
+         "' in lagrange's model (q = " + FormatDouble(mimic.multiplier) + " q_leader + " + FormatDouble(mimic.offset) +
          "): expected " + EqualityElement(mimic, c) + " in the MJCF, got " + (found.empty() ? "none" : found);
 }
 
@@ -265,8 +256,9 @@ mjModel* CoupleMimics(const std::string& file, std::vector<MujocoFile> files, co
       std::remove(path.c_str());
       return nullptr;
     }
-    const std::string attributes = " solref=\"" + Number(kMimicTimeConstantSteps * timestep) + " 1\" solimp=\"" +
-                                   Number(kMimicImpedance) + " " + Number(kMimicImpedance) + " 0.001 0.5 2\"";
+    const std::string attributes = " solref=\"" + FormatDouble(kMimicTimeConstantSteps * timestep) + " 1\" solimp=\"" +
+                                   FormatDouble(kMimicImpedance) + " " + FormatDouble(kMimicImpedance) +
+                                   " 0.001 0.5 2\"";
     for (const MujocoMimic& mimic : mimics)
       equalities += EqualityElement(mimic, CouplingOf(m, mimic), attributes) + "\n";
     const int precision = _mjPRIVATE__get_xml_precision();

@@ -1,16 +1,9 @@
 #include "protocol/format.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <vector>
 
 namespace lagrange {
-
-std::string FormatDouble(double x) {
-  char buf[32];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
-  return ec == std::errc() ? std::string(buf, end) : std::string("nan");
-}
 
 std::size_t EditDistance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);

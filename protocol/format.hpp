@@ -1,15 +1,14 @@
 #pragma once
-// Numbers as lagrange's text shows them (messages, CSV): the shortest text
-// that reads back to the same double; and how far apart two words are, for
-// "did you mean" hints.
+// Numbers as lagrange's text shows them (FormatDouble: plant/number_text.hpp,
+// the one formatter, included here for the protocol's callers); and how far
+// apart two words are, for "did you mean" hints.
 
 #include <cstddef>
 #include <string>
 
-namespace lagrange {
+#include "plant/number_text.hpp"
 
-// Shortest text that reads back to the same double ("nan" when it cannot be written).
-std::string FormatDouble(double x);
+namespace lagrange {
 
 // Levenshtein distance: insertions, deletions and substitutions.
 std::size_t EditDistance(const std::string& a, const std::string& b);

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "plant/escape.hpp"
+#include "plant/number_text.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/signing.hpp"
 #include "sim/scene_control.hpp"
@@ -141,7 +142,7 @@ std::optional<EffectsError> CheckStops(const EffectsConfig& c, const std::vector
   for (Eigen::Index i = 0; i < size; ++i) {
     if (!(l.lower[i] < l.upper[i])) {
       return EffectsError{"limits", "expected lower < upper for joint '" + Escape(names[static_cast<std::size_t>(i)]) +
-                                        "', got " + ShortestText(l.lower[i]) + " and " + ShortestText(l.upper[i])};
+                                        "', got " + FormatDouble(l.lower[i]) + " and " + FormatDouble(l.upper[i])};
     }
   }
   return std::nullopt;
@@ -350,12 +351,12 @@ ExternalPlantConfig ReadExternalPlant(const YamlReader& node, double period) {
   if (auto v = node.Optional("phase_lock")) e.phase_lock = v->Bool();
   if (auto v = node.Optional("phase_lag")) {
     e.phase_lag = v->PositiveNumber();
-    if (e.phase_lag >= period) v->Fail("expected less than the period (" + ShortestText(period) + " s)");
+    if (e.phase_lag >= period) v->Fail("expected less than the period (" + FormatDouble(period) + " s)");
   }
   if (auto t = node.Optional("state_timeout")) {
     e.state_timeout = t->PositiveNumber();
     if (e.state_timeout < 2.0 * period) {
-      t->Fail("expected at least two ticks (" + ShortestText(2.0 * period) + " s): a state arrives once per tick");
+      t->Fail("expected at least two ticks (" + FormatDouble(2.0 * period) + " s): a state arrives once per tick");
     }
   }
   return e;

@@ -3,18 +3,12 @@
 #include "protocol/channels.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <filesystem>
 
 #include "plant/escape.hpp"
+#include "plant/number_text.hpp"
 
 namespace lagrange {
-
-std::string ShortestText(double x) {
-  char buf[32];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
-  return std::string(buf, ec == std::errc() ? end : buf);
-}
 
 namespace {
 
@@ -208,7 +202,7 @@ void SetUrdfParam(PlantSpec& spec, const std::string& key, const YamlReader& val
     if (!value.IsSequence() || value.Size() != 3) value.Fail("expected [gx, gy, gz] (three finite numbers, m/s²)");
     for (std::size_t i = 0; i < 3; ++i) {
       if (i > 0) text += ',';
-      text += ShortestText(value.At(i).Number());
+      text += FormatDouble(value.At(i).Number());
     }
   } else {
     text = value.Text();
@@ -306,7 +300,7 @@ void ReadExternal(const YamlReader& node, double period, ControllerConfig& c) {
   if (auto v = node.Optional("torque_timeout")) {
     c.external.torque_timeout = v->PositiveNumber();
     if (c.external.torque_timeout < 2.0 * period) {
-      v->Fail("expected at least two ticks (" + ShortestText(2.0 * period) + " s): a torque is held over a tick");
+      v->Fail("expected at least two ticks (" + FormatDouble(2.0 * period) + " s): a torque is held over a tick");
     }
   }
   if (auto v = node.Optional("torque_channel")) {

@@ -14,9 +14,6 @@
 
 namespace lagrange {
 
-// Shortest text that reads back to the same double ("0.1", "-inf").
-std::string ShortestText(double x);
-
 // The robots one scene reads from URDF files (plant.file, a controller's
 // model.file), each file read once. A relative path is relative to the
 // scene file's directory.

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <numbers>
 #include <random>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <string_view>
@@ -628,6 +629,36 @@ TEST(ParseUrdf, MoreThanTheMaximumNumberOfElementsIsRefused) {
 TEST(ParseUrdf, TextOverTwoMebibytesIsRefused) {
   ExpectRefusedWith("<robot name=\"r\">" + std::string(2u << 20, ' ') + "</robot>", "big.urdf",
                     "file: larger than 2 MiB");
+}
+
+// <visual>s have no reader of their own (lagrangectl view draws what ParseUrdf
+// read, UrdfLooks): a visual past the size bound, nested past the depth bound or
+// not well-formed XML refuses the whole file, with the very message the same
+// fault gets anywhere else in it (here in the joint, on the same line; for
+// malformed XML tinyxml names the column too, which differs).
+TEST(ParseUrdf, AnOversizeOrMalformedVisualIsRefusedAsTheSameFaultAnywhereElse) {
+  const auto without_column = [](const std::string& message) {
+    return std::regex_replace(message, std::regex(", column [0-9]+"), "");
+  };
+  const auto in_visual = [](const std::string& fault) {
+    return OneJointRobot("", "",
+                         "<link name=\"shell\"><visual>" + fault +
+                             "</visual></link><joint name=\"glue\" type=\"fixed\"><parent link=\"l1\"/>"
+                             "<child link=\"shell\"/></joint>");
+  };
+  const auto in_joint = [](const std::string& fault) { return OneJointRobot(fault); };
+  ASSERT_EQ(RefusalOf(in_visual("<geometry><sphere radius=\"0.1\"/></geometry>")), "accepted");
+  const std::string oversize = "<geometry><mesh filename=\"" + std::string(2u << 20, 'm') + ".stl\"/></geometry>";
+  const std::string too_deep = Repeated("<a>", 70) + Repeated("</a>", 70);
+  const std::string unclosed = "<geometry><box size=\"0.1 0.1 0.1\"></geometry>";
+  for (const auto& [fault, reason] : {std::pair<std::string, std::string>{oversize, "file: larger than 2 MiB"},
+                                      {too_deep, "elements nested deeper than 64"},
+                                      {unclosed, "line 1, column "}}) {
+    const std::string refusal = RefusalOf(in_visual(fault));
+    EXPECT_NE(refusal, "accepted") << reason;
+    EXPECT_NE(refusal.find(reason), std::string::npos) << refusal;
+    EXPECT_EQ(without_column(refusal), without_column(RefusalOf(in_joint(fault))));
+  }
 }
 
 TEST(LoadUrdf, AFifoIsRefusedWithoutBlocking) {
