@@ -8,24 +8,11 @@
 #include <stdexcept>
 
 #include "controllers/lqr.hpp"
-#include "plant/enum_names.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange {
 namespace {
 
-constexpr EnumName<ControllerType> kControllerNames[] = {
-    {ControllerType::kNone, "none"},
-    {ControllerType::kPd, "pd"},
-    {ControllerType::kGravityCompensation, "gravity-compensation"},
-    {ControllerType::kComputedTorque, "computed-torque"},
-    {ControllerType::kCartPolePd, "cartpole-pd"},
-    {ControllerType::kLqr, "lqr"},
-    {ControllerType::kSwingUp, "swing-up"},
-    {ControllerType::kExternal, "external"},
-    {ControllerType::kCartesianImpedance, "cartesian-impedance"},
-    {ControllerType::kOperationalSpace, "operational-space"},
-};
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
 
@@ -206,14 +193,6 @@ std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& 
 }
 
 }  // namespace
-
-std::string_view ToString(ControllerType type) { return NameOf(kControllerNames, type); }
-std::optional<ControllerType> ParseControllerType(std::string_view name) { return ValueOf(kControllerNames, name); }
-std::string ControllerTypeNames() { return JoinedNames(kControllerNames); }
-
-bool IsTaskSpace(ControllerType type) {
-  return type == ControllerType::kCartesianImpedance || type == ControllerType::kOperationalSpace;
-}
 
 bool HasGains(ControllerType type) {
   return type == ControllerType::kPd || type == ControllerType::kGravityCompensation ||

@@ -12,6 +12,7 @@
 #include "controllers/cartpole_pd.hpp"
 #include "controllers/controller.hpp"
 #include "controllers/external_controller.hpp"
+#include "base/vocabulary.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
 #include "controllers/task_space.hpp"
@@ -20,25 +21,7 @@
 
 namespace lagrange {
 
-enum class ControllerType : std::uint8_t {
-  kNone,                 // tau = 0
-  kPd,                   // joint PD
-  kGravityCompensation,  // G(q) [+ PD]
-  kComputedTorque,       // M (qdd_d + Kd ė + Kp e) + C qd + G
-  kCartPolePd,           // the article's cart-pole PD on the cart force
-  kLqr,                  // LQR about an equilibrium (cart-pole: upright)
-  kSwingUp,              // energy swing-up handing over to LQR
-  kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
-  kCartesianImpedance,   // Jᵀ (K e + D ė) + C qd + G + P τ0 on one frame's pose (task_space.hpp)
-  kOperationalSpace,     // Jᵀ Λ (ẍ_d + Kd ė + Kp e − J̇qd) + C qd + G + P τ0 (task_space.hpp)
-};
-
-std::string_view ToString(ControllerType type);
-std::optional<ControllerType> ParseControllerType(std::string_view name);
-std::string ControllerTypeNames();  // "none|pd|gravity-compensation|..."
-// cartesian-impedance and operational-space: a frame's pose is their target,
-// their gains are per task axis (6), and they are TaskSpaceControllers.
-bool IsTaskSpace(ControllerType type);
+// ControllerType, its names and IsTaskSpace: base/vocabulary.hpp.
 
 struct LqrOptions {
   std::optional<VectorXd> equilibrium;       // q0; default: the cart-pole's upright (0, π)

@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "daemon/timing_csv.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 

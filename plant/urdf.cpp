@@ -20,8 +20,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "plant/bounded_file.hpp"
-#include "plant/escape.hpp"
+#include "base/bounded_file.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange {
 namespace {

@@ -3,9 +3,8 @@
 #include <map>
 #include <stdexcept>
 
-#include "controllers/factory.hpp"
-#include "controllers/task_space.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
+#include "base/vocabulary.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"

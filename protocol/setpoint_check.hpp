@@ -13,13 +13,12 @@
 #include <string>
 #include <string_view>
 
-#include "plant/types.hpp"
 
 namespace lagrange {
 
 struct SetpointRules {
   int n = 0;              // the instance's num_dofs
-  VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
+  Eigen::VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
 };
 
 struct SetpointVerdict {

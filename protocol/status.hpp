@@ -18,9 +18,7 @@
 #include <string_view>
 #include <vector>
 
-#include "plant/effects.hpp"
-#include "plant/integrators.hpp"
-#include "plant/stepped_plant.hpp"
+#include "base/vocabulary.hpp"
 
 namespace lagrange {
 

@@ -25,7 +25,7 @@
 #include <thread>
 
 #include "controllers/factory.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/clock.hpp"

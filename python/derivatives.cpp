@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "plant/dynamics.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
 #include "protocol/format.hpp"

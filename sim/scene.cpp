@@ -5,7 +5,7 @@
 #include <limits>
 #include <set>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/signing.hpp"
 #include "sim/scene_control.hpp"

@@ -6,7 +6,7 @@
 #include <charconv>
 #include <filesystem>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange {
 

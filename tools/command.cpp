@@ -11,7 +11,7 @@
 #include <optional>
 
 #include "plant/effects.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
 #include "protocol/client.hpp"

@@ -15,7 +15,7 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/clock.hpp"

@@ -22,8 +22,8 @@ CommandRules ArmRules() {
   rules.instance = "arm";
   rules.n = 2;
   rules.controllers = {"pd", "computed-torque"};
-  rules.controller_types = {ControllerType::kPd, ControllerType::kComputedTorque};
-  rules.gain_bounds = {GainBounds::Unbounded(2), GainBounds::Unbounded(2)};
+  rules.gain_counts = {2, 2};
+  rules.gains_per_task_axis = {false, false};
   rules.integrator.max_steps = 200;  // the scene's
   return rules;
 }

@@ -5,7 +5,7 @@
 #include <iterator>
 
 #include "controllers/factory.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
 
