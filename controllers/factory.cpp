@@ -7,12 +7,11 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "controllers/lqr.hpp"
 #include "base/escape.hpp"
+#include "controllers/lqr.hpp"
 
 namespace lagrange {
 namespace {
-
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
 

@@ -9,10 +9,10 @@
 #include <string_view>
 #include <vector>
 
+#include "base/vocabulary.hpp"
 #include "controllers/cartpole_pd.hpp"
 #include "controllers/controller.hpp"
 #include "controllers/external_controller.hpp"
-#include "base/vocabulary.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/swing_up.hpp"
 #include "controllers/task_space.hpp"

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <utility>
 
-
 namespace lagrange {
 
 DynamicsData::DynamicsData(const Dynamics& model)

@@ -11,7 +11,6 @@
 namespace lagrange {
 namespace {
 
-
 // Explicit Euler: q⁺ = q + h qd, qd⁺ = qd + h qdd; semi-implicit (symplectic)
 // Euler takes the new velocity for the position: qd⁺ first, then q⁺ = q + h qd⁺.
 class Euler final : public Integrator {

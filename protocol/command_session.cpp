@@ -59,8 +59,7 @@ CommandReport ReportCommand(const std::string& instance, const std::string& word
   return report;
 }
 
-CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words,
-                          command_t& command) {
+CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command) {
   const reply_t reply = link.Command(command);  // sent once: a repeat could apply twice
   return ReportCommand(instance, words, reply, reply.accepted ? link.ModeAfterReply(reply.run_id) : "");
 }

@@ -55,8 +55,7 @@ CommandReport ReportCommand(const std::string& instance, const std::string& word
 
 // Sends `command` once over `link` (after AwaitOneRun; DaemonLink::Command,
 // whose errors it throws) and reports its verdict; `words` as CommandWordsText.
-CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words,
-                          command_t& command);
+CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command);
 
 // One run's part in an emergency stop, as the link saw it.
 struct EstopRun {

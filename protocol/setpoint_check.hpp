@@ -13,11 +13,10 @@
 #include <string>
 #include <string_view>
 
-
 namespace lagrange {
 
 struct SetpointRules {
-  int n = 0;              // the instance's num_dofs
+  int n = 0;                     // the instance's num_dofs
   Eigen::VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
 };
 

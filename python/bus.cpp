@@ -24,8 +24,8 @@
 #include <regex>
 #include <thread>
 
-#include "controllers/factory.hpp"
 #include "base/escape.hpp"
+#include "controllers/factory.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/clock.hpp"

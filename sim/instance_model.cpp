@@ -112,8 +112,8 @@ CommandRules CommandRulesOf(const InstanceModel& m) {
     bounds.push_back(c.gain_bounds);
   }
   // The bounds are the instance's, checked here where its controllers are (CheckGains).
-  rules.check_gains = [types = std::move(types), bounds = std::move(bounds)](
-                          std::size_t c, std::span<const double> kp, std::span<const double> kd) {
+  rules.check_gains = [types = std::move(types), bounds = std::move(bounds)](std::size_t c, std::span<const double> kp,
+                                                                             std::span<const double> kd) {
     const auto n = static_cast<Eigen::Index>(kp.size());
     const Gains g{Eigen::Map<const VectorXd>(kp.data(), n), Eigen::Map<const VectorXd>(kd.data(), n)};
     return CheckGains(types[c], g, bounds[c]);

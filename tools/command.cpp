@@ -10,8 +10,8 @@
 
 #include <optional>
 
-#include "plant/effects.hpp"
 #include "base/escape.hpp"
+#include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
 #include "protocol/client.hpp"

@@ -54,8 +54,8 @@ TEST(CommandSession, GainsAreOnePerJointOrOnePerTaskAxisUnderATaskSpaceControlle
 }
 
 TEST(CommandSession, ADoneCommandIsOneLineNamingItsWordsAndTheModeAfter) {
-  const CommandReport r = ReportCommand("arm", CommandWordsText({"controller", "gc\x1b[2J"}), Reply(kRun, ""),
-                                        "running with gc");
+  const CommandReport r =
+      ReportCommand("arm", CommandWordsText({"controller", "gc\x1b[2J"}), Reply(kRun, ""), "running with gc");
   EXPECT_TRUE(r.accepted);
   EXPECT_EQ(r.run_id, kRun);
   EXPECT_EQ(r.lines, (std::vector<std::string>{"arm: controller gc\\x1b[2J done; now running with gc"}));
@@ -120,8 +120,8 @@ TEST(CommandSession, AnEstopToSeveralRunsIsALinePerRunThenHowManyAppliedIt) {
             "0000000000003333, 0000000000004444)");
   EXPECT_EQ(r.Text(), r.lines[0] + "\n" + r.lines[1] + "\n" + r.lines[2] + "\n" + r.lines[3] + "\n" + r.failure);
 
-  const CommandReport all = ReportEstop("arm", "ARM_STATE", 3.0,
-                                        {runs[0], {kOtherRun, Reply(kOtherRun, ""), "", "estop with gc"}});
+  const CommandReport all =
+      ReportEstop("arm", "ARM_STATE", 3.0, {runs[0], {kOtherRun, Reply(kOtherRun, ""), "", "estop with gc"}});
   EXPECT_TRUE(all.accepted);
   EXPECT_EQ(all.failure, "");
   EXPECT_EQ(all.lines.size(), 2u);
