@@ -1,0 +1,62 @@
+"""One command session (protocol/command_session.hpp) for lagrangectl command and lagrange.Client.command:
+against a live lagranged on private LCM ports (8790-8791, this host only), the same command gets the same
+words from both, refusals (lagranged's reason, escaped, shown whole), a command done, and an estop's report
+over two runs publishing one instance."""
+import subprocess
+
+import lagrange
+from bus_support import LAGRANGECTL, config, lagranged, lcm_url, wait_until
+
+PORT = 8790  # default.yaml: arm (computed torque) and cartpole
+TWO_RUNS_PORT = 8791
+
+
+def lagrangectl(port, *args):
+    return subprocess.run([LAGRANGECTL, "command", *args, "--lcm-url", lcm_url(port), "--wait", "5"],
+                          capture_output=True, text=True)
+
+
+def test_a_refusal_reads_the_same_from_python_and_lagrangectl():
+    with lagranged(config("default.yaml"), PORT):
+        client = lagrange.Client(url=lcm_url(PORT), wait=5.0)
+        client.state("arm", timeout=5.0)
+        refusals = [
+            # (Python's arguments, lagrangectl's words)
+            (("arm", "controller", "lqr-of-dreams"), {}, ["arm", "controller", "lqr-of-dreams"]),
+            (("cartpole", "controller", "x\x1b[2J"), {}, ["cartpole", "controller", "x\x1b[2J"]),
+            # Beyond the computed-torque's bounds at the scene's period: the reason names the bound and its rule.
+            (("arm", "gains"), {"kp": [1e9, 1e9], "kd": 1.0}, ["arm", "gains", "--kp", "1e9", "--kd", "1"]),
+        ]
+        for args, gains, words in refusals:
+            r = client.command(*args, **gains)
+            cli = lagrangectl(PORT, *words)
+            assert not r.accepted and r.message.startswith("refused: "), r.message
+            assert cli.returncode == 1, cli.stderr
+            assert cli.stdout == ""
+            assert cli.stderr.strip() == "lagrangectl command: " + r.message
+        assert "\\x1b[2J" in client.command("cartpole", "controller", "x\x1b[2J").message
+        assert "gains for computed-torque: kp[0]" in client.command("arm", "gains", kp=[1e9, 1e9], kd=1.0).message
+        # A command done: the same line, whoever sent it.
+        done = client.command("arm", "pause")
+        assert done.accepted and done.message == "arm: pause done; now paused with computed-torque"
+        assert client.command("arm", "resume").accepted
+        cli = lagrangectl(PORT, "arm", "pause")
+        assert cli.returncode == 0, cli.stderr
+        assert cli.stdout.strip() == done.message
+
+
+def test_an_estop_to_two_runs_reads_the_same_from_python_and_lagrangectl():
+    with lagranged(config("default.yaml"), TWO_RUNS_PORT), lagranged(config("default.yaml"), TWO_RUNS_PORT):
+        def two_runs():  # once both publish (a loaded machine may start one later)
+            try:
+                lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0).state("arm", timeout=5.0)
+                return False
+            except RuntimeError as e:
+                return "two lagranged runs publish ARM_STATE" in str(e)
+        assert wait_until(two_runs, 30.0)
+        r = lagrange.Client(url=lcm_url(TWO_RUNS_PORT), wait=5.0).command("arm", "estop")
+        cli = lagrangectl(TWO_RUNS_PORT, "arm", "estop")
+        assert r.accepted and cli.returncode == 0, (r.message, cli.stderr)
+        lines = r.message.splitlines()
+        assert len(lines) == 2 and all(": estop done; now estop with computed-torque" in line for line in lines)
+        assert cli.stdout.splitlines() == lines
