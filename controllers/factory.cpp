@@ -271,6 +271,13 @@ std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, c
   return std::nullopt;
 }
 
+std::optional<std::string> CheckGains(ControllerType type, std::span<const double> kp, std::span<const double> kd,
+                                      const GainBounds& bounds) {
+  const Gains g{Eigen::Map<const VectorXd>(kp.data(), static_cast<Eigen::Index>(kp.size())),
+                Eigen::Map<const VectorXd>(kd.data(), static_cast<Eigen::Index>(kd.size()))};
+  return CheckGains(type, g, bounds);
+}
+
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains) {
   GainBounds bounds = IsTaskSpace(type) ? GainBounds::UnboundedTask() : GainBounds::Unbounded(n);
   bounds.any_sign = type == ControllerType::kCartPolePd;

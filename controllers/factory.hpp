@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -123,6 +124,9 @@ bool HasGains(ControllerType type);
 // refused Controller::SetGains. Above a bound the message names it, e.g.
 // "kp[0]: expected |gain| <= 1e+06 (Kp·h² <= 1 at h = 0.001 s), got 1e+07".
 std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, const GainBounds& bounds);
+// The same for gains as a command carries them: kp and kd of one size (CommandRules::check_gains).
+std::optional<std::string> CheckGains(ControllerType type, std::span<const double> kp, std::span<const double> kd,
+                                      const GainBounds& bounds);
 // Sizes, finiteness and signs only, without the tick's bounds. Prefer the
 // overload above with the controller's gain_bounds().
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains);

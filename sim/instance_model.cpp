@@ -114,9 +114,7 @@ CommandRules CommandRulesOf(const InstanceModel& m) {
   // The bounds are the instance's, checked here where its controllers are (CheckGains).
   rules.check_gains = [types = std::move(types), bounds = std::move(bounds)](std::size_t c, std::span<const double> kp,
                                                                              std::span<const double> kd) {
-    const auto n = static_cast<Eigen::Index>(kp.size());
-    const Gains g{Eigen::Map<const VectorXd>(kp.data(), n), Eigen::Map<const VectorXd>(kd.data(), n)};
-    return CheckGains(types[c], g, bounds[c]);
+    return CheckGains(types[c], kp, kd, bounds[c]);
   };
   rules.integrator = m.config.integrator;
   return rules;

@@ -19,9 +19,11 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "controllers/factory.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
@@ -231,13 +233,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const auto n = static_cast<std::size_t>(status.num_instances);
     if (status.instance_integrators.size() != n || status.instance_forces.size() != n) __builtin_trap();
   }
-  static const CommandRules command_rules{
-      "arm",
-      2,
-      {"pd", "none"},
-      {ControllerType::kPd, ControllerType::kNone},
-      {GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}},
-      IntegratorConfig{}};   // the scene's: rk4 (set-integrator keeps its Newton settings and max_steps)
+  static const CommandRules command_rules = [] {
+    CommandRules r;
+    r.instance = "arm";
+    r.n = 2;
+    r.controllers = {"pd", "none"};
+    r.gain_counts = {2, 0};
+    r.gains_per_task_axis = {false, false};
+    // The bounds, checked as the simulator's rules check them (controllers' CheckGains).
+    r.check_gains = [](std::size_t c, std::span<const double> kp, std::span<const double> kd) {
+      static const GainBounds bounds[] = {
+          GainBounds{false, VectorXd::Constant(2, 1e4), VectorXd::Constant(2, 1e2)}, GainBounds{}};
+      return CheckGains(c == 0 ? ControllerType::kPd : ControllerType::kNone, kp, kd, bounds[c]);
+    };
+    r.integrator = IntegratorConfig{};  // the scene's: rk4 (set-integrator keeps its Newton settings and max_steps)
+    return r;
+  }();
   static command_t command;  // reused, as in the receiver
   const CommandVerdict c = CheckCommand(data, size, command_rules, 0, command);
   if (c.kind == CommandVerdict::Kind::kAccepted) {
