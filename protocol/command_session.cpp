@@ -59,7 +59,7 @@ CommandReport ReportCommand(const std::string& instance, const std::string& word
   return report;
 }
 
-CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command) {
+CommandReport RunCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command) {
   const reply_t reply = link.Command(command);  // sent once: a repeat could apply twice
   return ReportCommand(instance, words, reply, reply.accepted ? link.ModeAfterReply(reply.run_id) : "");
 }
@@ -117,7 +117,7 @@ CommandReport ReportEstop(const std::string& instance, const std::string& state_
   return report;
 }
 
-CommandReport SendEstop(DaemonLink& link, const std::string& instance, command_t& command) {
+CommandReport RunEstop(DaemonLink& link, const std::string& instance, command_t& command) {
   link.AwaitRuns();
   const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(command);
   std::vector<EstopRun> runs;

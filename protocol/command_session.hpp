@@ -55,7 +55,7 @@ CommandReport ReportCommand(const std::string& instance, const std::string& word
 
 // Sends `command` once over `link` (after AwaitOneRun; DaemonLink::Command,
 // whose errors it throws) and reports its verdict; `words` as CommandWordsText.
-CommandReport SendCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command);
+CommandReport RunCommand(DaemonLink& link, const std::string& instance, const std::string& words, command_t& command);
 
 // One run's part in an emergency stop, as the link saw it.
 struct EstopRun {
@@ -79,6 +79,6 @@ CommandReport ReportEstop(const std::string& instance, const std::string& state_
 // instance's state (AwaitRuns), each sent the estop until it answered
 // (DaemonLink::Estop), each that applied it watched (EstopDidNotStay), then
 // ReportEstop.
-CommandReport SendEstop(DaemonLink& link, const std::string& instance, command_t& command);
+CommandReport RunEstop(DaemonLink& link, const std::string& instance, command_t& command);
 
 }  // namespace lagrange

@@ -311,7 +311,7 @@ class Client {
       Link& link = LinkFor(name, options_.wait);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);
-      return Of(lagrange::SendCommand(*link.link, name, CommandWordsText(words), c));
+      return Of(lagrange::RunCommand(*link.link, name, CommandWordsText(words), c));
     } catch (...) {
       Rethrow();
     }
@@ -418,7 +418,7 @@ class Client {
     try {
       // Every run publishing the state (not only the one this client follows): a link of its own.
       DaemonLink link(options_, name);
-      return Of(SendEstop(link, name, c));
+      return Of(RunEstop(link, name, c));
     } catch (...) {
       Rethrow();
     }

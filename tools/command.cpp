@@ -64,7 +64,7 @@ class CommandCommand final : public Command {
     DaemonLink link(bus_, instance_);
     // An emergency stop is never withheld: it goes to every run publishing
     // the instance's state, and each run's verdict is reported.
-    if (c.command == command_t::ESTOP) return Report(SendEstop(link, instance_, c), out);
+    if (c.command == command_t::ESTOP) return Report(RunEstop(link, instance_, c), out);
     link.AwaitOneRun();
     if (c.command == command_t::SET_GAINS) {
       const bool task = GainsPerTaskAxis(link.state());
@@ -75,7 +75,7 @@ class CommandCommand final : public Command {
       c.kp.assign(kp.data(), kp.data() + n);
       c.kd.assign(kd.data(), kd.data() + n);
     }
-    return Report(SendCommand(link, instance_, CommandWordsText(action_), c), out);
+    return Report(RunCommand(link, instance_, CommandWordsText(action_), c), out);
   }
 
  private:

@@ -128,7 +128,7 @@ TEST(CommandSession, AnEstopToSeveralRunsIsALinePerRunThenHowManyAppliedIt) {
 }
 
 // The session over a link: the test answers the command as lagranged would, and the report is its verdict.
-TEST(CommandSession, SendCommandReportsTheRunsReplyToItsOwnRequest) {
+TEST(CommandSession, ACommandOverTheLinkIsReportedFromTheRunsReplyToItsOwnRequest) {
   DaemonLink link(InProcess(), "arm");
   link.bus().PublishMessage("ARM_STATE", testing::MakeState(1, kRun));
   link.AwaitOneRun();
@@ -143,13 +143,13 @@ TEST(CommandSession, SendCommandReportsTheRunsReplyToItsOwnRequest) {
   });
   command_t c = testing::MakeCommand(command_t::SWITCH_CONTROLLER, 0, 0);
   c.controller = "fly";
-  const CommandReport refused = SendCommand(link, "arm", CommandWordsText({"controller", "fly"}), c);
+  const CommandReport refused = RunCommand(link, "arm", CommandWordsText({"controller", "fly"}), c);
   EXPECT_FALSE(refused.accepted);
   EXPECT_EQ(refused.failure, "refused: unknown controller 'fly' for arm (available: pd, gc)");
 
   answer = "";
   c.controller = "gc";
-  const CommandReport done = SendCommand(link, "arm", CommandWordsText({"controller", "gc"}), c);
+  const CommandReport done = RunCommand(link, "arm", CommandWordsText({"controller", "gc"}), c);
   EXPECT_TRUE(done.accepted);
   EXPECT_EQ(done.run_id, kRun);
   EXPECT_EQ(done.Text(), "arm: controller gc done; now running with pd");
