@@ -15,9 +15,11 @@
 
 namespace lagrange {
 
+using Eigen::VectorXd;  // as plant/types.hpp has it
+
 struct SetpointRules {
-  int n = 0;                     // the instance's num_dofs
-  Eigen::VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
+  int n = 0;              // the instance's num_dofs
+  VectorXd lower, upper;  // setpoint limits on q (n), ±inf for none
 };
 
 struct SetpointVerdict {
