@@ -7,25 +7,11 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "base/escape.hpp"
 #include "controllers/lqr.hpp"
-#include "plant/enum_names.hpp"
-#include "plant/escape.hpp"
 
 namespace lagrange {
 namespace {
-
-constexpr EnumName<ControllerType> kControllerNames[] = {
-    {ControllerType::kNone, "none"},
-    {ControllerType::kPd, "pd"},
-    {ControllerType::kGravityCompensation, "gravity-compensation"},
-    {ControllerType::kComputedTorque, "computed-torque"},
-    {ControllerType::kCartPolePd, "cartpole-pd"},
-    {ControllerType::kLqr, "lqr"},
-    {ControllerType::kSwingUp, "swing-up"},
-    {ControllerType::kExternal, "external"},
-    {ControllerType::kCartesianImpedance, "cartesian-impedance"},
-    {ControllerType::kOperationalSpace, "operational-space"},
-};
 
 bool IsCartPoleOnly(ControllerType t) { return t == ControllerType::kCartPolePd || t == ControllerType::kSwingUp; }
 
@@ -207,14 +193,6 @@ std::unique_ptr<Controller> MakeLqr(const ControllerConfig& c, const PlantSpec& 
 
 }  // namespace
 
-std::string_view ToString(ControllerType type) { return NameOf(kControllerNames, type); }
-std::optional<ControllerType> ParseControllerType(std::string_view name) { return ValueOf(kControllerNames, name); }
-std::string ControllerTypeNames() { return JoinedNames(kControllerNames); }
-
-bool IsTaskSpace(ControllerType type) {
-  return type == ControllerType::kCartesianImpedance || type == ControllerType::kOperationalSpace;
-}
-
 bool HasGains(ControllerType type) {
   return type == ControllerType::kPd || type == ControllerType::kGravityCompensation ||
          type == ControllerType::kComputedTorque || type == ControllerType::kCartPolePd || IsTaskSpace(type);
@@ -291,6 +269,13 @@ std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, c
   if (!HasGains(type)) return std::string(ToString(type)) + " has no adjustable gains";
   if (auto fault = FindGainFault(gains, bounds)) return DescribeGainFault(*fault, gains, bounds);
   return std::nullopt;
+}
+
+std::optional<std::string> CheckGains(ControllerType type, std::span<const double> kp, std::span<const double> kd,
+                                      const GainBounds& bounds) {
+  const Gains g{Eigen::Map<const VectorXd>(kp.data(), static_cast<Eigen::Index>(kp.size())),
+                Eigen::Map<const VectorXd>(kd.data(), static_cast<Eigen::Index>(kd.size()))};
+  return CheckGains(type, g, bounds);
 }
 
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains) {

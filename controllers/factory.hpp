@@ -6,9 +6,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <span>
 #include <string_view>
 #include <vector>
 
+#include "base/vocabulary.hpp"
 #include "controllers/cartpole_pd.hpp"
 #include "controllers/controller.hpp"
 #include "controllers/external_controller.hpp"
@@ -20,25 +22,7 @@
 
 namespace lagrange {
 
-enum class ControllerType : std::uint8_t {
-  kNone,                 // tau = 0
-  kPd,                   // joint PD
-  kGravityCompensation,  // G(q) [+ PD]
-  kComputedTorque,       // M (qdd_d + Kd ė + Kp e) + C qd + G
-  kCartPolePd,           // the article's cart-pole PD on the cart force
-  kLqr,                  // LQR about an equilibrium (cart-pole: upright)
-  kSwingUp,              // energy swing-up handing over to LQR
-  kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
-  kCartesianImpedance,   // Jᵀ (K e + D ė) + C qd + G + P τ0 on one frame's pose (task_space.hpp)
-  kOperationalSpace,     // Jᵀ Λ (ẍ_d + Kd ė + Kp e − J̇qd) + C qd + G + P τ0 (task_space.hpp)
-};
-
-std::string_view ToString(ControllerType type);
-std::optional<ControllerType> ParseControllerType(std::string_view name);
-std::string ControllerTypeNames();  // "none|pd|gravity-compensation|..."
-// cartesian-impedance and operational-space: a frame's pose is their target,
-// their gains are per task axis (6), and they are TaskSpaceControllers.
-bool IsTaskSpace(ControllerType type);
+// ControllerType, its names and IsTaskSpace: base/vocabulary.hpp.
 
 struct LqrOptions {
   std::optional<VectorXd> equilibrium;       // q0; default: the cart-pole's upright (0, π)
@@ -140,6 +124,9 @@ bool HasGains(ControllerType type);
 // refused Controller::SetGains. Above a bound the message names it, e.g.
 // "kp[0]: expected |gain| <= 1e+06 (Kp·h² <= 1 at h = 0.001 s), got 1e+07".
 std::optional<std::string> CheckGains(ControllerType type, const Gains& gains, const GainBounds& bounds);
+// The same for gains as a command carries them: kp and kd of one size (CommandRules::check_gains).
+std::optional<std::string> CheckGains(ControllerType type, std::span<const double> kp, std::span<const double> kd,
+                                      const GainBounds& bounds);
 // Sizes, finiteness and signs only, without the tick's bounds. Prefer the
 // overload above with the controller's gain_bounds().
 std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& gains);

@@ -60,8 +60,7 @@ namespace lagrange {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
-// The task's gains are per task axis, in this order (Gains::kp, kd of size 6).
-inline constexpr int kTaskDims = 6;  // x, y, z (m), rx, ry, rz (rad)
+// The task's gains are per task axis (kTaskDims, base/vocabulary.hpp: x, y, z, rx, ry, rz).
 
 // Damped least squares near singularities (above): ε and λ²max.
 struct SingularityDamping {

@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "base/escape.hpp"
 #include "daemon/timing_csv.hpp"
-#include "plant/escape.hpp"
 #include "protocol/status.hpp"
 #include "protocol/wire.hpp"
 

@@ -12,7 +12,7 @@
 // says what a status carries). It also logs mode changes, faults and refused
 // commands, at most once a second per kind of line.
 //
-// Every string that came from the bus is escaped (plant/escape.hpp) before
+// Every string that came from the bus is escaped (base/escape.hpp) before
 // it is logged or published.
 
 #include <lagrange/forces_t.hpp>

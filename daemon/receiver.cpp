@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/command_check.hpp"
 #include "protocol/setpoint_check.hpp"
 #include "protocol/wire.hpp"

@@ -15,7 +15,7 @@
 // <NAME>_FORCES, LAGRANGE_STATUS) and counts messages there from another run
 // id: a second daemon, or a spoofer.
 //
-// Every string that came from the bus is escaped (plant/escape.hpp) before
+// Every string that came from the bus is escaped (base/escape.hpp) before
 // it is logged or published.
 
 #include <lagrange/command_t.hpp>

@@ -3,23 +3,7 @@
 #include <cmath>
 #include <utility>
 
-#include "plant/enum_names.hpp"
-
 namespace lagrange {
-
-namespace {
-
-constexpr EnumName<Method> kMethodNames[] = {
-    {Method::kClosedForm, "closed-form"},
-    {Method::kLagrangian, "lagrangian"},
-    {Method::kRecursive, "recursive"},
-};
-
-}  // namespace
-
-std::string_view ToString(Method method) { return NameOf(kMethodNames, method); }
-std::optional<Method> ParseMethod(std::string_view name) { return ValueOf(kMethodNames, name); }
-std::string MethodNames() { return NamesInWords(kMethodNames); }
 
 DynamicsData::DynamicsData(const Dynamics& model)
     : model_(&model),

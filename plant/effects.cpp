@@ -8,33 +8,8 @@
 #include <string>
 #include <utility>
 
-#include "plant/enum_names.hpp"
-
 namespace lagrange {
 namespace {
-
-constexpr EnumName<EffectKind> kEffectKindNames[] = {
-    {EffectKind::kGravity, "gravity"},         {EffectKind::kCoriolis, "coriolis"},
-    {EffectKind::kDamping, "damping"},         {EffectKind::kFriction, "friction"},
-    {EffectKind::kLimits, "limits"},           {EffectKind::kSaturation, "saturation"},
-    {EffectKind::kDisturbance, "disturbance"},
-};
-static_assert(std::size(kEffectKindNames) == kNumEffectKinds);
-
-// The flag of `kind` in `flags`.
-template <class Flags>
-auto& FlagOf(Flags& flags, EffectKind kind) {
-  switch (kind) {
-    case EffectKind::kGravity: return flags.gravity;
-    case EffectKind::kCoriolis: return flags.coriolis;
-    case EffectKind::kDamping: return flags.damping;
-    case EffectKind::kFriction: return flags.friction;
-    case EffectKind::kLimits: return flags.limits;
-    case EffectKind::kSaturation: return flags.saturation;
-    case EffectKind::kDisturbance: return flags.disturbance;
-  }
-  return flags.gravity;  // unreachable for a valid kind
-}
 
 // Gravity and Coriolis need no parameters; the others are configured when given.
 bool IsConfigured(const EffectsConfig& c, EffectKind kind) {
@@ -108,8 +83,6 @@ double LimitSpring(const JointLimits& l, int i, double q) {
 
 }  // namespace
 
-std::string_view ToString(EffectKind kind) { return NameOf(kEffectKindNames, kind); }
-std::optional<EffectKind> ParseEffectKind(std::string_view name) { return ValueOf(kEffectKindNames, name); }
 const char* NotConfiguredReason(EffectKind kind) {
   switch (kind) {
     case EffectKind::kDamping:
@@ -131,10 +104,6 @@ const char* NotConfiguredReason(EffectKind kind) {
   }
   return "this effect is always available";
 }
-
-std::string EffectKindNames() { return JoinedNames(kEffectKindNames); }
-
-bool EffectFlags::on(EffectKind kind) const { return FlagOf(*this, kind); }
 
 std::optional<EffectsError> ValidateEffects(const EffectsConfig& c, int n) {
   if (c.damping) {

@@ -32,6 +32,7 @@
 #include <optional>
 #include <vector>
 
+#include "base/vocabulary.hpp"
 #include "plant/types.hpp"
 
 namespace lagrange {
@@ -54,14 +55,7 @@ struct Push {
   VectorXd tau;           // (n), N·m or N
 };
 
-// The effects by name, for run-time switching (Effects::SetEnabled) and the wire.
-enum class EffectKind : std::uint8_t { kGravity, kCoriolis, kDamping, kFriction, kLimits, kSaturation, kDisturbance };
-inline constexpr int kNumEffectKinds = 7;
-// "gravity", "coriolis", "damping", "friction", "limits", "saturation", "disturbance"
-std::string_view ToString(EffectKind kind);
-std::optional<EffectKind> ParseEffectKind(std::string_view name);
-// "gravity|coriolis|damping|friction|limits|saturation|disturbance"
-std::string EffectKindNames();
+// The effects by name (EffectKind) and which of them run (EffectFlags): base/vocabulary.hpp.
 // Why `kind` cannot be switched on: its parameters are not given (a static
 // string; the scene reader says it of effects.off, the effect command of "on").
 const char* NotConfiguredReason(EffectKind kind);
@@ -79,19 +73,6 @@ struct EffectsConfig {
   std::vector<EffectKind> off;
 
   DynamicsTerms terms() const { return {gravity, coriolis}; }
-};
-
-// Which stages of a scene run, resolved once from its EffectsConfig.
-struct EffectFlags {
-  bool gravity = false;      // G(q)
-  bool coriolis = false;     // C(q, qd) qd
-  bool damping = false;      // −b∘qd
-  bool friction = false;     // −Fc∘tanh(qd/v_s)
-  bool limits = false;       // tau_lim(q, qd)
-  bool disturbance = false;  // pushes configured (whether one acts depends on t)
-  bool saturation = false;   // sat(tau_cmd); off: tau_cmd passes as it is
-
-  bool on(EffectKind kind) const;
 };
 
 // A problem with one effect key: `message` reads "expected ..., got ...".

@@ -6,18 +6,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "plant/enum_names.hpp"
+#include "base/enum_names.hpp"
 
 namespace lagrange {
 namespace {
-
-constexpr EnumName<IntegratorType> kIntegratorNames[] = {
-    {IntegratorType::kExplicitEuler, "explicit-euler"},
-    {IntegratorType::kSemiImplicitEuler, "semi-implicit-euler"},
-    {IntegratorType::kRk4, "rk4"},
-    {IntegratorType::kDormandPrince, "dopri5"},
-    {IntegratorType::kVariational, "variational"},
-};
 
 // Explicit Euler: q⁺ = q + h qd, qd⁺ = qd + h qdd; semi-implicit (symplectic)
 // Euler takes the new velocity for the position: qd⁺ first, then q⁺ = q + h qd⁺.
@@ -273,26 +265,6 @@ bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef
   work_.evaluations += 4;
   work_.step = h;
   return true;
-}
-
-std::string_view ToString(IntegratorType type) { return NameOf(kIntegratorNames, type); }
-std::optional<IntegratorType> ParseIntegratorType(std::string_view name) { return ValueOf(kIntegratorNames, name); }
-std::string IntegratorTypeNames() { return JoinedNames(kIntegratorNames); }
-
-const char* CheckIntegratorConfig(const IntegratorConfig& c) {
-  // Bounds keep a tick's work finite: substeps and max_steps multiply the
-  // evaluations one call may make. NaN fails every comparison, so it is refused.
-  if (c.substeps < 1 || c.substeps > 1000) return "integrator.substeps: expected 1 to 1000";
-  if (!std::isfinite(c.rtol) || !(c.rtol > 0.0)) return "integrator.rtol: expected a finite number > 0";
-  if (!std::isfinite(c.atol) || !(c.atol > 0.0)) return "integrator.atol: expected a finite number > 0";
-  if (c.max_steps < 1 || c.max_steps > 10000000) return "integrator.max_steps: expected 1 to 10000000";
-  if (!std::isfinite(c.newton_tol) || !(c.newton_tol > 0.0)) {
-    return "integrator.newton_tol: expected a finite number > 0";
-  }
-  if (c.newton_max_iterations < 1 || c.newton_max_iterations > 1000) {
-    return "integrator.newton_max_iterations: expected 1 to 1000";
-  }
-  return nullptr;
 }
 
 const char* Integrator::Reconfigure(const IntegratorConfig& config) {

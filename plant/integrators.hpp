@@ -29,38 +29,12 @@
 #include <optional>
 #include <string_view>
 
+#include "base/vocabulary.hpp"
 #include "plant/plant_model.hpp"
 
 namespace lagrange {
 
-enum class IntegratorType : std::uint8_t {
-  kExplicitEuler,
-  kSemiImplicitEuler,
-  kRk4,
-  kDormandPrince,
-  kVariational,
-};
-
-std::string_view ToString(IntegratorType type);
-std::optional<IntegratorType> ParseIntegratorType(std::string_view name);
-// "explicit-euler|semi-implicit-euler|rk4|dopri5|variational"
-std::string IntegratorTypeNames();
-
-struct IntegratorConfig {
-  IntegratorType type = IntegratorType::kRk4;
-  int substeps = 1;           // equal sub-steps per call of Advance, >= 1
-  double rtol = 1e-8;         // Dormand–Prince relative tolerance
-  double atol = 1e-10;        // Dormand–Prince absolute tolerance
-  int max_steps = 100000;     // Dormand–Prince internal steps per Step call
-  double newton_tol = 1e-13;  // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞)
-  int newton_max_iterations = 30;
-};
-
-// Why a config cannot be used (a static string), or null: substeps 1..1000,
-// rtol and atol finite and > 0, max_steps 1..10000000, newton_tol finite and
-// > 0, newton_max_iterations 1..1000. The scene reader and the run-time
-// integrator command apply it alike.
-const char* CheckIntegratorConfig(const IntegratorConfig& config);
+// IntegratorType, its names, IntegratorConfig and CheckIntegratorConfig: base/vocabulary.hpp.
 
 // The variational integrator integrates the full Lagrangian: a scene or a
 // command that would run it with effects.coriolis off is refused with this.

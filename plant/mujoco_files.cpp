@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "plant/bounded_file.hpp"
+#include "base/bounded_file.hpp"
 
 namespace lagrange {
 namespace {

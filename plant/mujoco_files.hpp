@@ -1,6 +1,6 @@
 #pragma once
 // The files of a MuJoCo model, read as lagrange reads a URDF
-// (plant/bounded_file.hpp) before MuJoCo sees any of them: only regular
+// (base/bounded_file.hpp) before MuJoCo sees any of them: only regular
 // files, opened without blocking (a FIFO would wait for a writer forever),
 // each up to a bound. Part of lagrange_mujoco.
 //

@@ -21,7 +21,7 @@
 #include <utility>
 
 #include "plant/mujoco_files.hpp"
-#include "plant/number_text.hpp"
+#include "base/number_text.hpp"
 
 // MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
 // exported by 2.2.2 but not in its public headers; MuJoCo's tests raise it to

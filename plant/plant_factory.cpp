@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "plant/enum_names.hpp"
+#include "base/enum_names.hpp"
 #include "plant/lagrangian.hpp"
 #include "plant/mimic_dynamics.hpp"
 #include "plant/recursive_dynamics.hpp"

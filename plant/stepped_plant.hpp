@@ -60,16 +60,6 @@ class SteppedPlantModel {
   virtual std::unique_ptr<SteppedPlantData> MakeData() const = 0;
 };
 
-// The integrators of a MuJoCo plant, as MuJoCo 2.2.2 has them (mjtIntegrator).
-enum class MujocoIntegrator : std::uint8_t {
-  kEuler,     // mjINT_EULER: semi-implicit Euler (velocity first, then position with the new velocity)
-  kRk4,       // mjINT_RK4: the classic 4th-order Runge–Kutta, the force held over the step
-  kImplicit,  // mjINT_IMPLICIT: implicit in velocity (damping and the velocity derivatives of passive forces)
-};
-// "euler", "semi-implicit-euler" (lagrange's name for the same method), "rk4", "implicit".
-std::optional<MujocoIntegrator> ParseMujocoIntegrator(std::string_view name);
-std::string_view ToString(MujocoIntegrator integrator);
-// "euler (= semi-implicit-euler), rk4, implicit"
-inline constexpr char kMujocoIntegratorNames[] = "euler (= semi-implicit-euler), rk4, implicit";
+// MujocoIntegrator, its names: base/vocabulary.hpp.
 
 }  // namespace lagrange

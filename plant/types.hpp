@@ -17,6 +17,8 @@
 #include <string>
 #include <string_view>
 
+#include "base/vocabulary.hpp"  // kMaxDofs, kMaxContacts, Method and its names
+
 namespace lagrange {
 
 using Eigen::MatrixXd;
@@ -29,22 +31,8 @@ using ConstVecRef = const Eigen::Ref<const VectorXd>&;
 using MatRef = Eigen::Ref<MatrixXd>;
 
 inline constexpr double kStandardGravity = 9.81;  // m/s², along −y
-inline constexpr int kMaxDofs = 256;              // tested up to 64
-inline constexpr int kMaxContacts = 32;           // contacts a forces record lists (forces_t.contacts)
 
 enum class JointType : std::uint8_t { kRevolute, kPrismatic };
-
-// How the dynamics terms are derived.
-enum class Method : std::uint8_t {
-  kClosedForm,  // hand-derived M, C, G (pendulum, arm2, cartpole)
-  kLagrangian,  // automatic differentiation of the energies T(q, qd), V(q)
-  kRecursive,   // O(n) spatial recursions: RNEA, ABA, CRBA
-};
-
-std::string_view ToString(Method method);
-std::optional<Method> ParseMethod(std::string_view name);
-// "closed-form, lagrangian or recursive", for messages.
-std::string MethodNames();
 
 // The dynamics terms a scene evaluates. A term that is off is never computed.
 struct DynamicsTerms {

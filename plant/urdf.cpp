@@ -20,8 +20,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "plant/bounded_file.hpp"
-#include "plant/escape.hpp"
+#include "base/bounded_file.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange {
 namespace {
@@ -38,7 +38,7 @@ constexpr double kMinAxisNorm = 1e-12;  // below this an <axis> has no direction
 // fraction of its subtree's inertia about the joint origin.
 constexpr double kMotionInertiaTolerance = 1e-12;
 
-// Text from the file, made safe for a one-line message (plant/escape.hpp):
+// Text from the file, made safe for a one-line message (base/escape.hpp):
 // callers print the message as it is.
 std::string Printable(std::string_view text, std::size_t max_bytes = kMaxNameChars) { return Escape(text, max_bytes); }
 

@@ -93,7 +93,7 @@
 //   "arm.urdf: joint 'j3': type 'floating' is not supported (a fixed-base tree: revolute, continuous, prismatic,
 //   fixed)" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)"
 //   "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint 'j7' moves nothing)"
-// Names and values from the file are quoted escaped as plant/escape.hpp does
+// Names and values from the file are quoted escaped as base/escape.hpp does
 // (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
 // name: the message is one line, safe to print as it is; do not escape it again.
 

@@ -1,6 +1,6 @@
 #include "protocol/channels.hpp"
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 #include <cctype>
 #include <cstdlib>

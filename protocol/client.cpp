@@ -4,7 +4,7 @@
 #include <cctype>
 #include <cmath>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/format.hpp"

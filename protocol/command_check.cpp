@@ -2,8 +2,7 @@
 
 #include <algorithm>
 
-#include "controllers/factory.hpp"
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -50,16 +49,18 @@ CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRul
     v.controller = out.controller.empty() ? active : FindController(rules, out.controller);
     if (v.controller < 0) return Reject(Unknown(rules, out.controller));
     const auto c = static_cast<std::size_t>(v.controller);
-    // One gain per joint, or per task axis (6) for a task-space controller: its bounds' size.
-    const GainBounds& bounds = rules.gain_bounds[c];
-    const int count = bounds.num_dofs();
+    // One gain per joint, or per task axis (6) for a task-space controller.
+    const int count = rules.gain_counts[c];
     if (out.num_gains != count) {
       return Reject("gains: num_gains is " + std::to_string(out.num_gains) + ", expected " + std::to_string(count) +
-                    (bounds.task_axes ? " (one per task axis: x, y, z, rx, ry, rz)" : ""));
+                    (rules.gains_per_task_axis[c] ? " (one per task axis: x, y, z, rx, ry, rz)" : ""));
     }
-    const Gains g{Eigen::Map<const VectorXd>(out.kp.data(), count), Eigen::Map<const VectorXd>(out.kd.data(), count)};
-    if (auto err = CheckGains(rules.controller_types[c], g, bounds)) {
-      return Reject("gains for " + rules.controllers[c] + ": " + *err);
+    const auto n = static_cast<std::size_t>(count);
+    if (rules.check_gains) {
+      if (auto err = rules.check_gains(c, std::span<const double>(out.kp.data(), n),
+                                       std::span<const double>(out.kd.data(), n))) {
+        return Reject("gains for " + rules.controllers[c] + ": " + *err);
+      }
     }
   }
   v.on = out.on;

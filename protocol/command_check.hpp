@@ -2,18 +2,21 @@
 // A command packet from the wire to a verdict, without LCM or threads: the
 // raw layout check (wire.hpp), decoding, then what does not change while the
 // daemon runs (the command code, controller names, gain sizes and each
-// controller's gain bounds, Controller::gain_bounds()).
-// What depends on the instance's mode is the tick's to decide.
+// controller's gain bounds). The bounds are the instance model's
+// (Controller::gain_bounds()): the simulator, which builds that model, gives
+// the check of them (CommandRules::check_gains), so the protocol needs no
+// dynamics. What depends on the instance's mode is the tick's to decide.
 
 #include <lagrange/command_t.hpp>
 
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
-#include "controllers/factory.hpp"
-#include "plant/effects.hpp"
-#include "plant/integrators.hpp"
-#include "plant/types.hpp"
+#include "base/vocabulary.hpp"
 #include "protocol/command_kind.hpp"
 
 namespace lagrange {
@@ -22,9 +25,16 @@ struct CommandRules {
   std::string instance;                  // for messages
   int n = 0;                             // the instance's num_dofs
   std::vector<std::string> controllers;  // names, by index
-  std::vector<ControllerType> controller_types;
-  std::vector<GainBounds> gain_bounds;  // what each controller can use at the scene's period
-  IntegratorConfig integrator;          // the scene's: set-integrator keeps its Newton settings
+  // How many gains each controller takes: one per joint, or kTaskDims with
+  // gains_per_task_axis (a task-space controller's: x, y, z, rx, ry, rz).
+  std::vector<int> gain_counts;
+  std::vector<bool> gains_per_task_axis;
+  // Why gains of the right count cannot be used by controller `c` (kp and kd,
+  // gain_counts[c] each) at the scene's period: "kp[1]: expected ...", or
+  // nullopt. Empty: any count-sized gains are taken.
+  std::function<std::optional<std::string>(std::size_t c, std::span<const double> kp, std::span<const double> kd)>
+      check_gains;
+  IntegratorConfig integrator;  // the scene's: set-integrator keeps its Newton settings
 };
 
 struct CommandVerdict {

@@ -3,10 +3,8 @@
 #include <iterator>
 #include <optional>
 
-#include "plant/effects.hpp"
-#include "plant/escape.hpp"
-#include "plant/integrators.hpp"
-#include "plant/types.hpp"
+#include "base/escape.hpp"
+#include "base/vocabulary.hpp"
 
 namespace lagrange {
 namespace {

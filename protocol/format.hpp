@@ -1,12 +1,12 @@
 #pragma once
-// Numbers as lagrange's text shows them (FormatDouble: plant/number_text.hpp,
+// Numbers as lagrange's text shows them (FormatDouble: base/number_text.hpp,
 // the one formatter, included here for the protocol's callers); and how far
 // apart two words are, for "did you mean" hints.
 
 #include <cstddef>
 #include <string>
 
-#include "plant/number_text.hpp"
+#include "base/number_text.hpp"
 
 namespace lagrange {
 

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-#include "plant/bounded_file.hpp"
+#include "base/bounded_file.hpp"
 #include "protocol/big_endian.hpp"
 
 namespace lagrange {

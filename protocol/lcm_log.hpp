@@ -1,7 +1,7 @@
 #pragma once
 // Reading lcm-logger files (LCM's event log), event by event, as warily as
 // the bus: only a regular file is opened (a FIFO would block, a device never
-// end: plant/bounded_file.hpp), every length is checked before anything is
+// end: base/bounded_file.hpp), every length is checked before anything is
 // read or allocated, a payload larger than the reader's bound is passed over
 // unread, and a log cut short (a logger stopped or still writing) ends at its
 // last whole event, the reader saying where (EndReason).

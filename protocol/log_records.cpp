@@ -16,7 +16,7 @@
 #include <optional>
 #include <regex>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/big_endian.hpp"
 #include "protocol/format.hpp"
 #include "protocol/lcm_log.hpp"

@@ -29,7 +29,7 @@ enum class LogFieldKind : std::uint8_t {
   kInt,   // an integer: µs stamps, ticks, counters, num_dofs, mode, flags (0 or 1)
   kId,    // a run or request id (protocol/ids.hpp); CSV: 16 hex digits (RunIdText)
   kReal,  // a double; CSV: the shortest text that reads back to it (FormatDouble)
-  kText,  // text, already escaped (plant/escape.hpp: it cannot break a line or reach a terminal)
+  kText,  // text, already escaped (base/escape.hpp: it cannot break a line or reach a terminal)
 };
 
 // One field of a message type: one value, or `width` values of an array.

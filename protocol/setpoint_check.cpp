@@ -5,7 +5,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {

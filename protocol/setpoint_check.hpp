@@ -13,9 +13,9 @@
 #include <string>
 #include <string_view>
 
-#include "plant/types.hpp"
-
 namespace lagrange {
+
+using Eigen::VectorXd;  // as plant/types.hpp has it
 
 struct SetpointRules {
   int n = 0;              // the instance's num_dofs

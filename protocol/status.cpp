@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/wire.hpp"
 

@@ -6,7 +6,7 @@
 // without trusting its counts.
 //
 // Every string a reader returns came from the bus and is escaped
-// (plant/escape.hpp) for printing.
+// (base/escape.hpp) for printing.
 
 #include <lagrange/status_t.hpp>
 
@@ -18,9 +18,7 @@
 #include <string_view>
 #include <vector>
 
-#include "plant/effects.hpp"
-#include "plant/integrators.hpp"
-#include "plant/stepped_plant.hpp"
+#include "base/vocabulary.hpp"
 
 namespace lagrange {
 

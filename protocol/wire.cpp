@@ -11,7 +11,7 @@
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
-#include "plant/types.hpp"
+#include "base/vocabulary.hpp"
 #include "protocol/big_endian.hpp"
 
 namespace lagrange {

@@ -24,11 +24,12 @@
 #include <regex>
 #include <thread>
 
+#include "base/escape.hpp"
 #include "controllers/factory.hpp"
-#include "plant/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/clock.hpp"
+#include "protocol/command_session.hpp"
 #include "protocol/command_words.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/lcm_log.hpp"
@@ -42,8 +43,6 @@
 namespace lagrange::python {
 namespace {
 
-// As lagrangectl command prints a refusal's reason: whole.
-constexpr std::size_t kMaxReasonShown = 2048;
 // The most states Client.states keeps that the caller has not taken yet; beyond, the oldest are dropped and counted.
 constexpr std::size_t kMaxQueuedStates = 100000;
 
@@ -294,14 +293,10 @@ class Client {
     const bool gains = c.command == command_t::SET_GAINS;
     if (gains && (kp.is_none() || kd.is_none())) throw py::value_error("gains: needs both kp and kd");
     if (!gains && (!kp.is_none() || !kd.is_none())) throw py::value_error("kp, kd: only for gains");
-    std::string words_text;
-    for (const std::string& w : words) words_text += (words_text.empty() ? "" : " ") + Escape(w);
     if (c.command == command_t::ESTOP) return Estop(name, c);
     if (gains) {
-      // One gain per joint, or per task axis (x, y, z, rx, ry, rz) under a task-space controller; one value for all.
-      const state_t s = LatestState(name);
-      const std::optional<ControllerType> active = ParseControllerType(s.controller);
-      const int n = active && IsTaskSpace(*active) ? kTaskDims : s.num_dofs;
+      // One gain per joint, or per task axis under a task-space controller (GainCount); one value for all.
+      const int n = GainCount(LatestState(name));
       for (const auto& [gain, what, out] : {std::tuple{&kp, "kp", &c.kp}, {&kd, "kd", &c.kd}}) {
         const VectorXd v = JointVector(*gain, n, what, true);
         for (int i = 0; i < n; ++i) {
@@ -316,9 +311,7 @@ class Client {
       Link& link = LinkFor(name, options_.wait);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);
-      const reply_t reply = link.link->Command(c);
-      if (!reply.accepted) return {false, "refused: " + Escape(reply.reason, kMaxReasonShown), reply.run_id};
-      return {true, name + ": " + words_text + " done; now " + link.link->ModeAfterReply(reply.run_id), reply.run_id};
+      return Of(lagrange::RunCommand(*link.link, name, CommandWordsText(words), c));
     } catch (...) {
       Rethrow();
     }
@@ -425,33 +418,14 @@ class Client {
     try {
       // Every run publishing the state (not only the one this client follows): a link of its own.
       DaemonLink link(options_, name);
-      link.AwaitRuns();
-      const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(c);
-      std::size_t applied = 0;
-      std::string lines;
-      for (const auto& [run, reply] : verdicts) {
-        std::string line = verdicts.size() == 1 ? "" : name + ": run " + RunIdText(run) + ": estop ";
-        if (!reply) {
-          if (verdicts.size() == 1) {
-            throw std::runtime_error("no verdict from lagranged (run " + RunIdText(run) + ") within " +
-                                     FormatDouble(options_.wait) + " s");
-          }
-          line += "no verdict within " + FormatDouble(options_.wait) + " s";
-        } else if (!reply->accepted) {
-          line += "refused: " + Escape(reply->reason, kMaxReasonShown);
-        } else if (const std::string left = link.EstopDidNotStay(run); !left.empty()) {
-          line += (verdicts.size() == 1 ? "estop applied, but " : "applied, but ") + left;
-        } else {
-          ++applied;
-          line += (verdicts.size() == 1 ? name + ": estop done; now " : "done; now ") + link.ModeAfterReply(run);
-        }
-        lines += (lines.empty() ? "" : "\n") + line;
-      }
-      return {applied == verdicts.size(), lines, verdicts.size() == 1 ? verdicts.begin()->first : 0};
+      return Of(RunEstop(link, name, c));
     } catch (...) {
       Rethrow();
     }
   }
+
+  // A command's report as Python's Verdict: its whole text, as lagrangectl command shows it.
+  static Verdict Of(const CommandReport& report) { return {report.accepted, report.Text(), report.run_id}; }
 
   // Between calls, a thread of the client's own handles what arrives on
   // every link, so that the latest state is the latest sent however long

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "base/escape.hpp"
 #include "plant/dynamics.hpp"
-#include "plant/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
 #include "protocol/format.hpp"

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"

@@ -16,7 +16,7 @@
 #include <map>
 #include <optional>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "python/bindings.hpp"
 #include "python/bus_arrays.hpp"
 #include "python/paths.hpp"

@@ -1,6 +1,7 @@
 #include "sim/instance_model.hpp"
 
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <utility>
 #include <variant>
@@ -101,11 +102,20 @@ CommandRules CommandRulesOf(const InstanceModel& m) {
   CommandRules rules;
   rules.instance = m.name();
   rules.n = m.num_dofs;
+  std::vector<ControllerType> types;
+  std::vector<GainBounds> bounds;  // what each controller can use at the scene's period
   for (const ControllerModel& c : m.controllers) {
     rules.controllers.push_back(c.name);
-    rules.controller_types.push_back(c.config.type);
-    rules.gain_bounds.push_back(c.gain_bounds);
+    rules.gain_counts.push_back(c.gain_bounds.num_dofs());
+    rules.gains_per_task_axis.push_back(c.gain_bounds.task_axes);
+    types.push_back(c.config.type);
+    bounds.push_back(c.gain_bounds);
   }
+  // The bounds are the instance's, checked here where its controllers are (CheckGains).
+  rules.check_gains = [types = std::move(types), bounds = std::move(bounds)](std::size_t c, std::span<const double> kp,
+                                                                             std::span<const double> kd) {
+    return CheckGains(types[c], kp, kd, bounds[c]);
+  };
   rules.integrator = m.config.integrator;
   return rules;
 }

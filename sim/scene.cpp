@@ -5,8 +5,8 @@
 #include <limits>
 #include <set>
 
-#include "plant/escape.hpp"
-#include "plant/number_text.hpp"
+#include "base/escape.hpp"
+#include "base/number_text.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/signing.hpp"
 #include "sim/scene_control.hpp"

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "plant/escape.hpp"
-#include "plant/number_text.hpp"
+#include "base/escape.hpp"
+#include "base/number_text.hpp"
 
 namespace lagrange {
 

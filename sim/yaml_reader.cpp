@@ -1,6 +1,6 @@
 #include "sim/yaml_reader.hpp"
 
-#include "plant/bounded_file.hpp"
+#include "base/bounded_file.hpp"
 
 #include <cmath>
 #include <fstream>

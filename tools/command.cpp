@@ -8,30 +8,22 @@
 
 #include <lagrange/command_t.hpp>
 
-#include <map>
 #include <optional>
 
-#include "controllers/factory.hpp"
+#include "base/escape.hpp"
 #include "plant/effects.hpp"
-#include "plant/escape.hpp"
 #include "plant/integrators.hpp"
 #include "plant/types.hpp"
-#include "protocol/channels.hpp"
 #include "protocol/client.hpp"
+#include "protocol/command_session.hpp"
 #include "protocol/command_words.hpp"
 #include "protocol/format.hpp"
-#include "protocol/ids.hpp"
-#include "protocol/mode.hpp"
 #include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
 namespace lagrange::cli {
 namespace {
-
-// A refusal's reason is printed whole (a reply_t's reason passes the wire
-// check at up to 4 KiB); Escape's default would cut a gain refusal's bounds.
-constexpr std::size_t kMaxReasonShown = 2048;
 
 class CommandCommand final : public Command {
  public:
@@ -72,80 +64,27 @@ class CommandCommand final : public Command {
     DaemonLink link(bus_, instance_);
     // An emergency stop is never withheld: it goes to every run publishing
     // the instance's state, and each run's verdict is reported.
-    if (c.command == command_t::ESTOP) return Estop(link, c, out);
-    const std::int64_t run = link.AwaitOneRun();
+    if (c.command == command_t::ESTOP) return Report(RunEstop(link, instance_, c), out);
+    link.AwaitOneRun();
     if (c.command == command_t::SET_GAINS) {
-      // One gain per joint, or per task axis (x, y, z, rx, ry, rz) for the active task-space controller.
-      const std::optional<ControllerType> active = ParseControllerType(link.state().controller);
-      const bool task = active && IsTaskSpace(*active);
-      const int n = task ? kTaskDims : link.state().num_dofs;
+      const bool task = GainsPerTaskAxis(link.state());
+      const int n = GainCount(link.state());
       const VectorXd kp = JointValues("--kp", kp_, n, true, task);
       const VectorXd kd = JointValues("--kd", kd_, n, true, task);
       c.num_gains = n;
       c.kp.assign(kp.data(), kp.data() + n);
       c.kd.assign(kd.data(), kd.data() + n);
     }
-    const reply_t reply = link.Command(c);  // sent once: a repeat could apply twice
-    if (!reply.accepted) throw std::runtime_error("refused: " + Escape(reply.reason, kMaxReasonShown));
-    out << instance_ << ": " << Words() << " done; now " << StateAfterReply(link, run) << "\n";
-    return 0;
+    return Report(RunCommand(link, instance_, CommandWordsText(action_), c), out);
   }
 
  private:
-  // One line per run publishing the instance's state (or the usual one line
-  // when there is one run); throws, after printing them, unless every run
-  // applied the estop (DaemonLink::Estop resends it until every run answered)
-  // and kept it while its states were watched (DaemonLink::EstopDidNotStay).
-  int Estop(DaemonLink& link, command_t& c, std::ostream& out) const {
-    link.AwaitRuns();
-    const std::map<std::int64_t, std::optional<reply_t>> verdicts = link.Estop(c);
-    const auto reply_of = [&](std::int64_t run) -> const std::optional<reply_t>& { return verdicts.at(run); };
-    std::vector<std::int64_t> runs;
-    for (const auto& [run, reply] : verdicts) runs.push_back(run);
-    if (runs.size() == 1) {  // the one run's verdict, worded as every other command's
-      const std::optional<reply_t>& reply = reply_of(runs[0]);
-      if (!reply) {
-        throw std::runtime_error("no verdict from lagranged (run " + RunIdText(runs[0]) + ") within " +
-                                 FormatDouble(bus_.wait) + " s");
-      }
-      if (!reply->accepted) throw std::runtime_error("refused: " + Escape(reply->reason, kMaxReasonShown));
-      if (const std::string left = link.EstopDidNotStay(runs[0]); !left.empty()) {
-        throw std::runtime_error("estop applied, but " + left);
-      }
-      out << instance_ << ": estop done; now " << StateAfterReply(link, runs[0]) << "\n";
-      return 0;
-    }
-    std::size_t applied = 0;
-    std::string ids;
-    for (const std::int64_t run : runs) {
-      const std::optional<reply_t>& reply = reply_of(run);
-      const std::string id = RunIdText(run);
-      ids += (ids.empty() ? "" : ", ") + id;
-      out << instance_ << ": run " << id << ": estop ";
-      if (!reply) {
-        out << "no verdict within " << FormatDouble(bus_.wait) << " s\n";
-      } else if (!reply->accepted) {
-        out << "refused: " << Escape(reply->reason, kMaxReasonShown) << "\n";
-      } else if (const std::string left = link.EstopDidNotStay(run); !left.empty()) {
-        out << "applied, but " << left << "\n";
-      } else {
-        ++applied;
-        out << "done; now " << StateAfterReply(link, run) << "\n";
-      }
-    }
+  // The report's lines, then (a command not done) its failure as the error.
+  static int Report(const CommandReport& report, std::ostream& out) {
+    for (const std::string& line : report.lines) out << line << "\n";
     out.flush();
-    if (applied == runs.size()) return 0;
-    throw std::runtime_error("estop applied by " + std::to_string(applied) + " of the " +
-                             std::to_string(runs.size()) + " runs publishing " +
-                             bus_.Channel(instance_, kStateSuffix) + " (ids " + ids + ")");
-  }
-
-  static std::string StateAfterReply(DaemonLink& link, std::int64_t run) { return link.ModeAfterReply(run); }
-
-  std::string Words() const {
-    std::string words;
-    for (const std::string& w : action_) words += (words.empty() ? "" : " ") + Escape(w);
-    return words;
+    if (!report.accepted) throw std::runtime_error(report.failure);
+    return 0;
   }
 
   // The command from the arguments, before anything goes on the bus (gains

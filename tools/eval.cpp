@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"

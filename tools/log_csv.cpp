@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/log_records.hpp"

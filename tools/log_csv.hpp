@@ -20,7 +20,7 @@ inline constexpr const char* kKineticEnergyColumn = "kinetic_energy";      // T,
 inline constexpr const char* kPotentialEnergyColumn = "potential_energy";  // V, J
 
 // Foreign text (from the bus, from a URDF) as one CSV field: escaped
-// (plant/escape.hpp: it cannot break a line or reach a terminal), quoted,
+// (base/escape.hpp: it cannot break a line or reach a terminal), quoted,
 // quotes doubled.
 std::string CsvText(const std::string& text);
 

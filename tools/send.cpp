@@ -13,9 +13,9 @@
 #include <memory>
 #include <thread>
 
+#include "base/escape.hpp"
 #include "controllers/factory.hpp"
 #include "controllers/trajectory.hpp"
-#include "plant/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/clock.hpp"

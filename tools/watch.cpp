@@ -18,7 +18,7 @@
 #include <sstream>
 #include <variant>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/client.hpp"
 #include "protocol/format.hpp"

@@ -196,6 +196,8 @@ class Verdict:
     """lagranged's reply to one command; or send_torque's outcome (sent, or refused unsent)."""
     accepted: bool
     message: str             # as lagrangectl command prints it: "arm: pause done; now paused with pd" / "refused: ..."
+                             # (an estop to several runs: a line per run, then "estop applied by K of the N runs ..."
+                             # unless every run applied it)
     run_id: int
     def __bool__(self) -> bool: ...
 

@@ -1,7 +1,7 @@
-// FormatDouble (plant/number_text.hpp): lagrange's one text of a double, the
+// FormatDouble (base/number_text.hpp): lagrange's one text of a double, the
 // shortest that reads back to exactly the same bits.
 
-#include "plant/number_text.hpp"
+#include "base/number_text.hpp"
 
 #include <gtest/gtest.h>
 

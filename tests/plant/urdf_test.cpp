@@ -425,7 +425,7 @@ TEST(UrdfRefusals, NamesAreEscapedSoTheMessageStaysOneLine) {
     ADD_FAILURE() << "accepted";
   } catch (const UrdfError& e) {
     ExpectOneLineNamingFile(e.what(), "escape.urdf");
-    // As plant/escape.hpp writes them, so callers print the message as it is.
+    // As base/escape.hpp writes them, so callers print the message as it is.
     EXPECT_NE(std::string(e.what()).find("joint 'bad\\nname\\\\\\x1b[31m'"), std::string::npos) << e.what();
   }
 }

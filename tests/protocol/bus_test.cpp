@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/bus.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/lcm_testing.hpp"

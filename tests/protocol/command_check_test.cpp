@@ -8,6 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "tests/support/lcm_messages.hpp"
@@ -22,8 +25,8 @@ CommandRules ArmRules() {
   rules.instance = "arm";
   rules.n = 2;
   rules.controllers = {"pd", "computed-torque"};
-  rules.controller_types = {ControllerType::kPd, ControllerType::kComputedTorque};
-  rules.gain_bounds = {GainBounds::Unbounded(2), GainBounds::Unbounded(2)};
+  rules.gain_counts = {2, 2};
+  rules.gains_per_task_axis = {false, false};
   rules.integrator.max_steps = 200;  // the scene's
   return rules;
 }
@@ -60,6 +63,35 @@ TEST(CommandCheck, GainsWithoutANameAreForTheActiveControllerAndMustBeOnePerJoin
   v = Check(testing::MakeCommand(command_t::SET_GAINS, 1, 1, "pd", {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0}));
   EXPECT_EQ(v.kind, Kind::kRejected);
   EXPECT_EQ(v.reason, "gains: num_gains is 3, expected 2");
+}
+
+// The bounds are the instance model's: the rules' check_gains (the simulator's CheckGains) decides, once the count
+// is right, on the gains the command carried, and its reason is the refusal's, naming the controller.
+TEST(CommandCheck, GainsOfTheRightCountGoToTheRulesBoundsCheck) {
+  CommandRules rules = ArmRules();
+  std::vector<std::size_t> asked;
+  rules.check_gains = [&](std::size_t c, std::span<const double> kp,
+                          std::span<const double> kd) -> std::optional<std::string> {
+    asked.push_back(c);
+    if (kp.size() != 2 || kd.size() != 2) return "wrong sizes";
+    if (kp[1] > 100.0) return "kp[1]: expected |gain| <= 100, got " + std::to_string(static_cast<int>(kp[1]));
+    return std::nullopt;
+  };
+  const auto check = [&](const command_t& c) {
+    const std::vector<std::uint8_t> bytes = testing::Encode(c);
+    command_t out;
+    return CheckCommand(bytes.data(), bytes.size(), rules, 0, out);
+  };
+  CommandVerdict v =
+      check(testing::MakeCommand(command_t::SET_GAINS, 1, 1, "computed-torque", {1.0, 200.0}, {1.0, 2.0}));
+  EXPECT_EQ(v.kind, Kind::kRejected);
+  EXPECT_EQ(v.reason, "gains for computed-torque: kp[1]: expected |gain| <= 100, got 200");
+  v = check(testing::MakeCommand(command_t::SET_GAINS, 1, 1, "pd", {1.0, 50.0}, {1.0, 2.0}));
+  EXPECT_EQ(v.kind, Kind::kAccepted) << v.reason;
+  // A wrong count is refused before the bounds are asked.
+  v = check(testing::MakeCommand(command_t::SET_GAINS, 1, 1, "pd", {1.0}, {1.0}));
+  EXPECT_EQ(v.reason, "gains: num_gains is 1, expected 2");
+  EXPECT_EQ(asked, (std::vector<std::size_t>{1, 0}));
 }
 
 TEST(CommandCheck, AnUnknownCommandCodeIsRejected) {

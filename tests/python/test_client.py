@@ -188,6 +188,10 @@ def test_two_runs_on_one_channel_refuse_to_act_but_both_take_the_estop():
         assert r.accepted, r.message
         lines = r.message.splitlines()
         assert len(lines) == 2 and all(": estop done; now estop" in line for line in lines)
+        # lagrangectl reports the same estop in the same words (one command session, protocol/command_session.hpp).
+        cli = lagrangectl("command", "arm", "estop", "--wait", "5", port=TWO_RUNS_PORT)
+        assert cli.returncode == 0, cli.stderr
+        assert cli.stdout.splitlines() == lines
 
 
 def test_a_signed_daemon_is_heard_only_with_its_key(tmp_path):

@@ -1,6 +1,7 @@
 // The folders are the architecture (STYLE.md, "The shape we want"), read from
-// the source tree's #include lines and CMakeLists.txt files: plant ←
-// controllers ← protocol ← sim, and sim/ below daemon/, tools/ and python/;
+// the source tree's #include lines and CMakeLists.txt files: base ← plant ←
+// controllers ← sim and base ← protocol ← sim (the protocol needs the wire's
+// vocabulary, base/, and no dynamics), and sim/ below daemon/, tools/ and python/;
 // tools/, python/ and the test support include no daemon/ header and link no
 // daemon target; inside sim/ and daemon/ dependencies run one way. So an
 // include back up fails here (in milliseconds), not in review.
@@ -185,8 +186,26 @@ TEST(Layering, ThePlantAndTheControllersIncludeNothingAboveThem) {
   EXPECT_EQ(IncludesOf({"controllers"}, {"protocol/", "sim/", "daemon/", "tools/", "python/", "tests/"}), "");
 }
 
+TEST(Layering, TheBaseIncludesNothingButItself) {
+  EXPECT_EQ(IncludesOf({"base"}, {"plant/", "controllers/", "protocol/", "sim/", "daemon/", "tools/", "python/",
+                                  "tests/"}),
+            "");
+}
+
 TEST(Layering, TheProtocolIncludesNothingAboveIt) {
   EXPECT_EQ(IncludesOf({"protocol"}, {"sim/", "daemon/", "tools/", "python/", "tests/"}), "");
+}
+
+// A bus client (lagrangectl's live commands, the Python client, the view) needs the wire, not the dynamics: the
+// protocol speaks the wire's vocabulary (base/) and includes and links nothing of plant/ or controllers/.
+TEST(Layering, TheProtocolNeedsNoDynamics) {
+  EXPECT_EQ(IncludesOf({"protocol"}, {"plant/", "controllers/"}), "");
+  for (const char* target : {"lagrange_plant", "lagrange_urdf", "lagrange_mujoco", "lagrange_controllers"}) {
+    EXPECT_EQ(LinesNaming({"protocol/CMakeLists.txt"}, target), "") << target;
+  }
+  // The scans read the files (a scan that read nothing would pass anything).
+  EXPECT_NE(LinesNaming({"protocol/CMakeLists.txt"}, "lagrange_base"), "");
+  EXPECT_NE(IncludesOf({"protocol"}, {"base/"}), "");
 }
 
 TEST(Layering, NoTwoUnitsOfTheSimulatorOrTheDaemonDependOnEachOther) {

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <iterator>
 
+#include "base/escape.hpp"
 #include "controllers/factory.hpp"
-#include "plant/escape.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
 

@@ -8,7 +8,7 @@
 // controller does not follow it (its target is a frame's pose), nor does
 // the external controller while it applies streamed torques (running): there
 // q_des is only where the instance would be held, and no ghost is drawn for it.
-// Every string from the bus is escaped (plant/escape.hpp); the page puts text
+// Every string from the bus is escaped (base/escape.hpp); the page puts text
 // in the document only as text.
 
 #include <lagrange/state_t.hpp>

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"

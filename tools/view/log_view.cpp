@@ -8,7 +8,7 @@
 #include <optional>
 #include <set>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
 #include "protocol/wire.hpp"

@@ -9,7 +9,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange::cli::view {
 namespace {

@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 #include "plant/urdf.hpp"
 #include "protocol/channels.hpp"
 #include "sim/default_scene.hpp"

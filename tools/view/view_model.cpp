@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange::cli::view {
 namespace {

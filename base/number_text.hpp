@@ -1,7 +1,7 @@
 #pragma once
 // Numbers as lagrange's text shows them (messages, CSV, the MJCF it writes for
 // MuJoCo): the shortest text that reads back to the same double. One formatter
-// for every layer: it lives in lagrange_plant, the bottom layer, because the
+// for every layer: it lives in lagrange_base, the bottom layer, because the
 // MuJoCo plant (plant/mujoco_plant.cpp) writes numbers too; it is pure string
 // work, no I/O.
 

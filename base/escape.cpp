@@ -1,4 +1,4 @@
-#include "plant/escape.hpp"
+#include "base/escape.hpp"
 
 namespace lagrange {
 

@@ -4,9 +4,9 @@
 // messages and terminals only through Escape: a newline cannot forge a log
 // line and an ANSI/OSC sequence cannot reach a terminal.
 //
-// It lives in lagrange_plant, the bottom layer, because both the URDF reader
-// (plant/urdf.cpp) and the protocol quote foreign text; it is pure string
-// work, no I/O.
+// It lives in lagrange_base, the bottom layer, because the URDF reader
+// (plant/urdf.cpp), the protocol and every front-end quote foreign text; it
+// is pure string work, no I/O.
 
 #include <string>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "plant/bounded_file.hpp"
+#include "base/bounded_file.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

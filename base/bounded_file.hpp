@@ -3,8 +3,8 @@
 // lcm-logger file. Only a regular file is read, opened without blocking (a
 // FIFO would wait for a writer forever, a device never end), and a whole file
 // only up to a bound (/dev/zero, or a file grown by mistake, would read until
-// memory runs out). Part of lagrange_urdf, the part of plant/ that reads
-// files; the daemon's scene reader and protocol/'s log reader use it too.
+// memory runs out). Part of lagrange_base, the bottom layer: the URDF reader,
+// the scene reader and protocol/'s log reader all read through it.
 
 #include <cstddef>
 #include <stdexcept>

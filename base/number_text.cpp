@@ -1,4 +1,4 @@
-#include "plant/number_text.hpp"
+#include "base/number_text.hpp"
 
 #include <charconv>
 
