@@ -82,6 +82,7 @@
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/receive.hpp"
 #include "sim/instance.hpp"
 #include "sim/scene.hpp"
 #include "sim/scene_channels.hpp"
@@ -555,14 +556,15 @@ class LogReading {
   void Read(const LcmLogEvent& e) {
     ++log_.events;
     if (e.channel == ch_[arm_].state) {
-      if (DecodeChecked(CheckStatePacket, e, state_) && state_.run_id == run_id_) OnState();
+      if (ReceiveInto(state_, e.data, e.size, Framing::kRecorded) == Drop::kNone && state_.run_id == run_id_) OnState();
     } else if (e.channel == ch_[arm_].setpoint) {
-      if (DecodeChecked(CheckSetpointPacket, e, setpoint_)) OnSetpoint();
+      if (ReceiveInto(setpoint_, e.data, e.size, Framing::kRecorded) == Drop::kNone) OnSetpoint();
     } else if (e.channel == ch_[arm_].reply) {
-      if (DecodeChecked(CheckReplyPacket, e, reply_) && reply_.run_id == run_id_)
+      if (ReceiveInto(reply_, e.data, e.size, Framing::kRecorded) == Drop::kNone && reply_.run_id == run_id_)
         log_.reply_utime[reply_.request_id] = reply_.utime;
     } else if (e.channel == ch_[arm_].telemetry) {
-      if (DecodeChecked(CheckTelemetryPacket, e, telemetry_) && telemetry_.run_id == run_id_) OnTelemetry();
+      if (ReceiveInto(telemetry_, e.data, e.size, Framing::kRecorded) == Drop::kNone && telemetry_.run_id == run_id_)
+        OnTelemetry();
     }
   }
   Log Take() { return std::move(log_); }

@@ -20,20 +20,18 @@
 #include "protocol/big_endian.hpp"
 #include "protocol/format.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/signing.hpp"
 #include "protocol/status.hpp"
 
 namespace lagrange {
 namespace {
 
-// Decodes a message only after its wire check; a signed bus's message
-// without its trailer (see the header).
+// A record's message, decoded after its type's check; a signed bus's message
+// with or without its (unverified) trailer (see the header).
 template <class Message>
-bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), const void* data, std::size_t size) {
-  for (const std::size_t n : {size, MessageSizeBeforeTrailer(static_cast<const std::uint8_t*>(data), size)}) {
-    if (check(data, n) == WireCheck::kOk && m.decode(data, 0, static_cast<int>(n)) == static_cast<int>(n)) return true;
-  }
-  return false;
+bool CheckedDecode(Message& m, const void* data, std::size_t size) {
+  return ReceiveInto(m, data, size, Framing::kRecorded) == Drop::kNone;
 }
 
 std::string Join(const std::vector<double>& v) {
@@ -106,7 +104,7 @@ class StateDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     state_t s;
-    if (!CheckedDecode(s, CheckStatePacket, data, size)) return false;
+    if (!CheckedDecode(s, data, size)) return false;
     if (n_ < 0) {
       n_ = s.num_dofs;
       Fields f;
@@ -127,7 +125,7 @@ class SetpointDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     setpoint_t s;
-    if (!CheckedDecode(s, CheckSetpointPacket, data, size)) return false;
+    if (!CheckedDecode(s, data, size)) return false;
     if (n_ < 0) {
       n_ = s.num_dofs;
       fields_ = Fields().Int("utime").Int("num_dofs").Reals("q", n_).Reals("qd", n_).Reals("qdd", n_).Take();
@@ -142,7 +140,7 @@ class TorqueDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     torque_t t;
-    if (!CheckedDecode(t, CheckTorquePacket, data, size)) return false;
+    if (!CheckedDecode(t, data, size)) return false;
     if (n_ < 0) {
       n_ = t.num_dofs;
       fields_ =
@@ -158,7 +156,7 @@ class CommandDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     command_t c;
-    if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
+    if (!CheckedDecode(c, data, size)) return false;
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -186,7 +184,7 @@ class StatusDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     status_t s;
-    if (!CheckedDecode(s, CheckStatusPacket, data, size)) return false;
+    if (!CheckedDecode(s, data, size)) return false;
     if (fields_.empty()) {
       Fields f;
       f.Int("utime").Id("run_id").Int("ticks").Int("ticks_in_window").Real("period");
@@ -262,7 +260,7 @@ class TelemetryDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     telemetry_t m;
-    if (!CheckedDecode(m, CheckTelemetryPacket, data, size)) return false;
+    if (!CheckedDecode(m, data, size)) return false;
     if (fields_.empty()) {
       Fields f;
       f.Int("utime").Id("run_id").Int("tick").Real("t").Int("mode");
@@ -289,7 +287,7 @@ class PoseSetpointDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     pose_setpoint_t m;
-    if (!CheckedDecode(m, CheckPoseSetpointPacket, data, size)) return false;
+    if (!CheckedDecode(m, data, size)) return false;
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -315,7 +313,7 @@ class TaskStateDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     task_state_t m;
-    if (!CheckedDecode(m, CheckTaskStatePacket, data, size)) return false;
+    if (!CheckedDecode(m, data, size)) return false;
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -390,15 +388,12 @@ forces_t ForcesFromV1(const std::uint8_t* p) {
 
 // A forces packet of today's layout or lagrange's earlier one (ForcesFromV1), checked before it is decoded.
 bool DecodeForces(forces_t& f, const void* data, std::size_t size) {
-  if (CheckedDecode(f, CheckForcesPacket, data, size)) return true;
+  if (CheckedDecode(f, data, size)) return true;
+  std::size_t n = 0;
   const auto* p = static_cast<const std::uint8_t*>(data);
-  for (const std::size_t n : {size, MessageSizeBeforeTrailer(p, size)}) {
-    if (CheckForcesV1Packet(data, n) == WireCheck::kOk) {
-      f = ForcesFromV1(p);
-      return true;
-    }
-  }
-  return false;
+  if (CheckFramed(CheckForcesV1Packet, Framing::kRecorded, p, size, n) != Drop::kNone) return false;
+  f = ForcesFromV1(p);
+  return true;
 }
 
 // Values joined by ';' (a contact's three coordinates in a row, contact after contact).
@@ -466,7 +461,7 @@ class ReplyDecoder final : public Decoder {
  public:
   bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
     reply_t r;
-    if (!CheckedDecode(r, CheckReplyPacket, data, size)) return false;
+    if (!CheckedDecode(r, data, size)) return false;
     if (fields_.empty()) {
       fields_ =
           Fields().Int("utime").Id("run_id").Id("request_id").Int("command").Int("accepted").Text("reason").Take();

@@ -24,8 +24,8 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/status.hpp"
-#include "protocol/wire.hpp"
 #include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -173,8 +173,9 @@ class WatchCommand final : public Command {
   int Run(std::ostream& out, std::ostream&) override {
     bus_handle_ = bus_.Open();
     const SigningCensus signing(*bus_handle_);  // for the error if no status comes: dropped for its signature?
-    bus_handle_->Subscribe(bus_.StatusChannel(),
-                           [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
+    SubscribeMessages<status_t>(*bus_handle_, bus_.StatusChannel(), [this](status_t&& msg) {
+      statuses_.Add(std::move(msg), std::chrono::steady_clock::now());
+    });
     for (const std::string& name : only_) SubscribeInstance(name);
     // What else is on the bus, while waiting: for the hint if nothing comes.
     std::set<std::string> heard;
@@ -240,33 +241,16 @@ class WatchCommand final : public Command {
   void SubscribeInstance(const std::string& name) {
     if (instances_.count(name)) return;
     InstanceView* view = &instances_[name];
-    bus_handle_->Subscribe(
-        bus_.Channel(name, kStateSuffix), [view](std::string_view, const std::uint8_t* d, std::size_t n) {
-          state_t msg;
-          if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
-            return;
-          view->states.Add(std::move(msg), std::chrono::steady_clock::now());
-        });
-    bus_handle_->Subscribe(bus_.Channel(name, kTelemetrySuffix), [view](std::string_view, const std::uint8_t* d,
-                                                                        std::size_t n) {
-      telemetry_t msg;
-      if (CheckTelemetryPacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
-        return;
+    SubscribeMessages<state_t>(*bus_handle_, bus_.Channel(name, kStateSuffix), [view](state_t&& msg) {
+      view->states.Add(std::move(msg), std::chrono::steady_clock::now());
+    });
+    SubscribeMessages<telemetry_t>(*bus_handle_, bus_.Channel(name, kTelemetrySuffix), [view](telemetry_t&& msg) {
       const double evaluations = msg.evaluations, compute_us = msg.compute_us;
       CostWindow& w = view->telemetry.Add(std::move(msg), std::chrono::steady_clock::now()).extra;
       w.evaluations += evaluations;
       w.compute_us += compute_us;
       ++w.count;
     });
-  }
-
-  void OnStatus(const std::uint8_t* data, std::size_t size) {
-    status_t msg;
-    if (CheckStatusPacket(data, size) != WireCheck::kOk ||
-        msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return;
-    }
-    statuses_.Add(std::move(msg), std::chrono::steady_clock::now());
   }
 
   void DaemonLines(std::ostream& f, const status_t& s, double age) const {

@@ -6,8 +6,8 @@
 #include "protocol/channels.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/status.hpp"
-#include "protocol/wire.hpp"
 #include "tools/interrupt.hpp"
 
 namespace lagrange::cli::view {
@@ -100,10 +100,7 @@ void LiveView::Run(double rate, FrameHub& hub) {
 
 void LiveView::SubscribeStatuses(Bus& bus) {
   for (std::size_t d = 0; d < prefixes_.size(); ++d) {
-    bus.Subscribe(Link(prefixes_[d]).StatusChannel(), [this, d](std::string_view, const std::uint8_t* data, std::size_t n) {
-      status_t s;
-      if (CheckStatusPacket(data, n) != WireCheck::kOk || s.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-        return;
+    SubscribeMessages<status_t>(bus, Link(prefixes_[d]).StatusChannel(), [this, d](status_t&& s) {
       statuses_[d] = {std::move(s), SteadyClock::now()};
     });
   }
@@ -112,26 +109,12 @@ void LiveView::SubscribeStatuses(Bus& bus) {
 void LiveView::SubscribeTracked(Bus& bus, std::size_t i) {
   const LinkOptions link = Link(tracked_[i].instance.prefix);
   const std::string& name = tracked_[i].instance.name;
-  bus.Subscribe(link.Channel(name, kStateSuffix), [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-    state_t s;
-    if (CheckStatePacket(data, n) != WireCheck::kOk || s.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-      return;
-    OnState(i, std::move(s));
-  });
-  bus.Subscribe(link.Channel(name, kTelemetrySuffix),
-                [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-                  telemetry_t m;
-                  if (CheckTelemetryPacket(data, n) != WireCheck::kOk ||
-                      m.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-                    return;
-                  tracked_[i].telemetry = std::move(m);
-                });
-  bus.Subscribe(link.Channel(name, kTaskSuffix), [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-    task_state_t m;
-    if (CheckTaskStatePacket(data, n) != WireCheck::kOk || m.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-      return;
-    tracked_[i].task = std::move(m);
-  });
+  SubscribeMessages<state_t>(bus, link.Channel(name, kStateSuffix),
+                             [this, i](state_t&& s) { OnState(i, std::move(s)); });
+  SubscribeMessages<telemetry_t>(bus, link.Channel(name, kTelemetrySuffix),
+                                 [this, i](telemetry_t&& m) { tracked_[i].telemetry = std::move(m); });
+  SubscribeMessages<task_state_t>(bus, link.Channel(name, kTaskSuffix),
+                                  [this, i](task_state_t&& m) { tracked_[i].task = std::move(m); });
 }
 
 // Every state, not only the frames sent: the moment an instance entered fault, estop or stopped is kept.
