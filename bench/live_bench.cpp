@@ -323,12 +323,12 @@ class Observer {
   Observer(const std::string& url, const std::vector<InstanceChannelNames>& ch, std::size_t arm) : bus_(OpenBus(url)) {
     bus_->Subscribe(ch[arm].state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       state_t s;
-      if (s.decode(d, 0, static_cast<int>(n)) < 0) return;
+      if (ReceiveInto(s, d, n) != Drop::kNone) return;
       if (run_id_.load() == 0) run_id_.store(s.run_id);
     });
     bus_->Subscribe(ch[arm].reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
-      if (r.decode(d, 0, static_cast<int>(n)) < 0) return;
+      if (ReceiveInto(r, d, n) != Drop::kNone) return;
       std::lock_guard<std::mutex> lock(mutex_);
       replies_[r.request_id] = {r.accepted != 0, r.reason, r.utime};
     });
