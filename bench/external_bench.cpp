@@ -77,6 +77,7 @@
 #include "daemon/realtime.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/receive.hpp"
 #include "sim/scene.hpp"
 #include "sim/scene_channels.hpp"
 
@@ -352,7 +353,7 @@ class Observer {
  private:
   void OnState(const std::uint8_t* data, std::size_t size) {
     const std::int64_t arrival = WallMicros();
-    if (state_.decode(data, 0, static_cast<int>(size)) < 0) return;
+    if (ReceiveInto(state_, data, size) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (plant_run_id_.load() == 0) plant_run_id_.store(state_.run_id);
     if (state_.run_id != plant_run_id_.load()) return;  // not this run's plant
@@ -365,7 +366,7 @@ class Observer {
 
   void OnTorque(const std::uint8_t* data, std::size_t size) {
     const std::int64_t arrival = WallMicros();
-    if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return;
+    if (ReceiveInto(torque_, data, size) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     torques_.push_back({torque_.run_id, torque_.sequence, torque_.state_tick, torque_.utime, arrival, torque_.tau});
     last_torque_run_id_.store(torque_.run_id);
@@ -374,7 +375,7 @@ class Observer {
 
   void OnStatus(const std::uint8_t* data, std::size_t size, bool plant) {
     status_t s;
-    if (s.decode(data, 0, static_cast<int>(size)) < 0) return;
+    if (ReceiveInto(s, data, size) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (plant) {
       if (s.run_id == plant_run_id_.load()) plant_status_ = s;

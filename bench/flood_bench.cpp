@@ -69,6 +69,7 @@
 #include "protocol/big_endian.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/signing.hpp"
 
 namespace lagrange::bench {
@@ -273,7 +274,7 @@ class Observer {
 
  private:
   void OnState(const std::uint8_t* d, std::size_t n) {
-    if (state_.decode(d, 0, static_cast<int>(n)) < 0 || state_.controller == kFloodMark) return;
+    if (ReceiveInto(state_, d, n) != Drop::kNone || state_.controller == kFloodMark) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (plant_run_id_ == 0) plant_run_id_ = state_.run_id;
     if (state_.run_id != plant_run_id_) return;
@@ -283,7 +284,7 @@ class Observer {
     if (state_.mode != state_t::MODE_RUNNING) ++states_not_running_;
   }
   void OnStatus(const std::uint8_t* d, std::size_t n, bool controller) {
-    if (status_.decode(d, 0, static_cast<int>(n)) < 0) return;
+    if (ReceiveInto(status_, d, n) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     (controller ? controller_status_ : plant_status_) = status_;
     if (!controller || !window_) return;

@@ -23,7 +23,7 @@
 #include "protocol/big_endian.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/lcm_log.hpp"
-#include "protocol/wire.hpp"
+#include "protocol/receive.hpp"
 #include "tools/spawn.hpp"
 
 namespace lagrange::bench {
@@ -249,7 +249,8 @@ std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const fs::path& 
   ForEachLogEvent(file, [&](const LcmLogEvent& event) {
     const auto it = ticks.find(std::string(event.channel));
     if (it == ticks.end()) return;
-    if (!DecodeChecked(CheckStatePacket, event, s) || (run_id != 0 && s.run_id != run_id)) return;
+    if (ReceiveInto(s, event.data, event.size, Framing::kRecorded) != Drop::kNone) return;
+    if (run_id != 0 && s.run_id != run_id) return;
     it->second.push_back(s.tick);
   });
   return ticks;

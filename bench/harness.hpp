@@ -182,14 +182,6 @@ class LcmLogger {
 // no call, when the file cannot be read as a log.
 bool ForEachLogEvent(const std::filesystem::path& file, const std::function<void(const LcmLogEvent&)>& on_event);
 
-// Decodes a recorded packet into `m` once `check` (protocol/wire.hpp's check
-// of Message's layout) has accepted it: a logged packet is as untrusted as a
-// live one, and the generated decoders trust the lengths it states.
-template <class Message>
-bool DecodeChecked(WireCheck (*check)(const void*, std::size_t), const LcmLogEvent& event, Message& m) {
-  return check(event.data, event.size) == WireCheck::kOk && m.decode(event.data, 0, static_cast<int>(event.size)) >= 0;
-}
-
 // The state_t ticks recorded in an LCM log, by channel, for the channels in
 // `channels`; only messages of `run_id` unless it is 0.
 std::map<std::string, std::vector<std::int64_t>> ReadStateTicks(const std::filesystem::path& file,

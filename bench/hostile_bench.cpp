@@ -80,6 +80,7 @@
 #include "bench/proc_stats.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/receive.hpp"
 
 namespace lagrange::bench {
 namespace {
@@ -363,7 +364,7 @@ class Observer {
   bool Ours(std::int64_t run_id) const { return run_id_ != 0 && run_id == run_id_; }
 
   void OnStatus(const std::uint8_t* d, std::size_t n) {
-    if (status_.decode(d, 0, static_cast<int>(n)) < 0) return;
+    if (ReceiveInto(status_, d, n) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (run_id_ == 0 && status_.run_id != kSpoofRunId) run_id_ = status_.run_id;
     if (!Ours(status_.run_id)) return;
@@ -372,7 +373,7 @@ class Observer {
     changed_.notify_all();
   }
   void OnArm(const std::uint8_t* d, std::size_t n) {
-    if (arm_.decode(d, 0, static_cast<int>(n)) < 0) return;
+    if (ReceiveInto(arm_, d, n) != Drop::kNone) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!Ours(arm_.run_id)) return;
@@ -385,7 +386,7 @@ class Observer {
   }
   void OnCartpole(const std::uint8_t* d, std::size_t n) {
     const std::int64_t now = MonotonicNs();
-    if (cartpole_.decode(d, 0, static_cast<int>(n)) < 0) return;
+    if (ReceiveInto(cartpole_, d, n) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (!Ours(cartpole_.run_id) || !probe_pending_ || cartpole_.q_des.empty()) return;
     if (cartpole_.q_des[0] == probe_value_) {
@@ -394,7 +395,7 @@ class Observer {
     }
   }
   void OnReply(const std::uint8_t* d, std::size_t n) {
-    if (reply_.decode(d, 0, static_cast<int>(n)) < 0) return;
+    if (ReceiveInto(reply_, d, n) != Drop::kNone) return;
     if ((reply_.request_id & ~((std::int64_t{1} << 48) - 1)) != kEstopTag) return;
     std::lock_guard<std::mutex> lock(mutex_);
     if (Ours(reply_.run_id)) replies_[reply_.request_id] = reply_.accepted;

@@ -82,6 +82,7 @@
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/receive.hpp"
 #include "sim/instance.hpp"
 #include "sim/scene.hpp"
 #include "sim/scene_channels.hpp"
@@ -322,12 +323,12 @@ class Observer {
   Observer(const std::string& url, const std::vector<InstanceChannelNames>& ch, std::size_t arm) : bus_(OpenBus(url)) {
     bus_->Subscribe(ch[arm].state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       state_t s;
-      if (s.decode(d, 0, static_cast<int>(n)) < 0) return;
+      if (ReceiveInto(s, d, n) != Drop::kNone) return;
       if (run_id_.load() == 0) run_id_.store(s.run_id);
     });
     bus_->Subscribe(ch[arm].reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
       reply_t r;
-      if (r.decode(d, 0, static_cast<int>(n)) < 0) return;
+      if (ReceiveInto(r, d, n) != Drop::kNone) return;
       std::lock_guard<std::mutex> lock(mutex_);
       replies_[r.request_id] = {r.accepted != 0, r.reason, r.utime};
     });
@@ -555,14 +556,15 @@ class LogReading {
   void Read(const LcmLogEvent& e) {
     ++log_.events;
     if (e.channel == ch_[arm_].state) {
-      if (DecodeChecked(CheckStatePacket, e, state_) && state_.run_id == run_id_) OnState();
+      if (ReceiveInto(state_, e.data, e.size, Framing::kRecorded) == Drop::kNone && state_.run_id == run_id_) OnState();
     } else if (e.channel == ch_[arm_].setpoint) {
-      if (DecodeChecked(CheckSetpointPacket, e, setpoint_)) OnSetpoint();
+      if (ReceiveInto(setpoint_, e.data, e.size, Framing::kRecorded) == Drop::kNone) OnSetpoint();
     } else if (e.channel == ch_[arm_].reply) {
-      if (DecodeChecked(CheckReplyPacket, e, reply_) && reply_.run_id == run_id_)
+      if (ReceiveInto(reply_, e.data, e.size, Framing::kRecorded) == Drop::kNone && reply_.run_id == run_id_)
         log_.reply_utime[reply_.request_id] = reply_.utime;
     } else if (e.channel == ch_[arm_].telemetry) {
-      if (DecodeChecked(CheckTelemetryPacket, e, telemetry_) && telemetry_.run_id == run_id_) OnTelemetry();
+      if (ReceiveInto(telemetry_, e.data, e.size, Framing::kRecorded) == Drop::kNone && telemetry_.run_id == run_id_)
+        OnTelemetry();
     }
   }
   Log Take() { return std::move(log_); }

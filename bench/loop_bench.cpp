@@ -59,6 +59,7 @@
 #include "bench/options.hpp"
 #include "bench/proc_stats.hpp"
 #include "protocol/bus.hpp"
+#include "protocol/receive.hpp"
 
 namespace lagrange::bench {
 namespace {
@@ -157,7 +158,7 @@ void SetpointProbe::Send(const std::atomic<bool>& stop) {
 void SetpointProbe::OnState(const lcm::ReceiveBuffer* rbuf, const std::string&) {
   const std::int64_t now = MonotonicNs();
   state_t s;
-  if (s.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+  if (ReceiveInto(s, rbuf->data, rbuf->data_size) != Drop::kNone) return;
   states_.fetch_add(1);
   run_id_.store(s.run_id);
   if (last_tick_ >= 0 && s.tick != last_tick_ + 1) ++gaps_;
@@ -171,7 +172,7 @@ void SetpointProbe::OnState(const lcm::ReceiveBuffer* rbuf, const std::string&) 
 
 void SetpointProbe::OnStatus(const lcm::ReceiveBuffer* rbuf, const std::string&) {
   status_t s;
-  if (s.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+  if (ReceiveInto(s, rbuf->data, rbuf->data_size) != Drop::kNone) return;
   ticks_run_.store(std::max(ticks_run_.load(), s.ticks));
 }
 

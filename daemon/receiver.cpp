@@ -9,8 +9,8 @@
 
 #include "base/escape.hpp"
 #include "protocol/command_check.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/setpoint_check.hpp"
-#include "protocol/wire.hpp"
 
 namespace lagrange {
 
@@ -332,10 +332,8 @@ std::string CheckValues(const char* field, const std::vector<double>& v, double 
 void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t size) {
   const InstanceModel& m = model_.instances[i];
   InstanceData& info = data_[i];
-  if (const WireCheck w = CheckTorquePacket(data, size); w != WireCheck::kOk) {
-    return DecodeError(m.channels.torque_in, ToString(w));
-  }
-  if (torque_.decode(data, 0, static_cast<int>(size)) < 0) return DecodeError(m.channels.torque_in, "decode failed");
+  if (const Drop d = ReceiveInto(torque_, data, size); d != Drop::kNone)
+    return DecodeError(m.channels.torque_in, ToString(d));
   std::atomic<std::int64_t>& rejected = stats_.torques_rejected;
   if (torque_.num_dofs != m.num_dofs) {
     return RejectInput(i, rejected, "torque", fmt::format("num_dofs is {}, expected {}", torque_.num_dofs, m.num_dofs));
@@ -385,11 +383,8 @@ void Receiver::HandleTorque(std::size_t i, const std::uint8_t* data, std::size_t
 void Receiver::HandleMeasured(std::size_t i, const std::uint8_t* data, std::size_t size) {
   const InstanceModel& m = model_.instances[i];
   InstanceData& info = data_[i];
-  if (const WireCheck w = CheckStatePacket(data, size); w != WireCheck::kOk) {
-    return DecodeError(m.channels.measured_in, ToString(w));
-  }
-  if (measured_.decode(data, 0, static_cast<int>(size)) < 0) {
-    return DecodeError(m.channels.measured_in, "decode failed");
+  if (const Drop d = ReceiveInto(measured_, data, size); d != Drop::kNone) {
+    return DecodeError(m.channels.measured_in, ToString(d));
   }
   if (measured_.num_dofs != m.num_dofs) {
     return Trip(i, MeasuredProblem::kWrongSize,

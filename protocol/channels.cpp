@@ -2,6 +2,7 @@
 
 #include "base/escape.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 
@@ -92,6 +93,12 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
     }
   }
   return "";
+}
+
+bool IsInstanceName(const std::string& name) {
+  if (name.empty() || name.size() > kMaxInstanceNameBytes || !(name[0] >= 'a' && name[0] <= 'z')) return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
 }
 
 std::string ResolveLcmUrl(const std::string& option) {

@@ -5,6 +5,7 @@
 // publishes LAGRANGE_STATUS. A prefix P is prepended to every channel, so
 // several daemons share one bus.
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,11 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
 // A channel name a scene may write: 1-63 bytes of printable ASCII without
 // spaces. "" when valid, else what was expected.
 std::string CheckChannelName(const std::string& channel);
+
+// An instance name a scene may give: 1-48 bytes, [a-z][a-z0-9_]* (sim/scene's rule, and what a client
+// follows of the names a status gives).
+inline constexpr std::size_t kMaxInstanceNameBytes = 48;
+bool IsInstanceName(const std::string& name);
 
 // The default LCM URL when neither --lcm-url nor LCM_DEFAULT_URL is given.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";

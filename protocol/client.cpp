@@ -10,7 +10,7 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
-#include "protocol/wire.hpp"
+#include "protocol/receive.hpp"
 
 namespace lagrange {
 namespace {
@@ -188,9 +188,8 @@ void DaemonLink::OnAny(std::string_view channel) {
 }
 
 void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
-  if (CheckStatePacket(data, size) != WireCheck::kOk) return;  // a signed daemon's, without the key: signing_ counts it
   state_t msg;
-  if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
+  if (ReceiveInto(msg, data, size) != Drop::kNone) return;  // a signed daemon's, without the key: signing_ counts it
   auto it = runs_.find(msg.run_id);
   if (it == runs_.end()) {
     if (runs_.size() >= kMaxRuns) return;
@@ -206,25 +205,22 @@ void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
 }
 
 void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
-  if (!have_run_ || CheckStatusPacket(data, size) != WireCheck::kOk) return;
   status_t msg;
-  if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) || msg.run_id != run_id_) return;
+  if (!have_run_ || ReceiveInto(msg, data, size) != Drop::kNone || msg.run_id != run_id_) return;
   status_ = std::move(msg);
   ++statuses_received_;
 }
 
 void DaemonLink::OnTaskState(const std::uint8_t* data, std::size_t size) {
-  if (!have_run_ || CheckTaskStatePacket(data, size) != WireCheck::kOk) return;
   task_state_t msg;
-  if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) || msg.run_id != run_id_) return;
+  if (!have_run_ || ReceiveInto(msg, data, size) != Drop::kNone || msg.run_id != run_id_) return;
   task_state_ = std::move(msg);
   ++task_states_received_;
 }
 
 void DaemonLink::OnReply(const std::uint8_t* data, std::size_t size) {
-  if (!have_run_ || request_id_ == 0 || CheckReplyPacket(data, size) != WireCheck::kOk) return;
   reply_t msg;
-  if (msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
+  if (!have_run_ || request_id_ == 0 || ReceiveInto(msg, data, size) != Drop::kNone) return;
   // Only a run we saw (the chosen one, or any after AwaitRuns), answering our
   // own request, and only its first answer: anything else proves nothing.
   if (msg.request_id != request_id_ || (!every_run_ && msg.run_id != run_id_)) return;

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "base/escape.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -31,11 +32,9 @@ std::string Unknown(const CommandRules& rules, const std::string& name) {
 }  // namespace
 
 CommandVerdict CheckCommand(const void* data, std::size_t size, const CommandRules& rules, int active, command_t& out) {
-  if (const WireCheck w = CheckCommandPacket(data, size); w != WireCheck::kOk) {
-    return MakeVerdict(CommandVerdict::Kind::kUndecodable, ToString(w));
+  if (const Drop d = ReceiveInto(out, data, size); d != Drop::kNone) {
+    return MakeVerdict(CommandVerdict::Kind::kUndecodable, ToString(d));
   }
-  if (out.decode(data, 0, static_cast<int>(size)) < 0)
-    return MakeVerdict(CommandVerdict::Kind::kUndecodable, "decode failed");
   if (out.command < command_t::SWITCH_CONTROLLER || out.command > command_t::SET_FORCES) {
     return Reject("unknown command " + std::to_string(out.command));
   }

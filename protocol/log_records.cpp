@@ -20,20 +20,18 @@
 #include "protocol/big_endian.hpp"
 #include "protocol/format.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/signing.hpp"
 #include "protocol/status.hpp"
 
 namespace lagrange {
 namespace {
 
-// Decodes a message only after its wire check; a signed bus's message
-// without its trailer (see the header).
+// A record's message, decoded after its type's check; a signed bus's message
+// with or without its (unverified) trailer (see the header).
 template <class Message>
-bool CheckedDecode(Message& m, WireCheck (*check)(const void*, std::size_t), const void* data, std::size_t size) {
-  for (const std::size_t n : {size, MessageSizeBeforeTrailer(static_cast<const std::uint8_t*>(data), size)}) {
-    if (check(data, n) == WireCheck::kOk && m.decode(data, 0, static_cast<int>(n)) == static_cast<int>(n)) return true;
-  }
-  return false;
+bool CheckedDecode(Message& m, const void* data, std::size_t size) {
+  return ReceiveInto(m, data, size, Framing::kRecorded) == Drop::kNone;
 }
 
 std::string Join(const std::vector<double>& v) {
@@ -102,11 +100,26 @@ class Decoder {
   int n_ = -1;  // num_dofs of a joint-array type, once fixed
 };
 
-class StateDecoder final : public Decoder {
+// A decoder of one message type: the typed receive of a recording, then the type's row.
+template <class Message>
+class MessageDecoder : public Decoder {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    state_t s;
-    if (!CheckedDecode(s, CheckStatePacket, data, size)) return false;
+  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) final {
+    return Read(message_, data, size) && Write(message_, log_utime, out);
+  }
+
+ protected:
+  virtual bool Read(Message& m, const void* data, std::size_t size) { return CheckedDecode(m, data, size); }
+  // False when the message does not fit the fields.
+  virtual bool Write(const Message& m, std::int64_t log_utime, LogRow& out) = 0;
+
+ private:
+  Message message_;
+};
+
+class StateDecoder final : public MessageDecoder<state_t> {
+ public:
+  bool Write(const state_t& s, std::int64_t log_utime, LogRow& out) override {
     if (n_ < 0) {
       n_ = s.num_dofs;
       Fields f;
@@ -123,11 +136,9 @@ class StateDecoder final : public Decoder {
   }
 };
 
-class SetpointDecoder final : public Decoder {
+class SetpointDecoder final : public MessageDecoder<setpoint_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    setpoint_t s;
-    if (!CheckedDecode(s, CheckSetpointPacket, data, size)) return false;
+  bool Write(const setpoint_t& s, std::int64_t log_utime, LogRow& out) override {
     if (n_ < 0) {
       n_ = s.num_dofs;
       fields_ = Fields().Int("utime").Int("num_dofs").Reals("q", n_).Reals("qd", n_).Reals("qdd", n_).Take();
@@ -138,11 +149,9 @@ class SetpointDecoder final : public Decoder {
   }
 };
 
-class TorqueDecoder final : public Decoder {
+class TorqueDecoder final : public MessageDecoder<torque_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    torque_t t;
-    if (!CheckedDecode(t, CheckTorquePacket, data, size)) return false;
+  bool Write(const torque_t& t, std::int64_t log_utime, LogRow& out) override {
     if (n_ < 0) {
       n_ = t.num_dofs;
       fields_ =
@@ -154,11 +163,9 @@ class TorqueDecoder final : public Decoder {
   }
 };
 
-class CommandDecoder final : public Decoder {
+class CommandDecoder final : public MessageDecoder<command_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    command_t c;
-    if (!CheckedDecode(c, CheckCommandPacket, data, size)) return false;
+  bool Write(const command_t& c, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -182,11 +189,9 @@ class CommandDecoder final : public Decoder {
   }
 };
 
-class StatusDecoder final : public Decoder {
+class StatusDecoder final : public MessageDecoder<status_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    status_t s;
-    if (!CheckedDecode(s, CheckStatusPacket, data, size)) return false;
+  bool Write(const status_t& s, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       Fields f;
       f.Int("utime").Id("run_id").Int("ticks").Int("ticks_in_window").Real("period");
@@ -258,11 +263,9 @@ class StatusDecoder final : public Decoder {
   }
 };
 
-class TelemetryDecoder final : public Decoder {
+class TelemetryDecoder final : public MessageDecoder<telemetry_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    telemetry_t m;
-    if (!CheckedDecode(m, CheckTelemetryPacket, data, size)) return false;
+  bool Write(const telemetry_t& m, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       Fields f;
       f.Int("utime").Id("run_id").Int("tick").Real("t").Int("mode");
@@ -285,11 +288,9 @@ class TelemetryDecoder final : public Decoder {
   }
 };
 
-class PoseSetpointDecoder final : public Decoder {
+class PoseSetpointDecoder final : public MessageDecoder<pose_setpoint_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    pose_setpoint_t m;
-    if (!CheckedDecode(m, CheckPoseSetpointPacket, data, size)) return false;
+  bool Write(const pose_setpoint_t& m, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -311,11 +312,9 @@ class PoseSetpointDecoder final : public Decoder {
   }
 };
 
-class TaskStateDecoder final : public Decoder {
+class TaskStateDecoder final : public MessageDecoder<task_state_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    task_state_t m;
-    if (!CheckedDecode(m, CheckTaskStatePacket, data, size)) return false;
+  bool Write(const task_state_t& m, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       fields_ = Fields()
                     .Int("utime")
@@ -390,15 +389,12 @@ forces_t ForcesFromV1(const std::uint8_t* p) {
 
 // A forces packet of today's layout or lagrange's earlier one (ForcesFromV1), checked before it is decoded.
 bool DecodeForces(forces_t& f, const void* data, std::size_t size) {
-  if (CheckedDecode(f, CheckForcesPacket, data, size)) return true;
+  if (CheckedDecode(f, data, size)) return true;
+  std::size_t n = 0;
   const auto* p = static_cast<const std::uint8_t*>(data);
-  for (const std::size_t n : {size, MessageSizeBeforeTrailer(p, size)}) {
-    if (CheckForcesV1Packet(data, n) == WireCheck::kOk) {
-      f = ForcesFromV1(p);
-      return true;
-    }
-  }
-  return false;
+  if (CheckFramed(CheckForcesV1Packet, Framing::kRecorded, p, size, n) != Drop::kNone) return false;
+  f = ForcesFromV1(p);
+  return true;
 }
 
 // Values joined by ';' (a contact's three coordinates in a row, contact after contact).
@@ -411,11 +407,10 @@ std::string JoinContacts(const forces_t& f, int width, Get get) {
   return s;
 }
 
-class ForcesDecoder final : public Decoder {
+class ForcesDecoder final : public MessageDecoder<forces_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    forces_t f;
-    if (!DecodeForces(f, data, size)) return false;
+  bool Read(forces_t& f, const void* data, std::size_t size) override { return DecodeForces(f, data, size); }
+  bool Write(const forces_t& f, std::int64_t log_utime, LogRow& out) override {
     if (n_ < 0) {
       n_ = f.num_dofs;
       Fields fields;
@@ -462,11 +457,9 @@ class ForcesDecoder final : public Decoder {
                                                     "contact_torque"};
 };
 
-class ReplyDecoder final : public Decoder {
+class ReplyDecoder final : public MessageDecoder<reply_t> {
  public:
-  bool Decode(std::int64_t log_utime, const void* data, std::size_t size, LogRow& out) override {
-    reply_t r;
-    if (!CheckedDecode(r, CheckReplyPacket, data, size)) return false;
+  bool Write(const reply_t& r, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
       fields_ =
           Fields().Int("utime").Id("run_id").Id("request_id").Int("command").Int("accepted").Text("reason").Take();

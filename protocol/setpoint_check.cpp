@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "base/escape.hpp"
+#include "protocol/receive.hpp"
 #include "protocol/wire.hpp"
 
 namespace lagrange {
@@ -34,10 +35,9 @@ SetpointVerdict Reject(std::string why) { return {SetpointVerdict::Kind::kReject
 }  // namespace
 
 SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const SetpointRules& rules, setpoint_t& out) {
-  if (const WireCheck w = CheckSetpointPacket(data, size); w != WireCheck::kOk) {
-    return {SetpointVerdict::Kind::kUndecodable, ToString(w)};
+  if (const Drop d = ReceiveInto(out, data, size); d != Drop::kNone) {
+    return {SetpointVerdict::Kind::kUndecodable, ToString(d)};
   }
-  if (out.decode(data, 0, static_cast<int>(size)) < 0) return {SetpointVerdict::Kind::kUndecodable, "decode failed"};
   if (out.num_dofs != rules.n) {
     return Reject("num_dofs is " + std::to_string(out.num_dofs) + ", expected " + std::to_string(rules.n));
   }
@@ -65,10 +65,9 @@ std::string RefusedByController(TargetKind kind, bool task_space, const std::str
 }
 
 SetpointVerdict CheckPoseSetpoint(const void* data, std::size_t size, const PoseRules& rules, pose_setpoint_t& out) {
-  if (const WireCheck w = CheckPoseSetpointPacket(data, size); w != WireCheck::kOk) {
-    return {SetpointVerdict::Kind::kUndecodable, ToString(w)};
+  if (const Drop d = ReceiveInto(out, data, size); d != Drop::kNone) {
+    return {SetpointVerdict::Kind::kUndecodable, ToString(d)};
   }
-  if (out.decode(data, 0, static_cast<int>(size)) < 0) return {SetpointVerdict::Kind::kUndecodable, "decode failed"};
   if (!out.frame.empty() && out.frame != rules.frame) {
     return Reject("frame '" + Escape(out.frame, 64) + "': the task-space controller moves '" + rules.frame + "'");
   }

@@ -18,12 +18,6 @@
 namespace lagrange {
 namespace {
 
-bool IsValidName(const std::string& name) {
-  if (name.empty() || name.size() > 48 || !(name[0] >= 'a' && name[0] <= 'z')) return false;
-  return std::all_of(name.begin(), name.end(),
-                     [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
-}
-
 // plant: {type: urdf, file: PATH, gravity: [gx, gy, gz], params: {mass_scale: s}}
 PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf) {
   PlantSpec spec = UrdfPlantSpec(urdf.Load(node.Required("file")));
@@ -529,7 +523,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   InstanceConfig inst;
   const YamlReader name = node.Required("name");
   inst.name = name.Text();
-  if (!IsValidName(inst.name)) {
+  if (!IsInstanceName(inst.name)) {
     name.Fail("expected a lower-case name of letters, digits and _ starting with a letter, got '" + inst.name + "'");
   }
   const YamlReader plant_node = node.Required("plant");

@@ -16,7 +16,6 @@
 #include <map>
 #include <set>
 #include <sstream>
-#include <variant>
 
 #include "base/escape.hpp"
 #include "protocol/channels.hpp"
@@ -24,8 +23,8 @@
 #include "protocol/format.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/observer.hpp"
 #include "protocol/status.hpp"
-#include "protocol/wire.hpp"
 #include "tools/bus_options.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
@@ -36,11 +35,10 @@ namespace {
 
 using SteadyTime = std::chrono::steady_clock::time_point;
 
-constexpr double kStale = 0.5;                // s without a message: STALE (status is sent at 10 Hz, states at 1 kHz)
-constexpr std::size_t kMaxRunsShown = 4;      // run ids kept per channel
-constexpr std::size_t kMaxInstances = 64;     // instance channels subscribed from status names
-constexpr std::size_t kMaxInstanceName = 64;  // longer names in a status are not subscribed
-constexpr std::size_t kNameColumn = 24;       // joint names longer than this are cut
+constexpr double kStale = 0.5;             // s without a message: STALE (status is sent at 10 Hz, states at 1 kHz)
+constexpr std::size_t kMaxRunsShown = 4;   // run ids kept per channel
+constexpr std::size_t kMaxInstances = 64;  // instances followed
+constexpr std::size_t kNameColumn = 24;    // joint names longer than this are cut
 
 // Puts the terminal in non-canonical, no-echo mode while alive (only on a tty).
 class RawTerminal {
@@ -80,61 +78,6 @@ std::string F(double x, int precision = 4) {
 
 double Age(SteadyTime received, SteadyTime now) { return std::chrono::duration<double>(now - received).count(); }
 
-// A scene's instance name ([a-z][a-z0-9_]*): only such names from a status are subscribed.
-bool PlausibleInstanceName(const std::string& name) {
-  if (name.empty() || name.size() > kMaxInstanceName || name[0] < 'a' || name[0] > 'z') return false;
-  for (char c : name) {
-    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
-  }
-  return true;
-}
-
-// The latest message of each run id on one channel (at most kMaxRunsShown
-// runs), with an `Extra` per run that outlives each message.
-template <class Message, class Extra = std::monostate>
-class ByRun {
- public:
-  struct Entry {
-    Message message;
-    SteadyTime received;
-    Extra extra;
-  };
-  Entry& Add(Message&& message, SteadyTime now) {
-    auto it = entries_.find(message.run_id);
-    if (it == entries_.end()) {
-      if (entries_.size() >= kMaxRunsShown) {  // forget the run heard from least recently
-        auto oldest = entries_.begin();
-        for (auto e = entries_.begin(); e != entries_.end(); ++e)
-          oldest = e->second.received < oldest->second.received ? e : oldest;
-        entries_.erase(oldest);
-      }
-      it = entries_.emplace(message.run_id, Entry{}).first;
-    }
-    it->second.message = std::move(message);
-    it->second.received = now;
-    return it->second;
-  }
-  // Most recently heard first.
-  std::vector<const Entry*> Latest() const {
-    std::vector<const Entry*> v;
-    for (const auto& [id, e] : entries_) v.push_back(&e);
-    std::sort(v.begin(), v.end(), [](const Entry* a, const Entry* b) { return a->received > b->received; });
-    return v;
-  }
-  const Entry* Find(std::int64_t run_id) const {
-    const auto it = entries_.find(run_id);
-    return it == entries_.end() ? nullptr : &it->second;
-  }
-  template <class F>
-  void ForEach(F f) {
-    for (auto& [id, e] : entries_) f(e);
-  }
-  bool empty() const { return entries_.empty(); }
-
- private:
-  std::map<std::int64_t, Entry> entries_;
-};
-
 // An instance's cost per tick, averaged over the telemetry received between
 // two frames (evaluations vary from tick to tick under dopri5, compute time always).
 struct CostWindow {
@@ -149,11 +92,6 @@ struct CostWindow {
     evaluations = compute_us = 0.0;
     count = 0;
   }
-};
-
-struct InstanceView {
-  ByRun<state_t> states;
-  ByRun<telemetry_t, CostWindow> telemetry;
 };
 
 class WatchCommand final : public Command {
@@ -173,9 +111,16 @@ class WatchCommand final : public Command {
   int Run(std::ostream& out, std::ostream&) override {
     bus_handle_ = bus_.Open();
     const SigningCensus signing(*bus_handle_);  // for the error if no status comes: dropped for its signature?
-    bus_handle_->Subscribe(bus_.StatusChannel(),
-                           [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-    for (const std::string& name : only_) SubscribeInstance(name);
+    BusObserver::Hooks hooks;
+    hooks.on_telemetry = [this](const std::string& name, const telemetry_t& m) {
+      CostWindow& w = costs_[name][m.run_id];
+      w.evaluations += m.evaluations;
+      w.compute_us += m.compute_us;
+      ++w.count;
+    };
+    observer_ = std::make_unique<BusObserver>(*bus_handle_, bus_.channel_prefix,
+                                              ObserverLimits{kMaxRunsShown, kMaxInstances, only_.empty()}, hooks);
+    for (const std::string& name : only_) observer_->Follow(name);
     // What else is on the bus, while waiting: for the hint if nothing comes.
     std::set<std::string> heard;
     bool waiting = true;
@@ -186,20 +131,20 @@ class WatchCommand final : public Command {
     // Wait for the daemon (and any instance asked for by name).
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(bus_.wait);
     auto ready = [&] {
-      if (statuses_.empty()) return false;
+      if (observer_->statuses().empty()) return false;
       for (const std::string& name : only_) {
-        if (instances_.at(name).states.empty()) return false;
+        if (Unheard(name)) return false;
       }
       return true;
     };
     while (!ready() && std::chrono::steady_clock::now() < give_up) Handle(10);
     waiting = false;
-    if (statuses_.empty()) {
+    if (observer_->statuses().empty()) {
       throw std::runtime_error("no " + bus_.StatusChannel() + " within " + FormatDouble(bus_.wait) + " s on " +
                                bus_.Url() + "; " + WhatWasHeard(signing.heard(), bus_.channel_prefix, "", heard));
     }
     for (const std::string& name : only_) {
-      if (instances_.at(name).states.empty()) {
+      if (Unheard(name)) {
         throw std::runtime_error("no state from instance '" + name + "' on " + bus_.Channel(name, kStateSuffix) +
                                  " within " + FormatDouble(bus_.wait) + " s; " +
                                  HeardHint(bus_.channel_prefix, name, heard));
@@ -216,7 +161,7 @@ class WatchCommand final : public Command {
         Handle(5);
         if (Interrupted() || terminal.QuitPressed()) return 0;
       }
-      for (auto& [name, view] : instances_) view.telemetry.ForEach([](auto& e) { e.extra.Close(); });
+      CloseCostWindows();
       out << (clear ? "\x1b[H\x1b[2J" : "") << Frame(std::chrono::steady_clock::now()) << (clear ? "" : "\n");
       out.flush();
     }
@@ -224,49 +169,32 @@ class WatchCommand final : public Command {
   }
 
  private:
-  // Handles messages, then subscribes to instances a status named (never from inside a handler).
+  // Handles messages, then follows the instances a status named (never from inside a handler).
   void Handle(int timeout_ms) {
     bus_handle_->Handle(timeout_ms);
-    for (const auto* e : statuses_.Latest()) {
-      for (const std::string& name : e->message.instance_names) {
-        if (only_.empty() && !instances_.count(name) && instances_.size() < kMaxInstances &&
-            PlausibleInstanceName(name)) {
-          SubscribeInstance(name);
-        }
-      }
+    observer_->Discover();
+  }
+
+  // No state yet from instance `name`.
+  bool Unheard(const std::string& name) const {
+    const ObservedInstance* seen = observer_->Find(name);
+    return seen == nullptr || seen->states.empty();
+  }
+
+  // Ends a frame's cost windows; forgets those of runs the observer forgot.
+  void CloseCostWindows() {
+    for (auto& [name, runs] : costs_) {
+      const ObservedInstance* seen = observer_->Find(name);
+      std::erase_if(runs, [&](const auto& run) { return seen == nullptr || !seen->telemetry.Find(run.first); });
+      for (auto& [run, w] : runs) w.Close();
     }
   }
 
-  void SubscribeInstance(const std::string& name) {
-    if (instances_.count(name)) return;
-    InstanceView* view = &instances_[name];
-    bus_handle_->Subscribe(
-        bus_.Channel(name, kStateSuffix), [view](std::string_view, const std::uint8_t* d, std::size_t n) {
-          state_t msg;
-          if (CheckStatePacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
-            return;
-          view->states.Add(std::move(msg), std::chrono::steady_clock::now());
-        });
-    bus_handle_->Subscribe(bus_.Channel(name, kTelemetrySuffix), [view](std::string_view, const std::uint8_t* d,
-                                                                        std::size_t n) {
-      telemetry_t msg;
-      if (CheckTelemetryPacket(d, n) != WireCheck::kOk || msg.decode(d, 0, static_cast<int>(n)) != static_cast<int>(n))
-        return;
-      const double evaluations = msg.evaluations, compute_us = msg.compute_us;
-      CostWindow& w = view->telemetry.Add(std::move(msg), std::chrono::steady_clock::now()).extra;
-      w.evaluations += evaluations;
-      w.compute_us += compute_us;
-      ++w.count;
-    });
-  }
-
-  void OnStatus(const std::uint8_t* data, std::size_t size) {
-    status_t msg;
-    if (CheckStatusPacket(data, size) != WireCheck::kOk ||
-        msg.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return;
-    }
-    statuses_.Add(std::move(msg), std::chrono::steady_clock::now());
+  CostWindow CostOf(const std::string& instance, std::int64_t run_id) const {
+    const auto it = costs_.find(instance);
+    if (it == costs_.end()) return {};
+    const auto w = it->second.find(run_id);
+    return w == it->second.end() ? CostWindow{} : w->second;
   }
 
   void DaemonLines(std::ostream& f, const status_t& s, double age) const {
@@ -297,7 +225,7 @@ class WatchCommand final : public Command {
     }
   }
 
-  void InstanceLines(std::ostream& f, const std::string& name, const InstanceView& view, SteadyTime now) const {
+  void InstanceLines(std::ostream& f, const std::string& name, const ObservedInstance& view, SteadyTime now) const {
     const auto latest = view.states.Latest();
     std::vector<std::string> live;
     for (const auto* e : latest) {
@@ -343,8 +271,8 @@ class WatchCommand final : public Command {
   // its telemetry the latest energy residual ε with the quadrature's own error
   // bound, and the cost per tick averaged since the previous frame.
   void SettingsAndTelemetryLines(std::ostream& f, const std::string& instance, std::int64_t run_id,
-                                 const ByRun<telemetry_t, CostWindow>::Entry* telemetry, SteadyTime now) const {
-    for (const auto* e : statuses_.Latest()) {
+                                 const LatestByRun<telemetry_t>::Entry* telemetry, SteadyTime now) const {
+    for (const auto* e : observer_->statuses().Latest()) {
       if (e->message.run_id != run_id) continue;
       if (const std::optional<InstanceSettings> s = SettingsIn(e->message, instance)) {
         f << "  integrator " << s->integrator << "   method " << s->method << "   effects "
@@ -358,10 +286,11 @@ class WatchCommand final : public Command {
       return;
     }
     const telemetry_t& t = telemetry->message;
+    const CostWindow cost = CostOf(instance, run_id);
     char line[192];
-    std::snprintf(
-        line, sizeof line, "  ε %10.3e J (quadrature bound %.1e J)   evaluations %.4g/tick   compute %.1f us/tick",
-        t.energy_residual, t.quadrature_bound, telemetry->extra.mean_evaluations, telemetry->extra.mean_compute_us);
+    std::snprintf(line, sizeof line,
+                  "  ε %10.3e J (quadrature bound %.1e J)   evaluations %.4g/tick   compute %.1f us/tick",
+                  t.energy_residual, t.quadrature_bound, cost.mean_evaluations, cost.mean_compute_us);
     f << line;
     const double age = Age(telemetry->received, now);
     if (age > kStale) f << "   STALE (no telemetry for " << F(age, 1) << " s)";
@@ -371,7 +300,7 @@ class WatchCommand final : public Command {
   // " (why)" when the latest status of the state's run gives a reason for the
   // instance in the state's mode ("" when running, or when the two disagree).
   std::string ReasonOf(const std::string& instance, const state_t& st) const {
-    for (const auto* e : statuses_.Latest()) {
+    for (const auto* e : observer_->statuses().Latest()) {
       if (e->message.run_id != st.run_id) continue;
       const std::string why = ModeReasonIn(e->message, instance, st.mode);
       return why.empty() ? "" : " (" + why + ")";
@@ -381,7 +310,7 @@ class WatchCommand final : public Command {
 
   // An instance's joint names from the latest status of run `run_id`, if it gives n of them.
   std::vector<std::string> JointNamesOf(const std::string& instance, std::int64_t run_id, int n) const {
-    for (const auto* e : statuses_.Latest()) {
+    for (const auto* e : observer_->statuses().Latest()) {
       if (e->message.run_id != run_id) continue;
       std::vector<std::string> names = JointNamesIn(e->message, instance);
       if (static_cast<int>(names.size()) == n) return names;
@@ -391,14 +320,14 @@ class WatchCommand final : public Command {
 
   std::string Frame(SteadyTime now) const {
     std::ostringstream f;
-    const auto statuses = statuses_.Latest();
+    const auto statuses = observer_->statuses().Latest();
     for (const auto* e : statuses) {
       const double age = Age(e->received, now);
       if (age > kStale && e != statuses.front())
         continue;  // a dead run after a restart: shown only while nothing newer speaks
       DaemonLines(f, e->message, age);
     }
-    for (const auto& [name, view] : instances_) {
+    for (const auto& [name, view] : observer_->instances()) {
       if (view.states.empty()) continue;
       if (!only_.empty() && std::find(only_.begin(), only_.end(), name) == only_.end()) continue;
       InstanceLines(f, name, view, now);
@@ -412,8 +341,8 @@ class WatchCommand final : public Command {
   bool plain_ = false;
   BusOptions bus_;
   std::unique_ptr<Bus> bus_handle_;
-  ByRun<status_t> statuses_;
-  std::map<std::string, InstanceView> instances_;  // by instance name; node-based, so handlers keep their pointer
+  std::unique_ptr<BusObserver> observer_;
+  std::map<std::string, std::map<std::int64_t, CostWindow>> costs_;  // by instance, by run: of the runs observed
 };
 
 }  // namespace

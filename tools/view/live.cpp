@@ -7,7 +7,6 @@
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
 #include "protocol/status.hpp"
-#include "protocol/wire.hpp"
 #include "tools/interrupt.hpp"
 
 namespace lagrange::cli::view {
@@ -16,15 +15,8 @@ namespace {
 using nlohmann::json;
 
 constexpr double kStale = 0.5;                  // s without a state: STALE (states come every tick)
-constexpr std::size_t kMaxExtraInstances = 64;  // instances a status names that the scene lacks (shown as text)
+constexpr std::size_t kMaxExtraInstances = 64;  // per daemon, instances a status names that the scene lacks (text)
 constexpr std::size_t kMaxRunsKept = 8;         // run ids remembered per instance
-
-// A name a status gives that may become a channel: what lagranged accepts as an instance name.
-bool PlausibleInstanceName(const std::string& name) {
-  return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
-  });
-}
 
 double Seconds(std::chrono::steady_clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -68,9 +60,10 @@ LiveView::LiveView(const ViewModels& models, const std::vector<ViewInstance>& in
                    std::vector<std::string> prefixes, LinkOptions bus)
     : models_(models), prefixes_(std::move(prefixes)), bus_(std::move(bus)) {
   for (const ViewInstance& i : instances) {
-    Tracked t;
-    t.instance = i;
-    tracked_.push_back(std::move(t));
+    const auto d =
+        static_cast<std::size_t>(std::find(prefixes_.begin(), prefixes_.end(), i.prefix) - prefixes_.begin());
+    index_[{d, i.name}] = tracked_.size();
+    tracked_.push_back({i, d, {}});
   }
 }
 
@@ -82,8 +75,7 @@ LinkOptions LiveView::Link(const std::string& prefix) const {
 
 void LiveView::Run(double rate, FrameHub& hub) {
   auto bus = bus_.Open();  // signed when a key is given: states must verify, as watch's do
-  SubscribeStatuses(*bus);
-  for (std::size_t i = 0; i < tracked_.size(); ++i) SubscribeTracked(*bus, i);
+  Observe(*bus);
   const auto period = std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(1.0 / rate));
   auto next = SteadyClock::now();
   while (!Interrupted()) {
@@ -93,74 +85,46 @@ void LiveView::Run(double rate, FrameHub& hub) {
           std::max<std::int64_t>(1, std::chrono::duration_cast<std::chrono::milliseconds>(next - now).count())));
     }
     if (SteadyClock::now() > next + 10 * period) next = SteadyClock::now();  // fell behind: skip, never catch up
-    SubscribeNamedInStatus(*bus);
+    TrackNamedInStatus();
     hub.Publish(Dump(Frame()));
   }
 }
 
-void LiveView::SubscribeStatuses(Bus& bus) {
+// One observer per daemon, following the scenes' instances under its prefix and those its status names.
+void LiveView::Observe(Bus& bus) {
   for (std::size_t d = 0; d < prefixes_.size(); ++d) {
-    bus.Subscribe(Link(prefixes_[d]).StatusChannel(), [this, d](std::string_view, const std::uint8_t* data, std::size_t n) {
-      status_t s;
-      if (CheckStatusPacket(data, n) != WireCheck::kOk || s.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-        return;
-      statuses_[d] = {std::move(s), SteadyClock::now()};
-    });
+    const auto in_scene = static_cast<std::size_t>(
+        std::count_if(tracked_.begin(), tracked_.end(), [&](const Tracked& t) { return t.daemon == d; }));
+    BusObserver::Hooks hooks;
+    hooks.on_state = [this, d](const std::string& name, const state_t& s) { OnState(d, name, s); };
+    observers_.push_back(std::make_unique<BusObserver>(
+        bus, prefixes_[d], ObserverLimits{kMaxRunsKept, in_scene + kMaxExtraInstances, true}, std::move(hooks)));
   }
-}
-
-void LiveView::SubscribeTracked(Bus& bus, std::size_t i) {
-  const LinkOptions link = Link(tracked_[i].instance.prefix);
-  const std::string& name = tracked_[i].instance.name;
-  bus.Subscribe(link.Channel(name, kStateSuffix), [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-    state_t s;
-    if (CheckStatePacket(data, n) != WireCheck::kOk || s.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-      return;
-    OnState(i, std::move(s));
-  });
-  bus.Subscribe(link.Channel(name, kTelemetrySuffix),
-                [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-                  telemetry_t m;
-                  if (CheckTelemetryPacket(data, n) != WireCheck::kOk ||
-                      m.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-                    return;
-                  tracked_[i].telemetry = std::move(m);
-                });
-  bus.Subscribe(link.Channel(name, kTaskSuffix), [this, i](std::string_view, const std::uint8_t* data, std::size_t n) {
-    task_state_t m;
-    if (CheckTaskStatePacket(data, n) != WireCheck::kOk || m.decode(data, 0, static_cast<int>(n)) != static_cast<int>(n))
-      return;
-    tracked_[i].task = std::move(m);
-  });
+  for (const Tracked& t : tracked_) observers_[t.daemon]->Follow(t.instance.name);
 }
 
 // Every state, not only the frames sent: the moment an instance entered fault, estop or stopped is kept.
-void LiveView::OnState(std::size_t i, state_t s) {
-  Tracked& t = tracked_[i];
+// Called before the observer keeps `s`: the instance's newest state is still the one before it.
+void LiveView::OnState(std::size_t d, const std::string& name, const state_t& s) {
+  const auto it = index_.find({d, name});
+  if (it == index_.end()) return;  // named in a status this very frame: tracked after the handlers
+  Tracked& t = tracked_[it->second];
+  const ObservedInstance* seen = observers_[d]->Find(name);
+  const auto* last = seen != nullptr ? seen->states.Newest() : nullptr;
   const bool stopped =
       s.mode == state_t::MODE_FAULT || s.mode == state_t::MODE_ESTOP || s.mode == state_t::MODE_STOPPED;
-  if (stopped && (!t.state || t.state->mode != s.mode || t.state->run_id != s.run_id))
+  if (stopped && (last == nullptr || last->message.mode != s.mode || last->message.run_id != s.run_id))
     t.event = {{"mode", ModeName(s.mode)}, {"t", s.t}, {"tick", s.tick}, {"run", RunIdText(s.run_id)}};
-  t.received = SteadyClock::now();
-  t.run_heard[s.run_id] = t.received;
-  if (t.run_heard.size() > kMaxRunsKept) t.run_heard.erase(t.run_heard.begin());
-  t.state = std::move(s);
 }
 
 // Instances a daemon's status names that the scene has not: shown as text (no model to draw them by).
-void LiveView::SubscribeNamedInStatus(Bus& bus) {
-  for (const auto& [d, entry] : statuses_) {
-    for (const std::string& name : entry.first.instance_names) {
-      if (extra_instances_ >= kMaxExtraInstances) return;
-      const bool known = std::any_of(tracked_.begin(), tracked_.end(), [&](const Tracked& t) {
-        return t.instance.prefix == prefixes_[d] && t.instance.name == name;
-      });
-      if (known || !PlausibleInstanceName(name)) continue;
-      Tracked t;
-      t.instance = {prefixes_[d], name, -1};
-      tracked_.push_back(std::move(t));
-      ++extra_instances_;
-      SubscribeTracked(bus, tracked_.size() - 1);
+void LiveView::TrackNamedInStatus() {
+  for (std::size_t d = 0; d < observers_.size(); ++d) {
+    observers_[d]->Discover();
+    for (const std::string& name : observers_[d]->followed()) {
+      if (index_.count({d, name}) != 0) continue;
+      index_[{d, name}] = tracked_.size();
+      tracked_.push_back({{prefixes_[d], name, -1}, d, {}});
     }
   }
 }
@@ -169,43 +133,47 @@ json LiveView::Frame() {
   const auto now = SteadyClock::now();
   json instances = json::array();
   for (const Tracked& t : tracked_) {
-    if (t.state) instances.push_back(TrackedJson(t, now));
+    const ObservedInstance* seen = observers_[t.daemon]->Find(t.instance.name);
+    if (seen != nullptr && !seen->states.empty()) instances.push_back(TrackedJson(t, *seen, now));
   }
   return {{"instances", instances}, {"daemons", DaemonsJson(now)}};
 }
 
 // An instance as its latest state shows it, with what else the bus said of it.
-json LiveView::TrackedJson(const Tracked& t, SteadyClock::time_point now) const {
-  const state_t& s = *t.state;
-  const double age = Seconds(now - t.received);
-  json j = InstanceJson(t.instance, models_, s, age, t.task ? &*t.task : nullptr);
+json LiveView::TrackedJson(const Tracked& t, const ObservedInstance& seen, SteadyClock::time_point now) const {
+  const auto& newest = *seen.states.Newest();
+  const state_t& s = newest.message;
+  const double age = Seconds(now - newest.received);
+  const auto* task = seen.tasks.Newest();
+  json j = InstanceJson(t.instance, models_, s, age, task != nullptr ? &task->message : nullptr);
   if (age > kStale) j["stale"] = true;
   if (!t.event.is_null()) j["event"] = t.event;
-  const auto live_runs = std::count_if(t.run_heard.begin(), t.run_heard.end(),
-                                       [&](const auto& run) { return Seconds(now - run.second) <= kStale; });
+  const auto& runs = seen.states.entries();
+  const auto live_runs = std::count_if(runs.begin(), runs.end(),
+                                       [&](const auto& run) { return Seconds(now - run.second.received) <= kStale; });
   if (live_runs > 1)
     j["warning"] = std::to_string(live_runs) + " lagranged runs publish this instance: which is which cannot be told";
-  for (const auto& [d, entry] : statuses_) {
-    if (prefixes_[d] == t.instance.prefix && entry.first.run_id == s.run_id)
-      j["reason"] = ModeReasonIn(entry.first, t.instance.name, s.mode);
-  }
-  if (t.telemetry && t.telemetry->run_id == s.run_id) {
-    j["eps"] = t.telemetry->energy_residual;
-    j["eps_bound"] = t.telemetry->quadrature_bound;
+  if (const auto* status = observers_[t.daemon]->statuses().Find(s.run_id))
+    j["reason"] = ModeReasonIn(status->message, t.instance.name, s.mode);
+  if (const auto* telemetry = seen.telemetry.Find(s.run_id)) {
+    j["eps"] = telemetry->message.energy_residual;
+    j["eps_bound"] = telemetry->message.quadrature_bound;
   }
   return j;
 }
 
 json LiveView::DaemonsJson(SteadyClock::time_point now) const {
   json daemons = json::array();
-  for (const auto& [d, entry] : statuses_) {
-    const status_t& s = entry.first;
+  for (std::size_t d = 0; d < observers_.size(); ++d) {
+    const auto* newest = observers_[d]->statuses().Newest();
+    if (newest == nullptr) continue;
+    const status_t& s = newest->message;
     daemons.push_back({{"prefix", Escape(prefixes_[d])},
                        {"run", RunIdText(s.run_id)},
                        {"ticks", s.ticks},
                        {"overruns", s.overruns},
                        {"period", s.period},
-                       {"stale", Seconds(now - entry.second) > kStale}});
+                       {"stale", Seconds(now - newest->received) > kStale}});
   }
   return daemons;
 }

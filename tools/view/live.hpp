@@ -27,6 +27,7 @@
 
 #include "protocol/bus.hpp"
 #include "protocol/client.hpp"
+#include "protocol/observer.hpp"
 #include "tools/view/instance_json.hpp"
 
 namespace lagrange::cli::view {
@@ -59,32 +60,28 @@ class LiveView {
 
  private:
   using SteadyClock = std::chrono::steady_clock;
-  // One instance and what the bus last said of it.
+  // One instance drawn: which daemon (prefix index) and name, and the latest entry into fault, estop or stopped,
+  // from every state (not only the frames sent). What the bus said of it is its observer's.
   struct Tracked {
     ViewInstance instance;
-    std::optional<state_t> state;
-    SteadyClock::time_point received;
-    std::map<std::int64_t, SteadyClock::time_point> run_heard;  // run ids heard (two: which is which cannot be told)
-    std::optional<telemetry_t> telemetry;
-    std::optional<task_state_t> task;  // a task-space controller's frame and target (<NAME>_TASK)
-    nlohmann::json event;  // the latest entry into fault, estop or stopped, from every state (not only the frames sent)
+    std::size_t daemon = 0;
+    nlohmann::json event;
   };
 
   LinkOptions Link(const std::string& prefix) const;
-  void SubscribeStatuses(Bus& bus);
-  void SubscribeTracked(Bus& bus, std::size_t i);
-  void OnState(std::size_t i, state_t s);
-  void SubscribeNamedInStatus(Bus& bus);
+  void Observe(Bus& bus);
+  void OnState(std::size_t d, const std::string& name, const state_t& s);
+  void TrackNamedInStatus();
   nlohmann::json Frame();
-  nlohmann::json TrackedJson(const Tracked& t, SteadyClock::time_point now) const;
+  nlohmann::json TrackedJson(const Tracked& t, const ObservedInstance& seen, SteadyClock::time_point now) const;
   nlohmann::json DaemonsJson(SteadyClock::time_point now) const;
 
   const ViewModels& models_;
   std::vector<std::string> prefixes_;
   LinkOptions bus_;
   std::vector<Tracked> tracked_;  // grows only on the bus thread (Run), which alone reads it
-  std::size_t extra_instances_ = 0;
-  std::map<std::size_t, std::pair<status_t, SteadyClock::time_point>> statuses_;  // by prefix index
+  std::map<std::pair<std::size_t, std::string>, std::size_t> index_;  // (daemon, name) => tracked_
+  std::vector<std::unique_ptr<BusObserver>> observers_;               // one per prefix
 };
 
 }  // namespace lagrange::cli::view

@@ -11,7 +11,7 @@
 #include "base/escape.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
-#include "protocol/wire.hpp"
+#include "protocol/receive.hpp"
 
 namespace lagrange::cli::view {
 namespace {
@@ -26,15 +26,6 @@ template <class Entry>
 const Entry* LastAtOrBefore(const std::vector<Entry>& logged, double t) {
   auto it = std::upper_bound(logged.begin(), logged.end(), t, [](double x, const Entry& e) { return x < e.t; });
   return it == logged.begin() ? nullptr : &*std::prev(it);
-}
-
-template <class Message, class Check>
-std::optional<Message> Decoded(const std::uint8_t* data, std::size_t size, Check check) {
-  Message m;
-  if (data == nullptr || check(data, size) != WireCheck::kOk ||
-      m.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size))
-    return std::nullopt;
-  return m;
 }
 
 }  // namespace
@@ -76,7 +67,7 @@ void LogView::Read(const LinkOptions& bus) {
 // One logged event: kept when it is a state, telemetry or task state of an instance and decodes.
 void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_t* data, std::size_t size, double t) {
   if (auto it = counts.state.find(channel); it != counts.state.end()) {
-    auto s = Decoded<state_t>(data, size, CheckStatePacket);
+    auto s = Receive<state_t>(data, size, Framing::kRecorded).message;
     if (!s) {
       ++counts.refused;
     } else if (counts.states >= kMaxLogStates) {
@@ -86,11 +77,11 @@ void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_
       recorded_[it->second].states.push_back({t, std::move(*s)});
     }
   } else if (auto tt = counts.telemetry.find(channel); tt != counts.telemetry.end()) {
-    auto m = Decoded<telemetry_t>(data, size, CheckTelemetryPacket);
+    auto m = Receive<telemetry_t>(data, size, Framing::kRecorded).message;
     auto& telemetry = recorded_[tt->second].telemetry;
     if (m && telemetry.size() < kMaxLogStates) telemetry.push_back({t, {m->energy_residual, m->quadrature_bound}});
   } else if (auto tk = counts.task.find(channel); tk != counts.task.end()) {
-    auto m = Decoded<task_state_t>(data, size, CheckTaskStatePacket);
+    auto m = Receive<task_state_t>(data, size, Framing::kRecorded).message;
     auto& tasks = recorded_[tk->second].tasks;
     if (m && tasks.size() < kMaxLogStates) tasks.push_back({t, std::move(*m)});
   } else if (channel.ends_with(kStateSuffix) && counts.other_states.size() < kMaxOtherStates) {

@@ -1,0 +1,50 @@
+#include "protocol/observer.hpp"
+
+#include "protocol/channels.hpp"
+#include "protocol/receive.hpp"
+
+namespace lagrange {
+
+BusObserver::BusObserver(Bus& bus, std::string prefix, ObserverLimits limits, Hooks hooks)
+    : bus_(bus), prefix_(std::move(prefix)), limits_(limits), hooks_(std::move(hooks)), statuses_(limits.runs) {
+  SubscribeMessages<status_t>(bus_, StatusChannel(prefix_),
+                              [this](status_t&& s) { statuses_.Add(std::move(s), std::chrono::steady_clock::now()); });
+}
+
+bool BusObserver::Follow(const std::string& name) {
+  if (instances_.count(name) != 0) return true;
+  if (instances_.size() >= limits_.instances) return false;
+  ObservedInstance* seen = &instances_.try_emplace(name, limits_.runs).first->second;
+  followed_.push_back(name);
+  const std::string* key = &instances_.find(name)->first;  // node-based: stays valid
+  SubscribeMessages<state_t>(bus_, InstanceChannel(prefix_, name, kStateSuffix), [this, seen, key](state_t&& s) {
+    if (hooks_.on_state) hooks_.on_state(*key, s);
+    seen->states.Add(std::move(s), std::chrono::steady_clock::now());
+  });
+  SubscribeMessages<telemetry_t>(bus_, InstanceChannel(prefix_, name, kTelemetrySuffix),
+                                 [this, seen, key](telemetry_t&& m) {
+                                   if (hooks_.on_telemetry) hooks_.on_telemetry(*key, m);
+                                   seen->telemetry.Add(std::move(m), std::chrono::steady_clock::now());
+                                 });
+  SubscribeMessages<task_state_t>(bus_, InstanceChannel(prefix_, name, kTaskSuffix), [seen](task_state_t&& m) {
+    seen->tasks.Add(std::move(m), std::chrono::steady_clock::now());
+  });
+  return true;
+}
+
+void BusObserver::Discover() {
+  if (!limits_.discover) return;
+  for (const auto* e : statuses_.Latest()) {
+    for (const std::string& name : e->message.instance_names) {
+      if (instances_.size() >= limits_.instances) return;
+      if (IsInstanceName(name)) Follow(name);
+    }
+  }
+}
+
+const ObservedInstance* BusObserver::Find(const std::string& name) const {
+  const auto it = instances_.find(name);
+  return it == instances_.end() ? nullptr : &it->second;
+}
+
+}  // namespace lagrange

@@ -1,0 +1,131 @@
+#pragma once
+// What one lagranged's channels say, for a client that only listens (lagrangectl
+// watch, the view): its statuses by run id, and the instances they name (or
+// that were asked for by name), each with its latest state, telemetry and task
+// state per run id. Several runs may publish one prefix (two daemons started
+// on one bus): they are kept apart by run id, never mixed. Everything is
+// bounded: runs per channel (the least recently heard forgotten), instances
+// followed, and only names a scene could give an instance (IsInstanceName)
+// are followed from a status. Every message goes through the typed receive
+// (protocol/receive.hpp). It subscribes on the thread that handles the bus,
+// never from inside a handler (Discover after Handle).
+
+#include <lagrange/state_t.hpp>
+#include <lagrange/status_t.hpp>
+#include <lagrange/task_state_t.hpp>
+#include <lagrange/telemetry_t.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "protocol/bus.hpp"
+
+namespace lagrange {
+
+// The latest message of each run id on one channel, at most `capacity` runs.
+template <class Message>
+class LatestByRun {
+ public:
+  using Time = std::chrono::steady_clock::time_point;
+  struct Entry {
+    Message message;
+    Time received;
+  };
+  explicit LatestByRun(std::size_t capacity) : capacity_(capacity) {}
+
+  Entry& Add(Message&& message, Time now) {
+    auto it = entries_.find(message.run_id);
+    if (it == entries_.end()) {
+      if (entries_.size() >= capacity_) {  // forget the run heard from least recently
+        auto oldest = entries_.begin();
+        for (auto e = entries_.begin(); e != entries_.end(); ++e)
+          oldest = e->second.received < oldest->second.received ? e : oldest;
+        entries_.erase(oldest);
+      }
+      it = entries_.emplace(message.run_id, Entry{}).first;
+    }
+    it->second.message = std::move(message);
+    it->second.received = now;
+    return it->second;
+  }
+  // Most recently heard first.
+  std::vector<const Entry*> Latest() const {
+    std::vector<const Entry*> v;
+    for (const auto& [id, e] : entries_) v.push_back(&e);
+    std::sort(v.begin(), v.end(), [](const Entry* a, const Entry* b) { return a->received > b->received; });
+    return v;
+  }
+  // The most recently heard; null when none.
+  const Entry* Newest() const {
+    const Entry* newest = nullptr;
+    for (const auto& [id, e] : entries_) newest = newest == nullptr || e.received > newest->received ? &e : newest;
+    return newest;
+  }
+  const Entry* Find(std::int64_t run_id) const {
+    const auto it = entries_.find(run_id);
+    return it == entries_.end() ? nullptr : &it->second;
+  }
+  const std::map<std::int64_t, Entry>& entries() const { return entries_; }
+  bool empty() const { return entries_.empty(); }
+
+ private:
+  std::size_t capacity_;
+  std::map<std::int64_t, Entry> entries_;
+};
+
+struct ObserverLimits {
+  std::size_t runs = 4;        // run ids kept per channel
+  std::size_t instances = 64;  // instances followed in all (asked for and named in a status)
+  bool discover = true;        // follow the instances a status names
+};
+
+// One instance as the bus last showed it, per run.
+struct ObservedInstance {
+  explicit ObservedInstance(std::size_t runs) : states(runs), telemetry(runs), tasks(runs) {}
+  LatestByRun<state_t> states;
+  LatestByRun<telemetry_t> telemetry;
+  LatestByRun<task_state_t> tasks;
+};
+
+class BusObserver {
+ public:
+  // Called for each message received, before it is kept (the instance still shows the previous one).
+  struct Hooks {
+    std::function<void(const std::string& instance, const state_t&)> on_state;
+    std::function<void(const std::string& instance, const telemetry_t&)> on_telemetry;
+  };
+  // Listens on `bus` to the daemon whose channels start with `prefix`; subscribes its status channel now.
+  BusObserver(Bus& bus, std::string prefix, ObserverLimits limits = {}, Hooks hooks = {});
+  BusObserver(const BusObserver&) = delete;
+  BusObserver& operator=(const BusObserver&) = delete;
+
+  // Follows `name`'s state, telemetry and task channels (once; within limits.instances). False when refused.
+  bool Follow(const std::string& name);
+  // Follows the instances the kept statuses name (limits.discover), in the order they name them.
+  void Discover();
+
+  const std::string& prefix() const { return prefix_; }
+  const LatestByRun<status_t>& statuses() const { return statuses_; }
+  // By name; node-based: a reference stays valid while the observer lives.
+  const std::map<std::string, ObservedInstance>& instances() const { return instances_; }
+  const ObservedInstance* Find(const std::string& name) const;
+  // Names in the order they were followed.
+  const std::vector<std::string>& followed() const { return followed_; }
+
+ private:
+  Bus& bus_;
+  std::string prefix_;
+  ObserverLimits limits_;
+  Hooks hooks_;
+  LatestByRun<status_t> statuses_;
+  std::map<std::string, ObservedInstance> instances_;
+  std::vector<std::string> followed_;
+};
+
+}  // namespace lagrange
