@@ -14,9 +14,10 @@ BusObserver::BusObserver(Bus& bus, std::string prefix, ObserverLimits limits, Ho
 bool BusObserver::Follow(const std::string& name) {
   if (instances_.count(name) != 0) return true;
   if (instances_.size() >= limits_.instances) return false;
-  ObservedInstance* seen = &instances_.try_emplace(name, limits_.runs).first->second;
+  const auto added = instances_.try_emplace(name, limits_.runs).first;
+  ObservedInstance* seen = &added->second;  // node-based: both stay valid
+  const std::string* key = &added->first;
   followed_.push_back(name);
-  const std::string* key = &instances_.find(name)->first;  // node-based: stays valid
   SubscribeMessages<state_t>(bus_, InstanceChannel(prefix_, name, kStateSuffix), [this, seen, key](state_t&& s) {
     if (hooks_.on_state) hooks_.on_state(*key, s);
     seen->states.Add(std::move(s), std::chrono::steady_clock::now());

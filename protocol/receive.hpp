@@ -1,7 +1,7 @@
 #pragma once
 // The one typed receive: a message's bytes as a subscriber or a log reader has
 // them => the decoded message, or the reason it was dropped. The check is the
-// message type's (WireRule below: its Check*Packet), then a decode that must
+// message type's (kCheckOf below: its Check*Packet), then a decode that must
 // consume every byte; nothing is decoded that its check refused (the generated
 // decoders trust the lengths a packet states).
 //
