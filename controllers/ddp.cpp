@@ -141,6 +141,7 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   B_full_.resize(nx, n);
   tau_ = q_ = qd_ = VectorXd::Zero(n);
   dx_.resize(nx);
+  x0_.resize(nx);
   Vx_.resize(nx);
   Qx_.resize(nx);
   Qu_k_.resize(m);
@@ -226,13 +227,14 @@ struct DdpPasses {
     return 0.5 * J;
   }
 
-  // Forward pass with step α: (x̂, û) from x̂_0 = x_try_.col(0) under
+  // Forward pass with step α: (x̂, û) from x̂_0 = x_0 under
   // û_k = clamp(ū_k + α k_k + K_k (x̂_k − x̄_k)); returns J(α), +inf when the
   // rollout leaves the finite numbers.
   static double Rollout(const DdpModel& model, DdpData& d, double alpha) {
     const int n = model.num_dofs(), m = model.num_controls(), N = model.horizon();
     const std::vector<int>& act = model.actuated();
     double J = 0.0;
+    d.x_try_.col(0) = d.x0_;
     for (int k = 0; k < N; ++k) {
       d.dx_ = d.x_try_.col(k) - d.x_.col(k);
       auto u = d.u_try_.col(k);
@@ -269,7 +271,7 @@ struct DdpPasses {
   }
 
   // ½ xᵀ H x + gᵀ x, with H x left in d.qp_Hx_.
-  static double QpValue(DdpData& d, const MatrixXd& H, const VectorXd& g, const VectorXd& x) {
+  static double QpValue(DdpData& d, const MatrixXd& H, const VectorXd& g, ConstVecRef x) {
     d.qp_Hx_.noalias() = H * x;
     return g.dot(x) + 0.5 * x.dot(d.qp_Hx_);
   }
@@ -277,7 +279,7 @@ struct DdpPasses {
   // The free set at x: a component is clamped when it sits on a bound and
   // the gradient g + H x pushes it outward. Leaves the gradient in qp_grad_.
   static void FreeSet(DdpData& d, const MatrixXd& H, const VectorXd& g, const VectorXd& lo, const VectorXd& hi,
-                      const VectorXd& x) {
+                      ConstVecRef x) {
     d.qp_grad_ = g;
     d.qp_grad_.noalias() += H * x;
     d.qp_free_.clear();
@@ -443,8 +445,8 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   r.expected_decrease = 0.0;
   r.cost_history.setZero();
   // The first rollout: the policy held by the data (open loop after Reset).
-  d.x_try_.col(0).head(n) = q0;
-  d.x_try_.col(0).tail(n) = qd0;
+  d.x0_.head(n) = q0;
+  d.x0_.tail(n) = qd0;
   double J = DdpPasses::Rollout(model, d, 0.0);
   std::swap(d.x_, d.x_try_);
   std::swap(d.u_, d.u_try_);

@@ -177,7 +177,7 @@ class DdpData {
   std::vector<MatrixXd> A_, B_, K_;    // (2n x 2n), (2n x m), (m x 2n) per knot
   MatrixXd kff_, Qu_;                  // (m x N)
   MatrixXd B_full_;                    // (2n x n)
-  VectorXd tau_, q_, qd_, dx_;         // (n), (n), (n), (2n)
+  VectorXd tau_, q_, qd_, dx_, x0_;    // (n), (n), (n), (2n), (2n)
   // Backward pass scratch.
   VectorXd Vx_, Qx_, Qu_k_, Quu_k_vec_, lo_, hi_, du_;  // (2n), (2n), (m), (m), (m), (m), (m)
   MatrixXd Vxx_, VA_, VB_, Qxx_, Quu_, Qreg_, Qux_, QuuK_, XX_, Kf_;
