@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "controllers/ddp.hpp"
 #include "controllers/lqr.hpp"
@@ -231,6 +232,44 @@ TEST(Ddp, SecondSolveAllocatesNothing) {
   data.Reset();
   SolveDdp(model, data, q, qd);
   EXPECT_EQ(counter.count(), 0);
+}
+
+// Model-predictive control of the cart-pole, offline: every knot (20 ms of
+// simulated time) the plan is shifted by one knot and re-solved (2 iterations)
+// from the simulated state; between solves the plant (RK4, 1 ms) runs under
+// the plan's affine policy of knot 0, evaluated every millisecond. The
+// optimiser's model steps by semi-implicit Euler, the plant by RK4.
+TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
+  constexpr double kRail = 0.5, kUpright = 0.05, kTick = 0.001, kDuration = 5.0;
+  DdpConfig config = CartPoleSwingUp(10.0);
+  config.integrator = IntegratorType::kSemiImplicitEuler;
+  config.weights = Weights(V({30.0, 0.3}), V({0.01, 0.01}), V({0.01}), V({300.0, 300.0}), V({1.0, 1.0}));
+  config.options.max_iterations = 2;
+  const DdpModel model(Plant(CartPoleParams{}), config);
+  const int ticks_per_knot = static_cast<int>(std::lround(config.dt / kTick));
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int run = 0; run < 3; ++run) {
+    VectorXd q = V({0.1 * unit(rng), 0.2 * unit(rng)}), qd = V({0.1 * unit(rng), 0.2 * unit(rng)});
+    DdpData plan(model);
+    plan.q_ref.row(1).setConstant(kPi);
+    PlantModel plant(model.dynamics(), EffectsConfig{});
+    const std::unique_ptr<Integrator> rk4 = MakeIntegrator(IntegratorConfig{}, 2);
+    VectorXd u(1), tau = VectorXd::Zero(2);
+    double worst_x = 0.0;
+    for (int tick = 0; tick < static_cast<int>(std::lround(kDuration / kTick)); ++tick) {
+      if (tick % ticks_per_knot == 0) {
+        if (tick > 0) plan.ShiftSolution(1);
+        SolveDdp(model, plan, q, qd);
+      }
+      plan.EvaluatePolicy(0, q, qd, u);
+      tau[0] = u[0];
+      rk4->Advance(plant, tick * kTick, kTick, tau, q, qd);
+      worst_x = std::max(worst_x, std::abs(q[0]));
+    }
+    EXPECT_LT(std::abs(std::remainder(q[1] - kPi, 2.0 * kPi)), kUpright) << "run " << run;
+    EXPECT_LE(worst_x, kRail) << "run " << run;
+  }
 }
 
 TEST(Ddp, RefusesAProblemItCannotSolveNamingTheField) {
