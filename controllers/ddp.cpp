@@ -166,12 +166,14 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   qp_rhs_.resize(m);
   qp_L_.resize(m, m);
   qp_free_.reserve(static_cast<std::size_t>(m));
+  qp_is_free_.assign(static_cast<std::size_t>(m), 1);
   qp_factored_.reserve(static_cast<std::size_t>(m));
   result_.cost_history = VectorXd::Zero(model.config().options.max_iterations + 1);
 }
 
 void DdpData::EvaluatePolicy(int k, ConstVecRef q, ConstVecRef qd, VecRef u) const {
   // Written out: a product with (x − x̄_k) would evaluate it into a temporary.
+  eigen_assert(k >= 0 && k < model_->horizon() && q.size() == model_->num_dofs() && u.size() == model_->num_controls());
   const int n = model_->num_dofs();
   const MatrixXd& K = K_[static_cast<std::size_t>(k)];
   for (int j = 0; j < model_->num_controls(); ++j) {
@@ -285,6 +287,7 @@ struct DdpPasses {
     d.qp_free_.clear();
     for (int i = 0; i < static_cast<int>(x.size()); ++i) {
       const bool clamped = (x[i] <= lo[i] && d.qp_grad_[i] > 0.0) || (x[i] >= hi[i] && d.qp_grad_[i] < 0.0);
+      d.qp_is_free_[static_cast<std::size_t>(i)] = !clamped;
       if (!clamped) d.qp_free_.push_back(i);
     }
   }
@@ -331,7 +334,7 @@ struct DdpPasses {
         const int i = d.qp_free_[static_cast<std::size_t>(a)];
         double r = -g[i];
         for (int j = 0; j < m; ++j) {
-          if (std::find(d.qp_free_.begin(), d.qp_free_.end(), j) == d.qp_free_.end()) r -= H(i, j) * x[j];
+          if (!d.qp_is_free_[static_cast<std::size_t>(j)]) r -= H(i, j) * x[j];
         }
         d.qp_rhs_[a] = r;
       }
@@ -448,15 +451,16 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   d.x0_.head(n) = q0;
   d.x0_.tail(n) = qd0;
   double J = DdpPasses::Rollout(model, d, 0.0);
-  std::swap(d.x_, d.x_try_);
-  std::swap(d.u_, d.u_try_);
-  d.kff_.setZero();
   r.cost = J;
   r.cost_history[0] = J;
   if (!std::isfinite(J)) {
+    d.Reset();  // a policy that diverged is no warm start
     r.status = DdpStatus::kDiverged;
     return r;
   }
+  std::swap(d.x_, d.x_try_);
+  std::swap(d.u_, d.u_try_);
+  d.kff_.setZero();
   double mu = 0.0;
   // μ after a failure; false past regularization_max.
   const auto increase = [&] {

@@ -59,8 +59,9 @@
 
 namespace lagrange {
 
-// Diagonal weights of the cost above. Units: wq 1/rad² (1/m²) · J-equivalent,
-// the cost being dimensionless; only their ratios matter.
+// Diagonal weights of the cost above. The cost has no physical unit: a
+// weight's unit is the inverse square of its error's (wq 1/rad² or 1/m², wqd
+// s²/rad² or s²/m², wu 1/(N·m)² or 1/N²); only their ratios shape the solution.
 struct DdpWeights {
   VectorXd q;            // (n) wq, >= 0
   VectorXd qd;           // (n) wqd, >= 0
@@ -122,7 +123,8 @@ enum class DdpStatus : std::uint8_t {
   kMaxIterations,       // still improving when max_iterations ran out
   kLineSearchFailed,    // no step decreased the cost up to regularization_max
   kNotPositiveDefinite, // Q_uu + μI not positive definite up to regularization_max
-  kDiverged,            // the first rollout left the finite numbers
+  kDiverged,            // the first rollout left the finite numbers (x_0 non-finite, or the
+                        // held policy blew up); the data is then Reset
 };
 std::string_view ToString(DdpStatus status);
 
@@ -138,8 +140,8 @@ struct DdpResult {
 
 class DdpData {
  public:
-  // Sizes every buffer for `model`; the references start at zero and the
-  // controls at zero with no feedback (Reset).
+  // Sizes every buffer for `model`, which must outlive the data; the
+  // references start at zero and the controls at zero with no feedback (Reset).
   explicit DdpData(const DdpModel& model);
 
   // Inputs, set by the caller before SolveDdp; sized here, never resized.
@@ -184,7 +186,8 @@ class DdpData {
   // The box QP's workspace (controllers/ddp.cpp).
   VectorXd qp_grad_, qp_x_trial_, qp_search_, qp_Hx_, qp_rhs_;
   MatrixXd qp_L_;
-  std::vector<int> qp_free_, qp_factored_;
+  std::vector<int> qp_free_, qp_factored_;  // free indices; those chol(H_FF) in qp_L_ is of
+  std::vector<char> qp_is_free_;            // (m) the free set as a mask
   DdpResult result_;
 };
 
