@@ -231,8 +231,10 @@ struct DdpPasses {
 
   // Forward pass with step α: (x̂, û) from x̂_0 = x_0 under
   // û_k = clamp(ū_k + α k_k + K_k (x̂_k − x̄_k)); returns J(α), +inf when the
-  // rollout leaves the finite numbers.
-  static double Rollout(const DdpModel& model, DdpData& d, double alpha) {
+  // rollout leaves the finite numbers. `linearize`: each step by the step
+  // derivatives, which leave A_k, B_k of the candidate as well (the first
+  // rollout of a solve, always taken: one pass instead of two).
+  static double Rollout(const DdpModel& model, DdpData& d, double alpha, bool linearize) {
     const int n = model.num_dofs(), m = model.num_controls(), N = model.horizon();
     const std::vector<int>& act = model.actuated();
     double J = 0.0;
@@ -248,13 +250,29 @@ struct DdpPasses {
       for (int j = 0; j < m; ++j) d.tau_[act[static_cast<std::size_t>(j)]] = u[j];
       d.q_ = d.x_try_.col(k).head(n);
       d.qd_ = d.x_try_.col(k).tail(n);
-      d.integrator_->Advance(*d.plant_, k * model.dt(), model.dt(), d.tau_, d.q_, d.qd_);
+      if (linearize) {
+        StepAt(model, d, k);
+      } else {
+        d.integrator_->Advance(*d.plant_, k * model.dt(), model.dt(), d.tau_, d.q_, d.qd_);
+      }
       d.x_try_.col(k + 1).head(n) = d.q_;
       d.x_try_.col(k + 1).tail(n) = d.qd_;
       if (!d.q_.allFinite() || !d.qd_.allFinite() || !std::isfinite(J)) return kInf;
     }
     J += Cost(model, d, N, d.x_try_.col(N), nullptr);
     return std::isfinite(J) ? J : kInf;
+  }
+
+  // (q_, qd_, tau_) at knot k => A_k, B_k and the step's end in (q_, qd_).
+  static void StepAt(const DdpModel& model, DdpData& d, int k) {
+    const std::vector<int>& act = model.actuated();
+    d.step_->Advance(*d.plant_, k * model.dt(), model.dt(), model.config().substeps, d.q_, d.qd_, d.tau_,
+                     d.A_[static_cast<std::size_t>(k)], d.B_full_);
+    for (int j = 0; j < model.num_controls(); ++j) {
+      d.B_[static_cast<std::size_t>(k)].col(j) = d.B_full_.col(act[static_cast<std::size_t>(j)]);
+    }
+    d.q_ = d.step_->q_next();
+    d.qd_ = d.step_->qd_next();
   }
 
   // A_k, B_k along the nominal.
@@ -266,9 +284,7 @@ struct DdpPasses {
       for (int j = 0; j < m; ++j) d.tau_[act[static_cast<std::size_t>(j)]] = d.u_(j, k);
       d.q_ = d.x_.col(k).head(n);
       d.qd_ = d.x_.col(k).tail(n);
-      d.step_->Advance(*d.plant_, k * model.dt(), model.dt(), model.config().substeps, d.q_, d.qd_, d.tau_,
-                       d.A_[static_cast<std::size_t>(k)], d.B_full_);
-      for (int j = 0; j < m; ++j) d.B_[static_cast<std::size_t>(k)].col(j) = d.B_full_.col(act[static_cast<std::size_t>(j)]);
+      StepAt(model, d, k);
     }
   }
 
@@ -450,7 +466,7 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   // The first rollout: the policy held by the data (open loop after Reset).
   d.x0_.head(n) = q0;
   d.x0_.tail(n) = qd0;
-  double J = DdpPasses::Rollout(model, d, 0.0);
+  double J = DdpPasses::Rollout(model, d, 0.0, true);
   r.cost = J;
   r.cost_history[0] = J;
   if (!std::isfinite(J)) {
@@ -467,7 +483,7 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
     mu = std::max(o.regularization_min, mu * o.regularization_factor);
     return mu <= o.regularization_max;
   };
-  bool linearized = false;
+  bool linearized = true;  // by the first rollout
   while (r.iterations < o.max_iterations) {
     if (!linearized) DdpPasses::Linearize(model, d);
     linearized = true;
@@ -488,7 +504,7 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
     double alpha = 1.0;
     for (int s = 0; s < o.line_search_steps && !accepted; ++s, alpha *= 0.5) {
       const double expected = -(alpha * dV1 + alpha * alpha * dV2);
-      const double trial = DdpPasses::Rollout(model, d, alpha);
+      const double trial = DdpPasses::Rollout(model, d, alpha, false);
       if (trial < J && J - trial > o.line_search_acceptance * expected) {
         accepted = true;
         J = trial;
