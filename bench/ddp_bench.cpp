@@ -57,8 +57,8 @@ std::vector<Problem> Problems() {
     out.push_back(std::move(p));
   }
   {
-    const PlantSpec spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(
-        LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf")));
+    const PlantSpec spec = UrdfPlantSpec(
+        std::make_shared<const UrdfRobot>(LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf")));
     Problem p{"panda", MakeDynamics(spec, FastestMethod(spec.type())), {}, VectorXd(7), VectorXd(7)};
     p.config.dt = 0.01;
     p.config.horizon = 50;
@@ -152,9 +152,10 @@ class Collector final : public benchmark::ConsoleReporter {
 };
 
 void PrintSummary(const Collector& c) {
-  std::printf("\nsummary (CPU time; x dFD: a multiple of one ComputeForwardDynamicsDerivatives of the plant, this run)\n"
-              "%-9s %-20s %5s %10s %12s %12s %10s\n",
-              "robot", "integrator", "knots", "solve us", "per knot ns", "knot x dFD", "solves/s");
+  std::printf(
+      "\nsummary (CPU time; x dFD: a multiple of one ComputeForwardDynamicsDerivatives of the plant, this run)\n"
+      "%-9s %-20s %5s %10s %12s %12s %10s\n",
+      "robot", "integrator", "knots", "solve us", "per knot ns", "knot x dFD", "solves/s");
   for (const Problem& p : Problems()) {
     const double dfd = c.Time("ddp/" + p.name + "/dFD");
     for (IntegratorType integrator : kIntegrators) {

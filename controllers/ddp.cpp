@@ -118,7 +118,8 @@ DdpModel::DdpModel(std::shared_ptr<const Dynamics> dynamics, DdpConfig config)
   }
   if (o.box_qp_max_iterations < 1 || o.box_qp_max_iterations > 1000) Refuse("options.box_qp_max_iterations", "1..1000");
   if (auto err = ValidateEffects(config_.effects, n_)) Refuse(std::string("effects.").append(err->key), err->message);
-  if (!config_.effects.disturbance.empty()) Refuse("effects.disturbance", "none (the optimiser's model takes no pushes)");
+  if (!config_.effects.disturbance.empty())
+    Refuse("effects.disturbance", "none (the optimiser's model takes no pushes)");
 }
 
 DdpData::DdpData(const DdpModel& model) : model_(&model) {
@@ -313,7 +314,8 @@ struct DdpPasses {
     if (d.qp_factored_ == d.qp_free_) return true;
     const int f = static_cast<int>(d.qp_free_.size());
     for (int a = 0; a < f; ++a) {
-      for (int b = 0; b <= a; ++b) d.qp_L_(a, b) = H(d.qp_free_[static_cast<std::size_t>(a)], d.qp_free_[static_cast<std::size_t>(b)]);
+      for (int b = 0; b <= a; ++b)
+        d.qp_L_(a, b) = H(d.qp_free_[static_cast<std::size_t>(a)], d.qp_free_[static_cast<std::size_t>(b)]);
     }
     d.qp_factored_ = d.qp_free_;  // same capacity (m): no allocation
     if (CholeskyInPlace(d.qp_L_, f)) return true;
@@ -330,8 +332,8 @@ struct DdpPasses {
   // prediction. It ends with the free set and chol(H_FF) of the final x (so
   // the gains use the active set the solution has). False when an H_FF is not
   // positive definite.
-  static bool SolveBoxQp(const DdpModel& model, DdpData& d, const MatrixXd& H, const VectorXd& g,
-                         const VectorXd& lo, const VectorXd& hi, VecRef x) {
+  static bool SolveBoxQp(const DdpModel& model, DdpData& d, const MatrixXd& H, const VectorXd& g, const VectorXd& lo,
+                         const VectorXd& hi, VecRef x) {
     constexpr double kArmijo = 0.1, kBacktrack = 0.6, kMinStep = 1e-12, kMinGradient = 1e-12, kMinRelative = 1e-14;
     const int m = static_cast<int>(x.size());
     x = x.cwiseMax(lo).cwiseMin(hi);

@@ -71,14 +71,14 @@ struct DdpWeights {
 };
 
 struct DdpOptions {
-  int max_iterations = 50;             // 1..10000
-  double tolerance = 1e-8;             // converged when ΔJ(1) <= tolerance · J; >= 0
-  double regularization_min = 1e-6;    // μ's first non-zero value; > 0
-  double regularization_max = 1e10;    // past it the solve stops; >= regularization_min
-  double regularization_factor = 10.0; // μ × on a failure, ÷ on an accepted step; > 1
-  int line_search_steps = 10;          // α = 1, ½, ..., 2^−(steps − 1); 1..60
+  int max_iterations = 50;               // 1..10000
+  double tolerance = 1e-8;               // converged when ΔJ(1) <= tolerance · J; >= 0
+  double regularization_min = 1e-6;      // μ's first non-zero value; > 0
+  double regularization_max = 1e10;      // past it the solve stops; >= regularization_min
+  double regularization_factor = 10.0;   // μ × on a failure, ÷ on an accepted step; > 1
+  int line_search_steps = 10;            // α = 1, ½, ..., 2^−(steps − 1); 1..60
   double line_search_acceptance = 1e-4;  // actual over expected decrease to accept; in [0, 1)
-  int box_qp_max_iterations = 100;     // projected-Newton iterations per knot; 1..1000
+  int box_qp_max_iterations = 100;       // projected-Newton iterations per knot; 1..1000
 };
 
 struct DdpConfig {
@@ -100,9 +100,9 @@ class DdpModel {
   // integrator without step derivatives, or any size or range above.
   DdpModel(std::shared_ptr<const Dynamics> dynamics, DdpConfig config);
 
-  int num_dofs() const { return n_; }                            // n
+  int num_dofs() const { return n_; }                                      // n
   int num_controls() const { return static_cast<int>(actuated_.size()); }  // m
-  int horizon() const { return config_.horizon; }                // N
+  int horizon() const { return config_.horizon; }                          // N
   double dt() const { return config_.dt; }
   const DdpConfig& config() const { return config_; }
   const std::vector<int>& actuated() const { return actuated_; }
@@ -119,23 +119,23 @@ class DdpModel {
 };
 
 enum class DdpStatus : std::uint8_t {
-  kConverged,           // ΔJ(1) <= tolerance · J
-  kMaxIterations,       // still improving when max_iterations ran out
-  kLineSearchFailed,    // no step decreased the cost up to regularization_max
-  kNotPositiveDefinite, // Q_uu + μI not positive definite up to regularization_max
-  kDiverged,            // the first rollout left the finite numbers (x_0 non-finite, or the
-                        // held policy blew up); the data is then Reset
+  kConverged,            // ΔJ(1) <= tolerance · J
+  kMaxIterations,        // still improving when max_iterations ran out
+  kLineSearchFailed,     // no step decreased the cost up to regularization_max
+  kNotPositiveDefinite,  // Q_uu + μI not positive definite up to regularization_max
+  kDiverged,             // the first rollout left the finite numbers (x_0 non-finite, or the
+                         // held policy blew up); the data is then Reset
 };
 std::string_view ToString(DdpStatus status);
 
 struct DdpResult {
   DdpStatus status = DdpStatus::kMaxIterations;
-  int iterations = 0;               // backward passes followed by a line search
-  double cost = 0.0;                // J of the nominal
-  double expected_decrease = 0.0;   // ΔJ(1) of the last backward pass
-  double regularization = 0.0;      // μ at the end
-  VectorXd cost_history;            // (max_iterations + 1): J before the first
-                                    // iteration, then after each; iterations + 1 valid
+  int iterations = 0;              // backward passes followed by a line search
+  double cost = 0.0;               // J of the nominal
+  double expected_decrease = 0.0;  // ΔJ(1) of the last backward pass
+  double regularization = 0.0;     // μ at the end
+  VectorXd cost_history;           // (max_iterations + 1): J before the first
+                                   // iteration, then after each; iterations + 1 valid
 };
 
 class DdpData {
@@ -150,11 +150,11 @@ class DdpData {
   MatrixXd u_ref;   // (m x N)
 
   // The solution of the last SolveDdp (or what ShiftSolution and Reset left):
-  const MatrixXd& x() const { return x_; }                 // (2n x N+1) x̄_k = (q̄_k, q̄d_k)
-  const MatrixXd& u() const { return u_; }                 // (m x N) ū_k, within the limits
+  const MatrixXd& x() const { return x_; }                                    // (2n x N+1) x̄_k = (q̄_k, q̄d_k)
+  const MatrixXd& u() const { return u_; }                                    // (m x N) ū_k, within the limits
   const MatrixXd& K(int k) const { return K_[static_cast<std::size_t>(k)]; }  // (m x 2n) feedback gain
-  const MatrixXd& k_feedforward() const { return kff_; }   // (m x N) k_k of the last backward pass
-  const MatrixXd& Qu() const { return Qu_; }               // (m x N) ∂Q_k/∂u at ū_k of the last backward pass
+  const MatrixXd& k_feedforward() const { return kff_; }                      // (m x N) k_k of the last backward pass
+  const MatrixXd& Qu() const { return Qu_; }  // (m x N) ∂Q_k/∂u at ū_k of the last backward pass
   const DdpResult& result() const { return result_; }
 
   // The affine policy of knot k: u = clamp(ū_k + K_k (x − x̄_k)), u (m).
@@ -175,11 +175,11 @@ class DdpData {
   std::unique_ptr<PlantModel> plant_;
   std::unique_ptr<Integrator> integrator_;
   std::unique_ptr<StepDerivatives> step_;
-  MatrixXd x_, u_, x_try_, u_try_;     // nominal and candidate trajectories
-  std::vector<MatrixXd> A_, B_, K_;    // (2n x 2n), (2n x m), (m x 2n) per knot
-  MatrixXd kff_, Qu_;                  // (m x N)
-  MatrixXd B_full_;                    // (2n x n)
-  VectorXd tau_, q_, qd_, dx_, x0_;    // (n), (n), (n), (2n), (2n)
+  MatrixXd x_, u_, x_try_, u_try_;   // nominal and candidate trajectories
+  std::vector<MatrixXd> A_, B_, K_;  // (2n x 2n), (2n x m), (m x 2n) per knot
+  MatrixXd kff_, Qu_;                // (m x N)
+  MatrixXd B_full_;                  // (2n x n)
+  VectorXd tau_, q_, qd_, dx_, x0_;  // (n), (n), (n), (2n), (2n)
   // Backward pass scratch.
   VectorXd Vx_, Qx_, Qu_k_, Quu_k_vec_, lo_, hi_, du_;  // (2n), (2n), (m), (m), (m), (m), (m)
   MatrixXd Vxx_, VA_, VB_, Qxx_, Quu_, Qreg_, Qux_, QuuK_, XX_, Kf_;
