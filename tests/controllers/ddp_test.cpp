@@ -234,11 +234,12 @@ TEST(Ddp, SecondSolveAllocatesNothing) {
   EXPECT_EQ(counter.count(), 0);
 }
 
-// Model-predictive control of the cart-pole, offline: every knot (20 ms of
-// simulated time) the plan is shifted by one knot and re-solved (2 iterations)
-// from the simulated state; between solves the plant (RK4, 1 ms) runs under
-// the plan's affine policy of knot 0, evaluated every millisecond. The
-// optimiser's model steps by semi-implicit Euler, the plant by RK4.
+// Model-predictive control of the cart-pole, offline: every two knots (40 ms
+// of simulated time) the plan is shifted by two knots and re-solved (2
+// iterations) from the simulated state; between solves the plant (RK4, 1 ms)
+// runs under the plan's affine policy of the knot the time falls in,
+// evaluated every millisecond. The optimiser's model steps by semi-implicit
+// Euler, the plant by RK4.
 TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
   constexpr double kRail = 0.5, kUpright = 0.05, kTick = 0.001, kDuration = 5.0;
   DdpConfig config = CartPoleSwingUp(10.0);
@@ -246,6 +247,7 @@ TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
   config.weights = Weights(V({30.0, 0.3}), V({0.01, 0.01}), V({0.01}), V({300.0, 300.0}), V({1.0, 1.0}));
   config.options.max_iterations = 2;
   const DdpModel model(Plant(CartPoleParams{}), config);
+  constexpr int kKnotsPerSolve = 2;
   const int ticks_per_knot = static_cast<int>(std::lround(config.dt / kTick));
   std::mt19937 rng{42};
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -258,11 +260,12 @@ TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
     VectorXd u(1), tau = VectorXd::Zero(2);
     double worst_x = 0.0;
     for (int tick = 0; tick < static_cast<int>(std::lround(kDuration / kTick)); ++tick) {
-      if (tick % ticks_per_knot == 0) {
-        if (tick > 0) plan.ShiftSolution(1);
+      const int since_solve = tick % (kKnotsPerSolve * ticks_per_knot);
+      if (since_solve == 0) {
+        if (tick > 0) plan.ShiftSolution(kKnotsPerSolve);
         SolveDdp(model, plan, q, qd);
       }
-      plan.EvaluatePolicy(0, q, qd, u);
+      plan.EvaluatePolicy(since_solve / ticks_per_knot, q, qd, u);
       tau[0] = u[0];
       rk4->Advance(plant, tick * kTick, kTick, tau, q, qd);
       worst_x = std::max(worst_x, std::abs(q[0]));
