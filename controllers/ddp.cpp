@@ -159,7 +159,6 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   Qux_.resize(m, nx);
   QuuK_.resize(m, nx);
   XX_.resize(nx, nx);
-  Kf_.resize(m, nx);
   qp_grad_.resize(m);
   qp_x_trial_.resize(m);
   qp_search_.resize(m);

@@ -182,7 +182,7 @@ class DdpData {
   VectorXd tau_, q_, qd_, dx_, x0_;  // (n), (n), (n), (2n), (2n)
   // Backward pass scratch.
   VectorXd Vx_, Qx_, Qu_k_, Quu_k_vec_, lo_, hi_, du_;  // (2n), (2n), (m), (m), (m), (m), (m)
-  MatrixXd Vxx_, VA_, VB_, Qxx_, Quu_, Qreg_, Qux_, QuuK_, XX_, Kf_;
+  MatrixXd Vxx_, VA_, VB_, Qxx_, Quu_, Qreg_, Qux_, QuuK_, XX_;
   // The box QP's workspace (controllers/ddp.cpp).
   VectorXd qp_grad_, qp_x_trial_, qp_search_, qp_Hx_, qp_rhs_;
   MatrixXd qp_L_;
