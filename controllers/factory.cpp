@@ -1,7 +1,6 @@
 #include "controllers/factory.hpp"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -9,6 +8,7 @@
 
 #include "base/escape.hpp"
 #include "controllers/lqr.hpp"
+#include "plant/eigenvalues.hpp"
 
 namespace lagrange {
 namespace {
@@ -55,7 +55,7 @@ double CouplingFactor(const MatrixXd& W) {
   const Eigen::LLT<MatrixXd> llt(W);
   if (llt.info() != Eigen::Success || !(diag.array() > 0.0).all()) return std::numeric_limits<double>::quiet_NaN();
   const MatrixXd scaled = diag.cwiseSqrt().asDiagonal() * llt.solve(MatrixXd(diag.cwiseSqrt().asDiagonal()));
-  return Eigen::SelfAdjointEigenSolver<MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  return SymmetricEigenvalues(scaled).maxCoeff();
 }
 
 // Λ(q0) (task_space.hpp) of a task-space config's frame on the robot `spec`
@@ -237,7 +237,7 @@ GainBounds ComputeGainBounds(ControllerType type, const PlantSpec& plant, const 
   // with c = λmax(M⁻¹ diag M) (ρ(M⁻¹ diag(k)) grows with every k_i, so the
   // corner of each box is its worst point). The second is what lets a
   // robot's heavy shoulder take more than its light wrist.
-  const double lambda = Eigen::SelfAdjointEigenSolver<MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
+  const double lambda = SymmetricEigenvalues(M).minCoeff();
   b.kp_max.setConstant(lambda / (h * h));
   b.kd_max.setConstant(2.0 * lambda / h);
   std::snprintf(mass, sizeof mass, " with λmin(M(q0)) = %.6g", lambda);

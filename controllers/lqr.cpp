@@ -1,6 +1,5 @@
 #include "controllers/lqr.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <algorithm>
@@ -8,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+#include "plant/eigenvalues.hpp"
 
 namespace lagrange {
 namespace {
@@ -19,9 +20,8 @@ bool FiniteSymmetric(const MatrixXd& X) {
 // Smallest eigenvalue of the symmetric part; X is square.
 double MinEigenvalue(const MatrixXd& X) {
   if (X.size() == 0) return 0.0;
-  return Eigen::SelfAdjointEigenSolver<MatrixXd>(0.5 * (X + X.transpose()), Eigen::EigenvaluesOnly)
-      .eigenvalues()
-      .minCoeff();
+  const MatrixXd symmetric = 0.5 * (X + X.transpose());
+  return SymmetricEigenvalues(symmetric).minCoeff();
 }
 
 }  // namespace
@@ -74,7 +74,8 @@ LqrResult LinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B, const M
 
   LqrResult result{Rinv_Bt * S, S};
   const MatrixXd residual = A.transpose() * S + S * A - S * B * result.K + Q;
-  const Eigen::VectorXcd poles = (A - B * result.K).eigenvalues();
+  const MatrixXd closed_loop = A - B * result.K;
+  const Eigen::VectorXcd poles = Eigenvalues(closed_loop);
   if (!S.allFinite() || residual.norm() > 1e-8 * std::max(1.0, S.norm() * A.norm() + Q.norm()) ||
       poles.real().maxCoeff() >= 0.0) {
     throw std::invalid_argument("LQR: no stabilizing solution ((A, B) not stabilizable?)");
@@ -108,7 +109,8 @@ LqrResult DiscreteLinearQuadraticRegulator(const MatrixXd& A, const MatrixXd& B,
   const MatrixXd BtS = B.transpose() * S;
   LqrResult result{(R + BtS * B).ldlt().solve(BtS * A), S};
   const MatrixXd residual = A.transpose() * S * A - S - A.transpose() * S * B * result.K + Q;
-  const Eigen::VectorXcd poles = (A - B * result.K).eigenvalues();
+  const MatrixXd closed_loop = A - B * result.K;
+  const Eigen::VectorXcd poles = Eigenvalues(closed_loop);
   if (!converged || !S.allFinite() || residual.norm() > 1e-8 * std::max(1.0, S.norm() * A.norm() * A.norm() + Q.norm()) ||
       poles.cwiseAbs().maxCoeff() >= 1.0) {
     throw std::invalid_argument("LQR: no stabilizing solution ((A, B) not stabilizable?)");

@@ -11,12 +11,12 @@
 
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <numbers>
 #include <random>
 
 #include "controllers/factory.hpp"
+#include "plant/eigenvalues.hpp"
 #include "plant/urdf.hpp"
 #include "tests/controllers/closed_loop.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -400,7 +400,7 @@ TEST(TaskSpace, TheLargestAllowedTaskGainsRunAndTenTimesTheBoundIsRefused) {
           TaskInertiaAt(*dynamics, kin, kin.num_frames() - 1, PandaPose(), SingularityDamping{}).inverse();
       auto spectral_radius = [&](const VectorXd& k) {  // of Λ⁻¹ diag(k), via K^½ Λ⁻¹ K^½
         const Matrix6d S = k.cwiseSqrt().asDiagonal() * lambda_inv * k.cwiseSqrt().asDiagonal();
-        return Eigen::SelfAdjointEigenSolver<Matrix6d>(S, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+        return SymmetricEigenvalues(S).maxCoeff();
       };
       EXPECT_NEAR(spectral_radius(bounds.kp_max) * kTick * kTick, 1.0, 1e-9);
       EXPECT_NEAR(spectral_radius(bounds.kd_max) * kTick, 2.0, 1e-9);

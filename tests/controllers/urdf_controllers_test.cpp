@@ -6,12 +6,12 @@
 
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 
 #include "controllers/factory.hpp"
+#include "plant/eigenvalues.hpp"
 #include "plant/urdf.hpp"
 #include "tests/controllers/closed_loop.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -123,7 +123,7 @@ TEST(UrdfControllers, PdGainBoundsKeepEveryModeOfTheHeldLawWithinTheTicksLimit) 
     const MatrixXd Minv = M.inverse();
     auto spectral_radius = [&](const VectorXd& k) {  // of M⁻¹ diag(k), via the symmetric K^½ M⁻¹ K^½
       const MatrixXd S = k.cwiseSqrt().asDiagonal() * Minv * k.cwiseSqrt().asDiagonal();
-      return Eigen::SelfAdjointEigenSolver<MatrixXd>(S, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+      return SymmetricEigenvalues(S).maxCoeff();
     };
     ASSERT_EQ(b.kp_max_per_joint.size(), n);
     for (const VectorXd* kp : {&b.kp_max, &b.kp_max_per_joint}) {

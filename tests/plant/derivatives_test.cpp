@@ -10,7 +10,6 @@
 
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <functional>
 #include <memory>
@@ -18,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "plant/eigenvalues.hpp"
 #include "plant/lagrangian.hpp"
 #include "plant/mimic_dynamics.hpp"
 #include "plant/plant_factory.hpp"
@@ -298,7 +298,7 @@ TEST(Derivatives, NearASingularMassMatrixAndAtHighSpeedTheDerivationsAgree) {
       const VectorXd tau = RandomTau(n, rng);
       const std::unique_ptr<Dynamics> reference = MakeDynamics(spec, methods.back());
       const Derivatives r = DerivativesOf(*reference, s.q, s.qd, tau);
-      const auto eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(r.M).eigenvalues();
+      const auto eig = SymmetricEigenvalues(r.M);
       const double cond = eig.maxCoeff() / eig.minCoeff();
       for (std::size_t m = 0; m + 1 < methods.size(); ++m) {
         const Derivatives d = DerivativesOf(*MakeDynamics(spec, methods[m]), s.q, s.qd, tau);
