@@ -2,10 +2,10 @@
 
 scripts/run-daemon configures a fresh build/ without the module; scripts/build-python turns it on there and
 builds its target. The libraries are position-independent in every build/ (CMakeLists.txt), so turning the
-module on changes no library's compile flags: make compiles python/'s own files alone. The two configure
+module on changes no library's compile command: the build (Make or Ninja) compiles python/'s own files alone. The two configure
 commands are read from the scripts themselves and run on a scratch tree (configure only: seconds).
 """
-import glob
+import json
 import os
 import re
 import shlex
@@ -30,26 +30,34 @@ def run(command, tree):
 
 
 def library_flags(tree):
-    """{library: (its flags.make, mtime)}: what every object of a lagrange library is compiled with."""
+    """{object of a lagrange library: its compile command}, from the tree's compile_commands.json (any generator:
+    Make and Ninja alike recompile an object exactly when its command changes)."""
+    with open(os.path.join(tree, "compile_commands.json")) as f:
+        entries = json.load(f)
     out = {}
-    for path in glob.glob(os.path.join(tree, "*", "CMakeFiles", "lagrange_*.dir", "flags.make")):
-        with open(path) as f:
-            out[os.path.basename(os.path.dirname(path))] = (f.read(), os.stat(path).st_mtime_ns)
+    for e in entries:
+        m = re.search(r" -o (\S*CMakeFiles/(lagrange_[a-z_]+)\.dir/\S+)", e["command"])
+        if m:
+            out[(m.group(2), m.group(1))] = e["command"]
     return out
+
+
+def libraries(flags):
+    return {library for library, _ in flags}
 
 
 def test_turning_the_module_on_in_a_run_daemon_tree_compiles_no_library_again(tmp_path):
     tree = str(tmp_path / "build")
     run(configure_command("run-daemon", fresh=True), tree)
     before = library_flags(tree)
-    assert {"lagrange_plant.dir", "lagrange_protocol.dir", "lagrange_daemon.dir"} <= set(before)
+    assert {"lagrange_plant", "lagrange_protocol", "lagrange_daemon"} <= libraries(before)
     assert not os.path.exists(os.path.join(tree, "python", "CMakeFiles", "_lagrange.dir"))
     run(configure_command("build-python", fresh=False), tree)
     assert os.path.exists(os.path.join(tree, "python", "CMakeFiles", "_lagrange.dir")), "no module target"
-    assert library_flags(tree) == before  # the same flags, the files untouched: make has nothing to recompile
-    for name, (flags, _) in before.items():
-        cxx = re.search(r"^CXX_FLAGS = (.*)$", flags, re.M).group(1).split()
-        assert "-fPIC" in cxx and "-fno-semantic-interposition" in cxx, name
+    assert library_flags(tree) == before  # the same commands: nothing of a library to recompile
+    for (library, output), command in before.items():
+        words = shlex.split(command)
+        assert "-fPIC" in words and "-fno-semantic-interposition" in words, output
 
 
 def test_a_fresh_build_python_configures_build_as_run_daemon_does_with_the_module_on():
