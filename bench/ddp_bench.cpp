@@ -133,24 +133,6 @@ void Register() {
   }
 }
 
-// Google Benchmark's table, and each benchmark's CPU time per call (ns) kept by name.
-class Collector final : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    ConsoleReporter::ReportRuns(runs);
-    for (const Run& run : runs) {
-      if (run.run_type == Run::RT_Iteration) ns_[run.run_name.str()] = run.GetAdjustedCPUTime();
-    }
-  }
-  double Time(const std::string& name) const {
-    const auto it = ns_.find(name);
-    return it == ns_.end() ? 0.0 : it->second;
-  }
-
- private:
-  std::map<std::string, double> ns_;
-};
-
 void PrintSummary(const Collector& c) {
   std::printf(
       "\nsummary (CPU time; x dFD: a multiple of one ComputeForwardDynamicsDerivatives of the plant, this run)\n"
@@ -173,14 +155,5 @@ void PrintSummary(const Collector& c) {
 }  // namespace lagrange::bench
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RegisterBenchmark("calib/sincos", lagrange::bench::TimeSinCos);
-  lagrange::bench::Register();
-  lagrange::bench::Collector collector;
-  benchmark::RunSpecifiedBenchmarks(&collector);
-  benchmark::Shutdown();
-  lagrange::bench::PrintSummary(collector);
-  std::printf("calib/sincos %.1f ns\n", collector.Time("calib/sincos"));
-  return 0;
+  return lagrange::bench::RunBenchmarks(argc, argv, lagrange::bench::Register, lagrange::bench::PrintSummary);
 }

@@ -176,38 +176,6 @@ void Register() {
   }
 }
 
-// Google Benchmark's console table, and each run's CPU time per call kept by
-// name (the median when there are repetitions) for the summary.
-class Collector final : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    ConsoleReporter::ReportRuns(runs);
-    for (const Run& run : runs) {
-      const std::string name = run.run_name.str();
-      if (run.run_type == Run::RT_Aggregate && run.aggregate_name != "median") continue;
-      if (run.run_type == Run::RT_Iteration && medians_.count(name) != 0) continue;  // aggregates win
-      if (run.run_type == Run::RT_Aggregate) {
-        medians_[name] = run.GetAdjustedCPUTime();
-      } else {
-        times_[name].push_back(run.GetAdjustedCPUTime());
-      }
-    }
-  }
-  // ns per call: the median of the repetitions.
-  double Time(const std::string& name) const {
-    if (auto it = medians_.find(name); it != medians_.end()) return it->second;
-    auto it = times_.find(name);
-    if (it == times_.end() || it->second.empty()) return 0.0;
-    std::vector<double> t = it->second;
-    std::nth_element(t.begin(), t.begin() + static_cast<long>(t.size() / 2), t.end());
-    return t[t.size() / 2];
-  }
-
- private:
-  std::map<std::string, double> medians_;
-  std::map<std::string, std::vector<double>> times_;
-};
-
 // "a / b" with two decimals, or "-" when either was filtered out.
 std::string Ratio(double a, double b, const char* format = "%.2f") {
   if (a <= 0.0 || b <= 0.0) return "-";
@@ -256,14 +224,5 @@ void PrintSummary(const Collector& c) {
 }  // namespace lagrange::bench
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RegisterBenchmark("calib/sincos", lagrange::bench::TimeSinCos);
-  lagrange::bench::Register();
-  lagrange::bench::Collector collector;
-  benchmark::RunSpecifiedBenchmarks(&collector);
-  benchmark::Shutdown();
-  lagrange::bench::PrintSummary(collector);
-  std::printf("calib/sincos %.1f ns\n", collector.Time("calib/sincos"));
-  return 0;
+  return lagrange::bench::RunBenchmarks(argc, argv, lagrange::bench::Register, lagrange::bench::PrintSummary);
 }

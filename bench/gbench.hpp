@@ -4,9 +4,13 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace lagrange::bench {
 
@@ -55,6 +59,53 @@ inline int RunBenchmarks(int argc, char** argv, void (*register_benchmarks)()) {
   register_benchmarks();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
+  return 0;
+}
+
+// Google Benchmark's console table, and each run's CPU time per call kept by
+// name (the median when there are repetitions) for a program's summary.
+class Collector final : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& run : runs) {
+      const std::string name = run.run_name.str();
+      if (run.run_type == Run::RT_Aggregate && run.aggregate_name != "median") continue;
+      if (run.run_type == Run::RT_Iteration && medians_.count(name) != 0) continue;  // aggregates win
+      if (run.run_type == Run::RT_Aggregate) {
+        medians_[name] = run.GetAdjustedCPUTime();
+      } else {
+        times_[name].push_back(run.GetAdjustedCPUTime());
+      }
+    }
+  }
+  // ns per call: the median of the repetitions.
+  double Time(const std::string& name) const {
+    if (auto it = medians_.find(name); it != medians_.end()) return it->second;
+    auto it = times_.find(name);
+    if (it == times_.end() || it->second.empty()) return 0.0;
+    std::vector<double> t = it->second;
+    std::nth_element(t.begin(), t.begin() + static_cast<long>(t.size() / 2), t.end());
+    return t[t.size() / 2];
+  }
+
+ private:
+  std::map<std::string, double> medians_;
+  std::map<std::string, std::vector<double>> times_;
+};
+
+// RunBenchmarks, then `summary` over the times the run kept (a program that
+// prints ratios measured in the same run: derivatives_bench, ddp_bench).
+inline int RunBenchmarks(int argc, char** argv, void (*register_benchmarks)(), void (*summary)(const Collector&)) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RegisterBenchmark("calib/sincos", TimeSinCos);
+  register_benchmarks();
+  Collector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+  benchmark::Shutdown();
+  summary(collector);
+  std::printf("calib/sincos %.1f ns\n", collector.Time("calib/sincos"));
   return 0;
 }
 
