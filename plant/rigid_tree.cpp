@@ -1,12 +1,13 @@
 #include "plant/rigid_tree.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
 #include <utility>
+
+#include "plant/eigenvalues.hpp"
 
 namespace lagrange {
 
@@ -288,9 +289,8 @@ bool MovesNothing(const RigidTree& tree, int i) {
 
 std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I) {
   if (!I.allFinite()) return "inertia has an entry that is not a finite number";
-  const Eigen::Matrix3d symmetric = 0.5 * (I + I.transpose());
-  const Eigen::Vector3d l =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(symmetric, Eigen::EigenvaluesOnly).eigenvalues();  // ascending
+  const MatrixXd symmetric = 0.5 * (I + I.transpose());
+  const VectorXd l = SymmetricEigenvalues(symmetric);  // ascending
   const double tolerance = kInertiaTolerance * l.cwiseAbs().maxCoeff();
   if ((I - I.transpose()).cwiseAbs().maxCoeff() > tolerance) return "inertia is not symmetric";
   if (l[0] < -tolerance) return "inertia is not positive semi-definite (eigenvalue " + Num(l[0]) + " kg·m²)";
