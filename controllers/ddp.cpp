@@ -229,14 +229,20 @@ struct DdpPasses {
     return 0.5 * J;
   }
 
+  // tau_ ← S u: the controls u (m) on the actuated joints, 0 on the others.
+  static void SetTau(const DdpModel& model, DdpData& d, const double* u) {
+    const std::vector<int>& act = model.actuated();
+    d.tau_.setZero();
+    for (int j = 0; j < model.num_controls(); ++j) d.tau_[act[static_cast<std::size_t>(j)]] = u[j];
+  }
+
   // Forward pass with step α: (x̂, û) from x̂_0 = x_0 under
   // û_k = clamp(ū_k + α k_k + K_k (x̂_k − x̄_k)); returns J(α), +inf when the
   // rollout leaves the finite numbers. `linearize`: each step by the step
   // derivatives, which leave A_k, B_k of the candidate as well (the first
   // rollout of a solve, always taken: one pass instead of two).
   static double Rollout(const DdpModel& model, DdpData& d, double alpha, bool linearize) {
-    const int n = model.num_dofs(), m = model.num_controls(), N = model.horizon();
-    const std::vector<int>& act = model.actuated();
+    const int n = model.num_dofs(), N = model.horizon();
     double J = 0.0;
     d.x_try_.col(0) = d.x0_;
     for (int k = 0; k < N; ++k) {
@@ -246,8 +252,7 @@ struct DdpPasses {
       u.noalias() += d.K_[static_cast<std::size_t>(k)] * d.dx_;
       u = u.cwiseMax(model.tau_lower()).cwiseMin(model.tau_upper());
       J += Cost(model, d, k, d.x_try_.col(k), u.data());
-      d.tau_.setZero();
-      for (int j = 0; j < m; ++j) d.tau_[act[static_cast<std::size_t>(j)]] = u[j];
+      SetTau(model, d, u.data());
       d.q_ = d.x_try_.col(k).head(n);
       d.qd_ = d.x_try_.col(k).tail(n);
       if (linearize) {
@@ -277,11 +282,9 @@ struct DdpPasses {
 
   // A_k, B_k along the nominal.
   static void Linearize(const DdpModel& model, DdpData& d) {
-    const int n = model.num_dofs(), m = model.num_controls(), N = model.horizon();
-    const std::vector<int>& act = model.actuated();
+    const int n = model.num_dofs(), N = model.horizon();
     for (int k = 0; k < N; ++k) {
-      d.tau_.setZero();
-      for (int j = 0; j < m; ++j) d.tau_[act[static_cast<std::size_t>(j)]] = d.u_(j, k);
+      SetTau(model, d, d.u_.col(k).data());
       d.q_ = d.x_.col(k).head(n);
       d.qd_ = d.x_.col(k).tail(n);
       StepAt(model, d, k);
@@ -512,6 +515,7 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
       }
     }
     ++r.iterations;
+    r.cost_history[r.iterations] = J;
     if (accepted) {
       std::swap(d.x_, d.x_try_);
       std::swap(d.u_, d.u_try_);
@@ -520,10 +524,8 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
       if (mu < o.regularization_min) mu = 0.0;
     } else if (!increase()) {
       r.status = DdpStatus::kLineSearchFailed;
-      r.cost_history[r.iterations] = J;
       break;
     }
-    r.cost_history[r.iterations] = J;
   }
   r.cost = J;
   r.regularization = mu;
