@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <stdexcept>
 
 #include "base/escape.hpp"
 #include "protocol/channels.hpp"
@@ -14,10 +15,6 @@
 
 namespace lagrange {
 namespace {
-
-// Distinct run ids remembered per channel: enough to name two in an error,
-// bounded so a spoofer cycling ids costs nothing.
-constexpr std::size_t kMaxRuns = 4;
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
@@ -170,107 +167,97 @@ DaemonLink::DaemonLink(const LinkOptions& options, const std::string& instance)
       instance_(instance),
       state_channel_(options.Channel(instance, kStateSuffix)),
       bus_(options.Open()),
-      signing_(*bus_) {
+      signing_(*bus_),
+      observer_(*bus_, options.channel_prefix,
+                ObserverLimits{.runs = kMaxLinkRuns, .instances = 1, .discover = false, .telemetry = false},
+                BusObserver::Hooks{.on_state = [this](const std::string&, const state_t& s) { OnState(s); }}) {
   if (const std::string why = CheckWait(options.wait); !why.empty()) throw std::invalid_argument("wait: " + why);
-  bus_->Subscribe(state_channel_, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
-  bus_->Subscribe(options.Channel(instance, kReplySuffix),
-                  [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
-  bus_->Subscribe(options.StatusChannel(),
-                  [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-  bus_->Subscribe(options.Channel(instance, kTaskSuffix),
-                  [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnTaskState(d, n); });
+  observer_.Follow(instance);
+  seen_ = observer_.Find(instance);
+  SubscribeMessages<reply_t>(*bus_, options.Channel(instance, kReplySuffix),
+                             [this](reply_t&& r) { OnReply(std::move(r)); });
   bus_->Subscribe(kEveryChannel, [this](std::string_view channel, const std::uint8_t*, std::size_t) { OnAny(channel); });
 }
 
 void DaemonLink::OnAny(std::string_view channel) {
-  if (!runs_.empty() || heard_.size() >= kMaxHeardChannels) return;  // only while no state came, bounded
+  if (!states().empty() || heard_.size() >= kMaxHeardChannels) return;  // only while no state came, bounded
   heard_.emplace(channel);
 }
 
-void DaemonLink::OnState(const std::uint8_t* data, std::size_t size) {
-  state_t msg;
-  if (ReceiveInto(msg, data, size) != Drop::kNone) return;  // a signed daemon's, without the key: signing_ counts it
-  auto it = runs_.find(msg.run_id);
-  if (it == runs_.end()) {
-    if (runs_.size() >= kMaxRuns) return;
-    it = runs_.emplace(msg.run_id, Seen{}).first;
-  }
-  it->second.state = std::move(msg);
-  it->second.received = std::chrono::steady_clock::now();
-  ++it->second.count;
-  if (observer_ && have_run_ && it->first == run_id_) observer_(it->second.state, it->second.received);
-  if (it->first == estop_watch_run_ && !estop_left_ && !KeepsEstop(it->second.state.mode)) {
-    estop_left_ = it->second.state;
-  }
+void DaemonLink::OnState(const state_t& s) {
+  if (state_observer_ && have_run_ && s.run_id == run_id_) state_observer_(s, std::chrono::steady_clock::now());
+  if (s.run_id == estop_watch_run_ && !estop_left_ && !KeepsEstop(s.mode)) estop_left_ = s;
 }
 
-void DaemonLink::OnStatus(const std::uint8_t* data, std::size_t size) {
-  status_t msg;
-  if (!have_run_ || ReceiveInto(msg, data, size) != Drop::kNone || msg.run_id != run_id_) return;
-  status_ = std::move(msg);
-  ++statuses_received_;
-}
-
-void DaemonLink::OnTaskState(const std::uint8_t* data, std::size_t size) {
-  task_state_t msg;
-  if (!have_run_ || ReceiveInto(msg, data, size) != Drop::kNone || msg.run_id != run_id_) return;
-  task_state_ = std::move(msg);
-  ++task_states_received_;
-}
-
-void DaemonLink::OnReply(const std::uint8_t* data, std::size_t size) {
-  reply_t msg;
-  if (!have_run_ || request_id_ == 0 || ReceiveInto(msg, data, size) != Drop::kNone) return;
+void DaemonLink::OnReply(reply_t&& msg) {
+  if (!have_run_ || request_id_ == 0) return;
   // Only a run we saw (the chosen one, or any after AwaitRuns), answering our
   // own request, and only its first answer: anything else proves nothing.
   if (msg.request_id != request_id_ || (!every_run_ && msg.run_id != run_id_)) return;
-  const auto it = runs_.find(msg.run_id);
-  if (it == runs_.end() || it->second.reply) return;
-  it->second.reply = std::move(msg);
+  if (states().Find(msg.run_id) == nullptr) return;
+  std::erase_if(replies_, [&](const auto& r) { return states().Find(r.first) == nullptr; });  // runs forgotten since
+  std::optional<reply_t>& reply = replies_[msg.run_id];
+  if (!reply) reply = std::move(msg);
 }
 
 void DaemonLink::ExpectReply(std::int64_t request_id) {
   request_id_ = request_id;
-  for (auto& [id, seen] : runs_) seen.reply.reset();
+  replies_.clear();
 }
 
 const std::optional<reply_t>& DaemonLink::reply(std::int64_t run) const {
   static const std::optional<reply_t> kNone;
-  const auto it = runs_.find(run);
-  return it == runs_.end() ? kNone : it->second.reply;
+  const auto it = replies_.find(run);
+  return it == replies_.end() ? kNone : it->second;
 }
 
 std::vector<std::int64_t> DaemonLink::runs() const {
   std::vector<std::int64_t> ids;
-  for (const auto& [id, seen] : runs_) ids.push_back(id);
+  for (const auto& [id, seen] : states().entries()) ids.push_back(id);
   return ids;
+}
+
+const LatestByRun<state_t>::Entry& DaemonLink::Kept(std::int64_t run) const {
+  const auto* kept = states().Find(run);
+  if (kept == nullptr) throw std::out_of_range("no state kept of run " + RunIdText(run));
+  return *kept;
 }
 
 std::string DaemonLink::TwoRunsMessage(const std::string& doing) const {
   std::string ids;
   std::size_t k = 0;
-  for (const auto& [id, seen] : runs_) {
-    ids += (k == 0 ? "" : k + 1 == runs_.size() ? " and " : ", ") + RunIdText(id);
+  const std::vector<std::int64_t> seen = runs();
+  for (const std::int64_t id : seen) {
+    ids += (k == 0 ? "" : k + 1 == seen.size() ? " and " : ", ") + RunIdText(id);
     ++k;
   }
-  const std::string count = runs_.size() == 2 ? "two" : runs_.size() == 3 ? "three" : "several";
+  const std::string count = seen.size() == 2 ? "two" : seen.size() == 3 ? "three" : "several";
   return count + " lagranged runs publish " + state_channel_ + " (ids " + ids + "): " + doing;
 }
 
 std::int64_t DaemonLink::AwaitOneRun() {
   AwaitFirstState();
   RequireOneRun("refusing to act");
-  run_id_ = runs_.begin()->first;
-  have_run_ = true;
+  Choose(runs());
   return run_id_;
 }
 
 std::vector<std::int64_t> DaemonLink::AwaitRuns() {
   AwaitFirstState();
-  run_id_ = runs_.begin()->first;
-  have_run_ = true;
+  const std::vector<std::int64_t> all = runs();
+  Choose(all);
   every_run_ = true;
-  return runs();
+  return all;
+}
+
+void DaemonLink::Choose(const std::vector<std::int64_t>& runs) {
+  for (const std::int64_t run : runs) observer_.Pin(run);  // at most kMaxLinkRuns: all kept now
+  run_id_ = runs.front();
+  have_run_ = true;
+  const auto* status = observer_.statuses().Find(run_id_);
+  const auto* task = seen_->tasks.Find(run_id_);
+  statuses_before_ = status == nullptr ? 0 : status->count;
+  task_states_before_ = task == nullptr ? 0 : task->count;
 }
 
 void DaemonLink::AwaitFirstState() {
@@ -280,8 +267,8 @@ void DaemonLink::AwaitFirstState() {
     return std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(kNoStateGrace) &&
            std::any_of(heard_.begin(), heard_.end(), [](const std::string& c) { return EndsWith(c, kStatusChannel); });
   };
-  PumpUntil([&] { return !runs_.empty() || daemon_without_it(); }, options_.wait);
-  if (runs_.empty()) {
+  PumpUntil([&] { return !states().empty() || daemon_without_it(); }, options_.wait);
+  if (states().empty()) {
     // Said as soon as a daemon is heard without it, else when --wait ends.
     const bool early = daemon_without_it();
     const std::string missing = "no state from instance '" + instance_ + "' on " + state_channel_ +
@@ -294,21 +281,39 @@ void DaemonLink::AwaitFirstState() {
 }
 
 void DaemonLink::RequireOneRun(const std::string& doing) const {
-  if (runs_.size() > 1) throw std::runtime_error(TwoRunsMessage(doing));
+  if (states().entries().size() > 1) throw std::runtime_error(TwoRunsMessage(doing));
 }
 
-const state_t& DaemonLink::state() const { return runs_.at(run_id_).state; }
+const state_t& DaemonLink::state() const { return state(run_id_); }
 
-std::int64_t DaemonLink::states_received() const { return runs_.at(run_id_).count; }
+std::int64_t DaemonLink::states_received() const { return Kept(run_id_).count; }
 
-std::chrono::steady_clock::time_point DaemonLink::state_received_at() const { return runs_.at(run_id_).received; }
+std::chrono::steady_clock::time_point DaemonLink::state_received_at() const { return state_received_at(run_id_); }
+
+std::int64_t DaemonLink::statuses_received() const {
+  const auto* status = have_run_ ? observer_.statuses().Find(run_id_) : nullptr;
+  return status == nullptr ? 0 : status->count - statuses_before_;
+}
+
+const status_t* DaemonLink::status() const {
+  return statuses_received() > 0 ? &observer_.statuses().Find(run_id_)->message : nullptr;
+}
+
+std::int64_t DaemonLink::task_states_received() const {
+  const auto* task = have_run_ ? seen_->tasks.Find(run_id_) : nullptr;
+  return task == nullptr ? 0 : task->count - task_states_before_;
+}
+
+const task_state_t* DaemonLink::task_state() const {
+  return task_states_received() > 0 ? &seen_->tasks.Find(run_id_)->message : nullptr;
+}
 
 const status_t& DaemonLink::AwaitStatus() {
-  if (!PumpUntil([&] { return status_.has_value(); }, options_.wait)) {
+  if (!PumpUntil([&] { return status() != nullptr; }, options_.wait)) {
     throw std::runtime_error("no " + options_.StatusChannel() + " from lagranged (run " + RunIdText(run_id_) +
                              ") within " + FormatDouble(options_.wait) + " s");
   }
-  return *status_;
+  return *status();
 }
 
 void DaemonLink::SendCommand(command_t& c) {
@@ -335,8 +340,8 @@ std::map<std::int64_t, std::optional<reply_t>> DaemonLink::Estop(command_t& c) {
   SendCommand(c);
   auto next_send = std::chrono::steady_clock::now() + kEstopResend;
   const auto all_answered = [&] {
-    for (const auto& [id, seen] : runs_)
-      if (!seen.reply) return false;
+    for (const std::int64_t id : runs())
+      if (!reply(id)) return false;
     return true;
   };
   PumpUntil(
@@ -349,7 +354,7 @@ std::map<std::int64_t, std::optional<reply_t>> DaemonLink::Estop(command_t& c) {
       },
       options_.wait);
   std::map<std::int64_t, std::optional<reply_t>> verdicts;
-  for (const auto& [id, seen] : runs_) verdicts[id] = seen.reply;
+  for (const std::int64_t id : runs()) verdicts[id] = reply(id);
   return verdicts;
 }
 
@@ -366,7 +371,7 @@ bool KeepsEstop(std::int8_t mode) {
 }
 
 std::string DaemonLink::EstopDidNotStay(std::int64_t run) {
-  if (runs_.find(run) == runs_.end()) return "";
+  if (states().Find(run) == nullptr) return "";
   const state_t applied = state(run);  // the latest state when the verdict came
   estop_watch_run_ = run;
   estop_left_.reset();

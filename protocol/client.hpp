@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "protocol/bus.hpp"
+#include "protocol/observer.hpp"
 
 namespace lagrange {
 
@@ -139,8 +140,17 @@ inline constexpr double kEstopWatch = 0.2;  // s after the verdict
 // Running, hold and paused mean it was cleared.
 bool KeepsEstop(std::int8_t mode);
 
-// Listens to one instance's state and reply channels and the status channel
-// on the caller's thread, keeping the latest message of each run id.
+// Distinct run ids a DaemonLink keeps per channel: enough to name two in an
+// error, bounded so a spoofer cycling ids costs nothing. The runs it chose
+// (AwaitOneRun, AwaitRuns) are never forgotten; the others are the most
+// recently heard (LatestByRun).
+inline constexpr std::size_t kMaxLinkRuns = 4;
+
+// Listens to one instance's state, task and reply channels and the status
+// channel on the caller's thread: the state, task state and status of each run
+// id are kept by a BusObserver (protocol/observer.hpp) that follows the
+// instance, the runs it chose pinned there; the replies to its own request are
+// its own.
 class DaemonLink {
  public:
   // Opens the bus (options.Open(): BusUrlError, BusError) and subscribes.
@@ -159,7 +169,7 @@ class DaemonLink {
   // refusing to act" when several did.
   std::int64_t AwaitOneRun();
   // Waits as AwaitOneRun does but refuses nothing: every run id that published
-  // the instance's state (at most kMaxRuns), in increasing order; replies are
+  // the instance's state (at most kMaxLinkRuns), in increasing order; replies are
   // then collected from each (reply(run)). Throws only when none came.
   std::vector<std::int64_t> AwaitRuns();
   // Throws the two-runs error if a second run has published the instance's
@@ -174,14 +184,17 @@ class DaemonLink {
   std::chrono::steady_clock::time_point state_received_at() const;
 
   // The run's latest task state (<NAME>_TASK: the frame a task-space
-  // controller moves), once one came, and how many came.
-  const std::optional<task_state_t>& task_state() const { return task_state_; }
-  std::int64_t task_states_received() const { return task_states_received_; }
+  // controller moves), once one came after the run was chosen (else null), and
+  // how many came since.
+  const task_state_t* task_state() const;
+  std::int64_t task_states_received() const;
 
   // Waits up to options.wait for a status from the run; throws a one-line error.
   const status_t& AwaitStatus();
-  const std::optional<status_t>& status() const { return status_; }
-  std::int64_t statuses_received() const { return statuses_received_; }
+  // The run's latest status, once one came after the run was chosen (else
+  // null), and how many came since.
+  const status_t* status() const;
+  std::int64_t statuses_received() const;
 
   // Collects replies carrying `request_id` from now on.
   void ExpectReply(std::int64_t request_id);
@@ -189,11 +202,13 @@ class DaemonLink {
   const std::optional<reply_t>& reply() const { return reply(run_id_); }
   // Run `run`'s reply to the expected request, once it came (AwaitRuns).
   const std::optional<reply_t>& reply(std::int64_t run) const;
-  // The runs that have published the instance's state so far.
+  // The runs whose states are kept, in increasing order: the runs chosen
+  // and, up to kMaxLinkRuns in all, those heard most recently.
   std::vector<std::int64_t> runs() const;
-  // Run `run`'s latest state and when it arrived (a run runs() lists).
-  const state_t& state(std::int64_t run) const { return runs_.at(run).state; }
-  std::chrono::steady_clock::time_point state_received_at(std::int64_t run) const { return runs_.at(run).received; }
+  // Run `run`'s latest state and when it arrived (a run runs() lists; else
+  // std::out_of_range).
+  const state_t& state(std::int64_t run) const { return Kept(run).message; }
+  std::chrono::steady_clock::time_point state_received_at(std::int64_t run) const { return Kept(run).received; }
 
   // A command and its verdict. After AwaitOneRun: sends `command` (its
   // request_id and utime set here) once to the instance's command channel (a
@@ -223,7 +238,7 @@ class DaemonLink {
   // handled, and when it arrived: for a client that needs each one, not only
   // the latest (lagrange.Client.states).
   using StateObserver = std::function<void(const state_t&, std::chrono::steady_clock::time_point)>;
-  void ObserveStates(StateObserver observer) { observer_ = std::move(observer); }
+  void ObserveStates(StateObserver observer) { state_observer_ = std::move(observer); }
 
   // Handles messages for `seconds`.
   void Pump(double seconds);
@@ -241,41 +256,37 @@ class DaemonLink {
   }
 
  private:
-  struct Seen {
-    state_t state;
-    std::chrono::steady_clock::time_point received;
-    std::int64_t count = 0;
-    std::optional<reply_t> reply;  // to request_id_
-  };
-  void OnState(const std::uint8_t* data, std::size_t size);
-  void OnStatus(const std::uint8_t* data, std::size_t size);
-  void OnReply(const std::uint8_t* data, std::size_t size);
-  void OnTaskState(const std::uint8_t* data, std::size_t size);
+  void OnState(const state_t& state);  // before the observer keeps it
+  void OnReply(reply_t&& reply);
   void OnAny(std::string_view channel);
   void SendCommand(command_t& command);
   std::string TwoRunsMessage(const std::string& doing) const;
   // Waits up to options.wait for the instance's first state (else throws),
   // then kRunWindow longer.
   void AwaitFirstState();
+  // Keeps `runs` for good (pinned in the observer); the first is run_id().
+  void Choose(const std::vector<std::int64_t>& runs);
+  const LatestByRun<state_t>& states() const { return seen_->states; }
+  const LatestByRun<state_t>::Entry& Kept(std::int64_t run) const;
 
   LinkOptions options_;
   std::string instance_;
   std::string state_channel_;
   std::unique_ptr<Bus> bus_;
-  std::map<std::int64_t, Seen> runs_;  // by run id; at most kMaxRuns kept
-  std::set<std::string> heard_;         // channels heard before the first state, for HeardHint
   SigningCensus signing_;               // what was dropped, or could not be checked, for its signature
+  BusObserver observer_;                // the instance's states and task states, the statuses; kMaxLinkRuns per channel
+  const ObservedInstance* seen_ = nullptr;  // the instance in observer_
+  std::set<std::string> heard_;             // channels heard before the first state, for HeardHint
   std::int64_t run_id_ = 0;             // chosen by AwaitOneRun
   bool have_run_ = false;
-  std::optional<status_t> status_;  // the run's latest
-  std::int64_t statuses_received_ = 0;
-  std::optional<task_state_t> task_state_;  // the run's latest
-  std::int64_t task_states_received_ = 0;
+  std::int64_t statuses_before_ = 0;     // the run's statuses counted when it was chosen (status())
+  std::int64_t task_states_before_ = 0;  // and its task states (task_state())
   std::int64_t request_id_ = 0;
-  bool every_run_ = false;  // AwaitRuns: replies from every run in runs_ count
+  std::map<std::int64_t, std::optional<reply_t>> replies_;  // to request_id_, by run: runs whose states are kept
+  bool every_run_ = false;            // AwaitRuns: replies from every run whose states are kept count
   std::int64_t estop_watch_run_ = 0;  // EstopDidNotStay: the run whose states are checked (0: none)
   std::optional<state_t> estop_left_;  // its first state that did not keep the estop
-  StateObserver observer_;
+  StateObserver state_observer_;       // ObserveStates
 };
 
 }  // namespace lagrange

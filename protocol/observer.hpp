@@ -1,12 +1,13 @@
 #pragma once
-// What one lagranged's channels say, for a client that only listens (lagrangectl
-// watch, the view): its statuses by run id, and the instances they name (or
-// that were asked for by name), each with its latest state, telemetry and task
-// state per run id. Several runs may publish one prefix (two daemons started
-// on one bus): they are kept apart by run id, never mixed. Everything is
-// bounded: runs per channel (the least recently heard forgotten), instances
-// followed, and only names a scene could give an instance (IsInstanceName)
-// are followed from a status. Every message goes through the typed receive
+// What one lagranged's channels say, for a client that listens (lagrangectl
+// watch, the view, DaemonLink in protocol/client.hpp): its statuses by run id,
+// and the instances they name (or that were asked for by name), each with its
+// latest state, telemetry and task state per run id. Several runs may publish
+// one prefix (two daemons started on one bus): they are kept apart by run id,
+// never mixed. Everything is bounded: runs per channel (the least recently
+// heard forgotten, but never a run a client pinned), instances followed, and
+// only names a scene could give an instance (IsInstanceName) are followed from
+// a status. Every message goes through the typed receive
 // (protocol/receive.hpp). It subscribes on the thread that handles the bus,
 // never from inside a handler (Discover after Handle).
 
@@ -21,6 +22,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,9 @@
 namespace lagrange {
 
 // The latest message of each run id on one channel, at most `capacity` runs.
+// A new run beyond that forgets the run heard from least recently, unless it
+// is pinned (Pin): a client that chose a run keeps it whatever a flood of
+// forged run ids does (every identity on the bus is copyable).
 template <class Message>
 class LatestByRun {
  public:
@@ -36,24 +41,39 @@ class LatestByRun {
   struct Entry {
     Message message;
     Time received;
+    std::int64_t count = 0;  // the run's messages heard since it was last kept anew
   };
   explicit LatestByRun(std::size_t capacity) : capacity_(capacity) {}
 
-  Entry& Add(Message&& message, Time now) {
+  // Keeps `message` as its run's latest. Null when the run is new, `capacity`
+  // runs are kept and every one of them is pinned: it is not kept.
+  Entry* Add(Message&& message, Time now) {
     auto it = entries_.find(message.run_id);
     if (it == entries_.end()) {
-      if (entries_.size() >= capacity_) {  // forget the run heard from least recently
-        auto oldest = entries_.begin();
-        for (auto e = entries_.begin(); e != entries_.end(); ++e)
-          oldest = e->second.received < oldest->second.received ? e : oldest;
+      if (entries_.size() >= capacity_) {  // forget the unpinned run heard from least recently
+        auto oldest = entries_.end();
+        for (auto e = entries_.begin(); e != entries_.end(); ++e) {
+          if (pinned_.contains(e->first)) continue;
+          if (oldest == entries_.end() || e->second.received < oldest->second.received) oldest = e;
+        }
+        if (oldest == entries_.end()) return nullptr;
         entries_.erase(oldest);
       }
       it = entries_.emplace(message.run_id, Entry{}).first;
     }
     it->second.message = std::move(message);
     it->second.received = now;
-    return it->second;
+    ++it->second.count;
+    return &it->second;
   }
+  // Never forgets run `run_id` (heard yet or not). At most `capacity` runs are
+  // pinned: false for one more (nothing changes). Pinned for good.
+  bool Pin(std::int64_t run_id) {
+    if (!pinned_.contains(run_id) && pinned_.size() >= capacity_) return false;
+    pinned_.insert(run_id);
+    return true;
+  }
+  bool pinned(std::int64_t run_id) const { return pinned_.contains(run_id); }
   // Most recently heard first.
   std::vector<const Entry*> Latest() const {
     std::vector<const Entry*> v;
@@ -77,12 +97,14 @@ class LatestByRun {
  private:
   std::size_t capacity_;
   std::map<std::int64_t, Entry> entries_;
+  std::set<std::int64_t> pinned_;  // at most capacity_
 };
 
 struct ObserverLimits {
   std::size_t runs = 4;        // run ids kept per channel
   std::size_t instances = 64;  // instances followed in all (asked for and named in a status)
   bool discover = true;        // follow the instances a status names
+  bool telemetry = true;       // follow each instance's telemetry (a client acting on one reads none)
 };
 
 // One instance as the bus last showed it, per run.
@@ -99,6 +121,7 @@ class BusObserver {
   struct Hooks {
     std::function<void(const std::string& instance, const state_t&)> on_state;
     std::function<void(const std::string& instance, const telemetry_t&)> on_telemetry;
+    std::function<void(const status_t&)> on_status;
   };
   // Listens on `bus` to the daemon whose channels start with `prefix`; subscribes its status channel now.
   BusObserver(Bus& bus, std::string prefix, ObserverLimits limits = {}, Hooks hooks = {});
@@ -109,6 +132,11 @@ class BusObserver {
   bool Follow(const std::string& name);
   // Follows the instances the kept statuses name (limits.discover), in the order they name them.
   void Discover();
+  // Never forgets run `run_id` on any channel (its statuses; every followed
+  // instance's state, telemetry and task, followed now or later): a client
+  // that chose a run keeps it whatever a flood of forged run ids does. At most
+  // limits.runs runs: false for one more (nothing changes).
+  bool Pin(std::int64_t run_id);
 
   const std::string& prefix() const { return prefix_; }
   const LatestByRun<status_t>& statuses() const { return statuses_; }
@@ -126,6 +154,7 @@ class BusObserver {
   LatestByRun<status_t> statuses_;
   std::map<std::string, ObservedInstance> instances_;
   std::vector<std::string> followed_;
+  std::set<std::int64_t> pinned_;  // at most limits_.runs
 };
 
 }  // namespace lagrange

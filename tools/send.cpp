@@ -221,7 +221,7 @@ class SendCommand final : public Command {
   int SendPose(DaemonLink& link, std::ostream& out) {
     const std::string task_channel = bus_.Channel(instance_, kTaskSuffix);
     const double wait = std::max(bus_.wait, 0.5);
-    if (!link.PumpUntil([&] { return link.task_state().has_value(); }, wait)) {
+    if (!link.PumpUntil([&] { return link.task_state() != nullptr; }, wait)) {
       throw std::runtime_error(instance_ + " publishes no task state on " + task_channel + ": it runs " +
                                Escape(link.state().controller) +
                                ", not a task-space controller (cartesian-impedance, operational-space)");
@@ -262,7 +262,7 @@ class SendCommand final : public Command {
     const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(msg.duration + kPoseSettle);
     link.PumpUntil([&] { return Interrupted() || std::chrono::steady_clock::now() >= until; },
                    msg.duration + kPoseSettle + 1.0);
-    if (const std::optional<task_state_t>& t = link.task_state()) {
+    if (const task_state_t* t = link.task_state()) {
       const Eigen::Vector3d p = Eigen::Map<const Eigen::Vector3d>(t->position) - Eigen::Map<const Eigen::Vector3d>(msg.position);
       // The rotation error is the task state's: the commanded orientation is the sent one once a move ends.
       out << "; " << Escape(t->frame) << " is " << ThreeDigits(1e3 * p.norm()) << " mm and "

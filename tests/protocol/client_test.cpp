@@ -255,6 +255,46 @@ TEST(DaemonLink, OnlyTheRunsStatusIsKept) {
   EXPECT_EQ(link.statuses_received(), 1);
 }
 
+// Every identity on the bus is copyable: a spoofer cycling forged run ids on the instance's state and the status
+// channels fills the link's bounded memory of runs, which forgets the least recently heard. The run the client chose
+// is pinned: never forgotten, so its state, count and status stay readable (state() never throws), and the link
+// still names the runs it hears, refusing to act beside them.
+TEST(DaemonLink, AFloodOfForgedRunIdsNeverEvictsTheRunAClientChose) {
+  DaemonLink link(InProcess(), "arm");
+  link.bus().PublishMessage("ARM_STATE", State(kRun, 1));
+  ASSERT_EQ(link.AwaitOneRun(), kRun);
+  link.bus().PublishMessage("LAGRANGE_STATUS", Status(kRun));
+  constexpr std::int64_t kForged = 0x5000;
+  constexpr int kFlood = 100;  // run ids, far beyond kMaxLinkRuns
+  for (int k = 0; k < kFlood; ++k) {
+    link.bus().PublishMessage("ARM_STATE", State(kForged + k, 1000 + k));
+    link.bus().PublishMessage("LAGRANGE_STATUS", Status(kForged + k));
+  }
+  link.Pump(0.02);
+  EXPECT_EQ(link.state().tick, 1);
+  EXPECT_EQ(link.states_received(), 1);
+  ASSERT_NE(link.status(), nullptr);
+  EXPECT_EQ(link.status()->run_id, kRun);
+  EXPECT_EQ(link.statuses_received(), 1);
+  link.bus().PublishMessage("ARM_STATE", State(kRun, 2));
+  link.Pump(0.02);
+  EXPECT_EQ(link.state().tick, 2);
+  EXPECT_EQ(link.states_received(), 2);
+  // The runs it saw: the chosen one and the forged ones heard last, bounded.
+  const std::vector<std::int64_t> runs = link.runs();
+  EXPECT_EQ(runs.size(), kMaxLinkRuns);
+  EXPECT_EQ(runs.front(), kRun);
+  EXPECT_EQ(runs.back(), kForged + kFlood - 1);
+  try {
+    link.RequireOneRun("refusing to act");
+    FAIL() << "acted beside forged runs";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "several lagranged runs publish ARM_STATE (ids 0000000000001111, "
+              "0000000000005061, 0000000000005062 and 0000000000005063): refusing to act");
+  }
+}
+
 // A wait is bounded as inf and nan are refused (issue 32: Client.state(timeout=1e9) and --wait 1e9 held the
 // caller for 32 years): one rule for lagrangectl --wait and Python's Client, and the link refuses what it breaks.
 TEST(CheckWait, AWaitIsAPositiveNumberOfSecondsUpToADay) {
