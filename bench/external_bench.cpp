@@ -77,6 +77,7 @@
 #include "daemon/realtime.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/observer.hpp"
 #include "protocol/receive.hpp"
 #include "sim/scene.hpp"
 #include "sim/scene_channels.hpp"
@@ -295,20 +296,26 @@ struct TorqueSeen {
 };
 
 struct Channels {
-  std::string state, torque, plant_status, controller_status;
+  std::string plant;  // the plant's instance
+  std::string state, torque;
+  std::string plant_prefix, controller_prefix;  // the daemons' channel prefixes
 };
 
-// Receives the plant's states, the controller's torques and both statuses,
-// timestamping each message as its handler runs.
+// Receives the plant's states and both statuses (a BusObserver per daemon,
+// their hooks doing the per-message work) and the controller's torques,
+// timestamping each message as its handler runs (once the typed receive
+// decoded it).
 class Observer {
  public:
-  Observer(const std::string& url, const Channels& ch) : bus_(OpenBus(WithReceiveBuffer(url))) {
-    bus_->Subscribe(ch.state, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
-    bus_->Subscribe(ch.torque, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnTorque(d, n); });
-    bus_->Subscribe(ch.plant_status,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n, true); });
-    bus_->Subscribe(ch.controller_status,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n, false); });
+  Observer(const std::string& url, const Channels& ch)
+      : bus_(OpenBus(WithReceiveBuffer(url))),
+        plant_(*bus_, ch.plant_prefix, ObserverLimits{.instances = 1, .discover = false, .telemetry = false},
+               BusObserver::Hooks{.on_state = [this](const std::string&, const state_t& s) { OnState(s); },
+                                  .on_status = [this](const status_t& s) { OnStatus(s, true); }}),
+        controller_(*bus_, ch.controller_prefix, ObserverLimits{.instances = 0, .discover = false},
+                    BusObserver::Hooks{.on_status = [this](const status_t& s) { OnStatus(s, false); }}) {
+    plant_.Follow(ch.plant);
+    SubscribeMessages<torque_t>(*bus_, ch.torque, [this](torque_t&& t) { OnTorque(t); });
   }
 
   // Receives until `stop`, at SCHED_FIFO `priority` (0: as it is).
@@ -351,31 +358,27 @@ class Observer {
   const std::vector<TorqueSeen>& torques() const { return torques_; }
 
  private:
-  void OnState(const std::uint8_t* data, std::size_t size) {
+  void OnState(const state_t& state) {
     const std::int64_t arrival = WallMicros();
-    if (ReceiveInto(state_, data, size) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (plant_run_id_.load() == 0) plant_run_id_.store(state_.run_id);
-    if (state_.run_id != plant_run_id_.load()) return;  // not this run's plant
-    states_.push_back({state_.tick, state_.utime, arrival, state_.mode, state_.tau});
-    plant_mode_.store(state_.mode);
-    if (state_.mode == state_t::MODE_HOLD && !hold_ && hold_after_ > 0 && state_.utime > hold_after_) {
+    if (plant_run_id_.load() == 0) plant_run_id_.store(state.run_id);
+    if (state.run_id != plant_run_id_.load()) return;  // not this run's plant
+    states_.push_back({state.tick, state.utime, arrival, state.mode, state.tau});
+    plant_mode_.store(state.mode);
+    if (state.mode == state_t::MODE_HOLD && !hold_ && hold_after_ > 0 && state.utime > hold_after_) {
       hold_ = states_.back();
     }
   }
 
-  void OnTorque(const std::uint8_t* data, std::size_t size) {
+  void OnTorque(const torque_t& torque) {
     const std::int64_t arrival = WallMicros();
-    if (ReceiveInto(torque_, data, size) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
-    torques_.push_back({torque_.run_id, torque_.sequence, torque_.state_tick, torque_.utime, arrival, torque_.tau});
-    last_torque_run_id_.store(torque_.run_id);
+    torques_.push_back({torque.run_id, torque.sequence, torque.state_tick, torque.utime, arrival, torque.tau});
+    last_torque_run_id_.store(torque.run_id);
     last_torque_arrival_.store(arrival);
   }
 
-  void OnStatus(const std::uint8_t* data, std::size_t size, bool plant) {
-    status_t s;
-    if (ReceiveInto(s, data, size) != Drop::kNone) return;
+  void OnStatus(const status_t& s, bool plant) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (plant) {
       if (s.run_id == plant_run_id_.load()) plant_status_ = s;
@@ -385,8 +388,7 @@ class Observer {
   }
 
   std::unique_ptr<Bus> bus_;
-  state_t state_;
-  torque_t torque_;
+  BusObserver plant_, controller_;  // read on the receive thread only (their hooks)
   mutable std::mutex mutex_;
   std::vector<StateSeen> states_;
   std::vector<TorqueSeen> torques_;
@@ -877,7 +879,7 @@ std::optional<Channels> LoopChannels(const Scene& plant, const Scene& controller
         "writes (one instance each)";
     return std::nullopt;
   }
-  return Channels{p.state, p.torque_in, StatusChannel(""), StatusChannel(kControllerPrefix)};
+  return Channels{plant.instances[0].name, p.state, p.torque_in, "", kControllerPrefix};
 }
 
 // The plant's and the controller's scenes from --config-dir; nullopt (and why, on stderr) when they do not load

@@ -69,7 +69,7 @@
 #include "protocol/big_endian.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
-#include "protocol/receive.hpp"
+#include "protocol/observer.hpp"
 #include "protocol/signing.hpp"
 
 namespace lagrange::bench {
@@ -220,15 +220,18 @@ FloodResult Flood(Case c, int port, bool signed_bus, std::int64_t plant_run_id, 
 
 // ---- what the daemons publish -------------------------------------------------------------------
 
-// The plant's states and status and the controller's status; the window counts.
+// The plant's states and status and the controller's status (a BusObserver
+// per daemon, their hooks doing the per-message work); the window counts.
 class Observer {
  public:
-  Observer(const std::string& url, const BusKey* key) : bus_(OpenBus(WithReceiveBuffer(url), key)) {
-    bus_->Subscribe("ARM_STATE", [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnState(d, n); });
-    bus_->Subscribe(StatusChannel(""),
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n, false); });
-    bus_->Subscribe(StatusChannel(kControllerPrefix),
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n, true); });
+  Observer(const std::string& url, const BusKey* key)
+      : bus_(OpenBus(WithReceiveBuffer(url), key)),
+        plant_(*bus_, "", ObserverLimits{.instances = 1, .discover = false, .telemetry = false},
+               BusObserver::Hooks{.on_state = [this](const std::string&, const state_t& s) { OnState(s); },
+                                  .on_status = [this](const status_t& s) { OnStatus(s, false); }}),
+        controller_(*bus_, kControllerPrefix, ObserverLimits{.instances = 0, .discover = false},
+                    BusObserver::Hooks{.on_status = [this](const status_t& s) { OnStatus(s, true); }}) {
+    plant_.Follow("arm");
   }
   void Run(const std::atomic<bool>& stop) {
     while (!stop.load()) bus_->Handle(20);
@@ -273,28 +276,26 @@ class Observer {
   std::int64_t kernel_drops() const { return bus_->stats().kernel_drops; }
 
  private:
-  void OnState(const std::uint8_t* d, std::size_t n) {
-    if (ReceiveInto(state_, d, n) != Drop::kNone || state_.controller == kFloodMark) return;
+  void OnState(const state_t& state) {
+    if (state.controller == kFloodMark) return;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (plant_run_id_ == 0) plant_run_id_ = state_.run_id;
-    if (state_.run_id != plant_run_id_) return;
-    plant_mode_ = state_.mode;
+    if (plant_run_id_ == 0) plant_run_id_ = state.run_id;
+    if (state.run_id != plant_run_id_) return;
+    plant_mode_ = state.mode;
     if (!window_) return;
     ++states_;
-    if (state_.mode != state_t::MODE_RUNNING) ++states_not_running_;
+    if (state.mode != state_t::MODE_RUNNING) ++states_not_running_;
   }
-  void OnStatus(const std::uint8_t* d, std::size_t n, bool controller) {
-    if (ReceiveInto(status_, d, n) != Drop::kNone) return;
+  void OnStatus(const status_t& status, bool controller) {
     std::lock_guard<std::mutex> lock(mutex_);
-    (controller ? controller_status_ : plant_status_) = status_;
+    (controller ? controller_status_ : plant_status_) = status;
     if (!controller || !window_) return;
     ++statuses_;
-    if (status_.num_instances < 1 || status_.instance_modes[0] != state_t::MODE_RUNNING) ++statuses_not_running_;
+    if (status.num_instances < 1 || status.instance_modes[0] != state_t::MODE_RUNNING) ++statuses_not_running_;
   }
 
   std::unique_ptr<Bus> bus_;
-  state_t state_;
-  status_t status_;
+  BusObserver plant_, controller_;  // read on the receive thread only (their hooks)
   mutable std::mutex mutex_;
   std::int64_t plant_run_id_ = 0;
   int plant_mode_ = -1;

@@ -80,6 +80,7 @@
 #include "bench/proc_stats.hpp"
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/observer.hpp"
 #include "protocol/receive.hpp"
 
 namespace lagrange::bench {
@@ -292,19 +293,20 @@ FloodResult Flood(Case c, int port, const std::atomic<bool>& stop) {
 
 // ---- what the daemon publishes ------------------------------------------------------------
 
-// Receives the daemon's outputs: statuses, the arm's mode, replies to the
-// estops and the cart-pole's q_des for the prober. Learns the run id from
-// the first status.
+// Receives the daemon's outputs: statuses, the arm's mode and the
+// cart-pole's q_des for the prober (a BusObserver following both, its hooks
+// doing the per-message work), and replies to the estops. Learns the run id
+// from the first status.
 class Observer {
  public:
-  explicit Observer(const std::string& url) : bus_(OpenBus(WithReceiveBuffer(url))) {
-    bus_->Subscribe(kStatus, [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnStatus(d, n); });
-    bus_->Subscribe(kChannels[kArm].state,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnArm(d, n); });
-    bus_->Subscribe(kChannels[kCartpole].state,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnCartpole(d, n); });
-    bus_->Subscribe(kChannels[kArm].reply,
-                    [this](std::string_view, const std::uint8_t* d, std::size_t n) { OnReply(d, n); });
+  explicit Observer(const std::string& url)
+      : bus_(OpenBus(WithReceiveBuffer(url))),
+        daemon_(*bus_, "", ObserverLimits{.instances = 2, .discover = false, .telemetry = false},
+                BusObserver::Hooks{.on_state = [this](const std::string& name, const state_t& s) { OnState(name, s); },
+                                   .on_status = [this](const status_t& s) { OnStatus(s); }}) {
+    daemon_.Follow(kChannels[kArm].instance);
+    daemon_.Follow(kChannels[kCartpole].instance);
+    SubscribeMessages<reply_t>(*bus_, kChannels[kArm].reply, [this](reply_t&& r) { OnReply(r); });
   }
 
   void Run(const std::atomic<bool>& stop) {
@@ -363,48 +365,46 @@ class Observer {
  private:
   bool Ours(std::int64_t run_id) const { return run_id_ != 0 && run_id == run_id_; }
 
-  void OnStatus(const std::uint8_t* d, std::size_t n) {
-    if (ReceiveInto(status_, d, n) != Drop::kNone) return;
+  void OnStatus(const status_t& status) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (run_id_ == 0 && status_.run_id != kSpoofRunId) run_id_ = status_.run_id;
-    if (!Ours(status_.run_id)) return;
-    statuses_.emplace_back(MonotonicNs(), status_);
+    if (run_id_ == 0 && status.run_id != kSpoofRunId) run_id_ = status.run_id;
+    if (!Ours(status.run_id)) return;
+    statuses_.emplace_back(MonotonicNs(), status);
     if (statuses_.size() > 4096) statuses_.erase(statuses_.begin(), statuses_.begin() + 2048);
     changed_.notify_all();
   }
-  void OnArm(const std::uint8_t* d, std::size_t n) {
-    if (ReceiveInto(arm_, d, n) != Drop::kNone) return;
+  void OnState(const std::string& name, const state_t& s) {
+    if (name == kChannels[kArm].instance) OnArm(s);
+    if (name == kChannels[kCartpole].instance) OnCartpole(s);
+  }
+  void OnArm(const state_t& arm) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (!Ours(arm_.run_id)) return;
+      if (!Ours(arm.run_id)) return;
     }
-    if (arm_.mode != state_t::MODE_ESTOP) {
+    if (arm.mode != state_t::MODE_ESTOP) {
       estop_since_ = -1;
     } else if (estop_since_.load() < 0) {
       estop_since_ = MonotonicNs();
     }
   }
-  void OnCartpole(const std::uint8_t* d, std::size_t n) {
+  void OnCartpole(const state_t& cartpole) {
     const std::int64_t now = MonotonicNs();
-    if (ReceiveInto(cartpole_, d, n) != Drop::kNone) return;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!Ours(cartpole_.run_id) || !probe_pending_ || cartpole_.q_des.empty()) return;
-    if (cartpole_.q_des[0] == probe_value_) {
+    if (!Ours(cartpole.run_id) || !probe_pending_ || cartpole.q_des.empty()) return;
+    if (cartpole.q_des[0] == probe_value_) {
       probe_latency_.back() = now - probe_sent_;
       probe_pending_ = false;
     }
   }
-  void OnReply(const std::uint8_t* d, std::size_t n) {
-    if (ReceiveInto(reply_, d, n) != Drop::kNone) return;
-    if ((reply_.request_id & ~((std::int64_t{1} << 48) - 1)) != kEstopTag) return;
+  void OnReply(const reply_t& reply) {
+    if ((reply.request_id & ~((std::int64_t{1} << 48) - 1)) != kEstopTag) return;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (Ours(reply_.run_id)) replies_[reply_.request_id] = reply_.accepted;
+    if (Ours(reply.run_id)) replies_[reply.request_id] = reply.accepted;
   }
 
   std::unique_ptr<Bus> bus_;
-  status_t status_;
-  state_t arm_, cartpole_;
-  reply_t reply_;
+  BusObserver daemon_;  // read on the receive thread only (its hooks)
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::int64_t run_id_ = 0;

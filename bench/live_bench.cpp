@@ -82,6 +82,7 @@
 #include "protocol/bus.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/lcm_log.hpp"
+#include "protocol/observer.hpp"
 #include "protocol/receive.hpp"
 #include "sim/instance.hpp"
 #include "sim/scene.hpp"
@@ -317,18 +318,19 @@ struct Reply {
   std::int64_t utime = 0;
 };
 
-// The arm's state (its run_id) and the replies to this program's commands, as they arrive.
+// The arm's run (the first run id its state is heard from, by a BusObserver
+// following the arm) and the replies to this program's commands, as they arrive.
 class Observer {
  public:
-  Observer(const std::string& url, const std::vector<InstanceChannelNames>& ch, std::size_t arm) : bus_(OpenBus(url)) {
-    bus_->Subscribe(ch[arm].state, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
-      state_t s;
-      if (ReceiveInto(s, d, n) != Drop::kNone) return;
-      if (run_id_.load() == 0) run_id_.store(s.run_id);
-    });
-    bus_->Subscribe(ch[arm].reply, [this](std::string_view, const std::uint8_t* d, std::size_t n) {
-      reply_t r;
-      if (ReceiveInto(r, d, n) != Drop::kNone) return;
+  Observer(const std::string& url, const std::vector<InstanceChannelNames>& ch, std::size_t arm)
+      : bus_(OpenBus(url)),
+        daemon_(*bus_, "", ObserverLimits{.instances = 1, .discover = false, .telemetry = false},
+                BusObserver::Hooks{.on_state = [this](const std::string&, const state_t& s) {
+                  std::int64_t none = 0;
+                  run_id_.compare_exchange_strong(none, s.run_id);
+                }}) {
+    daemon_.Follow(ch[arm].instance);
+    SubscribeMessages<reply_t>(*bus_, ch[arm].reply, [this](reply_t&& r) {
       std::lock_guard<std::mutex> lock(mutex_);
       replies_[r.request_id] = {r.accepted != 0, r.reason, r.utime};
     });
@@ -347,6 +349,7 @@ class Observer {
  private:
   std::unique_ptr<Bus> bus_;
   std::atomic<std::int64_t> run_id_{0};
+  BusObserver daemon_;  // read on the receive thread only (its hook)
   mutable std::mutex mutex_;
   std::map<std::int64_t, Reply> replies_;
 };

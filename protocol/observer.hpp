@@ -115,14 +115,17 @@ struct ObservedInstance {
   LatestByRun<task_state_t> tasks;
 };
 
+// Called for each message received, before it is kept (the instance still shows the previous one).
+// Initialised members: a hook left out of a designated initializer is none, without a warning.
+struct ObserverHooks {
+  std::function<void(const std::string& instance, const state_t&)> on_state{};
+  std::function<void(const std::string& instance, const telemetry_t&)> on_telemetry{};
+  std::function<void(const status_t&)> on_status{};
+};
+
 class BusObserver {
  public:
-  // Called for each message received, before it is kept (the instance still shows the previous one).
-  struct Hooks {
-    std::function<void(const std::string& instance, const state_t&)> on_state;
-    std::function<void(const std::string& instance, const telemetry_t&)> on_telemetry;
-    std::function<void(const status_t&)> on_status;
-  };
+  using Hooks = ObserverHooks;
   // Listens on `bus` to the daemon whose channels start with `prefix`; subscribes its status channel now.
   BusObserver(Bus& bus, std::string prefix, ObserverLimits limits = {}, Hooks hooks = {});
   BusObserver(const BusObserver&) = delete;
