@@ -68,6 +68,7 @@ std::string_view ToString(DdpStatus status) {
     case DdpStatus::kLineSearchFailed: return "line-search-failed";
     case DdpStatus::kNotPositiveDefinite: return "not-positive-definite";
     case DdpStatus::kDiverged: return "diverged";
+    case DdpStatus::kStopped: return "stopped";
   }
   return "unknown";
 }
@@ -489,6 +490,10 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   };
   bool linearized = true;  // by the first rollout
   while (r.iterations < o.max_iterations) {
+    if (d.stop != nullptr && d.stop->load(std::memory_order_relaxed)) {
+      r.status = DdpStatus::kStopped;
+      break;
+    }
     if (!linearized) DdpPasses::Linearize(model, d);
     linearized = true;
     double dV1 = 0.0, dV2 = 0.0;
