@@ -83,6 +83,9 @@ struct InstanceModel {
   std::array<double, kNumMethods> evaluation_s{};
   double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
   double forces_s = 0.0;         // computing its per-effect forces, s, while SET_FORCES is on (MeasureForcesSeconds)
+  // Its mpc controller's optimiser, off the tick: one DDP iteration of its plan, s (MeasureMpcIterationSeconds);
+  // 0: no mpc controller, or not measured.
+  double mpc_iteration_s = 0.0;
 
   const std::string& name() const { return config.name; }
   bool external_plant() const { return config.external.has_value(); }

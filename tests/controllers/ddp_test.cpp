@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -273,6 +275,26 @@ TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
     EXPECT_LT(std::abs(std::remainder(q[1] - kPi, 2.0 * kPi)), kUpright) << "run " << run;
     EXPECT_LE(worst_x, kRail) << "run " << run;
   }
+}
+
+// A thread that plans is stopped within one iteration: the flag is polled
+// between iterations, and a set flag ends the solve with the nominal it has.
+TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
+  DdpConfig config = CartPoleSwingUp(10.0);
+  config.options.max_iterations = 50;
+  const DdpModel model(Plant(CartPoleParams{}), config);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  std::atomic<bool> stop{true};
+  data.stop = &stop;
+  const DdpResult& stopped = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_EQ(stopped.status, DdpStatus::kStopped);
+  EXPECT_EQ(stopped.iterations, 0);
+  EXPECT_EQ(stopped.cost, stopped.cost_history[0]) << "the first rollout's nominal";
+  stop = false;
+  const DdpResult& resumed = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_GE(resumed.iterations, 1);
+  EXPECT_NE(resumed.status, DdpStatus::kStopped);
 }
 
 TEST(Ddp, RefusesAProblemItCannotSolveNamingTheField) {

@@ -15,6 +15,7 @@
 #include "daemon/runtime.hpp"
 #include "sim/offline.hpp"
 #include "sim/scene.hpp"
+#include "sim/work_bound.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace lagrange {
@@ -67,6 +68,24 @@ TEST(MpcScene, SwingsTheCartPoleUpFromSeededStatesAndKeepsItOnTheRail) {
       EXPECT_TRUE(again.q == end.q && again.qd == end.qd) << "offline mpc is deterministic";
     }
   }
+}
+
+// The optimiser's bound (sim/work_bound.hpp): a plan must be replaced before
+// its horizon runs out. With the iteration's cost given (not timed): the
+// shipped scene's 2 iterations of 1 ms plus 40 ms fit its 2 s; of 1 s they do not.
+TEST(MpcScene, ASceneWhosePlanWouldRunOutBeforeTheNextIsRefusedNamingTheInstance) {
+  const std::shared_ptr<DaemonModel> model = BuildDaemonModel(LoadScene(SwingUpFile()));
+  ASSERT_TRUE(model->instances[0].controllers[0].mpc);
+  model->instances[0].mpc_iteration_s = 1e-3;
+  EXPECT_EQ(MpcBoundRefusal(*model), std::nullopt);
+  model->instances[0].mpc_iteration_s = 1.0;
+  const std::optional<std::string> refusal = MpcBoundRefusal(*model);
+  ASSERT_TRUE(refusal.has_value());
+  EXPECT_NE(refusal->find("instances[0] (cartpole): the mpc plan would run out before the next one: a solve "
+                          "(2 iterations x 1e+03 ms measured) plus replan_period 0.04 s exceed its horizon of 2 s"),
+            std::string::npos)
+      << *refusal;
+  EXPECT_EQ(CheckWorkBounds(*model), refusal) << "lagranged and simulate refuse it as the tick's bound";
 }
 
 // The swing-up scene with a fallback to hold by, as lagranged runs it.
