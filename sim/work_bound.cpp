@@ -157,20 +157,28 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   double costliest = 0.0;
   for (std::size_t k = 0; k < controllers; ++k) {
     instance.SelectController(k);
-    // An mpc controller's tick evaluates a plan; the plan is made on a thread of its own (daemon/mpc_worker.hpp).
-    if (MpcController* mpc = instance.mpc_controller(k)) {
-      mpc->set_plan_inline(false);
-      MpcPolicy plan = mpc->policy();
-      plan.sequence = 1;
-      plan.dt = mpc->ddp_model()->dt();
-      mpc->SetPolicy(plan);
+    // An mpc controller's tick evaluates a plan (a zero plan here, as costly as any); the plan is made on a
+    // thread of its own (daemon/mpc_worker.hpp), bounded apart (MpcBoundRefusal). Reset drops it: given again.
+    MpcPolicy plan;
+    for (std::size_t j = 0; j < controllers; ++j) {
+      if (MpcController* mpc = instance.mpc_controller(j)) {
+        mpc->set_plan_inline(false);
+        plan = mpc->policy();
+        plan.sequence = 1;
+        plan.dt = mpc->ddp_model()->dt();
+      }
     }
+    const auto give_plan = [&] {
+      if (MpcController* mpc = instance.mpc_controller(instance.active_controller())) mpc->SetPolicy(plan);
+    };
+    give_plan();
     costliest = std::max(costliest, FastestSample(kMeasureBudget / static_cast<double>(controllers), [&] {
                            const Steady::time_point start = Steady::now();
                            instance.Step(period);
                            const double step = SecondsSince(start);
                            const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
                            instance.Reset();  // every step from the initial state
+                           give_plan();
                            return step - evaluations * evaluation_s;
                          }));
   }
