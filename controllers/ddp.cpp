@@ -199,6 +199,20 @@ void DdpData::ShiftSolution(int knots) {
   }
 }
 
+void DdpData::ShiftSolution(double knots) {
+  const int N = model_->horizon();
+  const double whole = std::floor(std::clamp(knots, 0.0, static_cast<double>(N)));
+  ShiftSolution(static_cast<int>(whole));
+  const double f = std::clamp(knots, 0.0, static_cast<double>(N)) - whole;
+  if (!(f > 0.0)) return;
+  // Increasing k reads only knot k + 1, still unshifted; coefficient-wise, so no temporaries.
+  for (int k = 0; k + 1 < N; ++k) {
+    u_.col(k) += f * (u_.col(k + 1) - u_.col(k));
+    K_[static_cast<std::size_t>(k)] += f * (K_[static_cast<std::size_t>(k + 1)] - K_[static_cast<std::size_t>(k)]);
+  }
+  for (int k = 0; k < N; ++k) x_.col(k) += f * (x_.col(k + 1) - x_.col(k));
+}
+
 void DdpData::Reset() {
   u_.setZero();
   kff_.setZero();

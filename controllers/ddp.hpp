@@ -172,6 +172,10 @@ class DdpData {
   // become those of knot k + knots, the last one repeated past the end,
   // so the next SolveDdp starts from the previous policy's rollout.
   void ShiftSolution(int knots);
+  // The same by a fractional number of knots (>= 0): the whole ones as above,
+  // then ū_k, x̄_k and K_k interpolated linearly toward knot k + 1 by the
+  // fraction (the last ones held), for a plan that starts between knots.
+  void ShiftSolution(double knots);
   // Cold start: ū = 0 (clamped into the limits by the first rollout), no feedback.
   void Reset();
 

@@ -132,7 +132,10 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef 
   const int n = model.num_dofs(), N = model.horizon();
   // Warm start: the previous plan from the knot this one starts at.
   if (warm_ && t >= last_start_) {
-    data_.ShiftSolution(static_cast<int>(std::min<double>(N, std::floor((t - last_start_) / model.dt() + 1e-9))));
+    // Whole knots and the fraction between (a plan may start between knots); round-off below 1e-9 of a knot dropped.
+    const double knots = (t - last_start_) / model.dt();
+    const double nearest = std::round(knots);
+    data_.ShiftSolution(std::min<double>(N, std::abs(knots - nearest) < 1e-9 ? nearest : knots));
   } else {
     data_.Reset();
   }

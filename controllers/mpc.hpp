@@ -107,7 +107,8 @@ class MpcPlanner {
 
   // (t, q, qd, q_ref, qd_ref) => out: a plan of N knots from x_0 = (q, qd) at
   // time t toward the reference (n each, held over the horizon), warm-started
-  // from the previous plan shifted by the whole knots elapsed since it (cold
+  // from the previous plan shifted by the knots elapsed since it, a fraction
+  // interpolated (DdpData::ShiftSolution(double); cold
   // after Reset, after a failed solve, or when t went back). `stop` (may be
   // null) is polled between iterations: set, the solve ends early with what it
   // has (DdpOptions). Returns the status. Allocates nothing.
