@@ -41,6 +41,7 @@ constexpr EnumName<ControllerType> kControllerNames[] = {
     {ControllerType::kExternal, "external"},
     {ControllerType::kCartesianImpedance, "cartesian-impedance"},
     {ControllerType::kOperationalSpace, "operational-space"},
+    {ControllerType::kMpc, "mpc"},
 };
 
 }  // namespace

@@ -117,6 +117,7 @@ enum class ControllerType : std::uint8_t {
   kExternal,             // the latest torque streamed over LCM (torque_t) [+ G(q)]
   kCartesianImpedance,   // Jᵀ (K e + D ė) + C qd + G + P τ0 on one frame's pose (task_space.hpp)
   kOperationalSpace,     // Jᵀ Λ (ẍ_d + Kd ė + Kp e − J̇qd) + C qd + G + P τ0 (task_space.hpp)
+  kMpc,                  // clamp(ū_k + K_k (x − x̄_k)) of a receding-horizon box-DDP plan (controllers/mpc.hpp)
 };
 std::string_view ToString(ControllerType type);
 std::optional<ControllerType> ParseControllerType(std::string_view name);

@@ -68,6 +68,7 @@ std::string_view ToString(DdpStatus status) {
     case DdpStatus::kLineSearchFailed: return "line-search-failed";
     case DdpStatus::kNotPositiveDefinite: return "not-positive-definite";
     case DdpStatus::kDiverged: return "diverged";
+    case DdpStatus::kStopped: return "stopped";
   }
   return "unknown";
 }
@@ -196,6 +197,20 @@ void DdpData::ShiftSolution(int knots) {
   for (int k = N - s; k < N; ++k) {
     if (k != last) K_[static_cast<std::size_t>(k)] = K_[static_cast<std::size_t>(last)];
   }
+}
+
+void DdpData::ShiftSolution(double knots) {
+  const int N = model_->horizon();
+  const double whole = std::floor(std::clamp(knots, 0.0, static_cast<double>(N)));
+  ShiftSolution(static_cast<int>(whole));
+  const double f = std::clamp(knots, 0.0, static_cast<double>(N)) - whole;
+  if (!(f > 0.0)) return;
+  // Increasing k reads only knot k + 1, still unshifted; coefficient-wise, so no temporaries.
+  for (int k = 0; k + 1 < N; ++k) {
+    u_.col(k) += f * (u_.col(k + 1) - u_.col(k));
+    K_[static_cast<std::size_t>(k)] += f * (K_[static_cast<std::size_t>(k + 1)] - K_[static_cast<std::size_t>(k)]);
+  }
+  for (int k = 0; k < N; ++k) x_.col(k) += f * (x_.col(k + 1) - x_.col(k));
 }
 
 void DdpData::Reset() {
@@ -489,6 +504,10 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   };
   bool linearized = true;  // by the first rollout
   while (r.iterations < o.max_iterations) {
+    if (d.stop != nullptr && d.stop->load(std::memory_order_relaxed)) {
+      r.status = DdpStatus::kStopped;
+      break;
+    }
     if (!linearized) DdpPasses::Linearize(model, d);
     linearized = true;
     double dV1 = 0.0, dV2 = 0.0;

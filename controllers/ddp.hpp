@@ -49,6 +49,7 @@
 // buffer), the references it is solved for and the solution. Every size is
 // fixed when the data is made: SolveDdp allocates nothing.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string_view>
@@ -125,6 +126,8 @@ enum class DdpStatus : std::uint8_t {
   kNotPositiveDefinite,  // Q_uu + μI not positive definite up to regularization_max
   kDiverged,             // the first rollout left the finite numbers (x_0 non-finite, or the
                          // held policy blew up); the data is then Reset
+  kStopped,              // DdpData::stop was set: the solve ended between iterations with the
+                         // nominal it had (the cost never above the first rollout's)
 };
 std::string_view ToString(DdpStatus status);
 
@@ -143,6 +146,11 @@ class DdpData {
   // Sizes every buffer for `model`, which must outlive the data; the
   // references start at zero and the controls at zero with no feedback (Reset).
   explicit DdpData(const DdpModel& model);
+
+  // Polled between iterations (may be null): once set, SolveDdp returns
+  // kStopped with the nominal it has, so a thread that plans can be stopped
+  // within one iteration.
+  const std::atomic<bool>* stop = nullptr;
 
   // Inputs, set by the caller before SolveDdp; sized here, never resized.
   MatrixXd q_ref;   // (n x N+1) q_ref,k per knot
@@ -164,6 +172,10 @@ class DdpData {
   // become those of knot k + knots, the last one repeated past the end,
   // so the next SolveDdp starts from the previous policy's rollout.
   void ShiftSolution(int knots);
+  // The same by a fractional number of knots (>= 0): the whole ones as above,
+  // then ū_k, x̄_k and K_k interpolated linearly toward knot k + 1 by the
+  // fraction (the last ones held), for a plan that starts between knots.
+  void ShiftSolution(double knots);
   // Cold start: ū = 0 (clamped into the limits by the first rollout), no feedback.
   void Reset();
 

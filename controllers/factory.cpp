@@ -332,6 +332,10 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
     }
     if (c.continuous) return std::string("continuous: an external controller's torque is held over the tick");
   }
+  if (c.type == ControllerType::kMpc) {
+    if (auto err = ValidateMpc(c.mpc, n, plant.type() == PlantType::kCartPole, c.period)) return err;
+    if (c.continuous) return std::string("continuous: mpc follows its plan's policy once per tick");
+  }
   if (c.continuous && c.type == ControllerType::kSwingUp) {
     return std::string("continuous: swing-up keeps a mode and runs once per tick");
   }
@@ -394,6 +398,12 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
           c.external.compensate_gravity);
     case ControllerType::kCartesianImpedance:
     case ControllerType::kOperationalSpace: return MakeTaskSpace(c, plant, torque_limits, shared);
+    case ControllerType::kMpc:
+      return std::make_unique<MpcController>(
+          joints, torque_limits,
+          MakeMpcModel(c.mpc, ControllerModel(c, plant, shared), EffectsConfig{}, torque_limits,
+                       plant.type() == PlantType::kCartPole),
+          c.mpc.replan_period);
   }
   throw std::invalid_argument("unknown controller");
 }

@@ -15,6 +15,7 @@
 #include "controllers/controller.hpp"
 #include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
+#include "controllers/mpc.hpp"
 #include "controllers/swing_up.hpp"
 #include "controllers/task_space.hpp"
 #include "plant/integrators.hpp"
@@ -61,6 +62,7 @@ struct ControllerConfig {
   SwingUpOptions swing_up;
   ExternalOptions external;
   TaskSpaceOptions task;  // cartesian-impedance and operational-space
+  MpcOptions mpc;         // mpc (controllers/mpc.hpp)
   // The controller's own model: the plant's spec with these changes (a
   // model error), and its derivation method (default: the fastest).
   std::optional<PlantSpec> model;

@@ -64,6 +64,7 @@ ModeOutcome OnReset(ModeState s, const ModeContext& c) {
   if (c.external_plant) return Rearm(s);
   if (s.estop_latched) return Enter(s, Mode::kEstop, kEstopped);
   if (c.external_controller) return Enter(s, Mode::kHold, kNoTorqueYet);  // until its first torque
+  if (c.mpc) return Enter(s, Mode::kHold, kNoPlanYet);                     // until its first plan
   s.mode = Mode::kRunning;
   s.reason = nullptr;
   return {s, nullptr, true};
@@ -84,14 +85,18 @@ ModeOutcome OnResume(ModeState s) {
   return Stay(s);
 }
 
+// A hold for want of the torques or plans of the controller that was active.
 bool TorqueHold(const ModeState& s) {
-  return s.mode == Mode::kHold && (s.reason == kTorquesTimedOut || s.reason == kNoTorqueYet);
+  const char* r = s.reason;
+  return s.mode == Mode::kHold && (r == kTorquesTimedOut || r == kNoTorqueYet || r == kNoPlanYet || r == kPlanRanOut ||
+                                   r == kPlanLineSearchFailed || r == kPlanNotPositiveDefinite || r == kPlanDiverged);
 }
 
 ModeOutcome OnControllerSwitched(const ModeState& s, const ModeContext& c) {
   if (c.external_controller) {  // hold until its first torque
     return Commanding(s.mode) ? Enter(s, Mode::kHold, kNoTorqueYet) : Stay(s);
   }
+  if (c.mpc) return Commanding(s.mode) ? Enter(s, Mode::kHold, kNoPlanYet) : Stay(s);  // until its first plan
   if (TorqueHold(s)) return RunOrHold(s, c);  // the torque stream no longer matters: the setpoints decide
   return Stay(s);
 }
@@ -106,9 +111,10 @@ ModeOutcome Resume(ModeState s) {
 
 // The inputs whose arrival and timeout decide running and hold: the ones the
 // active controller follows.
-enum class Stream : std::uint8_t { kSetpoints, kPoses, kTorques };
+enum class Stream : std::uint8_t { kSetpoints, kPoses, kTorques, kPlans };
 Stream DecidingStream(const ModeContext& c) {
   if (c.external_controller) return Stream::kTorques;
+  if (c.mpc) return Stream::kPlans;
   return c.task_space ? Stream::kPoses : Stream::kSetpoints;
 }
 
@@ -153,6 +159,7 @@ ModeOutcome Transition(const ModeState& s, ModeEvent e, const ModeContext& c) {
       ModeState first;
       if (c.external_plant) return Enter(first, Mode::kWaiting, kWaitingForState);
       if (c.external_controller) return Enter(first, Mode::kHold, kNoTorqueYet);
+      if (c.mpc) return Enter(first, Mode::kHold, kNoPlanYet);
       return {first, nullptr, true};
     }
     case ModeEvent::kEstop: return OnEstop(s);
@@ -173,6 +180,8 @@ ModeOutcome Transition(const ModeState& s, ModeEvent e, const ModeContext& c) {
     case ModeEvent::kMeasuredWrongSize:
     case ModeEvent::kMeasuredSecondSource: return OnMeasuredProblem(s, e);
     case ModeEvent::kFault: return Enter(s, Mode::kFault, c.fault);
+    case ModeEvent::kPlanArrived: return OnArrived(s, Stream::kPlans, c);
+    case ModeEvent::kPlanLapsed: return OnTimedOut(s, Stream::kPlans, c, c.plan_reason);
   }
   return Stay(s);
 }

@@ -30,6 +30,10 @@
 //     controller's torques, then holds; an external plant stops.
 //   The next accepted input (kSetpointArrived, kTorqueArrived) resumes
 //   running from hold.
+//   An mpc controller's plans are its stream: a plan that ran out or a
+//   failed solve (kPlanLapsed, with the reason) holds by its fallback, the
+//   next usable plan (kPlanArrived) resumes; it holds from start, reset and
+//   a switch to it until its first plan, as an external controller does.
 //   One stream decides, the one the active controller follows: an external
 //   controller's torques, a task-space controller's poses (kPoseArrived; a
 //   pose latches, so only one streamed with a twist times out:
@@ -76,8 +80,10 @@ enum class ModeEvent : std::uint8_t {
   kMeasuredWrongSize,     // ... one of the wrong num_dofs
   kMeasuredSecondSource,  // ... one from a second run id
   kFault,                 // the health check failed (ModeContext::fault says why)
+  kPlanArrived,           // a usable plan for the active mpc controller was taken
+  kPlanLapsed,            // its plan ran out or a solve failed (ModeContext::plan_reason says which)
 };
-inline constexpr int kNumModeEvents = 19;
+inline constexpr int kNumModeEvents = 21;
 
 // The machine's state: the mode, why it is not running, and what it
 // remembers across events.
@@ -95,10 +101,12 @@ struct ModeContext {
   bool external_plant = false;       // the plant is outside lagranged
   bool external_controller = false;  // the active controller (after the event) streams torques over LCM
   bool task_space = false;           // the active controller (after the event) follows poses, not joint setpoints
+  bool mpc = false;                  // the active controller (after the event) follows an optimiser's plans
   bool setpoints_timed_out = false;  // streamed setpoints were accepted and then stopped for setpoint_timeout
   bool estop_this_tick = false;      // an estop arrived in the same tick as this event (kClearEstop)
   bool estop_dwelling = false;       // the latched estop has not yet lasted estop_dwell (kClearEstop)
   const char* fault = nullptr;       // kFault: why (a static string)
+  const char* plan_reason = nullptr;  // kPlanLapsed: why (one of the kPlan* reasons below)
 };
 
 struct ModeOutcome {
@@ -122,6 +130,14 @@ inline bool Commands(Mode mode) { return mode == Mode::kRunning || mode == Mode:
 inline constexpr char kSetpointsTimedOut[] = "streamed setpoints timed out (setpoint_timeout)";
 inline constexpr char kTorquesTimedOut[] = "streamed torques timed out (torque_timeout)";
 inline constexpr char kNoTorqueYet[] = "no torque yet on the external controller's channel";
+// An mpc controller's plans (controllers/mpc.hpp): the optimiser thread's first
+// plan has not come, the latest one's horizon ran out, or a solve failed (by
+// its DdpStatus). Each holds by the controller's fallback until a usable plan.
+inline constexpr char kNoPlanYet[] = "no plan yet from the mpc optimiser";
+inline constexpr char kPlanRanOut[] = "the mpc plan's horizon ran out (no newer plan)";
+inline constexpr char kPlanLineSearchFailed[] = "the mpc solve failed: line-search-failed";
+inline constexpr char kPlanNotPositiveDefinite[] = "the mpc solve failed: not-positive-definite";
+inline constexpr char kPlanDiverged[] = "the mpc solve failed: diverged";
 inline constexpr char kLeftEstop[] = "cleared from an emergency stop";
 inline constexpr char kEstopped[] = "emergency stop";
 inline constexpr char kPausedByCommand[] = "paused by command";

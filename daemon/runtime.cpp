@@ -13,6 +13,26 @@ namespace {
 SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }
 TorqueMessage TorquePrototype(int n) { return {VectorXd::Zero(n)}; }
 MeasuredMessage MeasuredPrototype(int n) { return {VectorXd::Zero(n), VectorXd::Zero(n)}; }
+MpcStateMessage MpcStatePrototype(int n) {
+  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n)};
+}
+
+// The reason a plan's status gives for falling back (mode_machine.hpp), for one that is not usable.
+const char* PlanFailure(DdpStatus status) {
+  switch (status) {
+    case DdpStatus::kLineSearchFailed: return kPlanLineSearchFailed;
+    case DdpStatus::kNotPositiveDefinite: return kPlanNotPositiveDefinite;
+    default: return kPlanDiverged;
+  }
+}
+
+// The plan prototype of an instance: sized for its mpc controller, else empty.
+MpcPolicy PlanPrototype(Instance& inst) {
+  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
+    if (const MpcController* c = inst.mpc_controller(k)) return c->policy();
+  }
+  return {};
+}
 
 CommandMessage CommandPrototype(int n) {
   CommandMessage c;
@@ -31,12 +51,14 @@ std::optional<Urgent> UrgentKind(CommandKind kind) {
   }
 }
 
-InstanceChannels::InstanceChannels(int n, std::size_t command_capacity)
+InstanceChannels::InstanceChannels(int n, std::size_t command_capacity, const MpcPolicy& plan)
     : setpoints(SetpointPrototype(n)),
       poses(PoseMessage{}),
       torques(TorquePrototype(n)),
       measured(MeasuredPrototype(n)),
-      commands(command_capacity, CommandPrototype(n)) {}
+      commands(command_capacity, CommandPrototype(n)),
+      mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0)),
+      mpc_plans(plan) {}
 
 InstanceRecord::InstanceRecord(int n)
     : q(VectorXd::Zero(n)),
@@ -54,7 +76,7 @@ struct Runtime::Slot {
   explicit Slot(std::shared_ptr<const InstanceModel> model)
       : m(*model),
         instance(std::move(model)),
-        channels(m.num_dofs, kCommandQueueCapacity),
+        channels(m.num_dofs, kCommandQueueCapacity, PlanPrototype(instance)),
         streamed(m.num_dofs),
         held(m.num_dofs),
         current(m.num_dofs),
@@ -99,6 +121,9 @@ struct Runtime::Slot {
 
   const ControllerModel& active() const { return m.controllers[instance.active_controller()]; }
   bool external_active() const { return active().external; }
+  bool mpc_active() const { return active().mpc; }
+  // Held by a fallback (HoldBy) rather than the active controller.
+  bool holds_by_fallback() const { return active().external || active().mpc; }
   bool task_space_active() const { return !active().pose_rules.frame.empty(); }
 };
 
@@ -108,6 +133,11 @@ Runtime::Runtime(std::shared_ptr<const DaemonModel> model) : model_(std::move(mo
   for (const InstanceModel& m : model_->instances) {
     // Each slot keeps its instance's model alive with the whole run's.
     slots_.push_back(std::make_unique<Slot>(std::shared_ptr<const InstanceModel>(model_, &m)));
+    // lagranged plans on a thread of its own (daemon/mpc_worker.hpp): the tick only follows plans.
+    Instance& inst = slots_.back()->instance;
+    for (std::size_t k = 0; k < m.controllers.size(); ++k) {
+      if (MpcController* c = inst.mpc_controller(k)) c->set_plan_inline(false);
+    }
     On(*slots_.back(), ModeEvent::kStart, 0);
     slots_.back()->worst_s = WorkBoundOf(m, m.config.integrator, m.config.method, m.config.forces).tick_s();
     worst_total_s_ += slots_.back()->worst_s;
@@ -141,10 +171,12 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     TakeSetpoint(s, now);
     TakePose(s, now);
     TakeTorque(s, now);
+    TakePlan(s, now);
     if (s.m.external_plant()) KeepPlantTime(s, now);
     ControlAndIntegrate(s);
     CheckHealth(s, r);
     Record(s, r);
+    OfferState(s);
     r.compute = clock_ != nullptr ? clock_->Now() - start : 0;
   }
 }
@@ -179,16 +211,18 @@ bool TimedOut(Nanoseconds now, Nanoseconds last, Nanoseconds timeout) { return n
 
 }  // namespace
 
-const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault) {
+const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault, const char* plan_reason) {
   const bool task_space = s.task_space_active();
   const ModeContext context{
       .external_plant = s.m.external_plant(),
       .external_controller = s.external_active(),
       .task_space = task_space,
+      .mpc = s.mpc_active(),
       .setpoints_timed_out = !task_space && s.streaming && TimedOut(now, s.last_setpoint, s.m.setpoint_timeout),
       .estop_this_tick = s.estop_this_tick,
       .estop_dwelling = s.mode.estop_latched && now - s.estop_at < s.m.estop_dwell,
-      .fault = fault};
+      .fault = fault,
+      .plan_reason = plan_reason};
   const ModeOutcome out = Transition(s.mode, event, context);
   const Mode before = s.mode.mode;
   s.mode = out.next;
@@ -202,7 +236,7 @@ const char* Runtime::On(Slot& s, ModeEvent event, Nanoseconds now, const char* f
       s.held.q = s.instance.q();
       s.held.qd.setZero();
       s.held.qdd.setZero();
-      if (s.external_active() && s.active().fallback.kind == HoldBy::Kind::kController) {
+      if (s.holds_by_fallback() && s.active().fallback.kind == HoldBy::Kind::kController) {
         s.instance.controller(s.active().fallback.controller).Reset();
       }
       break;
@@ -473,6 +507,44 @@ void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
   if (TimedOut(now, s.last_torque, s.active().torque_timeout)) On(s, ModeEvent::kTorquesTimedOut, now);
 }
 
+// (mailbox) => the active mpc controller's plan; its horizon and status. A
+// usable plan is followed from now (SetPolicy: a copy, no allocation); one
+// whose solve failed is not, and hands the instance to the fallback with its
+// status; so does the followed plan once its horizon has run out. A plan made
+// before a reset or a switch (it starts after the instance's time) is dropped.
+void Runtime::TakePlan(Slot& s, Nanoseconds now) {
+  const MpcPolicy* plan = s.channels.mpc_plans.Take();  // taken even when unused, so an old one never applies later
+  MpcController* c = s.instance.mpc_controller(s.instance.active_controller());
+  if (c == nullptr) return;
+  const double t = s.instance.t();
+  if (plan != nullptr && plan->sequence > 0 && plan->start <= t + 0.5 * period()) {
+    if (!IsUsable(plan->status)) {
+      On(s, ModeEvent::kPlanLapsed, now, nullptr, PlanFailure(plan->status));
+      return;
+    }
+    c->SetPolicy(*plan);
+    On(s, ModeEvent::kPlanArrived, now);
+  }
+  if (c->policy().sequence > 0 && !c->policy().LiveAt(t)) On(s, ModeEvent::kPlanLapsed, now, nullptr, kPlanRanOut);
+}
+
+// (state, setpoint) => the mpc optimiser's next start: the state the next
+// tick begins from and the reference it follows (the streamed setpoint, else
+// the scene's trajectory), whatever the mode that commands the plant.
+void Runtime::OfferState(Slot& s) {
+  Instance& inst = s.instance;
+  if (!s.mpc_active() || !Commands(s.mode.mode)) return;
+  if (!s.streaming) inst.SampleTrajectory(s.current);
+  const Setpoint& ref = s.streaming ? s.streamed : s.current;
+  MpcStateMessage& m = s.channels.mpc_state.back();
+  m.t = inst.t();
+  m.q = inst.q();
+  m.qd = inst.qd();
+  m.q_ref = ref.q;
+  m.qd_ref = ref.qd;
+  s.channels.mpc_state.Publish();
+}
+
 // (mode, setpoint) => control, integrate.
 void Runtime::ControlAndIntegrate(Slot& s) {
   Instance& inst = s.instance;
@@ -492,7 +564,7 @@ void Runtime::ControlAndIntegrate(Slot& s) {
       s.in_use = &s.held;  // also published under zero-torque: where hold began
       if (s.m.config.on_timeout == TimeoutBehaviour::kZeroTorque) {
         s.step_failure = inst.StepWithTorque(period(), s.zero);
-      } else if (!s.external_active()) {
+      } else if (!s.holds_by_fallback()) {
         s.step_failure = inst.Step(period(), s.held);
       } else if (s.active().fallback.kind == HoldBy::Kind::kController) {
         s.step_failure = inst.Step(period(), s.held, s.active().fallback.controller);

@@ -5,13 +5,16 @@
 //
 // One tick, per instance:
 //   take commands → take the latest setpoint → check its timeout →
+//   (mpc: take the latest plan, check its horizon and status) →
 //   control and integrate (by mode) → check health → record for the publisher
+//   (mpc: offer the state to the optimiser thread)
 //
 // Modes, what moves an instance between them and when it holds: the mode
 // machine (daemon/mode_machine.hpp), one transition function every Take*
 // step, command and health check calls. What each mode does in a tick:
 //   running  control (the streamed setpoint, the scene trajectory until one
-//            arrives, or an external controller's latest torque), integrate
+//            arrives, or an external controller's latest torque, or an mpc
+//            controller's latest plan, evaluated at the instance's time), integrate
 //   hold     hold-position: q_d = q where the hold began, at rest, under the
 //            active controller, or an external controller's fallback (a
 //            configured controller, or the brake τ = −B q̇); zero-torque: τ = 0
@@ -87,6 +90,14 @@ struct MeasuredMessage {
   Nanoseconds arrived = kSentUnknown;  // when the receiver took it (monotonic), for the phase lock
 };
 
+// What the tick offers an mpc instance's optimiser thread (daemon/mpc_worker.hpp)
+// after every tick it commands: the state a plan starts from, at the
+// instance's time, and the reference (the setpoint it follows), n each.
+struct MpcStateMessage {
+  double t = 0.0;  // s, the instance's time
+  VectorXd q, qd, q_ref, qd_ref;
+};
+
 // What the receiver found wrong with an external plant's measured state: each
 // trips the watchdog (the instance stops commanding).
 enum class MeasuredProblem : std::uint8_t { kNone = 0, kNotFinite, kWrongSize, kSecondSource };
@@ -128,9 +139,10 @@ struct UrgentFlags {
   std::uint64_t sequence = 0;  // the receiver's counter
 };
 
-// Where the receive thread meets one instance.
+// Where the receive thread (and an mpc instance's optimiser thread) meets one instance.
 struct InstanceChannels {
-  InstanceChannels(int n, std::size_t command_capacity);
+  // `plan`: a policy sized for the instance's mpc controller (empty: none).
+  InstanceChannels(int n, std::size_t command_capacity, const MpcPolicy& plan = {});
   LatestMailbox<SetpointMessage> setpoints;
   LatestMailbox<PoseMessage> poses;
   LatestMailbox<TorqueMessage> torques;
@@ -141,6 +153,10 @@ struct InstanceChannels {
   SpscRing<CommandMessage> commands;
   UrgentFlags urgent;
   std::atomic<int> active_controller{0};  // published by the tick, read by the receiver
+  // An mpc controller's optimiser (latest wins both ways): the tick offers
+  // its latest state, the optimiser publishes each finished solve's policy.
+  LatestMailbox<MpcStateMessage> mpc_state;
+  LatestMailbox<MpcPolicy> mpc_plans;
 };
 
 // Why a run-time switch was refused by the work bound (sim/work_bound.hpp);
@@ -280,12 +296,15 @@ class Runtime {
   void TakeSetpoint(Slot& s, Nanoseconds now);
   void TakePose(Slot& s, Nanoseconds now);
   void TakeTorque(Slot& s, Nanoseconds now);
+  void TakePlan(Slot& s, Nanoseconds now);
+  void OfferState(Slot& s);
   void ControlAndIntegrate(Slot& s);
   void CheckHealth(Slot& s, InstanceRecord& r);
   void Record(Slot& s, InstanceRecord& r);
   // Runs `event` through the mode machine (daemon/mode_machine.hpp) and, when
   // it enters a mode, that mode's entry actions. Returns a command's refusal, or null.
-  const char* On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault = nullptr);
+  const char* On(Slot& s, ModeEvent event, Nanoseconds now, const char* fault = nullptr,
+                 const char* plan_reason = nullptr);
   void KeepPlantTime(Slot& s, Nanoseconds now);
   void LockPhase(Slot& s, Nanoseconds now, Nanoseconds arrived);
 

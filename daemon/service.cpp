@@ -21,6 +21,7 @@
 
 #include "daemon/log_file.hpp"
 #include "daemon/loop.hpp"
+#include "daemon/mpc_worker.hpp"
 #include "daemon/publisher.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/receiver.hpp"
@@ -333,7 +334,8 @@ struct Service {
              ring, notify_fd),
         receiver(*buses.in, buses.listen ? buses.listen.get() : buses.in.get(), *buses.replies, runtime, clock, stats,
                  o.setpoint_age == "stream" ? SetpointAge::kStream : SetpointAge::kWall, run_id),
-        publisher(*buses.out, runtime, ring, loop, stats, notify_fd, run_id) {}
+        publisher(*buses.out, runtime, ring, loop, stats, notify_fd, run_id),
+        mpc(MakeMpcWorkers(runtime)) {}
   ~Service() { close(notify_fd); }
   Service(const Service&) = delete;
   Service& operator=(const Service&) = delete;
@@ -346,6 +348,7 @@ struct Service {
   Receiver receiver;
   Publisher publisher;
   TimingCsvWriter timing;
+  std::vector<std::unique_ptr<MpcWorker>> mpc;  // one optimiser thread per mpc controller (lagranged-mpc)
 };
 
 // --timing-csv: its writer started and handed to the publisher; false when the file cannot be written (logged).
@@ -489,9 +492,11 @@ int RunThreads(const Options& o, const LogFiles& logs, const Scene& scene, Servi
   run_loop.set_value(true);
   std::atomic<bool> rt_warned{!rt_problems.empty()};
   auto [receive, publish] = StartIoThreads(s, PrioritiesBelow(o.rt.priority), stop_io, rt_warned);
+  for (const std::unique_ptr<MpcWorker>& w : s.mpc) w->Start();  // at the default policy: below every loop thread
   if (logs.start) logs.start->Close();  // the start-up record ends here (daemon/log_file.hpp)
 
   const int signal_number = WaitForStop(logs, s.loop, max_ticks);
+  for (const std::unique_ptr<MpcWorker>& w : s.mpc) w->Stop();  // within one DDP iteration
   stop_loop = true;
   tick.join();
   stop_io = true;

@@ -54,6 +54,7 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   for (const auto& c : controllers_) {
     scene_gains_.push_back(c->gains());
     externals_.push_back(dynamic_cast<ExternalController*>(c.get()));
+    mpcs_.push_back(dynamic_cast<MpcController*>(c.get()));
     task_spaces_.push_back(dynamic_cast<TaskSpaceController*>(c.get()));
   }
   SampleTrajectory(setpoint_);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "controllers/controller.hpp"
+#include "controllers/mpc.hpp"
 #include "controllers/task_space.hpp"
 #include "controllers/trajectory.hpp"
 #include "plant/energy_balance.hpp"
@@ -88,6 +89,11 @@ class Instance {
   bool external_plant() const { return external_; }
   // The external controller at `index`, or null for another type.
   ExternalController* external_controller(std::size_t index) { return externals_[index]; }
+  // The mpc controller at `index`, or null for another type: where lagranged
+  // hands it the optimiser thread's plans (MpcController::SetPolicy: no
+  // allocation) after set_plan_inline(false); offline it plans inline.
+  MpcController* mpc_controller(std::size_t index) { return mpcs_[index]; }
+  const MpcController* mpc_controller(std::size_t index) const { return mpcs_[index]; }
   // The task-space controller at `index` (cartesian-impedance, operational-space),
   // or null for another type: where the tick sets a pose target
   // (TaskSpaceController::SetPoseTarget, MoveTo: no allocation) and reads the
@@ -221,6 +227,7 @@ class Instance {
   std::size_t active_ = 0;
   std::vector<bool> continuous_;                   // by controller index
   std::vector<ExternalController*> externals_;     // by controller index, null for other types
+  std::vector<MpcController*> mpcs_;               // by controller index, null for other types
   std::vector<TaskSpaceController*> task_spaces_;  // by controller index, null for other types
   std::vector<Gains> scene_gains_;                 // by controller index: what Reset restores
   StageLaw stage_law_;

@@ -70,7 +70,9 @@ std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
     controllers.push_back(std::move(m));
   }
   for (ControllerModel& m : controllers) {
+    m.mpc = m.config.type == ControllerType::kMpc;
     if (m.external) m.fallback = FallbackOf(controllers, m.config.external.fallback);
+    if (m.mpc) m.fallback = FallbackOf(controllers, m.config.mpc.fallback);
   }
   // Pose setpoints: the frame each task-space controller moves, within the scene's workspace.
   for (ControllerModel& m : controllers) {

@@ -26,8 +26,8 @@
 
 namespace lagrange {
 
-// Who keeps an external controller's instance in place while it holds
-// (its torques have not come yet, or lapsed).
+// Who keeps an external (or mpc) controller's instance in place while it holds
+// (its torques, or plans, have not come yet, or lapsed).
 struct HoldBy {
   enum class Kind : std::uint8_t {
     kController,  // a configured controller, `controller`: the named fallback or the first gravity-compensation or
@@ -47,7 +47,10 @@ struct ControllerModel {
   // and who holds the instance while none is.
   bool external = false;
   Nanoseconds torque_timeout = 0;
-  HoldBy fallback;
+  // An mpc controller (type mpc): its plans come from an optimiser thread
+  // (lagranged) and it holds by `fallback` while it has none usable.
+  bool mpc = false;
+  HoldBy fallback;  // external or mpc: who holds
   // A task-space controller (cartesian-impedance, operational-space): what a
   // pose setpoint for it must satisfy, its frame's name resolved (the scene's
   // frame, or the robot's last); frame "" for every other type.
@@ -80,6 +83,9 @@ struct InstanceModel {
   std::array<double, kNumMethods> evaluation_s{};
   double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
   double forces_s = 0.0;         // computing its per-effect forces, s, while SET_FORCES is on (MeasureForcesSeconds)
+  // Its mpc controller's optimiser, off the tick: one DDP iteration of its plan, s (MeasureMpcIterationSeconds);
+  // 0: no mpc controller, or not measured.
+  double mpc_iteration_s = 0.0;
 
   const std::string& name() const { return config.name; }
   bool external_plant() const { return config.external.has_value(); }

@@ -1,6 +1,7 @@
 #include "sim/scene.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <set>
@@ -459,6 +460,21 @@ std::vector<YamlReader> ControllerNodes(const YamlReader& node) {
   return nodes;
 }
 
+// An mpc plan's box is the instance's torque_limits on its actuated joints (a URDF's <limit effort> unless the
+// scene gives torque_limits), as Crocoddyl's box-FDDP takes the model's effort limits and MJPC its ctrlrange:
+// each must be finite.
+void CheckMpcLimits(const YamlReader& node, const YamlReader& controller, const ControllerConfig& c,
+                    const InstanceConfig& inst) {
+  const int n = inst.plant.num_dofs();
+  for (int j : MpcActuated(c.mpc, n, inst.plant.type() == PlantType::kCartPole)) {
+    if (std::isfinite(inst.torque_limits[j])) continue;
+    const std::string what = "expected a finite limit on every joint an mpc controller actuates (its plan's box), "
+                             "joint " + std::to_string(j) + " has none";
+    if (auto t = node.Optional("torque_limits")) t->Fail(what);
+    controller.Required("type").Fail("mpc needs torque_limits (or the URDF's effort limits): " + what);
+  }
+}
+
 // External controllers' fallbacks name a controller the instance configures;
 // an external plant's controllers run here, once per tick.
 void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
@@ -467,7 +483,7 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
   const std::vector<YamlReader> nodes = ControllerNodes(node);
   std::string holders;
   for (const ControllerConfig* c : all) {
-    if (c->type != ControllerType::kExternal && c->type != ControllerType::kNone)
+    if (c->type != ControllerType::kExternal && c->type != ControllerType::kNone && c->type != ControllerType::kMpc)
       holders += ", " + std::string(ToString(c->type));
   }
   for (std::size_t k = 0; k < all.size(); ++k) {
@@ -481,12 +497,15 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
     if (inst.mujoco && c.continuous) {
       nodes[k].Required("continuous").Fail("a mujoco plant's controller runs once per tick (MuJoCo holds the force over its steps)");
     }
-    if (c.type != ControllerType::kExternal || !c.external.fallback) continue;
-    const std::string& f = *c.external.fallback;
+    if (c.type == ControllerType::kMpc) CheckMpcLimits(node, nodes[k], c, inst);
+    const std::optional<std::string>& fallback =
+        c.type == ControllerType::kMpc ? c.mpc.fallback : c.external.fallback;
+    if ((c.type != ControllerType::kExternal && c.type != ControllerType::kMpc) || !fallback) continue;
+    const std::string& f = *fallback;
     bool found = f == "brake";
     for (const ControllerConfig* other : all) {
       found = found || (other->type != ControllerType::kExternal && other->type != ControllerType::kNone &&
-                        ToString(other->type) == f);
+                        other->type != ControllerType::kMpc && ToString(other->type) == f);
     }
     if (!found) {
       nodes[k]

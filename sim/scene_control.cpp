@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <tuple>
 
 #include "base/escape.hpp"
 #include "base/number_text.hpp"
@@ -239,6 +240,10 @@ void ExpectControllerKeys(const YamlReader& node, ControllerType type) {
     case ControllerType::kOperationalSpace:
       node.ExpectKeys({"type", "frame", "kp", "kd", "null_space", "singularity", "trajectory", "model", "continuous"});
       break;
+    case ControllerType::kMpc:
+      node.ExpectKeys({"type", "horizon", "dt", "integrator", "iterations", "replan_period", "actuated", "weights",
+                       "fallback", "model"});
+      break;
   }
 }
 
@@ -311,6 +316,41 @@ void ReadExternal(const YamlReader& node, double period, ControllerConfig& c) {
   if (auto v = node.Optional("compensate_gravity")) c.external.compensate_gravity = v->Bool();
 }
 
+// mpc: the plan's horizon (knots), dt, the optimiser's integrator, iterations per solve, replan_period, the
+// actuated joints, the weights {q, qd, tau, q_terminal, qd_terminal} (one number or one per joint; tau one per
+// actuated joint) and the fallback. Ranges: ValidateMpc (controllers/mpc.hpp), through Validate below.
+void ReadMpc(const YamlReader& node, const PlantSpec& plant, int n, ControllerConfig& c) {
+  if (c.type != ControllerType::kMpc) return;
+  MpcOptions& o = c.mpc;
+  if (auto v = node.Optional("horizon")) o.horizon = v->Integer(1, kMaxMpcHorizon);
+  if (auto v = node.Optional("dt")) o.dt = v->PositiveNumber();
+  if (auto v = node.Optional("integrator")) {
+    const std::optional<IntegratorType> type = ParseIntegratorType(v->Text());
+    if (!type || NoStepDerivativesReason(*type) != nullptr) {
+      v->Fail("expected explicit-euler, semi-implicit-euler or rk4 (an integrator with step derivatives), got '" +
+              Escape(v->Text(), 60) + "'");
+    }
+    o.integrator = *type;
+  }
+  if (auto v = node.Optional("iterations")) o.iterations = v->Integer(1, kMaxMpcIterations);
+  if (auto v = node.Optional("replan_period")) o.replan_period = v->NonNegativeNumber();
+  if (auto v = node.Optional("actuated")) {
+    std::vector<int> act;
+    for (std::size_t i = 0; i < v->Size(); ++i) act.push_back(v->At(i).Integer(0, n - 1));
+    o.actuated = act;
+  }
+  if (auto w = node.Optional("weights")) {
+    w->ExpectKeys({"q", "qd", "tau", "q_terminal", "qd_terminal"});
+    const int m = static_cast<int>(MpcActuated(o, n, plant.type() == PlantType::kCartPole).size());
+    for (const auto& [key, out, size] :
+         {std::tuple{"q", &o.q, n}, std::tuple{"qd", &o.qd, n}, std::tuple{"tau", &o.tau, m},
+          std::tuple{"q_terminal", &o.q_terminal, n}, std::tuple{"qd_terminal", &o.qd_terminal, n}}) {
+      if (auto v = w->Optional(key)) *out = v->NumberOrVector(size);
+    }
+  }
+  if (auto v = node.Optional("fallback")) o.fallback = v->Text();
+}
+
 // The controller library's verdict on `c`; a refusal names the key in the file when there is one.
 void Validate(const YamlReader& node, const PlantSpec& plant, const ControllerConfig& c) {
   if (auto err = ValidateController(c, plant)) {
@@ -344,7 +384,8 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
   ReadLqr(node, plant, n, c);
   ReadSwingUp(node, c);
-  ReadExternal(node, period, c);
+  if (c.type == ControllerType::kExternal) ReadExternal(node, period, c);
+  ReadMpc(node, plant, n, c);
   Validate(node, plant, c);
   return c;
 }

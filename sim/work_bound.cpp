@@ -157,12 +157,28 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   double costliest = 0.0;
   for (std::size_t k = 0; k < controllers; ++k) {
     instance.SelectController(k);
+    // An mpc controller's tick evaluates a plan (a zero plan here, as costly as any); the plan is made on a
+    // thread of its own (daemon/mpc_worker.hpp), bounded apart (MpcBoundRefusal). Reset drops it: given again.
+    MpcPolicy plan;
+    for (std::size_t j = 0; j < controllers; ++j) {
+      if (MpcController* mpc = instance.mpc_controller(j)) {
+        mpc->set_plan_inline(false);
+        plan = mpc->policy();
+        plan.sequence = 1;
+        plan.dt = mpc->ddp_model()->dt();
+      }
+    }
+    const auto give_plan = [&] {
+      if (MpcController* mpc = instance.mpc_controller(instance.active_controller())) mpc->SetPolicy(plan);
+    };
+    give_plan();
     costliest = std::max(costliest, FastestSample(kMeasureBudget / static_cast<double>(controllers), [&] {
                            const Steady::time_point start = Steady::now();
                            instance.Step(period);
                            const double step = SecondsSince(start);
                            const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
                            instance.Reset();  // every step from the initial state
+                           give_plan();
                            return step - evaluations * evaluation_s;
                          }));
   }
@@ -180,7 +196,53 @@ double MeasureForcesSeconds(const InstanceConfig& config) {
   return std::isfinite(fastest) ? fastest : 0.0;
 }
 
+double MeasureMpcIterationSeconds(const InstanceConfig& config) {
+  const std::vector<const ControllerConfig*> configs = ControllerConfigs(config);
+  if (std::none_of(configs.begin(), configs.end(), [](const auto* c) { return c->type == ControllerType::kMpc; })) {
+    return 0.0;
+  }
+  Instance instance(config);
+  for (std::size_t k = 0; k < instance.controller_names().size(); ++k) {
+    const MpcController* mpc = instance.mpc_controller(k);
+    if (mpc == nullptr) continue;
+    DdpConfig one = mpc->ddp_model()->config();
+    one.options.max_iterations = 1;
+    const DdpModel model(mpc->ddp_model()->dynamics(), std::move(one));
+    DdpData data(model);
+    data.q_ref.colwise() = config.q0;
+    const double fastest = FastestSample(kMeasureBudget, [&] {
+      data.Reset();
+      const Steady::time_point start = Steady::now();
+      SolveDdp(model, data, config.q0, config.qd0);
+      return SecondsSince(start);
+    });
+    return std::isfinite(fastest) ? fastest : 0.0;
+  }
+  return 0.0;
+}
+
+std::optional<std::string> MpcBoundRefusal(const DaemonModel& model) {
+  for (std::size_t i = 0; i < model.instances.size(); ++i) {
+    const InstanceModel& m = model.instances[i];
+    for (const ControllerModel& c : m.controllers) {
+      if (!c.mpc) continue;
+      const MpcOptions& o = c.config.mpc;
+      const double solve = o.iterations * m.mpc_iteration_s;
+      const double replan = o.replan_period > 0.0 ? o.replan_period : o.dt;
+      const double horizon = o.horizon * o.dt;
+      if (solve + replan <= horizon) continue;
+      return fmt::format(
+          "{}: instances[{}] ({}): the mpc plan would run out before the next one: a solve ({} iterations x {:.3g} "
+          "ms measured) plus replan_period {:.4g} s exceed its horizon of {:.4g} s ({} knots x {:.4g} s); lower "
+          "iterations or horizon, or lengthen dt",
+          model.file, i, m.name(), o.iterations, m.mpc_iteration_s * 1e3, replan, horizon, o.horizon, o.dt);
+    }
+  }
+  return std::nullopt;
+}
+
 void MeasureCosts(InstanceModel& m) {
+  m.mpc_iteration_s = MeasureMpcIterationSeconds(m.config);
   m.evaluation_s = MeasureEvaluationCosts(m.config);
   m.tick_overhead_s = MeasureTickOverheadSeconds(m.config, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
   m.forces_s = m.external_plant() ? 0.0 : MeasureForcesSeconds(m.config);
@@ -218,7 +280,7 @@ std::optional<std::string> CheckWorkBounds(const DaemonModel& model) {
                          Describe(bounds[i], model.instances[i].config), bounds[i].tick_s() * 1e3);
   }
   const double budget = kTickBudgetFraction * model.period;
-  if (bounds.empty() || total <= budget) return std::nullopt;
+  if (bounds.empty() || total <= budget) return MpcBoundRefusal(model);
   const WorkBound& b = bounds[largest];
   const double free = budget - (total - b.tick_s()) - b.overhead_s;
   return fmt::format(

@@ -93,6 +93,18 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
 // the fastest of a few batches within 50 ms. Counted while forces are on.
 double MeasureForcesSeconds(const InstanceConfig& config);
 
+// The optimiser of an mpc controller (controllers/mpc.hpp) runs off the
+// tick, on a thread of its own, but it too is bounded before the loop: a plan
+// must be replaced before its horizon runs out, or the instance falls back
+// every time. One DDP iteration of the plan (its first rollout and one
+// iteration, from (q0, qd0) toward q0) is timed the same way, and
+//   iterations × iteration_s + replan_period <= horizon × dt
+// must hold (MpcBoundRefusal). 0 when the instance has no mpc controller.
+double MeasureMpcIterationSeconds(const InstanceConfig& config);
+// "<file>: instances[i] (<name>): the mpc plan ..." when an instance's plan
+// would run out before the next one (the rule above), or nullopt. Costs of 0 count 0.
+std::optional<std::string> MpcBoundRefusal(const DaemonModel& model);
+
 // A pass over a built model: each instance's costs measured into it
 // (evaluation_s by MeasureEvaluationCosts, tick_overhead_s by
 // MeasureTickOverheadSeconds, forces_s by MeasureForcesSeconds; an
@@ -120,7 +132,7 @@ std::vector<WorkBound> WorkBoundsOf(const DaemonModel& model);
 // kTickBudgetFraction of the period: "<file>: the instances' worst case per
 // tick, Y ms (arm: rk4 ... = a ms, ...), does not fit 80 % of the period P ms;
 // for instances[i] (<name>), the largest, lower <what to lower>, or lengthen
-// the period"; nullopt when they fit. Costs of 0 (not measured) count 0.
+// the period"; then MpcBoundRefusal; nullopt when they fit. Costs of 0 (not measured) count 0.
 std::optional<std::string> CheckWorkBounds(const DaemonModel& model);
 
 // dopri5 without max_steps given: the scene's, lowered to the largest that

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -228,6 +230,7 @@ TEST(Ddp, SecondSolveAllocatesNothing) {
   testing::AllocationCounter counter;
   data.ShiftSolution(3);
   SolveDdp(model, data, q, qd);
+  data.ShiftSolution(1.5);
   data.EvaluatePolicy(0, q, qd, u);
   data.Reset();
   SolveDdp(model, data, q, qd);
@@ -273,6 +276,52 @@ TEST(Ddp, RecedingHorizonSwingsTheCartPoleUpAndKeepsTheCartOnItsRail) {
     EXPECT_LT(std::abs(std::remainder(q[1] - kPi, 2.0 * kPi)), kUpright) << "run " << run;
     EXPECT_LE(worst_x, kRail) << "run " << run;
   }
+}
+
+// A plan that starts between knots: the whole knots shifted as by the integer
+// shift, then every knot moved the fraction of the way to the next.
+TEST(Ddp, AFractionalShiftInterpolatesBetweenTheWholeKnotShifts) {
+  const DdpConfig config = CartPoleSwingUp(10.0);
+  const DdpModel model(Plant(CartPoleParams{}), config);
+  const auto solved = [&] {  // the same solve each time (deterministic)
+    DdpData d(model);
+    d.q_ref.row(1).setConstant(kPi);
+    SolveDdp(model, d, V({0.0, 0.0}), V({0.0, 0.0}));
+    return d;
+  };
+  DdpData two = solved(), three = solved(), between = solved();
+  two.ShiftSolution(2);
+  three.ShiftSolution(3);
+  between.ShiftSolution(2.25);
+  constexpr double kTolerance = 1e-12;
+  for (const int k : {0, 10, 50, config.horizon - 2}) {
+    EXPECT_NEAR(between.u()(0, k), 0.75 * two.u()(0, k) + 0.25 * three.u()(0, k), kTolerance) << k;
+    EXPECT_NEAR(between.x()(1, k), 0.75 * two.x()(1, k) + 0.25 * three.x()(1, k), kTolerance) << k;
+    EXPECT_NEAR(between.K(k)(0, 1), 0.75 * two.K(k)(0, 1) + 0.25 * three.K(k)(0, 1), kTolerance) << k;
+  }
+  DdpData whole = solved();
+  whole.ShiftSolution(2.0);
+  EXPECT_TRUE(whole.u() == two.u() && whole.x() == two.x()) << "a whole number of knots is the integer shift";
+}
+
+// A thread that plans is stopped within one iteration: the flag is polled
+// between iterations, and a set flag ends the solve with the nominal it has.
+TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
+  DdpConfig config = CartPoleSwingUp(10.0);
+  config.options.max_iterations = 50;
+  const DdpModel model(Plant(CartPoleParams{}), config);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  std::atomic<bool> stop{true};
+  data.stop = &stop;
+  const DdpResult& stopped = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_EQ(stopped.status, DdpStatus::kStopped);
+  EXPECT_EQ(stopped.iterations, 0);
+  EXPECT_EQ(stopped.cost, stopped.cost_history[0]) << "the first rollout's nominal";
+  stop = false;
+  const DdpResult& resumed = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_GE(resumed.iterations, 1);
+  EXPECT_NE(resumed.status, DdpStatus::kStopped);
 }
 
 TEST(Ddp, RefusesAProblemItCannotSolveNamingTheField) {

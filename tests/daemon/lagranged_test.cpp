@@ -479,5 +479,27 @@ TEST_F(Lagranged, TheSystemdUnitsCommandLineRunsAndLogsToItsFile) {
   fs::remove(key);
 }
 
+// SIGTERM while the mpc optimiser thread is in a solve: the stop flag is
+// polled between DDP iterations, so lagranged stops its threads and exits 0.
+// The plan is long (2000 knots of rk4, 20 iterations, re-planned without pause), so the
+// optimiser is in a solve almost all the time.
+TEST_F(Lagranged, SigtermDuringAnMpcSolveStillExitsCleanly) {
+  Prepare(8870);
+  const fs::path scene = fs::temp_directory_path() / ("lagrange_mpc_sigterm_" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(scene) << "instances:\n"
+                          "  - name: cartpole\n"
+                          "    plant: {type: cartpole}\n"
+                          "    initial: {q: [0, 3.0]}\n"
+                          "    controller: {type: mpc, horizon: 2000, dt: 0.005, integrator: rk4, iterations: 20}\n"
+                          "    torque_limits: [10, 10]\n"
+                          "    setpoint: {q: [0, 3.141592653589793]}\n";
+  LcmCollector states(url_, "CARTPOLE_STATE");
+  auto daemon = Start({"--config", scene.string()});
+  AwaitMessages(states, "CARTPOLE_STATE");
+  daemon->Signal(SIGTERM);
+  EXPECT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+  fs::remove(scene);
+}
+
 }  // namespace
 }  // namespace lagrange

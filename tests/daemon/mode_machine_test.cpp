@@ -36,7 +36,9 @@ const char* EventName(ModeEvent e) {
                                                   "measured not finite",
                                                   "measured wrong size",
                                                   "measured second source",
-                                                  "fault"};
+                                                  "fault",
+                                                  "plan arrived",
+                                                  "plan lapsed"};
   return kNames[static_cast<int>(e)];
 }
 
@@ -115,6 +117,8 @@ TEST(ModeMachine, EveryModeUnderEveryEventInASimulatedPlant) {
       {ModeEvent::kMeasuredWrongSize, {S, S, F, S, S, S, S}},
       {ModeEvent::kMeasuredSecondSource, {S, S, F, S, S, S, W}},
       {ModeEvent::kFault, {F, F, F, F, F, F, F}},
+      {ModeEvent::kPlanArrived, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPlanLapsed, {R, H, F, P, E, S, W}},
   };
   // Every event but start and reset (below: reset depends on the latch, not the mode).
   static_assert(std::size(rows) == kNumModeEvents - 2);
@@ -156,6 +160,29 @@ TEST(ModeMachine, UnderAnExternalControllerTheTorquesDecide) {
   const ModeOutcome switched = Transition(In(Mode::kHold), ModeEvent::kControllerSwitched, external);
   EXPECT_EQ(switched.next.reason, kNoTorqueYet);
   EXPECT_TRUE(switched.entered) << "a hold entered anew captures the position again";
+}
+
+// Under an mpc controller its plans decide: one that ran out or failed holds
+// (by the fallback) with its reason, the next usable one resumes; setpoints,
+// poses and torques change no mode (the setpoint is the plan's reference).
+TEST(ModeMachine, UnderAnMpcControllerThePlansDecide) {
+  const ModeContext mpc{.mpc = true, .plan_reason = kPlanDiverged};
+  const Row rows[] = {
+      //                                 running hold fault paused estop stopped waiting
+      {ModeEvent::kSetpointArrived, {R, H, F, P, E, S, W}},    {ModeEvent::kSetpointsTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPoseArrived, {R, H, F, P, E, S, W}},        {ModeEvent::kPosesTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kTorqueArrived, {R, H, F, P, E, S, W}},      {ModeEvent::kTorquesTimedOut, {R, H, F, P, E, S, W}},
+      {ModeEvent::kPlanArrived, {R, R, F, P, E, S, W}},        {ModeEvent::kPlanLapsed, {H, H, F, P, E, S, W}},
+      {ModeEvent::kControllerSwitched, {H, H, F, P, E, S, W}},
+  };
+  for (const Row& row : rows) ExpectRow(row, mpc, "mpc controller");
+  EXPECT_EQ(Transition(In(Mode::kRunning), ModeEvent::kPlanLapsed, mpc).next.reason, kPlanDiverged);
+  EXPECT_EQ(Transition({}, ModeEvent::kStart, mpc).next.reason, kNoPlanYet);
+  EXPECT_EQ(Transition(In(Mode::kFault), ModeEvent::kReset, mpc).next.reason, kNoPlanYet);
+  // Switching away from a plan hold lets the setpoints decide.
+  ModeState plan_hold = In(Mode::kHold);
+  plan_hold.reason = kPlanRanOut;
+  EXPECT_EQ(Transition(plan_hold, ModeEvent::kControllerSwitched, {}).next.mode, Mode::kRunning);
 }
 
 // Under a task-space controller the poses decide: a joint setpoint's arrival

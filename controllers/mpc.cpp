@@ -1,0 +1,204 @@
+#include "controllers/mpc.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "base/number_text.hpp"
+
+namespace lagrange {
+
+namespace {
+
+// A weight vector as given, or `fallback` on every entry when empty.
+VectorXd WeightOr(const VectorXd& given, int size, double fallback) {
+  return given.size() > 0 ? given : VectorXd::Constant(size, fallback);
+}
+
+std::optional<std::string> CheckWeights(const char* key, const VectorXd& w, int size, bool positive) {
+  if (w.size() == 0) return std::nullopt;
+  const bool ok = w.size() == size && w.allFinite() && (positive ? (w.array() > 0.0).all() : (w.array() >= 0.0).all());
+  if (ok) return std::nullopt;
+  return std::string("weights.") + key + ": expected one number or " + std::to_string(size) + " finite values " +
+         (positive ? "> 0" : ">= 0") + (size == 1 ? "" : " (one per " + std::string(positive ? "actuated joint" : "joint") + ")");
+}
+
+}  // namespace
+
+std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole) {
+  if (o.actuated) return *o.actuated;
+  if (cart_pole) return {0};
+  std::vector<int> all(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+  return all;
+}
+
+std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pole, double period) {
+  if (o.horizon < 1 || o.horizon > kMaxMpcHorizon) {
+    return "horizon: expected 1 to " + std::to_string(kMaxMpcHorizon) + " knots";
+  }
+  if (!(std::isfinite(o.dt) && o.dt >= period && o.dt <= 1.0)) {
+    return "dt: expected " + FormatDouble(period) + " to 1 s (at least the tick's period)";
+  }
+  if (const char* reason = NoStepDerivativesReason(o.integrator)) {
+    return "integrator: expected explicit-euler, semi-implicit-euler or rk4 (" + std::string(reason) + ")";
+  }
+  if (o.iterations < 1 || o.iterations > kMaxMpcIterations) {
+    return "iterations: expected 1 to " + std::to_string(kMaxMpcIterations) + " per solve";
+  }
+  if (!(std::isfinite(o.replan_period) && o.replan_period >= 0.0 && o.replan_period <= o.horizon * o.dt)) {
+    return "replan_period: expected 0 (every knot) to the horizon's " + FormatDouble(o.horizon * o.dt) + " s";
+  }
+  if (o.replan_period > 0.0 && o.replan_period < period) {
+    return "replan_period: expected at least the tick's period (" + FormatDouble(period) + " s), or 0";
+  }
+  const std::vector<int> act = MpcActuated(o, n, cart_pole);
+  if (act.empty()) return std::string("actuated: expected at least one joint");
+  for (std::size_t k = 0; k < act.size(); ++k) {
+    if (act[k] < 0 || act[k] >= n || (k > 0 && act[k] <= act[k - 1])) {
+      return "actuated: expected ascending joint indices from 0 to " + std::to_string(n - 1);
+    }
+  }
+  const int m = static_cast<int>(act.size());
+  if (auto e = CheckWeights("q", o.q, n, false)) return e;
+  if (auto e = CheckWeights("qd", o.qd, n, false)) return e;
+  if (auto e = CheckWeights("tau", o.tau, m, true)) return e;
+  if (auto e = CheckWeights("q_terminal", o.q_terminal, n, false)) return e;
+  if (auto e = CheckWeights("qd_terminal", o.qd_terminal, n, false)) return e;
+  return std::nullopt;
+}
+
+std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
+                                             const EffectsConfig& effects, const VectorXd& torque_limits,
+                                             bool cart_pole) {
+  const int n = dynamics->num_dofs();
+  DdpConfig c;
+  c.integrator = o.integrator;
+  c.dt = o.dt;
+  c.horizon = o.horizon;
+  c.actuated = MpcActuated(o, n, cart_pole);
+  const int m = static_cast<int>(c.actuated.size());
+  c.tau_upper.resize(m);
+  for (int j = 0; j < m; ++j) {
+    const double limit = torque_limits[c.actuated[static_cast<std::size_t>(j)]];
+    if (!std::isfinite(limit)) {
+      throw std::invalid_argument("torque_limits: mpc needs a finite limit on every actuated joint (joint " +
+                                  std::to_string(c.actuated[static_cast<std::size_t>(j)]) + ")");
+    }
+    c.tau_upper[j] = limit;
+  }
+  c.tau_lower = -c.tau_upper;
+  c.weights = {WeightOr(o.q, n, 1.0), WeightOr(o.qd, n, 0.01), WeightOr(o.tau, m, 0.01), WeightOr(o.q_terminal, n, 100.0),
+               WeightOr(o.qd_terminal, n, 1.0)};
+  c.options.max_iterations = o.iterations;
+  c.effects = effects;
+  return std::make_shared<const DdpModel>(std::move(dynamics), std::move(c));
+}
+
+MpcPolicy::MpcPolicy(int n, int m, int N)
+    : horizon(N), u(MatrixXd::Zero(m, N)), K(MatrixXd::Zero(m, 2 * n * N)), x(MatrixXd::Zero(2 * n, N + 1)) {}
+
+std::int64_t MpcPolicy::Knot(double t) const {
+  return static_cast<std::int64_t>(std::floor((t - start) / dt + 1e-9));  // a tick that lands on a knot is in it
+}
+
+void MpcPolicy::Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd& lower, const VectorXd& upper,
+                         VecRef out) const {
+  const int n = static_cast<int>(q.size());
+  const auto k = static_cast<int>(std::clamp<std::int64_t>(Knot(t), 0, horizon - 1));
+  for (int j = 0; j < u.rows(); ++j) {
+    double v = u(j, k);
+    for (int i = 0; i < n; ++i) {
+      v += K(j, 2 * n * k + i) * (q[i] - x(i, k)) + K(j, 2 * n * k + n + i) * (qd[i] - x(n + i, k));
+    }
+    out[j] = std::clamp(v, lower[j], upper[j]);
+  }
+}
+
+MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model) : model_(std::move(model)), data_(*model_) {}
+
+MpcPolicy MpcPlanner::MakePolicy() const {
+  return MpcPolicy(model_->num_dofs(), model_->num_controls(), model_->horizon());
+}
+
+void MpcPlanner::Reset() {
+  data_.Reset();
+  warm_ = false;
+}
+
+DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef q_ref, ConstVecRef qd_ref,
+                           MpcPolicy& out, const std::atomic<bool>* stop) {
+  const DdpModel& model = *model_;
+  const int n = model.num_dofs(), N = model.horizon();
+  // Warm start: the previous plan from the knot this one starts at.
+  if (warm_ && t >= last_start_) {
+    // Whole knots and the fraction between (a plan may start between knots); round-off below 1e-9 of a knot dropped.
+    const double knots = (t - last_start_) / model.dt();
+    const double nearest = std::round(knots);
+    data_.ShiftSolution(std::min<double>(N, std::abs(knots - nearest) < 1e-9 ? nearest : knots));
+  } else {
+    data_.Reset();
+  }
+  data_.q_ref.colwise() = q_ref;
+  data_.qd_ref.colwise() = qd_ref;
+  data_.stop = stop;
+  const DdpResult& r = SolveDdp(model, data_, q, qd);
+  data_.stop = nullptr;
+  warm_ = IsUsable(r.status) || r.status == DdpStatus::kStopped;
+  last_start_ = t;
+  if (!warm_) data_.Reset();
+  out.sequence = ++sequence_;
+  out.start = t;
+  out.dt = model.dt();
+  out.horizon = N;
+  out.status = r.status;
+  out.iterations = r.iterations;
+  out.cost = r.cost;
+  out.u = data_.u();
+  out.x = data_.x();
+  for (int k = 0; k < N; ++k) out.K.middleCols(2 * n * k, 2 * n) = data_.K(k);
+  return r.status;
+}
+
+MpcController::MpcController(std::vector<JointType> joints, VectorXd torque_limits,
+                             std::shared_ptr<const DdpModel> model, double replan_period)
+    : Controller(std::move(joints), std::move(torque_limits)),
+      model_(std::move(model)),
+      replan_period_(replan_period > 0.0 ? replan_period : model_->dt()),
+      planner_(std::make_unique<MpcPlanner>(model_)),
+      policy_(planner_->MakePolicy()),
+      candidate_(planner_->MakePolicy()),
+      u_(VectorXd::Zero(model_->num_controls())) {}
+
+void MpcController::set_plan_inline(bool on) {
+  if (on && !planner_) planner_ = std::make_unique<MpcPlanner>(model_);
+  if (!on) planner_.reset();
+}
+
+void MpcController::Reset() {
+  policy_.sequence = 0;
+  planned_ = false;
+  failed_ = 0;
+  if (planner_) planner_->Reset();
+}
+
+void MpcController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
+  // Offline: a solve every replan_period of simulated time; a failed one's policy is not taken (the last
+  // usable one is followed, its last knot held once its horizon runs out).
+  if (planner_ && (!planned_ || t >= next_plan_ - 1e-9)) {
+    if (IsUsable(planner_->Plan(t, q, qd, sp.q, sp.qd, candidate_))) {
+      std::swap(policy_, candidate_);
+    } else {
+      ++failed_;
+    }
+    planned_ = true;
+    next_plan_ = t + replan_period_;
+  }
+  tau.setZero();
+  if (policy_.sequence == 0) return;
+  policy_.Evaluate(t, q, qd, model_->tau_lower(), model_->tau_upper(), u_);
+  const std::vector<int>& act = model_->actuated();
+  for (std::size_t j = 0; j < act.size(); ++j) tau[act[j]] = u_[static_cast<Eigen::Index>(j)];
+}
+
+}  // namespace lagrange

@@ -1,0 +1,162 @@
+#pragma once
+// Model-predictive control: a receding-horizon box-DDP plan (controllers/ddp.hpp)
+// followed by its time-indexed affine policy.
+//
+// Law:    tau = S clamp(ū_k + K_k (x − x̄_k)),  x = (q, qd),
+//         k = floor((t − t_0) / dt) clamped to [0, N − 1]   (EvaluatePolicy's clamp)
+//         of the latest policy (ū_k, K_k, x̄_k; its start t_0, step dt, N knots);
+//         S puts the m actuated forces into tau (n), 0 on the others.
+// Inputs: t (s, the instance's time), q, qd (n each); the setpoint (q_d, qd_d)
+//         is the plan's reference at every knot.
+// Output: tau (n), within the box [tau_lower, tau_upper] of the actuated joints.
+// State:  the policy; the planner's warm start.
+// Gains:  none (the weights are the scene's, fixed at load).
+//
+// Model and data apart, and the optimiser off the tick, as MJPC's planner:
+// a DdpModel (the problem, immutable, shared) and an MpcPlanner (its own
+// DdpData: one per thread that plans) produce MpcPolicy values; the
+// controller only evaluates the one it was last given (SetPolicy, a copy
+// between equal sizes: no allocation). Where the plan is made is the caller's
+// choice: lagranged plans on a thread of its own per instance and hands
+// policies over through a latest-wins mailbox (daemon/mpc_worker.hpp); offline
+// (lagrangectl simulate, lagrange.simulate) the controller plans inline, every
+// replan_period of simulated time, so a run is deterministic.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "controllers/controller.hpp"
+#include "controllers/ddp.hpp"
+
+namespace lagrange {
+
+// The scene's mpc keys (sim/scene_control.cpp reads them, ValidateMpc checks them).
+struct MpcOptions {
+  int horizon = 100;                                          // N knots, 1..kMaxMpcHorizon
+  double dt = 0.02;                                           // s per knot, >= the tick's period, <= 1
+  IntegratorType integrator = IntegratorType::kSemiImplicitEuler;  // the optimiser's (explicit-euler, semi-implicit-euler, rk4)
+  int iterations = 2;                                         // DDP iterations per solve, 1..1000
+  double replan_period = 0.0;                                 // s between solves (0: dt); >= the tick's period
+  std::optional<std::vector<int>> actuated;                   // default: the cart of a cart-pole, else every joint
+  // Diagonal weights (controllers/ddp.hpp's DdpWeights); empty: the defaults
+  // q 1, qd 0.01, tau 0.01, q_terminal 100, qd_terminal 1.
+  VectorXd q, qd, tau, q_terminal, qd_terminal;
+  // Who holds the instance when the plan lapses or fails: a configured
+  // controller's name or "brake"; nullopt: the first gravity-compensation or
+  // computed-torque controller, else the brake (an external controller's rule).
+  std::optional<std::string> fallback;
+};
+inline constexpr int kMaxMpcHorizon = 10000;
+inline constexpr int kMaxMpcIterations = 1000;
+
+// "key: expected ..." for options that cannot make a plan on `n` joints at the
+// tick `period`, or nullopt.
+std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pole, double period);
+// The joints that take a force (ascending): o.actuated, or the default.
+std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole);
+// The optimiser's problem: `dynamics` under `effects` (the plant's model),
+// limits ±torque_limits on the actuated joints. Throws std::invalid_argument
+// (DdpModel's message) for a problem ValidateMpc would refuse, and for
+// limits that are not finite on an actuated joint.
+std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
+                                             const EffectsConfig& effects, const VectorXd& torque_limits,
+                                             bool cart_pole);
+
+// Whether a solve's outcome can be followed: converged or still improving.
+// kLineSearchFailed, kNotPositiveDefinite and kDiverged cannot (the instance
+// falls back, reason ToString(status)).
+inline bool IsUsable(DdpStatus status) {
+  return status == DdpStatus::kConverged || status == DdpStatus::kMaxIterations;
+}
+
+// One solve's outcome, what the tick follows: time-indexed, sized once.
+struct MpcPolicy {
+  MpcPolicy() = default;
+  MpcPolicy(int n, int m, int horizon);
+
+  std::int64_t sequence = 0;  // 0: no plan yet; then 1, 2, ... per solve
+  double start = 0.0;         // s, the instance time x̄_0 was planned from
+  double dt = 0.0;            // s per knot
+  int horizon = 0;            // N
+  DdpStatus status = DdpStatus::kMaxIterations;
+  int iterations = 0;
+  double cost = 0.0;
+  MatrixXd u;  // (m x N) ū_k
+  MatrixXd K;  // (m x 2n·N) K_k in columns [2n k, 2n (k + 1))
+  MatrixXd x;  // (2n x N+1) x̄_k
+
+  // The knot of time t: floor((t − start) / dt); may be < 0 or >= N.
+  std::int64_t Knot(double t) const;
+  // Has a plan whose horizon has not run out at t.
+  bool LiveAt(double t) const { return sequence > 0 && Knot(t) < horizon; }
+  // u = clamp(ū_k + K_k (x − x̄_k)) into [lower, upper] with k clamped to [0, N − 1]; no allocation.
+  void Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u) const;
+};
+
+// The optimiser: the model's problem and its own data (one per thread).
+class MpcPlanner {
+ public:
+  explicit MpcPlanner(std::shared_ptr<const DdpModel> model);
+  const DdpModel& model() const { return *model_; }
+  // A policy sized for the model.
+  MpcPolicy MakePolicy() const;
+
+  // (t, q, qd, q_ref, qd_ref) => out: a plan of N knots from x_0 = (q, qd) at
+  // time t toward the reference (n each, held over the horizon), warm-started
+  // from the previous plan shifted by the knots elapsed since it, a fraction
+  // interpolated (DdpData::ShiftSolution(double); cold
+  // after Reset, after a failed solve, or when t went back). `stop` (may be
+  // null) is polled between iterations: set, the solve ends early with what it
+  // has (DdpOptions). Returns the status. Allocates nothing.
+  DdpStatus Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef q_ref, ConstVecRef qd_ref, MpcPolicy& out,
+                 const std::atomic<bool>* stop = nullptr);
+  void Reset();
+
+ private:
+  std::shared_ptr<const DdpModel> model_;
+  DdpData data_;
+  bool warm_ = false;
+  double last_start_ = 0.0;
+  std::int64_t sequence_ = 0;
+};
+
+class MpcController final : public Controller {
+ public:
+  // `model` from MakeMpcModel; `replan_period` s. Plans inline (offline) until
+  // set_plan_inline(false).
+  MpcController(std::vector<JointType> joints, VectorXd torque_limits, std::shared_ptr<const DdpModel> model,
+                double replan_period);
+  std::string_view name() const override { return "mpc"; }
+  // Drops the policy and the warm start.
+  void Reset() override;
+
+  const std::shared_ptr<const DdpModel>& ddp_model() const { return model_; }
+  // lagranged plans elsewhere (daemon/mpc_worker.hpp): the inline planner and
+  // its data are released. Before the loop only.
+  void set_plan_inline(bool on);
+  bool plan_inline() const { return planner_ != nullptr; }
+  // The policy to follow from now on (a copy between equal sizes: no allocation).
+  void SetPolicy(const MpcPolicy& policy) { policy_ = policy; }
+  const MpcPolicy& policy() const { return policy_; }
+  // Solves whose status was not usable (inline: their policy is not taken).
+  std::int64_t failed_solves() const { return failed_; }
+
+ protected:
+  void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
+
+ private:
+  std::shared_ptr<const DdpModel> model_;
+  double replan_period_;
+  std::unique_ptr<MpcPlanner> planner_;  // inline only
+  MpcPolicy policy_, candidate_;
+  VectorXd u_;  // (m)
+  double next_plan_ = 0.0;
+  bool planned_ = false;
+  std::int64_t failed_ = 0;
+};
+
+}  // namespace lagrange

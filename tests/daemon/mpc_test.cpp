@@ -1,0 +1,242 @@
+// The mpc controller type (controllers/mpc.hpp) in the simulator and the tick:
+// the shipped swing-up scene run offline as `lagrangectl simulate` runs it;
+// the tick following plans that the optimiser (an MpcWorker, here driven on
+// the test's thread or on its own) hands over through the mailboxes, without
+// allocating; and the fallback with its reason when plans run out or fail.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <thread>
+
+#include "daemon/mpc_worker.hpp"
+#include "daemon/runtime.hpp"
+#include "sim/offline.hpp"
+#include "sim/scene.hpp"
+#include "sim/work_bound.hpp"
+#include "tests/support/alloc_counter.hpp"
+
+namespace lagrange {
+namespace {
+
+constexpr Nanoseconds kMs = 1'000'000;
+constexpr int kReplanTicks = 40;  // MpcScene's replan_period
+constexpr double kPi = std::numbers::pi;
+
+std::string SwingUpFile() { return std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"; }
+
+// Where the shipped scene's cart-pole is after `seconds` from (q0, qd0), offline.
+struct SwingUpEnd {
+  VectorXd q, qd;
+  double worst_x = 0.0;  // m, the largest |x| on the way
+};
+SwingUpEnd RunSwingUp(const VectorXd& q0, const VectorXd& qd0, double seconds) {
+  Scene scene = LoadScene(SwingUpFile());
+  scene.instances[0].q0 = q0;
+  scene.instances[0].qd0 = qd0;
+  OfflineScene offline = PrepareOfflineScene(scene, "cartpole_mpc_swingup");
+  SwingUpEnd end;
+  const bool healthy = RunOffline(offline.instances, offline.period, std::llround(seconds / offline.period),
+                                  [&](std::size_t, Instance& inst) {
+                                    end.worst_x = std::max(end.worst_x, std::abs(inst.q()[0]));
+                                  });
+  EXPECT_TRUE(healthy);
+  end.q = offline.instances[0].q();
+  end.qd = offline.instances[0].qd();
+  return end;
+}
+
+// From hanging down (and seeded states near it), the plan swings the pole up
+// under the 10 N box and keeps the cart on its ±0.5 m rail by its cost alone;
+// the same start gives the same run, bit for bit.
+TEST(MpcScene, SwingsTheCartPoleUpFromSeededStatesAndKeepsItOnTheRail) {
+  constexpr double kUpright = 0.05, kRail = 0.5, kDuration = 5.0;
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int run = 0; run < 3; ++run) {
+    VectorXd q0(2), qd0(2);
+    q0 << 0.1 * unit(rng), 0.2 * unit(rng);
+    qd0 << 0.1 * unit(rng), 0.2 * unit(rng);
+    const SwingUpEnd end = RunSwingUp(q0, qd0, kDuration);
+    EXPECT_LT(std::abs(end.q[1] - kPi), kUpright) << "run " << run << ": θ = " << end.q[1];
+    EXPECT_LE(end.worst_x, kRail) << "run " << run;
+    EXPECT_LE(std::abs(end.q[0]), kRail) << "run " << run;
+    if (run == 0) {
+      const SwingUpEnd again = RunSwingUp(q0, qd0, kDuration);
+      EXPECT_TRUE(again.q == end.q && again.qd == end.qd) << "offline mpc is deterministic";
+    }
+  }
+}
+
+// The optimiser's bound (sim/work_bound.hpp): a plan must be replaced before
+// its horizon runs out. With the iteration's cost given (not timed): the
+// shipped scene's 2 iterations of 1 ms plus 40 ms fit its 2 s; of 1 s they do not.
+TEST(MpcScene, ASceneWhosePlanWouldRunOutBeforeTheNextIsRefusedNamingTheInstance) {
+  const std::shared_ptr<DaemonModel> model = BuildDaemonModel(LoadScene(SwingUpFile()));
+  ASSERT_TRUE(model->instances[0].controllers[0].mpc);
+  model->instances[0].mpc_iteration_s = 1e-3;
+  EXPECT_EQ(MpcBoundRefusal(*model), std::nullopt);
+  model->instances[0].mpc_iteration_s = 1.0;
+  const std::optional<std::string> refusal = MpcBoundRefusal(*model);
+  ASSERT_TRUE(refusal.has_value());
+  EXPECT_NE(refusal->find("instances[0] (cartpole): the mpc plan would run out before the next one: a solve "
+                          "(2 iterations x 1e+03 ms measured) plus replan_period 0.04 s exceed its horizon of 2 s"),
+            std::string::npos)
+      << *refusal;
+  EXPECT_EQ(CheckWorkBounds(*model), refusal) << "lagranged and simulate refuse it as the tick's bound";
+}
+
+// The swing-up scene with a fallback to hold by, as lagranged runs it.
+Scene MpcScene() {
+  Scene scene = ParseScene(R"(
+instances:
+  - name: cartpole
+    plant: {type: cartpole, params: {mc: 1.0, mp: 0.1, l: 0.5}}
+    initial: {q: [0, 3.0]}
+    controller:
+      type: mpc
+      horizon: 100
+      dt: 0.02
+      integrator: semi-implicit-euler
+      iterations: 2
+      replan_period: 0.04
+      weights: {q: [30, 0.3], qd: [0.01, 0.01], tau: [0.01], q_terminal: [300, 300], qd_terminal: [1, 1]}
+      fallback: lqr
+    controllers: [{type: lqr}]
+    torque_limits: [10, 10]
+    setpoint: {q: [0, 3.141592653589793]}
+)",
+                           "inline");
+  return scene;
+}
+
+class RuntimeMpc : public ::testing::Test {
+ protected:
+  RuntimeMpc() : runtime(MpcScene()), record(runtime.MakeRecord()), workers(MakeMpcWorkers(runtime)) {}
+  void Tick() {
+    now += kMs;
+    runtime.Tick(now, record);
+  }
+  // Ticks, planning on this thread whenever a plan is due (a worker driven in step with the tick).
+  void TicksPlanning(int n) {
+    for (int k = 0; k < n; ++k) {
+      Tick();
+      workers[0]->PlanOnce();
+    }
+  }
+  const InstanceRecord& Cartpole() const { return record.instances[0]; }
+
+  Runtime runtime;
+  TickRecord record;
+  std::vector<std::unique_ptr<MpcWorker>> workers;
+  Nanoseconds now = 0;
+};
+
+TEST_F(RuntimeMpc, HoldsByTheFallbackUntilTheFirstPlanThenFollowsPlans) {
+  ASSERT_EQ(workers.size(), 1u);
+  Tick();
+  EXPECT_EQ(Cartpole().mode, Mode::kHold);
+  EXPECT_EQ(Cartpole().reason, kNoPlanYet);
+  TicksPlanning(1000);
+  EXPECT_EQ(Cartpole().mode, Mode::kRunning) << (Cartpole().reason ? Cartpole().reason : "");
+  EXPECT_EQ(Cartpole().controller, 0) << "the mpc controller stays the active one";
+  EXPECT_GE(workers[0]->solves(), 1000 / kReplanTicks) << "a solve every replan_period";
+  EXPECT_LT(std::abs(Cartpole().q[1] - kPi), 0.05) << "balanced by the plans";
+  EXPECT_LE(std::abs(Cartpole().tau[0]), 10.0);
+}
+
+TEST_F(RuntimeMpc, TheTickAllocatesNothingWithMpcActive) {
+  TicksPlanning(2 * kReplanTicks);  // running on plans
+  ASSERT_EQ(Cartpole().mode, Mode::kRunning);
+  std::int64_t allocations = 0;
+  for (int k = 0; k < 300; ++k) {
+    {
+      testing::AllocationCounter counter;
+      Tick();
+      allocations += counter.count();
+    }
+    workers[0]->PlanOnce();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(Cartpole().mode, Mode::kRunning);
+}
+
+// A stalled optimiser: the last plan is followed to the end of its horizon
+// (N knots of dt from its start), then the fallback holds with the reason.
+TEST_F(RuntimeMpc, AStalledOptimiserHandsOverToTheFallbackWhenItsPlanRunsOut) {
+  TicksPlanning(2 * kReplanTicks);
+  ASSERT_EQ(Cartpole().mode, Mode::kRunning);
+  const MpcPolicy& plan = runtime.instance(0).mpc_controller(0)->policy();
+  const double end = plan.start + plan.horizon * plan.dt;
+  while (runtime.instance(0).t() < end - 0.5e-3) {
+    Tick();  // no plans any more
+    ASSERT_EQ(Cartpole().mode, Mode::kRunning) << "t = " << Cartpole().t << " within the plan's horizon";
+  }
+  Tick();
+  Tick();
+  EXPECT_EQ(Cartpole().mode, Mode::kHold) << "t = " << Cartpole().t;
+  EXPECT_EQ(Cartpole().reason, kPlanRanOut);
+  EXPECT_EQ(Cartpole().controller, 0);
+  // The optimiser comes back: the next plan resumes.
+  TicksPlanning(kReplanTicks + 5);
+  EXPECT_EQ(Cartpole().mode, Mode::kRunning);
+}
+
+// A solve that fails (the test hook: a plan with its status, as the worker
+// would publish it) is not followed: the fallback holds, naming the status.
+TEST_F(RuntimeMpc, AFailedSolveHandsOverToTheFallbackWithItsStatus) {
+  TicksPlanning(2 * kReplanTicks);
+  ASSERT_EQ(Cartpole().mode, Mode::kRunning);
+  for (const auto& [status, reason] : {std::pair{DdpStatus::kDiverged, kPlanDiverged},
+                                       std::pair{DdpStatus::kLineSearchFailed, kPlanLineSearchFailed},
+                                       std::pair{DdpStatus::kNotPositiveDefinite, kPlanNotPositiveDefinite}}) {
+    const MpcPolicy followed = runtime.instance(0).mpc_controller(0)->policy();
+    MpcPolicy& plan = runtime.channels(0).mpc_plans.back();
+    plan = followed;
+    plan.sequence = followed.sequence + 1000;
+    plan.start = runtime.instance(0).t();
+    plan.status = status;
+    runtime.channels(0).mpc_plans.Publish();
+    Tick();
+    EXPECT_EQ(Cartpole().mode, Mode::kHold) << ToString(status);
+    EXPECT_EQ(Cartpole().reason, reason);
+    EXPECT_EQ(runtime.instance(0).mpc_controller(0)->policy().sequence, followed.sequence) << "not followed";
+    TicksPlanning(kReplanTicks + 5);  // a usable plan resumes
+    ASSERT_EQ(Cartpole().mode, Mode::kRunning) << ToString(status);
+  }
+}
+
+// The optimiser on a thread of its own (as lagranged runs it) beside the
+// tick: they meet only at the two mailboxes (run under ThreadSanitizer by
+// scripts/test-tsan). After each tick the test waits for the solves it
+// asked for, however slow the machine, so the plans keep up.
+TEST_F(RuntimeMpc, TheOptimiserThreadAndTheTickMeetOnlyAtTheMailboxes) {
+  workers[0]->Start();
+  for (int k = 0; k < 1000; ++k) {
+    Tick();
+    if (k % kReplanTicks == 0) {
+      const std::int64_t due = k / kReplanTicks + 1;
+      while (workers[0]->solves() < due) std::this_thread::yield();
+    }
+    ASSERT_NE(Cartpole().mode, Mode::kFault);
+    ASSERT_LE(std::abs(Cartpole().tau[0]), 10.0);
+  }
+  workers[0]->Stop();
+  EXPECT_EQ(Cartpole().mode, Mode::kRunning) << (Cartpole().reason ? Cartpole().reason : "");
+  EXPECT_EQ(runtime.instance(0).mpc_controller(0)->policy().sequence, 1000 / kReplanTicks)
+      << "the tick follows the latest plan";
+}
+
+// Stop() ends a solve in progress: a stalled worker (the test hook) stops.
+TEST_F(RuntimeMpc, StopEndsTheOptimiserThreadDuringASolve) {
+  workers[0]->StallForTest();
+  workers[0]->Start();
+  Tick();
+  workers[0]->Stop();  // returns: the thread has ended (a hang would fail the test by its timeout)
+  EXPECT_EQ(workers[0]->solves(), 0);
+}
+
+}  // namespace
+}  // namespace lagrange
