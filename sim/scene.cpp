@@ -486,7 +486,6 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
     if (c->type != ControllerType::kExternal && c->type != ControllerType::kNone && c->type != ControllerType::kMpc)
       holders += ", " + std::string(ToString(c->type));
   }
-  int mpcs = 0;
   for (std::size_t k = 0; k < all.size(); ++k) {
     const ControllerConfig& c = *all[k];
     if (inst.external && c.type == ControllerType::kExternal) {
@@ -499,12 +498,6 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
       nodes[k].Required("continuous").Fail("a mujoco plant's controller runs once per tick (MuJoCo holds the force over its steps)");
     }
     if (c.type == ControllerType::kMpc) CheckMpcLimits(node, nodes[k], c, inst);
-    if (c.type == ControllerType::kMpc && ++mpcs > 1) {
-      // One optimiser thread per instance meets its tick at the instance's two single-producer mailboxes.
-      nodes[k].Required("type").Fail(
-          "expected at most one mpc controller in an instance (its optimiser thread and plan mailboxes are the "
-          "instance's)");
-    }
     const std::optional<std::string>& fallback =
         c.type == ControllerType::kMpc ? c.mpc.fallback : c.external.fallback;
     if ((c.type != ControllerType::kExternal && c.type != ControllerType::kMpc) || !fallback) continue;
