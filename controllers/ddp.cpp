@@ -172,16 +172,21 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   result_.cost_history = VectorXd::Zero(model.config().options.max_iterations + 1);
 }
 
-void DdpData::EvaluatePolicy(int k, ConstVecRef q, ConstVecRef qd, VecRef u) const {
-  // Written out: a product with (x − x̄_k) would evaluate it into a temporary.
-  eigen_assert(k >= 0 && k < model_->horizon() && q.size() == model_->num_dofs() && u.size() == model_->num_controls());
-  const int n = model_->num_dofs();
-  const MatrixXd& K = K_[static_cast<std::size_t>(k)];
-  for (int j = 0; j < model_->num_controls(); ++j) {
-    double v = u_(j, k);
-    for (int i = 0; i < n; ++i) v += K(j, i) * (q[i] - x_(i, k)) + K(j, n + i) * (qd[i] - x_(n + i, k));
-    u[j] = std::clamp(v, model_->tau_lower()[j], model_->tau_upper()[j]);
+void EvaluateAffinePolicy(ConstVecRef u_bar, const Eigen::Ref<const MatrixXd>& K, ConstVecRef x_bar, ConstVecRef q,
+                          ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u) {
+  // Written out: a product with (x − x̄) would evaluate it into a temporary.
+  const auto n = q.size();
+  for (Eigen::Index j = 0; j < u.size(); ++j) {
+    double v = u_bar[j];
+    for (Eigen::Index i = 0; i < n; ++i) v += K(j, i) * (q[i] - x_bar[i]) + K(j, n + i) * (qd[i] - x_bar[n + i]);
+    u[j] = std::clamp(v, lower[j], upper[j]);
   }
+}
+
+void DdpData::EvaluatePolicy(int k, ConstVecRef q, ConstVecRef qd, VecRef u) const {
+  eigen_assert(k >= 0 && k < model_->horizon() && q.size() == model_->num_dofs() && u.size() == model_->num_controls());
+  EvaluateAffinePolicy(u_.col(k), K_[static_cast<std::size_t>(k)], x_.col(k), q, qd, model_->tau_lower(),
+                       model_->tau_upper(), u);
 }
 
 void DdpData::ShiftSolution(int knots) {

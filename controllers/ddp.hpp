@@ -141,6 +141,11 @@ struct DdpResult {
                                    // iteration, then after each; iterations + 1 valid
 };
 
+// One knot's affine policy: u = clamp(ū + K (x − x̄)) into [lower, upper], x = (q, qd); K (m x 2n), x̄ (2n),
+// u (m). Allocates nothing (DdpData::EvaluatePolicy, and MpcPolicy::Evaluate in the tick).
+void EvaluateAffinePolicy(ConstVecRef u_bar, const Eigen::Ref<const MatrixXd>& K, ConstVecRef x_bar, ConstVecRef q,
+                          ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u);
+
 class DdpData {
  public:
   // Sizes every buffer for `model`, which must outlive the data; the

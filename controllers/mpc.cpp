@@ -104,15 +104,9 @@ std::int64_t MpcPolicy::Knot(double t) const {
 
 void MpcPolicy::Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd& lower, const VectorXd& upper,
                          VecRef out) const {
-  const int n = static_cast<int>(q.size());
-  const auto k = static_cast<int>(std::clamp<std::int64_t>(Knot(t), 0, horizon - 1));
-  for (int j = 0; j < u.rows(); ++j) {
-    double v = u(j, k);
-    for (int i = 0; i < n; ++i) {
-      v += K(j, 2 * n * k + i) * (q[i] - x(i, k)) + K(j, 2 * n * k + n + i) * (qd[i] - x(n + i, k));
-    }
-    out[j] = std::clamp(v, lower[j], upper[j]);
-  }
+  const auto n = q.size();
+  const auto k = static_cast<Eigen::Index>(std::clamp<std::int64_t>(Knot(t), 0, horizon - 1));
+  EvaluateAffinePolicy(u.col(k), K.middleCols(2 * n * k, 2 * n), x.col(k), q, qd, lower, upper, out);
 }
 
 MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model) : model_(std::move(model)), data_(*model_) {}
