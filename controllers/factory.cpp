@@ -403,7 +403,7 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
           joints, torque_limits,
           MakeMpcModel(c.mpc, ControllerModel(c, plant, shared), EffectsConfig{}, torque_limits,
                        plant.type() == PlantType::kCartPole),
-          c.mpc.replan_period);
+          MpcReplanPeriod(c.mpc));
   }
   throw std::invalid_argument("unknown controller");
 }

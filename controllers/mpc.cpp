@@ -158,7 +158,7 @@ MpcController::MpcController(std::vector<JointType> joints, VectorXd torque_limi
                              std::shared_ptr<const DdpModel> model, double replan_period)
     : Controller(std::move(joints), std::move(torque_limits)),
       model_(std::move(model)),
-      replan_period_(replan_period > 0.0 ? replan_period : model_->dt()),
+      replan_period_(replan_period),
       planner_(std::make_unique<MpcPlanner>(model_)),
       policy_(planner_->MakePolicy()),
       candidate_(planner_->MakePolicy()),

@@ -53,6 +53,9 @@ struct MpcOptions {
 inline constexpr int kMaxMpcHorizon = 10000;
 inline constexpr int kMaxMpcIterations = 1000;
 
+// The time between two solves, s: replan_period, or dt when it is 0 (every knot).
+inline double MpcReplanPeriod(const MpcOptions& o) { return o.replan_period > 0.0 ? o.replan_period : o.dt; }
+
 // "key: expected ..." for options that cannot make a plan on `n` joints at the
 // tick `period`, or nullopt.
 std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pole, double period);
@@ -126,8 +129,8 @@ class MpcPlanner {
 
 class MpcController final : public Controller {
  public:
-  // `model` from MakeMpcModel; `replan_period` s. Plans inline (offline) until
-  // set_plan_inline(false).
+  // `model` from MakeMpcModel; `replan_period` s between solves (> 0:
+  // MpcReplanPeriod). Plans inline (offline) until set_plan_inline(false).
   MpcController(std::vector<JointType> joints, VectorXd torque_limits, std::shared_ptr<const DdpModel> model,
                 double replan_period);
   std::string_view name() const override { return "mpc"; }
@@ -135,6 +138,7 @@ class MpcController final : public Controller {
   void Reset() override;
 
   const std::shared_ptr<const DdpModel>& ddp_model() const { return model_; }
+  double replan_period() const { return replan_period_; }
   // lagranged plans elsewhere (daemon/mpc_worker.hpp): the inline planner and
   // its data are released. Before the loop only.
   void set_plan_inline(bool on);

@@ -8,7 +8,7 @@ namespace lagrange {
 
 MpcWorker::MpcWorker(std::shared_ptr<const DdpModel> model, double replan_period, InstanceChannels& channels)
     : planner_(std::move(model)),
-      replan_period_(replan_period > 0.0 ? replan_period : planner_.model().dt()),
+      replan_period_(replan_period),
       channels_(channels) {}
 
 MpcWorker::~MpcWorker() { Stop(); }
@@ -57,8 +57,7 @@ std::vector<std::unique_ptr<MpcWorker>> MakeMpcWorkers(Runtime& runtime) {
     const InstanceModel& m = runtime.model().instances[i];
     for (std::size_t k = 0; k < m.controllers.size(); ++k) {
       if (const MpcController* c = inst.mpc_controller(k)) {
-        workers.push_back(std::make_unique<MpcWorker>(c->ddp_model(), m.controllers[k].config.mpc.replan_period,
-                                                      runtime.channels(i)));
+        workers.push_back(std::make_unique<MpcWorker>(c->ddp_model(), c->replan_period(), runtime.channels(i)));
       }
     }
   }

@@ -23,6 +23,7 @@ namespace lagrange {
 
 class MpcWorker {
  public:
+  // `replan_period` s between solves (> 0: MpcController::replan_period);
   // `channels` (the instance's) must outlive the worker.
   MpcWorker(std::shared_ptr<const DdpModel> model, double replan_period, InstanceChannels& channels);
   ~MpcWorker();  // Stop()
