@@ -155,22 +155,22 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   // Under every controller the instance has (a command may switch to any), the costliest.
   const std::size_t controllers = instance.controller_names().size();
   double costliest = 0.0;
+  // An mpc controller's tick evaluates a plan (a zero plan here, as costly as any); the plan is made on a
+  // thread of its own (daemon/mpc_worker.hpp), bounded apart (MpcBoundRefusal). Reset drops it: given again.
+  MpcPolicy plan;
+  for (std::size_t j = 0; j < controllers; ++j) {
+    if (MpcController* mpc = instance.mpc_controller(j)) {
+      mpc->set_plan_inline(false);
+      plan = mpc->policy();
+      plan.sequence = 1;
+      plan.dt = mpc->ddp_model()->dt();
+    }
+  }
+  const auto give_plan = [&] {
+    if (MpcController* mpc = instance.mpc_controller(instance.active_controller())) mpc->SetPolicy(plan);
+  };
   for (std::size_t k = 0; k < controllers; ++k) {
     instance.SelectController(k);
-    // An mpc controller's tick evaluates a plan (a zero plan here, as costly as any); the plan is made on a
-    // thread of its own (daemon/mpc_worker.hpp), bounded apart (MpcBoundRefusal). Reset drops it: given again.
-    MpcPolicy plan;
-    for (std::size_t j = 0; j < controllers; ++j) {
-      if (MpcController* mpc = instance.mpc_controller(j)) {
-        mpc->set_plan_inline(false);
-        plan = mpc->policy();
-        plan.sequence = 1;
-        plan.dt = mpc->ddp_model()->dt();
-      }
-    }
-    const auto give_plan = [&] {
-      if (MpcController* mpc = instance.mpc_controller(instance.active_controller())) mpc->SetPolicy(plan);
-    };
     give_plan();
     costliest = std::max(costliest, FastestSample(kMeasureBudget / static_cast<double>(controllers), [&] {
                            const Steady::time_point start = Steady::now();
@@ -228,7 +228,7 @@ std::optional<std::string> MpcBoundRefusal(const DaemonModel& model) {
       if (!c.mpc) continue;
       const MpcOptions& o = c.config.mpc;
       const double solve = o.iterations * m.mpc_iteration_s;
-      const double replan = o.replan_period > 0.0 ? o.replan_period : o.dt;
+      const double replan = MpcReplanPeriod(o);
       const double horizon = o.horizon * o.dt;
       if (solve + replan <= horizon) continue;
       return fmt::format(
