@@ -58,9 +58,8 @@ void BusObserver::Discover() {
 }
 
 bool BusObserver::Pin(std::int64_t run_id) {
-  if (!pinned_.contains(run_id) && pinned_.size() >= limits_.runs) return false;
+  if (!statuses_.Pin(run_id)) return false;  // its bound (limits.runs pins) is every channel's
   pinned_.insert(run_id);
-  statuses_.Pin(run_id);
   for (auto& [name, seen] : instances_) PinIn(seen, run_id);
   return true;
 }

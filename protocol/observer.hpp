@@ -157,7 +157,7 @@ class BusObserver {
   LatestByRun<status_t> statuses_;
   std::map<std::string, ObservedInstance> instances_;
   std::vector<std::string> followed_;
-  std::set<std::int64_t> pinned_;  // at most limits_.runs
+  std::set<std::int64_t> pinned_;  // statuses_'s pins, given to each instance followed later
 };
 
 }  // namespace lagrange
