@@ -3,14 +3,17 @@
 // DDP in Gauss–Newton form on the plant's exact step derivatives). The
 // problem is a DdpModel built from the call's arguments, validated by it
 // (its refusals in the call's words); the solve runs once, cold, without the
-// GIL, in a DdpData of its own; the result is its nominal trajectory, gains
-// and record as numpy arrays.
+// GIL, in a DdpData of its own (Ctrl-C stops it between iterations); the
+// result is its nominal trajectory, gains and record as numpy arrays.
 
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <future>
 #include <iterator>
 #include <memory>
 #include <stdexcept>
@@ -147,7 +150,8 @@ CostArgs ReadCost(py::handle cost) {
   for (py::object& w : out.weight) w = py::none();
   out.q_ref = out.qd_ref = py::none();
   if (cost.is_none()) return out;
-  if (!PyMapping_Check(cost.ptr()) || py::isinstance<py::str>(cost)) {
+  const py::object mapping = py::module_::import("collections.abc").attr("Mapping");
+  if (!py::isinstance<py::dict>(cost) && !py::isinstance(cost, mapping)) {
     throw py::value_error("cost: expected a dict of weights and references (q, qd, tau, q_terminal, qd_terminal, "
                           "q_ref, qd_ref), got " + std::string(py::str(py::type::handle_of(cost).attr("__name__"))));
   }
@@ -207,6 +211,31 @@ std::string CallWords(std::string message) {
   return message;
 }
 
+// How often a solve's caller looks for a pending signal (Ctrl-C).
+constexpr std::chrono::milliseconds kSignalCheck{50};
+
+// SolveDdp without the GIL on a thread of its own while the calling thread looks for a pending signal every
+// kSignalCheck: one (KeyboardInterrupt) stops the solve between iterations (DdpData::stop) and is raised.
+void Solve(const DdpModel& problem, DdpData& data, const VectorXd& q0, const VectorXd& qd0) {
+  std::atomic<bool> stop{false};
+  data.stop = &stop;
+  std::future<void> solve = std::async(std::launch::async, [&] { SolveDdp(problem, data, q0, qd0); });
+  for (;;) {
+    std::future_status status;
+    {
+      py::gil_scoped_release release;
+      status = solve.wait_for(kSignalCheck);
+    }
+    if (status == std::future_status::ready) break;
+    if (PyErr_CheckSignals() != 0) {
+      stop = true;
+      solve.wait();
+      throw py::error_already_set();
+    }
+  }
+  solve.get();
+}
+
 py::array_t<double> Array(std::initializer_list<py::ssize_t> dims) {
   return NewArray(static_cast<int>(dims.size()), std::data(dims));
 }
@@ -244,10 +273,7 @@ TrajectoryResult Optimize(py::handle model_arg, py::handle q0_arg, py::handle qd
   DdpData data(*problem);
   ReadReference("cost['q_ref']", cost.q_ref, data.q_ref);
   ReadReference("cost['qd_ref']", cost.qd_ref, data.qd_ref);
-  {
-    py::gil_scoped_release release;
-    SolveDdp(*problem, data, q0, qd0);
-  }
+  Solve(*problem, data, q0, qd0);
   const DdpResult& r = data.result();
   if (r.status == DdpStatus::kDiverged) {
     throw std::runtime_error("optimize_trajectory: diverged: the first rollout (tau = 0 from q0, qd0) left the "
@@ -316,7 +342,8 @@ max_iterations, tolerance: DdpOptions' (1..10000; converged when the expected
 The result's tau (N, n) is S u_k (0 on the joints not actuated), its K (N, m, 2n)
 the feedback of u_k = clamp(u_k + K_k (x − x_k)) about the plan's x_k = (q_k, qd_k).
 The cost never increases from one iteration to the next (cost_history) and no
-u_k is outside the limits. Runs without the GIL. ValueError naming the argument
+u_k is outside the limits. Runs without the GIL; Ctrl-C (KeyboardInterrupt) stops
+it between iterations. ValueError naming the argument
 and what was expected for a bad one; RuntimeError when the first rollout (tau = 0)
 is not finite.)";
 

@@ -2,9 +2,11 @@
 within its force limit along a plan the integrator's own step reproduces; on a linear-quadratic problem the result is
 the Riccati recursion's gains and the stacked least-squares optimum; the cost never increases; bad arguments raise
 one-line errors naming the argument."""
+import _thread
 import ast
 import os
 import re
+import threading
 
 import numpy as np
 import pytest
@@ -134,6 +136,19 @@ def test_a_rollout_that_leaves_the_finite_numbers_raises():
                                      integrator="explicit-euler")
 
 
+def test_ctrl_c_stops_a_long_solve_between_iterations():
+    # 10⁵ knots, up to 10⁴ iterations: minutes of solving, unless the KeyboardInterrupt stops it (DdpData::stop).
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            lagrange.optimize_trajectory(lagrange.Model.builtin("cartpole"), [0.0, 0.0], [0.0, 0.0], 100000, 0.001,
+                                         cost={"q_ref": [0.0, np.pi]}, tau_limits=FORCE, max_iterations=10000,
+                                         tolerance=0.0)
+    finally:
+        timer.cancel()
+
+
 CARTPOLE = lagrange.Model.builtin("cartpole")
 BAD = [
     (dict(q0=[0.0]), r"^q0: expected 2 values \(one per joint\), got 1$"),
@@ -151,7 +166,8 @@ BAD = [
     (dict(cost={"Q": 1.0}), r"^cost: unknown key 'Q' \(expected q, qd, tau, q_terminal, qd_terminal, q_ref, qd_ref\)$"),
     (dict(cost={"q_ref": np.zeros((5, 2))}), r"^cost\['q_ref'\]: expected \(2,\) or \(horizon \+ 1, 2\) = \(11, 2\)"),
     (dict(cost={"qd_ref": [0.0, np.inf]}), r"^cost\['qd_ref'\]: expected finite numbers, got inf"),
-    (dict(cost="q=1"), r"^cost: expected a dict of weights and references"),
+    (dict(cost="q=1"), r"^cost: expected a dict of weights and references .* got str$"),
+    (dict(cost=[("q", 1.0)]), r"^cost: expected a dict of weights and references .* got list$"),
     (dict(tau_limits=-1.0), r"^tau_limits: expected limits >= 0"),
     (dict(tau_limits=[1.0, 2.0, 3.0]),
      r"^tau_limits: expected a number, 1 value \(one per actuated joint\) or 2 values \(one per joint\), "
