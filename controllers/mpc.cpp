@@ -68,6 +68,11 @@ std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pol
   return std::nullopt;
 }
 
+DdpWeights MpcWeights(const MpcOptions& o, int n, int m) {
+  return {WeightOr(o.q, n, 1.0), WeightOr(o.qd, n, 0.01), WeightOr(o.tau, m, 0.01), WeightOr(o.q_terminal, n, 100.0),
+          WeightOr(o.qd_terminal, n, 1.0)};
+}
+
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
                                              bool cart_pole) {
@@ -88,8 +93,7 @@ std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_pt
     c.tau_upper[j] = limit;
   }
   c.tau_lower = -c.tau_upper;
-  c.weights = {WeightOr(o.q, n, 1.0), WeightOr(o.qd, n, 0.01), WeightOr(o.tau, m, 0.01), WeightOr(o.q_terminal, n, 100.0),
-               WeightOr(o.qd_terminal, n, 1.0)};
+  c.weights = MpcWeights(o, n, m);
   c.options.max_iterations = o.iterations;
   c.effects = effects;
   return std::make_shared<const DdpModel>(std::move(dynamics), std::move(c));

@@ -42,8 +42,7 @@ struct MpcOptions {
   int iterations = 2;                                         // DDP iterations per solve, 1..1000
   double replan_period = 0.0;                                 // s between solves (0: dt); >= the tick's period
   std::optional<std::vector<int>> actuated;                   // default: the cart of a cart-pole, else every joint
-  // Diagonal weights (controllers/ddp.hpp's DdpWeights); empty: the defaults
-  // q 1, qd 0.01, tau 0.01, q_terminal 100, qd_terminal 1.
+  // Diagonal weights (controllers/ddp.hpp's DdpWeights); empty: MpcWeights' defaults.
   VectorXd q, qd, tau, q_terminal, qd_terminal;
   // Who holds the instance when the plan lapses or fails: a configured
   // controller's name or "brake"; nullopt: the first gravity-compensation or
@@ -61,6 +60,9 @@ inline double MpcReplanPeriod(const MpcOptions& o) { return o.replan_period > 0.
 std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pole, double period);
 // The joints that take a force (ascending): o.actuated, or the default.
 std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole);
+// The cost's weights: o's, each empty one its default (q 1, qd 0.01, tau 0.01,
+// q_terminal 100, qd_terminal 1) on every entry; n joints, m actuated.
+DdpWeights MpcWeights(const MpcOptions& o, int n, int m);
 // The optimiser's problem: `dynamics` under `effects` (the plant's model),
 // limits ±torque_limits on the actuated joints. Throws std::invalid_argument
 // (DdpModel's message) for a problem ValidateMpc would refuse, and for

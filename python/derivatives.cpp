@@ -136,17 +136,6 @@ py::tuple Evaluate(const std::shared_ptr<const Dynamics>& dynamics, std::optiona
   return result;
 }
 
-// The integrator named `name`, one that has step derivatives, or ValueError.
-IntegratorType StepIntegrator(const std::string& name) {
-  const std::optional<IntegratorType> type = ParseIntegratorType(name);
-  if (!type) {
-    throw py::value_error("integrator: expected explicit-euler, semi-implicit-euler or rk4, got '" +
-                          Escape(name, 64) + "'");
-  }
-  if (const char* reason = NoStepDerivativesReason(*type)) throw py::value_error(std::string("integrator: ") + reason);
-  return *type;
-}
-
 constexpr const char* kForwardDoc =
     R"((q, qd, tau) => (dqdd_dq, dqdd_dqd, dqdd_dtau): the exact derivatives of forward dynamics
 qdd = M⁻¹ (tau − C qd − G), element [i, j] = ∂qdd_i/∂x_j; dqdd_dtau = M⁻¹.
@@ -183,6 +172,16 @@ integrator  "explicit-euler", "semi-implicit-euler" or "rk4" (the others, adapti
 returns     A (2n, 2n) | (N, 2n, 2n), B (2n, n) | (N, 2n, n))";
 
 }  // namespace
+
+IntegratorType StepIntegrator(const std::string& name) {
+  const std::optional<IntegratorType> type = ParseIntegratorType(name);
+  if (!type) {
+    throw py::value_error("integrator: expected explicit-euler, semi-implicit-euler or rk4, got '" +
+                          Escape(name, 64) + "'");
+  }
+  if (const char* reason = NoStepDerivativesReason(*type)) throw py::value_error(std::string("integrator: ") + reason);
+  return *type;
+}
 
 void BindDerivatives(py::module_& m) {
   py::object model = m.attr("Model");

@@ -106,6 +106,7 @@ class Model {
   const std::vector<std::string>& frame_names() const { return kinematics_->frame_names(); }
   std::string method() const { return std::string(ToString(method_)); }
   std::string plant() const { return std::string(ToString(type_)); }
+  PlantType type() const { return type_; }
   const Dynamics& dynamics() const { return *dynamics_; }
   const std::shared_ptr<const Dynamics>& shared_dynamics() const { return dynamics_; }
   const Kinematics& kinematics() const { return *kinematics_; }
@@ -564,7 +565,17 @@ returns    (6,) | (N, 6)   m/s², then rad/s²)";
 
 }  // namespace
 
-std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return py::cast<Model&>(model).shared_dynamics(); }
+// The Model object `model` holds, or TypeError.
+const Model& AsModel(py::handle model) {
+  if (!py::isinstance<Model>(model)) {
+    throw py::type_error("model: expected a lagrange.Model, got " +
+                         std::string(py::str(py::type::handle_of(model).attr("__name__"))));
+  }
+  return py::cast<const Model&>(model);
+}
+
+std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return AsModel(model).shared_dynamics(); }
+PlantType ModelPlantType(py::handle model) { return AsModel(model).type(); }
 
 void BindModel(py::module_& m) {
   py::class_<Model> model(m, "Model", kModelDoc);

@@ -7,6 +7,7 @@ PYBIND11_MODULE(_lagrange, m) {
   m.attr("python_version") = LAGRANGE_PYTHON_VERSION;
   lagrange::python::BindModel(m);
   lagrange::python::BindDerivatives(m);
+  lagrange::python::BindTrajectory(m);
   lagrange::python::BindSimulate(m);
   lagrange::python::BindBus(m);
 }

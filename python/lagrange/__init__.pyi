@@ -101,6 +101,40 @@ class Model:
 
 # ---- end of lagrange.Model ------------------------------------------------
 
+# ---- lagrange.optimize_trajectory (python/trajectory.cpp) -----------------
+# N = horizon knots, n = model.num_dofs, m = the actuated joints.
+
+class TrajectoryResult:
+    """An optimised trajectory (optimize_trajectory): the plan, its affine policy and the solver's record."""
+    t: _Array               # (N+1,) s: k dt
+    q: _Array               # (N+1, n) rad or m; q[0] = q0
+    qd: _Array              # (N+1, n) rad/s or m/s
+    tau: _Array             # (N, n) N·m or N, held over [t_k, t_k+1); 0 on joints not actuated
+    K: _Array               # (N, m, 2n): u = clamp(u_k + K_k (x − x_k)), x = (q, qd)
+    actuated: list[int]     # the m actuated joints (K's rows)
+    status: Literal["converged", "max-iterations", "line-search-failed", "not-positive-definite"]
+    converged: bool
+    iterations: int
+    cost: float             # J of the trajectory
+    cost_history: _Array    # (iterations + 1,): J of the tau = 0 rollout, then after each iteration; never increasing
+    expected_decrease: float
+    regularization: float
+
+def optimize_trajectory(model: Model, q0: _ArrayLike, qd0: _ArrayLike, horizon: int, dt: float, *,
+                        cost: Union[None, dict[str, Union[float, _ArrayLike]]] = None,
+                        tau_limits: Union[None, float, _ArrayLike,
+                                          tuple[Union[float, _ArrayLike], Union[float, _ArrayLike]]] = None,
+                        integrator: Literal["explicit-euler", "semi-implicit-euler", "rk4"] = "rk4",
+                        actuated: Union[None, Sequence[int]] = None, max_iterations: int = 50,
+                        tolerance: float = 1e-8) -> TrajectoryResult:
+    """Box-constrained DDP (the mpc controller's solver) from (q0, qd0) over `horizon` knots of dt s.
+
+    cost: weights q, qd, q_terminal, qd_terminal (a number or n values >= 0), tau (a number or m values > 0),
+    references q_ref, qd_ref ((n,) or (N+1, n)); tau_limits: ±limit (a number, m or n values) or (lower, upper);
+    actuated: default a cart-pole's cart, else every joint. ValueError naming a bad argument; RuntimeError when the
+    tau = 0 rollout is not finite."""
+
+
 # ---- lagrange.simulate, Instance, Client, read_log (python/simulate.cpp, python/bus.cpp) ----
 # n = an instance's num_dofs, N = rows (steps, states or log records).
 import os as _os
