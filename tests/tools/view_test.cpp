@@ -21,6 +21,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
@@ -44,6 +45,8 @@
 #include "plant/urdf.hpp"
 #include "sim/scene.hpp"
 #include "tests/support/lcm_testing.hpp"
+#include "tools/view/instance_json.hpp"
+#include "tools/view/view_model.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 
@@ -419,6 +422,64 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
 }
 
 // ---- the server, without a browser ----
+
+// An mpc controller's plan (mpc_t) as the page is sent it: every frame's path through the plan's knots, by
+// the scene's kinematics, starting where the state puts the frames; sent only with a state of its run and
+// controller that follows it within its horizon, and never for knots that are not the model's.
+TEST_F(ViewTest, AnMpcPlanIsSentAsEachFramesPathThroughItsKnotsOnlyWithTheStateItBelongsTo) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml");
+  cli::view::ViewModels models;
+  models.push_back(std::make_unique<cli::view::ViewModel>("cartpole", scene.instances[0].plant,
+                                                     cli::view::ViewModelOptions{{}, scene.instances[0].torque_limits}));
+  state_t s{};
+  s.run_id = 9;
+  s.t = 0.05;
+  s.num_dofs = 2;
+  s.q = {0.1, 0.5};
+  for (auto* v : {&s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.0);
+  s.controller = "mpc";
+  mpc_t plan{};
+  plan.run_id = 9;
+  plan.t = 0.04;
+  plan.controller = "mpc";
+  plan.plan = 3;
+  plan.status = "converged";
+  plan.followed = true;
+  plan.num_states = 4;
+  plan.num_knots = 3;
+  plan.knot_t = {0.04, 1.04, 2.04};
+  plan.knot_x = {{0.1, 0.5, 0, 0}, {0.2, 1.5, 0, 0}, {0.0, 3.1, 0, 0}};
+  const cli::view::ViewInstance instance{"", "cartpole", 0};
+  const json j = cli::view::InstanceJson(instance, models, s, 0.0, nullptr, &plan);
+  ASSERT_TRUE(j.contains("plan")) << j.dump();
+  EXPECT_EQ(j["plan"]["sequence"], 3);
+  EXPECT_EQ(j["plan"]["status"], "converged");
+  const json& paths = j["plan"]["paths"];
+  ASSERT_EQ(paths.size(), j["poses"].size()) << "a path per frame";
+  for (std::size_t f = 0; f < paths.size(); ++f) {
+    ASSERT_EQ(paths[f].size(), 3u);
+    const json end = models[0]->Poses(Eigen::Vector2d(0.0, 3.1));
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(paths[f][0][a].get<double>(), j["poses"][f][9 + a].get<double>(), 1e-12) << "starts at the state";
+      EXPECT_NEAR(paths[f][2][a].get<double>(), end[f][9 + a].get<double>(), 1e-12) << "ends at the last knot";
+    }
+  }
+  // Not the state's: another run, another controller, not followed, run out; knots not the model's.
+  for (int k = 0; k < 5; ++k) {
+    mpc_t other = plan;
+    if (k == 0) other.run_id = 8;
+    if (k == 1) other.controller = "lqr";
+    if (k == 2) other.followed = false;
+    if (k == 3) other.knot_t.back() = 0.045;
+    if (k == 4) other.num_states = 6;
+    EXPECT_FALSE(cli::view::InstanceJson(instance, models, s, 0.0, nullptr, &other).contains("plan")) << k;
+  }
+  mpc_t hostile = plan;
+  hostile.knot_x[1] = {std::nan(""), 0, 0, 0};
+  EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
+  hostile.knot_x[1] = {0, 0};
+  EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
+}
 
 TEST_F(ViewTest, RefusesAFileThatIsNotALog) {
   const fs::path bad = fs::temp_directory_path() / ("lagrange_view_notalog_" + std::to_string(getpid()));
