@@ -423,6 +423,60 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
 
 // ---- the server, without a browser ----
 
+// view --log: the plan logged on CARTPOLE_MPC is sent with the cart-pole's states logged after it, not before.
+TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_log_" + std::to_string(getpid()) + ".lcm");
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;  // event i at (i + 1) ms
+  const auto add = [&](const std::string& channel, const auto& m) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    events.emplace_back(channel, bytes);
+  };
+  for (int k = 0; k <= 10; ++k) {
+    state_t s{};
+    s.run_id = 42;
+    s.tick = k;
+    s.t = 1e-3 * k;
+    s.num_dofs = 2;
+    s.q = {0.01 * k, 0.1};
+    s.qd = s.qdd = s.tau = s.q_des = s.qd_des = {0.0, 0.0};
+    s.controller = "mpc";
+    add("CARTPOLE_STATE", s);
+    if (k == 4) {  // logged at 5 ms, after the state of 4 ms
+      mpc_t plan{};
+      plan.run_id = 42;
+      plan.t = 0.004;
+      plan.controller = "mpc";
+      plan.plan = 7;
+      plan.status = "max-iterations";
+      plan.followed = true;
+      plan.num_states = 4;
+      plan.num_knots = 2;
+      plan.knot_t = {0.004, 2.004};
+      plan.knot_x = {{0.04, 0.1, 0, 0}, {0.0, 3.14, 0, 0}};
+      add("CARTPOLE_MPC", plan);
+    }
+  }
+  testing::WriteLcmLog(log.string(), events);
+  StartView({"--log", log.string(), "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"},
+            8930);
+  httplib::Client client("127.0.0.1", 8930);
+  const auto frame = [&](const char* t) {
+    const auto r = client.Get((std::string("/api/log?t=") + t).c_str());
+    EXPECT_TRUE(r && r->status == 200);
+    const json j = r ? json::parse(r->body) : json::object();
+    return j.contains("instances") && !j["instances"].empty() ? j["instances"][0] : json::object();
+  };
+  const json before = frame("0.0045"), after = frame("0.0095");
+  fs::remove(log);
+  EXPECT_EQ(before.value("tick", -1), 4);
+  EXPECT_FALSE(before.contains("plan")) << before.dump();
+  ASSERT_TRUE(after.contains("plan")) << after.dump();
+  EXPECT_EQ(after["plan"]["sequence"], 7);
+  ASSERT_FALSE(after["plan"]["paths"].empty());
+  EXPECT_EQ(after["plan"]["paths"][0].size(), 2u);
+}
+
 // An mpc controller's plan (mpc_t) as the page is sent it: every frame's path through the plan's knots, by
 // the scene's kinematics, starting where the state puts the frames; sent only with a state of its run and
 // controller that follows it within its horizon, and never for knots that are not the model's.
