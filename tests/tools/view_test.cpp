@@ -421,11 +421,9 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
   EXPECT_NE(dom.find("\\x1b[2J"), std::string::npos);
 }
 
-// ---- the server, without a browser ----
-
-// view --log: the plan logged on CARTPOLE_MPC is sent with the cart-pole's states logged after it, not before.
-TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
-  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_log_" + std::to_string(getpid()) + ".lcm");
+// A log written here: the swing-up's cart-pole under mpc, its state every millisecond (tick k at k ms,
+// x = 0.01 k), and after the state of 4 ms a plan (sequence 7) of two knots, to θ = 3.14 at 2 s.
+void WriteCartPolePlanLog(const fs::path& log) {
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;  // event i at (i + 1) ms
   const auto add = [&](const std::string& channel, const auto& m) {
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
@@ -458,6 +456,29 @@ TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
     }
   }
   testing::WriteLcmLog(log.string(), events);
+}
+
+// The page draws a logged plan: each frame's path through its knots (the record the page keeps of what it drew).
+TEST_F(ViewBrowser, LogDrawsTheMpcPlanAsAPathPerFrame) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_page_" + std::to_string(getpid()) + ".lcm");
+  WriteCartPolePlanLog(log);
+  StartView({"--log", log.string(), "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"},
+            8931);
+  const std::string dom = DumpDomUntilDrawn("?t=0.0095&probe=1", "cartpole");
+  fs::remove(log);
+  const json drawn = Drawn(dom);
+  ASSERT_TRUE(drawn.contains("cartpole")) << drawn.dump();
+  ASSERT_TRUE(drawn["cartpole"].contains("plan")) << drawn.dump();
+  EXPECT_EQ(drawn["cartpole"]["plan"]["sequence"], 7);
+  EXPECT_EQ(drawn["cartpole"]["plan"]["paths"], model_["models"][0]["frames"].size()) << "a path per frame";
+}
+
+// ---- the server, without a browser ----
+
+// view --log: the plan logged on CARTPOLE_MPC is sent with the cart-pole's states logged after it, not before.
+TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_log_" + std::to_string(getpid()) + ".lcm");
+  WriteCartPolePlanLog(log);
   StartView({"--log", log.string(), "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"},
             8930);
   httplib::Client client("127.0.0.1", 8930);
