@@ -504,8 +504,8 @@ TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
 TEST_F(ViewTest, AnMpcPlanIsSentAsEachFramesPathThroughItsKnotsOnlyWithTheStateItBelongsTo) {
   const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml");
   cli::view::ViewModels models;
-  models.push_back(std::make_unique<cli::view::ViewModel>("cartpole", scene.instances[0].plant,
-                                                     cli::view::ViewModelOptions{{}, scene.instances[0].torque_limits}));
+  const cli::view::ViewModelOptions options{{}, scene.instances[0].torque_limits};
+  models.push_back(std::make_unique<cli::view::ViewModel>("cartpole", scene.instances[0].plant, options));
   state_t s{};
   s.run_id = 9;
   s.t = 0.05;

@@ -351,8 +351,9 @@ function planPaths(group, plan) {
     const c = group.children.pop();
     c.geometry.dispose();
   }
-  const lineMaterial = planPaths.line || (planPaths.line = new THREE.LineBasicMaterial({ color: 0x3aa0ff, transparent: true, opacity: 0.7 }));
-  const pointMaterial = planPaths.point || (planPaths.point = new THREE.PointsMaterial({ color: 0x3aa0ff, size: 0.02 }));
+  planPaths.line = planPaths.line || new THREE.LineBasicMaterial({ color: 0x3aa0ff, transparent: true, opacity: 0.7 });
+  planPaths.point = planPaths.point || new THREE.PointsMaterial({ color: 0x3aa0ff, size: 0.02 });
+  const lineMaterial = planPaths.line, pointMaterial = planPaths.point;
   for (const path of plan.paths) {
     if (path.length < 2) continue;
     const geometry = new THREE.BufferGeometry().setFromPoints(path.map((p) => new THREE.Vector3(p[0], p[1], p[2])));
