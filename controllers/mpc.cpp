@@ -151,6 +151,7 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef 
   out.horizon = N;
   out.status = r.status;
   out.iterations = r.iterations;
+  out.cost_before = r.cost_history.size() > 0 ? r.cost_history[0] : r.cost;
   out.cost = r.cost;
   out.u = data_.u();
   out.x = data_.x();

@@ -89,7 +89,9 @@ struct MpcPolicy {
   int horizon = 0;            // N
   DdpStatus status = DdpStatus::kMaxIterations;
   int iterations = 0;
-  double cost = 0.0;
+  double cost_before = 0.0;  // J of the first rollout (the warm start's), before any iteration
+  double cost = 0.0;         // J after the last iteration
+  double solve_time = 0.0;   // s of wall clock the solve took, as the optimiser thread measured it (0: not measured)
   MatrixXd u;  // (m x N) ū_k
   MatrixXd K;  // (m x 2n·N) K_k in columns [2n k, 2n (k + 1))
   MatrixXd x;  // (2n x N+1) x̄_k

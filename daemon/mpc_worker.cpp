@@ -33,7 +33,10 @@ bool MpcWorker::PlanOnce() {
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   if (stop_.load(std::memory_order_relaxed)) return false;
-  planner_.Plan(state->t, state->q, state->qd, state->q_ref, state->qd_ref, channels_.mpc_plans.back(), &stop_);
+  MpcPolicy& plan = channels_.mpc_plans.back();
+  const auto began = std::chrono::steady_clock::now();
+  planner_.Plan(state->t, state->q, state->qd, state->q_ref, state->qd_ref, plan, &stop_);
+  plan.solve_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
   if (stop_.load(std::memory_order_relaxed)) return false;  // a solve cut short is not handed over
   channels_.mpc_plans.Publish();
   planned_ = true;

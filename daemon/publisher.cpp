@@ -54,6 +54,17 @@ Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& 
     o.torque.tau.resize(n);
     o.telemetry.run_id = run_id_;
     o.task.run_id = run_id_;
+    o.mpc.run_id = run_id_;
+    o.mpc.num_states = 2 * m.num_dofs;
+    for (const ControllerModel& c : m.controllers) {  // the first mpc controller's, as the tick's record (runtime.cpp)
+      if (!c.mpc) continue;
+      o.mpc.controller = c.name;
+      o.mpc.num_knots = MpcKnotsOnWire(o.mpc.num_states, c.config.mpc.horizon);
+      break;
+    }
+    o.mpc.status.reserve(32);  // every ToString(DdpStatus) fits: no allocation per plan
+    o.mpc.knot_t.resize(static_cast<std::size_t>(o.mpc.num_knots));
+    o.mpc.knot_x.assign(static_cast<std::size_t>(o.mpc.num_knots), std::vector<double>(2 * n));
     o.forces.run_id = run_id_;
     o.forces.num_dofs = m.num_dofs;
     for (auto* v : {&o.forces.gravity, &o.forces.coriolis, &o.forces.damping, &o.forces.friction, &o.forces.limits,
@@ -126,6 +137,7 @@ void Publisher::Publish(const TickRecord& record) {
     if (r.telemetry) PublishTelemetry(i, r, record);
     if (r.publish_forces) PublishForces(i, r, record);
     if (r.task) PublishTask(i, r, record);
+    if (r.plan.taken) PublishMpc(i, r, record);
     PublishReplies(i, r, record.utime);
   }
   LogEvents(record);
@@ -184,6 +196,32 @@ void Publisher::PublishTask(std::size_t i, const InstanceRecord& r, const TickRe
   std::copy_n(r.task_error.data(), 6, m.error);
   std::copy_n(r.task_twist.data(), 6, m.twist);
   bus_.PublishMessage(model_.instances[i].channels.task, m);
+}
+
+// (record) => mpc_t: the plan the tick took, its figures and knots; its age when taken.
+void Publisher::PublishMpc(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
+  const PlanRecord& p = r.plan;
+  mpc_t& m = out_[i].mpc;
+  if (p.knot_t.size() != m.num_knots) return;  // not the plans this instance was built for: never sent malformed
+  m.utime = record.utime;
+  m.tick = record.tick;
+  m.t = r.t;
+  m.plan = p.sequence;
+  m.start = p.start;
+  m.age = r.t - p.start;
+  m.solve_time = p.solve_time;
+  m.iterations = p.iterations;
+  m.cost_before = p.cost_before;
+  m.cost = p.cost;
+  m.status = ToString(p.status);
+  m.followed = p.followed;
+  m.dt = p.dt;
+  m.horizon = p.horizon;
+  for (std::size_t j = 0; j < m.knot_t.size(); ++j) {
+    m.knot_t[j] = p.knot_t[static_cast<Eigen::Index>(j)];
+    std::copy_n(p.knot_x.col(static_cast<Eigen::Index>(j)).data(), m.num_states, m.knot_x[j].data());
+  }
+  bus_.PublishMessage(model_.instances[i].channels.mpc, m);
 }
 
 // (record) => telemetry_t: the balance, the integrator's work, the instance's compute.

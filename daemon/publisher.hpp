@@ -7,6 +7,7 @@
 // a torque_t on an external plant's torque_channel (first: it is the latency
 // that counts), one state_t per instance on <NAME>_STATE, a reply_t per
 // command verdict on <NAME>_REPLY, a telemetry_t and a forces_t where asked,
+// an mpc_t on <NAME>_MPC for each plan an mpc instance's tick took,
 // and every 0.1 s of ticks a status_t on LAGRANGE_STATUS (with every
 // instance's joint names, from JointNamesOf, escaped; protocol/status.hpp
 // says what a status carries). It also logs mode changes, faults and refused
@@ -16,6 +17,7 @@
 // it is logged or published.
 
 #include <lagrange/forces_t.hpp>
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -63,6 +65,7 @@ class Publisher {
   void PublishTelemetry(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishTask(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishMpc(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
   std::string StatusReason(std::size_t i, const InstanceRecord& r) const;
@@ -74,6 +77,7 @@ class Publisher {
     torque_t torque{};  // an external plant's command; its sequence counts from 0
     telemetry_t telemetry{};
     task_state_t task{};
+    mpc_t mpc{};  // sized once for the instance's plans (MpcKnotsOnWire)
     forces_t forces{};
     Mode mode = Mode::kRunning;
     const char* reason = nullptr;

@@ -54,7 +54,7 @@ Receiver::Receiver(Bus& input, Bus* output_listener, Bus& replies, Runtime& runt
     for (const InstanceModel& m : model_.instances) {
       for (const std::string* ch :
            {&m.channels.state, &m.channels.reply, &m.channels.telemetry, &m.channels.forces, &m.channels.task,
-            &m.channels.torque_out}) {
+            &m.channels.mpc, &m.channels.torque_out}) {
         if (!ch->empty()) outputs.push_back(*ch);
       }
     }

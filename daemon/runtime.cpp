@@ -1,5 +1,6 @@
 #include "daemon/runtime.hpp"
 
+#include "protocol/wire.hpp"
 #include "sim/health.hpp"
 #include "sim/work_bound.hpp"
 
@@ -34,6 +35,35 @@ MpcPolicy PlanPrototype(Instance& inst) {
   return {};
 }
 
+// The N of an instance's mpc controller; 0 when it has none.
+int PlanHorizon(Instance& inst) {
+  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
+    if (const MpcController* c = inst.mpc_controller(k)) return c->ddp_model()->horizon();
+  }
+  return 0;
+}
+
+// (plan) => record: its figures and knots (no allocation: the record is sized for the plan).
+void RecordPlan(const MpcPolicy& plan, PlanRecord& r) {
+  r.taken = true;
+  r.sequence = plan.sequence;
+  r.start = plan.start;
+  r.dt = plan.dt;
+  r.solve_time = plan.solve_time;
+  r.cost_before = plan.cost_before;
+  r.cost = plan.cost;
+  r.horizon = plan.horizon;
+  r.iterations = plan.iterations;
+  r.status = plan.status;
+  r.followed = IsUsable(plan.status);
+  const auto knots = static_cast<std::int32_t>(r.knot_t.size());
+  for (std::int32_t j = 0; j < knots; ++j) {
+    const std::int32_t k = MpcKnotOnWire(j, knots, plan.horizon);
+    r.knot_t[j] = plan.start + k * plan.dt;
+    r.knot_x.col(j) = plan.x.col(k);
+  }
+}
+
 CommandMessage CommandPrototype(int n) {
   CommandMessage c;
   c.gains = {VectorXd::Zero(n), VectorXd::Zero(n)};
@@ -60,14 +90,18 @@ InstanceChannels::InstanceChannels(int n, std::size_t command_capacity, const Mp
       mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0)),
       mpc_plans(plan) {}
 
-InstanceRecord::InstanceRecord(int n)
+InstanceRecord::InstanceRecord(int n, int plan_horizon)
     : q(VectorXd::Zero(n)),
       qd(VectorXd::Zero(n)),
       qdd(VectorXd::Zero(n)),
       tau(VectorXd::Zero(n)),
       q_des(VectorXd::Zero(n)),
       qd_des(VectorXd::Zero(n)),
-      forces(n) {}
+      forces(n) {
+  const std::int32_t knots = MpcKnotsOnWire(2 * n, plan_horizon);
+  plan.knot_t = VectorXd::Zero(knots);
+  plan.knot_x = MatrixXd::Zero(2 * n, knots);
+}
 
 // The tick's data for one instance: its Instance, its mailboxes, its mode
 // and the timers and state the tick keeps between ticks. Everything fixed
@@ -151,7 +185,7 @@ Mode Runtime::mode(std::size_t i) const { return slots_[i]->mode.mode; }
 
 TickRecord Runtime::MakeRecord() const {
   TickRecord r;
-  for (const auto& s : slots_) r.instances.emplace_back(s->m.num_dofs);
+  for (const auto& s : slots_) r.instances.emplace_back(s->m.num_dofs, PlanHorizon(s->instance));
   return r;
 }
 
@@ -165,13 +199,14 @@ void Runtime::Tick(Nanoseconds now, TickRecord& record) {
     r.commands_accepted = r.commands_rejected = 0;
     r.command_error = nullptr;
     r.num_verdicts = 0;
+    r.plan.taken = false;
     TakeUrgent(s, now, r);
     TakeCommands(s, now, r);
     if (s.m.external_plant()) TakeMeasured(s, now);
     TakeSetpoint(s, now);
     TakePose(s, now);
     TakeTorque(s, now);
-    TakePlan(s, now);
+    TakePlan(s, now, r.plan);
     if (s.m.external_plant()) KeepPlantTime(s, now);
     ControlAndIntegrate(s);
     CheckHealth(s, r);
@@ -512,12 +547,14 @@ void Runtime::TakeTorque(Slot& s, Nanoseconds now) {
 // whose solve failed is not, and hands the instance to the fallback with its
 // status; so does the followed plan once its horizon has run out. A plan made
 // before a reset or a switch (it starts after the instance's time) is dropped.
-void Runtime::TakePlan(Slot& s, Nanoseconds now) {
+// A plan taken, followed or not, goes into the record (mpc_t).
+void Runtime::TakePlan(Slot& s, Nanoseconds now, PlanRecord& record) {
   const MpcPolicy* plan = s.channels.mpc_plans.Take();  // taken even when unused, so an old one never applies later
   MpcController* c = s.instance.mpc_controller(s.instance.active_controller());
   if (c == nullptr) return;
   const double t = s.instance.t();
   if (plan != nullptr && plan->sequence > 0 && plan->start <= t + 0.5 * period()) {
+    RecordPlan(*plan, record);
     if (!IsUsable(plan->status)) {
       On(s, ModeEvent::kPlanLapsed, now, nullptr, PlanFailure(plan->status));
       return;

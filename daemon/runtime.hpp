@@ -186,9 +186,24 @@ struct Verdict {
 inline constexpr std::size_t kCommandQueueCapacity = 32;
 inline constexpr std::size_t kMaxVerdictsPerTick = kCommandQueueCapacity + kNumUrgent;
 
+// A plan an mpc instance's tick took from its optimiser (mpc_t on <NAME>_MPC):
+// its figures and a few knots of its x̄, evenly spaced (protocol/wire.hpp's
+// MpcKnotsOnWire, MpcKnotOnWire). Sized when the record is made: a copy, no allocation.
+struct PlanRecord {
+  bool taken = false;  // a plan was taken this tick (followed or not)
+  std::int64_t sequence = 0;
+  double start = 0.0, dt = 0.0, solve_time = 0.0, cost_before = 0.0, cost = 0.0;
+  int horizon = 0, iterations = 0;
+  DdpStatus status = DdpStatus::kMaxIterations;
+  bool followed = false;  // usable: the tick follows it; else the instance fell back with its status
+  VectorXd knot_t;        // (knots) s
+  MatrixXd knot_x;        // (2n x knots) x̄ at those knots
+};
+
 // One instance at one tick, as the publisher sends it.
 struct InstanceRecord {
-  explicit InstanceRecord(int n = 0);
+  // `plan_horizon`: the N of the instance's mpc controller (0: none).
+  explicit InstanceRecord(int n = 0, int plan_horizon = 0);
   double t = 0.0;
   VectorXd q, qd, qdd, tau, q_des, qd_des;
   double kinetic_energy = 0.0, potential_energy = 0.0;
@@ -212,6 +227,8 @@ struct InstanceRecord {
   // answers the measured state of tick state_tick).
   bool publish_torque = false;
   std::int64_t state_tick = -1;
+  // An mpc controller's plan taken this tick (plan.taken).
+  PlanRecord plan;
 
   // Telemetry (telemetry_t), when `telemetry`. The balance is the instance's
   // (zero for an external plant); work is this tick's, zero when nothing
@@ -296,7 +313,7 @@ class Runtime {
   void TakeSetpoint(Slot& s, Nanoseconds now);
   void TakePose(Slot& s, Nanoseconds now);
   void TakeTorque(Slot& s, Nanoseconds now);
-  void TakePlan(Slot& s, Nanoseconds now);
+  void TakePlan(Slot& s, Nanoseconds now, PlanRecord& record);
   void OfferState(Slot& s);
   void ControlAndIntegrate(Slot& s);
   void CheckHealth(Slot& s, InstanceRecord& r);

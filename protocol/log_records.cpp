@@ -2,6 +2,7 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
@@ -348,6 +349,36 @@ class TaskStateDecoder final : public MessageDecoder<task_state_t> {
   }
 };
 
+// An mpc_t: its scalars, then its knots' times (knot_t0 ..) and states (knot0_x_0 .. : knot 0's q then qd, ...).
+// The knots' shape (num_knots, num_states) is fixed by the channel's first plan; another shape is skipped.
+class MpcDecoder final : public MessageDecoder<mpc_t> {
+ public:
+  bool Write(const mpc_t& m, std::int64_t log_utime, LogRow& out) override {
+    if (n_ < 0) {
+      n_ = m.num_states;
+      knots_ = m.num_knots;
+      Fields fields;
+      fields.Int("utime").Id("run_id").Int("tick").Real("t").Text("controller").Int("plan").Real("start").Real("age");
+      fields.Real("solve_time").Int("iterations").Real("cost_before").Real("cost").Text("status").Int("followed");
+      fields.Real("dt").Int("horizon").Int("num_states").Int("num_knots").Reals("knot_t", knots_);
+      fields_ = fields.Take();
+      for (int k = 0; k < knots_; ++k) {
+        fields_.push_back({"knot" + std::to_string(k) + "_x", LogFieldKind::kReal, n_, "_"});
+      }
+    }
+    if (m.num_states != n_ || m.num_knots != knots_) return false;
+    Row row(out, log_utime);
+    row.Int(m.utime).Int(m.run_id).Int(m.tick).Real(m.t).Text(Escape(m.controller)).Int(m.plan).Real(m.start);
+    row.Real(m.age).Real(m.solve_time).Int(m.iterations).Real(m.cost_before).Real(m.cost).Text(Escape(m.status));
+    row.Int(m.followed ? 1 : 0).Real(m.dt).Int(m.horizon).Int(m.num_states).Int(m.num_knots).Reals(m.knot_t);
+    for (const std::vector<double>& x : m.knot_x) row.Reals(x);
+    return true;
+  }
+
+ private:
+  int knots_ = 0;
+};
+
 // A forces_t of lagrange before the constraint row and the contacts (kForcesV1Fingerprint), read into
 // today's: constraint_on false and its row zeros (not computed then), no contacts. Its check has passed.
 forces_t ForcesFromV1(const std::uint8_t* p) {
@@ -487,6 +518,7 @@ std::unique_ptr<Decoder> DecoderFor(MessageType type) {
     case MessageType::kForces: return std::make_unique<ForcesDecoder>();
     case MessageType::kPoseSetpoint: return std::make_unique<PoseSetpointDecoder>();
     case MessageType::kTaskState: return std::make_unique<TaskStateDecoder>();
+    case MessageType::kMpc: return std::make_unique<MpcDecoder>();
     case MessageType::kUnknown: break;
   }
   return nullptr;

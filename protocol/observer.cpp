@@ -10,6 +10,7 @@ void PinIn(ObservedInstance& seen, std::int64_t run_id) {
   seen.states.Pin(run_id);
   seen.telemetry.Pin(run_id);
   seen.tasks.Pin(run_id);
+  seen.plans.Pin(run_id);
 }
 
 }  // namespace
@@ -40,6 +41,10 @@ bool BusObserver::Follow(const std::string& name) {
                                      if (hooks_.on_telemetry) hooks_.on_telemetry(*key, m);
                                      seen->telemetry.Add(std::move(m), std::chrono::steady_clock::now());
                                    });
+    SubscribeMessages<mpc_t>(bus_, InstanceChannel(prefix_, name, kMpcSuffix), [this, seen, key](mpc_t&& m) {
+      if (hooks_.on_mpc) hooks_.on_mpc(*key, m);
+      seen->plans.Add(std::move(m), std::chrono::steady_clock::now());
+    });
   }
   SubscribeMessages<task_state_t>(bus_, InstanceChannel(prefix_, name, kTaskSuffix), [seen](task_state_t&& m) {
     seen->tasks.Add(std::move(m), std::chrono::steady_clock::now());

@@ -2,7 +2,7 @@
 // What one lagranged's channels say, for a client that listens (lagrangectl
 // watch, the view, DaemonLink in protocol/client.hpp): its statuses by run id,
 // and the instances they name (or that were asked for by name), each with its
-// latest state, telemetry and task state per run id. Several runs may publish
+// latest state, telemetry, task state and mpc plan per run id. Several runs may publish
 // one prefix (two daemons started on one bus): they are kept apart by run id,
 // never mixed. Everything is bounded: runs per channel (the least recently
 // heard forgotten, but never a run a client pinned), instances followed, and
@@ -11,6 +11,7 @@
 // (protocol/receive.hpp). It subscribes on the thread that handles the bus,
 // never from inside a handler (Discover after Handle).
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
@@ -109,10 +110,11 @@ struct ObserverLimits {
 
 // One instance as the bus last showed it, per run.
 struct ObservedInstance {
-  explicit ObservedInstance(std::size_t runs) : states(runs), telemetry(runs), tasks(runs) {}
+  explicit ObservedInstance(std::size_t runs) : states(runs), telemetry(runs), tasks(runs), plans(runs) {}
   LatestByRun<state_t> states;
   LatestByRun<telemetry_t> telemetry;
   LatestByRun<task_state_t> tasks;
+  LatestByRun<mpc_t> plans;  // an mpc controller's latest plan (<NAME>_MPC), with the telemetry (limits.telemetry)
 };
 
 // Called for each message received, before it is kept (the instance still shows the previous one).
@@ -121,6 +123,7 @@ struct ObserverHooks {
   std::function<void(const std::string& instance, const state_t&)> on_state{};
   std::function<void(const std::string& instance, const telemetry_t&)> on_telemetry{};
   std::function<void(const status_t&)> on_status{};
+  std::function<void(const std::string& instance, const mpc_t&)> on_mpc{};
 };
 
 class BusObserver {
@@ -131,12 +134,12 @@ class BusObserver {
   BusObserver(const BusObserver&) = delete;
   BusObserver& operator=(const BusObserver&) = delete;
 
-  // Follows `name`'s state, telemetry and task channels (once; within limits.instances). False when refused.
+  // Follows `name`'s state, telemetry, task and mpc channels (once; within limits.instances). False when refused.
   bool Follow(const std::string& name);
   // Follows the instances the kept statuses name (limits.discover), in the order they name them.
   void Discover();
   // Never forgets run `run_id` on any channel (its statuses; every followed
-  // instance's state, telemetry and task, followed now or later): a client
+  // instance's state, telemetry, task and plans, followed now or later): a client
   // that chose a run keeps it whatever a flood of forged run ids does. At most
   // limits.runs runs: false for one more (nothing changes).
   bool Pin(std::int64_t run_id);

@@ -41,6 +41,7 @@ class telemetry_t;
 class forces_t;
 class pose_setpoint_t;
 class task_state_t;
+class mpc_t;
 
 // Why a message was dropped; kNone when it was decoded.
 enum class Drop : std::uint8_t {
@@ -93,6 +94,8 @@ template <>
 inline constexpr PacketCheck kCheckOf<pose_setpoint_t> = &CheckPoseSetpointPacket;
 template <>
 inline constexpr PacketCheck kCheckOf<task_state_t> = &CheckTaskStatePacket;
+template <>
+inline constexpr PacketCheck kCheckOf<mpc_t> = &CheckMpcPacket;
 
 // A wire check's verdict as a Drop.
 Drop DropOf(WireCheck check);

@@ -2,6 +2,7 @@
 
 #include <lagrange/command_t.hpp>
 #include <lagrange/forces_t.hpp>
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
@@ -10,6 +11,8 @@
 #include <lagrange/task_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
+
+#include <algorithm>
 
 #include "base/vocabulary.hpp"
 #include "protocol/big_endian.hpp"
@@ -43,6 +46,7 @@ MessageType TypeOf(const void* data, std::size_t size) {
   if (hash == forces_t::getHash()) return MessageType::kForces;
   if (hash == pose_setpoint_t::getHash()) return MessageType::kPoseSetpoint;
   if (hash == task_state_t::getHash()) return MessageType::kTaskState;
+  if (hash == mpc_t::getHash()) return MessageType::kMpc;
   return MessageType::kUnknown;
 }
 
@@ -58,6 +62,7 @@ const char* ToString(MessageType type) {
     case MessageType::kForces: return "forces_t";
     case MessageType::kPoseSetpoint: return "pose_setpoint_t";
     case MessageType::kTaskState: return "task_state_t";
+    case MessageType::kMpc: return "mpc_t";
     case MessageType::kUnknown: break;
   }
   return "?";
@@ -185,6 +190,10 @@ class PacketWalker {
     Skip(static_cast<std::size_t>(len));
     if (result_ == WireCheck::kOk && p_[at_ - 1] != 0) result_ = WireCheck::kBadLength;
   }
+  // A length that breaks a rule between fields (their product, their parity): kBadLength, unless already failed.
+  void Refuse() {
+    if (result_ == WireCheck::kOk) result_ = WireCheck::kBadLength;
+  }
   WireCheck Finish() const {
     if (result_ != WireCheck::kOk) return result_;
     return at_ == size_ ? WireCheck::kOk : WireCheck::kSizeMismatch;
@@ -278,6 +287,33 @@ WireCheck CheckTaskStatePacket(const void* data, std::size_t size) {
   w.String(kMaxString);          // frame
   w.String(kMaxString);          // controller
   w.Skip((3 + 4 + 3 + 4 + 6 + 6) * kDouble);  // position .. twist
+  return w.Finish();
+}
+
+static_assert(kMaxMpcKnots == mpc_t::MAX_KNOTS);
+
+std::int32_t MpcKnotsOnWire(std::int32_t num_states, std::int32_t horizon) {
+  if (horizon <= 0 || num_states < 0) return 0;
+  return std::min({kMaxMpcKnots, horizon + 1, kMaxMpcKnotValues / (num_states + 1)});
+}
+
+std::int32_t MpcKnotOnWire(std::int32_t j, std::int32_t knots, std::int32_t horizon) {
+  if (knots <= 1) return 0;
+  return static_cast<std::int32_t>((static_cast<std::int64_t>(j) * horizon * 2 + (knots - 1)) / (2 * (knots - 1)));
+}
+
+WireCheck CheckMpcPacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, mpc_t::getHash());
+  w.Skip(3 * kInt64 + kDouble);                        // utime, run_id, tick, t
+  w.String(kMaxString);                                 // controller
+  w.Skip(kInt64 + 3 * kDouble + kInt32 + 2 * kDouble);  // plan, start, age, solve_time, iterations, cost_before,
+                                                        // cost
+  w.String(kMaxString);                                 // status
+  w.Skip(kInt8 + kDouble + kInt32);                     // followed, dt, horizon
+  const std::int32_t states = w.Length(2 * kMaxDofs);
+  const std::int32_t knots = w.Length(mpc_t::MAX_KNOTS);
+  if (states % 2 != 0 || knots * (states + 1) > kMaxMpcKnotValues) w.Refuse();  // q and qd; one datagram
+  w.Skip(kDouble * static_cast<std::size_t>(knots) * static_cast<std::size_t>(states + 1));  // knot_t, knot_x
   return w.Finish();
 }
 

@@ -30,12 +30,13 @@ enum class MessageType : std::uint8_t {
   kForces,
   kPoseSetpoint,
   kTaskState,
+  kMpc,
 };
 // A packet's type by its fingerprint alone: the layout is the Check*Packet functions' to check.
 MessageType TypeOf(const void* data, std::size_t size);
 // The LCM type's name ("state_t", ...); "?" for kUnknown.
 const char* ToString(MessageType type);
-// The run id of a state_t, status_t, reply_t, torque_t or task_state_t packet (each begins:
+// The run id of a state_t, status_t, reply_t, torque_t, task_state_t or mpc_t packet (each begins:
 // fingerprint, utime, run_id); nullopt for another type or a short packet.
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
 const char* ToString(WireCheck check);
@@ -75,5 +76,17 @@ WireCheck CheckReplyPacket(const void* data, std::size_t size);
 WireCheck CheckPoseSetpointPacket(const void* data, std::size_t size);
 // task_state_t: fingerprint, utime, run_id, tick, t, frame and controller (strings), 26 doubles.
 WireCheck CheckTaskStatePacket(const void* data, std::size_t size);
+// mpc_t: fingerprint, utime, run_id, tick, t, controller (string), plan, start, age, solve_time, iterations,
+// cost_before, cost, status (string), followed, dt, horizon, num_states (even, <= 2 kMaxDofs), num_knots
+// (<= mpc_t::MAX_KNOTS, and num_knots × (num_states + 1) <= kMaxMpcKnotValues), num_knots times,
+// num_knots × num_states doubles.
+inline constexpr std::int32_t kMaxMpcKnots = 16;         // mpc_t::MAX_KNOTS
+inline constexpr std::int32_t kMaxMpcKnotValues = 1536;  // 12 KiB of knots: the message stays one datagram
+WireCheck CheckMpcPacket(const void* data, std::size_t size);
+// The knots an mpc_t carries of a plan of `horizon` knots (N + 1 states) of `num_states` each:
+// min(kMaxMpcKnots, N + 1, kMaxMpcKnotValues / (num_states + 1)); 0 for no plan (horizon 0).
+std::int32_t MpcKnotsOnWire(std::int32_t num_states, std::int32_t horizon);
+// Knot j of `knots` evenly spaced over a plan's 0 .. horizon: round(j N / (knots − 1)) (0 for one knot).
+std::int32_t MpcKnotOnWire(std::int32_t j, std::int32_t knots, std::int32_t horizon);
 
 }  // namespace lagrange

@@ -31,6 +31,7 @@ struct PlotInputs {
   std::string status;  // the daemon's status CSV: joint names, integrator and method switches
   std::string joints;  // a simulate CSV's joint names (JointNamesPath)
   std::string task;    // its task-space frame: simulate's TaskCsvPath or log2csv's <NAME>_TASK.csv
+  std::string mpc;     // an mpc controller's plans: log2csv's <NAME>_MPC.csv
 };
 
 // The task-space controllers' names, comma-separated: a state row under one follows a task target, not q_des.
@@ -44,7 +45,7 @@ std::string TaskSpaceControllerNames() {
   return names;
 }
 
-// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK TASK_SPACE; returns (status, its
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK TASK_SPACE MPC; returns (status, its
 // stdout and stderr together).
 std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
@@ -57,7 +58,7 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.stderr_fd = out_pipe[1];
   const pid_t pid = Spawn(
       {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints, in.task,
-       TaskSpaceControllerNames()},
+       TaskSpaceControllerNames(), in.mpc},
       options);
   close(out_pipe[1]);
   if (pid < 0) {
@@ -90,7 +91,7 @@ std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
   static const std::regex kExtra(
       R"(^(joints: [^\x00-\x1f\x7f]+|tracking: [^\x00-\x1f\x7f]+|task: \d+ rows of [^\x00-\x1f\x7f]+|)"
-      R"(telemetry: \d+ rows|)"
+      R"(telemetry: \d+ rows|mpc: \d+ plans \(\d+ followed\), \d+ drawn|)"
       R"(forces: \d+ rows of [a-z_, ]*)$)");
   std::string found, extra;
   std::istringstream lines(output);
@@ -132,7 +133,7 @@ class PlotCommand final : public Command {
             "plot",
             "Plot q against q_des, torques, energy and tracking error (PNG), and the "
             "instance's end effector (a task-space controller's frame), energy residual, cost per "
-            "tick and forces when recorded; "
+            "tick, forces and an mpc controller's predicted paths when recorded; "
             "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
@@ -176,7 +177,7 @@ class PlotCommand final : public Command {
 
  private:
   // Decodes the log's state channel (the first *_STATE, or --channel) and
-  // that instance's task state, telemetry and forces into `scratch`; returns the state channel.
+  // that instance's task state, telemetry, forces and plans into `scratch`; returns the state channel.
   std::string FromLog(const fs::path& scratch, PlotInputs& in) const {
     const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
     const auto state =
@@ -188,12 +189,14 @@ class PlotCommand final : public Command {
     if (base.empty()) return state->first;
     const LogToCsvResult extra =
         LogToCsv(input_, scratch.string(),
-                 RegexQuote(base) + "(" + kTaskSuffix + "|" + kTelemetrySuffix + "|" + kForcesSuffix + ")");
+                 RegexQuote(base) + "(" + kTaskSuffix + "|" + kTelemetrySuffix + "|" + kForcesSuffix + "|" +
+                     kMpcSuffix + ")");
     for (const auto& [channel, csv] : extra.written) {
       if (csv.rows == 0) continue;
       if (channel == base + kTelemetrySuffix && csv.type == "telemetry_t") in.telemetry = csv.path;
       if (channel == base + kForcesSuffix && csv.type == "forces_t") in.forces = csv.path;
       if (channel == base + kTaskSuffix && csv.type == "task_state_t") in.task = csv.path;
+      if (channel == base + kMpcSuffix && csv.type == "mpc_t") in.mpc = csv.path;
     }
     // The status of the daemon that published it: the longest prefix of the base.
     const LogToCsvResult status = LogToCsv(input_, scratch.string(), std::string(".*") + kStatusChannel);
@@ -210,8 +213,8 @@ class PlotCommand final : public Command {
   }
 
   // For a simulate CSV: its joint names (JointNamesPath) and task CSV (TaskCsvPath), where they exist.
-  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TASK.csv, DIR/NAME_TELEMETRY.csv and DIR/NAME_FORCES.csv,
-  // where they exist.
+  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TASK.csv, DIR/NAME_TELEMETRY.csv, DIR/NAME_FORCES.csv and
+  // DIR/NAME_MPC.csv, where they exist.
   static void Siblings(PlotInputs& in) {
     if (const std::string joints = JointNamesPath(in.state); fs::exists(joints)) in.joints = joints;
     if (const std::string task = TaskCsvPath(in.state); fs::exists(task)) in.task = task;
@@ -222,6 +225,7 @@ class PlotCommand final : public Command {
     const fs::path forces = state.parent_path() / (base + kForcesSuffix + ".csv");
     if (fs::exists(telemetry)) in.telemetry = telemetry.string();
     if (fs::exists(forces)) in.forces = forces.string();
+    if (const fs::path mpc = state.parent_path() / (base + kMpcSuffix + ".csv"); fs::exists(mpc)) in.mpc = mpc.string();
     if (const fs::path task = state.parent_path() / (base + kTaskSuffix + ".csv"); fs::exists(task)) {
       in.task = task.string();
     }

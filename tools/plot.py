@@ -1,7 +1,7 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE]]]]]`
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE [MPC_CSV]]]]]]`
 (any may be ""; TASK_SPACE: the task-space controllers' names, comma-separated): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
 named as the daemon names them, and a dotted vertical line marks each switch
 of the integrator or the dynamics method; with a joints CSV (simulate's
@@ -20,7 +20,10 @@ says so when neither was. With a telemetry CSV
 (log2csv of <NAME>_TELEMETRY) two more panels, the energy residual ε(t)
 against ± the quadrature bound and the cost per tick (evaluations, compute
 µs); with a forces CSV (<NAME>_FORCES) one panel per joint, each effect that
-was on as a line. A reset or restart (the simulated
+was on as a line; with an mpc CSV (log2csv of <NAME>_MPC: an mpc controller's
+plans) one panel of each joint's actual path (solid) beside the paths the
+optimiser predicted (dotted, the knots each plan carries, up to 12 plans
+evenly chosen, drawn up to the last state row). A reset or restart (the simulated
 time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
@@ -29,7 +32,8 @@ its tracking panels measured unless every row followed its joint setpoint
 ("tracking: joints to q_des on N of M rows, max |q_des - q| X", "tracking:
 FRAME to its task target on N rows, max |p_des - p| X mm, rotation Y mrad",
 or "tracking: none (...)"), "task: N rows of FRAME",
-"telemetry: N rows" and "forces: N rows of EFFECT, .." for what it drew."""
+"telemetry: N rows", "forces: N rows of EFFECT, .." and "mpc: N plans (F followed), K drawn"
+for what it drew."""
 import bisect
 import csv
 import math
@@ -240,6 +244,40 @@ def forces_panels(axes, path, joint_names):
     return "forces: %d rows of %s" % (len(columns["t"]), ", ".join(drawn))
 
 
+MPC_PLANS_DRAWN = 12  # predicted paths in the mpc panel: more would hide the actual one
+
+
+def mpc_panel(axis, path, draw, state_columns, state_path, q, joint, colors):
+    """Each joint's actual path (solid) and the paths the optimiser's plans predicted for it (dotted,
+    their knots marked), for up to MPC_PLANS_DRAWN followed plans evenly chosen; the summary line."""
+    header, columns = load(path)
+    knots = indexed(header, r"knot_t(\d+)")
+    missing = [n for n in ("t", "plan", "followed", "num_states") if n not in columns]
+    if missing or not knots:
+        fail("%s lacks the columns %s (a *_MPC.csv from log2csv)" % (path, ", ".join(missing) or "knot_t0.."))
+    states = int(numbers(columns, "num_states", path)[0])
+    if states != 2 * len(q):
+        fail("%s plans %d states, the state CSV has %d joints" % (path, states, len(q)))
+    for i, name in enumerate(q):
+        draw(axis, joint[i], numbers(state_columns, name, state_path), color=colors[i % len(colors)])
+    t_end = max(numbers(state_columns, "t", state_path))
+    followed = [k for k, f in enumerate(numbers(columns, "followed", path)) if f]
+    count = min(len(followed), MPC_PLANS_DRAWN)
+    chosen = [followed[round(j * (len(followed) - 1) / max(count - 1, 1))] for j in range(count)]
+    times = [numbers(columns, name, path) for name in knots]
+    for i in range(len(q)):
+        values = [numbers(columns, "knot%d_x_%d" % (j, i), path) for j in range(len(knots))]
+        for c, row in enumerate(chosen):
+            points = [(times[j][row], values[j][row]) for j in range(len(knots)) if times[j][row] <= t_end]
+            axis.plot([p[0] for p in points], [p[1] for p in points], linestyle=":", marker=".", markersize=3,
+                      linewidth=1.0, color=colors[i % len(colors)], alpha=0.8,
+                      label=joint[i] + " predicted" if c == 0 else None)
+    axis.set_ylabel("q, planned q (rad or m)")
+    axis.set_title("mpc: actual path (solid) and the optimiser's predicted paths (dotted, %d of %d plans)"
+                   % (count, len(columns["t"])))
+    return "mpc: %d plans (%d followed), %d drawn" % (len(columns["t"]), len(followed), count)
+
+
 LEGEND_ROWS = 8  # entries in one column of a legend: eight fit beside a panel
 
 
@@ -350,14 +388,16 @@ def joint_tracking_panel(axis, draw, columns, path, q, qdes, joint, colors, foll
 
 
 def main():
-    if len(sys.argv) not in (4, 6, 7, 8, 9, 10):
-        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE]]]]]")
+    if len(sys.argv) not in (4, 6, 7, 8, 9, 10, 11):
+        fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE "
+             "[MPC_CSV]]]]]]")
     path, png, title = sys.argv[1:4]
     telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
     status = sys.argv[6] if len(sys.argv) >= 7 else ""
     joints_csv = sys.argv[7] if len(sys.argv) >= 8 else ""
     task = sys.argv[8] if len(sys.argv) >= 9 else ""
     task_space_names = set(filter(None, sys.argv[9].split(","))) if len(sys.argv) >= 10 else set()
+    mpc = sys.argv[10] if len(sys.argv) >= 11 else ""
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_des(\d+)")
@@ -388,7 +428,8 @@ def main():
     joint_tracking = any(followed) or not task
     task_at = 3 + (1 if joint_tracking else 0)
     telemetry_at = task_at + (2 if task else 0)
-    panels = telemetry_at + (2 if telemetry else 0) + force_joints
+    mpc_at = telemetry_at + (2 if telemetry else 0)
+    panels = mpc_at + (1 if mpc else 0) + force_joints
     # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
     fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(12.5, 2.75 * panels), squeeze=False)
     axes = [row[0] for row in axes]
@@ -431,6 +472,8 @@ def main():
     if telemetry:
         line, twins[axes[telemetry_at + 1]] = telemetry_panels(axes[telemetry_at:telemetry_at + 2], telemetry)
         extra.append(line)
+    if mpc:
+        extra.append(mpc_panel(axes[mpc_at], mpc, draw, columns, path, q, joint, colors))
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))
     axes[-1].set_xlabel("t (s)")

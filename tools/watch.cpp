@@ -3,12 +3,16 @@
 // message is older than kStale is marked STALE, and every string from the bus
 // is escaped. Per instance, the status's integrator, method and effects, and
 // from <NAME>_TELEMETRY the latest energy residual ε and the cost per tick
-// (evaluations, compute µs) averaged over the telemetry since the previous frame.
+// (evaluations, compute µs) averaged over the telemetry since the previous frame;
+// from <NAME>_MPC (an mpc controller's plans) a line for its latest plan: its
+// number, age when taken, solve time, iterations, cost before and after, and
+// status (converged or why not; followed or fallen back).
 
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
 #include <cmath>
@@ -249,6 +253,7 @@ class WatchCommand final : public Command {
         << F(st.potential_energy) << " J   E " << F(st.kinetic_energy + st.potential_energy) << " J   run "
         << RunIdText(st.run_id) << "\n";
       SettingsAndTelemetryLines(f, name, st.run_id, view.telemetry.Find(st.run_id), now);
+      if (const auto* plan = view.plans.Find(st.run_id)) PlanLine(f, plan->message, Age(plan->received, now));
       // Joint names from this run's status (URDF names, or q1.. for planar plants), cut to one column.
       const std::vector<std::string> joints = JointNamesOf(name, st.run_id, st.num_dofs);
       int width = 4;
@@ -294,6 +299,18 @@ class WatchCommand final : public Command {
     f << line;
     const double age = Age(telemetry->received, now);
     if (age > kStale) f << "   STALE (no telemetry for " << F(age, 1) << " s)";
+    f << "\n";
+  }
+
+  // An mpc controller's latest plan (mpc_t): what the optimiser did and whether the tick follows it.
+  static void PlanLine(std::ostream& f, const mpc_t& m, double received_age) {
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "  mpc plan %lld   age %.1f ms   solve %.2f ms   iterations %d   cost %.4g -> %.4g   ",
+                  static_cast<long long>(m.plan), m.age * 1e3, m.solve_time * 1e3, m.iterations, m.cost_before,
+                  m.cost);
+    f << line << Escape(m.status, 32) << (m.followed ? " (followed)" : " (not followed: the fallback holds)");
+    if (received_age > kStale) f << "   STALE (no plan for " << F(received_age, 1) << " s)";
     f << "\n";
   }
 

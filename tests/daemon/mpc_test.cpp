@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 #include <thread>
@@ -161,6 +162,54 @@ TEST_F(RuntimeMpc, TheTickAllocatesNothingWithMpcActive) {
   }
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(Cartpole().mode, Mode::kRunning);
+}
+
+// Each plan the tick takes is in that tick's record once (the publisher's
+// mpc_t): its figures as solved, and 16 knots of x̄ from the state it was
+// planned from (the state a tick ended with) to its horizon's end. A failed
+// plan is recorded too, not followed, with its status.
+TEST_F(RuntimeMpc, TheRecordCarriesEachPlanTakenOnceWithKnotsFromTheStateItStartedFrom) {
+  std::map<double, VectorXd> ended;  // the state each tick ended with, by the instance's time
+  std::vector<std::int64_t> taken;
+  for (int k = 0; k < 5 * kReplanTicks; ++k) {
+    Tick();
+    const InstanceRecord& r = Cartpole();
+    VectorXd x(4);
+    x << r.q, r.qd;
+    ended[r.t] = x;
+    if (r.plan.taken) {
+      const PlanRecord& p = r.plan;
+      taken.push_back(p.sequence);
+      EXPECT_TRUE(p.followed);
+      EXPECT_EQ(p.horizon, 100);
+      EXPECT_GE(p.iterations, 1);
+      EXPECT_LE(p.iterations, 2);
+      EXPECT_LE(p.cost, p.cost_before) << "DDP never raises the cost";
+      EXPECT_GT(p.solve_time, 0.0) << "measured by the worker";
+      ASSERT_EQ(p.knot_t.size(), 16);
+      EXPECT_DOUBLE_EQ(p.knot_t[0], p.start);
+      EXPECT_NEAR(p.knot_t[15], p.start + 100 * p.dt, 1e-9);
+      const auto from = ended.find(p.start);
+      ASSERT_NE(from, ended.end()) << "planned from a state a tick ended with, t = " << p.start;
+      EXPECT_LT((p.knot_x.col(0) - from->second).norm(), 1e-12) << "x̄_0 is the state it started from";
+    }
+    workers[0]->PlanOnce();
+  }
+  ASSERT_GE(taken.size(), 4u);
+  for (std::size_t j = 1; j < taken.size(); ++j) EXPECT_GT(taken[j], taken[j - 1]) << "each plan once";
+  // A failed solve's plan: recorded, not followed.
+  MpcPolicy& failed = runtime.channels(0).mpc_plans.back();
+  failed = runtime.instance(0).mpc_controller(0)->policy();
+  failed.sequence += 1000;
+  failed.start = runtime.instance(0).t();
+  failed.status = DdpStatus::kDiverged;
+  runtime.channels(0).mpc_plans.Publish();
+  Tick();
+  EXPECT_TRUE(Cartpole().plan.taken);
+  EXPECT_FALSE(Cartpole().plan.followed);
+  EXPECT_EQ(Cartpole().plan.status, DdpStatus::kDiverged);
+  Tick();
+  EXPECT_FALSE(Cartpole().plan.taken) << "a plan is in one record only";
 }
 
 // A stalled optimiser: the last plan is followed to the end of its horizon

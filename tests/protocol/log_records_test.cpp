@@ -6,11 +6,13 @@
 
 #include "protocol/log_records.hpp"
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/torque_t.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -105,6 +107,60 @@ TEST_F(LogRecords, AStateIsARowOfItsFieldsWithArraysOneColumnPerJoint) {
   EXPECT_EQ(std::get<std::int64_t>(seen[0].row.values[3]), 7);             // tick
   EXPECT_EQ(std::get<double>(seen[0].row.values[7]), 7.5);                 // q1
   EXPECT_EQ(std::get<std::string>(seen[0].row.values[values - 2]), "pd");  // controller
+}
+
+// A cart-pole's plan of `knots` knots (4 states each), knot j's state all j.
+mpc_t Plan(int knots, std::int64_t sequence) {
+  mpc_t m{};
+  m.run_id = 0x1234;
+  m.controller = "mpc";
+  m.plan = sequence;
+  m.status = "converged";
+  m.followed = true;
+  m.num_states = 4;
+  m.num_knots = knots;
+  for (int j = 0; j < knots; ++j) {
+    m.knot_t.push_back(0.02 * j);
+    m.knot_x.emplace_back(4, static_cast<double>(j));
+  }
+  return m;
+}
+
+TEST_F(LogRecords, APlanIsARowWithItsKnotsTimesThenEachKnotsStateAndAnotherShapeOrALyingCountHasNoRow) {
+  Bytes log;
+  AddEvent(log, 0, 1, "CARTPOLE_MPC", Encode(Plan(3, 1)));
+  AddEvent(log, 1, 2, "CARTPOLE_MPC", Encode(Plan(2, 2)));  // another shape than the channel's first
+  Bytes lying = Encode(Plan(3, 3));
+  lying[lying.size() - 3 * 5 * 8 - 1] = 17;  // num_knots (its last byte) 17: over MAX_KNOTS
+  AddEvent(log, 2, 3, "CARTPOLE_MPC", lying);
+  AddEvent(log, 3, 4, "CARTPOLE_MPC", Encode(Plan(3, 4)));
+  const std::vector<Seen> seen = Read(log);
+  ASSERT_EQ(seen.size(), 4u);
+  EXPECT_EQ(seen[0].type, MessageType::kMpc);
+  ASSERT_TRUE(seen[0].has_row);
+  EXPECT_FALSE(seen[1].has_row);
+  EXPECT_FALSE(seen[2].has_row);
+  EXPECT_TRUE(seen[3].has_row);
+  const std::vector<LogField>& f = seen[0].fields;
+  std::vector<std::string> columns;
+  for (const LogField& field : f) {
+    if (field.width == 0) columns.push_back(field.name);
+    for (int i = 0; i < field.width; ++i) columns.push_back(LogColumnName(field, i));
+  }
+  ASSERT_EQ(columns.size(), seen[0].row.values.size());
+  const auto at = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(columns.begin(), columns.end(), name) - columns.begin());
+  };
+  for (const char* name : {"plan", "age", "solve_time", "iterations", "cost_before", "cost", "status", "followed",
+                           "knot_t2", "knot0_x_0", "knot2_x_3"}) {
+    EXPECT_LT(at(name), columns.size()) << name;
+  }
+  EXPECT_EQ(at("knot_t2") + 1, at("knot0_x_0")) << "the times, then the states knot by knot";
+  EXPECT_EQ(std::get<std::int64_t>(seen[3].row.values[at("plan")]), 4);
+  EXPECT_EQ(std::get<std::string>(seen[0].row.values[at("status")]), "converged");
+  EXPECT_EQ(std::get<double>(seen[0].row.values[at("knot_t2")]), 0.04);
+  EXPECT_EQ(std::get<double>(seen[0].row.values[at("knot2_x_3")]), 2.0);
+  EXPECT_EQ(std::get<double>(seen[0].row.values[at("knot1_x_0")]), 1.0);
 }
 
 TEST_F(LogRecords, AMessageOfAnotherNumDofsThanTheChannelsFirstHasNoRow) {

@@ -600,7 +600,7 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   ASSERT_EQ(list.exit_code, 0) << list.err;
   for (const char* type :
        {"state_t", "setpoint_t", "command_t", "status_t", "reply_t", "torque_t", "telemetry_t", "forces_t",
-        "pose_setpoint_t", "task_state_t"}) {
+        "pose_setpoint_t", "task_state_t", "mpc_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
     const auto javap = testing::RunProcess(

@@ -21,6 +21,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
@@ -44,6 +45,8 @@
 #include "plant/urdf.hpp"
 #include "sim/scene.hpp"
 #include "tests/support/lcm_testing.hpp"
+#include "tools/view/instance_json.hpp"
+#include "tools/view/view_model.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
 
@@ -418,7 +421,140 @@ TEST_F(ViewBrowser, LogShowsTheLoggedPoseAtTheChosenTime) {
   EXPECT_NE(dom.find("\\x1b[2J"), std::string::npos);
 }
 
+// A log written here: the swing-up's cart-pole under mpc, its state every millisecond (tick k at k ms,
+// x = 0.01 k), and after the state of 4 ms a plan (sequence 7) of two knots, to θ = 3.14 at 2 s.
+void WriteCartPolePlanLog(const fs::path& log) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;  // event i at (i + 1) ms
+  const auto add = [&](const std::string& channel, const auto& m) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    events.emplace_back(channel, bytes);
+  };
+  for (int k = 0; k <= 10; ++k) {
+    state_t s{};
+    s.run_id = 42;
+    s.tick = k;
+    s.t = 1e-3 * k;
+    s.num_dofs = 2;
+    s.q = {0.01 * k, 0.1};
+    s.qd = s.qdd = s.tau = s.q_des = s.qd_des = {0.0, 0.0};
+    s.controller = "mpc";
+    add("CARTPOLE_STATE", s);
+    if (k == 4) {  // logged at 5 ms, after the state of 4 ms
+      mpc_t plan{};
+      plan.run_id = 42;
+      plan.t = 0.004;
+      plan.controller = "mpc";
+      plan.plan = 7;
+      plan.status = "max-iterations";
+      plan.followed = true;
+      plan.num_states = 4;
+      plan.num_knots = 2;
+      plan.knot_t = {0.004, 2.004};
+      plan.knot_x = {{0.04, 0.1, 0, 0}, {0.0, 3.14, 0, 0}};
+      add("CARTPOLE_MPC", plan);
+    }
+  }
+  testing::WriteLcmLog(log.string(), events);
+}
+
+// The page draws a logged plan: each frame's path through its knots (the record the page keeps of what it drew).
+TEST_F(ViewBrowser, LogDrawsTheMpcPlanAsAPathPerFrame) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_page_" + std::to_string(getpid()) + ".lcm");
+  WriteCartPolePlanLog(log);
+  StartView({"--log", log.string(), "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"},
+            8931);
+  const std::string dom = DumpDomUntilDrawn("?t=0.0095&probe=1", "cartpole");
+  fs::remove(log);
+  const json drawn = Drawn(dom);
+  ASSERT_TRUE(drawn.contains("cartpole")) << drawn.dump();
+  ASSERT_TRUE(drawn["cartpole"].contains("plan")) << drawn.dump();
+  EXPECT_EQ(drawn["cartpole"]["plan"]["sequence"], 7);
+  EXPECT_EQ(drawn["cartpole"]["plan"]["paths"], model_["models"][0]["frames"].size()) << "a path per frame";
+}
+
 // ---- the server, without a browser ----
+
+// view --log: the plan logged on CARTPOLE_MPC is sent with the cart-pole's states logged after it, not before.
+TEST_F(ViewTest, ALoggedPlanIsSentWithTheStatesLoggedAfterItAndNotBefore) {
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_mpc_log_" + std::to_string(getpid()) + ".lcm");
+  WriteCartPolePlanLog(log);
+  StartView({"--log", log.string(), "--scene", std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml"},
+            8930);
+  httplib::Client client("127.0.0.1", 8930);
+  const auto frame = [&](const char* t) {
+    const auto r = client.Get((std::string("/api/log?t=") + t).c_str());
+    EXPECT_TRUE(r && r->status == 200);
+    const json j = r ? json::parse(r->body) : json::object();
+    return j.contains("instances") && !j["instances"].empty() ? j["instances"][0] : json::object();
+  };
+  const json before = frame("0.0045"), after = frame("0.0095");
+  fs::remove(log);
+  EXPECT_EQ(before.value("tick", -1), 4);
+  EXPECT_FALSE(before.contains("plan")) << before.dump();
+  ASSERT_TRUE(after.contains("plan")) << after.dump();
+  EXPECT_EQ(after["plan"]["sequence"], 7);
+  ASSERT_FALSE(after["plan"]["paths"].empty());
+  EXPECT_EQ(after["plan"]["paths"][0].size(), 2u);
+}
+
+// An mpc controller's plan (mpc_t) as the page is sent it: every frame's path through the plan's knots, by
+// the scene's kinematics, starting where the state puts the frames; sent only with a state of its run and
+// controller that follows it within its horizon, and never for knots that are not the model's.
+TEST_F(ViewTest, AnMpcPlanIsSentAsEachFramesPathThroughItsKnotsOnlyWithTheStateItBelongsTo) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/cartpole_mpc_swingup.yaml");
+  cli::view::ViewModels models;
+  const cli::view::ViewModelOptions options{{}, scene.instances[0].torque_limits};
+  models.push_back(std::make_unique<cli::view::ViewModel>("cartpole", scene.instances[0].plant, options));
+  state_t s{};
+  s.run_id = 9;
+  s.t = 0.05;
+  s.num_dofs = 2;
+  s.q = {0.1, 0.5};
+  for (auto* v : {&s.qd, &s.qdd, &s.tau, &s.q_des, &s.qd_des}) v->assign(2, 0.0);
+  s.controller = "mpc";
+  mpc_t plan{};
+  plan.run_id = 9;
+  plan.t = 0.04;
+  plan.controller = "mpc";
+  plan.plan = 3;
+  plan.status = "converged";
+  plan.followed = true;
+  plan.num_states = 4;
+  plan.num_knots = 3;
+  plan.knot_t = {0.04, 1.04, 2.04};
+  plan.knot_x = {{0.1, 0.5, 0, 0}, {0.2, 1.5, 0, 0}, {0.0, 3.1, 0, 0}};
+  const cli::view::ViewInstance instance{"", "cartpole", 0};
+  const json j = cli::view::InstanceJson(instance, models, s, 0.0, nullptr, &plan);
+  ASSERT_TRUE(j.contains("plan")) << j.dump();
+  EXPECT_EQ(j["plan"]["sequence"], 3);
+  EXPECT_EQ(j["plan"]["status"], "converged");
+  const json& paths = j["plan"]["paths"];
+  ASSERT_EQ(paths.size(), j["poses"].size()) << "a path per frame";
+  for (std::size_t f = 0; f < paths.size(); ++f) {
+    ASSERT_EQ(paths[f].size(), 3u);
+    const json end = models[0]->Poses(Eigen::Vector2d(0.0, 3.1));
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(paths[f][0][a].get<double>(), j["poses"][f][9 + a].get<double>(), 1e-12) << "starts at the state";
+      EXPECT_NEAR(paths[f][2][a].get<double>(), end[f][9 + a].get<double>(), 1e-12) << "ends at the last knot";
+    }
+  }
+  // Not the state's: another run, another controller, not followed, run out; knots not the model's.
+  for (int k = 0; k < 5; ++k) {
+    mpc_t other = plan;
+    if (k == 0) other.run_id = 8;
+    if (k == 1) other.controller = "lqr";
+    if (k == 2) other.followed = false;
+    if (k == 3) other.knot_t.back() = 0.045;
+    if (k == 4) other.num_states = 6;
+    EXPECT_FALSE(cli::view::InstanceJson(instance, models, s, 0.0, nullptr, &other).contains("plan")) << k;
+  }
+  mpc_t hostile = plan;
+  hostile.knot_x[1] = {std::nan(""), 0, 0, 0};
+  EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
+  hostile.knot_x[1] = {0, 0};
+  EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
+}
 
 TEST_F(ViewTest, RefusesAFileThatIsNotALog) {
   const fs::path bad = fs::temp_directory_path() / ("lagrange_view_notalog_" + std::to_string(getpid()));

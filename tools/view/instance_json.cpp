@@ -47,6 +47,31 @@ bool TaskIsCurrent(const state_t& s, const task_state_t& task) {
   return task.run_id == s.run_id && task.controller == s.controller && std::abs(task.t - s.t) <= kTaskCurrent;
 }
 
+bool PlanIsCurrent(const state_t& s, const mpc_t& plan) {
+  constexpr double kTick = 1e-3;  // s: a plan is taken in a tick, its state published in the same one
+  return plan.run_id == s.run_id && plan.controller == s.controller && plan.followed && plan.t <= s.t + kTick &&
+         plan.num_knots > 0 && plan.knot_t.size() == static_cast<std::size_t>(plan.num_knots) &&
+         s.t <= plan.knot_t.back();
+}
+
+json PlanJson(const ViewModel& model, const mpc_t& plan) {
+  const int n = model.num_dofs();
+  if (plan.num_states != 2 * n || plan.knot_x.size() != static_cast<std::size_t>(plan.num_knots)) return nullptr;
+  json paths = json::array();
+  for (int f = 0; f < model.kinematics().num_frames(); ++f) paths.push_back(json::array());
+  for (const std::vector<double>& x : plan.knot_x) {
+    if (x.size() != static_cast<std::size_t>(2 * n) || !AllFinite(x)) return nullptr;
+    const json poses = model.Poses(Eigen::Map<const VectorXd>(x.data(), n));  // q of the knot's (q, qd)
+    for (std::size_t f = 0; f < poses.size(); ++f) paths[f].push_back({poses[f][9], poses[f][10], poses[f][11]});
+  }
+  return {{"sequence", plan.plan},
+          {"status", Escape(plan.status, 32)},
+          {"followed", plan.followed},
+          {"age", plan.age},
+          {"t", Numbers(plan.knot_t)},
+          {"paths", std::move(paths)}};
+}
+
 bool FollowsJointSetpoint(const state_t& s) {
   const std::optional<ControllerType> type = ParseControllerType(s.controller);
   if (type && IsTaskSpace(*type)) return false;
@@ -54,7 +79,7 @@ bool FollowsJointSetpoint(const state_t& s) {
 }
 
 json InstanceJson(const ViewInstance& instance, const ViewModels& models, const state_t& s, double age,
-                  const task_state_t* task) {
+                  const task_state_t* task, const mpc_t* plan) {
   json j = {{"model", instance.model},
             {"name", Escape(instance.Label())},
             {"run", RunIdText(s.run_id)},
@@ -81,6 +106,9 @@ json InstanceJson(const ViewInstance& instance, const ViewModels& models, const 
   if (FollowsJointSetpoint(s) && AllFinite(s.q_des))
     j["ghost"] = model.Poses(Eigen::Map<const VectorXd>(s.q_des.data(), s.num_dofs));
   if (task != nullptr && TaskIsCurrent(s, *task)) j["target"] = TargetJson(*task);
+  if (plan != nullptr && PlanIsCurrent(s, *plan)) {
+    if (json p = PlanJson(model, *plan); !p.is_null()) j["plan"] = std::move(p);
+  }
   return j;
 }
 

@@ -3,7 +3,11 @@
 // (live.hpp) or from a log (log_view.hpp): its state, the poses of its frames
 // at q, and what it is steered to:
 //   ghost   the poses at q_des, where a controller follows that joint setpoint
-//   target  a task-space controller's target frame (<NAME>_TASK), as published.
+//   target  a task-space controller's target frame (<NAME>_TASK), as published
+//   plan    an mpc controller's latest plan (<NAME>_MPC): the path of every
+//           frame through the plan's knots (poses at each knot's q, by the
+//           same kinematics), drawn as polylines: where the optimiser
+//           predicts the robot goes.
 // q_des is the joint setpoint lagranged holds (state_t). A task-space
 // controller does not follow it (its target is a frame's pose), nor does
 // the external controller while it applies streamed torques (running): there
@@ -11,6 +15,7 @@
 // Every string from the bus is escaped (base/escape.hpp); the page puts text
 // in the document only as text.
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/task_state_t.hpp>
 
@@ -45,9 +50,17 @@ bool TaskIsCurrent(const state_t& s, const task_state_t& task);
 // Whether a controller follows s.q_des (above): not a task-space controller, not `external` while running.
 bool FollowsJointSetpoint(const state_t& s);
 
+// Whether `plan` is what the controller `s` runs follows now: the same run and controller, taken no later
+// than s (within a tick), and followed, its last knot not yet past.
+bool PlanIsCurrent(const state_t& s, const mpc_t& plan);
+// The plan's frame paths: {sequence, status, followed, age, t [knots], paths [frame][knot] = [x, y, z]}; null
+// when its knots are not `model`'s state (2 n) or not finite.
+nlohmann::json PlanJson(const ViewModel& model, const mpc_t& plan);
+
 // Instance `instance` at state `s`, `age` s after it was published (or logged), with its latest task state
-// (null: none): {model, name, run, mode, controller, t, tick, age, q, q_des, tau, poses, ghost, target, note}.
+// and mpc plan (null: none): {model, name, run, mode, controller, t, tick, age, q, q_des, tau, poses, ghost,
+// target, plan, note}.
 nlohmann::json InstanceJson(const ViewInstance& instance, const ViewModels& models, const state_t& s, double age,
-                            const task_state_t* task);
+                            const task_state_t* task, const mpc_t* plan = nullptr);
 
 }  // namespace lagrange::cli::view

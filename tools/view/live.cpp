@@ -145,7 +145,9 @@ json LiveView::TrackedJson(const Tracked& t, const ObservedInstance& seen, Stead
   const state_t& s = newest.message;
   const double age = Seconds(now - newest.received);
   const auto* task = seen.tasks.Newest();
-  json j = InstanceJson(t.instance, models_, s, age, task != nullptr ? &task->message : nullptr);
+  const auto* plan = seen.plans.Find(s.run_id);
+  json j = InstanceJson(t.instance, models_, s, age, task != nullptr ? &task->message : nullptr,
+                        plan != nullptr ? &plan->message : nullptr);
   if (age > kStale) j["stale"] = true;
   if (!t.event.is_null()) j["event"] = t.event;
   const auto& runs = seen.states.entries();

@@ -1,7 +1,7 @@
 #pragma once
 // lagrangectl view on the bus: every instance of the scenes under each
 // daemon's channel prefix (and, as text, those a daemon's status names that
-// the scenes lack), followed from their states, telemetry and task states;
+// the scenes lack), followed from their states, telemetry, task states and mpc plans;
 // --rate times a second a frame of them all for the page. It only listens:
 // it never publishes. It keeps only each instance's latest messages, and each
 // browser is sent the newest frame when it can take one (FrameHub), so a slow

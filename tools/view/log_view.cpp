@@ -20,6 +20,7 @@ using nlohmann::json;
 
 constexpr std::size_t kMaxLogStates = 1 << 20;  // states kept from a log (about 100 MB for 7 joints)
 constexpr std::size_t kMaxOtherStates = 16;     // state channels of instances the scene lacks, named
+constexpr std::size_t kMaxLogPlans = 1 << 16;   // mpc plans kept per instance (at most 16 knots each)
 
 // The last entry of `logged` (sorted by t) at or before `t`; null when none.
 template <class Entry>
@@ -32,7 +33,7 @@ const Entry* LastAtOrBefore(const std::vector<Entry>& logged, double t) {
 
 // What reading the log counted, and the channels it reads.
 struct LogView::Counts {
-  std::map<std::string, std::size_t> state, telemetry, task;  // channel => instance
+  std::map<std::string, std::size_t> state, telemetry, task, mpc;  // channel => instance
   std::size_t states = 0, dropped = 0, refused = 0;
   std::set<std::string> other_states;  // escaped
 };
@@ -53,6 +54,7 @@ void LogView::Read(const LinkOptions& bus) {
     counts.state[link.Channel(instances_[i].name, kStateSuffix)] = i;
     counts.telemetry[link.Channel(instances_[i].name, kTelemetrySuffix)] = i;
     counts.task[link.Channel(instances_[i].name, kTaskSuffix)] = i;
+    counts.mpc[link.Channel(instances_[i].name, kMpcSuffix)] = i;
   }
   std::optional<std::int64_t> first;
   while (const LcmLogEvent* e = reader.Next()) {
@@ -64,7 +66,7 @@ void LogView::Read(const LinkOptions& bus) {
   Finish(counts, reader.end());
 }
 
-// One logged event: kept when it is a state, telemetry or task state of an instance and decodes.
+// One logged event: kept when it is a state, telemetry, task state or mpc plan of an instance and decodes.
 void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_t* data, std::size_t size, double t) {
   if (auto it = counts.state.find(channel); it != counts.state.end()) {
     auto s = Receive<state_t>(data, size, Framing::kRecorded).message;
@@ -84,6 +86,10 @@ void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_
     auto m = Receive<task_state_t>(data, size, Framing::kRecorded).message;
     auto& tasks = recorded_[tk->second].tasks;
     if (m && tasks.size() < kMaxLogStates) tasks.push_back({t, std::move(*m)});
+  } else if (auto mp = counts.mpc.find(channel); mp != counts.mpc.end()) {
+    auto m = Receive<mpc_t>(data, size, Framing::kRecorded).message;
+    auto& plans = recorded_[mp->second].plans;
+    if (m && plans.size() < kMaxLogPlans) plans.push_back({t, std::move(*m)});
   } else if (channel.ends_with(kStateSuffix) && counts.other_states.size() < kMaxOtherStates) {
     counts.other_states.insert(Escape(channel, 64));
   }
@@ -112,13 +118,15 @@ json LogView::FrameAt(double t) const {
   return {{"t", t}, {"instances", instances}};
 }
 
-// Instance i at its last state at or before t, with its telemetry and task state as they were then.
+// Instance i at its last state at or before t, with its telemetry, task state and plan as they were then.
 json LogView::InstanceAt(std::size_t i, double t) const {
   const Recorded& r = recorded_[i];
   const Logged<state_t>* s = LastAtOrBefore(r.states, t);
   if (s == nullptr) return nullptr;
   const Logged<task_state_t>* task = LastAtOrBefore(r.tasks, t);
-  json j = InstanceJson(instances_[i], models_, s->message, t - s->t, task ? &task->message : nullptr);
+  const Logged<mpc_t>* plan = LastAtOrBefore(r.plans, t);
+  json j = InstanceJson(instances_[i], models_, s->message, t - s->t, task ? &task->message : nullptr,
+                        plan ? &plan->message : nullptr);
   j["log_t"] = s->t;
   if (const Logged<Telemetry>* m = LastAtOrBefore(r.telemetry, t)) {
     j["eps"] = m->message.residual;

@@ -2,12 +2,13 @@
 // lagrangectl view --log: an lcm-logger recording instead of the bus. The
 // log is read once, as warily as the bus (protocol/lcm_log.hpp, every packet
 // checked before it is decoded): each instance's states (at most
-// kMaxLogStates in all), telemetry and task states, on the logger's clock
+// kMaxLogStates in all), telemetry, task states and mpc plans, on the logger's clock
 // from its first event. The page asks for a time t and is sent each
 // instance at its last logged state at or before t, exactly. What the log
 // holds that the scene lacks, states that do not decode and a log cut short
 // are notes, on the page and on stderr.
 
+#include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/task_state_t.hpp>
 
@@ -48,6 +49,7 @@ class LogView {
     std::vector<Logged<state_t>> states;
     std::vector<Logged<Telemetry>> telemetry;
     std::vector<Logged<task_state_t>> tasks;
+    std::vector<Logged<mpc_t>> plans;  // at most kMaxLogPlans
   };
   struct Counts;
 

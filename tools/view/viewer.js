@@ -243,7 +243,11 @@ function build(m) {
     target.add(new THREE.AxesHelper(0.15));
     target.add(new THREE.Mesh(new THREE.SphereBufferGeometry(0.025, 16, 12), material([0.95, 0.85, 0.2, 1], true)));
     place.add(target);
-    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place, target };
+    // An mpc controller's plan: each frame's path through the plan's knots, a polyline (planPaths).
+    const plan = new THREE.Group();
+    plan.visible = false;
+    place.add(plan);
+    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place, target, plan };
     for (const line of g.missing) noteMissing(g.name + ': ' + line);
   });
   const span = Math.max(1, n) * kSpacing;
@@ -262,7 +266,7 @@ function applyToggles() {
     r.measured.showFrames(frames);
     r.ghost.showFrames(false);
     r.ghost.root.userData.allowed = ghost;
-    if (!ghost) { r.ghost.root.visible = false; r.target.visible = false; }
+    if (!ghost) { r.ghost.root.visible = false; r.target.visible = false; r.plan.visible = false; }
   }
   requestDraw();
 }
@@ -341,6 +345,23 @@ function plot(canvas, series, colors, fixed) {
   ctx.fillText('±' + lim.toPrecision(2), 2, 10);
 }
 
+// The plan's frame paths as polylines with their knots marked, in the plan group (replaced per frame).
+function planPaths(group, plan) {
+  while (group.children.length) {
+    const c = group.children.pop();
+    c.geometry.dispose();
+  }
+  planPaths.line = planPaths.line || new THREE.LineBasicMaterial({ color: 0x3aa0ff, transparent: true, opacity: 0.7 });
+  planPaths.point = planPaths.point || new THREE.PointsMaterial({ color: 0x3aa0ff, size: 0.02 });
+  const lineMaterial = planPaths.line, pointMaterial = planPaths.point;
+  for (const path of plan.paths) {
+    if (path.length < 2) continue;
+    const geometry = new THREE.BufferGeometry().setFromPoints(path.map((p) => new THREE.Vector3(p[0], p[1], p[2])));
+    group.add(new THREE.Line(geometry, lineMaterial));
+    group.add(new THREE.Points(geometry.clone(), pointMaterial));
+  }
+}
+
 // One frame from the server: each instance's poses placed, its text shown.
 function apply(frame) {
   const seen = new Set();
@@ -371,6 +392,12 @@ function apply(frame) {
       r.target.matrixWorldNeedsUpdate = true;
       record.target = { frame: inst.target.frame, p: inst.target.p, q: inst.target.q, matrix: Array.from(r.target.matrix.elements) };
     }
+    r.plan.visible = Boolean(inst.plan) && $('show-ghost').checked;
+    if (inst.plan && inst.plan.sequence !== r.planSequence) {  // a new plan: its paths rebuilt
+      planPaths(r.plan, inst.plan);
+      r.planSequence = inst.plan.sequence;
+    }
+    if (inst.plan) record.plan = { sequence: inst.plan.sequence, status: inst.plan.status, paths: inst.plan.paths.length };
     record.mode = inst.mode;
     record.t = inst.t;
     drawn[inst.name] = record;
