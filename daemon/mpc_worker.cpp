@@ -33,7 +33,8 @@ bool MpcWorker::PlanOnce() {
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   if (stop_.load(std::memory_order_relaxed)) return false;
-  planner_.Plan(state->t, state->q, state->qd, state->q_ref, state->qd_ref, channels_.mpc_plans.back(), &stop_);
+  planner_.Plan(state->t, state->q, state->qd, state->q_ref, state->qd_ref, channels_.mpc_plans.back(), &stop_,
+                &state->pose);
   if (stop_.load(std::memory_order_relaxed)) return false;  // a solve cut short is not handed over
   channels_.mpc_plans.Publish();
   planned_ = true;

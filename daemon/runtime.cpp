@@ -13,8 +13,9 @@ namespace {
 SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }
 TorqueMessage TorquePrototype(int n) { return {VectorXd::Zero(n)}; }
 MeasuredMessage MeasuredPrototype(int n) { return {VectorXd::Zero(n), VectorXd::Zero(n)}; }
-MpcStateMessage MpcStatePrototype(int n) {
-  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n)};
+// Sized for n joints and a plan of N knots (the reference per knot: N + 1 columns).
+MpcStateMessage MpcStatePrototype(int n, int N) {
+  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), MatrixXd::Zero(n, N + 1), MatrixXd::Zero(n, N + 1), {}};
 }
 
 // The reason a plan's status gives for falling back (mode_machine.hpp), for one that is not usable.
@@ -57,7 +58,7 @@ InstanceChannels::InstanceChannels(int n, std::size_t command_capacity, const Mp
       torques(TorquePrototype(n)),
       measured(MeasuredPrototype(n)),
       commands(command_capacity, CommandPrototype(n)),
-      mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0)),
+      mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0, plan.horizon)),
       mpc_plans(plan) {}
 
 InstanceRecord::InstanceRecord(int n)
@@ -529,19 +530,24 @@ void Runtime::TakePlan(Slot& s, Nanoseconds now) {
 }
 
 // (state, setpoint) => the mpc optimiser's next start: the state the next
-// tick begins from and the reference it follows (the streamed setpoint, else
-// the scene's trajectory), whatever the mode that commands the plant.
+// tick begins from and the reference it follows at every knot (the streamed
+// setpoint, held; else the scene's trajectory ahead, knot by knot), whatever
+// the mode that commands the plant.
 void Runtime::OfferState(Slot& s) {
   Instance& inst = s.instance;
   if (!s.mpc_active() || !Commands(s.mode.mode)) return;
-  if (!s.streaming) inst.SampleTrajectory(s.current);
-  const Setpoint& ref = s.streaming ? s.streamed : s.current;
+  MpcController* c = inst.mpc_controller(inst.active_controller());
   MpcStateMessage& m = s.channels.mpc_state.back();
   m.t = inst.t();
   m.q = inst.q();
   m.qd = inst.qd();
-  m.q_ref = ref.q;
-  m.qd_ref = ref.qd;
+  if (s.streaming) {
+    m.q_ref.colwise() = s.streamed.q;
+    m.qd_ref.colwise() = s.streamed.qd;
+  } else {
+    inst.SampleTrajectoryAhead(c->ddp_model()->dt(), m.q_ref, m.qd_ref);
+  }
+  if (c->has_frame()) m.pose = c->PoseReference(m.t, m.q);
   s.channels.mpc_state.Publish();
 }
 
