@@ -233,6 +233,12 @@ void MpcController::MoveTo(const Pose& target, double duration) {
   start_pending_ = true;
 }
 
+void MpcController::HoldPoseTarget(double t) {
+  PoseSetpoint now;
+  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
+  SetPoseTarget(PoseSetpoint{now.pose, Vector6d::Zero(), Vector6d::Zero()});
+}
+
 const MpcPoseReference& MpcController::PoseReference(double t, ConstVecRef q) {
   if (start_pending_ && kinematics_data_) {
     const DdpFrameCost& f = model_->config().frame_cost;

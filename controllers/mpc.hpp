@@ -202,6 +202,8 @@ class MpcController final : public Controller {
   bool has_frame() const { return model_->has_frame_cost(); }
   void SetPoseTarget(const PoseSetpoint& setpoint);
   void MoveTo(const Pose& target, double duration);
+  // Holds the target where the frame's reference is at t, at rest (a streamed target that stopped).
+  void HoldPoseTarget(double t);
   // The frame's reference at t from q (n): a pending start (the scene's
   // trajectory at the first call and after Reset, or a move) begins here from
   // the frame's measured pose. What the optimiser thread is handed. No allocation.

@@ -475,22 +475,28 @@ void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
 void Runtime::TakePose(Slot& s, Nanoseconds now) {
   const PoseMessage* msg = s.channels.poses.Take();  // taken even when unused, so an old one never applies later
   TaskSpaceController* c = s.instance.task_space_controller(s.instance.active_controller());
-  if (c == nullptr) {  // switched away since the receiver checked it
+  MpcController* mpc = c == nullptr ? s.instance.mpc_controller(s.instance.active_controller()) : nullptr;
+  if (c == nullptr && (mpc == nullptr || !mpc->has_frame())) {  // switched away since the receiver checked it
     s.pose_streaming = false;
     return;
   }
   if (msg != nullptr) {
+    const PoseSetpoint target{msg->target, msg->twist, Vector6d::Zero()};
     if (msg->duration > 0.0) {
-      c->MoveTo(msg->target, msg->duration);
+      c != nullptr ? c->MoveTo(msg->target, msg->duration) : mpc->MoveTo(msg->target, msg->duration);
     } else {
-      c->SetPoseTarget(PoseSetpoint{msg->target, msg->twist, Vector6d::Zero()});
+      c != nullptr ? c->SetPoseTarget(target) : mpc->SetPoseTarget(target);
     }
     s.pose_streaming = msg->duration == 0.0 && !msg->twist.isZero(0.0);
     s.last_pose = now;
     On(s, ModeEvent::kPoseArrived, now);
   }
   if (s.pose_streaming && TimedOut(now, s.last_pose, s.m.setpoint_timeout)) {
-    c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
+    if (c != nullptr) {
+      c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
+    } else {
+      mpc->HoldPoseTarget(s.instance.t());
+    }
     s.pose_streaming = false;
     On(s, ModeEvent::kPosesTimedOut, now);
   }

@@ -328,5 +328,45 @@ TEST_F(RuntimeMpc, StopEndsTheOptimiserThreadDuringASolve) {
   EXPECT_EQ(workers[0]->solves(), 0);
 }
 
+// lagranged routes a pose setpoint to an mpc controller with a frame as to a
+// task-space controller: the receiver's rules name its frame, and the plans
+// that follow bring the flange to the new target (a second target after the
+// scene's: a sequence of targets, as lagrangectl pose sends them).
+TEST(RuntimeMpcPose, APoseSetpointRetargetsAnMpcControllersFrame) {
+  constexpr double kPositionTolerance = 0.01, kRotationTolerance = 0.05;  // m, rad
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
+  Runtime runtime(scene);
+  ASSERT_EQ(runtime.model().instances[0].controllers[0].pose_rules.frame, "panda_link8");
+  TickRecord record = runtime.MakeRecord();
+  const std::vector<std::unique_ptr<MpcWorker>> workers = MakeMpcWorkers(runtime);
+  ASSERT_EQ(workers.size(), 1u);
+  Nanoseconds now = 0;
+  const auto ticks_planning = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      now += kMs;
+      runtime.Tick(now, record);
+      workers[0]->PlanOnce();
+    }
+  };
+  ticks_planning(500);
+  ASSERT_EQ(record.instances[0].mode, Mode::kRunning);
+  Pose target = *scene.instances[0].controller.mpc.trajectory.target;
+  target.position = Eigen::Vector3d(0.35, -0.2, 0.5);
+  PoseMessage& msg = runtime.channels(0).poses.back();
+  msg.target = target;
+  msg.twist.setZero();
+  msg.duration = 0.0;
+  runtime.channels(0).poses.Publish();
+  ticks_planning(1500);
+  EXPECT_EQ(record.instances[0].mode, Mode::kRunning);
+  const Kinematics kinematics(MakeRigidTree(scene.instances[0].plant));
+  const int frame = *kinematics.FrameIndex("panda_link8");
+  const std::unique_ptr<KinematicsData> data = kinematics.MakeData();
+  kinematics.ComputeFramePlacement(*data, record.instances[0].q, frame);
+  const Vector6d e = PoseError(target, Pose{data->position(frame), Eigen::Quaterniond(data->rotation(frame))});
+  EXPECT_LT(e.head<3>().norm(), kPositionTolerance);
+  EXPECT_LT(e.tail<3>().norm(), kRotationTolerance);
+}
+
 }  // namespace
 }  // namespace lagrange
