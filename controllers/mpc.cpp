@@ -239,6 +239,20 @@ void MpcController::HoldPoseTarget(double t) {
   SetPoseTarget(PoseSetpoint{now.pose, Vector6d::Zero(), Vector6d::Zero()});
 }
 
+void MpcController::MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& pose, Pose& commanded,
+                                Vector6d& error, Vector6d& twist) {
+  const DdpFrameCost& f = model_->config().frame_cost;
+  PoseReference(t, q);
+  f.kinematics->ComputeFrameJacobian(*kinematics_data_, q, f.frame, FrameAxes::kWorldAligned);
+  pose.position = kinematics_data_->position(f.frame);
+  pose.orientation = Eigen::Quaterniond(kinematics_data_->rotation(f.frame));
+  PoseSetpoint now;
+  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
+  commanded = now.pose;
+  error = PoseError(commanded, pose);
+  twist.noalias() = kinematics_data_->jacobian(f.frame, FrameAxes::kWorldAligned) * qd;
+}
+
 const MpcPoseReference& MpcController::PoseReference(double t, ConstVecRef q) {
   if (start_pending_ && kinematics_data_) {
     const DdpFrameCost& f = model_->config().frame_cost;

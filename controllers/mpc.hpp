@@ -204,6 +204,11 @@ class MpcController final : public Controller {
   void MoveTo(const Pose& target, double duration);
   // Holds the target where the frame's reference is at t, at rest (a streamed target that stopped).
   void HoldPoseTarget(double t);
+  // The frame at (t, q, qd), as a task-space controller reports it: its
+  // measured pose, the target the reference is at t, e = target ⊖ measured
+  // (m, rad) and its twist J qd (m/s, rad/s, world axes). No allocation.
+  void MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& pose, Pose& commanded, Vector6d& error,
+                   Vector6d& twist);
   // The frame's reference at t from q (n): a pending start (the scene's
   // trajectory at the first call and after Reset, or a move) begins here from
   // the frame's measured pose. What the optimiser thread is handed. No allocation.

@@ -622,12 +622,15 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.mode = s.mode.mode;
   r.reason = s.mode.reason;
   const TaskSpaceController* task = inst.task_space_controller(inst.active_controller());
-  r.task = task != nullptr;
+  MpcController* mpc = task == nullptr ? inst.mpc_controller(inst.active_controller()) : nullptr;
+  r.task = task != nullptr || (mpc != nullptr && mpc->has_frame());
   if (task != nullptr) {
     r.task_pose = task->pose();
     r.task_commanded = task->commanded().pose;
     r.task_error = task->pose_error();
     r.task_twist = task->twist();
+  } else if (r.task) {  // an mpc controller's frame, reported as a task-space controller's
+    mpc->MeasureTask(inst.t(), inst.q(), inst.qd(), r.task_pose, r.task_commanded, r.task_error, r.task_twist);
   }
   r.publish_torque = inst.external_plant() && (Commands(s.mode.mode) || s.send_zero_once);
   r.state_tick = s.measured_tick;

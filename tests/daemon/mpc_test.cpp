@@ -331,7 +331,8 @@ TEST_F(RuntimeMpc, StopEndsTheOptimiserThreadDuringASolve) {
 // lagranged routes a pose setpoint to an mpc controller with a frame as to a
 // task-space controller: the receiver's rules name its frame, and the plans
 // that follow bring the flange to the new target (a second target after the
-// scene's: a sequence of targets, as lagrangectl pose sends them).
+// scene's: a sequence of targets, as lagrangectl send --pose sends them); the
+// frame is reported as a task-space controller's, and the tick allocates nothing.
 TEST(RuntimeMpcPose, APoseSetpointRetargetsAnMpcControllersFrame) {
   constexpr double kPositionTolerance = 0.01, kRotationTolerance = 0.05;  // m, rad
   const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
@@ -366,6 +367,23 @@ TEST(RuntimeMpcPose, APoseSetpointRetargetsAnMpcControllersFrame) {
   const Vector6d e = PoseError(target, Pose{data->position(frame), Eigen::Quaterniond(data->rotation(frame))});
   EXPECT_LT(e.head<3>().norm(), kPositionTolerance);
   EXPECT_LT(e.tail<3>().norm(), kRotationTolerance);
+  // The frame is reported as a task-space controller's (PANDA_TASK: what lagrangectl send --pose reads).
+  const InstanceRecord& r = record.instances[0];
+  ASSERT_TRUE(r.task);
+  EXPECT_LT((r.task_commanded.position - target.position).norm(), 1e-12);
+  EXPECT_LT((r.task_error - e).norm(), 1e-9);
+  // The tick allocates nothing with it (the optimiser between ticks, outside the count).
+  std::int64_t allocations = 0;
+  for (int k = 0; k < 100; ++k) {
+    {
+      testing::AllocationCounter counter;
+      now += kMs;
+      runtime.Tick(now, record);
+      allocations += counter.count();
+    }
+    workers[0]->PlanOnce();
+  }
+  EXPECT_EQ(allocations, 0);
 }
 
 }  // namespace
