@@ -118,6 +118,14 @@ DdpModel::DdpModel(std::shared_ptr<const Dynamics> dynamics, DdpConfig config)
     Refuse("options.line_search_acceptance", "a number in [0, 1)");
   }
   if (o.box_qp_max_iterations < 1 || o.box_qp_max_iterations > 1000) Refuse("options.box_qp_max_iterations", "1..1000");
+  const DdpFrameCost& f = config_.frame_cost;
+  if (f.kinematics != nullptr) {
+    if (f.kinematics->num_dofs() != n_) Refuse("frame_cost.kinematics", "the plant's joints");
+    if (f.frame < 0 || f.frame >= f.kinematics->num_frames()) Refuse("frame_cost.frame", "one of the model's frames");
+    for (double weight : {f.position, f.rotation, f.position_terminal, f.rotation_terminal}) {
+      if (!(std::isfinite(weight) && weight >= 0.0)) Refuse("frame_cost weights", "finite values >= 0");
+    }
+  }
   if (auto err = ValidateEffects(config_.effects, n_)) Refuse(std::string("effects.").append(err->key), err->message);
   if (!config_.effects.disturbance.empty())
     Refuse("effects.disturbance", "none (the optimiser's model takes no pushes)");
@@ -128,6 +136,8 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   q_ref = MatrixXd::Zero(n, N + 1);
   qd_ref = MatrixXd::Zero(n, N + 1);
   u_ref = MatrixXd::Zero(m, N);
+  pose_ref.assign(static_cast<std::size_t>(N + 1), Pose{});
+  if (model.has_frame_cost()) kinematics_ = model.config().frame_cost.kinematics->MakeData();
   plant_ = std::make_unique<PlantModel>(model.dynamics(), model.config().effects);
   IntegratorConfig ic;
   ic.type = model.config().integrator;
@@ -170,6 +180,26 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   qp_is_free_.assign(static_cast<std::size_t>(m), 1);
   qp_factored_.reserve(static_cast<std::size_t>(m));
   result_.cost_history = VectorXd::Zero(model.config().options.max_iterations + 1);
+}
+
+double FramePoseCost(const Kinematics& kinematics, KinematicsData& data, int frame, const Pose& target, double w_pos,
+                     double w_rot, ConstVecRef q, bool derivatives, VecRef gradient, Eigen::Ref<MatrixXd> hessian) {
+  if (derivatives) {
+    kinematics.ComputeFrameJacobian(data, q, frame, FrameAxes::kWorldAligned);
+  } else {
+    kinematics.ComputeFramePlacement(data, q, frame);
+  }
+  const Pose measured{data.position(frame), Eigen::Quaterniond(data.rotation(frame))};
+  const Vector6d e = PoseError(target, measured);
+  const double cost = 0.5 * (w_pos * e.head<3>().squaredNorm() + w_rot * e.tail<3>().squaredNorm());
+  if (!derivatives) return cost;
+  const Matrix6Xd& J = data.jacobian(frame, FrameAxes::kWorldAligned);
+  Vector6d we;
+  we << w_pos * e.head<3>(), w_rot * e.tail<3>();
+  gradient.noalias() -= J.transpose() * we;
+  hessian.noalias() += w_pos * (J.topRows<3>().transpose() * J.topRows<3>());
+  hessian.noalias() += w_rot * (J.bottomRows<3>().transpose() * J.bottomRows<3>());
+  return cost;
 }
 
 void EvaluateAffinePolicy(ConstVecRef u_bar, const Eigen::Ref<const MatrixXd>& K, ConstVecRef x_bar, ConstVecRef q,
@@ -225,10 +255,15 @@ void DdpData::Reset() {
   for (MatrixXd& K : K_) K.setZero();
 }
 
+void DdpData::HoldControls(ConstVecRef u) {
+  Reset();
+  u_.colwise() = u;
+}
+
 // The passes of one solve, each a named stage over the data's buffers.
 struct DdpPasses {
   // ½ Σ w e² of the running cost at knot k of (x, u), or the terminal one (k = N).
-  static double Cost(const DdpModel& model, const DdpData& d, int k, const Eigen::Ref<const VectorXd>& x,
+  static double Cost(const DdpModel& model, DdpData& d, int k, const Eigen::Ref<const VectorXd>& x,
                      const double* u) {
     const int n = model.num_dofs(), N = model.horizon();
     const DdpWeights& w = model.config().weights;
@@ -246,7 +281,21 @@ struct DdpPasses {
         J += w.tau[j] * eu * eu;
       }
     }
-    return 0.5 * J;
+    return 0.5 * J + FrameTerm(model, d, k, x.head(n), false, d.Vx_, d.Vxx_);
+  }
+
+  // The frame's pose-error term at knot k (k = N: the terminal weights) of q
+  // (n); with `derivatives`, its gradient added to g.head(n) and its
+  // Gauss–Newton Hessian to H's top-left (n x n). 0 without a frame cost.
+  static double FrameTerm(const DdpModel& model, DdpData& d, int k, ConstVecRef q, bool derivatives, VectorXd& g,
+                          MatrixXd& H) {
+    if (!model.has_frame_cost()) return 0.0;
+    const DdpFrameCost& f = model.config().frame_cost;
+    const bool terminal = k == model.horizon();
+    const int n = model.num_dofs();
+    return FramePoseCost(*f.kinematics, *d.kinematics_, f.frame, d.pose_ref[static_cast<std::size_t>(k)],
+                         terminal ? f.position_terminal : f.position, terminal ? f.rotation_terminal : f.rotation, q,
+                         derivatives, g.head(n), H.topLeftCorner(n, n));
   }
 
   // tau_ ← S u: the controls u (m) on the actuated joints, 0 on the others.
@@ -418,6 +467,7 @@ struct DdpPasses {
     d.Vxx_.setZero();
     d.Vxx_.diagonal().head(n) = w.q_terminal;
     d.Vxx_.diagonal().tail(n) = w.qd_terminal;
+    FrameTerm(model, d, N, d.x_.col(N).head(n), true, d.Vx_, d.Vxx_);
     for (int k = N - 1; k >= 0; --k) {
       const MatrixXd& A = d.A_[static_cast<std::size_t>(k)];
       const MatrixXd& B = d.B_[static_cast<std::size_t>(k)];
@@ -435,6 +485,7 @@ struct DdpPasses {
       d.Qxx_.noalias() = A.transpose() * d.VA_;
       d.Qxx_.diagonal().head(n) += w.q;
       d.Qxx_.diagonal().tail(n) += w.qd;
+      FrameTerm(model, d, k, d.x_.col(k).head(n), true, d.Qx_, d.Qxx_);
       d.Quu_.noalias() = B.transpose() * d.VB_;
       d.Quu_.diagonal() += w.tau;
       d.Qux_.noalias() = B.transpose() * d.VA_;

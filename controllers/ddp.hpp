@@ -12,6 +12,14 @@
 //   ℓ_k = ½ Σ_i wq_i (q_i − q_ref,k,i)² + ½ Σ_i wqd_i (qd_i − qd_ref,k,i)² + ½ Σ_j wu_j (u_j − u_ref,k,j)²
 //   ℓ_N = ½ Σ_i wqN_i (q_i − q_ref,N,i)² + ½ Σ_i wqdN_i (qd_i − qd_ref,N,i)²
 //
+// and, with a frame (DdpFrameCost), its pose error to the pose reference at
+// every knot, the task-space controllers' e = (p_d − p, log(R_d Rᵀ))
+// (controllers/task_trajectory.hpp, PoseError):
+//   ℓ_k += ½ w_pos |p_d,k − p(q)|² + ½ w_rot |log(R_d,k R(q)ᵀ)|²   (w_posN, w_rotN at k = N)
+// with the Gauss–Newton derivatives of the frame's Jacobian J (6 x n, rows
+// linear then angular, world axes), W = diag(w_pos I₃, w_rot I₃):
+//   ∂ℓ/∂q = −Jᵀ W e  (exact: eᵀ J_r⁻¹(e_R) = eᵀ for the log map)   ∂²ℓ/∂q² ≈ Jᵀ W J
+//
 // Φ is one tick of dt of the plant's own model (its Dynamics under the
 // config's effects) through explicit Euler, semi-implicit Euler or RK4 in
 // `substeps` sub-steps with tau held, and A_k = ∂Φ/∂x, B_k = ∂Φ/∂u its exact
@@ -55,8 +63,10 @@
 #include <string_view>
 #include <vector>
 
+#include "controllers/task_trajectory.hpp"
 #include "plant/effects.hpp"
 #include "plant/integrators.hpp"
+#include "plant/kinematics.hpp"
 
 namespace lagrange {
 
@@ -70,6 +80,23 @@ struct DdpWeights {
   VectorXd q_terminal;   // (n) wqN, >= 0
   VectorXd qd_terminal;  // (n) wqdN, >= 0
 };
+
+// The frame term of the cost (above): none while `kinematics` is null.
+// Weights 1/m² (position) and 1/rad² (rotation), >= 0.
+struct DdpFrameCost {
+  std::shared_ptr<const Kinematics> kinematics;  // the plant's frames (its q), shared, immutable
+  int frame = -1;                                // an index of kinematics' frames
+  double position = 0.0, rotation = 0.0;                    // w_pos, w_rot on every knot k < N
+  double position_terminal = 0.0, rotation_terminal = 0.0;  // w_posN, w_rotN at k = N
+};
+
+// ½ w_pos |p_d − p(q)|² + ½ w_rot |log(R_d R(q)ᵀ)|² of `frame` at q (n) toward
+// `target`; with `derivatives`, also adds its gradient −Jᵀ W e to `gradient`
+// (n) and its Gauss–Newton Hessian Jᵀ W J to `hessian` (n x n) (otherwise
+// neither is touched: pass empty ones). Through `data` (of `kinematics`);
+// allocates nothing.
+double FramePoseCost(const Kinematics& kinematics, KinematicsData& data, int frame, const Pose& target, double w_pos,
+                     double w_rot, ConstVecRef q, bool derivatives, VecRef gradient, Eigen::Ref<MatrixXd> hessian);
 
 struct DdpOptions {
   int max_iterations = 50;               // 1..10000
@@ -90,6 +117,7 @@ struct DdpConfig {
   std::vector<int> actuated;                         // joints that take a force, ascending; empty: every joint
   VectorXd tau_lower, tau_upper;                     // (m) N·m or N; −inf / +inf allowed; empty: unbounded
   DdpWeights weights;
+  DdpFrameCost frame_cost;  // a frame's pose error (none by default)
   DdpOptions options;
   EffectsConfig effects;  // the optimiser's model of the plant's effects (no disturbance pushes)
 };
@@ -110,6 +138,7 @@ class DdpModel {
   const VectorXd& tau_lower() const { return lower_; }  // (m)
   const VectorXd& tau_upper() const { return upper_; }  // (m)
   const std::shared_ptr<const Dynamics>& dynamics() const { return dynamics_; }
+  bool has_frame_cost() const { return config_.frame_cost.kinematics != nullptr; }
 
  private:
   std::shared_ptr<const Dynamics> dynamics_;
@@ -161,6 +190,7 @@ class DdpData {
   MatrixXd q_ref;   // (n x N+1) q_ref,k per knot
   MatrixXd qd_ref;  // (n x N+1)
   MatrixXd u_ref;   // (m x N)
+  std::vector<Pose> pose_ref;  // (N+1) the frame's pose per knot (DdpFrameCost; identity at the origin until set)
 
   // The solution of the last SolveDdp (or what ShiftSolution and Reset left):
   const MatrixXd& x() const { return x_; }                                    // (2n x N+1) x̄_k = (q̄_k, q̄d_k)
@@ -183,6 +213,9 @@ class DdpData {
   void ShiftSolution(double knots);
   // Cold start: ū = 0 (clamped into the limits by the first rollout), no feedback.
   void Reset();
+  // Cold start holding u (m) at every knot (clamped into the limits by the
+  // first rollout), no feedback: Reset, then ū_k = u. No allocation.
+  void HoldControls(ConstVecRef u);
 
  private:
   friend const DdpResult& SolveDdp(const DdpModel& model, DdpData& data, ConstVecRef q0, ConstVecRef qd0);
@@ -192,6 +225,7 @@ class DdpData {
   std::unique_ptr<PlantModel> plant_;
   std::unique_ptr<Integrator> integrator_;
   std::unique_ptr<StepDerivatives> step_;
+  std::unique_ptr<KinematicsData> kinematics_;  // the frame cost's; null without one
   MatrixXd x_, u_, x_try_, u_try_;   // nominal and candidate trajectories
   std::vector<MatrixXd> A_, B_, K_;  // (2n x 2n), (2n x m), (m x 2n) per knot
   MatrixXd kff_, Qu_;                // (m x N)

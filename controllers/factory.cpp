@@ -334,6 +334,15 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   }
   if (c.type == ControllerType::kMpc) {
     if (auto err = ValidateMpc(c.mpc, n, plant.type() == PlantType::kCartPole, c.period)) return err;
+    if (!c.mpc.frame.empty()) {
+      const Kinematics kinematics(MakeRigidTree(c.model ? *c.model : plant));
+      if (!MpcFrame(c.mpc, kinematics)) {
+        std::string names;
+        for (const std::string& f : kinematics.frame_names()) names += (names.empty() ? "" : ", ") + Escape(f, 64);
+        return "frame: expected a frame of the " + std::string(c.model ? "controller's model" : "robot") + " (" +
+               names + "), got '" + Escape(c.mpc.frame, 64) + "'";
+      }
+    }
     if (c.continuous) return std::string("continuous: mpc follows its plan's policy once per tick");
   }
   if (c.continuous && c.type == ControllerType::kSwingUp) {
@@ -398,12 +407,15 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
           c.external.compensate_gravity);
     case ControllerType::kCartesianImpedance:
     case ControllerType::kOperationalSpace: return MakeTaskSpace(c, plant, torque_limits, shared);
-    case ControllerType::kMpc:
+    case ControllerType::kMpc: {
+      std::shared_ptr<const Kinematics> kinematics =
+          c.mpc.frame.empty() ? nullptr : std::make_shared<const Kinematics>(MakeRigidTree(c.model ? *c.model : plant));
       return std::make_unique<MpcController>(
           joints, torque_limits,
           MakeMpcModel(c.mpc, ControllerModel(c, plant, shared), EffectsConfig{}, torque_limits,
-                       plant.type() == PlantType::kCartPole),
-          MpcReplanPeriod(c.mpc));
+                       plant.type() == PlantType::kCartPole, std::move(kinematics)),
+          MpcReplanPeriod(c.mpc), c.mpc.trajectory);
+    }
   }
   throw std::invalid_argument("unknown controller");
 }

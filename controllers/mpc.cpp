@@ -33,6 +33,11 @@ std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole) {
   return all;
 }
 
+std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics) {
+  if (o.frame.empty()) return std::nullopt;
+  return kinematics.FrameIndex(o.frame);
+}
+
 std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pole, double period) {
   if (o.horizon < 1 || o.horizon > kMaxMpcHorizon) {
     return "horizon: expected 1 to " + std::to_string(kMaxMpcHorizon) + " knots";
@@ -65,17 +70,33 @@ std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pol
   if (auto e = CheckWeights("tau", o.tau, m, true)) return e;
   if (auto e = CheckWeights("q_terminal", o.q_terminal, n, false)) return e;
   if (auto e = CheckWeights("qd_terminal", o.qd_terminal, n, false)) return e;
+  for (const auto& [key, w] : {std::pair{"pose_weight", &o.pose_weight}, std::pair{"pose_terminal_weight", &o.pose_terminal_weight}}) {
+    if (!(w->allFinite() && (w->array() >= 0.0).all())) {
+      return std::string(key) + ": expected [position (1/m²), rotation (1/rad²)], finite and >= 0";
+    }
+    if (o.frame.empty() && !w->isZero(0.0)) return std::string(key) + ": expected a frame (frame: NAME) to weigh";
+  }
+  if (!o.frame.empty() && o.pose_weight.isZero(0.0) && o.pose_terminal_weight.isZero(0.0)) {
+    return std::string("pose_weight: expected a weight > 0 on the frame's pose (here or in pose_terminal_weight)");
+  }
+  if (o.frame.empty() && o.trajectory.target) {
+    return std::string("trajectory: expected a frame (frame: NAME) to move");
+  }
+  if (!o.frame.empty()) {
+    if (auto e = ValidatePoseTrajectory(o.trajectory)) return "trajectory." + *e;
+  }
   return std::nullopt;
 }
 
 DdpWeights MpcWeights(const MpcOptions& o, int n, int m) {
-  return {WeightOr(o.q, n, 1.0), WeightOr(o.qd, n, 0.01), WeightOr(o.tau, m, 0.01), WeightOr(o.q_terminal, n, 100.0),
-          WeightOr(o.qd_terminal, n, 1.0)};
+  const bool frame = !o.frame.empty();  // the pose error replaces the joint error
+  return {WeightOr(o.q, n, frame ? 0.0 : 1.0), WeightOr(o.qd, n, 0.01), WeightOr(o.tau, m, 0.01),
+          WeightOr(o.q_terminal, n, frame ? 0.0 : 100.0), WeightOr(o.qd_terminal, n, 1.0)};
 }
 
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
-                                             bool cart_pole) {
+                                             bool cart_pole, std::shared_ptr<const Kinematics> kinematics) {
   const int n = dynamics->num_dofs();
   DdpConfig c;
   c.integrator = o.integrator;
@@ -94,6 +115,12 @@ std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_pt
   }
   c.tau_lower = -c.tau_upper;
   c.weights = MpcWeights(o, n, m);
+  if (!o.frame.empty()) {
+    const std::optional<int> index = kinematics ? MpcFrame(o, *kinematics) : std::nullopt;
+    if (!index) throw std::invalid_argument("frame: expected one of the model's frames, got '" + o.frame + "'");
+    c.frame_cost = {std::move(kinematics), *index, o.pose_weight[0], o.pose_weight[1], o.pose_terminal_weight[0],
+                    o.pose_terminal_weight[1]};
+  }
   c.options.max_iterations = o.iterations;
   c.effects = effects;
   return std::make_shared<const DdpModel>(std::move(dynamics), std::move(c));
@@ -113,7 +140,12 @@ void MpcPolicy::Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd
   EvaluateAffinePolicy(u.col(k), K.middleCols(2 * n * k, 2 * n), x.col(k), q, qd, lower, upper, out);
 }
 
-MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model) : model_(std::move(model)), data_(*model_) {}
+MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model)
+    : model_(std::move(model)),
+      data_(*model_),
+      dynamics_data_(model_->dynamics()->MakeData()),
+      gravity_(VectorXd::Zero(model_->num_dofs())),
+      hold_(VectorXd::Zero(model_->num_controls())) {}
 
 MpcPolicy MpcPlanner::MakePolicy() const {
   return MpcPolicy(model_->num_dofs(), model_->num_controls(), model_->horizon());
@@ -124,8 +156,9 @@ void MpcPlanner::Reset() {
   warm_ = false;
 }
 
-DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef q_ref, ConstVecRef qd_ref,
-                           MpcPolicy& out, const std::atomic<bool>* stop) {
+DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
+                           const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop,
+                           const MpcPoseReference* pose) {
   const DdpModel& model = *model_;
   const int n = model.num_dofs(), N = model.horizon();
   // Warm start: the previous plan from the knot this one starts at.
@@ -134,11 +167,27 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef 
     const double knots = (t - last_start_) / model.dt();
     const double nearest = std::round(knots);
     data_.ShiftSolution(std::min<double>(N, std::abs(knots - nearest) < 1e-9 ? nearest : knots));
+  } else if (model.config().effects.gravity && q.allFinite()) {
+    model.dynamics()->ComputeGravityForce(*dynamics_data_, q, gravity_);
+    for (int j = 0; j < model.num_controls(); ++j) hold_[j] = gravity_[model.actuated()[static_cast<std::size_t>(j)]];
+    data_.HoldControls(hold_);
   } else {
     data_.Reset();
   }
-  data_.q_ref.colwise() = q_ref;
-  data_.qd_ref.colwise() = qd_ref;
+  if (q_ref.cols() == N + 1 && qd_ref.cols() == N + 1) {
+    data_.q_ref = q_ref;
+    data_.qd_ref = qd_ref;
+  } else {
+    data_.q_ref.colwise() = q_ref.col(0);
+    data_.qd_ref.colwise() = qd_ref.col(0);
+  }
+  if (pose != nullptr && model.has_frame_cost()) {
+    PoseSetpoint sample;
+    for (int k = 0; k <= N; ++k) {
+      pose->trajectory.Sample(t + k * model.dt() - pose->start, sample);
+      data_.pose_ref[static_cast<std::size_t>(k)] = sample.pose;
+    }
+  }
   data_.stop = stop;
   const DdpResult& r = SolveDdp(model, data_, q, qd);
   data_.stop = nullptr;
@@ -160,14 +209,66 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef 
 }
 
 MpcController::MpcController(std::vector<JointType> joints, VectorXd torque_limits,
-                             std::shared_ptr<const DdpModel> model, double replan_period)
+                             std::shared_ptr<const DdpModel> model, double replan_period,
+                             PoseTrajectoryConfig trajectory)
     : Controller(std::move(joints), std::move(torque_limits)),
       model_(std::move(model)),
       replan_period_(replan_period),
       planner_(std::make_unique<MpcPlanner>(model_)),
       policy_(planner_->MakePolicy()),
       candidate_(planner_->MakePolicy()),
-      u_(VectorXd::Zero(model_->num_controls())) {}
+      u_(VectorXd::Zero(model_->num_controls())),
+      reference_{MatrixXd::Zero(model_->num_dofs(), model_->horizon() + 1),
+                 MatrixXd::Zero(model_->num_dofs(), model_->horizon() + 1)},
+      scene_trajectory_(trajectory),
+      pending_(std::move(trajectory)) {
+  if (model_->has_frame_cost()) kinematics_data_ = model_->config().frame_cost.kinematics->MakeData();
+}
+
+void MpcController::SetPoseTarget(const PoseSetpoint& setpoint) {
+  pose_ref_.trajectory = PoseTrajectory::Constant(setpoint);
+  start_pending_ = false;
+}
+
+void MpcController::MoveTo(const Pose& target, double duration) {
+  pending_ = PoseTrajectoryConfig{};
+  pending_.type = PoseTrajectory::Type::kMinimumJerk;
+  pending_.target = target;
+  pending_.duration = duration;
+  start_pending_ = true;
+}
+
+void MpcController::HoldPoseTarget(double t) {
+  PoseSetpoint now;
+  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
+  SetPoseTarget(PoseSetpoint{now.pose, Vector6d::Zero(), Vector6d::Zero()});
+}
+
+void MpcController::MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& pose, Pose& commanded,
+                                Vector6d& error, Vector6d& twist) {
+  const DdpFrameCost& f = model_->config().frame_cost;
+  PoseReference(t, q);
+  f.kinematics->ComputeFrameJacobian(*kinematics_data_, q, f.frame, FrameAxes::kWorldAligned);
+  pose.position = kinematics_data_->position(f.frame);
+  pose.orientation = Eigen::Quaterniond(kinematics_data_->rotation(f.frame));
+  PoseSetpoint now;
+  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
+  commanded = now.pose;
+  error = PoseError(commanded, pose);
+  twist.noalias() = kinematics_data_->jacobian(f.frame, FrameAxes::kWorldAligned) * qd;
+}
+
+const MpcPoseReference& MpcController::PoseReference(double t, ConstVecRef q) {
+  if (start_pending_ && kinematics_data_) {
+    const DdpFrameCost& f = model_->config().frame_cost;
+    f.kinematics->ComputeFramePlacement(*kinematics_data_, q, f.frame);
+    const Pose measured{kinematics_data_->position(f.frame), Eigen::Quaterniond(kinematics_data_->rotation(f.frame))};
+    pose_ref_.trajectory = MakePoseTrajectory(pending_, measured);
+    pose_ref_.start = t;
+    start_pending_ = false;
+  }
+  return pose_ref_;
+}
 
 void MpcController::set_plan_inline(bool on) {
   if (on && !planner_) planner_ = std::make_unique<MpcPlanner>(model_);
@@ -178,14 +279,22 @@ void MpcController::Reset() {
   policy_.sequence = 0;
   planned_ = false;
   failed_ = 0;
+  reference_ready_ = false;
   if (planner_) planner_->Reset();
+  pending_ = scene_trajectory_;
+  start_pending_ = true;
 }
 
 void MpcController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   // Offline: a solve every replan_period of simulated time; a failed one's policy is not taken (the last
   // usable one is followed, its last knot held once its horizon runs out).
-  if (planner_ && (!planned_ || t >= next_plan_ - 1e-9)) {
-    if (IsUsable(planner_->Plan(t, q, qd, sp.q, sp.qd, candidate_))) {
+  if (plan_due(t)) {
+    const MpcPoseReference* pose = has_frame() ? &PoseReference(t, q) : nullptr;
+    const DdpStatus status = reference_ready_
+                                 ? planner_->Plan(t, q, qd, reference_.q, reference_.qd, candidate_, nullptr, pose)
+                                 : planner_->Plan(t, q, qd, sp.q, sp.qd, candidate_, nullptr, pose);
+    reference_ready_ = false;
+    if (IsUsable(status)) {
       std::swap(policy_, candidate_);
     } else {
       ++failed_;

@@ -7,7 +7,12 @@
 //         of the latest policy (ū_k, K_k, x̄_k; its start t_0, step dt, N knots);
 //         S puts the m actuated forces into tau (n), 0 on the others.
 // Inputs: t (s, the instance's time), q, qd (n each); the setpoint (q_d, qd_d)
-//         is the plan's reference at every knot.
+//         is the plan's reference at every knot, or the scene's trajectory
+//         sampled at every knot's time when the caller gives it
+//         (NextReference; lagranged: MpcStateMessage); with a frame (MpcOptions::frame)
+//         its pose target too: the scene's pose trajectory (the task-space
+//         controllers' `trajectory`, started from the frame's measured pose),
+//         or a pose setpoint (SetPoseTarget, MoveTo), sampled at every knot's time.
 // Output: tau (n), within the box [tau_lower, tau_upper] of the actuated joints.
 // State:  the policy; the planner's warm start.
 // Gains:  none (the weights are the scene's, fixed at load).
@@ -44,6 +49,14 @@ struct MpcOptions {
   std::optional<std::vector<int>> actuated;                   // default: the cart of a cart-pole, else every joint
   // Diagonal weights (controllers/ddp.hpp's DdpWeights); empty: MpcWeights' defaults.
   VectorXd q, qd, tau, q_terminal, qd_terminal;
+  // A frame's pose error in the cost (controllers/ddp.hpp, DdpFrameCost): the
+  // frame's name ("": none), its weights (position 1/m², rotation 1/rad², >= 0)
+  // on every knot and at the horizon's end, and the target it follows from the
+  // start (the task-space controllers' trajectory; default: hold the pose the
+  // frame starts at). Pose setpoints replace the target.
+  std::string frame;
+  Eigen::Vector2d pose_weight = Eigen::Vector2d::Zero(), pose_terminal_weight = Eigen::Vector2d::Zero();
+  PoseTrajectoryConfig trajectory;
   // Who holds the instance when the plan lapses or fails: a configured
   // controller's name or "brake"; nullopt: the first gravity-compensation or
   // computed-torque controller, else the brake (an external controller's rule).
@@ -61,15 +74,27 @@ std::optional<std::string> ValidateMpc(const MpcOptions& o, int n, bool cart_pol
 // The joints that take a force (ascending): o.actuated, or the default.
 std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole);
 // The cost's weights: o's, each empty one its default (q 1, qd 0.01, tau 0.01,
-// q_terminal 100, qd_terminal 1) on every entry; n joints, m actuated.
+// q_terminal 100, qd_terminal 1; with a frame, q and q_terminal 0: the pose
+// error replaces the joint error) on every entry; n joints, m actuated.
 DdpWeights MpcWeights(const MpcOptions& o, int n, int m);
+// The frame of `kinematics` named o.frame, or nullopt ("" names none).
+std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
 // The optimiser's problem: `dynamics` under `effects` (the plant's model),
-// limits ±torque_limits on the actuated joints. Throws std::invalid_argument
-// (DdpModel's message) for a problem ValidateMpc would refuse, and for
-// limits that are not finite on an actuated joint.
+// limits ±torque_limits on the actuated joints; with o.frame, that frame of
+// `kinematics` (the same model's frames; may be null without a frame). Throws
+// std::invalid_argument (DdpModel's message) for a problem ValidateMpc would
+// refuse, for limits that are not finite on an actuated joint, and for a
+// frame `kinematics` does not have.
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
-                                             bool cart_pole);
+                                             bool cart_pole, std::shared_ptr<const Kinematics> kinematics = nullptr);
+
+// The frame's target over a plan: knot k of a plan made at t follows
+// trajectory.Sample(t + k dt − start). A value of fixed size: copying it allocates nothing.
+struct MpcPoseReference {
+  PoseTrajectory trajectory;
+  double start = 0.0;  // s, the instance time the trajectory started at
+};
 
 // Whether a solve's outcome can be followed: converged or still improving.
 // kLineSearchFailed, kNotPositiveDefinite and kDiverged cannot (the instance
@@ -115,17 +140,26 @@ class MpcPlanner {
   // (t, q, qd, q_ref, qd_ref) => out: a plan of N knots from x_0 = (q, qd) at
   // time t toward the reference (n each, held over the horizon), warm-started
   // from the previous plan shifted by the knots elapsed since it, a fraction
-  // interpolated (DdpData::ShiftSolution(double); cold
-  // after Reset, after a failed solve, or when t went back). `stop` (may be
+  // interpolated (DdpData::ShiftSolution(double)); cold (the actuated joints'
+  // share of the gravity force G(q) held, when the model has gravity: a robot
+  // that holds its pose, not one that falls) after Reset, after a failed
+  // solve, or when t went back. `stop` (may be
   // null) is polled between iterations: set, the solve ends early with what it
   // has (DdpOptions). Returns the status. Allocates nothing.
-  DdpStatus Plan(double t, ConstVecRef q, ConstVecRef qd, ConstVecRef q_ref, ConstVecRef qd_ref, MpcPolicy& out,
-                 const std::atomic<bool>* stop = nullptr);
+  // q_ref, qd_ref: one column (n x 1), held over the horizon, or one per
+  // knot (n x N+1), knot k's at t + k dt (a trajectory followed ahead).
+  // `pose` (may be null: the frame's reference stays as it was) sets the
+  // frame's reference at every knot when the model has a frame cost.
+  DdpStatus Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
+                 const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop = nullptr,
+                 const MpcPoseReference* pose = nullptr);
   void Reset();
 
  private:
   std::shared_ptr<const DdpModel> model_;
   DdpData data_;
+  std::unique_ptr<DynamicsData> dynamics_data_;  // the cold start's G(q)
+  VectorXd gravity_, hold_;                      // (n), (m)
   bool warm_ = false;
   double last_start_ = 0.0;
   std::int64_t sequence_ = 0;
@@ -135,8 +169,9 @@ class MpcController final : public Controller {
  public:
   // `model` from MakeMpcModel; `replan_period` s between solves (> 0:
   // MpcReplanPeriod). Plans inline (offline) until set_plan_inline(false).
+  // `trajectory`: the frame's target from the start (with a frame cost).
   MpcController(std::vector<JointType> joints, VectorXd torque_limits, std::shared_ptr<const DdpModel> model,
-                double replan_period);
+                double replan_period, PoseTrajectoryConfig trajectory = {});
   std::string_view name() const override { return "mpc"; }
   // Drops the policy and the warm start.
   void Reset() override;
@@ -153,6 +188,36 @@ class MpcController final : public Controller {
   // Solves whose status was not usable (inline: their policy is not taken).
   std::int64_t failed_solves() const { return failed_; }
 
+  // Offline: whether the next Compute at t plans (inline); then the caller
+  // may fill NextReference (n x N+1 each: knot k's reference at t + k dt, the
+  // scene's trajectory ahead), which that plan follows instead of holding the
+  // setpoint; used once. No allocation.
+  bool plan_due(double t) const { return planner_ != nullptr && (!planned_ || t >= next_plan_ - 1e-9); }
+  struct Reference {
+    MatrixXd q, qd;  // (n x N+1)
+  };
+  Reference& NextReference() {
+    reference_ready_ = true;
+    return reference_;
+  }
+
+  // The frame's target (a model with a frame cost; else ignored), as a
+  // task-space controller's: each takes effect at the next plan and none allocates.
+  bool has_frame() const { return model_->has_frame_cost(); }
+  void SetPoseTarget(const PoseSetpoint& setpoint);
+  void MoveTo(const Pose& target, double duration);
+  // Holds the target where the frame's reference is at t, at rest (a streamed target that stopped).
+  void HoldPoseTarget(double t);
+  // The frame at (t, q, qd), as a task-space controller reports it: its
+  // measured pose, the target the reference is at t, e = target ⊖ measured
+  // (m, rad) and its twist J qd (m/s, rad/s, world axes). No allocation.
+  void MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& pose, Pose& commanded, Vector6d& error,
+                   Vector6d& twist);
+  // The frame's reference at t from q (n): a pending start (the scene's
+  // trajectory at the first call and after Reset, or a move) begins here from
+  // the frame's measured pose. What the optimiser thread is handed. No allocation.
+  const MpcPoseReference& PoseReference(double t, ConstVecRef q);
+
  protected:
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
 
@@ -165,6 +230,13 @@ class MpcController final : public Controller {
   double next_plan_ = 0.0;
   bool planned_ = false;
   std::int64_t failed_ = 0;
+  Reference reference_;  // NextReference's
+  bool reference_ready_ = false;
+  // The frame's target (has_frame()).
+  PoseTrajectoryConfig scene_trajectory_, pending_;
+  bool start_pending_ = true;
+  MpcPoseReference pose_ref_;
+  std::unique_ptr<KinematicsData> kinematics_data_;  // null without a frame
 };
 
 }  // namespace lagrange

@@ -14,8 +14,9 @@ namespace {
 SetpointMessage SetpointPrototype(int n) { return {Setpoint(n)}; }
 TorqueMessage TorquePrototype(int n) { return {VectorXd::Zero(n)}; }
 MeasuredMessage MeasuredPrototype(int n) { return {VectorXd::Zero(n), VectorXd::Zero(n)}; }
-MpcStateMessage MpcStatePrototype(int n) {
-  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n), VectorXd::Zero(n)};
+// Sized for n joints and a plan of N knots (the reference per knot: N + 1 columns).
+MpcStateMessage MpcStatePrototype(int n, int N) {
+  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), MatrixXd::Zero(n, N + 1), MatrixXd::Zero(n, N + 1), {}};
 }
 
 // The reason a plan's status gives for falling back (mode_machine.hpp), for one that is not usable.
@@ -87,7 +88,7 @@ InstanceChannels::InstanceChannels(int n, std::size_t command_capacity, const Mp
       torques(TorquePrototype(n)),
       measured(MeasuredPrototype(n)),
       commands(command_capacity, CommandPrototype(n)),
-      mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0)),
+      mpc_state(MpcStatePrototype(plan.horizon > 0 ? n : 0, plan.horizon)),
       mpc_plans(plan) {}
 
 InstanceRecord::InstanceRecord(int n, int plan_horizon)
@@ -509,22 +510,28 @@ void Runtime::TakeSetpoint(Slot& s, Nanoseconds now) {
 void Runtime::TakePose(Slot& s, Nanoseconds now) {
   const PoseMessage* msg = s.channels.poses.Take();  // taken even when unused, so an old one never applies later
   TaskSpaceController* c = s.instance.task_space_controller(s.instance.active_controller());
-  if (c == nullptr) {  // switched away since the receiver checked it
+  MpcController* mpc = c == nullptr ? s.instance.mpc_controller(s.instance.active_controller()) : nullptr;
+  if (c == nullptr && (mpc == nullptr || !mpc->has_frame())) {  // switched away since the receiver checked it
     s.pose_streaming = false;
     return;
   }
   if (msg != nullptr) {
+    const PoseSetpoint target{msg->target, msg->twist, Vector6d::Zero()};
     if (msg->duration > 0.0) {
-      c->MoveTo(msg->target, msg->duration);
+      c != nullptr ? c->MoveTo(msg->target, msg->duration) : mpc->MoveTo(msg->target, msg->duration);
     } else {
-      c->SetPoseTarget(PoseSetpoint{msg->target, msg->twist, Vector6d::Zero()});
+      c != nullptr ? c->SetPoseTarget(target) : mpc->SetPoseTarget(target);
     }
     s.pose_streaming = msg->duration == 0.0 && !msg->twist.isZero(0.0);
     s.last_pose = now;
     On(s, ModeEvent::kPoseArrived, now);
   }
   if (s.pose_streaming && TimedOut(now, s.last_pose, s.m.setpoint_timeout)) {
-    c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
+    if (c != nullptr) {
+      c->SetPoseTarget(PoseSetpoint{c->commanded().pose, Vector6d::Zero(), Vector6d::Zero()});
+    } else {
+      mpc->HoldPoseTarget(s.instance.t());
+    }
     s.pose_streaming = false;
     On(s, ModeEvent::kPosesTimedOut, now);
   }
@@ -566,19 +573,24 @@ void Runtime::TakePlan(Slot& s, Nanoseconds now, PlanRecord& record) {
 }
 
 // (state, setpoint) => the mpc optimiser's next start: the state the next
-// tick begins from and the reference it follows (the streamed setpoint, else
-// the scene's trajectory), whatever the mode that commands the plant.
+// tick begins from and the reference it follows at every knot (the streamed
+// setpoint, held; else the scene's trajectory ahead, knot by knot), whatever
+// the mode that commands the plant.
 void Runtime::OfferState(Slot& s) {
   Instance& inst = s.instance;
   if (!s.mpc_active() || !Commands(s.mode.mode)) return;
-  if (!s.streaming) inst.SampleTrajectory(s.current);
-  const Setpoint& ref = s.streaming ? s.streamed : s.current;
+  MpcController* c = inst.mpc_controller(inst.active_controller());
   MpcStateMessage& m = s.channels.mpc_state.back();
   m.t = inst.t();
   m.q = inst.q();
   m.qd = inst.qd();
-  m.q_ref = ref.q;
-  m.qd_ref = ref.qd;
+  if (s.streaming) {
+    m.q_ref.colwise() = s.streamed.q;
+    m.qd_ref.colwise() = s.streamed.qd;
+  } else {
+    inst.SampleTrajectoryAhead(c->ddp_model()->dt(), m.q_ref, m.qd_ref);
+  }
+  if (c->has_frame()) m.pose = c->PoseReference(m.t, m.q);
   s.channels.mpc_state.Publish();
 }
 
@@ -647,12 +659,15 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.mode = s.mode.mode;
   r.reason = s.mode.reason;
   const TaskSpaceController* task = inst.task_space_controller(inst.active_controller());
-  r.task = task != nullptr;
+  MpcController* mpc = task == nullptr ? inst.mpc_controller(inst.active_controller()) : nullptr;
+  r.task = task != nullptr || (mpc != nullptr && mpc->has_frame());
   if (task != nullptr) {
     r.task_pose = task->pose();
     r.task_commanded = task->commanded().pose;
     r.task_error = task->pose_error();
     r.task_twist = task->twist();
+  } else if (r.task) {  // an mpc controller's frame, reported as a task-space controller's
+    mpc->MeasureTask(inst.t(), inst.q(), inst.qd(), r.task_pose, r.task_commanded, r.task_error, r.task_twist);
   }
   r.publish_torque = inst.external_plant() && (Commands(s.mode.mode) || s.send_zero_once);
   r.state_tick = s.measured_tick;

@@ -95,7 +95,9 @@ struct MeasuredMessage {
 // instance's time, and the reference (the setpoint it follows), n each.
 struct MpcStateMessage {
   double t = 0.0;  // s, the instance's time
-  VectorXd q, qd, q_ref, qd_ref;
+  VectorXd q, qd;
+  MatrixXd q_ref, qd_ref;  // (n x N+1) the reference at every knot of the plan
+  MpcPoseReference pose;  // the frame's target (an mpc controller with a frame; MpcController::PoseReference)
 };
 
 // What the receiver found wrong with an external plant's measured state: each

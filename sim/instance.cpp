@@ -27,6 +27,7 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
       tau_cmd_(VectorXd::Zero(instance_model_->num_dofs)),
       q_des_(instance_model_->config.q0),
       setpoint_(instance_model_->num_dofs),
+      ahead_(instance_model_->num_dofs),
       accounting_((instance_model_->config.telemetry || instance_model_->config.energy_balance) && !external_),
       forces_(instance_model_->num_dofs),
       q_start_(VectorXd::Zero(instance_model_->num_dofs)),
@@ -154,6 +155,14 @@ const char* Instance::SetMethod(Method method) {
 
 void Instance::SampleTrajectory(Setpoint& out) const { trajectory_->Sample(t_ - trajectory_start_, out); }
 
+void Instance::SampleTrajectoryAhead(double dt, MatrixXd& q, MatrixXd& qd) {
+  for (Eigen::Index k = 0; k < q.cols(); ++k) {
+    trajectory_->Sample(t_ - trajectory_start_ + static_cast<double>(k) * dt, ahead_);
+    q.col(k) = ahead_.q;
+    qd.col(k) = ahead_.qd;
+  }
+}
+
 void Instance::RestartTrajectory() {
   trajectory_->StartFrom(q_, qd_);
   trajectory_start_ = t_;
@@ -228,6 +237,11 @@ Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint, std::s
 
 Instance::StepFailure Instance::Step(double dt) {
   SampleTrajectory(setpoint_);
+  // An mpc plan made this step follows the trajectory ahead over its horizon.
+  if (MpcController* mpc = mpcs_[active_]; mpc != nullptr && mpc->plan_due(t_)) {
+    MpcController::Reference& ahead = mpc->NextReference();
+    SampleTrajectoryAhead(mpc->ddp_model()->dt(), ahead.q, ahead.qd);
+  }
   return Step(dt, setpoint_);
 }
 

@@ -56,6 +56,9 @@ class Instance {
 
   // The scene trajectory's setpoint at the current time.
   void SampleTrajectory(Setpoint& out) const;
+  // The scene's trajectory ahead: column k of q, qd (n x K each) its sample
+  // at t + k dt (an mpc plan's reference per knot). Allocates nothing.
+  void SampleTrajectoryAhead(double dt, MatrixXd& q, MatrixXd& qd);
   // Starts the scene trajectory over from the current state, now (an
   // external plant's first measured state: Trajectory::StartFrom). Reset
   // starts it from the scene's initial state again. Allocates nothing.
@@ -237,6 +240,7 @@ class Instance {
   std::int64_t steps_ = 0;
   VectorXd q_, qd_, qdd_, tau_, tau_cmd_, q_des_;
   Setpoint setpoint_;  // scratch for Step(dt)
+  Setpoint ahead_;     // scratch for SampleTrajectoryAhead
   // Energy balance.
   bool accounting_;
   EnergyBalance balance_;

@@ -74,12 +74,14 @@ std::vector<ControllerModel> ControllersOf(const InstanceConfig& config) {
     if (m.external) m.fallback = FallbackOf(controllers, m.config.external.fallback);
     if (m.mpc) m.fallback = FallbackOf(controllers, m.config.mpc.fallback);
   }
-  // Pose setpoints: the frame each task-space controller moves, within the scene's workspace.
+  // Pose setpoints: the frame each task-space controller (or mpc with a frame) moves, within the scene's workspace.
   for (ControllerModel& m : controllers) {
-    if (!IsTaskSpace(m.config.type)) continue;
+    const bool mpc_frame = m.mpc && !m.config.mpc.frame.empty();
+    if (!IsTaskSpace(m.config.type) && !mpc_frame) continue;
     // The frames of the controller's own model, as MakeController finds its frame.
     const Kinematics kinematics(MakeRigidTree(m.config.model ? *m.config.model : config.plant));
-    const std::optional<int> frame = FindTaskFrame(kinematics, m.config.task.frame);
+    const std::optional<int> frame =
+        mpc_frame ? MpcFrame(m.config.mpc, kinematics) : FindTaskFrame(kinematics, m.config.task.frame);
     if (!frame) throw std::logic_error("a validated task-space controller's frame is not the robot's");
     m.pose_rules.frame = kinematics.frame_names()[static_cast<std::size_t>(*frame)];
     m.pose_rules.lower = config.workspace_lower;

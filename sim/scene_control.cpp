@@ -242,7 +242,7 @@ void ExpectControllerKeys(const YamlReader& node, ControllerType type) {
       break;
     case ControllerType::kMpc:
       node.ExpectKeys({"type", "horizon", "dt", "integrator", "iterations", "replan_period", "actuated", "weights",
-                       "fallback", "model"});
+                       "fallback", "model", "frame", "pose_weight", "pose_terminal_weight", "trajectory"});
       break;
   }
 }
@@ -318,7 +318,9 @@ void ReadExternal(const YamlReader& node, double period, ControllerConfig& c) {
 
 // mpc: the plan's horizon (knots), dt, the optimiser's integrator, iterations per solve, replan_period, the
 // actuated joints, the weights {q, qd, tau, q_terminal, qd_terminal} (one number or one per joint; tau one per
-// actuated joint) and the fallback. Ranges: ValidateMpc (controllers/mpc.hpp), through Validate below.
+// actuated joint), the fallback, and a frame's pose error: frame, pose_weight and pose_terminal_weight
+// ([position, rotation]), trajectory (the task-space controllers' key). Ranges: ValidateMpc
+// (controllers/mpc.hpp), through Validate below.
 void ReadMpc(const YamlReader& node, const PlantSpec& plant, int n, ControllerConfig& c) {
   if (c.type != ControllerType::kMpc) return;
   MpcOptions& o = c.mpc;
@@ -349,6 +351,13 @@ void ReadMpc(const YamlReader& node, const PlantSpec& plant, int n, ControllerCo
     }
   }
   if (auto v = node.Optional("fallback")) o.fallback = v->Text();
+  if (auto f = node.Optional("frame")) {
+    o.frame = f->Text();
+    if (o.frame.empty()) f->Fail("expected the name of one of the robot's frames, got ''");
+  }
+  if (auto v = node.Optional("pose_weight")) o.pose_weight = v->Vector(2);
+  if (auto v = node.Optional("pose_terminal_weight")) o.pose_terminal_weight = v->Vector(2);
+  if (auto tr = node.Optional("trajectory")) o.trajectory = ReadPoseTrajectory(*tr);
 }
 
 // The controller library's verdict on `c`; a refusal names the key in the file when there is one.

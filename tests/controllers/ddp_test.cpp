@@ -14,6 +14,7 @@
 #include "controllers/ddp.hpp"
 #include "controllers/lqr.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace lagrange {
@@ -322,6 +323,125 @@ TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
   const DdpResult& resumed = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
   EXPECT_GE(resumed.iterations, 1);
   EXPECT_NE(resumed.status, DdpStatus::kStopped);
+}
+
+// The Panda (config/robots/panda.urdf) and its flange's frame, for the frame pose-error cost.
+struct DdpPanda {
+  PlantSpec spec = UrdfPlantSpec(
+      std::make_shared<const UrdfRobot>(LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/panda.urdf")));
+  std::shared_ptr<const Kinematics> kinematics = std::make_shared<const Kinematics>(MakeRigidTree(spec));
+  int frame = *kinematics->FrameIndex("panda_link8");
+  VectorXd ready = V({0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785});  // Franka's ready pose
+
+  Pose PoseAt(const VectorXd& q) const {
+    const std::unique_ptr<KinematicsData> d = kinematics->MakeData();
+    kinematics->ComputeFramePlacement(*d, q, frame);
+    return {d->position(frame), Eigen::Quaterniond(d->rotation(frame))};
+  }
+};
+
+// ½ w_pos |p_d − p|² + ½ w_rot |log(R_d Rᵀ)|²: its gradient −Jᵀ W e is the
+// exact one (central differences, away from the target, where the rotation
+// error is large and the log map far from linear), and at the target (e = 0)
+// its Gauss–Newton Hessian Jᵀ W J is the exact Hessian.
+TEST(Ddp, FramePoseCostGradientIsExactAndItsGaussNewtonHessianIsExactAtTheTarget) {
+  const DdpPanda panda;
+  const std::unique_ptr<KinematicsData> data = panda.kinematics->MakeData();
+  constexpr double kWPos = 3.0, kWRot = 0.7, kStep = 1e-6, kGradientTolerance = 1e-6, kHessianTolerance = 1e-4;
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto random_q = [&] {
+    VectorXd q = panda.ready;
+    for (int i = 0; i < 7; ++i) q[i] += 0.4 * unit(rng);
+    return q;
+  };
+  VectorXd none(0);
+  MatrixXd no_hessian(0, 0);
+  const auto cost = [&](const VectorXd& q, const Pose& target) {
+    return FramePoseCost(*panda.kinematics, *data, panda.frame, target, kWPos, kWRot, q, false, none, no_hessian);
+  };
+  for (int trial = 0; trial < 5; ++trial) {
+    const VectorXd q = random_q();
+    const Pose target = panda.PoseAt(random_q());
+    VectorXd gradient = VectorXd::Zero(7);
+    MatrixXd hessian = MatrixXd::Zero(7, 7);
+    const double at_q = FramePoseCost(*panda.kinematics, *data, panda.frame, target, kWPos, kWRot, q, true, gradient, hessian);
+    EXPECT_NEAR(at_q, cost(q, target), 1e-14 * (1.0 + at_q));
+    EXPECT_GT(at_q, 1e-3) << "away from the target";
+    for (int i = 0; i < 7; ++i) {
+      VectorXd plus = q, minus = q;
+      plus[i] += kStep;
+      minus[i] -= kStep;
+      const double fd = (cost(plus, target) - cost(minus, target)) / (2.0 * kStep);
+      EXPECT_NEAR(gradient[i], fd, kGradientTolerance * (1.0 + gradient.norm())) << "trial " << trial << ", joint " << i;
+    }
+  }
+  // At the target the residual is zero, so the Hessian is Jᵀ W J exactly: second differences of the cost.
+  const VectorXd q = random_q();
+  const Pose target = panda.PoseAt(q);
+  VectorXd gradient = VectorXd::Zero(7);
+  MatrixXd hessian = MatrixXd::Zero(7, 7);
+  FramePoseCost(*panda.kinematics, *data, panda.frame, target, kWPos, kWRot, q, true, gradient, hessian);
+  EXPECT_LT(gradient.norm(), 1e-12);
+  constexpr double kH = 1e-4;
+  for (int i = 0; i < 7; ++i) {
+    for (int j = 0; j < 7; ++j) {
+      const auto at = [&](double di, double dj) {
+        VectorXd x = q;
+        x[i] += di;
+        x[j] += dj;
+        return cost(x, target);
+      };
+      const double fd = (at(kH, kH) - at(kH, -kH) - at(-kH, kH) + at(-kH, -kH)) / (4.0 * kH * kH);
+      EXPECT_NEAR(hessian(i, j), fd, kHessianTolerance * (1.0 + hessian.norm())) << i << ", " << j;
+    }
+  }
+}
+
+// The plan of a frame's pose error: from Franka's ready pose at rest (gravity
+// held, the cold start), under gravity and its effort limits, the flange
+// reaches a pose 12 cm away, turned by a few degrees (the pose of a reachable
+// q), at rest by the horizon's end; the cost never increases from one
+// iteration to the next.
+TEST(Ddp, FramePoseCostPlanBringsTheFrameToAReachableTarget) {
+  const DdpPanda panda;
+  VectorXd q_target = panda.ready;
+  q_target[0] += 0.3;
+  q_target[1] += 0.2;
+  q_target[3] += 0.25;
+  q_target[5] -= 0.1;
+  const Pose target = panda.PoseAt(q_target);
+  const Pose start = panda.PoseAt(panda.ready);
+  ASSERT_GT((target.position - start.position).norm(), 0.1);
+  DdpConfig config;
+  config.integrator = IntegratorType::kSemiImplicitEuler;
+  config.dt = 0.02;
+  config.horizon = 50;
+  config.tau_upper = V({87, 87, 87, 87, 12, 12, 12});
+  config.tau_lower = -config.tau_upper;
+  config.weights = Weights(VectorXd::Zero(7), VectorXd::Constant(7, 0.01), VectorXd::Constant(7, 1e-4),
+                           VectorXd::Zero(7), VectorXd::Constant(7, 10.0));
+  config.frame_cost = {panda.kinematics, panda.frame, 10.0, 1.0, 1e4, 1e3};
+  config.options.max_iterations = 60;
+  const DdpModel model(MakeDynamics(panda.spec, FastestMethod(panda.spec.type())), config);
+  DdpData data(model);
+  for (Pose& p : data.pose_ref) p = target;
+  VectorXd gravity(7);
+  model.dynamics()->ComputeGravityForce(*model.dynamics()->MakeData(), panda.ready, gravity);
+  data.HoldControls(gravity);  // the cold start of a robot that holds its pose
+  const DdpResult& r = SolveDdp(model, data, panda.ready, VectorXd::Zero(7));
+  ASSERT_TRUE(r.status == DdpStatus::kConverged || r.status == DdpStatus::kMaxIterations) << ToString(r.status);
+  for (int i = 1; i <= r.iterations; ++i) EXPECT_LE(r.cost_history[i], r.cost_history[i - 1]) << "iteration " << i;
+  EXPECT_LT(r.cost, 0.05 * r.cost_history[0]) << ToString(r.status) << " after " << r.iterations;
+  const Vector6d e = PoseError(target, panda.PoseAt(data.x().col(config.horizon).head(7)));
+  constexpr double kPositionTolerance = 0.005, kRotationTolerance = 0.02;  // m, rad
+  EXPECT_LT(e.head<3>().norm(), kPositionTolerance);
+  EXPECT_LT(e.tail<3>().norm(), kRotationTolerance);
+  EXPECT_LT(data.x().col(config.horizon).tail(7).norm(), 0.1) << "at rest at the end (rad/s)";
+  testing::AllocationCounter counter;  // the frame term's kinematics run in the data's buffers
+  data.ShiftSolution(1);
+  SolveDdp(model, data, data.x().col(1).head(7), data.x().col(1).tail(7));
+  EXPECT_EQ(counter.count(), 0);
 }
 
 TEST(Ddp, RefusesAProblemItCannotSolveNamingTheField) {

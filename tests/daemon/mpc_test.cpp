@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "daemon/mpc_worker.hpp"
+#include "plant/plant_factory.hpp"
 #include "daemon/runtime.hpp"
 #include "sim/offline.hpp"
 #include "sim/scene.hpp"
@@ -87,6 +88,95 @@ TEST(MpcScene, ASceneWhosePlanWouldRunOutBeforeTheNextIsRefusedNamingTheInstance
             std::string::npos)
       << *refusal;
   EXPECT_EQ(CheckWorkBounds(*model), refusal) << "lagranged and simulate refuse it as the tick's bound";
+}
+
+// The shipped Panda reach (config/panda_mpc_reach.yaml) offline, as `lagrangectl
+// simulate` runs it: the plan on the flange's pose error brings the flange to the
+// scene's target, the box binds (some joint is held at its limit for a while)
+// and no applied torque ever leaves it; the same run twice is the same, bit for bit.
+struct ReachEnd {
+  Vector6d error = Vector6d::Zero();             // the flange's pose error at the end (m, rad)
+  VectorXd worst;                                // (n) the largest |τ_i| applied, N·m
+  std::vector<int> saturated;                    // (n) ticks at |τ_i| = limit
+  VectorXd q;
+};
+ReachEnd RunPandaReach(double seconds) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
+  const InstanceConfig& config = scene.instances[0];
+  const VectorXd& limits = config.torque_limits;
+  OfflineScene offline = PrepareOfflineScene(scene, "panda_mpc_reach");
+  ReachEnd end{Vector6d::Zero(), VectorXd::Zero(config.q0.size()), std::vector<int>(config.q0.size(), 0), {}};
+  const bool healthy = RunOffline(offline.instances, offline.period, std::llround(seconds / offline.period),
+                                  [&](std::size_t, Instance& inst) {
+                                    for (Eigen::Index i = 0; i < limits.size(); ++i) {
+                                      const double tau = std::abs(inst.tau()[i]);
+                                      end.worst[i] = std::max(end.worst[i], tau);
+                                      if (tau >= limits[i] * (1.0 - 1e-12)) ++end.saturated[static_cast<std::size_t>(i)];
+                                    }
+                                  });
+  EXPECT_TRUE(healthy);
+  end.q = offline.instances[0].q();
+  const Kinematics kinematics(MakeRigidTree(config.plant));
+  const int frame = *kinematics.FrameIndex(config.controller.mpc.frame);
+  const std::unique_ptr<KinematicsData> data = kinematics.MakeData();
+  kinematics.ComputeFramePlacement(*data, end.q, frame);
+  end.error = PoseError(*config.controller.mpc.trajectory.target,
+                        Pose{data->position(frame), Eigen::Quaterniond(data->rotation(frame))});
+  return end;
+}
+
+TEST(MpcScene, PandaReachesItsPoseTargetWithTheTorqueBoxBindingAndNeverExceeded) {
+  constexpr double kDuration = 2.0, kPositionTolerance = 0.01, kRotationTolerance = 0.05;  // s, m, rad
+  constexpr int kSaturatedTicks = 10;  // at least 10 ms at a limit
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
+  const VectorXd& limits = scene.instances[0].torque_limits;
+  const ReachEnd end = RunPandaReach(kDuration);
+  int binding = 0;
+  for (Eigen::Index i = 0; i < limits.size(); ++i) {
+    EXPECT_LE(end.worst[i], limits[i]) << "joint " << i + 1;
+    if (end.saturated[static_cast<std::size_t>(i)] >= kSaturatedTicks) ++binding;
+    std::printf("joint %ld: worst |tau| %.4g of %.4g N·m, %d ticks at the limit\n", static_cast<long>(i + 1),
+                end.worst[i], limits[i], end.saturated[static_cast<std::size_t>(i)]);
+  }
+  std::printf("final flange error: %.3g m, %.3g rad\n", end.error.head<3>().norm(), end.error.tail<3>().norm());
+  EXPECT_GE(binding, 1) << "the box binds on some joint";
+  EXPECT_LT(end.error.head<3>().norm(), kPositionTolerance);
+  EXPECT_LT(end.error.tail<3>().norm(), kRotationTolerance);
+  const ReachEnd again = RunPandaReach(kDuration);
+  EXPECT_TRUE(again.q == end.q) << "offline mpc is deterministic";
+}
+
+// The shipped arm (config/arm_mpc.yaml) offline: each plan follows the
+// scene's sine at every knot's time over its horizon (not the setpoint of the
+// moment held), so the arm tracks the moving reference closely after the
+// first second, within its torque box.
+TEST(MpcScene, ArmTracksItsSineWithThePlanFollowingTheReferenceAhead) {
+  constexpr double kDuration = 4.0, kSettled = 1.0, kRmsTolerance = 0.01, kWorstTolerance = 0.015;  // s, s, rad, rad
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/arm_mpc.yaml");
+  const TrajectoryConfig& sine = scene.instances[0].setpoint;
+  ASSERT_EQ(sine.type, TrajectoryConfig::Type::kSine);
+  const VectorXd& limits = scene.instances[0].torque_limits;
+  OfflineScene offline = PrepareOfflineScene(scene, "arm_mpc");
+  double sum = 0.0, worst = 0.0, worst_tau = 0.0;
+  int samples = 0;
+  const bool healthy = RunOffline(offline.instances, offline.period, std::llround(kDuration / offline.period),
+                                  [&](std::size_t, Instance& inst) {
+                                    worst_tau = std::max(worst_tau, (inst.tau().cwiseAbs() - limits).maxCoeff());
+                                    if (inst.t() < kSettled) return;
+                                    const VectorXd ref =
+                                        *sine.center + sine.amplitude.cwiseProduct(
+                                                           (2.0 * kPi * inst.t() * sine.frequency).array().sin().matrix());
+                                    const double e = (inst.q() - ref).norm();
+                                    sum += e * e;
+                                    worst = std::max(worst, e);
+                                    ++samples;
+                                  });
+  EXPECT_TRUE(healthy);
+  const double rms = std::sqrt(sum / samples);
+  std::printf("tracking error after %.1f s: rms %.3g rad, worst %.3g rad\n", kSettled, rms, worst);
+  EXPECT_LT(rms, kRmsTolerance);
+  EXPECT_LT(worst, kWorstTolerance);
+  EXPECT_LE(worst_tau, 0.0) << "within the torque box";
 }
 
 // The swing-up scene with a fallback to hold by, as lagranged runs it.
@@ -285,6 +375,64 @@ TEST_F(RuntimeMpc, StopEndsTheOptimiserThreadDuringASolve) {
   Tick();
   workers[0]->Stop();  // returns: the thread has ended (a hang would fail the test by its timeout)
   EXPECT_EQ(workers[0]->solves(), 0);
+}
+
+// lagranged routes a pose setpoint to an mpc controller with a frame as to a
+// task-space controller: the receiver's rules name its frame, and the plans
+// that follow bring the flange to the new target (a second target after the
+// scene's: a sequence of targets, as lagrangectl send --pose sends them); the
+// frame is reported as a task-space controller's, and the tick allocates nothing.
+TEST(RuntimeMpcPose, APoseSetpointRetargetsAnMpcControllersFrame) {
+  constexpr double kPositionTolerance = 0.01, kRotationTolerance = 0.05;  // m, rad
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
+  Runtime runtime(scene);
+  ASSERT_EQ(runtime.model().instances[0].controllers[0].pose_rules.frame, "panda_link8");
+  TickRecord record = runtime.MakeRecord();
+  const std::vector<std::unique_ptr<MpcWorker>> workers = MakeMpcWorkers(runtime);
+  ASSERT_EQ(workers.size(), 1u);
+  Nanoseconds now = 0;
+  const auto ticks_planning = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      now += kMs;
+      runtime.Tick(now, record);
+      workers[0]->PlanOnce();
+    }
+  };
+  ticks_planning(500);
+  ASSERT_EQ(record.instances[0].mode, Mode::kRunning);
+  Pose target = *scene.instances[0].controller.mpc.trajectory.target;
+  target.position = Eigen::Vector3d(0.35, -0.2, 0.5);
+  PoseMessage& msg = runtime.channels(0).poses.back();
+  msg.target = target;
+  msg.twist.setZero();
+  msg.duration = 0.0;
+  runtime.channels(0).poses.Publish();
+  ticks_planning(1500);
+  EXPECT_EQ(record.instances[0].mode, Mode::kRunning);
+  const Kinematics kinematics(MakeRigidTree(scene.instances[0].plant));
+  const int frame = *kinematics.FrameIndex("panda_link8");
+  const std::unique_ptr<KinematicsData> data = kinematics.MakeData();
+  kinematics.ComputeFramePlacement(*data, record.instances[0].q, frame);
+  const Vector6d e = PoseError(target, Pose{data->position(frame), Eigen::Quaterniond(data->rotation(frame))});
+  EXPECT_LT(e.head<3>().norm(), kPositionTolerance);
+  EXPECT_LT(e.tail<3>().norm(), kRotationTolerance);
+  // The frame is reported as a task-space controller's (PANDA_TASK: what lagrangectl send --pose reads).
+  const InstanceRecord& r = record.instances[0];
+  ASSERT_TRUE(r.task);
+  EXPECT_LT((r.task_commanded.position - target.position).norm(), 1e-12);
+  EXPECT_LT((r.task_error - e).norm(), 1e-9);
+  // The tick allocates nothing with it (the optimiser between ticks, outside the count).
+  std::int64_t allocations = 0;
+  for (int k = 0; k < 100; ++k) {
+    {
+      testing::AllocationCounter counter;
+      now += kMs;
+      runtime.Tick(now, record);
+      allocations += counter.count();
+    }
+    workers[0]->PlanOnce();
+  }
+  EXPECT_EQ(allocations, 0);
 }
 
 }  // namespace
