@@ -555,6 +555,8 @@ TEST_F(Lagranged, TheMpcSceneSwingsTheCartPoleUpAndBalancesItFromItsOneCommand) 
   const auto running = [](const state_t& s) { return s.mode == state_t::MODE_RUNNING; };
   const auto first_run = std::find_if(states.begin(), states.end(), running);
   const auto held = std::count_if(first_run, states.end(), [&](const state_t& s) { return !running(s); });
+  double worst_x = 0.0;
+  for (const state_t& s : states) worst_x = std::max(worst_x, std::abs(s.q[0]));
   const std::vector<mpc_t> plans = bus.Decoded<mpc_t>("CARTPOLE_MPC");
   double max_solve = 0.0, max_age = 0.0;
   std::map<std::string, int> not_followed;
@@ -563,9 +565,9 @@ TEST_F(Lagranged, TheMpcSceneSwingsTheCartPoleUpAndBalancesItFromItsOneCommand) 
     max_age = std::max(max_age, p.age);
     if (!p.followed) ++not_followed[p.status];
   }
-  std::printf("upright from t = %.3f s; %zu states, %td held after the first plan; %zu plans, max solve %.1f ms, "
-              "max age %.1f ms, not followed:",
-              *up_since, states.size(), held, plans.size(), 1e3 * max_solve, 1e3 * max_age);
+  std::printf("upright from t = %.3f s; %zu states, worst |x| %.3f m, %td held after the first plan; %zu plans, "
+              "max solve %.1f ms, max age %.1f ms, not followed:",
+              *up_since, states.size(), worst_x, held, plans.size(), 1e3 * max_solve, 1e3 * max_age);
   for (const auto& [status, n] : not_followed) std::printf(" %d %s", n, status.c_str());
   std::printf("\n");
 }
