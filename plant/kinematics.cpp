@@ -19,9 +19,22 @@ using spatial::MulT;
 namespace {
 
 // A rotation taking z to the unit vector a: a joint's folding (exactly the
-// identity for a = z, which most URDF joints have).
-Matrix3d FoldOf(const Vector3d& a) {
-  return Eigen::Quaterniond::FromTwoVectors(Vector3d::UnitZ(), a).toRotationMatrix();
+// identity for a = z, which most URDF joints have). The least rotation, about
+// z x a (Eigen's Quaternion::FromTwoVectors' too), written out: FromTwoVectors
+// instantiates a JacobiSVD for the antiparallel case, half of this file's compile
+// time in each of scripts/test's four trees. With c = a_z and s^2 = a_x^2 + a_y^2,
+// R = c 1 + [z x a]x + (z x a)(z x a)^T / (1 + c), where 1 / (1 + c) = (1 - c) / s^2
+// keeps its precision near a = -z; a = -z itself folds by a half turn about x.
+Matrix3d FoldOf(const Vector3d& axis) {
+  const Vector3d a = axis.normalized();
+  const double c = a.z(), s2 = a.x() * a.x() + a.y() * a.y();
+  if (s2 == 0.0) return c > 0.0 ? Matrix3d::Identity() : Matrix3d(Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal());
+  const double k = (1.0 - c) / s2;
+  Matrix3d R;
+  R << c + k * a.y() * a.y(), -k * a.x() * a.y(), a.x(),  //
+      -k * a.x() * a.y(), c + k * a.x() * a.x(), a.y(),   //
+      -a.x(), -a.y(), c;
+  return R;
 }
 
 // R r, with r in the form Kinematics::Offset keeps it.

@@ -304,6 +304,48 @@ TEST(FrameKinematics, LinksMergedByFixedJointsKeepTheirPlacement) {
   }
 }
 
+// A joint's folding (the rotation taking z to its axis) is the model's inner
+// choice: a chain whose axes are z, −z, nearly −z and a general direction
+// places every frame exactly as the same chain with each axis reversed and q
+// negated (its Jacobian columns reversed), where −z folds to z by no rotation.
+TEST(FrameKinematics, ReversingAJointsAxisAndItsAngleMovesNoFrameAntiparallelToZIncluded) {
+  const std::vector<Eigen::Vector3d> axes = {Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitZ(),
+                                             Eigen::Vector3d(1e-9, -2e-9, -1.0).normalized(),
+                                             Eigen::Vector3d(0.3, -0.4, 0.5).normalized()};
+  RigidTree tree;
+  std::mt19937 rng{11};
+  for (int i = 0; i < static_cast<int>(axes.size()); ++i) {
+    TreeJoint j;
+    j.name = "j" + std::to_string(i);
+    j.parent = i - 1;
+    j.position = Eigen::Vector3d(0.1, 0.2 * i, 0.3);
+    j.rotation = RandomRotation(rng);
+    j.axis = axes[i];
+    tree.joints.push_back(j);
+    tree.bodies.push_back(RigidBody{1.0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
+    tree.frames.push_back({"f" + std::to_string(i), i, Eigen::Vector3d(0.05, -0.1, 0.2), RandomRotation(rng)});
+  }
+  RigidTree reversed = tree;
+  for (TreeJoint& j : reversed.joints) j.axis = -j.axis;
+  const Kinematics model(tree), model_reversed(reversed);
+  auto data = model.MakeData();
+  auto data_reversed = model_reversed.MakeData();
+  for (int s = 0; s < kStates; ++s) {
+    const auto [q, qd] = RandomStateFor(std::vector<JointType>(axes.size(), JointType::kRevolute), rng);
+    model.ComputeFrameKinematics(*data, q, qd);
+    model_reversed.ComputeFrameKinematics(*data_reversed, -q, -qd);
+    for (int k = 0; k < model.num_frames(); ++k) {
+      EXPECT_LT((data->rotation(k) - data_reversed->rotation(k)).norm(), kExactTol) << "frame " << k;
+      EXPECT_LT((data->position(k) - data_reversed->position(k)).norm(), kExactTol) << "frame " << k;
+      for (const FrameAxes in : {FrameAxes::kWorldAligned, FrameAxes::kLocal}) {
+        EXPECT_LT((data->jacobian(k, in) + data_reversed->jacobian(k, in)).norm(), kExactTol) << "frame " << k;
+        EXPECT_LT((data->bias_acceleration(k, in) - data_reversed->bias_acceleration(k, in)).norm(), kExactTol)
+            << "frame " << k;
+      }
+    }
+  }
+}
+
 // Two derivations meet: with a frame at every body's centre of mass, the
 // recursive dynamics' G = −Σ m J_vᵀ g and T = ½ Σ (m |J_v qd|² + ωᵀ I ω),
 // ω = J_ω qd, I the body's inertia turned into world axes.
