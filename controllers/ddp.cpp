@@ -262,6 +262,12 @@ void DdpData::HoldControls(ConstVecRef u) {
 
 // The passes of one solve, each a named stage over the data's buffers.
 struct DdpPasses {
+  // DdpData::stop, polled at every knot of the passes after the first rollout
+  // (the linearisation, the backward pass, the line search's rollouts), so that
+  // a thread that plans stops within one knot's work of them whatever the horizon.
+  static bool StopRequested(const DdpData& d) {
+    return d.stop != nullptr && d.stop->load(std::memory_order_relaxed);
+  }
   // ½ Σ w e² of the running cost at knot k of (x, u), or the terminal one (k = N).
   static double Cost(const DdpModel& model, DdpData& d, int k, const Eigen::Ref<const VectorXd>& x,
                      const double* u) {
@@ -309,12 +315,14 @@ struct DdpPasses {
   // û_k = clamp(ū_k + α k_k + K_k (x̂_k − x̄_k)); returns J(α), +inf when the
   // rollout leaves the finite numbers. `linearize`: each step by the step
   // derivatives, which leave A_k, B_k of the candidate as well (the first
-  // rollout of a solve, always taken: one pass instead of two).
+  // rollout of a solve, always taken: one pass instead of two). A line
+  // search's rollout (not `linearize`) returns NaN when the stop is set.
   static double Rollout(const DdpModel& model, DdpData& d, double alpha, bool linearize) {
     const int n = model.num_dofs(), N = model.horizon();
     double J = 0.0;
     d.x_try_.col(0) = d.x0_;
     for (int k = 0; k < N; ++k) {
+      if (!linearize && StopRequested(d)) return std::numeric_limits<double>::quiet_NaN();
       d.dx_ = d.x_try_.col(k) - d.x_.col(k);
       auto u = d.u_try_.col(k);
       u = d.u_.col(k) + alpha * d.kff_.col(k);
@@ -349,15 +357,17 @@ struct DdpPasses {
     d.qd_ = d.step_->qd_next();
   }
 
-  // A_k, B_k along the nominal.
-  static void Linearize(const DdpModel& model, DdpData& d) {
+  // A_k, B_k along the nominal; false when the stop is set (A_k, B_k then part-way).
+  static bool Linearize(const DdpModel& model, DdpData& d) {
     const int n = model.num_dofs(), N = model.horizon();
     for (int k = 0; k < N; ++k) {
+      if (StopRequested(d)) return false;
       SetTau(model, d, d.u_.col(k).data());
       d.q_ = d.x_.col(k).head(n);
       d.qd_ = d.x_.col(k).tail(n);
       StepAt(model, d, k);
     }
+    return true;
   }
 
   // ½ xᵀ H x + gᵀ x, with H x left in d.qp_Hx_.
@@ -454,8 +464,9 @@ struct DdpPasses {
   }
 
   // The backward pass with regularisation μ; false when a Q_uu + μI is not
-  // positive definite. Sums k·Q_u and ½ k·Q_uu k into dV1, dV2.
-  static bool BackwardPass(const DdpModel& model, DdpData& d, double mu, double& dV1, double& dV2) {
+  // positive definite, or with `stopped` set when the stop is (the gains then
+  // part-way). Sums k·Q_u and ½ k·Q_uu k into dV1, dV2.
+  static bool BackwardPass(const DdpModel& model, DdpData& d, double mu, double& dV1, double& dV2, bool& stopped) {
     const int n = model.num_dofs(), N = model.horizon(), nx = 2 * n;
     const DdpWeights& w = model.config().weights;
     dV1 = dV2 = 0.0;
@@ -469,6 +480,10 @@ struct DdpPasses {
     d.Vxx_.diagonal().tail(n) = w.qd_terminal;
     FrameTerm(model, d, N, d.x_.col(N).head(n), true, d.Vx_, d.Vxx_);
     for (int k = N - 1; k >= 0; --k) {
+      if (StopRequested(d)) {
+        stopped = true;
+        return false;
+      }
       const MatrixXd& A = d.A_[static_cast<std::size_t>(k)];
       const MatrixXd& B = d.B_[static_cast<std::size_t>(k)];
       MatrixXd& K = d.K_[static_cast<std::size_t>(k)];
@@ -560,14 +575,18 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   };
   bool linearized = true;  // by the first rollout
   while (r.iterations < o.max_iterations) {
-    if (d.stop != nullptr && d.stop->load(std::memory_order_relaxed)) {
+    if (DdpPasses::StopRequested(d) || (!linearized && !DdpPasses::Linearize(model, d))) {
       r.status = DdpStatus::kStopped;
       break;
     }
-    if (!linearized) DdpPasses::Linearize(model, d);
     linearized = true;
     double dV1 = 0.0, dV2 = 0.0;
-    if (!DdpPasses::BackwardPass(model, d, mu, dV1, dV2)) {
+    bool stopped = false;
+    if (!DdpPasses::BackwardPass(model, d, mu, dV1, dV2, stopped)) {
+      if (stopped) {
+        r.status = DdpStatus::kStopped;
+        break;
+      }
       if (!increase()) {
         r.status = DdpStatus::kNotPositiveDefinite;
         break;
@@ -584,10 +603,18 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
     for (int s = 0; s < o.line_search_steps && !accepted; ++s, alpha *= 0.5) {
       const double expected = -(alpha * dV1 + alpha * alpha * dV2);
       const double trial = DdpPasses::Rollout(model, d, alpha, false);
+      if (std::isnan(trial)) {  // stopped: the nominal stays the last accepted one
+        stopped = true;
+        break;
+      }
       if (trial < J && J - trial > o.line_search_acceptance * expected) {
         accepted = true;
         J = trial;
       }
+    }
+    if (stopped) {
+      r.status = DdpStatus::kStopped;
+      break;
     }
     ++r.iterations;
     r.cost_history[r.iterations] = J;

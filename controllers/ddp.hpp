@@ -155,8 +155,9 @@ enum class DdpStatus : std::uint8_t {
   kNotPositiveDefinite,  // Q_uu + μI not positive definite up to regularization_max
   kDiverged,             // the first rollout left the finite numbers (x_0 non-finite, or the
                          // held policy blew up); the data is then Reset
-  kStopped,              // DdpData::stop was set: the solve ended between iterations with the
-                         // nominal it had (the cost never above the first rollout's)
+  kStopped,              // DdpData::stop was set: the solve ended with the last accepted nominal
+                         // (x̄, ū, cost; never above the first rollout's); its gains may be
+                         // part-way through a backward pass: not a policy to follow
 };
 std::string_view ToString(DdpStatus status);
 
@@ -181,9 +182,9 @@ class DdpData {
   // references start at zero and the controls at zero with no feedback (Reset).
   explicit DdpData(const DdpModel& model);
 
-  // Polled between iterations (may be null): once set, SolveDdp returns
-  // kStopped with the nominal it has, so a thread that plans can be stopped
-  // within one iteration.
+  // Polled at every knot of every pass but the first rollout (may be null):
+  // once set, SolveDdp returns kStopped with the last accepted nominal, so a
+  // thread that plans stops within the first rollout or one knot's work.
   const std::atomic<bool>* stop = nullptr;
 
   // Inputs, set by the caller before SolveDdp; sized here, never resized.

@@ -3,7 +3,7 @@
 // DDP in Gauss–Newton form on the plant's exact step derivatives). The
 // problem is a DdpModel built from the call's arguments, validated by it
 // (its refusals in the call's words); the solve runs once, cold, without the
-// GIL, in a DdpData of its own (Ctrl-C stops it between iterations); the
+// GIL, in a DdpData of its own (Ctrl-C stops it within a knot of its passes); the
 // result is its nominal trajectory, gains and record as numpy arrays.
 
 #include <pybind11/numpy.h>
@@ -215,7 +215,7 @@ std::string CallWords(std::string message) {
 constexpr std::chrono::milliseconds kSignalCheck{50};
 
 // SolveDdp without the GIL on a thread of its own while the calling thread looks for a pending signal every
-// kSignalCheck: one (KeyboardInterrupt) stops the solve between iterations (DdpData::stop) and is raised.
+// kSignalCheck: one (KeyboardInterrupt) stops the solve within a knot of its passes (DdpData::stop) and is raised.
 void Solve(const DdpModel& problem, DdpData& data, const VectorXd& q0, const VectorXd& qd0) {
   std::atomic<bool> stop{false};
   data.stop = &stop;
@@ -343,7 +343,7 @@ The result's tau (N, n) is S u_k (0 on the joints not actuated), its K (N, m, 2n
 the feedback of u_k = clamp(u_k + K_k (x − x_k)) about the plan's x_k = (q_k, qd_k).
 The cost never increases from one iteration to the next (cost_history) and no
 u_k is outside the limits. Runs without the GIL; Ctrl-C (KeyboardInterrupt) stops
-it between iterations. ValueError naming the argument
+it within a knot of its passes. ValueError naming the argument
 and what was expected for a bad one; RuntimeError when the first rollout (tau = 0)
 is not finite.)";
 

@@ -325,6 +325,104 @@ TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
   EXPECT_NE(resumed.status, DdpStatus::kStopped);
 }
 
+// A plant that counts its forward-dynamics evaluations (what the line
+// search's rollouts step by; the first rollout steps by the step derivatives)
+// and sets a stop flag at the `at`-th, in the middle of a pass.
+class StopAtForwardDynamics final : public Dynamics {
+ public:
+  StopAtForwardDynamics(std::shared_ptr<const Dynamics> inner, std::atomic<bool>& stop, long at)
+      : Dynamics(inner->joint_types()), inner_(std::move(inner)), stop_(stop), at_(at) {}
+  long calls() const { return calls_; }
+
+  Method method() const override { return inner_->method(); }
+  std::unique_ptr<DynamicsData> MakeData() const override { return inner_->MakeData(); }
+  void ComputeMassMatrix(DynamicsData& d, ConstVecRef q, MatRef M) const override {
+    inner_->ComputeMassMatrix(d, q, M);
+  }
+  void ComputeCoriolisMatrix(DynamicsData& d, ConstVecRef q, ConstVecRef qd, MatRef C) const override {
+    inner_->ComputeCoriolisMatrix(d, q, qd, C);
+  }
+  void ComputeCoriolisForce(DynamicsData& d, ConstVecRef q, ConstVecRef qd, VecRef c) const override {
+    inner_->ComputeCoriolisForce(d, q, qd, c);
+  }
+  void ComputeGravityForce(DynamicsData& d, ConstVecRef q, VecRef G) const override {
+    inner_->ComputeGravityForce(d, q, G);
+  }
+  void ComputeKineticEnergyGradient(DynamicsData& d, ConstVecRef q, ConstVecRef qd, VecRef g) const override {
+    inner_->ComputeKineticEnergyGradient(d, q, qd, g);
+  }
+  double ComputeKineticEnergy(DynamicsData& d, ConstVecRef q, ConstVecRef qd) const override {
+    return inner_->ComputeKineticEnergy(d, q, qd);
+  }
+  double ComputePotentialEnergy(DynamicsData& d, ConstVecRef q) const override {
+    return inner_->ComputePotentialEnergy(d, q);
+  }
+  void ComputeInverseDynamics(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms,
+                              VecRef tau) const override {
+    inner_->ComputeInverseDynamics(d, q, qd, qdd, terms, tau);
+  }
+  void ComputeForwardDynamics(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
+                              VecRef qdd) const override {
+    if (++calls_ == at_) stop_ = true;
+    inner_->ComputeForwardDynamics(d, q, qd, tau, terms, qdd);
+  }
+  void ComputeInverseDynamicsDerivatives(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
+                                         DynamicsTerms terms, MatRef a, MatRef b, MatRef c) const override {
+    inner_->ComputeInverseDynamicsDerivatives(d, q, qd, qdd, terms, a, b, c);
+  }
+  void ComputeForwardDynamicsDerivatives(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
+                                         DynamicsTerms terms, VecRef qdd, MatRef a, MatRef b,
+                                         MatRef c) const override {
+    inner_->ComputeForwardDynamicsDerivatives(d, q, qd, tau, terms, qdd, a, b, c);
+  }
+  void ComputeGravityDerivatives(DynamicsData& d, ConstVecRef q, MatRef dG_dq) const override {
+    inner_->ComputeGravityDerivatives(d, q, dG_dq);
+  }
+
+ private:
+  std::shared_ptr<const Dynamics> inner_;
+  std::atomic<bool>& stop_;
+  long at_;
+  mutable long calls_ = 0;  // one solve on one thread
+};
+
+// The stop is polled at every knot after the first rollout: set in the
+// middle of the first line search's rollout, the solve ends within that knot's
+// step (not after the rollout, the line search and the iteration), with the
+// first rollout's nominal, and no iteration counted.
+TEST(Ddp, AStopSetInTheMiddleOfARolloutEndsTheSolveWithinThatKnot) {
+  const DdpConfig config = CartPoleSwingUp(10.0);
+  // Forward-dynamics evaluations in one rollout: one line-search step of one iteration, unstopped.
+  std::atomic<bool> never{false};
+  DdpConfig one = config;
+  one.options.max_iterations = 1;
+  one.options.line_search_steps = 1;
+  const auto counting = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1);
+  const DdpModel one_model(counting, one);
+  DdpData one_data(one_model);
+  one_data.q_ref.row(1).setConstant(kPi);
+  SolveDdp(one_model, one_data, V({0.0, 0.0}), V({0.0, 0.0}));
+  const long per_rollout = counting->calls();
+  ASSERT_GT(per_rollout, 0) << "the line search's rollout steps by forward dynamics";
+  const long per_knot = per_rollout / config.horizon;
+  ASSERT_EQ(per_knot * config.horizon, per_rollout);
+
+  std::atomic<bool> stop{false};
+  const long at = per_knot * (config.horizon / 2) + 1;  // the first evaluation of the middle knot
+  const auto stopping = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), stop, at);
+  DdpConfig many = config;
+  many.options.max_iterations = 50;
+  const DdpModel model(stopping, many);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  data.stop = &stop;
+  const DdpResult& r = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_EQ(r.status, DdpStatus::kStopped);
+  EXPECT_EQ(r.iterations, 0) << "the iteration in progress is not finished";
+  EXPECT_EQ(r.cost, r.cost_history[0]) << "the first rollout's nominal";
+  EXPECT_LE(stopping->calls() - at, per_knot - 1) << "no evaluation past the knot the stop was set in";
+}
+
 // The Panda (config/robots/panda.urdf) and its flange's frame, for the frame pose-error cost.
 struct DdpPanda {
   PlantSpec spec = UrdfPlantSpec(
