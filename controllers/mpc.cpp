@@ -231,10 +231,7 @@ void MpcController::SetPoseTarget(const PoseSetpoint& setpoint) {
 }
 
 void MpcController::MoveTo(const Pose& target, double duration) {
-  pending_ = PoseTrajectoryConfig{};
-  pending_.type = PoseTrajectory::Type::kMinimumJerk;
-  pending_.target = target;
-  pending_.duration = duration;
+  pending_ = MinimumJerkMoveTo(target, duration);
   start_pending_ = true;
 }
 

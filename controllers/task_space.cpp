@@ -128,10 +128,7 @@ void TaskSpaceController::SetPoseTarget(const PoseSetpoint& setpoint) {
 }
 
 void TaskSpaceController::MoveTo(const Pose& target, double duration) {
-  pending_ = PoseTrajectoryConfig{};
-  pending_.type = PoseTrajectory::Type::kMinimumJerk;
-  pending_.target = target;
-  pending_.duration = duration;
+  pending_ = MinimumJerkMoveTo(target, duration);
   start_pending_ = true;
 }
 

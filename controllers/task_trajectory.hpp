@@ -127,6 +127,17 @@ struct PoseTrajectoryConfig {
   double ramp = 1.0;                                        // circle: s
 };
 
+// A minimum-jerk move to `target` in `duration` s from wherever the frame is
+// when it starts: what a move setpoint (<NAME>_POSE with a duration) asks of
+// a frame's controller, task-space or mpc.
+inline PoseTrajectoryConfig MinimumJerkMoveTo(const Pose& target, double duration) {
+  PoseTrajectoryConfig c;
+  c.type = PoseTrajectory::Type::kMinimumJerk;
+  c.target = target;
+  c.duration = duration;
+  return c;
+}
+
 // Why `config` describes no trajectory, "key: expected ..." (a finite unit
 // target, duration > 0, a unit normal, a nonzero centre ⊥ the normal, ...),
 // or nullopt.
