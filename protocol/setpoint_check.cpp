@@ -55,10 +55,11 @@ SetpointVerdict CheckSetpoint(const void* data, std::size_t size, const Setpoint
 
 std::string RefusedByController(TargetKind kind, bool task_space, const std::string& controller) {
   if (kind == TargetKind::kPose && !task_space) {
-    return "the instance is not running a task-space controller (active: " + controller + ")";
+    return "the instance is not running a controller that moves a frame (active: " + controller +
+           "; pose setpoints need a task-space controller or an mpc with a frame)";
   }
   if (kind == TargetKind::kJointSetpoint && task_space) {
-    return "the instance is running a task-space controller (active: " + controller +
+    return "the instance is running a controller that moves a frame (active: " + controller +
            "), which follows pose setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints";
   }
   return "";

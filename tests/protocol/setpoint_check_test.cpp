@@ -185,9 +185,11 @@ TEST(PoseSetpointCheck, ATwistFasterThanTheJointsAllowTheFrameIsRejected) {
 // One rule for both targets: each is refused while the active controller follows the other.
 TEST(TargetRule, AJointControllerRefusesPosesAndATaskSpaceOneRefusesJointSetpoints) {
   EXPECT_EQ(RefusedByController(TargetKind::kPose, false, "pd"),
-            "the instance is not running a task-space controller (active: pd)");
+            "the instance is not running a controller that moves a frame (active: pd; pose setpoints need a "
+            "task-space controller or an mpc with a frame)");
   EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, true, "cartesian-impedance"),
-            "the instance is running a task-space controller (active: cartesian-impedance), which follows pose "
+            "the instance is running a controller that moves a frame (active: cartesian-impedance), which follows "
+            "pose "
             "setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints");
   EXPECT_EQ(RefusedByController(TargetKind::kPose, true, "operational-space"), "");
   EXPECT_EQ(RefusedByController(TargetKind::kJointSetpoint, false, "computed-torque"), "");

@@ -1057,7 +1057,8 @@ TEST_F(LivePose, EveryBadPoseIsRefusedByNameFromLagrangectlOrRawOffTheBus) {
   // Under a joint-space controller a pose is refused, and lagrangectl says why before sending.
   ASSERT_EQ(Ctl({"command", "panda", "controller", "gravity-compensation"}).status, 0);
   EXPECT_EQ(RawPoseRejection(Pose(0.4, 0.0, 0.5)),
-            "panda: pose: the instance is not running a task-space controller (active: gravity-compensation)");
+            "panda: pose: the instance is not running a controller that moves a frame (active: "
+            "gravity-compensation; pose setpoints need a task-space controller or an mpc with a frame)");
   ExpectOneLine(Ctl({"send", "panda", "--pose", "0.4,0,0.5"}), "send", 1,
                 "panda publishes no task state on PANDA_TASK: it runs gravity-compensation, not a task-space "
                 "controller");
@@ -1108,7 +1109,8 @@ TEST_F(LivePose, AJointSetpointIsRefusedByATaskSpaceInstanceAndAPoseKeepsItRunni
       "PANDA_TASK", [](const task_state_t&) { return true; }, 20.0));
   const std::string q = "0,-0.785,0,-2.356,0,1.571,0.785";
   ExpectOneLine(Ctl({"send", "panda", "--q", q, "--for", "0.2"}), "send", 1,
-                "panda: the instance is running a task-space controller (active: cartesian-impedance), which follows "
+                "panda: the instance is running a controller that moves a frame (active: cartesian-impedance), "
+                "which follows "
                 "pose setpoints (pose_setpoint_t, lagrangectl send --pose), not joint setpoints");
 
   // A joint stream under gravity compensation, then back to the task-space
