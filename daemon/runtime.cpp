@@ -28,20 +28,24 @@ const char* PlanFailure(DdpStatus status) {
   }
 }
 
+// The instance's first mpc controller, whose plans its channels and record are sized for; null when it has none.
+const MpcController* FirstMpc(Instance& inst) {
+  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
+    if (const MpcController* c = inst.mpc_controller(k)) return c;
+  }
+  return nullptr;
+}
+
 // The plan prototype of an instance: sized for its mpc controller, else empty.
 MpcPolicy PlanPrototype(Instance& inst) {
-  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
-    if (const MpcController* c = inst.mpc_controller(k)) return c->policy();
-  }
-  return {};
+  const MpcController* c = FirstMpc(inst);
+  return c != nullptr ? c->policy() : MpcPolicy{};
 }
 
 // The N of an instance's mpc controller; 0 when it has none.
 int PlanHorizon(Instance& inst) {
-  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
-    if (const MpcController* c = inst.mpc_controller(k)) return c->ddp_model()->horizon();
-  }
-  return 0;
+  const MpcController* c = FirstMpc(inst);
+  return c != nullptr ? c->ddp_model()->horizon() : 0;
 }
 
 // (plan) => record: its figures and knots (no allocation: the record is sized for the plan).
