@@ -71,7 +71,7 @@ bool SameSetting(const Setting& s, const MpcOptions& o) {
 // A scene, what counts as success on it, and the grid swept on it.
 struct Case {
   std::string robot;
-  std::string file;  // under the config folder
+  std::string file;       // under the config folder
   double duration = 0.0;  // s
   double held = 0.0;      // s the success condition must hold to the end
   std::vector<int> horizons;
@@ -86,9 +86,9 @@ struct Result {
   std::string status = "ok";  // ok, faulted: ..., refused: ...
   bool success = false;
   double first_ok_s = kNan, held_since_s = kNan;
-  double worst_x = kNan;                                 // m, cart-pole
+  double worst_x = kNan;                                            // m, cart-pole
   double final_position_error = kNan, final_rotation_error = kNan;  // m, rad, with a frame
-  std::string tau_bound;                                 // 1-based joints held at their limit
+  std::string tau_bound;                                            // 1-based joints held at their limit
   bool tau_exceeded = false;
   double tracking_cost = 0.0;
   std::int64_t solves = 0, failed_solves = 0;
@@ -212,8 +212,8 @@ void RunOne(const InstanceConfig& config, double period, const Case& c, Result& 
     if (saturated[i] >= 10) out.tau_bound += (out.tau_bound.empty() ? "" : ";") + std::to_string(i + 1);
   }
   const double t_end = static_cast<double>(steps) * period;
-  out.success = faults.empty() && held.HeldFor(c.held, t_end) && !out.tau_exceeded &&
-                (cost.has_frame() || worst_x <= 0.5);
+  out.success =
+      faults.empty() && held.HeldFor(c.held, t_end) && !out.tau_exceeded && (cost.has_frame() || worst_x <= 0.5);
 }
 
 // The same run `repeats` times (it is deterministic: the same path each time, checked): the timings of the
@@ -266,7 +266,8 @@ std::vector<Result> SweepCase(const Case& c, const fs::path& config_dir, int rep
           std::printf("%s N=%d dt=%g it=%d %s: %s%s%s, cost %.4g, solve mean %.3g ms worst %.3g ms\n", c.robot.c_str(),
                       horizon, dt, iterations, std::string(ToString(integrator)).c_str(),
                       r.success ? "success" : "failure", r.status == "ok" ? "" : (" (" + r.status + ")").c_str(),
-                      r.deterministic ? "" : " (NOT deterministic)", r.tracking_cost, 1e3 * r.mean_solve, 1e3 * r.worst_solve);
+                      r.deterministic ? "" : " (NOT deterministic)", r.tracking_cost, 1e3 * r.mean_solve,
+                      1e3 * r.worst_solve);
           std::fflush(stdout);
           results.push_back(r);
         }

@@ -18,11 +18,11 @@ constexpr double kTolerance = 1e-12;  // s
 
 TEST(MpcFront, KeepsOnlyTheRunsNoOtherBeatsOnBothTimeAndCost) {
   //                                time  cost
-  const std::vector<FrontPoint> p{{1.0, 10.0, true},   // fastest: on
-                                  {2.0, 5.0, true},    // on
-                                  {3.0, 6.0, true},    // slower and dearer than the one before: off
-                                  {4.0, 1.0, true},    // cheapest: on
-                                  {2.0, 7.0, true}};   // as fast as the second, dearer: off
+  const std::vector<FrontPoint> p{{1.0, 10.0, true},  // fastest: on
+                                  {2.0, 5.0, true},   // on
+                                  {3.0, 6.0, true},   // slower and dearer than the one before: off
+                                  {4.0, 1.0, true},   // cheapest: on
+                                  {2.0, 7.0, true}};  // as fast as the second, dearer: off
   EXPECT_EQ(ParetoFront(p), (std::vector<bool>{true, true, false, true, false}));
 }
 
