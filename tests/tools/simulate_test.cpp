@@ -179,6 +179,45 @@ TEST_F(Simulate, WritesTheTaskSpaceFramesPathBesideItsCsvOnTheScenesCircle) {
   EXPECT_FALSE(fs::exists(dir_ / "pd.task.csv"));
 }
 
+// An mpc controller with a frame moves it as a task-space controller does, so
+// simulate writes that frame beside the CSV too (lagranged publishes it on
+// <NAME>_TASK): the Panda's flange under the shipped reach, measured at each
+// row's state, from Franka's ready pose to the scene's target, which every row
+// after the first commands; each error is the target minus the position.
+TEST_F(Simulate, WritesAnMpcFramesPathToItsTargetBesideItsCsv) {
+  const std::string scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml";
+  const fs::path csv = dir_ / "panda.csv";
+  auto r = RunCtl({"simulate", scene, "--duration", "1", "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv task = ReadCsv(dir_ / "panda.task.csv", "frame");
+  const Csv state = ReadCsv(csv);
+  EXPECT_EQ(task.header, (std::vector<std::string>{"t", "frame", "position0", "position1", "position2", "position_des0",
+                                                   "position_des1", "position_des2", "error0", "error1", "error2",
+                                                   "error3", "error4", "error5"}));
+  ASSERT_EQ(task.rows.size(), state.rows.size());
+  ASSERT_EQ(task.rows.size(), 1001u);
+  EXPECT_EQ(task.texts, std::vector<std::string>(task.rows.size(), "\"panda_link8\""));
+  constexpr int kT = 0, kPosition = 2, kTarget = 5, kError = 8;
+  for (std::size_t k = 0; k < task.rows.size(); ++k) EXPECT_EQ(task.rows[k][kT], state.rows[k][0]) << k;
+  for (std::size_t c = kPosition; c < task.rows[0].size(); ++c) EXPECT_TRUE(std::isnan(task.rows[0][c])) << c;
+
+  const Eigen::Vector3d target =
+      LoadScene(scene).instances.at(0).controller.mpc.trajectory.target->position;  // the scene's step
+  const auto position = [&](std::size_t k) {
+    return Eigen::Vector3d(task.rows[k][kPosition], task.rows[k][kPosition + 1], task.rows[k][kPosition + 2]);
+  };
+  constexpr double kErrorExact = 1e-12, kReady = 1e-3, kArrived = 5e-3;  // m
+  for (std::size_t k = 1; k < task.rows.size(); ++k) {
+    const std::vector<double>& row = task.rows[k];
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(row[kTarget + i], target[i], kErrorExact) << k;
+      EXPECT_NEAR(row[kError + i], row[kTarget + i] - row[kPosition + i], kErrorExact) << k;
+    }
+  }
+  EXPECT_LT((position(1) - Eigen::Vector3d(0.307, 0.0, 0.590)).norm(), kReady) << "Franka's ready pose, 1 ms in";
+  EXPECT_LT((position(task.rows.size() - 1) - target).norm(), kArrived) << "the flange at its target by 1 s";
+}
+
 TEST_F(Simulate, EffectsInTheSceneShapeTheRun) {
   // The same release with and without damping: damping loses energy, monotonically.
   const std::string base = R"(
