@@ -141,8 +141,8 @@ void MpcPolicy::Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd
   // (x̄_N, the plan's end). ū goes linearly toward ū_{k+1} (the last knot's ū is held: there is no ū_N).
   const double s = std::clamp((t - start) / dt - static_cast<double>(k), 0.0, 1.0);
   const auto next = std::min<Eigen::Index>(k + 1, horizon - 1);
-  EvaluateAffinePolicy(u.col(k), u.col(next), K.middleCols(2 * n * k, 2 * n), x.col(k), x.col(k + 1), s, q, qd,
-                       lower, upper, out);
+  EvaluateAffinePolicy(u.col(k), u.col(next), K.middleCols(2 * n * k, 2 * n), x.col(k), x.col(k + 1), s, q, qd, lower,
+                       upper, out);
 }
 
 MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model)

@@ -154,8 +154,8 @@ struct SimulationResult {
         fault(r.fault) {
     if (r.frame.empty()) return;
     const auto rows = static_cast<py::ssize_t>(r.t.size());
-    task = TaskRows{r.frame, ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3),
-                    ToMatrix(r.error, rows, 6)};
+    task =
+        TaskRows{r.frame, ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3), ToMatrix(r.error, rows, 6)};
   }
 };
 

@@ -77,7 +77,8 @@ class SimulateCommand final : public Command {
     app_->add_option("--duration", duration_, "Simulated time, s")->required()->check(PositiveNumber());
     app_->add_option("--csv", csv_,
                      "Output CSV ('-' for stdout), with its joint names in FILE.joints.csv beside it and, under a "
-                     "controller that moves a frame (task-space, or mpc with a frame), its frame's position, target and error (log2csv's task columns) in "
+                     "controller that moves a frame (task-space, or mpc with a frame), its frame's position, target "
+                     "and error (log2csv's task columns) in "
                      "FILE.task.csv; a scene with several instances writes FILE.NAME.csv (and FILE.NAME.joints.csv, "
                      "FILE.NAME.task.csv) for each")
         ->required();
@@ -119,7 +120,8 @@ class SimulateCommand final : public Command {
     const std::vector<OfflineFault> faults =
         RunOfflineChecked(instances, scene.period, steps, [&](std::size_t i, Instance& inst) {
           WriteRow(*streams[i], inst);
-          if (task_streams[i] != nullptr && !TaskFrameOf(inst).empty()) WriteTaskRow(*task_streams[i], inst, stepped[i]);
+          if (task_streams[i] != nullptr && !TaskFrameOf(inst).empty())
+            WriteTaskRow(*task_streams[i], inst, stepped[i]);
           stepped[i] = true;
         });
     for (auto& f : files) {

@@ -315,10 +315,9 @@ TEST(MpcPolicy, BetweenKnotsFollowsThePlannedStateAndForceLinearlyWithTheKnotsGa
   policy.sequence = 1;
   policy.start = 1.0;
   policy.dt = 0.1;
-  policy.u << 2.0, 4.0;                         // ū_0, ū_1 (N·m)
-  policy.K << -10.0, -1.0, -20.0, -2.0;         // K_0 = [−10, −1], K_1 = [−20, −2]
-  policy.x << 0.0, 0.5, 0.8,                    // q̄_0..2 (rad)
-              1.0, 3.0, 3.0;                    // q̄d_0..2 (rad/s)
+  policy.u << 2.0, 4.0;                      // ū_0, ū_1 (N·m)
+  policy.K << -10.0, -1.0, -20.0, -2.0;      // K_0 = [−10, −1], K_1 = [−20, −2]
+  policy.x << 0.0, 0.5, 0.8, 1.0, 3.0, 3.0;  // q̄_0..2 (rad) in the first row, q̄d_0..2 (rad/s) in the second
   const VectorXd lower = V({-100.0}), upper = V({100.0});
   const VectorXd q = V({0.3}), qd = V({2.0});
   const auto law = [&](double t) {

@@ -167,20 +167,20 @@ ArmRun RunArm() {
   VectorXd last_tau = VectorXd::Zero(limits.size());
   double sum = 0.0;
   int samples = 0;
-  const bool healthy = RunOffline(offline.instances, offline.period, std::llround(kArmDuration / offline.period),
-                                  [&](std::size_t, Instance& inst) {
-                                    run.worst_tau = std::max(run.worst_tau, (inst.tau().cwiseAbs() - limits).maxCoeff());
-                                    if (inst.t() >= kArmSettled) {
-                                      const VectorXd ref = *sine.center + sine.amplitude.cwiseProduct(
-                                          (2.0 * kPi * inst.t() * sine.frequency).array().sin().matrix());
-                                      const double e = (inst.q() - ref).norm();
-                                      sum += e * e;
-                                      run.worst = std::max(run.worst, e);
-                                      ++samples;
-                                      run.largest_step = run.largest_step.cwiseMax((inst.tau() - last_tau).cwiseAbs());
-                                    }
-                                    last_tau = inst.tau();
-                                  });
+  const bool healthy = RunOffline(
+      offline.instances, offline.period, std::llround(kArmDuration / offline.period), [&](std::size_t, Instance& inst) {
+        run.worst_tau = std::max(run.worst_tau, (inst.tau().cwiseAbs() - limits).maxCoeff());
+        if (inst.t() >= kArmSettled) {
+          const VectorXd ref = *sine.center + sine.amplitude.cwiseProduct(
+                                                  (2.0 * kPi * inst.t() * sine.frequency).array().sin().matrix());
+          const double e = (inst.q() - ref).norm();
+          sum += e * e;
+          run.worst = std::max(run.worst, e);
+          ++samples;
+          run.largest_step = run.largest_step.cwiseMax((inst.tau() - last_tau).cwiseAbs());
+        }
+        last_tau = inst.tau();
+      });
   EXPECT_TRUE(healthy);
   run.rms = std::sqrt(sum / samples);
   return run;
@@ -206,8 +206,8 @@ TEST(MpcScene, ArmTracksItsSineWithThePlanFollowingTheReferenceAhead) {
 // 11 N·m on joint 1 and 3.1 N·m on joint 2 here, with the worst error 10.6
 // mrad (this test against that law: 0.185 N·m with ū held over the knot).
 TEST(MpcScene, ArmsTorqueHasNoJumpAtTheKnotsAndTracksNoWorse) {
-  constexpr double kLargestStep = 0.1;          // N·m per tick, either joint
-  constexpr double kHeldKnotWorst = 10.6e-3;    // rad, the held-knot law's worst error after 1 s
+  constexpr double kLargestStep = 0.1;        // N·m per tick, either joint
+  constexpr double kHeldKnotWorst = 10.6e-3;  // rad, the held-knot law's worst error after 1 s
   const ArmRun run = RunArm();
   std::printf("largest torque step after %.1f s: %.3g, %.3g N·m; worst error %.3g rad\n", kArmSettled,
               run.largest_step[0], run.largest_step[1], run.worst);

@@ -210,7 +210,8 @@ TEST_F(Simulate, WritesAnMpcFramesPathToItsTargetBesideItsCsv) {
   const Eigen::Vector3d target =
       LoadScene(scene).instances.at(0).controller.mpc.trajectory.target->position;  // the scene's step
   const auto position = [&](std::size_t k) {
-    return Eigen::Vector3d(task.rows[k][kTaskPosition], task.rows[k][kTaskPosition + 1], task.rows[k][kTaskPosition + 2]);
+    return Eigen::Vector3d(task.rows[k][kTaskPosition], task.rows[k][kTaskPosition + 1],
+                           task.rows[k][kTaskPosition + 2]);
   };
   constexpr double kTargetExact = 1e-12, kReady = 1e-3, kArrived = 5e-3;  // m
   for (std::size_t k = 1; k < task.rows.size(); ++k) {
