@@ -8,7 +8,7 @@ Reads dynamics.json, effects.json, tick.json, and when present spatial_cost.json
 kdl.json and kinematics.json (Google Benchmark), kdl_agreement.csv, kinematics_agreement.csv, mujoco.json and
 mujoco_agreement.csv (when MuJoCo was found), the CSV files of
 work_precision, loop_bench and hostile_bench, external_bench's external.json, live_bench's live.csv,
-live_offline.csv and live.json, flood_bench's flood_cases.csv, python_bench.py's python.json, cyclictest's JSON files
+live_offline.csv and live.json, flood_bench's flood_cases.csv, mpc_sweep's mpc_sweep.csv, python_bench.py's python.json, cyclictest's JSON files
 (cyclictest_*.json) and machine.txt. Times from Google Benchmark
 are CPU time per call (the median of the repetitions); every one is also given
 as a multiple of calib/sincos, one sin and one cos measured in the same run
@@ -17,7 +17,7 @@ as a multiple of calib/sincos, one sin and one cos measured in the same run
 This file is the report's table of contents; each section is a module of
 bench/reporting/ (common: reading and formatting; precision: 1 and 2;
 derivation: 3, kinematics: 3's frame kinematics; effects: 4; loop: 5 and 6; hostile: 7; external: 8; live: 9; flood: 10;
-targets: the first table).
+mpc_sweep: what accuracy costs in time for MPC; targets: the first table).
 """
 
 import sys
@@ -32,6 +32,7 @@ from reporting.hostile import hostile_data, hostile_section, hostile_targets
 from reporting.kinematics import kinematics_subsection, kinematics_targets
 from reporting.mujoco import mujoco_subsection
 from reporting.live import live_data, live_section
+from reporting.mpc_sweep import mpc_sweep_section
 from reporting.loop import delivery_section, loop_data, loop_section, tick_target
 from reporting.python_calls import python_target_rows
 from reporting.python_loop import python_loop_section
@@ -115,6 +116,8 @@ def main(out):
         md.append(flood_section(flood))
     if (out / "python_loop.csv").exists():
         md.append(python_loop_section(out))
+    if (out / "mpc_sweep.csv").exists():
+        md.append(mpc_sweep_section(out))
     machine = (out / "machine.txt").read_text() if (out / "machine.txt").exists() else ""
     md += ["## Machine\n", "```\n" + machine.strip() + "\n```\n"]
     (out / "report.md").write_text("\n".join(md))
