@@ -60,6 +60,9 @@ FloatingData::FloatingData(const FloatingDynamics& model) : model_(&model) {
   U.resize(N);
   D.resize(N);
   u.resize(N);
+  frame_R.resize(model.tree().frames.size());
+  frame_p.resize(model.tree().frames.size());
+  A.resize(6, model.num_v());
 }
 
 FloatingDynamics::FloatingDynamics(RigidTree tree) : tree_(std::move(tree)) {
@@ -122,7 +125,7 @@ void FloatingDynamics::Velocities(FloatingData& d, ConstVecRef v, bool products)
   d.c[0] = {};
   for (int b = 1; b <= n_; ++b) {
     const double qd = v[kFreeFlyerNv + b - 1];
-    const Motion Sqd = revolute_[b] ? Motion{qd * axis_[b], Vector3d::Zero()} : Motion{Vector3d::Zero(), qd * axis_[b]};
+    const Motion Sqd = qd * Subspace(b);
     d.v[b] = d.X[b].Apply(d.v[parent(b)]) + Sqd;
     d.c[b] = products ? spatial::Cross(d.v[b], Sqd) : Motion{};
   }
@@ -161,8 +164,7 @@ void FloatingDynamics::ComputeMassMatrix(FloatingData& d, ConstVecRef q, MatRef 
   CheckSizes(d, q);
   eigen_assert(M.rows() == num_v() && M.cols() == num_v() && "M: expected num_v() x num_v()");
   Placements(d, q);
-  for (int b = 0; b <= n_; ++b) d.Ic[b] = inertia_[b];
-  for (int b = n_; b >= 1; --b) d.Ic[parent(b)] += d.X[b].ApplyTransposed(d.Ic[b]);
+  CompositeInertias(d);
   M.setZero();  // joints on different branches
   // The base's block: the whole tree's composite inertia, rows and columns (v_b, ω_b).
   for (int k = 0; k < 3; ++k) {
@@ -178,7 +180,7 @@ void FloatingDynamics::ComputeMassMatrix(FloatingData& d, ConstVecRef q, MatRef 
   // Joint rows: each body's composite force carried up its ancestors to the base.
   for (int b = 1; b <= n_; ++b) {
     const int i = kFreeFlyerNv + b - 1;
-    const Motion S = revolute_[b] ? Motion{axis_[b], Vector3d::Zero()} : Motion{Vector3d::Zero(), axis_[b]};
+    const Motion S = Subspace(b);
     Force F = d.Ic[b] * S;
     M(i, i) = spatial::Dot(S, F);
     int j = b;
@@ -272,6 +274,82 @@ Force FloatingDynamics::ComputeMomentum(FloatingData& d, ConstVecRef q, ConstVec
     h.f += f;
   }
   return h;
+}
+
+// X => Ic: each body's subtree inertia, body coordinates.
+void FloatingDynamics::CompositeInertias(FloatingData& d) const {
+  for (int b = 0; b <= n_; ++b) d.Ic[b] = inertia_[b];
+  for (int b = n_; b >= 1; --b) d.Ic[parent(b)] += d.X[b].ApplyTransposed(d.Ic[b]);
+}
+
+void FloatingDynamics::ComputeFramePlacements(FloatingData& d, ConstVecRef q) const {
+  CheckSizes(d, q);
+  Placements(d, q);
+  for (std::size_t k = 0; k < tree_.frames.size(); ++k) {
+    const TreeFrame& f = tree_.frames[k];
+    const int b = f.body + 1;
+    d.frame_R[k] = d.R[b] * f.rotation;
+    d.frame_p[k] = d.o[b] + d.R[b] * f.position;
+  }
+}
+
+void FloatingDynamics::ComputeFrameJacobian(FloatingData& d, ConstVecRef q, int frame, MatRef J) const {
+  eigen_assert(frame >= 0 && frame < static_cast<int>(tree_.frames.size()) && "frame: an index into tree().frames");
+  eigen_assert(J.rows() == 6 && J.cols() == num_v() && "J: expected 6 x num_v()");
+  ComputeFramePlacements(d, q);
+  const Vector3d& p = d.frame_p[static_cast<std::size_t>(frame)];
+  J.setZero();
+  for (int j = 0; j < 3; ++j) {
+    const Vector3d e = d.R[0].col(j);
+    J.col(j).head<3>() = e;
+    J.col(3 + j).head<3>() = e.cross(p - d.o[0]);
+    J.col(3 + j).tail<3>() = e;
+  }
+  for (int b = tree_.frames[static_cast<std::size_t>(frame)].body + 1; b > 0; b = parent(b)) {
+    const Vector3d z = d.R[b] * axis_[b];  // the joint's world axis, through o_b
+    auto col = J.col(kFreeFlyerNv + b - 1);
+    if (revolute_[b]) {
+      col.head<3>() = z.cross(p - d.o[b]);
+      col.tail<3>() = z;
+    } else {
+      col.head<3>() = z;
+    }
+  }
+}
+
+Vector3d FloatingDynamics::ComputeCentroidalMomentumMatrix(FloatingData& d, ConstVecRef q, MatRef A) const {
+  CheckSizes(d, q);
+  eigen_assert(A.rows() == 6 && A.cols() == num_v() && "A: expected 6 x num_v()");
+  Placements(d, q);
+  CompositeInertias(d);
+  const Inertia& total = d.Ic[0];
+  const Vector3d c = d.o[0] + d.R[0] * (total.h / total.m);
+  // A momentum F in body b's coordinates => (linear, angular about c), world axes.
+  auto to_centroid = [&](int b, const Force& F, auto column) {
+    const Vector3d f = d.R[b] * F.f;
+    column.template head<3>() = f;
+    column.template tail<3>() = d.R[b] * F.n + (d.o[b] - c).cross(f);
+  };
+  for (int j = 0; j < 3; ++j) {
+    Motion lin, ang;
+    lin.v[j] = 1.0;
+    ang.w[j] = 1.0;
+    to_centroid(0, total * lin, A.col(j));
+    to_centroid(0, total * ang, A.col(3 + j));
+  }
+  for (int b = 1; b <= n_; ++b) {
+    const Motion S = Subspace(b);
+    to_centroid(b, d.Ic[b] * S, A.col(kFreeFlyerNv + b - 1));
+  }
+  return c;
+}
+
+Vector3d FloatingDynamics::ComputeCenterOfMass(FloatingData& d, ConstVecRef q, MatRef Jc) const {
+  eigen_assert(Jc.rows() == 3 && Jc.cols() == num_v() && "Jc: expected 3 x num_v()");
+  // ċ = (linear momentum) / m: A_G's linear rows over the mass.
+  const Vector3d c = ComputeCentroidalMomentumMatrix(d, q, d.A);
+  Jc = d.A.topRows<3>() / d.Ic[0].m;
+  return c;
 }
 
 #undef LAGRANGE_CHECK_NV

@@ -21,13 +21,26 @@
 //                     constant when no external force acts (no gravity,
 //                     a zero base wrench; joint torques are internal)     O(n)
 //
+// Kinematics (world frame; rows of every Jacobian linear then angular, as
+// plant/kinematics.hpp's kWorldAligned):
+//   frames            every named frame's pose R_k, p_k (frames with body −1
+//                     ride on the base)                                    O(n + frames)
+//   frame Jacobian    J_k (6 x nv): (ṗ_k, ω_k) = J_k v; base columns
+//                     (R e_j, 0) and (R e_j × (p_k − p), R e_j), joint columns
+//                     as for a fixed base, on the frame's support          O(depth)
+//   centre of mass    c (m, world) and J_c (3 x nv), ċ = J_c v               O(n)
+//   centroidal        A_G (6 x nv), Orin et al.'s centroidal momentum matrix
+//                     (Pinocchio's ccrba): (linear N·s, angular about the
+//                     centre of mass N·m·s) = A_G v; each column a composite
+//                     inertia times its joint's motion, carried to c        O(n)
+//
 // Model and data: a FloatingDynamics is built once and is const; every
 // buffer a query writes is in the FloatingData it makes (MakeData), so no
 // query allocates. Every Compute* checks (eigen_assert, off under NDEBUG)
 // that q has nq entries and v, a, tau nv, M nv x nv, naming which.
 //
 // Not here yet: mimic joints (ValidateFloatingTree refuses them), the
-// Lagrangian (Euler–Poincaré) path, derivatives, kinematics of frames.
+// Lagrangian (Euler–Poincaré) path, derivatives, J̇v and Ȧ_G v.
 
 #include <memory>
 #include <vector>
@@ -46,6 +59,9 @@ class FloatingData {
  public:
   explicit FloatingData(const FloatingDynamics& model);
   const FloatingDynamics& model() const { return *model_; }
+  // After ComputeFramePlacements: frame k's axes in the world (3 x 3) and origin (m).
+  const Eigen::Matrix3d& frame_rotation(int k) const { return frame_R[static_cast<std::size_t>(k)]; }
+  const Eigen::Vector3d& frame_position(int k) const { return frame_p[static_cast<std::size_t>(k)]; }
 
  private:
   friend class FloatingDynamics;
@@ -61,6 +77,9 @@ class FloatingData {
   std::vector<Matrix6d> IA;                // articulated inertias, (w, v) order
   std::vector<Vector6d> pA, U;             // articulated bias forces, IA S
   std::vector<double> D, u;
+  std::vector<Eigen::Matrix3d> frame_R;
+  std::vector<Eigen::Vector3d> frame_p;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
 };
 
 class FloatingDynamics {
@@ -91,11 +110,26 @@ class FloatingDynamics {
   // linear, N·s), world axes.
   spatial::Force ComputeMomentum(FloatingData& data, ConstVecRef q, ConstVecRef v) const;
 
+  // q => every frame's R_k, p_k (read them from `data`).
+  void ComputeFramePlacements(FloatingData& data, ConstVecRef q) const;
+  // q => frame k's pose (in `data`) and J_k (6 x nv), world axes at its origin.
+  void ComputeFrameJacobian(FloatingData& data, ConstVecRef q, int frame, MatRef J) const;
+  // q => c (m, world), returned, and J_c (3 x nv).
+  Eigen::Vector3d ComputeCenterOfMass(FloatingData& data, ConstVecRef q, MatRef Jc) const;
+  // q => A_G (6 x nv); returns c (m, world).
+  Eigen::Vector3d ComputeCentroidalMomentumMatrix(FloatingData& data, ConstVecRef q, MatRef A) const;
+
  private:
   void CheckSizes(const FloatingData& data, ConstVecRef q) const;
   void Placements(FloatingData& data, ConstVecRef q) const;
   void Velocities(FloatingData& data, ConstVecRef v, bool products) const;
+  void CompositeInertias(FloatingData& data) const;
   int parent(int body) const { return parent_[static_cast<std::size_t>(body)]; }
+  // Body b's joint motion S_b: (axis, 0) revolute, (0, axis) prismatic, body axes.
+  spatial::Motion Subspace(int b) const {
+    return revolute_[b] ? spatial::Motion{axis_[b], Eigen::Vector3d::Zero()}
+                        : spatial::Motion{Eigen::Vector3d::Zero(), axis_[b]};
+  }
 
   RigidTree tree_;
   int n_ = 0;

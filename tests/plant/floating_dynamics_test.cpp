@@ -14,6 +14,7 @@
 
 #include "plant/dual.hpp"
 #include "plant/floating_dynamics.hpp"
+#include "plant/free_flyer.hpp"
 #include "plant/random_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -35,6 +36,7 @@ namespace {
 
 using testing::RandomVector;
 using testing::RelativeDifference;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 constexpr double kInverseTol = 1e-10;  // ID(FD(tau)) − tau, relative
 constexpr double kAgreeTol = 1e-12;    // between derivations, relative
@@ -355,6 +357,78 @@ TEST(FloatingDynamics, PotentialEnergyFallsAsTheBaseMovesWithGravity) {
     moved.head<3>() += 0.3 * model.tree().gravity;
     const double drop = model.ComputePotentialEnergy(*data, s.q) - model.ComputePotentialEnergy(*data, moved);
     EXPECT_NEAR(drop, mass * 0.3 * model.tree().gravity.squaredNorm(), kAgreeTol * mass * 100.0);
+  }
+}
+
+// ---- kinematics ----
+
+// A floating tree with a frame at a random placement on every body, the base's too.
+RigidTree TreeWithFrames(int k, std::mt19937& rng) {
+  RigidTree tree = FloatingTree(k, rng);
+  std::uniform_real_distribution<double> offset(-0.3, 0.3);
+  for (int b = -1; b < tree.num_joints(); ++b) {
+    tree.frames.push_back({"f" + std::to_string(b + 1), b, Eigen::Vector3d(offset(rng), offset(rng), offset(rng)),
+                           RandomRotation(rng)});
+  }
+  return tree;
+}
+
+constexpr double kEps = 1e-6;
+constexpr double kFiniteDifferenceTol = 1e-8;  // central differences at kEps, relative
+
+TEST(FloatingKinematics, FrameJacobianGivesTheFramesVelocity) {
+  // J_k v = (ṗ_k, ω_k) by central differences along q ⊕ ±ε v.
+  std::mt19937 rng{42};
+  for (int k = 0; k < 12; ++k) {
+    const FloatingDynamics model(TreeWithFrames(k, rng));
+    auto data = model.MakeData();
+    const State s = RandomState(model.tree(), rng);
+    VectorXd plus(model.num_q()), minus(model.num_q());
+    Integrate(s.q, s.v, kEps, plus);
+    Integrate(s.q, s.v, -kEps, minus);
+    MatrixXd J(6, model.num_v());
+    for (int f = 0; f < static_cast<int>(model.tree().frames.size()); ++f) {
+      model.ComputeFramePlacements(*data, plus);
+      const Eigen::Matrix3d Rp = data->frame_rotation(f);
+      const Eigen::Vector3d pp = data->frame_position(f);
+      model.ComputeFramePlacements(*data, minus);
+      const Eigen::Matrix3d Rm = data->frame_rotation(f);
+      const Eigen::Vector3d pm = data->frame_position(f);
+      model.ComputeFrameJacobian(*data, s.q, f, J);
+      const Eigen::Matrix3d W = (Rp - Rm) / (2.0 * kEps) * data->frame_rotation(f).transpose();  // [ω]×
+      Vector6d expected;
+      expected << (pp - pm) / (2.0 * kEps), 0.5 * Eigen::Vector3d(W(2, 1) - W(1, 2), W(0, 2) - W(2, 0), W(1, 0) - W(0, 1));
+      EXPECT_LT(RelativeDifference(J * s.v, expected), kFiniteDifferenceTol) << "tree " << k << " frame " << f;
+    }
+  }
+}
+
+TEST(FloatingKinematics, CentroidalMomentumMatrixGivesTheMomentumAboutTheCentreOfMass) {
+  // A_G v = (linear momentum, angular momentum about c), against the
+  // world-frame reference; J_c v = ċ by central differences, and m J_c v the
+  // linear momentum.
+  std::mt19937 rng{42};
+  for (int k = 0; k < kTrees; ++k) {
+    const FloatingDynamics model(FloatingTree(k, rng));
+    auto data = model.MakeData();
+    const State s = RandomState(model.tree(), rng);
+    const int nv = model.num_v();
+    MatrixXd A(6, nv), Jc(3, nv), unused(3, nv);
+    const Eigen::Vector3d c = model.ComputeCentroidalMomentumMatrix(*data, s.q, A);
+    const Reference<double> h = Evaluate<double>(model.tree(), Std(s.q), Std(s.v));
+    Vector6d expected;
+    expected << h.linear, h.angular - c.cross(h.linear);
+    EXPECT_LT(RelativeDifference(A * s.v, expected), kAgreeTol) << "tree " << k;
+    EXPECT_LT((model.ComputeCenterOfMass(*data, s.q, Jc) - c).norm(), kAgreeTol);
+    double mass = model.tree().base.mass;
+    for (const RigidBody& b : model.tree().bodies) mass += b.mass;
+    EXPECT_LT(RelativeDifference(mass * Jc * s.v, h.linear), kAgreeTol) << "tree " << k;
+    VectorXd plus(model.num_q()), minus(model.num_q());
+    Integrate(s.q, s.v, kEps, plus);
+    Integrate(s.q, s.v, -kEps, minus);
+    const Eigen::Vector3d rate =
+        (model.ComputeCenterOfMass(*data, plus, unused) - model.ComputeCenterOfMass(*data, minus, unused)) / (2.0 * kEps);
+    EXPECT_LT(RelativeDifference(rate, Jc * s.v), kFiniteDifferenceTol) << "tree " << k;
   }
 }
 
