@@ -10,7 +10,9 @@
 #include <Eigen/Geometry>
 #include <numbers>
 #include <random>
+#include <memory>
 #include <stdexcept>
+#include <utility>
 
 #include "plant/dual.hpp"
 #include "plant/floating_dynamics.hpp"
@@ -164,6 +166,15 @@ VectorXd ConfigurationRate(const VectorXd& q, const VectorXd& v) {
 
 DynamicsTerms AllTerms() { return {}; }
 
+// A model of `tree`, its data and a random state.
+struct Case {
+  Case(RigidTree tree, std::mt19937& rng)
+      : model(std::move(tree)), data(model.MakeData()), s(RandomState(model.tree(), rng)) {}
+  FloatingDynamics model;
+  std::unique_ptr<FloatingData> data;
+  State s;
+};
+
 // ---- the tree description ----
 
 TEST(FloatingTree, SizesCountTheFreeFlyer) {
@@ -215,9 +226,7 @@ TEST(FloatingTree, FloatingDynamicsRefusesWhatItCannotModel) {
 TEST(FloatingDynamics, ForwardThenInverseDynamicsGivesTheForceBack) {
   std::mt19937 rng{42};
   for (int k = 0; k < kTrees; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     const VectorXd tau = RandomVector(model.num_v(), -3.0, 3.0, rng);
     VectorXd a(model.num_v()), back(model.num_v());
     model.ComputeForwardDynamics(*data, s.q, s.v, tau, AllTerms(), a);
@@ -231,9 +240,7 @@ TEST(FloatingDynamics, MassMatrixIsTheKineticEnergysHessian) {
   // with T from the world-frame reference.
   std::mt19937 rng{42};
   for (int k = 0; k < kTrees; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     const int nv = model.num_v();
     MatrixXd M(nv, nv), reference(nv, nv);
     model.ComputeMassMatrix(*data, s.q, M);
@@ -254,9 +261,7 @@ TEST(FloatingDynamics, MassMatrixIsTheKineticEnergysHessian) {
 TEST(FloatingDynamics, InverseDynamicsIsMassMatrixTimesAccelerationPlusBias) {
   std::mt19937 rng{42};
   for (int k = 0; k < kTrees; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     const int nv = model.num_v();
     const VectorXd a = RandomVector(nv, -3.0, 3.0, rng);
     MatrixXd M(nv, nv);
@@ -295,9 +300,7 @@ TEST(FloatingDynamics, TorqueFreeBodyObeysEulersEquations) {
 TEST(FloatingDynamics, AnyTreeAtRestFallsAtGravity) {
   std::mt19937 rng{42};
   for (int k = 0; k < kTrees; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     const int nv = model.num_v();
     VectorXd a(nv);
     model.ComputeForwardDynamics(*data, s.q, VectorXd::Zero(nv), VectorXd::Zero(nv), AllTerms(), a);
@@ -348,9 +351,7 @@ TEST(FloatingDynamics, MomentumIsConservedWithoutExternalForce) {
 TEST(FloatingDynamics, PotentialEnergyFallsAsTheBaseMovesWithGravity) {
   std::mt19937 rng{42};
   for (int k = 0; k < 6; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     double mass = model.tree().base.mass;
     for (const RigidBody& b : model.tree().bodies) mass += b.mass;
     VectorXd moved = s.q;
@@ -409,9 +410,7 @@ TEST(FloatingKinematics, CentroidalMomentumMatrixGivesTheMomentumAboutTheCentreO
   // linear momentum.
   std::mt19937 rng{42};
   for (int k = 0; k < kTrees; ++k) {
-    const FloatingDynamics model(FloatingTree(k, rng));
-    auto data = model.MakeData();
-    const State s = RandomState(model.tree(), rng);
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
     const int nv = model.num_v();
     MatrixXd A(6, nv), Jc(3, nv), unused(3, nv);
     const Eigen::Vector3d c = model.ComputeCentroidalMomentumMatrix(*data, s.q, A);
