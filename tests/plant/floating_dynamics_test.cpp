@@ -221,6 +221,23 @@ TEST(FloatingTree, FloatingDynamicsRefusesWhatItCannotModel) {
   EXPECT_FALSE(ValidateFloatingTree(lone).has_value());  // a free body: no joints
 }
 
+#ifndef NDEBUG
+// Debug builds check sizes at the top of every query, naming which size was expected.
+TEST(FloatingTree, DebugBuildsNameTheExpectedSize) {
+  std::mt19937 rng{42};
+  RandomTreeOptions options;
+  options.bodies = 2;
+  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  auto data = model.MakeData();
+  const VectorXd q = VectorXd::Zero(model.num_q()), v = VectorXd::Zero(model.num_v());
+  VectorXd out(model.num_v()), wrong(model.num_q());
+  MatrixXd M(model.num_v(), model.num_v());
+  EXPECT_DEATH(model.ComputeMassMatrix(*data, v, M), "num_q");  // v where q belongs
+  EXPECT_DEATH(model.ComputeForwardDynamics(*data, q, q, v, {}, out), "num_v");
+  EXPECT_DEATH(model.ComputeInverseDynamics(*data, q, v, v, {}, wrong), "num_v");
+}
+#endif
+
 // ---- RNEA, CRBA, ABA ----
 
 TEST(FloatingDynamics, ForwardThenInverseDynamicsGivesTheForceBack) {
