@@ -17,6 +17,7 @@
 #include "plant/dual.hpp"
 #include "plant/floating_dynamics.hpp"
 #include "plant/free_flyer.hpp"
+#include "plant/lagrangian.hpp"
 #include "plant/random_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -235,6 +236,11 @@ TEST(FloatingTree, DebugBuildsNameTheExpectedSize) {
   EXPECT_DEATH(model.ComputeMassMatrix(*data, v, M), "num_q");  // v where q belongs
   EXPECT_DEATH(model.ComputeForwardDynamics(*data, q, q, v, {}, out), "num_v");
   EXPECT_DEATH(model.ComputeInverseDynamics(*data, q, v, v, {}, wrong), "num_v");
+  // The Lagrangian path's energies are the fixed-base tree's (no validation on that constructor).
+  const LagrangianDynamics<RigidTree> lagrangian(model.tree());
+  auto lagrangian_data = lagrangian.MakeData();
+  const VectorXd qj = VectorXd::Zero(model.num_joints());
+  EXPECT_DEATH(lagrangian.ComputeKineticEnergy(*lagrangian_data, qj, qj), "FloatingDynamics");
 }
 #endif
 
