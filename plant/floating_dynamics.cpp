@@ -1,7 +1,7 @@
 #include "plant/floating_dynamics.hpp"
 
-#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -27,6 +27,18 @@ Matrix3d Skew(const Vector3d& x) {
 Vector6d Vec(const Motion& m) { return (Vector6d() << m.w, m.v).finished(); }
 Vector6d Vec(const Force& f) { return (Vector6d() << f.n, f.f).finished(); }
 Motion ToMotion(const Vector6d& x) { return {x.head<3>(), x.tail<3>()}; }
+
+// A⁻¹ b for a symmetric positive definite 6 x 6 A, by Cholesky written out
+// (Eigen's LLT costs this file's compile time several seconds).
+Vector6d SolveSpd(Matrix6d A, Vector6d b) {
+  for (int k = 0; k < 6; ++k) {
+    A(k, k) = std::sqrt(A(k, k) - A.row(k).head(k).squaredNorm());
+    for (int r = k + 1; r < 6; ++r) A(r, k) = (A(r, k) - A.row(r).head(k).dot(A.row(k).head(k))) / A(k, k);
+  }
+  for (int r = 0; r < 6; ++r) b[r] = (b[r] - A.row(r).head(r).dot(b.head(r))) / A(r, r);  // L y = b
+  for (int r = 5; r >= 0; --r) b[r] = (b[r] - A.col(r).tail(5 - r).dot(b.tail(5 - r))) / A(r, r);  // Lᵀ x = y
+  return b;
+}
 
 // I (w, v) = (Ib w + h × v, m v − h × w).
 Matrix6d ToMatrix(const Inertia& I) {
@@ -229,7 +241,7 @@ void FloatingDynamics::ComputeForwardDynamics(FloatingData& d, ConstVecRef q, Co
   // The root: the base wrench (n, f) less the bias, through the tree's articulated inertia.
   Vector6d wrench;
   wrench << tau.segment<3>(3), tau.head<3>();
-  d.a[0] = ToMotion(Eigen::LLT<Matrix6d>(d.IA[0]).solve(wrench - d.pA[0]));
+  d.a[0] = ToMotion(SolveSpd(d.IA[0], wrench - d.pA[0]));
   for (int b = 1; b <= n_; ++b) {
     d.a[b] = d.X[b].Apply(d.a[parent(b)]) + d.c[b];
     const double qdd = (d.u[b] - d.U[b].dot(Vec(d.a[b]))) / d.D[b];
