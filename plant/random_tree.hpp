@@ -86,5 +86,11 @@ inline RigidTree RandomFloatingTree(const RandomTreeOptions& options, std::mt199
   tree.gravity = kStandardGravity * RandomUnitVector(rng);
   return tree;
 }
+// `bodies` joints, branching, on a random floating base.
+inline RigidTree RandomFloatingTree(int bodies, std::mt19937& rng) {
+  RandomTreeOptions options;
+  options.bodies = bodies;
+  return RandomFloatingTree(options, rng);
+}
 
 }  // namespace lagrange

@@ -180,21 +180,19 @@ struct Case {
 
 TEST(FloatingTree, SizesCountTheFreeFlyer) {
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 5;
-  const RigidTree tree = RandomFloatingTree(options, rng);
+  const RigidTree tree = RandomFloatingTree(5, rng);
   EXPECT_EQ(tree.num_q(), 5 + 7);
   EXPECT_EQ(tree.num_v(), 5 + 6);
-  RigidTree fixed = RandomRigidTree(options, rng);
+  RandomTreeOptions options;
+  options.bodies = 5;
+  const RigidTree fixed = RandomRigidTree(options, rng);
   EXPECT_EQ(fixed.num_q(), fixed.num_v());
   EXPECT_EQ(fixed.num_q(), 5);
 }
 
 TEST(FloatingTree, FixedBaseAlgorithmsRefuseAFloatingTree) {
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 3;
-  const RigidTree tree = RandomFloatingTree(options, rng);
+  const RigidTree tree = RandomFloatingTree(3, rng);
   ASSERT_TRUE(ValidateRigidTree(tree).has_value());
   EXPECT_NE(ValidateRigidTree(tree)->find("floating_base"), std::string::npos);
   EXPECT_THROW(SpatialDynamics{tree}, std::invalid_argument);
@@ -226,9 +224,7 @@ TEST(FloatingTree, FloatingDynamicsRefusesWhatItCannotModel) {
 // Debug builds check sizes at the top of every query, naming which size was expected.
 TEST(FloatingTree, DebugBuildsNameTheExpectedSize) {
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 2;
-  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  const FloatingDynamics model(RandomFloatingTree(2, rng));
   auto data = model.MakeData();
   const VectorXd q = VectorXd::Zero(model.num_q()), v = VectorXd::Zero(model.num_v());
   VectorXd out(model.num_v()), wrong(model.num_q());

@@ -150,9 +150,7 @@ TEST(FloatingIntegrator, Rk4KeepsATumblingBodysEnergyAndMomentum) {
 
 TEST(FloatingIntegrator, Rk4KeepsAFloatingTreesEnergyAndMomentum) {
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 4;
-  RigidTree tree = RandomFloatingTree(options, rng);
+  RigidTree tree = RandomFloatingTree(4, rng);
   tree.gravity.setZero();
   const FloatingDynamics model(tree);
   const VectorXd q = RandomConfiguration(4, rng);
@@ -185,9 +183,7 @@ double ErrorAfterOneSecond(const FloatingDynamics& model, IntegratorType type, d
 TEST(FloatingIntegrator, OrdersHoldOnTheManifold) {
   // Halving the step divides the error by 2^order: rk4 16, the Eulers 2.
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 3;
-  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  const FloatingDynamics model(RandomFloatingTree(3, rng));
   const double rk4 = ErrorAfterOneSecond(model, IntegratorType::kRk4, 0.02) /
                      ErrorAfterOneSecond(model, IntegratorType::kRk4, 0.01);
   EXPECT_GT(rk4, 12.0);
@@ -203,9 +199,7 @@ TEST(FloatingIntegrator, FreeFallCentreOfMassIsAParabola) {
   // Gravity alone acts on the whole tree: its centre of mass moves as
   // c0 + ċ0 t + ½ g t², whatever the joints and the tumbling do (rk4 at 1 ms, 2 s).
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 3;
-  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  const FloatingDynamics model(RandomFloatingTree(3, rng));
   auto data = model.MakeData();
   VectorXd q = RandomConfiguration(3, rng);
   VectorXd v = RandomVector(model.num_v(), -1.0, 1.0, rng);
@@ -266,9 +260,7 @@ TEST(FloatingIntegrator, AFloatingChainAtZeroMomentumReorientsAndKeepsIt) {
 
 TEST(FloatingIntegrator, StepAllocatesNothing) {
   std::mt19937 rng{42};
-  RandomTreeOptions options;
-  options.bodies = 5;
-  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  const FloatingDynamics model(RandomFloatingTree(5, rng));
   for (const IntegratorType type :
        {IntegratorType::kExplicitEuler, IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4}) {
     FloatingIntegrator integrator(type, model);
