@@ -144,8 +144,8 @@ class MpcPlanner {
   // share of the gravity force G(q) held, when the model has gravity: a robot
   // that holds its pose, not one that falls) after Reset, after a failed
   // solve, or when t went back. `stop` (may be
-  // null) is polled at every knot of the solve's passes but its first rollout
-  // (DdpData::stop): set, the solve ends early with what it has. Returns the status. Allocates nothing.
+  // null) is polled at every knot of every pass of the solve (DdpData::stop):
+  // set, the solve ends early with what it has (kStopped: not a plan to follow). Returns the status. Allocates nothing.
   // q_ref, qd_ref: one column (n x 1), held over the horizon, or one per
   // knot (n x N+1), knot k's at t + k dt (a trajectory followed ahead).
   // `pose` (may be null: the frame's reference stays as it was) sets the
