@@ -89,13 +89,6 @@ std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_pt
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
                                              bool cart_pole, std::shared_ptr<const Kinematics> kinematics = nullptr);
 
-// The frame's target over a plan: knot k of a plan made at t follows
-// trajectory.Sample(t + k dt − start). A value of fixed size: copying it allocates nothing.
-struct MpcPoseReference {
-  PoseTrajectory trajectory;
-  double start = 0.0;  // s, the instance time the trajectory started at
-};
-
 // Whether a solve's outcome can be followed: converged or still improving.
 // kLineSearchFailed, kNotPositiveDefinite and kDiverged cannot (the instance
 // falls back, reason ToString(status)).
@@ -149,10 +142,11 @@ class MpcPlanner {
   // q_ref, qd_ref: one column (n x 1), held over the horizon, or one per
   // knot (n x N+1), knot k's at t + k dt (a trajectory followed ahead).
   // `pose` (may be null: the frame's reference stays as it was) sets the
-  // frame's reference at every knot when the model has a frame cost.
+  // frame's reference at every knot when the model has a frame cost: knot k's
+  // is pose->Sample(t + k dt) (a started target: not start_pending()).
   DdpStatus Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
                  const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop = nullptr,
-                 const MpcPoseReference* pose = nullptr);
+                 const PoseTarget* pose = nullptr);
   void Reset();
 
  private:
@@ -216,7 +210,7 @@ class MpcController final : public Controller {
   // The frame's reference at t from q (n): a pending start (the scene's
   // trajectory at the first call and after Reset, or a move) begins here from
   // the frame's measured pose. What the optimiser thread is handed. No allocation.
-  const MpcPoseReference& PoseReference(double t, ConstVecRef q);
+  const PoseTarget& PoseReference(double t, ConstVecRef q);
 
  protected:
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
@@ -233,9 +227,8 @@ class MpcController final : public Controller {
   Reference reference_;  // NextReference's
   bool reference_ready_ = false;
   // The frame's target (has_frame()).
-  PoseTrajectoryConfig scene_trajectory_, pending_;
-  bool start_pending_ = true;
-  MpcPoseReference pose_ref_;
+  PoseTrajectoryConfig scene_trajectory_;
+  PoseTarget target_;
   std::unique_ptr<KinematicsData> kinematics_data_;  // null without a frame
 };
 
