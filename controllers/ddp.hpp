@@ -161,6 +161,7 @@ enum class DdpStatus : std::uint8_t {
                          // the first rollout: no nominal of this solve (cost NaN; x̄, ū, K as
                          // the data held them before the solve, its warm start)
 };
+inline constexpr std::size_t kNumDdpStatuses = static_cast<std::size_t>(DdpStatus::kStopped) + 1;
 std::string_view ToString(DdpStatus status);
 
 struct DdpResult {

@@ -262,7 +262,8 @@ void MpcController::set_plan_inline(bool on) {
 void MpcController::Reset() {
   policy_.sequence = 0;
   planned_ = false;
-  failed_ = 0;
+  solves_ = failed_ = 0;
+  failed_by_status_.fill(0);
   reference_ready_ = false;
   if (planner_) planner_->Reset();
   target_.Start(scene_trajectory_);
@@ -277,10 +278,12 @@ void MpcController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Se
                                  ? planner_->Plan(t, q, qd, reference_.q, reference_.qd, candidate_, nullptr, pose)
                                  : planner_->Plan(t, q, qd, sp.q, sp.qd, candidate_, nullptr, pose);
     reference_ready_ = false;
+    ++solves_;
     if (IsUsable(status)) {
       std::swap(policy_, candidate_);
     } else {
       ++failed_;
+      ++failed_by_status_[static_cast<std::size_t>(status)];
     }
     planned_ = true;
     next_plan_ = t + replan_period_;

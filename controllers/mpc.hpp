@@ -27,6 +27,7 @@
 // (lagrangectl simulate, lagrange.simulate) the controller plans inline, every
 // replan_period of simulated time, so a run is deterministic.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -179,8 +180,11 @@ class MpcController final : public Controller {
   // The policy to follow from now on (a copy between equal sizes: no allocation).
   void SetPolicy(const MpcPolicy& policy) { policy_ = policy; }
   const MpcPolicy& policy() const { return policy_; }
-  // Solves whose status was not usable (inline: their policy is not taken).
+  // Inline solves since the start or Reset, and those whose status was not
+  // usable (their policy is not taken), in all and by status.
+  std::int64_t solves() const { return solves_; }
   std::int64_t failed_solves() const { return failed_; }
+  std::int64_t failed_solves(DdpStatus status) const { return failed_by_status_[static_cast<std::size_t>(status)]; }
 
   // Offline: whether the next Compute at t plans (inline); then the caller
   // may fill NextReference (n x N+1 each: knot k's reference at t + k dt, the
@@ -223,7 +227,8 @@ class MpcController final : public Controller {
   VectorXd u_;  // (m)
   double next_plan_ = 0.0;
   bool planned_ = false;
-  std::int64_t failed_ = 0;
+  std::int64_t solves_ = 0, failed_ = 0;
+  std::array<std::int64_t, kNumDdpStatuses> failed_by_status_{};
   Reference reference_;  // NextReference's
   bool reference_ready_ = false;
   // The frame's target (has_frame()).
