@@ -94,6 +94,13 @@ DdpWeights MpcWeights(const MpcOptions& o, int n, int m) {
           WeightOr(o.q_terminal, n, frame ? 0.0 : 100.0), WeightOr(o.qd_terminal, n, 1.0)};
 }
 
+EffectsConfig MpcEffects(const EffectsConfig& plant) {
+  EffectsConfig e;
+  const bool damping_off = std::find(plant.off.begin(), plant.off.end(), EffectKind::kDamping) != plant.off.end();
+  if (plant.damping && !damping_off) e.damping = plant.damping;
+  return e;
+}
+
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
                                              bool cart_pole, std::shared_ptr<const Kinematics> kinematics) {

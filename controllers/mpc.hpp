@@ -80,7 +80,15 @@ std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole);
 DdpWeights MpcWeights(const MpcOptions& o, int n, int m);
 // The frame of `kinematics` named o.frame, or nullopt ("" names none).
 std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
-// The optimiser's problem: `dynamics` under `effects` (the plant's model),
+// The optimiser's model of the plant's effects, from the instance's: gravity
+// and Coriolis, and the plant's viscous joint damping b when the scene
+// configures it on (−b∘qd, linear in qd: its step derivatives are exact).
+// Coulomb friction, joint limits, saturation and pushes stay out (non-smooth,
+// or the τ box already, or unknown ahead), as Crocoddyl's and MJPC's models
+// leave what the plant does not declare smooth. A command that switches
+// damping later does not reach the optimiser.
+EffectsConfig MpcEffects(const EffectsConfig& plant);
+// The optimiser's problem: `dynamics` under `effects` (MpcEffects of the plant's),
 // limits ±torque_limits on the actuated joints; with o.frame, that frame of
 // `kinematics` (the same model's frames; may be null without a frame). Throws
 // std::invalid_argument (DdpModel's message) for a problem ValidateMpc would
