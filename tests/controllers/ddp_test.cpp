@@ -390,26 +390,32 @@ class StopAtForwardDynamics final : public Dynamics {
   mutable long calls_ = 0;  // one solve on one thread
 };
 
-// The stop is polled at every knot after the first rollout: set in the
+// Evaluations per knot (forward dynamics, or with `derivatives` their
+// derivatives) in one unstopped solve of `config` from rest toward the pole
+// upright; 0 when they are not a whole number per knot.
+long EvaluationsPerKnot(const DdpConfig& config, bool derivatives) {
+  std::atomic<bool> never{false};
+  const auto counting =
+      std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1, derivatives);
+  const DdpModel model(counting, config);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  return counting->calls() % config.horizon == 0 ? counting->calls() / config.horizon : 0;
+}
+
+// The stop is polled at every knot of every pass: set in the
 // middle of the first line search's rollout, the solve ends within that knot's
 // step (not after the rollout, the line search and the iteration), with the
 // first rollout's nominal, and no iteration counted.
 TEST(Ddp, AStopSetInTheMiddleOfARolloutEndsTheSolveWithinThatKnot) {
   const DdpConfig config = CartPoleSwingUp(10.0);
   // Forward-dynamics evaluations in one rollout: one line-search step of one iteration, unstopped.
-  std::atomic<bool> never{false};
   DdpConfig one = config;
   one.options.max_iterations = 1;
   one.options.line_search_steps = 1;
-  const auto counting = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1);
-  const DdpModel one_model(counting, one);
-  DdpData one_data(one_model);
-  one_data.q_ref.row(1).setConstant(kPi);
-  SolveDdp(one_model, one_data, V({0.0, 0.0}), V({0.0, 0.0}));
-  const long per_rollout = counting->calls();
-  ASSERT_GT(per_rollout, 0) << "the line search's rollout steps by forward dynamics";
-  const long per_knot = per_rollout / config.horizon;
-  ASSERT_EQ(per_knot * config.horizon, per_rollout);
+  const long per_knot = EvaluationsPerKnot(one, false);
+  ASSERT_GT(per_knot, 0) << "the line search's rollout steps by forward dynamics, the same per knot";
 
   std::atomic<bool> stop{false};
   const long at = per_knot * (config.horizon / 2) + 1;  // the first evaluation of the middle knot
@@ -433,16 +439,8 @@ TEST(Ddp, AStopSetInTheMiddleOfARolloutEndsTheSolveWithinThatKnot) {
 TEST(Ddp, AStopSetInTheMiddleOfTheFirstRolloutEndsTheSolveWithinThatKnot) {
   DdpConfig config = CartPoleSwingUp(10.0);
   config.options.max_iterations = 1;  // derivative evaluations: the first rollout's alone
-  std::atomic<bool> never{false};
-  const auto counting = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1, true);
-  const DdpModel one_model(counting, config);
-  DdpData one_data(one_model);
-  one_data.q_ref.row(1).setConstant(kPi);
-  SolveDdp(one_model, one_data, V({0.0, 0.0}), V({0.0, 0.0}));
-  const long per_rollout = counting->calls();
-  ASSERT_GT(per_rollout, 0) << "the first rollout steps by the forward dynamics' derivatives";
-  const long per_knot = per_rollout / config.horizon;
-  ASSERT_EQ(per_knot * config.horizon, per_rollout);
+  const long per_knot = EvaluationsPerKnot(config, true);
+  ASSERT_GT(per_knot, 0) << "the first rollout steps by the forward dynamics' derivatives, the same per knot";
 
   std::atomic<bool> stop{false};
   const long at = per_knot * (config.horizon / 2) + 1;  // the first evaluation of the middle knot
