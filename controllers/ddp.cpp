@@ -269,9 +269,9 @@ void DdpData::HoldControls(ConstVecRef u) {
 
 // The passes of one solve, each a named stage over the data's buffers.
 struct DdpPasses {
-  // DdpData::stop, polled at every knot of the passes after the first rollout
-  // (the linearisation, the backward pass, the line search's rollouts), so that
-  // a thread that plans stops within one knot's work of them whatever the horizon.
+  // DdpData::stop, polled at every knot of every pass (the first rollout, the
+  // linearisation, the backward pass, the line search's rollouts), so that a
+  // thread that plans stops within one knot's work whatever the horizon.
   static bool StopRequested(const DdpData& d) {
     return d.stop != nullptr && d.stop->load(std::memory_order_relaxed);
   }
@@ -322,14 +322,14 @@ struct DdpPasses {
   // û_k = clamp(ū_k + α k_k + K_k (x̂_k − x̄_k)); returns J(α), +inf when the
   // rollout leaves the finite numbers. `linearize`: each step by the step
   // derivatives, which leave A_k, B_k of the candidate as well (the first
-  // rollout of a solve, always taken: one pass instead of two). A line
-  // search's rollout (not `linearize`) returns NaN when the stop is set.
+  // rollout of a solve: one pass instead of two). Returns NaN when the stop
+  // is set (the candidate then part-way).
   static double Rollout(const DdpModel& model, DdpData& d, double alpha, bool linearize) {
     const int n = model.num_dofs(), N = model.horizon();
     double J = 0.0;
     d.x_try_.col(0) = d.x0_;
     for (int k = 0; k < N; ++k) {
-      if (!linearize && StopRequested(d)) return std::numeric_limits<double>::quiet_NaN();
+      if (StopRequested(d)) return std::numeric_limits<double>::quiet_NaN();
       d.dx_ = d.x_try_.col(k) - d.x_.col(k);
       auto u = d.u_try_.col(k);
       u = d.u_.col(k) + alpha * d.kff_.col(k);
@@ -566,6 +566,10 @@ const DdpResult& SolveDdp(const DdpModel& model, DdpData& d, ConstVecRef q0, Con
   double J = DdpPasses::Rollout(model, d, 0.0, true);
   r.cost = J;
   r.cost_history[0] = J;
+  if (std::isnan(J)) {  // stopped in the first rollout: the data's nominal stays what it was
+    r.status = DdpStatus::kStopped;
+    return r;
+  }
   if (!std::isfinite(J)) {
     d.Reset();  // a policy that diverged is no warm start
     r.status = DdpStatus::kDiverged;

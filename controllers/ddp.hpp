@@ -157,8 +157,11 @@ enum class DdpStatus : std::uint8_t {
                          // held policy blew up); the data is then Reset
   kStopped,              // DdpData::stop was set: the solve ended with the last accepted nominal
                          // (x̄, ū, cost; never above the first rollout's); its gains may be
-                         // part-way through a backward pass: not a policy to follow
+                         // part-way through a backward pass: not a policy to follow. Set during
+                         // the first rollout: no nominal of this solve (cost NaN; x̄, ū, K as
+                         // the data held them before the solve, its warm start)
 };
+inline constexpr std::size_t kNumDdpStatuses = static_cast<std::size_t>(DdpStatus::kStopped) + 1;
 std::string_view ToString(DdpStatus status);
 
 struct DdpResult {
@@ -188,9 +191,9 @@ class DdpData {
   // references start at zero and the controls at zero with no feedback (Reset).
   explicit DdpData(const DdpModel& model);
 
-  // Polled at every knot of every pass but the first rollout (may be null):
+  // Polled at every knot of every pass, the first rollout too (may be null):
   // once set, SolveDdp returns kStopped with the last accepted nominal, so a
-  // thread that plans stops within the first rollout or one knot's work.
+  // thread that plans stops within one knot's work.
   const std::atomic<bool>* stop = nullptr;
 
   // Inputs, set by the caller before SolveDdp; sized here, never resized.

@@ -378,7 +378,7 @@ std::unique_ptr<Controller> MakeTaskSpace(const ControllerConfig& c, const Plant
 
 // The controller for a validated config.
 std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits,
-                                    const MethodModels& shared) {
+                                    const MethodModels& shared, const EffectsConfig& plant_effects) {
   const std::vector<JointType> joints = JointTypesOf(plant);
   switch (c.type) {
     case ControllerType::kNone: return std::make_unique<ZeroController>(joints, torque_limits);
@@ -412,7 +412,7 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
           c.mpc.frame.empty() ? nullptr : std::make_shared<const Kinematics>(MakeRigidTree(c.model ? *c.model : plant));
       return std::make_unique<MpcController>(
           joints, torque_limits,
-          MakeMpcModel(c.mpc, ControllerModel(c, plant, shared), EffectsConfig{}, torque_limits,
+          MakeMpcModel(c.mpc, ControllerModel(c, plant, shared), MpcEffects(plant_effects), torque_limits,
                        plant.type() == PlantType::kCartPole, std::move(kinematics)),
           MpcReplanPeriod(c.mpc), c.mpc.trajectory);
     }
@@ -423,9 +423,10 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
 }  // namespace
 
 std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const PlantSpec& plant,
-                                           const VectorXd& torque_limits, const MethodModels& plant_models) {
+                                           const VectorXd& torque_limits, const MethodModels& plant_models,
+                                           const EffectsConfig& plant_effects) {
   if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
-  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits, plant_models);
+  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits, plant_models, plant_effects);
   controller->set_gain_bounds(ComputeGainBounds(c, plant));
   if (!c.wrap.empty()) controller->set_wrapped_joints(c.wrap);
   return controller;

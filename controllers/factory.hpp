@@ -139,8 +139,10 @@ std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& g
 // model and does not change the plant's (no `model`) shares the plant's
 // model for its method from `plant_models` when one is built there (the
 // instance builds every method once); otherwise it builds its own. Either
-// way it evaluates through data of its own.
+// way it evaluates through data of its own. `plant_effects`, the instance's
+// effects: what of them an optimiser models (mpc: MpcEffects).
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,
-                                           const VectorXd& torque_limits, const MethodModels& plant_models = {});
+                                           const VectorXd& torque_limits, const MethodModels& plant_models = {},
+                                           const EffectsConfig& plant_effects = {});
 
 }  // namespace lagrange

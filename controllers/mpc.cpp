@@ -94,6 +94,13 @@ DdpWeights MpcWeights(const MpcOptions& o, int n, int m) {
           WeightOr(o.q_terminal, n, frame ? 0.0 : 100.0), WeightOr(o.qd_terminal, n, 1.0)};
 }
 
+EffectsConfig MpcEffects(const EffectsConfig& plant) {
+  EffectsConfig e;
+  const bool damping_off = std::find(plant.off.begin(), plant.off.end(), EffectKind::kDamping) != plant.off.end();
+  if (plant.damping && !damping_off) e.damping = plant.damping;
+  return e;
+}
+
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
                                              bool cart_pole, std::shared_ptr<const Kinematics> kinematics) {
@@ -163,7 +170,7 @@ void MpcPlanner::Reset() {
 
 DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
                            const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop,
-                           const MpcPoseReference* pose) {
+                           const PoseTarget* pose) {
   const DdpModel& model = *model_;
   const int n = model.num_dofs(), N = model.horizon();
   // Warm start: the previous plan from the knot this one starts at.
@@ -189,7 +196,7 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen:
   if (pose != nullptr && model.has_frame_cost()) {
     PoseSetpoint sample;
     for (int k = 0; k <= N; ++k) {
-      pose->trajectory.Sample(t + k * model.dt() - pose->start, sample);
+      pose->Sample(t + k * model.dt(), sample);
       data_.pose_ref[static_cast<std::size_t>(k)] = sample.pose;
     }
   }
@@ -226,25 +233,15 @@ MpcController::MpcController(std::vector<JointType> joints, VectorXd torque_limi
       reference_{MatrixXd::Zero(model_->num_dofs(), model_->horizon() + 1),
                  MatrixXd::Zero(model_->num_dofs(), model_->horizon() + 1)},
       scene_trajectory_(trajectory),
-      pending_(std::move(trajectory)) {
+      target_(std::move(trajectory)) {
   if (model_->has_frame_cost()) kinematics_data_ = model_->config().frame_cost.kinematics->MakeData();
 }
 
-void MpcController::SetPoseTarget(const PoseSetpoint& setpoint) {
-  pose_ref_.trajectory = PoseTrajectory::Constant(setpoint);
-  start_pending_ = false;
-}
+void MpcController::SetPoseTarget(const PoseSetpoint& setpoint) { target_.Set(setpoint); }
 
-void MpcController::MoveTo(const Pose& target, double duration) {
-  pending_ = MinimumJerkMoveTo(target, duration);
-  start_pending_ = true;
-}
+void MpcController::MoveTo(const Pose& target, double duration) { target_.MoveTo(target, duration); }
 
-void MpcController::HoldPoseTarget(double t) {
-  PoseSetpoint now;
-  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
-  SetPoseTarget(PoseSetpoint{now.pose, Vector6d::Zero(), Vector6d::Zero()});
-}
+void MpcController::HoldPoseTarget(double t) { target_.Hold(t); }
 
 void MpcController::MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& pose, Pose& commanded,
                                 Vector6d& error, Vector6d& twist) {
@@ -254,22 +251,19 @@ void MpcController::MeasureTask(double t, ConstVecRef q, ConstVecRef qd, Pose& p
   pose.position = kinematics_data_->position(f.frame);
   pose.orientation = Eigen::Quaterniond(kinematics_data_->rotation(f.frame));
   PoseSetpoint now;
-  pose_ref_.trajectory.Sample(t - pose_ref_.start, now);
+  target_.Sample(t, now);
   commanded = now.pose;
   error = PoseError(commanded, pose);
   twist.noalias() = kinematics_data_->jacobian(f.frame, FrameAxes::kWorldAligned) * qd;
 }
 
-const MpcPoseReference& MpcController::PoseReference(double t, ConstVecRef q) {
-  if (start_pending_ && kinematics_data_) {
+const PoseTarget& MpcController::PoseReference(double t, ConstVecRef q) {
+  if (target_.start_pending() && kinematics_data_) {
     const DdpFrameCost& f = model_->config().frame_cost;
     f.kinematics->ComputeFramePlacement(*kinematics_data_, q, f.frame);
-    const Pose measured{kinematics_data_->position(f.frame), Eigen::Quaterniond(kinematics_data_->rotation(f.frame))};
-    pose_ref_.trajectory = MakePoseTrajectory(pending_, measured);
-    pose_ref_.start = t;
-    start_pending_ = false;
+    target_.Begin(t, {kinematics_data_->position(f.frame), Eigen::Quaterniond(kinematics_data_->rotation(f.frame))});
   }
-  return pose_ref_;
+  return target_;
 }
 
 void MpcController::set_plan_inline(bool on) {
@@ -280,26 +274,28 @@ void MpcController::set_plan_inline(bool on) {
 void MpcController::Reset() {
   policy_.sequence = 0;
   planned_ = false;
-  failed_ = 0;
+  solves_ = failed_ = 0;
+  failed_by_status_.fill(0);
   reference_ready_ = false;
   if (planner_) planner_->Reset();
-  pending_ = scene_trajectory_;
-  start_pending_ = true;
+  target_.Start(scene_trajectory_);
 }
 
 void MpcController::ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   // Offline: a solve every replan_period of simulated time; a failed one's policy is not taken (the last
   // usable one is followed, its last knot held once its horizon runs out).
   if (plan_due(t)) {
-    const MpcPoseReference* pose = has_frame() ? &PoseReference(t, q) : nullptr;
+    const PoseTarget* pose = has_frame() ? &PoseReference(t, q) : nullptr;
     const DdpStatus status = reference_ready_
                                  ? planner_->Plan(t, q, qd, reference_.q, reference_.qd, candidate_, nullptr, pose)
                                  : planner_->Plan(t, q, qd, sp.q, sp.qd, candidate_, nullptr, pose);
     reference_ready_ = false;
+    ++solves_;
     if (IsUsable(status)) {
       std::swap(policy_, candidate_);
     } else {
       ++failed_;
+      ++failed_by_status_[static_cast<std::size_t>(status)];
     }
     planned_ = true;
     next_plan_ = t + replan_period_;

@@ -30,6 +30,7 @@
 // (lagrangectl simulate, lagrange.simulate) the controller plans inline, every
 // replan_period of simulated time, so a run is deterministic.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -82,7 +83,15 @@ std::vector<int> MpcActuated(const MpcOptions& o, int n, bool cart_pole);
 DdpWeights MpcWeights(const MpcOptions& o, int n, int m);
 // The frame of `kinematics` named o.frame, or nullopt ("" names none).
 std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
-// The optimiser's problem: `dynamics` under `effects` (the plant's model),
+// The optimiser's model of the plant's effects, from the instance's: gravity
+// and Coriolis, and the plant's viscous joint damping b when the scene
+// configures it on (−b∘qd, linear in qd: its step derivatives are exact).
+// Coulomb friction, joint limits, saturation and pushes stay out (non-smooth,
+// or the τ box already, or unknown ahead), as Crocoddyl's and MJPC's models
+// leave what the plant does not declare smooth. A command that switches
+// damping later does not reach the optimiser.
+EffectsConfig MpcEffects(const EffectsConfig& plant);
+// The optimiser's problem: `dynamics` under `effects` (MpcEffects of the plant's),
 // limits ±torque_limits on the actuated joints; with o.frame, that frame of
 // `kinematics` (the same model's frames; may be null without a frame). Throws
 // std::invalid_argument (DdpModel's message) for a problem ValidateMpc would
@@ -91,13 +100,6 @@ std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
 std::shared_ptr<const DdpModel> MakeMpcModel(const MpcOptions& o, std::shared_ptr<const Dynamics> dynamics,
                                              const EffectsConfig& effects, const VectorXd& torque_limits,
                                              bool cart_pole, std::shared_ptr<const Kinematics> kinematics = nullptr);
-
-// The frame's target over a plan: knot k of a plan made at t follows
-// trajectory.Sample(t + k dt − start). A value of fixed size: copying it allocates nothing.
-struct MpcPoseReference {
-  PoseTrajectory trajectory;
-  double start = 0.0;  // s, the instance time the trajectory started at
-};
 
 // Whether a solve's outcome can be followed: converged or still improving.
 // kLineSearchFailed, kNotPositiveDefinite and kDiverged cannot (the instance
@@ -148,15 +150,16 @@ class MpcPlanner {
   // share of the gravity force G(q) held, when the model has gravity: a robot
   // that holds its pose, not one that falls) after Reset, after a failed
   // solve, or when t went back. `stop` (may be
-  // null) is polled at every knot of the solve's passes but its first rollout
-  // (DdpData::stop): set, the solve ends early with what it has. Returns the status. Allocates nothing.
+  // null) is polled at every knot of every pass of the solve (DdpData::stop):
+  // set, the solve ends early with what it has (kStopped: not a plan to follow). Returns the status. Allocates nothing.
   // q_ref, qd_ref: one column (n x 1), held over the horizon, or one per
   // knot (n x N+1), knot k's at t + k dt (a trajectory followed ahead).
   // `pose` (may be null: the frame's reference stays as it was) sets the
-  // frame's reference at every knot when the model has a frame cost.
+  // frame's reference at every knot when the model has a frame cost: knot k's
+  // is pose->Sample(t + k dt) (a started target: not start_pending()).
   DdpStatus Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
                  const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop = nullptr,
-                 const MpcPoseReference* pose = nullptr);
+                 const PoseTarget* pose = nullptr);
   void Reset();
 
  private:
@@ -189,8 +192,11 @@ class MpcController final : public Controller {
   // The policy to follow from now on (a copy between equal sizes: no allocation).
   void SetPolicy(const MpcPolicy& policy) { policy_ = policy; }
   const MpcPolicy& policy() const { return policy_; }
-  // Solves whose status was not usable (inline: their policy is not taken).
+  // Inline solves since the start or Reset, and those whose status was not
+  // usable (their policy is not taken), in all and by status.
+  std::int64_t solves() const { return solves_; }
   std::int64_t failed_solves() const { return failed_; }
+  std::int64_t failed_solves(DdpStatus status) const { return failed_by_status_[static_cast<std::size_t>(status)]; }
 
   // Offline: whether the next Compute at t plans (inline); then the caller
   // may fill NextReference (n x N+1 each: knot k's reference at t + k dt, the
@@ -220,7 +226,7 @@ class MpcController final : public Controller {
   // The frame's reference at t from q (n): a pending start (the scene's
   // trajectory at the first call and after Reset, or a move) begins here from
   // the frame's measured pose. What the optimiser thread is handed. No allocation.
-  const MpcPoseReference& PoseReference(double t, ConstVecRef q);
+  const PoseTarget& PoseReference(double t, ConstVecRef q);
 
  protected:
   void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) override;
@@ -233,13 +239,13 @@ class MpcController final : public Controller {
   VectorXd u_;  // (m)
   double next_plan_ = 0.0;
   bool planned_ = false;
-  std::int64_t failed_ = 0;
+  std::int64_t solves_ = 0, failed_ = 0;
+  std::array<std::int64_t, kNumDdpStatuses> failed_by_status_{};
   Reference reference_;  // NextReference's
   bool reference_ready_ = false;
   // The frame's target (has_frame()).
-  PoseTrajectoryConfig scene_trajectory_, pending_;
-  bool start_pending_ = true;
-  MpcPoseReference pose_ref_;
+  PoseTrajectoryConfig scene_trajectory_;
+  PoseTarget target_;
   std::unique_ptr<KinematicsData> kinematics_data_;  // null without a frame
 };
 

@@ -94,7 +94,7 @@ TaskSpaceController::TaskSpaceController(std::vector<JointType> joints, VectorXd
       bias_tau_(num_dofs()),
       tau0_(num_dofs()),
       projected_(num_dofs()),
-      pending_(options_.trajectory) {
+      target_(options_.trajectory) {
   const int n = num_dofs();
   if (!dynamics_ || !kinematics_) throw std::invalid_argument("a task-space controller needs its models");
   if (dynamics_->num_dofs() != n || kinematics_->num_dofs() != n) {
@@ -122,20 +122,11 @@ void TaskSpaceController::ApplyGains(const Gains& gains) {
   gains_.kd = gains.kd;
 }
 
-void TaskSpaceController::SetPoseTarget(const PoseSetpoint& setpoint) {
-  trajectory_ = PoseTrajectory::Constant(setpoint);
-  start_pending_ = false;
-}
+void TaskSpaceController::SetPoseTarget(const PoseSetpoint& setpoint) { target_.Set(setpoint); }
 
-void TaskSpaceController::MoveTo(const Pose& target, double duration) {
-  pending_ = MinimumJerkMoveTo(target, duration);
-  start_pending_ = true;
-}
+void TaskSpaceController::MoveTo(const Pose& target, double duration) { target_.MoveTo(target, duration); }
 
-void TaskSpaceController::StartTrajectory(const PoseTrajectoryConfig& config) {
-  pending_ = config;
-  start_pending_ = true;
-}
+void TaskSpaceController::StartTrajectory(const PoseTrajectoryConfig& config) { target_.Start(config); }
 
 void TaskSpaceController::Reset() { StartTrajectory(options_.trajectory); }
 
@@ -148,12 +139,8 @@ void TaskSpaceController::MeasureFrame(ConstVecRef q, ConstVecRef qd) {
 }
 
 void TaskSpaceController::FollowTarget(double t) {
-  if (start_pending_) {
-    trajectory_ = MakePoseTrajectory(pending_, pose_);
-    trajectory_start_ = t;
-    start_pending_ = false;
-  }
-  trajectory_.Sample(t - trajectory_start_, commanded_);
+  target_.Begin(t, pose_);
+  target_.Sample(t, commanded_);
   e_ = PoseError(commanded_.pose, pose_);
   edot_ = commanded_.twist - xdot_;
 }

@@ -192,10 +192,7 @@ class TaskSpaceController : public Controller {
   VectorXd zero_, bias_tau_, tau0_, projected_;  // (n)
   Pose pose_;
   Vector6d xdot_ = Vector6d::Zero();
-  PoseTrajectory trajectory_;
-  double trajectory_start_ = 0.0;  // s
-  bool start_pending_ = true;      // start pending_ from the measured pose at the next Compute
-  PoseTrajectoryConfig pending_;
+  PoseTarget target_;  // a pending start begins from the measured pose at the next Compute
 };
 
 // Law:    tau = Jᵀ (K e + D (ẋ_d − J qd)) + C(q, qd) qd + G(q) + P τ0

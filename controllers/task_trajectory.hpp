@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <optional>
 #include <string_view>
+#include <utility>
 
 #include "plant/kinematics.hpp"
 
@@ -145,5 +146,52 @@ std::optional<std::string> ValidatePoseTrajectory(const PoseTrajectoryConfig& co
 // The trajectory of a valid `config` starting at `start`. Allocates nothing.
 PoseTrajectory MakePoseTrajectory(const PoseTrajectoryConfig& config, const Pose& start);
 std::string_view ToString(PoseTrajectory::Type type);
+
+// A frame's target as a task-space or mpc controller keeps it: a trajectory
+// started at an instance time from the frame's measured pose (the scene's at
+// the start, a command's later), or a constant setpoint; a start stays
+// pending until the controller has measured the pose (Begin). A value of
+// fixed size: commands, Begin and copies allocate nothing.
+class PoseTarget {
+ public:
+  // `config` (valid: ValidatePoseTrajectory) pending from the start.
+  explicit PoseTarget(PoseTrajectoryConfig config = {}) : pending_(std::move(config)) {}
+
+  // Follow `setpoint` (pose, twist and acceleration feed-forward) from now on.
+  void Set(const PoseSetpoint& setpoint) {
+    trajectory_ = PoseTrajectory::Constant(setpoint);
+    start_pending_ = false;
+  }
+  // `config` (valid) from the measured pose at the next Begin.
+  void Start(const PoseTrajectoryConfig& config) {
+    pending_ = config;
+    start_pending_ = true;
+  }
+  // A minimum-jerk move to `target` over `duration` s (> 0) from the measured pose at the next Begin.
+  void MoveTo(const Pose& target, double duration) { Start(MinimumJerkMoveTo(target, duration)); }
+  // Holds the pose the target is at at t, at rest (a streamed target that stopped).
+  void Hold(double t) {
+    PoseSetpoint now;
+    Sample(t, now);
+    Set(PoseSetpoint{now.pose, Vector6d::Zero(), Vector6d::Zero()});
+  }
+
+  bool start_pending() const { return start_pending_; }
+  // A pending start begins at instance time t (s) from `measured`; otherwise nothing.
+  void Begin(double t, const Pose& measured) {
+    if (!start_pending_) return;
+    trajectory_ = MakePoseTrajectory(pending_, measured);
+    start_ = t;
+    start_pending_ = false;
+  }
+  // The target at instance time t (s).
+  void Sample(double t, PoseSetpoint& out) const { trajectory_.Sample(t - start_, out); }
+
+ private:
+  PoseTrajectory trajectory_;
+  double start_ = 0.0;  // s, the instance time the trajectory started at
+  PoseTrajectoryConfig pending_;
+  bool start_pending_ = true;
+};
 
 }  // namespace lagrange

@@ -9,9 +9,8 @@
 // latest-wins triple buffers built before the loop: neither side allocates,
 // blocks or waits for the other. The tick never plans.
 //
-// Stop() ends the thread within a solve's first rollout or one knot's work of
-// its other passes: the stop flag is polled at every knot of them
-// (DdpData::stop) and between solves.
+// Stop() ends the thread within one knot's work of a solve: the stop flag is
+// polled at every knot of every pass (DdpData::stop) and between solves.
 
 #include <atomic>
 #include <cstdint>

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "base/escape.hpp"
 #include "daemon/timing_csv.hpp"
@@ -56,11 +57,10 @@ Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& 
     o.task.run_id = run_id_;
     o.mpc.run_id = run_id_;
     o.mpc.num_states = 2 * m.num_dofs;
-    for (const ControllerModel& c : m.controllers) {  // the first mpc controller's, as the tick's record (runtime.cpp)
-      if (!c.mpc) continue;
+    if (const std::optional<std::size_t> k = FirstMpc(m)) {  // the first mpc controller's, as the tick's record
+      const ControllerModel& c = m.controllers[*k];
       o.mpc.controller = c.name;
       o.mpc.num_knots = MpcKnotsOnWire(o.mpc.num_states, c.config.mpc.horizon);
-      break;
     }
     o.mpc.status.reserve(32);  // every ToString(DdpStatus) fits: no allocation per plan
     o.mpc.knot_t.resize(static_cast<std::size_t>(o.mpc.num_knots));

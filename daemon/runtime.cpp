@@ -28,23 +28,21 @@ const char* PlanFailure(DdpStatus status) {
   }
 }
 
-// The instance's first mpc controller, whose plans its channels and record are sized for; null when it has none.
-const MpcController* FirstMpc(Instance& inst) {
-  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
-    if (const MpcController* c = inst.mpc_controller(k)) return c;
-  }
-  return nullptr;
+// The instance's first mpc controller (sim/instance_model.hpp, FirstMpc); null when it has none.
+const MpcController* FirstMpcController(Instance& inst) {
+  const std::optional<std::size_t> k = FirstMpc(inst.instance_model());
+  return k ? inst.mpc_controller(*k) : nullptr;
 }
 
 // The plan prototype of an instance: sized for its mpc controller, else empty.
 MpcPolicy PlanPrototype(Instance& inst) {
-  const MpcController* c = FirstMpc(inst);
+  const MpcController* c = FirstMpcController(inst);
   return c != nullptr ? c->policy() : MpcPolicy{};
 }
 
 // The N of an instance's mpc controller; 0 when it has none.
 int PlanHorizon(Instance& inst) {
-  const MpcController* c = FirstMpc(inst);
+  const MpcController* c = FirstMpcController(inst);
   return c != nullptr ? c->ddp_model()->horizon() : 0;
 }
 

@@ -97,7 +97,7 @@ struct MpcStateMessage {
   double t = 0.0;  // s, the instance's time
   VectorXd q, qd;
   MatrixXd q_ref, qd_ref;  // (n x N+1) the reference at every knot of the plan
-  MpcPoseReference pose;  // the frame's target (an mpc controller with a frame; MpcController::PoseReference)
+  PoseTarget pose;  // the frame's target (an mpc controller with a frame; MpcController::PoseReference)
 };
 
 // What the receiver found wrong with an external plant's measured state: each

@@ -12,6 +12,8 @@
 //              I2 = d1 + d3, I3 = d1 + d2 from second moments d ∈ 0.002..0.05 kg·m²
 //              (so the triangle inequality holds)
 //   gravity    9.81 m/s² in a random direction
+// RandomFloatingTree: the same joints and bodies hung from a floating base
+// (joints with parent −1 on it), whose body is drawn as the others are.
 
 #include <Eigen/Geometry>
 #include <random>
@@ -45,9 +47,20 @@ inline Eigen::Matrix3d RandomRotation(std::mt19937& rng) {
   return r.normalized().toRotationMatrix();
 }
 
+inline RigidBody RandomRigidBody(std::mt19937& rng) {
+  std::uniform_real_distribution<double> com(-0.2, 0.2), mass(0.2, 3.0), moment(0.002, 0.05);
+  RigidBody b;
+  b.mass = mass(rng);
+  b.com = Eigen::Vector3d(com(rng), com(rng), com(rng));
+  const double d1 = moment(rng), d2 = moment(rng), d3 = moment(rng);
+  const Eigen::Matrix3d R = RandomRotation(rng);
+  b.inertia = R * Eigen::Vector3d(d2 + d3, d1 + d3, d1 + d2).asDiagonal() * R.transpose();
+  b.inertia = 0.5 * (b.inertia + b.inertia.transpose()).eval();
+  return b;
+}
+
 inline RigidTree RandomRigidTree(const RandomTreeOptions& options, std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0), offset(-0.5, 0.5), com(-0.2, 0.2), mass(0.2, 3.0),
-      moment(0.002, 0.05);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), offset(-0.5, 0.5);
   RigidTree tree;
   for (int i = 0; i < options.bodies; ++i) {
     TreeJoint j;
@@ -59,17 +72,25 @@ inline RigidTree RandomRigidTree(const RandomTreeOptions& options, std::mt19937&
     j.rotation = RandomRotation(rng);
     j.axis = RandomUnitVector(rng);
     tree.joints.push_back(j);
-    RigidBody b;
-    b.mass = mass(rng);
-    b.com = Eigen::Vector3d(com(rng), com(rng), com(rng));
-    const double d1 = moment(rng), d2 = moment(rng), d3 = moment(rng);
-    const Eigen::Matrix3d R = RandomRotation(rng);
-    b.inertia = R * Eigen::Vector3d(d2 + d3, d1 + d3, d1 + d2).asDiagonal() * R.transpose();
-    b.inertia = 0.5 * (b.inertia + b.inertia.transpose()).eval();
-    tree.bodies.push_back(b);
+    tree.bodies.push_back(RandomRigidBody(rng));
   }
   tree.gravity = kStandardGravity * RandomUnitVector(rng);
   return tree;
+}
+
+// options.bodies joints (0: a lone free body) on a random floating base.
+inline RigidTree RandomFloatingTree(const RandomTreeOptions& options, std::mt19937& rng) {
+  RigidTree tree = options.bodies > 0 ? RandomRigidTree(options, rng) : RigidTree{};
+  tree.floating_base = true;
+  tree.base = RandomRigidBody(rng);
+  tree.gravity = kStandardGravity * RandomUnitVector(rng);
+  return tree;
+}
+// `bodies` joints, branching, on a random floating base.
+inline RigidTree RandomFloatingTree(int bodies, std::mt19937& rng) {
+  RandomTreeOptions options;
+  options.bodies = bodies;
+  return RandomFloatingTree(options, rng);
 }
 
 }  // namespace lagrange

@@ -303,10 +303,14 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I) {
   return std::nullopt;
 }
 
-std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
+namespace {
+
+// Every check of a tree's joints, bodies and frames; `floating` allows a tree
+// of no joints (a free body).
+std::optional<std::string> ValidateJointsBodiesFrames(const RigidTree& tree, bool floating) {
   const int n = tree.num_joints();
-  if (n < 1 || n > kMaxDofs) {
-    return Bad("joints", "1 to " + std::to_string(kMaxDofs) + " joints", std::to_string(n));
+  if (n < (floating ? 0 : 1) || n > kMaxDofs) {
+    return Bad("joints", (floating ? "0 to " : "1 to ") + std::to_string(kMaxDofs) + " joints", std::to_string(n));
   }
   if (tree.bodies.size() != tree.joints.size()) {
     return Bad("bodies", std::to_string(n) + " bodies (one per joint)", std::to_string(tree.bodies.size()));
@@ -322,6 +326,7 @@ std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
     if (auto e = CheckBody(tree.bodies[i], i)) return e;
   }
   if (auto e = CheckFrames(tree)) return e;
+  if (n == 0) return std::nullopt;
   const int dof = FirstSingularJoint(MassMatrixAtZero(tree));
   if (dof < 0) return std::nullopt;
   const int k = JointOfDof(tree, dof);
@@ -332,6 +337,36 @@ std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
   return Bad("joints[" + std::to_string(k) + "]",
              "a joint that moves mass or inertia of its own (M(0) positive definite)",
              "a singular mass matrix at this joint");
+}
+
+}  // namespace
+
+std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
+  if (tree.floating_base) {
+    return Bad("floating_base", "false (a fixed-base tree; a floating one runs under FloatingDynamics)", "true");
+  }
+  return ValidateJointsBodiesFrames(tree, false);
+}
+
+std::optional<std::string> ValidateFloatingTree(const RigidTree& tree) {
+  if (!tree.floating_base) return Bad("floating_base", "true (a floating-base tree)", "false");
+  const RigidBody& b = tree.base;
+  if (!std::isfinite(b.mass) || !(b.mass > 0.0)) return Bad("base.mass", "a finite mass > 0", Num(b.mass));
+  if (!b.com.allFinite()) return Bad("base.com", "finite numbers", Str(b.com));
+  if (const auto why = CheckRotationalInertia(b.inertia)) {
+    return Bad("base.inertia", "a rigid body's rotational inertia", Str(b.inertia) + ": " + *why);
+  }
+  if (const double l = SymmetricEigenvalues(0.5 * (b.inertia + b.inertia.transpose()))[0]; !(l > 0.0)) {
+    return Bad("base.inertia", "positive definite (a free body turns about every axis)",
+               "smallest principal moment " + Num(l) + " kg·m²");
+  }
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    if (tree.joints[i].mimic >= 0) {
+      return Bad(Key("joints", i, "mimic"), "-1 (mimic joints are not yet supported with a floating base)",
+                 std::to_string(tree.joints[i].mimic));
+    }
+  }
+  return ValidateJointsBodiesFrames(tree, true);
 }
 
 }  // namespace lagrange

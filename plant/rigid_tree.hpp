@@ -1,6 +1,6 @@
 #pragma once
-// A kinematic tree of rigid bodies in 3-D, fixed base: the one description
-// of every plant's bodies and joints. A URDF plant's is read from its file
+// A kinematic tree of rigid bodies in 3-D, fixed or floating base: the one
+// description of every plant's bodies and joints. A URDF plant's is read from its file
 // (plant/urdf.hpp); the built-in plants' (pendulum, arm2, cartpole, chain)
 // are planar trees in the world's xy plane, every joint axis along z,
 // gravity along −y (ToRigidTree in their headers, PlanarTreeJoint and
@@ -19,6 +19,22 @@
 // placement in its frame: every URDF link, including those merged into a body
 // by fixed joints, and the built-in plants' links and tips
 // (plant/kinematics.hpp evaluates them). They carry no inertia.
+//
+// Floating base (floating_base true; Pinocchio's free-flyer root joint): the
+// tree's root is the body `base`, free in the world, and joints with parent −1
+// hang from it (frames with body −1 ride on it). Its configuration and velocity
+// lead q and v, in Pinocchio's conventions:
+//   q = (p, x, y, z, w, q_joints)   p (m) the base frame's origin in the world,
+//                                   (x, y, z, w) the unit quaternion of its axes
+//                                   in the world                  nq = num_q() = n + 7
+//   v = (v_b, ω_b, qd_joints)       the velocity of the base origin (m/s) and the
+//                                   base's angular velocity (rad/s), both in base
+//                                   axes                            nv = num_v() = n + 6
+// so q̇ ≠ v: the base advances on the manifold (plant/free_flyer.hpp). The
+// generalized force on the base is its wrench in base axes (force N, then
+// moment N·m about the base origin). A floating tree runs under FloatingDynamics
+// (plant/floating_dynamics.hpp) and is checked by ValidateFloatingTree; every
+// fixed-base algorithm refuses it (ValidateRigidTree).
 //
 // Energies (SI units), with p_c, v_c the world position and velocity of body
 // i's centre of mass, ω its angular velocity and I its inertia about the centre
@@ -77,13 +93,21 @@ struct TreeFrame {
 // Everything over q (M = Sᵀ M_joints S, C, G, the Jacobians J_joints S, the
 // messages, the scenes, the controllers) sees only the degrees of freedom; a
 // mimic's generalized force lands on the joint it follows.
+inline constexpr int kFreeFlyerNq = 7;  // p (3), quaternion (4)
+inline constexpr int kFreeFlyerNv = 6;  // v_b (3), ω_b (3)
+
 struct RigidTree {
   std::vector<TreeJoint> joints;  // joint i carries body i; parents come first: joints[i].parent < i
   std::vector<RigidBody> bodies;  // one per joint
   std::vector<TreeFrame> frames;  // named frames, distinct names; may be empty
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -kStandardGravity);  // m/s², world frame
+  bool floating_base = false;  // the root is `base`, free in the world (above); false: the world
+  RigidBody base;              // the floating base's body (floating_base only)
 
   int num_joints() const { return static_cast<int>(joints.size()); }
+  // Sizes of q and v: num_dofs() for a fixed base; + 7 and + 6 for a floating one.
+  int num_q() const { return num_dofs() + (floating_base ? kFreeFlyerNq : 0); }
+  int num_v() const { return num_dofs() + (floating_base ? kFreeFlyerNv : 0); }
   // The joints that mimic none.
   int num_dofs() const;
   bool has_mimics() const { return num_dofs() != num_joints(); }
@@ -147,8 +171,15 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
 // CheckRotationalInertia (physically realisable), mimics that follow another
 // joint which is itself a degree of freedom (no chains, no cycles) with finite
 // multiplier and offset, and M(0) = Sᵀ M_joints S positive definite at q = 0
-// (no massless leaf, no joint that moves nothing).
+// (no massless leaf, no joint that moves nothing). A floating tree is refused
+// (every fixed-base algorithm calls this).
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
+
+// The same for a floating-base tree (floating_base true): 0..kMaxDofs joints,
+// the checks above on them (M(0) of the joints with the base held), no mimic
+// joints (not yet with a floating base), and a base body of positive mass and
+// positive definite inertia (so M(q) is positive definite at every q).
+std::optional<std::string> ValidateFloatingTree(const RigidTree& tree);
 
 }  // namespace lagrange
 

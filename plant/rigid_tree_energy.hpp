@@ -209,6 +209,7 @@ S PotentialEnergyFrom(const RigidTree& tree, int i, const Placement<S>& parent, 
 
 template <class S>
 S RigidTree::KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
+  eigen_assert(!floating_base && "the fixed-base energies: a floating tree runs under FloatingDynamics");
   using namespace rigid_tree_energy;
   const Vec3<S> zero{S(0.0), S(0.0), S(0.0)};
   const Motion<S> world{{Identity<S>(), zero}, zero, zero};
@@ -221,6 +222,7 @@ S RigidTree::KineticEnergy(std::span<const S> q, std::span<const S> qd) const {
 
 template <class S>
 S RigidTree::PotentialEnergy(std::span<const S> q) const {
+  eigen_assert(!floating_base && "the fixed-base energies: a floating tree runs under FloatingDynamics");
   using namespace rigid_tree_energy;
   const Placement<S> world{Identity<S>(), {S(0.0), S(0.0), S(0.0)}};
   S V(0.0);

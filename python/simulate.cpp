@@ -96,7 +96,7 @@ struct Recording {
   std::vector<std::string> joint_names;
   int n = 0;
   std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
-  std::optional<std::string> fault;
+  std::optional<std::string> fault, mpc_failures;
   std::string frame;                                  // TaskFrameOf; "": no task rows
   std::vector<double> position, position_des, error;  // 3, 3 and 6 per row, with a `frame`
 
@@ -137,7 +137,7 @@ struct SimulationResult {
   std::string name;
   std::vector<std::string> joint_names;
   py::array_t<double> t, q, qd, q_des, tau, kinetic_energy, potential_energy, energy_residual;
-  std::optional<std::string> fault;
+  std::optional<std::string> fault, mpc_failures;
   std::optional<TaskRows> task;
 
   explicit SimulationResult(const Recording& r)
@@ -151,7 +151,8 @@ struct SimulationResult {
         kinetic_energy(ToArray(r.kinetic)),
         potential_energy(ToArray(r.potential)),
         energy_residual(ToArray(r.residual)),
-        fault(r.fault) {
+        fault(r.fault),
+        mpc_failures(r.mpc_failures) {
     if (r.frame.empty()) return;
     const auto rows = static_cast<py::ssize_t>(r.t.size());
     task =
@@ -263,6 +264,12 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
   for (const OfflineFault& f : faults) {
     recordings[f.index].fault = OfflineFaultText(instances[f.index], f);
     PyErr_WarnEx(PyExc_RuntimeWarning, ("lagrange.simulate: " + *recordings[f.index].fault).c_str(), 1);
+  }
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    recordings[i].mpc_failures = OfflineMpcFailureText(instances[i]);
+    if (recordings[i].mpc_failures) {
+      PyErr_WarnEx(PyExc_RuntimeWarning, ("lagrange.simulate: " + *recordings[i].mpc_failures).c_str(), 1);
+    }
   }
   py::dict out;
   for (const Recording& r : recordings) out[py::str(r.name)] = SimulationResult(r);
@@ -388,6 +395,9 @@ void BindSimulate(py::module_& m) {
       .def_readonly("fault", &SimulationResult::fault,
                     "None, or the health check's line when the instance faulted: its rows then end at the last "
                     "healthy step.")
+      .def_readonly("mpc_failures", &SimulationResult::mpc_failures,
+                    "None, or the line saying how many of an mpc controller's solves failed and their statuses "
+                    "(lagrangectl simulate's line): the last usable plan was followed meanwhile.")
       .def_readonly("task", &SimulationResult::task,
                     "TaskRows under a controller that moves a frame (a task-space controller, or an mpc with a "
                     "frame: the frame's position, target and error per row, as lagrangectl simulate's "

@@ -49,7 +49,7 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   }
   integrator_ = integrators_[static_cast<std::size_t>(config.integrator.type)].get();
   for (const ControllerModel& c : im.controllers) {
-    controllers_.push_back(MakeController(c.config, config.plant, im.torque_limits, im.dynamics));
+    controllers_.push_back(MakeController(c.config, config.plant, im.torque_limits, im.dynamics, config.effects));
     continuous_.push_back(c.config.continuous);
   }
   for (const auto& c : controllers_) {

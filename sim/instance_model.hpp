@@ -121,6 +121,16 @@ struct BuildOptions {
 // Instance and times nothing: its costs are measured by a pass over the
 // built model (MeasureCosts, sim/work_bound.hpp).
 InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOptions& options = {});
+
+// The instance's first mpc controller, whose plans its channels and records
+// are sized for (lagranged's tick and publisher): its index in m.controllers,
+// or nullopt when it has none.
+inline std::optional<std::size_t> FirstMpc(const InstanceModel& m) {
+  for (std::size_t k = 0; k < m.controllers.size(); ++k) {
+    if (m.controllers[k].mpc) return k;
+  }
+  return std::nullopt;
+}
 // Every instance of the scene, in order; mutable until it is shared (as
 // const) with the threads of a run, so that MeasureCosts can fill it in.
 std::shared_ptr<DaemonModel> BuildDaemonModel(const Scene& scene, const BuildOptions& options = {});

@@ -1,5 +1,6 @@
 #include "sim/offline.hpp"
 
+#include <array>
 #include <limits>
 #include <stdexcept>
 
@@ -54,6 +55,28 @@ std::string OfflineFaultText(const Instance& inst, const OfflineFault& f) {
     text += ", |ε| > " + FormatDouble(inst.instance_model().residual_bound.bound) + " J";
   }
   return text;
+}
+
+std::optional<std::string> OfflineMpcFailureText(const Instance& inst) {
+  std::int64_t solves = 0, failed = 0;
+  std::array<std::int64_t, kNumDdpStatuses> by_status{};
+  for (std::size_t k = 0; k < inst.controller_names().size(); ++k) {
+    const MpcController* mpc = inst.mpc_controller(k);
+    if (mpc == nullptr) continue;
+    solves += mpc->solves();
+    failed += mpc->failed_solves();
+    for (std::size_t s = 0; s < kNumDdpStatuses; ++s) by_status[s] += mpc->failed_solves(static_cast<DdpStatus>(s));
+  }
+  if (failed == 0) return std::nullopt;
+  std::string text = inst.name() + ": " + std::to_string(failed) + " of " + std::to_string(solves) +
+                     " mpc solves failed (";
+  const char* separator = "";
+  for (std::size_t s = 0; s < kNumDdpStatuses; ++s) {
+    if (by_status[s] == 0) continue;
+    text.append(separator).append(ToString(static_cast<DdpStatus>(s))).append(" ").append(std::to_string(by_status[s]));
+    separator = ", ";
+  }
+  return text + "); offline the last usable plan is followed meanwhile (none yet: no force), where lagranged falls back";
 }
 
 const char* OfflineRefusal(const InstanceConfig& c) {

@@ -31,6 +31,14 @@ struct OfflineFault {
 // "NAME faulted at t = T s: REASON" and the bound it left, for a message.
 std::string OfflineFaultText(const Instance& instance, const OfflineFault& fault);
 
+// "NAME: K of S mpc solves failed (line-search-failed 2, diverged 1); ..."
+// when an mpc controller of the instance had solves that failed, with the
+// status words lagranged's status gives them ("the mpc solve failed: ...");
+// nullopt when none failed. Offline a failed plan is not taken: the last
+// usable one is followed (none yet: no force), where lagranged hands the
+// instance to its fallback.
+std::optional<std::string> OfflineMpcFailureText(const Instance& instance);
+
 // Why an instance cannot run offline (null when it can): an external plant
 // or an external controller needs the bus, so only lagranged runs them.
 const char* OfflineRefusal(const InstanceConfig& config);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "plant/plant_model.hpp"
 #include "protocol/status.hpp"
@@ -144,13 +145,41 @@ std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config) {
   return costs;
 }
 
-double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluation_s) {
-  // One explicit Euler step makes the fewest evaluations, whatever the scene's
-  // integrator would (a stiff scene's dopri5 tick may take seconds).
+namespace {
+
+// The tick's work for an active mpc controller beyond its step (daemon/runtime.cpp): the state offered to
+// its optimiser (OfferState) with the reference over the plan's N + 1 knots, the trajectory sampled ahead
+// (the worst case: a streamed setpoint is copied), and with a frame its target (PoseReference) and the task
+// record's measured pose, error and twist (MeasureTask: the frame's Jacobian). Buffers sized once.
+class MpcTickWork {
+ public:
+  explicit MpcTickWork(const MpcController& mpc)
+      : q_ref_(MatrixXd::Zero(mpc.ddp_model()->num_dofs(), mpc.ddp_model()->horizon() + 1)), qd_ref_(q_ref_) {}
+  void Run(Instance& instance, MpcController& mpc) {
+    instance.SampleTrajectoryAhead(mpc.ddp_model()->dt(), q_ref_, qd_ref_);
+    if (!mpc.has_frame()) return;
+    mpc.PoseReference(instance.t(), instance.q());
+    mpc.MeasureTask(instance.t(), instance.q(), instance.qd(), pose_, commanded_, error_, twist_);
+  }
+
+ private:
+  MatrixXd q_ref_, qd_ref_;
+  Pose pose_, commanded_;
+  Vector6d error_, twist_;
+};
+
+// One explicit Euler step makes the fewest evaluations, whatever the scene's
+// integrator would (a stiff scene's dopri5 tick may take seconds).
+InstanceConfig OverheadConfig(const InstanceConfig& config) {
   InstanceConfig c = config;
   c.integrator = IntegratorConfig{};
   c.integrator.type = IntegratorType::kExplicitEuler;
-  Instance instance(c);
+  return c;
+}
+
+}  // namespace
+
+double MeasureTickOverheadSeconds(Instance& instance, double evaluation_s) {
   const double period = 1e-3;  // the step's length does not change its work
   // Under every controller the instance has (a command may switch to any), the costliest.
   const std::size_t controllers = instance.controller_names().size();
@@ -172,9 +201,13 @@ double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluatio
   for (std::size_t k = 0; k < controllers; ++k) {
     instance.SelectController(k);
     give_plan();
+    MpcController* mpc = instance.mpc_controller(k);
+    std::optional<MpcTickWork> mpc_work;
+    if (mpc != nullptr) mpc_work.emplace(*mpc);
     costliest = std::max(costliest, FastestSample(kMeasureBudget / static_cast<double>(controllers), [&] {
                            const Steady::time_point start = Steady::now();
                            instance.Step(period);
+                           if (mpc_work) mpc_work->Run(instance, *mpc);
                            const double step = SecondsSince(start);
                            const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
                            instance.Reset();  // every step from the initial state
@@ -196,12 +229,8 @@ double MeasureForcesSeconds(const InstanceConfig& config) {
   return std::isfinite(fastest) ? fastest : 0.0;
 }
 
-double MeasureMpcIterationSeconds(const InstanceConfig& config) {
-  const std::vector<const ControllerConfig*> configs = ControllerConfigs(config);
-  if (std::none_of(configs.begin(), configs.end(), [](const auto* c) { return c->type == ControllerType::kMpc; })) {
-    return 0.0;
-  }
-  Instance instance(config);
+double MeasureMpcIterationSeconds(const Instance& instance) {
+  const InstanceConfig& config = instance.config();
   for (std::size_t k = 0; k < instance.controller_names().size(); ++k) {
     const MpcController* mpc = instance.mpc_controller(k);
     if (mpc == nullptr) continue;
@@ -242,9 +271,10 @@ std::optional<std::string> MpcBoundRefusal(const DaemonModel& model) {
 }
 
 void MeasureCosts(InstanceModel& m) {
-  m.mpc_iteration_s = MeasureMpcIterationSeconds(m.config);
+  Instance instance(OverheadConfig(m.config));  // one private Instance for the tick's rest and the plan
+  m.mpc_iteration_s = MeasureMpcIterationSeconds(instance);
   m.evaluation_s = MeasureEvaluationCosts(m.config);
-  m.tick_overhead_s = MeasureTickOverheadSeconds(m.config, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
+  m.tick_overhead_s = MeasureTickOverheadSeconds(instance, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
   m.forces_s = m.external_plant() ? 0.0 : MeasureForcesSeconds(m.config);
 }
 

@@ -43,6 +43,8 @@
 
 namespace lagrange {
 
+class Instance;  // sim/instance.hpp
+
 struct InstanceModel;
 struct DaemonModel;
 
@@ -83,11 +85,16 @@ double MeasureEvaluationSeconds(const InstanceConfig& config);
 std::array<double, 3> MeasureEvaluationCosts(const InstanceConfig& config);
 
 // The rest of one tick of the instance besides its integrator's evaluations
-// (the controller, the energy balance, the trajectory, the health check), s:
-// a private Instance stepped under each controller the scene configures (a
+// (the controller, the energy balance, the trajectory, the health check; for
+// an mpc controller also what lagranged's tick does for it beyond the step:
+// the reference sampled over the plan's N + 1 knots for its optimiser and,
+// with a frame, the frame's target and its Jacobian for the task record), s:
+// `instance` (MeasureCosts': the scene's, by one explicit Euler step, the
+// fewest evaluations) stepped under each controller the scene configures (a
 // command may switch to any), its step time less the evaluations it made, the
 // fastest of a few batches; the costliest controller's; within 50 ms in all.
-double MeasureTickOverheadSeconds(const InstanceConfig& config, double evaluation_s);
+// Leaves `instance` reset, under its last controller.
+double MeasureTickOverheadSeconds(Instance& instance, double evaluation_s);
 
 // What publishing <NAME>_FORCES adds to its tick (Instance::ComputeForces), s:
 // the fastest of a few batches within 50 ms. Counted while forces are on.
@@ -99,8 +106,8 @@ double MeasureForcesSeconds(const InstanceConfig& config);
 // every time. One DDP iteration of the plan (its first rollout and one
 // iteration, from (q0, qd0) toward q0) is timed the same way, and
 //   iterations × iteration_s + replan_period <= horizon × dt
-// must hold (MpcBoundRefusal). 0 when the instance has no mpc controller.
-double MeasureMpcIterationSeconds(const InstanceConfig& config);
+// must hold (MpcBoundRefusal). 0 when `instance` has no mpc controller.
+double MeasureMpcIterationSeconds(const Instance& instance);
 // "<file>: instances[i] (<name>): the mpc plan ..." when an instance's plan
 // would run out before the next one (the rule above), or nullopt. Costs of 0 count 0.
 std::optional<std::string> MpcBoundRefusal(const DaemonModel& model);

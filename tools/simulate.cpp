@@ -5,6 +5,8 @@
 // A scene with an external plant or controller is refused: it needs the bus.
 // An instance that fails lagranged's health check (sim/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
+// An mpc controller's failed solves are one line each instance (their count
+// and statuses); the run goes on, as lagranged's does.
 
 #include <cmath>
 #include <fstream>
@@ -129,6 +131,11 @@ class SimulateCommand final : public Command {
       if (!*f) throw std::runtime_error("writing the CSV failed");
     }
     for (const OfflineFault& f : faults) err << FaultLine(instances[f.index], f) << "\n";
+    for (const Instance& inst : instances) {
+      if (const std::optional<std::string> failures = OfflineMpcFailureText(inst)) {
+        err << "lagrangectl simulate: " << *failures << "\n";
+      }
+    }
     return faults.empty() ? 0 : 1;
   }
 

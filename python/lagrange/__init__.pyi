@@ -172,6 +172,7 @@ class SimulationResult:
     epsilon: _F64           # alias of energy_residual
     energies: _F64          # (N, 2) J: kinetic_energy and potential_energy side by side
     fault: _Optional[str]   # the health check's line when the instance faulted (rows end at its last healthy step)
+    mpc_failures: _Optional[str]  # how many mpc solves failed, by status (the last usable plan was followed)
     task: _Optional[TaskRows]  # under a controller that moves a frame (not a Python law): its frame per row
 
 def simulate(scene: _Scene, duration: float, *,
@@ -181,7 +182,7 @@ def simulate(scene: _Scene, duration: float, *,
     duration s (> 0): round(duration / period) steps. controller: a Python law for a one-instance
     scene, or {name: law}; the torque of an instance under `controller: external`, else applied as given.
     Raises ValueError (bad or refused scene; rows that would take over a quarter of the memory),
-    FileNotFoundError (no such file); a fault is a RuntimeWarning.
+    FileNotFoundError (no such file); a fault, and an mpc controller's failed solves, are a RuntimeWarning.
     """
 
 class Instance:

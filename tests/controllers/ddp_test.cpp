@@ -339,9 +339,9 @@ TEST(MpcPolicy, BetweenKnotsFollowsThePlannedStateAndForceLinearlyWithTheKnotsGa
   EXPECT_NEAR(law(0.9), affine(2.0, -10.0, -1.0, 0.0, 1.0), kTolerance) << "before the start: knot 0's";
 }
 
-// A thread that plans is stopped within one iteration: the flag is polled
-// between iterations, and a set flag ends the solve with the nominal it has.
-TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
+// A flag already set ends the solve at once, in its first rollout's first
+// knot, with no nominal of its own; cleared, the next solve runs.
+TEST(Ddp, AStopFlagSetBeforeTheSolveEndsItAtOnce) {
   DdpConfig config = CartPoleSwingUp(10.0);
   config.options.max_iterations = 50;
   const DdpModel model(Plant(CartPoleParams{}), config);
@@ -352,7 +352,7 @@ TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
   const DdpResult& stopped = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
   EXPECT_EQ(stopped.status, DdpStatus::kStopped);
   EXPECT_EQ(stopped.iterations, 0);
-  EXPECT_EQ(stopped.cost, stopped.cost_history[0]) << "the first rollout's nominal";
+  EXPECT_TRUE(std::isnan(stopped.cost)) << "no rollout finished";
   stop = false;
   const DdpResult& resumed = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
   EXPECT_GE(resumed.iterations, 1);
@@ -360,12 +360,14 @@ TEST(Ddp, AStopFlagEndsTheSolveBetweenIterations) {
 }
 
 // A plant that counts its forward-dynamics evaluations (what the line
-// search's rollouts step by; the first rollout steps by the step derivatives)
-// and sets a stop flag at the `at`-th, in the middle of a pass.
+// search's rollouts step by), or with `derivatives` those of their
+// derivatives (what the first rollout and the linearisation step by), and
+// sets a stop flag at the `at`-th, in the middle of a pass.
 class StopAtForwardDynamics final : public Dynamics {
  public:
-  StopAtForwardDynamics(std::shared_ptr<const Dynamics> inner, std::atomic<bool>& stop, long at)
-      : Dynamics(inner->joint_types()), inner_(std::move(inner)), stop_(stop), at_(at) {}
+  StopAtForwardDynamics(std::shared_ptr<const Dynamics> inner, std::atomic<bool>& stop, long at,
+                        bool derivatives = false)
+      : Dynamics(inner->joint_types()), inner_(std::move(inner)), stop_(stop), at_(at), derivatives_(derivatives) {}
   long calls() const { return calls_; }
 
   Method method() const override { return inner_->method(); }
@@ -397,7 +399,7 @@ class StopAtForwardDynamics final : public Dynamics {
   }
   void ComputeForwardDynamics(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef tau, DynamicsTerms terms,
                               VecRef qdd) const override {
-    if (++calls_ == at_) stop_ = true;
+    if (!derivatives_ && ++calls_ == at_) stop_ = true;
     inner_->ComputeForwardDynamics(d, q, qd, tau, terms, qdd);
   }
   void ComputeInverseDynamicsDerivatives(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef qdd,
@@ -407,6 +409,7 @@ class StopAtForwardDynamics final : public Dynamics {
   void ComputeForwardDynamicsDerivatives(DynamicsData& d, ConstVecRef q, ConstVecRef qd, ConstVecRef tau,
                                          DynamicsTerms terms, VecRef qdd, MatRef a, MatRef b,
                                          MatRef c) const override {
+    if (derivatives_ && ++calls_ == at_) stop_ = true;
     inner_->ComputeForwardDynamicsDerivatives(d, q, qd, tau, terms, qdd, a, b, c);
   }
   void ComputeGravityDerivatives(DynamicsData& d, ConstVecRef q, MatRef dG_dq) const override {
@@ -417,29 +420,36 @@ class StopAtForwardDynamics final : public Dynamics {
   std::shared_ptr<const Dynamics> inner_;
   std::atomic<bool>& stop_;
   long at_;
+  bool derivatives_;
   mutable long calls_ = 0;  // one solve on one thread
 };
 
-// The stop is polled at every knot after the first rollout: set in the
+// Evaluations per knot (forward dynamics, or with `derivatives` their
+// derivatives) in one unstopped solve of `config` from rest toward the pole
+// upright; 0 when they are not a whole number per knot.
+long EvaluationsPerKnot(const DdpConfig& config, bool derivatives) {
+  std::atomic<bool> never{false};
+  const auto counting =
+      std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1, derivatives);
+  const DdpModel model(counting, config);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  return counting->calls() % config.horizon == 0 ? counting->calls() / config.horizon : 0;
+}
+
+// The stop is polled at every knot of every pass: set in the
 // middle of the first line search's rollout, the solve ends within that knot's
 // step (not after the rollout, the line search and the iteration), with the
 // first rollout's nominal, and no iteration counted.
 TEST(Ddp, AStopSetInTheMiddleOfARolloutEndsTheSolveWithinThatKnot) {
   const DdpConfig config = CartPoleSwingUp(10.0);
   // Forward-dynamics evaluations in one rollout: one line-search step of one iteration, unstopped.
-  std::atomic<bool> never{false};
   DdpConfig one = config;
   one.options.max_iterations = 1;
   one.options.line_search_steps = 1;
-  const auto counting = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), never, -1);
-  const DdpModel one_model(counting, one);
-  DdpData one_data(one_model);
-  one_data.q_ref.row(1).setConstant(kPi);
-  SolveDdp(one_model, one_data, V({0.0, 0.0}), V({0.0, 0.0}));
-  const long per_rollout = counting->calls();
-  ASSERT_GT(per_rollout, 0) << "the line search's rollout steps by forward dynamics";
-  const long per_knot = per_rollout / config.horizon;
-  ASSERT_EQ(per_knot * config.horizon, per_rollout);
+  const long per_knot = EvaluationsPerKnot(one, false);
+  ASSERT_GT(per_knot, 0) << "the line search's rollout steps by forward dynamics, the same per knot";
 
   std::atomic<bool> stop{false};
   const long at = per_knot * (config.horizon / 2) + 1;  // the first evaluation of the middle knot
@@ -454,6 +464,33 @@ TEST(Ddp, AStopSetInTheMiddleOfARolloutEndsTheSolveWithinThatKnot) {
   EXPECT_EQ(r.status, DdpStatus::kStopped);
   EXPECT_EQ(r.iterations, 0) << "the iteration in progress is not finished";
   EXPECT_EQ(r.cost, r.cost_history[0]) << "the first rollout's nominal";
+  EXPECT_LE(stopping->calls() - at, per_knot - 1) << "no evaluation past the knot the stop was set in";
+}
+
+// The first rollout too: set in its middle knot, the solve ends within that
+// knot's step, with no nominal of its own (cost NaN, no iteration) and the
+// warm start it was given left as it was.
+TEST(Ddp, AStopSetInTheMiddleOfTheFirstRolloutEndsTheSolveWithinThatKnot) {
+  DdpConfig config = CartPoleSwingUp(10.0);
+  config.options.max_iterations = 1;  // derivative evaluations: the first rollout's alone
+  const long per_knot = EvaluationsPerKnot(config, true);
+  ASSERT_GT(per_knot, 0) << "the first rollout steps by the forward dynamics' derivatives, the same per knot";
+
+  std::atomic<bool> stop{false};
+  const long at = per_knot * (config.horizon / 2) + 1;  // the first evaluation of the middle knot
+  const auto stopping = std::make_shared<const StopAtForwardDynamics>(Plant(CartPoleParams{}), stop, at, true);
+  config.options.max_iterations = 50;
+  const DdpModel model(stopping, config);
+  DdpData data(model);
+  data.q_ref.row(1).setConstant(kPi);
+  data.HoldControls(V({0.5}));
+  const MatrixXd warm_u = data.u();
+  data.stop = &stop;
+  const DdpResult& r = SolveDdp(model, data, V({0.0, 0.0}), V({0.0, 0.0}));
+  EXPECT_EQ(r.status, DdpStatus::kStopped);
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_TRUE(std::isnan(r.cost)) << "no nominal of this solve";
+  EXPECT_TRUE(data.u() == warm_u) << "the warm start is left as it was";
   EXPECT_LE(stopping->calls() - at, per_knot - 1) << "no evaluation past the knot the stop was set in";
 }
 

@@ -220,5 +220,43 @@ TEST(PoseTrajectories, MakingSamplingAndAssigningAllocateNothing) {
   EXPECT_TRUE(std::isfinite(sum));
 }
 
+// A frame's target (PoseTarget, what the task-space and mpc controllers keep):
+// the scene's trajectory and a move start from the pose measured at Begin, at
+// Begin's time; a setpoint holds at once; Hold keeps where the target is, at
+// rest; none of it allocates.
+TEST(PoseTargets, AStartWaitsForTheMeasuredPoseAndASetpointHoldsAtOnce) {
+  std::mt19937 rng(4);
+  const Pose measured = RandomPose(rng), goal = RandomPose(rng), streamed = RandomPose(rng);
+  std::int64_t allocations = 0;
+  PoseSetpoint s;
+  testing::AllocationCounter counter;
+  PoseTarget target;  // hold the pose it starts at
+  EXPECT_TRUE(target.start_pending());
+  target.Begin(2.0, measured);
+  EXPECT_FALSE(target.start_pending());
+  target.Begin(3.0, goal);  // nothing pending: no effect
+  target.Sample(5.0, s);
+  EXPECT_LE(PoseError(s.pose, measured).norm(), kRoundOff);
+  target.MoveTo(goal, 1.0);
+  EXPECT_TRUE(target.start_pending());
+  target.Begin(10.0, measured);
+  target.Sample(10.0, s);
+  EXPECT_LE(PoseError(s.pose, measured).norm(), kRoundOff) << "the move starts at Begin's time and pose";
+  target.Sample(10.5, s);
+  EXPECT_GT(s.twist.head<3>().norm(), 0.0) << "moving half-way";
+  target.Hold(10.5);
+  PoseSetpoint held;
+  target.Sample(20.0, held);
+  EXPECT_LE(PoseError(held.pose, s.pose).norm(), kRoundOff);
+  EXPECT_LE(held.twist.norm(), 0.0) << "at rest";
+  target.Set(PoseSetpoint{streamed, Vector6d::Ones(), Vector6d::Zero()});
+  EXPECT_FALSE(target.start_pending());
+  target.Sample(30.0, s);
+  EXPECT_LE(PoseError(s.pose, streamed).norm(), kRoundOff);
+  EXPECT_EQ(s.twist, Vector6d::Ones()) << "the sender's feed-forward";
+  allocations = counter.count();
+  EXPECT_EQ(allocations, 0);
+}
+
 }  // namespace
 }  // namespace lagrange

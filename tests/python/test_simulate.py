@@ -223,6 +223,30 @@ instances:
     assert any(issubclass(w.category, RuntimeWarning) and run.fault in str(w.message) for w in caught)
 
 
+def test_an_mpc_scene_whose_solves_fail_says_how_many_and_why_as_lagrangectl_does(tmp_path):
+    # Every solve diverges (the optimiser's explicit Euler at 1 s a knot from 20 rad/s:
+    # tests/tools/simulate_test.cpp); the run goes on, and the result and a RuntimeWarning say so.
+    scene = """instances:
+  - name: arm
+    plant: {type: arm2}
+    initial: {q: [0, 0], qd: [20, -20]}
+    controller: {type: mpc, horizon: 100, dt: 1.0, integrator: explicit-euler, iterations: 1}
+    torque_limits: [5, 5]
+"""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run = lagrange.simulate(scene, 2.5)["arm"]
+    assert run.fault is None and len(run.t) == 2501
+    assert run.mpc_failures == ("arm: 3 of 3 mpc solves failed (diverged 3); offline the last usable plan is "
+                                "followed meanwhile (none yet: no force), where lagranged falls back")
+    assert any(issubclass(w.category, RuntimeWarning) and run.mpc_failures in str(w.message) for w in caught)
+    path = tmp_path / "failing.yaml"
+    path.write_text(scene)
+    r, _ = lagrangectl_simulate(str(path), 2.5, tmp_path)
+    assert r.returncode == 0 and r.stderr == "lagrangectl simulate: " + run.mpc_failures + "\n"
+    assert lagrange.simulate(config("cartpole_mpc_swingup.yaml"), 0.5)["cartpole"].mpc_failures is None
+
+
 def test_the_stubs_and_docstrings_name_every_simulator_and_bus_call():
     import ast
     import re

@@ -1,0 +1,143 @@
+#pragma once
+// Recursive dynamics of a floating-base RigidTree (floating_base true,
+// plant/rigid_tree.hpp): the free-flyer root is a 6-DoF joint between the
+// world and the base body, and every algorithm is Featherstone's with that
+// root (Rigid Body Dynamics Algorithms, §9.5; Pinocchio's free-flyer), in body
+// coordinates, O(n) but the mass matrix (O(Σ d)). n joints, nq = n + 7,
+// nv = n + 6 (RigidTree::num_q, num_v); conventions of q, v and the base's
+// generalized force in plant/rigid_tree.hpp; a = v̇ (nv): the base's entries
+// are the time derivatives of its body-axes velocity (v_b, ω_b).
+//
+//   inverse dynamics  RNEA: tau = M a + [C v] + [G] (nv); the base's six
+//                     entries are the wrench on the base in base axes
+//                     (force, then moment about the base origin) that
+//                     produces a; zero for a free-flying robot        O(n)
+//   mass matrix       CRBA: M (nv x nv), symmetric positive definite    O(Σ d)
+//   forward dynamics  ABA: a = M⁻¹ (tau − [C v] − [G]), the base's 6 x 6
+//                     articulated inertia solved at the root             O(n)
+//   T, V              ½ vᵀ M v; −gravity · (first moment in the world)   O(n)
+//   momentum          the tree's spatial momentum in world axes about the
+//                     world origin (angular N·m·s, then linear N·s);
+//                     constant when no external force acts (no gravity,
+//                     a zero base wrench; joint torques are internal)     O(n)
+//
+// Kinematics (world frame; rows of every Jacobian linear then angular, as
+// plant/kinematics.hpp's kWorldAligned):
+//   frames            every named frame's pose R_k, p_k (frames with body −1
+//                     ride on the base)                                    O(n + frames)
+//   frame Jacobian    J_k (6 x nv): (ṗ_k, ω_k) = J_k v; base columns
+//                     (R e_j, 0) and (R e_j × (p_k − p), R e_j), joint columns
+//                     as for a fixed base, on the frame's support          O(depth)
+//   centre of mass    c (m, world) and J_c (3 x nv), ċ = J_c v               O(n)
+//   centroidal        A_G (6 x nv), Orin et al.'s centroidal momentum matrix
+//                     (Pinocchio's ccrba): (linear N·s, angular about the
+//                     centre of mass N·m·s) = A_G v; each column a composite
+//                     inertia times its joint's motion, carried to c        O(n)
+//
+// Model and data: a FloatingDynamics is built once and is const; every
+// buffer a query writes is in the FloatingData it makes (MakeData), so no
+// query allocates. Every Compute* checks (eigen_assert, off under NDEBUG)
+// that q has nq entries and v, a, tau nv, M nv x nv, naming which.
+//
+// Not here yet: mimic joints (ValidateFloatingTree refuses them), the
+// Lagrangian (Euler–Poincaré) path, derivatives, J̇v and Ȧ_G v.
+
+#include <memory>
+#include <vector>
+
+#include "plant/rigid_tree.hpp"
+#include "plant/spatial_algebra.hpp"
+#include "plant/types.hpp"
+
+namespace lagrange {
+
+class FloatingDynamics;
+
+// One user's scratch (one per thread), sized by FloatingDynamics::MakeData.
+// Index 0 is the base, index i + 1 joint i's body.
+class FloatingData {
+ public:
+  explicit FloatingData(const FloatingDynamics& model);
+  const FloatingDynamics& model() const { return *model_; }
+  // After ComputeFramePlacements: frame k's axes in the world (3 x 3) and origin (m).
+  const Eigen::Matrix3d& frame_rotation(int k) const { return frame_R[static_cast<std::size_t>(k)]; }
+  const Eigen::Vector3d& frame_position(int k) const { return frame_p[static_cast<std::size_t>(k)]; }
+
+ private:
+  friend class FloatingDynamics;
+  using Matrix6d = Eigen::Matrix<double, 6, 6>;
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  const FloatingDynamics* model_;
+  std::vector<spatial::Xform> X;  // parent (the world for the base) → body coordinates
+  std::vector<Eigen::Matrix3d> R;  // body axes in the world
+  std::vector<Eigen::Vector3d> o;  // body origin in the world, m
+  std::vector<spatial::Motion> v, a, c, g;  // velocity, acceleration, v × S qd, gravity (0, g) in body axes
+  std::vector<spatial::Force> f;
+  std::vector<spatial::Inertia> Ic;        // composite inertias
+  std::vector<Matrix6d> IA;                // articulated inertias, (w, v) order
+  std::vector<Vector6d> pA, U;             // articulated bias forces, IA S
+  std::vector<double> D, u;
+  std::vector<Eigen::Matrix3d> frame_R;
+  std::vector<Eigen::Vector3d> frame_p;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
+};
+
+class FloatingDynamics {
+ public:
+  // Throws std::invalid_argument with ValidateFloatingTree's reason.
+  explicit FloatingDynamics(RigidTree tree);
+
+  const RigidTree& tree() const { return tree_; }
+  int num_joints() const { return n_; }
+  int num_q() const { return n_ + kFreeFlyerNq; }
+  int num_v() const { return n_ + kFreeFlyerNv; }
+  std::unique_ptr<FloatingData> MakeData() const;
+
+  // (q, v, a) (nq, nv, nv) => tau (nv) = M a + [C v] + [G], bracketed terms
+  // only when on in `terms`.
+  void ComputeInverseDynamics(FloatingData& data, ConstVecRef q, ConstVecRef v, ConstVecRef a, DynamicsTerms terms,
+                              VecRef tau) const;
+  // q (nq) => M (nv x nv).
+  void ComputeMassMatrix(FloatingData& data, ConstVecRef q, MatRef M) const;
+  // (q, v, tau) (nq, nv, nv) => a (nv) = M⁻¹ (tau − [C v] − [G]).
+  void ComputeForwardDynamics(FloatingData& data, ConstVecRef q, ConstVecRef v, ConstVecRef tau, DynamicsTerms terms,
+                              VecRef a) const;
+  // (q, v) => T, J.
+  double ComputeKineticEnergy(FloatingData& data, ConstVecRef q, ConstVecRef v) const;
+  // q => V, J; zero with every centre of mass at the world origin.
+  double ComputePotentialEnergy(FloatingData& data, ConstVecRef q) const;
+  // (q, v) => the spatial momentum (angular about the world origin, N·m·s;
+  // linear, N·s), world axes.
+  spatial::Force ComputeMomentum(FloatingData& data, ConstVecRef q, ConstVecRef v) const;
+
+  // q => every frame's R_k, p_k (read them from `data`).
+  void ComputeFramePlacements(FloatingData& data, ConstVecRef q) const;
+  // q => frame k's pose (in `data`) and J_k (6 x nv), world axes at its origin.
+  void ComputeFrameJacobian(FloatingData& data, ConstVecRef q, int frame, MatRef J) const;
+  // q => c (m, world), returned, and J_c (3 x nv).
+  Eigen::Vector3d ComputeCenterOfMass(FloatingData& data, ConstVecRef q, MatRef Jc) const;
+  // q => A_G (6 x nv); returns c (m, world).
+  Eigen::Vector3d ComputeCentroidalMomentumMatrix(FloatingData& data, ConstVecRef q, MatRef A) const;
+
+ private:
+  void CheckSizes(const FloatingData& data, ConstVecRef q) const;
+  void Placements(FloatingData& data, ConstVecRef q) const;
+  void Velocities(FloatingData& data, ConstVecRef v, bool products) const;
+  void CompositeInertias(FloatingData& data) const;
+  int parent(int body) const { return parent_[static_cast<std::size_t>(body)]; }
+  // Body b's joint motion S_b: (axis, 0) revolute, (0, axis) prismatic, body axes.
+  spatial::Motion Subspace(int b) const {
+    return revolute_[b] ? spatial::Motion{axis_[b], Eigen::Vector3d::Zero()}
+                        : spatial::Motion{Eigen::Vector3d::Zero(), axis_[b]};
+  }
+
+  RigidTree tree_;
+  int n_ = 0;
+  std::vector<int> parent_;                // body → parent body (−1 for the base)
+  std::vector<char> revolute_;             // per body (the base: unused)
+  std::vector<Eigen::Vector3d> axis_;      // joint axis, body axes (the base: unused)
+  std::vector<spatial::Xform> X0_;         // parent body → joint frame (the fixed placement)
+  std::vector<spatial::Inertia> inertia_;  // about the body origin, body axes
+};
+
+}  // namespace lagrange
