@@ -204,11 +204,18 @@ double FramePoseCost(const Kinematics& kinematics, KinematicsData& data, int fra
 
 void EvaluateAffinePolicy(ConstVecRef u_bar, const Eigen::Ref<const MatrixXd>& K, ConstVecRef x_bar, ConstVecRef q,
                           ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u) {
+  EvaluateAffinePolicy(u_bar, u_bar, K, x_bar, x_bar, 0.0, q, qd, lower, upper, u);
+}
+
+void EvaluateAffinePolicy(ConstVecRef u_bar, ConstVecRef u_bar_next, const Eigen::Ref<const MatrixXd>& K,
+                          ConstVecRef x_bar, ConstVecRef x_bar_next, double s, ConstVecRef q, ConstVecRef qd,
+                          const VectorXd& lower, const VectorXd& upper, VecRef u) {
   // Written out: a product with (x − x̄) would evaluate it into a temporary.
   const auto n = q.size();
+  const auto planned = [&](Eigen::Index i) { return x_bar[i] + s * (x_bar_next[i] - x_bar[i]); };
   for (Eigen::Index j = 0; j < u.size(); ++j) {
-    double v = u_bar[j];
-    for (Eigen::Index i = 0; i < n; ++i) v += K(j, i) * (q[i] - x_bar[i]) + K(j, n + i) * (qd[i] - x_bar[n + i]);
+    double v = u_bar[j] + s * (u_bar_next[j] - u_bar[j]);
+    for (Eigen::Index i = 0; i < n; ++i) v += K(j, i) * (q[i] - planned(i)) + K(j, n + i) * (qd[i] - planned(n + i));
     u[j] = std::clamp(v, lower[j], upper[j]);
   }
 }

@@ -175,9 +175,15 @@ struct DdpResult {
 };
 
 // One knot's affine policy: u = clamp(ū + K (x − x̄)) into [lower, upper], x = (q, qd); K (m x 2n), x̄ (2n),
-// u (m). Allocates nothing (DdpData::EvaluatePolicy, and MpcPolicy::Evaluate in the tick).
+// u (m). Allocates nothing (DdpData::EvaluatePolicy).
 void EvaluateAffinePolicy(ConstVecRef u_bar, const Eigen::Ref<const MatrixXd>& K, ConstVecRef x_bar, ConstVecRef q,
                           ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u);
+// The same a fraction s ∈ [0, 1] of the way from one knot (ū, x̄) to the next (ū_next, x̄_next), K held:
+// u = clamp(ū + s (ū_next − ū) + K (x − (x̄ + s (x̄_next − x̄)))). Allocates nothing (MpcPolicy::Evaluate in
+// the tick).
+void EvaluateAffinePolicy(ConstVecRef u_bar, ConstVecRef u_bar_next, const Eigen::Ref<const MatrixXd>& K,
+                          ConstVecRef x_bar, ConstVecRef x_bar_next, double s, ConstVecRef q, ConstVecRef qd,
+                          const VectorXd& lower, const VectorXd& upper, VecRef u);
 
 class DdpData {
  public:

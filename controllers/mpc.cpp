@@ -144,7 +144,12 @@ void MpcPolicy::Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd
                          VecRef out) const {
   const auto n = q.size();
   const auto k = static_cast<Eigen::Index>(std::clamp<std::int64_t>(Knot(t), 0, horizon - 1));
-  EvaluateAffinePolicy(u.col(k), K.middleCols(2 * n * k, 2 * n), x.col(k), q, qd, lower, upper, out);
+  // The time within knot k as a fraction of dt: 0 before the plan's start, 1 once its horizon has run out
+  // (x̄_N, the plan's end). ū goes linearly toward ū_{k+1} (the last knot's ū is held: there is no ū_N).
+  const double s = std::clamp((t - start) / dt - static_cast<double>(k), 0.0, 1.0);
+  const auto next = std::min<Eigen::Index>(k + 1, horizon - 1);
+  EvaluateAffinePolicy(u.col(k), u.col(next), K.middleCols(2 * n * k, 2 * n), x.col(k), x.col(k + 1), s, q, qd, lower,
+                       upper, out);
 }
 
 MpcPlanner::MpcPlanner(std::shared_ptr<const DdpModel> model)

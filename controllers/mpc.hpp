@@ -2,9 +2,12 @@
 // Model-predictive control: a receding-horizon box-DDP plan (controllers/ddp.hpp)
 // followed by its time-indexed affine policy.
 //
-// Law:    tau = S clamp(ū_k + K_k (x − x̄_k)),  x = (q, qd),
-//         k = floor((t − t_0) / dt) clamped to [0, N − 1]   (EvaluatePolicy's clamp)
-//         of the latest policy (ū_k, K_k, x̄_k; its start t_0, step dt, N knots);
+// Law:    tau = S clamp(ū(t) + K_k (x − x̄(t))),  x = (q, qd),
+//         ū(t) = ū_k + s (ū_{k+1} − ū_k),  x̄(t) = x̄_k + s (x̄_{k+1} − x̄_k),
+//         k = floor((t − t_0) / dt) clamped to [0, N − 1], s = (t − t_0) / dt − k clamped to [0, 1]
+//         (Evaluate's clamps; ū_N is ū_{N−1}), of the latest policy (ū_k, K_k, x̄_k; its
+//         start t_0, step dt, N knots): between knots the plan's state and force
+//         are followed linearly, as MJPC's and the Crocoddyl-based controllers' policies are;
 //         S puts the m actuated forces into tau (n), 0 on the others.
 // Inputs: t (s, the instance's time), q, qd (n each); the setpoint (q_d, qd_d)
 //         is the plan's reference at every knot, or the scene's trajectory
@@ -127,7 +130,8 @@ struct MpcPolicy {
   std::int64_t Knot(double t) const;
   // Has a plan whose horizon has not run out at t.
   bool LiveAt(double t) const { return sequence > 0 && Knot(t) < horizon; }
-  // u = clamp(ū_k + K_k (x − x̄_k)) into [lower, upper] with k clamped to [0, N − 1]; no allocation.
+  // u = clamp(ū(t) + K_k (x − x̄(t))) into [lower, upper], ū and x̄ linear between knots k and k + 1 (the law
+  // above); no allocation.
   void Evaluate(double t, ConstVecRef q, ConstVecRef qd, const VectorXd& lower, const VectorXd& upper, VecRef u) const;
 };
 

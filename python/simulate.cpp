@@ -89,21 +89,21 @@ double Residual(const Instance& inst) {
 }
 
 // One instance's rows, as lagrangectl simulate writes them (t, q, qd, q_des,
-// tau, T, V) and ε; under a task-space controller (`task` non-null) also its
-// FILE.task.csv rows (TaskRowOf).
+// tau, T, V) and ε; under a controller that moves a frame (`frame` not "") also
+// its FILE.task.csv rows (TaskRowOf).
 struct Recording {
   std::string name;
   std::vector<std::string> joint_names;
   int n = 0;
   std::vector<double> t, q, qd, q_des, tau, kinetic, potential, residual;
   std::optional<std::string> fault, mpc_failures;
-  const TaskSpaceController* task = nullptr;
-  std::vector<double> position, position_des, error;  // 3, 3 and 6 per row, with `task`
+  std::string frame;                                  // TaskFrameOf; "": no task rows
+  std::vector<double> position, position_des, error;  // 3, 3 and 6 per row, with a `frame`
 
   void Reserve(std::size_t rows) {
     for (std::vector<double>* v : {&t, &kinetic, &potential, &residual}) v->reserve(rows);
     for (std::vector<double>* v : {&q, &qd, &q_des, &tau}) v->reserve(rows * static_cast<std::size_t>(n));
-    if (task == nullptr) return;
+    if (frame.empty()) return;
     for (std::vector<double>* v : {&position, &position_des}) v->reserve(rows * 3);
     error.reserve(rows * 6);
   }
@@ -118,15 +118,15 @@ struct Recording {
     kinetic.push_back(inst.KineticEnergy());
     potential.push_back(inst.PotentialEnergy());
     residual.push_back(Residual(inst));
-    if (task == nullptr) return;
-    const OfflineTaskRow row = TaskRowOf(*task, computed);
+    if (frame.empty()) return;
+    const OfflineTaskRow row = TaskRowOf(inst, computed);
     position.insert(position.end(), row.position.data(), row.position.data() + 3);
     position_des.insert(position_des.end(), row.position_des.data(), row.position_des.data() + 3);
     error.insert(error.end(), row.error.data(), row.error.data() + 6);
   }
 };
 
-// SimulationResult.task: the frame a task-space controller moved, one row per step.
+// SimulationResult.task: the frame a task-space controller (or an mpc with a frame) moved, one row per step.
 struct TaskRows {
   std::string frame;
   py::array_t<double> position, position_des, error;
@@ -153,10 +153,10 @@ struct SimulationResult {
         energy_residual(ToArray(r.residual)),
         fault(r.fault),
         mpc_failures(r.mpc_failures) {
-    if (r.task == nullptr) return;
+    if (r.frame.empty()) return;
     const auto rows = static_cast<py::ssize_t>(r.t.size());
-    task = TaskRows{r.task->frame_name(), ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3),
-                    ToMatrix(r.error, rows, 6)};
+    task =
+        TaskRows{r.frame, ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3), ToMatrix(r.error, rows, 6)};
   }
 };
 
@@ -229,9 +229,9 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].name = instances[i].name();
     recordings[i].joint_names = instances[i].instance_model().joint_names;
     recordings[i].n = instances[i].num_dofs();
-    // The task space of an instance under its scene's task-space controller, as lagrangectl simulate writes it
-    // (a Python law bypasses the controller: it computes nothing to record).
-    if (!law_of[i]) recordings[i].task = instances[i].task_space_controller(instances[i].active_controller());
+    // The frame an instance's scene controller moves, as lagrangectl simulate writes it (a Python law bypasses
+    // the controller: it computes nothing to record).
+    if (!law_of[i]) recordings[i].frame = TaskFrameOf(instances[i]);
   }
   const std::int64_t steps = StepsThatFit(duration, offline.period, instances);
   for (Recording& r : recordings) r.Reserve(static_cast<std::size_t>(steps) + 1);
@@ -345,7 +345,8 @@ class PyInstance {
 
 void BindSimulate(py::module_& m) {
   py::class_<TaskRows>(m, "TaskRows",
-                       "The frame a task-space controller moved (cartesian-impedance, operational-space), one row\n"
+                       "The frame a task-space controller (cartesian-impedance, operational-space) or an mpc\n"
+                       "controller with a frame moved, one row\n"
                        "per step of its SimulationResult: lagrangectl simulate's FILE.task.csv, the same doubles\n"
                        "(lagranged publishes them as task_state_t). nan in the row at t = 0, before the first "
                        "control step.")
@@ -398,8 +399,9 @@ void BindSimulate(py::module_& m) {
                     "None, or the line saying how many of an mpc controller's solves failed and their statuses "
                     "(lagrangectl simulate's line): the last usable plan was followed meanwhile.")
       .def_readonly("task", &SimulationResult::task,
-                    "TaskRows under a task-space controller (the frame's position, target and error per row, as "
-                    "lagrangectl simulate's FILE.task.csv); None for any other controller, or a Python law.")
+                    "TaskRows under a controller that moves a frame (a task-space controller, or an mpc with a "
+                    "frame: the frame's position, target and error per row, as lagrangectl simulate's "
+                    "FILE.task.csv); None for any other controller, or a Python law.")
       .def("__repr__", [](const SimulationResult& r) {
         return "<lagrange.SimulationResult " + r.name + ": " + std::to_string(r.t.shape(0)) + " rows" +
                (r.fault ? ", faulted" : "") + ">";

@@ -115,12 +115,31 @@ bool RunOffline(std::vector<Instance>& instances, double period, std::int64_t st
   return RunOfflineChecked(instances, period, steps, observe).empty();
 }
 
+namespace {
+OfflineTaskRow NanTaskRow() {
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  return {Eigen::Vector3d::Constant(kNan), Eigen::Vector3d::Constant(kNan), Vector6d::Constant(kNan)};
+}
+}  // namespace
+
 OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed) {
-  if (!computed) {
-    constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
-    return {Eigen::Vector3d::Constant(kNan), Eigen::Vector3d::Constant(kNan), Vector6d::Constant(kNan)};
-  }
+  if (!computed) return NanTaskRow();
   return {task.pose().position, task.commanded().pose.position, task.pose_error()};
+}
+
+const std::string& TaskFrameOf(const Instance& instance) {
+  return instance.instance_model().controllers[instance.active_controller()].pose_rules.frame;
+}
+
+OfflineTaskRow TaskRowOf(Instance& instance, bool computed) {
+  const std::size_t active = instance.active_controller();
+  if (const TaskSpaceController* task = instance.task_space_controller(active)) return TaskRowOf(*task, computed);
+  MpcController* mpc = instance.mpc_controller(active);
+  if (!computed || mpc == nullptr || !mpc->has_frame()) return NanTaskRow();
+  Pose pose, commanded;
+  Vector6d error, twist;
+  mpc->MeasureTask(instance.t(), instance.q(), instance.qd(), pose, commanded, error, twist);
+  return {pose.position, commanded.position, error};
 }
 
 }  // namespace lagrange

@@ -96,4 +96,15 @@ struct OfflineTaskRow {
 };
 OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed);
 
+// The frame the instance's active controller moves, as lagranged names it on
+// <NAME>_TASK: a task-space controller's, or an mpc controller's with a frame
+// cost; "" for any other (it has no task rows).
+const std::string& TaskFrameOf(const Instance& instance);
+// The active controller's task row (TaskFrameOf not ""), as lagranged's record
+// has it: a task-space controller's as above; an mpc controller's frame at
+// the instance's state and time (its measured pose, the target its reference
+// is at then, e = target ⊖ measured: MpcController::MeasureTask). nan before
+// the first Compute (`computed` false). No allocation.
+OfflineTaskRow TaskRowOf(Instance& instance, bool computed);
+
 }  // namespace lagrange

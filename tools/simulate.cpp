@@ -1,7 +1,7 @@
 // lagrangectl simulate: run a scene offline and write one CSV row per step,
 // and each instance's joint names beside its CSV (JointNamesPath); an
-// instance under a task-space controller also its commanded frame, one row per
-// CSV row (TaskCsvPath).
+// instance under a controller that moves a frame (a task-space controller, or
+// an mpc with a frame) also that frame, one row per CSV row (TaskCsvPath).
 // A scene with an external plant or controller is refused: it needs the bus.
 // An instance that fails lagranged's health check (sim/health.hpp) stops at
 // its last healthy row, with one line saying why, and the exit status is 1.
@@ -13,7 +13,6 @@
 #include <iostream>
 #include <memory>
 
-#include "controllers/task_space.hpp"
 #include "protocol/format.hpp"
 #include "sim/health.hpp"
 #include "sim/instance_model.hpp"
@@ -57,9 +56,9 @@ void WriteTaskHeader(std::ostream& out) {
 }
 
 // The row's task space (TaskRowOf, sim/offline.hpp: nan at t = 0).
-void WriteTaskRow(std::ostream& out, const Instance& inst, const TaskSpaceController& task, bool computed) {
-  const OfflineTaskRow row = TaskRowOf(task, computed);
-  out << FormatDouble(inst.t()) << ',' << CsvText(task.frame_name());
+void WriteTaskRow(std::ostream& out, Instance& inst, bool computed) {
+  const OfflineTaskRow row = TaskRowOf(inst, computed);
+  out << FormatDouble(inst.t()) << ',' << CsvText(TaskFrameOf(inst));
   for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(row.position[i]);
   for (int i = 0; i < 3; ++i) out << ',' << FormatDouble(row.position_des[i]);
   for (int i = 0; i < 6; ++i) out << ',' << FormatDouble(row.error[i]);
@@ -80,7 +79,8 @@ class SimulateCommand final : public Command {
     app_->add_option("--duration", duration_, "Simulated time, s")->required()->check(PositiveNumber());
     app_->add_option("--csv", csv_,
                      "Output CSV ('-' for stdout), with its joint names in FILE.joints.csv beside it and, under a "
-                     "task-space controller, its frame's position, target and error (log2csv's task columns) in "
+                     "controller that moves a frame (task-space, or mpc with a frame), its frame's position, target "
+                     "and error (log2csv's task columns) in "
                      "FILE.task.csv; a scene with several instances writes FILE.NAME.csv (and FILE.NAME.joints.csv, "
                      "FILE.NAME.task.csv) for each")
         ->required();
@@ -109,7 +109,7 @@ class SimulateCommand final : public Command {
       }
       streams.push_back(open(path));
       WriteJointNames(path, inst.instance_model().joint_names);
-      if (inst.task_space_controller(inst.active_controller()) != nullptr) {
+      if (!TaskFrameOf(inst).empty()) {
         task_streams[i] = open(TaskCsvPath(path));
         WriteTaskHeader(*task_streams[i]);
       }
@@ -122,8 +122,8 @@ class SimulateCommand final : public Command {
     const std::vector<OfflineFault> faults =
         RunOfflineChecked(instances, scene.period, steps, [&](std::size_t i, Instance& inst) {
           WriteRow(*streams[i], inst);
-          const TaskSpaceController* task = inst.task_space_controller(inst.active_controller());
-          if (task_streams[i] != nullptr && task != nullptr) WriteTaskRow(*task_streams[i], inst, *task, stepped[i]);
+          if (task_streams[i] != nullptr && !TaskFrameOf(inst).empty())
+            WriteTaskRow(*task_streams[i], inst, stepped[i]);
           stepped[i] = true;
         });
     for (auto& f : files) {

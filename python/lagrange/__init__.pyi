@@ -150,7 +150,8 @@ _Scene = _Union[str, bytes, "_os.PathLike[str]", "_os.PathLike[bytes]"]  # a sce
 _Law = _Callable[[float, _F64, _F64], _npt.ArrayLike]  # (t s, q (n,), qd (n,)) -> tau (n,) N·m or N
 
 class TaskRows:
-    """The frame a task-space controller moved, one row per step: lagrangectl simulate's FILE.task.csv (nan at t = 0)."""
+    """The frame a task-space controller (or an mpc with a frame) moved, one row per step: lagrangectl simulate's
+    FILE.task.csv (nan at t = 0)."""
     frame: str
     position: _F64          # (N, 3) m, world frame
     position_des: _F64      # (N, 3) m, the commanded origin
@@ -172,7 +173,7 @@ class SimulationResult:
     energies: _F64          # (N, 2) J: kinetic_energy and potential_energy side by side
     fault: _Optional[str]   # the health check's line when the instance faulted (rows end at its last healthy step)
     mpc_failures: _Optional[str]  # how many mpc solves failed, by status (the last usable plan was followed)
-    task: _Optional[TaskRows]  # under a task-space controller (not a Python law): its frame per row
+    task: _Optional[TaskRows]  # under a controller that moves a frame (not a Python law): its frame per row
 
 def simulate(scene: _Scene, duration: float, *,
              controller: _Union[None, _Law, _Mapping[str, _Law]] = None) -> _Dict[str, SimulationResult]:

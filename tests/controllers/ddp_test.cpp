@@ -13,6 +13,7 @@
 
 #include "controllers/ddp.hpp"
 #include "controllers/lqr.hpp"
+#include "controllers/mpc.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -303,6 +304,39 @@ TEST(Ddp, AFractionalShiftInterpolatesBetweenTheWholeKnotShifts) {
   DdpData whole = solved();
   whole.ShiftSolution(2.0);
   EXPECT_TRUE(whole.u() == two.u() && whole.x() == two.x()) << "a whole number of knots is the integer shift";
+}
+
+// The tick's law between knots (MpcPolicy::Evaluate): the planned state and
+// force followed linearly from knot k to knot k + 1 by the time within the
+// knot, the knot's gain held; at the horizon's end the plan's last state, the
+// last knot's force held. Here one joint, two knots of 0.1 s from t = 1 s.
+TEST(MpcPolicy, BetweenKnotsFollowsThePlannedStateAndForceLinearlyWithTheKnotsGainHeld) {
+  MpcPolicy policy(1, 1, 2);
+  policy.sequence = 1;
+  policy.start = 1.0;
+  policy.dt = 0.1;
+  policy.u << 2.0, 4.0;                      // ū_0, ū_1 (N·m)
+  policy.K << -10.0, -1.0, -20.0, -2.0;      // K_0 = [−10, −1], K_1 = [−20, −2]
+  policy.x << 0.0, 0.5, 0.8, 1.0, 3.0, 3.0;  // q̄_0..2 (rad) in the first row, q̄d_0..2 (rad/s) in the second
+  const VectorXd lower = V({-100.0}), upper = V({100.0});
+  const VectorXd q = V({0.3}), qd = V({2.0});
+  const auto law = [&](double t) {
+    VectorXd u(1);
+    policy.Evaluate(t, q, qd, lower, upper, u);
+    return u[0];
+  };
+  // ū + K (x − x̄) for a knot's (ū, K) about the planned state (q̄, q̄d).
+  const auto affine = [&](double u_bar, double k_q, double k_qd, double q_bar, double qd_bar) {
+    return u_bar + k_q * (q[0] - q_bar) + k_qd * (qd[0] - qd_bar);
+  };
+  constexpr double kTolerance = 1e-12, kJustBefore = 1e-9;  // N·m; s before knot 1
+  EXPECT_NEAR(law(1.0), affine(2.0, -10.0, -1.0, 0.0, 1.0), kTolerance) << "knot 0's start: knot 0";
+  EXPECT_NEAR(law(1.05), affine(3.0, -10.0, -1.0, 0.25, 2.0), kTolerance) << "its middle: halfway, K_0";
+  EXPECT_NEAR(law(1.1 - kJustBefore), affine(4.0, -10.0, -1.0, 0.5, 3.0), 1e-6) << "its end: knot 1's ū, x̄; K_0";
+  EXPECT_NEAR(law(1.1), affine(4.0, -20.0, -2.0, 0.5, 3.0), kTolerance) << "knot 1's start: knot 1";
+  EXPECT_NEAR(law(1.15), affine(4.0, -20.0, -2.0, 0.65, 3.0), kTolerance) << "the last knot: its ū held";
+  EXPECT_NEAR(law(1.5), affine(4.0, -20.0, -2.0, 0.8, 3.0), kTolerance) << "past the horizon: x̄_N";
+  EXPECT_NEAR(law(0.9), affine(2.0, -10.0, -1.0, 0.0, 1.0), kTolerance) << "before the start: knot 0's";
 }
 
 // A flag already set ends the solve at once, in its first rollout's first

@@ -263,8 +263,9 @@ def test_the_stubs_and_docstrings_name_every_simulator_and_bus_call():
     assert "(N, n)" in lagrange.SimulationResult.q.__doc__
 
 
-# Issue 32: the task space that lagrangectl simulate writes to FILE.task.csv comes with simulate's result.
-@pytest.mark.parametrize("scene", ["panda_cartesian_impedance.yaml", "ur5_circle.yaml"])
+# Issue 32: the task space that lagrangectl simulate writes to FILE.task.csv comes with simulate's result
+# (issue 35: an mpc controller's frame too).
+@pytest.mark.parametrize("scene", ["panda_cartesian_impedance.yaml", "ur5_circle.yaml", "panda_mpc_reach.yaml"])
 def test_simulate_returns_the_task_rows_lagrangectl_simulate_writes_bit_for_bit(scene, tmp_path):
     r, csv = lagrangectl_simulate(config(scene), DURATION, tmp_path)
     assert r.returncode == 0, r.stderr

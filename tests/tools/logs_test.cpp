@@ -1127,6 +1127,22 @@ TEST_F(Logs, PlotAddsTheEndEffectorsPathAndErrorWhenATaskSpaceFrameIsBeside) {
   EXPECT_NE(r.err.find("lacks the columns position0"), std::string::npos) << r.err;
 }
 
+// An mpc controller with a frame follows that frame's target, not the joint
+// setpoint (the start pose): from simulate's FILE.task.csv, plot draws the
+// flange's tracking and path panels and no joint setpoint, and says so.
+TEST_F(Logs, PlotDrawsAnMpcFramesPanelsAndNoJointSetpoint) {
+  const fs::path csv = dir_ / "panda.csv", png = dir_ / "panda.png";
+  auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml", "--duration", "0.2",
+                   "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; tracking: panda_link8 to its task target on 200 rows, max |p_des - p| "), std::string::npos)
+      << r.out;  // every row but t = 0, before the controller's first evaluation
+  EXPECT_TRUE(r.out.ends_with("; task: 201 rows of panda_link8\n")) << r.out;
+  EXPECT_EQ(r.out.find("q_des"), std::string::npos) << r.out;
+}
+
 // "max |p_des - p| X mm" of plot's tracking line, or NaN.
 double MaxTaskErrorMm(const std::string& out) {
   const std::string key = "max |p_des - p| ";

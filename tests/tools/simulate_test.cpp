@@ -128,6 +128,33 @@ TEST_F(Simulate, WritesEachInstancesJointNamesBesideItsCsv) {
   EXPECT_EQ(ReadText(dir_ / "run.cartpole.joints.csv"), "joint,name\n0,\"x\"\n1,\"theta\"\n");
 }
 
+// Columns of a task CSV's row: t 0, frame 1 (text), position 2-4, position_des 5-7, error 8-13.
+constexpr int kTaskT = 0, kTaskPosition = 2, kTaskTarget = 5, kTaskError = 8;
+
+// FILE.task.csv beside the state CSV `state`, checked for what every task CSV
+// holds: log2csv's task columns, one row per state row at its t, `frame` on
+// every row, nan at t = 0 (before the first Compute, as its tau is), and each
+// later row's error the target minus the position.
+Csv ReadTaskCsv(const fs::path& path, const Csv& state, const std::string& frame) {
+  const Csv task = ReadCsv(path, "frame");
+  EXPECT_EQ(task.header, (std::vector<std::string>{"t", "frame", "position0", "position1", "position2", "position_des0",
+                                                   "position_des1", "position_des2", "error0", "error1", "error2",
+                                                   "error3", "error4", "error5"}));
+  EXPECT_EQ(task.rows.size(), state.rows.size());
+  if (task.rows.empty() || task.rows.size() != state.rows.size()) return task;
+  EXPECT_EQ(task.texts, std::vector<std::string>(task.rows.size(), "\"" + frame + "\""));
+  for (std::size_t k = 0; k < task.rows.size(); ++k) EXPECT_EQ(task.rows[k][kTaskT], state.rows[k][0]) << k;
+  for (std::size_t c = kTaskPosition; c < task.rows[0].size(); ++c) EXPECT_TRUE(std::isnan(task.rows[0][c])) << c;
+  constexpr double kErrorExact = 1e-12;
+  for (std::size_t k = 1; k < task.rows.size(); ++k) {
+    const std::vector<double>& row = task.rows[k];
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(row[kTaskError + i], row[kTaskTarget + i] - row[kTaskPosition + i], kErrorExact) << k;
+    }
+  }
+  return task;
+}
+
 // Under a task-space controller, simulate writes the frame's position, target
 // and error beside the CSV, one row per row, with log2csv's task column names:
 // the UR5's flange under operational-space control stays on the scene's
@@ -139,19 +166,9 @@ TEST_F(Simulate, WritesTheTaskSpaceFramesPathBesideItsCsvOnTheScenesCircle) {
   const fs::path csv = dir_ / "ur5.csv";
   auto r = RunCtl({"simulate", config + "ur5_circle.yaml", "--duration", "2", "--csv", csv.string()});
   ASSERT_EQ(r.status, 0) << r.err;
-  const Csv task = ReadCsv(dir_ / "ur5.task.csv", "frame");
-  EXPECT_EQ(task.header, (std::vector<std::string>{"t", "frame", "position0", "position1", "position2", "position_des0",
-                                                   "position_des1", "position_des2", "error0", "error1", "error2",
-                                                   "error3", "error4", "error5"}));
-  const Csv state = ReadCsv(csv);
-  ASSERT_EQ(task.rows.size(), state.rows.size());
+  const Csv task = ReadTaskCsv(dir_ / "ur5.task.csv", ReadCsv(csv), "flange");
   ASSERT_EQ(task.rows.size(), 2001u);
-  EXPECT_EQ(task.texts, std::vector<std::string>(task.rows.size(), "\"flange\""));
-  // Columns of a row: t 0, frame 1 (text), position 2-4, position_des 5-7, error 8-13.
-  constexpr int kT = 0, kPosition = 2, kTarget = 5, kError = 8;
-  for (std::size_t k = 0; k < task.rows.size(); ++k) EXPECT_EQ(task.rows[k][kT], state.rows[k][0]) << k;
-  // The first row is before the first Compute, as its tau is: nothing measured yet.
-  for (std::size_t c = kPosition; c < task.rows[0].size(); ++c) EXPECT_TRUE(std::isnan(task.rows[0][c])) << c;
+  constexpr int kT = kTaskT, kPosition = kTaskPosition;
 
   const PoseTrajectoryConfig circle = LoadScene(config + "ur5_circle.yaml").instances.at(0).controller.task.trajectory;
   const auto position = [&](std::size_t k) {
@@ -161,10 +178,8 @@ TEST_F(Simulate, WritesTheTaskSpaceFramesPathBesideItsCsvOnTheScenesCircle) {
   const Eigen::Vector3d centre = start + circle.center;
   const double radius = circle.center.norm();
   constexpr double kOnCircle = 1e-4;  // m: an exact model under Kp = 400 1/s² keeps it within microns
-  constexpr double kErrorExact = 1e-12;
   for (std::size_t k = 1; k < task.rows.size(); ++k) {
     const std::vector<double>& row = task.rows[k];
-    for (int i = 0; i < 3; ++i) EXPECT_NEAR(row[kError + i], row[kTarget + i] - row[kPosition + i], kErrorExact) << k;
     if (row[kT] < circle.ramp) continue;
     const Eigen::Vector3d p = position(k);
     EXPECT_NEAR((p - centre).norm(), radius, kOnCircle) << "t = " << row[kT];
@@ -177,6 +192,33 @@ TEST_F(Simulate, WritesTheTaskSpaceFramesPathBesideItsCsvOnTheScenesCircle) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "pd.joints.csv"));
   EXPECT_FALSE(fs::exists(dir_ / "pd.task.csv"));
+}
+
+// An mpc controller with a frame moves it as a task-space controller does, so
+// simulate writes that frame beside the CSV too (lagranged publishes it on
+// <NAME>_TASK): the Panda's flange under the shipped reach, measured at each
+// row's state, from Franka's ready pose to the scene's target, which every row
+// after the first commands; each error is the target minus the position.
+TEST_F(Simulate, WritesAnMpcFramesPathToItsTargetBesideItsCsv) {
+  const std::string scene = std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml";
+  const fs::path csv = dir_ / "panda.csv";
+  auto r = RunCtl({"simulate", scene, "--duration", "1", "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv task = ReadTaskCsv(dir_ / "panda.task.csv", ReadCsv(csv), "panda_link8");
+  ASSERT_EQ(task.rows.size(), 1001u);
+
+  const Eigen::Vector3d target =
+      LoadScene(scene).instances.at(0).controller.mpc.trajectory.target->position;  // the scene's step
+  const auto position = [&](std::size_t k) {
+    return Eigen::Vector3d(task.rows[k][kTaskPosition], task.rows[k][kTaskPosition + 1],
+                           task.rows[k][kTaskPosition + 2]);
+  };
+  constexpr double kTargetExact = 1e-12, kReady = 1e-3, kArrived = 5e-3;  // m
+  for (std::size_t k = 1; k < task.rows.size(); ++k) {
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(task.rows[k][kTaskTarget + i], target[i], kTargetExact) << k;
+  }
+  EXPECT_LT((position(1) - Eigen::Vector3d(0.307, 0.0, 0.590)).norm(), kReady) << "Franka's ready pose, 1 ms in";
+  EXPECT_LT((position(task.rows.size() - 1) - target).norm(), kArrived) << "the flange at its target by 1 s";
 }
 
 TEST_F(Simulate, EffectsInTheSceneShapeTheRun) {
