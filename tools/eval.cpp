@@ -114,6 +114,13 @@ nlohmann::ordered_json DerivativesJson(const Dynamics& dynamics, DynamicsData& d
           {"dtau_dqd", JsonRows(dtau_dqd)}};
 }
 
+// One JSON object on one line. A URDF's names are the file's bytes: JSON
+// escapes control characters, and replaces invalid UTF-8.
+int PrintJson(std::ostream& out, const nlohmann::ordered_json& json) {
+  out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
+  return 0;
+}
+
 // A floating base's quaternion may be off unit by this much, as typed
 // with four digits (0.7071,0,0,0.7071: 1e-5 off); it is then normalised.
 // Beyond it, refused: a typing error, not rounding.
@@ -220,10 +227,7 @@ class EvalCommand final : public Command {
     PlantSpec spec = Spec();
     const PlantType type = spec.type();
     if (list_frames_) {
-      const nlohmann::ordered_json json = {{"plant", ToString(type)},
-                                           {"frame_names", MakeRigidTree(spec).frame_names()}};
-      out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
-      return 0;
+      return PrintJson(out, {{"plant", ToString(type)}, {"frame_names", MakeRigidTree(spec).frame_names()}});
     }
     if (q_.empty()) throw UsageError("--q is required");
     if (qd_.empty()) throw UsageError("--qd is required");
@@ -275,21 +279,15 @@ class EvalCommand final : public Command {
                                    {"V", V}};
     if (!frames_.empty()) json["frames"] = FramesJson(spec, frames_, q, qd);
     if (derivatives_) json["derivatives"] = DerivativesJson(*dynamics, *data, q, qd, tau, qdd);
-    // A URDF's names are the file's bytes: JSON escapes control characters, and replaces invalid UTF-8.
-    out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
-    return 0;
+    return PrintJson(out, json);
   }
 
  private:
   // --floating-base: the robot of --urdf on a free base, by FloatingDynamics.
   int RunFloating(std::ostream& out) const {
     const FloatingDynamics model(FloatingTree());
-    const auto dump = [&out](const nlohmann::ordered_json& json) {
-      out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
-      return 0;
-    };
     if (list_frames_) {
-      return dump({{"plant", "urdf"}, {"floating_base", true}, {"frame_names", model.tree().frame_names()}});
+      return PrintJson(out, {{"plant", "urdf"}, {"floating_base", true}, {"frame_names", model.tree().frame_names()}});
     }
     if (q_.empty()) throw UsageError("--q is required");
     if (qd_.empty()) throw UsageError("--qd is required");
@@ -326,7 +324,7 @@ class EvalCommand final : public Command {
                                    {"T", T},
                                    {"V", V}};
     if (!frames_.empty()) json["frames"] = FloatingFramesJson(model, *data, frames_, q);
-    return dump(json);
+    return PrintJson(out, json);
   }
 
   // The tree of --urdf read with a floating base, with --gravity; what a
