@@ -256,7 +256,7 @@ struct FileLink {
   std::optional<FileInertial> inertial;
 };
 
-enum class FileJointType { kRevolute, kContinuous, kPrismatic, kFixed };
+enum class FileJointType { kRevolute, kContinuous, kPrismatic, kFixed, kFloating };
 
 // <mimic joint multiplier offset>: q = multiplier · q_joint + offset (URDF's defaults 1 and 0).
 struct FileMimic {
@@ -390,11 +390,12 @@ FileJointType ReadJointType(const TiXmlElement& joint, const std::string& file, 
   if (t == "continuous") return FileJointType::kContinuous;
   if (t == "prismatic") return FileJointType::kPrismatic;
   if (t == "fixed") return FileJointType::kFixed;
-  if (t == "floating" || t == "planar") {
+  if (t == "floating") return FileJointType::kFloating;  // the base's: TreeBuilder::BaseLink
+  if (t == "planar") {
     Fail(file, where,
-         "type " + Quoted(t) + " is not supported (a fixed-base tree: revolute, continuous, prismatic, fixed)");
+         "type 'planar' is not supported (revolute, continuous, prismatic, fixed; floating for a floating base)");
   }
-  Fail(file, where, "unknown type " + Quoted(t) + " (revolute, continuous, prismatic, fixed)");
+  Fail(file, where, "unknown type " + Quoted(t) + " (revolute, continuous, prismatic, fixed, floating)");
 }
 
 // <limit>: required on revolute and prismatic joints, and wherever it is, with
@@ -436,6 +437,7 @@ std::optional<FileMimic> ReadMimic(const TiXmlElement& joint, FileJointType type
   const std::string at = Within(where, "mimic");
   if (e->NextSiblingElement("mimic") != nullptr) Fail(file, at, "more than one <mimic>");
   if (type == FileJointType::kFixed) Fail(file, at, "a fixed joint cannot mimic (it has no position to follow with)");
+  if (type == FileJointType::kFloating) Fail(file, at, "a floating joint cannot mimic (it is the base's six freedoms)");
   const char* name = e->Attribute("joint");
   if (name == nullptr || *name == '\0') Fail(file, at, "no joint attribute (the joint this one follows)");
   FileMimic mimic{name};
@@ -455,7 +457,7 @@ FileJoint ReadJoint(const TiXmlElement& e, int index, const std::string& file) {
     std::array<double, 3> v{};
     if (ReadNumbers(*axis, "xyz", v, file, Within(where, "axis"))) {
       j.axis = Eigen::Vector3d(v[0], v[1], v[2]);
-    } else if (j.type != FileJointType::kFixed) {
+    } else if (j.type != FileJointType::kFixed && j.type != FileJointType::kFloating) {
       Fail(file, Within(where, "axis"), "no xyz attribute");
     }
   }
@@ -754,22 +756,31 @@ class TreeBuilder {
   }
 
   // (root link) => robot: moving joints numbered depth-first, children in file
-  // order; fixed joints' links merged into the body they hang from.
-  UrdfRobot Build(const std::string& root) {
-    LinkMassProps(*links_.at(root), file_);  // checked, then ignored: the base is fixed
+  // order; fixed joints' links merged into the body they hang from (the base,
+  // for links fixed to a floating base's link).
+  UrdfRobot Build(const std::string& root, const UrdfOptions& options) {
+    const std::string base = BaseLink(root, options);
+    const MassProps base_link = LinkMassProps(*links_.at(base), file_);  // a fixed base's: checked, then ignored
+    if (base != root) LinkMassProps(*links_.at(root), file_);            // the world's: checked, then ignored
+    out_.tree.floating_base = options.floating_base;
+    base_parts_.push_back(base_link);
     std::vector<Pending> stack;
-    out_.tree.frames.push_back({root, -1, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
-    PushChildren(root, -1, Frame{}, stack);
+    out_.tree.frames.push_back({base, -1, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()});
+    PushChildren(base, -1, Frame{}, stack);
     while (!stack.empty()) {
       const Pending next = stack.back();
       stack.pop_back();
       Visit(next, stack);
     }
     ResolveMimics();
-    for (std::size_t i = 0; i < parts_.size(); ++i) {
-      MassProps body;
-      for (const MassProps& part : parts_[i]) body = Combined(body, part);
-      out_.tree.bodies[i] = {body.m, body.c, body.I};
+    for (std::size_t i = 0; i < parts_.size(); ++i) out_.tree.bodies[i] = Merged(parts_[i]);
+    if (options.floating_base) {
+      out_.tree.base = Merged(base_parts_);
+      if (!(out_.tree.base.mass > 0.0)) {
+        Fail(file_, LinkElement(base),
+             "a floating base needs mass > 0 kg (its <inertial> and those of links fixed to it), got " +
+                 Number(out_.tree.base.mass));
+      }
     }
     out_.name = robot_.name;
     out_.file = file_;
@@ -781,6 +792,42 @@ class TreeBuilder {
   const std::vector<std::string>& child_links() const { return child_links_; }
 
  private:
+  static RigidBody Merged(const std::vector<MassProps>& parts) {
+    MassProps body;
+    for (const MassProps& part : parts) body = Combined(body, part);
+    return {body.m, body.c, body.I};
+  }
+
+  // The link the tree starts from: the root link, or, when the root link's
+  // joint is floating, its child (the root link is then the world: it must
+  // have that joint alone, placed at the identity, and floating_base on).
+  std::string BaseLink(const std::string& root, const UrdfOptions& options) const {
+    const auto it = children_.find(root);
+    if (it == children_.end()) return root;
+    const FileJoint* floating = nullptr;
+    for (const FileJoint* j : it->second) {
+      if (j->type == FileJointType::kFloating) floating = j;
+    }
+    if (floating == nullptr) return root;
+    const std::string where = JointElement(floating->name);
+    if (!options.floating_base) {
+      Fail(file_, where,
+           "type 'floating' makes a floating-base robot: read it with floating_base (lagrangectl eval "
+           "--floating-base)");
+    }
+    if (it->second.size() > 1) {
+      Fail(file_, where,
+           "a floating joint must be the root link " + Quoted(root) + "'s only joint (the root link is the world; " +
+               JointElement(it->second[it->second[0] == floating ? 1 : 0]->name) + " would fix a second tree to it)");
+    }
+    if (!floating->origin.p.isZero(0.0) || !floating->origin.R.isIdentity(0.0)) {
+      Fail(file_, Within(where, "origin"),
+           "a floating joint's <origin> must be the identity (q places the base " + Quoted(floating->child) +
+               " in the world)");
+    }
+    return floating->child;
+  }
+
   struct Pending {
     const FileJoint* joint;
     int body;            // body the joint's parent link belongs to; −1: the world
@@ -795,6 +842,11 @@ class TreeBuilder {
 
   void Visit(const Pending& at, std::vector<Pending>& stack) {
     const FileJoint& joint = *at.joint;
+    if (joint.type == FileJointType::kFloating) {
+      Fail(file_, JointElement(joint.name),
+           "a floating joint is read only from the root link (its parent here is " + LinkElement(joint.parent) +
+               "): a tree has one floating base, at its root");
+    }
     const Frame origin = Compose(at.link_in_body, joint.origin);
     int body = at.body;
     Frame child_in_body = origin;  // a fixed joint: the child link rides on the same body
@@ -803,7 +855,7 @@ class TreeBuilder {
       child_in_body = Frame{};
     }
     const MassProps link = LinkMassProps(*links_.at(joint.child), file_);
-    if (body >= 0) parts_[body].push_back(Transformed(link, child_in_body));
+    (body >= 0 ? parts_[body] : base_parts_).push_back(Transformed(link, child_in_body));
     out_.tree.frames.push_back({joint.child, body, child_in_body.p, child_in_body.R});
     PushChildren(joint.child, body, child_in_body, stack);
   }
@@ -876,6 +928,7 @@ class TreeBuilder {
   std::map<std::string, std::vector<const FileJoint*>> children_;  // link => child joints, file order
   UrdfRobot out_;
   std::vector<std::vector<MassProps>> parts_;  // per body: its links in the body frame
+  std::vector<MassProps> base_parts_;          // the base's links in its frame (ignored for a fixed base)
   std::vector<std::string> child_links_;
   std::vector<std::pair<int, const FileJoint*>> mimics_;  // (joint index, its file joint) of each mimic
 };
@@ -911,19 +964,20 @@ void CheckEveryJointMovesInertia(const RigidTree& tree, const std::vector<std::s
 
 }  // namespace
 
-UrdfRobot ParseUrdf(std::string_view xml, const std::string& file) {
+UrdfRobot ParseUrdf(std::string_view xml, const std::string& file, const UrdfOptions& options) {
   CheckXmlText(xml, file);
   const std::string text(xml);
   const FileRobot read = ReadText(text, file);
   const std::string root = CheckTree(read, file);
   TreeBuilder builder(read, file);
-  UrdfRobot robot = builder.Build(root);
-  if (robot.tree.num_dofs() == 0) {
+  UrdfRobot robot = builder.Build(root, options);
+  if (robot.tree.num_dofs() == 0 && !options.floating_base) {
     Fail(file, "robot " + Quoted(robot.name),
          "no moving joint (a fixed-base robot needs a revolute, continuous or prismatic joint)");
   }
   CheckEveryJointMovesInertia(robot.tree, builder.child_links(), file);
-  if (const auto why = ValidateRigidTree(robot.tree)) throw UrdfError(Printable(file, file.size()) + ": " + *why);
+  const auto why = options.floating_base ? ValidateFloatingTree(robot.tree) : ValidateRigidTree(robot.tree);
+  if (why) throw UrdfError(Printable(file, file.size()) + ": " + *why);
   return robot;
 }
 
@@ -935,6 +989,8 @@ std::string ReadUrdfFile(const std::string& path) {
   }
 }
 
-UrdfRobot LoadUrdf(const std::string& path) { return ParseUrdf(ReadUrdfFile(path), path); }
+UrdfRobot LoadUrdf(const std::string& path, const UrdfOptions& options) {
+  return ParseUrdf(ReadUrdfFile(path), path, options);
+}
 
 }  // namespace lagrange

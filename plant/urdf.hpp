@@ -16,7 +16,8 @@
 //
 // What is read:
 //   joints     revolute, continuous (revolute without position limits),
-//              prismatic, fixed; floating and planar joints are refused
+//              prismatic, fixed; floating from the root link alone (below,
+//              "Floating base"); planar joints are refused
 //   mimics     <mimic joint multiplier offset> (defaults 1 and 0) on a moving
 //              joint: it follows the joint named, q = multiplier · q_joint +
 //              offset, and is no degree of freedom (RigidTree: the tree keeps
@@ -40,6 +41,19 @@
 // root link's inertia, and that of links fixed to it, is ignored, and joints
 // below them start at the world (parent −1). Gravity is (0, 0, −9.81) (the
 // URDF/ROS convention, z up); set `tree.gravity` to change it.
+//
+// Floating base (UrdfOptions::floating_base; Pinocchio's buildModel(urdf,
+// JointModelFreeFlyer()) makes the same choice): the tree's root is a free body
+// (RigidTree::floating_base, q and v in its conventions: nq = n + 7, nv = n + 6).
+// The base is the root link, with its <inertial> and those of the links fixed
+// to it merged (it must have mass > 0 and a positive definite inertia), and its
+// child joints ride on it. Or, when the root link's joint is
+// <joint type="floating">, that joint's child is the base and the root link is
+// the world: it must be the root link's only joint, at the identity <origin>
+// (q places the base in the world), and the root link is then no frame. A
+// floating joint anywhere else is refused, and so is one in a file read
+// without floating_base (it would make a fixed-base tree that is not the file's
+// robot). A floating base's robot may have no moving joint (a free body).
 //
 // Frames. Every link is a frame of the tree (`tree.frames`, named as the
 // link), in the same depth-first order, the root link first: the root link is
@@ -68,7 +82,7 @@
 //                 4096 joints
 //   the XML       no <robot> or no name; a version other than 1.0 ("major.minor",
 //                 decimal digits); an element without a name; a joint type that
-//                 is not revolute/continuous/prismatic/fixed; any number
+//                 is not revolute/continuous/prismatic/fixed/floating; any number
 //                 we read that is not finite (nan, inf, overflow) or not as many
 //                 as expected; an <inertial> without <mass value> or <inertia>
 //                 with all of ixx ixy ixz iyy iyz izz; a moving joint's <axis>
@@ -83,16 +97,17 @@
 //                 another mimic (chains and cycles)
 //   the physics   a negative mass; an inertia refused by CheckRotationalInertia
 //                 (plant/rigid_tree.hpp: not positive semi-definite, or principal
-//                 moments violating the triangle inequality); no moving joint, or more than kMaxDofs; a
+//                 moments violating the triangle inequality); no moving joint (fixed base), or more than kMaxDofs; a
 //                 joint that moves no inertia at q = 0 (a massless leaf, or a
 //                 revolute joint whose subtree lies on its axis: its row of M is
-//                 zero); last, ValidateRigidTree (which also requires M(0)
+//                 zero); last, ValidateRigidTree or, for a floating base, ValidateFloatingTree (which requires M(0)
 //                 positive definite, catching e.g. two joints on one axis line
 //                 with nothing between them), its message prefixed by the file.
 // For example:
-//   "arm.urdf: joint 'j3': type 'floating' is not supported (a fixed-base tree: revolute, continuous, prismatic,
-//   fixed)" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive semi-definite (eigenvalue -0.1 kg·m²)"
-//   "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint 'j7' moves nothing)"
+//   "arm.urdf: joint 'j3': a floating joint is read only from the root link (its parent here is link 'l2'): a tree
+//   has one floating base, at its root" "arm.urdf: link 'l2' <inertial> <inertia>: inertia is not positive
+//   semi-definite (eigenvalue -0.1 kg·m²)" "arm.urdf: link 'tool': massless leaf makes the mass matrix singular (joint
+//   'j7' moves nothing)"
 // Names and values from the file are quoted escaped as base/escape.hpp does
 // (control characters and '\' as \n, \t, \\, \x1b, ...), and so is the file
 // name: the message is one line, safe to print as it is; do not escape it again.
@@ -158,17 +173,23 @@ class UrdfError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// How a URDF is read: as a fixed-base tree (the default), or with a floating base
+// (above; a scene's `floating_base: true`, lagrangectl eval --floating-base).
+struct UrdfOptions {
+  bool floating_base = false;
+};
+
 // The most of a URDF file read (a real robot's is well under 1 MiB); a MuJoCo
 // model's XML files are bounded alike (plant/mujoco_files.hpp).
 inline constexpr std::size_t kMaxUrdfBytes = 2u << 20;
 
 // Reads and checks a URDF file. Throws UrdfError with the one-line message above.
-UrdfRobot LoadUrdf(const std::string& path);
+UrdfRobot LoadUrdf(const std::string& path, const UrdfOptions& options = {});
 // The text of a URDF file as LoadUrdf reads it (a regular file, within the
 // size bound; UrdfError "FILE: file: reason" otherwise), for a caller that
-// keeps it: LoadUrdf(path) is ParseUrdf(ReadUrdfFile(path), path).
+// keeps it: LoadUrdf(path, o) is ParseUrdf(ReadUrdfFile(path), path, o).
 std::string ReadUrdfFile(const std::string& path);
 // The same from text; `file` names it in messages.
-UrdfRobot ParseUrdf(std::string_view xml, const std::string& file);
+UrdfRobot ParseUrdf(std::string_view xml, const std::string& file, const UrdfOptions& options = {});
 
 }  // namespace lagrange

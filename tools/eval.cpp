@@ -3,12 +3,15 @@
 // --frame NAME, that frame's pose, Jacobian and J̇ qd (plant/kinematics.hpp,
 // world-aligned axes); with --frames, the plant's frame names alone; with
 // --derivatives, the exact derivatives of forward and inverse dynamics at the
-// state (plant/dynamics.hpp).
+// state (plant/dynamics.hpp). With --floating-base, a URDF robot on a free
+// base (plant/floating_dynamics.hpp; q of nq = nv + 1, v of nv, Pinocchio's
+// conventions: plant/rigid_tree.hpp), by the recursive path alone.
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include "base/escape.hpp"
+#include "plant/floating_dynamics.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -111,6 +114,71 @@ nlohmann::ordered_json DerivativesJson(const Dynamics& dynamics, DynamicsData& d
           {"dtau_dqd", JsonRows(dtau_dqd)}};
 }
 
+// One JSON object on one line. A URDF's names are the file's bytes: JSON
+// escapes control characters, and replaces invalid UTF-8.
+int PrintJson(std::ostream& out, const nlohmann::ordered_json& json) {
+  out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
+  return 0;
+}
+
+// A floating base's quaternion may be off unit by this much, as typed
+// with four digits (0.7071,0,0,0.7071: 1e-5 off); it is then normalised.
+// Beyond it, refused: a typing error, not rounding.
+constexpr double kQuaternionNormTolerance = 1e-4;
+
+// --q of a floating-base robot: nq = nv + 1 numbers, the quaternion within
+// kQuaternionNormTolerance of unit, returned normalised.
+VectorXd FloatingPositions(const std::vector<double>& values, int joints) {
+  const int nq = joints + kFreeFlyerNq;
+  if (static_cast<int>(values.size()) != nq) {
+    throw UsageError("--q: expected " + std::to_string(nq) + " values (nq = nv + 1: the base's x,y,z, its quaternion " +
+                     "qx,qy,qz,qw, then " + std::to_string(joints) + " joints), got " + std::to_string(values.size()));
+  }
+  VectorXd q = Eigen::Map<const VectorXd>(values.data(), nq);
+  const double norm = q.segment<4>(3).norm();
+  if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+    throw UsageError("--q: the quaternion qx,qy,qz,qw (values 4 to 7) has norm " + FormatDouble(norm) +
+                     "; expected a unit quaternion (to 1e-04, then normalised)");
+  }
+  q.segment<4>(3) /= norm;
+  return q;
+}
+
+// --qd or --tau of a floating-base robot: nv numbers.
+VectorXd FloatingVelocities(std::string_view option, const std::vector<double>& values, int joints) {
+  const int nv = joints + kFreeFlyerNv;
+  if (static_cast<int>(values.size()) != nv) {
+    throw UsageError(std::string(option) + ": expected " + std::to_string(nv) +
+                     " values (nv: the base's linear then angular entries, in base axes, then " +
+                     std::to_string(joints) + " joints), got " + std::to_string(values.size()));
+  }
+  return Eigen::Map<const VectorXd>(values.data(), nv);
+}
+
+// The frames named by --frame of a floating-base robot at q: {NAME: {position,
+// rotation, jacobian (6 x nv)}}, world axes. An unknown name is bad input.
+nlohmann::ordered_json FloatingFramesJson(const FloatingDynamics& model, FloatingData& data,
+                                          const std::vector<std::string>& names, const VectorXd& q) {
+  const std::vector<std::string> all = model.tree().frame_names();
+  nlohmann::ordered_json json = nlohmann::ordered_json::object();
+  MatrixXd J(6, model.num_v());
+  for (const std::string& name : names) {
+    const auto it = std::find(all.begin(), all.end(), name);
+    if (it == all.end()) {
+      throw UsageError("--frame: no frame '" + Escape(name, 64) + "' in this plant (--frames lists them)");
+    }
+    const int k = static_cast<int>(it - all.begin());
+    model.ComputeFrameJacobian(data, q, k, J);
+    if (!J.allFinite() || !data.frame_position(k).allFinite()) {
+      throw std::runtime_error("the frame '" + Escape(name, 64) + "' is not finite at this state");
+    }
+    json[name] = {{"position", JsonList(data.frame_position(k))},
+                  {"rotation", JsonRows(data.frame_rotation(k))},
+                  {"jacobian", JsonRows(J)}};
+  }
+  return json;
+}
+
 class EvalCommand final : public Command {
  public:
   explicit EvalCommand(CLI::App& parent)
@@ -132,7 +200,9 @@ class EvalCommand final : public Command {
     AddNumberList(*app_, "--q", q_, "Positions a,b,.. (rad or m); required");
     AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s); required");
     AddNumberList(*app_, "--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
-    app_->add_option("--method", method_, "closed-form|lagrangian|recursive; default the fastest exact path");
+    app_->add_option("--method", method_,
+                     "closed-form|lagrangian|recursive; default the fastest exact path (recursive alone with "
+                     "--floating-base)");
     auto* frame = app_->add_option("--frame", frames_,
                                    "NAME, repeatable: add the frame's position, rotation, Jacobian (6 x n) and "
                                    "J̇ qd, world-aligned axes, under \"frames\"");
@@ -142,16 +212,22 @@ class EvalCommand final : public Command {
                    "Add the exact derivatives under \"derivatives\": dqdd_dq, dqdd_dqd, dqdd_dtau at (q, qd, tau) and "
                    "dtau_dq, dtau_dqd at (q, qd, qdd) with the printed qdd (rows per output, joint order of \"joints\")")
         ->excludes(frames);
+    app_->add_flag("--floating-base", floating_base_,
+                   "With --urdf: the root link is a free base (a <joint type=\"floating\"> from the root link: its "
+                   "child). --q is nq = nv + 1 values: the base's position x,y,z (m, world), its orientation as a unit "
+                   "quaternion in the order qx,qy,qz,qw (w last, Pinocchio's; within 1e-4 of unit, then normalised), "
+                   "then the joints; --qd and --tau are nv: the base's linear velocity (m/s) then angular velocity "
+                   "(rad/s), both in base axes (force N, moment N·m for --tau), then the joints. Prints M (nv x nv), "
+                   "Cv (the Coriolis and centrifugal forces C v), G, qdd (v̇), T, V and frames' Jacobians (6 x nv; "
+                   "no jdot_qdot yet); not with --derivatives, --param or --method lagrangian yet");
   }
 
   int Run(std::ostream& out, std::ostream&) override {
+    if (floating_base_) return RunFloating(out);
     PlantSpec spec = Spec();
     const PlantType type = spec.type();
     if (list_frames_) {
-      const nlohmann::ordered_json json = {{"plant", ToString(type)},
-                                           {"frame_names", MakeRigidTree(spec).frame_names()}};
-      out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
-      return 0;
+      return PrintJson(out, {{"plant", ToString(type)}, {"frame_names", MakeRigidTree(spec).frame_names()}});
     }
     if (q_.empty()) throw UsageError("--q is required");
     if (qd_.empty()) throw UsageError("--qd is required");
@@ -192,6 +268,8 @@ class EvalCommand final : public Command {
     nlohmann::ordered_json json = {{"plant", ToString(type)},
                                    {"method", ToString(method)},
                                    {"num_dofs", n},
+                                   {"num_positions", n},
+                                   {"num_velocities", n},
                                    {"joints", JointNamesOf(spec)},
                                    {"M", JsonRows(M)},
                                    {"C", JsonRows(C)},
@@ -201,12 +279,90 @@ class EvalCommand final : public Command {
                                    {"V", V}};
     if (!frames_.empty()) json["frames"] = FramesJson(spec, frames_, q, qd);
     if (derivatives_) json["derivatives"] = DerivativesJson(*dynamics, *data, q, qd, tau, qdd);
-    // A URDF's names are the file's bytes: JSON escapes control characters, and replaces invalid UTF-8.
-    out << json.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
-    return 0;
+    return PrintJson(out, json);
   }
 
  private:
+  // --floating-base: the robot of --urdf on a free base, by FloatingDynamics.
+  int RunFloating(std::ostream& out) const {
+    const FloatingDynamics model(FloatingTree());
+    if (list_frames_) {
+      return PrintJson(out, {{"plant", "urdf"}, {"floating_base", true}, {"frame_names", model.tree().frame_names()}});
+    }
+    if (q_.empty()) throw UsageError("--q is required");
+    if (qd_.empty()) throw UsageError("--qd is required");
+    const int n = model.num_joints(), nv = model.num_v();
+    const VectorXd q = FloatingPositions(q_, n);
+    const VectorXd v = FloatingVelocities("--qd", qd_, n);
+    const VectorXd tau = tau_.empty() ? VectorXd::Zero(nv) : FloatingVelocities("--tau", tau_, n);
+    const VectorXd zero = VectorXd::Zero(nv);
+
+    const std::unique_ptr<FloatingData> data = model.MakeData();
+    MatrixXd M(nv, nv);
+    VectorXd Cv(nv), G(nv), qdd(nv);
+    model.ComputeMassMatrix(*data, q, M);
+    model.ComputeInverseDynamics(*data, q, v, zero, DynamicsTerms{.gravity = false, .coriolis = true}, Cv);
+    model.ComputeInverseDynamics(*data, q, zero, zero, DynamicsTerms{.gravity = true, .coriolis = false}, G);
+    model.ComputeForwardDynamics(*data, q, v, tau, DynamicsTerms{}, qdd);
+    const double T = model.ComputeKineticEnergy(*data, q, v);
+    const double V = model.ComputePotentialEnergy(*data, q);
+    if (!M.allFinite() || !Cv.allFinite() || !G.allFinite() || !qdd.allFinite() || !std::isfinite(T) ||
+        !std::isfinite(V)) {
+      throw std::runtime_error("the dynamics are not finite at this state");
+    }
+    nlohmann::ordered_json json = {{"plant", "urdf"},
+                                   {"method", ToString(Method::kRecursive)},
+                                   {"floating_base", true},
+                                   {"num_dofs", n},
+                                   {"num_positions", model.num_q()},
+                                   {"num_velocities", nv},
+                                   {"joints", model.tree().joint_names()},
+                                   {"M", JsonRows(M)},
+                                   {"Cv", JsonList(Cv)},
+                                   {"G", JsonList(G)},
+                                   {"qdd", JsonList(qdd)},
+                                   {"T", T},
+                                   {"V", V}};
+    if (!frames_.empty()) json["frames"] = FloatingFramesJson(model, *data, frames_, q);
+    return PrintJson(out, json);
+  }
+
+  // The tree of --urdf read with a floating base, with --gravity; what a
+  // floating base does not take yet refused in one line.
+  RigidTree FloatingTree() const {
+    if (urdf_.empty()) throw UsageError("--floating-base: only with --urdf FILE (a built-in plant's base is fixed)");
+    if (links_) throw UsageError("--links: a urdf robot has the joints its file gives");
+    if (derivatives_) throw UsageError("--derivatives: not with --floating-base yet (its derivatives are not built)");
+    if (!params_.empty()) {
+      throw UsageError("--param: not with --floating-base yet (the robot is read as its file gives it)");
+    }
+    if (method_ && *method_ != ToString(Method::kRecursive)) {
+      if (*method_ == ToString(Method::kLagrangian)) {
+        throw UsageError("--method lagrangian: not with --floating-base (the Euler–Poincaré form of the Lagrangian "
+                         "path is not built yet; recursive is)");
+      }
+      throw UsageError("--method: a floating base has the recursive path alone, got '" + Escape(*method_, 64) + "'");
+    }
+    RigidTree tree;
+    try {
+      tree = LoadUrdf(urdf_, UrdfOptions{.floating_base = true}).tree;
+    } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
+      throw UsageError("--urdf: " + std::string(e.what()));
+    } catch (const std::exception& e) {
+      throw UsageError("--urdf: " + Escape(e.what(), 400));
+    }
+    if (!gravity_.empty()) tree.gravity = Gravity();
+    return tree;
+  }
+
+  // --gravity gx,gy,gz (each finite: FiniteNumber).
+  Eigen::Vector3d Gravity() const {
+    if (gravity_.size() != 3) {
+      throw UsageError("--gravity: expected gx,gy,gz (3 numbers, m/s²), got " + std::to_string(gravity_.size()));
+    }
+    return {gravity_[0], gravity_[1], gravity_[2]};
+  }
+
   // The plant from --urdf, or from --plant, --links and --param.
   PlantSpec Spec() const {
     if (urdf_.empty() && plant_.empty()) throw UsageError("expected --plant TYPE or --urdf FILE");
@@ -245,11 +401,9 @@ class EvalCommand final : public Command {
       throw UsageError("--urdf: " + Escape(e.what(), 400));
     }
     if (!gravity_.empty()) {
-      if (gravity_.size() != 3) {
-        throw UsageError("--gravity: expected gx,gy,gz (3 numbers, m/s²), got " + std::to_string(gravity_.size()));
-      }
+      const Eigen::Vector3d g3 = Gravity();
       std::string text;
-      for (double g : gravity_) text += (text.empty() ? "" : ",") + FormatDouble(g);
+      for (double g : g3) text += (text.empty() ? "" : ",") + FormatDouble(g);
       if (auto e = SetPlantParam(spec, "gravity", text)) throw UsageError("--gravity: " + e->message);
     }
     for (const std::string& p : params_) {
@@ -274,6 +428,7 @@ class EvalCommand final : public Command {
   std::vector<std::string> frames_;
   bool list_frames_ = false;
   bool derivatives_ = false;
+  bool floating_base_ = false;
 };
 
 }  // namespace

@@ -279,7 +279,7 @@ TEST_F(UrdfScene, AMissingOrInvalidUrdfIsTheScenesErrorAtItsFileKey) {
   EXPECT_NE(what.find(": instances[0].plant.file: " + (dir_ / "robots/floating.urdf").string() + ": "),
             std::string::npos)
       << what;
-  EXPECT_NE(what.find("type 'floating' is not supported"), std::string::npos) << what;
+  EXPECT_NE(what.find("type 'floating' makes a floating-base robot"), std::string::npos) << what;
   EXPECT_EQ(what.find('\n'), std::string::npos) << what;
 
   const fs::path no_file = Write("scenes/no_file.yaml", "instances:\n  - {name: r, plant: {type: urdf}}\n");

@@ -19,8 +19,10 @@
 #include <unistd.h>
 
 #include "plant/eigenvalues.hpp"
+#include "plant/floating_dynamics.hpp"
 #include "plant/lagrangian.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/random_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "tests/support/plant_cases.hpp"
 
@@ -733,6 +735,155 @@ TEST(UrdfPlanar, PlanarUrdfEqualsTheChainPlantByEveryDerivation) {
       }
     }
   }
+}
+
+// ---------------------------------------------------------------------------
+// Floating base: the root link as the base, or a floating joint's child.
+
+// A torso (its inertial off its origin and turned) with a leg (revolute hip,
+// prismatic knee) and an arm (continuous shoulder).
+constexpr std::string_view kWalkerLinks = R"(
+  <link name="torso"><inertial><origin xyz="0.01 0.02 0.05" rpy="0.1 0.2 0.3"/><mass value="8"/>
+    <inertia ixx="0.2" ixy="0.01" ixz="0" iyy="0.3" iyz="0.02" izz="0.25"/></inertial></link>
+  <link name="thigh"><inertial><origin xyz="0 0 -0.2"/><mass value="1.5"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.005"/></inertial></link>
+  <link name="shin"><inertial><origin xyz="0 0 -0.15"/><mass value="0.8"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.002"/></inertial></link>
+  <link name="arm"><inertial><origin xyz="0.1 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.004"/></inertial></link>
+  <joint name="hip" type="revolute"><parent link="torso"/><child link="thigh"/><origin xyz="0 0.1 -0.1"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="50" velocity="5"/></joint>
+  <joint name="knee" type="prismatic"><parent link="thigh"/><child link="shin"/><origin xyz="0 0 -0.4"/>
+    <axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="50" velocity="1"/></joint>
+  <joint name="shoulder" type="continuous"><parent link="torso"/><child link="arm"/>
+    <origin xyz="0 -0.15 0.2" rpy="0.3 0 0"/><axis xyz="1 0 0"/></joint>)";
+constexpr double kWalkerMass = 8.0 + 1.5 + 0.8 + 0.5;
+
+std::string Walker(std::string_view before = "") {
+  return "<robot name=\"walker\">" + std::string(before) + std::string(kWalkerLinks) + "</robot>";
+}
+UrdfRobot FloatingWalker(const std::string& xml = Walker()) {
+  return ParseUrdf(xml, "walker.urdf", UrdfOptions{.floating_base = true});
+}
+
+// (p, a random unit quaternion x y z w, joints): a random floating state's q.
+VectorXd RandomFloatingQ(const RigidTree& tree, std::mt19937& rng) {
+  VectorXd q(tree.num_q());
+  q.head<3>() = testing::RandomVector(3, -1.0, 1.0, rng);
+  q.segment<4>(3) = Eigen::Quaterniond(RandomRotation(rng)).coeffs();
+  q.tail(tree.num_dofs()) = RandomStateFor(tree.joint_types(), rng).q;
+  return q;
+}
+
+MatrixXd FloatingMassMatrix(const RigidTree& tree, const VectorXd& q) {
+  const FloatingDynamics dynamics(tree);
+  MatrixXd M(tree.num_v(), tree.num_v());
+  dynamics.ComputeMassMatrix(*dynamics.MakeData(), q, M);
+  return M;
+}
+
+void ExpectFloatingRefusal(const std::string& xml, const std::string& reason) {
+  try {
+    FloatingWalker(xml);
+    ADD_FAILURE() << "accepted";
+  } catch (const UrdfError& e) {
+    ExpectOneLineNamingFile(e.what(), "walker.urdf");
+    EXPECT_EQ(std::string(e.what()).find("walker.urdf: " + reason), 0u) << "got: " << e.what();
+  }
+}
+
+TEST(UrdfFloatingBase, TheRootLinkIsTheBaseWithItsInertialAndQHasSevenMoreEntries) {
+  const UrdfRobot robot = FloatingWalker();
+  const RigidTree& tree = robot.tree;
+  ASSERT_TRUE(tree.floating_base);
+  EXPECT_EQ(tree.num_dofs(), 3);
+  EXPECT_EQ(tree.num_q(), 3 + 7);
+  EXPECT_EQ(tree.num_v(), 3 + 6);
+  EXPECT_EQ(tree.joint_names(), (std::vector<std::string>{"hip", "knee", "shoulder"}));
+  EXPECT_EQ(tree.joints[0].parent, -1);  // rides on the base
+  EXPECT_EQ(tree.joints[2].parent, -1);
+  EXPECT_DOUBLE_EQ(tree.base.mass, 8.0);
+  EXPECT_LT((tree.base.com - Eigen::Vector3d(0.01, 0.02, 0.05)).norm(), kExact);
+  Eigen::Matrix3d I;
+  I << 0.2, 0.01, 0.0, 0.01, 0.3, 0.02, 0.0, 0.02, 0.25;
+  const Eigen::Matrix3d R = Rpy(0.1, 0.2, 0.3);
+  EXPECT_LT((tree.base.inertia - R * I * R.transpose()).norm(), kExact);
+  EXPECT_EQ(tree.frames[0].name, "torso");
+  EXPECT_EQ(tree.frames[0].body, -1);  // the base's frame
+  EXPECT_EQ(FloatingDynamics(tree).num_q(), 10);
+  // The same file read as a fixed-base robot ignores the torso's inertia.
+  const UrdfRobot fixed = ParseUrdf(Walker(), "walker.urdf");
+  EXPECT_FALSE(fixed.tree.floating_base);
+  EXPECT_EQ(fixed.tree.num_q(), 3);
+}
+
+// With the base locked (v_b = ω_b = 0) the kinetic energy is the fixed
+// robot's, whatever the base's pose: M's joint block is the fixed M. The
+// base block's linear part is the whole robot's mass.
+TEST(UrdfFloatingBase, WithTheBaseLockedTheJointBlockOfMIsTheFixedRobotsM) {
+  const RigidTree floating = FloatingWalker().tree;
+  const SpatialDynamics fixed(ParseUrdf(Walker(), "walker.urdf").tree);
+  const std::unique_ptr<DynamicsData> data = fixed.MakeData();
+  std::mt19937 rng{42};
+  for (int k = 0; k < kStates; ++k) {
+    const VectorXd q = RandomFloatingQ(floating, rng);
+    const MatrixXd M = FloatingMassMatrix(floating, q);
+    MatrixXd M_fixed(3, 3);
+    fixed.ComputeMassMatrix(*data, q.tail(3), M_fixed);
+    EXPECT_LT(RelativeDifference(M.bottomRightCorner(3, 3), M_fixed, 0.0), kAgreeTol);
+    EXPECT_LT((M.topLeftCorner<3, 3>() - kWalkerMass * Eigen::Matrix3d::Identity()).norm(), kAgreeTol * kWalkerMass);
+  }
+}
+
+TEST(UrdfFloatingBase, AFloatingJointFromTheRootLinkMakesItsChildTheBase) {
+  const UrdfRobot robot = FloatingWalker(Walker(R"(<link name="world"/>
+    <joint name="free" type="floating"><parent link="world"/><child link="torso"/></joint>)"));
+  const UrdfRobot same = FloatingWalker();
+  ASSERT_TRUE(robot.tree.floating_base);
+  EXPECT_DOUBLE_EQ(robot.tree.base.mass, same.tree.base.mass);
+  EXPECT_EQ(robot.tree.joint_names(), same.tree.joint_names());
+  EXPECT_EQ(robot.tree.frame_names(), (std::vector<std::string>{"torso", "thigh", "shin", "arm"}));  // no world
+  std::mt19937 rng{7};
+  const VectorXd q = RandomFloatingQ(robot.tree, rng);
+  EXPECT_LT(RelativeDifference(FloatingMassMatrix(robot.tree, q), FloatingMassMatrix(same.tree, q), 0.0), kExact);
+}
+
+TEST(UrdfFloatingBase, ASingleLinkIsAFreeBody) {
+  const UrdfRobot body = FloatingWalker(R"(<robot name="brick"><link name="brick"><inertial><mass value="2"/>
+    <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.2" iyz="0" izz="0.25"/></inertial></link></robot>)");
+  EXPECT_EQ(body.tree.num_q(), 7);
+  EXPECT_EQ(body.tree.num_v(), 6);
+  VectorXd q = VectorXd::Zero(7);
+  q[6] = 1.0;  // w: the identity
+  const MatrixXd M = FloatingMassMatrix(body.tree, q);
+  const VectorXd diagonal = (VectorXd(6) << 2.0, 2.0, 2.0, 0.1, 0.2, 0.25).finished();
+  EXPECT_LT((M - MatrixXd(diagonal.asDiagonal())).norm(), kExact);
+}
+
+TEST(UrdfFloatingBase, AFloatingJointAnywhereButAtTheRootIsRefusedNamingIt) {
+  std::string middle = Walker();
+  middle.replace(middle.find(R"(type="prismatic")"), 16, R"(type="floating")");
+  ExpectFloatingRefusal(middle,
+                        "joint 'knee': a floating joint is read only from the root link (its parent here is link "
+                        "'thigh'): a tree has one floating base, at its root");
+  ExpectFloatingRefusal(Walker(R"(<link name="world"/><link name="post"/>
+    <joint name="free" type="floating"><parent link="world"/><child link="torso"/></joint>
+    <joint name="weld" type="fixed"><parent link="world"/><child link="post"/></joint>)"),
+                        "joint 'free': a floating joint must be the root link 'world''s only joint (the root link is "
+                        "the world; joint 'weld' would fix a second tree to it)");
+  ExpectFloatingRefusal(Walker(R"(<link name="world"/>
+    <joint name="free" type="floating"><parent link="world"/><child link="torso"/><origin xyz="0 0 1"/></joint>)"),
+                        "joint 'free' <origin>: a floating joint's <origin> must be the identity (q places the base "
+                        "'torso' in the world)");
+}
+
+TEST(UrdfFloatingBase, AMasslessBaseIsRefusedNamingItsLink) {
+  std::string massless = Walker();
+  const std::size_t from = massless.find("<inertial>"), to = massless.find("</inertial>") + 11;
+  massless.erase(from, to - from);
+  ExpectFloatingRefusal(massless,
+                        "link 'torso': a floating base needs mass > 0 kg (its <inertial> and those of links fixed to "
+                        "it), got 0");
 }
 
 }  // namespace
