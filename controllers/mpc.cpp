@@ -167,6 +167,14 @@ void MpcPlanner::Reset() {
   warm_ = false;
 }
 
+void MpcPlanner::FollowEffects(const EffectFlags& plant) {
+  Effects& modelled = data_.effects();
+  for (EffectKind kind : {EffectKind::kGravity, EffectKind::kCoriolis, EffectKind::kDamping}) {
+    const bool on = FlagOf(plant, kind);
+    if (FlagOf(modelled.flags(), kind) != on) modelled.SetEnabled(kind, on);  // damping the model lacks: stays off
+  }
+}
+
 DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
                            const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop,
                            const PoseTarget* pose) {

@@ -87,7 +87,8 @@ std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
 // at the start when the scene's `off` says so. Coulomb friction, joint limits,
 // saturation and pushes stay out (non-smooth, or the τ box already, or unknown
 // ahead), as Crocoddyl's and MJPC's models leave what the plant does not
-// declare smooth. A command that switches damping later does not reach the optimiser.
+// declare smooth. An `effect` command that switches one of the three later
+// reaches lagranged's optimiser (MpcPlanner::FollowEffects).
 EffectsConfig MpcEffects(const EffectsConfig& plant);
 // The optimiser's problem: `dynamics` under `effects` (MpcEffects of the plant's),
 // limits ±torque_limits on the actuated joints; with o.frame, that frame of
@@ -158,6 +159,11 @@ class MpcPlanner {
                  const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop = nullptr,
                  const PoseTarget* pose = nullptr);
   void Reset();
+  // The plant's effects as switched now (Instance::SetEffect): the next
+  // solves model its gravity, Coriolis and damping (those MpcEffects models)
+  // as `plant` has them on; the rest are not modelled. Damping turns on only
+  // when the model was given it. Allocates nothing.
+  void FollowEffects(const EffectFlags& plant);
 
  private:
   std::shared_ptr<const DdpModel> model_;

@@ -480,6 +480,70 @@ TEST_F(RuntimeMpc, StopEndsTheOptimiserThreadDuringASolve) {
 // that follow bring the flange to the new target (a second target after the
 // scene's: a sequence of targets, as lagrangectl send --pose sends them); the
 // frame is reported as a task-space controller's, and the tick allocates nothing.
+// An `effect` command reaches the optimiser: lagranged runs a pendulum held
+// at 1 rad by mpc, gravity on; the command turns gravity off, and the next
+// plans are made without it (the state the tick offers carries the
+// instance's effects). The plan the tick follows then predicts the path the
+// plant takes over its horizon (the optimiser's next plans withheld); a plan
+// still made with gravity would push against a gravity the plant no longer
+// has, and the plant would leave its predicted path.
+TEST(RuntimeMpcEffects, AnEffectCommandReachesTheOptimiser) {
+  constexpr double kMatch = 0.015;  // rad: the worst |q − q̄_k| at the knots
+  Runtime runtime(ParseScene(R"(
+period: 0.001
+instances:
+  - name: pendulum
+    plant: {type: pendulum}
+    initial: {q: [0.8]}
+    integrator: {type: rk4}
+    controller: {type: mpc, horizon: 50, dt: 0.02, integrator: rk4, iterations: 5, replan_period: 0.1}
+    torque_limits: [20]
+    setpoint: {q: [1.0]}
+)",
+                             "inline"));
+  TickRecord record = runtime.MakeRecord();
+  const std::vector<std::unique_ptr<MpcWorker>> workers = MakeMpcWorkers(runtime);
+  ASSERT_EQ(workers.size(), 1u);
+  Nanoseconds now = 0;
+  const auto tick = [&] {
+    now += kMs;
+    runtime.Tick(now, record);
+  };
+  const auto ticks_planning = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      tick();
+      workers[0]->PlanOnce();
+    }
+  };
+  ticks_planning(1000);
+  ASSERT_EQ(record.instances[0].mode, Mode::kRunning);
+  CommandMessage* c = runtime.channels(0).commands.BeginPush();
+  ASSERT_NE(c, nullptr);
+  c->kind = CommandKind::kSetEffect;
+  c->effect = EffectKind::kGravity;
+  c->on = false;
+  runtime.channels(0).commands.Push();
+  ticks_planning(1000);
+  Instance& inst = runtime.instance(0);
+  ASSERT_FALSE(inst.model().effects().flags().gravity);
+  ASSERT_EQ(record.instances[0].mode, Mode::kRunning);
+  for (int k = 0; k < 200; ++k) {  // a fresh plan (one per replan_period), which the next tick takes
+    tick();
+    if (workers[0]->PlanOnce()) break;
+  }
+  tick();
+  const MpcPolicy plan = inst.mpc_controller(inst.active_controller())->policy();
+  ASSERT_GT(plan.sequence, 0);
+  double worst = 0.0;
+  for (int k = 1; k < plan.horizon; ++k) {
+    while (inst.t() < plan.start + k * plan.dt - 1e-9) tick();
+    ASSERT_NEAR(inst.t(), plan.start + k * plan.dt, 1e-9);
+    worst = std::max(worst, std::abs(inst.q()[0] - plan.x(0, k)));
+  }
+  std::printf("worst |q - predicted q| after gravity was switched off: %.3g rad\n", worst);
+  EXPECT_LT(worst, kMatch);
+}
+
 TEST(RuntimeMpcPose, APoseSetpointRetargetsAnMpcControllersFrame) {
   constexpr double kPositionTolerance = 0.01, kRotationTolerance = 0.05;  // m, rad
   const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_mpc_reach.yaml");
