@@ -182,6 +182,9 @@ DdpData::DdpData(const DdpModel& model) : model_(&model) {
   result_.cost_history = VectorXd::Zero(model.config().options.max_iterations + 1);
 }
 
+Effects& DdpData::effects() { return plant_->effects(); }
+const Effects& DdpData::effects() const { return plant_->effects(); }
+
 double FramePoseCost(const Kinematics& kinematics, KinematicsData& data, int frame, const Pose& target, double w_pos,
                      double w_rot, ConstVecRef q, bool derivatives, VecRef gradient, Eigen::Ref<MatrixXd> hessian) {
   if (derivatives) {

@@ -209,6 +209,10 @@ class DdpData {
   const MatrixXd& k_feedforward() const { return kff_; }                      // (m x N) k_k of the last backward pass
   const MatrixXd& Qu() const { return Qu_; }  // (m x N) ∂Q_k/∂u at ū_k of the last backward pass
   const DdpResult& result() const { return result_; }
+  // The effects this data's rollouts and derivatives take (the model's
+  // config().effects, less its `off`, as switched since: Effects::SetEnabled).
+  Effects& effects();
+  const Effects& effects() const;
 
   // The affine policy of knot k: u = clamp(ū_k + K_k (x − x̄_k)), u (m).
   void EvaluatePolicy(int k, ConstVecRef q, ConstVecRef qd, VecRef u) const;

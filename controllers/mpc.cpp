@@ -96,8 +96,12 @@ DdpWeights MpcWeights(const MpcOptions& o, int n, int m) {
 
 EffectsConfig MpcEffects(const EffectsConfig& plant) {
   EffectsConfig e;
-  const bool damping_off = std::find(plant.off.begin(), plant.off.end(), EffectKind::kDamping) != plant.off.end();
-  if (plant.damping && !damping_off) e.damping = plant.damping;
+  e.gravity = plant.gravity;
+  e.coriolis = plant.coriolis;
+  e.damping = plant.damping;
+  for (EffectKind kind : plant.off) {
+    if (kind == EffectKind::kGravity || kind == EffectKind::kCoriolis || kind == EffectKind::kDamping) e.off.push_back(kind);
+  }
   return e;
 }
 
@@ -168,6 +172,14 @@ void MpcPlanner::Reset() {
   warm_ = false;
 }
 
+void MpcPlanner::FollowEffects(const EffectFlags& plant) {
+  Effects& modelled = data_.effects();
+  for (EffectKind kind : {EffectKind::kGravity, EffectKind::kCoriolis, EffectKind::kDamping}) {
+    const bool on = FlagOf(plant, kind);
+    if (FlagOf(modelled.flags(), kind) != on) modelled.SetEnabled(kind, on);  // damping the model lacks: stays off
+  }
+}
+
 DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen::Ref<const MatrixXd>& q_ref,
                            const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop,
                            const PoseTarget* pose) {
@@ -179,7 +191,7 @@ DdpStatus MpcPlanner::Plan(double t, ConstVecRef q, ConstVecRef qd, const Eigen:
     const double knots = (t - last_start_) / model.dt();
     const double nearest = std::round(knots);
     data_.ShiftSolution(std::min<double>(N, std::abs(knots - nearest) < 1e-9 ? nearest : knots));
-  } else if (model.config().effects.gravity && q.allFinite()) {
+  } else if (data_.effects().flags().gravity && q.allFinite()) {
     model.dynamics()->ComputeGravityForce(*dynamics_data_, q, gravity_);
     for (int j = 0; j < model.num_controls(); ++j) hold_[j] = gravity_[model.actuated()[static_cast<std::size_t>(j)]];
     data_.HoldControls(hold_);

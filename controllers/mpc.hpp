@@ -84,12 +84,14 @@ DdpWeights MpcWeights(const MpcOptions& o, int n, int m);
 // The frame of `kinematics` named o.frame, or nullopt ("" names none).
 std::optional<int> MpcFrame(const MpcOptions& o, const Kinematics& kinematics);
 // The optimiser's model of the plant's effects, from the instance's: gravity
-// and Coriolis, and the plant's viscous joint damping b when the scene
-// configures it on (−b∘qd, linear in qd: its step derivatives are exact).
-// Coulomb friction, joint limits, saturation and pushes stay out (non-smooth,
-// or the τ box already, or unknown ahead), as Crocoddyl's and MJPC's models
-// leave what the plant does not declare smooth. A command that switches
-// damping later does not reach the optimiser.
+// and Coriolis as the scene has them (`gravity: false`, `off: [coriolis]`:
+// not modelled either), and the plant's viscous joint damping b when the
+// scene gives it (−b∘qd, linear in qd: its step derivatives are exact), off
+// at the start when the scene's `off` says so. Coulomb friction, joint limits,
+// saturation and pushes stay out (non-smooth, or the τ box already, or unknown
+// ahead), as Crocoddyl's and MJPC's models leave what the plant does not
+// declare smooth. An `effect` command that switches one of the three later
+// reaches lagranged's optimiser (MpcPlanner::FollowEffects).
 EffectsConfig MpcEffects(const EffectsConfig& plant);
 // The optimiser's problem: `dynamics` under `effects` (MpcEffects of the plant's),
 // limits ±torque_limits on the actuated joints; with o.frame, that frame of
@@ -147,7 +149,7 @@ class MpcPlanner {
   // time t toward the reference (n each, held over the horizon), warm-started
   // from the previous plan shifted by the knots elapsed since it, a fraction
   // interpolated (DdpData::ShiftSolution(double)); cold (the actuated joints'
-  // share of the gravity force G(q) held, when the model has gravity: a robot
+  // share of the gravity force G(q) held, when the model's gravity is on: a robot
   // that holds its pose, not one that falls) after Reset, after a failed
   // solve, or when t went back. `stop` (may be
   // null) is polled at every knot of every pass of the solve (DdpData::stop):
@@ -161,6 +163,11 @@ class MpcPlanner {
                  const Eigen::Ref<const MatrixXd>& qd_ref, MpcPolicy& out, const std::atomic<bool>* stop = nullptr,
                  const PoseTarget* pose = nullptr);
   void Reset();
+  // The plant's effects as switched now (Instance::SetEffect): the next
+  // solves model its gravity, Coriolis and damping (those MpcEffects models)
+  // as `plant` has them on; the rest are not modelled. Damping turns on only
+  // when the model was given it. Allocates nothing.
+  void FollowEffects(const EffectFlags& plant);
 
  private:
   std::shared_ptr<const DdpModel> model_;

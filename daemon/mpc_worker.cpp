@@ -35,6 +35,7 @@ bool MpcWorker::PlanOnce() {
   if (stop_.load(std::memory_order_relaxed)) return false;
   MpcPolicy& plan = channels_.mpc_plans.back();
   const auto began = std::chrono::steady_clock::now();
+  planner_.FollowEffects(state->effects);
   planner_.Plan(state->t, state->q, state->qd, state->q_ref, state->qd_ref, plan, &stop_, &state->pose);
   plan.solve_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
   if (stop_.load(std::memory_order_relaxed)) return false;  // a solve cut short is not handed over

@@ -5,7 +5,8 @@
 // state the tick offers (InstanceChannels::mpc_state), solves from it no more
 // often than every replan_period of the instance's time, and publishes each
 // solve's policy (InstanceChannels::mpc_plans), with the solve's wall-clock
-// time (MpcPolicy::solve_time, for <NAME>_MPC). Both mailboxes are
+// time (MpcPolicy::solve_time, for <NAME>_MPC). Each solve models the
+// effects the state carries (an `effect` command switched: MpcPlanner::FollowEffects). Both mailboxes are
 // latest-wins triple buffers built before the loop: neither side allocates,
 // blocks or waits for the other. The tick never plans.
 //

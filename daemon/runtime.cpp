@@ -593,6 +593,7 @@ void Runtime::OfferState(Slot& s) {
     inst.SampleTrajectoryAhead(c->ddp_model()->dt(), m.q_ref, m.qd_ref);
   }
   if (c->has_frame()) m.pose = c->PoseReference(m.t, m.q);
+  m.effects = inst.model().effects().flags();
   s.channels.mpc_state.Publish();
 }
 

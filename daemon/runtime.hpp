@@ -98,6 +98,7 @@ struct MpcStateMessage {
   VectorXd q, qd;
   MatrixXd q_ref, qd_ref;  // (n x N+1) the reference at every knot of the plan
   PoseTarget pose;  // the frame's target (an mpc controller with a frame; MpcController::PoseReference)
+  EffectFlags effects;  // the instance's effects as switched now (MpcPlanner::FollowEffects)
 };
 
 // What the receiver found wrong with an external plant's measured state: each
