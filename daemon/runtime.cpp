@@ -16,7 +16,8 @@ TorqueMessage TorquePrototype(int n) { return {VectorXd::Zero(n)}; }
 MeasuredMessage MeasuredPrototype(int n) { return {VectorXd::Zero(n), VectorXd::Zero(n)}; }
 // Sized for n joints and a plan of N knots (the reference per knot: N + 1 columns).
 MpcStateMessage MpcStatePrototype(int n, int N) {
-  return {0.0, VectorXd::Zero(n), VectorXd::Zero(n), MatrixXd::Zero(n, N + 1), MatrixXd::Zero(n, N + 1), {}};
+  return {0.0,           VectorXd::Zero(n), VectorXd::Zero(n), MatrixXd::Zero(n, N + 1), MatrixXd::Zero(n, N + 1),
+          PoseTarget{}, EffectFlags{}};
 }
 
 // The reason a plan's status gives for falling back (mode_machine.hpp), for one that is not usable.
