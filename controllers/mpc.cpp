@@ -1,6 +1,7 @@
 #include "controllers/mpc.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,6 +23,11 @@ std::optional<std::string> CheckWeights(const char* key, const VectorXd& w, int 
   return std::string("weights.") + key + ": expected one number or " + std::to_string(size) + " finite values " +
          (positive ? "> 0" : ">= 0") + (size == 1 ? "" : " (one per " + std::string(positive ? "actuated joint" : "joint") + ")");
 }
+
+// The effects the optimiser models when the plant has them on (MpcEffects, MpcPlanner::FollowEffects): the
+// smooth ones; the rest stay out (mpc.hpp, MpcEffects).
+constexpr std::array<EffectKind, 3> kModelledEffects{EffectKind::kGravity, EffectKind::kCoriolis,
+                                                     EffectKind::kDamping};
 
 }  // namespace
 
@@ -100,7 +106,7 @@ EffectsConfig MpcEffects(const EffectsConfig& plant) {
   e.coriolis = plant.coriolis;
   e.damping = plant.damping;
   for (EffectKind kind : plant.off) {
-    if (kind == EffectKind::kGravity || kind == EffectKind::kCoriolis || kind == EffectKind::kDamping) e.off.push_back(kind);
+    if (std::find(kModelledEffects.begin(), kModelledEffects.end(), kind) != kModelledEffects.end()) e.off.push_back(kind);
   }
   return e;
 }
@@ -174,7 +180,7 @@ void MpcPlanner::Reset() {
 
 void MpcPlanner::FollowEffects(const EffectFlags& plant) {
   Effects& modelled = data_.effects();
-  for (EffectKind kind : {EffectKind::kGravity, EffectKind::kCoriolis, EffectKind::kDamping}) {
+  for (EffectKind kind : kModelledEffects) {
     const bool on = FlagOf(plant, kind);
     if (FlagOf(modelled.flags(), kind) != on) modelled.SetEnabled(kind, on);  // damping the model lacks: stays off
   }
