@@ -75,6 +75,8 @@ FloatingData::FloatingData(const FloatingDynamics& model) : model_(&model) {
   frame_R.resize(model.tree().frames.size());
   frame_p.resize(model.tree().frames.size());
   A.resize(6, model.num_v());
+  zero_v = VectorXd::Zero(model.num_v());
+  tau_v.resize(model.num_v());
 }
 
 FloatingDynamics::FloatingDynamics(RigidTree tree) : tree_(std::move(tree)) {
@@ -361,6 +363,40 @@ Vector3d FloatingDynamics::ComputeCenterOfMass(FloatingData& d, ConstVecRef q, M
   // ċ = (linear momentum) / m: A_G's linear rows over the mass.
   const Vector3d c = ComputeCentroidalMomentumMatrix(d, q, d.A);
   Jc = d.A.topRows<3>() / d.Ic[0].m;
+  return c;
+}
+
+void FloatingDynamics::ComputeFrameAccelerationBias(FloatingData& d, ConstVecRef q, ConstVecRef v, int frame,
+                                                    Eigen::Ref<Vector6d> Jdv) const {
+  CheckSizes(d, q);
+  LAGRANGE_CHECK_NV(v);
+  eigen_assert(frame >= 0 && frame < static_cast<int>(tree_.frames.size()) && "frame: an index into tree().frames");
+  Placements(d, q);
+  Velocities(d, v, true);
+  d.a[0] = {};
+  for (int b = 1; b <= n_; ++b) d.a[b] = d.X[b].Apply(d.a[parent(b)]) + d.c[b];
+  const TreeFrame& f = tree_.frames[static_cast<std::size_t>(frame)];
+  const int b = f.body + 1;
+  const Motion& vb = d.v[b];
+  const Motion& ab = d.a[b];
+  const Vector3d& r = f.position;
+  Jdv.head<3>() = d.R[b] * (ab.v + ab.w.cross(r) + vb.w.cross(vb.v + vb.w.cross(r)));
+  Jdv.tail<3>() = d.R[b] * ab.w;
+}
+
+Vector3d FloatingDynamics::ComputeCentroidalMomentumBias(FloatingData& d, ConstVecRef q, ConstVecRef v,
+                                                         Eigen::Ref<Vector6d> Adv) const {
+  ComputeInverseDynamics(d, q, v, d.zero_v, {.gravity = false, .coriolis = true}, d.tau_v);
+  double m = 0.0;
+  Vector3d mc = Vector3d::Zero();
+  for (int b = 0; b <= n_; ++b) {
+    m += inertia_[b].m;
+    mc += inertia_[b].m * d.o[b] + d.R[b] * inertia_[b].h;
+  }
+  const Vector3d c = mc / m;
+  const Vector3d f = d.R[0] * d.f[0].f;  // the base wrench, about the base origin, in the world
+  Adv.head<3>() = f;
+  Adv.tail<3>() = d.R[0] * d.f[0].n + (d.o[0] - c).cross(f);
   return c;
 }
 

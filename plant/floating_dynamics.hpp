@@ -33,14 +33,23 @@
 //                     (Pinocchio's ccrba): (linear N·s, angular about the
 //                     centre of mass N·m·s) = A_G v; each column a composite
 //                     inertia times its joint's motion, carried to c        O(n)
+//   J̇v                frame k's classical acceleration at a = 0 (6: m/s², then
+//                     rad/s², world axes): d/dt (J_k v) = J_k a + J̇_k v; the
+//                     drift accelerations a_b = X_b a_λ(b) + v_b × S_b qd_b from
+//                     a_base = 0, then (a_v + a_w × r + ω × (v + ω × r), a_w) at
+//                     the frame's point r, turned to the world                O(n)
+//   Ȧ_G v             the centroidal momentum's rate at a = 0 (N, then N·m about
+//                     c, world axes): ḣ_G = A_G a + Ȧ_G v; the RNEA's base
+//                     wrench at a = 0 without gravity (the sum of every body's
+//                     momentum rate, joint forces being internal), carried to c  O(n)
 //
 // Model and data: a FloatingDynamics is built once and is const; every
 // buffer a query writes is in the FloatingData it makes (MakeData), so no
 // query allocates. Every Compute* checks (eigen_assert, off under NDEBUG)
 // that q has nq entries and v, a, tau nv, M nv x nv, naming which.
 //
-// Not here yet: mimic joints (ValidateFloatingTree refuses them), the
-// Lagrangian (Euler–Poincaré) path, derivatives, J̇v and Ȧ_G v.
+// The Lagrangian (Euler–Poincaré) path is plant/floating_lagrangian.hpp.
+// Not here yet: mimic joints (ValidateFloatingTree refuses them), derivatives.
 
 #include <memory>
 #include <vector>
@@ -80,6 +89,7 @@ class FloatingData {
   std::vector<Eigen::Matrix3d> frame_R;
   std::vector<Eigen::Vector3d> frame_p;
   Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
+  VectorXd zero_v, tau_v;                      // (nv) a = 0 and the drift's generalized force, for Ȧ_G v
 };
 
 class FloatingDynamics {
@@ -118,6 +128,12 @@ class FloatingDynamics {
   Eigen::Vector3d ComputeCenterOfMass(FloatingData& data, ConstVecRef q, MatRef Jc) const;
   // q => A_G (6 x nv); returns c (m, world).
   Eigen::Vector3d ComputeCentroidalMomentumMatrix(FloatingData& data, ConstVecRef q, MatRef A) const;
+  // (q, v) => J̇_k v (6: linear, then angular; world axes) of frame k.
+  void ComputeFrameAccelerationBias(FloatingData& data, ConstVecRef q, ConstVecRef v, int frame,
+                                    Eigen::Ref<Eigen::Matrix<double, 6, 1>> Jdv) const;
+  // (q, v) => Ȧ_G v (6: linear, then angular about c; world axes); returns c (m, world).
+  Eigen::Vector3d ComputeCentroidalMomentumBias(FloatingData& data, ConstVecRef q, ConstVecRef v,
+                                                Eigen::Ref<Eigen::Matrix<double, 6, 1>> Adv) const;
 
  private:
   void CheckSizes(const FloatingData& data, ConstVecRef q) const;
