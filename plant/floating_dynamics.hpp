@@ -3,7 +3,7 @@
 // plant/rigid_tree.hpp): the free-flyer root is a 6-DoF joint between the
 // world and the base body, and every algorithm is Featherstone's with that
 // root (Rigid Body Dynamics Algorithms, §9.5; Pinocchio's free-flyer), in body
-// coordinates, O(n) but the mass matrix (O(Σ d)). n joints, nq = n + 7,
+// coordinates, O(n) but the mass matrix (O(Σ d)). n degrees of freedom, nq = n + 7,
 // nv = n + 6 (RigidTree::num_q, num_v); conventions of q, v and the base's
 // generalized force in plant/rigid_tree.hpp; a = v̇ (nv): the base's entries
 // are the time derivatives of its body-axes velocity (v_b, ω_b).
@@ -49,7 +49,13 @@
 // that q has nq entries and v, a, tau nv, M nv x nv, naming which.
 //
 // The Lagrangian (Euler–Poincaré) path is plant/floating_lagrangian.hpp.
-// Not here yet: mimic joints (ValidateFloatingTree refuses them), derivatives.
+// Mimic joints (RigidTree: q_j = s q_dof + o, qd_j = s qd_dof) compose with the
+// root: each sweep reads a joint's q, qd, qdd through its map and lands its
+// generalized force, Jacobian or A_G column on its degree of freedom scaled by
+// s (Sᵀ, as plant/mimic_dynamics.hpp's reduction; M = Sᵀ M_j S entry by entry).
+// Forward dynamics with mimics solves the reduced M (Cholesky written out:
+// the ABA would give the unconstrained joints' accelerations).
+// Not here yet: derivatives.
 
 #include <memory>
 #include <vector>
@@ -90,6 +96,7 @@ class FloatingData {
   std::vector<Eigen::Vector3d> frame_p;
   Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
   VectorXd zero_v, tau_v;                      // (nv) a = 0 and the drift's generalized force, for Ȧ_G v
+  MatrixXd M;                                  // (nv x nv) forward dynamics with mimic joints
 };
 
 class FloatingDynamics {
@@ -99,8 +106,9 @@ class FloatingDynamics {
 
   const RigidTree& tree() const { return tree_; }
   int num_joints() const { return n_; }
-  int num_q() const { return n_ + kFreeFlyerNq; }
-  int num_v() const { return n_ + kFreeFlyerNv; }
+  int num_dofs() const { return tree_.num_dofs(); }
+  int num_q() const { return num_dofs() + kFreeFlyerNq; }
+  int num_v() const { return num_dofs() + kFreeFlyerNv; }
   std::unique_ptr<FloatingData> MakeData() const;
 
   // (q, v, a) (nq, nv, nv) => tau (nv) = M a + [C v] + [G], bracketed terms
@@ -141,6 +149,10 @@ class FloatingDynamics {
   void Velocities(FloatingData& data, ConstVecRef v, bool products) const;
   void CompositeInertias(FloatingData& data) const;
   int parent(int body) const { return parent_[static_cast<std::size_t>(body)]; }
+  // Body b's joint: its entry of v (and tau), q through its mimic map, qd and qdd.
+  int Vi(int b) const { return kFreeFlyerNv + dof_[b]; }
+  double JointQ(ConstVecRef q, int b) const { return q[kFreeFlyerNq + dof_[b]] * scale_[b] + offset_[b]; }
+  double JointRate(ConstVecRef x, int b) const { return x[Vi(b)] * scale_[b]; }
   // Body b's joint motion S_b: (axis, 0) revolute, (0, axis) prismatic, body axes.
   spatial::Motion Subspace(int b) const {
     return revolute_[b] ? spatial::Motion{axis_[b], Eigen::Vector3d::Zero()}
@@ -154,6 +166,12 @@ class FloatingDynamics {
   std::vector<Eigen::Vector3d> axis_;      // joint axis, body axes (the base: unused)
   std::vector<spatial::Xform> X0_;         // parent body → joint frame (the fixed placement)
   std::vector<spatial::Inertia> inertia_;  // about the body origin, body axes
+  std::vector<int> dof_;                   // per body: its joint's degree of freedom (the base: unused)
+  std::vector<double> scale_, offset_;     // per body: its joint's mimic map (1, 0 for a degree of freedom)
 };
+
+// x ← A⁻¹ x for a symmetric positive definite A, which is overwritten by its
+// Cholesky factor; written out (Eigen's LLT is compiled in plant/dynamics.cpp alone).
+void CholeskySolveInPlace(MatrixXd& A, VecRef x);
 
 }  // namespace lagrange

@@ -1,5 +1,7 @@
 #include "plant/floating_lagrangian.hpp"
 
+#include "plant/floating_dynamics.hpp"
+
 #include <Eigen/Geometry>
 #include <cmath>
 #include <span>
@@ -13,18 +15,6 @@ using namespace rigid_tree_energy;
 
 Eigen::Matrix3d BaseRotation(ConstVecRef q) {
   return Eigen::Quaterniond(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
-}
-
-// x ← A⁻¹ x for a symmetric positive definite A, overwritten by its Cholesky
-// factor (written out: Eigen's LLT is compiled in plant/dynamics.cpp alone).
-void CholeskySolve(MatrixXd& A, VecRef x) {
-  const Eigen::Index n = A.rows();
-  for (Eigen::Index k = 0; k < n; ++k) {
-    A(k, k) = std::sqrt(A(k, k) - A.row(k).head(k).squaredNorm());
-    for (Eigen::Index r = k + 1; r < n; ++r) A(r, k) = (A(r, k) - A.row(r).head(k).dot(A.row(k).head(k))) / A(k, k);
-  }
-  for (Eigen::Index r = 0; r < n; ++r) x[r] = (x[r] - A.row(r).head(r).dot(x.head(r))) / A(r, r);
-  for (Eigen::Index r = n - 1; r >= 0; --r) x[r] = (x[r] - A.col(r).tail(n - 1 - r).dot(x.tail(n - 1 - r))) / A(r, r);
 }
 
 }  // namespace
@@ -155,7 +145,7 @@ void FloatingLagrangian::ComputeForwardDynamics(FloatingLagrangianData& d, Const
   ComputeMassMatrix(d, q, d.M);
   ComputeBias(d, q, v, terms, d.bias);
   a = tau - d.bias;
-  CholeskySolve(d.M, a);
+  CholeskySolveInPlace(d.M, a);
 }
 
 double FloatingLagrangian::ComputeKineticEnergy(FloatingLagrangianData& d, ConstVecRef q, ConstVecRef v) const {

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <numbers>
 #include <random>
+#include <string>
 
 #include "plant/floating_dynamics.hpp"
 #include "plant/floating_lagrangian.hpp"
@@ -97,6 +98,87 @@ TEST(FloatingLagrangian, TheCoadjointTermIsWhatSpinsAFreeBody) {
   const Eigen::Vector3d vb = v.head<3>(), w = v.tail<3>();
   expected << w.cross(mu.head<3>()), w.cross(mu.tail<3>()) + vb.cross(mu.head<3>());
   EXPECT_LT(RelativeDifference(bias, expected), kPathsAgreeTol);
+}
+
+// A random floating tree with every other joint a mimic of an even one
+// (multiplier within ±2, offset within ±0.5), prismatic joints among them.
+RigidTree FloatingTreeWithMimics(int k, std::mt19937& rng) {
+  RandomTreeOptions options;
+  options.bodies = 3 + k % 6;
+  options.chain = k % 2 == 0;
+  options.prismatic_fraction = 0.4;
+  RigidTree tree = RandomFloatingTree(options, rng);
+  std::uniform_real_distribution<double> multiplier(-2.0, 2.0), offset(-0.5, 0.5);
+  for (int i = 1; i < tree.num_joints(); i += 2) {
+    std::uniform_int_distribution<int> followed(0, (tree.num_joints() - 1) / 2);
+    tree.joints[i].mimic = 2 * followed(rng);
+    tree.joints[i].multiplier = multiplier(rng);
+    tree.joints[i].offset = offset(rng);
+  }
+  for (int b = -1; b < tree.num_joints(); ++b) {  // a frame on every body, the base's included
+    tree.frames.push_back({"f" + std::to_string(b + 1), b, RandomUnitVector(rng) * 0.3, RandomRotation(rng)});
+  }
+  return tree;
+}
+
+TEST(FloatingMimic, MimicAndPrismaticJointsComposeWithTheFreeFlyer) {
+  // The recursive path reduces the joints onto the degrees of freedom (Sᵀ);
+  // the Lagrangian path's energies are over the degrees of freedom already:
+  // M, the bias, FD and T agree. The free tree's M projected, Gᵀ M_free G with
+  // G = (1₆ ⊕ S), is M again, and J v = J_free (G v).
+  std::mt19937 rng{11};
+  for (int k = 0; k < 8; ++k) {
+    const RigidTree tree = FloatingTreeWithMimics(k, rng);
+    ASSERT_TRUE(tree.has_mimics());
+    const FloatingDynamics recursive(tree), free(tree.WithEveryJointFree());
+    const FloatingLagrangian lagrangian(tree);
+    auto rd = recursive.MakeData();
+    auto fd = free.MakeData();
+    auto ld = lagrangian.MakeData();
+    VectorXd q, v;
+    RandomFloatingState(tree, rng, q, v);
+    const int nv = tree.num_v(), nf = free.num_v();
+    MatrixXd M_r(nv, nv), M_l(nv, nv), M_f(nf, nf), G = MatrixXd::Zero(nf, nv);
+    recursive.ComputeMassMatrix(*rd, q, M_r);
+    lagrangian.ComputeMassMatrix(*ld, q, M_l);
+    EXPECT_LT(RelativeDifference(M_r, M_l), kPathsAgreeTol) << "tree " << k;
+    G.topLeftCorner<6, 6>().setIdentity();
+    VectorXd q_f(free.num_q());
+    q_f.head<kFreeFlyerNq>() = q.head<kFreeFlyerNq>();
+    for (int i = 0; i < tree.num_joints(); ++i) {
+      const RigidTree::JointMap m = tree.MapOf(i);
+      G(kFreeFlyerNv + i, kFreeFlyerNv + m.dof) = m.scale;
+      q_f[kFreeFlyerNq + i] = m.scale * q[kFreeFlyerNq + m.dof] + m.offset;
+    }
+    free.ComputeMassMatrix(*fd, q_f, M_f);
+    EXPECT_LT(RelativeDifference(G.transpose() * M_f * G, M_r), kPathsAgreeTol) << "tree " << k;
+    VectorXd b_r(nv), b_l(nv), a_r(nv), a_l(nv), back(nv);
+    recursive.ComputeInverseDynamics(*rd, q, v, VectorXd::Zero(nv), {}, b_r);
+    lagrangian.ComputeBias(*ld, q, v, {}, b_l);
+    EXPECT_LT(RelativeDifference(b_r, b_l), kPathsAgreeTol) << "tree " << k;
+    const VectorXd tau = RandomVector(nv, -3.0, 3.0, rng);
+    recursive.ComputeForwardDynamics(*rd, q, v, tau, {}, a_r);
+    lagrangian.ComputeForwardDynamics(*ld, q, v, tau, {}, a_l);
+    EXPECT_LT(RelativeDifference(a_r, a_l), kPathsAgreeTol) << "tree " << k;
+    recursive.ComputeInverseDynamics(*rd, q, v, a_r, {}, back);
+    EXPECT_LT(RelativeDifference(back, tau), kPathsAgreeTol) << "tree " << k;
+    EXPECT_NEAR(recursive.ComputeKineticEnergy(*rd, q, v), lagrangian.ComputeKineticEnergy(*ld, q, v),
+                kPathsAgreeTol * (1.0 + recursive.ComputeKineticEnergy(*rd, q, v)));
+    MatrixXd J(6, nv), J_f(6, nf), A(6, nv), A_f(6, nf);
+    const VectorXd v_f = G * v;
+    for (int f = 0; f < static_cast<int>(tree.frames.size()); ++f) {
+      recursive.ComputeFrameJacobian(*rd, q, f, J);
+      free.ComputeFrameJacobian(*fd, q_f, f, J_f);
+      EXPECT_LT(RelativeDifference(J * v, J_f * v_f), kPathsAgreeTol) << "tree " << k << " frame " << f;
+      Eigen::Matrix<double, 6, 1> drift, drift_f;
+      recursive.ComputeFrameAccelerationBias(*rd, q, v, f, drift);
+      free.ComputeFrameAccelerationBias(*fd, q_f, v_f, f, drift_f);
+      EXPECT_LT(RelativeDifference(drift, drift_f), kPathsAgreeTol) << "tree " << k << " frame " << f;
+    }
+    recursive.ComputeCentroidalMomentumMatrix(*rd, q, A);
+    free.ComputeCentroidalMomentumMatrix(*fd, q_f, A_f);
+    EXPECT_LT(RelativeDifference(A, A_f * G), kPathsAgreeTol) << "tree " << k;
+  }
 }
 
 }  // namespace
