@@ -108,13 +108,7 @@ RigidTree FloatingTreeWithMimics(int k, std::mt19937& rng) {
   options.chain = k % 2 == 0;
   options.prismatic_fraction = 0.4;
   RigidTree tree = RandomFloatingTree(options, rng);
-  std::uniform_real_distribution<double> multiplier(-2.0, 2.0), offset(-0.5, 0.5);
-  for (int i = 1; i < tree.num_joints(); i += 2) {
-    std::uniform_int_distribution<int> followed(0, (tree.num_joints() - 1) / 2);
-    tree.joints[i].mimic = 2 * followed(rng);
-    tree.joints[i].multiplier = multiplier(rng);
-    tree.joints[i].offset = offset(rng);
-  }
+  AddRandomMimics(tree, rng);
   for (int b = -1; b < tree.num_joints(); ++b) {  // a frame on every body, the base's included
     tree.frames.push_back({"f" + std::to_string(b + 1), b, RandomUnitVector(rng) * 0.3, RandomRotation(rng)});
   }
