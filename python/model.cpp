@@ -3,6 +3,7 @@
 // builds them (tools/eval.cpp), so the numbers are the library's, bit for bit.
 //
 // Model and data apart: the Model holds the immutable Dynamics and Kinematics
+// (a floating base's: one FloatingDynamics, q of nq and velocities of nv)
 // and one data object of each for single states, used under the GIL. A batch
 // (N, n) runs with the GIL released, over `threads` threads, each with data
 // objects of its own made for that call, so other Python threads may use the
