@@ -75,6 +75,9 @@ FloatingData::FloatingData(const FloatingDynamics& model) : model_(&model) {
   frame_R.resize(model.tree().frames.size());
   frame_p.resize(model.tree().frames.size());
   A.resize(6, model.num_v());
+  zero_v = VectorXd::Zero(model.num_v());
+  tau_v.resize(model.num_v());
+  if (model.tree().has_mimics()) M.resize(model.num_v(), model.num_v());
 }
 
 FloatingDynamics::FloatingDynamics(RigidTree tree) : tree_(std::move(tree)) {
@@ -86,7 +89,14 @@ FloatingDynamics::FloatingDynamics(RigidTree tree) : tree_(std::move(tree)) {
   axis_.push_back(Vector3d::Zero());
   X0_.emplace_back();
   inertia_.push_back(spatial::InertiaFromCom(base.mass, base.com, 0.5 * (base.inertia + base.inertia.transpose())));
+  dof_.push_back(-1);
+  scale_.push_back(0.0);
+  offset_.push_back(0.0);
   for (int i = 0; i < n_; ++i) {
+    const RigidTree::JointMap map = tree_.MapOf(i);
+    dof_.push_back(map.dof);
+    scale_.push_back(map.scale);
+    offset_.push_back(map.offset);
     const TreeJoint& j = tree_.joints[i];
     const RigidBody& b = tree_.bodies[i];
     parent_.push_back(j.parent + 1);
@@ -114,7 +124,7 @@ void FloatingDynamics::Placements(FloatingData& d, ConstVecRef q) const {
   d.X[0] = {d.R[0].transpose(), d.o[0]};
   for (int b = 1; b <= n_; ++b) {
     const Xform& X0 = X0_[b];
-    const double qi = q[kFreeFlyerNq + b - 1];
+    const double qi = JointQ(q, b);
     Xform& X = d.X[b];
     if (revolute_[b]) {
       // Joint frame → body frame: turned by qi about the axis.
@@ -136,7 +146,7 @@ void FloatingDynamics::Velocities(FloatingData& d, ConstVecRef v, bool products)
   d.v[0] = {v.segment<3>(3), v.head<3>()};
   d.c[0] = {};
   for (int b = 1; b <= n_; ++b) {
-    const double qd = v[kFreeFlyerNv + b - 1];
+    const double qd = JointRate(v, b);
     const Motion Sqd = qd * Subspace(b);
     d.v[b] = d.X[b].Apply(d.v[parent(b)]) + Sqd;
     d.c[b] = products ? spatial::Cross(d.v[b], Sqd) : Motion{};
@@ -154,7 +164,7 @@ void FloatingDynamics::ComputeInverseDynamics(FloatingData& d, ConstVecRef q, Co
   d.a[0] = {a.segment<3>(3), a.head<3>()};
   for (int b = 0; b <= n_; ++b) {
     if (b > 0) {
-      const double qdd = a[kFreeFlyerNv + b - 1];
+      const double qdd = JointRate(a, b);
       d.a[b] = d.X[b].Apply(d.a[parent(b)]) + d.c[b];
       (revolute_[b] ? d.a[b].w : d.a[b].v) += qdd * axis_[b];
     }
@@ -163,9 +173,10 @@ void FloatingDynamics::ComputeInverseDynamics(FloatingData& d, ConstVecRef q, Co
     if (terms.coriolis) d.f[b] += spatial::CrossStar(d.v[b], I * d.v[b]);
     if (terms.gravity) d.f[b] = d.f[b] - I * d.g[b];
   }
+  tau.tail(num_dofs()).setZero();
   for (int b = n_; b >= 1; --b) {
     const Force& f = d.f[b];
-    tau[kFreeFlyerNv + b - 1] = axis_[b].dot(revolute_[b] ? f.n : f.f);
+    tau[Vi(b)] += scale_[b] * axis_[b].dot(revolute_[b] ? f.n : f.f);
     d.f[parent(b)] += d.X[b].ApplyTransposed(f);
   }
   tau.head<3>() = d.f[0].f;
@@ -189,25 +200,27 @@ void FloatingDynamics::ComputeMassMatrix(FloatingData& d, ConstVecRef q, MatRef 
     M.col(3 + k).head<3>() = Fa.f;
     M.col(3 + k).segment<3>(3) = Fa.n;
   }
-  // Joint rows: each body's composite force carried up its ancestors to the base.
+  // Joint rows: each body's composite force carried up its ancestors to the
+  // base, each entry added on the degrees of freedom (Sᵀ M_j S; s = 1 without mimics).
   for (int b = 1; b <= n_; ++b) {
-    const int i = kFreeFlyerNv + b - 1;
+    const int i = Vi(b);
     const Motion S = Subspace(b);
     Force F = d.Ic[b] * S;
-    M(i, i) = spatial::Dot(S, F);
+    M(i, i) += scale_[b] * scale_[b] * spatial::Dot(S, F);
     int j = b;
     while (parent(j) > 0) {
       F = d.X[j].ApplyTransposed(F);
       j = parent(j);
-      const int k = kFreeFlyerNv + j - 1;
-      M(i, k) = axis_[j].dot(revolute_[j] ? F.n : F.f);
-      M(k, i) = M(i, k);
+      const int k = Vi(j);
+      const double m = scale_[b] * scale_[j] * axis_[j].dot(revolute_[j] ? F.n : F.f);
+      M(i, k) += m;
+      M(k, i) += m;
     }
     F = d.X[j].ApplyTransposed(F);
-    M.col(i).head<3>() = F.f;
-    M.col(i).segment<3>(3) = F.n;
-    M.row(i).head<6>() = M.col(i).head<6>().transpose();
+    M.col(i).head<3>() += scale_[b] * F.f;
+    M.col(i).segment<3>(3) += scale_[b] * F.n;
   }
+  M.bottomLeftCorner(num_dofs(), kFreeFlyerNv) = M.topRightCorner(kFreeFlyerNv, num_dofs()).transpose();
 }
 
 void FloatingDynamics::ComputeForwardDynamics(FloatingData& d, ConstVecRef q, ConstVecRef v, ConstVecRef tau,
@@ -216,6 +229,13 @@ void FloatingDynamics::ComputeForwardDynamics(FloatingData& d, ConstVecRef q, Co
   LAGRANGE_CHECK_NV(v);
   LAGRANGE_CHECK_NV(tau);
   LAGRANGE_CHECK_NV(a);
+  if (tree_.has_mimics()) {
+    ComputeMassMatrix(d, q, d.M);
+    ComputeInverseDynamics(d, q, v, d.zero_v, terms, d.tau_v);
+    a = tau - d.tau_v;
+    CholeskySolveInPlace(d.M, a);
+    return;
+  }
   Placements(d, q);
   Velocities(d, v, terms.coriolis);
   for (int b = 0; b <= n_; ++b) {
@@ -319,12 +339,12 @@ void FloatingDynamics::ComputeFrameJacobian(FloatingData& d, ConstVecRef q, int 
   }
   for (int b = tree_.frames[static_cast<std::size_t>(frame)].body + 1; b > 0; b = parent(b)) {
     const Vector3d z = d.R[b] * axis_[b];  // the joint's world axis, through o_b
-    auto col = J.col(kFreeFlyerNv + b - 1);
+    auto col = J.col(Vi(b));
     if (revolute_[b]) {
-      col.head<3>() = z.cross(p - d.o[b]);
-      col.tail<3>() = z;
+      col.head<3>() += scale_[b] * z.cross(p - d.o[b]);
+      col.tail<3>() += scale_[b] * z;
     } else {
-      col.head<3>() = z;
+      col.head<3>() += scale_[b] * z;
     }
   }
 }
@@ -337,22 +357,19 @@ Vector3d FloatingDynamics::ComputeCentroidalMomentumMatrix(FloatingData& d, Cons
   const Inertia& total = d.Ic[0];
   const Vector3d c = d.o[0] + d.R[0] * (total.h / total.m);
   // A momentum F in body b's coordinates => (linear, angular about c), world axes.
-  auto to_centroid = [&](int b, const Force& F, auto column) {
+  auto to_centroid = [&](int b, const Force& F) {
     const Vector3d f = d.R[b] * F.f;
-    column.template head<3>() = f;
-    column.template tail<3>() = d.R[b] * F.n + (d.o[b] - c).cross(f);
+    return (Vector6d() << f, d.R[b] * F.n + (d.o[b] - c).cross(f)).finished();
   };
   for (int j = 0; j < 3; ++j) {
     Motion lin, ang;
     lin.v[j] = 1.0;
     ang.w[j] = 1.0;
-    to_centroid(0, total * lin, A.col(j));
-    to_centroid(0, total * ang, A.col(3 + j));
+    A.col(j) = to_centroid(0, total * lin);
+    A.col(3 + j) = to_centroid(0, total * ang);
   }
-  for (int b = 1; b <= n_; ++b) {
-    const Motion S = Subspace(b);
-    to_centroid(b, d.Ic[b] * S, A.col(kFreeFlyerNv + b - 1));
-  }
+  A.rightCols(num_dofs()).setZero();
+  for (int b = 1; b <= n_; ++b) A.col(Vi(b)) += scale_[b] * to_centroid(b, d.Ic[b] * Subspace(b));
   return c;
 }
 
@@ -364,6 +381,50 @@ Vector3d FloatingDynamics::ComputeCenterOfMass(FloatingData& d, ConstVecRef q, M
   return c;
 }
 
+void FloatingDynamics::ComputeFrameAccelerationBias(FloatingData& d, ConstVecRef q, ConstVecRef v, int frame,
+                                                    Eigen::Ref<Vector6d> Jdv) const {
+  CheckSizes(d, q);
+  LAGRANGE_CHECK_NV(v);
+  eigen_assert(frame >= 0 && frame < static_cast<int>(tree_.frames.size()) && "frame: an index into tree().frames");
+  Placements(d, q);
+  Velocities(d, v, true);
+  d.a[0] = {};
+  for (int b = 1; b <= n_; ++b) d.a[b] = d.X[b].Apply(d.a[parent(b)]) + d.c[b];
+  const TreeFrame& f = tree_.frames[static_cast<std::size_t>(frame)];
+  const int b = f.body + 1;
+  const Motion& vb = d.v[b];
+  const Motion& ab = d.a[b];
+  const Vector3d& r = f.position;
+  Jdv.head<3>() = d.R[b] * (ab.v + ab.w.cross(r) + vb.w.cross(vb.v + vb.w.cross(r)));
+  Jdv.tail<3>() = d.R[b] * ab.w;
+}
+
+Vector3d FloatingDynamics::ComputeCentroidalMomentumBias(FloatingData& d, ConstVecRef q, ConstVecRef v,
+                                                         Eigen::Ref<Vector6d> Adv) const {
+  ComputeInverseDynamics(d, q, v, d.zero_v, {.gravity = false, .coriolis = true}, d.tau_v);
+  double m = 0.0;
+  Vector3d mc = Vector3d::Zero();
+  for (int b = 0; b <= n_; ++b) {
+    m += inertia_[b].m;
+    mc += inertia_[b].m * d.o[b] + d.R[b] * inertia_[b].h;
+  }
+  const Vector3d c = mc / m;
+  const Vector3d f = d.R[0] * d.f[0].f;  // the base wrench, about the base origin, in the world
+  Adv.head<3>() = f;
+  Adv.tail<3>() = d.R[0] * d.f[0].n + (d.o[0] - c).cross(f);
+  return c;
+}
+
 #undef LAGRANGE_CHECK_NV
+
+void CholeskySolveInPlace(MatrixXd& A, VecRef x) {
+  const Eigen::Index n = A.rows();
+  for (Eigen::Index k = 0; k < n; ++k) {
+    A(k, k) = std::sqrt(A(k, k) - A.row(k).head(k).squaredNorm());
+    for (Eigen::Index r = k + 1; r < n; ++r) A(r, k) = (A(r, k) - A.row(r).head(k).dot(A.row(k).head(k))) / A(k, k);
+  }
+  for (Eigen::Index r = 0; r < n; ++r) x[r] = (x[r] - A.row(r).head(r).dot(x.head(r))) / A(r, r);
+  for (Eigen::Index r = n - 1; r >= 0; --r) x[r] = (x[r] - A.col(r).tail(n - 1 - r).dot(x.tail(n - 1 - r))) / A(r, r);
+}
 
 }  // namespace lagrange

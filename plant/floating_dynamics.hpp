@@ -3,7 +3,7 @@
 // plant/rigid_tree.hpp): the free-flyer root is a 6-DoF joint between the
 // world and the base body, and every algorithm is Featherstone's with that
 // root (Rigid Body Dynamics Algorithms, §9.5; Pinocchio's free-flyer), in body
-// coordinates, O(n) but the mass matrix (O(Σ d)). n joints, nq = n + 7,
+// coordinates, O(n) but the mass matrix (O(Σ d)). n degrees of freedom, nq = n + 7,
 // nv = n + 6 (RigidTree::num_q, num_v); conventions of q, v and the base's
 // generalized force in plant/rigid_tree.hpp; a = v̇ (nv): the base's entries
 // are the time derivatives of its body-axes velocity (v_b, ω_b).
@@ -33,14 +33,29 @@
 //                     (Pinocchio's ccrba): (linear N·s, angular about the
 //                     centre of mass N·m·s) = A_G v; each column a composite
 //                     inertia times its joint's motion, carried to c        O(n)
+//   J̇v                frame k's classical acceleration at a = 0 (6: m/s², then
+//                     rad/s², world axes): d/dt (J_k v) = J_k a + J̇_k v; the
+//                     drift accelerations a_b = X_b a_λ(b) + v_b × S_b qd_b from
+//                     a_base = 0, then (a_v + a_w × r + ω × (v + ω × r), a_w) at
+//                     the frame's point r, turned to the world                O(n)
+//   Ȧ_G v             the centroidal momentum's rate at a = 0 (N, then N·m about
+//                     c, world axes): ḣ_G = A_G a + Ȧ_G v; the RNEA's base
+//                     wrench at a = 0 without gravity (the sum of every body's
+//                     momentum rate, joint forces being internal), carried to c  O(n)
 //
 // Model and data: a FloatingDynamics is built once and is const; every
 // buffer a query writes is in the FloatingData it makes (MakeData), so no
 // query allocates. Every Compute* checks (eigen_assert, off under NDEBUG)
 // that q has nq entries and v, a, tau nv, M nv x nv, naming which.
 //
-// Not here yet: mimic joints (ValidateFloatingTree refuses them), the
-// Lagrangian (Euler–Poincaré) path, derivatives, J̇v and Ȧ_G v.
+// The Lagrangian (Euler–Poincaré) path is plant/floating_lagrangian.hpp.
+// Mimic joints (RigidTree: q_j = s q_dof + o, qd_j = s qd_dof) compose with the
+// root: each sweep reads a joint's q, qd, qdd through its map and lands its
+// generalized force, Jacobian or A_G column on its degree of freedom scaled by
+// s (Sᵀ, as plant/mimic_dynamics.hpp's reduction; M = Sᵀ M_j S entry by entry).
+// Forward dynamics with mimics solves the reduced M (Cholesky written out:
+// the ABA would give the unconstrained joints' accelerations).
+// Not here yet: derivatives.
 
 #include <memory>
 #include <vector>
@@ -80,6 +95,8 @@ class FloatingData {
   std::vector<Eigen::Matrix3d> frame_R;
   std::vector<Eigen::Vector3d> frame_p;
   Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
+  VectorXd zero_v, tau_v;                      // (nv) a = 0 and the drift's generalized force, for Ȧ_G v
+  MatrixXd M;                                  // (nv x nv) forward dynamics with mimic joints
 };
 
 class FloatingDynamics {
@@ -89,8 +106,9 @@ class FloatingDynamics {
 
   const RigidTree& tree() const { return tree_; }
   int num_joints() const { return n_; }
-  int num_q() const { return n_ + kFreeFlyerNq; }
-  int num_v() const { return n_ + kFreeFlyerNv; }
+  int num_dofs() const { return tree_.num_dofs(); }
+  int num_q() const { return num_dofs() + kFreeFlyerNq; }
+  int num_v() const { return num_dofs() + kFreeFlyerNv; }
   std::unique_ptr<FloatingData> MakeData() const;
 
   // (q, v, a) (nq, nv, nv) => tau (nv) = M a + [C v] + [G], bracketed terms
@@ -118,6 +136,12 @@ class FloatingDynamics {
   Eigen::Vector3d ComputeCenterOfMass(FloatingData& data, ConstVecRef q, MatRef Jc) const;
   // q => A_G (6 x nv); returns c (m, world).
   Eigen::Vector3d ComputeCentroidalMomentumMatrix(FloatingData& data, ConstVecRef q, MatRef A) const;
+  // (q, v) => J̇_k v (6: linear, then angular; world axes) of frame k.
+  void ComputeFrameAccelerationBias(FloatingData& data, ConstVecRef q, ConstVecRef v, int frame,
+                                    Eigen::Ref<Eigen::Matrix<double, 6, 1>> Jdv) const;
+  // (q, v) => Ȧ_G v (6: linear, then angular about c; world axes); returns c (m, world).
+  Eigen::Vector3d ComputeCentroidalMomentumBias(FloatingData& data, ConstVecRef q, ConstVecRef v,
+                                                Eigen::Ref<Eigen::Matrix<double, 6, 1>> Adv) const;
 
  private:
   void CheckSizes(const FloatingData& data, ConstVecRef q) const;
@@ -125,6 +149,10 @@ class FloatingDynamics {
   void Velocities(FloatingData& data, ConstVecRef v, bool products) const;
   void CompositeInertias(FloatingData& data) const;
   int parent(int body) const { return parent_[static_cast<std::size_t>(body)]; }
+  // Body b's joint: its entry of v (and tau), q through its mimic map, qd and qdd.
+  int Vi(int b) const { return kFreeFlyerNv + dof_[b]; }
+  double JointQ(ConstVecRef q, int b) const { return q[kFreeFlyerNq + dof_[b]] * scale_[b] + offset_[b]; }
+  double JointRate(ConstVecRef x, int b) const { return x[Vi(b)] * scale_[b]; }
   // Body b's joint motion S_b: (axis, 0) revolute, (0, axis) prismatic, body axes.
   spatial::Motion Subspace(int b) const {
     return revolute_[b] ? spatial::Motion{axis_[b], Eigen::Vector3d::Zero()}
@@ -138,6 +166,12 @@ class FloatingDynamics {
   std::vector<Eigen::Vector3d> axis_;      // joint axis, body axes (the base: unused)
   std::vector<spatial::Xform> X0_;         // parent body → joint frame (the fixed placement)
   std::vector<spatial::Inertia> inertia_;  // about the body origin, body axes
+  std::vector<int> dof_;                   // per body: its joint's degree of freedom (the base: unused)
+  std::vector<double> scale_, offset_;     // per body: its joint's mimic map (1, 0 for a degree of freedom)
 };
+
+// x ← A⁻¹ x for a symmetric positive definite A, which is overwritten by its
+// Cholesky factor; written out (Eigen's LLT is compiled in plant/dynamics.cpp alone).
+void CholeskySolveInPlace(MatrixXd& A, VecRef x);
 
 }  // namespace lagrange

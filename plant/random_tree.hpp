@@ -86,6 +86,18 @@ inline RigidTree RandomFloatingTree(const RandomTreeOptions& options, std::mt199
   tree.gravity = kStandardGravity * RandomUnitVector(rng);
   return tree;
 }
+// Every other joint (1, 3, ...) made a mimic of an even one, which stays a
+// degree of freedom: multiplier within ±2, offset within ±0.5.
+inline void AddRandomMimics(RigidTree& tree, std::mt19937& rng) {
+  std::uniform_real_distribution<double> multiplier(-2.0, 2.0), offset(-0.5, 0.5);
+  for (int i = 1; i < tree.num_joints(); i += 2) {
+    std::uniform_int_distribution<int> followed(0, (tree.num_joints() - 1) / 2);
+    tree.joints[i].mimic = 2 * followed(rng);
+    tree.joints[i].multiplier = multiplier(rng);
+    tree.joints[i].offset = offset(rng);
+  }
+}
+
 // `bodies` joints, branching, on a random floating base.
 inline RigidTree RandomFloatingTree(int bodies, std::mt19937& rng) {
   RandomTreeOptions options;

@@ -360,12 +360,6 @@ std::optional<std::string> ValidateFloatingTree(const RigidTree& tree) {
     return Bad("base.inertia", "positive definite (a free body turns about every axis)",
                "smallest principal moment " + Num(l) + " kg·m²");
   }
-  for (int i = 0; i < tree.num_joints(); ++i) {
-    if (tree.joints[i].mimic >= 0) {
-      return Bad(Key("joints", i, "mimic"), "-1 (mimic joints are not yet supported with a floating base)",
-                 std::to_string(tree.joints[i].mimic));
-    }
-  }
   return ValidateJointsBodiesFrames(tree, true);
 }
 

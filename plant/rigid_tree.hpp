@@ -26,7 +26,7 @@
 // lead q and v, in Pinocchio's conventions:
 //   q = (p, x, y, z, w, q_joints)   p (m) the base frame's origin in the world,
 //                                   (x, y, z, w) the unit quaternion of its axes
-//                                   in the world                  nq = num_q() = n + 7
+//                                   in the world                  nq = num_q() = n + 7 (n = num_dofs())
 //   v = (v_b, ω_b, qd_joints)       the velocity of the base origin (m/s) and the
 //                                   base's angular velocity (rad/s), both in base
 //                                   axes                            nv = num_v() = n + 6
@@ -176,8 +176,8 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
 
 // The same for a floating-base tree (floating_base true): 0..kMaxDofs joints,
-// the checks above on them (M(0) of the joints with the base held), no mimic
-// joints (not yet with a floating base), and a base body of positive mass and
+// the checks above on them (M(0) of the joints with the base held; mimic
+// joints as above: FloatingDynamics reduces them), and a base body of positive mass and
 // positive definite inertia (so M(q) is positive definite at every q).
 std::optional<std::string> ValidateFloatingTree(const RigidTree& tree);
 

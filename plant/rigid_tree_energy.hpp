@@ -166,6 +166,18 @@ S JointVelocity(const RigidTree& tree, int i, std::span<const S> qd) {
   return tree.joints[i].mimic < 0 ? own : own * m.scale;
 }
 
+// ½ m |v_c|² + ½ ω_bᵀ I ω_b of one body moving with b (world velocities).
+template <class S>
+S BodyKineticEnergy(const RigidBody& body, const Motion<S>& b) {
+  // Centre of mass velocity and the body-axis angular velocity.
+  const Vec3<S> vc = b.v + Cross(b.w, Mul(b.X.R, body.com));
+  const Vec3<S> wb = MulTransposed(b.X.R, b.w);
+  const Eigen::Matrix3d& I = body.inertia;
+  const Vec3<S> Iw{wb.x * I(0, 0) + wb.y * I(0, 1) + wb.z * I(0, 2), wb.x * I(1, 0) + wb.y * I(1, 1) + wb.z * I(1, 2),
+                   wb.x * I(2, 0) + wb.y * I(2, 1) + wb.z * I(2, 2)};
+  return 0.5 * (body.mass * Dot(vc, vc) + Dot(wb, Iw));
+}
+
 template <class S>
 S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::span<const S> q,
                     std::span<const S> qd) {
@@ -180,13 +192,7 @@ S KineticEnergyFrom(const RigidTree& tree, int i, const Motion<S>& parent, std::
   } else {
     b.v = b.v + axis * JointVelocity(tree, i, qd);
   }
-  // Centre of mass velocity and the body-axis angular velocity.
-  const Vec3<S> vc = b.v + Cross(b.w, Mul(b.X.R, body.com));
-  const Vec3<S> wb = MulTransposed(b.X.R, b.w);
-  const Eigen::Matrix3d& I = body.inertia;
-  const Vec3<S> Iw{wb.x * I(0, 0) + wb.y * I(0, 1) + wb.z * I(0, 2), wb.x * I(1, 0) + wb.y * I(1, 1) + wb.z * I(1, 2),
-                   wb.x * I(2, 0) + wb.y * I(2, 1) + wb.z * I(2, 2)};
-  S T = 0.5 * (body.mass * Dot(vc, vc) + Dot(wb, Iw));
+  S T = BodyKineticEnergy(body, b);
   for (int c = i + 1; c < tree.num_joints(); ++c) {
     if (tree.joints[c].parent == i) T += KineticEnergyFrom(tree, c, b, q, qd);
   }
@@ -201,6 +207,39 @@ S PotentialEnergyFrom(const RigidTree& tree, int i, const Placement<S>& parent, 
   S V = -(body.mass * (pc.x * tree.gravity.x() + pc.y * tree.gravity.y() + pc.z * tree.gravity.z()));
   for (int c = i + 1; c < tree.num_joints(); ++c) {
     if (tree.joints[c].parent == i) V += PotentialEnergyFrom(tree, c, b, q);
+  }
+  return V;
+}
+
+// A floating tree (floating_base true): the base body at `base` in the world
+// moving with the body twist (vb, wb) (base axes; its origin's velocity and
+// its angular velocity), q and qd the joints' degrees of freedom. T is
+// left-invariant (the same for every base pose): the Euler–Poincaré path
+// (plant/floating_lagrangian.hpp) evaluates it at the identity.
+template <class S>
+S FloatingKineticEnergy(const RigidTree& tree, const Placement<S>& base, const Vec3<S>& vb, const Vec3<S>& wb,
+                        std::span<const S> q, std::span<const S> qd) {
+  const Mat3<S>& R = base.R;
+  auto world = [&R](const Vec3<S>& x) {
+    return Vec3<S>{R.m[0][0] * x.x + R.m[0][1] * x.y + R.m[0][2] * x.z,
+                   R.m[1][0] * x.x + R.m[1][1] * x.y + R.m[1][2] * x.z,
+                   R.m[2][0] * x.x + R.m[2][1] * x.y + R.m[2][2] * x.z};
+  };
+  const Motion<S> b{base, world(wb), world(vb)};
+  S T = BodyKineticEnergy(tree.base, b);
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    if (tree.joints[i].parent < 0) T += KineticEnergyFrom(tree, i, b, q, qd);
+  }
+  return T;
+}
+
+// −g · (first moment) of a floating tree with its base at `base`.
+template <class S>
+S FloatingPotentialEnergy(const RigidTree& tree, const Placement<S>& base, std::span<const S> q) {
+  const Vec3<S> pc = base.o + Mul(base.R, tree.base.com);
+  S V = -(tree.base.mass * (pc.x * tree.gravity.x() + pc.y * tree.gravity.y() + pc.z * tree.gravity.z()));
+  for (int i = 0; i < tree.num_joints(); ++i) {
+    if (tree.joints[i].parent < 0) V += PotentialEnergyFrom(tree, i, base, q);
   }
   return V;
 }

@@ -3,6 +3,7 @@
 // builds them (tools/eval.cpp), so the numbers are the library's, bit for bit.
 //
 // Model and data apart: the Model holds the immutable Dynamics and Kinematics
+// (a floating base's: one FloatingDynamics, q of nq and velocities of nv)
 // and one data object of each for single states, used under the GIL. A batch
 // (N, n) runs with the GIL released, over `threads` threads, each with data
 // objects of its own made for that call, so other Python threads may use the
@@ -23,6 +24,8 @@
 #include <vector>
 
 #include "base/escape.hpp"
+#include "plant/floating_dynamics.hpp"
+#include "plant/free_flyer.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -55,10 +58,21 @@ struct Worker {
         matrix(dynamics_model.num_dofs(), dynamics_model.num_dofs()) {
     for (auto& s : scratch) s.resize(static_cast<std::size_t>(dynamics_model.num_dofs()));
   }
+  // A floating base's: q of nq, the rest nv.
+  explicit Worker(const FloatingDynamics& model)
+      : floating(model.MakeData()),
+        matrix(model.num_v(), model.num_v()),
+        jacobian(6, model.num_v()),
+        zero(VectorXd::Zero(model.num_v())) {
+    for (auto& s : scratch) s.resize(static_cast<std::size_t>(model.num_q()));
+  }
   std::unique_ptr<DynamicsData> dynamics;
   std::unique_ptr<KinematicsData> kinematics;
+  std::unique_ptr<FloatingData> floating;      // a floating base's, in place of the two above
   std::array<std::vector<double>, 3> scratch;  // rows of strided arguments (q, qd, third)
   MatrixXd matrix;                             // M or C before it is laid out row-major
+  MatrixXd jacobian;                           // (6 x nv) a floating base's frame Jacobian
+  VectorXd zero;                               // (nv) zero velocity and acceleration, for G of a floating base
 };
 
 using VecMap = Eigen::Map<const VectorXd>;
@@ -84,39 +98,94 @@ class Model {
         joint_names_(JointNamesOf(spec)),
         own_(*dynamics_, *kinematics_),
         source_(std::move(source)) {}
+  // A URDF robot on a floating base (FloatingDynamics; q of nq = nv + 1, v of nv).
+  Model(RigidTree tree, py::tuple source)
+      : type_(PlantType::kUrdf),
+        method_(Method::kRecursive),
+        floating_(std::make_shared<const FloatingDynamics>(std::move(tree))),
+        joint_names_(DofNames(floating_->tree())),
+        frame_names_(floating_->tree().frame_names()),
+        own_(*floating_),
+        source_(std::move(source)) {}
 
   // `urdf`: URDF text (a str whose first character other than white space is
   // '<', as an XML document's is) or a file's path (anything else).
   static std::unique_ptr<Model> FromUrdf(const py::object& urdf, const py::object& gravity, const std::string& method,
-                                         double mass_scale);
+                                         double mass_scale, bool floating_base);
   static std::unique_ptr<Model> Builtin(const std::string& name, const py::object& method, const py::kwargs& params);
+  static std::unique_ptr<Model> FloatingFromUrdfText(const std::string& text, const std::string& name,
+                                                     const py::object& gravity, const std::string& method,
+                                                     double mass_scale);
+  // (gx, gy, gz) in m/s², or ValueError.
+  static std::vector<double> GravityArg(const py::object& gravity) {
+    std::vector<double> g;
+    try {
+      g = py::cast<std::vector<double>>(gravity);
+    } catch (const py::cast_error&) {
+      throw py::value_error("gravity: expected (gx, gy, gz), 3 numbers in m/s²");
+    }
+    if (g.size() != 3) {
+      throw py::value_error("gravity: expected (gx, gy, gz) (3 numbers, m/s²), got " + std::to_string(g.size()));
+    }
+    return g;
+  }
   // The robot in URDF `text`, named `name` in messages (its file, or "<urdf text>").
   static std::unique_ptr<Model> FromUrdfText(const std::string& text, const std::string& name,
-                                             const py::object& gravity, const std::string& method, double mass_scale);
+                                             const py::object& gravity, const std::string& method, double mass_scale,
+                                             bool floating_base);
 
-  // pickle: (kPickleVersion, "urdf", text, name, gravity, method, mass_scale) or
+  // pickle: (kPickleVersion, "urdf", text, name, gravity, method, mass_scale, floating_base) or
   // (kPickleVersion, "builtin", name, method or None, {parameter: value}): the
   // URDF's text, not its path, so a process without the file unpickles it.
   py::tuple GetState() const { return source_; }
   static std::unique_ptr<Model> SetState(const py::tuple& state);
   static constexpr int kPickleVersion = 1;
 
-  int num_dofs() const { return dynamics_->num_dofs(); }
+  int num_dofs() const { return floating_ ? floating_->num_dofs() : dynamics_->num_dofs(); }
+  // nq and nv: n for a fixed base; n + 7 and n + 6 for a floating one.
+  int num_positions() const { return floating_ ? floating_->num_q() : num_dofs(); }
+  int num_velocities() const { return floating_ ? floating_->num_v() : num_dofs(); }
+  bool floating_base() const { return floating_ != nullptr; }
+  const FloatingDynamics* floating() const { return floating_.get(); }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
-  const std::vector<std::string>& frame_names() const { return kinematics_->frame_names(); }
+  const std::vector<std::string>& frame_names() const { return floating_ ? frame_names_ : kinematics_->frame_names(); }
   std::string method() const { return std::string(ToString(method_)); }
   std::string plant() const { return std::string(ToString(type_)); }
   PlantType type() const { return type_; }
-  const Dynamics& dynamics() const { return *dynamics_; }
-  const std::shared_ptr<const Dynamics>& shared_dynamics() const { return dynamics_; }
+  const Dynamics& dynamics() const { return *shared_dynamics(); }
+  const std::shared_ptr<const Dynamics>& shared_dynamics() const {
+    if (floating_) {
+      throw py::value_error("model: a floating-base Model (floating_base=True) is not taken here yet (derivatives, "
+                            "simulate and optimize_trajectory take a fixed base)");
+    }
+    return dynamics_;
+  }
   const Kinematics& kinematics() const { return *kinematics_; }
 
   // The frame called `name`, or ValueError in eval --frame's words.
   int Frame(const std::string& name) const {
-    const std::optional<int> k = kinematics_->FrameIndex(name);
+    std::optional<int> k;
+    if (floating_) {
+      const auto it = std::find(frame_names_.begin(), frame_names_.end(), name);
+      if (it != frame_names_.end()) k = static_cast<int>(it - frame_names_.begin());
+    } else {
+      k = kinematics_->FrameIndex(name);
+    }
     if (!k) throw py::value_error("frame: no frame '" + Escape(name, 64) + "' in this plant (frame_names lists them)");
     return *k;
   }
+
+  // Per-argument checks: q has nq entries, a velocity-like argument nv (both n for a fixed base).
+  JointArray PositionArg(const char* name, const py::handle& value) const {
+    return floating_ ? JointArray(name, value, num_positions(), "nq = nv + 1: p, quaternion x y z w, then the joints")
+                     : JointArray(name, value, num_dofs());
+  }
+  JointArray VelocityArg(const char* name, const py::handle& value) const {
+    return floating_ ? JointArray(name, value, num_velocities(), "nv: v_b, ω_b in base axes, then the joints")
+                     : JointArray(name, value, num_dofs());
+  }
+  // A fresh worker for this model (a batch's thread).
+  Worker MakeWorker() const { return floating_ ? Worker(*floating_) : Worker(*dynamics_, *kinematics_); }
 
   // Evaluates `kernel` at one state or over a batch: `args` are the per-joint
   // arguments, `shapes` each output's shape for one state ({} a number).
@@ -133,9 +202,19 @@ class Model {
  private:
   PlantType type_;
   Method method_;
-  std::shared_ptr<const Dynamics> dynamics_;
-  std::shared_ptr<const Kinematics> kinematics_;
+  static std::vector<std::string> DofNames(const RigidTree& tree) {
+    std::vector<std::string> names;
+    for (const TreeJoint& j : tree.joints) {
+      if (j.mimic < 0) names.push_back(j.name);
+    }
+    return names;
+  }
+
+  std::shared_ptr<const Dynamics> dynamics_;        // null for a floating base
+  std::shared_ptr<const Kinematics> kinematics_;    // null for a floating base
+  std::shared_ptr<const FloatingDynamics> floating_;  // a floating base's, else null
   std::vector<std::string> joint_names_;
+  std::vector<std::string> frame_names_;  // a floating base's
   Worker own_;        // single states, under the GIL
   py::tuple source_;  // GetState's
 };
@@ -194,7 +273,7 @@ PlantSpec UrdfSpec(const std::string& text, const std::string& name) {
 }
 
 std::unique_ptr<Model> Model::FromUrdf(const py::object& urdf, const py::object& gravity, const std::string& method,
-                                       double mass_scale) {
+                                       double mass_scale, bool floating_base) {
   std::string text, name;
   if (IsUrdfText(urdf)) {
     text = py::cast<std::string>(urdf);
@@ -220,21 +299,14 @@ std::unique_ptr<Model> Model::FromUrdf(const py::object& urdf, const py::object&
       Raise(PyExc_FileNotFoundError, e.what());
     }
   }
-  return FromUrdfText(text, name, gravity, method, mass_scale);
+  return FromUrdfText(text, name, gravity, method, mass_scale, floating_base);
 }
 
 std::unique_ptr<Model> Model::FromUrdfText(const std::string& text, const std::string& name, const py::object& gravity,
-                                           const std::string& method, double mass_scale) {
+                                           const std::string& method, double mass_scale, bool floating_base) {
+  if (floating_base) return FloatingFromUrdfText(text, name, gravity, method, mass_scale);
   PlantSpec spec = UrdfSpec(text, name);
-  std::vector<double> g;
-  try {
-    g = py::cast<std::vector<double>>(gravity);
-  } catch (const py::cast_error&) {
-    throw py::value_error("gravity: expected (gx, gy, gz), 3 numbers in m/s²");
-  }
-  if (g.size() != 3) {
-    throw py::value_error("gravity: expected (gx, gy, gz) (3 numbers, m/s²), got " + std::to_string(g.size()));
-  }
+  const std::vector<double> g = GravityArg(gravity);
   std::string g_text;
   for (double x : g) {
     if (!g_text.empty()) g_text += ',';
@@ -247,8 +319,34 @@ std::unique_ptr<Model> Model::FromUrdfText(const std::string& text, const std::s
   if (auto e = ValidatePlantSpec(spec)) throw py::value_error(Escape(e->message, 400));
   const Method chosen = ChooseMethod(PlantType::kUrdf, py::str(method));
   py::tuple source = py::make_tuple(kPickleVersion, "urdf", py::bytes(text), py::bytes(name), py::tuple(py::cast(g)),
-                                    std::string(ToString(chosen)), mass_scale);
+                                    std::string(ToString(chosen)), mass_scale, false);
   return std::make_unique<Model>(spec, chosen, std::move(source));
+}
+
+std::unique_ptr<Model> Model::FloatingFromUrdfText(const std::string& text, const std::string& name,
+                                                   const py::object& gravity, const std::string& method,
+                                                   double mass_scale) {
+  const std::vector<double> g = GravityArg(gravity);
+  if (method != ToString(Method::kRecursive)) {
+    throw py::value_error("method: a floating base has the recursive path alone here, got '" + Escape(method, 64) +
+                          "' (the Euler–Poincaré Lagrangian path is in C++, plant/floating_lagrangian.hpp)");
+  }
+  if (mass_scale != 1.0) throw py::value_error("mass_scale: not with floating_base=True yet (the file's masses)");
+  RigidTree tree;
+  try {
+    tree = ParseUrdf(text, name, UrdfOptions{.floating_base = true}).tree;
+  } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
+    Raise(PyExc_ValueError, e.what());
+  }
+  tree.gravity = Eigen::Vector3d(g[0], g[1], g[2]);
+  if (!tree.gravity.allFinite()) throw py::value_error("gravity: expected finite numbers (m/s²)");
+  py::tuple source = py::make_tuple(kPickleVersion, "urdf", py::bytes(text), py::bytes(name), py::tuple(py::cast(g)),
+                                    method, mass_scale, true);
+  try {
+    return std::make_unique<Model>(std::move(tree), std::move(source));
+  } catch (const std::invalid_argument& e) {
+    Raise(PyExc_ValueError, name + ": " + Escape(e.what(), 400));
+  }
 }
 
 // A parameter's value as the text SetPlantParam reads: a string as it is, a
@@ -316,10 +414,11 @@ std::unique_ptr<Model> Model::SetState(const py::tuple& state) {
   const auto bad = [] { return py::value_error("Model.__setstate__: not a pickled lagrange.Model"); };
   if (state.size() < 2 || !py::isinstance<py::int_>(state[0]) || py::cast<int>(state[0]) != kPickleVersion) throw bad();
   const std::string kind = py::str(state[1]);
-  if (kind == "urdf" && state.size() == 7) {
+  if (kind == "urdf" && (state.size() == 7 || state.size() == 8)) {
     // The text as the file held it, parsed as from_urdf parsed it, under the same name.
     return FromUrdfText(py::cast<std::string>(state[2]), py::cast<std::string>(state[3]), state[4],
-                        py::cast<std::string>(state[5]), py::cast<double>(state[6]));
+                        py::cast<std::string>(state[5]), py::cast<double>(state[6]),
+                        state.size() == 8 && py::cast<bool>(state[7]));
   }
   if (kind == "builtin" && state.size() == 5) {
     return Builtin(py::cast<std::string>(state[2]), state[3], py::kwargs(py::dict(state[4])));
@@ -377,7 +476,7 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
     if (run(own_, 0, 1) != 1) throw std::runtime_error(std::string(what) + " not finite at this state");
   } else {
     const py::ssize_t first = RunBatch(rows, threads, [&](py::ssize_t begin, py::ssize_t end) {
-      Worker worker(*dynamics_, *kinematics_);
+      Worker worker = MakeWorker();
       return run(worker, begin, end);
     });
     if (first < rows) throw std::runtime_error(std::string(what) + " not finite at state " + std::to_string(first));
@@ -400,6 +499,7 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
 // batched call of the same arguments evaluates). What a call from Python costs beyond it (bench/python_bench.py).
 double Model::TimeForwardDynamics(const py::handle& q_arg, const py::handle& qd_arg, const py::handle& tau_arg,
                                   long iterations) {
+  if (floating_) throw py::value_error("model: _time_forward_dynamics takes a fixed base");
   const int n = num_dofs();
   const JointArray aq("q", q_arg, n), aqd("qd", qd_arg, n), atau("tau", tau_arg, n);
   const py::ssize_t rows = BatchRows({&aq, &aqd, &atau});
@@ -460,13 +560,33 @@ gravity:    (gx, gy, gz), m/s², in the root link's (world) frame
 method:     "recursive" (RNEA, ABA, CRBA; the default) or "lagrangian"
             (automatic differentiation of T and V), for cross-checks
 mass_scale: every link's mass and inertia × this (> 0)
+floating_base: the root link is a free base (Pinocchio's buildModel(urdf,
+            JointModelFreeFlyer())): q = (p, qx, qy, qz, qw, joints) of nq = n + 7,
+            qd = (v_b, ω_b in base axes, joint rates) of nv = n + 6; every
+            call takes q of nq and velocity-like arguments of nv (the README's
+            "Floating base"); recursive method only, mass_scale 1
 
 Raises FileNotFoundError when the file does not exist, ValueError when it is
 not a robot lagrange reads (one line: "FILE: ELEMENT: reason", FILE
 "<urdf text>" for text), TypeError for an argument that is neither.
 )";
 
-constexpr const char* kInitDoc = R"(Model(urdf, *, gravity=(0, 0, -9.81), method="recursive", mass_scale=1.0):
+constexpr const char* kIntegrateDoc = R"((q, v, dt) => q ⊕ dt v, on the configuration manifold (Pinocchio's integrate):
+a floating base moves by SE(3)'s exponential of its body twist dt (v_b, ω_b), the
+joints by q + dt qd; a fixed base's q + dt v.
+
+q        (nq,) | (N, nq)
+v        (nv,) | (N, nv)
+dt       float, s
+returns  (nq,) | (N, nq))";
+
+constexpr const char* kDifferenceDoc = R"((q0, q1) => v with integrate(q0, v, 1) = q1 (Pinocchio's difference): the
+base by SE(3)'s logarithm (the shorter rotation), the joints q1 − q0.
+
+q0, q1   (nq,) | (N, nq)
+returns  (nv,) | (N, nv))";
+
+constexpr const char* kInitDoc = R"(Model(urdf, *, gravity=(0, 0, -9.81), method="recursive", mass_scale=1.0, floating_base=False):
 a robot from a URDF file (or its text), as Model.from_urdf (and pinocchio.buildModelFromUrdf).
 
 A built-in planar plant: Model.builtin(name, ...).
@@ -582,11 +702,19 @@ void BindModel(py::module_& m) {
   const std::vector<double> standard_gravity = {0.0, 0.0, -kStandardGravity};
   model
       .def(py::init(&Model::FromUrdf), kInitDoc, py::arg("urdf"), py::kw_only(),
-           py::arg("gravity") = standard_gravity, py::arg("method") = "recursive", py::arg("mass_scale") = 1.0)
+           py::arg("gravity") = standard_gravity, py::arg("method") = "recursive", py::arg("mass_scale") = 1.0,
+           py::arg("floating_base") = false)
       .def_static("from_urdf", &Model::FromUrdf, kFromUrdfDoc, py::arg("urdf"), py::arg("gravity") = standard_gravity,
-                  py::arg("method") = "recursive", py::arg("mass_scale") = 1.0)
+                  py::arg("method") = "recursive", py::arg("mass_scale") = 1.0, py::arg("floating_base") = false)
       .def_static("builtin", &Model::Builtin, kBuiltinDoc, py::arg("name"), py::arg("method") = py::none())
-      .def_property_readonly("num_dofs", &Model::num_dofs, "n: the degrees of freedom, q's length.")
+      .def_property_readonly("num_dofs", &Model::num_dofs,
+                             "n: the joints' degrees of freedom (q's length for a fixed base).")
+      .def_property_readonly("num_positions", &Model::num_positions,
+                             "nq: q's length; n for a fixed base, n + 7 for a floating one (p, quaternion x y z w).")
+      .def_property_readonly("num_velocities", &Model::num_velocities,
+                             "nv: the length of qd, qdd, tau; n for a fixed base, n + 6 for a floating one (v_b, ω_b).")
+      .def_property_readonly("floating_base", &Model::floating_base,
+                             "Whether the robot's root link is a free base (from_urdf(..., floating_base=True)).")
       .def_property_readonly("joint_names", &Model::joint_names,
                              "The joints' names in q order (list of n str): a URDF's own; pendulum theta, arm2 q1 q2, "
                              "cartpole x theta, chain q1..qn.")
@@ -597,8 +725,8 @@ void BindModel(py::module_& m) {
       .def_property_readonly("plant", &Model::plant, "The plant type: pendulum, arm2, cartpole, chain or urdf.")
       .def("__repr__",
            [](const Model& self) {
-             return "<lagrange.Model " + self.plant() + ", " + std::to_string(self.num_dofs()) + " dofs, method " +
-                    self.method() + ">";
+             return "<lagrange.Model " + self.plant() + (self.floating_base() ? " on a floating base" : "") + ", " +
+                    std::to_string(self.num_dofs()) + " dofs, method " + self.method() + ">";
            })
       // What built it (a URDF's text, or a built-in plant's parameters), so pickle, copy and multiprocessing take it.
       .def(py::pickle([](const Model& self) { return self.GetState(); },
@@ -611,11 +739,16 @@ void BindModel(py::module_& m) {
   model.def(
       "mass_matrix",
       [](Model& self, ArrayArg q, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n);
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{
-            self.Evaluate<1, 1>({&aq}, {Matrix(n, n)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
-              self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], n), w.matrix);
+            self.Evaluate<1, 1>({&aq}, {Matrix(nv, nv)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
+              if (fb) {
+                fb->ComputeMassMatrix(*w.floating, VecMap(r[0], nq), w.matrix);
+              } else {
+                self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], nq), w.matrix);
+              }
               CopyRowMajor(w.matrix, out[0]);
               return w.matrix.allFinite();
             })};
@@ -624,6 +757,10 @@ void BindModel(py::module_& m) {
   model.def(
       "coriolis_matrix",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        if (self.floating_base()) {
+          throw py::value_error("coriolis_matrix: a floating base has no C matrix here (C v: inverse_dynamics at "
+                                "qdd = 0 less gravity)");
+        }
         const int n = self.num_dofs();
         const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
         return ArrayResult{
@@ -637,12 +774,18 @@ void BindModel(py::module_& m) {
   model.def(
       "gravity",
       [](Model& self, ArrayArg q, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n);
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{
-            self.Evaluate<1, 1>({&aq}, {Vector(n)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
-              Eigen::Map<VectorXd> G(out[0], n);
-              self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], n), G);
+            self.Evaluate<1, 1>({&aq}, {Vector(nv)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
+              Eigen::Map<VectorXd> G(out[0], nv);
+              if (fb) {  // the generalized force that holds it still: ID at v = a = 0, gravity alone
+                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), w.zero, w.zero,
+                                           {.gravity = true, .coriolis = false}, G);
+              } else {
+                self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], nq), G);
+              }
               return G.allFinite();
             })};
       },
@@ -650,13 +793,20 @@ void BindModel(py::module_& m) {
   model.def(
       "forward_dynamics",
       [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), atau("tau", tau.value, n);
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
+                         atau = self.VelocityArg("tau", tau.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{self.Evaluate<3, 1>(
-            {&aq, &aqd, &atau}, {Vector(n)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
-              Eigen::Map<VectorXd> qdd(out[0], n);
-              self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
-                                                     DynamicsTerms{}, qdd);
+            {&aq, &aqd, &atau}, {Vector(nv)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> qdd(out[0], nv);
+              if (fb) {
+                fb->ComputeForwardDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
+                                           DynamicsTerms{}, qdd);
+              } else {
+                self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
+                                                       VecMap(r[2], nv), DynamicsTerms{}, qdd);
+              }
               return qdd.allFinite();
             })};
       },
@@ -665,13 +815,20 @@ void BindModel(py::module_& m) {
   model.def(
       "inverse_dynamics",
       [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n), aqdd("qdd", qdd.value, n);
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
+                         aqdd = self.VelocityArg("qdd", qdd.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{self.Evaluate<3, 1>(
-            {&aq, &aqd, &aqdd}, {Vector(n)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
-              Eigen::Map<VectorXd> tau(out[0], n);
-              self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n), VecMap(r[2], n),
-                                                     DynamicsTerms{}, tau);
+            {&aq, &aqd, &aqdd}, {Vector(nv)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
+              Eigen::Map<VectorXd> tau(out[0], nv);
+              if (fb) {
+                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
+                                           DynamicsTerms{}, tau);
+              } else {
+                self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
+                                                       VecMap(r[2], nv), DynamicsTerms{}, tau);
+              }
               return tau.allFinite();
             })};
       },
@@ -680,11 +837,13 @@ void BindModel(py::module_& m) {
   model.def(
       "kinetic_energy",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value);
+        const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
-              *out[0] = self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], n), VecMap(r[1], n));
+              *out[0] = fb ? fb->ComputeKineticEnergy(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv))
+                           : self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv));
               return std::isfinite(*out[0]);
             })};
       },
@@ -692,11 +851,13 @@ void BindModel(py::module_& m) {
   model.def(
       "potential_energy",
       [](Model& self, ArrayArg q, int threads) {
-        const int n = self.num_dofs();
-        const JointArray aq("q", q.value, n);
+        const int nq = self.num_positions();
+        const JointArray aq = self.PositionArg("q", q.value);
+        const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
-              *out[0] = self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], n));
+              *out[0] = fb ? fb->ComputePotentialEnergy(*w.floating, VecMap(r[0], nq))
+                           : self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], nq));
               return std::isfinite(*out[0]);
             })};
       },
@@ -705,14 +866,19 @@ void BindModel(py::module_& m) {
   model.def(
       "frame_pose",
       [](Model& self, const std::string& frame, ArrayArg q, int threads) {
-        const int n = self.num_dofs();
+        const int nq = self.num_positions();
         const int k = self.Frame(frame);
-        const JointArray aq("q", q.value, n);
+        const JointArray aq = self.PositionArg("q", q.value);
+        const FloatingDynamics* fb = self.floating();
         return PoseResult{self.Evaluate<1, 2>(
             {&aq}, {Matrix(3, 3), Vector(3)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
-              self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], n), k);
-              const Eigen::Matrix3d& R = w.kinematics->rotation(k);
-              const Eigen::Vector3d& p = w.kinematics->position(k);
+              if (fb) {
+                fb->ComputeFramePlacements(*w.floating, VecMap(r[0], nq));
+              } else {
+                self.kinematics().ComputeFramePlacement(*w.kinematics, VecMap(r[0], nq), k);
+              }
+              const Eigen::Matrix3d& R = fb ? w.floating->frame_rotation(k) : w.kinematics->rotation(k);
+              const Eigen::Vector3d& p = fb ? w.floating->frame_position(k) : w.kinematics->position(k);
               CopyRowMajor(R, out[0]);
               Eigen::Map<Eigen::Vector3d> p_out(out[1]);
               p_out = p;
@@ -723,13 +889,24 @@ void BindModel(py::module_& m) {
   model.def(
       "frame_jacobian",
       [](Model& self, const std::string& frame, ArrayArg q, const std::string& reference, int threads) {
-        const int n = self.num_dofs();
+        const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
-        const JointArray aq("q", q.value, n);
+        const JointArray aq = self.PositionArg("q", q.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{self.Evaluate<1, 1>(
-            {&aq}, {Matrix(6, n)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
-              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], n), k, axes);
+            {&aq}, {Matrix(6, nv)}, threads, "the frame is", [&](Worker& w, const Row1& r, auto& out) {
+              if (fb) {  // world-aligned; local: blockdiag(Rᵀ, Rᵀ) J
+                fb->ComputeFrameJacobian(*w.floating, VecMap(r[0], nq), k, w.jacobian);
+                if (axes == FrameAxes::kLocal) {
+                  const Eigen::Matrix3d Rt = w.floating->frame_rotation(k).transpose();
+                  w.jacobian.topRows<3>() = Rt * w.jacobian.topRows<3>();
+                  w.jacobian.bottomRows<3>() = Rt * w.jacobian.bottomRows<3>();
+                }
+                CopyRowMajor(w.jacobian, out[0]);
+                return w.jacobian.allFinite();
+              }
+              self.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(r[0], nq), k, axes);
               const Matrix6Xd& J = w.kinematics->jacobian(k, axes);
               CopyRowMajor(J, out[0]);
               return J.allFinite();
@@ -740,22 +917,70 @@ void BindModel(py::module_& m) {
   model.def(
       "frame_bias_acceleration",
       [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, const std::string& reference, int threads) {
-        const int n = self.num_dofs();
+        const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
-        const JointArray aq("q", q.value, n), aqd("qd", qd.value, n);
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value);
+        const FloatingDynamics* fb = self.floating();
         return ArrayResult{self.Evaluate<2, 1>(
             {&aq, &aqd}, {Vector(6)}, threads, "the frame is", [&](Worker& w, const Row2& r, auto& out) {
-              self.kinematics().ComputeFrameBiasAcceleration(*w.kinematics, VecMap(r[0], n), VecMap(r[1], n), k,
+              Eigen::Map<Vector6d> b_out(out[0]);
+              if (fb) {
+                fb->ComputeFrameAccelerationBias(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), k, b_out);
+                if (axes == FrameAxes::kLocal) {
+                  const Eigen::Matrix3d Rt = w.floating->frame_rotation(k).transpose();
+                  b_out.head<3>() = Rt * b_out.head<3>();
+                  b_out.tail<3>() = Rt * b_out.tail<3>();
+                }
+                return b_out.allFinite();
+              }
+              self.kinematics().ComputeFrameBiasAcceleration(*w.kinematics, VecMap(r[0], nq), VecMap(r[1], nv), k,
                                                              axes);
               const Vector6d& b = w.kinematics->bias_acceleration(k, axes);
-              Eigen::Map<Vector6d> b_out(out[0]);
               b_out = b;
               return b.allFinite();
             })};
       },
       BatchDoc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+  model.def(
+      "integrate",
+      [](Model& self, ArrayArg q, ArrayArg v, double dt, int threads) {
+        if (!std::isfinite(dt)) throw py::value_error("dt: expected a finite number (s)");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), av = self.VelocityArg("v", v.value);
+        const bool fb = self.floating_base();
+        return ArrayResult{
+            self.Evaluate<2, 1>({&aq, &av}, {Vector(nq)}, threads, "q is", [&](Worker&, const Row2& r, auto& out) {
+              Eigen::Map<VectorXd> next(out[0], nq);
+              if (fb) {
+                Integrate(VecMap(r[0], nq), VecMap(r[1], nv), dt, next);
+              } else {
+                next = VecMap(r[0], nq) + dt * VecMap(r[1], nv);
+              }
+              return next.allFinite();
+            })};
+      },
+      BatchDoc(kIntegrateDoc).c_str(), py::arg("q"), py::arg("v"), py::arg("dt"), py::kw_only(),
+      py::arg("threads") = 1);
+  model.def(
+      "difference",
+      [](Model& self, ArrayArg q0, ArrayArg q1, int threads) {
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray a0 = self.PositionArg("q0", q0.value), a1 = self.PositionArg("q1", q1.value);
+        const bool fb = self.floating_base();
+        return ArrayResult{
+            self.Evaluate<2, 1>({&a0, &a1}, {Vector(nv)}, threads, "v is", [&](Worker&, const Row2& r, auto& out) {
+              Eigen::Map<VectorXd> v(out[0], nv);
+              if (fb) {
+                Difference(VecMap(r[0], nq), VecMap(r[1], nq), v);
+              } else {
+                v = VecMap(r[1], nq) - VecMap(r[0], nq);
+              }
+              return v.allFinite();
+            })};
+      },
+      BatchDoc(kDifferenceDoc).c_str(), py::arg("q0"), py::arg("q1"), py::kw_only(), py::arg("threads") = 1);
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
             "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "

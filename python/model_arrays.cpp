@@ -23,7 +23,7 @@ bool IsNativeFloat64(PyObject* object) {
   return descr->type_num == py::detail::npy_api::NPY_DOUBLE_ && descr->byteorder != '>';
 }
 
-JointArray::JointArray(const char* name, py::handle value, int n) : name_(name), n_(n) {
+JointArray::JointArray(const char* name, py::handle value, int n, const char* per) : name_(name), n_(n) {
   // (messages only: nothing is formatted on the good path)
   const auto shapes = [n] { return "(" + std::to_string(n) + ",) or (N, " + std::to_string(n) + ")"; };
   // np.asarray(None, float) is a 0-d nan: say what it was instead.
@@ -50,7 +50,7 @@ JointArray::JointArray(const char* name, py::handle value, int n) : name_(name),
   if (a->nd == 0 && n == 1) {  // a pendulum's angle as a plain number
   } else if (a->nd == 1) {
     if (a->dimensions[0] != n) {
-      throw py::value_error(std::string(name) + ": expected " + Values(n) + " (one per joint), got " +
+      throw py::value_error(std::string(name) + ": expected " + Values(n) + " (" + per + "), got " +
                             std::to_string(a->dimensions[0]));
     }
     col_stride_ = a->strides[0];

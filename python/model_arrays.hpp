@@ -27,8 +27,9 @@ class JointArray {
  public:
   // Checks `value` as argument `name` of a plant with n degrees of freedom:
   // a number array of shape (n,) or (N, n), every element finite. Throws
-  // pybind11::value_error with one line: "q: expected 2 values (one per joint), got 3".
-  JointArray(const char* name, pybind11::handle value, int n);
+  // pybind11::value_error with one line: "q: expected 2 values (one per joint), got 3";
+  // `per` replaces "one per joint" (a floating base's q: "nq: p, quaternion x y z w, joints").
+  JointArray(const char* name, pybind11::handle value, int n, const char* per = "one per joint");
 
   const char* name() const { return name_; }
   bool batched() const { return rows_ >= 0; }

@@ -12,6 +12,10 @@ python_version: str
 # n = num_dofs. A per-joint argument is one state (n,) or a batch (N, n)
 # (any layout, any real dtype, lists too); a batch's results gain a leading
 # axis N and are computed without the GIL over `threads` threads.
+# A floating base (from_urdf(..., floating_base=True)): q is (nq,) | (N, nq)
+# with nq = num_positions = n + 7 (p, quaternion x y z w, joints), and qd,
+# qdd, tau (and every result's n) are nv = num_velocities = n + 6 (v_b, ω_b
+# in base axes, joint rates); the README's "Floating base".
 
 _ArrayLike = npt.ArrayLike
 _Array = npt.NDArray[np.float64]
@@ -27,7 +31,7 @@ class Model:
     Picklable (copy, multiprocessing): it pickles as what built it (a URDF's text, or a built-in plant's parameters)."""
 
     def __init__(self, urdf: _Urdf, *, gravity: Sequence[float] = (0.0, 0.0, -9.81), method: _Method = "recursive",
-                 mass_scale: float = 1.0) -> None:
+                 mass_scale: float = 1.0, floating_base: bool = False) -> None:
         """A robot from a URDF file or its text, as Model.from_urdf (pinocchio.buildModelFromUrdf)."""
     @staticmethod
     def from_urdf(
@@ -35,6 +39,7 @@ class Model:
         gravity: Sequence[float] = (0.0, 0.0, -9.81),
         method: _Method = "recursive",
         mass_scale: float = 1.0,
+        floating_base: bool = False,
     ) -> Model:
         """A robot from a URDF file, or its text (a str beginning with '<'); gravity (gx, gy, gz) m/s² in the root
         link's frame.
@@ -50,7 +55,16 @@ class Model:
         ...
     @property
     def num_dofs(self) -> int:
-        """n: the degrees of freedom, q's length."""
+        """n: the joints' degrees of freedom (q's length for a fixed base)."""
+    @property
+    def num_positions(self) -> int:
+        """nq: q's length (n; n + 7 on a floating base)."""
+    @property
+    def num_velocities(self) -> int:
+        """nv: the length of qd, qdd, tau (n; n + 6 on a floating base)."""
+    @property
+    def floating_base(self) -> bool:
+        """Whether the root link is a free base."""
     @property
     def joint_names(self) -> list[str]:
         """The joints' names in q order (n)."""
@@ -87,6 +101,10 @@ class Model:
     def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
                                 reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
         """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
+    def integrate(self, q: _ArrayLike, v: _ArrayLike, dt: float, *, threads: int = 1) -> _Array:
+        """(q, v, dt) => q ⊕ dt v (nq,) | (N, nq): on SE(3) for a floating base (Pinocchio's integrate)."""
+    def difference(self, q0: _ArrayLike, q1: _ArrayLike, *, threads: int = 1) -> _Array:
+        """(q0, q1) => v (nv,) | (N, nv) with integrate(q0, v, 1) = q1 (Pinocchio's difference)."""
     def forward_dynamics_derivatives(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *,
                                      threads: int = 1) -> tuple[_Array, _Array, _Array]:
         """(q, qd, tau) => (∂qdd/∂q, ∂qdd/∂qd, ∂qdd/∂tau = M⁻¹), each (n, n) | (N, n, n): exact, [i, j] = ∂qdd_i/∂x_j."""

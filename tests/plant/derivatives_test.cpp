@@ -140,15 +140,7 @@ RigidTree RandomTree(int k, std::mt19937& rng) {
   options.bodies = 2 + k % 7;
   options.chain = k % 2 == 0;
   RigidTree tree = RandomRigidTree(options, rng);
-  if (k % 4 >= 2) {
-    std::uniform_real_distribution<double> multiplier(-2.0, 2.0), offset(-0.5, 0.5);
-    for (int i = 1; i < tree.num_joints(); i += 2) {
-      std::uniform_int_distribution<int> followed(0, (tree.num_joints() - 1) / 2);
-      tree.joints[i].mimic = 2 * followed(rng);
-      tree.joints[i].multiplier = multiplier(rng);
-      tree.joints[i].offset = offset(rng);
-    }
-  }
+  if (k % 4 >= 2) AddRandomMimics(tree, rng);
   return tree;
 }
 

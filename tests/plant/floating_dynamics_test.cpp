@@ -213,7 +213,9 @@ TEST(FloatingTree, FloatingDynamicsRefusesWhatItCannotModel) {
   EXPECT_NE(ValidateFloatingTree(flat).value_or("").find("base.inertia"), std::string::npos);
   RigidTree mimic = RandomFloatingTree(options, rng);
   mimic.joints[2].mimic = 0;
-  EXPECT_NE(ValidateFloatingTree(mimic).value_or("").find("mimic"), std::string::npos);
+  EXPECT_FALSE(ValidateFloatingTree(mimic).has_value());  // mimics compose with the free-flyer
+  mimic.joints[2].mimic = 2;                              // but a joint cannot follow itself
+  EXPECT_NE(ValidateFloatingTree(mimic).value_or("").find("joints[2].mimic"), std::string::npos);
   RigidTree lone;
   lone.floating_base = true;
   lone.base = RandomRigidBody(rng);
@@ -447,6 +449,75 @@ TEST(FloatingKinematics, CentroidalMomentumMatrixGivesTheMomentumAboutTheCentreO
     const Eigen::Vector3d rate =
         (model.ComputeCenterOfMass(*data, plus, unused) - model.ComputeCenterOfMass(*data, minus, unused)) / (2.0 * kEps);
     EXPECT_LT(RelativeDifference(rate, Jc * s.v), kFiniteDifferenceTol) << "tree " << k;
+  }
+}
+
+// ---- J̇v and Ȧ_G v ----
+
+constexpr double kDriftStep = 1e-4;     // s: the central difference's step along q(t) = q ⊕ t v
+constexpr double kDriftTol = 1e-6;      // relative (the difference's error is O(step²))
+
+TEST(FloatingKinematics, FrameDriftIsTheRateOfTheJacobianAlongTheMotion) {
+  // J̇_k v = d/dt (J_k(q(t)) v) with v held and q(t) = q ⊕ t v on the manifold.
+  std::mt19937 rng{42};
+  for (int k = 0; k < 12; ++k) {
+    const FloatingDynamics model(TreeWithFrames(k, rng));
+    auto data = model.MakeData();
+    const State s = RandomState(model.tree(), rng);
+    VectorXd plus(model.num_q()), minus(model.num_q());
+    Integrate(s.q, s.v, kDriftStep, plus);
+    Integrate(s.q, s.v, -kDriftStep, minus);
+    MatrixXd Jp(6, model.num_v()), Jm(6, model.num_v());
+    for (int f = 0; f < static_cast<int>(model.tree().frames.size()); ++f) {
+      model.ComputeFrameJacobian(*data, plus, f, Jp);
+      model.ComputeFrameJacobian(*data, minus, f, Jm);
+      Vector6d drift;
+      model.ComputeFrameAccelerationBias(*data, s.q, s.v, f, drift);
+      EXPECT_LT(RelativeDifference(drift, (Jp - Jm) * s.v / (2.0 * kDriftStep)), kDriftTol)
+          << "tree " << k << " frame " << f;
+    }
+  }
+}
+
+TEST(FloatingKinematics, CentroidalDriftIsTheRateOfTheCentroidalMatrixAlongTheMotion) {
+  std::mt19937 rng{42};
+  for (int k = 0; k < kTrees; ++k) {
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
+    const int nv = model.num_v();
+    VectorXd plus(model.num_q()), minus(model.num_q());
+    Integrate(s.q, s.v, kDriftStep, plus);
+    Integrate(s.q, s.v, -kDriftStep, minus);
+    MatrixXd Ap(6, nv), Am(6, nv);
+    model.ComputeCentroidalMomentumMatrix(*data, plus, Ap);
+    model.ComputeCentroidalMomentumMatrix(*data, minus, Am);
+    Vector6d drift;
+    model.ComputeCentroidalMomentumBias(*data, s.q, s.v, drift);
+    EXPECT_LT(RelativeDifference(drift, (Ap - Am) * s.v / (2.0 * kDriftStep)), kDriftTol) << "tree " << k;
+  }
+}
+
+TEST(FloatingKinematics, CentroidalMomentumChangesOnlyByGravityWhateverTheJointsDo) {
+  // ḣ_G = A_G a + Ȧ_G v with a = FD(q, v, tau): joint torques are internal, so
+  // with no base wrench ḣ_G = (m g, 0) (zero without gravity).
+  std::mt19937 rng{42};
+  for (int k = 0; k < kTrees; ++k) {
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
+    const int nv = model.num_v();
+    VectorXd tau = RandomVector(nv, -3.0, 3.0, rng), a(nv);
+    tau.head<6>().setZero();
+    double mass = model.tree().base.mass;
+    for (const RigidBody& b : model.tree().bodies) mass += b.mass;
+    for (const bool gravity : {false, true}) {
+      model.ComputeForwardDynamics(*data, s.q, s.v, tau, {.gravity = gravity, .coriolis = true}, a);
+      MatrixXd A(6, nv);
+      Vector6d drift, expected = Vector6d::Zero();
+      model.ComputeCentroidalMomentumMatrix(*data, s.q, A);
+      model.ComputeCentroidalMomentumBias(*data, s.q, s.v, drift);
+      if (gravity) expected.head<3>() = mass * model.tree().gravity;
+      // Scaled by the terms' size: ḣ_G is a difference of large numbers.
+      const double scale = 1.0 + (A * a).norm() + drift.norm();
+      EXPECT_LT((A * a + drift - expected).norm() / scale, kAgreeTol * 10.0) << "tree " << k << " gravity " << gravity;
+    }
   }
 }
 

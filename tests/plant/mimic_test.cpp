@@ -126,13 +126,7 @@ RigidTree RandomTreeWithMimics(int k, std::mt19937& rng) {
   options.bodies = 3 + k % 8;
   options.chain = k % 2 == 0;
   RigidTree tree = RandomRigidTree(options, rng);
-  std::uniform_real_distribution<double> multiplier(-2.0, 2.0), offset(-0.5, 0.5);
-  for (int i = 1; i < tree.num_joints(); i += 2) {  // every other joint, each following an even one
-    std::uniform_int_distribution<int> followed(0, (tree.num_joints() - 1) / 2);
-    tree.joints[i].mimic = 2 * followed(rng);
-    tree.joints[i].multiplier = multiplier(rng);
-    tree.joints[i].offset = offset(rng);
-  }
+  AddRandomMimics(tree, rng);  // every other joint, each following an even one
   return tree;
 }
 

@@ -345,7 +345,8 @@ def test_every_invalid_urdf_fixture_raises_a_value_error_with_evals_message():
 
 # --- documentation ---------------------------------------------------------
 
-PUBLIC = ["from_urdf", "builtin", "num_dofs", "joint_names", "frame_names", "method", "plant", "mass_matrix",
+PUBLIC = ["from_urdf", "builtin", "num_dofs", "num_positions", "num_velocities", "floating_base", "joint_names",
+          "frame_names", "method", "plant", "mass_matrix", "integrate", "difference",
           "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
           "frame_pose", "frame_jacobian", "frame_bias_acceleration",
           "forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"]  # derivatives.cpp
