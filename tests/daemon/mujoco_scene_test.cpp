@@ -251,11 +251,12 @@ TEST(MujocoScene, AnOversizedMjcfOrAnIncludedFifoIsRefusedBeforeTheLoopWithOneLi
   std::remove(fifo.c_str());
 }
 
-TEST(MujocoScene, RefusesAFreeJoint) {
+// A free joint is a free body, no joint of lagrange's model: a free body alone is no robot.
+TEST(MujocoScene, RefusesAFreeBodyAlone) {
   const std::string path = WriteTemp("free_scene.xml", R"(<mujoco><worldbody><body name="b"><freejoint name="float"/>
       <geom size="0.1"/></body></worldbody></mujoco>)");
   const std::string e = SceneError(PandaScene("{type: mujoco, file: " + path + ", model: " + kLagrangePlant + "}"));
-  EXPECT_NE(e.find("joint 'float' is a free joint"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected at least one hinge or slide joint, got none"), std::string::npos) << e;
 }
 
 TEST(MujocoScene, RefusesAnMjcfWithoutLagrangesModel) {

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant/mujoco_free_joint.hpp"
 #include "plant/mujoco_plant.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -148,12 +150,28 @@ std::string LoadError(const std::string& path) {
   return "";
 }
 
-TEST(MujocoPlant, RefusesAFreeJointWithOneLine) {
+// A free joint is a free body lagrange does not model unless it is asked
+// for as the floating base: alone, it leaves no degree of freedom.
+TEST(MujocoPlant, AFreeBodyAloneIsNoRobotAndAFloatingBaseIsAskedFor) {
   const std::string path = WriteTemp("free.xml", R"(<mujoco><worldbody><body name="b"><freejoint name="float"/>
       <geom size="0.1"/></body></worldbody></mujoco>)");
   const std::string e = LoadError(path);
-  EXPECT_NE(e.find("joint 'float' is a free joint: expected hinge or slide joints only"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected at least one hinge or slide joint, got none"), std::string::npos) << e;
   EXPECT_EQ(e.find('\n'), std::string::npos);
+  MujocoOptions o;
+  o.floating_base = true;
+  const auto model = LoadMujocoPlant(path, o);
+  EXPECT_TRUE(model->floating_base());
+  EXPECT_EQ(model->num_positions(), 7);
+  EXPECT_EQ(model->num_dofs(), 6);
+  const std::string pendulum = WriteTemp("pendulum_alone.xml", R"(<mujoco><worldbody><body name="b">
+      <joint name="theta" axis="0 1 0"/><geom size="0.1" pos="0 0 -1"/></body></worldbody></mujoco>)");
+  try {
+    LoadMujocoPlant(pendulum, o);
+    ADD_FAILURE() << "a floating base without a free joint loaded";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("expected a free joint for lagrange's floating base"), std::string::npos);
+  }
 }
 
 TEST(MujocoPlant, RefusesABallJointWithOneLine) {
@@ -805,6 +823,122 @@ TEST(MujocoPlant, ADivergingSimulationFailsTheStepWithMujocosWarning) {
   ASSERT_NE(why, nullptr);
   EXPECT_NE(std::string(why).find("mjWARN_BAD"), std::string::npos) << why;
   EXPECT_EQ(q[0], 0.0);  // outputs untouched
+}
+
+// ---- Free joints: MuJoCo's conventions beside lagrange's (plant/mujoco_free_joint.hpp) ----
+
+// A conversion and its inverse, relative to the vector's norm: the round-off
+// of turning by R and back (Rᵀ (R x) = x to 1.2e-15 relative at worst over
+// these 100 states, with Eigen's quaternion-to-matrix, without any conversion of ours).
+constexpr double kExact = 2e-15;
+
+// A unit quaternion (x, y, z, w), seeded.
+Eigen::Vector4d RandomQuaternion(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Vector4d x(n(rng), n(rng), n(rng), n(rng));
+  return x.normalized();
+}
+
+TEST(MujocoFreeJoint, TheConversionsRoundTripBothWaysExactly) {
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  double worst = 0.0;
+  for (int trial = 0; trial < 100; ++trial) {
+    Eigen::Matrix<double, 7, 1> q, qpos, q_back, qpos_back;
+    Eigen::Matrix<double, 6, 1> v, qvel, v_back, qvel_back, a, qacc, a_back, f, qfrc, f_back;
+    q << u(rng), u(rng), u(rng), RandomQuaternion(rng);
+    for (int k = 0; k < 6; ++k) v[k] = u(rng), a[k] = u(rng), f[k] = u(rng);
+    // lagrange => MuJoCo => lagrange
+    FreeJointToMujoco(q.data(), v.data(), qpos.data(), qvel.data());
+    FreeJointFromMujoco(qpos.data(), qvel.data(), q_back.data(), v_back.data());
+    FreeJointAccelerationToMujoco(q.data(), v.data(), a.data(), qacc.data());
+    FreeJointAccelerationFromMujoco(q.data(), v.data(), qacc.data(), a_back.data());
+    FreeJointForceToMujoco(q.data(), f.data(), qfrc.data());
+    FreeJointForceFromMujoco(q.data(), qfrc.data(), f_back.data());
+    EXPECT_EQ(q_back, q);  // positions: a permutation, bit for bit
+    EXPECT_DOUBLE_EQ(qpos[3], q[6]);  // w first in MuJoCo, last in lagrange
+    const auto rel = [](const auto& x, const auto& y) { return (x - y).norm() / y.norm(); };
+    worst = std::max({worst, rel(v_back, v), rel(a_back, a), rel(f_back, f)});
+    // MuJoCo => lagrange => MuJoCo
+    FreeJointFromMujoco(qpos.data(), qvel.data(), q_back.data(), v_back.data());
+    FreeJointToMujoco(q_back.data(), v_back.data(), qpos_back.data(), qvel_back.data());
+    EXPECT_EQ(qpos_back, qpos);
+    worst = std::max(worst, rel(qvel_back, qvel));
+    // power is the same on both sides: qvelᵀ qfrc = vᵀ f
+    worst = std::max(worst, std::abs(qvel.dot(qfrc) - v.dot(f)) / (v.norm() * f.norm()));
+  }
+  EXPECT_LT(worst, kExact);
+  std::printf("free joint conversions, 100 random states: worst relative round trip %.2g\n", worst);
+}
+
+// The physical fact behind the velocity's conversion: a point r of the body
+// (a site) moves at R (v_b + ω_b × r) and the body turns at R ω_b, by
+// MuJoCo's own mj_objectVelocity at the qvel the plant sets for lagrange's v.
+constexpr char kFreeBodyWithASite[] = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="box" pos="0 0 1"><freejoint name="root"/>
+      <geom type="box" size="0.1 0.2 0.3" mass="2" contype="0" conaffinity="0"/>
+      <site name="corner" pos="0.1 -0.2 0.3"/></body>
+    <body name="pole"><joint name="theta" axis="0 1 0"/><geom size="0.05" pos="0 0 -1" mass="1"/></body>
+  </worldbody></mujoco>)";
+
+TEST(MujocoFreeJoint, APointOfTheBaseMovesAsLagrangesVelocitySaysByMujocosObjectVelocity) {
+  MujocoOptions o;
+  o.floating_base = true;
+  const auto model = LoadMujocoPlant(WriteTemp("free_site.xml", kFreeBodyWithASite), o);
+  ASSERT_EQ(model->num_positions(), 8);
+  ASSERT_EQ(model->num_dofs(), 7);
+  const mjModel* m = model->mj_model();
+  auto plant = model->MakeData();
+  mjData* d = mj_makeData(m);
+  const int site = mj_name2id(m, mjOBJ_SITE, "corner");
+  const Eigen::Vector3d r(0.1, -0.2, 0.3);
+  std::mt19937 rng{7};
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  double worst = 0.0;
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(8), v(7);
+    q << u(rng), u(rng), u(rng), RandomQuaternion(rng), u(rng);
+    for (int k = 0; k < 7; ++k) v[k] = u(rng);
+    plant->SetState(q, v);
+    const std::optional<MujocoFreeBody> body = MujocoFreeJointState(*plant, "root");  // read back from MuJoCo
+    ASSERT_TRUE(body);
+    worst = std::max({worst, (body->q - q.head<7>()).cwiseAbs().maxCoeff(), (body->v - v.head<6>()).cwiseAbs().maxCoeff()});
+    FreeJointToMujoco(q.data(), v.data(), d->qpos, d->qvel);  // the free joint is MuJoCo's first: qpos 0..6, qvel 0..5
+    d->qpos[7] = q[7];
+    d->qvel[6] = v[6];
+    mj_forward(m, d);
+    mjtNum res[6];  // (angular, linear) in the world at the site
+    mj_objectVelocity(m, d, mjOBJ_SITE, site, res, 0);
+    const Eigen::Matrix3d R = FreeJointRotation(q.data());
+    const Eigen::Vector3d vb = v.head<3>(), wb = v.segment<3>(3);
+    worst = std::max({worst, (Eigen::Map<Eigen::Vector3d>(res + 3) - R * (vb + wb.cross(r))).cwiseAbs().maxCoeff(),
+                      (Eigen::Map<Eigen::Vector3d>(res) - R * wb).cwiseAbs().maxCoeff()});
+  }
+  mj_deleteData(d);
+  EXPECT_LT(worst, 1e-14);
+  std::printf("a point of the free body: |MuJoCo's velocity - R (v_b + w_b x r)| <= %.2g\n", worst);
+}
+
+// A free box beside the robot is a free body: no entry of q, MuJoCo moves it.
+TEST(MujocoFreeJoint, AFreeBodyIsNoDegreeOfFreedomAndFallsUnderGravity) {
+  const auto model = LoadMujocoPlant(WriteTemp("free_beside.xml", R"(<mujoco><worldbody>
+      <body name="box" pos="0 0 1"><freejoint name="root"/><geom type="box" size="0.1 0.2 0.3" mass="2"/></body>
+      <body name="pole"><joint name="theta" axis="0 1 0"/><geom size="0.05" pos="0 0 -1" mass="1"/></body>
+      </worldbody></mujoco>)"), MujocoOptions{});
+  EXPECT_EQ(model->num_dofs(), 1);
+  EXPECT_EQ(model->num_positions(), 1);
+  EXPECT_EQ(model->joint_names(), std::vector<std::string>{"theta"});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(1), qd = VectorXd::Zero(1), qdd(1), tau = VectorXd::Zero(1);
+  data->SetState(q, qd);
+  for (int k = 0; k < 100; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  const std::optional<MujocoFreeBody> box = MujocoFreeJointState(*data, "root");
+  ASSERT_TRUE(box);
+  const double t = 0.1;  // s: 100 steps of 1 ms, RK4: exact for constant acceleration
+  EXPECT_NEAR(box->q[2], 1.0 - 0.5 * 9.81 * t * t, 1e-12);
+  EXPECT_NEAR(box->v[2], -9.81 * t, 1e-12);  // its axes are the world's: v_b = ṗ
+  EXPECT_NEAR(box->q.segment<4>(3).norm(), 1.0, 1e-15);
+  EXPECT_FALSE(MujocoFreeJointState(*data, "theta"));  // not a free joint
 }
 
 }  // namespace
