@@ -1093,5 +1093,21 @@ TEST(MujocoFloating, MBiasAndForwardDynamicsAgreeWithFloatingDynamicsAfterTheIne
   ExpectFloatingAgreement(CompareFloating(t), "floater");
 }
 
+// The shipped quadruped (config/robots/a1.urdf) and its MJCF twin (a1.xml):
+// 12 joints, the ground 10 m below, so that no foot touches it.
+TEST(MujocoFloating, TheA1AndItsMjcfTwinAgreeWithTheGroundFarAway) {
+  const FloatingTwin t = LoadFloatingTwin(kRobots + "a1.urdf", kRobots + "a1.xml");
+  EXPECT_EQ(t.mujoco->num_positions(), 19);
+  EXPECT_EQ(t.mujoco->num_dofs(), 18);
+  EXPECT_EQ(t.mujoco->joint_names(), t.robot.tree.joint_names());
+  EXPECT_EQ(t.mujoco->info().num_actuators, 12);
+  EXPECT_EQ(t.mujoco->info().num_geoms, 6);  // the ground, the trunk, four feet
+  double mass = t.robot.tree.base.mass;
+  for (const RigidBody& b : t.robot.tree.bodies) mass += b.mass;
+  EXPECT_NEAR(mass, 13.74, 1e-12);  // the file's sum: 6.0 + 4 (0.696 + 1.013 + 0.166 + 0.06) kg
+  EXPECT_NEAR(mj_getTotalmass(t.mujoco->mj_model()), mass, 1e-12);
+  ExpectFloatingAgreement(CompareFloating(t, 10.0), "a1");
+}
+
 }  // namespace
 }  // namespace lagrange
