@@ -596,8 +596,8 @@ std::string List(const std::vector<std::string>& names) {
   return text;
 }
 
-// MuJoCo's first free joint when `floating` (lagrange's floating base: on a
-// child of the world), else −1; refused when there is none.
+// MuJoCo's first free joint when `floating` (lagrange's floating base), else
+// −1; refused when there is none.
 int BaseJoint(const std::string& file, const mjModel* m, bool floating) {
   if (!floating) return -1;
   for (int j = 0; j < m->njnt; ++j) {

@@ -14,7 +14,7 @@
 //     differently by MuJoCo's importer and by lagrange's); MuJoCo's hinge
 //     and slide joints must be exactly those and the mimics;
 //   - a free joint is either lagrange's floating base (`floating_base`: the
-//     model's first free joint, on a child of the world) or a free body
+//     model's first free joint) or a free body
 //     lagrange does not model (every other free joint: a loose box), which
 //     MuJoCo alone moves: no entry of q, its state MuJoCo's (MujocoFreeBody
 //     reads it). With a floating base, q = (p, x, y, z, w, joints) (nq =
