@@ -85,7 +85,10 @@ std::string OneLine(std::string text) {
 
 std::string JointName(const mjModel* m, int j) {
   const char* name = mj_id2name(m, mjOBJ_JOINT, j);
-  return name != nullptr ? std::string(name) : "#" + std::to_string(j);
+  if (name != nullptr) return name;
+  std::string number = "#";  // appended, not "#" + ...: g++ 12 at -O3 warns (-Wrestrict) on that concatenation, wrongly
+  number += std::to_string(j);
+  return number;
 }
 
 // Body `body`'s mass, centre of mass and inertia from lagrange's `b`, the

@@ -1109,5 +1109,24 @@ TEST(MujocoFloating, TheA1AndItsMjcfTwinAgreeWithTheGroundFarAway) {
   ExpectFloatingAgreement(CompareFloating(t, 10.0), "a1");
 }
 
+// The floating base's conversions in SetState, Step and ComputeForces allocate nothing.
+TEST(MujocoFloating, SteppingAndComputingForcesAllocateNothing) {
+  const FloatingTwin t = LoadFloatingTwin(WriteTemp("floater_alloc.urdf", kFloatingUrdf),
+                                          WriteTemp("floater_alloc.xml", kFloatingMjcf));
+  auto data = t.mujoco->MakeData();
+  const int nq = t.mujoco->num_positions(), nv = t.mujoco->num_dofs();
+  VectorXd q = VectorXd::Zero(nq), v = VectorXd::Constant(nv, 0.1), a(nv), tau = VectorXd::Constant(nv, 0.5);
+  q[2] = 1.0;
+  q[6] = 1.0;  // w: the identity
+  EffectForces forces(nv);
+  data->SetState(q, v);
+  testing::AllocationCounter counter;
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(data->Step(tau, q, v, a), nullptr);
+  data->ComputeForces(forces);
+  data->SetState(q, v);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_NEAR(q.segment<4>(3).norm(), 1.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace lagrange
