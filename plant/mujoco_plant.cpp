@@ -21,6 +21,7 @@
 #include <utility>
 
 #include "plant/mujoco_files.hpp"
+#include "plant/mujoco_free_joint.hpp"
 #include "base/number_text.hpp"
 
 // MuJoCo's own precision switch for the MJCF it writes (xml_numeric_format.h,
@@ -84,7 +85,10 @@ std::string OneLine(std::string text) {
 
 std::string JointName(const mjModel* m, int j) {
   const char* name = mj_id2name(m, mjOBJ_JOINT, j);
-  return name != nullptr ? std::string(name) : "#" + std::to_string(j);
+  if (name != nullptr) return name;
+  std::string number = "#";  // appended, not "#" + ...: g++ 12 at -O3 warns (-Wrestrict) on that concatenation, wrongly
+  number += std::to_string(j);
+  return number;
 }
 
 // Body `body`'s mass, centre of mass and inertia from lagrange's `b`, the
@@ -124,7 +128,13 @@ void SetBodyInertia(mjModel* m, int body, const RigidBody& b) {
   }
 }
 
-void SetExactInertias(mjModel* m, const RigidTree& tree, const std::string& file) {
+// `base_joint`: MuJoCo's free joint of a floating tree's base (−1: none); its body takes tree.base's.
+void SetExactInertias(mjModel* m, const RigidTree& tree, int base_joint, const std::string& file) {
+  if (tree.floating_base != (base_joint >= 0)) {
+    Refuse(file, std::string("lagrange's model ") + (tree.floating_base ? "has" : "has no") +
+                     " floating base and the MuJoCo plant " + (base_joint >= 0 ? "has one" : "none"));
+  }
+  if (base_joint >= 0) SetBodyInertia(m, m->jnt_bodyid[base_joint], tree.base);
   for (const TreeJoint& joint : tree.joints) {
     const int j = mj_name2id(m, mjOBJ_JOINT, joint.name.c_str());
     if (j < 0) Refuse(file, "joint '" + joint.name + "' of lagrange's model is not MuJoCo's");
@@ -305,10 +315,11 @@ class MujocoPlantData final : public SteppedPlantData {
         model_(*shared_),
         m_(model_.model_),
         d_(mj_makeData(model_.model_)),
-        qpos_start_(model_.model_->nv),
+        qpos_start_(model_.model_->nq),
         qvel_start_(model_.model_->nv),
         jacp_(3 * static_cast<std::size_t>(model_.model_->nv)),
-        full_(VectorXd::Zero(model_.model_->nv)) {
+        full_(VectorXd::Zero(model_.model_->nv)),
+        turn_(VectorXd::Zero(model_.model_->nv)) {
     if (d_ == nullptr) throw std::runtime_error(model_.file_ + ": MuJoCo could not make its data");
     mj_forward(m_, d_);
   }
@@ -318,14 +329,16 @@ class MujocoPlantData final : public SteppedPlantData {
 
   // A mimic is placed on its leader: q_mimic = multiplier q_leader + offset, qd likewise.
   void SetState(ConstVecRef q, ConstVecRef qd) override {
-    for (int i = 0; i < model_.num_dofs_; ++i) {
-      const int k = model_.dof_[static_cast<std::size_t>(i)];
-      d_->qpos[k] = q[i];
-      d_->qvel[k] = qd[i];
+    if (model_.floating_base()) {
+      FreeJointToMujoco(q.data(), qd.data(), d_->qpos + model_.base_qpos_, d_->qvel + model_.base_qvel_);
+    }
+    for (std::size_t i = 0; i < model_.qpos_.size(); ++i) {
+      d_->qpos[model_.qpos_[i]] = q[model_.q0_ + static_cast<int>(i)];
+      d_->qvel[model_.qvel_[i]] = qd[model_.v0_ + static_cast<int>(i)];
     }
     for (const MujocoPlantModel::Mimic& mimic : model_.mimics_) {
-      d_->qpos[mimic.joint] = mimic.multiplier * q[mimic.leader] + mimic.offset;
-      d_->qvel[mimic.joint] = mimic.multiplier * qd[mimic.leader];
+      d_->qpos[mimic.qpos] = mimic.multiplier * q[mimic.leader] + mimic.offset;
+      d_->qvel[mimic.qvel] = mimic.multiplier * qd[mimic.leader];
     }
     mju_zero(d_->qfrc_applied, m_->nv);
     mju_zero(d_->qacc_warmstart, m_->nv);
@@ -347,17 +360,18 @@ class MujocoPlantData final : public SteppedPlantData {
 
  private:
   const char* StepOnce(ConstVecRef tau, VecRef q, VecRef qd, VecRef qdd) {
-    const int n = model_.num_dofs_;
-    for (int i = 0; i < n; ++i) d_->qfrc_applied[model_.dof_[static_cast<std::size_t>(i)]] = tau[i];  // a mimic's: 0
+    if (model_.floating_base()) {  // the base's wrench, held in the world over the substeps
+      BaseQ();
+      FreeJointForceToMujoco(base_q_.data(), tau.data(), d_->qfrc_applied + model_.base_qvel_);
+    }
+    for (std::size_t i = 0; i < model_.qvel_.size(); ++i)  // a mimic's: 0
+      d_->qfrc_applied[model_.qvel_[i]] = tau[model_.v0_ + static_cast<int>(i)];
     for (mjWarningStat& w : d_->warning) w.number = 0;
     const double h = m_->opt.timestep;
     other_work_ = 0.0;
     double power_before = 0.0;
     for (int k = 0; k < model_.substeps_; ++k) {
-      for (int i = 0; i < m_->nv; ++i) {
-        qpos_start_[i] = d_->qpos[i];
-        qvel_start_[i] = d_->qvel[i];
-      }
+      SaveStart();
       if (model_.integrator_ == MujocoIntegrator::kRk4) {
         // mj_step's own sequence, so the forces of the step's start can be
         // read before mj_RungeKutta's later stages overwrite them.
@@ -376,22 +390,35 @@ class MujocoPlantData final : public SteppedPlantData {
         power_before = power;
       }
     }
-    for (int i = 0; i < m_->nv; ++i) {
-      qpos_start_[i] = d_->qpos[i];
-      qvel_start_[i] = d_->qvel[i];
-    }
+    SaveStart();
     mj_forward(m_, d_);  // q̈ and the energies at the end state, under tau
     other_work_ += 0.5 * h * (power_before + OtherPower());
     for (int w = 0; w < mjNWARNING; ++w) {
       if (d_->warning[w].number > 0) return WarningReason(w);
     }
-    for (int i = 0; i < n; ++i) {
-      const int k = model_.dof_[static_cast<std::size_t>(i)];
-      q[i] = d_->qpos[k];
-      qd[i] = d_->qvel[k];
-      qdd[i] = d_->qacc[k];
+    if (model_.floating_base()) {
+      const int b = model_.base_qvel_;
+      FreeJointFromMujoco(d_->qpos + model_.base_qpos_, d_->qvel + b, q.data(), qd.data());
+      FreeJointAccelerationFromMujoco(q.data(), qd.data(), d_->qacc + b, qdd.data());
+    }
+    for (std::size_t i = 0; i < model_.qpos_.size(); ++i) {
+      const int iq = model_.q0_ + static_cast<int>(i), iv = model_.v0_ + static_cast<int>(i);
+      q[iq] = d_->qpos[model_.qpos_[i]];
+      qd[iv] = d_->qvel[model_.qvel_[i]];
+      qdd[iv] = d_->qacc[model_.qvel_[i]];
     }
     return nullptr;
+  }
+
+  void SaveStart() {
+    for (int i = 0; i < m_->nq; ++i) qpos_start_[i] = d_->qpos[i];
+    for (int i = 0; i < m_->nv; ++i) qvel_start_[i] = d_->qvel[i];
+  }
+
+  // The floating base's q (lagrange's 7) at the current state, into base_q_.
+  void BaseQ() const {
+    std::array<double, 6> unused{};
+    FreeJointFromMujoco(d_->qpos + model_.base_qpos_, d_->qvel + model_.base_qvel_, base_q_.data(), unused.data());
   }
 
  public:
@@ -404,6 +431,7 @@ class MujocoPlantData final : public SteppedPlantData {
   // MuJoCo's M qacc = qfrc_applied + qfrc_passive + qfrc_constraint − qfrc_bias, each term
   // as mj_forward left it at the current state, reduced to the degrees of freedom (Sᵀ).
   void ComputeForces(EffectForces& out) override {
+    if (model_.floating_base()) BaseQ();
     const MujocoPlantModel::Terms& has = model_.terms_;
     out.active.gravity = has.gravity;
     out.active.coriolis = true;
@@ -415,6 +443,16 @@ class MujocoPlantData final : public SteppedPlantData {
     ComputeGravity(full_);
     Reduce(full_, out.gravity);
     for (int i = 0; i < m_->nv; ++i) full_[i] = d_->qfrc_bias[i] - full_[i];
+    if (model_.floating_base()) {  // lagrange's a is v̇: its Coriolis row holds Tᵀ M Ṫ v too (plant/mujoco_free_joint.hpp)
+      BaseQ();
+      const int b = model_.base_qvel_;
+      turn_.setZero();
+      const Eigen::Map<const Eigen::Vector3d> pdot(d_->qvel + b), w(d_->qvel + b + 3);
+      const Eigen::Matrix3d R = FreeJointRotation(base_q_.data());
+      turn_.segment<3>(b) = R * w.cross(R.transpose() * pdot);  // Ṫ v = R (ω_b × v_b)
+      mj_mulM(m_, d_, scratch_.data(), turn_.data());
+      full_ += scratch_;
+    }
     Reduce(full_, out.coriolis);
     Reduce(Eigen::Map<const VectorXd>(d_->qfrc_passive, m_->nv), out.damping);
     ConstraintShare(ConstraintKind::kFrictionLoss, out.friction);
@@ -436,10 +474,12 @@ class MujocoPlantData final : public SteppedPlantData {
   }
 
   // (nv) => (n): Sᵀ f, S the coupling q_full = S q + offset: a mimic's force acts on its leader times its multiplier.
+  // With a floating base, Tᵀ f on its six (plant/mujoco_free_joint.hpp; BaseQ() current).
   void Reduce(const Eigen::Ref<const VectorXd>& full, VecRef out) const {
-    for (int i = 0; i < model_.num_dofs_; ++i) out[i] = full[model_.dof_[static_cast<std::size_t>(i)]];
+    if (model_.floating_base()) FreeJointForceFromMujoco(base_q_.data(), full.data() + model_.base_qvel_, out.data());
+    for (std::size_t i = 0; i < model_.qvel_.size(); ++i) out[model_.v0_ + static_cast<int>(i)] = full[model_.qvel_[i]];
     for (const MujocoPlantModel::Mimic& mimic : model_.mimics_)
-      out[mimic.leader] += mimic.multiplier * full[mimic.joint];
+      out[mimic.leader] += mimic.multiplier * full[mimic.qvel];
   }
 
   // (q) => G (nv) = −Σ_bodies m J_comᵀ g: the gravity part of qfrc_bias.
@@ -505,11 +545,16 @@ class MujocoPlantData final : public SteppedPlantData {
   // with the joint springs taken out (their energy is in V): damping, fluid,
   // friction loss, limits, contacts, equality constraints (a mimic's
   // coupling). The forces are those mj_forward left in the data for that
-  // state. Over every MuJoCo joint, mimics too (hinge and slide: joint = dof).
+  // state. Over every MuJoCo degree of freedom, mimics and free bodies too
+  // (qvel and qfrc are dual: their product is power; the springs of hinge and
+  // slide joints only are taken out: a free joint's stiffness is not expected).
   double OtherPower() const {
     double p = 0.0;
     for (int i = 0; i < m_->nv; ++i) {
-      const double spring = -m_->jnt_stiffness[i] * (qpos_start_[i] - m_->qpos_spring[i]);
+      const int j = m_->dof_jntid[i];
+      const int k = m_->jnt_qposadr[j];
+      const bool simple = m_->jnt_type[j] == mjJNT_HINGE || m_->jnt_type[j] == mjJNT_SLIDE;
+      const double spring = simple ? -m_->jnt_stiffness[j] * (qpos_start_[k] - m_->qpos_spring[k]) : 0.0;
       p += qvel_start_[i] * (d_->qfrc_passive[i] - spring + d_->qfrc_constraint[i]);
     }
     return p;
@@ -519,10 +564,13 @@ class MujocoPlantData final : public SteppedPlantData {
   const MujocoPlantModel& model_;
   const mjModel* m_;
   mjData* d_;
-  VectorXd qpos_start_, qvel_start_;  // (nv) the state a MuJoCo step started from, mimics too
+  VectorXd qpos_start_, qvel_start_;  // (nq, nv) the state a MuJoCo step started from, mimics too
   double other_work_ = 0.0;
   std::vector<mjtNum> jacp_;  // (3 x nv) scratch: a body's centre-of-mass Jacobian
   VectorXd full_;             // (nv) scratch: one term over every MuJoCo joint, mimics too
+  VectorXd turn_;             // (nv) scratch: Ṫ v of a floating base
+  VectorXd scratch_ = VectorXd::Zero(model_.model_->nv);  // (nv) M Ṫ v
+  mutable std::array<double, 7> base_q_{};  // the floating base's q, lagrange's (BaseQ)
   std::array<char, 256> error_{};  // the reason of a Step that MuJoCo ended with an error
 };
 
@@ -551,21 +599,36 @@ std::string List(const std::vector<std::string>& names) {
   return text;
 }
 
-// MuJoCo's joints must be hinge or slide joints, lagrange's degrees of
-// freedom (`dofs`; empty: MuJoCo's joints but the mimics, which it then
-// lists) and its mimics, each once; the index in MuJoCo of each degree of freedom.
+// MuJoCo's first free joint when `floating` (lagrange's floating base), else
+// −1; refused when there is none.
+int BaseJoint(const std::string& file, const mjModel* m, bool floating) {
+  if (!floating) return -1;
+  for (int j = 0; j < m->njnt; ++j) {
+    if (m->jnt_type[j] == mjJNT_FREE) return j;
+  }
+  Refuse(file, "expected a free joint for lagrange's floating base, got none");
+}
+
+// MuJoCo's hinge and slide joints must be lagrange's degrees of freedom
+// (`dofs`; empty: MuJoCo's joints but the mimics, which it then lists) and
+// its mimics, each once; free joints are the floating base or free bodies
+// (mujoco_plant.hpp), ball joints refused; MuJoCo's joint id of each degree of freedom.
 std::vector<int> MatchJoints(const std::string& file, const mjModel* m, std::vector<std::string>& dofs,
-                             const std::vector<MujocoMimic>& mimics) {
+                             const std::vector<MujocoMimic>& mimics, bool floating) {
   std::vector<std::string> names;
+  std::vector<int> ids;
   for (int j = 0; j < m->njnt; ++j) {
     const int type = m->jnt_type[j];
-    if (type == mjJNT_FREE || type == mjJNT_BALL) {
-      Refuse(file, "joint '" + JointName(m, j) + "' is a " + (type == mjJNT_FREE ? "free" : "ball") +
-                       " joint: expected hinge or slide joints only (lagrange's messages are joint-space)");
+    if (type == mjJNT_BALL) {
+      Refuse(file, "joint '" + JointName(m, j) +
+                       "' is a ball joint: expected hinge, slide or free joints only (lagrange's messages are "
+                       "joint-space)");
     }
+    if (type == mjJNT_FREE) continue;
     names.push_back(JointName(m, j));
+    ids.push_back(j);
   }
-  if (m->njnt == 0) Refuse(file, "expected at least one hinge or slide joint, got none");
+  if (names.empty() && !floating) Refuse(file, "expected at least one hinge or slide joint, got none");
   if (dofs.empty()) {
     for (const std::string& name : names) {
       const bool mimic =
@@ -583,7 +646,7 @@ std::vector<int> MatchJoints(const std::string& file, const mjModel* m, std::vec
     same = same && j < names.size() && !used[j];
     if (!same) break;
     used[j] = true;
-    index.push_back(static_cast<int>(j));
+    index.push_back(ids[j]);
   }
   if (!same) {
     std::vector<std::string> mimic_names;
@@ -637,7 +700,8 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   model->model_ = m;  // deleted with the model, whatever is refused below
   model->file_ = file;
   std::vector<std::string> dofs = options.joint_order;
-  model->dof_ = MatchJoints(file, m, dofs, options.mimics);
+  if (options.floating_base && !options.mimics.empty()) Refuse(file, "mimic joints with a floating base: not yet");
+  std::vector<int> joints = MatchJoints(file, m, dofs, options.mimics, options.floating_base);
   const double timestep = options.period / options.substeps;
   const bool couple = !options.mimics.empty() && urdf;
   if (couple) {  // a URDF cannot say it: lagrange adds it
@@ -646,7 +710,7 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
     m = CoupleMimics(file, std::move(files), options.mimics, timestep, error, sizeof error);
     if (m == nullptr) Refuse(file, "MuJoCo: " + OneLine(error[0] != '\0' ? error : "could not load the model"));
     model->model_ = m;
-    model->dof_ = MatchJoints(file, m, dofs, options.mimics);  // the same joints, in MuJoCo's MJCF of the URDF
+    joints = MatchJoints(file, m, dofs, options.mimics, false);  // the same joints, in MuJoCo's MJCF of the URDF
   }
   model->joint_names_ = dofs;
   for (const MujocoMimic& mimic : options.mimics) {
@@ -656,21 +720,35 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
       Refuse(file, "joint '" + mimic.joint + "' mimics '" + mimic.leader + "': expected a degree of freedom");
     }
     const int j = mj_name2id(m, mjOBJ_JOINT, mimic.joint.c_str());
-    model->mimics_.push_back({j, static_cast<int>(leader - dofs.begin()), mimic.multiplier, mimic.offset});
+    model->mimics_.push_back(
+        {m->jnt_qposadr[j], m->jnt_dofadr[j], static_cast<int>(leader - dofs.begin()), mimic.multiplier, mimic.offset});
     if (couple) {  // as lagrange reads a URDF mimic (plant/urdf.hpp): its own <dynamics> and <limit> unused
       m->dof_damping[m->jnt_dofadr[j]] = 0.0;
       m->dof_frictionloss[m->jnt_dofadr[j]] = 0.0;
       m->jnt_limited[j] = 0;
     }
   }
-  for (const int j : model->dof_) {
+  const int base = BaseJoint(file, m, options.floating_base);
+  const double inf = std::numeric_limits<double>::infinity();
+  if (base >= 0) {
+    model->base_qpos_ = m->jnt_qposadr[base];
+    model->base_qvel_ = m->jnt_dofadr[base];
+    model->q0_ = kFreeFlyerNq;
+    model->v0_ = kFreeFlyerNv;
+    model->info_.limited.assign(kFreeFlyerNv, false);
+    model->info_.lower.assign(kFreeFlyerNv, -inf);
+    model->info_.upper.assign(kFreeFlyerNv, inf);
+  }
+  for (const int j : joints) {
+    model->qpos_.push_back(m->jnt_qposadr[j]);
+    model->qvel_.push_back(m->jnt_dofadr[j]);
     const bool limited = m->jnt_limited[j] != 0;
-    const double inf = std::numeric_limits<double>::infinity();
     model->info_.limited.push_back(limited);
     model->info_.lower.push_back(limited ? m->jnt_range[2 * j] : -inf);
     model->info_.upper.push_back(limited ? m->jnt_range[2 * j + 1] : inf);
   }
-  model->num_dofs_ = static_cast<int>(dofs.size());  // MuJoCo's nv less the mimics
+  model->num_dofs_ = static_cast<int>(dofs.size()) + model->v0_;  // MuJoCo's nv less the mimics and free bodies
+  model->num_positions_ = static_cast<int>(dofs.size()) + model->q0_;
   model->substeps_ = options.substeps;
   model->integrator_ = options.integrator;
   m->opt.timestep = timestep;
@@ -684,7 +762,7 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   if (options.gravity) {
     for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*options.gravity)[k];
   }
-  if (options.exact_inertia != nullptr) SetExactInertias(m, *options.exact_inertia, file);
+  if (options.exact_inertia != nullptr) SetExactInertias(m, *options.exact_inertia, base, file);
   model->terms_ = MujocoPlantModel::TermsOf(m);
   model->info_.timestep = m->opt.timestep;
   model->info_.num_geoms = m->ngeom;
@@ -711,6 +789,18 @@ std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, 
     total += c.geom2 == id ? on_geom2 : Eigen::Vector3d(-on_geom2);
   }
   return total;
+}
+
+std::optional<MujocoFreeBody> MujocoFreeJointState(const SteppedPlantData& data, const std::string& joint) {
+  const auto* mujoco = dynamic_cast<const MujocoPlantData*>(&data);
+  if (mujoco == nullptr) return std::nullopt;
+  const mjModel* m = mujoco->m();
+  const int id = mj_name2id(m, mjOBJ_JOINT, joint.c_str());
+  if (id < 0 || m->jnt_type[id] != mjJNT_FREE) return std::nullopt;
+  MujocoFreeBody body;
+  FreeJointFromMujoco(mujoco->d()->qpos + m->jnt_qposadr[id], mujoco->d()->qvel + m->jnt_dofadr[id], body.q.data(),
+                      body.v.data());
+  return body;
 }
 
 std::optional<double> MujocoJointPosition(const SteppedPlantData& data, const std::string& joint) {

@@ -6,13 +6,24 @@
 // discardvisual, strippath forced; joints limited where lower < upper;
 // damping and friction loss from <dynamics>; armature 0; geoms from
 // <collision> only; no actuators). Then, before the model is shared:
-//   - its joints must all be hinge or slide (free and ball joints are
-//     refused: lagrange's messages are joint-space); its degrees of freedom
-//     are its joints but the mimics of lagrange's model (`mimics`), so q =
-//     qpos, qd = qvel of those joints in the model's joint order, or in
-//     `joint_order` (lagrange's model's order, the same joints by name: a
-//     branching URDF may be ordered differently by MuJoCo's importer and by
-//     lagrange's); MuJoCo's joints must be exactly those and the mimics;
+//   - its joints must be hinge, slide or free (ball joints are refused);
+//     its degrees of freedom are its hinge and slide joints but the mimics
+//     of lagrange's model (`mimics`), so q = qpos, qd = qvel of those joints
+//     in the model's joint order, or in `joint_order` (lagrange's model's
+//     order, the same joints by name: a branching URDF may be ordered
+//     differently by MuJoCo's importer and by lagrange's); MuJoCo's hinge
+//     and slide joints must be exactly those and the mimics;
+//   - a free joint is either lagrange's floating base (`floating_base`: the
+//     model's first free joint) or a free body
+//     lagrange does not model (every other free joint: a loose box), which
+//     MuJoCo alone moves: no entry of q, its state MuJoCo's (MujocoFreeBody
+//     reads it). With a floating base, q = (p, x, y, z, w, joints) (nq =
+//     num_positions()) and qd = v = (v_b, ω_b, joint rates) (nv =
+//     num_dofs()), lagrange's conventions (plant/rigid_tree.hpp), converted
+//     from and to MuJoCo's by plant/mujoco_free_joint.hpp; qdd, tau and every
+//     row of ComputeForces are nv, the base's a wrench in base axes (tau's
+//     is turned into MuJoCo's world-frame force at the tick's start and held
+//     over its substeps); no mimics yet;
 //   - a mimic joint (q_mimic = multiplier · q_leader + offset) is coupled by
 //     MuJoCo's joint equality constraint, <equality><joint joint1="MIMIC"
 //     joint2="LEADER" polycoef="a0 multiplier 0 0 0"/>, a0 = offset when
@@ -60,7 +71,7 @@
 // Errors. A file MuJoCo refuses, a refused joint, joints that are not
 // lagrange's model's, a mimic the MJCF does not couple, throw
 // std::invalid_argument with one line: "FILE: MuJoCo: <its message>",
-// "FILE: joint 'j' is a ball joint: expected hinge or slide joints only ...".
+// "FILE: joint 'j' is a ball joint: expected hinge, slide or free joints only ...".
 
 #include <Eigen/Core>
 #include <memory>
@@ -98,6 +109,8 @@ struct MujocoOptions {
   // Lagrange's model's mimic joints (MimicsOf its tree): no degrees of
   // freedom; each must be MuJoCo's joint, coupled to its leader as above.
   std::vector<MujocoMimic> mimics;
+  // The model's first free joint is lagrange's floating base (above): q nq, qd nv.
+  bool floating_base = false;
 };
 
 // The equality lagrange adds to a URDF with mimics: the stiffest MuJoCo
@@ -111,14 +124,18 @@ struct MujocoModelInfo {
   double timestep = 0.0;  // s
   int num_geoms = 0;
   int num_actuators = 0;  // in the file; not used
-  std::vector<bool> limited;             // per degree of freedom, in q order: MuJoCo enforces its range
+  // per degree of freedom, in qd order (a floating base's six first, never limited): MuJoCo enforces its range
+  std::vector<bool> limited;
   std::vector<double> lower, upper;      // its range, rad or m; ∓inf where not limited
 };
 
 class MujocoPlantModel final : public SteppedPlantModel, public std::enable_shared_from_this<MujocoPlantModel> {
  public:
   ~MujocoPlantModel() override;
-  int num_dofs() const override { return num_dofs_; }
+  int num_dofs() const override { return num_dofs_; }  // nv: qd's size (q's too but with a floating base)
+  int num_positions() const { return num_positions_; }  // nq: q's size, num_dofs() + 1 with a floating base
+  bool floating_base() const { return base_qpos_ >= 0; }
+  // The joints of q in order (a floating base's not among them).
   const std::vector<std::string>& joint_names() const override { return joint_names_; }
   // Data that keeps this model alive (it must be held by a shared_ptr: LoadMujocoPlant's is).
   std::unique_ptr<SteppedPlantData> MakeData() const override;
@@ -131,13 +148,15 @@ class MujocoPlantModel final : public SteppedPlantModel, public std::enable_shar
   MujocoPlantModel() = default;
   ::mjModel_* model_ = nullptr;
   std::string file_;
-  int num_dofs_ = 0;
+  int num_dofs_ = 0, num_positions_ = 0;
   int substeps_ = 1;
   MujocoIntegrator integrator_ = MujocoIntegrator::kRk4;
   std::vector<std::string> joint_names_;
-  std::vector<int> dof_;  // (n) MuJoCo's qpos / qvel index of q[i]
+  int base_qpos_ = -1, base_qvel_ = -1;  // MuJoCo's qpos / qvel index of the floating base's free joint; −1: none
+  int q0_ = 0, v0_ = 0;                  // where the joints start in q and in qd: 7 and 6 with a floating base
+  std::vector<int> qpos_, qvel_;         // (joints) MuJoCo's qpos / qvel index of each joint of q
   struct Mimic {
-    int joint = 0;   // MuJoCo's qpos / qvel index of the mimic
+    int qpos = 0, qvel = 0;  // MuJoCo's qpos / qvel index of the mimic
     int leader = 0;  // the index into q of the joint it follows
     double multiplier = 1.0, offset = 0.0;
   };
@@ -165,6 +184,16 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
 // normal and friction). Zero when it touches nothing; nullopt when `data` is
 // not a MuJoCo plant's or the model has no such geom.
 std::optional<Eigen::Vector3d> MujocoContactForce(const SteppedPlantData& data, const std::string& geom);
+
+// A free body's state, MuJoCo's free joint `joint` (by name) at `data`'s
+// current state, in lagrange's conventions (plant/mujoco_free_joint.hpp):
+// q = (p, x, y, z, w), v = (v_b, ω_b) in body axes; nullopt when `data` is
+// not a MuJoCo plant's or the model has no such free joint.
+struct MujocoFreeBody {
+  Eigen::Matrix<double, 7, 1> q;
+  Eigen::Matrix<double, 6, 1> v;
+};
+std::optional<MujocoFreeBody> MujocoFreeJointState(const SteppedPlantData& data, const std::string& joint);
 
 // MuJoCo's position of joint `joint` (by name, any joint, mimics too) at
 // `data`'s current state, rad or m; nullopt when `data` is not a MuJoCo

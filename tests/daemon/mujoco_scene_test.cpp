@@ -251,11 +251,12 @@ TEST(MujocoScene, AnOversizedMjcfOrAnIncludedFifoIsRefusedBeforeTheLoopWithOneLi
   std::remove(fifo.c_str());
 }
 
-TEST(MujocoScene, RefusesAFreeJoint) {
+// A free joint is a free body, no joint of lagrange's model: a free body alone is no robot.
+TEST(MujocoScene, RefusesAFreeBodyAlone) {
   const std::string path = WriteTemp("free_scene.xml", R"(<mujoco><worldbody><body name="b"><freejoint name="float"/>
       <geom size="0.1"/></body></worldbody></mujoco>)");
   const std::string e = SceneError(PandaScene("{type: mujoco, file: " + path + ", model: " + kLagrangePlant + "}"));
-  EXPECT_NE(e.find("joint 'float' is a free joint"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected at least one hinge or slide joint, got none"), std::string::npos) << e;
 }
 
 TEST(MujocoScene, RefusesAnMjcfWithoutLagrangesModel) {
@@ -460,7 +461,46 @@ TEST(MujocoScene, PandaWithItsHandPressingOnTheTableTheContactForceIsStiffnessTi
               (net - M * inst.qdd()).cwiseAbs().maxCoeff(), scale, forces.contacts_total, listed);
   EXPECT_LT((net - M * inst.qdd()).cwiseAbs().maxCoeff(), 1e-8 * scale);
   EXPECT_EQ(forces.num_contacts, forces.contacts_total);  // all listed (box on box: several per pad)
-  EXPECT_NEAR(listed, f.z(), 1e-9 * K * commanded);       // the pads' contacts, every one
+  // the pads' contacts, every one, and the loose box's on the table, which bear its weight (at rest beside the hand)
+  const double box_weight = 0.2 * 9.81;  // N: panda_hand_table.xml's box
+  EXPECT_NEAR(listed, f.z() + box_weight, 1e-6 * K * commanded);
+}
+
+// config/panda_hand_mujoco_table.yaml's instance `pusher`: the loose box (a
+// free body only MuJoCo moves) starts at rest on the table; the hand's move
+// forward pushes it along +x; it ends at rest further on, still flat on the
+// table (its centre half its height above the top), its quaternion unit.
+TEST(MujocoScene, TheHandPushesTheLooseBoxAlongTheTable) {
+  const Scene s = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/panda_hand_mujoco_table.yaml");
+  ASSERT_EQ(s.instances.size(), 2u);
+  ASSERT_EQ(s.instances[1].name, "pusher");
+  Instance inst(s.instances[1]);
+  const double half_height = 0.025, half_length = 0.04, top = 0.3, table_end = 0.7;  // m, the scene's
+  const std::optional<MujocoFreeBody> start = MujocoFreeJointState(*inst.stepped_plant(), "box");
+  ASSERT_TRUE(start);
+  EXPECT_NEAR(start->q.z(), top + half_height, 1e-12);  // resting on the table
+  EXPECT_LT(start->v.norm(), 1e-12);                      // at rest
+  double lowest = start->q.z(), worst_norm = 0.0;
+  for (int k = 0; k < 5000; ++k) {
+    ASSERT_EQ(inst.Step(s.period), nullptr) << "tick " << k;
+    const std::optional<MujocoFreeBody> box = MujocoFreeJointState(*inst.stepped_plant(), "box");
+    lowest = std::min(lowest, box->q.z());
+    worst_norm = std::max(worst_norm, std::abs(box->q.segment<4>(3).norm() - 1.0));
+  }
+  const MujocoFreeBody end = *MujocoFreeJointState(*inst.stepped_plant(), "box");
+  const double pushed = end.q.x() - start->q.x();
+  std::printf("loose box: pushed %.4g m along x (%.3g m along y), height %.6g m (lowest %.6g), |v| %.2g, "
+              "tilt %.2g rad, max | |quat| - 1 | %.2g\n",
+              pushed, end.q.y() - start->q.y(), end.q.z(), lowest, end.v.norm(),
+              2.0 * std::asin(std::min(1.0, end.q.segment<2>(3).norm())), worst_norm);
+  EXPECT_GT(pushed, 0.02);                                 // forward, by the fingers
+  EXPECT_LT(std::abs(end.q.y() - start->q.y()), 0.25 * pushed);  // mostly straight ahead
+  EXPECT_LT(end.q.x() + half_length, table_end);           // still on the table
+  EXPECT_NEAR(end.q.z(), top + half_height, 1e-3);         // flat on it: not tipped, not sunk
+  EXPECT_GT(lowest, top + half_height - 1e-3);             // never sank or tipped on the way
+  EXPECT_LT(end.q.segment<2>(3).norm(), 0.05);             // tilted less than 0.1 rad (the quaternion's x, y)
+  EXPECT_LT(worst_norm, 1e-12);                            // the quaternion unit throughout
+  EXPECT_LT(end.v.norm(), 1e-2);                           // at rest again
 }
 
 // config/cartpole_mujoco_stops.yaml: driven towards x = 1 m, the cart stops

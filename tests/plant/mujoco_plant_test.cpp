@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +22,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant/floating_dynamics.hpp"
+#include "plant/mujoco_free_joint.hpp"
 #include "plant/mujoco_plant.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -148,12 +151,28 @@ std::string LoadError(const std::string& path) {
   return "";
 }
 
-TEST(MujocoPlant, RefusesAFreeJointWithOneLine) {
+// A free joint is a free body lagrange does not model unless it is asked
+// for as the floating base: alone, it leaves no degree of freedom.
+TEST(MujocoPlant, AFreeBodyAloneIsNoRobotAndAFloatingBaseIsAskedFor) {
   const std::string path = WriteTemp("free.xml", R"(<mujoco><worldbody><body name="b"><freejoint name="float"/>
       <geom size="0.1"/></body></worldbody></mujoco>)");
   const std::string e = LoadError(path);
-  EXPECT_NE(e.find("joint 'float' is a free joint: expected hinge or slide joints only"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected at least one hinge or slide joint, got none"), std::string::npos) << e;
   EXPECT_EQ(e.find('\n'), std::string::npos);
+  MujocoOptions o;
+  o.floating_base = true;
+  const auto model = LoadMujocoPlant(path, o);
+  EXPECT_TRUE(model->floating_base());
+  EXPECT_EQ(model->num_positions(), 7);
+  EXPECT_EQ(model->num_dofs(), 6);
+  const std::string pendulum = WriteTemp("pendulum_alone.xml", R"(<mujoco><worldbody><body name="b">
+      <joint name="theta" axis="0 1 0"/><geom size="0.1" pos="0 0 -1"/></body></worldbody></mujoco>)");
+  try {
+    LoadMujocoPlant(pendulum, o);
+    ADD_FAILURE() << "a floating base without a free joint loaded";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("expected a free joint for lagrange's floating base"), std::string::npos);
+  }
 }
 
 TEST(MujocoPlant, RefusesABallJointWithOneLine) {
@@ -805,6 +824,308 @@ TEST(MujocoPlant, ADivergingSimulationFailsTheStepWithMujocosWarning) {
   ASSERT_NE(why, nullptr);
   EXPECT_NE(std::string(why).find("mjWARN_BAD"), std::string::npos) << why;
   EXPECT_EQ(q[0], 0.0);  // outputs untouched
+}
+
+// ---- Free joints: MuJoCo's conventions beside lagrange's (plant/mujoco_free_joint.hpp) ----
+
+// A conversion and its inverse, relative to the vector's norm: the round-off
+// of turning by R and back (Rᵀ (R x) = x to 1.2e-15 relative at worst over
+// these 100 states, with Eigen's quaternion-to-matrix, without any conversion of ours).
+constexpr double kExact = 2e-15;
+
+// A unit quaternion (x, y, z, w), seeded.
+Eigen::Vector4d RandomQuaternion(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Vector4d x(n(rng), n(rng), n(rng), n(rng));
+  return x.normalized();
+}
+
+TEST(MujocoFreeJoint, TheConversionsRoundTripBothWaysExactly) {
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  double worst = 0.0;
+  for (int trial = 0; trial < 100; ++trial) {
+    Eigen::Matrix<double, 7, 1> q, qpos, q_back, qpos_back;
+    Eigen::Matrix<double, 6, 1> v, qvel, v_back, qvel_back, a, qacc, a_back, f, qfrc, f_back;
+    q << u(rng), u(rng), u(rng), RandomQuaternion(rng);
+    for (int k = 0; k < 6; ++k) v[k] = u(rng), a[k] = u(rng), f[k] = u(rng);
+    // lagrange => MuJoCo => lagrange
+    FreeJointToMujoco(q.data(), v.data(), qpos.data(), qvel.data());
+    FreeJointFromMujoco(qpos.data(), qvel.data(), q_back.data(), v_back.data());
+    FreeJointAccelerationToMujoco(q.data(), v.data(), a.data(), qacc.data());
+    FreeJointAccelerationFromMujoco(q.data(), v.data(), qacc.data(), a_back.data());
+    FreeJointForceToMujoco(q.data(), f.data(), qfrc.data());
+    FreeJointForceFromMujoco(q.data(), qfrc.data(), f_back.data());
+    EXPECT_EQ(q_back, q);  // positions: a permutation, bit for bit
+    EXPECT_DOUBLE_EQ(qpos[3], q[6]);  // w first in MuJoCo, last in lagrange
+    const auto rel = [](const auto& x, const auto& y) { return (x - y).norm() / y.norm(); };
+    worst = std::max({worst, rel(v_back, v), rel(a_back, a), rel(f_back, f)});
+    // MuJoCo => lagrange => MuJoCo
+    FreeJointFromMujoco(qpos.data(), qvel.data(), q_back.data(), v_back.data());
+    FreeJointToMujoco(q_back.data(), v_back.data(), qpos_back.data(), qvel_back.data());
+    EXPECT_EQ(qpos_back, qpos);
+    worst = std::max(worst, rel(qvel_back, qvel));
+    // power is the same on both sides: qvelᵀ qfrc = vᵀ f
+    worst = std::max(worst, std::abs(qvel.dot(qfrc) - v.dot(f)) / (v.norm() * f.norm()));
+  }
+  EXPECT_LT(worst, kExact);
+  std::printf("free joint conversions, 100 random states: worst relative round trip %.2g\n", worst);
+}
+
+// The physical fact behind the velocity's conversion: a point r of the body
+// (a site) moves at R (v_b + ω_b × r) and the body turns at R ω_b, by
+// MuJoCo's own mj_objectVelocity at the qvel the plant sets for lagrange's v.
+constexpr char kFreeBodyWithASite[] = R"(<mujoco><option gravity="0 0 0"/><worldbody>
+    <body name="box" pos="0 0 1"><freejoint name="root"/>
+      <geom type="box" size="0.1 0.2 0.3" mass="2" contype="0" conaffinity="0"/>
+      <site name="corner" pos="0.1 -0.2 0.3"/></body>
+    <body name="pole"><joint name="theta" axis="0 1 0"/><geom size="0.05" pos="0 0 -1" mass="1"/></body>
+  </worldbody></mujoco>)";
+
+TEST(MujocoFreeJoint, APointOfTheBaseMovesAsLagrangesVelocitySaysByMujocosObjectVelocity) {
+  MujocoOptions o;
+  o.floating_base = true;
+  const auto model = LoadMujocoPlant(WriteTemp("free_site.xml", kFreeBodyWithASite), o);
+  ASSERT_EQ(model->num_positions(), 8);
+  ASSERT_EQ(model->num_dofs(), 7);
+  const mjModel* m = model->mj_model();
+  auto plant = model->MakeData();
+  mjData* d = mj_makeData(m);
+  const int site = mj_name2id(m, mjOBJ_SITE, "corner");
+  const Eigen::Vector3d r(0.1, -0.2, 0.3);
+  std::mt19937 rng{7};
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  double worst = 0.0;
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(8), v(7);
+    q << u(rng), u(rng), u(rng), RandomQuaternion(rng), u(rng);
+    for (int k = 0; k < 7; ++k) v[k] = u(rng);
+    plant->SetState(q, v);
+    const std::optional<MujocoFreeBody> body = MujocoFreeJointState(*plant, "root");  // read back from MuJoCo
+    ASSERT_TRUE(body);
+    worst = std::max({worst, (body->q - q.head<7>()).cwiseAbs().maxCoeff(), (body->v - v.head<6>()).cwiseAbs().maxCoeff()});
+    FreeJointToMujoco(q.data(), v.data(), d->qpos, d->qvel);  // the free joint is MuJoCo's first: qpos 0..6, qvel 0..5
+    d->qpos[7] = q[7];
+    d->qvel[6] = v[6];
+    mj_forward(m, d);
+    mjtNum res[6];  // (angular, linear) in the world at the site
+    mj_objectVelocity(m, d, mjOBJ_SITE, site, res, 0);
+    const Eigen::Matrix3d R = FreeJointRotation(q.data());
+    const Eigen::Vector3d vb = v.head<3>(), wb = v.segment<3>(3);
+    worst = std::max({worst, (Eigen::Map<Eigen::Vector3d>(res + 3) - R * (vb + wb.cross(r))).cwiseAbs().maxCoeff(),
+                      (Eigen::Map<Eigen::Vector3d>(res) - R * wb).cwiseAbs().maxCoeff()});
+  }
+  mj_deleteData(d);
+  EXPECT_LT(worst, 1e-14);
+  std::printf("a point of the free body: |MuJoCo's velocity - R (v_b + w_b x r)| <= %.2g\n", worst);
+}
+
+// A free box beside the robot is a free body: no entry of q, MuJoCo moves it.
+TEST(MujocoFreeJoint, AFreeBodyIsNoDegreeOfFreedomAndFallsUnderGravity) {
+  const auto model = LoadMujocoPlant(WriteTemp("free_beside.xml", R"(<mujoco><worldbody>
+      <body name="box" pos="0 0 1"><freejoint name="root"/><geom type="box" size="0.1 0.2 0.3" mass="2"/></body>
+      <body name="pole"><joint name="theta" axis="0 1 0"/><geom size="0.05" pos="0 0 -1" mass="1"/></body>
+      </worldbody></mujoco>)"), MujocoOptions{});
+  EXPECT_EQ(model->num_dofs(), 1);
+  EXPECT_EQ(model->num_positions(), 1);
+  EXPECT_EQ(model->joint_names(), std::vector<std::string>{"theta"});
+  auto data = model->MakeData();
+  VectorXd q = VectorXd::Zero(1), qd = VectorXd::Zero(1), qdd(1), tau = VectorXd::Zero(1);
+  data->SetState(q, qd);
+  for (int k = 0; k < 100; ++k) ASSERT_EQ(data->Step(tau, q, qd, qdd), nullptr);
+  const std::optional<MujocoFreeBody> box = MujocoFreeJointState(*data, "root");
+  ASSERT_TRUE(box);
+  const double t = 0.1;  // s: 100 steps of 1 ms, RK4: exact for constant acceleration
+  EXPECT_NEAR(box->q[2], 1.0 - 0.5 * 9.81 * t * t, 1e-12);
+  EXPECT_NEAR(box->v[2], -9.81 * t, 1e-12);  // its axes are the world's: v_b = ṗ
+  EXPECT_NEAR(box->q.segment<4>(3).norm(), 1.0, 1e-15);
+  EXPECT_FALSE(MujocoFreeJointState(*data, "theta"));  // not a free joint
+}
+
+// ---- A floating model on MuJoCo (free joint, no contact) against FloatingDynamics ----
+
+// A floating base with a two-joint leg (a revolute about x, then one about y
+// turned 0.4 rad about z) and a prismatic one: the URDF lagrange reads with
+// UrdfOptions{.floating_base = true}, and its MJCF twin (a free joint on the
+// base; the same frames; inertias anything: the exact-inertia fix sets them).
+constexpr char kFloatingUrdf[] = R"(<?xml version="1.0"?>
+<robot name="floater">
+  <link name="base"><inertial><origin xyz="0.01 -0.02 0.03"/><mass value="3.0"/>
+    <inertia ixx="0.05" ixy="0.002" ixz="-0.001" iyy="0.08" iyz="0.003" izz="0.1"/></inertial></link>
+  <joint name="hip" type="revolute"><parent link="base"/><child link="thigh"/>
+    <origin xyz="0.2 0.1 -0.05"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="30" velocity="10"/></joint>
+  <link name="thigh"><inertial><origin xyz="0.0 0.01 -0.1"/><mass value="0.8"/>
+    <inertia ixx="0.004" ixy="0.0001" ixz="0.0002" iyy="0.005" iyz="-0.0003" izz="0.0015"/></inertial></link>
+  <joint name="knee" type="revolute"><parent link="thigh"/><child link="shank"/>
+    <origin xyz="0 0 -0.2" rpy="0 0 0.4"/><axis xyz="0 1 0"/><limit lower="-2.5" upper="-0.2" effort="30" velocity="10"/></joint>
+  <link name="shank"><inertial><origin xyz="0.01 0 -0.1"/><mass value="0.3"/>
+    <inertia ixx="0.002" ixy="0" ixz="0.0001" iyy="0.002" iyz="0" izz="0.0003"/></inertial></link>
+  <joint name="slider" type="prismatic"><parent link="base"/><child link="block"/>
+    <origin xyz="-0.2 0 0"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="30" velocity="1"/></joint>
+  <link name="block"><inertial><origin xyz="0 0.02 0"/><mass value="0.5"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial></link>
+</robot>
+)";
+constexpr char kFloatingMjcf[] = R"(<mujoco model="floater"><compiler angle="radian" autolimits="true"/><worldbody>
+  <body name="base" pos="0 0 1"><freejoint name="root"/><inertial pos="0 0 0" mass="3" diaginertia="0.05 0.08 0.1"/>
+    <body name="thigh" pos="0.2 0.1 -0.05"><joint name="hip" axis="1 0 0" range="-1 1"/>
+      <inertial pos="0 0 -0.1" mass="0.8" diaginertia="0.004 0.005 0.0015"/>
+      <body name="shank" pos="0 0 -0.2" euler="0 0 0.4"><joint name="knee" axis="0 1 0" range="-2.5 -0.2"/>
+        <inertial pos="0 0 -0.1" mass="0.3" diaginertia="0.002 0.002 0.0003"/></body></body>
+    <body name="block" pos="-0.2 0 0"><joint name="slider" type="slide" axis="0 0 1" range="-0.1 0.1"/>
+      <inertial pos="0 0 0" mass="0.5" diaginertia="0.001 0.001 0.001"/></body>
+  </body></worldbody></mujoco>)";
+
+struct FloatingTwin {
+  UrdfRobot robot;
+  std::shared_ptr<const MujocoPlantModel> mujoco;
+};
+
+// The URDF read floating by lagrange, the MJCF by MuJoCo with its base and bodies' inertias lagrange's.
+FloatingTwin LoadFloatingTwin(const std::string& urdf, const std::string& mjcf) {
+  FloatingTwin t{LoadUrdf(urdf, UrdfOptions{.floating_base = true}), nullptr};
+  MujocoOptions o;
+  o.floating_base = true;
+  o.exact_inertia = &t.robot.tree;
+  o.joint_order = t.robot.tree.joint_names();
+  t.mujoco = LoadMujocoPlant(mjcf, o);
+  return t;
+}
+
+// S (MuJoCo's nv x lagrange's nv): qvel = S v at q; the free joint's block T = diag(R, 1), the joints' by name.
+MatrixXd VelocityMap(const mjModel* m, const RigidTree& tree, const VectorXd& q, int base_dof) {
+  MatrixXd S = MatrixXd::Zero(m->nv, tree.num_v());
+  S.block<3, 3>(base_dof, 0) = FreeJointRotation(q.data());
+  S.block<3, 3>(base_dof + 3, 3).setIdentity();
+  for (int i = 0; i < tree.num_dofs(); ++i)
+    S(m->jnt_dofadr[mj_name2id(m, mjOBJ_JOINT, tree.joints[static_cast<std::size_t>(i)].name.c_str())], 6 + i) = 1.0;
+  return S;
+}
+
+struct FloatingAgreement {
+  double M = 0, bias = 0, fd = 0, plant_bias = 0, step = 0;
+};
+
+// At seeded random states (joints inside their ranges, the base anywhere and
+// turned any way, a wrench on it too): M = Sᵀ M_MuJoCo S, the bias
+// Sᵀ (qfrc_bias + M_MuJoCo Ṡ v) and the plant's gravity + Coriolis rows, and
+// FD (MuJoCo's qacc turned into v̇) against FloatingDynamics; then a plant
+// Step's q̈ against FloatingDynamics' FD at the state it returns.
+// `height`: m added to the base's random height (the ground far away).
+FloatingAgreement CompareFloating(const FloatingTwin& t, double height = 0.0) {
+  const mjModel* m = t.mujoco->mj_model();
+  const RigidTree& tree = t.robot.tree;
+  const FloatingDynamics dynamics(tree);
+  auto fdata = dynamics.MakeData();
+  auto plant = t.mujoco->MakeData();
+  mjData* d = mj_makeData(m);
+  int base = 0;
+  while (m->jnt_type[base] != mjJNT_FREE) ++base;
+  const int bq = m->jnt_qposadr[base], bv = m->jnt_dofadr[base];
+  const int nq = tree.num_q(), nv = tree.num_v(), n = tree.num_dofs();
+  const MujocoModelInfo& info = t.mujoco->info();
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> u(0.05, 0.95), w(-1.5, 1.5);
+  FloatingAgreement worst;
+  EffectForces forces(nv);
+  for (int trial = 0; trial < 20; ++trial) {
+    VectorXd q(nq), v(nv), tau(nv), a(nv), a_l(nv), zero = VectorXd::Zero(nv), bias_l(nv);
+    q << w(rng), w(rng), height + w(rng), RandomQuaternion(rng), VectorXd::Zero(n);
+    for (int i = 0; i < n; ++i) {
+      const double lo = info.limited[6 + i] ? info.lower[6 + i] : -M_PI, hi = info.limited[6 + i] ? info.upper[6 + i] : M_PI;
+      q[7 + i] = lo + u(rng) * (hi - lo);
+    }
+    for (int i = 0; i < nv; ++i) v[i] = w(rng), tau[i] = 10.0 * w(rng);
+    mju_zero(d->qfrc_applied, m->nv);
+    FreeJointToMujoco(q.data(), v.data(), d->qpos + bq, d->qvel + bv);
+    FreeJointForceToMujoco(q.data(), tau.data(), d->qfrc_applied + bv);
+    for (int i = 0; i < n; ++i) {
+      const int j = mj_name2id(m, mjOBJ_JOINT, tree.joints[static_cast<std::size_t>(i)].name.c_str());
+      d->qpos[m->jnt_qposadr[j]] = q[7 + i];
+      d->qvel[m->jnt_dofadr[j]] = v[6 + i];
+      d->qfrc_applied[m->jnt_dofadr[j]] = tau[6 + i];
+    }
+    mj_forward(m, d);
+    const MatrixXd S = VelocityMap(m, tree, q, bv);
+    MatrixXd Mj(m->nv, m->nv), Ml(nv, nv);
+    mj_fullM(m, Mj.data(), d->qM);
+    dynamics.ComputeMassMatrix(*fdata, q, Ml);
+    worst.M = std::max(worst.M, RelativeDifference(S.transpose() * Mj * S, Ml));
+    VectorXd sdot_v = VectorXd::Zero(m->nv);  // Ṡ v: the free joint's R (ω_b × v_b)
+    sdot_v.segment<3>(bv) = FreeJointRotation(q.data()) * v.segment<3>(3).cross(v.head<3>());
+    dynamics.ComputeInverseDynamics(*fdata, q, v, zero, DynamicsTerms{}, bias_l);
+    const VectorXd bias_j = S.transpose() * (Eigen::Map<VectorXd>(d->qfrc_bias, m->nv) + Mj * sdot_v);
+    worst.bias = std::max(worst.bias, RelativeDifference(bias_j, bias_l));
+    FreeJointAccelerationFromMujoco(q.data(), v.data(), d->qacc + bv, a.data());
+    for (int i = 0; i < n; ++i) a[6 + i] = (S.col(6 + i).transpose() * Eigen::Map<VectorXd>(d->qacc, m->nv))(0);
+    dynamics.ComputeForwardDynamics(*fdata, q, v, tau, DynamicsTerms{}, a_l);
+    worst.fd = std::max(worst.fd, RelativeDifference(a, a_l));
+    plant->SetState(q, v);
+    plant->ComputeForces(forces);
+    worst.plant_bias = std::max(worst.plant_bias, RelativeDifference(forces.gravity + forces.coriolis, bias_l));
+    VectorXd q1 = q, v1 = v, a1(nv), joints_only = tau;
+    joints_only.head<6>().setZero();  // a base wrench is held in the world over the step, not in base axes
+    EXPECT_EQ(plant->Step(joints_only, q1, v1, a1), nullptr);
+    dynamics.ComputeForwardDynamics(*fdata, q1, v1, joints_only, DynamicsTerms{}, a_l);
+    worst.step = std::max(worst.step, RelativeDifference(a1, a_l));
+  }
+  mj_deleteData(d);
+  return worst;
+}
+
+constexpr double kFloatingAgreement = 1e-10;  // the issue's bound (relative to the largest entry)
+
+void ExpectFloatingAgreement(const FloatingAgreement& a, const std::string& name) {
+  EXPECT_LT(a.M, kFloatingAgreement);
+  EXPECT_LT(a.bias, kFloatingAgreement);
+  EXPECT_LT(a.fd, kFloatingAgreement);
+  EXPECT_LT(a.plant_bias, kFloatingAgreement);
+  EXPECT_LT(a.step, kFloatingAgreement);
+  std::printf("%s floating on MuJoCo (free joint): M %.2g, bias %.2g, FD %.2g, the plant's bias rows %.2g, "
+              "a step's qdd %.2g (relative)\n", name.c_str(), a.M, a.bias, a.fd, a.plant_bias, a.step);
+}
+
+TEST(MujocoFloating, MBiasAndForwardDynamicsAgreeWithFloatingDynamicsAfterTheInertiaFix) {
+  const FloatingTwin t = LoadFloatingTwin(WriteTemp("floater.urdf", kFloatingUrdf), WriteTemp("floater.xml", kFloatingMjcf));
+  EXPECT_EQ(t.mujoco->num_positions(), 10);
+  EXPECT_EQ(t.mujoco->num_dofs(), 9);
+  EXPECT_EQ(t.mujoco->joint_names(), (std::vector<std::string>{"hip", "knee", "slider"}));
+  ExpectFloatingAgreement(CompareFloating(t), "floater");
+}
+
+// The shipped quadruped (config/robots/a1.urdf) and its MJCF twin (a1.xml):
+// 12 joints, the ground 10 m below, so that no foot touches it.
+TEST(MujocoFloating, TheA1AndItsMjcfTwinAgreeWithTheGroundFarAway) {
+  const FloatingTwin t = LoadFloatingTwin(kRobots + "a1.urdf", kRobots + "a1.xml");
+  EXPECT_EQ(t.mujoco->num_positions(), 19);
+  EXPECT_EQ(t.mujoco->num_dofs(), 18);
+  EXPECT_EQ(t.mujoco->joint_names(), t.robot.tree.joint_names());
+  EXPECT_EQ(t.mujoco->info().num_actuators, 12);
+  EXPECT_EQ(t.mujoco->info().num_geoms, 6);  // the ground, the trunk, four feet
+  double mass = t.robot.tree.base.mass;
+  for (const RigidBody& b : t.robot.tree.bodies) mass += b.mass;
+  EXPECT_NEAR(mass, 13.74, 1e-12);  // the file's sum: 6.0 + 4 (0.696 + 1.013 + 0.166 + 0.06) kg
+  EXPECT_NEAR(mj_getTotalmass(t.mujoco->mj_model()), mass, 1e-12);
+  ExpectFloatingAgreement(CompareFloating(t, 10.0), "a1");
+}
+
+// The floating base's conversions in SetState, Step and ComputeForces allocate nothing.
+TEST(MujocoFloating, SteppingAndComputingForcesAllocateNothing) {
+  const FloatingTwin t = LoadFloatingTwin(WriteTemp("floater_alloc.urdf", kFloatingUrdf),
+                                          WriteTemp("floater_alloc.xml", kFloatingMjcf));
+  auto data = t.mujoco->MakeData();
+  const int nq = t.mujoco->num_positions(), nv = t.mujoco->num_dofs();
+  VectorXd q = VectorXd::Zero(nq), v = VectorXd::Constant(nv, 0.1), a(nv), tau = VectorXd::Constant(nv, 0.5);
+  q[2] = 1.0;
+  q[6] = 1.0;  // w: the identity
+  EffectForces forces(nv);
+  data->SetState(q, v);
+  testing::AllocationCounter counter;
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(data->Step(tau, q, v, a), nullptr);
+  data->ComputeForces(forces);
+  data->SetState(q, v);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_NEAR(q.segment<4>(3).norm(), 1.0, 1e-12);
 }
 
 }  // namespace
