@@ -95,22 +95,9 @@ void EvaluateTerm(const Dynamics& d, DynamicsData& data, DynamicsTerm term, cons
 }
 
 void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term) {
-  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
-  constexpr int kStates = 16;
-  std::mt19937 rng{42};
-  const std::vector<State> states = RandomStates(d.joint_types(), kStates, rng);
-  const int n = d.num_dofs();
-  MatrixXd M(n, n);
-  VectorXd v(n);
-  int k = 0;
-  for (auto _ : bm) {
-    EvaluateTerm(d, *d_data, term, states[k], M, v);
-    benchmark::DoNotOptimize(M.data());
-    benchmark::DoNotOptimize(v.data());
-    benchmark::ClobberMemory();
-    k = (k + 1) % kStates;
-  }
-  bm.counters["dofs"] = n;
+  TimeCall(bm, d, [&d, term](DynamicsData& data, const State& s, MatrixXd& M, VectorXd& v) {
+    EvaluateTerm(d, data, term, s, M, v);
+  });
 }
 
 }  // namespace lagrange::bench
