@@ -1,5 +1,6 @@
 #include "bench/bench_plants.hpp"
 
+#include <memory>
 #include <numbers>
 
 #include "plant/random_tree.hpp"
@@ -33,6 +34,11 @@ std::vector<std::string> ShippedRobotNames() { return {"panda", "ur5"}; }
 
 NamedTree LoadShippedRobot(const std::string& name) {
   return {name, LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/" + name + ".urdf").tree};
+}
+
+NamedPlant ShippedRobotPlant(const std::string& name) {
+  return {name, UrdfPlantSpec(std::make_shared<const UrdfRobot>(
+                    LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/" + name + ".urdf")))};
 }
 
 std::vector<int> SpatialChainSizes() { return ChainSizes(); }

@@ -47,6 +47,9 @@ std::vector<std::string> ShippedRobotNames();
 // throws UrdfError when it does not load.
 NamedTree LoadShippedRobot(const std::string& name);
 
+// The same robot as a urdf plant (UrdfPlantSpec), named `name`.
+NamedPlant ShippedRobotPlant(const std::string& name);
+
 // Sizes of the random spatial chains: the planar chains' sizes.
 std::vector<int> SpatialChainSizes();
 

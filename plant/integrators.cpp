@@ -255,7 +255,7 @@ class Variational final : public Integrator {
 
 }  // namespace
 
-Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
+Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kqd_(n) {}
 
 bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) {
   Stages([&](double ts, ConstVecRef qs, ConstVecRef qds,
@@ -278,19 +278,16 @@ const char* Integrator::Reconfigure(const IntegratorConfig& config) {
 
 bool Integrator::Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) {
-  work_ = IntegratorWork{};
-  const bool ok = CountedStep(model, law, t, h, tau_cmd, q, qd);
-  AddWorkToStats();
-  return ok;
+  StartCall();
+  return CountedStep(model, law, t, h, tau_cmd, q, qd);
 }
 
 bool Integrator::Advance(PlantModel& model, ControlLaw* law, double t, double dt, ConstVecRef tau_cmd, VecRef q,
                          VecRef qd) {
-  work_ = IntegratorWork{};
+  StartCall();
   const double h = dt / config_.substeps;
   bool ok = true;
   for (int i = 0; i < config_.substeps; ++i) ok = CountedStep(model, law, t + i * h, h, tau_cmd, q, qd) && ok;
-  AddWorkToStats();
   return ok;
 }
 
@@ -302,13 +299,20 @@ bool Integrator::CountedStep(PlantModel& model, ControlLaw* law, double t, doubl
   return ok;
 }
 
-void Integrator::AddWorkToStats() {
-  stats_.steps += work_.steps;
-  stats_.accepted += work_.accepted;
-  stats_.rejected += work_.rejected;
-  stats_.evaluations += work_.evaluations;
-  stats_.newton_iterations += work_.newton_iterations;
-  stats_.failures += work_.failures;
+IntegratorStats Integrator::stats() const {
+  IntegratorStats s = stats_;
+  s.steps += work_.steps;
+  s.accepted += work_.accepted;
+  s.rejected += work_.rejected;
+  s.evaluations += work_.evaluations;
+  s.newton_iterations += work_.newton_iterations;
+  s.failures += work_.failures;
+  return s;
+}
+
+void Integrator::StartCall() {
+  stats_ = stats();
+  work_ = IntegratorWork{};
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {

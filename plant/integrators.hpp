@@ -98,7 +98,7 @@ class Integrator {
   IntegratorType type() const { return config_.type; }
   const IntegratorConfig& config() const { return config_; }
   // Totals over every call so far.
-  const IntegratorStats& stats() const { return stats_; }
+  IntegratorStats stats() const;
   // The last call of Step or Advance alone (see IntegratorWork).
   const IntegratorWork& work() const { return work_; }
 
@@ -144,10 +144,13 @@ class Integrator {
  private:
   // DoStep with the call's step and failure counted.
   bool CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd);
-  // Adds work_ to stats_ at the end of a call.
-  void AddWorkToStats();
+  // At a call's start: the last call's work_ into stats_, then work_ zeroed.
+  // Not at a call's end: reading the counts DoStep has just written, the
+  // sums stall on store forwarding (about a tenth of an RK4 step of the
+  // cart-pole, bench/effects_bench.cpp).
+  void StartCall();
 
-  IntegratorStats stats_;
+  IntegratorStats stats_;  // totals of every call before the last (stats() adds work_)
 };
 
 // The classical fourth-order Runge–Kutta integrator. Its stages are written
@@ -162,31 +165,46 @@ class Rk4 final : public Integrator {
   // qdd at (t, q, qd); it is called four times. Allocates nothing.
   template <class Acceleration>
   void Stages(Acceleration&& acceleration, double t, double h, VecRef q, VecRef qd) {
-    // Stage 1 at (q, qd).
-    acceleration(t, q, qd, kqd_);
-    dq_ = qd;
-    dqd_ = kqd_;
-    // Stages 2 and 3 at the midpoint, stage 4 at the end.
-    kq_ = qd;
-    for (int stage = 2; stage <= 4; ++stage) {
-      const double a = stage == 4 ? h : 0.5 * h;
-      const double w = stage == 4 ? 1.0 : 2.0;
-      q1_ = q + a * kq_;
-      qd1_ = qd + a * kqd_;
-      acceleration(t + a, q1_, qd1_, kqd_);
-      kq_ = qd1_;
-      dq_ += w * kq_;
-      dqd_ += w * kqd_;
+    // Stage s at (q1, qd1) gives k_s = (qd1, qdd_s); dq and dqd gather
+    // k1 + 2 k2 + 2 k3 + k4. Each stage's point is built from the last
+    // stage's before that is overwritten, so nothing is copied, in plain
+    // loops: Eigen's assignments here compiled to out-of-line calls, a tenth
+    // of the cart-pole's step (bench/effects_bench.cpp, bare against default).
+    const int n = static_cast<int>(q.size());
+    const double a = 0.5 * h;
+    double *q1 = q1_.data(), *qd1 = qd1_.data(), *dq = dq_.data(), *dqd = dqd_.data(), *k = kqd_.data();
+    acceleration(t, q, qd, dqd_);  // stage 1 at (q, qd)
+    for (int i = 0; i < n; ++i) {
+      q1[i] = q[i] + a * qd[i];
+      qd1[i] = qd[i] + a * dqd[i];
     }
-    q += (h / 6.0) * dq_;
-    qd += (h / 6.0) * dqd_;
+    acceleration(t + a, q1_, qd1_, kqd_);  // stage 2 at the midpoint
+    for (int i = 0; i < n; ++i) {
+      dq[i] = qd[i] + 2.0 * qd1[i];
+      dqd[i] += 2.0 * k[i];
+      q1[i] = q[i] + a * qd1[i];
+      qd1[i] = qd[i] + a * k[i];
+    }
+    acceleration(t + a, q1_, qd1_, kqd_);  // stage 3 at the midpoint
+    for (int i = 0; i < n; ++i) {
+      dq[i] += 2.0 * qd1[i];
+      dqd[i] += 2.0 * k[i];
+      q1[i] = q[i] + h * qd1[i];
+      qd1[i] = qd[i] + h * k[i];
+    }
+    acceleration(t + h, q1_, qd1_, kqd_);  // stage 4 at the end
+    const double w = h / 6.0;
+    for (int i = 0; i < n; ++i) {
+      q[i] += w * (dq[i] + qd1[i]);
+      qd[i] += w * (dqd[i] + k[i]);
+    }
   }
 
  protected:
   bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override;
 
  private:
-  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;  // (n) each
+  VectorXd q1_, qd1_, dq_, dqd_, kqd_;  // (n) each
 };
 
 // Throws std::invalid_argument with CheckIntegratorConfig's reason for a bad config.
