@@ -98,7 +98,7 @@ class Integrator {
   IntegratorType type() const { return config_.type; }
   const IntegratorConfig& config() const { return config_; }
   // Totals over every call so far.
-  IntegratorStats stats() const;
+  const IntegratorStats& stats() const { return stats_; }
   // The last call of Step or Advance alone (see IntegratorWork).
   const IntegratorWork& work() const { return work_; }
 
@@ -129,13 +129,34 @@ class Integrator {
   }
 
  protected:
-  // One sub-step of length h, as Step. Adds its evaluations, accepted and
-  // rejected steps and Newton iterations to work_ and sets work_.step (and
-  // work_.error_estimate when it has one); the caller counts steps and failures.
+  // One sub-step of length h, as Step. Counts its evaluations, accepted and
+  // rejected steps and Newton iterations (the Count functions below) and sets
+  // work_.step (and work_.error_estimate when it has one); the caller counts
+  // steps and failures.
   virtual bool DoStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) = 0;
   // Forgets what one step carries to the next, as at construction (Reconfigure).
   virtual void StartOver() {}
+
+  // What DoStep counts, into the call's work_ and the totals at once: adding
+  // work_ to the totals at the call's end read back the counts just written
+  // (measured: a sixth of the cart-pole's RK4 step, bench/effects_bench.cpp).
+  void CountEvaluations(std::int64_t k) {
+    work_.evaluations += k;
+    stats_.evaluations += k;
+  }
+  void CountAccepted() {
+    ++work_.accepted;
+    ++stats_.accepted;
+  }
+  void CountRejected() {
+    ++work_.rejected;
+    ++stats_.rejected;
+  }
+  void CountNewtonIteration() {
+    ++work_.newton_iterations;
+    ++stats_.newton_iterations;
+  }
 
   IntegratorConfig config_;
   int n_;
@@ -144,13 +165,7 @@ class Integrator {
  private:
   // DoStep with the call's step and failure counted.
   bool CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd);
-  // At a call's start: the last call's work_ into stats_, then work_ zeroed.
-  // Not at a call's end: reading the counts DoStep has just written, the
-  // sums stall on store forwarding (about a tenth of an RK4 step of the
-  // cart-pole, bench/effects_bench.cpp).
-  void StartCall();
-
-  IntegratorStats stats_;  // totals of every call before the last (stats() adds work_)
+  IntegratorStats stats_;
 };
 
 // The classical fourth-order Runge–Kutta integrator. Its stages are written
@@ -168,8 +183,8 @@ class Rk4 final : public Integrator {
     // Stage s at (q1, qd1) gives k_s = (qd1, qdd_s); dq and dqd gather
     // k1 + 2 k2 + 2 k3 + k4. Each stage's point is built from the last
     // stage's before that is overwritten, so nothing is copied, in plain
-    // loops: Eigen's assignments here compiled to out-of-line calls, a tenth
-    // of the cart-pole's step (bench/effects_bench.cpp, bare against default).
+    // loops: Eigen's assignments here compiled to out-of-line calls
+    // (bench/effects_bench.cpp, bare against default).
     const int n = static_cast<int>(q.size());
     const double a = 0.5 * h;
     double *q1 = q1_.data(), *qd1 = qd1_.data(), *dq = dq_.data(), *dqd = dqd_.data(), *k = kqd_.data();
