@@ -1,5 +1,6 @@
 #include "bench/bench_plants.hpp"
 
+#include <memory>
 #include <numbers>
 
 #include "plant/random_tree.hpp"
@@ -33,6 +34,11 @@ std::vector<std::string> ShippedRobotNames() { return {"panda", "ur5"}; }
 
 NamedTree LoadShippedRobot(const std::string& name) {
   return {name, LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/" + name + ".urdf").tree};
+}
+
+NamedPlant ShippedRobotPlant(const std::string& name) {
+  return {name, UrdfPlantSpec(std::make_shared<const UrdfRobot>(
+                    LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/" + name + ".urdf")))};
 }
 
 std::vector<int> SpatialChainSizes() { return ChainSizes(); }
@@ -95,22 +101,9 @@ void EvaluateTerm(const Dynamics& d, DynamicsData& data, DynamicsTerm term, cons
 }
 
 void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term) {
-  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
-  constexpr int kStates = 16;
-  std::mt19937 rng{42};
-  const std::vector<State> states = RandomStates(d.joint_types(), kStates, rng);
-  const int n = d.num_dofs();
-  MatrixXd M(n, n);
-  VectorXd v(n);
-  int k = 0;
-  for (auto _ : bm) {
-    EvaluateTerm(d, *d_data, term, states[k], M, v);
-    benchmark::DoNotOptimize(M.data());
-    benchmark::DoNotOptimize(v.data());
-    benchmark::ClobberMemory();
-    k = (k + 1) % kStates;
-  }
-  bm.counters["dofs"] = n;
+  TimeCall(bm, d, [&d, term](DynamicsData& data, const State& s, MatrixXd& M, VectorXd& v) {
+    EvaluateTerm(d, data, term, s, M, v);
+  });
 }
 
 }  // namespace lagrange::bench

@@ -6,6 +6,7 @@
 // qd in rad/s or m/s, qdd in rad/s² or m/s², tau in N·m or N.
 
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <string>
 #include <string_view>
@@ -45,6 +46,9 @@ std::vector<std::string> ShippedRobotNames();
 // config/robots/<name>.urdf of this source tree, loaded by LoadUrdf (plant/urdf.hpp);
 // throws UrdfError when it does not load.
 NamedTree LoadShippedRobot(const std::string& name);
+
+// The same robot as a urdf plant (UrdfPlantSpec), named `name`.
+NamedPlant ShippedRobotPlant(const std::string& name);
 
 // Sizes of the random spatial chains: the planar chains' sizes.
 std::vector<int> SpatialChainSizes();
@@ -87,5 +91,28 @@ void EvaluateTerm(const Dynamics& d, DynamicsData& data, DynamicsTerm term, cons
 // Times `term` of `d` under Google Benchmark, cycling through 16 seeded random
 // states so no call sees a constant input; sets the counter "dofs".
 void TimeTerm(benchmark::State& bm, const Dynamics& d, DynamicsTerm term);
+
+// Times call(data, state, M, v) the way TimeTerm times a term (the same 16
+// states, M n x n and v n as the outputs): for calls TimeTerm has no name for,
+// such as one kernel of several.
+template <class Call>
+void TimeCall(benchmark::State& bm, const Dynamics& d, Call&& call) {
+  const std::unique_ptr<DynamicsData> d_data = d.MakeData();
+  constexpr int kStates = 16;
+  std::mt19937 rng{42};
+  const std::vector<State> states = RandomStates(d.joint_types(), kStates, rng);
+  const int n = d.num_dofs();
+  MatrixXd M(n, n);
+  VectorXd v(n);
+  int k = 0;
+  for (auto _ : bm) {
+    call(*d_data, states[k], M, v);
+    benchmark::DoNotOptimize(M.data());
+    benchmark::DoNotOptimize(v.data());
+    benchmark::ClobberMemory();
+    k = (k + 1) % kStates;
+  }
+  bm.counters["dofs"] = n;
+}
 
 }  // namespace lagrange::bench

@@ -14,12 +14,18 @@
 // method "spatial" is the spatial algorithms (plant/spatial_dynamics.hpp) on
 // the plant's tree, beside its recursive path (the planar algorithms on the
 // same tree folded to 2-D): the measurement that keeps the planar ones.
+//
+// And mass/<plant>/<kernel>: the planar chains' two exact mass-matrix kernels
+// (RecursiveDynamics::MassMatrixKernel: carried, the old, and base_frame, the
+// default since issue 37) on the same states, old beside new in one run.
 
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
+#include "plant/recursive_dynamics.hpp"
 #include "plant/spatial_dynamics.hpp"
 
 namespace lagrange::bench {
@@ -46,9 +52,24 @@ void RegisterPlant(const NamedPlant& plant) {
   }
 }
 
+// mass/<plant>/<kernel> for each of the planar chain's mass-matrix kernels.
+void RegisterMassKernels(const NamedPlant& plant) {
+  using K = RecursiveDynamics::MassMatrixKernel;
+  auto d = std::make_shared<const RecursiveDynamics>(*PlanarChainOf(MakeRigidTree(plant.spec)));
+  for (const auto& [kernel, label] : {std::pair{K::kCarried, "carried"}, std::pair{K::kBaseFrame, "base_frame"}}) {
+    const std::string name = "mass/" + plant.name + "/" + label;
+    benchmark::RegisterBenchmark(name.c_str(), [d, kernel](benchmark::State& bm) {
+      TimeCall(bm, *d, [&d, kernel](DynamicsData& data, const State& s, MatrixXd& M, VectorXd&) {
+        d->ComputeMassMatrix(data, kernel, s.q, M);
+      });
+    });
+  }
+}
+
 void RegisterAll() {
   for (const NamedPlant& p : FixedPlants()) RegisterPlant(p);
   for (int links : ChainSizes()) RegisterPlant(Chain(links));
+  for (int links : ChainSizes()) RegisterMassKernels(Chain(links));
 }
 
 }  // namespace

@@ -12,6 +12,9 @@
 //
 // The plant steps on from a modest state (q = 0.3 rad or m per joint, at
 // rest) under zero command and is put back there every 1000 steps (1 s).
+// Plants: pendulum, arm2, cartpole, chain7, and the Panda (config/robots/
+// panda.urdf; bare and default only: what the integrator API costs over
+// RK4's stages on a robot, issue 37).
 
 #include <memory>
 #include <string>
@@ -131,8 +134,10 @@ void TimeCase(benchmark::State& bm, const PlantSpec& spec, Case c) {
 void RegisterAll() {
   std::vector<NamedPlant> plants = FixedPlants();
   plants.push_back(Chain(7));
+  plants.push_back(ShippedRobotPlant("panda"));  // bare and default only: the integrator's fixed cost on a robot
   for (const NamedPlant& p : plants) {
     for (Case c : kAllCases) {
+      if (p.name == "panda" && c != Case::kBare && c != Case::kDefault) continue;
       const std::string name = "effects/" + p.name + "/" + std::string(ToString(c));
       if (c == Case::kBare) {
         benchmark::RegisterBenchmark(name.c_str(), [spec = p.spec](benchmark::State& bm) { TimeBare(bm, spec); });

@@ -25,8 +25,8 @@ class Euler final : public Integrator {
       q += h * qd;
       qd += h * qdd_;
     }
-    ++work_.accepted;
-    ++work_.evaluations;
+    CountAccepted();
+    CountEvaluations(1);
     work_.step = h;
     return true;
   }
@@ -64,7 +64,7 @@ class DormandPrince final : public Integrator {
       }
       const double factor = err == 0.0 ? 5.0 : 0.9 * std::pow(err, -0.2);
       if (err <= 1.0) {
-        ++work_.accepted;
+        CountAccepted();
         work_.error_estimate = err;
         work_.step = step;
         t = last ? t_end : t + step;
@@ -73,7 +73,7 @@ class DormandPrince final : public Integrator {
         // A step cut short to land on t_end does not shrink the next proposal.
         dt = std::max(step < dt ? dt : 0.0, step * std::clamp(factor, 0.2, 5.0));
       } else {
-        ++work_.rejected;
+        CountRejected();
         dt = step * std::clamp(factor, 0.2, 1.0);
       }
     }
@@ -87,7 +87,7 @@ class DormandPrince final : public Integrator {
   void Derivative(PlantModel& m, ControlLaw* law, double t, const VectorXd& y, ConstVecRef tau, VectorXd& dy) {
     dy.head(n_) = y.tail(n_);
     m.ComputeAcceleration(law, t, y.head(n_), y.tail(n_), tau, dy.tail(n_));
-    ++work_.evaluations;
+    CountEvaluations(1);
   }
 
   // One trial step from (t, y_) with k_[0] = f(y_); returns the scaled error norm
@@ -155,7 +155,7 @@ class Variational final : public Integrator {
         llt_(n) {}
 
   bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override {
-    ++work_.accepted;
+    CountAccepted();
     work_.step = h;
     const Dynamics& dyn = m.dynamics();
     // p0 = M(q0) qd0.
@@ -163,7 +163,7 @@ class Variational final : public Integrator {
     p0_.noalias() = M_ * qd;
     // Predictor: q1 = q0 + h qd0 + h²/2 qdd0.
     m.ComputeAcceleration(law, t, q, qd, tau, tmp_);
-    ++work_.evaluations;
+    CountEvaluations(1);
     q1_ = q + h * qd + (0.5 * h * h) * tmp_;
 
     // Newton on r(q1) = 0. The Jacobian is kept from step to step and rebuilt
@@ -174,7 +174,7 @@ class Variational final : public Integrator {
     bool refreshed = false;
     double previous = std::numeric_limits<double>::infinity();
     for (int it = 0; it < config_.newton_max_iterations; ++it) {
-      ++work_.newton_iterations;
+      CountNewtonIteration();
       dq_ = lu_.solve(r_);
       q1_ -= dq_;
       Residual(m, law, t, h, tau, q, q1_, r_);
@@ -221,7 +221,7 @@ class Variational final : public Integrator {
     r = p0_;
     r.noalias() -= M_ * v_;
     r += (0.5 * h) * x_;
-    ++work_.evaluations;
+    CountEvaluations(1);
   }
 
   // J = ∂r/∂q1 by forward differences at q1_, factorised into lu_.
@@ -255,14 +255,14 @@ class Variational final : public Integrator {
 
 }  // namespace
 
-Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kq_(n), kqd_(n) {}
+Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kqd_(n) {}
 
 bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) {
   Stages([&](double ts, ConstVecRef qs, ConstVecRef qds,
              VecRef qdd) { m.ComputeAcceleration(law, ts, qs, qds, tau, qdd); },
          t, h, q, qd);
-  ++work_.accepted;
-  work_.evaluations += 4;
+  CountAccepted();
+  CountEvaluations(4);
   work_.step = h;
   return true;
 }
@@ -279,9 +279,7 @@ const char* Integrator::Reconfigure(const IntegratorConfig& config) {
 bool Integrator::Step(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) {
   work_ = IntegratorWork{};
-  const bool ok = CountedStep(model, law, t, h, tau_cmd, q, qd);
-  AddWorkToStats();
-  return ok;
+  return CountedStep(model, law, t, h, tau_cmd, q, qd);
 }
 
 bool Integrator::Advance(PlantModel& model, ControlLaw* law, double t, double dt, ConstVecRef tau_cmd, VecRef q,
@@ -290,25 +288,19 @@ bool Integrator::Advance(PlantModel& model, ControlLaw* law, double t, double dt
   const double h = dt / config_.substeps;
   bool ok = true;
   for (int i = 0; i < config_.substeps; ++i) ok = CountedStep(model, law, t + i * h, h, tau_cmd, q, qd) && ok;
-  AddWorkToStats();
   return ok;
 }
 
 bool Integrator::CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                              VecRef qd) {
   ++work_.steps;
+  ++stats_.steps;
   const bool ok = DoStep(model, law, t, h, tau_cmd, q, qd);
-  if (!ok) ++work_.failures;
+  if (!ok) {
+    ++work_.failures;
+    ++stats_.failures;
+  }
   return ok;
-}
-
-void Integrator::AddWorkToStats() {
-  stats_.steps += work_.steps;
-  stats_.accepted += work_.accepted;
-  stats_.rejected += work_.rejected;
-  stats_.evaluations += work_.evaluations;
-  stats_.newton_iterations += work_.newton_iterations;
-  stats_.failures += work_.failures;
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(const IntegratorConfig& c, int n) {

@@ -129,13 +129,34 @@ class Integrator {
   }
 
  protected:
-  // One sub-step of length h, as Step. Adds its evaluations, accepted and
-  // rejected steps and Newton iterations to work_ and sets work_.step (and
-  // work_.error_estimate when it has one); the caller counts steps and failures.
+  // One sub-step of length h, as Step. Counts its evaluations, accepted and
+  // rejected steps and Newton iterations (the Count functions below) and sets
+  // work_.step (and work_.error_estimate when it has one); the caller counts
+  // steps and failures.
   virtual bool DoStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q,
                       VecRef qd) = 0;
   // Forgets what one step carries to the next, as at construction (Reconfigure).
   virtual void StartOver() {}
+
+  // What DoStep counts, into the call's work_ and the totals at once: adding
+  // work_ to the totals at the call's end read back the counts just written
+  // (measured: a sixth of the cart-pole's RK4 step, bench/effects_bench.cpp).
+  void CountEvaluations(std::int64_t k) {
+    work_.evaluations += k;
+    stats_.evaluations += k;
+  }
+  void CountAccepted() {
+    ++work_.accepted;
+    ++stats_.accepted;
+  }
+  void CountRejected() {
+    ++work_.rejected;
+    ++stats_.rejected;
+  }
+  void CountNewtonIteration() {
+    ++work_.newton_iterations;
+    ++stats_.newton_iterations;
+  }
 
   IntegratorConfig config_;
   int n_;
@@ -144,9 +165,6 @@ class Integrator {
  private:
   // DoStep with the call's step and failure counted.
   bool CountedStep(PlantModel& model, ControlLaw* law, double t, double h, ConstVecRef tau_cmd, VecRef q, VecRef qd);
-  // Adds work_ to stats_ at the end of a call.
-  void AddWorkToStats();
-
   IntegratorStats stats_;
 };
 
@@ -162,31 +180,46 @@ class Rk4 final : public Integrator {
   // qdd at (t, q, qd); it is called four times. Allocates nothing.
   template <class Acceleration>
   void Stages(Acceleration&& acceleration, double t, double h, VecRef q, VecRef qd) {
-    // Stage 1 at (q, qd).
-    acceleration(t, q, qd, kqd_);
-    dq_ = qd;
-    dqd_ = kqd_;
-    // Stages 2 and 3 at the midpoint, stage 4 at the end.
-    kq_ = qd;
-    for (int stage = 2; stage <= 4; ++stage) {
-      const double a = stage == 4 ? h : 0.5 * h;
-      const double w = stage == 4 ? 1.0 : 2.0;
-      q1_ = q + a * kq_;
-      qd1_ = qd + a * kqd_;
-      acceleration(t + a, q1_, qd1_, kqd_);
-      kq_ = qd1_;
-      dq_ += w * kq_;
-      dqd_ += w * kqd_;
+    // Stage s at (q1, qd1) gives k_s = (qd1, qdd_s); dq and dqd gather
+    // k1 + 2 k2 + 2 k3 + k4. Each stage's point is built from the last
+    // stage's before that is overwritten, so nothing is copied, in plain
+    // loops: Eigen's assignments here compiled to out-of-line calls
+    // (bench/effects_bench.cpp, bare against default).
+    const int n = static_cast<int>(q.size());
+    const double a = 0.5 * h;
+    double *q1 = q1_.data(), *qd1 = qd1_.data(), *dq = dq_.data(), *dqd = dqd_.data(), *k = kqd_.data();
+    acceleration(t, q, qd, dqd_);  // stage 1 at (q, qd)
+    for (int i = 0; i < n; ++i) {
+      q1[i] = q[i] + a * qd[i];
+      qd1[i] = qd[i] + a * dqd[i];
     }
-    q += (h / 6.0) * dq_;
-    qd += (h / 6.0) * dqd_;
+    acceleration(t + a, q1_, qd1_, kqd_);  // stage 2 at the midpoint
+    for (int i = 0; i < n; ++i) {
+      dq[i] = qd[i] + 2.0 * qd1[i];
+      dqd[i] += 2.0 * k[i];
+      q1[i] = q[i] + a * qd1[i];
+      qd1[i] = qd[i] + a * k[i];
+    }
+    acceleration(t + a, q1_, qd1_, kqd_);  // stage 3 at the midpoint
+    for (int i = 0; i < n; ++i) {
+      dq[i] += 2.0 * qd1[i];
+      dqd[i] += 2.0 * k[i];
+      q1[i] = q[i] + h * qd1[i];
+      qd1[i] = qd[i] + h * k[i];
+    }
+    acceleration(t + h, q1_, qd1_, kqd_);  // stage 4 at the end
+    const double w = h / 6.0;
+    for (int i = 0; i < n; ++i) {
+      q[i] += w * (dq[i] + qd1[i]);
+      qd[i] += w * (dqd[i] + k[i]);
+    }
   }
 
  protected:
   bool DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) override;
 
  private:
-  VectorXd q1_, qd1_, dq_, dqd_, kq_, kqd_;  // (n) each
+  VectorXd q1_, qd1_, dq_, dqd_, kqd_;  // (n) each
 };
 
 // Throws std::invalid_argument with CheckIntegratorConfig's reason for a bad config.

@@ -266,9 +266,18 @@ void RecursiveDynamics::ComputeForwardDynamics(DynamicsData& data, ConstVecRef q
 }
 
 void RecursiveDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  ComputeMassMatrix(data, MassMatrixKernel::kBaseFrame, q, M);
+}
+
+void RecursiveDynamics::ComputeMassMatrix(DynamicsData& data, MassMatrixKernel kernel, ConstVecRef q,
+                                          MatRef M) const {
   Data& d = Checked<Data>(data, q, M);
   const int n = num_dofs();
   ComputeTransforms(d, q);
+  if (kernel == MassMatrixKernel::kBaseFrame) {
+    MassMatrixBaseFrame(d, M);
+    return;
+  }
   for (int i = 0; i < n; ++i) d.IA[i] = inertia_[i];  // composite inertias
   for (int i = n - 1; i > 0; --i) {
     const Matrix3d X = XMatrix(d.X[i]);
@@ -286,6 +295,34 @@ void RecursiveDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, Mat
   }
 }
 
+// (X) => M in base coordinates, tip to base: the subtree j..n−1's composite
+// inertia Ic = [[I, −hy, hx], [−hy, m, 0], [hx, 0, m]] (mass, first moment and
+// inertia about the base origin: plain sums), F_j = Ic J_j, and column j of M:
+// M_ij = J_i · F_j for i <= j, F_i · J_j for i > j (F_i made on the way down).
+void RecursiveDynamics::MassMatrixBaseFrame(Data& d, MatRef M) const {
+  const int n = num_dofs();
+  ComputeBaseFrameMotion(d, nullptr);
+  double m = 0.0, hx = 0.0, hy = 0.0, I = 0.0;
+  const double *J0 = d.axes.col(0).data(), *J1 = d.axes.col(1).data(), *J2 = d.axes.col(2).data();
+  double *F0 = d.P.col(0).data(), *F1 = d.P.col(1).data(), *F2 = d.P.col(2).data();
+  for (int j = n - 1; j >= 0; --j) {
+    const PlanarBody& b = chain_.bodies[j];
+    const double bm = b.mass;
+    m += bm;
+    hx += bm * d.com[j].x();
+    hy += bm * d.com[j].y();
+    I += b.inertia + bm * d.com[j].squaredNorm();
+    const double a0 = J0[j], a1 = J1[j], a2 = J2[j];
+    const double f0 = I * a0 - hy * a1 + hx * a2, f1 = -hy * a0 + m * a1, f2 = hx * a0 + m * a2;
+    F0[j] = f0;
+    F1[j] = f1;
+    F2[j] = f2;
+    double* col = &M(0, j);
+    for (int i = 0; i <= j; ++i) col[i] = J0[i] * f0 + J1[i] * f1 + J2[i] * f2;
+    for (int i = j + 1; i < n; ++i) col[i] = F0[i] * a0 + F1[i] * a1 + F2[i] * a2;
+  }
+}
+
 void RecursiveDynamics::ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const {
   Data& d = Checked<Data>(data, q, qd, c);
   ComputeTransforms(d, q);
@@ -299,7 +336,7 @@ void RecursiveDynamics::ComputeGravityForce(DynamicsData& data, ConstVecRef q, V
 }
 
 // (X, qd) => base-frame joint axes J_j, body velocities v_j and centres of mass.
-void RecursiveDynamics::ComputeBaseFrameMotion(Data& d, ConstVecRef qd) const {
+void RecursiveDynamics::ComputeBaseFrameMotion(Data& d, const double* qd) const {
   double c = 1.0, s = 0.0;  // rotation of body j's frame in the base frame
   Eigen::Vector2d p = Eigen::Vector2d::Zero();
   Vector3d v = Vector3d::Zero();
@@ -311,9 +348,11 @@ void RecursiveDynamics::ComputeBaseFrameMotion(Data& d, ConstVecRef qd) const {
     c = cj;
     const Vector3d J =
         chain_.joints[j].type == JointType::kRevolute ? Vector3d(1.0, p.y(), -p.x()) : Vector3d(0.0, c, s);
-    v += qd[j] * J;
     d.axes.row(j) = J;
-    d.ov[j] = v;
+    if (qd != nullptr) {
+      v += qd[j] * J;
+      d.ov[j] = v;
+    }
     const PlanarBody& b = chain_.bodies[j];
     d.com[j] = p + Eigen::Vector2d(c * b.com.x() - s * b.com.y(), s * b.com.x() + c * b.com.y());
   }
@@ -336,7 +375,7 @@ void RecursiveDynamics::ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q,
     return;
   }
   ComputeTransforms(d, q);
-  ComputeBaseFrameMotion(d, qd);
+  ComputeBaseFrameMotion(d, qd.data());
   double m = 0.0, hx = 0.0, hy = 0.0, I = 0.0;          // Ic = [[I, −hy, hx], [−hy, m, 0], [hx, 0, m]]
   double dI = 0.0, dhx = 0.0, dhy = 0.0;                // İc, the same shape with zero mass
   Vector3d h = Vector3d::Zero();                        // Σ I_b v_b

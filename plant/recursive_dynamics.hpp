@@ -20,6 +20,7 @@
 // joint and (0, 1, 0) for a prismatic joint.
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <span>
@@ -70,7 +71,8 @@ std::optional<PlanarChain> PlanarChainOf(const RigidTree& tree);
 // O(n) recursive dynamics of a PlanarChain.
 //   inverse dynamics: recursive Newton–Euler (RNEA)
 //   forward dynamics: articulated-body algorithm (ABA)
-//   mass matrix: composite-rigid-body algorithm (CRBA), O(n²) to fill M
+//   mass matrix: composite rigid bodies in base coordinates (four scalars
+//     per subtree), each entry an independent 3-D dot product, O(n²) to fill M
 //   Coriolis matrix: one forward and one backward pass over base-frame
 //     composite inertias, their rates and momenta (Pinocchio's
 //     computeCoriolisMatrix); O(n) passes, O(n²) to fill C
@@ -90,6 +92,15 @@ class RecursiveDynamics final : public Dynamics {
   std::unique_ptr<DynamicsData> MakeData() const override;
 
   void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  // The mass matrix's exact kernels:
+  //   kCarried    CRBA in body frames: each row's force Ic_i S_i carried
+  //               down the chain (Xᵀ F), a serial chain of transforms per row
+  //   kBaseFrame  composite inertias in base coordinates (four scalars per
+  //               subtree), F_j = Ic_j J_j, M_ij = J_i · F_j: independent dot
+  //               products, each column of M written contiguously (the default)
+  // kCarried stays for the tests and bench/dynamics_bench.cpp's baseline.
+  enum class MassMatrixKernel : std::uint8_t { kCarried, kBaseFrame };
+  void ComputeMassMatrix(DynamicsData& data, MassMatrixKernel kernel, ConstVecRef q, MatRef M) const;
   void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
   void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
   void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
@@ -119,8 +130,11 @@ class RecursiveDynamics final : public Dynamics {
   // (X, qd) => v_i, body velocities.
   void ComputeVelocities(Data& d, ConstVecRef qd) const;
   // (X, qd) => axes, ov, com: joint axes, body velocities and centres of
-  // mass in base coordinates, for the Coriolis matrix.
-  void ComputeBaseFrameMotion(Data& d, ConstVecRef qd) const;
+  // mass in base coordinates, for the Coriolis and mass matrices; qd null:
+  // axes and com only.
+  void ComputeBaseFrameMotion(Data& d, const double* qd) const;
+  // (X) => M by the kBaseFrame kernel.
+  void MassMatrixBaseFrame(Data& d, MatRef M) const;
   // (X, v, qdd, terms) => tau by the backward RNEA pass.
   void Rnea(Data& d, ConstVecRef qd, ConstVecRef qdd, DynamicsTerms terms, VecRef tau) const;
 
