@@ -9,6 +9,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -506,6 +507,40 @@ class ReplyDecoder final : public MessageDecoder<reply_t> {
   }
 };
 
+class BaseStateDecoder final : public MessageDecoder<base_state_t> {
+ public:
+  bool Write(const base_state_t& m, std::int64_t log_utime, LogRow& out) override {
+    if (fields_.empty()) {
+      fields_ = Fields()
+                    .Int("utime")
+                    .Id("run_id")
+                    .Int("tick")
+                    .Real("t")
+                    .Reals("position", 3)
+                    .Reals("orientation", 4)
+                    .Reals("linear_velocity", 3)
+                    .Reals("angular_velocity", 3)
+                    .Reals("com", 3)
+                    .Reals("linear_momentum", 3)
+                    .Reals("angular_momentum", 3)
+                    .Take();
+    }
+    Row(out, log_utime)
+        .Int(m.utime)
+        .Int(m.run_id)
+        .Int(m.tick)
+        .Real(m.t)
+        .Reals(m.position, 3)
+        .Reals(m.orientation, 4)
+        .Reals(m.linear_velocity, 3)
+        .Reals(m.angular_velocity, 3)
+        .Reals(m.com, 3)
+        .Reals(m.linear_momentum, 3)
+        .Reals(m.angular_momentum, 3);
+    return true;
+  }
+};
+
 std::unique_ptr<Decoder> DecoderFor(MessageType type) {
   switch (type) {
     case MessageType::kState: return std::make_unique<StateDecoder>();
@@ -519,6 +554,7 @@ std::unique_ptr<Decoder> DecoderFor(MessageType type) {
     case MessageType::kPoseSetpoint: return std::make_unique<PoseSetpointDecoder>();
     case MessageType::kTaskState: return std::make_unique<TaskStateDecoder>();
     case MessageType::kMpc: return std::make_unique<MpcDecoder>();
+    case MessageType::kBaseState: return std::make_unique<BaseStateDecoder>();
     case MessageType::kUnknown: break;
   }
   return nullptr;
