@@ -511,32 +511,18 @@ class BaseStateDecoder final : public MessageDecoder<base_state_t> {
  public:
   bool Write(const base_state_t& m, std::int64_t log_utime, LogRow& out) override {
     if (fields_.empty()) {
-      fields_ = Fields()
-                    .Int("utime")
-                    .Id("run_id")
-                    .Int("tick")
-                    .Real("t")
-                    .Reals("position", 3)
-                    .Reals("orientation", 4)
-                    .Reals("linear_velocity", 3)
-                    .Reals("angular_velocity", 3)
-                    .Reals("com", 3)
-                    .Reals("linear_momentum", 3)
-                    .Reals("angular_momentum", 3)
-                    .Take();
+      Fields f;
+      f.Int("utime").Id("run_id").Int("tick").Real("t");
+      for (const BaseStateArray& a : kBaseStateArrays) f.Reals(a.name, a.width);
+      fields_ = f.Take();
     }
-    Row(out, log_utime)
-        .Int(m.utime)
-        .Int(m.run_id)
-        .Int(m.tick)
-        .Real(m.t)
-        .Reals(m.position, 3)
-        .Reals(m.orientation, 4)
-        .Reals(m.linear_velocity, 3)
-        .Reals(m.angular_velocity, 3)
-        .Reals(m.com, 3)
-        .Reals(m.linear_momentum, 3)
-        .Reals(m.angular_momentum, 3);
+    // In kBaseStateArrays' order.
+    const double* arrays[] = {m.position, m.orientation,     m.linear_velocity, m.angular_velocity,
+                              m.com,      m.linear_momentum, m.angular_momentum};
+    static_assert(std::size(arrays) == std::size(kBaseStateArrays));
+    Row row(out, log_utime);
+    row.Int(m.utime).Int(m.run_id).Int(m.tick).Real(m.t);
+    for (std::size_t k = 0; k < std::size(arrays); ++k) row.Reals(arrays[k], kBaseStateArrays[k].width);
     return true;
   }
 };

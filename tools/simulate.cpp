@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "protocol/format.hpp"
+#include "protocol/log_records.hpp"
 #include "sim/health.hpp"
 #include "sim/instance_model.hpp"
 #include "sim/offline.hpp"
@@ -35,18 +36,13 @@ std::string CsvPathFor(const std::string& path, const std::string& name, bool se
   return path.substr(0, dot) + "." + name + path.substr(dot);
 }
 
-// A floating base's columns after the joints': log2csv's names for these fields of base_state_t, with their widths.
-constexpr std::pair<const char*, int> kBaseColumns[] = {
-    {"position", 3}, {"orientation", 4},     {"linear_velocity", 3},  {"angular_velocity", 3},
-    {"com", 3},      {"linear_momentum", 3}, {"angular_momentum", 3}};
-
 // The columns log2csv gives the same quantities in a state CSV (JointColumns), and a floating base's in a base CSV.
 void WriteHeader(std::ostream& out, const Instance& inst) {
   out << 't';
   for (const char* field : {"q", "qd", "q_des", "tau"}) out << JointColumns(field, inst.num_dofs());
   out << ',' << kKineticEnergyColumn << ',' << kPotentialEnergyColumn;
   if (inst.floating_base()) {
-    for (const auto& [field, width] : kBaseColumns) out << JointColumns(field, width);
+    for (const BaseStateArray& a : kBaseStateArrays) out << JointColumns(a.name, a.width);  // log2csv's names
   }
   out << '\n';
 }
@@ -58,7 +54,7 @@ void WriteRow(std::ostream& out, Instance& inst) {
   };
   for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.q_des(), &inst.tau()}) put(*v);
   out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy());
-  if (inst.floating_base()) {  // base_state_t's fields, in its order
+  if (inst.floating_base()) {  // base_state_t's arrays, in kBaseStateArrays' order
     put(inst.floating_q().head<kFreeFlyerNq>());
     put(inst.floating_v().head<kFreeFlyerNv>());
     const Instance::BaseMotion b = inst.ComputeBaseMotion();
