@@ -284,6 +284,35 @@ std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& g
   return CheckGains(type, gains, bounds);
 }
 
+const char* FloatingBaseRefusal(ControllerType type) {
+  switch (type) {
+    case ControllerType::kNone:
+    case ControllerType::kPd: return nullptr;
+    case ControllerType::kComputedTorque:
+      return "computed-torque cannot run a floating base: it commands M q̈_d + C q̇ + G on every degree of freedom, "
+             "and the base's six are unactuated";
+    case ControllerType::kLqr:
+      return "lqr cannot run a floating base: its gain acts on every degree of freedom, and the base's six are "
+             "unactuated (a linearisation about a free base has no equilibrium under gravity)";
+    case ControllerType::kMpc:
+      return "mpc cannot run a floating base: its plan is over a fixed-base model whose every joint is actuated, "
+             "and the base's six are not";
+    case ControllerType::kGravityCompensation:
+      return "gravity-compensation cannot run a floating base: holding it up against gravity needs contact forces "
+             "(a stand controller over the stance Jacobians), and it has none";
+    case ControllerType::kCartesianImpedance:
+    case ControllerType::kOperationalSpace:
+      return "a task-space controller cannot run a floating base yet: its frame's Jacobian and its C q̇ + G "
+             "terms are a fixed base's";
+    case ControllerType::kExternal:
+      return "external cannot run a floating base yet: its state_t carries the joints only, not the base it "
+             "would need to control them";
+    case ControllerType::kCartPolePd:
+    case ControllerType::kSwingUp: return "a cart-pole controller needs a cart-pole, not a floating base";
+  }
+  return "unknown controller type";
+}
+
 std::optional<std::string> ValidateController(const ControllerConfig& c, const PlantSpec& plant) {
   const int n = plant.num_dofs();
   if (IsCartPoleOnly(c.type) && plant.type() != PlantType::kCartPole) {

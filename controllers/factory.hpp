@@ -94,6 +94,13 @@ struct ControllerConfig {
 // Returns "key: what was expected".
 std::optional<std::string> ValidateController(const ControllerConfig& config, const PlantSpec& plant);
 
+// Why a controller of `type` cannot run a robot on a floating base (a static
+// string, one line), or null when it can: pd and none act on the joints alone
+// and leave the base to the physics. The laws that invert the dynamics need
+// every degree of freedom actuated, and the base's six are not; gravity
+// compensation needs the ground's contact forces to hold the base up.
+const char* FloatingBaseRefusal(ControllerType type);
+
 // The gains a controller of this type accepts on `plant`, held over a tick of
 // `period` s from the initial q0 (n): the rules in joint_controllers.hpp,
 // cartpole_pd.hpp and task_space.hpp. Types without gains get n unbounded entries.

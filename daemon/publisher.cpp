@@ -55,6 +55,7 @@ Publisher::Publisher(Bus& output, const Runtime& runtime, SpscRing<TickRecord>& 
     o.torque.tau.resize(n);
     o.telemetry.run_id = run_id_;
     o.task.run_id = run_id_;
+    o.base.run_id = run_id_;
     o.mpc.run_id = run_id_;
     o.mpc.num_states = 2 * m.num_dofs;
     if (const std::optional<std::size_t> k = FirstMpc(m)) {  // the first mpc controller's, as the tick's record
@@ -137,6 +138,7 @@ void Publisher::Publish(const TickRecord& record) {
     if (r.telemetry) PublishTelemetry(i, r, record);
     if (r.publish_forces) PublishForces(i, r, record);
     if (r.task) PublishTask(i, r, record);
+    if (r.base) PublishBase(i, r, record);
     if (r.plan.taken) PublishMpc(i, r, record);
     PublishReplies(i, r, record.utime);
   }
@@ -173,6 +175,22 @@ void Publisher::PublishTorque(std::size_t i, const InstanceRecord& r, std::int64
   t.state_tick = r.state_tick;
   std::copy_n(r.tau.data(), t.tau.size(), t.tau.data());
   bus_.PublishMessage(model_.instances[i].channels.torque_out, t);
+}
+
+// (record) => base_state_t: a floating base's pose, twist, centre of mass and momentum.
+void Publisher::PublishBase(std::size_t i, const InstanceRecord& r, const TickRecord& record) {
+  base_state_t& m = out_[i].base;
+  m.utime = record.utime;
+  m.tick = record.tick;
+  m.t = r.t;
+  std::copy_n(r.base_q.data(), 3, m.position);
+  std::copy_n(r.base_q.data() + 3, 4, m.orientation);
+  std::copy_n(r.base_v.data(), 3, m.linear_velocity);
+  std::copy_n(r.base_v.data() + 3, 3, m.angular_velocity);
+  std::copy_n(r.base_motion.com.data(), 3, m.com);
+  std::copy_n(r.base_motion.linear.data(), 3, m.linear_momentum);
+  std::copy_n(r.base_motion.angular.data(), 3, m.angular_momentum);
+  bus_.PublishMessage(model_.instances[i].channels.base, m);
 }
 
 // (record) => task_state_t: the active task-space controller's frame, measured and commanded.

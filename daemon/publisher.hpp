@@ -7,7 +7,8 @@
 // a torque_t on an external plant's torque_channel (first: it is the latency
 // that counts), one state_t per instance on <NAME>_STATE, a reply_t per
 // command verdict on <NAME>_REPLY, a telemetry_t and a forces_t where asked,
-// an mpc_t on <NAME>_MPC for each plan an mpc instance's tick took,
+// an mpc_t on <NAME>_MPC for each plan an mpc instance's tick took, a
+// base_state_t on <NAME>_BASE every tick for a floating base,
 // and every 0.1 s of ticks a status_t on LAGRANGE_STATUS (with every
 // instance's joint names, from JointNamesOf, escaped; protocol/status.hpp
 // says what a status carries). It also logs mode changes, faults and refused
@@ -16,6 +17,7 @@
 // Every string that came from the bus is escaped (base/escape.hpp) before
 // it is logged or published.
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/forces_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/reply_t.hpp>
@@ -66,6 +68,7 @@ class Publisher {
   void PublishForces(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishTask(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishMpc(std::size_t i, const InstanceRecord& r, const TickRecord& record);
+  void PublishBase(std::size_t i, const InstanceRecord& r, const TickRecord& record);
   void PublishStatus(const TickRecord& last);
   void LogEvents(const TickRecord& record);
   std::string StatusReason(std::size_t i, const InstanceRecord& r) const;
@@ -77,6 +80,7 @@ class Publisher {
     torque_t torque{};  // an external plant's command; its sequence counts from 0
     telemetry_t telemetry{};
     task_state_t task{};
+    base_state_t base{};
     mpc_t mpc{};  // sized once for the instance's plans (MpcKnotsOnWire)
     forces_t forces{};
     Mode mode = Mode::kRunning;

@@ -673,6 +673,12 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   } else if (r.task) {  // an mpc controller's frame, reported as a task-space controller's
     mpc->MeasureTask(inst.t(), inst.q(), inst.qd(), r.task_pose, r.task_commanded, r.task_error, r.task_twist);
   }
+  r.base = inst.floating_base();
+  if (r.base) {
+    r.base_q = inst.floating_q().head<kFreeFlyerNq>();
+    r.base_v = inst.floating_v().head<kFreeFlyerNv>();
+    r.base_motion = inst.ComputeBaseMotion();
+  }
   r.publish_torque = inst.external_plant() && (Commands(s.mode.mode) || s.send_zero_once);
   r.state_tick = s.measured_tick;
   s.send_zero_once = false;

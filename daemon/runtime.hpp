@@ -226,6 +226,12 @@ struct InstanceRecord {
   bool task = false;
   Pose task_pose, task_commanded;
   Vector6d task_error = Vector6d::Zero(), task_twist = Vector6d::Zero();
+  // A floating base (base_state_t): its pose and twist (the full state's
+  // first 7 and 6 entries), centre of mass and momentum (Instance::ComputeBaseMotion).
+  bool base = false;
+  Eigen::Matrix<double, kFreeFlyerNq, 1> base_q = Eigen::Matrix<double, kFreeFlyerNq, 1>::Zero();
+  Vector6d base_v = Vector6d::Zero();
+  Instance::BaseMotion base_motion;
   // External plant: publish tau on the torque channel this tick (it then
   // answers the measured state of tick state_tick).
   bool publish_torque = false;

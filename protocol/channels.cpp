@@ -26,6 +26,7 @@ InstanceChannelNames DerivedChannelNames(const std::string& prefix, const std::s
   c.pose = InstanceChannel(prefix, instance, kPoseSuffix);
   c.task = InstanceChannel(prefix, instance, kTaskSuffix);
   c.mpc = InstanceChannel(prefix, instance, kMpcSuffix);
+  c.base = InstanceChannel(prefix, instance, kBaseSuffix);
   return c;
 }
 
@@ -51,6 +52,7 @@ std::string CheckChannelNames(const std::vector<InstanceChannelNames>& instances
     outputs.emplace_back(c.forces, c.instance + "'s forces");
     if (!c.task.empty()) outputs.emplace_back(c.task, c.instance + "'s task state");
     if (!c.mpc.empty()) outputs.emplace_back(c.mpc, c.instance + "'s plans");
+    if (!c.base.empty()) outputs.emplace_back(c.base, c.instance + "'s base state");
     if (!c.torque_out.empty()) outputs.emplace_back(c.torque_out, c.instance + "'s torque_channel");
   }
   outputs.emplace_back(status, "the status");

@@ -1,7 +1,7 @@
 #pragma once
 // LCM channel names, written once for lagranged and lagrangectl: instance
 // `arm` uses ARM_STATE, ARM_SETPOINT, ARM_COMMAND, ARM_REPLY, ARM_TELEMETRY,
-// ARM_FORCES, ARM_POSE, ARM_TASK and ARM_MPC; the daemon
+// ARM_FORCES, ARM_POSE, ARM_TASK, ARM_MPC and (a floating base) ARM_BASE; the daemon
 // publishes LAGRANGE_STATUS. A prefix P is prepended to every channel, so
 // several daemons share one bus.
 
@@ -21,6 +21,7 @@ inline constexpr const char* kForcesSuffix = "_FORCES";
 inline constexpr const char* kPoseSuffix = "_POSE";  // pose setpoints in (pose_setpoint_t)
 inline constexpr const char* kTaskSuffix = "_TASK";  // the commanded frame out (task_state_t)
 inline constexpr const char* kMpcSuffix = "_MPC";    // an mpc controller's plans out (mpc_t)
+inline constexpr const char* kBaseSuffix = "_BASE";  // a floating base's pose, twist and momentum out (base_state_t)
 inline constexpr const char* kStatusChannel = "LAGRANGE_STATUS";
 
 // prefix + instance in upper case + suffix, e.g. ("", "arm", "_STATE") → "ARM_STATE".
@@ -30,6 +31,7 @@ std::string InstanceChannel(const std::string& prefix, const std::string& instan
 struct InstanceChannelNames {
   std::string instance;  // its name, for messages
   std::string state, setpoint, command, reply, telemetry, forces, pose, task, mpc;
+  std::string base;  // a floating base's (derived always; a scene clears it for a fixed base: SceneChannelNames)
   // "" where the instance has none:
   std::string torque_in;    // an external controller's torques (derived, or as the scene wrote it)
   std::string measured_in;  // an external plant's measured state (as written)

@@ -9,6 +9,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -506,6 +507,26 @@ class ReplyDecoder final : public MessageDecoder<reply_t> {
   }
 };
 
+class BaseStateDecoder final : public MessageDecoder<base_state_t> {
+ public:
+  bool Write(const base_state_t& m, std::int64_t log_utime, LogRow& out) override {
+    if (fields_.empty()) {
+      Fields f;
+      f.Int("utime").Id("run_id").Int("tick").Real("t");
+      for (const BaseStateArray& a : kBaseStateArrays) f.Reals(a.name, a.width);
+      fields_ = f.Take();
+    }
+    // In kBaseStateArrays' order.
+    const double* arrays[] = {m.position, m.orientation,     m.linear_velocity, m.angular_velocity,
+                              m.com,      m.linear_momentum, m.angular_momentum};
+    static_assert(std::size(arrays) == std::size(kBaseStateArrays));
+    Row row(out, log_utime);
+    row.Int(m.utime).Int(m.run_id).Int(m.tick).Real(m.t);
+    for (std::size_t k = 0; k < std::size(arrays); ++k) row.Reals(arrays[k], kBaseStateArrays[k].width);
+    return true;
+  }
+};
+
 std::unique_ptr<Decoder> DecoderFor(MessageType type) {
   switch (type) {
     case MessageType::kState: return std::make_unique<StateDecoder>();
@@ -519,6 +540,7 @@ std::unique_ptr<Decoder> DecoderFor(MessageType type) {
     case MessageType::kPoseSetpoint: return std::make_unique<PoseSetpointDecoder>();
     case MessageType::kTaskState: return std::make_unique<TaskStateDecoder>();
     case MessageType::kMpc: return std::make_unique<MpcDecoder>();
+    case MessageType::kBaseState: return std::make_unique<BaseStateDecoder>();
     case MessageType::kUnknown: break;
   }
   return nullptr;

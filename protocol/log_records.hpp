@@ -43,6 +43,17 @@ struct LogField {
 // The column name of value i of an array field.
 std::string LogColumnName(const LogField& field, int i);
 
+// base_state_t's arrays after its utime, run_id, tick and t, in order, with
+// their widths: the columns log2csv writes for <NAME>_BASE and simulate for a
+// floating base (their names and order written once).
+struct BaseStateArray {
+  const char* name;
+  int width;
+};
+inline constexpr BaseStateArray kBaseStateArrays[] = {
+    {"position", 3}, {"orientation", 4},     {"linear_velocity", 3},  {"angular_velocity", 3},
+    {"com", 3},      {"linear_momentum", 3}, {"angular_momentum", 3}};
+
 // One value (kInt and kId: std::int64_t; kReal: double; kText: std::string).
 using LogValue = std::variant<std::int64_t, double, std::string>;
 

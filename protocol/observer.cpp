@@ -11,6 +11,7 @@ void PinIn(ObservedInstance& seen, std::int64_t run_id) {
   seen.telemetry.Pin(run_id);
   seen.tasks.Pin(run_id);
   seen.plans.Pin(run_id);
+  seen.bases.Pin(run_id);
 }
 
 }  // namespace
@@ -48,6 +49,9 @@ bool BusObserver::Follow(const std::string& name) {
   }
   SubscribeMessages<task_state_t>(bus_, InstanceChannel(prefix_, name, kTaskSuffix), [seen](task_state_t&& m) {
     seen->tasks.Add(std::move(m), std::chrono::steady_clock::now());
+  });
+  SubscribeMessages<base_state_t>(bus_, InstanceChannel(prefix_, name, kBaseSuffix), [seen](base_state_t&& m) {
+    seen->bases.Add(std::move(m), std::chrono::steady_clock::now());
   });
   return true;
 }

@@ -15,6 +15,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
 #include <algorithm>
@@ -110,11 +111,12 @@ struct ObserverLimits {
 
 // One instance as the bus last showed it, per run.
 struct ObservedInstance {
-  explicit ObservedInstance(std::size_t runs) : states(runs), telemetry(runs), tasks(runs), plans(runs) {}
+  explicit ObservedInstance(std::size_t runs) : states(runs), telemetry(runs), tasks(runs), plans(runs), bases(runs) {}
   LatestByRun<state_t> states;
   LatestByRun<telemetry_t> telemetry;
   LatestByRun<task_state_t> tasks;
   LatestByRun<mpc_t> plans;  // an mpc controller's latest plan (<NAME>_MPC), with the telemetry (limits.telemetry)
+  LatestByRun<base_state_t> bases;  // a floating base's (<NAME>_BASE)
 };
 
 // Called for each message received, before it is kept (the instance still shows the previous one).
@@ -134,7 +136,7 @@ class BusObserver {
   BusObserver(const BusObserver&) = delete;
   BusObserver& operator=(const BusObserver&) = delete;
 
-  // Follows `name`'s state, telemetry, task and mpc channels (once; within limits.instances). False when refused.
+  // Follows `name`'s state, telemetry, task, mpc and base channels (once; within limits.instances). False when refused.
   bool Follow(const std::string& name);
   // Follows the instances the kept statuses name (limits.discover), in the order they name them.
   void Discover();

@@ -41,6 +41,7 @@ class telemetry_t;
 class forces_t;
 class pose_setpoint_t;
 class task_state_t;
+class base_state_t;
 class mpc_t;
 
 // Why a message was dropped; kNone when it was decoded.
@@ -94,6 +95,8 @@ template <>
 inline constexpr PacketCheck kCheckOf<pose_setpoint_t> = &CheckPoseSetpointPacket;
 template <>
 inline constexpr PacketCheck kCheckOf<task_state_t> = &CheckTaskStatePacket;
+template <>
+inline constexpr PacketCheck kCheckOf<base_state_t> = &CheckBaseStatePacket;
 template <>
 inline constexpr PacketCheck kCheckOf<mpc_t> = &CheckMpcPacket;
 

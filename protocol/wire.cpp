@@ -9,6 +9,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
@@ -47,6 +48,7 @@ MessageType TypeOf(const void* data, std::size_t size) {
   if (hash == pose_setpoint_t::getHash()) return MessageType::kPoseSetpoint;
   if (hash == task_state_t::getHash()) return MessageType::kTaskState;
   if (hash == mpc_t::getHash()) return MessageType::kMpc;
+  if (hash == base_state_t::getHash()) return MessageType::kBaseState;
   return MessageType::kUnknown;
 }
 
@@ -63,6 +65,7 @@ const char* ToString(MessageType type) {
     case MessageType::kPoseSetpoint: return "pose_setpoint_t";
     case MessageType::kTaskState: return "task_state_t";
     case MessageType::kMpc: return "mpc_t";
+    case MessageType::kBaseState: return "base_state_t";
     case MessageType::kUnknown: break;
   }
   return "?";
@@ -287,6 +290,13 @@ WireCheck CheckTaskStatePacket(const void* data, std::size_t size) {
   w.String(kMaxString);          // frame
   w.String(kMaxString);          // controller
   w.Skip((3 + 4 + 3 + 4 + 6 + 6) * kDouble);  // position .. twist
+  return w.Finish();
+}
+
+WireCheck CheckBaseStatePacket(const void* data, std::size_t size) {
+  PacketWalker w(data, size, base_state_t::getHash());
+  w.Skip(3 * kInt64 + kDouble);                    // utime, run_id, tick, t
+  w.Skip((3 + 4 + 3 + 3 + 3 + 3 + 3) * kDouble);  // position .. angular_momentum
   return w.Finish();
 }
 

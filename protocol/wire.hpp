@@ -31,12 +31,13 @@ enum class MessageType : std::uint8_t {
   kPoseSetpoint,
   kTaskState,
   kMpc,
+  kBaseState,
 };
 // A packet's type by its fingerprint alone: the layout is the Check*Packet functions' to check.
 MessageType TypeOf(const void* data, std::size_t size);
 // The LCM type's name ("state_t", ...); "?" for kUnknown.
 const char* ToString(MessageType type);
-// The run id of a state_t, status_t, reply_t, torque_t, task_state_t or mpc_t packet (each begins:
+// The run id of a state_t, status_t, reply_t, torque_t, task_state_t, base_state_t or mpc_t packet (each begins:
 // fingerprint, utime, run_id); nullopt for another type or a short packet.
 std::optional<std::int64_t> RunIdOf(const void* data, std::size_t size);
 const char* ToString(WireCheck check);
@@ -76,6 +77,8 @@ WireCheck CheckReplyPacket(const void* data, std::size_t size);
 WireCheck CheckPoseSetpointPacket(const void* data, std::size_t size);
 // task_state_t: fingerprint, utime, run_id, tick, t, frame and controller (strings), 26 doubles.
 WireCheck CheckTaskStatePacket(const void* data, std::size_t size);
+// base_state_t: fingerprint, utime, run_id, tick, t, 22 doubles.
+WireCheck CheckBaseStatePacket(const void* data, std::size_t size);
 // mpc_t: fingerprint, utime, run_id, tick, t, controller (string), plan, start, age, solve_time, iterations,
 // cost_before, cost, status (string), followed, dt, horizon, num_states (even, <= 2 kMaxDofs), num_knots
 // (<= mpc_t::MAX_KNOTS, and num_knots × (num_states + 1) <= kMaxMpcKnotValues), num_knots times,

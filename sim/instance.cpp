@@ -8,6 +8,11 @@ constexpr IntegratorType kAllIntegrators[] = {IntegratorType::kExplicitEuler, In
                                               IntegratorType::kVariational};
 constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Method::kRecursive};
 
+bool IsFloatingIntegrator(IntegratorType type) {
+  return type == IntegratorType::kExplicitEuler || type == IntegratorType::kSemiImplicitEuler ||
+         type == IntegratorType::kRk4;
+}
+
 }  // namespace
 
 Instance::Instance(const InstanceConfig& config)
@@ -48,6 +53,24 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
     integrators_.push_back(MakeIntegrator(c, num_dofs()));
   }
   integrator_ = integrators_[static_cast<std::size_t>(config.integrator.type)].get();
+  if (im.floating) {
+    floating_ = im.floating.get();
+    fdata_ = floating_->MakeData();
+    for (const IntegratorType type : kAllIntegrators) {
+      fintegrators_.push_back(IsFloatingIntegrator(type) ? std::make_unique<FloatingIntegrator>(type, *floating_)
+                                                         : nullptr);
+    }
+    fintegrator_ = fintegrators_[static_cast<std::size_t>(config.integrator.type)].get();
+    fsubsteps_ = config.integrator.substeps;
+    fq_.resize(floating_->num_q());
+    fq_ << config.floating->q0, q_;
+    fv_.resize(floating_->num_v());
+    fv_ << config.floating->v0, qd_;
+    ftau_ = VectorXd::Zero(floating_->num_v());
+    fa_ = VectorXd::Zero(floating_->num_v());
+    fjc_ = MatrixXd::Zero(3, floating_->num_v());
+    accounting_ = false;
+  }
   for (const ControllerModel& c : im.controllers) {
     controllers_.push_back(MakeController(c.config, config.plant, im.torque_limits, im.dynamics, config.effects));
     continuous_.push_back(c.config.continuous);
@@ -61,12 +84,49 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   if (stepped_) stepped_->SetState(q_, qd_);
-  model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
+  ComputeAcceleration(0.0, tau_);
   ResetBalance();
 }
 
+void Instance::ComputeAcceleration(double t, ConstVecRef tau_cmd) {
+  if (!floating_) {
+    model_.ComputeAcceleration(t, q_, qd_, tau_cmd, qdd_);
+    return;
+  }
+  const int n = num_dofs();
+  ftau_.head<kFreeFlyerNv>().setZero();  // the base is unactuated
+  model_.effects().ComputeGeneralizedForce(t, q_, qd_, tau_cmd, ftau_.tail(n));
+  floating_->ComputeForwardDynamics(*fdata_, fq_, fv_, ftau_, model_.effects().terms(), fa_);
+  qdd_ = fa_.tail(n);
+}
+
+Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
+  const int n = num_dofs();
+  const double h = dt / fsubsteps_;
+  ftau_.head<kFreeFlyerNv>().setZero();
+  for (int k = 0; k < fsubsteps_; ++k) {
+    // The joints' force, the command through every effect, held over the sub-step.
+    model_.effects().ComputeGeneralizedForce(t_ + k * h, q_, qd_, tau_cmd, ftau_.tail(n));
+    fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_);
+    q_ = fq_.tail(n);
+    qd_ = fv_.tail(n);
+  }
+  t_ = static_cast<double>(++steps_) * dt;
+  ComputeAcceleration(t_, tau_cmd);
+  return fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
+}
+
+Instance::BaseMotion Instance::ComputeBaseMotion() {
+  BaseMotion out;
+  out.com = floating_->ComputeCenterOfMass(*fdata_, fq_, fjc_);
+  const spatial::Force h = floating_->ComputeMomentum(*fdata_, fq_, fv_);  // angular about the world origin
+  out.linear = h.f;
+  out.angular = h.n - out.com.cross(h.f);  // carried to the centre of mass
+  return out;
+}
+
 void Instance::ResetBalance() {
-  balance_.Reset(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
+  balance_.Reset(stepped_ || floating_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
   rest_power_ = power_end_ = 0.0;
   if (accounting_ && !stepped_) ComputePowers();
 }
@@ -105,7 +165,8 @@ void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
 
 void Instance::ComputeForces(EffectForces& out) {
   if (!stepped_) {
-    model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/true);
+    // A floating base's gravity and Coriolis terms are not the joints' model's: only the effects' are given.
+    model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/floating_ == nullptr);
     return;
   }
   // The simulator's own terms at the state it holds, under the force it applied (tau_).
@@ -120,6 +181,7 @@ void Instance::ComputeForces(EffectForces& out) {
 const char* Instance::CheckIntegrator(const IntegratorConfig& config) const {
   if (external_) return kExternalNotIntegrated;
   if (stepped_) return kMujocoIntegrated;
+  if (floating_ && !IsFloatingIntegrator(config.type)) return kFloatingIntegrators;
   if (config.type == IntegratorType::kVariational && !model_.effects().flags().coriolis) {
     return kVariationalNeedsCoriolis;
   }
@@ -131,6 +193,10 @@ const char* Instance::SetIntegrator(const IntegratorConfig& config) {
   Integrator& target = *integrators_[static_cast<std::size_t>(config.type)];
   if (const char* refused = target.Reconfigure(config)) return refused;
   integrator_ = &target;
+  if (floating_) {
+    fintegrator_ = fintegrators_[static_cast<std::size_t>(config.type)].get();
+    fsubsteps_ = config.substeps;
+  }
   return nullptr;
 }
 
@@ -149,6 +215,7 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
 }
 
 const char* Instance::SetMethod(Method method) {
+  if (floating_ && method != Method::kRecursive) return kFloatingMethod;
   if (!model_.SelectMethod(method)) return NoMethodReason(config().plant.type(), method);
   return nullptr;  // q̈ follows at the next step
 }
@@ -186,6 +253,7 @@ Instance::StepFailure Instance::Integrate(double dt, ConstVecRef tau_cmd) {
   model_.effects().Saturate(tau_cmd, tau_);
   energies_cached_ = false;
   if (stepped_) return StepPlant(dt);
+  if (floating_) return StepFloating(dt, tau_cmd);
   q_start_ = q_;
   qd_start_ = qd_;
   const bool ok = external_ || integrator_->Advance(model_, t_, dt, tau_cmd, q_, qd_);
@@ -229,7 +297,7 @@ Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) { retu
 
 Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint, std::size_t index) {
   q_des_ = setpoint.q;
-  if (continuous_[index] && !external_ && !stepped_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
+  if (continuous_[index] && !external_ && !stepped_ && !floating_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
   const bool controlled = controllers_[index]->Compute(t_, q_, qd_, setpoint, tau_cmd_);
   const StepFailure integrated = Integrate(dt, tau_cmd_);
   return controlled ? integrated : kControllerNotFinite;
@@ -258,6 +326,8 @@ void Instance::Save(Saved& out) const {
   out.balance = balance_;
   out.rest_power = rest_power_;
   out.power_end = power_end_;
+  out.floating_q = fq_;
+  out.floating_v = fv_;
 }
 
 void Instance::Restore(const Saved& saved) {
@@ -269,6 +339,8 @@ void Instance::Restore(const Saved& saved) {
   qdd_.setZero();
   tau_.setZero();
   tau_cmd_.setZero();  // frozen under zero torque: nothing of the undone step is left
+  fq_ = saved.floating_q;
+  fv_ = saved.floating_v;
   if (stepped_) stepped_->SetState(q_, qd_);
   balance_ = saved.balance;
   rest_power_ = saved.rest_power;
@@ -280,7 +352,11 @@ void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
   qd_ = qd;
   energies_cached_ = false;
   if (stepped_) stepped_->SetState(q_, qd_);
-  model_.ComputeAcceleration(t_, q_, qd_, tau_cmd_, qdd_);  // as a step ends: its command, through the effects
+  if (floating_) {  // the joints moved; the base stays where it is
+    fq_.tail(num_dofs()) = q_;
+    fv_.tail(num_dofs()) = qd_;
+  }
+  ComputeAcceleration(t_, tau_cmd_);  // as a step ends: its command, through the effects
   if (!accounting_) return;
   balance_.Rebase(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
   if (!stepped_) ComputePowers();
@@ -325,7 +401,11 @@ void Instance::Reset() {
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
   if (stepped_) stepped_->SetState(q_, qd_);
-  model_.ComputeAcceleration(0.0, q_, qd_, tau_, qdd_);
+  if (floating_) {
+    fq_ << config().floating->q0, q_;
+    fv_ << config().floating->v0, qd_;
+  }
+  ComputeAcceleration(0.0, tau_);
   ResetBalance();
 }
 

@@ -6,6 +6,14 @@
 //
 // One step: setpoint → controller (with its torque limits) → integrate the
 // scene's sub-steps → qdd at the new state.
+//
+// A floating base (InstanceModel::floating): the instance steps the full
+// state q (nq), v (nv) on its manifold (FloatingIntegrator, the scene's
+// explicit-euler, semi-implicit-euler or rk4), the joints' force (the
+// command through every effect: saturation, damping, friction, limits, pushes)
+// held over each sub-step, the base's zero; q(), qd(), qdd() are the joints'
+// part of it (n), floating_q() and floating_v() the whole. Its energies are
+// the floating model's; it keeps no energy balance (accounting() false).
 
 #include <memory>
 #include <optional>
@@ -17,6 +25,7 @@
 #include "controllers/task_space.hpp"
 #include "controllers/trajectory.hpp"
 #include "plant/energy_balance.hpp"
+#include "plant/floating_integrator.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_model.hpp"
 #include "plant/stepped_plant.hpp"
@@ -53,6 +62,21 @@ class Instance {
     return tau_;
   }  // applied generalized force of the last step (after limits and saturation)
   const VectorXd& q_des() const { return q_des_; }
+
+  // A floating base (instance_model().floating_base()): the full state, q (nq)
+  // and v (nv) in the free-flyer conventions (plant/rigid_tree.hpp); empty otherwise.
+  bool floating_base() const { return floating_ != nullptr; }
+  const VectorXd& floating_q() const { return fq_; }
+  const VectorXd& floating_v() const { return fv_; }
+  // A floating base's centre of mass c (m, world) and momentum (world axes:
+  // linear N·s, angular about c N·m·s, the centroidal momentum A_G v) at the
+  // current state. No allocation. Only for a floating base.
+  struct BaseMotion {
+    Eigen::Vector3d com = Eigen::Vector3d::Zero();
+    Eigen::Vector3d angular = Eigen::Vector3d::Zero();
+    Eigen::Vector3d linear = Eigen::Vector3d::Zero();
+  };
+  BaseMotion ComputeBaseMotion();
 
   // The scene trajectory's setpoint at the current time.
   void SampleTrajectory(Setpoint& out) const;
@@ -110,8 +134,9 @@ class Instance {
     VectorXd q, qd;
     EnergyBalance balance;
     double rest_power = 0.0, power_end = 0.0;
+    VectorXd floating_q, floating_v;  // a floating base's full state (empty otherwise)
   };
-  Saved MakeSaved() const { return {steps_, t_, q_, qd_, balance_, rest_power_, power_end_}; }
+  Saved MakeSaved() const { return {steps_, t_, q_, qd_, balance_, rest_power_, power_end_, fq_, fv_}; }
   void Save(Saved& out) const;
   // Restores a saved state with zero torque and acceleration; no allocation.
   void Restore(const Saved& saved);
@@ -142,10 +167,12 @@ class Instance {
   // this state; a stepped (mujoco) plant's are its simulator's.
   double KineticEnergy() {
     if (stepped_) return stepped_->kinetic_energy();
+    if (floating_) return floating_->ComputeKineticEnergy(*fdata_, fq_, fv_);
     return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_);
   }
   double PotentialEnergy() {
     if (stepped_) return stepped_->potential_energy();
+    if (floating_) return model_.effects().terms().gravity ? floating_->ComputePotentialEnergy(*fdata_, fq_) : 0.0;
     return energies_cached_ ? potential_ : model_.PotentialEnergy(q_);
   }
   // MuJoCo steps the plant (the scene's plant: {type: mujoco}); model() is then the controllers' model only.
@@ -219,11 +246,25 @@ class Instance {
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
   // A stepped plant's step of length dt under tau_ (held), and its balance.
   StepFailure StepPlant(double dt);
+  // A floating base's step of length dt under tau_cmd (held), on its manifold.
+  StepFailure StepFloating(double dt, ConstVecRef tau_cmd);
+  // (t, q, qd, tau_cmd) => qdd_ at the current state (the floating model's for a floating base).
+  void ComputeAcceleration(double t, ConstVecRef tau_cmd);
 
   std::shared_ptr<const InstanceModel> instance_model_;
   bool external_;  // the plant is outside: nothing is integrated
   std::unique_ptr<SteppedPlantData> stepped_;  // MuJoCo steps the plant; null: lagrange integrates model_
   PlantModel model_;
+  // A floating base: its model (the instance model's), data, integrators by
+  // IntegratorType (null but explicit-euler, semi-implicit-euler and rk4), the
+  // one in use and its sub-steps, the full state and scratch: tau and a (nv).
+  const FloatingDynamics* floating_ = nullptr;
+  std::unique_ptr<FloatingData> fdata_;
+  std::vector<std::unique_ptr<FloatingIntegrator>> fintegrators_;
+  FloatingIntegrator* fintegrator_ = nullptr;
+  int fsubsteps_ = 1;
+  VectorXd fq_, fv_, ftau_, fa_;
+  MatrixXd fjc_;  // (3 x nv) the centre of mass's Jacobian (ComputeBaseMotion's scratch)
   Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller

@@ -135,6 +135,10 @@ InstanceModel BuildInstanceModel(const InstanceConfig& config, const BuildOption
   m.controllers = ControllersOf(config);
   m.external_controller = ExternalControllerOf(config).index;
   m.dynamics = MakeMethodModels(config.plant);
+  if (config.floating) {
+    m.floating = std::make_shared<const FloatingDynamics>(
+        FloatingTreeOf(*config.floating, std::get<UrdfParams>(config.plant.params)));
+  }
   m.torque_limits = config.torque_limits.size() == m.num_dofs
                         ? config.torque_limits
                         : VectorXd::Constant(m.num_dofs, std::numeric_limits<double>::infinity());

@@ -18,6 +18,7 @@
 
 #include "controllers/factory.hpp"
 #include "controllers/task_space.hpp"
+#include "plant/floating_dynamics.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/clock.hpp"
 #include "protocol/command_check.hpp"
@@ -67,6 +68,8 @@ struct InstanceModel {
   // The plant's dynamics by every method it has, shared (immutable) with the
   // tick's Instance and its controllers.
   MethodModels dynamics;
+  // A floating base's model (config.floating; FloatingTreeOf), shared alike; null for a fixed base.
+  std::shared_ptr<const FloatingDynamics> floating;
   VectorXd torque_limits;            // (n), +inf where none
   VectorXd brake;                    // (n) B of the estop brake: the scene's estop_damping, else 20/s × diag M(q0)
   double max_energy = 0.0;           // J: |T + V| above this faults (MaxEnergy)
@@ -89,6 +92,7 @@ struct InstanceModel {
 
   const std::string& name() const { return config.name; }
   bool external_plant() const { return config.external.has_value(); }
+  bool floating_base() const { return floating != nullptr; }
 };
 
 struct DaemonModel {

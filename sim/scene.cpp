@@ -19,9 +19,24 @@
 namespace lagrange {
 namespace {
 
-// plant: {type: urdf, file: PATH, gravity: [gx, gy, gz], params: {mass_scale: s}}
-PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf) {
-  PlantSpec spec = UrdfPlantSpec(urdf.Load(node.Required("file")));
+// plant: {type: urdf, file: PATH, gravity: [gx, gy, gz], params: {mass_scale: s}, floating_base: true}.
+// With floating_base true the file is read on a free base into *floating
+// (null: the caller takes none, and says why), and the spec is its joints' (FixedBaseOf).
+PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf, std::optional<FloatingBaseConfig>* floating) {
+  const std::optional<YamlReader> fb = node.Optional("floating_base");
+  const bool free_base = fb && fb->Bool();
+  if (free_base && floating == nullptr) {
+    fb->Fail("expected no floating_base here: a floating base is simulated by lagrange itself (a plant of type urdf)");
+  }
+  PlantSpec spec;
+  if (free_base) {
+    floating->emplace();
+    (*floating)->robot = urdf.Load(node.Required("file"), UrdfOptions{.floating_base = true});
+    spec = UrdfPlantSpec(FixedBaseOf(*(*floating)->robot));
+    std::get<UrdfParams>(spec.params).file = (*floating)->robot->file;
+  } else {
+    spec = UrdfPlantSpec(urdf.Load(node.Required("file")));
+  }
   if (auto g = node.Optional("gravity")) SetUrdfParam(spec, "gravity", *g);
   if (auto params = node.Optional("params")) {
     for (const auto& [key, value] : params->Entries()) {
@@ -32,16 +47,23 @@ PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf) {
   return spec;
 }
 
-PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf) {
+// `floating`: where a urdf plant's floating base goes (ReadUrdfPlant); null where none is taken.
+PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf,
+                    std::optional<FloatingBaseConfig>* floating = nullptr) {
   const YamlReader type_node = node.Required("type");
   const std::optional<PlantType> type = ParsePlantType(type_node.Text());
   if (!type) type_node.Fail("expected one of " + PlantTypeNames() + ", got '" + type_node.Text() + "'");
   const bool is_urdf = *type == PlantType::kUrdf;
+  if (!is_urdf && node.Has("floating_base")) {
+    node.Required("floating_base")
+        .Fail("expected no floating_base on a " + std::string(ToString(*type)) +
+              " plant: a floating base is read from a URDF file (type: urdf)");
+  }
   if (is_urdf)
-    node.ExpectKeys({"type", "file", "gravity", "method", "params"});
+    node.ExpectKeys({"type", "file", "gravity", "method", "params", "floating_base"});
   else
     node.ExpectKeys({"type", "method", "params"});
-  PlantSpec spec = is_urdf ? ReadUrdfPlant(node, urdf) : DefaultPlantSpec(*type);
+  PlantSpec spec = is_urdf ? ReadUrdfPlant(node, urdf, floating) : DefaultPlantSpec(*type);
 
   if (auto params = node.Optional("params"); params && !is_urdf) {
     std::vector<std::pair<std::string, YamlReader>> entries = params->Entries();
@@ -81,6 +103,7 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf) {
     const std::optional<Method> parsed = ParseMethod(m->Text());
     if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
     if (const char* why = NoMethodReason(*type, *parsed)) m->Fail(why);  // as the method command says
+    if (floating != nullptr && *floating && *parsed != Method::kRecursive) m->Fail(kFloatingMethod);
     *method = *parsed;
   }
   return spec;
@@ -517,6 +540,57 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
   }
 }
 
+// A unit quaternion may be typed off unit by this much (a printed one's
+// round-off); it is then normalised.
+constexpr double kQuaternionNormTolerance = 1e-6;
+
+// initial: {base_q: [px, py, pz, x, y, z, w], base_v: [vx, vy, vz, wx, wy, wz]}: a floating base's.
+void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& floating) {
+  for (const char* key : {"base_q", "base_v"}) {
+    if (init.Has(key) && !floating) init.Required(key).Fail("expected no base state: the plant's base is fixed "
+                                                            "(a urdf plant's floating_base: true frees it)");
+  }
+  if (auto q = init.Optional("base_q")) {
+    VectorXd base = q->Vector(kFreeFlyerNq);
+    const double norm = base.segment<4>(3).norm();
+    if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+      q->Fail("expected [px, py, pz, x, y, z, w] with a unit quaternion (x, y, z, w), got one of norm " +
+              FormatDouble(norm));
+    }
+    base.segment<4>(3) /= norm;
+    floating->q0 = base;
+  }
+  if (auto v = init.Optional("base_v")) floating->v0 = v->Vector(kFreeFlyerNv);
+}
+
+// A floating base steps on its manifold (plant/floating_integrator.hpp).
+void CheckFloatingIntegrator(const YamlReader& node, const IntegratorConfig& integrator) {
+  const IntegratorType t = integrator.type;
+  if (t == IntegratorType::kExplicitEuler || t == IntegratorType::kSemiImplicitEuler || t == IntegratorType::kRk4) {
+    return;
+  }
+  node.Required("integrator").Required("type").Fail(std::string(kFloatingIntegrators) + ", got " +
+                                                    std::string(ToString(t)));
+}
+
+// What a floating base's controllers and keys must be (FloatingBaseRefusal),
+// checked before the controllers are read: a refused type is named as such,
+// not by its own missing keys.
+void CheckFloatingControl(const YamlReader& node) {
+  for (const YamlReader& c : ControllerNodes(node)) {
+    const YamlReader type = c.Required("type");
+    const std::optional<ControllerType> t = ParseControllerType(type.Text());
+    if (!t) continue;  // ReadController names it
+    if (const char* why = FloatingBaseRefusal(*t)) type.Fail(why);
+    if (auto k = c.Optional("continuous"); k && k->Bool()) {
+      k->Fail("a floating base's controller runs once per tick (its force is held over the step)");
+    }
+  }
+  if (auto e = node.Optional("energy_balance")) {
+    e->Fail("expected no energy_balance for a floating base (it keeps no energy balance yet)");
+  }
+}
+
 // energy_balance: {bound: J, on_exceed: warn|fault}
 EnergyBalanceBound ReadEnergyBalanceBound(const YamlReader& node, bool external_plant) {
   if (external_plant) node.Fail("expected no energy_balance for an external plant (it keeps no energy balance)");
@@ -553,15 +627,16 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     inst.mujoco = MujocoPlantConfig{};
     inst.plant = ReadMujocoModel(plant_node, &inst.method, urdf);
   } else {
-    inst.plant = ReadPlant(plant_node, &inst.method, urdf);
+    inst.plant = ReadPlant(plant_node, &inst.method, urdf, &inst.floating);
   }
   const int n = inst.plant.num_dofs();
   inst.q0 = VectorXd::Zero(n);
   inst.qd0 = VectorXd::Zero(n);
   if (auto init = node.Optional("initial")) {
-    init->ExpectKeys({"q", "qd"});
+    init->ExpectKeys({"q", "qd", "base_q", "base_v"});
     if (auto q = init->Optional("q")) inst.q0 = q->Vector(n);
     if (auto qd = init->Optional("qd")) inst.qd0 = qd->Vector(n);
+    ReadInitialBase(*init, inst.floating);
   }
   // A URDF's effects, then the scene's keys over them; the merged result is what is validated.
   const auto* urdf_params = inst.mujoco ? nullptr : std::get_if<UrdfParams>(&inst.plant.params);
@@ -591,9 +666,11 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
           kVariationalNeedsCoriolis);  // the command's refusal is the same (Instance::SetIntegrator)
     }
   }
+  if (inst.floating) CheckFloatingIntegrator(node, inst.integrator);
   if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();
   if (auto f = node.Optional("forces")) inst.forces = f->Bool();
   if (auto e = node.Optional("energy_balance")) inst.energy_balance = ReadEnergyBalanceBound(*e, inst.external.has_value());
+  if (inst.floating) CheckFloatingControl(node);
   ReadControl(node, period, inst, urdf);
   CheckExternalControl(node, inst);
   return inst;
@@ -642,6 +719,22 @@ Scene ReadScene(const YamlReader& root) {
 }  // namespace
 
 Scene LoadScene(const std::string& path) { return ReadScene(YamlReader::Load(path)); }
+
+std::shared_ptr<const UrdfRobot> FixedBaseOf(const UrdfRobot& floating) {
+  auto fixed = std::make_shared<UrdfRobot>(floating);
+  fixed->tree.floating_base = false;
+  fixed->tree.base = RigidBody{};
+  return fixed;
+}
+
+RigidTree FloatingTreeOf(const FloatingBaseConfig& floating, const UrdfParams& params) {
+  UrdfParams p = params;
+  p.robot = floating.robot;
+  RigidTree tree = MakeRigidTree(p);  // the joints' bodies scaled, the spec's gravity
+  tree.base.mass *= params.mass_scale;
+  tree.base.inertia *= params.mass_scale;
+  return tree;
+}
 
 std::vector<const ControllerConfig*> ControllerConfigs(const InstanceConfig& config) {
   std::vector<const ControllerConfig*> all = {&config.controller};

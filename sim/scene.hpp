@@ -63,6 +63,37 @@ inline constexpr char kMujocoIntegrated[] =
 inline constexpr char kMujocoEffects[] =
     "a mujoco plant's effects are MuJoCo's (contacts, joint limits, damping, friction loss from its file)";
 
+// plant: {type: urdf, file: F, floating_base: true}: the robot of F on a free
+// base (Pinocchio's free-flyer root; plant/floating_dynamics.hpp), integrated
+// on its configuration manifold by lagrange (plant/floating_integrator.hpp).
+// The instance's `plant` spec is then the same robot with its base bolted at
+// the world origin (FixedBaseOf): the joints' model, which names and counts
+// them (n), bounds their setpoints and carries their effects; the instance's
+// q and qd (and state_t's) are the joints, and the base's pose and twist
+// lead the full state q (nq = n + 7) and v (nv = n + 6) that the floating
+// model steps (README, "Floating base").
+struct FloatingBaseConfig {
+  std::shared_ptr<const UrdfRobot> robot;  // F read with UrdfOptions{.floating_base = true}
+  // The base's initial pose and twist: initial.base_q (p (m), then the unit
+  // quaternion x, y, z, w; 7) and initial.base_v (v_b (m/s), ω_b (rad/s), base axes; 6).
+  VectorXd q0 = (VectorXd(kFreeFlyerNq) << 0, 0, 0, 0, 0, 0, 1).finished();
+  VectorXd v0 = VectorXd::Zero(kFreeFlyerNv);
+};
+
+// What a floating base refuses, in the words the scene reader and the
+// run-time commands share.
+inline constexpr char kFloatingIntegrators[] =
+    "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler or rk4 only";
+inline constexpr char kFloatingMethod[] =
+    "a floating base runs the recursive algorithms only (its Lagrangian path is not built yet)";
+
+// The robot with its floating base bolted at the world origin: the joints
+// alone, as a fixed-base tree (the base's inertia dropped).
+std::shared_ptr<const UrdfRobot> FixedBaseOf(const UrdfRobot& floating);
+// The floating tree an instance simulates: the robot's, with the spec's
+// gravity and mass_scale (the base's mass and inertia scaled too).
+RigidTree FloatingTreeOf(const FloatingBaseConfig& floating, const UrdfParams& params);
+
 // energy_balance: {bound: J, on_exceed: warn|fault}. The energy-balance
 // residual ε (plant/energy_balance.hpp; telemetry_t.energy_residual) is the
 // one sign that an integrator is making or losing energy while the state
@@ -108,6 +139,7 @@ struct InstanceConfig {
   double estop_dwell = kDefaultEstopDwell;
   std::optional<ExternalPlantConfig> external;  // set: the plant is outside; `plant` is its model
   std::optional<MujocoPlantConfig> mujoco;      // set: MuJoCo steps the plant; `plant` is its model
+  std::optional<FloatingBaseConfig> floating;   // set: the plant's base is free; `plant` is its joints' model
   bool telemetry = true;                        // keep the energy balance and publish <NAME>_TELEMETRY every tick
   bool forces = false;  // publish <NAME>_FORCES from the start (a command may turn it on or off)
 };

@@ -4,6 +4,7 @@ namespace lagrange {
 
 InstanceChannelNames SceneChannelNames(const InstanceConfig& inst, const std::string& prefix) {
   InstanceChannelNames c = DerivedChannelNames(prefix, inst.name);
+  if (!inst.floating) c.base.clear();  // only a floating base publishes one
   if (const ExternalControllerRef external = ExternalControllerOf(inst); external.config != nullptr) {
     const std::string& written = external.config->external.torque_channel;
     c.torque_in = written.empty() ? InstanceChannel(prefix, inst.name, kTorqueSuffix) : written;

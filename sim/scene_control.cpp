@@ -180,15 +180,16 @@ std::string SceneKey(const ControllerConfig& c, const YamlReader& node, const st
 
 UrdfFiles::UrdfFiles(const std::string& scene_file) : dir_(std::filesystem::path(scene_file).parent_path().string()) {}
 
-std::shared_ptr<const UrdfRobot> UrdfFiles::Load(const YamlReader& node) {
+std::shared_ptr<const UrdfRobot> UrdfFiles::Load(const YamlReader& node, const UrdfOptions& options) {
   const std::string name = node.Text();
   if (name.empty()) node.Fail("expected the path of a URDF file, got ''");
   const std::filesystem::path path = std::filesystem::path(dir_) / name;  // an absolute name replaces dir_
   const std::string resolved = path.lexically_normal().string();
-  if (auto it = loaded_.find(resolved); it != loaded_.end()) return it->second;
+  const std::pair<std::string, bool> key{resolved, options.floating_base};
+  if (auto it = loaded_.find(key); it != loaded_.end()) return it->second;
   try {
-    auto robot = std::make_shared<const UrdfRobot>(LoadUrdf(resolved));
-    loaded_.emplace(resolved, robot);
+    auto robot = std::make_shared<const UrdfRobot>(LoadUrdf(resolved, options));
+    loaded_.emplace(key, robot);
     return robot;
   } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
     node.Fail(e.what());

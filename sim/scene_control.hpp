@@ -22,11 +22,12 @@ class UrdfFiles {
   explicit UrdfFiles(const std::string& scene_file);
   // The robot in the file `node` names. Fails at `node` with LoadUrdf's
   // one-line message (the scene file, the key, then "URDF: ELEMENT: reason").
-  std::shared_ptr<const UrdfRobot> Load(const YamlReader& node);
+  // With options.floating_base, the file read on a free base (plant/urdf.hpp).
+  std::shared_ptr<const UrdfRobot> Load(const YamlReader& node, const UrdfOptions& options = {});
 
  private:
   std::string dir_;
-  std::map<std::string, std::shared_ptr<const UrdfRobot>> loaded_;  // by resolved path
+  std::map<std::pair<std::string, bool>, std::shared_ptr<const UrdfRobot>> loaded_;  // by resolved path, floating
 };
 
 // A controller run every `period` s on `plant` starting from q0 (n): both

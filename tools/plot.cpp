@@ -84,14 +84,14 @@ std::string LastLine(const std::string& text) {
 // The script's summary, "N rows in K segments" (the last line that says so;
 // matplotlib may warn before it), then "; joints: NAME, .." when it labelled
 // the joints by name, "; tracking: .." for what its tracking panels measured (joints to q_des, a frame to
-// its task target, or none), and "; task: .. of FRAME", "; telemetry: .." and "; forces: .." for the panels
+// its task target, or none), and "; task: .. of FRAME", "; telemetry: ..", "; base: .." and "; forces: .." for the panels
 // it drew from those. The names come escaped from their CSV; a line with a
 // control character is not printed.
 std::string Summary(const std::string& output) {
   static const std::regex kSummary(R"(^\d+ rows in \d+ segments?$)");
   static const std::regex kExtra(
       R"(^(joints: [^\x00-\x1f\x7f]+|tracking: [^\x00-\x1f\x7f]+|task: \d+ rows of [^\x00-\x1f\x7f]+|)"
-      R"(telemetry: \d+ rows|mpc: \d+ plans \(\d+ followed\), \d+ drawn|)"
+      R"(telemetry: \d+ rows|mpc: \d+ plans \(\d+ followed\), \d+ drawn|base: \d+ rows, height [-+.e0-9]+ to [-+.e0-9]+ m|)"
       R"(forces: \d+ rows of [a-z_, ]*)$)");
   std::string found, extra;
   std::istringstream lines(output);

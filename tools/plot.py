@@ -23,7 +23,11 @@ against ± the quadrature bound and the cost per tick (evaluations, compute
 was on as a line; with an mpc CSV (log2csv of <NAME>_MPC: an mpc controller's
 plans) one panel of each joint's actual path (solid) beside the paths the
 optimiser predicted (dotted, the knots each plan carries, up to 12 plans
-evenly chosen, drawn up to the last state row). A reset or restart (the simulated
+evenly chosen, drawn up to the last state row); with a floating base's
+columns in the CSV (simulate's position0.., orientation0.., com0..,
+linear_momentum0.., angular_momentum0..) three panels: the base's and the
+centre of mass's height, the base's quaternion, and the momentum's
+magnitudes. A reset or restart (the simulated
 time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
@@ -32,7 +36,8 @@ its tracking panels measured unless every row followed its joint setpoint
 ("tracking: joints to q_des on N of M rows, max |q_des - q| X", "tracking:
 FRAME to its task target on N rows, max |p_des - p| X mm, rotation Y mrad",
 or "tracking: none (...)"), "task: N rows of FRAME",
-"telemetry: N rows", "forces: N rows of EFFECT, .." and "mpc: N plans (F followed), K drawn"
+"telemetry: N rows", "forces: N rows of EFFECT, ..", "mpc: N plans (F followed), K drawn" and
+"base: N rows, height A to B m"
 for what it drew."""
 import bisect
 import csv
@@ -366,6 +371,35 @@ def named_joints(path, joints):
     return columns["name"]
 
 
+BASE_COLUMNS = ["position2", "com2"] + ["orientation%d" % i for i in range(4)] + \
+    ["linear_momentum%d" % i for i in range(3)] + ["angular_momentum%d" % i for i in range(3)]
+
+
+def base_panels(axes, draw, columns, path):
+    """A floating base's three panels (simulate's base columns): the base's and the centre of mass's height, the
+    base's quaternion, the momentum's magnitudes (linear, and angular about the centre of mass)."""
+    z = numbers(columns, "position2", path)
+    draw(axes[0], "base z", z)
+    draw(axes[0], "centre of mass z", numbers(columns, "com2", path))
+    axes[0].set_ylabel("height (m)")
+    axes[0].set_title("floating base: the base origin's and the centre of mass's height")
+    for i, name in enumerate("xyzw"):
+        draw(axes[1], "q" + name, numbers(columns, "orientation%d" % i, path))
+    axes[1].set_ylabel("quaternion")
+    axes[1].set_title("the base's orientation (unit quaternion x, y, z, w)")
+
+    def norm(prefix):
+        rows = zip(*(numbers(columns, "%s%d" % (prefix, i), path) for i in range(3)))
+        return [math.sqrt(a * a + b * b + c * c) for a, b, c in rows]
+
+    draw(axes[2], "|p| (N·s)", norm("linear_momentum"))
+    draw(axes[2], "|L about com| (N·m·s)", norm("angular_momentum"))
+    axes[2].set_ylabel("momentum")
+    axes[2].set_title("the momentum's magnitude: linear, and angular about the centre of mass")
+    finite = [v for v in z if not math.isnan(v)]
+    return "base: %d rows, height %.4g to %.4g m" % (len(z), finite[0], finite[-1])
+
+
 def joint_tracking_panel(axis, draw, columns, path, q, qdes, joint, colors, followed):
     """q_des - q on the rows where a controller followed q_des (a gap elsewhere); the summary line
     when some row did not follow it (None when every row did: the common case says nothing)."""
@@ -429,7 +463,9 @@ def main():
     task_at = 3 + (1 if joint_tracking else 0)
     telemetry_at = task_at + (2 if task else 0)
     mpc_at = telemetry_at + (2 if telemetry else 0)
-    panels = mpc_at + (1 if mpc else 0) + force_joints
+    base = all(c in columns for c in BASE_COLUMNS)  # a floating base's columns (simulate's)
+    base_at = mpc_at + (1 if mpc else 0)
+    panels = base_at + (3 if base else 0) + force_joints
     # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
     fig, axes = plt.subplots(panels, 1, sharex=True, figsize=(12.5, 2.75 * panels), squeeze=False)
     axes = [row[0] for row in axes]
@@ -474,6 +510,8 @@ def main():
         extra.append(line)
     if mpc:
         extra.append(mpc_panel(axes[mpc_at], mpc, draw, columns, path, q, joint, colors))
+    if base:
+        extra.append(base_panels(axes[base_at:base_at + 3], draw, columns, path))
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))
     axes[-1].set_xlabel("t (s)")

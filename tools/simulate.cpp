@@ -1,4 +1,5 @@
-// lagrangectl simulate: run a scene offline and write one CSV row per step,
+// lagrangectl simulate: run a scene offline and write one CSV row per step (a
+// floating base's pose, twist, centre of mass and momentum after the joints'),
 // and each instance's joint names beside its CSV (JointNamesPath); an
 // instance under a controller that moves a frame (a task-space controller, or
 // an mpc with a frame) also that frame, one row per CSV row (TaskCsvPath).
@@ -14,6 +15,7 @@
 #include <memory>
 
 #include "protocol/format.hpp"
+#include "protocol/log_records.hpp"
 #include "sim/health.hpp"
 #include "sim/instance_model.hpp"
 #include "sim/offline.hpp"
@@ -34,19 +36,31 @@ std::string CsvPathFor(const std::string& path, const std::string& name, bool se
   return path.substr(0, dot) + "." + name + path.substr(dot);
 }
 
-// The columns log2csv gives the same quantities in a state CSV (JointColumns).
-void WriteHeader(std::ostream& out, int n) {
+// The columns log2csv gives the same quantities in a state CSV (JointColumns), and a floating base's in a base CSV.
+void WriteHeader(std::ostream& out, const Instance& inst) {
   out << 't';
-  for (const char* field : {"q", "qd", "q_des", "tau"}) out << JointColumns(field, n);
-  out << ',' << kKineticEnergyColumn << ',' << kPotentialEnergyColumn << '\n';
+  for (const char* field : {"q", "qd", "q_des", "tau"}) out << JointColumns(field, inst.num_dofs());
+  out << ',' << kKineticEnergyColumn << ',' << kPotentialEnergyColumn;
+  if (inst.floating_base()) {
+    for (const BaseStateArray& a : kBaseStateArrays) out << JointColumns(a.name, a.width);  // log2csv's names
+  }
+  out << '\n';
 }
 
 void WriteRow(std::ostream& out, Instance& inst) {
   out << FormatDouble(inst.t());
-  for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.q_des(), &inst.tau()}) {
-    for (int i = 0; i < v->size(); ++i) out << ',' << FormatDouble((*v)[i]);
+  const auto put = [&out](const auto& v) {
+    for (Eigen::Index i = 0; i < v.size(); ++i) out << ',' << FormatDouble(v[i]);
+  };
+  for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.q_des(), &inst.tau()}) put(*v);
+  out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy());
+  if (inst.floating_base()) {  // base_state_t's arrays, in kBaseStateArrays' order
+    put(inst.floating_q().head<kFreeFlyerNq>());
+    put(inst.floating_v().head<kFreeFlyerNv>());
+    const Instance::BaseMotion b = inst.ComputeBaseMotion();
+    for (const Eigen::Vector3d* v : {&b.com, &b.linear, &b.angular}) put(*v);
   }
-  out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy()) << '\n';
+  out << '\n';
 }
 
 // The task CSV's columns: log2csv's names for these fields of task_state_t (TaskStateWriter).
@@ -115,7 +129,7 @@ class SimulateCommand final : public Command {
       }
       if (several) err << "lagrangectl simulate: " << inst.name() << " -> " << path << "\n";
     }
-    for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i].num_dofs());
+    for (std::size_t i = 0; i < instances.size(); ++i) WriteHeader(*streams[i], instances[i]);
 
     const auto steps = static_cast<std::int64_t>(std::llround(duration_ / scene.period));
     std::vector<bool> stepped(instances.size(), false);  // observed once already: past t = 0

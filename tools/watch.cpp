@@ -6,12 +6,15 @@
 // (evaluations, compute µs) averaged over the telemetry since the previous frame;
 // from <NAME>_MPC (an mpc controller's plans) a line for its latest plan: its
 // number, age when taken, solve time, iterations, cost before and after, and
-// status (converged or why not; followed or fallen back).
+// status (converged or why not; followed or fallen back); from <NAME>_BASE (a
+// floating base) two lines: the base's position, quaternion and ω_b, the centre
+// of mass and the momentum.
 
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
@@ -254,6 +257,7 @@ class WatchCommand final : public Command {
         << RunIdText(st.run_id) << "\n";
       SettingsAndTelemetryLines(f, name, st.run_id, view.telemetry.Find(st.run_id), now);
       if (const auto* plan = view.plans.Find(st.run_id)) PlanLine(f, plan->message, Age(plan->received, now));
+      if (const auto* base = view.bases.Find(st.run_id)) BaseLine(f, base->message);
       // Joint names from this run's status (URDF names, or q1.. for planar plants), cut to one column.
       const std::vector<std::string> joints = JointNamesOf(name, st.run_id, st.num_dofs);
       int width = 4;
@@ -300,6 +304,17 @@ class WatchCommand final : public Command {
     const double age = Age(telemetry->received, now);
     if (age > kStale) f << "   STALE (no telemetry for " << F(age, 1) << " s)";
     f << "\n";
+  }
+
+  // A floating base's latest state (base_state_t): where the base is and how it turns, the centre of mass
+  // and the momentum.
+  static void BaseLine(std::ostream& f, const base_state_t& b) {
+    const auto vec = [](const double* v) { return "(" + F(v[0], 3) + ", " + F(v[1], 3) + ", " + F(v[2], 3) + ")"; };
+    f << "  base p " << vec(b.position) << " m   quat (x y z w) (" << F(b.orientation[0], 3) << ", "
+      << F(b.orientation[1], 3) << ", " << F(b.orientation[2], 3) << ", " << F(b.orientation[3], 3) << ")   ω_b "
+      << vec(b.angular_velocity) << " rad/s\n";
+    f << "  com " << vec(b.com) << " m   momentum " << vec(b.linear_momentum) << " N·s   about com "
+      << vec(b.angular_momentum) << " N·m·s\n";
   }
 
   // An mpc controller's latest plan (mpc_t): what the optimiser did and whether the tick follows it.

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <lagrange/command_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/forces_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/setpoint_t.hpp>
@@ -967,6 +968,55 @@ TEST_F(QuietArmBridge, AnInstanceWithTelemetryOffPublishesNoTelemetryAndTheOther
   EXPECT_TRUE(OnlyReply(601).accepted) << OnlyReply(601).reason;
   EXPECT_EQ(last_status_.instance_integrators.at(0), "rk4 x2");
   EXPECT_TRUE(telemetry_.empty());
+}
+
+// A floating base (tests/fixtures/scenes/floating_fall.yaml's tree) beside a fixed one (a pendulum).
+class FloatingBridge : public Bridge {
+ protected:
+  FloatingBridge()
+      : Bridge(ParseScene(R"(
+instances:
+  - name: tree
+    plant: {type: urdf, file: ../urdf/floating_tree.urdf, floating_base: true}
+    initial: {base_q: [0, 0, 1, 0, 0, 0, 1], base_v: [0, 0, 0.5, 0, 0, 0.4]}
+  - name: pendulum
+    plant: {type: pendulum}
+)",
+                          std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_bridge.yaml"),
+               SetpointAge::kWall) {
+    for (const char* channel : {"TREE_BASE", "PENDULUM_BASE"}) {
+      output_.Subscribe(channel, [this](std::string_view c, const std::uint8_t* d, std::size_t n) {
+        base_state_t b;
+        if (Decode(d, n, b)) bases_[std::string(c)].push_back(b);
+      });
+    }
+    output_.Subscribe("TREE_STATE", [this](std::string_view, const std::uint8_t* d, std::size_t n) {
+      state_t st;
+      if (Decode(d, n, st)) tree_states_.push_back(st);
+    });
+  }
+  std::map<std::string, std::vector<base_state_t>> bases_;
+  std::vector<state_t> tree_states_;
+};
+
+// One base_state_t per tick on <NAME>_BASE, with its state_t's tick, time and
+// run, the state_t's q the 5 joints alone; a fixed base publishes none.
+TEST_F(FloatingBridge, EveryTickPublishesOneBaseStateBesideItsStateAndAFixedBaseNone) {
+  Ticks(100);
+  const std::vector<base_state_t>& tree = bases_["TREE_BASE"];
+  ASSERT_EQ(tree.size(), 100u);
+  ASSERT_EQ(tree_states_.size(), 100u);
+  EXPECT_TRUE(bases_["PENDULUM_BASE"].empty());
+  for (std::size_t k = 0; k < tree.size(); ++k) {
+    EXPECT_EQ(tree[k].tick, tree_states_[k].tick);
+    EXPECT_EQ(tree[k].run_id, kRunId);
+    EXPECT_EQ(tree[k].utime, tree_states_[k].utime);
+    EXPECT_DOUBLE_EQ(tree[k].t, tree_states_[k].t);
+    EXPECT_EQ(tree_states_[k].num_dofs, 5);
+  }
+  // The base rose at 0.5 m/s and fell back under gravity: z(0.1 s) ≈ 1 + 0.05 − 0.049.
+  EXPECT_NEAR(tree.back().position[2], 1.0 + 0.05 - 0.5 * 9.81 * 0.01, 5e-3);
+  EXPECT_GT(tree.back().orientation[2], 0.01);  // turning about z at 0.4 rad/s
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <unistd.h>
 #include <signal.h>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/command_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/reply_t.hpp>
@@ -340,6 +341,49 @@ TEST_F(Lagranged, APandaScenePublishesSevenJointStatesAndItsJointNamesInTheStatu
   }
   daemon->Signal(SIGTERM);
   EXPECT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+}
+
+// A floating base (tests/fixtures/scenes/floating_fall.yaml: a small tree
+// dropped with its base moving and turning, its hips under PD): beside its
+// state_t (the 5 joints, as any fixed-base client reads them) a base_state_t
+// goes out on TREE_BASE, finite, and its centre of mass falls as a body
+// thrown: between any two messages received, c_z(t) = c_z(a) + ċ_z(a) (t − a)
+// − ½ g (t − a)², ċ the linear momentum over the mass (3.65 kg). Messages
+// may be lost; none is counted.
+TEST_F(Lagranged, AFloatingBasePublishesBaseStatesWhoseCentreOfMassFallsAsHalfGTSquared) {
+  Prepare(9030);
+  LcmCollector collector(url_);
+  auto daemon = Start({"--config", std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml"});
+  ASSERT_TRUE(collector.WaitFor(
+      "TREE_BASE",
+      [](const std::vector<LcmCollector::Message>& m) {
+        base_state_t b;
+        return m.size() >= 50 && b.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size())) >= 0 &&
+               b.t > 0.3;
+      },
+      kWait));
+  daemon->Signal(SIGTERM);
+  EXPECT_EQ(daemon->Wait(kWait), 0) << daemon->Stderr();
+  const std::vector<state_t> states = collector.Decoded<state_t>("TREE_STATE");
+  ExpectWellFormedStream(states, "TREE_STATE");
+  EXPECT_EQ(states.back().num_dofs, 5);
+  const std::vector<base_state_t> bases = collector.Decoded<base_state_t>("TREE_BASE");
+  ASSERT_GE(bases.size(), 2u);
+  constexpr double kMass = 3.65, kG = 9.81, kTolerance = 1e-8;  // m: RK4 at 1 kHz over < 10 s is far within it
+  const base_state_t& a = bases.front();
+  for (const base_state_t& b : bases) {
+    ASSERT_EQ(b.run_id, states.front().run_id);
+    for (const double x : {b.position[2], b.orientation[3], b.linear_velocity[0], b.angular_velocity[2], b.com[2],
+                           b.linear_momentum[2], b.angular_momentum[1]}) {
+      ASSERT_TRUE(std::isfinite(x)) << b.tick;
+    }
+    const double dt = b.t - a.t;
+    EXPECT_NEAR(b.com[2], a.com[2] + a.linear_momentum[2] / kMass * dt - 0.5 * kG * dt * dt, kTolerance) << b.t;
+    const double norm = std::sqrt(b.orientation[0] * b.orientation[0] + b.orientation[1] * b.orientation[1] +
+                                  b.orientation[2] * b.orientation[2] + b.orientation[3] * b.orientation[3]);
+    EXPECT_NEAR(norm, 1.0, 1e-12);
+  }
+  EXPECT_LT(bases.back().position[2], bases.front().position[2]);  // it fell
 }
 
 TEST_F(Lagranged, AUrdfSceneWithAMissingRobotIsRefusedWithOneLine) {

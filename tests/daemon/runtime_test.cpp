@@ -458,6 +458,40 @@ TEST(Loop, TheTickAllocatesNothingInAnyMode) {
   EXPECT_EQ(loop.ticks(), 200);
 }
 
+// A floating base's tick allocates nothing either (its full state stepped on
+// the manifold, its base record for base_state_t): streamed, held, estopped,
+// reset, its integrators switched (dopri5 refused) and its forces published.
+TEST(Loop, AFloatingBasesTickAllocatesNothingInAnyMode) {
+  Runtime runtime(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml"));
+  CountedLoop loop(runtime);
+  loop.Run(20);
+  SetpointMessage& m = runtime.channels(0).setpoints.back();
+  m.setpoint.q.setConstant(0.1);
+  runtime.channels(0).setpoints.Publish();
+  loop.Run(20);
+  CommandMessage forces;
+  forces.kind = CommandKind::kSetForces;
+  forces.on = true;
+  loop.Switch(0, forces);
+  for (const IntegratorType type : {IntegratorType::kExplicitEuler, IntegratorType::kDormandPrince,
+                                    IntegratorType::kSemiImplicitEuler, IntegratorType::kRk4}) {
+    CommandMessage c;
+    c.kind = CommandKind::kSetIntegrator;
+    c.integrator.type = type;
+    c.integrator.substeps = 2;
+    loop.Switch(0, c);
+    loop.Run(5);
+  }
+  runtime.PostUrgent(0, Urgent::kEstop, 5);
+  loop.Run(10);
+  runtime.PostUrgent(0, Urgent::kClearEstop, 6);
+  loop.Command(0, CommandKind::kReset);
+  loop.Run(10);
+  EXPECT_EQ(loop.allocations(), 0);
+  EXPECT_TRUE(runtime.instance(0).floating_base());
+  EXPECT_EQ(runtime.instance(0).integrator().type(), IntegratorType::kRk4);
+}
+
 // Switching at run time allocates nothing: every integrator (with new
 // sub-steps and tolerances), every effect off and on again (with forces
 // published), every method, and the refusals (which format nothing).

@@ -240,7 +240,7 @@ TEST_F(UrdfScene, BadInputIsOneLineNamingTheSceneFileTheKeyAndWhatIsWrong) {
       {", method: closed-form", "",
        "instances[0].plant.method: urdf has no closed-form path (expected lagrangian or recursive)"},
       {", links: 3", "",
-       "instances[0].plant.links: unknown key (expected one of: type, file, gravity, method, params)"},
+       "instances[0].plant.links: unknown key (expected one of: type, file, gravity, method, params, floating_base)"},
       {"", "    controller: {type: gravity-compensation, model: {file: ../robots/one.urdf}}\n",
        "instances[0].controller.model.file: " + robots + "/one.urdf has 1 moving joint; expected 2 like the plant's"},
       {"", "    controller: {type: pd, kp: 1, kd: 1, model: {params: {mass_scale: -1}}}\n",

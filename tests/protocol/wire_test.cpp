@@ -11,6 +11,7 @@
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/telemetry_t.hpp>
 
 #include <optional>
@@ -259,6 +260,24 @@ task_state_t ValidTaskState() {
   m.controller = "operational-space";
   m.orientation[0] = m.orientation_des[0] = 1.0;
   return m;
+}
+
+// A floating base's state (fixed size): its type and run, every truncation and an extra byte caught.
+TEST(Wire, BaseStatesPassAndEveryTruncationOrExtraByteIsCaught) {
+  base_state_t m{};
+  m.run_id = 9;
+  m.orientation[3] = 1.0;
+  const auto base = Encode(m);
+  ASSERT_EQ(CheckBaseStatePacket(base.data(), base.size()), WireCheck::kOk);
+  EXPECT_EQ(TypeOf(base.data(), base.size()), MessageType::kBaseState);
+  EXPECT_STREQ(ToString(MessageType::kBaseState), "base_state_t");
+  EXPECT_EQ(RunIdOf(base.data(), base.size()), std::optional<std::int64_t>(9));
+  for (std::size_t len = 0; len < base.size(); ++len) EXPECT_NE(CheckBaseStatePacket(base.data(), len), WireCheck::kOk);
+  auto longer = base;
+  longer.push_back(0);
+  EXPECT_EQ(CheckBaseStatePacket(longer.data(), longer.size()), WireCheck::kSizeMismatch);
+  const auto task = Encode(ValidTaskState());
+  EXPECT_EQ(CheckBaseStatePacket(task.data(), task.size()), WireCheck::kFingerprint);
 }
 
 TEST(Wire, PoseSetpointsAndTaskStatesPassAndEveryTruncationOrExtraByteIsCaught) {

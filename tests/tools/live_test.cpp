@@ -602,6 +602,20 @@ TEST_F(LiveDaemon, WatchShowsTheResidualTheCostAndTheIntegratorOfEachInstance) {
   EXPECT_EQ(frame.find("no telemetry"), std::string::npos) << frame;
 }
 
+// A floating base (its <NAME>_BASE beside its state): watch shows where the base is, its centre of mass and momentum.
+TEST_F(LiveDaemon, WatchShowsAFloatingBasesPoseCentreOfMassAndMomentum) {
+  Start(9031, {"--config", std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml"});
+  ASSERT_TRUE(collector_->WaitFor("TREE_BASE", [](const auto& m) { return m.size() >= 5; }, 20.0));
+  const auto r = Ctl({"watch", "--frames", "2", "--rate", "5"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::size_t last = r.out.rfind("\ntree   ");
+  ASSERT_NE(last, std::string::npos) << r.out;
+  const std::string frame = r.out.substr(last);
+  for (const char* text : {"\n  base p (", " m   quat (x y z w) (", ") rad/s\n", "\n  com (", " N·s   about com ("}) {
+    EXPECT_NE(frame.find(text), std::string::npos) << text << "\n" << frame;
+  }
+}
+
 TEST(LiveStale, WatchMarksADaemonThatStoppedAsStale) {
   ASSERT_EQ(testing::PrepareLoopbackMulticast(7929), "");
   const std::string url = testing::TestLcmUrl(7929);

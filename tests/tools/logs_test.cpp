@@ -16,6 +16,7 @@
 #include <lagrange/forces_t.hpp>
 #include <lagrange/pose_setpoint_t.hpp>
 #include <lagrange/task_state_t.hpp>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/status_t.hpp>
@@ -600,7 +601,7 @@ TEST(LcmSpy, TheTypesJarHoldsEveryLagrangeTypeForLcmSpy) {
   ASSERT_EQ(list.exit_code, 0) << list.err;
   for (const char* type :
        {"state_t", "setpoint_t", "command_t", "status_t", "reply_t", "torque_t", "telemetry_t", "forces_t",
-        "pose_setpoint_t", "task_state_t", "mpc_t"}) {
+        "pose_setpoint_t", "task_state_t", "mpc_t", "base_state_t"}) {
     EXPECT_NE(list.out.find(std::string("lagrange/") + type + ".class"), std::string::npos) << type;
     // lcm-spy finds types as LCMEncodable classes on its class path.
     const auto javap = testing::RunProcess(
@@ -856,6 +857,38 @@ TEST_F(Logs, Log2CsvWritesPoseSetpointsAndTaskStatesOneColumnPerComponent) {
   EXPECT_EQ(tasks.Numbers("orientation_des0"), (std::vector<double>{1.0, 1.0, 1.0}));
   EXPECT_EQ(tasks.Texts("controller"), std::vector<std::string>(3, "\"operational-space\""));
   EXPECT_EQ(tasks.header.size(), 7u + 3 + 4 + 3 + 4 + 6 + 6);
+}
+
+// A floating base's states (<NAME>_BASE) are one column per component, in
+// the type's order, every value exactly as sent.
+TEST_F(Logs, Log2CsvWritesBaseStatesOneColumnPerComponent) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (std::int64_t k = 1; k <= 2; ++k) {
+    base_state_t b{};
+    b.utime = 200 + k;
+    b.run_id = 0x42;
+    b.tick = k;
+    b.t = 0.001 * static_cast<double>(k);
+    b.position[2] = 1.0 - 0.1 * static_cast<double>(k);
+    b.orientation[3] = 1.0;
+    b.angular_velocity[1] = 0.5;
+    b.com[2] = 0.9;
+    b.angular_momentum[0] = -2e-3;
+    events.emplace_back("TREE_BASE", Encode(b));
+  }
+  const fs::path log = dir_ / "base.lcm";
+  testing::WriteLcmLog(log.string(), events);
+  const fs::path out = dir_ / "csv";
+  const auto r = RunCtl({"log2csv", log.string(), "-o", out.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("TREE_BASE.csv: 2 rows of base_state_t"), std::string::npos) << r.out;
+  const Csv bases = ReadCsv(out / "TREE_BASE.csv");
+  EXPECT_EQ(bases.Numbers("position2"), (std::vector<double>{0.9, 0.8}));
+  EXPECT_EQ(bases.Numbers("orientation3"), (std::vector<double>{1.0, 1.0}));
+  EXPECT_EQ(bases.Numbers("angular_velocity1"), (std::vector<double>{0.5, 0.5}));
+  EXPECT_EQ(bases.Numbers("angular_momentum0"), (std::vector<double>{-2e-3, -2e-3}));
+  EXPECT_EQ(bases.Numbers("tick"), (std::vector<double>{1, 2}));
+  EXPECT_EQ(bases.header.size(), 5u + 3 + 4 + 3 + 3 + 3 + 3 + 3);
 }
 
 TEST_F(Logs, Log2CsvWritesTelemetryAndForcesOneColumnPerJointAndEffect) {

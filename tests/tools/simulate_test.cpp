@@ -71,6 +71,41 @@ class Simulate : public ::testing::Test {
   fs::path dir_;
 };
 
+// A floating base: after the joints' columns, the base's pose and twist, the
+// centre of mass and the momentum (log2csv's base_state_t names); the centre
+// of mass falls on its parabola, c_z(t) = c_z(0) + ċ_z(0) t − ½ g t², with
+// ċ(0) the linear momentum over the mass (3.65 kg: the fixture's).
+TEST_F(Simulate, AFloatingBasesRowsCarryItsPoseTwistAndACentreOfMassThatFallsAsAParabola) {
+  const fs::path csv = dir_ / "tree.csv";
+  const auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml",
+                         "--duration", "0.5", "--csv", csv.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Csv data = ReadCsv(csv);
+  ASSERT_EQ(data.rows.size(), 501u);
+  for (const char* column : {"q4", "qd4", "kinetic_energy", "position0", "position2", "orientation3", "linear_velocity2",
+                             "angular_velocity2", "com2", "linear_momentum2", "angular_momentum2"}) {
+    EXPECT_GE(data.Column(column), 0) << column;
+  }
+  EXPECT_EQ(data.header.size(), 1u + 4 * 5 + 2 + 22);
+  const int z = data.Column("com2"), pz = data.Column("linear_momentum2"), w = data.Column("orientation3");
+  constexpr double kMass = 3.65, kG = 9.81;
+  const double z0 = data.rows[0][z], vz0 = data.rows[0][pz] / kMass;
+  double worst = 0.0;
+  for (const std::vector<double>& row : data.rows) {
+    const double t = row[0];
+    worst = std::max(worst, std::abs(row[z] - (z0 + vz0 * t - 0.5 * kG * t * t)));
+  }
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_DOUBLE_EQ(data.rows[0][data.Column("position2")], 1.0);
+  EXPECT_LT(data.rows.back()[w], 1.0 - 1e-4);  // it turned
+  // plot draws the base's panels from these columns.
+  const fs::path png = dir_ / "tree.png";
+  const auto p = RunCtl({"plot", csv.string(), "-o", png.string()});
+  ASSERT_EQ(p.status, 0) << p.err;
+  EXPECT_NE(p.out.find("; base: 501 rows, height 1 to "), std::string::npos) << p.out;
+  EXPECT_TRUE(fs::exists(png));
+}
+
 TEST_F(Simulate, WritesOneRowPerStepWithStateTorqueAndEnergy) {
   const fs::path csv = dir_ / "pendulum.csv";
   const auto r = RunCtl({"simulate", std::string(LAGRANGE_SOURCE_DIR) + "/config/pendulum.yaml", "--duration", "2",
