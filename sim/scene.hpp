@@ -85,7 +85,8 @@ struct FloatingBaseConfig {
 inline constexpr char kFloatingIntegrators[] =
     "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler or rk4 only";
 inline constexpr char kFloatingMethod[] =
-    "a floating base runs the recursive algorithms only (its Lagrangian path is not built yet)";
+    "a floating base steps by the recursive algorithms only (its Lagrangian path, FloatingLagrangian, is the "
+    "O(nv²) reference, not a stepper)";
 
 // The robot with its floating base bolted at the world origin: the joints
 // alone, as a fixed-base tree (the base's inertia dropped).
