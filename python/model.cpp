@@ -3,7 +3,8 @@
 // builds them (tools/eval.cpp), so the numbers are the library's, bit for bit.
 //
 // Model and data apart: the Model holds the immutable Dynamics and Kinematics
-// (a floating base's: one FloatingDynamics, q of nq and velocities of nv)
+// (a floating base's: one FloatingDynamics, q of nq and velocities of nv, and
+// with method "lagrangian" a FloatingLagrangian for the dynamics)
 // and one data object of each for single states, used under the GIL. A batch
 // (N, n) runs with the GIL released, over `threads` threads, each with data
 // objects of its own made for that call, so other Python threads may use the
@@ -25,6 +26,7 @@
 
 #include "base/escape.hpp"
 #include "plant/floating_dynamics.hpp"
+#include "plant/floating_lagrangian.hpp"
 #include "plant/free_flyer.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
@@ -58,9 +60,10 @@ struct Worker {
         matrix(dynamics_model.num_dofs(), dynamics_model.num_dofs()) {
     for (auto& s : scratch) s.resize(static_cast<std::size_t>(dynamics_model.num_dofs()));
   }
-  // A floating base's: q of nq, the rest nv.
-  explicit Worker(const FloatingDynamics& model)
+  // A floating base's: q of nq, the rest nv; `lagrangian` when its dynamics are the Lagrangian path's.
+  Worker(const FloatingDynamics& model, const FloatingLagrangian* lagrangian)
       : floating(model.MakeData()),
+        floating_lagrangian(lagrangian ? lagrangian->MakeData() : nullptr),
         matrix(model.num_v(), model.num_v()),
         jacobian(6, model.num_v()),
         zero(VectorXd::Zero(model.num_v())) {
@@ -69,6 +72,7 @@ struct Worker {
   std::unique_ptr<DynamicsData> dynamics;
   std::unique_ptr<KinematicsData> kinematics;
   std::unique_ptr<FloatingData> floating;      // a floating base's, in place of the two above
+  std::unique_ptr<FloatingLagrangianData> floating_lagrangian;  // and its Lagrangian path's, when chosen
   std::array<std::vector<double>, 3> scratch;  // rows of strided arguments (q, qd, third)
   MatrixXd matrix;                             // M or C before it is laid out row-major
   MatrixXd jacobian;                           // (6 x nv) a floating base's frame Jacobian
@@ -98,14 +102,18 @@ class Model {
         joint_names_(JointNamesOf(spec)),
         own_(*dynamics_, *kinematics_),
         source_(std::move(source)) {}
-  // A URDF robot on a floating base (FloatingDynamics; q of nq = nv + 1, v of nv).
-  Model(RigidTree tree, py::tuple source)
+  // A URDF robot on a floating base (FloatingDynamics; q of nq = nv + 1, v of
+  // nv), its dynamics by FloatingLagrangian when `method` is kLagrangian.
+  Model(RigidTree tree, Method method, py::tuple source)
       : type_(PlantType::kUrdf),
-        method_(Method::kRecursive),
+        method_(method),
         floating_(std::make_shared<const FloatingDynamics>(std::move(tree))),
+        floating_lagrangian_(method == Method::kLagrangian
+                                 ? std::make_shared<const FloatingLagrangian>(floating_->tree())
+                                 : nullptr),
         joint_names_(DofNames(floating_->tree())),
         frame_names_(floating_->tree().frame_names()),
-        own_(*floating_),
+        own_(*floating_, floating_lagrangian_.get()),
         source_(std::move(source)) {}
 
   // `urdf`: URDF text (a str whose first character other than white space is
@@ -147,6 +155,21 @@ class Model {
   int num_velocities() const { return floating_ ? floating_->num_v() : num_dofs(); }
   bool floating_base() const { return floating_ != nullptr; }
   const FloatingDynamics* floating() const { return floating_.get(); }
+  // f(model, data) with a floating base's dynamics of the chosen method: FloatingLagrangian's or
+  // FloatingDynamics' (the same calls), on `w`'s data.
+  template <class F>
+  decltype(auto) FloatingDynamicsCall(Worker& w, F f) const {
+    if (floating_lagrangian_) return f(*floating_lagrangian_, *w.floating_lagrangian);
+    return f(*floating_, *w.floating);
+  }
+  // The floating base's model, or ValueError naming `call`, which takes only one.
+  const FloatingDynamics& RequireFloating(const char* call) const {
+    if (!floating_) {
+      throw py::value_error(std::string(call) + ": a floating-base Model's (from_urdf(..., floating_base=True)); "
+                            "this one's base is fixed");
+    }
+    return *floating_;
+  }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
   const std::vector<std::string>& frame_names() const { return floating_ ? frame_names_ : kinematics_->frame_names(); }
   std::string method() const { return std::string(ToString(method_)); }
@@ -185,7 +208,9 @@ class Model {
                      : JointArray(name, value, num_dofs());
   }
   // A fresh worker for this model (a batch's thread).
-  Worker MakeWorker() const { return floating_ ? Worker(*floating_) : Worker(*dynamics_, *kinematics_); }
+  Worker MakeWorker() const {
+    return floating_ ? Worker(*floating_, floating_lagrangian_.get()) : Worker(*dynamics_, *kinematics_);
+  }
 
   // Evaluates `kernel` at one state or over a batch: `args` are the per-joint
   // arguments, `shapes` each output's shape for one state ({} a number).
@@ -213,6 +238,7 @@ class Model {
   std::shared_ptr<const Dynamics> dynamics_;        // null for a floating base
   std::shared_ptr<const Kinematics> kinematics_;    // null for a floating base
   std::shared_ptr<const FloatingDynamics> floating_;  // a floating base's, else null
+  std::shared_ptr<const FloatingLagrangian> floating_lagrangian_;  // its dynamics with method lagrangian, else null
   std::vector<std::string> joint_names_;
   std::vector<std::string> frame_names_;  // a floating base's
   Worker own_;        // single states, under the GIL
@@ -327,9 +353,10 @@ std::unique_ptr<Model> Model::FloatingFromUrdfText(const std::string& text, cons
                                                    const py::object& gravity, const std::string& method,
                                                    double mass_scale) {
   const std::vector<double> g = GravityArg(gravity);
-  if (method != ToString(Method::kRecursive)) {
-    throw py::value_error("method: a floating base has the recursive path alone here, got '" + Escape(method, 64) +
-                          "' (the Euler–Poincaré Lagrangian path is in C++, plant/floating_lagrangian.hpp)");
+  const std::optional<Method> chosen = ParseMethod(method);
+  if (!chosen || *chosen == Method::kClosedForm) {
+    throw py::value_error("method: a floating base has the recursive and lagrangian paths, got '" +
+                          Escape(method, 64) + "'");
   }
   if (mass_scale != 1.0) throw py::value_error("mass_scale: not with floating_base=True yet (the file's masses)");
   RigidTree tree;
@@ -343,7 +370,7 @@ std::unique_ptr<Model> Model::FloatingFromUrdfText(const std::string& text, cons
   py::tuple source = py::make_tuple(kPickleVersion, "urdf", py::bytes(text), py::bytes(name), py::tuple(py::cast(g)),
                                     method, mass_scale, true);
   try {
-    return std::make_unique<Model>(std::move(tree), std::move(source));
+    return std::make_unique<Model>(std::move(tree), *chosen, std::move(source));
   } catch (const std::invalid_argument& e) {
     Raise(PyExc_ValueError, name + ": " + Escape(e.what(), 400));
   }
@@ -564,7 +591,9 @@ floating_base: the root link is a free base (Pinocchio's buildModel(urdf,
             JointModelFreeFlyer())): q = (p, qx, qy, qz, qw, joints) of nq = n + 7,
             qd = (v_b, ω_b in base axes, joint rates) of nv = n + 6; every
             call takes q of nq and velocity-like arguments of nv (the README's
-            "Floating base"); recursive method only, mass_scale 1
+            "Floating base"); method "recursive" or "lagrangian" (the
+            Euler–Poincaré form), mass_scale 1; center_of_mass,
+            centroidal_momentum_matrix and centroidal_momentum_bias are its own
 
 Raises FileNotFoundError when the file does not exist, ValueError when it is
 not a robot lagrange reads (one line: "FILE: ELEMENT: reason", FILE
@@ -683,6 +712,28 @@ reference  "local_world_aligned" (the default): in world axes; "local": the same
            (Pinocchio's classical acceleration in LOCAL, not d/dt(J_local) qd)
 returns    (6,) | (N, 6)   m/s², then rad/s²)";
 
+constexpr const char* kCenterOfMassDoc =
+    R"(q => (c, J_c): the centre of mass in the world and its Jacobian, ċ = J_c qd (a floating-base Model's).
+
+q        (nq,) | (N, nq)
+returns  c (3,) | (N, 3)              m, world axes
+         J_c (3, nv) | (N, 3, nv)     m/s per unit velocity)";
+
+constexpr const char* kCentroidalMomentumMatrixDoc =
+    R"(q => A_G, the centroidal momentum matrix (Orin et al.; Pinocchio's ccrba): h_G = A_G qd, the
+linear momentum then the angular momentum about the centre of mass, world axes (a floating-base Model's).
+
+q        (nq,) | (N, nq)
+returns  (6, nv) | (N, 6, nv)   rows 0..2 N·s, rows 3..5 N·m·s per unit velocity)";
+
+constexpr const char* kCentroidalMomentumBiasDoc =
+    R"((q, qd) => Ȧ_G qd: the centroidal momentum's rate at qdd = 0, so ḣ_G = A_G qdd + Ȧ_G qd
+(the drift term of Pinocchio's dccrba; a floating-base Model's).
+
+q        (nq,) | (N, nq)
+qd       (nv,) | (N, nv)
+returns  (6,) | (N, 6)   N (linear), then N·m about the centre of mass; world axes)";
+
 }  // namespace
 
 // The Model object `model` holds, or TypeError.
@@ -745,7 +796,8 @@ void BindModel(py::module_& m) {
         return ArrayResult{
             self.Evaluate<1, 1>({&aq}, {Matrix(nv, nv)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
               if (fb) {
-                fb->ComputeMassMatrix(*w.floating, VecMap(r[0], nq), w.matrix);
+                self.FloatingDynamicsCall(
+                    w, [&](const auto& m, auto& d) { m.ComputeMassMatrix(d, VecMap(r[0], nq), w.matrix); });
               } else {
                 self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], nq), w.matrix);
               }
@@ -781,8 +833,10 @@ void BindModel(py::module_& m) {
             self.Evaluate<1, 1>({&aq}, {Vector(nv)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
               Eigen::Map<VectorXd> G(out[0], nv);
               if (fb) {  // the generalized force that holds it still: ID at v = a = 0, gravity alone
-                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), w.zero, w.zero,
-                                           {.gravity = true, .coriolis = false}, G);
+                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
+                  m.ComputeInverseDynamics(d, VecMap(r[0], nq), w.zero, w.zero, {.gravity = true, .coriolis = false},
+                                           G);
+                });
               } else {
                 self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], nq), G);
               }
@@ -801,8 +855,10 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &atau}, {Vector(nv)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> qdd(out[0], nv);
               if (fb) {
-                fb->ComputeForwardDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
-                                           DynamicsTerms{}, qdd);
+                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
+                  m.ComputeForwardDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                                           qdd);
+                });
               } else {
                 self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
                                                        VecMap(r[2], nv), DynamicsTerms{}, qdd);
@@ -823,8 +879,10 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &aqdd}, {Vector(nv)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> tau(out[0], nv);
               if (fb) {
-                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
-                                           DynamicsTerms{}, tau);
+                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
+                  m.ComputeInverseDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                                           tau);
+                });
               } else {
                 self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
                                                        VecMap(r[2], nv), DynamicsTerms{}, tau);
@@ -842,7 +900,11 @@ void BindModel(py::module_& m) {
         const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
-              *out[0] = fb ? fb->ComputeKineticEnergy(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv))
+              *out[0] = fb ? self.FloatingDynamicsCall(w,
+                                                       [&](const auto& m, auto& d) {
+                                                         return m.ComputeKineticEnergy(d, VecMap(r[0], nq),
+                                                                                       VecMap(r[1], nv));
+                                                       })
                            : self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv));
               return std::isfinite(*out[0]);
             })};
@@ -856,7 +918,8 @@ void BindModel(py::module_& m) {
         const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
-              *out[0] = fb ? fb->ComputePotentialEnergy(*w.floating, VecMap(r[0], nq))
+              *out[0] = fb ? self.FloatingDynamicsCall(
+                                 w, [&](const auto& m, auto& d) { return m.ComputePotentialEnergy(d, VecMap(r[0], nq)); })
                            : self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], nq));
               return std::isfinite(*out[0]);
             })};
@@ -943,6 +1006,53 @@ void BindModel(py::module_& m) {
       },
       BatchDoc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+  model.def(
+      "center_of_mass",
+      [](Model& self, ArrayArg q, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("center_of_mass");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        return PoseResult{self.Evaluate<1, 2>(
+            {&aq}, {Vector(3), Matrix(3, nv)}, threads, "the centre of mass is",
+            [&](Worker& w, const Row1& r, auto& out) {
+              Eigen::Map<Eigen::Vector3d> c(out[0]);
+              auto Jc = w.jacobian.topRows<3>();
+              c = fb.ComputeCenterOfMass(*w.floating, VecMap(r[0], nq), Jc);
+              CopyRowMajor(Jc, out[1]);
+              return c.allFinite() && Jc.allFinite();
+            })};
+      },
+      BatchDoc(kCenterOfMassDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "centroidal_momentum_matrix",
+      [](Model& self, ArrayArg q, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("centroidal_momentum_matrix");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        return ArrayResult{self.Evaluate<1, 1>(
+            {&aq}, {Matrix(6, nv)}, threads, "A_G is", [&](Worker& w, const Row1& r, auto& out) {
+              fb.ComputeCentroidalMomentumMatrix(*w.floating, VecMap(r[0], nq), w.jacobian);
+              CopyRowMajor(w.jacobian, out[0]);
+              return w.jacobian.allFinite();
+            })};
+      },
+      BatchDoc(kCentroidalMomentumMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "centroidal_momentum_bias",
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("centroidal_momentum_bias");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value);
+        return ArrayResult{self.Evaluate<2, 1>(
+            {&aq, &aqd}, {Vector(6)}, threads, "the centroidal momentum bias is",
+            [&](Worker& w, const Row2& r, auto& out) {
+              Eigen::Map<Vector6d> b(out[0]);
+              fb.ComputeCentroidalMomentumBias(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), b);
+              return b.allFinite();
+            })};
+      },
+      BatchDoc(kCentroidalMomentumBiasDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(),
+      py::arg("threads") = 1);
   model.def(
       "integrate",
       [](Model& self, ArrayArg q, ArrayArg v, double dt, int threads) {

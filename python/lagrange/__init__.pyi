@@ -101,6 +101,14 @@ class Model:
     def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
                                 reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
         """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
+    def center_of_mass(self, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
+        """q => (c (3,) | (N, 3), J_c (3, nv) | (N, 3, nv)): the centre of mass (m, world) and ċ = J_c qd; a
+        floating-base Model's."""
+    def centroidal_momentum_matrix(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+        """q => A_G (6, nv) | (N, 6, nv): (linear N·s, angular about c N·m·s) = A_G qd, world axes (Pinocchio's
+        ccrba); a floating-base Model's."""
+    def centroidal_momentum_bias(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> _Array:
+        """(q, qd) => Ȧ_G qd (6,) | (N, 6): ḣ_G at qdd = 0 (N, N·m about c), world axes; a floating-base Model's."""
     def integrate(self, q: _ArrayLike, v: _ArrayLike, dt: float, *, threads: int = 1) -> _Array:
         """(q, v, dt) => q ⊕ dt v (nq,) | (N, nq): on SE(3) for a floating base (Pinocchio's integrate)."""
     def difference(self, q0: _ArrayLike, q1: _ArrayLike, *, threads: int = 1) -> _Array:

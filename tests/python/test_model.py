@@ -349,6 +349,7 @@ PUBLIC = ["from_urdf", "builtin", "num_dofs", "num_positions", "num_velocities",
           "frame_names", "method", "plant", "mass_matrix", "integrate", "difference",
           "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
           "frame_pose", "frame_jacobian", "frame_bias_acceleration",
+          "center_of_mass", "centroidal_momentum_matrix", "centroidal_momentum_bias",
           "forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"]  # derivatives.cpp
 
 
