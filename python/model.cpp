@@ -22,6 +22,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "base/escape.hpp"
@@ -218,11 +219,14 @@ class Model {
   // into its output slots and returns whether they are finite. One state:
   // the outputs as arrays (a float for shape {}), a tuple when several; a
   // batch: each with a leading axis N, computed without the GIL.
+  // `out_array` (one output alone): an array the result is written into and returned as, or None for a new one.
   template <std::size_t kArgs, std::size_t kOuts, class Kernel>
   py::object Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
-                      int threads, const char* what, Kernel kernel);
+                      int threads, const char* what, Kernel kernel, py::handle out_array = py::none());
 
   double TimeForwardDynamics(const py::handle& q, const py::handle& qd, const py::handle& tau, long iterations);
+  // The data of single states (under the GIL): Evaluate's, and the fast path's (FastMethod).
+  Worker& single_state_worker() { return own_; }
 
  private:
   PlantType type_;
@@ -455,7 +459,7 @@ std::unique_ptr<Model> Model::SetState(const py::tuple& state) {
 
 template <std::size_t kArgs, std::size_t kOuts, class Kernel>
 py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
-                           int threads, const char* what, Kernel kernel) {
+                           int threads, const char* what, Kernel kernel, py::handle out_array) {
   if (threads < 1 || threads > kMaxThreads) {
     throw py::value_error("threads: expected 1.." + std::to_string(kMaxThreads) + ", got " + std::to_string(threads));
   }
@@ -482,6 +486,17 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
     if (rows >= 0) dims[static_cast<std::size_t>(ndim++)] = rows;
     for (int d = 0; d < shape.ndim; ++d)
       dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
+    if (kOuts == 1 && !out_array.is_none()) {
+      outputs[o] = ResultArrayData(out_array.ptr(), ndim, dims.data());
+      if (!outputs[o]) {
+        std::string shape_text = "(";
+        for (int d = 0; d < ndim; ++d) shape_text += (d ? ", " : "") + std::to_string(dims[static_cast<std::size_t>(d)]);
+        throw py::value_error("out: expected a writeable C-contiguous float64 array of shape " + shape_text +
+                              (ndim == 1 ? ",)" : ")") + " (the result's)");
+      }
+      arrays[o] = py::reinterpret_borrow<py::object>(out_array);
+      continue;
+    }
     py::array_t<double> array = NewArray(ndim, dims.data());
     outputs[o] = array.mutable_data();
     arrays[o] = std::move(array);
@@ -572,6 +587,11 @@ every row. A batch runs in C++ without the GIL, over `threads` threads, each
 with its own data (the model is shared, read-only). Wrong shapes and
 non-finite input raise ValueError with lagrangectl eval's messages; a result
 that is not finite raises RuntimeError naming the first such state.
+
+mass_matrix, gravity, forward_dynamics and inverse_dynamics take out=: a
+writeable C-contiguous float64 array of the result's shape, written in place
+and returned (no allocation). One state given as float64 (n,) arrays,
+positionally, takes a fast path past the argument conversion (issue 37).
 
 The numbers are the C++ library's, bit for bit (the same as
 `lagrangectl eval`, whose JSON prints the shortest text of each double).
@@ -748,6 +768,135 @@ const Model& AsModel(py::handle model) {
 std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return AsModel(model).shared_dynamics(); }
 PlantType ModelPlantType(py::handle model) { return AsModel(model).type(); }
 
+// --- the fast path (issue 37) -------------------------------------------------
+// A single state passed positionally as float64 arrays of shape (n,), contiguous,
+// aligned and finite (what the C++ call reads in place), to a fixed base's
+// mass_matrix, gravity, forward_dynamics or inverse_dynamics, skips pybind11's
+// dispatch and JointArray: a METH_FASTCALL method on Model reads the arrays where
+// they are and returns a new result array, or writes into out= (an array of the
+// result's shape, C-contiguous, writeable) and returns it. Every other call (a batch, a list,
+// a keyword, a wrong size, a non-finite value or result, a floating base) goes
+// to the pybind11 function the fast method stands in front of, unchanged: the
+// same results (the same C++ call on the same data), the same errors.
+
+struct FastCall {
+  const char* name;
+  int arrays;                     // per-joint arguments, all n long
+  Shape (*shape)(py::ssize_t n);  // the result's
+  // (model, its single-state worker, the arrays' values) => the result into `out`; whether it is finite.
+  bool (*kernel)(const Model& model, Worker& w, const double* const* x, double* out);
+};
+
+using Map = Eigen::Map<VectorXd>;
+constexpr std::array<FastCall, 4> kFastCalls = {{
+    {"mass_matrix", 1, [](py::ssize_t n) { return Matrix(n, n); },
+     [](const Model& m, Worker& w, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       m.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(x[0], n), w.matrix);
+       CopyRowMajor(w.matrix, out);
+       return w.matrix.allFinite();
+     }},
+    {"gravity", 1, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map G(out, n);
+       m.dynamics().ComputeGravityForce(*w.dynamics, VecMap(x[0], n), G);
+       return G.allFinite();
+     }},
+    {"forward_dynamics", 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map qdd(out, n);
+       m.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
+                                           DynamicsTerms{}, qdd);
+       return qdd.allFinite();
+     }},
+    {"inverse_dynamics", 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map tau(out, n);
+       m.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
+                                           DynamicsTerms{}, tau);
+       return tau.allFinite();
+     }},
+}};
+
+// The pybind11 functions behind the fast methods (owned references, kept for the process's life).
+std::array<PyObject*, kFastCalls.size()> g_general{};
+
+// The call as pybind11 takes it: self, then the arguments and keywords as given.
+PyObject* GeneralCall(std::size_t index, PyObject* self, PyObject* const* args, Py_ssize_t nargs, PyObject* kwnames) {
+  const Py_ssize_t total = nargs + (kwnames ? PyTuple_GET_SIZE(kwnames) : 0);
+  std::vector<PyObject*> stack(static_cast<std::size_t>(total) + 1);
+  stack[0] = self;
+  std::copy(args, args + total, stack.begin() + 1);
+  return PyObject_Vectorcall(g_general[index], stack.data(), static_cast<std::size_t>(nargs) + 1, kwnames);
+}
+
+// The Model `self` holds, or null: the method's descriptor has checked that
+// self is a Model, whose pybind11 instance holds its one value in place.
+Model* FastSelf(PyObject* self) {
+  auto* instance = reinterpret_cast<py::detail::instance*>(self);
+  if (!instance->simple_layout || !instance->simple_holder_constructed) return nullptr;
+  return static_cast<Model*>(instance->simple_value_holder[0]);
+}
+
+// Whether the keywords are out= alone.
+bool OutAlone(PyObject* kwnames) {
+  return PyTuple_GET_SIZE(kwnames) == 1 && PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "out") == 0;
+}
+
+template <std::size_t kIndex>
+PyObject* FastMethod(PyObject* self, PyObject* const* args, Py_ssize_t nargs, PyObject* kwnames) {
+  constexpr FastCall call = kFastCalls[kIndex];
+  Model* fast_self = FastSelf(self);
+  if (fast_self && nargs == call.arrays && (!kwnames || OutAlone(kwnames))) {
+    try {
+      Model& model = *fast_self;
+      const py::ssize_t n = model.num_dofs();
+      std::array<const double*, 3> x{};
+      bool fast = !model.floating_base();
+      for (int a = 0; fast && a < call.arrays; ++a) {
+        x[static_cast<std::size_t>(a)] = ContiguousFiniteVector(args[a], n);
+        fast = x[static_cast<std::size_t>(a)] != nullptr;
+      }
+      const Shape shape = call.shape(n);
+      PyObject* out = kwnames ? args[nargs] : nullptr;
+      double* out_data = fast && out ? ResultArrayData(out, shape.ndim, shape.dims.data()) : nullptr;
+      if (fast && out_data) {
+        if (call.kernel(model, model.single_state_worker(), x.data(), out_data)) return Py_NewRef(out);
+      } else if (fast && !out) {
+        py::array_t<double> result = NewArray(shape.ndim, shape.dims.data());
+        if (call.kernel(model, model.single_state_worker(), x.data(), result.mutable_data())) {
+          return result.release().ptr();
+        }
+      }
+    } catch (py::error_already_set& e) {
+      e.restore();
+      return nullptr;
+    }
+  }
+  return GeneralCall(kIndex, self, args, nargs, kwnames);
+}
+
+// Puts FastMethod<k> in front of each kFastCalls[k]'s pybind11 method, with its docstring.
+template <std::size_t... kIndex>
+void InstallFastPath(py::class_<Model>& model, std::index_sequence<kIndex...>) {
+  static std::array<std::string, kFastCalls.size()> docs;
+  static std::array<PyMethodDef, kFastCalls.size()> defs;
+  const std::array<_PyCFunctionFastWithKeywords, kFastCalls.size()> functions = {&FastMethod<kIndex>...};
+  for (std::size_t k = 0; k < kFastCalls.size(); ++k) {
+    py::object general = model.attr(kFastCalls[k].name);
+    docs[k] = py::cast<std::string>(general.attr("__doc__"));
+    g_general[k] = general.release().ptr();
+    defs[k] = {kFastCalls[k].name, reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(functions[k])),
+               METH_FASTCALL | METH_KEYWORDS, docs[k].c_str()};
+    PyObject* descriptor = PyDescr_NewMethod(reinterpret_cast<PyTypeObject*>(model.ptr()), &defs[k]);
+    if (!descriptor) throw py::error_already_set();
+    model.attr(kFastCalls[k].name) = py::reinterpret_steal<py::object>(descriptor);
+  }
+}
+
 void BindModel(py::module_& m) {
   py::class_<Model> model(m, "Model", kModelDoc);
   const std::vector<double> standard_gravity = {0.0, 0.0, -kStandardGravity};
@@ -789,7 +938,7 @@ void BindModel(py::module_& m) {
 
   model.def(
       "mass_matrix",
-      [](Model& self, ArrayArg q, int threads) {
+      [](Model& self, ArrayArg q, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value);
         const FloatingDynamics* fb = self.floating();
@@ -797,15 +946,15 @@ void BindModel(py::module_& m) {
             self.Evaluate<1, 1>({&aq}, {Matrix(nv, nv)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
               if (fb) {
                 self.FloatingDynamicsCall(
-                    w, [&](const auto& m, auto& d) { m.ComputeMassMatrix(d, VecMap(r[0], nq), w.matrix); });
+                    w, [&](const auto& fm, auto& d) { fm.ComputeMassMatrix(d, VecMap(r[0], nq), w.matrix); });
               } else {
                 self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], nq), w.matrix);
               }
               CopyRowMajor(w.matrix, out[0]);
               return w.matrix.allFinite();
-            })};
+            }, out_array)};
       },
-      BatchDoc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "coriolis_matrix",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
@@ -825,7 +974,7 @@ void BindModel(py::module_& m) {
       BatchDoc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "gravity",
-      [](Model& self, ArrayArg q, int threads) {
+      [](Model& self, ArrayArg q, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value);
         const FloatingDynamics* fb = self.floating();
@@ -833,20 +982,20 @@ void BindModel(py::module_& m) {
             self.Evaluate<1, 1>({&aq}, {Vector(nv)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
               Eigen::Map<VectorXd> G(out[0], nv);
               if (fb) {  // the generalized force that holds it still: ID at v = a = 0, gravity alone
-                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
-                  m.ComputeInverseDynamics(d, VecMap(r[0], nq), w.zero, w.zero, {.gravity = true, .coriolis = false},
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeInverseDynamics(d, VecMap(r[0], nq), w.zero, w.zero, {.gravity = true, .coriolis = false},
                                            G);
                 });
               } else {
                 self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], nq), G);
               }
               return G.allFinite();
-            })};
+            }, out_array)};
       },
-      BatchDoc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "forward_dynamics",
-      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
                          atau = self.VelocityArg("tau", tau.value);
@@ -855,8 +1004,8 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &atau}, {Vector(nv)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> qdd(out[0], nv);
               if (fb) {
-                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
-                  m.ComputeForwardDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeForwardDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
                                            qdd);
                 });
               } else {
@@ -864,13 +1013,13 @@ void BindModel(py::module_& m) {
                                                        VecMap(r[2], nv), DynamicsTerms{}, qdd);
               }
               return qdd.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
-      py::arg("threads") = 1);
+      py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "inverse_dynamics",
-      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
                          aqdd = self.VelocityArg("qdd", qdd.value);
@@ -879,8 +1028,8 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &aqdd}, {Vector(nv)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> tau(out[0], nv);
               if (fb) {
-                self.FloatingDynamicsCall(w, [&](const auto& m, auto& d) {
-                  m.ComputeInverseDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeInverseDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
                                            tau);
                 });
               } else {
@@ -888,10 +1037,10 @@ void BindModel(py::module_& m) {
                                                        VecMap(r[2], nv), DynamicsTerms{}, tau);
               }
               return tau.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
-      py::arg("threads") = 1);
+      py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "kinetic_energy",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
@@ -901,8 +1050,8 @@ void BindModel(py::module_& m) {
         return NumberResult{
             self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
               *out[0] = fb ? self.FloatingDynamicsCall(w,
-                                                       [&](const auto& m, auto& d) {
-                                                         return m.ComputeKineticEnergy(d, VecMap(r[0], nq),
+                                                       [&](const auto& fm, auto& d) {
+                                                         return fm.ComputeKineticEnergy(d, VecMap(r[0], nq),
                                                                                        VecMap(r[1], nv));
                                                        })
                            : self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv));
@@ -919,7 +1068,7 @@ void BindModel(py::module_& m) {
         return NumberResult{
             self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
               *out[0] = fb ? self.FloatingDynamicsCall(
-                                 w, [&](const auto& m, auto& d) { return m.ComputePotentialEnergy(d, VecMap(r[0], nq)); })
+                                 w, [&](const auto& fm, auto& d) { return fm.ComputePotentialEnergy(d, VecMap(r[0], nq)); })
                            : self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], nq));
               return std::isfinite(*out[0]);
             })};
@@ -1091,6 +1240,8 @@ void BindModel(py::module_& m) {
             })};
       },
       BatchDoc(kDifferenceDoc).c_str(), py::arg("q0"), py::arg("q1"), py::kw_only(), py::arg("threads") = 1);
+
+  InstallFastPath(model, std::make_index_sequence<kFastCalls.size()>{});
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
             "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "

@@ -1,6 +1,6 @@
 # Type stubs for the lagrange package (units SI; arrays float64 numpy).
 from os import PathLike
-from typing import Literal, Sequence, Union
+from typing import Literal, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -78,15 +78,17 @@ class Model:
     def plant(self) -> Literal["pendulum", "arm2", "cartpole", "chain", "urdf"]:
         """The plant type."""
 
-    def mass_matrix(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+    def mass_matrix(self, q: _ArrayLike, *, threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """q (n,) | (N, n) => M(q) (n, n) | (N, n, n), kg·m² (kg for prismatic joints)."""
     def coriolis_matrix(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> _Array:
         """(q, qd) => C(q, qd) (n, n) | (N, n, n): C qd in N·m, Ṁ − 2C skew."""
-    def gravity(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+    def gravity(self, q: _ArrayLike, *, threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """q => G(q) = ∂V/∂q (n,) | (N, n), N·m or N."""
-    def forward_dynamics(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *, threads: int = 1) -> _Array:
+    def forward_dynamics(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *, threads: int = 1,
+                         out: Optional[_Array] = None) -> _Array:
         """(q, qd, tau) => qdd = M⁻¹ (tau − C qd − G) (n,) | (N, n), rad/s² or m/s²."""
-    def inverse_dynamics(self, q: _ArrayLike, qd: _ArrayLike, qdd: _ArrayLike, *, threads: int = 1) -> _Array:
+    def inverse_dynamics(self, q: _ArrayLike, qd: _ArrayLike, qdd: _ArrayLike, *, threads: int = 1,
+                         out: Optional[_Array] = None) -> _Array:
         """(q, qd, qdd) => tau = M qdd + C qd + G (n,) | (N, n), N·m or N."""
     def kinetic_energy(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> Union[float, _Array]:
         """(q, qd) => T = ½ qdᵀ M qd, J: a float | (N,)."""

@@ -512,3 +512,56 @@ def test_a_model_goes_to_worker_processes_with_multiprocessing():
         results = pool.starmap(_mass_matrices, [(model, s) for s in states])
     for s, got in zip(states, results):
         assert exactly(got, model.mass_matrix(s))
+
+
+# ---- issue 37: the fast path and out= -----------------------------------------------------------------------------
+
+def test_the_fast_path_gives_the_general_paths_results_and_errors():
+    # float64 (n,) arrays passed positionally take the fast path; lists, strided views, float32 and keywords the
+    # general one: the same doubles, bit for bit, and the same messages.
+    model = lagrange.Model.from_urdf(os.path.join(SOURCE, "config/robots/panda.urdf"))
+    rng = np.random.default_rng(37)
+    n = model.num_dofs
+    q, qd, x = (rng.uniform(-1, 1, n) for _ in range(3))
+    strided = lambda a: np.repeat(a, 2)[::2]
+    calls = {"mass_matrix": (q,), "gravity": (q,), "forward_dynamics": (q, qd, x), "inverse_dynamics": (q, qd, x)}
+    for name, args in calls.items():
+        f = getattr(model, name)
+        fast = f(*args)
+        assert fast.dtype == np.float64 and fast.flags.c_contiguous
+        np.testing.assert_array_equal(fast, f(*[list(a) for a in args]))
+        np.testing.assert_array_equal(fast, f(*[strided(a) for a in args]))
+        np.testing.assert_array_equal(fast, f(*args, threads=1))
+        np.testing.assert_array_equal(fast, f(np.stack([args[0]] * 2), *args[1:])[1])
+        bad = [a.copy() for a in args]
+        bad[-1][3] = np.nan
+        with pytest.raises(ValueError, match=r"^\w+: expected finite numbers, got nan at \w+\[3\]$"):
+            f(*bad)
+        with pytest.raises(ValueError, match=rf"^q: expected {n} values \(one per joint\), got {n + 1}$"):
+            f(np.zeros(n + 1), *args[1:])
+        with pytest.raises(TypeError):
+            f(*args, np.zeros(n))
+
+
+def test_out_takes_the_result_in_place():
+    model = lagrange.Model.builtin("arm2")
+    q, qd, tau = np.array([0.3, -0.4]), np.array([1.0, 0.5]), np.array([0.2, -0.1])
+    out = np.empty(2)
+    assert model.forward_dynamics(q, qd, tau, out=out) is out
+    np.testing.assert_array_equal(out, model.forward_dynamics(q, qd, tau))
+    M = np.empty((2, 2))
+    assert model.mass_matrix([0.3, -0.4], out=M) is M  # the general path (a list) takes out= too
+    np.testing.assert_array_equal(M, model.mass_matrix(q))
+    G = np.empty((3, 2))
+    assert model.gravity(np.stack([q, q, -q]), out=G) is G  # a batch: (N, n)
+    np.testing.assert_array_equal(G[2], model.gravity(-q))
+    tau_out = np.empty(2)
+    assert model.inverse_dynamics(q, qd, tau, out=tau_out) is tau_out
+    np.testing.assert_array_equal(tau_out, model.inverse_dynamics(q, qd, tau))
+    for wrong in [np.empty(3), np.empty(2, dtype=np.float32), np.empty((2, 2))[:, 0], [0.0, 0.0]]:
+        with pytest.raises(ValueError, match=r"^out: expected a writeable C-contiguous float64 array of shape \(2,\)"):
+            model.forward_dynamics(q, qd, tau, out=wrong)
+    frozen = np.empty(2)
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError, match=r"^out: expected a writeable"):
+        model.gravity(q, out=frozen)
