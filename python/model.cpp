@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "base/escape.hpp"
@@ -197,6 +198,17 @@ class Model {
     }
     if (!k) throw py::value_error("frame: no frame '" + Escape(name, 64) + "' in this plant (frame_names lists them)");
     return *k;
+  }
+  // A frame by name or by its index in frame_names (frame_id's), or ValueError.
+  int Frame(const std::variant<int, std::string>& frame) const {
+    if (const std::string* name = std::get_if<std::string>(&frame)) return Frame(*name);
+    const int k = std::get<int>(frame);
+    const int count = static_cast<int>(frame_names().size());
+    if (k < 0 || k >= count) {
+      throw py::value_error("frame: expected an index 0.." + std::to_string(count - 1) + " (frame_names), got " +
+                            std::to_string(k));
+    }
+    return k;
   }
 
   // Per-argument checks: q has nq entries, a velocity-like argument nv (both n for a fixed base).
@@ -1077,7 +1089,7 @@ void BindModel(py::module_& m) {
 
   model.def(
       "frame_pose",
-      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, int threads) {
         const int nq = self.num_positions();
         const int k = self.Frame(frame);
         const JointArray aq = self.PositionArg("q", q.value);
@@ -1100,7 +1112,8 @@ void BindModel(py::module_& m) {
       BatchDoc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_jacobian",
-      [](Model& self, const std::string& frame, ArrayArg q, const std::string& reference, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, const std::string& reference,
+         int threads) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
@@ -1128,7 +1141,8 @@ void BindModel(py::module_& m) {
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
   model.def(
       "frame_bias_acceleration",
-      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, const std::string& reference, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, ArrayArg qd,
+         const std::string& reference, int threads) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
@@ -1155,6 +1169,12 @@ void BindModel(py::module_& m) {
       },
       BatchDoc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+  model.def(
+      "frame_id", [](const Model& self, const std::string& name) { return self.Frame(name); },
+      "name => its index in frame_names (Pinocchio's getFrameId): frame_pose, frame_jacobian and "
+      "frame_bias_acceleration take it in place of the name, without looking the name up.\n\nValueError for a name "
+      "the model has not.",
+      py::arg("name"));
   model.def(
       "center_of_mass",
       [](Model& self, ArrayArg q, int threads) {

@@ -94,15 +94,17 @@ class Model:
         """(q, qd) => T = ½ qdᵀ M qd, J: a float | (N,)."""
     def potential_energy(self, q: _ArrayLike, *, threads: int = 1) -> Union[float, _Array]:
         """q => V, J: a float | (N,)."""
-    def frame_pose(self, frame: str, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
+    def frame_pose(self, frame: Union[int, str], q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
         """(frame, q) => (R (3, 3) | (N, 3, 3), p (3,) | (N, 3)): the frame's axes and origin (m), world frame."""
-    def frame_jacobian(self, frame: str, q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
+    def frame_jacobian(self, frame: Union[int, str], q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
                        threads: int = 1) -> _Array:
         """(frame, q) => J (6, n) | (N, 6, n): (ṗ m/s, ω rad/s) = J qd of the frame's origin, in world axes or
         (reference="local") the frame's own."""
-    def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
+    def frame_bias_acceleration(self, frame: Union[int, str], q: _ArrayLike, qd: _ArrayLike, *,
                                 reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
         """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
+    def frame_id(self, name: str) -> int:
+        """name => its index in frame_names, which frame_pose, frame_jacobian and frame_bias_acceleration take."""
     def center_of_mass(self, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
         """q => (c (3,) | (N, 3), J_c (3, nv) | (N, 3, nv)): the centre of mass (m, world) and ċ = J_c qd; a
         floating-base Model's."""

@@ -19,6 +19,7 @@ PANDA = os.path.join(SOURCE, "config/robots/panda.urdf")
 UR5 = os.path.join(SOURCE, "config/robots/ur5.urdf")
 PANDA_HAND = os.path.join(SOURCE, "config/robots/panda_hand.urdf")  # a mimic finger: 8 dofs, 9 moving joints
 BRANCHING = os.path.join(SOURCE, "tests/fixtures/urdf/branching.urdf")
+TWO_ARMS_FLOATING = os.path.join(SOURCE, "tests/fixtures/urdf/two_arms.urdf")  # a base of mass > 0
 
 # (name, how Model is built, eval's arguments for the same plant)
 PLANTS = [
@@ -349,7 +350,7 @@ PUBLIC = ["from_urdf", "builtin", "num_dofs", "num_positions", "num_velocities",
           "frame_names", "method", "plant", "mass_matrix", "integrate", "difference",
           "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
           "frame_pose", "frame_jacobian", "frame_bias_acceleration",
-          "center_of_mass", "centroidal_momentum_matrix", "centroidal_momentum_bias",
+          "center_of_mass", "centroidal_momentum_matrix", "centroidal_momentum_bias", "frame_id",
           "forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"]  # derivatives.cpp
 
 
@@ -565,3 +566,29 @@ def test_out_takes_the_result_in_place():
     frozen.flags.writeable = False
     with pytest.raises(ValueError, match=r"^out: expected a writeable"):
         model.gravity(q, out=frozen)
+
+
+def test_a_frame_by_its_index_is_the_frame_by_its_name():
+    for model in [lagrange.Model.from_urdf(PANDA), lagrange.Model.from_urdf(TWO_ARMS_FLOATING, floating_base=True)]:
+        rng = np.random.default_rng(38)
+        q = rng.uniform(-1, 1, model.num_positions)
+        if model.floating_base:
+            q[3:7] /= np.linalg.norm(q[3:7])
+        qd = rng.uniform(-1, 1, model.num_velocities)
+        for k, name in enumerate(model.frame_names):
+            assert model.frame_id(name) == k
+            for a, b in zip(model.frame_pose(k, q), model.frame_pose(name, q)):
+                np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(model.frame_jacobian(k, q, reference="local"),
+                                          model.frame_jacobian(name, q, reference="local"))
+            np.testing.assert_array_equal(model.frame_bias_acceleration(k, q, qd),
+                                          model.frame_bias_acceleration(name, q, qd))
+        count = len(model.frame_names)
+        with pytest.raises(ValueError, match=rf"^frame: expected an index 0..{count - 1} \(frame_names\), got {count}$"):
+            model.frame_jacobian(count, q)
+        with pytest.raises(ValueError, match=r"^frame: expected an index .*, got -1$"):
+            model.frame_pose(-1, q)
+        with pytest.raises(ValueError, match=r"^frame: no frame 'nowhere' in this plant"):
+            model.frame_id("nowhere")
+        with pytest.raises(TypeError):
+            model.frame_pose(1.0, q)
