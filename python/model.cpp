@@ -600,10 +600,11 @@ with its own data (the model is shared, read-only). Wrong shapes and
 non-finite input raise ValueError with lagrangectl eval's messages; a result
 that is not finite raises RuntimeError naming the first such state.
 
-mass_matrix, gravity, forward_dynamics and inverse_dynamics take out=: a
+mass_matrix, gravity, forward_dynamics, inverse_dynamics and frame_jacobian take out=: a
 writeable C-contiguous float64 array of the result's shape, written in place
 and returned (no allocation). One state given as float64 (n,) arrays,
-positionally, takes a fast path past the argument conversion (issue 37).
+positionally (frame_jacobian: after a frame_id), takes a fast path past the
+argument conversion (issue 37).
 
 The numbers are the C++ library's, bit for bit (the same as
 `lagrangectl eval`, whose JSON prints the shortest text of each double).
@@ -783,7 +784,8 @@ PlantType ModelPlantType(py::handle model) { return AsModel(model).type(); }
 // --- the fast path (issue 37) -------------------------------------------------
 // A single state passed positionally as float64 arrays of shape (n,), contiguous,
 // aligned and finite (what the C++ call reads in place), to a fixed base's
-// mass_matrix, gravity, forward_dynamics or inverse_dynamics, skips pybind11's
+// mass_matrix, gravity, forward_dynamics or inverse_dynamics (or to
+// frame_jacobian after a frame's index, world-aligned), skips pybind11's
 // dispatch and JointArray: a METH_FASTCALL method on Model reads the arrays where
 // they are and returns a new result array, or writes into out= (an array of the
 // result's shape, C-contiguous, writeable) and returns it. Every other call (a batch, a list,
@@ -793,43 +795,51 @@ PlantType ModelPlantType(py::handle model) { return AsModel(model).type(); }
 
 struct FastCall {
   const char* name;
+  bool frame;                     // a frame's index (an int) before the arrays
   int arrays;                     // per-joint arguments, all n long
   Shape (*shape)(py::ssize_t n);  // the result's
-  // (model, its single-state worker, the arrays' values) => the result into `out`; whether it is finite.
-  bool (*kernel)(const Model& model, Worker& w, const double* const* x, double* out);
+  // (model, its single-state worker, the frame, the arrays' values) => the result into `out`; whether it is finite.
+  bool (*kernel)(const Model& model, Worker& w, int frame, const double* const* x, double* out);
 };
 
 using Map = Eigen::Map<VectorXd>;
-constexpr std::array<FastCall, 4> kFastCalls = {{
-    {"mass_matrix", 1, [](py::ssize_t n) { return Matrix(n, n); },
-     [](const Model& m, Worker& w, const double* const* x, double* out) {
+constexpr std::array<FastCall, 5> kFastCalls = {{
+    {"mass_matrix", false, 1, [](py::ssize_t n) { return Matrix(n, n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
        const int n = m.num_dofs();
        m.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(x[0], n), w.matrix);
        CopyRowMajor(w.matrix, out);
        return w.matrix.allFinite();
      }},
-    {"gravity", 1, [](py::ssize_t n) { return Vector(n); },
-     [](const Model& m, Worker& w, const double* const* x, double* out) {
+    {"gravity", false, 1, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
        const int n = m.num_dofs();
        Map G(out, n);
        m.dynamics().ComputeGravityForce(*w.dynamics, VecMap(x[0], n), G);
        return G.allFinite();
      }},
-    {"forward_dynamics", 3, [](py::ssize_t n) { return Vector(n); },
-     [](const Model& m, Worker& w, const double* const* x, double* out) {
+    {"forward_dynamics", false, 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
        const int n = m.num_dofs();
        Map qdd(out, n);
        m.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
                                            DynamicsTerms{}, qdd);
        return qdd.allFinite();
      }},
-    {"inverse_dynamics", 3, [](py::ssize_t n) { return Vector(n); },
-     [](const Model& m, Worker& w, const double* const* x, double* out) {
+    {"inverse_dynamics", false, 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
        const int n = m.num_dofs();
        Map tau(out, n);
        m.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
                                            DynamicsTerms{}, tau);
        return tau.allFinite();
+     }},
+    {"frame_jacobian", true, 1, [](py::ssize_t n) { return Matrix(6, n); },
+     [](const Model& m, Worker& w, int frame, const double* const* x, double* out) {
+       m.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(x[0], m.num_dofs()), frame, FrameAxes::kWorldAligned);
+       const Matrix6Xd& J = w.kinematics->jacobian(frame, FrameAxes::kWorldAligned);
+       CopyRowMajor(J, out);
+       return J.allFinite();
      }},
 }};
 
@@ -862,24 +872,32 @@ template <std::size_t kIndex>
 PyObject* FastMethod(PyObject* self, PyObject* const* args, Py_ssize_t nargs, PyObject* kwnames) {
   constexpr FastCall call = kFastCalls[kIndex];
   Model* fast_self = FastSelf(self);
-  if (fast_self && nargs == call.arrays && (!kwnames || OutAlone(kwnames))) {
+  const int first = call.frame ? 1 : 0;  // the first array's argument
+  if (fast_self && nargs == first + call.arrays && (!kwnames || OutAlone(kwnames))) {
     try {
       Model& model = *fast_self;
       const py::ssize_t n = model.num_dofs();
       std::array<const double*, 3> x{};
       bool fast = !model.floating_base();
+      int frame = -1;
+      if (call.frame) {  // an int (not a bool, not a name) in range; else the general path
+        const long k = fast && PyLong_CheckExact(args[0]) ? PyLong_AsLong(args[0]) : -1;
+        if (k == -1 && PyErr_Occurred()) PyErr_Clear();
+        fast = fast && k >= 0 && k < static_cast<long>(model.frame_names().size());
+        frame = static_cast<int>(k);
+      }
       for (int a = 0; fast && a < call.arrays; ++a) {
-        x[static_cast<std::size_t>(a)] = ContiguousFiniteVector(args[a], n);
+        x[static_cast<std::size_t>(a)] = ContiguousFiniteVector(args[first + a], n);
         fast = x[static_cast<std::size_t>(a)] != nullptr;
       }
       const Shape shape = call.shape(n);
       PyObject* out = kwnames ? args[nargs] : nullptr;
       double* out_data = fast && out ? ResultArrayData(out, shape.ndim, shape.dims.data()) : nullptr;
       if (fast && out_data) {
-        if (call.kernel(model, model.single_state_worker(), x.data(), out_data)) return Py_NewRef(out);
+        if (call.kernel(model, model.single_state_worker(), frame, x.data(), out_data)) return Py_NewRef(out);
       } else if (fast && !out) {
         py::array_t<double> result = NewArray(shape.ndim, shape.dims.data());
-        if (call.kernel(model, model.single_state_worker(), x.data(), result.mutable_data())) {
+        if (call.kernel(model, model.single_state_worker(), frame, x.data(), result.mutable_data())) {
           return result.release().ptr();
         }
       }
@@ -1113,7 +1131,7 @@ void BindModel(py::module_& m) {
   model.def(
       "frame_jacobian",
       [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, const std::string& reference,
-         int threads) {
+         int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
@@ -1135,10 +1153,10 @@ void BindModel(py::module_& m) {
               const Matrix6Xd& J = w.kinematics->jacobian(k, axes);
               CopyRowMajor(J, out[0]);
               return J.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(),
-      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "frame_bias_acceleration",
       [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, ArrayArg qd,

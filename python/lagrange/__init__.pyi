@@ -97,7 +97,7 @@ class Model:
     def frame_pose(self, frame: Union[int, str], q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
         """(frame, q) => (R (3, 3) | (N, 3, 3), p (3,) | (N, 3)): the frame's axes and origin (m), world frame."""
     def frame_jacobian(self, frame: Union[int, str], q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
-                       threads: int = 1) -> _Array:
+                       threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """(frame, q) => J (6, n) | (N, 6, n): (ṗ m/s, ω rad/s) = J qd of the frame's origin, in world axes or
         (reference="local") the frame's own."""
     def frame_bias_acceleration(self, frame: Union[int, str], q: _ArrayLike, qd: _ArrayLike, *,

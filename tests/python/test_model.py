@@ -581,6 +581,10 @@ def test_a_frame_by_its_index_is_the_frame_by_its_name():
                 np.testing.assert_array_equal(a, b)
             np.testing.assert_array_equal(model.frame_jacobian(k, q, reference="local"),
                                           model.frame_jacobian(name, q, reference="local"))
+            J = np.empty((6, model.num_velocities))
+            assert model.frame_jacobian(k, q, out=J) is J  # the fast path, on a fixed base
+            np.testing.assert_array_equal(J, model.frame_jacobian(name, list(q)))
+            np.testing.assert_array_equal(model.frame_jacobian(k, q), J)
             np.testing.assert_array_equal(model.frame_bias_acceleration(k, q, qd),
                                           model.frame_bias_acceleration(name, q, qd))
         count = len(model.frame_names)
