@@ -3,7 +3,8 @@
 // builds them (tools/eval.cpp), so the numbers are the library's, bit for bit.
 //
 // Model and data apart: the Model holds the immutable Dynamics and Kinematics
-// (a floating base's: one FloatingDynamics, q of nq and velocities of nv)
+// (a floating base's: one FloatingDynamics, q of nq and velocities of nv, and
+// with method "lagrangian" a FloatingLagrangian for the dynamics)
 // and one data object of each for single states, used under the GIL. A batch
 // (N, n) runs with the GIL released, over `threads` threads, each with data
 // objects of its own made for that call, so other Python threads may use the
@@ -21,10 +22,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include "base/escape.hpp"
 #include "plant/floating_dynamics.hpp"
+#include "plant/floating_lagrangian.hpp"
 #include "plant/free_flyer.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
@@ -58,9 +62,10 @@ struct Worker {
         matrix(dynamics_model.num_dofs(), dynamics_model.num_dofs()) {
     for (auto& s : scratch) s.resize(static_cast<std::size_t>(dynamics_model.num_dofs()));
   }
-  // A floating base's: q of nq, the rest nv.
-  explicit Worker(const FloatingDynamics& model)
+  // A floating base's: q of nq, the rest nv; `lagrangian` when its dynamics are the Lagrangian path's.
+  Worker(const FloatingDynamics& model, const FloatingLagrangian* lagrangian)
       : floating(model.MakeData()),
+        floating_lagrangian(lagrangian ? lagrangian->MakeData() : nullptr),
         matrix(model.num_v(), model.num_v()),
         jacobian(6, model.num_v()),
         zero(VectorXd::Zero(model.num_v())) {
@@ -69,6 +74,7 @@ struct Worker {
   std::unique_ptr<DynamicsData> dynamics;
   std::unique_ptr<KinematicsData> kinematics;
   std::unique_ptr<FloatingData> floating;      // a floating base's, in place of the two above
+  std::unique_ptr<FloatingLagrangianData> floating_lagrangian;  // and its Lagrangian path's, when chosen
   std::array<std::vector<double>, 3> scratch;  // rows of strided arguments (q, qd, third)
   MatrixXd matrix;                             // M or C before it is laid out row-major
   MatrixXd jacobian;                           // (6 x nv) a floating base's frame Jacobian
@@ -98,14 +104,18 @@ class Model {
         joint_names_(JointNamesOf(spec)),
         own_(*dynamics_, *kinematics_),
         source_(std::move(source)) {}
-  // A URDF robot on a floating base (FloatingDynamics; q of nq = nv + 1, v of nv).
-  Model(RigidTree tree, py::tuple source)
+  // A URDF robot on a floating base (FloatingDynamics; q of nq = nv + 1, v of
+  // nv), its dynamics by FloatingLagrangian when `method` is kLagrangian.
+  Model(RigidTree tree, Method method, py::tuple source)
       : type_(PlantType::kUrdf),
-        method_(Method::kRecursive),
+        method_(method),
         floating_(std::make_shared<const FloatingDynamics>(std::move(tree))),
+        floating_lagrangian_(method == Method::kLagrangian
+                                 ? std::make_shared<const FloatingLagrangian>(floating_->tree())
+                                 : nullptr),
         joint_names_(DofNames(floating_->tree())),
         frame_names_(floating_->tree().frame_names()),
-        own_(*floating_),
+        own_(*floating_, floating_lagrangian_.get()),
         source_(std::move(source)) {}
 
   // `urdf`: URDF text (a str whose first character other than white space is
@@ -147,6 +157,21 @@ class Model {
   int num_velocities() const { return floating_ ? floating_->num_v() : num_dofs(); }
   bool floating_base() const { return floating_ != nullptr; }
   const FloatingDynamics* floating() const { return floating_.get(); }
+  // f(model, data) with a floating base's dynamics of the chosen method: FloatingLagrangian's or
+  // FloatingDynamics' (the same calls), on `w`'s data.
+  template <class F>
+  decltype(auto) FloatingDynamicsCall(Worker& w, F f) const {
+    if (floating_lagrangian_) return f(*floating_lagrangian_, *w.floating_lagrangian);
+    return f(*floating_, *w.floating);
+  }
+  // The floating base's model, or ValueError naming `call`, which takes only one.
+  const FloatingDynamics& RequireFloating(const char* call) const {
+    if (!floating_) {
+      throw py::value_error(std::string(call) + ": a floating-base Model's (from_urdf(..., floating_base=True)); "
+                            "this one's base is fixed");
+    }
+    return *floating_;
+  }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
   const std::vector<std::string>& frame_names() const { return floating_ ? frame_names_ : kinematics_->frame_names(); }
   std::string method() const { return std::string(ToString(method_)); }
@@ -174,6 +199,17 @@ class Model {
     if (!k) throw py::value_error("frame: no frame '" + Escape(name, 64) + "' in this plant (frame_names lists them)");
     return *k;
   }
+  // A frame by name or by its index in frame_names (frame_id's), or ValueError.
+  int Frame(const std::variant<int, std::string>& frame) const {
+    if (const std::string* name = std::get_if<std::string>(&frame)) return Frame(*name);
+    const int k = std::get<int>(frame);
+    const int count = static_cast<int>(frame_names().size());
+    if (k < 0 || k >= count) {
+      throw py::value_error("frame: expected an index 0.." + std::to_string(count - 1) + " (frame_names), got " +
+                            std::to_string(k));
+    }
+    return k;
+  }
 
   // Per-argument checks: q has nq entries, a velocity-like argument nv (both n for a fixed base).
   JointArray PositionArg(const char* name, const py::handle& value) const {
@@ -185,7 +221,9 @@ class Model {
                      : JointArray(name, value, num_dofs());
   }
   // A fresh worker for this model (a batch's thread).
-  Worker MakeWorker() const { return floating_ ? Worker(*floating_) : Worker(*dynamics_, *kinematics_); }
+  Worker MakeWorker() const {
+    return floating_ ? Worker(*floating_, floating_lagrangian_.get()) : Worker(*dynamics_, *kinematics_);
+  }
 
   // Evaluates `kernel` at one state or over a batch: `args` are the per-joint
   // arguments, `shapes` each output's shape for one state ({} a number).
@@ -193,11 +231,14 @@ class Model {
   // into its output slots and returns whether they are finite. One state:
   // the outputs as arrays (a float for shape {}), a tuple when several; a
   // batch: each with a leading axis N, computed without the GIL.
+  // `out_array` (one output alone): an array the result is written into and returned as, or None for a new one.
   template <std::size_t kArgs, std::size_t kOuts, class Kernel>
   py::object Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
-                      int threads, const char* what, Kernel kernel);
+                      int threads, const char* what, Kernel kernel, py::handle out_array = py::none());
 
   double TimeForwardDynamics(const py::handle& q, const py::handle& qd, const py::handle& tau, long iterations);
+  // The data of single states (under the GIL): Evaluate's, and the fast path's (FastMethod).
+  Worker& single_state_worker() { return own_; }
 
  private:
   PlantType type_;
@@ -213,6 +254,7 @@ class Model {
   std::shared_ptr<const Dynamics> dynamics_;        // null for a floating base
   std::shared_ptr<const Kinematics> kinematics_;    // null for a floating base
   std::shared_ptr<const FloatingDynamics> floating_;  // a floating base's, else null
+  std::shared_ptr<const FloatingLagrangian> floating_lagrangian_;  // its dynamics with method lagrangian, else null
   std::vector<std::string> joint_names_;
   std::vector<std::string> frame_names_;  // a floating base's
   Worker own_;        // single states, under the GIL
@@ -327,9 +369,10 @@ std::unique_ptr<Model> Model::FloatingFromUrdfText(const std::string& text, cons
                                                    const py::object& gravity, const std::string& method,
                                                    double mass_scale) {
   const std::vector<double> g = GravityArg(gravity);
-  if (method != ToString(Method::kRecursive)) {
-    throw py::value_error("method: a floating base has the recursive path alone here, got '" + Escape(method, 64) +
-                          "' (the Euler–Poincaré Lagrangian path is in C++, plant/floating_lagrangian.hpp)");
+  const std::optional<Method> chosen = ParseMethod(method);
+  if (!chosen || *chosen == Method::kClosedForm) {
+    throw py::value_error("method: a floating base has the recursive and lagrangian paths, got '" +
+                          Escape(method, 64) + "'");
   }
   if (mass_scale != 1.0) throw py::value_error("mass_scale: not with floating_base=True yet (the file's masses)");
   RigidTree tree;
@@ -343,7 +386,7 @@ std::unique_ptr<Model> Model::FloatingFromUrdfText(const std::string& text, cons
   py::tuple source = py::make_tuple(kPickleVersion, "urdf", py::bytes(text), py::bytes(name), py::tuple(py::cast(g)),
                                     method, mass_scale, true);
   try {
-    return std::make_unique<Model>(std::move(tree), std::move(source));
+    return std::make_unique<Model>(std::move(tree), *chosen, std::move(source));
   } catch (const std::invalid_argument& e) {
     Raise(PyExc_ValueError, name + ": " + Escape(e.what(), 400));
   }
@@ -428,7 +471,7 @@ std::unique_ptr<Model> Model::SetState(const py::tuple& state) {
 
 template <std::size_t kArgs, std::size_t kOuts, class Kernel>
 py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, const std::array<Shape, kOuts>& shapes,
-                           int threads, const char* what, Kernel kernel) {
+                           int threads, const char* what, Kernel kernel, py::handle out_array) {
   if (threads < 1 || threads > kMaxThreads) {
     throw py::value_error("threads: expected 1.." + std::to_string(kMaxThreads) + ", got " + std::to_string(threads));
   }
@@ -455,6 +498,17 @@ py::object Model::Evaluate(const std::array<const JointArray*, kArgs>& args, con
     if (rows >= 0) dims[static_cast<std::size_t>(ndim++)] = rows;
     for (int d = 0; d < shape.ndim; ++d)
       dims[static_cast<std::size_t>(ndim++)] = shape.dims[static_cast<std::size_t>(d)];
+    if (kOuts == 1 && !out_array.is_none()) {
+      outputs[o] = ResultArrayData(out_array.ptr(), ndim, dims.data());
+      if (!outputs[o]) {
+        std::string shape_text = "(";
+        for (int d = 0; d < ndim; ++d) shape_text += (d ? ", " : "") + std::to_string(dims[static_cast<std::size_t>(d)]);
+        throw py::value_error("out: expected a writeable C-contiguous float64 array of shape " + shape_text +
+                              (ndim == 1 ? ",)" : ")") + " (the result's)");
+      }
+      arrays[o] = py::reinterpret_borrow<py::object>(out_array);
+      continue;
+    }
     py::array_t<double> array = NewArray(ndim, dims.data());
     outputs[o] = array.mutable_data();
     arrays[o] = std::move(array);
@@ -546,6 +600,12 @@ with its own data (the model is shared, read-only). Wrong shapes and
 non-finite input raise ValueError with lagrangectl eval's messages; a result
 that is not finite raises RuntimeError naming the first such state.
 
+mass_matrix, gravity, forward_dynamics, inverse_dynamics and frame_jacobian take out=: a
+writeable C-contiguous float64 array of the result's shape, written in place
+and returned (no allocation). One state given as float64 (n,) arrays,
+positionally (frame_jacobian: after a frame_id), takes a fast path past the
+argument conversion (issue 37).
+
 The numbers are the C++ library's, bit for bit (the same as
 `lagrangectl eval`, whose JSON prints the shortest text of each double).
 )";
@@ -564,7 +624,9 @@ floating_base: the root link is a free base (Pinocchio's buildModel(urdf,
             JointModelFreeFlyer())): q = (p, qx, qy, qz, qw, joints) of nq = n + 7,
             qd = (v_b, ω_b in base axes, joint rates) of nv = n + 6; every
             call takes q of nq and velocity-like arguments of nv (the README's
-            "Floating base"); recursive method only, mass_scale 1
+            "Floating base"); method "recursive" or "lagrangian" (the
+            Euler–Poincaré form), mass_scale 1; center_of_mass,
+            centroidal_momentum_matrix and centroidal_momentum_bias are its own
 
 Raises FileNotFoundError when the file does not exist, ValueError when it is
 not a robot lagrange reads (one line: "FILE: ELEMENT: reason", FILE
@@ -683,6 +745,28 @@ reference  "local_world_aligned" (the default): in world axes; "local": the same
            (Pinocchio's classical acceleration in LOCAL, not d/dt(J_local) qd)
 returns    (6,) | (N, 6)   m/s², then rad/s²)";
 
+constexpr const char* kCenterOfMassDoc =
+    R"(q => (c, J_c): the centre of mass in the world and its Jacobian, ċ = J_c qd (a floating-base Model's).
+
+q        (nq,) | (N, nq)
+returns  c (3,) | (N, 3)              m, world axes
+         J_c (3, nv) | (N, 3, nv)     m/s per unit velocity)";
+
+constexpr const char* kCentroidalMomentumMatrixDoc =
+    R"(q => A_G, the centroidal momentum matrix (Orin et al.; Pinocchio's ccrba): h_G = A_G qd, the
+linear momentum then the angular momentum about the centre of mass, world axes (a floating-base Model's).
+
+q        (nq,) | (N, nq)
+returns  (6, nv) | (N, 6, nv)   rows 0..2 N·s, rows 3..5 N·m·s per unit velocity)";
+
+constexpr const char* kCentroidalMomentumBiasDoc =
+    R"((q, qd) => Ȧ_G qd: the centroidal momentum's rate at qdd = 0, so ḣ_G = A_G qdd + Ȧ_G qd
+(the drift term of Pinocchio's dccrba; a floating-base Model's).
+
+q        (nq,) | (N, nq)
+qd       (nv,) | (N, nv)
+returns  (6,) | (N, 6)   N (linear), then N·m about the centre of mass; world axes)";
+
 }  // namespace
 
 // The Model object `model` holds, or TypeError.
@@ -696,6 +780,152 @@ const Model& AsModel(py::handle model) {
 
 std::shared_ptr<const Dynamics> ModelDynamics(py::handle model) { return AsModel(model).shared_dynamics(); }
 PlantType ModelPlantType(py::handle model) { return AsModel(model).type(); }
+
+// --- the fast path (issue 37) -------------------------------------------------
+// A single state passed positionally as float64 arrays of shape (n,), contiguous,
+// aligned and finite (what the C++ call reads in place), to a fixed base's
+// mass_matrix, gravity, forward_dynamics or inverse_dynamics (or to
+// frame_jacobian after a frame's index, world-aligned), skips pybind11's
+// dispatch and JointArray: a METH_FASTCALL method on Model reads the arrays where
+// they are and returns a new result array, or writes into out= (an array of the
+// result's shape, C-contiguous, writeable) and returns it. Every other call (a batch, a list,
+// a keyword, a wrong size, a non-finite value or result, a floating base) goes
+// to the pybind11 function the fast method stands in front of, unchanged: the
+// same results (the same C++ call on the same data), the same errors.
+
+struct FastCall {
+  const char* name;
+  bool frame;                     // a frame's index (an int) before the arrays
+  int arrays;                     // per-joint arguments, all n long
+  Shape (*shape)(py::ssize_t n);  // the result's
+  // (model, its single-state worker, the frame, the arrays' values) => the result into `out`; whether it is finite.
+  bool (*kernel)(const Model& model, Worker& w, int frame, const double* const* x, double* out);
+};
+
+using Map = Eigen::Map<VectorXd>;
+constexpr std::array<FastCall, 5> kFastCalls = {{
+    {"mass_matrix", false, 1, [](py::ssize_t n) { return Matrix(n, n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       m.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(x[0], n), w.matrix);
+       CopyRowMajor(w.matrix, out);
+       return w.matrix.allFinite();
+     }},
+    {"gravity", false, 1, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map G(out, n);
+       m.dynamics().ComputeGravityForce(*w.dynamics, VecMap(x[0], n), G);
+       return G.allFinite();
+     }},
+    {"forward_dynamics", false, 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map qdd(out, n);
+       m.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
+                                           DynamicsTerms{}, qdd);
+       return qdd.allFinite();
+     }},
+    {"inverse_dynamics", false, 3, [](py::ssize_t n) { return Vector(n); },
+     [](const Model& m, Worker& w, int, const double* const* x, double* out) {
+       const int n = m.num_dofs();
+       Map tau(out, n);
+       m.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(x[0], n), VecMap(x[1], n), VecMap(x[2], n),
+                                           DynamicsTerms{}, tau);
+       return tau.allFinite();
+     }},
+    {"frame_jacobian", true, 1, [](py::ssize_t n) { return Matrix(6, n); },
+     [](const Model& m, Worker& w, int frame, const double* const* x, double* out) {
+       m.kinematics().ComputeFrameJacobian(*w.kinematics, VecMap(x[0], m.num_dofs()), frame, FrameAxes::kWorldAligned);
+       const Matrix6Xd& J = w.kinematics->jacobian(frame, FrameAxes::kWorldAligned);
+       CopyRowMajor(J, out);
+       return J.allFinite();
+     }},
+}};
+
+// The pybind11 functions behind the fast methods (owned references, kept for the process's life).
+std::array<PyObject*, kFastCalls.size()> g_general{};
+
+// The call as pybind11 takes it: self, then the arguments and keywords as given.
+PyObject* GeneralCall(std::size_t index, PyObject* self, PyObject* const* args, Py_ssize_t nargs, PyObject* kwnames) {
+  const Py_ssize_t total = nargs + (kwnames ? PyTuple_GET_SIZE(kwnames) : 0);
+  std::vector<PyObject*> stack(static_cast<std::size_t>(total) + 1);
+  stack[0] = self;
+  std::copy(args, args + total, stack.begin() + 1);
+  return PyObject_Vectorcall(g_general[index], stack.data(), static_cast<std::size_t>(nargs) + 1, kwnames);
+}
+
+// The Model `self` holds, or null: the method's descriptor has checked that
+// self is a Model, whose pybind11 instance holds its one value in place.
+Model* FastSelf(PyObject* self) {
+  auto* instance = reinterpret_cast<py::detail::instance*>(self);
+  if (!instance->simple_layout || !instance->simple_holder_constructed) return nullptr;
+  return static_cast<Model*>(instance->simple_value_holder[0]);
+}
+
+// Whether the keywords are out= alone.
+bool OutAlone(PyObject* kwnames) {
+  return PyTuple_GET_SIZE(kwnames) == 1 && PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "out") == 0;
+}
+
+template <std::size_t kIndex>
+PyObject* FastMethod(PyObject* self, PyObject* const* args, Py_ssize_t nargs, PyObject* kwnames) {
+  constexpr FastCall call = kFastCalls[kIndex];
+  Model* fast_self = FastSelf(self);
+  const int first = call.frame ? 1 : 0;  // the first array's argument
+  if (fast_self && nargs == first + call.arrays && (!kwnames || OutAlone(kwnames))) {
+    try {
+      Model& model = *fast_self;
+      const py::ssize_t n = model.num_dofs();
+      std::array<const double*, 3> x{};
+      bool fast = !model.floating_base();
+      int frame = -1;
+      if (call.frame) {  // an int (not a bool, not a name) in range; else the general path
+        const long k = fast && PyLong_CheckExact(args[0]) ? PyLong_AsLong(args[0]) : -1;
+        if (k == -1 && PyErr_Occurred()) PyErr_Clear();
+        fast = fast && k >= 0 && k < static_cast<long>(model.frame_names().size());
+        frame = static_cast<int>(k);
+      }
+      for (int a = 0; fast && a < call.arrays; ++a) {
+        x[static_cast<std::size_t>(a)] = ContiguousFiniteVector(args[first + a], n);
+        fast = x[static_cast<std::size_t>(a)] != nullptr;
+      }
+      const Shape shape = call.shape(n);
+      PyObject* out = kwnames ? args[nargs] : nullptr;
+      double* out_data = fast && out ? ResultArrayData(out, shape.ndim, shape.dims.data()) : nullptr;
+      if (fast && out_data) {
+        if (call.kernel(model, model.single_state_worker(), frame, x.data(), out_data)) return Py_NewRef(out);
+      } else if (fast && !out) {
+        py::array_t<double> result = NewArray(shape.ndim, shape.dims.data());
+        if (call.kernel(model, model.single_state_worker(), frame, x.data(), result.mutable_data())) {
+          return result.release().ptr();
+        }
+      }
+    } catch (py::error_already_set& e) {
+      e.restore();
+      return nullptr;
+    }
+  }
+  return GeneralCall(kIndex, self, args, nargs, kwnames);
+}
+
+// Puts FastMethod<k> in front of each kFastCalls[k]'s pybind11 method, with its docstring.
+template <std::size_t... kIndex>
+void InstallFastPath(py::class_<Model>& model, std::index_sequence<kIndex...>) {
+  static std::array<std::string, kFastCalls.size()> docs;
+  static std::array<PyMethodDef, kFastCalls.size()> defs;
+  const std::array<_PyCFunctionFastWithKeywords, kFastCalls.size()> functions = {&FastMethod<kIndex>...};
+  for (std::size_t k = 0; k < kFastCalls.size(); ++k) {
+    py::object general = model.attr(kFastCalls[k].name);
+    docs[k] = py::cast<std::string>(general.attr("__doc__"));
+    g_general[k] = general.release().ptr();
+    defs[k] = {kFastCalls[k].name, reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(functions[k])),
+               METH_FASTCALL | METH_KEYWORDS, docs[k].c_str()};
+    PyObject* descriptor = PyDescr_NewMethod(reinterpret_cast<PyTypeObject*>(model.ptr()), &defs[k]);
+    if (!descriptor) throw py::error_already_set();
+    model.attr(kFastCalls[k].name) = py::reinterpret_steal<py::object>(descriptor);
+  }
+}
 
 void BindModel(py::module_& m) {
   py::class_<Model> model(m, "Model", kModelDoc);
@@ -738,22 +968,23 @@ void BindModel(py::module_& m) {
 
   model.def(
       "mass_matrix",
-      [](Model& self, ArrayArg q, int threads) {
+      [](Model& self, ArrayArg q, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value);
         const FloatingDynamics* fb = self.floating();
         return ArrayResult{
             self.Evaluate<1, 1>({&aq}, {Matrix(nv, nv)}, threads, "M is", [&](Worker& w, const Row1& r, auto& out) {
               if (fb) {
-                fb->ComputeMassMatrix(*w.floating, VecMap(r[0], nq), w.matrix);
+                self.FloatingDynamicsCall(
+                    w, [&](const auto& fm, auto& d) { fm.ComputeMassMatrix(d, VecMap(r[0], nq), w.matrix); });
               } else {
                 self.dynamics().ComputeMassMatrix(*w.dynamics, VecMap(r[0], nq), w.matrix);
               }
               CopyRowMajor(w.matrix, out[0]);
               return w.matrix.allFinite();
-            })};
+            }, out_array)};
       },
-      BatchDoc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kMassMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "coriolis_matrix",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
@@ -773,7 +1004,7 @@ void BindModel(py::module_& m) {
       BatchDoc(kCoriolisMatrixDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "gravity",
-      [](Model& self, ArrayArg q, int threads) {
+      [](Model& self, ArrayArg q, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value);
         const FloatingDynamics* fb = self.floating();
@@ -781,18 +1012,20 @@ void BindModel(py::module_& m) {
             self.Evaluate<1, 1>({&aq}, {Vector(nv)}, threads, "G is", [&](Worker& w, const Row1& r, auto& out) {
               Eigen::Map<VectorXd> G(out[0], nv);
               if (fb) {  // the generalized force that holds it still: ID at v = a = 0, gravity alone
-                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), w.zero, w.zero,
-                                           {.gravity = true, .coriolis = false}, G);
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeInverseDynamics(d, VecMap(r[0], nq), w.zero, w.zero, {.gravity = true, .coriolis = false},
+                                           G);
+                });
               } else {
                 self.dynamics().ComputeGravityForce(*w.dynamics, VecMap(r[0], nq), G);
               }
               return G.allFinite();
-            })};
+            }, out_array)};
       },
-      BatchDoc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+      BatchDoc(kGravityDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "forward_dynamics",
-      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg tau, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
                          atau = self.VelocityArg("tau", tau.value);
@@ -801,20 +1034,22 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &atau}, {Vector(nv)}, threads, "qdd is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> qdd(out[0], nv);
               if (fb) {
-                fb->ComputeForwardDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
-                                           DynamicsTerms{}, qdd);
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeForwardDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                                           qdd);
+                });
               } else {
                 self.dynamics().ComputeForwardDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
                                                        VecMap(r[2], nv), DynamicsTerms{}, qdd);
               }
               return qdd.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kForwardDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("tau"), py::kw_only(),
-      py::arg("threads") = 1);
+      py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "inverse_dynamics",
-      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads) {
+      [](Model& self, ArrayArg q, ArrayArg qd, ArrayArg qdd, int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value),
                          aqdd = self.VelocityArg("qdd", qdd.value);
@@ -823,17 +1058,19 @@ void BindModel(py::module_& m) {
             {&aq, &aqd, &aqdd}, {Vector(nv)}, threads, "tau is", [&](Worker& w, const Row3& r, auto& out) {
               Eigen::Map<VectorXd> tau(out[0], nv);
               if (fb) {
-                fb->ComputeInverseDynamics(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv),
-                                           DynamicsTerms{}, tau);
+                self.FloatingDynamicsCall(w, [&](const auto& fm, auto& d) {
+                  fm.ComputeInverseDynamics(d, VecMap(r[0], nq), VecMap(r[1], nv), VecMap(r[2], nv), DynamicsTerms{},
+                                           tau);
+                });
               } else {
                 self.dynamics().ComputeInverseDynamics(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv),
                                                        VecMap(r[2], nv), DynamicsTerms{}, tau);
               }
               return tau.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kInverseDynamicsDoc).c_str(), py::arg("q"), py::arg("qd"), py::arg("qdd"), py::kw_only(),
-      py::arg("threads") = 1);
+      py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "kinetic_energy",
       [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
@@ -842,7 +1079,11 @@ void BindModel(py::module_& m) {
         const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<2, 1>({&aq, &aqd}, {kNumber}, threads, "T is", [&](Worker& w, const Row2& r, auto& out) {
-              *out[0] = fb ? fb->ComputeKineticEnergy(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv))
+              *out[0] = fb ? self.FloatingDynamicsCall(w,
+                                                       [&](const auto& fm, auto& d) {
+                                                         return fm.ComputeKineticEnergy(d, VecMap(r[0], nq),
+                                                                                       VecMap(r[1], nv));
+                                                       })
                            : self.dynamics().ComputeKineticEnergy(*w.dynamics, VecMap(r[0], nq), VecMap(r[1], nv));
               return std::isfinite(*out[0]);
             })};
@@ -856,7 +1097,8 @@ void BindModel(py::module_& m) {
         const FloatingDynamics* fb = self.floating();
         return NumberResult{
             self.Evaluate<1, 1>({&aq}, {kNumber}, threads, "V is", [&](Worker& w, const Row1& r, auto& out) {
-              *out[0] = fb ? fb->ComputePotentialEnergy(*w.floating, VecMap(r[0], nq))
+              *out[0] = fb ? self.FloatingDynamicsCall(
+                                 w, [&](const auto& fm, auto& d) { return fm.ComputePotentialEnergy(d, VecMap(r[0], nq)); })
                            : self.dynamics().ComputePotentialEnergy(*w.dynamics, VecMap(r[0], nq));
               return std::isfinite(*out[0]);
             })};
@@ -865,7 +1107,7 @@ void BindModel(py::module_& m) {
 
   model.def(
       "frame_pose",
-      [](Model& self, const std::string& frame, ArrayArg q, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, int threads) {
         const int nq = self.num_positions();
         const int k = self.Frame(frame);
         const JointArray aq = self.PositionArg("q", q.value);
@@ -888,7 +1130,8 @@ void BindModel(py::module_& m) {
       BatchDoc(kFramePoseDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
   model.def(
       "frame_jacobian",
-      [](Model& self, const std::string& frame, ArrayArg q, const std::string& reference, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, const std::string& reference,
+         int threads, py::object out_array) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
@@ -910,13 +1153,14 @@ void BindModel(py::module_& m) {
               const Matrix6Xd& J = w.kinematics->jacobian(k, axes);
               CopyRowMajor(J, out[0]);
               return J.allFinite();
-            })};
+            }, out_array)};
       },
       BatchDoc(kFrameJacobianDoc).c_str(), py::arg("frame"), py::arg("q"), py::kw_only(),
-      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+      py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1, py::arg("out") = py::none());
   model.def(
       "frame_bias_acceleration",
-      [](Model& self, const std::string& frame, ArrayArg q, ArrayArg qd, const std::string& reference, int threads) {
+      [](Model& self, const std::variant<int, std::string>& frame, ArrayArg q, ArrayArg qd,
+         const std::string& reference, int threads) {
         const int nq = self.num_positions(), nv = self.num_velocities();
         const int k = self.Frame(frame);
         const FrameAxes axes = ReferenceAxes(reference);
@@ -943,6 +1187,59 @@ void BindModel(py::module_& m) {
       },
       BatchDoc(kFrameBiasAccelerationDoc).c_str(), py::arg("frame"), py::arg("q"), py::arg("qd"), py::kw_only(),
       py::arg("reference") = kLocalWorldAligned, py::arg("threads") = 1);
+  model.def(
+      "frame_id", [](const Model& self, const std::string& name) { return self.Frame(name); },
+      "name => its index in frame_names (Pinocchio's getFrameId): frame_pose, frame_jacobian and "
+      "frame_bias_acceleration take it in place of the name, without looking the name up.\n\nValueError for a name "
+      "the model has not.",
+      py::arg("name"));
+  model.def(
+      "center_of_mass",
+      [](Model& self, ArrayArg q, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("center_of_mass");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        return PoseResult{self.Evaluate<1, 2>(
+            {&aq}, {Vector(3), Matrix(3, nv)}, threads, "the centre of mass is",
+            [&](Worker& w, const Row1& r, auto& out) {
+              Eigen::Map<Eigen::Vector3d> c(out[0]);
+              auto Jc = w.jacobian.topRows<3>();
+              c = fb.ComputeCenterOfMass(*w.floating, VecMap(r[0], nq), Jc);
+              CopyRowMajor(Jc, out[1]);
+              return c.allFinite() && Jc.allFinite();
+            })};
+      },
+      BatchDoc(kCenterOfMassDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "centroidal_momentum_matrix",
+      [](Model& self, ArrayArg q, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("centroidal_momentum_matrix");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value);
+        return ArrayResult{self.Evaluate<1, 1>(
+            {&aq}, {Matrix(6, nv)}, threads, "A_G is", [&](Worker& w, const Row1& r, auto& out) {
+              fb.ComputeCentroidalMomentumMatrix(*w.floating, VecMap(r[0], nq), w.jacobian);
+              CopyRowMajor(w.jacobian, out[0]);
+              return w.jacobian.allFinite();
+            })};
+      },
+      BatchDoc(kCentroidalMomentumMatrixDoc).c_str(), py::arg("q"), py::kw_only(), py::arg("threads") = 1);
+  model.def(
+      "centroidal_momentum_bias",
+      [](Model& self, ArrayArg q, ArrayArg qd, int threads) {
+        const FloatingDynamics& fb = self.RequireFloating("centroidal_momentum_bias");
+        const int nq = self.num_positions(), nv = self.num_velocities();
+        const JointArray aq = self.PositionArg("q", q.value), aqd = self.VelocityArg("qd", qd.value);
+        return ArrayResult{self.Evaluate<2, 1>(
+            {&aq, &aqd}, {Vector(6)}, threads, "the centroidal momentum bias is",
+            [&](Worker& w, const Row2& r, auto& out) {
+              Eigen::Map<Vector6d> b(out[0]);
+              fb.ComputeCentroidalMomentumBias(*w.floating, VecMap(r[0], nq), VecMap(r[1], nv), b);
+              return b.allFinite();
+            })};
+      },
+      BatchDoc(kCentroidalMomentumBiasDoc).c_str(), py::arg("q"), py::arg("qd"), py::kw_only(),
+      py::arg("threads") = 1);
   model.def(
       "integrate",
       [](Model& self, ArrayArg q, ArrayArg v, double dt, int threads) {
@@ -981,6 +1278,8 @@ void BindModel(py::module_& m) {
             })};
       },
       BatchDoc(kDifferenceDoc).c_str(), py::arg("q0"), py::arg("q1"), py::kw_only(), py::arg("threads") = 1);
+
+  InstallFastPath(model, std::make_index_sequence<kFastCalls.size()>{});
 
   model.def("_time_forward_dynamics", &Model::TimeForwardDynamics,
             "Seconds per C++ forward-dynamics call, `iterations` in a loop at one state or cycling through a batch's "

@@ -23,6 +23,29 @@ bool IsNativeFloat64(PyObject* object) {
   return descr->type_num == py::detail::npy_api::NPY_DOUBLE_ && descr->byteorder != '>';
 }
 
+const double* ContiguousFiniteVector(PyObject* array, py::ssize_t n) {
+  if (!IsNativeFloat64(array)) return nullptr;
+  const auto* a = py::detail::array_proxy(array);
+  if (a->nd != 1 || a->dimensions[0] != n || (n > 1 && a->strides[0] != static_cast<py::ssize_t>(sizeof(double))) ||
+      !(a->flags & py::detail::npy_api::NPY_ARRAY_ALIGNED_)) {
+    return nullptr;
+  }
+  const auto* data = reinterpret_cast<const double*>(a->data);
+  return Eigen::Map<const Eigen::ArrayXd>(data, n).allFinite() ? data : nullptr;
+}
+
+double* ResultArrayData(PyObject* out, int ndim, const py::ssize_t* dims) {
+  if (!IsNativeFloat64(out)) return nullptr;
+  const auto* a = py::detail::array_proxy(out);
+  constexpr int kFlags = py::detail::npy_api::NPY_ARRAY_C_CONTIGUOUS_ | py::detail::npy_api::NPY_ARRAY_ALIGNED_ |
+                         py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  if ((a->flags & kFlags) != kFlags || a->nd != ndim) return nullptr;
+  for (int d = 0; d < ndim; ++d) {
+    if (a->dimensions[d] != dims[d]) return nullptr;
+  }
+  return reinterpret_cast<double*>(a->data);
+}
+
 JointArray::JointArray(const char* name, py::handle value, int n, const char* per) : name_(name), n_(n) {
   // (messages only: nothing is formatted on the good path)
   const auto shapes = [n] { return "(" + std::to_string(n) + ",) or (N, " + std::to_string(n) + ")"; };

@@ -20,6 +20,20 @@
 
 namespace lagrange::python {
 
+// Whether `object` is a float64 numpy array in this machine's byte order.
+bool IsNativeFloat64(PyObject* object);
+
+// `array`'s n values when it is what a C++ call reads in place: a float64
+// numpy array of shape (n,), contiguous, aligned, every value finite; else
+// null (the caller then takes the general path, JointArray, whose checks
+// name what is wrong).
+const double* ContiguousFiniteVector(PyObject* array, pybind11::ssize_t n);
+
+// `out`'s data when it can take a result of shape dims[0 .. ndim) in place: a
+// writeable, aligned, C-contiguous float64 numpy array of exactly that shape;
+// else null.
+double* ResultArrayData(PyObject* out, int ndim, const pybind11::ssize_t* dims);
+
 // One per-joint argument (q, qd, qdd or tau): a float64 view of what the caller
 // passed (converted only when it was not float64 already: a list, ints,
 // float32), with its shape. `rows` is -1 for a single state (n,), else N.

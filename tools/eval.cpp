@@ -5,13 +5,15 @@
 // --derivatives, the exact derivatives of forward and inverse dynamics at the
 // state (plant/dynamics.hpp). With --floating-base, a URDF robot on a free
 // base (plant/floating_dynamics.hpp; q of nq = nv + 1, v of nv, Pinocchio's
-// conventions: plant/rigid_tree.hpp), by the recursive path alone.
+// conventions: plant/rigid_tree.hpp), by the recursive path (the default) or
+// the Lagrangian one (--method lagrangian: plant/floating_lagrangian.hpp).
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include "base/escape.hpp"
 #include "plant/floating_dynamics.hpp"
+#include "plant/floating_lagrangian.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -126,13 +128,14 @@ int PrintJson(std::ostream& out, const nlohmann::ordered_json& json) {
 // Beyond it, refused: a typing error, not rounding.
 constexpr double kQuaternionNormTolerance = 1e-4;
 
-// --q of a floating-base robot: nq = nv + 1 numbers, the quaternion within
-// kQuaternionNormTolerance of unit, returned normalised.
-VectorXd FloatingPositions(const std::vector<double>& values, int joints) {
-  const int nq = joints + kFreeFlyerNq;
+// --q of a floating-base robot: nq = nv + 1 numbers (n degrees of freedom:
+// a mimic joint has none), the quaternion within kQuaternionNormTolerance of
+// unit, returned normalised.
+VectorXd FloatingPositions(const std::vector<double>& values, int dofs) {
+  const int nq = dofs + kFreeFlyerNq;
   if (static_cast<int>(values.size()) != nq) {
     throw UsageError("--q: expected " + std::to_string(nq) + " values (nq = nv + 1: the base's x,y,z, its quaternion " +
-                     "qx,qy,qz,qw, then " + std::to_string(joints) + " joints), got " + std::to_string(values.size()));
+                     "qx,qy,qz,qw, then " + std::to_string(dofs) + " joints), got " + std::to_string(values.size()));
   }
   VectorXd q = Eigen::Map<const VectorXd>(values.data(), nq);
   const double norm = q.segment<4>(3).norm();
@@ -145,14 +148,42 @@ VectorXd FloatingPositions(const std::vector<double>& values, int joints) {
 }
 
 // --qd or --tau of a floating-base robot: nv numbers.
-VectorXd FloatingVelocities(std::string_view option, const std::vector<double>& values, int joints) {
-  const int nv = joints + kFreeFlyerNv;
+VectorXd FloatingVelocities(std::string_view option, const std::vector<double>& values, int dofs) {
+  const int nv = dofs + kFreeFlyerNv;
   if (static_cast<int>(values.size()) != nv) {
     throw UsageError(std::string(option) + ": expected " + std::to_string(nv) +
                      " values (nv: the base's linear then angular entries, in base axes, then " +
-                     std::to_string(joints) + " joints), got " + std::to_string(values.size()));
+                     std::to_string(dofs) + " joints), got " + std::to_string(values.size()));
   }
   return Eigen::Map<const VectorXd>(values.data(), nv);
+}
+
+// What eval prints of a floating-base robot at (q, v, tau), by either path.
+struct FloatingTerms {
+  MatrixXd M;        // (nv x nv)
+  VectorXd Cv, G, a;  // (nv)
+  double T = 0.0, V = 0.0;
+};
+
+// (q, v, tau) => M, C v, G, a, T, V by `Model` (FloatingDynamics or
+// FloatingLagrangian: the same calls); not finite is an error.
+template <class Model>
+FloatingTerms ComputeFloatingTerms(const Model& model, ConstVecRef q, ConstVecRef v, ConstVecRef tau) {
+  const int nv = model.num_v();
+  const VectorXd zero = VectorXd::Zero(nv);
+  const auto data = model.MakeData();
+  FloatingTerms t{MatrixXd(nv, nv), VectorXd(nv), VectorXd(nv), VectorXd(nv)};
+  model.ComputeMassMatrix(*data, q, t.M);
+  model.ComputeInverseDynamics(*data, q, v, zero, DynamicsTerms{.gravity = false, .coriolis = true}, t.Cv);
+  model.ComputeInverseDynamics(*data, q, zero, zero, DynamicsTerms{.gravity = true, .coriolis = false}, t.G);
+  model.ComputeForwardDynamics(*data, q, v, tau, DynamicsTerms{}, t.a);
+  t.T = model.ComputeKineticEnergy(*data, q, v);
+  t.V = model.ComputePotentialEnergy(*data, q);
+  if (!t.M.allFinite() || !t.Cv.allFinite() || !t.G.allFinite() || !t.a.allFinite() || !std::isfinite(t.T) ||
+      !std::isfinite(t.V)) {
+    throw std::runtime_error("the dynamics are not finite at this state");
+  }
+  return t;
 }
 
 // The frames named by --frame of a floating-base robot at q: {NAME: {position,
@@ -201,8 +232,8 @@ class EvalCommand final : public Command {
     AddNumberList(*app_, "--qd", qd_, "Velocities c,d,.. (rad/s or m/s); required");
     AddNumberList(*app_, "--tau", tau_, "Generalized forces e,f,.. (N·m or N); default zeros");
     app_->add_option("--method", method_,
-                     "closed-form|lagrangian|recursive; default the fastest exact path (recursive alone with "
-                     "--floating-base)");
+                     "closed-form|lagrangian|recursive; default the fastest exact path (recursive or lagrangian "
+                     "with --floating-base)");
     auto* frame = app_->add_option("--frame", frames_,
                                    "NAME, repeatable: add the frame's position, rotation, Jacobian (6 x n) and "
                                    "J̇ qd, world-aligned axes, under \"frames\"");
@@ -217,9 +248,10 @@ class EvalCommand final : public Command {
                    "child). --q is nq = nv + 1 values: the base's position x,y,z (m, world), its orientation as a unit "
                    "quaternion in the order qx,qy,qz,qw (w last, Pinocchio's; within 1e-4 of unit, then normalised), "
                    "then the joints; --qd and --tau are nv: the base's linear velocity (m/s) then angular velocity "
-                   "(rad/s), both in base axes (force N, moment N·m for --tau), then the joints. Prints M (nv x nv), "
-                   "Cv (the Coriolis and centrifugal forces C v), G, qdd (v̇), T, V and frames' Jacobians (6 x nv; "
-                   "no jdot_qdot yet); not with --derivatives, --param or --method lagrangian yet");
+                   "(rad/s), both in base axes (force N, moment N·m for --tau), then the joints (a mimic joint has no "
+                   "entry). Prints M (nv x nv), Cv (the Coriolis and centrifugal forces C v), G, qdd (v̇), T, V and "
+                   "frames' Jacobians (6 x nv; no jdot_qdot yet); --method recursive (default) or lagrangian (the "
+                   "Euler–Poincaré form); not with --derivatives or --param yet");
   }
 
   int Run(std::ostream& out, std::ostream&) override {
@@ -283,48 +315,52 @@ class EvalCommand final : public Command {
   }
 
  private:
-  // --floating-base: the robot of --urdf on a free base, by FloatingDynamics.
+  // --floating-base: the robot of --urdf on a free base, by FloatingDynamics
+  // or (--method lagrangian) FloatingLagrangian; frames by FloatingDynamics.
   int RunFloating(std::ostream& out) const {
+    const Method method = FloatingMethod();
     const FloatingDynamics model(FloatingTree());
     if (list_frames_) {
       return PrintJson(out, {{"plant", "urdf"}, {"floating_base", true}, {"frame_names", model.tree().frame_names()}});
     }
     if (q_.empty()) throw UsageError("--q is required");
     if (qd_.empty()) throw UsageError("--qd is required");
-    const int n = model.num_joints(), nv = model.num_v();
+    const int n = model.num_dofs(), nv = model.num_v();
     const VectorXd q = FloatingPositions(q_, n);
     const VectorXd v = FloatingVelocities("--qd", qd_, n);
     const VectorXd tau = tau_.empty() ? VectorXd::Zero(nv) : FloatingVelocities("--tau", tau_, n);
-    const VectorXd zero = VectorXd::Zero(nv);
-
-    const std::unique_ptr<FloatingData> data = model.MakeData();
-    MatrixXd M(nv, nv);
-    VectorXd Cv(nv), G(nv), qdd(nv);
-    model.ComputeMassMatrix(*data, q, M);
-    model.ComputeInverseDynamics(*data, q, v, zero, DynamicsTerms{.gravity = false, .coriolis = true}, Cv);
-    model.ComputeInverseDynamics(*data, q, zero, zero, DynamicsTerms{.gravity = true, .coriolis = false}, G);
-    model.ComputeForwardDynamics(*data, q, v, tau, DynamicsTerms{}, qdd);
-    const double T = model.ComputeKineticEnergy(*data, q, v);
-    const double V = model.ComputePotentialEnergy(*data, q);
-    if (!M.allFinite() || !Cv.allFinite() || !G.allFinite() || !qdd.allFinite() || !std::isfinite(T) ||
-        !std::isfinite(V)) {
-      throw std::runtime_error("the dynamics are not finite at this state");
-    }
+    const FloatingTerms t = method == Method::kLagrangian
+                                ? ComputeFloatingTerms(FloatingLagrangian(model.tree()), q, v, tau)
+                                : ComputeFloatingTerms(model, q, v, tau);
     nlohmann::ordered_json json = {{"plant", "urdf"},
-                                   {"method", ToString(Method::kRecursive)},
+                                   {"method", ToString(method)},
                                    {"floating_base", true},
                                    {"num_dofs", n},
                                    {"num_positions", model.num_q()},
                                    {"num_velocities", nv},
                                    {"joints", model.tree().joint_names()},
-                                   {"M", JsonRows(M)},
-                                   {"Cv", JsonList(Cv)},
-                                   {"G", JsonList(G)},
-                                   {"qdd", JsonList(qdd)},
-                                   {"T", T},
-                                   {"V", V}};
-    if (!frames_.empty()) json["frames"] = FloatingFramesJson(model, *data, frames_, q);
+                                   {"M", JsonRows(t.M)},
+                                   {"Cv", JsonList(t.Cv)},
+                                   {"G", JsonList(t.G)},
+                                   {"qdd", JsonList(t.a)},
+                                   {"T", t.T},
+                                   {"V", t.V}};
+    if (!frames_.empty()) {
+      const std::unique_ptr<FloatingData> data = model.MakeData();
+      json["frames"] = FloatingFramesJson(model, *data, frames_, q);
+    }
     return PrintJson(out, json);
+  }
+
+  // --method with --floating-base: recursive (the default) or lagrangian.
+  Method FloatingMethod() const {
+    if (!method_) return Method::kRecursive;
+    const std::optional<Method> m = ParseMethod(*method_);
+    if (!m || *m == Method::kClosedForm) {
+      throw UsageError("--method: a floating base has the recursive and lagrangian paths, got '" +
+                       Escape(*method_, 64) + "'");
+    }
+    return *m;
   }
 
   // The tree of --urdf read with a floating base, with --gravity; what a
@@ -335,13 +371,6 @@ class EvalCommand final : public Command {
     if (derivatives_) throw UsageError("--derivatives: not with --floating-base yet (its derivatives are not built)");
     if (!params_.empty()) {
       throw UsageError("--param: not with --floating-base yet (the robot is read as its file gives it)");
-    }
-    if (method_ && *method_ != ToString(Method::kRecursive)) {
-      if (*method_ == ToString(Method::kLagrangian)) {
-        throw UsageError("--method lagrangian: not with --floating-base (the Euler–Poincaré form of the Lagrangian "
-                         "path is not built yet; recursive is)");
-      }
-      throw UsageError("--method: a floating base has the recursive path alone, got '" + Escape(*method_, 64) + "'");
     }
     RigidTree tree;
     try {

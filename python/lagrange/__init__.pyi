@@ -1,6 +1,6 @@
 # Type stubs for the lagrange package (units SI; arrays float64 numpy).
 from os import PathLike
-from typing import Literal, Sequence, Union
+from typing import Literal, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -78,29 +78,41 @@ class Model:
     def plant(self) -> Literal["pendulum", "arm2", "cartpole", "chain", "urdf"]:
         """The plant type."""
 
-    def mass_matrix(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+    def mass_matrix(self, q: _ArrayLike, *, threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """q (n,) | (N, n) => M(q) (n, n) | (N, n, n), kg·m² (kg for prismatic joints)."""
     def coriolis_matrix(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> _Array:
         """(q, qd) => C(q, qd) (n, n) | (N, n, n): C qd in N·m, Ṁ − 2C skew."""
-    def gravity(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+    def gravity(self, q: _ArrayLike, *, threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """q => G(q) = ∂V/∂q (n,) | (N, n), N·m or N."""
-    def forward_dynamics(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *, threads: int = 1) -> _Array:
+    def forward_dynamics(self, q: _ArrayLike, qd: _ArrayLike, tau: _ArrayLike, *, threads: int = 1,
+                         out: Optional[_Array] = None) -> _Array:
         """(q, qd, tau) => qdd = M⁻¹ (tau − C qd − G) (n,) | (N, n), rad/s² or m/s²."""
-    def inverse_dynamics(self, q: _ArrayLike, qd: _ArrayLike, qdd: _ArrayLike, *, threads: int = 1) -> _Array:
+    def inverse_dynamics(self, q: _ArrayLike, qd: _ArrayLike, qdd: _ArrayLike, *, threads: int = 1,
+                         out: Optional[_Array] = None) -> _Array:
         """(q, qd, qdd) => tau = M qdd + C qd + G (n,) | (N, n), N·m or N."""
     def kinetic_energy(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> Union[float, _Array]:
         """(q, qd) => T = ½ qdᵀ M qd, J: a float | (N,)."""
     def potential_energy(self, q: _ArrayLike, *, threads: int = 1) -> Union[float, _Array]:
         """q => V, J: a float | (N,)."""
-    def frame_pose(self, frame: str, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
+    def frame_pose(self, frame: Union[int, str], q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
         """(frame, q) => (R (3, 3) | (N, 3, 3), p (3,) | (N, 3)): the frame's axes and origin (m), world frame."""
-    def frame_jacobian(self, frame: str, q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
-                       threads: int = 1) -> _Array:
+    def frame_jacobian(self, frame: Union[int, str], q: _ArrayLike, *, reference: _Reference = "local_world_aligned",
+                       threads: int = 1, out: Optional[_Array] = None) -> _Array:
         """(frame, q) => J (6, n) | (N, 6, n): (ṗ m/s, ω rad/s) = J qd of the frame's origin, in world axes or
         (reference="local") the frame's own."""
-    def frame_bias_acceleration(self, frame: str, q: _ArrayLike, qd: _ArrayLike, *,
+    def frame_bias_acceleration(self, frame: Union[int, str], q: _ArrayLike, qd: _ArrayLike, *,
                                 reference: _Reference = "local_world_aligned", threads: int = 1) -> _Array:
         """(frame, q, qd) => J̇ qd (6,) | (N, 6): (m/s², rad/s²) at qdd = 0, in world axes or the frame's own."""
+    def frame_id(self, name: str) -> int:
+        """name => its index in frame_names, which frame_pose, frame_jacobian and frame_bias_acceleration take."""
+    def center_of_mass(self, q: _ArrayLike, *, threads: int = 1) -> tuple[_Array, _Array]:
+        """q => (c (3,) | (N, 3), J_c (3, nv) | (N, 3, nv)): the centre of mass (m, world) and ċ = J_c qd; a
+        floating-base Model's."""
+    def centroidal_momentum_matrix(self, q: _ArrayLike, *, threads: int = 1) -> _Array:
+        """q => A_G (6, nv) | (N, 6, nv): (linear N·s, angular about c N·m·s) = A_G qd, world axes (Pinocchio's
+        ccrba); a floating-base Model's."""
+    def centroidal_momentum_bias(self, q: _ArrayLike, qd: _ArrayLike, *, threads: int = 1) -> _Array:
+        """(q, qd) => Ȧ_G qd (6,) | (N, 6): ḣ_G at qdd = 0 (N, N·m about c), world axes; a floating-base Model's."""
     def integrate(self, q: _ArrayLike, v: _ArrayLike, dt: float, *, threads: int = 1) -> _Array:
         """(q, v, dt) => q ⊕ dt v (nq,) | (N, nq): on SE(3) for a floating base (Pinocchio's integrate)."""
     def difference(self, q0: _ArrayLike, q1: _ArrayLike, *, threads: int = 1) -> _Array:

@@ -15,6 +15,7 @@ SOURCE = os.environ["LAGRANGE_SOURCE_DIR"]
 LAGRANGECTL = os.environ.get("LAGRANGECTL", "")
 TWO_ARMS = os.path.join(SOURCE, "tests/fixtures/urdf/two_arms.urdf")  # a base of mass > 0 with two arms
 BRICK = os.path.join(SOURCE, "tests/fixtures/urdf/brick.urdf")
+MIMIC_ARMS = os.path.join(SOURCE, "tests/fixtures/urdf/mimic_arms.urdf")  # two_arms with a third arm's joint a mimic
 TOL = 1e-12
 
 
@@ -64,8 +65,14 @@ def test_errors_name_which_size(model):
         model.forward_dynamics(q, v, np.zeros(nq))
     with pytest.raises(ValueError, match="^coriolis_matrix: a floating base has no C matrix"):
         model.coriolis_matrix(q, v)
-    with pytest.raises(ValueError, match="^method: a floating base has the recursive path alone"):
-        lagrange.Model.from_urdf(TWO_ARMS, floating_base=True, method="lagrangian")
+    with pytest.raises(ValueError, match="^method: a floating base has the recursive and lagrangian paths, got "
+                                         "'closed-form'"):
+        lagrange.Model.from_urdf(TWO_ARMS, floating_base=True, method="closed-form")
+    fixed = lagrange.Model.from_urdf(TWO_ARMS)
+    for call, args in [("center_of_mass", (np.zeros(2),)), ("centroidal_momentum_matrix", (np.zeros(2),)),
+                       ("centroidal_momentum_bias", (np.zeros(2), np.zeros(2)))]:
+        with pytest.raises(ValueError, match=f"^{call}: a floating-base Model's"):
+            getattr(fixed, call)(*args)
     with pytest.raises(ValueError, match="^model: a floating-base Model"):
         model.inverse_dynamics_derivatives(q, v, np.zeros(nv))
 
@@ -135,6 +142,57 @@ def test_frame_jacobian_gives_the_frames_velocity(model):
         R, _ = model.frame_pose(frame, q)
         local = model.frame_jacobian(frame, q, reference="local")
         np.testing.assert_allclose(local[:3], R.T @ J[:3], rtol=0, atol=TOL)
+
+
+@pytest.mark.parametrize("urdf", [TWO_ARMS, MIMIC_ARMS])
+def test_the_lagrangian_path_agrees_with_the_recursive_one(urdf):
+    # Two derivations (Euler–Poincaré on the energies; RNEA, CRBA, ABA) of the same robot, mimic joint and all.
+    recursive = lagrange.Model.from_urdf(urdf, floating_base=True)
+    lagrangian = lagrange.Model.from_urdf(urdf, floating_base=True, method="lagrangian")
+    assert lagrangian.method == "lagrangian" and recursive.method == "recursive"
+    assert lagrangian.num_velocities == recursive.num_velocities
+    rng = np.random.default_rng(9)
+    qs, vs = zip(*(random_state(recursive, rng) for _ in range(3)))
+    qs, vs = np.array(qs), np.array(vs)
+    taus = rng.uniform(-2.0, 2.0, vs.shape)
+    close = lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10)
+    close(lagrangian.mass_matrix(qs), recursive.mass_matrix(qs))
+    close(lagrangian.gravity(qs), recursive.gravity(qs))
+    close(lagrangian.forward_dynamics(qs, vs, taus), recursive.forward_dynamics(qs, vs, taus))
+    close(lagrangian.inverse_dynamics(qs, vs, taus), recursive.inverse_dynamics(qs, vs, taus))
+    close(lagrangian.kinetic_energy(qs, vs), recursive.kinetic_energy(qs, vs))
+    close(lagrangian.potential_energy(qs), recursive.potential_energy(qs))
+    assert np.abs(recursive.inverse_dynamics(qs, vs, np.zeros_like(vs))).max() > 1e-2  # not a trivial agreement
+    again = pickle.loads(pickle.dumps(lagrangian))
+    assert again.method == "lagrangian"
+    np.testing.assert_array_equal(again.mass_matrix(qs[0]), lagrangian.mass_matrix(qs[0]))
+
+
+def test_centre_of_mass_and_centroidal_momentum(model):
+    rng = np.random.default_rng(10)
+    q, v = random_state(model, rng)
+    a = rng.uniform(-1.0, 1.0, model.num_velocities)
+    eps = 1e-6
+    c, Jc = model.center_of_mass(q)
+    assert c.shape == (3,) and Jc.shape == (3, model.num_velocities)
+    # ċ = J_c v, by central differences along the manifold.
+    cp, _ = model.center_of_mass(model.integrate(q, v, eps))
+    cm, _ = model.center_of_mass(model.integrate(q, v, -eps))
+    np.testing.assert_allclose(Jc @ v, (cp - cm) / (2 * eps), rtol=0, atol=1e-8)
+    # The centroidal momentum's linear part is the total mass times ċ; A_G's linear rows are m J_c.
+    A = model.centroidal_momentum_matrix(q)
+    mass = model.mass_matrix(q)[0, 0]  # the base's linear block is m I in base axes
+    np.testing.assert_allclose(A[:3], mass * Jc, rtol=0, atol=1e-10)
+    # ḣ_G = A_G a + Ȧ_G v: the derivative of A_G(q(t)) v(t) along q̇ = v, v̇ = a, by central differences.
+    h = lambda t: model.centroidal_momentum_matrix(model.integrate(q, v, t)) @ (v + t * a)
+    hdot = (h(eps) - h(-eps)) / (2 * eps)
+    np.testing.assert_allclose(A @ a + model.centroidal_momentum_bias(q, v), hdot, rtol=0, atol=1e-7)
+    # Batches are the single states, row by row.
+    qs = np.stack([q, random_state(model, rng)[0]])
+    cs, Jcs = model.center_of_mass(qs)
+    np.testing.assert_array_equal(cs[0], c)
+    np.testing.assert_array_equal(Jcs[0], Jc)
+    np.testing.assert_array_equal(model.centroidal_momentum_bias(qs, v)[0], model.centroidal_momentum_bias(q, v))
 
 
 def test_pickles_with_its_floating_base(model):

@@ -19,6 +19,7 @@ PANDA = os.path.join(SOURCE, "config/robots/panda.urdf")
 UR5 = os.path.join(SOURCE, "config/robots/ur5.urdf")
 PANDA_HAND = os.path.join(SOURCE, "config/robots/panda_hand.urdf")  # a mimic finger: 8 dofs, 9 moving joints
 BRANCHING = os.path.join(SOURCE, "tests/fixtures/urdf/branching.urdf")
+TWO_ARMS_FLOATING = os.path.join(SOURCE, "tests/fixtures/urdf/two_arms.urdf")  # a base of mass > 0
 
 # (name, how Model is built, eval's arguments for the same plant)
 PLANTS = [
@@ -349,6 +350,7 @@ PUBLIC = ["from_urdf", "builtin", "num_dofs", "num_positions", "num_velocities",
           "frame_names", "method", "plant", "mass_matrix", "integrate", "difference",
           "coriolis_matrix", "gravity", "forward_dynamics", "inverse_dynamics", "kinetic_energy", "potential_energy",
           "frame_pose", "frame_jacobian", "frame_bias_acceleration",
+          "center_of_mass", "centroidal_momentum_matrix", "centroidal_momentum_bias", "frame_id",
           "forward_dynamics_derivatives", "inverse_dynamics_derivatives", "step_derivatives"]  # derivatives.cpp
 
 
@@ -511,3 +513,86 @@ def test_a_model_goes_to_worker_processes_with_multiprocessing():
         results = pool.starmap(_mass_matrices, [(model, s) for s in states])
     for s, got in zip(states, results):
         assert exactly(got, model.mass_matrix(s))
+
+
+# ---- issue 37: the fast path and out= -----------------------------------------------------------------------------
+
+def test_the_fast_path_gives_the_general_paths_results_and_errors():
+    # float64 (n,) arrays passed positionally take the fast path; lists, strided views, float32 and keywords the
+    # general one: the same doubles, bit for bit, and the same messages.
+    model = lagrange.Model.from_urdf(os.path.join(SOURCE, "config/robots/panda.urdf"))
+    rng = np.random.default_rng(37)
+    n = model.num_dofs
+    q, qd, x = (rng.uniform(-1, 1, n) for _ in range(3))
+    strided = lambda a: np.repeat(a, 2)[::2]
+    calls = {"mass_matrix": (q,), "gravity": (q,), "forward_dynamics": (q, qd, x), "inverse_dynamics": (q, qd, x)}
+    for name, args in calls.items():
+        f = getattr(model, name)
+        fast = f(*args)
+        assert fast.dtype == np.float64 and fast.flags.c_contiguous
+        np.testing.assert_array_equal(fast, f(*[list(a) for a in args]))
+        np.testing.assert_array_equal(fast, f(*[strided(a) for a in args]))
+        np.testing.assert_array_equal(fast, f(*args, threads=1))
+        np.testing.assert_array_equal(fast, f(np.stack([args[0]] * 2), *args[1:])[1])
+        bad = [a.copy() for a in args]
+        bad[-1][3] = np.nan
+        with pytest.raises(ValueError, match=r"^\w+: expected finite numbers, got nan at \w+\[3\]$"):
+            f(*bad)
+        with pytest.raises(ValueError, match=rf"^q: expected {n} values \(one per joint\), got {n + 1}$"):
+            f(np.zeros(n + 1), *args[1:])
+        with pytest.raises(TypeError):
+            f(*args, np.zeros(n))
+
+
+def test_out_takes_the_result_in_place():
+    model = lagrange.Model.builtin("arm2")
+    q, qd, tau = np.array([0.3, -0.4]), np.array([1.0, 0.5]), np.array([0.2, -0.1])
+    out = np.empty(2)
+    assert model.forward_dynamics(q, qd, tau, out=out) is out
+    np.testing.assert_array_equal(out, model.forward_dynamics(q, qd, tau))
+    M = np.empty((2, 2))
+    assert model.mass_matrix([0.3, -0.4], out=M) is M  # the general path (a list) takes out= too
+    np.testing.assert_array_equal(M, model.mass_matrix(q))
+    G = np.empty((3, 2))
+    assert model.gravity(np.stack([q, q, -q]), out=G) is G  # a batch: (N, n)
+    np.testing.assert_array_equal(G[2], model.gravity(-q))
+    tau_out = np.empty(2)
+    assert model.inverse_dynamics(q, qd, tau, out=tau_out) is tau_out
+    np.testing.assert_array_equal(tau_out, model.inverse_dynamics(q, qd, tau))
+    for wrong in [np.empty(3), np.empty(2, dtype=np.float32), np.empty((2, 2))[:, 0], [0.0, 0.0]]:
+        with pytest.raises(ValueError, match=r"^out: expected a writeable C-contiguous float64 array of shape \(2,\)"):
+            model.forward_dynamics(q, qd, tau, out=wrong)
+    frozen = np.empty(2)
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError, match=r"^out: expected a writeable"):
+        model.gravity(q, out=frozen)
+
+
+def test_a_frame_by_its_index_is_the_frame_by_its_name():
+    for model in [lagrange.Model.from_urdf(PANDA), lagrange.Model.from_urdf(TWO_ARMS_FLOATING, floating_base=True)]:
+        rng = np.random.default_rng(38)
+        q = rng.uniform(-1, 1, model.num_positions)
+        if model.floating_base:
+            q[3:7] /= np.linalg.norm(q[3:7])
+        qd = rng.uniform(-1, 1, model.num_velocities)
+        for k, name in enumerate(model.frame_names):
+            assert model.frame_id(name) == k
+            for a, b in zip(model.frame_pose(k, q), model.frame_pose(name, q)):
+                np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(model.frame_jacobian(k, q, reference="local"),
+                                          model.frame_jacobian(name, q, reference="local"))
+            J = np.empty((6, model.num_velocities))
+            assert model.frame_jacobian(k, q, out=J) is J  # the fast path, on a fixed base
+            np.testing.assert_array_equal(J, model.frame_jacobian(name, list(q)))
+            np.testing.assert_array_equal(model.frame_jacobian(k, q), J)
+            np.testing.assert_array_equal(model.frame_bias_acceleration(k, q, qd),
+                                          model.frame_bias_acceleration(name, q, qd))
+        count = len(model.frame_names)
+        with pytest.raises(ValueError, match=rf"^frame: expected an index 0..{count - 1} \(frame_names\), got {count}$"):
+            model.frame_jacobian(count, q)
+        with pytest.raises(ValueError, match=r"^frame: expected an index .*, got -1$"):
+            model.frame_pose(-1, q)
+        with pytest.raises(ValueError, match=r"^frame: no frame 'nowhere' in this plant"):
+            model.frame_id("nowhere")
+        with pytest.raises(TypeError):
+            model.frame_pose(1.0, q)

@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -620,11 +621,10 @@ TEST_F(EvalFloatingBase, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
        "--q: the quaternion qx,qy,qz,qw (values 4 to 7) has norm 2; expected a unit quaternion (to 1e-04, then "
        "normalised)"},
       {{"--urdf", brick, "--floating-base", "--q", "0,0,0,0,0,0,0", "--qd", v}, "has norm 0;"},
-      {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--method", "lagrangian"},
-       "--method lagrangian: not with --floating-base (the Euler–Poincaré form of the Lagrangian path is not built "
-       "yet; recursive is)"},
       {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--method", "closed-form"},
-       "--method: a floating base has the recursive path alone, got 'closed-form'"},
+       "--method: a floating base has the recursive and lagrangian paths, got 'closed-form'"},
+      {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--method", "euler"},
+       "--method: a floating base has the recursive and lagrangian paths, got 'euler'"},
       {{"--plant", "arm2", "--floating-base", "--q", "0,0", "--qd", "0,0"}, "--floating-base: only with --urdf FILE"},
       {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--derivatives"},
        "--derivatives: not with --floating-base yet"},
@@ -635,6 +635,51 @@ TEST_F(EvalFloatingBase, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
        "--urdf: " + Massless() + ": link 'hull': a floating base needs mass > 0 kg"},
   };
   ExpectEachRefused(cases);
+}
+
+// Every entry of a against b's to `tol`, relative to the larger magnitude (at least 1).
+void ExpectNumbersNear(const Numbers& a, const Numbers& b, double tol, const std::string& what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i], b[i], tol * std::max({1.0, std::abs(a[i]), std::abs(b[i])})) << what << "[" << i << "]";
+  }
+}
+
+// The Lagrangian (Euler–Poincaré) path and the recursive one are independent
+// derivations: M, C v, G, v̇, T and V agree to 1e-10, on a base with two arms
+// and on the same with a third arm whose joint mimics the first (nq, nv count
+// degrees of freedom, not joints: 9 and 8 for its 3 joints).
+TEST_F(EvalFloatingBase, TheLagrangianAndRecursivePathsAgree) {
+  struct Case {
+    std::string file, q, v, tau;
+    int dofs;
+  };
+  const std::vector<Case> cases = {
+      {File("two_arms.urdf"), "0.3,-0.2,0.5,0.1,0.2,0.3,0.9273618495495703,0.4,-0.05", "0.1,0.2,0.3,-0.4,0.5,-0.6,1,2",
+       "0.5,-1,2,0.1,0.2,-0.3,0.7,-0.2", 2},
+      {File("mimic_arms.urdf"), "0.3,-0.2,0.5,0.1,0.2,0.3,0.9273618495495703,0.4,-0.05",
+       "0.1,0.2,0.3,-0.4,0.5,-0.6,1,2", "0.5,-1,2,0.1,0.2,-0.3,0.7,-0.2", 2},
+  };
+  for (const Case& c : cases) {
+    const std::vector<std::string> state = {"--urdf", c.file, "--floating-base", "--q", c.q, "--qd", c.v, "--tau", c.tau};
+    std::vector<std::string> lagrangian = state;
+    lagrangian.insert(lagrangian.end(), {"--method", "lagrangian"});
+    const json r = Eval(state), l = Eval(lagrangian);
+    EXPECT_EQ(r.at("method").get<std::string>(), "recursive");
+    EXPECT_EQ(l.at("method").get<std::string>(), "lagrangian");
+    EXPECT_EQ(l.at("num_positions").get<int>(), c.dofs + 7) << c.file;
+    EXPECT_EQ(l.at("num_velocities").get<int>(), c.dofs + 6) << c.file;
+    const Rows M = l.at("M").get<Rows>(), M_r = r.at("M").get<Rows>();
+    ASSERT_EQ(M.size(), M_r.size()) << c.file;
+    for (std::size_t i = 0; i < M.size(); ++i) ExpectNumbersNear(M[i], M_r[i], 1e-10, c.file + " M row");
+    for (const char* key : {"Cv", "G", "qdd"}) {
+      ExpectNumbersNear(l.at(key).get<Numbers>(), r.at(key).get<Numbers>(), 1e-10, c.file + " " + key);
+    }
+    ExpectNumbersNear({l.at("T").get<double>(), l.at("V").get<double>()},
+                      {r.at("T").get<double>(), r.at("V").get<double>()}, 1e-10, c.file + " T, V");
+    // Not a trivial agreement: the state moves the robot.
+    EXPECT_GT(std::abs(r.at("Cv").get<Numbers>()[0]), 1e-3) << c.file;
+  }
 }
 
 TEST_F(EvalFloatingBase, FramesListsTheBaseLinkFirst) {
