@@ -153,9 +153,11 @@ std::optional<SpecError> SetChainJoints(ChainParams& p, std::string_view text, i
 
 // The tree the dynamics get (MakeRigidTree) is valid: a mass_scale can
 // overflow the inertias (1e308) or lose them to underflow, which only the
-// scaled tree shows. Reported under mass_scale.
+// scaled tree shows. Reported under mass_scale. A tree without joints (a
+// floating base's joints alone: a free body) has no link to scale here; a
+// fixed one is refused for having none (ValidateUrdf), not for its scale.
 std::optional<SpecError> CheckScaledTree(const UrdfParams& p) {
-  if (!p.robot || p.mass_scale == 1.0) return std::nullopt;
+  if (!p.robot || p.mass_scale == 1.0 || p.robot->tree.joints.empty()) return std::nullopt;
   if (auto err = ValidateRigidTree(MakeRigidTree(p))) {
     return SpecError{"mass_scale", "expected a factor that leaves every link's mass and inertia valid, got " +
                                        FormatNumber(p.mass_scale) + " (" + *err + ")"};

@@ -18,6 +18,7 @@
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "protocol/format.hpp"
+#include "sim/scene.hpp"
 #include "tools/cli_support.hpp"
 #include "tools/commands.hpp"
 
@@ -186,10 +187,11 @@ FloatingTerms ComputeFloatingTerms(const Model& model, ConstVecRef q, ConstVecRe
   return t;
 }
 
-// The frames named by --frame of a floating-base robot at q: {NAME: {position,
-// rotation, jacobian (6 x nv)}}, world axes. An unknown name is bad input.
+// The frames named by --frame of a floating-base robot at (q, v): {NAME: {position,
+// rotation, jacobian (6 x nv), jdot_qdot (J̇ v)}}, world axes, as a fixed
+// base's frames (FramesJson). An unknown name is bad input.
 nlohmann::ordered_json FloatingFramesJson(const FloatingDynamics& model, FloatingData& data,
-                                          const std::vector<std::string>& names, const VectorXd& q) {
+                                          const std::vector<std::string>& names, const VectorXd& q, const VectorXd& v) {
   const std::vector<std::string> all = model.tree().frame_names();
   nlohmann::ordered_json json = nlohmann::ordered_json::object();
   MatrixXd J(6, model.num_v());
@@ -199,13 +201,16 @@ nlohmann::ordered_json FloatingFramesJson(const FloatingDynamics& model, Floatin
       throw UsageError("--frame: no frame '" + Escape(name, 64) + "' in this plant (--frames lists them)");
     }
     const int k = static_cast<int>(it - all.begin());
+    Vector6d jdot_v;
+    model.ComputeFrameAccelerationBias(data, q, v, k, jdot_v);
     model.ComputeFrameJacobian(data, q, k, J);
-    if (!J.allFinite() || !data.frame_position(k).allFinite()) {
+    if (!J.allFinite() || !jdot_v.allFinite() || !data.frame_position(k).allFinite()) {
       throw std::runtime_error("the frame '" + Escape(name, 64) + "' is not finite at this state");
     }
     json[name] = {{"position", JsonList(data.frame_position(k))},
                   {"rotation", JsonRows(data.frame_rotation(k))},
-                  {"jacobian", JsonRows(J)}};
+                  {"jacobian", JsonRows(J)},
+                  {"jdot_qdot", JsonList(jdot_v)}};
   }
   return json;
 }
@@ -250,8 +255,8 @@ class EvalCommand final : public Command {
                    "then the joints; --qd and --tau are nv: the base's linear velocity (m/s) then angular velocity "
                    "(rad/s), both in base axes (force N, moment N·m for --tau), then the joints (a mimic joint has no "
                    "entry). Prints M (nv x nv), Cv (the Coriolis and centrifugal forces C v), G, qdd (v̇), T, V and "
-                   "frames' Jacobians (6 x nv; no jdot_qdot yet); --method recursive (default) or lagrangian (the "
-                   "Euler–Poincaré form); not with --derivatives or --param yet");
+                   "frames' Jacobians (6 x nv) and jdot_qdot (J̇ v); --method recursive (default) or lagrangian (the "
+                   "Euler–Poincaré form); --param mass_scale=S scales the base too; not with --derivatives yet");
   }
 
   int Run(std::ostream& out, std::ostream&) override {
@@ -347,7 +352,7 @@ class EvalCommand final : public Command {
                                    {"V", t.V}};
     if (!frames_.empty()) {
       const std::unique_ptr<FloatingData> data = model.MakeData();
-      json["frames"] = FloatingFramesJson(model, *data, frames_, q);
+      json["frames"] = FloatingFramesJson(model, *data, frames_, q, v);
     }
     return PrintJson(out, json);
   }
@@ -363,24 +368,18 @@ class EvalCommand final : public Command {
     return *m;
   }
 
-  // The tree of --urdf read with a floating base, with --gravity; what a
-  // floating base does not take yet refused in one line.
+  // The tree of --urdf read with a floating base, with --gravity and --param
+  // mass_scale (the base's mass and inertia scaled too, as a scene's
+  // `params` do: sim/scene.hpp's FloatingTreeOf); what a floating base does
+  // not take yet refused in one line.
   RigidTree FloatingTree() const {
     if (urdf_.empty()) throw UsageError("--floating-base: only with --urdf FILE (a built-in plant's base is fixed)");
-    if (links_) throw UsageError("--links: a urdf robot has the joints its file gives");
     if (derivatives_) throw UsageError("--derivatives: not with --floating-base yet (its derivatives are not built)");
-    if (!params_.empty()) {
-      throw UsageError("--param: not with --floating-base yet (the robot is read as its file gives it)");
-    }
-    RigidTree tree;
-    try {
-      tree = LoadUrdf(urdf_, UrdfOptions{.floating_base = true}).tree;
-    } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
-      throw UsageError("--urdf: " + std::string(e.what()));
-    } catch (const std::exception& e) {
-      throw UsageError("--urdf: " + Escape(e.what(), 400));
-    }
-    if (!gravity_.empty()) tree.gravity = Gravity();
+    FloatingBaseConfig floating;
+    floating.robot = LoadRobot(UrdfOptions{.floating_base = true});
+    const PlantSpec spec = UrdfSpec(FixedBaseOf(*floating.robot), false);
+    RigidTree tree = FloatingTreeOf(floating, std::get<UrdfParams>(spec.params));
+    if (auto e = ValidateFloatingTree(tree)) throw UsageError("--param mass_scale: " + Escape(*e, 400));
     return tree;
   }
 
@@ -395,7 +394,7 @@ class EvalCommand final : public Command {
   // The plant from --urdf, or from --plant, --links and --param.
   PlantSpec Spec() const {
     if (urdf_.empty() && plant_.empty()) throw UsageError("expected --plant TYPE or --urdf FILE");
-    if (!urdf_.empty()) return UrdfSpec();
+    if (!urdf_.empty()) return UrdfSpec(LoadRobot());
     if (!gravity_.empty()) throw UsageError("--gravity: only with --urdf (a planar plant's gravity is --param g=..)");
     const std::optional<PlantType> type = ParsePlantType(plant_);
     if (!type || *type == PlantType::kUrdf) {
@@ -418,17 +417,23 @@ class EvalCommand final : public Command {
     return spec;
   }
 
-  // --urdf FILE [--gravity gx,gy,gz] [--param mass_scale=S]; the file's problems are bad input.
-  PlantSpec UrdfSpec() const {
-    if (links_) throw UsageError("--links: a urdf robot has the joints its file gives");
-    PlantSpec spec;
+  // The robot of --urdf; the file's problems are bad input.
+  std::shared_ptr<const UrdfRobot> LoadRobot(UrdfOptions options = {}) const {
     try {
-      spec = UrdfPlantSpec(std::make_shared<const UrdfRobot>(LoadUrdf(urdf_)));
+      return std::make_shared<const UrdfRobot>(LoadUrdf(urdf_, options));
     } catch (const UrdfError& e) {  // one line, escaped by the loader (plant/urdf.hpp)
       throw UsageError("--urdf: " + std::string(e.what()));
     } catch (const std::exception& e) {  // anything the parser below it throws
       throw UsageError("--urdf: " + Escape(e.what(), 400));
     }
+  }
+
+  // --urdf FILE [--gravity gx,gy,gz] [--param mass_scale=S], of `robot` (the
+  // file's robot, or a floating robot's joints: FixedBaseOf, which may have
+  // none, so not `validate`d as a fixed plant: FloatingTree checks its tree).
+  PlantSpec UrdfSpec(std::shared_ptr<const UrdfRobot> robot, bool validate = true) const {
+    if (links_) throw UsageError("--links: a urdf robot has the joints its file gives");
+    PlantSpec spec = UrdfPlantSpec(std::move(robot));
     if (!gravity_.empty()) {
       const Eigen::Vector3d g3 = Gravity();
       std::string text;
@@ -444,6 +449,7 @@ class EvalCommand final : public Command {
         throw UsageError("--param " + e->key + ": " + e->message);
       }
     }
+    if (!validate) return spec;
     if (auto e = ValidatePlantSpec(spec)) throw UsageError("--urdf: " + Escape(e->message, 400));
     return spec;
   }

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "plant/eigenvalues.hpp"
+#include "plant/free_flyer.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
@@ -628,8 +629,10 @@ TEST_F(EvalFloatingBase, BadInputPrintsOneLineNamingTheProblemAndExitsTwo) {
       {{"--plant", "arm2", "--floating-base", "--q", "0,0", "--qd", "0,0"}, "--floating-base: only with --urdf FILE"},
       {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--derivatives"},
        "--derivatives: not with --floating-base yet"},
-      {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--param", "mass_scale=2"},
-       "--param: not with --floating-base yet"},
+      {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--param", "mass_scale=1e9"},
+       "--param mass_scale: expected a factor from 1e-06 to 1e+06, got 1000000000"},
+      {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--param", "gravity=0,0,1"},
+       "--param gravity: a urdf robot's gravity is --gravity gx,gy,gz"},
       {{"--urdf", brick, "--floating-base", "--q", q, "--qd", v, "--frame", "world"}, "--frame: no frame 'world'"},
       {{"--urdf", Massless(), "--floating-base", "--q", q, "--qd", v},
        "--urdf: " + Massless() + ": link 'hull': a floating base needs mass > 0 kg"},
@@ -679,6 +682,81 @@ TEST_F(EvalFloatingBase, TheLagrangianAndRecursivePathsAgree) {
                       {r.at("T").get<double>(), r.at("V").get<double>()}, 1e-10, c.file + " T, V");
     // Not a trivial agreement: the state moves the robot.
     EXPECT_GT(std::abs(r.at("Cv").get<Numbers>()[0]), 1e-3) << c.file;
+  }
+}
+
+// --param mass_scale=S scales every body's mass and inertia, the base's too, as a scene's params do: M, G,
+// C v, T and V scale by S exactly (a power of two), and v̇ under a zero τ is unchanged.
+TEST_F(EvalFloatingBase, MassScaleScalesTheBaseAndTheJointsAlike) {
+  const std::vector<std::string> state = {"--urdf",
+                                          File("two_arms.urdf"),
+                                          "--floating-base",
+                                          "--q",
+                                          "0.3,-0.2,0.5,0.1,0.2,0.3,0.9273618495495703,0.4,-0.05",
+                                          "--qd",
+                                          "0.1,0.2,0.3,-0.4,0.5,-0.6,1,2"};
+  std::vector<std::string> scaled_args = state;
+  scaled_args.insert(scaled_args.end(), {"--param", "mass_scale=4"});
+  const json one = Eval(state), four = Eval(scaled_args);
+  const Rows M1 = one.at("M").get<Rows>(), M4 = four.at("M").get<Rows>();
+  ASSERT_EQ(M1.size(), 8u);
+  for (std::size_t i = 0; i < M1.size(); ++i) {
+    for (std::size_t j = 0; j < M1.size(); ++j) EXPECT_DOUBLE_EQ(M4[i][j], 4 * M1[i][j]) << i << "," << j;
+  }
+  for (const char* key : {"Cv", "G"}) {
+    const Numbers a = one.at(key).get<Numbers>(), b = four.at(key).get<Numbers>();
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(b[i], 4 * a[i], 1e-12 * (1 + std::abs(a[i]))) << key;
+  }
+  EXPECT_NEAR(four.at("T").get<double>(), 4 * one.at("T").get<double>(), 1e-12);
+  EXPECT_NEAR(four.at("V").get<double>(), 4 * one.at("V").get<double>(), 1e-12);
+  ExpectNumbersNear(four.at("qdd").get<Numbers>(), one.at("qdd").get<Numbers>(), 1e-12, "qdd");
+  EXPECT_GT(M1[0][0], 5.0);  // the base's 5 kg and the arms' 1.5 kg: the base is in M
+  // A free body alone (no joints): its 2 kg scaled to 4 kg.
+  const json brick = Eval({"--urdf", File("brick.urdf"), "--floating-base", "--q", "0,0,1,0,0,0,1", "--qd",
+                           "0,0,0,0,0,0", "--param", "mass_scale=2"});
+  EXPECT_DOUBLE_EQ(brick.at("M").get<Rows>()[0][0], 4.0);
+  EXPECT_DOUBLE_EQ(brick.at("G").get<Numbers>()[2], 4.0 * kG);
+}
+
+// A floating frame's jdot_qdot is J̇ v at v̇ = 0: the rate of J(q(t)) v along q(t) = q ⊕ t v (SE(3)'s
+// exponential of the constant body twist, the joints at constant rate), by central differences of the
+// Jacobians eval prints at q ⊕ ±h v, on the turning arm `a` and the sliding `b`.
+TEST_F(EvalFloatingBase, FramesJdotQdotIsTheRateOfTheJacobianTimesV) {
+  const std::string file = File("two_arms.urdf");
+  Eigen::VectorXd q0(9), v(8);
+  q0 << 0.3, -0.2, 0.5, 0.1, 0.2, 0.3, 0.9273618495495703, 0.4, -0.05;
+  v << 0.1, 0.2, 0.3, -0.4, 0.5, -0.6, 1, 2;
+  const auto list = [](const Eigen::VectorXd& x) {
+    std::string text;
+    for (double e : x) {
+      if (!text.empty()) text += ',';
+      text += FormatDouble(e);
+    }
+    return text;
+  };
+  const auto eval_at = [&](const Eigen::VectorXd& q) {
+    return Eval({"--urdf", file, "--floating-base", "--q", list(q), "--qd", list(v), "--frame", "a", "--frame", "b"});
+  };
+  const double h = 1e-5;
+  Eigen::VectorXd q_plus(9), q_minus(9);
+  Integrate(q0, v, h, q_plus);
+  Integrate(q0, v, -h, q_minus);
+  const json at0 = eval_at(q0), plus = eval_at(q_plus), minus = eval_at(q_minus);
+  for (const char* frame : {"a", "b"}) {
+    const auto Jv = [&](const json& out) {
+      const Rows J = out.at("frames").at(frame).at("jacobian").get<Rows>();
+      Numbers r(6, 0.0);
+      for (std::size_t i = 0; i < 6; ++i) {
+        for (std::size_t k = 0; k < J[i].size(); ++k) r[i] += J[i][k] * v[static_cast<Eigen::Index>(k)];
+      }
+      return r;
+    };
+    const Numbers up = Jv(plus), down = Jv(minus);
+    Numbers rate(6);
+    for (std::size_t i = 0; i < 6; ++i) rate[i] = (up[i] - down[i]) / (2 * h);
+    const Numbers jdot_v = at0.at("frames").at(frame).at("jdot_qdot").get<Numbers>();
+    ExpectNumbersNear(jdot_v, rate, 1e-6, std::string("jdot_qdot of ") + frame);
+    EXPECT_GT(std::abs(jdot_v[0]) + std::abs(jdot_v[1]) + std::abs(jdot_v[2]), 1e-2) << frame;  // not zero
   }
 }
 
