@@ -21,6 +21,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -40,15 +41,16 @@
 
 #include <Eigen/Geometry>
 
+#include "plant/floating_dynamics.hpp"
 #include "plant/kinematics.hpp"
 #include "plant/plant_factory.hpp"
 #include "plant/urdf.hpp"
 #include "sim/scene.hpp"
 #include "tests/support/lcm_testing.hpp"
-#include "tools/view/instance_json.hpp"
-#include "tools/view/view_model.hpp"
 #include "tests/support/process.hpp"
 #include "tests/tools/run_ctl.hpp"
+#include "tools/view/instance_json.hpp"
+#include "tools/view/view_model.hpp"
 
 // Last: it includes <resolv.h>, whose macro _res would rename a parameter in Eigen's headers.
 #include <httplib.h>
@@ -63,6 +65,8 @@ using testing::BackgroundProcess;
 constexpr double kPoseTolerance = 1e-9;
 const std::string kVisualArm = std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/urdf/view/visual_arm.urdf";
 const std::string kDefaultScene = std::string(LAGRANGE_SOURCE_DIR) + "/config/default.yaml";
+// A floating tree (5 joints, no <visual>) thrown upward from 1 m, turning, with no ground: instance `tree`.
+const std::string kFloatingScene = std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml";
 
 std::string Chromium() {
   for (const char* path : {"/usr/bin/chromium", "/usr/bin/chromium-browser"}) {
@@ -139,6 +143,90 @@ Kinematics SceneKinematics(const std::string& instance, const std::string& file 
     if (c.name == instance) return Kinematics(MakeRigidTree(c.plant));
   throw std::runtime_error("no instance " + instance);
 }
+
+// A floating instance's model as lagranged steps it (FloatingTreeOf): the independent placement of its frames.
+FloatingDynamics SceneFloatingDynamics(const std::string& instance, const std::string& file) {
+  const Scene scene = LoadScene(file);
+  for (const InstanceConfig& c : scene.instances) {
+    if (c.name == instance && c.floating)
+      return FloatingDynamics(FloatingTreeOf(*c.floating, std::get<UrdfParams>(c.plant.params)));
+  }
+  throw std::runtime_error("no floating instance " + instance);
+}
+
+// A base's pose as the page is sent it ({p, q: x y z w}) and the joints, as FloatingDynamics' full q.
+VectorXd FloatingQ(const json& base, const json& joints) {
+  VectorXd q(kFreeFlyerNq + static_cast<Eigen::Index>(joints.size()));
+  for (int k = 0; k < 3; ++k) q[k] = base["p"][static_cast<std::size_t>(k)].get<double>();
+  for (int k = 0; k < 4; ++k) q[3 + k] = base["q"][static_cast<std::size_t>(k)].get<double>();
+  for (std::size_t k = 0; k < joints.size(); ++k)
+    q[kFreeFlyerNq + static_cast<Eigen::Index>(k)] = joints[k].get<double>();
+  return q;
+}
+
+// Every frame in `drawn` equals FloatingDynamics' placement at the full q (the base's pose, then the joints):
+// `column_major` the page's three.js matrices (16 numbers), else the server's poses (R row by row, then p).
+void ExpectFloatingPosesOf(const FloatingDynamics& dynamics, const json& drawn, const VectorXd& q, bool column_major,
+                           const std::string& what) {
+  auto data = dynamics.MakeData();
+  dynamics.ComputeFramePlacements(*data, q);
+  const auto& frames = dynamics.tree().frames;
+  ASSERT_TRUE(drawn.is_array() && drawn.size() == frames.size()) << what << ": " << drawn.dump();
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const auto k = static_cast<int>(f);
+    const std::string frame = what + " frame " + frames[f].name;
+    if (column_major) {
+      ExpectPose(drawn[f], data->frame_rotation(k), data->frame_position(k), frame);
+      continue;
+    }
+    ASSERT_EQ(drawn[f].size(), 12u) << frame;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j)
+        EXPECT_NEAR(drawn[f][static_cast<std::size_t>(i * 3 + j)].get<double>(), data->frame_rotation(k)(i, j),
+                    kPoseTolerance)
+            << frame;
+      EXPECT_NEAR(drawn[f][static_cast<std::size_t>(9 + i)].get<double>(), data->frame_position(k)(i), kPoseTolerance)
+          << frame;
+    }
+  }
+}
+
+base_state_t BaseState(std::int64_t run, std::int64_t tick, double t, const Eigen::Vector3d& p,
+                       const Eigen::Quaterniond& q) {
+  base_state_t b{};
+  b.run_id = run;
+  b.tick = tick;
+  b.t = t;
+  for (int k = 0; k < 3; ++k) b.position[k] = p[k];
+  const double xyzw[4] = {q.x(), q.y(), q.z(), q.w()};
+  std::copy_n(xyzw, 4, b.orientation);
+  return b;
+}
+
+// The floating tree's state: joints q, setpoint q_des, under pd, running.
+state_t TreeState(std::int64_t run, std::int64_t tick, const std::vector<double>& q, const std::vector<double>& q_des) {
+  state_t s{};
+  s.run_id = run;
+  s.tick = tick;
+  s.t = 1e-3 * static_cast<double>(tick);
+  s.num_dofs = static_cast<std::int32_t>(q.size());
+  s.q = q;
+  s.q_des = q_des;
+  s.qd = s.qdd = s.tau = s.qd_des = std::vector<double>(q.size(), 0.0);
+  s.controller = "pd";
+  s.mode = state_t::MODE_RUNNING;
+  return s;
+}
+
+template <class Message>
+std::vector<std::uint8_t> Encoded(const Message& m) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+void ExpectStreamedPosesOf(const Kinematics& kinematics, const json& poses, const std::vector<double>& q,
+                           const std::string& what);
 
 class ViewTest : public ::testing::Test {
  protected:
@@ -473,6 +561,47 @@ TEST_F(ViewBrowser, LogDrawsTheMpcPlanAsAPathPerFrame) {
   EXPECT_EQ(drawn["cartpole"]["plan"]["paths"], model_["models"][0]["frames"].size()) << "a path per frame";
 }
 
+// A floating base in the page: the tree of floating_fall.yaml, its state and base state published here
+// at a base pose neither the scene's start nor the origin, drawn on a ground at z = 0; the body (the
+// base's own frame) is drawn at the published pose itself, and every frame where FloatingDynamics
+// places it at that pose and the joints: the whole robot is where its base is. (That the drawing moves
+// with a moving base: ViewTest.StreamsAFloatingInstanceOfLagrangedPlacedByItsMovingBase.)
+TEST_F(ViewBrowser, AFloatingBaseIsDrawnWhereItsPublishedBaseIsOnAGround) {
+  constexpr int kLcmPort = 9141;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  StartView({"--lcm-url", url, "--scene", kFloatingScene}, 9162);
+  EXPECT_EQ(model_["models"][0]["floating_base"], true);
+  const FloatingDynamics dynamics = SceneFloatingDynamics("tree", kFloatingScene);
+  ASSERT_EQ(dynamics.tree().frames.front().name, "body") << "the root link, the base, is the first frame";
+  const std::vector<double> q = {0.3, -0.2, -0.4, 0.5, 0.05};
+  const Eigen::Vector3d p(0.4, -0.3, 0.7);
+  const Eigen::Quaterniond r(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, -0.5).normalized()));
+  std::atomic<bool> stop{false};
+  std::thread daemon([&] {  // the tree's states and base states, as lagranged publishes them every tick
+    lcm::LCM lcm(url);
+    for (std::int64_t tick = 1; !stop; ++tick) {
+      const state_t s = TreeState(21, tick, q, {0, 0, 0, 0, 0});
+      lcm.publish("TREE_STATE", &s);
+      const base_state_t b = BaseState(21, tick, s.t, p, r);
+      lcm.publish("TREE_BASE", &b);
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  });
+  const auto drawn = [](const json& d) { return d.contains("tree") && d["tree"].contains("measured"); };
+  json d;
+  for (int attempt = 0; attempt < 10 && !drawn(d); ++attempt) d = Drawn(DumpDom("?frames_max=3", 3000));
+  stop = true;
+  daemon.join();
+  ASSERT_TRUE(drawn(d)) << d.dump() << view_->Stderr();
+  const json& tree = d["tree"];
+  ExpectPose(tree["measured"][0], r.toRotationMatrix(), p, "the body, the base");
+  ExpectFloatingPosesOf(dynamics, tree["measured"], FloatingQ(tree["base"], tree["q"]), true, "tree");
+  ExpectFloatingPosesOf(dynamics, tree["ghost"], FloatingQ(tree["base"], tree["q_des"]), true, "tree's setpoint");
+  ASSERT_TRUE(tree.contains("ground")) << tree.dump();
+  EXPECT_EQ(tree["ground"]["z"], 0.0);
+}
+
 // ---- the server, without a browser ----
 
 // view --log: the plan logged on CARTPOLE_MPC is sent with the cart-pole's states logged after it, not before.
@@ -554,6 +683,170 @@ TEST_F(ViewTest, AnMpcPlanIsSentAsEachFramesPathThroughItsKnotsOnlyWithTheStateI
   EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
   hostile.knot_x[1] = {0, 0};
   EXPECT_TRUE(cli::view::PlanJson(*models[0], hostile).is_null());
+}
+
+// A floating base as the page is sent it: every frame (and the setpoint's ghost) in the world where
+// FloatingDynamics places it at the full q (the base's pose, then the joints); without a base state of
+// the state's run and time, or with one that is no pose, the instance is named and not drawn. A fixed
+// base ignores a base state.
+TEST_F(ViewTest, AFloatingBaseIsPlacedInTheWorldByItsBaseStateAsFloatingDynamicsPlacesIt) {
+  const Scene scene = LoadScene(kFloatingScene);
+  const InstanceConfig& c = scene.instances[0];
+  ASSERT_TRUE(c.floating.has_value());
+  cli::view::ViewModels models;
+  models.push_back(
+      std::make_unique<cli::view::ViewModel>("tree", c.plant, cli::view::ViewModelOptions{{}, c.torque_limits, true}));
+  EXPECT_EQ(models[0]->geometry()["floating_base"], true);
+  const FloatingDynamics dynamics = SceneFloatingDynamics("tree", kFloatingScene);
+  const state_t s = TreeState(5, 200, {0.3, -0.2, -0.4, 0.5, 0.05}, {0.1, 0.2, 0.3, -0.4, 0.02});
+  const Eigen::Quaterniond r(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, -0.5).normalized()));
+  const base_state_t base = BaseState(5, 200, s.t, {0.4, -0.3, 0.7}, r);
+  const cli::view::ViewInstance instance{"", "tree", 0};
+  const json j = cli::view::InstanceJson(instance, models, s, 0.0, nullptr, nullptr, &base);
+  ASSERT_TRUE(j.contains("poses") && j.contains("base")) << j.dump();
+  EXPECT_EQ(j["base"]["p"], json::array({0.4, -0.3, 0.7}));
+  EXPECT_EQ(j["base"]["tick"], 200);
+  ExpectFloatingPosesOf(dynamics, j["poses"], FloatingQ(j["base"], j["q"]), false, "tree");
+  ExpectFloatingPosesOf(dynamics, j["ghost"], FloatingQ(j["base"], j["q_des"]), false, "tree's setpoint");
+  // Not drawn: no base state, another run's, one 0.5 s of simulated time off, a quaternion off unit, a NaN.
+  std::vector<std::pair<std::optional<base_state_t>, std::string>> refused = {{std::nullopt, "TREE_BASE"}};
+  base_state_t other = base;
+  other.run_id = 6;
+  refused.emplace_back(other, "TREE_BASE");
+  other = base;
+  other.t += 0.5;
+  refused.emplace_back(other, "TREE_BASE");
+  other = base;
+  for (double& x : other.orientation) x *= 1.01;
+  refused.emplace_back(other, "not unit");
+  other = base;
+  other.position[2] = std::nan("");
+  refused.emplace_back(other, "not finite");
+  for (const auto& [b, why] : refused) {
+    const json n = cli::view::InstanceJson(instance, models, s, 0.0, nullptr, nullptr, b ? &*b : nullptr);
+    EXPECT_FALSE(n.contains("poses") || n.contains("ghost")) << n.dump();
+    EXPECT_EQ(n["name"], "tree");
+    EXPECT_NE(n.value("note", "").find(why), std::string::npos) << n.dump();
+  }
+  // A fixed base (the default scene's arm) is drawn by its joints alone, whatever base state comes with it.
+  const Scene arm_scene = LoadScene(kDefaultScene);
+  cli::view::ViewModels fixed;
+  fixed.push_back(
+      std::make_unique<cli::view::ViewModel>("arm", arm_scene.instances[0].plant, cli::view::ViewModelOptions{}));
+  EXPECT_EQ(fixed[0]->geometry()["floating_base"], false);
+  state_t arm = TreeState(5, 200, {0.4, -0.3}, {0.0, 0.0});
+  const json a = cli::view::InstanceJson({"", "arm", 0}, fixed, arm, 0.0, nullptr, nullptr, &base);
+  EXPECT_FALSE(a.contains("base"));
+  ExpectStreamedPosesOf(SceneKinematics(arm_scene.instances[0].name), a["poses"], {0.4, -0.3}, "arm");
+}
+
+// view --log of a floating base: each state is drawn at the base state of its own tick, logged just after
+// it (so after the time asked for), and a state logged before any base state of its run is not drawn.
+TEST_F(ViewTest, ALoggedFloatingBaseIsDrawnAtTheBaseStateOfItsStatesTick) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;  // event i at (i + 1) ms
+  for (int k = 0; k <= 10; ++k) {
+    events.emplace_back("TREE_STATE", Encoded(TreeState(3, k, {0.1 * k, 0, 0, 0, 0}, {0, 0, 0, 0, 0})));
+    if (k >= 3) {  // none for the first three ticks
+      const Eigen::Vector3d p(0.01 * k, 0.0, 1.0 - 0.001 * k);
+      events.emplace_back("TREE_BASE", Encoded(BaseState(3, k, 1e-3 * k, p, Eigen::Quaterniond::Identity())));
+    }
+  }
+  const fs::path log = fs::temp_directory_path() / ("lagrange_view_base_log_" + std::to_string(getpid()) + ".lcm");
+  testing::WriteLcmLog(log.string(), events);
+  StartView({"--log", log.string(), "--scene", kFloatingScene}, 9163);
+  httplib::Client client("127.0.0.1", 9163);
+  const auto tree_at = [&](double t) {
+    const auto r = client.Get(("/api/log?t=" + std::to_string(t)).c_str());
+    EXPECT_TRUE(r && r->status == 200);
+    const json j = r ? json::parse(r->body) : json::object();
+    return j.contains("instances") && !j["instances"].empty() ? j["instances"][0] : json::object();
+  };
+  // Events 0..2 are the states of ticks 0..2, then a state and its base per tick: tick k >= 3's state is
+  // event 2k - 3, logged 2k - 3 ms after the first, and its base 1 ms later.
+  const json fifth = tree_at(1e-3 * (2 * 5 - 3) + 5e-4);  // between state 5 and its base
+  fs::remove(log);
+  ASSERT_EQ(fifth.value("tick", -1), 5) << fifth.dump();
+  ASSERT_TRUE(fifth.contains("base") && fifth.contains("poses")) << fifth.dump();
+  EXPECT_EQ(fifth["base"]["tick"], 5);
+  ExpectFloatingPosesOf(SceneFloatingDynamics("tree", kFloatingScene), fifth["poses"],
+                        FloatingQ(fifth["base"], fifth["q"]), false, "logged tree");
+  const json first = tree_at(1.5e-3);  // tick 1: no base state logged yet
+  EXPECT_EQ(first.value("tick", -1), 1) << first.dump();
+  EXPECT_FALSE(first.contains("poses")) << first.dump();
+  EXPECT_NE(first.value("note", "").find("TREE_BASE"), std::string::npos) << first.dump();
+}
+
+// lagranged runs the floating tree (thrown up and falling, no ground): the view says its model floats,
+// and streams it placed by the base states lagranged publishes, which move.
+TEST_F(ViewTest, StreamsAFloatingInstanceOfLagrangedPlacedByItsMovingBase) {
+  constexpr int kLcmPort = 9142;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(kLcmPort), "");
+  const std::string url = testing::TestLcmUrl(kLcmPort);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--log-level", "warn", "--config", kFloatingScene});
+  StartView({"--lcm-url", url, "--scene", kFloatingScene}, 9164);
+  EXPECT_EQ(model_["models"][0]["floating_base"], true);
+  const FloatingDynamics dynamics = SceneFloatingDynamics("tree", kFloatingScene);
+  std::vector<json> trees;  // the first frame that drew it, and one at least 0.1 s of simulated time later
+  std::string stream;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (trees.size() < 2 && std::chrono::steady_clock::now() < end) {
+    httplib::Client c("127.0.0.1", 9164);
+    c.set_read_timeout(2, 0);
+    c.Get("/api/stream", [&](const char* data, std::size_t n) {
+      stream.append(data, n);
+      for (std::size_t e = stream.find("\n\n"); e != std::string::npos; e = stream.find("\n\n")) {
+        if (stream.rfind("data: ", 0) == 0) {
+          const json frame = json::parse(stream.substr(6, e - 6));
+          for (const json& i : frame["instances"]) {
+            if (i["name"] != "tree" || !i.contains("poses")) continue;
+            if (trees.empty() || (trees.size() < 2 && i["t"].get<double>() > trees[0]["t"].get<double>() + 0.1))
+              trees.push_back(i);
+          }
+        }
+        stream.erase(0, e + 2);
+      }
+      return trees.size() < 2 && std::chrono::steady_clock::now() < end;
+    });
+  }
+  ASSERT_EQ(trees.size(), 2u) << view_->Stderr() << daemon.Stderr();
+  for (const json& tree : trees) {
+    EXPECT_LE(std::abs(tree["base"]["t"].get<double>() - tree["t"].get<double>()), 0.1) << tree.dump();
+    ExpectFloatingPosesOf(dynamics, tree["poses"], FloatingQ(tree["base"], tree["q"]), false, "tree");
+  }
+  EXPECT_NE(trees[0]["base"]["p"], trees[1]["base"]["p"]) << "thrown, the base moves";
+  EXPECT_NE(trees[0]["poses"][0], trees[1]["poses"][0]);
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(10.0), 0);
+}
+
+// view --urdf --floating-base: a file whose <joint type="floating"> frees its pelvis from the world
+// (refused without the flag, in one line naming the joint) is drawn by its joints' model with the base at
+// the origin, as FloatingDynamics places it there, on a ground; its skeleton has no rod from the world,
+// which is no frame, to the base. A free body alone (no moving joint) is refused in one line.
+TEST_F(ViewTest, ReadsAFloatingUrdfWithFloatingBase) {
+  const std::string file = std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/urdf/view/floating_leg.urdf";
+  const testing::CtlResult fixed = testing::RunCtl({"view", "--urdf", file, "--port", "9166"});
+  EXPECT_NE(fixed.status, 0);
+  EXPECT_NE(fixed.err.find("joint 'float': type 'floating'"), std::string::npos) << fixed.err;
+  const testing::CtlResult brick =
+      testing::RunCtl({"view", "--urdf", std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/urdf/brick.urdf",
+                       "--floating-base", "--port", "9166"});
+  EXPECT_NE(brick.status, 0);
+  EXPECT_NE(brick.err.find("brick.urdf: no moving joint"), std::string::npos) << brick.err;
+  EXPECT_EQ(std::count(brick.err.begin(), brick.err.end(), '\n'), 1) << brick.err;
+  StartView({"--urdf", file, "--floating-base"}, 9165);
+  const json& model = model_["models"][0];
+  EXPECT_EQ(model["floating_base"], true);
+  EXPECT_EQ(model["dofs"], 1);
+  for (const json& shape : model["shapes"])
+    if (shape["type"] == "rod") EXPECT_GE(shape["from"].get<int>(), 0) << shape.dump();
+  httplib::Client client("127.0.0.1", 9165);
+  const auto r = client.Get("/api/poses?q=0.5");
+  ASSERT_TRUE(r && r->status == 200);
+  const json leg = json::parse(r->body)["instances"][0];
+  const json origin = {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1}}};
+  const UrdfRobot robot = LoadUrdf(file, {.floating_base = true});
+  ExpectFloatingPosesOf(FloatingDynamics(robot.tree), leg["poses"], FloatingQ(origin, leg["q"]), false, "leg");
 }
 
 TEST_F(ViewTest, RefusesAFileThatIsNotALog) {

@@ -4,10 +4,14 @@
 #include <cmath>
 #include <iterator>
 
+#include <Eigen/Geometry>
+
 #include "base/escape.hpp"
 #include "controllers/factory.hpp"
+#include "protocol/channels.hpp"
 #include "protocol/ids.hpp"
 #include "protocol/mode.hpp"
+#include "protocol/setpoint_check.hpp"
 
 namespace lagrange::cli::view {
 namespace {
@@ -15,6 +19,7 @@ namespace {
 using nlohmann::json;
 
 constexpr double kTaskCurrent = 0.1;  // s of simulated time between a state and its controller's task state
+constexpr double kBaseCurrent = 0.1;  // s of simulated time between a state and its base's state
 
 bool AllFinite(const std::vector<double>& v) {
   return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
@@ -45,6 +50,19 @@ json Numbers(const std::vector<double>& v) {
 
 bool TaskIsCurrent(const state_t& s, const task_state_t& task) {
   return task.run_id == s.run_id && task.controller == s.controller && std::abs(task.t - s.t) <= kTaskCurrent;
+}
+
+bool BaseIsCurrent(const state_t& s, const base_state_t& base) {
+  return base.run_id == s.run_id && std::abs(base.t - s.t) <= kBaseCurrent;
+}
+
+std::optional<BasePose> BasePoseOf(const base_state_t& base) {
+  const Eigen::Vector3d p(base.position[0], base.position[1], base.position[2]);
+  Eigen::Quaterniond q(base.orientation[3], base.orientation[0], base.orientation[1], base.orientation[2]);
+  if (!p.allFinite() || !q.coeffs().allFinite() || !(std::abs(q.norm() - 1.0) <= kUnitQuaternionTolerance))
+    return std::nullopt;
+  q.normalize();
+  return BasePose{q.toRotationMatrix(), p};
 }
 
 bool PlanIsCurrent(const state_t& s, const mpc_t& plan) {
@@ -79,7 +97,7 @@ bool FollowsJointSetpoint(const state_t& s) {
 }
 
 json InstanceJson(const ViewInstance& instance, const ViewModels& models, const state_t& s, double age,
-                  const task_state_t* task, const mpc_t* plan) {
+                  const task_state_t* task, const mpc_t* plan, const base_state_t* base) {
   json j = {{"model", instance.model},
             {"name", Escape(instance.Label())},
             {"run", RunIdText(s.run_id)},
@@ -101,10 +119,29 @@ json InstanceJson(const ViewInstance& instance, const ViewModels& models, const 
                 std::to_string(model.num_dofs()) + ": not drawn (another scene?)";
     return j;
   }
-  if (AllFinite(s.q)) j["poses"] = model.Poses(Eigen::Map<const VectorXd>(s.q.data(), s.num_dofs));
+  BasePose at;  // a fixed base: the world's origin
+  if (model.floating_base()) {
+    if (base == nullptr || !BaseIsCurrent(s, *base)) {
+      j["note"] = "no pose of its floating base (" +
+                  Escape(InstanceChannel(instance.prefix, instance.name, kBaseSuffix)) + ") of this run yet: not drawn";
+      return j;
+    }
+    const std::optional<BasePose> pose = BasePoseOf(*base);
+    if (!pose) {
+      j["note"] = "its base's pose is not finite or its quaternion not unit: not drawn";
+      return j;
+    }
+    at = *pose;
+    j["base"] = {{"p", {base->position[0], base->position[1], base->position[2]}},
+                 {"q", {base->orientation[0], base->orientation[1], base->orientation[2], base->orientation[3]}},
+                 {"tick", base->tick},
+                 {"t", base->t}};
+  }
+  if (AllFinite(s.q))
+    j["poses"] = model.Poses(Eigen::Map<const VectorXd>(s.q.data(), s.num_dofs), at);
   else j["note"] = "non-finite q: not drawn";
   if (FollowsJointSetpoint(s) && AllFinite(s.q_des))
-    j["ghost"] = model.Poses(Eigen::Map<const VectorXd>(s.q_des.data(), s.num_dofs));
+    j["ghost"] = model.Poses(Eigen::Map<const VectorXd>(s.q_des.data(), s.num_dofs), at);
   if (task != nullptr && TaskIsCurrent(s, *task)) j["target"] = TargetJson(*task);
   if (plan != nullptr && PlanIsCurrent(s, *plan)) {
     if (json p = PlanJson(model, *plan); !p.is_null()) j["plan"] = std::move(p);

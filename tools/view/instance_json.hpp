@@ -8,6 +8,11 @@
 //           frame through the plan's knots (poses at each knot's q, by the
 //           same kinematics), drawn as polylines: where the optimiser
 //           predicts the robot goes.
+// A floating base's frames are placed in the world by its base's pose
+// (<NAME>_BASE, base_state_t) of the state's run within 0.1 s of simulated
+// time of it (the daemon publishes both every tick); without one the instance
+// is named but not drawn (a note says why), never drawn at a made-up pose.
+// Its ghost rides on the same base: the joints' setpoint, where the base is.
 // q_des is the joint setpoint lagranged holds (state_t). A task-space
 // controller does not follow it (its target is a frame's pose), nor does
 // the external controller while it applies streamed torques (running): there
@@ -15,11 +20,13 @@
 // Every string from the bus is escaped (base/escape.hpp); the page puts text
 // in the document only as text.
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/task_state_t.hpp>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +57,12 @@ bool TaskIsCurrent(const state_t& s, const task_state_t& task);
 // Whether a controller follows s.q_des (above): not a task-space controller, not `external` while running.
 bool FollowsJointSetpoint(const state_t& s);
 
+// Whether `base` is the base of the instance in state `s`: the same run, published within 0.1 s of simulated time.
+bool BaseIsCurrent(const state_t& s, const base_state_t& base);
+// The base's pose: p and the rotation of its quaternion (x, y, z, w), normalised; nullopt when a number is not
+// finite or the quaternion's norm is off 1 by more than kUnitQuaternionTolerance (protocol/setpoint_check.hpp).
+std::optional<BasePose> BasePoseOf(const base_state_t& base);
+
 // Whether `plan` is what the controller `s` runs follows now: the same run and controller, taken no later
 // than s (within a tick), and followed, its last knot not yet past.
 bool PlanIsCurrent(const state_t& s, const mpc_t& plan);
@@ -57,10 +70,10 @@ bool PlanIsCurrent(const state_t& s, const mpc_t& plan);
 // when its knots are not `model`'s state (2 n) or not finite.
 nlohmann::json PlanJson(const ViewModel& model, const mpc_t& plan);
 
-// Instance `instance` at state `s`, `age` s after it was published (or logged), with its latest task state
-// and mpc plan (null: none): {model, name, run, mode, controller, t, tick, age, q, q_des, tau, poses, ghost,
-// target, plan, note}.
+// Instance `instance` at state `s`, `age` s after it was published (or logged), with its latest task state,
+// mpc plan and, for a floating base, base state (null: none): {model, name, run, mode, controller, t, tick,
+// age, q, q_des, tau, poses, ghost, target, plan, base, note}; base {p, q (x, y, z, w), tick, t}, as published.
 nlohmann::json InstanceJson(const ViewInstance& instance, const ViewModels& models, const state_t& s, double age,
-                            const task_state_t* task, const mpc_t* plan = nullptr);
+                            const task_state_t* task, const mpc_t* plan = nullptr, const base_state_t* base = nullptr);
 
 }  // namespace lagrange::cli::view

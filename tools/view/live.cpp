@@ -146,8 +146,9 @@ json LiveView::TrackedJson(const Tracked& t, const ObservedInstance& seen, Stead
   const double age = Seconds(now - newest.received);
   const auto* task = seen.tasks.Newest();
   const auto* plan = seen.plans.Find(s.run_id);
+  const auto* base = seen.bases.Find(s.run_id);  // a floating base's: its newest, the state's tick or the one before
   json j = InstanceJson(t.instance, models_, s, age, task != nullptr ? &task->message : nullptr,
-                        plan != nullptr ? &plan->message : nullptr);
+                        plan != nullptr ? &plan->message : nullptr, base != nullptr ? &base->message : nullptr);
   if (age > kStale) j["stale"] = true;
   if (!t.event.is_null()) j["event"] = t.event;
   const auto& runs = seen.states.entries();

@@ -21,6 +21,7 @@ using nlohmann::json;
 constexpr std::size_t kMaxLogStates = 1 << 20;  // states kept from a log (about 100 MB for 7 joints)
 constexpr std::size_t kMaxOtherStates = 16;     // state channels of instances the scene lacks, named
 constexpr std::size_t kMaxLogPlans = 1 << 16;   // mpc plans kept per instance (at most 16 knots each)
+constexpr int kBasesAfterAState = 16;           // base states looked through for the one of a state's tick
 
 // The last entry of `logged` (sorted by t) at or before `t`; null when none.
 template <class Entry>
@@ -33,7 +34,7 @@ const Entry* LastAtOrBefore(const std::vector<Entry>& logged, double t) {
 
 // What reading the log counted, and the channels it reads.
 struct LogView::Counts {
-  std::map<std::string, std::size_t> state, telemetry, task, mpc;  // channel => instance
+  std::map<std::string, std::size_t> state, telemetry, task, mpc, base;  // channel => instance
   std::size_t states = 0, dropped = 0, refused = 0;
   std::set<std::string> other_states;  // escaped
 };
@@ -55,6 +56,7 @@ void LogView::Read(const LinkOptions& bus) {
     counts.telemetry[link.Channel(instances_[i].name, kTelemetrySuffix)] = i;
     counts.task[link.Channel(instances_[i].name, kTaskSuffix)] = i;
     counts.mpc[link.Channel(instances_[i].name, kMpcSuffix)] = i;
+    counts.base[link.Channel(instances_[i].name, kBaseSuffix)] = i;
   }
   std::optional<std::int64_t> first;
   while (const LcmLogEvent* e = reader.Next()) {
@@ -66,7 +68,8 @@ void LogView::Read(const LinkOptions& bus) {
   Finish(counts, reader.end());
 }
 
-// One logged event: kept when it is a state, telemetry, task state or mpc plan of an instance and decodes.
+// One logged event: kept when it is a state, telemetry, task state, mpc plan or base state of an instance and
+// decodes.
 void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_t* data, std::size_t size, double t) {
   if (auto it = counts.state.find(channel); it != counts.state.end()) {
     auto s = Receive<state_t>(data, size, Framing::kRecorded).message;
@@ -90,6 +93,10 @@ void LogView::Note(Counts& counts, const std::string& channel, const std::uint8_
     auto m = Receive<mpc_t>(data, size, Framing::kRecorded).message;
     auto& plans = recorded_[mp->second].plans;
     if (m && plans.size() < kMaxLogPlans) plans.push_back({t, std::move(*m)});
+  } else if (auto b = counts.base.find(channel); b != counts.base.end()) {
+    auto m = Receive<base_state_t>(data, size, Framing::kRecorded).message;
+    auto& bases = recorded_[b->second].bases;
+    if (m && bases.size() < kMaxLogStates) bases.push_back({t, std::move(*m)});
   } else if (channel.ends_with(kStateSuffix) && counts.other_states.size() < kMaxOtherStates) {
     counts.other_states.insert(Escape(channel, 64));
   }
@@ -126,13 +133,26 @@ json LogView::InstanceAt(std::size_t i, double t) const {
   const Logged<task_state_t>* task = LastAtOrBefore(r.tasks, t);
   const Logged<mpc_t>* plan = LastAtOrBefore(r.plans, t);
   json j = InstanceJson(instances_[i], models_, s->message, t - s->t, task ? &task->message : nullptr,
-                        plan ? &plan->message : nullptr);
+                        plan ? &plan->message : nullptr, BaseOf(r, *s, t));
   j["log_t"] = s->t;
   if (const Logged<Telemetry>* m = LastAtOrBefore(r.telemetry, t)) {
     j["eps"] = m->message.residual;
     j["eps_bound"] = m->message.bound;
   }
   return j;
+}
+
+// A floating base's state for the logged state `s` shown at `t`: the one of its run and tick (published after
+// it in the same tick, so maybe logged after t; among the next kBasesAfterAState), else the last logged at or
+// before t; null when none.
+const base_state_t* LogView::BaseOf(const Recorded& r, const Logged<state_t>& s, double t) const {
+  auto it = std::lower_bound(r.bases.begin(), r.bases.end(), s.t,
+                             [](const Logged<base_state_t>& e, double x) { return e.t < x; });
+  for (int k = 0; it != r.bases.end() && k < kBasesAfterAState; ++it, ++k) {
+    if (it->message.run_id == s.message.run_id && it->message.tick == s.message.tick) return &it->message;
+  }
+  const Logged<base_state_t>* last = LastAtOrBefore(r.bases, t);
+  return last != nullptr ? &last->message : nullptr;
 }
 
 }  // namespace lagrange::cli::view

@@ -2,12 +2,14 @@
 // lagrangectl view --log: an lcm-logger recording instead of the bus. The
 // log is read once, as warily as the bus (protocol/lcm_log.hpp, every packet
 // checked before it is decoded): each instance's states (at most
-// kMaxLogStates in all), telemetry, task states and mpc plans, on the logger's clock
+// kMaxLogStates in all), telemetry, task states, mpc plans and floating bases, on the logger's clock
 // from its first event. The page asks for a time t and is sent each
-// instance at its last logged state at or before t, exactly. What the log
+// instance at its last logged state at or before t, exactly: a floating base
+// at the base state of that state's tick (logged just after it, maybe after t). What the log
 // holds that the scene lacks, states that do not decode and a log cut short
 // are notes, on the page and on stderr.
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/mpc_t.hpp>
 #include <lagrange/state_t.hpp>
 #include <lagrange/task_state_t.hpp>
@@ -50,6 +52,7 @@ class LogView {
     std::vector<Logged<Telemetry>> telemetry;
     std::vector<Logged<task_state_t>> tasks;
     std::vector<Logged<mpc_t>> plans;  // at most kMaxLogPlans
+    std::vector<Logged<base_state_t>> bases;
   };
   struct Counts;
 
@@ -57,6 +60,7 @@ class LogView {
   void Note(Counts& counts, const std::string& channel, const std::uint8_t* data, std::size_t size, double t);
   void Finish(const Counts& counts, LcmLogReader::End end);
   nlohmann::json InstanceAt(std::size_t i, double t) const;
+  const base_state_t* BaseOf(const Recorded& r, const Logged<state_t>& s, double t) const;
 
   std::string file_;
   const ViewModels& models_;

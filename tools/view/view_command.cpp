@@ -6,8 +6,8 @@
 // internet. The command wires the view's parts together:
 //   view_model     what is drawn of a plant, and its poses by the plant's own kinematics
 //   meshes         a URDF's mesh files, confined to its package and checked
-//   instance_json  what the page is sent of an instance (poses, setpoint ghost, task target)
-//   live           the bus: states, telemetry, task states; frames at --rate (FrameHub)
+//   instance_json  what the page is sent of an instance (poses, a floating base's, setpoint ghost, task target)
+//   live           the bus: states, telemetry, task states, floating bases; frames at --rate (FrameHub)
 //   log_view       --log: a recording, an instance at any time t
 //   routes         the HTTP routes; http_gate: the connections (deadlines, caps, refusals)
 // It only listens: it never publishes.
@@ -83,6 +83,9 @@ class ViewCommand final : public Command {
                      "one per --channel-prefix, or one for all");
     app_->add_option("--log", log_, "Show an lcm-logger recording instead of the bus, with a time slider");
     app_->add_option("--urdf", urdf_, "Show this robot alone, with a slider per joint");
+    app_->add_flag("--floating-base", floating_base_,
+                   "With --urdf: read its root link as a free base (as eval --floating-base), drawn at the origin "
+                   "on a ground");
     app_->add_option("--package-path", package_path_,
                      "Directories holding the packages of a URDF's package:// meshes (repeatable, searched in "
                      "order); meshes are served only from under these and the URDF's folder");
@@ -139,6 +142,8 @@ class ViewCommand final : public Command {
   void CheckOptions() {
     if (!urdf_.empty() && (!log_.empty() || !scenes_.empty()))
       throw UsageError("--urdf shows a robot alone: it takes no --log or --scene");
+    if (floating_base_ && urdf_.empty())
+      throw UsageError("--floating-base is --urdf's: a scene says which bases float (floating_base: true)");
     if (!fs::is_regular_file(fs::path(three_dir_) / "build/three.module.js"))
       throw UsageError("three.js not found in " + Escape(three_dir_) +
                        " (expected build/three.module.js; install Debian's libjs-three or give --three DIR)");
@@ -151,9 +156,14 @@ class ViewCommand final : public Command {
   // The models to draw: the URDF alone, or every instance of the scene(s) under each channel prefix.
   void LoadModels() {
     if (mode_ == Mode::kUrdf) {
-      auto robot = std::make_shared<const UrdfRobot>(LoadUrdf(urdf_));  // UrdfError: one line naming the file
-      models_.push_back(
-          std::make_unique<view::ViewModel>(robot->name, UrdfPlantSpec(robot), view::ViewModelOptions{package_path_, {}}));
+      // UrdfError: one line naming the file. A floating base is drawn by its joints' model at the origin.
+      std::shared_ptr<const UrdfRobot> robot =
+          std::make_shared<const UrdfRobot>(LoadUrdf(urdf_, {.floating_base = floating_base_}));
+      if (floating_base_ && robot->tree.num_joints() == 0)
+        throw UrdfError(Escape(urdf_) + ": no moving joint: a free body alone is not drawn (a scene refuses one too)");
+      if (floating_base_) robot = FixedBaseOf(*robot);
+      models_.push_back(std::make_unique<view::ViewModel>(robot->name, UrdfPlantSpec(robot),
+                                                          view::ViewModelOptions{package_path_, {}, floating_base_}));
       return;
     }
     if (scenes_.empty()) scenes_.push_back(DefaultScenePath());
@@ -163,7 +173,8 @@ class ViewCommand final : public Command {
       for (const InstanceConfig& instance : scenes[scenes.size() == 1 ? 0 : d].instances) {
         const ViewInstance i{prefixes_[d], instance.name, static_cast<int>(models_.size())};
         models_.push_back(std::make_unique<view::ViewModel>(
-            i.Label(), instance.plant, view::ViewModelOptions{package_path_, instance.torque_limits}));
+            i.Label(), instance.plant,
+            view::ViewModelOptions{package_path_, instance.torque_limits, instance.floating.has_value()}));
         instances_.push_back(i);
       }
     }
@@ -238,6 +249,7 @@ class ViewCommand final : public Command {
   std::string bind_ = "127.0.0.1";
   std::vector<std::string> scenes_;
   std::string log_, urdf_;
+  bool floating_base_ = false;
   std::vector<std::string> package_path_;
   std::string three_dir_ = kDefaultThreeDir;
   double rate_ = 60.0;

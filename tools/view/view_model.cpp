@@ -42,7 +42,7 @@ json Finite(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
 }  // namespace
 
 ViewModel::ViewModel(std::string name, const PlantSpec& spec, const ViewModelOptions& options)
-    : name_(std::move(name)) {
+    : name_(std::move(name)), floating_base_(options.floating_base) {
   const RigidTree tree = MakeRigidTree(spec);
   kinematics_ = std::make_unique<Kinematics>(tree);
   data_ = kinematics_->MakeData();
@@ -64,11 +64,17 @@ ViewModel::ViewModel(std::string name, const PlantSpec& spec, const ViewModelOpt
   for (const std::string& f : kinematics_->frame_names()) frames.push_back(Escape(f));
   json limits = json::array();
   for (Eigen::Index k = 0; k < options.torque_limits.size(); ++k) limits.push_back(Finite(options.torque_limits[k]));
-  geometry_ = {{"name", Escape(name_)},      {"plant", std::string(ToString(spec.type()))},
-               {"planar", planar},           {"dofs", kinematics_->num_dofs()},
-               {"joints", joints},           {"frames", frames},
-               {"shapes", json::array()},    {"missing", json::array()},
-               {"tau_limits", limits},       {"meshes", json::array()}};
+  geometry_ = {{"name", Escape(name_)},
+               {"plant", std::string(ToString(spec.type()))},
+               {"planar", planar},
+               {"floating_base", floating_base_},
+               {"dofs", kinematics_->num_dofs()},
+               {"joints", joints},
+               {"frames", frames},
+               {"shapes", json::array()},
+               {"missing", json::array()},
+               {"tau_limits", limits},
+               {"meshes", json::array()}};
   if (planar)
     BuiltInShapes(spec);
   else
@@ -167,22 +173,24 @@ void ViewModel::UrdfMesh(const UrdfVisual& v, const MeshRoots& roots, json& shap
   mesh_files_.push_back(file);
 }
 
-// No <visual> at all: a rod from each link's frame to each child link's, a sphere at each.
+// No <visual> at all: a rod from each link's frame to each child link's, a sphere at each. A parent that is no
+// frame is the world a <joint type="floating"> frees the base from: no rod across the world to the base.
 void ViewModel::UrdfSkeleton(const UrdfLooks& looks) {
   json& shapes = geometry_["shapes"];
   const json color = Rgba(0.6, 0.62, 0.7);
   for (const auto& [parent, child] : looks.links) {
     const int a = Frame(parent), b = Frame(child);
-    if (b >= 0) shapes.push_back(Rod(a, b, kSkeletonRadius, color));
+    if (a >= 0 && b >= 0) shapes.push_back(Rod(a, b, kSkeletonRadius, color));
   }
   for (int k = 0; k < kinematics_->num_frames(); ++k) shapes.push_back(Sphere(k, 1.5 * kSkeletonRadius, color));
 }
 
-json ViewModel::Poses(ConstVecRef q) const {
+json ViewModel::Poses(ConstVecRef q, const BasePose& base) const {
   std::lock_guard lock(data_mutex_);
   kinematics_->ComputeFramePlacements(*data_, q);
   json poses = json::array();
-  for (int k = 0; k < kinematics_->num_frames(); ++k) poses.push_back(Pose(data_->rotation(k), data_->position(k)));
+  for (int k = 0; k < kinematics_->num_frames(); ++k)
+    poses.push_back(Pose(base.R * data_->rotation(k), base.R * data_->position(k) + base.p));
   return poses;
 }
 

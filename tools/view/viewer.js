@@ -1,8 +1,10 @@
 // lagrangectl view's page. It computes no pose: every frame's pose comes from
-// lagrangectl (the plant's own kinematics) and is placed as given. What it
+// lagrangectl (the plant's own kinematics; a floating base's frames already in
+// the world, placed by its base's pose) and is placed as given. What it
 // drew is exposed for tests as window.lagrangeDrawn and, as JSON, in
 // #lagrange-drawn: per instance, each frame object's matrix (column-major, as
-// three.js keeps it) for the measured pose and the setpoint's ghost.
+// three.js keeps it) for the measured pose and the setpoint's ghost, a floating
+// base's pose as sent (base) and its ground (ground: z and size, m).
 // Text from the server goes into the page only as text (textContent).
 //
 // Query parameters (documented for users in the README's "The 3-D view" and
@@ -247,7 +249,9 @@ function build(m) {
     const plan = new THREE.Group();
     plan.visible = false;
     place.add(plan);
-    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place, target, plan };
+    const ground = g.floating_base ? groundOf(n) : null;
+    if (ground) place.add(ground);
+    robots[i] = { measured: new Robot(g, a, false), ghost: new Robot(g, b, true), place, target, plan, ground };
     for (const line of g.missing) noteMissing(g.name + ': ' + line);
   });
   const span = Math.max(1, n) * kSpacing;
@@ -259,6 +263,17 @@ function build(m) {
   $('show-ghost').addEventListener('change', applyToggles);
   applyToggles();
   resize();
+}
+// A floating base's ground: a translucent plane at z = 0 of its world, kSpacing wide beside other instances
+// (their grounds tile), seen from below too (a base with no contact falls through it). Its depth is pushed
+// back so that the grid's lines at z = 0 stay on top of it.
+function groundOf(models) {
+  const width = models > 1 ? kSpacing : 6, depth = 6;
+  const m = new THREE.MeshLambertMaterial({ color: 0x4a5468, transparent: true, opacity: 0.5, side: THREE.DoubleSide,
+    depthWrite: false, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 });
+  const plane = new THREE.Mesh(new THREE.PlaneBufferGeometry(width, depth), m);  // in its xy plane, at z = 0
+  plane.userData.size = [width, depth];
+  return plane;
 }
 function applyToggles() {
   const frames = $('show-frames').checked, ghost = $('show-ghost').checked;
@@ -370,6 +385,8 @@ function apply(frame) {
     if (inst.model < 0 || !robots[inst.model]) continue;
     const r = robots[inst.model];
     const record = { model: inst.model, q: inst.q };
+    if (inst.base) record.base = inst.base;  // a floating base's pose, as published: the frames are placed by it
+    if (r.ground) record.ground = { z: r.ground.position.z, size: r.ground.userData.size };
     if (inst.poses) {
       r.measured.setPoses(inst.poses);
       record.measured = r.measured.matrices();
