@@ -838,8 +838,11 @@ TEST_F(ViewTest, ReadsAFloatingUrdfWithFloatingBase) {
   const json& model = model_["models"][0];
   EXPECT_EQ(model["floating_base"], true);
   EXPECT_EQ(model["dofs"], 1);
-  for (const json& shape : model["shapes"])
-    if (shape["type"] == "rod") EXPECT_GE(shape["from"].get<int>(), 0) << shape.dump();
+  for (const json& shape : model["shapes"]) {
+    if (shape["type"] == "rod") {
+      EXPECT_GE(shape["from"].get<int>(), 0) << shape.dump();
+    }
+  }
   httplib::Client client("127.0.0.1", 9165);
   const auto r = client.Get("/api/poses?q=0.5");
   ASSERT_TRUE(r && r->status == 200);
