@@ -345,6 +345,11 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   if (c.stance.on || !c.stance.feet.empty()) {
     if (c.type != ControllerType::kPd) return std::string("gravity_compensation: stance is a pd controller's option");
     if (const std::string why = StanceProblem(c.stance, MakeRigidTree(plant).frame_names()); !why.empty()) return why;
+    if (c.model || c.model_method) {
+      return std::string(
+          "model: expected none with gravity_compensation: stance (its model is the robot's on its "
+          "floating base, the instance's)");
+    }
     if (c.pd.acceleration_feedforward) {
       return std::string(
           "acceleration_feedforward: expected false with gravity_compensation: stance (M of a "
