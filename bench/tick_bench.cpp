@@ -15,6 +15,10 @@
 //            MuJoCo as its plant (where MuJoCo was found)
 //   panda-mujoco-table  config/panda_mujoco_table.yaml: the Panda on MuJoCo
 //            pressing on a table (contact) under Cartesian impedance
+//   a1-stand  config/quadruped_mujoco_stand.yaml: the A1 quadruped on
+//            MuJoCo's ground (a floating base, four foot contacts) under pd
+//            with stance gravity compensation (G, four foot Jacobians and
+//            the 6 x 6 eigen-decomposition every tick)
 //
 //   tick/<scene>/hot          ticks back to back (caches and predictors warm),
 //                             as shipped: the energy balance kept (telemetry on)
@@ -147,6 +151,7 @@ int main(int argc, char** argv) {
 #if LAGRANGE_HAVE_MUJOCO
   lagrange::bench::RegisterScene("panda-mujoco", lagrange::bench::ScenePath("panda_mujoco_minjerk.yaml"));
   lagrange::bench::RegisterScene("panda-mujoco-table", lagrange::bench::ScenePath("panda_mujoco_table.yaml"));
+  lagrange::bench::RegisterScene("a1-stand", lagrange::bench::ScenePath("quadruped_mujoco_stand.yaml"));
 #endif
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

@@ -47,6 +47,16 @@ void Controller::set_wrapped_joints(std::vector<bool> wrap) {
 
 bool Controller::Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) {
   ComputeLaw(t, q, qd, sp, tau);
+  return Limit(tau);
+}
+
+bool Controller::Compute(double t, ConstVecRef base_q, ConstVecRef base_v, ConstVecRef q, ConstVecRef qd,
+                         const Setpoint& sp, VecRef tau) {
+  ComputeFloatingLaw(t, base_q, base_v, q, qd, sp, tau);
+  return Limit(tau);
+}
+
+bool Controller::Limit(VecRef tau) const {
   if (!tau.allFinite()) {
     tau.setZero();
     return false;

@@ -108,6 +108,13 @@ class Controller {
 
   // (t, q, qd, setpoint) => tau, limited. False (tau = 0) when the law is not finite.
   bool Compute(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau);
+  // The same for a robot on a floating base, whose pose and twist are given
+  // too: base_q (7: p (m), quaternion x, y, z, w) and base_v (6: v_b (m/s),
+  // ω_b (rad/s), base axes), the free-flyer conventions (plant/rigid_tree.hpp).
+  // A law that needs them reads them (the stance PD, controllers/stance_pd.hpp);
+  // every other law ignores them and acts on the joints as Compute does.
+  bool Compute(double t, ConstVecRef base_q, ConstVecRef base_v, ConstVecRef q, ConstVecRef qd, const Setpoint& sp,
+               VecRef tau);
   virtual void Reset() {}
 
   // Replaces the gains without allocating (safe in the tick). False, and
@@ -125,6 +132,11 @@ class Controller {
 
  protected:
   virtual void ComputeLaw(double t, ConstVecRef q, ConstVecRef qd, const Setpoint& sp, VecRef tau) = 0;
+  // The law on a floating base (Compute's second form); default: the joints' law, the base ignored.
+  virtual void ComputeFloatingLaw(double t, ConstVecRef /*base_q*/, ConstVecRef /*base_v*/, ConstVecRef q,
+                                  ConstVecRef qd, const Setpoint& sp, VecRef tau) {
+    ComputeLaw(t, q, qd, sp, tau);
+  }
   // Copies gains that passed gain_bounds() into the law, without allocating.
   virtual void ApplyGains(const Gains&) {}
   // Joint i's error q_d − q under wrapped_joints().
@@ -133,6 +145,9 @@ class Controller {
   }
 
  private:
+  // tau within the torque limits; false (tau = 0) when it is not finite.
+  bool Limit(VecRef tau) const;
+
   std::vector<JointType> joints_;
   std::vector<bool> wrap_;  // (n)
   VectorXd torque_limits_;

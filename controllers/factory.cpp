@@ -298,8 +298,8 @@ const char* FloatingBaseRefusal(ControllerType type) {
       return "mpc cannot run a floating base: its plan is over a fixed-base model whose every joint is actuated, "
              "and the base's six are not";
     case ControllerType::kGravityCompensation:
-      return "gravity-compensation cannot run a floating base: holding it up against gravity needs contact forces "
-             "(a stand controller over the stance Jacobians), and it has none";
+      return "gravity-compensation cannot run a floating base: holding it up against gravity needs contact forces, "
+             "and it has none (pd with gravity_compensation: stance balances G over the feet in contact)";
     case ControllerType::kCartesianImpedance:
     case ControllerType::kOperationalSpace:
       return "a task-space controller cannot run a floating base yet: its frame's Jacobian and its C q̇ + G "
@@ -341,6 +341,20 @@ std::optional<std::string> ValidateController(const ControllerConfig& c, const P
   if (!(std::isfinite(c.period) && c.period > 0.0)) return std::string("period: expected a positive number of seconds");
   if (IsTaskSpace(c.type)) {
     if (auto err = ValidateTaskSpace(c, plant)) return err;
+  }
+  if (c.stance.on || !c.stance.feet.empty()) {
+    if (c.type != ControllerType::kPd) return std::string("gravity_compensation: stance is a pd controller's option");
+    if (const std::string why = StanceProblem(c.stance, MakeRigidTree(plant).frame_names()); !why.empty()) return why;
+    if (c.model || c.model_method) {
+      return std::string(
+          "model: expected none with gravity_compensation: stance (its model is the robot's on its "
+          "floating base, the instance's)");
+    }
+    if (c.pd.acceleration_feedforward) {
+      return std::string(
+          "acceleration_feedforward: expected false with gravity_compensation: stance (M of a "
+          "floating base is not the joints')");
+    }
   }
   if (HasGains(c.type)) {
     if (auto err = CheckGains(c.type, ResolvedGains(c, plant), ComputeGainBounds(c, plant))) return err;
@@ -407,8 +421,13 @@ std::unique_ptr<Controller> MakeTaskSpace(const ControllerConfig& c, const Plant
 
 // The controller for a validated config.
 std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& plant, const VectorXd& torque_limits,
-                                    const MethodModels& shared, const EffectsConfig& plant_effects) {
+                                    const MethodModels& shared, const EffectsConfig& plant_effects,
+                                    std::shared_ptr<const FloatingDynamics> floating) {
   const std::vector<JointType> joints = JointTypesOf(plant);
+  if (c.stance.on) {
+    return std::make_unique<StancePdController>(joints, torque_limits, c.gains, c.pd.velocity_feedforward, c.stance,
+                                                std::move(floating));
+  }
   switch (c.type) {
     case ControllerType::kNone: return std::make_unique<ZeroController>(joints, torque_limits);
     case ControllerType::kPd:
@@ -453,9 +472,11 @@ std::unique_ptr<Controller> MakeLaw(const ControllerConfig& c, const PlantSpec& 
 
 std::unique_ptr<Controller> MakeController(const ControllerConfig& c, const PlantSpec& plant,
                                            const VectorXd& torque_limits, const MethodModels& plant_models,
-                                           const EffectsConfig& plant_effects) {
+                                           const EffectsConfig& plant_effects,
+                                           std::shared_ptr<const FloatingDynamics> floating) {
   if (auto err = ValidateController(c, plant)) throw std::invalid_argument(*err);
-  std::unique_ptr<Controller> controller = MakeLaw(c, plant, torque_limits, plant_models, plant_effects);
+  std::unique_ptr<Controller> controller =
+      MakeLaw(c, plant, torque_limits, plant_models, plant_effects, std::move(floating));
   controller->set_gain_bounds(ComputeGainBounds(c, plant));
   if (!c.wrap.empty()) controller->set_wrapped_joints(c.wrap);
   return controller;

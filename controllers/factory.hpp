@@ -16,6 +16,7 @@
 #include "controllers/external_controller.hpp"
 #include "controllers/joint_controllers.hpp"
 #include "controllers/mpc.hpp"
+#include "controllers/stance_pd.hpp"
 #include "controllers/swing_up.hpp"
 #include "controllers/task_space.hpp"
 #include "plant/integrators.hpp"
@@ -58,6 +59,7 @@ struct ControllerConfig {
   // D_i = 2 ζ sqrt(K_i Λ_ii(q0)), ζ = task.damping_ratio, Λ its model's.
   Gains gains;
   PdOptions pd;    // pd and gravity-compensation
+  StanceOptions stance;  // pd on a floating base: gravity_compensation: stance (controllers/stance_pd.hpp)
   LqrOptions lqr;  // lqr and swing-up's balancer
   SwingUpOptions swing_up;
   ExternalOptions external;
@@ -98,7 +100,8 @@ std::optional<std::string> ValidateController(const ControllerConfig& config, co
 // string, one line), or null when it can: pd and none act on the joints alone
 // and leave the base to the physics. The laws that invert the dynamics need
 // every degree of freedom actuated, and the base's six are not; gravity
-// compensation needs the ground's contact forces to hold the base up.
+// compensation needs the ground's contact forces to hold the base up (pd's
+// gravity_compensation: stance computes them: controllers/stance_pd.hpp).
 const char* FloatingBaseRefusal(ControllerType type);
 
 // The gains a controller of this type accepts on `plant`, held over a tick of
@@ -147,9 +150,12 @@ std::optional<std::string> CheckGains(ControllerType type, int n, const Gains& g
 // model for its method from `plant_models` when one is built there (the
 // instance builds every method once); otherwise it builds its own. Either
 // way it evaluates through data of its own. `plant_effects`, the instance's
-// effects: what of them an optimiser models (mpc: MpcEffects).
+// effects: what of them an optimiser models (mpc: MpcEffects). `floating`:
+// the robot on its floating base, when the plant's base is free (the stance
+// PD's model; a stance config without it throws).
 std::unique_ptr<Controller> MakeController(const ControllerConfig& config, const PlantSpec& plant,
                                            const VectorXd& torque_limits, const MethodModels& plant_models = {},
-                                           const EffectsConfig& plant_effects = {});
+                                           const EffectsConfig& plant_effects = {},
+                                           std::shared_ptr<const FloatingDynamics> floating = nullptr);
 
 }  // namespace lagrange

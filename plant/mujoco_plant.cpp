@@ -701,6 +701,7 @@ std::shared_ptr<const MujocoPlantModel> LoadMujocoPlant(const std::string& file,
   model->file_ = file;
   std::vector<std::string> dofs = options.joint_order;
   if (options.floating_base && !options.mimics.empty()) Refuse(file, "mimic joints with a floating base: not yet");
+  BaseJoint(file, m, options.floating_base);  // a missing free joint named before the joints are matched
   std::vector<int> joints = MatchJoints(file, m, dofs, options.mimics, options.floating_base);
   const double timestep = options.period / options.substeps;
   const bool couple = !options.mimics.empty() && urdf;

@@ -70,9 +70,14 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
     fa_ = VectorXd::Zero(floating_->num_v());
     fjc_ = MatrixXd::Zero(3, floating_->num_v());
     accounting_ = false;
+    if (stepped_) {  // MuJoCo steps the whole state; its rows of every effect, nv, before the joints' are taken
+      ftau_.setZero();
+      fforces_ = std::make_unique<EffectForces>(floating_->num_v());
+    }
   }
   for (const ControllerModel& c : im.controllers) {
-    controllers_.push_back(MakeController(c.config, config.plant, im.torque_limits, im.dynamics, config.effects));
+    controllers_.push_back(
+        MakeController(c.config, config.plant, im.torque_limits, im.dynamics, config.effects, im.floating));
     continuous_.push_back(c.config.continuous);
   }
   for (const auto& c : controllers_) {
@@ -83,9 +88,18 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
   }
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
-  if (stepped_) stepped_->SetState(q_, qd_);
+  SetSteppedState();
   ComputeAcceleration(0.0, tau_);
   ResetBalance();
+}
+
+void Instance::SetSteppedState() {
+  if (!stepped_) return;
+  if (floating_) {
+    stepped_->SetState(fq_, fv_);
+  } else {
+    stepped_->SetState(q_, qd_);
+  }
 }
 
 void Instance::ComputeAcceleration(double t, ConstVecRef tau_cmd) {
@@ -170,12 +184,35 @@ void Instance::ComputeForces(EffectForces& out) {
     return;
   }
   // The simulator's own terms at the state it holds, under the force it applied (tau_).
-  stepped_->ComputeForces(out);
+  if (fforces_) {
+    ComputeFloatingSteppedForces(out);
+  } else {
+    stepped_->ComputeForces(out);
+  }
   out.tau_cmd = tau_cmd_;
   out.tau_applied = tau_;
   out.active.saturation = model_.effects().flags().saturation;
   out.active.disturbance = false;
   out.disturbance.setZero();
+}
+
+// A floating base's: MuJoCo's rows (nv) at the state it holds, the joints' kept (the base's six are no joint's).
+void Instance::ComputeFloatingSteppedForces(EffectForces& out) {
+  EffectForces& full = *fforces_;
+  stepped_->ComputeForces(full);
+  const int n = num_dofs();
+  out.gravity = full.gravity.tail(n);
+  out.coriolis = full.coriolis.tail(n);
+  out.damping = full.damping.tail(n);
+  out.friction = full.friction.tail(n);
+  out.limits = full.limits.tail(n);
+  out.limit_springs = full.limit_springs.tail(n);
+  out.constraint = full.constraint.tail(n);
+  out.active = full.active;
+  out.constraint_on = full.constraint_on;
+  out.contacts_total = full.contacts_total;
+  out.num_contacts = full.num_contacts;
+  out.contacts = full.contacts;
 }
 
 const char* Instance::CheckIntegrator(const IntegratorConfig& config) const {
@@ -237,7 +274,17 @@ void Instance::RestartTrajectory() {
 
 Instance::StepFailure Instance::StepPlant(double dt) {
   q_start_ = q_;
-  const StepFailure failed = stepped_->Step(tau_, q_, qd_, qdd_);  // the state unchanged when it failed
+  StepFailure failed = nullptr;  // the state unchanged when it failed
+  if (floating_) {               // the base unactuated: MuJoCo's contacts and gravity move it
+    const int n = num_dofs();
+    ftau_.tail(n) = tau_;
+    failed = stepped_->Step(ftau_, fq_, fv_, fa_);
+    q_ = fq_.tail(n);
+    qd_ = fv_.tail(n);
+    qdd_ = fa_.tail(n);
+  } else {
+    failed = stepped_->Step(tau_, q_, qd_, qdd_);
+  }
   t_ = static_cast<double>(++steps_) * dt;
   if (failed) return failed;
   if (accounting_) {
@@ -298,7 +345,10 @@ Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint) { retu
 Instance::StepFailure Instance::Step(double dt, const Setpoint& setpoint, std::size_t index) {
   q_des_ = setpoint.q;
   if (continuous_[index] && !external_ && !stepped_ && !floating_) return IntegrateContinuous(dt, setpoint, *controllers_[index]);
-  const bool controlled = controllers_[index]->Compute(t_, q_, qd_, setpoint, tau_cmd_);
+  Controller& law = *controllers_[index];
+  const bool controlled =
+      floating_ ? law.Compute(t_, fq_.head<kFreeFlyerNq>(), fv_.head<kFreeFlyerNv>(), q_, qd_, setpoint, tau_cmd_)
+                : law.Compute(t_, q_, qd_, setpoint, tau_cmd_);
   const StepFailure integrated = Integrate(dt, tau_cmd_);
   return controlled ? integrated : kControllerNotFinite;
 }
@@ -341,7 +391,7 @@ void Instance::Restore(const Saved& saved) {
   tau_cmd_.setZero();  // frozen under zero torque: nothing of the undone step is left
   fq_ = saved.floating_q;
   fv_ = saved.floating_v;
-  if (stepped_) stepped_->SetState(q_, qd_);
+  SetSteppedState();
   balance_ = saved.balance;
   rest_power_ = saved.rest_power;
   power_end_ = saved.power_end;
@@ -351,11 +401,11 @@ void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
   q_ = q;
   qd_ = qd;
   energies_cached_ = false;
-  if (stepped_) stepped_->SetState(q_, qd_);
   if (floating_) {  // the joints moved; the base stays where it is
     fq_.tail(num_dofs()) = q_;
     fv_.tail(num_dofs()) = qd_;
   }
+  SetSteppedState();
   ComputeAcceleration(t_, tau_cmd_);  // as a step ends: its command, through the effects
   if (!accounting_) return;
   balance_.Rebase(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
@@ -400,11 +450,11 @@ void Instance::Reset() {
   RestartTrajectory();  // from the scene's initial state at t = 0, as built
   SampleTrajectory(setpoint_);
   q_des_ = setpoint_.q;
-  if (stepped_) stepped_->SetState(q_, qd_);
   if (floating_) {
     fq_ << config().floating->q0, q_;
     fv_ << config().floating->v0, qd_;
   }
+  SetSteppedState();
   ComputeAcceleration(0.0, tau_);
   ResetBalance();
 }

@@ -14,6 +14,12 @@
 // held over each sub-step, the base's zero; q(), qd(), qdd() are the joints'
 // part of it (n), floating_q() and floating_v() the whole. Its energies are
 // the floating model's; it keeps no energy balance (accounting() false).
+// On MuJoCo (a mujoco plant with floating_base: true) MuJoCo steps that full
+// state instead (its free joint the base, its contacts holding it up), the
+// joints' force held over the tick, the base's zero; the energies are
+// MuJoCo's, and the floating model (the URDF's) gives the centre of mass and
+// momentum of the state MuJoCo reached. Controllers on a floating base see its
+// pose and twist (Controller::Compute's floating form).
 
 #include <memory>
 #include <optional>
@@ -246,6 +252,10 @@ class Instance {
   StepFailure IntegrateContinuous(double dt, const Setpoint& setpoint, Controller& law);
   // A stepped plant's step of length dt under tau_ (held), and its balance.
   StepFailure StepPlant(double dt);
+  // Puts a stepped plant's simulator at the current state (the full q, v of a floating base).
+  void SetSteppedState();
+  // A floating stepped plant's forces (ComputeForces) through fforces_.
+  void ComputeFloatingSteppedForces(EffectForces& out);
   // A floating base's step of length dt under tau_cmd (held), on its manifold.
   StepFailure StepFloating(double dt, ConstVecRef tau_cmd);
   // (t, q, qd, tau_cmd) => qdd_ at the current state (the floating model's for a floating base).
@@ -265,6 +275,7 @@ class Instance {
   int fsubsteps_ = 1;
   VectorXd fq_, fv_, ftau_, fa_;
   MatrixXd fjc_;  // (3 x nv) the centre of mass's Jacobian (ComputeBaseMotion's scratch)
+  std::unique_ptr<EffectForces> fforces_;                 // a floating stepped plant's forces, nv rows (null otherwise)
   Integrator* integrator_;                                // the one in use, one of integrators_
   std::vector<std::unique_ptr<Integrator>> integrators_;  // by IntegratorType
   std::vector<std::unique_ptr<Controller>> controllers_;  // [0] is the scene's controller

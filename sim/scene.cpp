@@ -22,9 +22,11 @@ namespace {
 // plant: {type: urdf, file: PATH, gravity: [gx, gy, gz], params: {mass_scale: s}, floating_base: true}.
 // With floating_base true the file is read on a free base into *floating
 // (null: the caller takes none, and says why), and the spec is its joints' (FixedBaseOf).
-PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf, std::optional<FloatingBaseConfig>* floating) {
+// `forced`: read on a free base whatever the node says (a mujoco plant's floating_base is its own key).
+PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf, std::optional<FloatingBaseConfig>* floating,
+                        bool forced) {
   const std::optional<YamlReader> fb = node.Optional("floating_base");
-  const bool free_base = fb && fb->Bool();
+  const bool free_base = forced || (fb && fb->Bool());
   if (free_base && floating == nullptr) {
     fb->Fail("expected no floating_base here: a floating base is simulated by lagrange itself (a plant of type urdf)");
   }
@@ -48,8 +50,9 @@ PlantSpec ReadUrdfPlant(const YamlReader& node, UrdfFiles& urdf, std::optional<F
 }
 
 // `floating`: where a urdf plant's floating base goes (ReadUrdfPlant); null where none is taken.
+// `free_base`: a urdf plant read on a free base whatever its own key says.
 PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf,
-                    std::optional<FloatingBaseConfig>* floating = nullptr) {
+                    std::optional<FloatingBaseConfig>* floating = nullptr, bool free_base = false) {
   const YamlReader type_node = node.Required("type");
   const std::optional<PlantType> type = ParsePlantType(type_node.Text());
   if (!type) type_node.Fail("expected one of " + PlantTypeNames() + ", got '" + type_node.Text() + "'");
@@ -57,13 +60,13 @@ PlantSpec ReadPlant(const YamlReader& node, Method* method, UrdfFiles& urdf,
   if (!is_urdf && node.Has("floating_base")) {
     node.Required("floating_base")
         .Fail("expected no floating_base on a " + std::string(ToString(*type)) +
-              " plant: a floating base is read from a URDF file (type: urdf)");
+              " plant: a floating base is read from a URDF file (type: urdf, or a mujoco plant's free joint)");
   }
   if (is_urdf)
     node.ExpectKeys({"type", "file", "gravity", "method", "params", "floating_base"});
   else
     node.ExpectKeys({"type", "method", "params"});
-  PlantSpec spec = is_urdf ? ReadUrdfPlant(node, urdf, floating) : DefaultPlantSpec(*type);
+  PlantSpec spec = is_urdf ? ReadUrdfPlant(node, urdf, floating, free_base) : DefaultPlantSpec(*type);
 
   if (auto params = node.Optional("params"); params && !is_urdf) {
     std::vector<std::pair<std::string, YamlReader>> entries = params->Entries();
@@ -389,12 +392,21 @@ bool IsUrdfFile(const std::string& name) {
   return name.size() > 5 && name.compare(name.size() - 5, 5, ".urdf") == 0;
 }
 
+bool IsUrdfModel(const YamlReader& model) {
+  return model.IsMap() && model.Has("type") && model.Required("type").Text() == "urdf";
+}
+
 // Lagrange's model of a mujoco plant: `model:`, else the URDF file itself.
 // With the URDF itself as the model, `gravity` and `method` are a urdf plant's
 // keys (gravity then MuJoCo's too), so a urdf scene becomes a mujoco one by its type alone.
-PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urdf) {
-  node.ExpectKeys({"type", "file", "model", "gravity", "method"});
+// floating_base: true: MuJoCo's first free joint is the robot's base, and the
+// model (a URDF) is read on a free base into *floating, as a urdf plant's.
+PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urdf,
+                          std::optional<FloatingBaseConfig>& floating) {
+  node.ExpectKeys({"type", "file", "model", "gravity", "method", "floating_base"});
   const YamlReader file = node.Required("file");
+  const std::optional<YamlReader> fb = node.Optional("floating_base");
+  const bool free_base = fb && fb->Bool();
   if (auto model = node.Optional("model")) {
     for (const char* key : {"gravity", "method"}) {
       if (node.Has(key)) {
@@ -402,12 +414,27 @@ PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urd
                                 "); MuJoCo's gravity is its file's");
       }
     }
-    return ReadPlant(*model, method, urdf);
+    if (!free_base) return ReadPlant(*model, method, urdf);
+    if (!IsUrdfModel(*model)) {
+      model->Required("type").Fail("expected urdf: a floating base's model is a URDF read on a free base");
+    }
+    if (model->Has("floating_base")) {
+      model->Required("floating_base").Fail("expected it on the plant (plant.floating_base), not on its model");
+    }
+    return ReadPlant(*model, method, urdf, &floating, /*free_base=*/true);
   }
   if (!IsUrdfFile(file.Text())) {
     file.Fail("an MJCF file needs model: {type: urdf, file: ...} (lagrange's model of the robot, for the controllers)");
   }
-  PlantSpec spec = UrdfPlantSpec(urdf.Load(file));
+  PlantSpec spec;
+  if (free_base) {
+    floating.emplace();
+    floating->robot = urdf.Load(file, UrdfOptions{.floating_base = true});
+    spec = UrdfPlantSpec(FixedBaseOf(*floating->robot));
+    std::get<UrdfParams>(spec.params).file = floating->robot->file;
+  } else {
+    spec = UrdfPlantSpec(urdf.Load(file));
+  }
   if (auto g = node.Optional("gravity")) SetUrdfParam(spec, "gravity", *g);
   if (auto err = ValidatePlantSpec(spec)) file.Fail(err->message);
   *method = FastestMethod(PlantType::kUrdf);
@@ -415,8 +442,10 @@ PlantSpec ReadMujocoModel(const YamlReader& node, Method* method, UrdfFiles& urd
     const std::optional<Method> parsed = ParseMethod(m->Text());
     if (!parsed) m->Fail("expected " + MethodNames() + ", got '" + m->Text() + "'");
     if (const char* why = NoMethodReason(PlantType::kUrdf, *parsed)) m->Fail(why);
+    if (free_base && *parsed != Method::kRecursive) m->Fail(kFloatingMethod);
     *method = *parsed;
   }
+  if (free_base) *method = Method::kRecursive;
   return spec;
 }
 
@@ -448,9 +477,10 @@ void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urd
   options.integrator = c.integrator;
   std::shared_ptr<const UrdfRobot> robot;
   if (IsUrdfFile(file.Text())) {  // the exact inertias of lagrange's reading of the same file (unscaled)
-    robot = urdf.Load(file);
+    robot = inst.floating ? inst.floating->robot : urdf.Load(file);
     options.exact_inertia = &robot->tree;
   }
+  options.floating_base = inst.floating.has_value();  // MuJoCo's first free joint is the base
   if (!plant_node.Has("model")) options.gravity = std::get<UrdfParams>(inst.plant.params).gravity;  // plant.gravity
   options.joint_order = JointNamesOf(inst.plant);  // q in lagrange's model's order, the joints matched by name
   if (const auto* p = std::get_if<UrdfParams>(&inst.plant.params); p != nullptr && p->robot) {
@@ -463,8 +493,9 @@ void LoadMujocoModel(const YamlReader& plant_node, double period, UrdfFiles& urd
     file.Fail(Escape(e.what(), 400));
   }
   c.model = model;
-  c.lower = Eigen::Map<const VectorXd>(model->info().lower.data(), model->num_dofs());
-  c.upper = Eigen::Map<const VectorXd>(model->info().upper.data(), model->num_dofs());
+  const int base = inst.floating ? kFreeFlyerNv : 0;  // the joints' ranges follow the base's six
+  c.lower = Eigen::Map<const VectorXd>(model->info().lower.data() + base, model->num_dofs() - base);
+  c.upper = Eigen::Map<const VectorXd>(model->info().upper.data() + base, model->num_dofs() - base);
 #else
   (void)period;
   (void)urdf;
@@ -547,8 +578,10 @@ constexpr double kQuaternionNormTolerance = 1e-6;
 // initial: {base_q: [px, py, pz, x, y, z, w], base_v: [vx, vy, vz, wx, wy, wz]}: a floating base's.
 void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& floating) {
   for (const char* key : {"base_q", "base_v"}) {
-    if (init.Has(key) && !floating) init.Required(key).Fail("expected no base state: the plant's base is fixed "
-                                                            "(a urdf plant's floating_base: true frees it)");
+    if (init.Has(key) && !floating)
+      init.Required(key).Fail(
+          "expected no base state: the plant's base is fixed "
+          "(a urdf or mujoco plant's floating_base: true frees it)");
   }
   if (auto q = init.Optional("base_q")) {
     VectorXd base = q->Vector(kFreeFlyerNq);
@@ -591,6 +624,21 @@ void CheckFloatingControl(const YamlReader& node) {
   }
 }
 
+// pd's gravity_compensation: stance balances a floating base's weight over its feet: not on a fixed base.
+void CheckNoStance(const YamlReader& node, const InstanceConfig& inst) {
+  std::vector<const ControllerConfig*> all = ControllerConfigs(inst);
+  if (!node.Has("controller")) all.erase(all.begin());  // the default `none`: no node of its own
+  const std::vector<YamlReader> nodes = ControllerNodes(node);
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    if (!all[k]->stance.on) continue;
+    nodes[k]
+        .Required("gravity_compensation")
+        .Fail(
+            "expected none on a fixed base: stance balances a floating base's weight over its feet in contact "
+            "(a urdf or mujoco plant with floating_base: true)");
+  }
+}
+
 // energy_balance: {bound: J, on_exceed: warn|fault}
 EnergyBalanceBound ReadEnergyBalanceBound(const YamlReader& node, bool external_plant) {
   if (external_plant) node.Fail("expected no energy_balance for an external plant (it keeps no energy balance)");
@@ -625,7 +673,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
     inst.plant = ReadPlant(plant_node.Required("model"), &inst.method, urdf);
   } else if (IsMujocoPlant(plant_node)) {
     inst.mujoco = MujocoPlantConfig{};
-    inst.plant = ReadMujocoModel(plant_node, &inst.method, urdf);
+    inst.plant = ReadMujocoModel(plant_node, &inst.method, urdf, inst.floating);
   } else {
     inst.plant = ReadPlant(plant_node, &inst.method, urdf, &inst.floating);
   }
@@ -666,13 +714,14 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
           kVariationalNeedsCoriolis);  // the command's refusal is the same (Instance::SetIntegrator)
     }
   }
-  if (inst.floating) CheckFloatingIntegrator(node, inst.integrator);
+  if (inst.floating && !inst.mujoco) CheckFloatingIntegrator(node, inst.integrator);
   if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();
   if (auto f = node.Optional("forces")) inst.forces = f->Bool();
   if (auto e = node.Optional("energy_balance")) inst.energy_balance = ReadEnergyBalanceBound(*e, inst.external.has_value());
   if (inst.floating) CheckFloatingControl(node);
   ReadControl(node, period, inst, urdf);
   CheckExternalControl(node, inst);
+  if (!inst.floating) CheckNoStance(node, inst);
   return inst;
 }
 

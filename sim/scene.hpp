@@ -48,6 +48,10 @@ inline constexpr char kExternalNotIntegrated[] =
 // (plant/mujoco_plant.hpp), the MJCF or URDF file F as MuJoCo loads it; the
 // instance's plant spec is then lagrange's model of it, for the controllers
 // (by default the URDF F itself; an MJCF needs `model:`, as an external plant).
+// With floating_base: true, MuJoCo's first free joint is the robot's base
+// (MujocoOptions::floating_base) and the model, a URDF, is read on a free
+// base into InstanceConfig::floating, as a urdf plant's floating_base is; an
+// MJCF without a free joint is refused.
 struct MujocoPlantConfig {
   std::string file;  // as resolved (relative to the scene's directory)
   MujocoIntegrator integrator = MujocoIntegrator::kRk4;

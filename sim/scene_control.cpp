@@ -219,6 +219,9 @@ void ExpectControllerKeys(const YamlReader& node, ControllerType type) {
   switch (type) {
     case ControllerType::kNone: node.ExpectKeys({"type", "continuous"}); break;
     case ControllerType::kPd:
+      node.ExpectKeys({"type", "kp", "kd", "velocity_feedforward", "acceleration_feedforward", "model", "continuous",
+                       "gravity_compensation", "feet", "contact_height"});
+      break;
     case ControllerType::kGravityCompensation:
       node.ExpectKeys({"type", "kp", "kd", "velocity_feedforward", "acceleration_feedforward", "model", "continuous"});
       break;
@@ -263,6 +266,23 @@ void ReadGains(const YamlReader& node, int n, ControllerConfig& c) {
         node.Fail(std::string("missing key '") + key + "'");
     }
   }
+}
+
+// pd's gravity_compensation: stance (a floating base standing on its feet), feet, contact_height.
+void ReadStance(const YamlReader& node, ControllerConfig& c) {
+  if (auto v = node.Optional("gravity_compensation")) {
+    const std::string g = v->Text();
+    if (g != "stance" && g != "none") {
+      v->Fail("expected stance (G balanced by the feet in contact, on a floating base) or none, got '" + Escape(g, 60) +
+              "'");
+    }
+    c.stance.on = g == "stance";
+  }
+  if (auto v = node.Optional("feet")) {
+    if (!v->IsSequence()) v->Fail("expected a list of the robot's foot frames");
+    for (std::size_t i = 0; i < v->Size(); ++i) c.stance.feet.push_back(v->At(i).Text());
+  }
+  if (auto v = node.Optional("contact_height")) c.stance.contact_height = v->PositiveNumber();
 }
 
 // LQR (and swing-up's LQR near the top): equilibrium, actuated, Q, design, R.
@@ -390,6 +410,7 @@ ControllerConfig ReadController(const YamlReader& node, const PlantSpec& plant, 
   ReadGains(node, n, c);
   if (auto v = node.Optional("velocity_feedforward")) c.pd.velocity_feedforward = v->Bool();
   if (auto v = node.Optional("acceleration_feedforward")) c.pd.acceleration_feedforward = v->Bool();
+  ReadStance(node, c);
   if (auto m = node.Optional("model")) ReadModel(*m, plant, c, urdf);
   if (auto v = node.Optional("continuous")) c.continuous = v->Bool();
   ReadLqr(node, plant, n, c);

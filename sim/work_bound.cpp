@@ -112,10 +112,18 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
 
 double MeasureSteppedSeconds(const InstanceConfig& config) {
   const std::unique_ptr<SteppedPlantData> data = config.mujoco->model->MakeData();
-  VectorXd q = config.q0, qd = config.qd0, qdd(config.q0.size());
-  const VectorXd tau = VectorXd::Zero(config.q0.size());
+  // The initial state, the base's pose and twist leading it on a floating base.
+  VectorXd q0 = config.q0, qd0 = config.qd0;
+  if (config.floating) {
+    q0.resize(kFreeFlyerNq + config.q0.size());
+    q0 << config.floating->q0, config.q0;
+    qd0.resize(kFreeFlyerNv + config.qd0.size());
+    qd0 << config.floating->v0, config.qd0;
+  }
+  VectorXd q = q0, qd = qd0, qdd(qd0.size());
+  const VectorXd tau = VectorXd::Zero(qd0.size());
   const double fastest = FastestSample(kMeasureBudget, [&] {
-    data->SetState(config.q0, config.qd0);  // every step from the initial state
+    data->SetState(q0, qd0);  // every step from the initial state
     const Steady::time_point start = Steady::now();
     data->Step(tau, q, qd, qdd);
     return SecondsSince(start);

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/command_t.hpp>
 #include <lagrange/setpoint_t.hpp>
 #include <lagrange/state_t.hpp>
@@ -82,6 +83,47 @@ TEST(MujocoLive, LagrangedRunsThePandaOnMujocoUnderASetpointStream) {
   }
   daemon.Signal(SIGTERM);
   EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+}
+
+// The quadruped standing (config/quadruped_mujoco_stand.yaml, run as the README
+// runs it): lagranged's A1_BASE messages show the trunk, dropped 0.1 m, at its
+// standing height (2 × 0.2 cos 0.9 + 0.02 m, within MuJoCo's contact sinking)
+// and upright once it has landed, and A1_STATE the 12 joints running.
+TEST(MujocoLive, LagrangedStandsTheQuadrupedOnMujocosGround) {
+  const int port = 9100;
+  ASSERT_EQ(testing::PrepareLoopbackMulticast(port), "");
+  const std::string url = testing::TestLcmUrl(port);
+  LcmCollector collector(url);
+  BackgroundProcess daemon({LAGRANGED_PATH, "--lcm-url", url, "--config",
+                            std::string(LAGRANGE_SOURCE_DIR) + "/config/quadruped_mujoco_stand.yaml"});
+  constexpr double kLanded = 2.0;  // s of simulated time: landed and settled (the offline test's figures)
+  ASSERT_TRUE(collector.WaitFor(
+      "A1_BASE",
+      [](const std::vector<LcmCollector::Message>& m) {
+        base_state_t b;
+        return !m.empty() && b.decode(m.back().data.data(), 0, static_cast<int>(m.back().data.size())) >= 0 &&
+               b.t > kLanded;
+      },
+      kWait))
+      << daemon.Stderr();
+  daemon.Signal(SIGTERM);
+  EXPECT_EQ(daemon.Wait(kWait), 0) << daemon.Stderr();
+  const double standing = 2 * 0.2 * std::cos(0.9) + 0.02;
+  const std::vector<base_state_t> bases = collector.Decoded<base_state_t>("A1_BASE");
+  ASSERT_FALSE(bases.empty());
+  const base_state_t& last = bases.back();
+  EXPECT_GT(last.t, kLanded);
+  EXPECT_NEAR(last.position[2], standing, 5e-3);
+  const double x = last.orientation[0], y = last.orientation[1];
+  EXPECT_LT(2.0 * (x * x + y * y), 1e-4);  // 1 − cos(tilt): within 0.01 rad of upright
+  EXPECT_LT(std::abs(last.linear_velocity[2]), 1e-2);
+  const std::vector<state_t> states = collector.Decoded<state_t>("A1_STATE");
+  ASSERT_FALSE(states.empty());
+  for (const state_t& s : states) {
+    ASSERT_EQ(s.num_dofs, 12);
+    ASSERT_TRUE(Finite(s)) << "tick " << s.tick;
+    ASSERT_EQ(s.mode, state_t::MODE_RUNNING) << daemon.Stderr();
+  }
 }
 
 // A live start (`lagranged --config`) whose MuJoCo model is refused before
