@@ -308,6 +308,11 @@ const task_state_t* DaemonLink::task_state() const {
   return task_states_received() > 0 ? &seen_->tasks.Find(run_id_)->message : nullptr;
 }
 
+const base_state_t* DaemonLink::base_state() const {
+  const auto* base = have_run_ ? seen_->bases.Find(run_id_) : nullptr;
+  return base == nullptr ? nullptr : &base->message;
+}
+
 const status_t& DaemonLink::AwaitStatus() {
   if (!PumpUntil([&] { return status() != nullptr; }, options_.wait)) {
     throw std::runtime_error("no " + options_.StatusChannel() + " from lagranged (run " + RunIdText(run_id_) +

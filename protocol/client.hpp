@@ -13,6 +13,7 @@
 // is the emergency stop, which is never withheld: it goes to every run
 // publishing the state (AwaitRuns), and each run's verdict is its own reply.
 
+#include <lagrange/base_state_t.hpp>
 #include <lagrange/command_t.hpp>
 #include <lagrange/reply_t.hpp>
 #include <lagrange/state_t.hpp>
@@ -188,6 +189,11 @@ class DaemonLink {
   // how many came since.
   const task_state_t* task_state() const;
   std::int64_t task_states_received() const;
+
+  // The run's latest base state (<NAME>_BASE: a floating base's pose, twist and
+  // momentum, the tick of the state it goes with in its tick), once one came
+  // (else null: none yet, or a fixed base, which publishes none).
+  const base_state_t* base_state() const;
 
   // Waits up to options.wait for a status from the run; throws a one-line error.
   const status_t& AwaitStatus();

@@ -13,6 +13,7 @@
 #include <lagrange/telemetry_t.hpp>
 #include <lagrange/torque_t.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -516,13 +517,14 @@ class BaseStateDecoder final : public MessageDecoder<base_state_t> {
       for (const BaseStateArray& a : kBaseStateArrays) f.Reals(a.name, a.width);
       fields_ = f.Take();
     }
-    // In kBaseStateArrays' order.
-    const double* arrays[] = {m.position, m.orientation,     m.linear_velocity, m.angular_velocity,
-                              m.com,      m.linear_momentum, m.angular_momentum};
-    static_assert(std::size(arrays) == std::size(kBaseStateArrays));
+    const std::array<double, kBaseStateWidth> values = BaseStateValues(m);
     Row row(out, log_utime);
     row.Int(m.utime).Int(m.run_id).Int(m.tick).Real(m.t);
-    for (std::size_t k = 0; k < std::size(arrays); ++k) row.Reals(arrays[k], kBaseStateArrays[k].width);
+    const double* next = values.data();
+    for (const BaseStateArray& a : kBaseStateArrays) {
+      row.Reals(next, a.width);
+      next += a.width;
+    }
     return true;
   }
 };
@@ -547,6 +549,17 @@ std::unique_ptr<Decoder> DecoderFor(MessageType type) {
 }
 
 }  // namespace
+
+std::array<double, kBaseStateWidth> BaseStateValues(const base_state_t& m) {
+  // In kBaseStateArrays' order.
+  const double* arrays[] = {m.position, m.orientation,     m.linear_velocity, m.angular_velocity,
+                            m.com,      m.linear_momentum, m.angular_momentum};
+  static_assert(std::size(arrays) == std::size(kBaseStateArrays));
+  std::array<double, kBaseStateWidth> values;
+  double* out = values.data();
+  for (std::size_t k = 0; k < std::size(arrays); ++k) out = std::copy_n(arrays[k], kBaseStateArrays[k].width, out);
+  return values;
+}
 
 std::string LogColumnName(const LogField& field, int i) { return field.name + field.separator + std::to_string(i); }
 

@@ -13,6 +13,7 @@
 // message with another num_dofs does not fit them and is skipped, as is one
 // that does not decode.
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -53,6 +54,16 @@ struct BaseStateArray {
 inline constexpr BaseStateArray kBaseStateArrays[] = {
     {"position", 3}, {"orientation", 4},     {"linear_velocity", 3},  {"angular_velocity", 3},
     {"com", 3},      {"linear_momentum", 3}, {"angular_momentum", 3}};
+// Their values in all: one row of a floating base (sim/offline.hpp's BaseRow).
+inline constexpr int kBaseStateWidth = [] {
+  int n = 0;
+  for (const BaseStateArray& a : kBaseStateArrays) n += a.width;
+  return n;
+}();
+
+class base_state_t;  // <lagrange/base_state_t.hpp>
+// A base_state_t's arrays, one after another in kBaseStateArrays' order.
+std::array<double, kBaseStateWidth> BaseStateValues(const base_state_t& message);
 
 // One value (kInt and kId: std::int64_t; kReal: double; kText: std::string).
 using LogValue = std::variant<std::int64_t, double, std::string>;

@@ -160,6 +160,36 @@ class Client {
     }
   }
 
+  // The latest base_state_t of the instance's run (<NAME>_BASE), waiting up to
+  // `timeout` s for the first; RuntimeError when none comes (a fixed base publishes none).
+  BaseState GetBaseState(const std::string& name, double timeout) {
+    CheckTimeout(timeout);
+    base_state_t base;
+    {
+      py::gil_scoped_release release;
+      try {
+        Link& link = LinkFor(name, timeout);
+        std::lock_guard lock(link.mutex);
+        CatchUp(*link.link);  // the latest, not the one the link last handled
+        link.link->RequireOneRun("refusing to act");
+        if (!link.link->PumpUntil([&] { return link.link->base_state() != nullptr; }, timeout)) {
+          throw std::runtime_error("no base state from instance '" + Escape(name, 64) + "' on " +
+                                   Escape(options_.Channel(name, kBaseSuffix), 80) + " within " +
+                                   FormatDouble(timeout) + " s (run " + RunIdText(link.link->run_id()) +
+                                   "): only a floating base (plant floating_base: true) publishes one");
+        }
+        base = *link.link->base_state();
+      } catch (...) {
+        Rethrow();
+      }
+    }
+    BaseState out(base.t, BaseStateValues(base).data());
+    out.utime = base.utime;
+    out.run_id = base.run_id;
+    out.tick = base.tick;
+    return out;
+  }
+
   // The states one Client.states iterator has not taken yet: each iterator
   // has its own, so two iterators of one instance (two threads, or one that
   // replaces another) each get every state, and one that goes takes only its own.
@@ -680,6 +710,10 @@ answers, with lagrangectl's one-line messages.)")
            py::arg("bus_domain") = py::none())
       .def("state", &Client::GetState, py::arg("name"), py::arg("timeout") = 3.0,
            "The instance's latest state. The first call waits up to timeout s for it (RuntimeError if none).")
+      .def("base_state", &Client::GetBaseState, py::arg("name"), py::arg("timeout") = 3.0,
+           "The latest base_state_t of the instance's run on <NAME>_BASE (a BaseState: a floating base's pose,\n"
+           "twist, centre of mass and momentum; its tick is the State's it goes with). Waits up to timeout s\n"
+           "for the first (RuntimeError if none: a fixed base publishes none).")
       .def(
           "states",
           [](const std::shared_ptr<Client>& c, const std::string& name, double duration) {

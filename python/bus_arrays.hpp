@@ -5,14 +5,17 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "plant/types.hpp"
 #include "protocol/format.hpp"
+#include "protocol/log_records.hpp"
 
 namespace lagrange::python {
 
@@ -34,6 +37,47 @@ inline py::array_t<double> ToArray(const std::vector<double>& v) {
 inline py::array_t<double> ToMatrix(const std::vector<double>& values, py::ssize_t rows, py::ssize_t columns) {
   py::array_t<double> out({rows, columns});
   std::copy(values.begin(), values.end(), out.mutable_data());
+  return out;
+}
+
+// A floating base's arrays, named and ordered as log2csv's <NAME>_BASE
+// columns (kBaseStateArrays: position, orientation, linear_velocity,
+// angular_velocity, com, linear_momentum, angular_momentum).
+inline constexpr std::size_t kNumBaseArrays = std::size(kBaseStateArrays);
+using BaseArrays = std::array<py::array_t<double>, kNumBaseArrays>;
+
+// One base_state_t, or an offline instance's base now (lagrange.BaseState):
+// `values` kBaseStateWidth doubles in kBaseStateArrays' order, each array of
+// shape (width,); utime, run_id and tick are the message's (none offline).
+struct BaseState {
+  std::optional<std::int64_t> utime, run_id, tick;
+  double t = 0.0;
+  BaseArrays arrays;
+  BaseState(double time, const double* values) : t(time) {
+    for (std::size_t k = 0; k < kNumBaseArrays; ++k) {
+      const int width = kBaseStateArrays[k].width;
+      arrays[k] = py::array_t<double>(width);
+      std::copy(values, values + width, arrays[k].mutable_data());
+      values += width;
+    }
+  }
+};
+
+// A run's base, one row per step (lagrange.BaseRows): `values` rows ×
+// kBaseStateWidth doubles, row after row, each array of shape (rows, width).
+inline BaseArrays BaseColumns(const std::vector<double>& values, py::ssize_t rows) {
+  BaseArrays out;
+  py::ssize_t first = 0;  // the array's first column in a row
+  for (std::size_t k = 0; k < kNumBaseArrays; ++k) {
+    const py::ssize_t width = kBaseStateArrays[k].width;
+    out[k] = py::array_t<double>({rows, width});
+    double* data = out[k].mutable_data();
+    for (py::ssize_t r = 0; r < rows; ++r) {
+      const double* row = values.data() + r * kBaseStateWidth + first;
+      std::copy(row, row + width, data + r * width);
+    }
+    first += width;
+  }
   return out;
 }
 

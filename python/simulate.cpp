@@ -89,8 +89,9 @@ double Residual(const Instance& inst) {
 }
 
 // One instance's rows, as lagrangectl simulate writes them (t, q, qd, q_des,
-// tau, T, V) and ε; under a controller that moves a frame (`frame` not "") also
-// its FILE.task.csv rows (TaskRowOf).
+// tau, T, V, and a floating base's columns: BaseRowOf) and ε; under a
+// controller that moves a frame (`frame` not "") also its FILE.task.csv rows
+// (TaskRowOf).
 struct Recording {
   std::string name;
   std::vector<std::string> joint_names;
@@ -99,10 +100,13 @@ struct Recording {
   std::optional<std::string> fault, mpc_failures;
   std::string frame;                                  // TaskFrameOf; "": no task rows
   std::vector<double> position, position_des, error;  // 3, 3 and 6 per row, with a `frame`
+  bool floating = false;
+  std::vector<double> base;  // kBaseStateWidth per row, with a floating base
 
   void Reserve(std::size_t rows) {
     for (std::vector<double>* v : {&t, &kinetic, &potential, &residual}) v->reserve(rows);
     for (std::vector<double>* v : {&q, &qd, &q_des, &tau}) v->reserve(rows * static_cast<std::size_t>(n));
+    if (floating) base.reserve(rows * kBaseStateWidth);
     if (frame.empty()) return;
     for (std::vector<double>* v : {&position, &position_des}) v->reserve(rows * 3);
     error.reserve(rows * 6);
@@ -118,6 +122,10 @@ struct Recording {
     kinetic.push_back(inst.KineticEnergy());
     potential.push_back(inst.PotentialEnergy());
     residual.push_back(Residual(inst));
+    if (floating) {
+      const BaseRow row = BaseRowOf(inst);
+      base.insert(base.end(), row.begin(), row.end());
+    }
     if (frame.empty()) return;
     const OfflineTaskRow row = TaskRowOf(inst, computed);
     position.insert(position.end(), row.position.data(), row.position.data() + 3);
@@ -132,6 +140,11 @@ struct TaskRows {
   py::array_t<double> position, position_des, error;
 };
 
+// SimulationResult.base: a floating base, one row per step (BaseColumns).
+struct BaseRows {
+  BaseArrays arrays;
+};
+
 // The result of lagrange.simulate for one instance: numpy arrays, one row per step.
 struct SimulationResult {
   std::string name;
@@ -139,6 +152,7 @@ struct SimulationResult {
   py::array_t<double> t, q, qd, q_des, tau, kinetic_energy, potential_energy, energy_residual;
   std::optional<std::string> fault, mpc_failures;
   std::optional<TaskRows> task;
+  std::optional<BaseRows> base;
 
   explicit SimulationResult(const Recording& r)
       : name(r.name),
@@ -153,8 +167,9 @@ struct SimulationResult {
         energy_residual(ToArray(r.residual)),
         fault(r.fault),
         mpc_failures(r.mpc_failures) {
-    if (r.frame.empty()) return;
     const auto rows = static_cast<py::ssize_t>(r.t.size());
+    if (r.floating) base = BaseRows{BaseColumns(r.base, rows)};
+    if (r.frame.empty()) return;
     task =
         TaskRows{r.frame, ToMatrix(r.position, rows, 3), ToMatrix(r.position_des, rows, 3), ToMatrix(r.error, rows, 6)};
   }
@@ -172,8 +187,10 @@ constexpr double kRowsMemoryShare = 0.25;
 // round(duration / period), or ValueError when the rows of that many steps
 // would take more than kRowsMemoryShare of the memory (before anything runs).
 std::int64_t StepsThatFit(double duration, double period, const std::vector<Instance>& instances) {
-  double row_bytes = 0.0;  // t, T, V, ε and q, qd, q_des, tau, each instance's
-  for (const Instance& inst : instances) row_bytes += sizeof(double) * (4.0 + 4.0 * inst.num_dofs());
+  double row_bytes = 0.0;  // t, T, V, ε and q, qd, q_des, tau, each instance's, and a floating base's
+  for (const Instance& inst : instances) {
+    row_bytes += sizeof(double) * (4.0 + 4.0 * inst.num_dofs() + (inst.floating_base() ? kBaseStateWidth : 0));
+  }
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
   const double memory = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0x1p53;
   const double budget = kRowsMemoryShare * memory;
@@ -229,6 +246,7 @@ py::dict Simulate(const py::object& scene_arg, double duration, const py::object
     recordings[i].name = instances[i].name();
     recordings[i].joint_names = instances[i].instance_model().joint_names;
     recordings[i].n = instances[i].num_dofs();
+    recordings[i].floating = instances[i].floating_base();
     // The frame an instance's scene controller moves, as lagrangectl simulate writes it (a Python law bypasses
     // the controller: it computes nothing to record).
     if (!law_of[i]) recordings[i].frame = TaskFrameOf(instances[i]);
@@ -341,9 +359,58 @@ class PyInstance {
   bool torque_given_ = false;
 };
 
+// What each of a floating base's arrays holds (base_state_t's comments), in kBaseStateArrays' order.
+constexpr const char* kBaseArrayDocs[] = {
+    "the base frame's origin in the world, m",
+    "its axes in the world, a unit quaternion (x, y, z, w)",
+    "the base origin's velocity, base axes, m/s",
+    "the base's angular velocity, base axes, rad/s",
+    "the robot's centre of mass, world, m",
+    "the robot's linear momentum, world axes, N·s (total mass × the centre of mass's velocity)",
+    "the robot's angular momentum about its centre of mass, world axes, N·m·s",
+};
+static_assert(std::size(kBaseArrayDocs) == kNumBaseArrays);
+
+// The base's arrays as read-only attributes of `cls`, named as log2csv's <NAME>_BASE columns; `shape` says
+// each one's shape with W its width ("(W,)" or "(N, W)").
+template <class T, class Arrays>
+void DefBaseArrays(py::class_<T>& cls, Arrays T::*arrays, const std::string& shape) {
+  for (std::size_t k = 0; k < kNumBaseArrays; ++k) {
+    std::string doc = std::string(kBaseArrayDocs[k]) + ", shape " + shape;
+    doc.replace(doc.find('W'), 1, std::to_string(kBaseStateArrays[k].width));
+    cls.def_property_readonly(
+        kBaseStateArrays[k].name, [arrays, k](const T& self) { return (self.*arrays)[k]; }, doc.c_str());
+  }
+}
+
 }  // namespace
 
 void BindSimulate(py::module_& m) {
+  py::class_<BaseState> base_state(
+      m, "BaseState",
+      "A floating base at one instant: lagranged's base_state_t on <NAME>_BASE (Client.base_state), or an\n"
+      "Instance's base now (Instance.base); the free-flyer's conventions (README, \"Floating base\").\n"
+      "Arrays named as log2csv's <NAME>_BASE columns.");
+  base_state.def_readonly("t", &BaseState::t, "Simulated time, s.")
+      .def_readonly("utime", &BaseState::utime, "Wall clock of the tick, µs since the epoch (None offline).")
+      .def_readonly("run_id", &BaseState::run_id, "The lagranged run that published it (None offline).")
+      .def_readonly("tick", &BaseState::tick, "The tick of the state published with it (None offline).");
+  DefBaseArrays(base_state, &BaseState::arrays, "(W,)");
+  base_state.def("__repr__", [](const BaseState& b) {
+    const double* p = b.arrays[0].data();
+    return "<lagrange.BaseState t = " + FormatDouble(b.t) + " s at (" + FormatDouble(p[0]) + ", " + FormatDouble(p[1]) +
+           ", " + FormatDouble(p[2]) + ") m>";
+  });
+
+  py::class_<BaseRows> base_rows(
+      m, "BaseRows",
+      "A floating base, one row per step of its SimulationResult: lagrangectl simulate's base columns, the same\n"
+      "doubles (lagranged publishes them as base_state_t on <NAME>_BASE), arrays named as those columns.");
+  DefBaseArrays(base_rows, &BaseRows::arrays, "(N, W)");
+  base_rows.def("__repr__", [](const BaseRows& b) {
+    return "<lagrange.BaseRows " + std::to_string(b.arrays[0].shape(0)) + " rows>";
+  });
+
   py::class_<TaskRows>(m, "TaskRows",
                        "The frame a task-space controller (cartesian-impedance, operational-space) or an mpc\n"
                        "controller with a frame moved, one row\n"
@@ -402,6 +469,10 @@ void BindSimulate(py::module_& m) {
                     "TaskRows under a controller that moves a frame (a task-space controller, or an mpc with a "
                     "frame: the frame's position, target and error per row, as lagrangectl simulate's "
                     "FILE.task.csv); None for any other controller, or a Python law.")
+      .def_readonly("base", &SimulationResult::base,
+                    "BaseRows for a floating base (plant floating_base: true): its pose, twist, centre of mass and "
+                    "momentum per row, as lagrangectl simulate's base columns; None for a fixed base. q, qd, q_des "
+                    "and tau are the joints' alone.")
       .def("__repr__", [](const SimulationResult& r) {
         return "<lagrange.SimulationResult " + r.name + ": " + std::to_string(r.t.shape(0)) + " rows" +
                (r.fault ? ", faulted" : "") + ">";
@@ -420,7 +491,8 @@ controller  None: every instance under its scene controller and trajectory (the 
             (its compensate_gravity and torque limits apply, as in lagranged), and the
             applied force of any other instance (its controller bypassed).
 
-Returns {instance name: SimulationResult}. Each step passes lagranged's health check; an
+Returns {instance name: SimulationResult} (a floating base's pose, twist, centre of mass and
+momentum in its `base`; q, qd and a Python law's arguments and tau are the joints'). Each step passes lagranged's health check; an
 instance that fails it stops at its last healthy row, its result's `fault` names why, and a
 RuntimeWarning says so. Raises ValueError (a bad scene, one an offline run refuses: an
 external plant, an external controller without a Python law; ticks that do not fit the
@@ -487,6 +559,15 @@ faulting step returns to. ValueError for a wrong shape or a value that is not fi
       .def_property_readonly(
           "controller", [](PyInstance& s) { return std::string(s.inst().controller().name()); },
           "The active controller's type.")
+      .def_property_readonly(
+          "base",
+          [](PyInstance& s) -> std::optional<BaseState> {
+            if (!s.inst().floating_base()) return std::nullopt;
+            const BaseRow row = BaseRowOf(s.inst());
+            return BaseState(s.inst().t(), row.data());
+          },
+          "A floating base's pose, twist, centre of mass and momentum now (a BaseState, as lagranged publishes "
+          "on <NAME>_BASE); None for a fixed base. q, qd and the rest are the joints' alone.")
       .def("__repr__", [](PyInstance& s) {
         return "<lagrange.Instance " + s.inst().name() + " at t = " + FormatDouble(s.inst().t()) + " s>";
       });

@@ -1,5 +1,6 @@
 #include "sim/offline.hpp"
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <stdexcept>
@@ -125,6 +126,18 @@ OfflineTaskRow NanTaskRow() {
 OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed) {
   if (!computed) return NanTaskRow();
   return {task.pose().position, task.commanded().pose.position, task.pose_error()};
+}
+
+BaseRow BaseRowOf(Instance& instance) {
+  static_assert(kFreeFlyerNq + kFreeFlyerNv + 3 * 3 == kBaseStateWidth);
+  BaseRow row;
+  const Instance::BaseMotion b = instance.ComputeBaseMotion();
+  double* out = row.data();
+  const auto put = [&out](const auto& v) { out = std::copy(v.data(), v.data() + v.size(), out); };
+  put(instance.floating_q().head<kFreeFlyerNq>());  // position, orientation
+  put(instance.floating_v().head<kFreeFlyerNv>());  // linear, angular velocity
+  for (const Eigen::Vector3d* v : {&b.com, &b.linear, &b.angular}) put(*v);
+  return row;
 }
 
 const std::string& TaskFrameOf(const Instance& instance) {

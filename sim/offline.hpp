@@ -3,6 +3,7 @@
 // scene controller and trajectory, as fast as the machine goes, under the
 // daemon's health rule (sim/health.hpp) after every step.
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -10,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/log_records.hpp"
 #include "sim/instance.hpp"
 #include "sim/instance_model.hpp"
 
@@ -95,6 +97,16 @@ struct OfflineTaskRow {
   Vector6d error;                // e = commanded ⊖ measured: m, then rad
 };
 OfflineTaskRow TaskRowOf(const TaskSpaceController& task, bool computed);
+
+// One row of a floating base (lagrangectl simulate's base columns, Python's
+// SimulationResult.base and Instance.base): base_state_t's arrays in
+// kBaseStateArrays' order, as lagranged publishes them on <NAME>_BASE: the
+// base's position (m) and orientation (x, y, z, w), its linear and angular
+// velocity (base axes), the centre of mass (m, world), the linear momentum
+// (N·s) and the angular momentum about the centre of mass (N·m·s), world
+// axes (Instance::ComputeBaseMotion). Only for a floating base; no allocation.
+using BaseRow = std::array<double, kBaseStateWidth>;
+BaseRow BaseRowOf(Instance& instance);
 
 // The frame the instance's active controller moves, as lagranged names it on
 // <NAME>_TASK: a task-space controller's, or an mpc controller's with a frame

@@ -32,6 +32,7 @@ struct PlotInputs {
   std::string joints;  // a simulate CSV's joint names (JointNamesPath)
   std::string task;    // its task-space frame: simulate's TaskCsvPath or log2csv's <NAME>_TASK.csv
   std::string mpc;     // an mpc controller's plans: log2csv's <NAME>_MPC.csv
+  std::string base;    // a floating base: log2csv's <NAME>_BASE.csv (a simulate CSV holds its own base columns)
 };
 
 // The task-space controllers' names, comma-separated: a state row under one follows a task target, not q_des.
@@ -45,8 +46,8 @@ std::string TaskSpaceControllerNames() {
   return names;
 }
 
-// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK TASK_SPACE MPC; returns (status, its
-// stdout and stderr together).
+// Runs python3 -c kPlotScript CSV PNG TITLE TELEMETRY FORCES STATUS JOINTS TASK TASK_SPACE MPC BASE; returns (status,
+// its stdout and stderr together).
 std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::string& png, const std::string& title) {
   int out_pipe[2];
   if (pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
@@ -56,10 +57,9 @@ std::pair<int, std::string> RunPlotScript(const PlotInputs& in, const std::strin
   options.search_path = true;
   options.stdout_fd = out_pipe[1];
   options.stderr_fd = out_pipe[1];
-  const pid_t pid = Spawn(
-      {"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status, in.joints, in.task,
-       TaskSpaceControllerNames(), in.mpc},
-      options);
+  const pid_t pid = Spawn({"python3", "-c", kPlotScript, in.state, png, title, in.telemetry, in.forces, in.status,
+                           in.joints, in.task, TaskSpaceControllerNames(), in.mpc, in.base},
+                          options);
   close(out_pipe[1]);
   if (pid < 0) {
     close(out_pipe[0]);
@@ -133,7 +133,7 @@ class PlotCommand final : public Command {
             "plot",
             "Plot q against q_des, torques, energy and tracking error (PNG), and the "
             "instance's end effector (a task-space controller's frame), energy residual, cost per "
-            "tick, forces and an mpc controller's predicted paths when recorded; "
+            "tick, forces, an mpc controller's predicted paths and a floating base when recorded; "
             "lines break at a reset, a restart or a lost message")) {
     app_->add_option("input", input_, "A CSV (lagrangectl simulate or log2csv) or an LCM log")->required();
     app_->add_option("-o,--output", output_, "PNG to write (default: INPUT with .png)");
@@ -177,7 +177,7 @@ class PlotCommand final : public Command {
 
  private:
   // Decodes the log's state channel (the first *_STATE, or --channel) and
-  // that instance's task state, telemetry, forces and plans into `scratch`; returns the state channel.
+  // that instance's task state, telemetry, forces, plans and base into `scratch`; returns the state channel.
   std::string FromLog(const fs::path& scratch, PlotInputs& in) const {
     const LogToCsvResult r = LogToCsv(input_, scratch.string(), channel_.empty() ? ".*_STATE" : channel_);
     const auto state =
@@ -187,16 +187,16 @@ class PlotCommand final : public Command {
     in.state = state->second.path;
     const std::string base = InstanceBase(state->first);
     if (base.empty()) return state->first;
-    const LogToCsvResult extra =
-        LogToCsv(input_, scratch.string(),
-                 RegexQuote(base) + "(" + kTaskSuffix + "|" + kTelemetrySuffix + "|" + kForcesSuffix + "|" +
-                     kMpcSuffix + ")");
+    const LogToCsvResult extra = LogToCsv(input_, scratch.string(),
+                                          RegexQuote(base) + "(" + kTaskSuffix + "|" + kTelemetrySuffix + "|" +
+                                              kForcesSuffix + "|" + kMpcSuffix + "|" + kBaseSuffix + ")");
     for (const auto& [channel, csv] : extra.written) {
       if (csv.rows == 0) continue;
       if (channel == base + kTelemetrySuffix && csv.type == "telemetry_t") in.telemetry = csv.path;
       if (channel == base + kForcesSuffix && csv.type == "forces_t") in.forces = csv.path;
       if (channel == base + kTaskSuffix && csv.type == "task_state_t") in.task = csv.path;
       if (channel == base + kMpcSuffix && csv.type == "mpc_t") in.mpc = csv.path;
+      if (channel == base + kBaseSuffix && csv.type == "base_state_t") in.base = csv.path;
     }
     // The status of the daemon that published it: the longest prefix of the base.
     const LogToCsvResult status = LogToCsv(input_, scratch.string(), std::string(".*") + kStatusChannel);
@@ -213,8 +213,8 @@ class PlotCommand final : public Command {
   }
 
   // For a simulate CSV: its joint names (JointNamesPath) and task CSV (TaskCsvPath), where they exist.
-  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TASK.csv, DIR/NAME_TELEMETRY.csv, DIR/NAME_FORCES.csv and
-  // DIR/NAME_MPC.csv, where they exist.
+  // For a log2csv CSV DIR/NAME_STATE.csv: DIR/NAME_TASK.csv, DIR/NAME_TELEMETRY.csv, DIR/NAME_FORCES.csv,
+  // DIR/NAME_MPC.csv and DIR/NAME_BASE.csv, where they exist.
   static void Siblings(PlotInputs& in) {
     if (const std::string joints = JointNamesPath(in.state); fs::exists(joints)) in.joints = joints;
     if (const std::string task = TaskCsvPath(in.state); fs::exists(task)) in.task = task;
@@ -226,6 +226,7 @@ class PlotCommand final : public Command {
     if (fs::exists(telemetry)) in.telemetry = telemetry.string();
     if (fs::exists(forces)) in.forces = forces.string();
     if (const fs::path mpc = state.parent_path() / (base + kMpcSuffix + ".csv"); fs::exists(mpc)) in.mpc = mpc.string();
+    if (const fs::path b = state.parent_path() / (base + kBaseSuffix + ".csv"); fs::exists(b)) in.base = b.string();
     if (const fs::path task = state.parent_path() / (base + kTaskSuffix + ".csv"); fs::exists(task)) {
       in.task = task.string();
     }

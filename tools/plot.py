@@ -1,7 +1,8 @@
 """lagrangectl plot: joint angles against setpoints, torques, energy and
 tracking error over time, from a CSV of `lagrangectl simulate` or of a
 state channel from `lagrangectl log2csv`. Run by lagrangectl as
-`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE [MPC_CSV]]]]]]`
+`python3 -c <this> CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE [MPC_CSV
+[BASE_CSV]]]]]]]`
 (any may be ""; TASK_SPACE: the task-space controllers' names, comma-separated): with a status CSV (log2csv of LAGRANGE_STATUS) the joints are
 named as the daemon names them, and a dotted vertical line marks each switch
 of the integrator or the dynamics method; with a joints CSV (simulate's
@@ -25,9 +26,10 @@ plans) one panel of each joint's actual path (solid) beside the paths the
 optimiser predicted (dotted, the knots each plan carries, up to 12 plans
 evenly chosen, drawn up to the last state row); with a floating base's
 columns in the CSV (simulate's position0.., orientation0.., com0..,
-linear_momentum0.., angular_momentum0..) three panels: the base's and the
-centre of mass's height, the base's quaternion, and the momentum's
-magnitudes. A reset or restart (the simulated
+linear_momentum0.., angular_momentum0..), or a base CSV (log2csv of
+<NAME>_BASE: the same columns, on its own time axis), three panels: the
+base's and the centre of mass's height, the base's quaternion, and the
+momentum's magnitudes. A reset or restart (the simulated
 time t goes backwards, the tick does not follow on, or the run id changes)
 starts a new segment: the lines break there instead of drawing back to
 t = 0. On success it prints "N rows in K segment(s)" to stdout, then
@@ -375,9 +377,19 @@ BASE_COLUMNS = ["position2", "com2"] + ["orientation%d" % i for i in range(4)] +
     ["linear_momentum%d" % i for i in range(3)] + ["angular_momentum%d" % i for i in range(3)]
 
 
+def base_columns(path):
+    """A base CSV's columns (log2csv of <NAME>_BASE), checked."""
+    header, columns = load(path)
+    missing = [n for n in ["t"] + BASE_COLUMNS if n not in columns]
+    if missing:
+        fail("%s lacks the columns %s (a *_BASE.csv from log2csv)" % (path, ", ".join(missing[:3])))
+    return columns
+
+
 def base_panels(axes, draw, columns, path):
-    """A floating base's three panels (simulate's base columns): the base's and the centre of mass's height, the
-    base's quaternion, the momentum's magnitudes (linear, and angular about the centre of mass)."""
+    """A floating base's three panels (simulate's base columns, or a base CSV's with `draw` on its own time
+    axis): the base's and the centre of mass's height, the base's quaternion, the momentum's magnitudes
+    (linear, and angular about the centre of mass)."""
     z = numbers(columns, "position2", path)
     draw(axes[0], "base z", z)
     draw(axes[0], "centre of mass z", numbers(columns, "com2", path))
@@ -422,9 +434,9 @@ def joint_tracking_panel(axis, draw, columns, path, q, qdes, joint, colors, foll
 
 
 def main():
-    if len(sys.argv) not in (4, 6, 7, 8, 9, 10, 11):
+    if len(sys.argv) not in (4, 6, 7, 8, 9, 10, 11, 12):
         fail("usage: plot.py CSV PNG TITLE [TELEMETRY_CSV FORCES_CSV [STATUS_CSV [JOINTS_CSV [TASK_CSV [TASK_SPACE "
-             "[MPC_CSV]]]]]]")
+             "[MPC_CSV [BASE_CSV]]]]]]]")
     path, png, title = sys.argv[1:4]
     telemetry, forces = sys.argv[4:6] if len(sys.argv) >= 6 else ("", "")
     status = sys.argv[6] if len(sys.argv) >= 7 else ""
@@ -432,6 +444,7 @@ def main():
     task = sys.argv[8] if len(sys.argv) >= 9 else ""
     task_space_names = set(filter(None, sys.argv[9].split(","))) if len(sys.argv) >= 10 else set()
     mpc = sys.argv[10] if len(sys.argv) >= 11 else ""
+    base_csv = sys.argv[11] if len(sys.argv) >= 12 else ""
     header, columns = load(path)
     q = indexed(header, r"q(\d+)")
     qdes = indexed(header, r"q_des(\d+)")
@@ -463,7 +476,9 @@ def main():
     task_at = 3 + (1 if joint_tracking else 0)
     telemetry_at = task_at + (2 if task else 0)
     mpc_at = telemetry_at + (2 if telemetry else 0)
-    base = all(c in columns for c in BASE_COLUMNS)  # a floating base's columns (simulate's)
+    # A floating base's columns: simulate's in the CSV, or a log's <NAME>_BASE beside its state.
+    base_source = base_columns(base_csv) if base_csv else None
+    base = base_source is not None or all(c in columns for c in BASE_COLUMNS)
     base_at = mpc_at + (1 if mpc else 0)
     panels = base_at + (3 if base else 0) + force_joints
     # The legends stand beside the panels (place_legends): 2.5 in wider than the panels alone were.
@@ -510,7 +525,14 @@ def main():
         extra.append(line)
     if mpc:
         extra.append(mpc_panel(axes[mpc_at], mpc, draw, columns, path, q, joint, colors))
-    if base:
+    if base and base_source is not None:
+        base_t, base_gap = series(base_csv, base_source)
+
+        def draw_base(axis, name, values, **style):
+            axis.plot(base_t, base_gap(values), label=name, linewidth=1.2, **style)
+
+        extra.append(base_panels(axes[base_at:base_at + 3], draw_base, base_source, base_csv))
+    elif base:
         extra.append(base_panels(axes[base_at:base_at + 3], draw, columns, path))
     if forces:
         extra.append(forces_panels(axes[panels - force_joints:], forces, joint_names))

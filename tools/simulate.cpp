@@ -54,11 +54,8 @@ void WriteRow(std::ostream& out, Instance& inst) {
   };
   for (const VectorXd* v : {&inst.q(), &inst.qd(), &inst.q_des(), &inst.tau()}) put(*v);
   out << ',' << FormatDouble(inst.KineticEnergy()) << ',' << FormatDouble(inst.PotentialEnergy());
-  if (inst.floating_base()) {  // base_state_t's arrays, in kBaseStateArrays' order
-    put(inst.floating_q().head<kFreeFlyerNq>());
-    put(inst.floating_v().head<kFreeFlyerNv>());
-    const Instance::BaseMotion b = inst.ComputeBaseMotion();
-    for (const Eigen::Vector3d* v : {&b.com, &b.linear, &b.angular}) put(*v);
+  if (inst.floating_base()) {
+    for (const double x : BaseRowOf(inst)) out << ',' << FormatDouble(x);  // base_state_t's arrays, in order
   }
   out << '\n';
 }

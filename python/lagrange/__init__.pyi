@@ -187,6 +187,30 @@ class TaskRows:
     position_des: _F64      # (N, 3) m, the commanded origin
     error: _F64             # (N, 6) commanded ⊖ measured: m, then rad
 
+class BaseRows:
+    """A floating base, one row per step: lagrangectl simulate's base columns (log2csv's <NAME>_BASE names)."""
+    position: _F64          # (N, 3) m: the base frame's origin in the world
+    orientation: _F64       # (N, 4) its axes in the world, a unit quaternion (x, y, z, w)
+    linear_velocity: _F64   # (N, 3) m/s: the base origin's, base axes
+    angular_velocity: _F64  # (N, 3) rad/s: the base's, base axes
+    com: _F64               # (N, 3) m: the robot's centre of mass, world
+    linear_momentum: _F64   # (N, 3) N·s, world axes (total mass × the centre of mass's velocity)
+    angular_momentum: _F64  # (N, 3) N·m·s about the centre of mass, world axes
+
+class BaseState:
+    """A floating base at one instant: base_state_t on <NAME>_BASE (Client.base_state) or Instance.base."""
+    t: float                # s, simulated
+    utime: _Optional[int]   # µs since the epoch: the tick's wall clock (None offline)
+    run_id: _Optional[int]  # None offline
+    tick: _Optional[int]    # the tick of the State it goes with (None offline)
+    position: _F64          # (3,) m
+    orientation: _F64       # (4,) unit quaternion (x, y, z, w)
+    linear_velocity: _F64   # (3,) m/s, base axes
+    angular_velocity: _F64  # (3,) rad/s, base axes
+    com: _F64               # (3,) m, world
+    linear_momentum: _F64   # (3,) N·s, world axes
+    angular_momentum: _F64  # (3,) N·m·s about the centre of mass, world axes
+
 class SimulationResult:
     """One instance's offline run: one row per step, the first at t = 0; each row the doubles lagrangectl simulate writes."""
     name: str
@@ -204,6 +228,7 @@ class SimulationResult:
     fault: _Optional[str]   # the health check's line when the instance faulted (rows end at its last healthy step)
     mpc_failures: _Optional[str]  # how many mpc solves failed, by status (the last usable plan was followed)
     task: _Optional[TaskRows]  # under a controller that moves a frame (not a Python law): its frame per row
+    base: _Optional[BaseRows]  # a floating base's pose, twist, centre of mass and momentum per row; None: fixed base
 
 def simulate(scene: _Scene, duration: float, *,
              controller: _Union[None, _Law, _Mapping[str, _Law]] = None) -> _Dict[str, SimulationResult]:
@@ -238,6 +263,7 @@ class Instance:
     potential_energy: float  # J
     energy_residual: float   # J (nan without an energy balance)
     controller: str          # the active controller's type
+    base: _Optional[BaseState]  # a floating base now (q, qd, ... are the joints'); None for a fixed base
 
 class State:
     """One state_t as lagranged published it."""
@@ -280,6 +306,8 @@ class Client:
     prefix: str
     def state(self, name: str, timeout: float = 3.0) -> State: ...
     def states(self, name: str, duration: float) -> StateIterator: ...
+    def base_state(self, name: str, timeout: float = 3.0) -> BaseState:
+        """The run's latest <NAME>_BASE (a floating base); RuntimeError when none comes within timeout s."""
     def send_setpoint(self, name: str, q: _npt.ArrayLike, qd: _Optional[_npt.ArrayLike] = None,
                       qdd: _Optional[_npt.ArrayLike] = None) -> bool: ...
     def send_torque(self, name: str, tau: _npt.ArrayLike, state_tick: _Optional[int] = None,

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "sim/instance.hpp"
 #include "sim/offline.hpp"
@@ -139,6 +140,77 @@ TEST(FloatingScene, AZeroGravityTumblingTreeKeepsItsMomentumToRk4sOrderAndAUnitQ
   EXPECT_GT(h.linear / half.linear, 10.0);
   EXPECT_LT(h.quaternion, 1e-12);
   EXPECT_GT(h.turned, 1e-3);  // it turned
+}
+
+// config/quadruped_free_fall.yaml, as shipped: the A1 thrown up tumbling, its
+// legs under PD to a standing posture. Over 1 s under rk4 the centre of mass
+// stays on c0 + ċ0 t + ½ g t², the momentum about it stays what it was
+// (gravity has no moment about it; everything else is internal), the
+// quaternion stays unit, while the trunk tumbles and the legs reach the
+// posture. The drifts are rk4's truncation (the legs' PD modes are fast: up
+// to kd / M_ii ≈ 250 /s on a calf): halving the step cuts them more than
+// tenfold. Bounds (README, "Floating base"), measured on g++ 12 Release
+// x86-64 in brackets; the figures are the test's recorded properties.
+constexpr double kQuadrupedParabolaTol = 1e-7;     // m, at the scene's 1 ms [1.0e-8]
+constexpr double kQuadrupedMomentumTol = 1e-7;     // relative to |L0|, at 1 ms [1.0e-8]
+constexpr double kQuadrupedQuaternionTol = 1e-12;  // |‖quaternion‖ − 1| [2.2e-16]
+
+struct QuadrupedFall {
+  double parabola = 0.0, momentum = 0.0, quaternion = 0.0;  // the largest over 1 s
+  double turned = 0.0;                                      // rad: the largest angle from the start's axes
+  double posture = 0.0;                                     // rad: max |q − the posture| at the end
+};
+
+QuadrupedFall FallOneSecond(const Scene& scene, double period) {
+  const InstanceConfig& c = scene.instances[0];
+  Instance inst(c);
+  const Eigen::Vector3d gravity = inst.instance_model().floating->tree().gravity;
+  const double m = TotalMass(inst);
+  const Instance::BaseMotion start = inst.ComputeBaseMotion();
+  const Eigen::Vector3d cd0 = start.linear / m;
+  QuadrupedFall f;
+  const int steps = static_cast<int>(std::lround(1.0 / period));
+  for (int step = 1; step <= steps; ++step) {
+    EXPECT_EQ(inst.Step(period), nullptr) << "t = " << inst.t();
+    const double t = inst.t();
+    const Instance::BaseMotion now = inst.ComputeBaseMotion();
+    f.parabola = std::max(f.parabola, (now.com - (start.com + cd0 * t + 0.5 * gravity * t * t)).norm());
+    f.momentum = std::max(f.momentum, (now.angular - start.angular).norm() / start.angular.norm());
+    const Eigen::Vector4d quat = inst.floating_q().segment<4>(3);
+    f.quaternion = std::max(f.quaternion, std::abs(quat.norm() - 1.0));
+    f.turned = std::max(f.turned, 2.0 * std::acos(std::min(1.0, std::abs(quat[3]))));
+  }
+  f.posture = (inst.q() - *c.setpoint.q).cwiseAbs().maxCoeff();
+  return f;
+}
+
+TEST(FloatingScene, TheShippedQuadrupedTumblesOnTheParabolaKeepingItsMomentumAboutTheCentreOfMass) {
+  const Scene scene = LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/config/quadruped_free_fall.yaml");
+  ASSERT_EQ(scene.instances.size(), 1u);
+  const InstanceConfig& c = scene.instances[0];
+  ASSERT_TRUE(c.floating.has_value());
+  ASSERT_EQ(c.integrator.type, IntegratorType::kRk4);
+  ASSERT_EQ(c.plant.num_dofs(), 12);
+  ASSERT_TRUE(c.setpoint.q.has_value());
+  {
+    Instance inst(c);
+    ASSERT_LT((inst.instance_model().floating->tree().gravity - kFloatingGravity).norm(), 1e-12);
+    ASSERT_GT(inst.ComputeBaseMotion().angular.norm(), 0.1);  // thrown turning
+  }
+  const QuadrupedFall h = FallOneSecond(scene, scene.period), half = FallOneSecond(scene, scene.period / 2);
+  EXPECT_LT(h.parabola, kQuadrupedParabolaTol);
+  EXPECT_LT(h.momentum, kQuadrupedMomentumTol);
+  EXPECT_LT(h.quaternion, kQuadrupedQuaternionTol);
+  EXPECT_GT(h.parabola / half.parabola, 10.0);  // rk4's truncation, not a modelling error
+  EXPECT_GT(h.momentum / half.momentum, 10.0);
+  EXPECT_GT(h.turned, 2.0);    // it tumbled (rad)
+  EXPECT_LT(h.posture, 0.05);  // the legs reached the posture (rad)
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "parabola %.3g m, momentum %.3g relative, quaternion %.3g, turned %.3g rad, posture %.3g rad; "
+                "at half the step: parabola %.3g m, momentum %.3g",
+                h.parabola, h.momentum, h.quaternion, h.turned, h.posture, half.parabola, half.momentum);
+  RecordProperty("quadruped_free_fall", text);
 }
 
 TEST(FloatingScene, ZeroTorqueLeavesTheJointsToThePhysics) {

@@ -1,5 +1,5 @@
-"""lagrange.Client against a live lagranged on private LCM ports (8322-8327,
-this host only): states, setpoints, torques and commands through the
+"""lagrange.Client against a live lagranged on private LCM ports (8322-8327 and
+9120, this host only): states, setpoints, torques and commands through the
 project's own client, with the verdicts and errors lagrangectl reports."""
 import os
 import subprocess
@@ -16,6 +16,7 @@ from bus_support import LAGRANGECTL, config, lagranged, lcm_url, wait_until
 PORT = 8322  # default.yaml: arm (computed torque) and cartpole
 TWO_RUNS_PORT = 8323
 SIGNED_PORT = 8324
+FLOATING_PORT = 9120  # config/quadruped_free_fall.yaml: the A1 on a floating base, publishing A1_BASE
 
 
 @pytest.fixture(scope="module")
@@ -295,3 +296,25 @@ def test_a_wait_beyond_a_day_is_refused_in_lagrangectl_s_words():
         with pytest.raises(ValueError, match=r"^wait: expected a positive number of seconds up to 86400"):
             lagrange.Client(url=lcm_url(PORT), wait=bad)
     lagrange.Client(url=lcm_url(PORT), wait=86400.0)  # a day is still a wait
+
+
+def test_a_floating_base_s_base_state_comes_from_the_run_beside_its_states_and_a_fixed_base_has_none(daemon):
+    with lagranged(config("quadruped_free_fall.yaml"), FLOATING_PORT):
+        client = lagrange.Client(url=lcm_url(FLOATING_PORT), wait=5.0)
+        state = client.state("a1", timeout=5.0)
+        assert state.num_dofs == 12  # state_t carries the joints alone
+        first = client.base_state("a1")
+        assert first.run_id == state.run_id and first.tick is not None and first.utime is not None
+        assert first.position.shape == (3,) and first.orientation.shape == (4,) and first.com.shape == (3,)
+        assert abs(np.linalg.norm(first.orientation) - 1.0) < 1e-12
+        assert wait_until(lambda: client.base_state("a1").tick > first.tick + 10, 5.0)
+        later = client.base_state("a1")
+        # Free fall: the linear momentum grows by m g Δt between any two ticks, whatever the legs do.
+        mass = lagrange.Model.from_urdf(config("robots/a1.urdf"), floating_base=True).mass_matrix(
+            np.concatenate([first.position, first.orientation, np.zeros(12)]))[0, 0]
+        np.testing.assert_allclose(later.linear_momentum - first.linear_momentum,
+                                   [0.0, 0.0, -9.81 * mass * (later.t - first.t)], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(later.angular_momentum, first.angular_momentum, rtol=0, atol=1e-6)
+    # A fixed base publishes no <NAME>_BASE: said in one line, after the timeout.
+    with pytest.raises(RuntimeError, match=r"^no base state from instance 'arm' on ARM_BASE within 0.5 s .*floating"):
+        daemon.base_state("arm", timeout=0.5)

@@ -59,6 +59,7 @@ def test_simulate_returns_bit_for_bit_what_lagrangectl_simulate_writes(scene, tm
         names = read_csv(path.replace(".csv", ".joints.csv"))["name"]
         assert run.joint_names == names
         assert run.fault is None
+        assert run.base is None  # a fixed base: no base rows, the joints' arrays as before
         moved = moved or np.ptp(run.q, axis=0).max() > 1e-3
     assert moved  # a run that stands still would prove little
 
@@ -98,6 +99,7 @@ def test_stepping_without_a_torque_is_the_simulation_step_for_step():
         np.testing.assert_array_equal(inst.qd, run.qd[k])
         np.testing.assert_array_equal(inst.tau, run.tau[k])
     assert inst.kinetic_energy == run.kinetic_energy[-1]
+    assert inst.base is None
     inst.reset()
     assert inst.t == 0.0
     np.testing.assert_array_equal(inst.q, run.q[0])
@@ -342,3 +344,83 @@ def test_an_instances_state_of_the_wrong_shape_or_not_finite_is_refused_and_noth
         inst.set_state(q=[float("inf")], qd=[1.0])
     np.testing.assert_array_equal(inst.q, q)
     assert inst.qd[0] == 0.0
+
+
+# A floating base (config/quadruped_free_fall.yaml: the A1 thrown up tumbling, no ground, its legs under PD).
+FREE_FALL = "quadruped_free_fall.yaml"
+BASE_ARRAYS = (("position", 3), ("orientation", 4), ("linear_velocity", 3), ("angular_velocity", 3), ("com", 3),
+               ("linear_momentum", 3), ("angular_momentum", 3))  # log2csv's <NAME>_BASE columns, in order
+GRAVITY = np.array([0.0, 0.0, -9.81])
+
+
+def test_a_floating_base_s_rows_are_bit_for_bit_lagrangectl_simulate_s_base_columns(tmp_path):
+    r, csv = lagrangectl_simulate(config(FREE_FALL), 0.2, tmp_path)
+    assert r.returncode == 0, r.stderr
+    columns = read_csv(csv)
+    run = lagrange.simulate(config(FREE_FALL), 0.2)["a1"]
+    assert run.q.shape == (201, 12)  # the joints' alone, as in the CSV
+    for field in ("q", "qd", "q_des", "tau"):
+        np.testing.assert_array_equal(getattr(run, field), joint_block(columns, field, 12), err_msg=field)
+    np.testing.assert_array_equal(run.kinetic_energy, numbers(columns, "kinetic_energy"))
+    assert run.base is not None
+    for name, width in BASE_ARRAYS:
+        assert getattr(run.base, name).shape == (201, width)
+        np.testing.assert_array_equal(getattr(run.base, name), joint_block(columns, name, width), err_msg=name)
+
+
+def test_the_tumbling_quadruped_s_centre_of_mass_is_on_the_parabola_and_its_momentum_about_it_stays():
+    run = lagrange.simulate(config(FREE_FALL), 1.0)["a1"]
+    base, t = run.base, run.t[:, None]
+    mass = lagrange.Model.from_urdf(config("robots/a1.urdf"), floating_base=True).mass_matrix(
+        np.concatenate([base.position[0], base.orientation[0], run.q[0]]))[0, 0]
+    assert 10.0 < mass < 20.0  # kg: the A1's 13.74
+    # m c̈ = m g whatever the legs do: c(t) = c0 + ċ0 t + ½ g t², ċ0 the momentum over the mass, to rk4's truncation
+    # (1.0e-8 m over 1 s at 1 ms: tests/daemon/floating_scene_test.cpp).
+    parabola = base.com[0] + base.linear_momentum[0] / mass * t + 0.5 * GRAVITY * t * t
+    np.testing.assert_allclose(base.com, parabola, rtol=0, atol=1e-7)
+    # and m ċ = m ċ0 + m g t: ċ to 1e-7 m/s (measured 1.0e-8), so the momentum to 1e-7 m/s × m.
+    np.testing.assert_allclose(base.linear_momentum, base.linear_momentum[0] + mass * GRAVITY * t, rtol=0,
+                               atol=1e-7 * mass)
+    # Gravity has no moment about the centre of mass: the angular momentum about it stays (rk4's truncation).
+    angular = base.angular_momentum
+    assert np.linalg.norm(angular[0]) > 0.1
+    assert np.max(np.linalg.norm(angular - angular[0], axis=1)) < 1e-7 * np.linalg.norm(angular[0])
+    np.testing.assert_allclose(np.linalg.norm(base.orientation, axis=1), 1.0, rtol=0, atol=1e-12)
+    assert np.min(np.abs(base.orientation[:, 3])) < 0.5  # it tumbled: turned more than 120 degrees at some row
+    assert np.ptp(run.q, axis=0).max() > 0.5  # while the legs moved
+
+
+def test_a_floating_base_s_arrays_mean_what_the_model_computes_from_the_full_state():
+    # The rows' com and momentum against lagrange.Model's centre of mass and A_G v at the same q, v: the arrays
+    # are in the free-flyer's order (position, quaternion x y z w; v_b, ω_b in base axes) and named for what they are.
+    run = lagrange.simulate(config(FREE_FALL), 0.1)["a1"]
+    model = lagrange.Model.from_urdf(config("robots/a1.urdf"), floating_base=True)
+    b = run.base
+    q = np.concatenate([b.position, b.orientation, run.q], axis=1)
+    v = np.concatenate([b.linear_velocity, b.angular_velocity, run.qd], axis=1)
+    com, _ = model.center_of_mass(q)
+    np.testing.assert_allclose(b.com, com, rtol=0, atol=1e-12)
+    h = np.einsum("kij,kj->ki", model.centroidal_momentum_matrix(q), v)
+    np.testing.assert_allclose(b.linear_momentum, h[:, :3], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(b.angular_momentum, h[:, 3:], rtol=0, atol=1e-10)
+
+
+def test_stepping_a_floating_instance_is_the_simulation_step_for_step():
+    run = lagrange.simulate(config(FREE_FALL), 0.05)["a1"]
+    inst = lagrange.Instance(config(FREE_FALL))
+    assert inst.num_dofs == 12
+    for k in range(len(run.t)):
+        if k:
+            inst.step()
+        base = inst.base
+        assert base.t == run.t[k] and base.utime is None and base.run_id is None and base.tick is None
+        for name, width in BASE_ARRAYS:
+            assert getattr(base, name).shape == (width,)
+            np.testing.assert_array_equal(getattr(base, name), getattr(run.base, name)[k], err_msg=name)
+        np.testing.assert_array_equal(inst.q, run.q[k])
+    # Moving the joints by hand leaves the base where it is (Instance.set_state: the joints' state).
+    where = inst.base.position
+    inst.set_state(q=np.zeros(12))
+    np.testing.assert_array_equal(inst.base.position, where)
+    inst.reset()
+    np.testing.assert_array_equal(inst.base.position, run.base.position[0])

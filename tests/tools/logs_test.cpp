@@ -1097,6 +1097,64 @@ TEST_F(Logs, PlotAddsTheResidualTheCostAndOneForcePanelPerJointWhenRecorded) {
   EXPECT_GT(height, state_height + 3 * 100);  // four panels more: ε, cost, and one per joint
 }
 
+// A floating base's run: its states and, beside each, its base (<NAME>_BASE)
+// falling from 1 m, z = 1 − ½ g t², turning about z at 1 rad/s.
+std::vector<std::pair<std::string, std::vector<std::uint8_t>>> TreeRunWithBase(int ticks) {
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> events;
+  for (std::int64_t k = 0; k < ticks; ++k) {
+    const state_t s = MakeState(k);
+    events.emplace_back("TREE_STATE", Encode(s));
+    base_state_t b{};
+    b.run_id = s.run_id;
+    b.tick = s.tick;
+    b.t = s.t;
+    b.position[2] = b.com[2] = 1.0 - 0.5 * 9.81 * s.t * s.t;
+    b.orientation[2] = std::sin(0.5 * s.t);
+    b.orientation[3] = std::cos(0.5 * s.t);
+    b.angular_velocity[2] = 1.0;
+    b.linear_momentum[2] = -9.81 * s.t;
+    b.angular_momentum[2] = 0.1;
+    events.emplace_back("TREE_BASE", Encode(b));
+  }
+  return events;
+}
+
+// A log's floating base (<NAME>_BASE beside <NAME>_STATE, or log2csv's
+// NAME_BASE.csv beside NAME_STATE.csv): plot adds the base's three panels, as
+// for a simulate CSV's base columns, and says what height the base fell from
+// and to; the states alone draw three panels fewer.
+TEST_F(Logs, PlotAddsTheBasesPanelsWhenALogsBaseIsBeside) {
+  const fs::path log = dir_ / "tree.lcm";
+  testing::WriteLcmLog(log.string(), TreeRunWithBase(200));
+  const std::string base = "; base: 200 rows, height 1 to 0.8058 m\n";  // 1 − ½ 9.81 (0.199 s)²
+  const fs::path log_png = dir_ / "log.png";
+  auto r = RunCtl({"plot", log.string(), "-o", log_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, log_png.string() + ": 200 rows in 1 segment" + base);
+  const auto [height, width] = ImageSize(log_png);
+
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "-o", (dir_ / "csv").string()}).status, 0);
+  const fs::path csv_png = dir_ / "csv.png";
+  r = RunCtl({"plot", (dir_ / "csv" / "TREE_STATE.csv").string(), "-o", csv_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, csv_png.string() + ": 200 rows in 1 segment" + base);
+  EXPECT_EQ(ImageSize(csv_png), std::make_pair(height, width));
+
+  ASSERT_EQ(RunCtl({"log2csv", log.string(), "--channel", "TREE_STATE", "-o", (dir_ / "state").string()}).status, 0);
+  const fs::path state_png = dir_ / "state.png";
+  r = RunCtl({"plot", (dir_ / "state" / "TREE_STATE.csv").string(), "-o", state_png.string()});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, state_png.string() + ": 200 rows in 1 segment\n");
+  EXPECT_GT(height, ImageSize(state_png).first + 2 * 100);  // three panels more
+
+  // A base CSV that lacks a base's columns is refused in one line naming it.
+  const fs::path bad = dir_ / "csv" / "TREE_BASE.csv";
+  std::ofstream(bad) << "t,position2\n0,1\n";
+  r = RunCtl({"plot", (dir_ / "csv" / "TREE_STATE.csv").string(), "-o", csv_png.string()});
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("TREE_BASE.csv lacks the columns com2"), std::string::npos) << r.err;
+}
+
 // The arm's states with a task-space frame's beside them (<NAME>_TASK), the
 // frame going round a 0.1 m circle with a 1 mm error.
 std::vector<std::pair<std::string, std::vector<std::uint8_t>>> ArmRunWithTaskStates(int ticks) {
