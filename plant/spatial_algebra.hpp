@@ -17,6 +17,11 @@
 //   m ×* f  = (w × n + v × f, w × f)             motion cross force
 //   m · f   = w · n + v · f                      power
 //
+// Shared by the fixed-base (plant/spatial_dynamics) and floating-base
+// (plant/floating_dynamics) sweeps: RotationTakingZTo (a joint's folding),
+// WorldInertia (a body's inertia in world axes) and NetForce (Newton–Euler at
+// the centre of mass).
+//
 // Everything is inline and allocation-free.
 
 #include <Eigen/Core>
