@@ -115,7 +115,7 @@ FloatingDynamics::FloatingDynamics(RigidTree tree) : tree_(std::move(tree)) {
     offset_.push_back(map.offset);
     const TreeJoint& j = tree_.joints[i];
     const int p = j.parent + 1;
-    const Matrix3d& Fp = fold[static_cast<std::size_t>(p)];
+    const Matrix3d Fp = fold[static_cast<std::size_t>(p)];  // a copy: add_body grows fold
     const Matrix3d F = spatial::RotationTakingZTo(j.axis);
     parent_.push_back(p);
     revolute_.push_back(j.type == JointType::kRevolute ? 1 : 0);
