@@ -2,19 +2,32 @@
 // Recursive dynamics of a floating-base RigidTree (floating_base true,
 // plant/rigid_tree.hpp): the free-flyer root is a 6-DoF joint between the
 // world and the base body, and every algorithm is Featherstone's with that
-// root (Rigid Body Dynamics Algorithms, §9.5; Pinocchio's free-flyer), in body
-// coordinates, O(n) but the mass matrix (O(Σ d)). n degrees of freedom, nq = n + 7,
+// root (Rigid Body Dynamics Algorithms, §9.5; Pinocchio's free-flyer), O(n)
+// but the mass matrix (O(Σ d)). n degrees of freedom, nq = n + 7,
 // nv = n + 6 (RigidTree::num_q, num_v); conventions of q, v and the base's
 // generalized force in plant/rigid_tree.hpp; a = v̇ (nv): the base's entries
 // are the time derivatives of its body-axes velocity (v_b, ω_b).
 //
-//   inverse dynamics  RNEA: tau = M a + [C v] + [G] (nv); the base's six
-//                     entries are the wrench on the base in base axes
-//                     (force, then moment about the base origin) that
-//                     produces a; zero for a free-flying robot        O(n)
+// Frames are folded as SpatialDynamics' (plant/spatial_dynamics.hpp): at
+// construction each joint's body frame is turned about its origin so that its
+// axis is z (inertias, children's placements and frames re-expressed), so a
+// joint's motion is S = (z, 0) or (0, z) and its transform a rotation about z;
+// the sines and cosines of every joint angle come from one vectorised loop
+// (plant/spatial_sincos.hpp).
+//
+//   inverse dynamics  RNEA in body coordinates, each body's net force by
+//                     Newton–Euler at its centre of mass, gravity entering
+//                     as the base's acceleration: tau = M a + [C v] + [G]
+//                     (nv); the base's six entries are the wrench on the
+//                     base in base axes (force, then moment about the base
+//                     origin) that produces a; zero for a free-flying robot  O(n)
 //   mass matrix       CRBA: M (nv x nv), symmetric positive definite    O(Σ d)
-//   forward dynamics  ABA: a = M⁻¹ (tau − [C v] − [G]), the base's 6 x 6
-//                     articulated inertia solved at the root             O(n)
+//   forward dynamics  ABA: a = M⁻¹ (tau − [C v] − [G]) in world axes at the
+//                     base's origin, where a subtree's articulated inertia
+//                     is a plain sum (no transforms) and every length is
+//                     the robot's (not its distance from the world origin);
+//                     the base's 6 x 6 articulated inertia solved at the
+//                     root by Cholesky                                   O(n)
 //   T, V              ½ vᵀ M v; −gravity · (first moment in the world)   O(n)
 //   momentum          the tree's spatial momentum in world axes about the
 //                     world origin (angular N·m·s, then linear N·s);
@@ -69,10 +82,12 @@ namespace lagrange {
 class FloatingDynamics;
 
 // One user's scratch (one per thread), sized by FloatingDynamics::MakeData.
-// Index 0 is the base, index i + 1 joint i's body.
 class FloatingData {
  public:
   explicit FloatingData(const FloatingDynamics& model);
+  ~FloatingData();
+  FloatingData(const FloatingData&) = delete;
+  FloatingData& operator=(const FloatingData&) = delete;
   const FloatingDynamics& model() const { return *model_; }
   // After ComputeFramePlacements: frame k's axes in the world (3 x 3) and origin (m).
   const Eigen::Matrix3d& frame_rotation(int k) const { return frame_R[static_cast<std::size_t>(k)]; }
@@ -80,23 +95,11 @@ class FloatingData {
 
  private:
   friend class FloatingDynamics;
-  using Matrix6d = Eigen::Matrix<double, 6, 6>;
-  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  struct Scratch;  // the sweeps' buffers, defined in the .cpp
   const FloatingDynamics* model_;
-  std::vector<spatial::Xform> X;  // parent (the world for the base) → body coordinates
-  std::vector<Eigen::Matrix3d> R;  // body axes in the world
-  std::vector<Eigen::Vector3d> o;  // body origin in the world, m
-  std::vector<spatial::Motion> v, a, c, g;  // velocity, acceleration, v × S qd, gravity (0, g) in body axes
-  std::vector<spatial::Force> f;
-  std::vector<spatial::Inertia> Ic;        // composite inertias
-  std::vector<Matrix6d> IA;                // articulated inertias, (w, v) order
-  std::vector<Vector6d> pA, U;             // articulated bias forces, IA S
-  std::vector<double> D, u;
+  std::unique_ptr<Scratch> s;
   std::vector<Eigen::Matrix3d> frame_R;
   std::vector<Eigen::Vector3d> frame_p;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> A;  // (6 x nv) A_G, for the centre of mass's Jacobian
-  VectorXd zero_v, tau_v;                      // (nv) a = 0 and the drift's generalized force, for Ȧ_G v
-  MatrixXd M;                                  // (nv x nv) forward dynamics with mimic joints
 };
 
 class FloatingDynamics {
@@ -145,27 +148,44 @@ class FloatingDynamics {
 
  private:
   void CheckSizes(const FloatingData& data, ConstVecRef q) const;
-  void Placements(FloatingData& data, ConstVecRef q) const;
+  // q => X (and the base's R, o); WorldPlacements: X => every body's R, o.
+  void Transforms(FloatingData& data, ConstVecRef q) const;
+  void WorldPlacements(FloatingData& data) const;
+  void Placements(FloatingData& data, ConstVecRef q) const {
+    Transforms(data, q);
+    WorldPlacements(data);
+  }
   void Velocities(FloatingData& data, ConstVecRef v, bool products) const;
+  template <bool kVelocity>
+  void RneaForward(FloatingData& data, ConstVecRef v, ConstVecRef a) const;
+  void Aba(FloatingData& data, ConstVecRef v, ConstVecRef tau, DynamicsTerms terms, VecRef a) const;
   void CompositeInertias(FloatingData& data) const;
   int parent(int body) const { return parent_[static_cast<std::size_t>(body)]; }
   // Body b's joint: its entry of v (and tau), q through its mimic map, qd and qdd.
   int Vi(int b) const { return kFreeFlyerNv + dof_[b]; }
   double JointQ(ConstVecRef q, int b) const { return q[kFreeFlyerNq + dof_[b]] * scale_[b] + offset_[b]; }
   double JointRate(ConstVecRef x, int b) const { return x[Vi(b)] * scale_[b]; }
-  // Body b's joint motion S_b: (axis, 0) revolute, (0, axis) prismatic, body axes.
+  // Body b's joint motion S_b: (z, 0) revolute, (0, z) prismatic, folded body axes.
   spatial::Motion Subspace(int b) const {
-    return revolute_[b] ? spatial::Motion{axis_[b], Eigen::Vector3d::Zero()}
-                        : spatial::Motion{Eigen::Vector3d::Zero(), axis_[b]};
+    return revolute_[b] ? spatial::Motion{Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero()}
+                        : spatial::Motion{Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()};
   }
+  // S_bᵀ f: one component.
+  double SubspaceDot(int b, const spatial::Force& f) const { return revolute_[b] ? f.n.z() : f.f.z(); }
 
   RigidTree tree_;
   int n_ = 0;
-  std::vector<int> parent_;                // body → parent body (−1 for the base)
-  std::vector<char> revolute_;             // per body (the base: unused)
-  std::vector<Eigen::Vector3d> axis_;      // joint axis, body axes (the base: unused)
-  std::vector<spatial::Xform> X0_;         // parent body → joint frame (the fixed placement)
-  std::vector<spatial::Inertia> inertia_;  // about the body origin, body axes
+  std::vector<int> parent_;     // body → parent body (−1 for the base)
+  std::vector<char> revolute_;  // per body (the base: unused)
+  // Joint b's fixed placement in its parent's folded frame: the joint frame's
+  // coordinates are E0 (x − r); the joint moves the body frame by Rz(q) or q z.
+  std::vector<Eigen::Matrix3d> E0_;
+  std::vector<Eigen::Vector3d> r_;
+  std::vector<spatial::Inertia> inertia_;        // about the body origin, folded body axes
+  std::vector<Eigen::Vector3d> com_;             // centre of mass, folded body axes, m
+  std::vector<Eigen::Matrix3d> inertia_com_;     // rotational inertia about the centre of mass, folded body axes
+  std::vector<Eigen::Matrix3d> frame_rotation_;  // per frame: its axes in its body's folded frame
+  std::vector<Eigen::Vector3d> frame_position_;  // per frame: its origin in its body's folded frame, m
   std::vector<int> dof_;                   // per body: its joint's degree of freedom (the base: unused)
   std::vector<double> scale_, offset_;     // per body: its joint's mimic map (1, 0 for a degree of freedom)
 };

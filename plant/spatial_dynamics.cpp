@@ -19,22 +19,10 @@ using spatial::Dot;
 using spatial::Force;
 using spatial::Inertia;
 using spatial::Motion;
+using spatial::NetForce;
+using spatial::RotationTakingZTo;
+using spatial::WorldInertia;
 using spatial::Xform;
-
-// A rotation whose third column is the unit vector a: a joint's folding.
-Matrix3d RotationTakingZTo(const Vector3d& a) {
-  // Start from the coordinate axis least aligned with a.
-  Vector3d h = Vector3d::Zero();
-  int k = 0;
-  a.cwiseAbs().minCoeff(&k);
-  h[k] = 1.0;
-  const Vector3d x = (h - h.dot(a) * a).normalized();
-  Matrix3d R;
-  R.col(0) = x;
-  R.col(1) = Cross(a, x);
-  R.col(2) = a;
-  return R;
-}
 
 }  // namespace
 
@@ -209,24 +197,6 @@ void WorldPlacements(const SpatialModel& m, SpatialScratch& s) {
   }
 }
 
-// Body i's inertia in world coordinates, about the world origin: rotate by R,
-// shift by o (as Xform::ApplyTransposed with E = Rᵀ, p = o).
-LAGRANGE_SPATIAL_INLINE Inertia WorldInertia(const Inertia& I, const Matrix3d& R, const Vector3d& o) {
-  const Vector3d ho = spatial::Mul(R, I.h);
-  const Vector3d k = ho + 0.5 * I.m * o;
-  const Matrix3d T = spatial::MulAB(R, I.Ib);
-  const double d = 2.0 * (o.x() * k.x() + o.y() * k.y() + o.z() * k.z());
-  Matrix3d Ib;
-  for (int c = 0; c < 3; ++c) {
-    for (int r = 0; r <= c; ++r) {
-      Ib(r, c) = T(r, 0) * R(c, 0) + T(r, 1) * R(c, 1) + T(r, 2) * R(c, 2) - (k[r] * o[c] + o[r] * k[c]);
-      Ib(c, r) = Ib(r, c);
-    }
-    Ib(c, c) += d;
-  }
-  return {I.m, ho + I.m * o, Ib};
-}
-
 // İ = v ×* I − I v×, the rate of a world inertia I carried with velocity v:
 // (D, ḣ) with ḣ = ω × h + m v, D = A + Aᵀ − (h vᵀ + v hᵀ) + 2 (v · h) 1,
 // A = [ω]× Ib; its mass part is zero. Symmetric, like I.
@@ -246,24 +216,6 @@ LAGRANGE_SPATIAL_INLINE Inertia InertiaRate(const Inertia& I, const Motion& v) {
 }
 
 // ---- recursive Newton–Euler ---------------------------------------------
-
-// The net force on a body, f = I a + v ×* I v, by Newton and Euler at its
-// centre of mass c (fewer products than the spatial form): with the spatial
-// acceleration a = (ω̇, a_o), the centre of mass accelerates at
-// a_c = a_o + ω̇ × c + ω × (v_o + ω × c), F = m a_c, and n = I_c ω̇ + ω × I_c ω + c × F.
-template <bool kVelocity>
-LAGRANGE_SPATIAL_INLINE Force NetForce(double mass, const Vector3d& c, const Matrix3d& Ic, const Motion& v,
-                                       const Motion& a) {
-  using spatial::Mul;
-  Vector3d ac = a.v + Cross(a.w, c);
-  Vector3d n = Mul(Ic, a.w);
-  if (kVelocity) {
-    ac += Cross(v.w, v.v + Cross(v.w, c));
-    n += Cross(v.w, Mul(Ic, v.w));
-  }
-  const Vector3d F = mass * ac;
-  return {n + Cross(c, F), F};
-}
 
 // (X, qd, qdd) => f_i = I_i a_i [+ v_i ×* I_i v_i], each body's own net force,
 // with a_i = X_i a_λ(i) + [S_i qdd_i] [+ v_i × S_i qd_i] and a_root = [−gravity].

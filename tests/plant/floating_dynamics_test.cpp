@@ -256,6 +256,23 @@ TEST(FloatingDynamics, ForwardThenInverseDynamicsGivesTheForceBack) {
   }
 }
 
+TEST(FloatingDynamics, ForwardDynamicsIsTheSameFarFromTheWorldOrigin) {
+  // Gravity is uniform, so moving the whole robot 10 km changes no acceleration
+  // (v̇ is in base axes); an algorithm that summed inertias about the world
+  // origin would lose about nine digits to m |p|² here.
+  constexpr double kFar = 1e4;  // m
+  std::mt19937 rng{42};
+  for (int k = 0; k < kTrees; ++k) {
+    const auto& [model, data, s] = Case(FloatingTree(k, rng), rng);
+    const VectorXd tau = RandomVector(model.num_v(), -3.0, 3.0, rng);
+    VectorXd far_q = s.q, a(model.num_v()), far_a(model.num_v());
+    far_q.head<3>() += Eigen::Vector3d(-kFar, 0.5 * kFar, kFar);
+    model.ComputeForwardDynamics(*data, s.q, s.v, tau, AllTerms(), a);
+    model.ComputeForwardDynamics(*data, far_q, s.v, tau, AllTerms(), far_a);
+    EXPECT_LT(RelativeDifference(far_a, a), kInverseTol) << "tree " << k;
+  }
+}
+
 TEST(FloatingDynamics, MassMatrixIsTheKineticEnergysHessian) {
   // T is quadratic in v: M_ij = T(e_i + e_j) − T(e_i) − T(e_j), M_ii = 2 T(e_i),
   // with T from the world-frame reference.
