@@ -17,7 +17,12 @@
 //
 // And mass/<plant>/<kernel>: the planar chains' two exact mass-matrix kernels
 // (RecursiveDynamics::MassMatrixKernel: carried, the old, and base_frame, the
-// default since issue 37) on the same states, old beside new in one run.
+// default since issue 37) on the same states, old beside new in one run; and
+// the spatial ones (SpatialDynamics::MassMatrixKernel: body_frame, the old,
+// and world_frame, the default since issue 37) on the shipped robots (panda,
+// ur5), a random branching tree of 12 bodies with prismatic joints (mixed12)
+// and random chains of 12 and 64 (spatial12, spatial64; the body-frame
+// kernel's deep-tree form runs at 64).
 
 #include <memory>
 #include <string>
@@ -25,6 +30,7 @@
 
 #include "bench/bench_plants.hpp"
 #include "bench/gbench.hpp"
+#include "plant/random_tree.hpp"
 #include "plant/recursive_dynamics.hpp"
 #include "plant/spatial_dynamics.hpp"
 
@@ -66,10 +72,34 @@ void RegisterMassKernels(const NamedPlant& plant) {
   }
 }
 
+// mass/<robot>/<kernel> for each of the spatial mass-matrix kernels.
+void RegisterSpatialMassKernels(const NamedTree& robot) {
+  using K = SpatialDynamics::MassMatrixKernel;
+  auto d = std::make_shared<const SpatialDynamics>(robot.tree);
+  for (const auto& [kernel, label] :
+       {std::pair{K::kBodyFrame, "body_frame"}, std::pair{K::kWorldFrame, "world_frame"}}) {
+    const std::string name = "mass/" + robot.name + "/" + label;
+    benchmark::RegisterBenchmark(name.c_str(), [d, kernel](benchmark::State& bm) {
+      TimeCall(bm, *d, [&d, kernel](DynamicsData& data, const State& s, MatrixXd& M, VectorXd&) {
+        d->ComputeMassMatrix(data, kernel, s.q, M);
+      });
+    });
+  }
+}
+
+// A random branching tree of 12 bodies, 30 % of its joints prismatic.
+NamedTree MixedTree() {
+  std::mt19937 rng{42};
+  return {"mixed12", RandomRigidTree({.bodies = 12, .chain = false, .prismatic_fraction = 0.3}, rng)};
+}
+
 void RegisterAll() {
   for (const NamedPlant& p : FixedPlants()) RegisterPlant(p);
   for (int links : ChainSizes()) RegisterPlant(Chain(links));
   for (int links : ChainSizes()) RegisterMassKernels(Chain(links));
+  for (const std::string& robot : ShippedRobotNames()) RegisterSpatialMassKernels(LoadShippedRobot(robot));
+  RegisterSpatialMassKernels(MixedTree());
+  for (int links : {12, 64}) RegisterSpatialMassKernels(RandomSpatialChain(links, 42, 0.3));
 }
 
 }  // namespace

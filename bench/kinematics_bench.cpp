@@ -20,6 +20,11 @@
 //              J̇ qd
 //   all        (none)                                         ComputeFrameKinematics: every frame's pose,
 //                                                             J and J̇ qd in both axes
+//   jacobian_local          (none)                            ComputeFrameJacobian in the frame's own axes
+//                                                             (LocalJacobianKernel::kFromTip, the default
+//                                                             since issue 37)
+//   jacobian_local_rotated  (none)                            the same by kRotated, the old kernel: world
+//                                                             axes, each column rotated (the baseline)
 //
 // The end effector is panda_link8 (the flange) and ur5's flange.
 // Conventions. KDL's JntToJac gives the Jacobian in the base's axes with the
@@ -73,7 +78,16 @@ constexpr int kStates = 16;          // states cycled through while timing, as b
 constexpr int kCheckStates = 8;      // states the agreement check compares
 constexpr double kAgreement = 1e-9;  // largest |lagrange − KDL| / (1 + max |KDL|) accepted
 
-enum class KinematicsTerm : std::uint8_t { kPoses, kPose, kJacobian, kJacobians, kJdotQd, kAll };
+enum class KinematicsTerm : std::uint8_t {
+  kPoses,
+  kPose,
+  kJacobian,
+  kJacobians,
+  kJdotQd,
+  kAll,
+  kJacobianLocal,
+  kJacobianLocalRotated
+};
 constexpr KinematicsTerm kPeerTerms[] = {KinematicsTerm::kPoses, KinematicsTerm::kPose, KinematicsTerm::kJacobian,
                                          KinematicsTerm::kJacobians, KinematicsTerm::kJdotQd};
 
@@ -85,6 +99,8 @@ std::string_view TermName(KinematicsTerm term) {
     case KinematicsTerm::kJacobians: return "jacobians";
     case KinematicsTerm::kJdotQd: return "jdotqd";
     case KinematicsTerm::kAll: return "all";
+    case KinematicsTerm::kJacobianLocal: return "jacobian_local";
+    case KinematicsTerm::kJacobianLocalRotated: return "jacobian_local_rotated";
   }
   return "?";
 }
@@ -182,6 +198,10 @@ void EvaluateLagrange(const Kinematics& model, KinematicsData& data, KinematicsT
     case KinematicsTerm::kJacobians: model.ComputeFrameJacobians(data, s.q, kWorld); break;
     case KinematicsTerm::kJdotQd: model.ComputeFrameBiasAcceleration(data, s.q, s.qd, frame, kWorld); break;
     case KinematicsTerm::kAll: model.ComputeFrameKinematics(data, s.q, s.qd); break;
+    case KinematicsTerm::kJacobianLocal: model.ComputeFrameJacobian(data, s.q, frame, FrameAxes::kLocal); break;
+    case KinematicsTerm::kJacobianLocalRotated:
+      model.ComputeFrameJacobian(data, s.q, frame, Kinematics::LocalJacobianKernel::kRotated);
+      break;
   }
 }
 
@@ -358,9 +378,11 @@ void RegisterAll() {
       benchmark::RegisterBenchmark(BenchmarkName(robot, "lagrange", term).c_str(),
                                    [tree, term, frame](benchmark::State& bm) { TimeLagrange(bm, tree, term, frame); });
     }
-    benchmark::RegisterBenchmark(
-        BenchmarkName(robot, "lagrange", KinematicsTerm::kAll).c_str(),
-        [tree, frame](benchmark::State& bm) { TimeLagrange(bm, tree, KinematicsTerm::kAll, frame); });
+    for (KinematicsTerm term :
+         {KinematicsTerm::kAll, KinematicsTerm::kJacobianLocal, KinematicsTerm::kJacobianLocalRotated}) {
+      benchmark::RegisterBenchmark(BenchmarkName(robot, "lagrange", term).c_str(),
+                                   [tree, term, frame](benchmark::State& bm) { TimeLagrange(bm, tree, term, frame); });
+    }
   }
 }
 

@@ -1,6 +1,7 @@
 #include "plant/eigenvalues.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 
 namespace lagrange {
 
@@ -9,5 +10,11 @@ VectorXd SymmetricEigenvalues(const MatrixXd& X) {
 }
 
 Eigen::VectorXcd Eigenvalues(const MatrixXd& A) { return Eigen::EigenSolver<MatrixXd>(A, false).eigenvalues(); }
+
+SymmetricRankTwo SymmetricRankTwoOf(const Eigen::Matrix3d& X) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(X);
+  const Eigen::Vector3d& l = eig.eigenvalues();
+  return {l[0], std::sqrt(l[1] - l[0]) * eig.eigenvectors().col(1), std::sqrt(l[2] - l[0]) * eig.eigenvectors().col(2)};
+}
 
 }  // namespace lagrange

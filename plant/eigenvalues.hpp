@@ -20,4 +20,14 @@ VectorXd SymmetricEigenvalues(const MatrixXd& X);
 // eigenvalues only; in the order Eigen's real Schur form gives them).
 Eigen::VectorXcd Eigenvalues(const MatrixXd& A);
 
+// A symmetric 3 x 3 X as λ0 1 + a aᵀ + b bᵀ with λ0 its least eigenvalue,
+// a = √(λ1 − λ0) u1 and b = √(λ2 − λ0) u2 (u the unit eigenvectors of the
+// ascending eigenvalues λ): then R X Rᵀ = λ0 1 + (R a)(R a)ᵀ + (R b)(R b)ᵀ
+// for a rotation R, in 30 multiplications instead of 45.
+struct SymmetricRankTwo {
+  double lambda0 = 0.0;
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();
+};
+SymmetricRankTwo SymmetricRankTwoOf(const Eigen::Matrix3d& X);
+
 }  // namespace lagrange

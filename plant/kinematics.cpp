@@ -189,11 +189,28 @@ void Kinematics::ComputeFrameJacobians(KinematicsData& data, ConstVecRef q, Fram
 }
 
 void Kinematics::ComputeFrameJacobian(KinematicsData& data, ConstVecRef q, int frame, FrameAxes axes) const {
+  if (axes == FrameAxes::kLocal) {
+    ComputeFrameJacobian(data, q, frame, LocalJacobianKernel::kFromTip);
+    return;
+  }
   eigen_assert(&data.model() == this && "KinematicsData made by another model");
   eigen_assert(q.size() == num_dofs() && frame >= 0 && frame < num_frames());
   PlaceBodies(data, q, support_[frame]);
   PlaceFrame(data, frame);
   FillJacobian(data, frame, axes);
+}
+
+void Kinematics::ComputeFrameJacobian(KinematicsData& data, ConstVecRef q, int frame,
+                                      LocalJacobianKernel kernel) const {
+  eigen_assert(&data.model() == this && "KinematicsData made by another model");
+  eigen_assert(q.size() == num_dofs() && frame >= 0 && frame < num_frames());
+  if (kernel == LocalJacobianKernel::kFromTip) {
+    PlaceFrameAndLocalJacobianFromTip(data, q, frame);
+    return;
+  }
+  PlaceBodies(data, q, support_[frame]);
+  PlaceFrame(data, frame);
+  FillJacobian(data, frame, FrameAxes::kLocal);
 }
 
 void Kinematics::ComputeFrameBiasAcceleration(KinematicsData& data, ConstVecRef q, ConstVecRef qd, int frame,
@@ -226,7 +243,7 @@ void Kinematics::ComputeFrameJacobianAndBias(KinematicsData& data, ConstVecRef q
 // B first: it does not wait for the parent, so each joint adds one product to
 // the chain of dependencies. Written out element by element: Eigen's column
 // expressions on 3-vectors cost about a fifth more here.
-void Kinematics::PlaceBodies(KinematicsData& data, ConstVecRef q, std::span<const int> joints) const {
+const double* Kinematics::JointSines(KinematicsData& data, ConstVecRef q) const {
   const int n = static_cast<int>(joints_.size());
   const double* qj = q.data();  // each joint's position: q itself, unless a joint mimics another
   if (mimics_) {
@@ -237,6 +254,11 @@ void Kinematics::PlaceBodies(KinematicsData& data, ConstVecRef q, std::span<cons
     qj = data.qj_.data();
   }
   spatial::SinCos(qj, data.cq_.data(), data.sq_.data(), n);
+  return qj;
+}
+
+void Kinematics::PlaceBodies(KinematicsData& data, ConstVecRef q, std::span<const int> joints) const {
+  const double* qj = JointSines(data, q);
   for (const int i : joints) {
     const Joint& j = joints_[i];
     KinematicsData::Body& b = data.bodies_[i];
@@ -343,6 +365,80 @@ void Kinematics::FillJacobian(KinematicsData& data, int k, FrameAxes axes) const
     } else {
       J.col(j) << linear, angular;
     }
+  }
+}
+
+// With T_j = R_jᵀ R_k and t_j = R_jᵀ (p_k − o_j), frame k's axes and origin in
+// body j's folded frame, from T_b = the frame's R and t_b = its offset on its
+// body b, and B_j = R_λᵀ R_j = E Rz(q_j) (revolute) or E (prismatic):
+//   T_λ = B_j T_j,  t_λ = B_j t_j + r_j  (+ q_j E e_z for a prismatic joint)
+// and joint j's column in the frame's axes: R_kᵀ z_j = T_jᵀ e_z (row 2 of T_j);
+// R_kᵀ (z_j × (p_k − o_j)) = T_jᵀ (e_z × t_j) = t_x (row 1) − t_y (row 0).
+// Past the root joint T and t are R_k and p_k.
+void Kinematics::PlaceFrameAndLocalJacobianFromTip(KinematicsData& data, ConstVecRef q, int k) const {
+  const Frame& tf = frames_[k];
+  if (tf.body < 0) return;  // on the world: placed by MakeData, zero Jacobian
+  const double* qj = JointSines(data, q);
+  KinematicsData::Frame& f = data.frames_[k];
+  Matrix6Xd& J = f.J_local;
+  const std::vector<int>& support = support_[k];
+  if (mimics_) {
+    for (const int j : support) J.col(joints_[j].map.dof).setZero();
+  }
+  Matrix3d T = tf.R;
+  Vector3d t = tf.p.r;
+  for (auto it = support.rbegin(); it != support.rend(); ++it) {
+    const int i = *it;
+    const Joint& j = joints_[i];
+    double column[6];
+    for (int c = 0; c < 3; ++c) {
+      column[c] = j.revolute ? t.x() * T(1, c) - t.y() * T(0, c) : T(2, c);
+      column[3 + c] = j.revolute ? T(2, c) : 0.0;
+    }
+    if (mimics_) {
+      for (int r = 0; r < 6; ++r) J(r, j.map.dof) += j.map.scale * column[r];
+    } else {
+      for (int r = 0; r < 6; ++r) J(r, i) = column[r];
+    }
+    // Into the parent's frame: B = E Rz(q), Rz(q)'s rows mixed alone when E is the identity.
+    if (!j.revolute) {
+      const Vector3d slide = qj[i] * j.E.col(2);
+      if (!j.identity) {
+        T = MulAB(j.E, T);
+        t = Mul(j.E, t);
+      }
+      t += slide + j.r.r;
+    } else if (j.identity) {
+      const double c = data.cq_[i], s = data.sq_[i];
+      for (int col = 0; col < 3; ++col) {
+        const double t0 = T(0, col), t1 = T(1, col);
+        T(0, col) = c * t0 - s * t1;
+        T(1, col) = s * t0 + c * t1;
+      }
+      const double t0 = t.x(), t1 = t.y();
+      t.x() = c * t0 - s * t1 + j.r.r.x();
+      t.y() = s * t0 + c * t1 + j.r.r.y();
+      t.z() += j.r.r.z();
+    } else {
+      const double c = data.cq_[i], s = data.sq_[i];
+      const Matrix3d& E = j.E;
+      Matrix3d B;
+      for (int r = 0; r < 3; ++r) {
+        B(r, 0) = c * E(r, 0) + s * E(r, 1);
+        B(r, 1) = c * E(r, 1) - s * E(r, 0);
+        B(r, 2) = E(r, 2);
+      }
+      T = MulAB(B, T);
+      t = Mul(B, t) + j.r.r;
+    }
+  }
+  // Past the root: the frame's pose, where its readers find it.
+  if (tf.at_body) {
+    data.bodies_[tf.body].R = T;
+    data.bodies_[tf.body].p = t;
+  } else {
+    f.R = T;
+    f.p = t;
   }
 }
 

@@ -187,7 +187,22 @@ class Kinematics {
   void ComputeFrameJacobians(KinematicsData& data, ConstVecRef q, FrameAxes axes) const;
   // q => R_k, p_k and J_k(q) in `axes` of one frame, as above (KDL's
   // ChainJntToJacSolver::JntToJac; Pinocchio's computeFrameJacobian). O(depth).
+  // In the frame's own axes (kLocal) by LocalJacobianKernel::kFromTip.
   void ComputeFrameJacobian(KinematicsData& data, ConstVecRef q, int frame, FrameAxes axes) const;
+  // One frame's Jacobian in its own axes, by either exact kernel:
+  //   kRotated  the joints placed root first in world axes, each column
+  //             formed in world axes, then rotated by R_kᵀ (9 + 9 + 6
+  //             multiplications a revolute column)
+  //   kFromTip  the frame placed in each body's axes from the tip to the root
+  //             (T_j = R_jᵀ R_k, t_j = R_jᵀ (p_k − o_j), one joint's rotation
+  //             at a time, as Pinocchio's computeFrameJacobian in LOCAL), each
+  //             column formed in the frame's axes from them: (T_jᵀ (e_z × t_j),
+  //             T_jᵀ e_z), 6 multiplications; the root's step gives R_k, p_k
+  //             (the default)
+  // Both write the same outputs as ComputeFrameJacobian (R_k, p_k, J_k);
+  // kRotated stays for the tests and bench/kinematics_bench.cpp's baseline.
+  enum class LocalJacobianKernel : std::uint8_t { kRotated, kFromTip };
+  void ComputeFrameJacobian(KinematicsData& data, ConstVecRef q, int frame, LocalJacobianKernel kernel) const;
   // (q, qd) => R_k, p_k and J̇_k qd in `axes` of one frame: the classical
   // acceleration of its origin and its angular acceleration at qdd = 0,
   // (p̈_k, ω̇_k) − J_k qdd (KDL's ChainJntToJacDotSolver in its hybrid
@@ -234,6 +249,8 @@ class Kinematics {
   };
   static Offset OffsetOf(const Eigen::Vector3d& r);
 
+  // q => each joint's position (q itself, or q_j = S q + o with mimics) and its cos, sin into `data`.
+  const double* JointSines(KinematicsData& data, ConstVecRef q) const;
   // q => cos q, sin q and the folded pose of each joint in `joints` (root first, parents before children).
   void PlaceBodies(KinematicsData& data, ConstVecRef q, std::span<const int> joints) const;
   // qd and the bodies' poses => each body's velocity and bias acceleration in `joints`, world axes.
@@ -242,6 +259,8 @@ class Kinematics {
   void PlaceFrame(KinematicsData& data, int k) const;
   // Frame k's pose and the bodies' poses => J_k in `axes`.
   void FillJacobian(KinematicsData& data, int k, FrameAxes axes) const;
+  // q => frame k's R, p and J_k in its own axes, tip to root (LocalJacobianKernel::kFromTip).
+  void PlaceFrameAndLocalJacobianFromTip(KinematicsData& data, ConstVecRef q, int k) const;
   // Frame k's pose and the bodies' motion => J̇_k qd in `axes`.
   void FillBias(KinematicsData& data, int k, FrameAxes axes) const;
 

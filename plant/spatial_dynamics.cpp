@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "plant/eigenvalues.hpp"
 #include "plant/spatial_algebra.hpp"
 #include "plant/spatial_sincos.hpp"
 
@@ -38,11 +39,41 @@ struct SpatialModel {
   // coordinates are E0 (x − r); the joint moves the body frame by Rz(q) or q z.
   std::vector<Matrix3d> E0;
   std::vector<Vector3d> r;
+  // Exact zeros of E0, for the world-frame mass matrix's placements
+  // (skipping them changes no bit): the identity (kIdentity), a turn about x
+  // (0: its row x and column x are e_x, as a URDF origin's roll alone gives),
+  // or any (kAny).
+  static constexpr int kIdentity = 3, kAny = 4;
+  std::vector<int> E0_axis;
   std::vector<Inertia> inertia;       // body inertia about the body origin, body axes
   std::vector<Vector3d> com;          // centre of mass, body frame, m
   std::vector<Matrix3d> inertia_com;  // rotational inertia about the centre of mass, body axes, kg·m²
   std::vector<double> subtree_mass;   // kg
   Vector3d gravity = Vector3d::Zero();
+  // Per body, for the world-frame mass matrix, one column per number (n x
+  // kBodyColumns, BodyColumn): mass, centre of mass (body axes) and the
+  // rotational inertia about it as λ0 1 + a aᵀ + b bᵀ (SymmetricRankTwoOf).
+  Eigen::MatrixXd body;
+};
+
+// Columns of SpatialModel::body.
+enum BodyColumn : int { kMass, kCom = 1, kLambda0 = 4, kFactorA = 5, kFactorB = 8, kBodyColumns = 11 };
+
+// Columns of SpatialScratch::world (n rows each): body i's world axes R_i
+// (column-major: R(r, c) in kAxes + 3c + r) and origin o_i, its joint's motion
+// axis J_i = (w, v), the composite inertia of its subtree about the world
+// origin (first moment h; rotational inertia xx, yy, zz, xy, xz, yz) and
+// F_i = Ic_i J_i = (n, f).
+enum WorldColumn : int {
+  kAxes = 0,
+  kOrigin = 9,
+  kAxisW = 12,
+  kAxisV = 15,
+  kMoment = 18,
+  kRotational = 21,
+  kForceN = 27,
+  kForceF = 30,
+  kWorldColumns = 33
 };
 
 // What the sweeps write, n entries each (H n x n), sized once.
@@ -64,6 +95,7 @@ struct SpatialScratch {
   std::vector<Force> pA, U;
   std::vector<double> D, u;  // D: 1/D in the ABA
   std::vector<double> H;     // M's lower triangle, row-major n x n, then its Lᵀ D L factors
+  Eigen::MatrixXd world;     // the world-frame mass matrix's columns (n x kWorldColumns, WorldColumn)
   // Derivatives (world frame): ∂a_i/∂q_i's column, zeros (qdd = 0, qd = 0).
   std::vector<Motion> dAdq;
   std::vector<double> zeros;
@@ -98,11 +130,27 @@ SpatialModel Fold(const RigidTree& tree) {
     m.inertia_com.push_back(0.5 * (I + I.transpose()));  // the part the kinetic energy sees
     m.inertia.push_back(spatial::InertiaFromCom(b.mass, m.com.back(), m.inertia_com.back()));
   }
+  for (int i = 0; i < m.n; ++i) {
+    const Matrix3d& E = m.E0[i];
+    const bool about_x = E(0, 0) == 1.0 && E(0, 1) == 0.0 && E(0, 2) == 0.0 && E(1, 0) == 0.0 && E(2, 0) == 0.0;
+    m.E0_axis.push_back(E == Matrix3d::Identity() ? SpatialModel::kIdentity : about_x ? 0 : SpatialModel::kAny);
+  }
   int ancestors = 0;
   for (int i = 0; i < m.n; ++i) {
     for (int j = m.parent[i]; j >= 0; j = m.parent[j]) ++ancestors;
   }
   m.deep = ancestors > SpatialDynamics::kDeepTreeMeanAncestors * m.n;
+  m.body.resize(m.n, kBodyColumns);
+  for (int i = 0; i < m.n; ++i) {
+    const SymmetricRankTwo f = SymmetricRankTwoOf(m.inertia_com[i]);
+    m.body(i, kMass) = m.inertia[i].m;
+    m.body(i, kLambda0) = f.lambda0;
+    for (int k = 0; k < 3; ++k) {
+      m.body(i, kCom + k) = m.com[i][k];
+      m.body(i, kFactorA + k) = f.a[k];
+      m.body(i, kFactorB + k) = f.b[k];
+    }
+  }
   m.subtree_mass.assign(m.n, 0.0);
   for (int i = m.n - 1; i >= 0; --i) {
     m.subtree_mass[i] += m.inertia[i].m;
@@ -135,6 +183,7 @@ void Size(SpatialScratch& s, int n) {
   s.D.resize(N);
   s.u.resize(N);
   s.H.assign(N * N, 0.0);
+  s.world.setZero(n, kWorldColumns);
   s.dAdq.resize(N);
   s.zeros.assign(N, 0.0);
 }
@@ -337,6 +386,167 @@ LAGRANGE_SPATIAL_INLINE void MassMatrixRowWorld(const SpatialModel& m, const Spa
   const Vector3d f = spatial::Mul(R, F.f);
   const Force Fw{spatial::Mul(R, F.n) + Cross(s.o[i], f), f};
   for (int j = m.parent[i]; j >= 0; j = m.parent[j]) add(j, Dot(s.J[j], Fw));
+}
+
+// (q, sin q, cos q) => M by the world-frame CRBA (MassMatrixKernel::kWorldFrame),
+// in three passes over columns of all bodies (SpatialScratch::world): the
+// placements root first (each body's axes from its parent's), each body's
+// inertia about the world origin (no dependency between bodies: a loop the
+// compiler vectorises), then tip to base the composites as plain sums,
+// F_j = Ic_j J_j and M_ij = J_i · F_j for i = j and each joint above j.
+void MassMatrixWorldFrame(const SpatialModel& m, SpatialScratch& s, const double* q, MatRef M) {
+  const int n = m.n;
+  double* W = s.world.data();
+  const auto col = [W, n](int k) { return W + static_cast<std::ptrdiff_t>(k) * n; };
+  double* R[9];
+  for (int k = 0; k < 9; ++k) R[k] = col(kAxes + k);
+  double *ox = col(kOrigin), *oy = col(kOrigin + 1), *oz = col(kOrigin + 2);
+  double *wx = col(kAxisW), *wy = col(kAxisW + 1), *wz = col(kAxisW + 2);
+  double *vx = col(kAxisV), *vy = col(kAxisV + 1), *vz = col(kAxisV + 2);
+  // Placements: with P = R_λ E0ᵀ, R_i = P Rz(q) (revolute) or P (prismatic),
+  // o_i = o_λ + R_λ r (+ q P e_z, prismatic); J_i = (z, o × z) or (0, z), z = R_i e_z.
+  // E0's exact zeros skipped when it is the identity or a turn about x
+  // (SpatialModel::E0_axis; a URDF origin's roll alone, as Denavit–Hartenberg
+  // robots' joints have).
+  for (int i = 0; i < n; ++i) {
+    const int p = m.parent[i];
+    const Matrix3d& E = m.E0[i];
+    const Vector3d& r = m.r[i];
+    double p00, p10, p20, p01, p11, p21, p02, p12, p22, o0, o1, o2;  // P column-major, o_i
+    if (p < 0) {
+      p00 = E(0, 0), p10 = E(0, 1), p20 = E(0, 2), p01 = E(1, 0), p11 = E(1, 1), p21 = E(1, 2);
+      p02 = E(2, 0), p12 = E(2, 1), p22 = E(2, 2);
+      o0 = r.x(), o1 = r.y(), o2 = r.z();
+    } else {
+      const double a00 = R[0][p], a10 = R[1][p], a20 = R[2][p], a01 = R[3][p], a11 = R[4][p], a21 = R[5][p];
+      const double a02 = R[6][p], a12 = R[7][p], a22 = R[8][p];
+      o0 = ox[p] + a00 * r.x() + a01 * r.y() + a02 * r.z();
+      o1 = oy[p] + a10 * r.x() + a11 * r.y() + a12 * r.z();
+      o2 = oz[p] + a20 * r.x() + a21 * r.y() + a22 * r.z();
+      switch (m.E0_axis[i]) {
+        case SpatialModel::kIdentity:
+          p00 = a00, p10 = a10, p20 = a20, p01 = a01, p11 = a11, p21 = a21, p02 = a02, p12 = a12, p22 = a22;
+          break;
+        case 0:  // column x kept, y and z mixed
+          p00 = a00, p10 = a10, p20 = a20;
+          p01 = a01 * E(1, 1) + a02 * E(1, 2), p11 = a11 * E(1, 1) + a12 * E(1, 2), p21 = a21 * E(1, 1) + a22 * E(1, 2);
+          p02 = a01 * E(2, 1) + a02 * E(2, 2), p12 = a11 * E(2, 1) + a12 * E(2, 2), p22 = a21 * E(2, 1) + a22 * E(2, 2);
+          break;
+        default:
+          p00 = a00 * E(0, 0) + a01 * E(0, 1) + a02 * E(0, 2);
+          p10 = a10 * E(0, 0) + a11 * E(0, 1) + a12 * E(0, 2);
+          p20 = a20 * E(0, 0) + a21 * E(0, 1) + a22 * E(0, 2);
+          p01 = a00 * E(1, 0) + a01 * E(1, 1) + a02 * E(1, 2);
+          p11 = a10 * E(1, 0) + a11 * E(1, 1) + a12 * E(1, 2);
+          p21 = a20 * E(1, 0) + a21 * E(1, 1) + a22 * E(1, 2);
+          p02 = a00 * E(2, 0) + a01 * E(2, 1) + a02 * E(2, 2);
+          p12 = a10 * E(2, 0) + a11 * E(2, 1) + a12 * E(2, 2);
+          p22 = a20 * E(2, 0) + a21 * E(2, 1) + a22 * E(2, 2);
+          break;
+      }
+    }
+    if (m.revolute[i]) {  // R_i = P Rz(q): columns x and y mixed
+      const double c = s.cq[i], sn = s.sq[i];
+      const double q00 = c * p00 + sn * p01, q10 = c * p10 + sn * p11, q20 = c * p20 + sn * p21;
+      p01 = c * p01 - sn * p00, p11 = c * p11 - sn * p10, p21 = c * p21 - sn * p20;
+      p00 = q00, p10 = q10, p20 = q20;
+      wx[i] = p02, wy[i] = p12, wz[i] = p22;
+      vx[i] = o1 * p22 - o2 * p12, vy[i] = o2 * p02 - o0 * p22, vz[i] = o0 * p12 - o1 * p02;
+    } else {
+      o0 += q[i] * p02, o1 += q[i] * p12, o2 += q[i] * p22;
+      wx[i] = 0.0, wy[i] = 0.0, wz[i] = 0.0;
+      vx[i] = p02, vy[i] = p12, vz[i] = p22;
+    }
+    R[0][i] = p00, R[1][i] = p10, R[2][i] = p20, R[3][i] = p01, R[4][i] = p11, R[5][i] = p21;
+    R[6][i] = p02, R[7][i] = p12, R[8][i] = p22;
+    ox[i] = o0, oy[i] = o1, oz[i] = o2;
+  }
+  // Each body's inertia about the world origin: centre of mass c = o + R c_b,
+  // h = m c, Ib = R I_c Rᵀ + m (|c|² 1 − c cᵀ) with R I_c Rᵀ = λ0 1 + (R a)(R a)ᵀ + (R b)(R b)ᵀ.
+  const double* mass = m.body.col(kMass).data();
+  const double *cbx = m.body.col(kCom).data(), *cby = m.body.col(kCom + 1).data(), *cbz = m.body.col(kCom + 2).data();
+  const double* l0 = m.body.col(kLambda0).data();
+  const double *ax = m.body.col(kFactorA).data(), *ay = m.body.col(kFactorA + 1).data(),
+               *az = m.body.col(kFactorA + 2).data();
+  const double *bx = m.body.col(kFactorB).data(), *by = m.body.col(kFactorB + 1).data(),
+               *bz = m.body.col(kFactorB + 2).data();
+  double *hx = col(kMoment), *hy = col(kMoment + 1), *hz = col(kMoment + 2);
+  double *Ixx = col(kRotational), *Iyy = col(kRotational + 1), *Izz = col(kRotational + 2);
+  double *Ixy = col(kRotational + 3), *Ixz = col(kRotational + 4), *Iyz = col(kRotational + 5);
+  const double *R00 = R[0], *R10 = R[1], *R20 = R[2], *R01 = R[3], *R11 = R[4], *R21 = R[5];
+  const double *R02 = R[6], *R12 = R[7], *R22 = R[8];
+#pragma GCC ivdep
+  for (int i = 0; i < n; ++i) {
+    const double r00 = R00[i], r10 = R10[i], r20 = R20[i], r01 = R01[i], r11 = R11[i], r21 = R21[i];
+    const double r02 = R02[i], r12 = R12[i], r22 = R22[i];
+    const double cx = ox[i] + r00 * cbx[i] + r01 * cby[i] + r02 * cbz[i];
+    const double cy = oy[i] + r10 * cbx[i] + r11 * cby[i] + r12 * cbz[i];
+    const double cz = oz[i] + r20 * cbx[i] + r21 * cby[i] + r22 * cbz[i];
+    const double pax = r00 * ax[i] + r01 * ay[i] + r02 * az[i];
+    const double pay = r10 * ax[i] + r11 * ay[i] + r12 * az[i];
+    const double paz = r20 * ax[i] + r21 * ay[i] + r22 * az[i];
+    const double pbx = r00 * bx[i] + r01 * by[i] + r02 * bz[i];
+    const double pby = r10 * bx[i] + r11 * by[i] + r12 * bz[i];
+    const double pbz = r20 * bx[i] + r21 * by[i] + r22 * bz[i];
+    const double mi = mass[i];
+    const double gx = mi * cx, gy = mi * cy, gz = mi * cz;
+    const double d = l0[i] + gx * cx + gy * cy + gz * cz;
+    hx[i] = gx, hy[i] = gy, hz[i] = gz;
+    Ixx[i] = d + pax * pax + pbx * pbx - gx * cx;
+    Iyy[i] = d + pay * pay + pby * pby - gy * cy;
+    Izz[i] = d + paz * paz + pbz * pbz - gz * cz;
+    Ixy[i] = pax * pay + pbx * pby - gx * cy;
+    Ixz[i] = pax * paz + pbx * pbz - gx * cz;
+    Iyz[i] = pay * paz + pby * pbz - gy * cz;
+  }
+  const double* Ms = m.subtree_mass.data();  // the composites' masses
+  if (m.chain) {
+    // One sweep tip to base: the composite Ic_j as running sums, F_j = Ic_j J_j
+    // = (Ib w + h × v, M v − h × w), then row and column j of M over the joints
+    // above: M_ij = J_i · F_j, independent dot products.
+    double sx = 0.0, sy = 0.0, sz = 0.0, sxx = 0.0, syy = 0.0, szz = 0.0, sxy = 0.0, sxz = 0.0, syz = 0.0;
+    for (int j = n - 1; j >= 0; --j) {
+      sx += hx[j], sy += hy[j], sz += hz[j];
+      sxx += Ixx[j], syy += Iyy[j], szz += Izz[j], sxy += Ixy[j], sxz += Ixz[j], syz += Iyz[j];
+      const double w0 = wx[j], w1 = wy[j], w2 = wz[j], v0 = vx[j], v1 = vy[j], v2 = vz[j];
+      const double f0 = sxx * w0 + sxy * w1 + sxz * w2 + sy * v2 - sz * v1;
+      const double f1 = sxy * w0 + syy * w1 + syz * w2 + sz * v0 - sx * v2;
+      const double f2 = sxz * w0 + syz * w1 + szz * w2 + sx * v1 - sy * v0;
+      const double f3 = Ms[j] * v0 - sy * w2 + sz * w1;
+      const double f4 = Ms[j] * v1 - sz * w0 + sx * w2;
+      const double f5 = Ms[j] * v2 - sx * w1 + sy * w0;
+      double* Mj = &M(0, j);
+      for (int i = 0; i <= j; ++i) {
+        const double Mij = wx[i] * f0 + wy[i] * f1 + wz[i] * f2 + vx[i] * f3 + vy[i] * f4 + vz[i] * f5;
+        Mj[i] = Mij;
+        M(j, i) = Mij;
+      }
+    }
+    return;
+  }
+  // A tree: the same sweep, each composite complete when it is reached (its
+  // descendants come after it) and then added into its parent's.
+  for (int j = n - 1; j >= 0; --j) {
+    const double sx = hx[j], sy = hy[j], sz = hz[j], sxx = Ixx[j], syy = Iyy[j], szz = Izz[j];
+    const double sxy = Ixy[j], sxz = Ixz[j], syz = Iyz[j];
+    const double w0 = wx[j], w1 = wy[j], w2 = wz[j], v0 = vx[j], v1 = vy[j], v2 = vz[j];
+    const double f0 = sxx * w0 + sxy * w1 + sxz * w2 + sy * v2 - sz * v1;
+    const double f1 = sxy * w0 + syy * w1 + syz * w2 + sz * v0 - sx * v2;
+    const double f2 = sxz * w0 + syz * w1 + szz * w2 + sx * v1 - sy * v0;
+    const double f3 = Ms[j] * v0 - sy * w2 + sz * w1;
+    const double f4 = Ms[j] * v1 - sz * w0 + sx * w2;
+    const double f5 = Ms[j] * v2 - sx * w1 + sy * w0;
+    for (int i = j; i >= 0; i = m.parent[i]) {
+      const double Mij = wx[i] * f0 + wy[i] * f1 + wz[i] * f2 + vx[i] * f3 + vy[i] * f4 + vz[i] * f5;
+      M(i, j) = Mij;
+      M(j, i) = Mij;
+    }
+    const int p = m.parent[j];
+    if (p >= 0) {
+      hx[p] += sx, hy[p] += sy, hz[p] += sz;
+      Ixx[p] += sxx, Iyy[p] += syy, Izz[p] += szz, Ixy[p] += sxy, Ixz[p] += sxz, Iyz[p] += syz;
+    }
+  }
 }
 
 // ---- forward dynamics by composite rigid bodies -----------------------------
@@ -577,6 +787,7 @@ SpatialDynamics::SpatialDynamics(RigidTree tree) : Dynamics(tree.joint_types()),
   }
   model_ = std::make_unique<const SpatialModel>(Fold(tree_));
   forward_ = model_->deep ? ForwardAlgorithm::kArticulatedBody : ForwardAlgorithm::kCompositeRigidBody;
+  mass_kernel_ = model_->chain || model_->deep ? MassMatrixKernel::kWorldFrame : MassMatrixKernel::kBodyFrame;
 }
 
 SpatialDynamics::~SpatialDynamics() = default;
@@ -588,9 +799,18 @@ std::unique_ptr<DynamicsData> SpatialDynamics::MakeData() const {
 }
 
 void SpatialDynamics::ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const {
+  ComputeMassMatrix(data, mass_kernel_, q, M);
+}
+
+void SpatialDynamics::ComputeMassMatrix(DynamicsData& data, MassMatrixKernel kernel, ConstVecRef q, MatRef M) const {
   SpatialScratch& s = Checked<Data>(data, q, M).s;
   const SpatialModel& m = *model_;
   if (!m.chain) M.setZero();
+  if (kernel == MassMatrixKernel::kWorldFrame) {
+    spatial::SinCos(q.data(), s.cq.data(), s.sq.data(), m.n);
+    MassMatrixWorldFrame(m, s, q.data(), M);
+    return;
+  }
   Transforms(m, s, q.data());
   if (m.deep) {
     CompositeInertias(m, s);

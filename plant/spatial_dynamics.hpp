@@ -13,9 +13,12 @@
 //   ∂T/∂q             (v_i × S_i) · (subtree momentum), one forward and one
 //                     backward sweep; equals Cᵀ qd                            O(n)
 //   T, V              ½ Σ vᵀ I v; −gravity · (first moment carried to the world)  O(n)
-//   mass matrix M     CRBA: composite inertias tip to base, then each row's
-//                     force carried up its ancestors (on deep trees: taken
-//                     to world coordinates once, M_ij = J_j · F)              O(Σ d)
+//   mass matrix M     CRBA, the faster of two exact kernels for the tree's
+//                     shape, chosen at construction (MassMatrixKernel below):
+//                     on chains and deep trees in world coordinates (each
+//                     body's inertia taken to the world once, composites as
+//                     plain sums, M_ij = J_i · F_j, independent 6-D dot
+//                     products), on shallow branching trees in body frames   O(Σ d)
 //   Coriolis matrix C the Christoffel factorisation (Ṁ − 2C skew, C qd the
 //                     Coriolis force, Cᵀ qd = ∂T/∂q) in one forward and one
 //                     backward sweep in world coordinates, no per-column sweeps  O(Σ d)
@@ -64,6 +67,25 @@ class SpatialDynamics final : public Dynamics {
   std::unique_ptr<DynamicsData> MakeData() const override;
 
   void ComputeMassMatrix(DynamicsData& data, ConstVecRef q, MatRef M) const override;
+  // The mass matrix's exact kernels:
+  //   kBodyFrame   CRBA in body frames: composite inertias carried tip to base
+  //                (Xᵀ I X per body), then each row's force Ic_i S_i carried
+  //                up its ancestors (Xᵀ F per step; on deep trees taken to
+  //                world coordinates once, M_ij = J_j · F)
+  //   kWorldFrame  CRBA in world coordinates (Pinocchio's crba since 2.x): each
+  //                body's inertia about the world origin from its rotation R
+  //                (R I_c Rᵀ as λ0 1 + (R a)(R a)ᵀ + (R b)(R b)ᵀ, factored at
+  //                construction), composites Ic_j as plain sums of 10 numbers,
+  //                F_j = Ic_j J_j, M_ij = J_i · F_j over the joints above j
+  // ComputeMassMatrix runs kWorldFrame on a chain (every joint's parent the
+  // joint before it) and on a deep tree (kDeepTreeMeanAncestors), kBodyFrame
+  // on other trees: the world frame's placements (R_i, o_i) cost more than
+  // the body frame's row products save when joints have few ancestors
+  // (bench/dynamics_bench.cpp, mass/...: the Panda, the UR5 and random chains
+  // faster in the world frame, a random branching tree of 12 bodies slower).
+  enum class MassMatrixKernel : std::uint8_t { kBodyFrame, kWorldFrame };
+  MassMatrixKernel mass_matrix_kernel() const { return mass_kernel_; }
+  void ComputeMassMatrix(DynamicsData& data, MassMatrixKernel kernel, ConstVecRef q, MatRef M) const;
   void ComputeCoriolisMatrix(DynamicsData& data, ConstVecRef q, ConstVecRef qd, MatRef C) const override;
   void ComputeCoriolisForce(DynamicsData& data, ConstVecRef q, ConstVecRef qd, VecRef c) const override;
   void ComputeGravityForce(DynamicsData& data, ConstVecRef q, VecRef G) const override;
@@ -92,10 +114,10 @@ class SpatialDynamics final : public Dynamics {
   enum class ForwardAlgorithm : std::uint8_t { kArticulatedBody, kCompositeRigidBody };
   // A tree is deep when its joints have more ancestors than this on average
   // (a chain of more than 14 joints): ComputeForwardDynamics then uses
-  // kArticulatedBody, and ComputeMassMatrix forms each M_ij as a product in
-  // world coordinates instead of carrying row i's force up its ancestors
-  // (kCompositeRigidBody and the carried force win on shallow trees; both
-  // measured in bench/spatial_bench.cpp).
+  // kArticulatedBody, and MassMatrixKernel::kBodyFrame forms each M_ij as a
+  // product in world coordinates instead of carrying row i's force up its
+  // ancestors (kCompositeRigidBody and the carried force win on shallow
+  // trees; both measured in bench/spatial_bench.cpp).
   static constexpr double kDeepTreeMeanAncestors = 6.5;
   ForwardAlgorithm forward_algorithm() const { return forward_; }
   void ComputeForwardDynamics(DynamicsData& data, ForwardAlgorithm algorithm, ConstVecRef q, ConstVecRef qd,
@@ -105,6 +127,7 @@ class SpatialDynamics final : public Dynamics {
   struct Data;  // one user's per-body scratch, defined in the .cpp
   RigidTree tree_;
   ForwardAlgorithm forward_ = ForwardAlgorithm::kArticulatedBody;
+  MassMatrixKernel mass_kernel_ = MassMatrixKernel::kWorldFrame;
   std::unique_ptr<const SpatialModel> model_;  // the folded tree, built once in the constructor
 };
 

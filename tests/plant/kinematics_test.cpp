@@ -472,6 +472,37 @@ TEST(FrameKinematics, EachPartsEntryPointAgreesWithComputeFrameKinematics) {
   }
 }
 
+// The local-axes Jacobian formed from the tip (the default since issue 37)
+// against the world-axes one rotated column by column (the old kernel): every
+// frame of every tree (prismatic joints, a mimic finger, frames off their
+// bodies and on the world), pose and Jacobian; each through a data that last
+// saw another state.
+TEST(FrameKinematics, LocalJacobianFromTheTipMatchesTheRotatedWorldOne) {
+  using Kernel = Kinematics::LocalJacobianKernel;
+  std::mt19937 rng{11};
+  for (const NamedTree& t : AllTrees()) {
+    SCOPED_TRACE(t.name);
+    const Kinematics model(t.tree);
+    auto rotated = model.MakeData(), from_tip = model.MakeData();
+    for (int s = 0; s < 4; ++s) {
+      const auto [q, qd] = RandomStateFor(t.tree.joint_types(), rng);
+      const auto [q_other, qd_other] = RandomStateFor(t.tree.joint_types(), rng);
+      for (int k = 0; k < model.num_frames(); ++k) {
+        model.ComputeFrameKinematics(*from_tip, q_other, qd_other);
+        model.ComputeFrameJacobian(*rotated, q, k, Kernel::kRotated);
+        model.ComputeFrameJacobian(*from_tip, q, k, Kernel::kFromTip);
+        const Matrix6Xd& J = rotated->jacobian(k, FrameAxes::kLocal);
+        EXPECT_LT((from_tip->jacobian(k, FrameAxes::kLocal) - J).cwiseAbs().maxCoeff(), kExactTol) << "frame " << k;
+        EXPECT_LT((from_tip->rotation(k) - rotated->rotation(k)).cwiseAbs().maxCoeff(), kExactTol) << "frame " << k;
+        EXPECT_LT((from_tip->position(k) - rotated->position(k)).cwiseAbs().maxCoeff(), kExactTol) << "frame " << k;
+        model.ComputeFrameJacobian(*rotated, q, k, FrameAxes::kLocal);
+        EXPECT_TRUE(rotated->jacobian(k, FrameAxes::kLocal) == from_tip->jacobian(k, FrameAxes::kLocal))
+            << "FrameAxes::kLocal runs kFromTip, the same code: the same bits; frame " << k;
+      }
+    }
+  }
+}
+
 TEST(FrameKinematics, EachPartsEntryPointAllocatesNothing) {
   for (const NamedTree& t : AllTrees()) {
     const Kinematics model(t.tree);

@@ -14,11 +14,13 @@
 
 #include "plant/eigenvalues.hpp"
 #include "plant/lagrangian.hpp"
+#include "plant/mimic_dynamics.hpp"
 #include "plant/random_tree.hpp"
 #include "plant/recursive_dynamics.hpp"
 #include "plant/rigid_tree.hpp"
 #include "plant/spatial_dynamics.hpp"
 #include "plant/spatial_sincos.hpp"
+#include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/plant_cases.hpp"
 
@@ -329,6 +331,68 @@ TEST(RecursiveDynamics, BaseFrameMassMatrixMatchesTheCarriedOne) {
       EXPECT_LT(RelativeDifference(base, carried), kAgreeTol) << links << " links, state " << k;
       EXPECT_TRUE(fallback == base) << "ComputeMassMatrix runs kBaseFrame, the same code: the same bits";
     }
+  }
+}
+
+// The world-frame mass matrix (the default on chains and deep trees since
+// issue 37) against the body-frame CRBA: on random chains and branching trees of 1 to
+// 64 bodies with prismatic joints (shallow and deep: the body-frame kernel
+// carries rows up to 6.5 mean ancestors, then takes them to the world), the
+// shipped Panda and UR5, and random trees with mimic joints (through
+// MimicDynamics, against Sᵀ M(S q + o) S by the body-frame kernel).
+TEST(SpatialDynamics, WorldFrameMassMatrixMatchesTheBodyFrameOne) {
+  using Kernel = SpatialDynamics::MassMatrixKernel;
+  std::mt19937 rng{61};
+  std::vector<RigidTree> trees;
+  for (int bodies : {1, 2, 3, 5, 7, 12, 20, 40, 64}) {
+    for (bool chain : {true, false}) {
+      trees.push_back(RandomRigidTree({bodies, chain, 0.3}, rng));
+      // Random branching trees are shallow (about ln n ancestors a joint): the body frame's, unless a chain by chance.
+      bool is_chain = true;
+      for (int i = 0; i < bodies; ++i) is_chain = is_chain && trees.back().joints[i].parent == i - 1;
+      EXPECT_EQ(SpatialDynamics(trees.back()).mass_matrix_kernel(), is_chain ? Kernel::kWorldFrame : Kernel::kBodyFrame)
+          << bodies << " bodies, chain " << chain;
+    }
+  }
+  for (const char* robot : {"panda", "ur5"}) {
+    trees.push_back(LoadUrdf(std::string(LAGRANGE_SOURCE_DIR) + "/config/robots/" + robot + ".urdf").tree);
+  }
+  for (std::size_t t = 0; t < trees.size(); ++t) {
+    const SpatialDynamics d(trees[t]);
+    const std::unique_ptr<DynamicsData> data = d.MakeData();
+    const int n = d.num_dofs();
+    MatrixXd body(n, n), world(n, n), fallback(n, n);
+    for (int k = 0; k < 3; ++k) {
+      const State s = RandomState(trees[t], rng);
+      d.ComputeMassMatrix(*data, Kernel::kBodyFrame, s.q, body);
+      d.ComputeMassMatrix(*data, Kernel::kWorldFrame, s.q, world);
+      d.ComputeMassMatrix(*data, s.q, fallback);
+      EXPECT_LT(RelativeDifference(world, body), kAgreeTol) << "tree " << t << " (" << n << " bodies), state " << k;
+      EXPECT_TRUE(fallback == (d.mass_matrix_kernel() == Kernel::kWorldFrame ? world : body))
+          << "ComputeMassMatrix runs the kernel mass_matrix_kernel() names: the same bits";
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    RigidTree tree = RandomRigidTree({4 + 2 * k, k % 2 == 0, 0.3}, rng);
+    AddRandomMimics(tree, rng);
+    const RigidTree free_tree = tree.WithEveryJointFree();
+    const auto free = std::make_shared<const SpatialDynamics>(free_tree);
+    const MimicDynamics mimic(tree, free);
+    const std::unique_ptr<DynamicsData> mimic_data = mimic.MakeData();
+    const std::unique_ptr<DynamicsData> free_data = free->MakeData();
+    const int n = tree.num_dofs(), joints = tree.num_joints();
+    MatrixXd S = MatrixXd::Zero(joints, n);
+    VectorXd offset(joints);
+    for (int j = 0; j < joints; ++j) {
+      const RigidTree::JointMap map = tree.MapOf(j);
+      S(j, map.dof) = map.scale;
+      offset[j] = map.offset;
+    }
+    const VectorXd q = RandomVector(n, -2.0, 2.0, rng);
+    MatrixXd reduced(n, n), body(joints, joints);
+    mimic.ComputeMassMatrix(*mimic_data, q, reduced);
+    free->ComputeMassMatrix(*free_data, Kernel::kBodyFrame, S * q + offset, body);
+    EXPECT_LT(RelativeDifference(reduced, S.transpose() * body * S), kAgreeTol) << "mimic tree " << k;
   }
 }
 
