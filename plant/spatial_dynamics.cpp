@@ -394,6 +394,24 @@ LAGRANGE_SPATIAL_INLINE void MassMatrixRowWorld(const SpatialModel& m, const Spa
 // inertia about the world origin (no dependency between bodies: a loop the
 // compiler vectorises), then tip to base the composites as plain sums,
 // F_j = Ic_j J_j and M_ij = J_i · F_j for i = j and each joint above j.
+// F_j = Ic_j J_j, the force of joint j's world motion J_j = (w, v) on its
+// composite inertia Ic_j (mass ms; first moment s = ms c; rotational inertia
+// S about the world origin): (S w + s × v, ms v − s × w). Dot(J_i) is M_ij = J_i · F_j.
+struct ColumnForce {
+  ColumnForce(double sx, double sy, double sz, double sxx, double syy, double szz, double sxy, double sxz, double syz,
+              double ms, double w0, double w1, double w2, double v0, double v1, double v2)
+      : f0(sxx * w0 + sxy * w1 + sxz * w2 + sy * v2 - sz * v1),
+        f1(sxy * w0 + syy * w1 + syz * w2 + sz * v0 - sx * v2),
+        f2(sxz * w0 + syz * w1 + szz * w2 + sx * v1 - sy * v0),
+        f3(ms * v0 - sy * w2 + sz * w1),
+        f4(ms * v1 - sz * w0 + sx * w2),
+        f5(ms * v2 - sx * w1 + sy * w0) {}
+  double Dot(double wx, double wy, double wz, double vx, double vy, double vz) const {
+    return wx * f0 + wy * f1 + wz * f2 + vx * f3 + vy * f4 + vz * f5;
+  }
+  double f0, f1, f2, f3, f4, f5;
+};
+
 void MassMatrixWorldFrame(const SpatialModel& m, SpatialScratch& s, const double* q, MatRef M) {
   const int n = m.n;
   double* W = s.world.data();
@@ -508,16 +526,10 @@ void MassMatrixWorldFrame(const SpatialModel& m, SpatialScratch& s, const double
     for (int j = n - 1; j >= 0; --j) {
       sx += hx[j], sy += hy[j], sz += hz[j];
       sxx += Ixx[j], syy += Iyy[j], szz += Izz[j], sxy += Ixy[j], sxz += Ixz[j], syz += Iyz[j];
-      const double w0 = wx[j], w1 = wy[j], w2 = wz[j], v0 = vx[j], v1 = vy[j], v2 = vz[j];
-      const double f0 = sxx * w0 + sxy * w1 + sxz * w2 + sy * v2 - sz * v1;
-      const double f1 = sxy * w0 + syy * w1 + syz * w2 + sz * v0 - sx * v2;
-      const double f2 = sxz * w0 + syz * w1 + szz * w2 + sx * v1 - sy * v0;
-      const double f3 = Ms[j] * v0 - sy * w2 + sz * w1;
-      const double f4 = Ms[j] * v1 - sz * w0 + sx * w2;
-      const double f5 = Ms[j] * v2 - sx * w1 + sy * w0;
+      const ColumnForce f(sx, sy, sz, sxx, syy, szz, sxy, sxz, syz, Ms[j], wx[j], wy[j], wz[j], vx[j], vy[j], vz[j]);
       double* Mj = &M(0, j);
       for (int i = 0; i <= j; ++i) {
-        const double Mij = wx[i] * f0 + wy[i] * f1 + wz[i] * f2 + vx[i] * f3 + vy[i] * f4 + vz[i] * f5;
+        const double Mij = f.Dot(wx[i], wy[i], wz[i], vx[i], vy[i], vz[i]);
         Mj[i] = Mij;
         M(j, i) = Mij;
       }
@@ -529,15 +541,9 @@ void MassMatrixWorldFrame(const SpatialModel& m, SpatialScratch& s, const double
   for (int j = n - 1; j >= 0; --j) {
     const double sx = hx[j], sy = hy[j], sz = hz[j], sxx = Ixx[j], syy = Iyy[j], szz = Izz[j];
     const double sxy = Ixy[j], sxz = Ixz[j], syz = Iyz[j];
-    const double w0 = wx[j], w1 = wy[j], w2 = wz[j], v0 = vx[j], v1 = vy[j], v2 = vz[j];
-    const double f0 = sxx * w0 + sxy * w1 + sxz * w2 + sy * v2 - sz * v1;
-    const double f1 = sxy * w0 + syy * w1 + syz * w2 + sz * v0 - sx * v2;
-    const double f2 = sxz * w0 + syz * w1 + szz * w2 + sx * v1 - sy * v0;
-    const double f3 = Ms[j] * v0 - sy * w2 + sz * w1;
-    const double f4 = Ms[j] * v1 - sz * w0 + sx * w2;
-    const double f5 = Ms[j] * v2 - sx * w1 + sy * w0;
+    const ColumnForce f(sx, sy, sz, sxx, syy, szz, sxy, sxz, syz, Ms[j], wx[j], wy[j], wz[j], vx[j], vy[j], vz[j]);
     for (int i = j; i >= 0; i = m.parent[i]) {
-      const double Mij = wx[i] * f0 + wy[i] * f1 + wz[i] * f2 + vx[i] * f3 + vy[i] * f4 + vz[i] * f5;
+      const double Mij = f.Dot(wx[i], wy[i], wz[i], vx[i], vy[i], vz[i]);
       M(i, j) = Mij;
       M(j, i) = Mij;
     }
