@@ -81,7 +81,10 @@ TEST(FrameSpeed, NoJointVelocityWithinThePandasLimitsMovesItsFlangeFasterThanThe
 // One revolute joint carrying a frame at distance L: ‖ω‖ = v, ‖ṗ‖ = v·L exactly.
 TEST(FrameSpeed, ASingleJointsBoundIsItsExactSpeed) {
   ChainParams p;
-  p.links = {ChainLink{.m = 1.0, .L = 0.7}};
+  ChainLink link;
+  link.m = 1.0;
+  link.L = 0.7;
+  p.links = {link};
   const RigidTree tree = ToRigidTree(p);
   const Kinematics kinematics(tree);
   const int tip = *kinematics.FrameIndex("tip");
