@@ -335,12 +335,34 @@ class PyInstance {
     }
   }
 
-  // (q or None, qd or None) => the instance there (Instance::SetState), the last healthy state.
-  void SetState(const py::object& q_arg, const py::object& qd_arg) {
+  // (q or None, qd or None, base_q or None, base_v or None) => the instance there (Instance::SetState,
+  // SetBaseState), the last healthy state. Every argument is checked before anything moves.
+  void SetState(const py::object& q_arg, const py::object& qd_arg, const py::object& base_q_arg = py::none(),
+                const py::object& base_v_arg = py::none()) {
     const int n = inst().num_dofs();
     const VectorXd q = q_arg.is_none() ? inst().q() : JointVector(q_arg, n, "q");
     const VectorXd qd = qd_arg.is_none() ? inst().qd() : JointVector(qd_arg, n, "qd");
+    const bool base = !base_q_arg.is_none() || !base_v_arg.is_none();
+    if (base && !inst().floating_base()) {
+      throw py::value_error(std::string(base_q_arg.is_none() ? "base_v" : "base_q") +
+                            ": this instance's base is fixed (a scene's floating_base: true frees it)");
+    }
+    VectorXd base_q, base_v;
+    if (base) {
+      base_q = base_q_arg.is_none() ? VectorXd(inst().floating_q().head<kFreeFlyerNq>())
+                                    : JointVector(base_q_arg, kFreeFlyerNq, "base_q");
+      base_v = base_v_arg.is_none() ? VectorXd(inst().floating_v().head<kFreeFlyerNv>())
+                                    : JointVector(base_v_arg, kFreeFlyerNv, "base_v");
+      const double norm = base_q.segment<4>(3).norm();
+      if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+        throw py::value_error("base_q: expected [px, py, pz, x, y, z, w] with a unit quaternion (x, y, z, w; within " +
+                              FormatDouble(kQuaternionNormTolerance) + ", then normalised), got one of norm " +
+                              FormatDouble(norm));
+      }
+      base_q.segment<4>(3) /= norm;
+    }
     inst().SetState(q, qd);
+    if (base) inst().SetBaseState(base_q, base_v);
     good_ = inst().MakeSaved();
   }
 
@@ -533,10 +555,14 @@ state and raises RuntimeError naming why.)")
           [](PyInstance& s, const py::object& qd) { s.SetState(py::none(), qd); },
           "Velocities, shape (n,), rad/s or m/s (a copy). Assigning them sets them (set_state).")
       .def("set_state", &PyInstance::SetState, py::arg("q") = py::none(), py::arg("qd") = py::none(),
+           py::arg("base_q") = py::none(), py::arg("base_v") = py::none(),
            R"(Put the instance at (q, qd) at the current time, as moving the robot by hand.
 
-q   (n,) rad or m; None keeps the current positions
-qd  (n,) rad/s or m/s; None keeps the current velocities
+q       (n,) rad or m; None keeps the current positions
+qd      (n,) rad/s or m/s; None keeps the current velocities
+base_q  a floating base's pose (7,): p (m, world), then the unit quaternion x, y, z, w (within
+        1e-6 of unit, then normalised); None keeps it. ValueError on a fixed base.
+base_v  a floating base's twist (6,): v (m/s) then omega (rad/s), both in base axes; None keeps it
 The next step starts there, under the same controller and trajectory (time runs on); qdd is
 recomputed there under the last applied tau; the energy balance is re-based, so
 energy_residual runs on (the jump in energy is no work done), and the state becomes the one a

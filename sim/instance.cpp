@@ -405,6 +405,19 @@ void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
     fq_.tail(num_dofs()) = q_;
     fv_.tail(num_dofs()) = qd_;
   }
+  SettleAtNewState();
+}
+
+void Instance::SetBaseState(ConstVecRef base_q, ConstVecRef base_v) {
+  eigen_assert(floating_ && base_q.size() == kFreeFlyerNq && base_v.size() == kFreeFlyerNv &&
+               "SetBaseState: a floating base's pose (7) and twist (6)");
+  fq_.head<kFreeFlyerNq>() = base_q;  // the joints stay where they are
+  fv_.head<kFreeFlyerNv>() = base_v;
+  energies_cached_ = false;
+  SettleAtNewState();
+}
+
+void Instance::SettleAtNewState() {
   SetSteppedState();
   ComputeAcceleration(t_, tau_cmd_);  // as a step ends: its command, through the effects
   if (!accounting_) return;

@@ -153,6 +153,10 @@ class Instance {
   // runs on continuously (the jump in energy is no work done); a stepped
   // plant's simulator is set there too. No allocation.
   void SetState(ConstVecRef q, ConstVecRef qd);
+  // A floating base's pose and twist, as SetState sets the joints': base_q (p
+  // (m), then the unit quaternion x, y, z, w; 7) and base_v (v_b (m/s), ω_b
+  // (rad/s), base axes; 6); the joints stay. floating_base() only. No allocation.
+  void SetBaseState(ConstVecRef base_q, ConstVecRef base_v);
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }
@@ -254,6 +258,8 @@ class Instance {
   StepFailure StepPlant(double dt);
   // Puts a stepped plant's simulator at the current state (the full q, v of a floating base).
   void SetSteppedState();
+  // After SetState or SetBaseState: the simulator there, q̈ under the last command, the balance re-based.
+  void SettleAtNewState();
   // A floating stepped plant's forces (ComputeForces) through fforces_.
   void ComputeFloatingSteppedForces(EffectForces& out);
   // A floating base's step of length dt under tau_cmd (held), on its manifold.

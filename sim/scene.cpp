@@ -571,10 +571,6 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
   }
 }
 
-// A unit quaternion may be typed off unit by this much (a printed one's
-// round-off); it is then normalised.
-constexpr double kQuaternionNormTolerance = 1e-6;
-
 // initial: {base_q: [px, py, pz, x, y, z, w], base_v: [vx, vy, vz, wx, wy, wz]}: a floating base's.
 void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& floating) {
   for (const char* key : {"base_q", "base_v"}) {

@@ -86,6 +86,10 @@ struct FloatingBaseConfig {
 
 // What a floating base refuses, in the words the scene reader and the
 // run-time commands share.
+// A floating base's unit quaternion may be given off unit by this much (a
+// printed one's round-off: a scene's initial.base_q, Python's set_state); it is then normalised.
+inline constexpr double kQuaternionNormTolerance = 1e-6;
+
 inline constexpr char kFloatingIntegrators[] =
     "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler or rk4 only";
 inline constexpr char kFloatingMethod[] =

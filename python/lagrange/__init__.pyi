@@ -247,8 +247,11 @@ class Instance:
         """One period: tau None under the scene's controller; else (n,) N·m or N (an external controller's torque).
         A failed health check restores the last healthy state and raises RuntimeError."""
     def reset(self) -> None: ...
-    def set_state(self, q: _Optional[_npt.ArrayLike] = None, qd: _Optional[_npt.ArrayLike] = None) -> None:
-        """Put the instance at (q, qd) now (None keeps one): the next step starts there; ε runs on (re-based)."""
+    def set_state(self, q: _Optional[_npt.ArrayLike] = None, qd: _Optional[_npt.ArrayLike] = None,
+                  base_q: _Optional[_npt.ArrayLike] = None, base_v: _Optional[_npt.ArrayLike] = None) -> None:
+        """Put the instance at (q, qd) now (None keeps one): the next step starts there; ε runs on (re-based).
+        A floating base's pose base_q (7: p in m, then the unit quaternion x, y, z, w) and twist base_v (6: v in
+        m/s, ω in rad/s, base axes) likewise; ValueError for either on a fixed base."""
     name: str
     num_dofs: int
     joint_names: _List[str]

@@ -424,3 +424,45 @@ def test_stepping_a_floating_instance_is_the_simulation_step_for_step():
     np.testing.assert_array_equal(inst.base.position, where)
     inst.reset()
     np.testing.assert_array_equal(inst.base.position, run.base.position[0])
+
+
+def test_set_state_puts_a_floating_base_where_it_is_told_and_it_falls_from_there():
+    inst = lagrange.Instance(config(FREE_FALL))
+    quarter = [0.0, 0.0, 0.707106781, 0.707106781]  # a quarter turn about z, typed to 9 digits: normalised
+    inst.set_state(qd=np.zeros(12), base_q=[1.0, 2.0, 3.0] + quarter, base_v=np.zeros(6))
+    base = inst.base
+    np.testing.assert_array_equal(base.position, [1.0, 2.0, 3.0])
+    assert abs(np.linalg.norm(base.orientation) - 1.0) < 1e-15
+    np.testing.assert_allclose(base.orientation, np.array(quarter) / np.linalg.norm(quarter), rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(base.linear_velocity, np.zeros(3))
+    np.testing.assert_array_equal(base.linear_momentum, np.zeros(3))
+    # At rest, whatever the legs then do under their PD: c(t) = c0 + ½ g t², from the state set.
+    c0, t0 = base.com.copy(), inst.t
+    for _ in range(200):
+        inst.step()
+    dt = inst.t - t0
+    np.testing.assert_allclose(inst.base.com, c0 + 0.5 * GRAVITY * dt * dt, rtol=0, atol=1e-7)
+    # base_v alone keeps the pose it is at.
+    where = inst.base.position.copy()
+    inst.set_state(base_v=[0.5, 0.0, 0.0, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(inst.base.position, where)
+    np.testing.assert_array_equal(inst.base.linear_velocity, [0.5, 0.0, 0.0])
+
+
+def test_set_state_refuses_a_bad_base_and_moves_nothing():
+    inst = lagrange.Instance(config(FREE_FALL))
+    where, q = inst.base.position.copy(), inst.q.copy()
+    with pytest.raises(ValueError, match=r"base_q: expected \[px, py, pz, x, y, z, w\] with a unit quaternion .* got "
+                                         r"one of norm 2"):
+        inst.set_state(q=np.zeros(12), base_q=[0, 0, 1, 0, 0, 0, 2])
+    with pytest.raises(ValueError, match="base_v: expected 6 values"):
+        inst.set_state(base_v=[0.0] * 5)
+    with pytest.raises(ValueError, match="base_q: expected finite values, got nan"):
+        inst.set_state(base_q=[0, 0, float("nan"), 0, 0, 0, 1])
+    np.testing.assert_array_equal(inst.base.position, where)
+    np.testing.assert_array_equal(inst.q, q)
+    fixed = lagrange.Instance(config("pendulum.yaml"))
+    with pytest.raises(ValueError, match="base_q: this instance's base is fixed"):
+        fixed.set_state(base_q=[0, 0, 0, 0, 0, 0, 1])
+    with pytest.raises(ValueError, match="base_v: this instance's base is fixed"):
+        fixed.set_state(base_v=np.zeros(6))
