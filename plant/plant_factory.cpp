@@ -443,6 +443,12 @@ std::optional<SpecError> ValidatePlantSpec(const PlantSpec& spec) {
               return SpecError{"I" + at, "expected I > 0 or com != 0: the link has no inertia about its joint"};
             }
           }
+          // Each link valid, the chain may still not be: masses 1e119 apart leave M(0) singular in double
+          // precision, which the dynamics refuse when built (found by the scene fuzzer: refused here, in one line).
+          if (auto err = ValidateRigidTree(ToRigidTree(p))) {
+            return SpecError{"m", "expected links whose masses and inertias give a positive definite mass matrix "
+                                  "in double precision, got " + *err};
+          }
         }
         return std::nullopt;
       },

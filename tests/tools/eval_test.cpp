@@ -122,6 +122,19 @@ TEST(Eval, ChainParametersAndLinksShapeTheModel) {
   EXPECT_NEAR(out.at("V").get<double>(), -9.81 * 2.0 * (0.2 + 0.6 + 1.0), 1e-12);
 }
 
+// Found by the scene fuzzer (a shipped chain's first mass mutated to 1.3e119): each link is valid, the
+// chain is not (M(0) singular in double precision), and the dynamics' constructor threw past the scene
+// reader. Refused at its key in one line, exit 2.
+TEST(Eval, AChainWhoseMassesAre1e119ApartIsRefusedAtItsKey) {
+  const auto r = RunCtl({"eval", "--plant", "chain", "--links", "3", "--param", "m=1.3e119,0.8,0.5", "--q", "0,0,0",
+                         "--qd", "0,0,0"});
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("--param m: expected links whose masses and inertias give a positive definite mass matrix"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
 TEST(Eval, ChainParametersTakeOneValuePerLinkAsScenesDo) {
   // Three 0.4 m uniform rods of 1, 2 and 3 kg hanging straight down: V = −g Σ m y_com.
   const auto r = RunCtl({"eval", "--plant", "chain", "--param", "m=1,2,3", "--param", "L=0.4", "--param", "links=3",
