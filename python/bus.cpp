@@ -23,6 +23,7 @@
 #include <mutex>
 #include <regex>
 #include <thread>
+#include <type_traits>
 
 #include "base/escape.hpp"
 #include "controllers/factory.hpp"
@@ -148,41 +149,22 @@ class Client {
 
   State GetState(const std::string& name, double timeout) {
     CheckTimeout(timeout);
-    py::gil_scoped_release release;
-    try {
-      Link& link = LinkFor(name, timeout);
-      std::lock_guard lock(link.mutex);
-      CatchUp(*link.link);  // the latest, not the one the link last handled
-      link.link->RequireOneRun("refusing to act");
-      return State(link.link->state(), link.link->state_received_at());
-    } catch (...) {
-      Rethrow();
-    }
+    return ReadLatest(name, timeout, [](DaemonLink& link) { return State(link.state(), link.state_received_at()); });
   }
 
   // The latest base_state_t of the instance's run (<NAME>_BASE), waiting up to
   // `timeout` s for the first; RuntimeError when none comes (a fixed base publishes none).
   BaseState GetBaseState(const std::string& name, double timeout) {
     CheckTimeout(timeout);
-    base_state_t base;
-    {
-      py::gil_scoped_release release;
-      try {
-        Link& link = LinkFor(name, timeout);
-        std::lock_guard lock(link.mutex);
-        CatchUp(*link.link);  // the latest, not the one the link last handled
-        link.link->RequireOneRun("refusing to act");
-        if (!link.link->PumpUntil([&] { return link.link->base_state() != nullptr; }, timeout)) {
-          throw std::runtime_error("no base state from instance '" + Escape(name, 64) + "' on " +
-                                   Escape(options_.Channel(name, kBaseSuffix), 80) + " within " +
-                                   FormatDouble(timeout) + " s (run " + RunIdText(link.link->run_id()) +
-                                   "): only a floating base (plant floating_base: true) publishes one");
-        }
-        base = *link.link->base_state();
-      } catch (...) {
-        Rethrow();
+    const base_state_t base = ReadLatest(name, timeout, [&](DaemonLink& link) {
+      if (!link.PumpUntil([&] { return link.base_state() != nullptr; }, timeout)) {
+        throw std::runtime_error("no base state from instance '" + Escape(name, 64) + "' on " +
+                                 Escape(options_.Channel(name, kBaseSuffix), 80) + " within " + FormatDouble(timeout) +
+                                 " s (run " + RunIdText(link.run_id()) +
+                                 "): only a floating base (plant floating_base: true) publishes one");
       }
-    }
+      return *link.base_state();
+    });
     BaseState out(base.t, BaseStateValues(base).data());
     out.utime = base.utime;
     out.run_id = base.run_id;
@@ -421,13 +403,21 @@ class Client {
   }
 
   state_t LatestState(const std::string& name) {
+    return ReadLatest(name, options_.wait, [](DaemonLink& link) { return link.state(); });
+  }
+
+  // What `read` takes from `name`'s link (opened on first use, waiting up to `wait` s), caught up to the latest
+  // datagram (not the one the link last handled) and checked to follow one lagranged run; without the GIL, so
+  // `read` touches no Python object; C++ errors raised as Python's.
+  template <typename Read>
+  std::invoke_result_t<Read&, DaemonLink&> ReadLatest(const std::string& name, double wait, Read read) {
     py::gil_scoped_release release;
     try {
-      Link& link = LinkFor(name, options_.wait);
+      Link& link = LinkFor(name, wait);
       std::lock_guard lock(link.mutex);
       CatchUp(*link.link);
       link.link->RequireOneRun("refusing to act");
-      return link.link->state();
+      return read(*link.link);
     } catch (...) {
       Rethrow();
     }

@@ -361,8 +361,11 @@ class PyInstance {
       }
       base_q.segment<4>(3) /= norm;
     }
-    inst().SetState(q, qd);
-    if (base) inst().SetBaseState(base_q, base_v);
+    if (base) {
+      inst().SetState(q, qd, base_q, base_v);
+    } else {
+      inst().SetState(q, qd);
+    }
     good_ = inst().MakeSaved();
   }
 

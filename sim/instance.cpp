@@ -398,6 +398,22 @@ void Instance::Restore(const Saved& saved) {
 }
 
 void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
+  PlaceJoints(q, qd);
+  SettleAtNewState();
+}
+
+void Instance::SetBaseState(ConstVecRef base_q, ConstVecRef base_v) {
+  PlaceBase(base_q, base_v);
+  SettleAtNewState();
+}
+
+void Instance::SetState(ConstVecRef q, ConstVecRef qd, ConstVecRef base_q, ConstVecRef base_v) {
+  PlaceJoints(q, qd);
+  PlaceBase(base_q, base_v);
+  SettleAtNewState();
+}
+
+void Instance::PlaceJoints(ConstVecRef q, ConstVecRef qd) {
   q_ = q;
   qd_ = qd;
   energies_cached_ = false;
@@ -405,16 +421,14 @@ void Instance::SetState(ConstVecRef q, ConstVecRef qd) {
     fq_.tail(num_dofs()) = q_;
     fv_.tail(num_dofs()) = qd_;
   }
-  SettleAtNewState();
 }
 
-void Instance::SetBaseState(ConstVecRef base_q, ConstVecRef base_v) {
+void Instance::PlaceBase(ConstVecRef base_q, ConstVecRef base_v) {
   eigen_assert(floating_ && base_q.size() == kFreeFlyerNq && base_v.size() == kFreeFlyerNv &&
                "SetBaseState: a floating base's pose (7) and twist (6)");
   fq_.head<kFreeFlyerNq>() = base_q;  // the joints stay where they are
   fv_.head<kFreeFlyerNv>() = base_v;
   energies_cached_ = false;
-  SettleAtNewState();
 }
 
 void Instance::SettleAtNewState() {

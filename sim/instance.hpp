@@ -157,6 +157,8 @@ class Instance {
   // (m), then the unit quaternion x, y, z, w; 7) and base_v (v_b (m/s), ω_b
   // (rad/s), base axes; 6); the joints stay. floating_base() only. No allocation.
   void SetBaseState(ConstVecRef base_q, ConstVecRef base_v);
+  // Both at once, settled once: the joints as SetState, the base as SetBaseState. floating_base() only.
+  void SetState(ConstVecRef q, ConstVecRef qd, ConstVecRef base_q, ConstVecRef base_v);
 
   Controller& controller() { return *controllers_[active_]; }
   const Controller& controller() const { return *controllers_[active_]; }
@@ -260,6 +262,9 @@ class Instance {
   void SetSteppedState();
   // After SetState or SetBaseState: the simulator there, q̈ under the last command, the balance re-based.
   void SettleAtNewState();
+  // SetState's and SetBaseState's placing, before SettleAtNewState.
+  void PlaceJoints(ConstVecRef q, ConstVecRef qd);
+  void PlaceBase(ConstVecRef base_q, ConstVecRef base_v);
   // A floating stepped plant's forces (ComputeForces) through fforces_.
   void ComputeFloatingSteppedForces(EffectForces& out);
   // A floating base's step of length dt under tau_cmd (held), on its manifold.
