@@ -388,12 +388,6 @@ LAGRANGE_SPATIAL_INLINE void MassMatrixRowWorld(const SpatialModel& m, const Spa
   for (int j = m.parent[i]; j >= 0; j = m.parent[j]) add(j, Dot(s.J[j], Fw));
 }
 
-// (q, sin q, cos q) => M by the world-frame CRBA (MassMatrixKernel::kWorldFrame),
-// in three passes over columns of all bodies (SpatialScratch::world): the
-// placements root first (each body's axes from its parent's), each body's
-// inertia about the world origin (no dependency between bodies: a loop the
-// compiler vectorises), then tip to base the composites as plain sums,
-// F_j = Ic_j J_j and M_ij = J_i · F_j for i = j and each joint above j.
 // F_j = Ic_j J_j, the force of joint j's world motion J_j = (w, v) on its
 // composite inertia Ic_j (mass ms; first moment s = ms c; rotational inertia
 // S about the world origin): (S w + s × v, ms v − s × w). Dot(J_i) is M_ij = J_i · F_j.
@@ -412,6 +406,12 @@ struct ColumnForce {
   double f0, f1, f2, f3, f4, f5;
 };
 
+// (q, sin q, cos q) => M by the world-frame CRBA (MassMatrixKernel::kWorldFrame),
+// in three passes over columns of all bodies (SpatialScratch::world): the
+// placements root first (each body's axes from its parent's), each body's
+// inertia about the world origin (no dependency between bodies: a loop the
+// compiler vectorises), then tip to base the composites as plain sums,
+// F_j = Ic_j J_j and M_ij = J_i · F_j for i = j and each joint above j.
 void MassMatrixWorldFrame(const SpatialModel& m, SpatialScratch& s, const double* q, MatRef M) {
   const int n = m.n;
   double* W = s.world.data();
