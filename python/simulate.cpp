@@ -342,29 +342,23 @@ class PyInstance {
     const int n = inst().num_dofs();
     const VectorXd q = q_arg.is_none() ? inst().q() : JointVector(q_arg, n, "q");
     const VectorXd qd = qd_arg.is_none() ? inst().qd() : JointVector(qd_arg, n, "qd");
-    const bool base = !base_q_arg.is_none() || !base_v_arg.is_none();
-    if (base && !inst().floating_base()) {
-      throw py::value_error(std::string(base_q_arg.is_none() ? "base_v" : "base_q") +
-                            ": this instance's base is fixed (a scene's floating_base: true frees it)");
-    }
-    VectorXd base_q, base_v;
-    if (base) {
-      base_q = base_q_arg.is_none() ? VectorXd(inst().floating_q().head<kFreeFlyerNq>())
-                                    : JointVector(base_q_arg, kFreeFlyerNq, "base_q");
-      base_v = base_v_arg.is_none() ? VectorXd(inst().floating_v().head<kFreeFlyerNv>())
-                                    : JointVector(base_v_arg, kFreeFlyerNv, "base_v");
-      const double norm = base_q.segment<4>(3).norm();
-      if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+    if (base_q_arg.is_none() && base_v_arg.is_none()) {
+      inst().SetState(q, qd);
+    } else {
+      if (!inst().floating_base()) {
+        throw py::value_error(std::string(base_q_arg.is_none() ? "base_v" : "base_q") +
+                              ": this instance's base is fixed (a scene's floating_base: true frees it)");
+      }
+      VectorXd base_q = base_q_arg.is_none() ? VectorXd(inst().floating_q().head<kFreeFlyerNq>())
+                                             : JointVector(base_q_arg, kFreeFlyerNq, "base_q");
+      const VectorXd base_v = base_v_arg.is_none() ? VectorXd(inst().floating_v().head<kFreeFlyerNv>())
+                                                   : JointVector(base_v_arg, kFreeFlyerNv, "base_v");
+      if (!NormaliseBaseQuaternion(base_q)) {
         throw py::value_error("base_q: expected [px, py, pz, x, y, z, w] with a unit quaternion (x, y, z, w; within " +
                               FormatDouble(kQuaternionNormTolerance) + ", then normalised), got one of norm " +
-                              FormatDouble(norm));
+                              FormatDouble(base_q.segment<4>(3).norm()));
       }
-      base_q.segment<4>(3) /= norm;
-    }
-    if (base) {
       inst().SetState(q, qd, base_q, base_v);
-    } else {
-      inst().SetState(q, qd);
     }
     good_ = inst().MakeSaved();
   }

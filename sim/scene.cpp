@@ -571,6 +571,17 @@ void CheckExternalControl(const YamlReader& node, const InstanceConfig& inst) {
   }
 }
 
+}  // namespace
+
+bool NormaliseBaseQuaternion(VecRef base_q) {
+  const double norm = base_q.segment<4>(3).norm();
+  if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) return false;
+  base_q.segment<4>(3) /= norm;
+  return true;
+}
+
+namespace {
+
 // initial: {base_q: [px, py, pz, x, y, z, w], base_v: [vx, vy, vz, wx, wy, wz]}: a floating base's.
 void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& floating) {
   for (const char* key : {"base_q", "base_v"}) {
@@ -581,12 +592,10 @@ void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& 
   }
   if (auto q = init.Optional("base_q")) {
     VectorXd base = q->Vector(kFreeFlyerNq);
-    const double norm = base.segment<4>(3).norm();
-    if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+    if (!NormaliseBaseQuaternion(base)) {
       q->Fail("expected [px, py, pz, x, y, z, w] with a unit quaternion (x, y, z, w), got one of norm " +
-              FormatDouble(norm));
+              FormatDouble(base.segment<4>(3).norm()));
     }
-    base.segment<4>(3) /= norm;
     floating->q0 = base;
   }
   if (auto v = init.Optional("base_v")) floating->v0 = v->Vector(kFreeFlyerNv);

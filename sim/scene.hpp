@@ -89,6 +89,9 @@ struct FloatingBaseConfig {
 // A floating base's unit quaternion may be given off unit by this much (a
 // printed one's round-off: a scene's initial.base_q, Python's set_state); it is then normalised.
 inline constexpr double kQuaternionNormTolerance = 1e-6;
+// A floating base's pose (p, then the quaternion x, y, z, w; 7) with its quaternion normalised in place when it is
+// within kQuaternionNormTolerance of unit: true; otherwise false, the pose unchanged (each reader words the refusal).
+bool NormaliseBaseQuaternion(VecRef base_q);
 
 inline constexpr char kFloatingIntegrators[] =
     "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler or rk4 only";
