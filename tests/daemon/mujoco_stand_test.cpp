@@ -23,7 +23,7 @@ namespace lagrange {
 namespace {
 
 const std::string kScene = std::string(LAGRANGE_SOURCE_DIR) + "/config/quadruped_mujoco_stand.yaml";
-const std::string kLabel = std::string(LAGRANGE_SOURCE_DIR) + "/config/mujoco_stand_test.yaml";
+const std::string kStandLabel = std::string(LAGRANGE_SOURCE_DIR) + "/config/mujoco_stand_test.yaml";
 const char* const kFeet[] = {"FR_foot", "FL_foot", "RR_foot", "RL_foot"};
 
 // m: the trunk's origin with the legs at the posture (thigh 0.9, calf −1.8
@@ -104,9 +104,9 @@ TEST(MujocoStand, ATickAllocatesNothing) {
   EXPECT_EQ(counter.count(), 0);
 }
 
-std::string SceneError(const std::string& text) {
+std::string StandSceneError(const std::string& text) {
   try {
-    ParseScene(text, kLabel);
+    ParseScene(text, kStandLabel);
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -123,10 +123,10 @@ constexpr char kStance[] = "{type: pd, kp: 60, kd: 2, gravity_compensation: stan
 
 TEST(MujocoStand, AFloatingBaseOnAnMjcfWithoutAFreeJointIsRefused) {
   const std::string error =
-      SceneError(StandScene("{type: mujoco, file: robots/panda_table.xml, floating_base: true, model: {type: urdf, "
+      StandSceneError(StandScene("{type: mujoco, file: robots/panda_table.xml, floating_base: true, model: {type: urdf, "
                             "file: robots/a1.urdf}}",
                             kStance));
-  EXPECT_NE(error.find(kLabel + ":3:"), std::string::npos) << error;
+  EXPECT_NE(error.find(kStandLabel + ":3:"), std::string::npos) << error;
   EXPECT_NE(error.find("instances[0].plant.file: "), std::string::npos) << error;
   EXPECT_NE(error.find("panda_table.xml: expected a free joint for lagrange's floating base, got none"),
             std::string::npos)
@@ -134,7 +134,7 @@ TEST(MujocoStand, AFloatingBaseOnAnMjcfWithoutAFreeJointIsRefused) {
 }
 
 TEST(MujocoStand, AFloatingBaseNeedsAUrdfModel) {
-  const std::string error = SceneError(
+  const std::string error = StandSceneError(
       StandScene("{type: mujoco, file: robots/a1.xml, floating_base: true, model: {type: pendulum}}", kStance));
   EXPECT_NE(error.find("instances[0].plant.model.type: expected urdf: a floating base's model is a URDF"),
             std::string::npos)
@@ -144,14 +144,14 @@ TEST(MujocoStand, AFloatingBaseNeedsAUrdfModel) {
 TEST(MujocoStand, AStanceOnTheA1WithItsBaseFixedIsRefused) {
   // Without floating_base, the MJCF's free joint is a loose body and the A1's model is bolted down.
   const std::string error =
-      SceneError(StandScene("{type: mujoco, file: robots/a1.xml, model: {type: urdf, file: robots/a1.urdf}}", kStance));
+      StandSceneError(StandScene("{type: mujoco, file: robots/a1.xml, model: {type: urdf, file: robots/a1.urdf}}", kStance));
   EXPECT_NE(error.find("instances[0].controller.gravity_compensation: expected none on a fixed base"),
             std::string::npos)
       << error;
 }
 
 TEST(MujocoStand, AnUnknownFootIsRefusedNamingTheFrames) {
-  const std::string error = SceneError(
+  const std::string error = StandSceneError(
       StandScene("{type: mujoco, file: robots/a1.xml, floating_base: true, model: {type: urdf, file: robots/a1.urdf}}",
                  "{type: pd, kp: 60, kd: 2, gravity_compensation: stance, feet: [FR_foot, paw]}"));
   EXPECT_NE(error.find("instances[0].controller.feet: expected frames of the robot ("), std::string::npos) << error;

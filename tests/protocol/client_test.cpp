@@ -187,7 +187,7 @@ TEST(HeardHint, UnderAPrefixADaemonUsesTheNearestInstanceThereComesFirst) {
 
 TEST(SigningHint, EachReasonHeardIsAClauseAndNoneIsNothing) {
   EXPECT_EQ(SigningHint({}), "");
-  EXPECT_EQ(SigningHint({.other_key = 1}),
+  EXPECT_EQ(SigningHint({.other_key = 1, .domain = {}}),
             "heard 1 message signed with another key or for another bus domain (their tags do not verify with this "
             "client's): give the daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE), and its --bus-domain if it "
             "has one (or LAGRANGE_BUS_DOMAIN)");
@@ -198,12 +198,12 @@ TEST(SigningHint, EachReasonHeardIsAClauseAndNoneIsNothing) {
             "(--bus-key FILE or LAGRANGE_BUS_KEY_FILE), and its --bus-domain if it has one (or LAGRANGE_BUS_DOMAIN); "
             "heard 1 signed message in lagrange's old format (LGS1, before bus domains), refused: update that "
             "lagranged");
-  EXPECT_EQ(SigningHint({.unsigned_refused = 5, .out_of_window = 2}),
+  EXPECT_EQ(SigningHint({.unsigned_refused = 5, .out_of_window = 2, .domain = {}}),
             "heard 5 unsigned messages, which a client with a key refuses: the daemon runs without one (give it "
             "--bus-key FILE too, or run this client without a key); heard 2 signed messages stamped more than 2 s "
             "from this host's clock, or replayed: keep the hosts' clocks in step (chrony or NTP)");
   // What was heard for its signature explains the silence before any channel name does.
-  EXPECT_EQ(WhatWasHeard({.signed_unreadable = 3}, "", "arm", {"ARM_STATE"}),
+  EXPECT_EQ(WhatWasHeard({.signed_unreadable = 3, .domain = {}}, "", "arm", {"ARM_STATE"}),
             "heard 3 signed messages, which a client without a key cannot check: its states are signed; give the "
             "daemon's key (--bus-key FILE or LAGRANGE_BUS_KEY_FILE)");
   EXPECT_EQ(WhatWasHeard({}, "", "arm", {}), HeardHint("", "arm", {}));
