@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "base/escape.hpp"
+#include "plant/eigenvalues.hpp"
 
 namespace lagrange {
 namespace {
@@ -111,12 +112,12 @@ void StancePdController::ComputeStanceGravity(ConstVecRef base_q, ConstVecRef q,
   }
   // λ = A⁺ G_base = Aᵀ (A Aᵀ)⁺ G_base: the least-norm solution of least residual.
   const auto A = base_rows_.leftCols(3 * contacts_);
-  solver_.compute(Matrix6d(A * A.transpose()));
-  const Eigen::Matrix<double, 6, 1>& d = solver_.eigenvalues();  // ascending
+  Eigen::Matrix<double, 6, 1> d;  // ascending
+  Matrix6d V;
+  SymmetricEigen6(Matrix6d(A * A.transpose()), d, V);
   const Eigen::Matrix<double, 6, 1> inverse =
       (d.array() > kRankTolerance * d[5]).select(d.cwiseInverse(), Eigen::Matrix<double, 6, 1>::Zero());
-  const Eigen::Matrix<double, 6, 1> y =
-      solver_.eigenvectors() * inverse.asDiagonal() * (solver_.eigenvectors().transpose() * G_.head<kFreeFlyerNv>());
+  const Eigen::Matrix<double, 6, 1> y = V * inverse.asDiagonal() * (V.transpose() * G_.head<kFreeFlyerNv>());
   lambda_.resize(3 * contacts_);
   lambda_.noalias() = A.transpose() * y;
   tau_g = G_.tail(n);

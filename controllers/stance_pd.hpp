@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Core>
 
 #include "controllers/controller.hpp"
 #include "plant/floating_dynamics.hpp"
@@ -94,7 +94,6 @@ class StancePdController final : public Controller {
   Eigen::Matrix<double, 6, Eigen::Dynamic> J_;     // (6 x nv) one foot's Jacobian
   MatrixXd joint_rows_;                            // (3 kMaxStanceFeet x n) J_c,joints
   Eigen::Matrix<double, 6, kMaxRows> base_rows_ = Eigen::Matrix<double, 6, kMaxRows>::Zero();  // A: 3|C| columns used
-  Eigen::SelfAdjointEigenSolver<Matrix6d> solver_;                                             // of A Aᵀ
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1> lambda_;
   int contacts_ = 0;
 };

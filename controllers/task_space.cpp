@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "plant/eigenvalues.hpp"
+
 namespace lagrange {
 
 OperationalSpace::OperationalSpace(int n, SingularityDamping damping)
@@ -22,8 +24,9 @@ bool OperationalSpace::Compute(const MatrixXd& M, const Matrix6Xd& J) {
   // σmin(J)² is the smallest eigenvalue of J Jᵀ (6 x 6, fixed size: no allocation).
   Matrix6d jjt;
   jjt.noalias() = J * J.transpose();
-  jjt_.compute(jjt, Eigen::EigenvaluesOnly);
-  sigma_ = std::sqrt(std::max(jjt_.eigenvalues()[0], 0.0));
+  Vector6d jjt_eigenvalues;  // ascending
+  SymmetricEigen6(jjt, jjt_eigenvalues);
+  sigma_ = std::sqrt(std::max(jjt_eigenvalues[0], 0.0));
   const double ratio = sigma_ / dls_.threshold;
   damping_ = ratio >= 1.0 ? 0.0 : dls_.max_damping * (1.0 - ratio * ratio);
   task_.compute(a_ + damping_ * Matrix6d::Identity());

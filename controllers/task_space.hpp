@@ -47,7 +47,6 @@
 // allocates nothing.
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <memory>
 #include <optional>
 #include <string>
@@ -107,9 +106,8 @@ class OperationalSpace {
   Eigen::LLT<MatrixXd> mass_;  // M = L Lᵀ
   MatrixXd minv_jt_;           // M⁻¹ Jᵀ (n x 6)
   Matrix6d a_, lambda_;
-  Eigen::SelfAdjointEigenSolver<Matrix6d> jjt_;  // eigenvalues of J Jᵀ: σ(J)²
-  Eigen::LLT<Matrix6d> task_;                    // A + λ² I
-  VectorXd y_;                                   // (n) scratch
+  Eigen::LLT<Matrix6d> task_;  // A + λ² I
+  VectorXd y_;                 // (n) scratch
   double sigma_ = 0.0, damping_ = 0.0;
 };
 

@@ -11,6 +11,17 @@ VectorXd SymmetricEigenvalues(const MatrixXd& X) {
 
 Eigen::VectorXcd Eigenvalues(const MatrixXd& A) { return Eigen::EigenSolver<MatrixXd>(A, false).eigenvalues(); }
 
+void SymmetricEigen6(const Eigen::Matrix<double, 6, 6>& X, Eigen::Matrix<double, 6, 1>& values) {
+  values = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(X, Eigen::EigenvaluesOnly).eigenvalues();
+}
+
+void SymmetricEigen6(const Eigen::Matrix<double, 6, 6>& X, Eigen::Matrix<double, 6, 1>& values,
+                     Eigen::Matrix<double, 6, 6>& vectors) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(X);
+  values = eig.eigenvalues();
+  vectors = eig.eigenvectors();
+}
+
 SymmetricRankTwo SymmetricRankTwoOf(const Eigen::Matrix3d& X) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(X);
   const Eigen::Vector3d& l = eig.eigenvalues();

@@ -20,6 +20,13 @@ VectorXd SymmetricEigenvalues(const MatrixXd& X);
 // eigenvalues only; in the order Eigen's real Schur form gives them).
 Eigen::VectorXcd Eigenvalues(const MatrixXd& A);
 
+// Eigenvalues (6), ascending, of a symmetric 6 x 6 X, and with `vectors` its unit eigenvectors as columns in the
+// same order; only X's lower triangle is read (Eigen::SelfAdjointEigenSolver). Fixed size: allocates nothing (the
+// task-space laws and the stance law call them every tick).
+void SymmetricEigen6(const Eigen::Matrix<double, 6, 6>& X, Eigen::Matrix<double, 6, 1>& values);
+void SymmetricEigen6(const Eigen::Matrix<double, 6, 6>& X, Eigen::Matrix<double, 6, 1>& values,
+                     Eigen::Matrix<double, 6, 6>& vectors);
+
 // A symmetric 3 x 3 X as λ0 1 + a aᵀ + b bᵀ with λ0 its least eigenvalue,
 // a = √(λ1 − λ0) u1 and b = √(λ2 − λ0) u2 (u the unit eigenvectors of the
 // ascending eigenvalues λ): then R X Rᵀ = λ0 1 + (R a)(R a)ᵀ + (R b)(R b)ᵀ
