@@ -122,10 +122,10 @@ std::string StandScene(const std::string& plant, const std::string& controller) 
 constexpr char kStance[] = "{type: pd, kp: 60, kd: 2, gravity_compensation: stance, feet: [FR_foot, FL_foot]}";
 
 TEST(MujocoStand, AFloatingBaseOnAnMjcfWithoutAFreeJointIsRefused) {
-  const std::string error =
-      StandSceneError(StandScene("{type: mujoco, file: robots/panda_table.xml, floating_base: true, model: {type: urdf, "
-                            "file: robots/a1.urdf}}",
-                            kStance));
+  const std::string error = StandSceneError(
+      StandScene("{type: mujoco, file: robots/panda_table.xml, floating_base: true, model: {type: urdf, "
+                 "file: robots/a1.urdf}}",
+                 kStance));
   EXPECT_NE(error.find(kStandLabel + ":3:"), std::string::npos) << error;
   EXPECT_NE(error.find("instances[0].plant.file: "), std::string::npos) << error;
   EXPECT_NE(error.find("panda_table.xml: expected a free joint for lagrange's floating base, got none"),
@@ -143,8 +143,8 @@ TEST(MujocoStand, AFloatingBaseNeedsAUrdfModel) {
 
 TEST(MujocoStand, AStanceOnTheA1WithItsBaseFixedIsRefused) {
   // Without floating_base, the MJCF's free joint is a loose body and the A1's model is bolted down.
-  const std::string error =
-      StandSceneError(StandScene("{type: mujoco, file: robots/a1.xml, model: {type: urdf, file: robots/a1.urdf}}", kStance));
+  const std::string error = StandSceneError(
+      StandScene("{type: mujoco, file: robots/a1.xml, model: {type: urdf, file: robots/a1.urdf}}", kStance));
   EXPECT_NE(error.find("instances[0].controller.gravity_compensation: expected none on a fixed base"),
             std::string::npos)
       << error;

@@ -169,7 +169,8 @@ TEST(BusDomain, OptionWinsOverTheEnvironmentAndAnEmptyOrUnprintableOneIsRefused)
   EXPECT_THROW(ResolveBusDomain(std::nullopt), BusKeyError) << "set but empty: an unset variable";
   unsetenv(kBusDomainEnv);
   EXPECT_EQ(ResolveBusDomain(std::nullopt), "") << "none: the bus's own";
-  for (const std::string& bad : {std::string(""), std::string(65, 'd'), std::string("a\nb"), std::string("caf\xc3\xa9")}) {
+  for (const std::string& bad :
+       {std::string(""), std::string(65, 'd'), std::string("a\nb"), std::string("caf\xc3\xa9")}) {
     EXPECT_THROW(ResolveBusDomain(bad), BusKeyError) << bad;
   }
 }
