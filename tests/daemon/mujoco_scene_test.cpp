@@ -587,7 +587,7 @@ TEST(MujocoScene, TheStatusAndTelemetryNameMujocosIntegrator) {
   EXPECT_EQ(status->instance_integrators, std::vector<std::string>{"mujoco-implicit x2"});
   EXPECT_EQ(telemetry->integrator, "mujoco-implicit");
   EXPECT_EQ(telemetry->substeps, 2);
-  for (const auto [type, name] :
+  for (const auto& [type, name] :
        {std::pair{MujocoIntegrator::kEuler, "mujoco-euler"}, std::pair{MujocoIntegrator::kRk4, "mujoco-rk4"}}) {
     EXPECT_EQ(IntegratorDescription(IntegratorConfig{}, false, type), name);
   }
