@@ -156,7 +156,7 @@ TEST(SceneParsing, TheBusDomainAndTheEstopDwellAreReadAndCheckedNamingTheKey) {
   EXPECT_EQ(ParseScene(instances, "s.yaml").bus_domain, "");
   EXPECT_EQ(ParseScene("bus: {domain: cell-7}\n" + instances, "s.yaml").bus_domain, "cell-7");
   EXPECT_EQ(ParseScene("bus: {key_file: k, domain: cell-7}\n" + instances, "s.yaml").bus_key_file, "k");
-  for (const std::string bad : {std::string("bus: {domain: ''}\n"), "bus: {domain: " + std::string(65, 'd') + "}\n"}) {
+  for (const std::string& bad : {std::string("bus: {domain: ''}\n"), "bus: {domain: " + std::string(65, 'd') + "}\n"}) {
     EXPECT_THROW(ParseScene(bad + instances, "s.yaml"), ConfigError) << bad;
   }
   EXPECT_EQ(ParseScene(instances, "s.yaml").instances[0].estop_dwell, kDefaultEstopDwell);

@@ -290,7 +290,6 @@ TEST_F(UrdfScene, AMissingOrInvalidUrdfIsTheScenesErrorAtItsFileKey) {
             std::string::npos);
 }
 
-}  // namespace
 // A locked joint (lower == upper, which the loader accepts) gets no stop: a
 // stop of zero width is not one a finite spring can hold. The scene's own
 // stops are applied before the merged limits are checked, and a bad pair
@@ -368,4 +367,5 @@ TEST_F(UrdfScene, TheInstancesControllersWrapOnlyJointsWithoutStops) {
   EXPECT_EQ(free.controller().wrapped_joints(), (std::vector<bool>{true, true}));
 }
 
+}  // namespace
 }  // namespace lagrange
