@@ -354,7 +354,9 @@ TEST(UrdfRefusals, EveryInvalidFixtureIsRefusedInOneLineNamingFileElementAndReas
         "unsupported_version", "empty_dynamics", "axis_without_xyz",
         // mimics that name no degree of freedom
         "mimic_of_itself", "mimic_of_a_missing_joint", "mimic_of_a_fixed_joint", "mimic_chain", "mimic_cycle",
-        "mimic_on_a_fixed_joint", "mimic_without_a_joint", "two_mimics", "mimic_multiplier_not_finite"}) {
+        "mimic_on_a_fixed_joint", "mimic_without_a_joint", "two_mimics", "mimic_multiplier_not_finite",
+        // found by the URDF fuzzer: a tree the reduction runs but the recursive path, on the free tree, cannot
+        "mimicked_joint_moves_no_mass_alone"}) {
     EXPECT_TRUE(seen.contains(required)) << required << ".urdf is missing";
   }
 }
