@@ -345,7 +345,16 @@ std::optional<std::string> ValidateRigidTree(const RigidTree& tree) {
   if (tree.floating_base) {
     return Bad("floating_base", "false (a fixed-base tree; a floating one runs under FloatingDynamics)", "true");
   }
-  return ValidateJointsBodiesFrames(tree, false);
+  if (auto why = ValidateJointsBodiesFrames(tree, false)) return why;
+  // The recursive path runs a tree with mimic joints on the same tree with every joint free, reduced
+  // (plant/mimic_dynamics.hpp): that tree must be valid too (a mimicked joint that moves mass only through its
+  // mimics is not). Found by scripts/fuzz's URDF fuzzer.
+  if (tree.has_mimics()) {
+    if (auto why = ValidateJointsBodiesFrames(tree.WithEveryJointFree(), false)) {
+      return "with every mimic joint free (as the recursive path runs them): " + *why;
+    }
+  }
+  return std::nullopt;
 }
 
 std::optional<std::string> ValidateFloatingTree(const RigidTree& tree) {

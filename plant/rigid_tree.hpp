@@ -171,8 +171,9 @@ std::optional<std::string> CheckRotationalInertia(const Eigen::Matrix3d& I);
 // CheckRotationalInertia (physically realisable), mimics that follow another
 // joint which is itself a degree of freedom (no chains, no cycles) with finite
 // multiplier and offset, and M(0) = Sᵀ M_joints S positive definite at q = 0
-// (no massless leaf, no joint that moves nothing). A floating tree is refused
-// (every fixed-base algorithm calls this).
+// (no massless leaf, no joint that moves nothing), and with mimics the same of
+// the tree with every joint free, which the recursive path runs. A floating
+// tree is refused (every fixed-base algorithm calls this).
 std::optional<std::string> ValidateRigidTree(const RigidTree& tree);
 
 // The same for a floating-base tree (floating_base true): 0..kMaxDofs joints,

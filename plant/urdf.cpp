@@ -978,15 +978,6 @@ UrdfRobot ParseUrdf(std::string_view xml, const std::string& file, const UrdfOpt
   CheckEveryJointMovesInertia(robot.tree, builder.child_links(), file);
   const auto why = options.floating_base ? ValidateFloatingTree(robot.tree) : ValidateRigidTree(robot.tree);
   if (why) throw UrdfError(Printable(file, file.size()) + ": " + *why);
-  // The recursive path runs a fixed-base tree with mimic joints on the same tree with every joint free, reduced
-  // (plant/mimic_dynamics.hpp): that tree must be one it runs too (a mimicked joint that moves no mass of its own,
-  // only through its mimics, is not). Found by scripts/fuzz's URDF fuzzer.
-  if (!options.floating_base && robot.tree.has_mimics()) {
-    if (const auto free_why = ValidateRigidTree(robot.tree.WithEveryJointFree())) {
-      throw UrdfError(Printable(file, file.size()) +
-                      ": with every mimic joint free (as the recursive path runs them): " + *free_why);
-    }
-  }
   return robot;
 }
 
