@@ -255,7 +255,8 @@ class Variational final : public Integrator {
 
 }  // namespace
 
-Rk4::Rk4(const IntegratorConfig& c, int n) : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kqd_(n) {}
+Rk4::Rk4(const IntegratorConfig& c, int n)
+    : Integrator(c, n), q1_(n), qd1_(n), dq_(n), dqd_(n), kqd_(n), q1_view_(q1_), qd1_view_(qd1_) {}
 
 bool Rk4::DoStep(PlantModel& m, ControlLaw* law, double t, double h, ConstVecRef tau, VecRef q, VecRef qd) {
   Stages([&](double ts, ConstVecRef qs, ConstVecRef qds,
