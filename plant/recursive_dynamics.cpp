@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "plant/spatial_dynamics.hpp"
+#include "plant/spatial_sincos.hpp"
 
 namespace lagrange {
 namespace {
@@ -105,6 +106,9 @@ struct RecursiveDynamics::Data final : DynamicsData {
     D.resize(N);
     u.resize(N);
     zeros = VectorXd::Zero(n);
+    angle.resize(n);
+    cosine.resize(n);
+    sine.resize(n);
     spatial = model.spatial_->MakeData();
   }
   std::vector<Xform> X;
@@ -115,6 +119,7 @@ struct RecursiveDynamics::Data final : DynamicsData {
   std::vector<Eigen::Matrix3d> IA;
   std::vector<double> D, u;
   VectorXd zeros;  // qd or qdd = 0 for the gravity and Coriolis passes
+  VectorXd angle, cosine, sine;  // (n) each joint's angle to its parent, its cosine and sine (ComputeTransforms)
   std::unique_ptr<DynamicsData> spatial;  // the derivatives' (spatial_)
 };
 
@@ -137,6 +142,13 @@ RecursiveDynamics::RecursiveDynamics(PlanarChain chain)
       chain_(std::move(chain)),
       spatial_(std::make_unique<const SpatialDynamics>(PlanarChainTree(chain_))) {
   for (const PlanarBody& b : chain_.bodies) inertia_.push_back(SpatialInertia(b));
+  const int n = num_dofs();
+  angle_offset_.resize(n);
+  angle_gain_.resize(n);
+  for (int i = 0; i < n; ++i) {
+    angle_offset_[i] = chain_.joints[i].angle;
+    angle_gain_[i] = chain_.joints[i].type == JointType::kRevolute ? 1.0 : 0.0;
+  }
 }
 
 RecursiveDynamics::~RecursiveDynamics() = default;
@@ -156,19 +168,22 @@ void RecursiveDynamics::ComputeGravityDerivatives(DynamicsData& data, ConstVecRe
 
 std::unique_ptr<DynamicsData> RecursiveDynamics::MakeData() const { return std::make_unique<Data>(*this); }
 
+// The joints' sines and cosines in one vectorised loop (plant/spatial_sincos.hpp, within 2 ulp of the C
+// library's), as the spatial sweeps take theirs: with the C library's, they were most of the mass matrix of a
+// two-link chain (bench/dynamics_bench.cpp, mass/chain2). The angles are formed by a loop of the same width, so
+// that the sine's vector loads read what vector stores wrote.
 void RecursiveDynamics::ComputeTransforms(Data& d, ConstVecRef q) const {
-  for (int i = 0; i < num_dofs(); ++i) {
+  const int n = num_dofs();
+  const double *offset = angle_offset_.data(), *gain = angle_gain_.data(), *qi = q.data();
+  double* angle = d.angle.data();
+  for (int i = 0; i < n; ++i) angle[i] = offset[i] + gain[i] * qi[i];
+  spatial::SinCos(angle, d.cosine.data(), d.sine.data(), n);
+  for (int i = 0; i < n; ++i) {
     const PlanarJoint& j = chain_.joints[i];
     Xform& X = d.X[i];
-    if (j.type == JointType::kRevolute) {
-      X.c = std::cos(j.angle + q[i]);
-      X.s = std::sin(j.angle + q[i]);
-      X.r = j.position;
-    } else {
-      X.c = std::cos(j.angle);
-      X.s = std::sin(j.angle);
-      X.r = j.position + q[i] * Eigen::Vector2d(X.c, X.s);
-    }
+    X.c = d.cosine[i];
+    X.s = d.sine[i];
+    X.r = j.type == JointType::kRevolute ? j.position : Eigen::Vector2d(j.position + q[i] * Eigen::Vector2d(X.c, X.s));
   }
 }
 

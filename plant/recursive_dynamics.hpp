@@ -140,6 +140,7 @@ class RecursiveDynamics final : public Dynamics {
 
   PlanarChain chain_;
   std::vector<Eigen::Matrix3d> inertia_;            // spatial inertia of each body about its frame origin
+  VectorXd angle_offset_, angle_gain_;  // (n) joint i's angle to its parent is offset + gain q_i (gain 1 revolute, 0 prismatic)
   std::unique_ptr<const SpatialDynamics> spatial_;  // the chain's tree, for the derivatives
 };
 
