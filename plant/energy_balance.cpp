@@ -4,13 +4,25 @@
 
 namespace lagrange {
 
+namespace {
+
+// Row i of every force whose energy V does not hold.
+double NonConservativeForce(const EffectForces& f, int i) {
+  return f.tau_applied[i] + f.disturbance[i] + f.damping[i] + f.friction[i] + f.limits[i] - f.limit_springs[i];
+}
+
+}  // namespace
+
 double NonConservativePower(ConstVecRef qd, const EffectForces& f) {
   double p = 0.0;
-  for (int i = 0; i < qd.size(); ++i) {
-    p +=
-        qd[i] * (f.tau_applied[i] + f.disturbance[i] + f.damping[i] + f.friction[i] + f.limits[i] - f.limit_springs[i]);
-  }
+  for (int i = 0; i < qd.size(); ++i) p += qd[i] * NonConservativeForce(f, i);
   return p;
+}
+
+double HeldWork(ConstVecRef q_start, ConstVecRef q_end, const EffectForces& f) {
+  double w = 0.0;
+  for (int i = 0; i < q_start.size(); ++i) w += (q_end[i] - q_start[i]) * NonConservativeForce(f, i);
+  return w;
 }
 
 void EnergyBalance::Reset(double energy) {

@@ -64,6 +64,12 @@ namespace lagrange {
 // qdᵀ (tau_applied + disturbance + damping + friction + limits − limit_springs), W:
 // the power of every force whose energy V does not hold.
 double NonConservativePower(ConstVecRef qd, const EffectForces& forces);
+// (q_end − q_start)ᵀ (the same forces), J: their work over a step that holds
+// them (a floating base's joints' forces, held over each sub-step): exact,
+// whatever the path. The stops' springs are left out as above (their energy is
+// in V), so while a joint is past a stop the spring's hold error, O(k Δq²) per
+// step, shows in ε.
+double HeldWork(ConstVecRef q_start, ConstVecRef q_end, const EffectForces& forces);
 
 class EnergyBalance {
  public:

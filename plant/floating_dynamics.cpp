@@ -235,6 +235,7 @@ void FloatingDynamics::ComputeInverseDynamics(FloatingData& d, ConstVecRef q, Co
   LAGRANGE_CHECK_NV(v);
   LAGRANGE_CHECK_NV(a);
   LAGRANGE_CHECK_NV(tau);
+  CountTerms(d, terms);
   Transforms(d, q);
   // Gravity as the base's acceleration: a_b − (0, g_b) for every body, g_b gravity in its axes.
   s.a[0] = {a.segment<3>(3), a.head<3>()};
@@ -312,6 +313,7 @@ void FloatingDynamics::ComputeForwardDynamics(FloatingData& d, ConstVecRef q, Co
     CholeskySolveInPlace(s.M, a);
     return;
   }
+  CountTerms(d, terms);
   Placements(d, q);
   Aba(d, v, tau, terms, a);
 }

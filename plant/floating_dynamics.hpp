@@ -92,11 +92,15 @@ class FloatingData {
   // After ComputeFramePlacements: frame k's axes in the world (3 x 3) and origin (m).
   const Eigen::Matrix3d& frame_rotation(int k) const { return frame_R[static_cast<std::size_t>(k)]; }
   const Eigen::Vector3d& frame_position(int k) const { return frame_p[static_cast<std::size_t>(k)]; }
+  // How often inverse and forward dynamics evaluated the gravity and Coriolis
+  // terms through this data (the other counts stay zero), as DynamicsData's.
+  const StageCounts& counts() const { return counts_; }
 
  private:
   friend class FloatingDynamics;
   struct Scratch;  // the sweeps' buffers, defined in the .cpp
   const FloatingDynamics* model_;
+  StageCounts counts_;
   std::unique_ptr<Scratch> s;
   std::vector<Eigen::Matrix3d> frame_R;
   std::vector<Eigen::Vector3d> frame_p;
@@ -115,7 +119,7 @@ class FloatingDynamics {
   std::unique_ptr<FloatingData> MakeData() const;
 
   // (q, v, a) (nq, nv, nv) => tau (nv) = M a + [C v] + [G], bracketed terms
-  // only when on in `terms`.
+  // only when on in `terms`, each counted in data.counts() (forward dynamics too).
   void ComputeInverseDynamics(FloatingData& data, ConstVecRef q, ConstVecRef v, ConstVecRef a, DynamicsTerms terms,
                               VecRef tau) const;
   // q (nq) => M (nv x nv).
@@ -148,6 +152,10 @@ class FloatingDynamics {
 
  private:
   void CheckSizes(const FloatingData& data, ConstVecRef q) const;
+  static void CountTerms(FloatingData& data, DynamicsTerms terms) {
+    if (terms.gravity) ++data.counts_.gravity;
+    if (terms.coriolis) ++data.counts_.coriolis;
+  }
   // q => X (and the base's R, o); WorldPlacements: X => every body's R, o.
   void Transforms(FloatingData& data, ConstVecRef q) const;
   void WorldPlacements(FloatingData& data) const;

@@ -68,9 +68,11 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
     fv_ << config.floating->v0, qd_;
     ftau_ = VectorXd::Zero(floating_->num_v());
     fa_ = VectorXd::Zero(floating_->num_v());
+    fzero_ = VectorXd::Zero(floating_->num_v());
+    fbias_ = VectorXd::Zero(floating_->num_v());
     fjc_ = MatrixXd::Zero(3, floating_->num_v());
-    accounting_ = false;
     if (stepped_) {  // MuJoCo steps the whole state; its rows of every effect, nv, before the joints' are taken
+      accounting_ = false;
       ftau_.setZero();
       fforces_ = std::make_unique<EffectForces>(floating_->num_v());
     }
@@ -118,15 +120,20 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
   const int n = num_dofs();
   const double h = dt / fsubsteps_;
   ftau_.head<kFreeFlyerNv>().setZero();
+  double work = 0.0;  // J: of the joints' forces but the stops' springs (their energy is in V)
   for (int k = 0; k < fsubsteps_; ++k) {
-    // The joints' force, the command through every effect, held over the sub-step.
-    model_.effects().ComputeGeneralizedForce(t_ + k * h, q_, qd_, tau_cmd, ftau_.tail(n));
+    // The joints' force, the command through every effect, held over the sub-step: its work is Δqᵀ of it.
+    model_.ComputeEffectForces(nullptr, t_ + k * h, q_, qd_, tau_cmd, forces_, /*conservative=*/false);
+    forces_.NetForce(ftau_.tail(n));
+    q_start_ = q_;
     fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_);
     q_ = fq_.tail(n);
     qd_ = fv_.tail(n);
+    work += HeldWork(q_start_, q_, forces_);
   }
   t_ = static_cast<double>(++steps_) * dt;
   ComputeAcceleration(t_, tau_cmd);
+  AccountHeld(dt, work);
   return fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
 }
 
@@ -140,7 +147,7 @@ Instance::BaseMotion Instance::ComputeBaseMotion() {
 }
 
 void Instance::ResetBalance() {
-  balance_.Reset(stepped_ || floating_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
+  balance_.Reset(KineticEnergy() + PotentialEnergy());
   rest_power_ = power_end_ = 0.0;
   if (accounting_ && !stepped_) ComputePowers();
 }
@@ -163,9 +170,7 @@ void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
   model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, forces_, /*conservative=*/false);
   const double power_end = NonConservativePower(qd_, forces_);
   const double rest_end = power_end - qd_.dot(forces_.tau_applied);
-  kinetic_ = model_.KineticEnergy(q_, qd_);
-  potential_ = model_.PotentialEnergy(q_);
-  const double energy = kinetic_ + potential_;
+  const double energy = ComputeEnergies();
   if (!std::isfinite(power_end) || !std::isfinite(energy)) return;
   energies_cached_ = true;
   if (held) {
@@ -177,10 +182,37 @@ void Instance::Account(double dt, ConstVecRef tau_applied_start, bool held) {
   rest_power_ = rest_end;
 }
 
+// Every force was held over each sub-step, so W gains its exact work and nothing goes through the trapezoid rule.
+void Instance::AccountHeld(double dt, double held_work) {
+  if (!accounting_) return;
+  ComputePowers();  // the power at the tick's end, under its command
+  const double energy = ComputeEnergies();
+  if (!std::isfinite(held_work) || !std::isfinite(energy)) return;
+  energies_cached_ = true;
+  balance_.AddTickWithWork(dt, held_work, 0.0, 0.0, energy);
+}
+
+double Instance::ComputeEnergies() {
+  if (floating_) {
+    kinetic_ = floating_->ComputeKineticEnergy(*fdata_, fq_, fv_);
+    potential_ = FloatingPotentialEnergy();
+  } else {
+    kinetic_ = model_.KineticEnergy(q_, qd_);
+    potential_ = model_.PotentialEnergy(q_);
+  }
+  return kinetic_ + potential_;
+}
+
+double Instance::FloatingPotentialEnergy() {
+  const double springs = model_.effects().LimitPotentialEnergy(q_);
+  return model_.effects().terms().gravity ? floating_->ComputePotentialEnergy(*fdata_, fq_) + springs : springs;
+}
+
 void Instance::ComputeForces(EffectForces& out) {
   if (!stepped_) {
-    // A floating base's gravity and Coriolis terms are not the joints' model's: only the effects' are given.
+    // A floating base's gravity and Coriolis terms are the floating model's, not the joints' model's.
     model_.ComputeEffectForces(nullptr, t_, q_, qd_, tau_cmd_, out, /*conservative=*/floating_ == nullptr);
+    if (floating_) ComputeFloatingBiasRows(out);
     return;
   }
   // The simulator's own terms at the state it holds, under the force it applied (tau_).
@@ -194,6 +226,20 @@ void Instance::ComputeForces(EffectForces& out) {
   out.active.saturation = model_.effects().flags().saturation;
   out.active.disturbance = false;
   out.disturbance.setZero();
+}
+
+// (q, v) => G(q) and C(q, v) v of the whole robot (nv, by the floating model's RNEA at a = 0), the joints' rows
+// kept; each only when its effect is on (off: zeros, not computed).
+void Instance::ComputeFloatingBiasRows(EffectForces& out) {
+  const int n = num_dofs();
+  if (out.active.gravity) {
+    floating_->ComputeInverseDynamics(*fdata_, fq_, fv_, fzero_, {.gravity = true, .coriolis = false}, fbias_);
+    out.gravity = fbias_.tail(n);
+  }
+  if (out.active.coriolis) {
+    floating_->ComputeInverseDynamics(*fdata_, fq_, fv_, fzero_, {.gravity = false, .coriolis = true}, fbias_);
+    out.coriolis = fbias_.tail(n);
+  }
 }
 
 // A floating base's: MuJoCo's rows (nv) at the state it holds, the joints' kept (the base's six are no joint's).
@@ -246,7 +292,7 @@ const char* Instance::SetEffect(EffectKind kind, bool on) {
   energies_cached_ = false;  // V may have gained or lost a term; q̈ follows at the next step
   if (!accounting_) return nullptr;
   // V may have gained or lost a term, and the rest's power changed with the effects.
-  balance_.Rebase(model_.Energy(q_, qd_));
+  balance_.Rebase(KineticEnergy() + PotentialEnergy());
   ComputePowers();
   return nullptr;
 }
@@ -435,7 +481,7 @@ void Instance::SettleAtNewState() {
   SetSteppedState();
   ComputeAcceleration(t_, tau_cmd_);  // as a step ends: its command, through the effects
   if (!accounting_) return;
-  balance_.Rebase(stepped_ ? KineticEnergy() + PotentialEnergy() : model_.Energy(q_, qd_));
+  balance_.Rebase(KineticEnergy() + PotentialEnergy());
   if (!stepped_) ComputePowers();
 }
 

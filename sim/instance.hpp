@@ -13,12 +13,15 @@
 // command through every effect: saturation, damping, friction, limits, pushes)
 // held over each sub-step, the base's zero; q(), qd(), qdd() are the joints'
 // part of it (n), floating_q() and floating_v() the whole. Its energies are
-// the floating model's; it keeps no energy balance (accounting() false).
+// the floating model's (T of the whole robot, V its gravity potential plus the
+// stops' springs), and its energy balance counts the joints' forces' work
+// exactly, each force held over its sub-step (see energy_balance()).
 // On MuJoCo (a mujoco plant with floating_base: true) MuJoCo steps that full
 // state instead (its free joint the base, its contacts holding it up), the
 // joints' force held over the tick, the base's zero; the energies are
-// MuJoCo's, and the floating model (the URDF's) gives the centre of mass and
-// momentum of the state MuJoCo reached. Controllers on a floating base see its
+// MuJoCo's (it keeps no energy balance: accounting() false), and the floating
+// model (the URDF's) gives the centre of mass and momentum of the state MuJoCo
+// reached. Controllers on a floating base see its
 // pose and twist (Controller::Compute's floating form).
 
 #include <memory>
@@ -74,6 +77,12 @@ class Instance {
   bool floating_base() const { return floating_ != nullptr; }
   const VectorXd& floating_q() const { return fq_; }
   const VectorXd& floating_v() const { return fv_; }
+  // a = v̇ (nv) at the current state under the last command, the base's six
+  // (the time derivatives of its body-axes twist) then qdd(); empty otherwise.
+  const VectorXd& floating_a() const { return fa_; }
+  // How often the floating model evaluated gravity and Coriolis terms through
+  // the instance's data (stepping, ComputeForces, the base's motion). Only for a floating base.
+  const StageCounts& floating_counts() const { return fdata_->counts(); }
   // A floating base's centre of mass c (m, world) and momentum (world axes:
   // linear N·s, angular about c N·m·s, the centroidal momentum A_G v) at the
   // current state. No allocation. Only for a floating base.
@@ -176,16 +185,17 @@ class Instance {
   void Reset();
 
   // T and V at the current state: the balance's, when it computed them at
-  // this state; a stepped (mujoco) plant's are its simulator's.
+  // this state; a stepped (mujoco) plant's are its simulator's; a floating
+  // base's the whole robot's (V: gravity's potential when on, plus the stops' springs).
   double KineticEnergy() {
     if (stepped_) return stepped_->kinetic_energy();
-    if (floating_) return floating_->ComputeKineticEnergy(*fdata_, fq_, fv_);
-    return energies_cached_ ? kinetic_ : model_.KineticEnergy(q_, qd_);
+    if (energies_cached_) return kinetic_;
+    return floating_ ? floating_->ComputeKineticEnergy(*fdata_, fq_, fv_) : model_.KineticEnergy(q_, qd_);
   }
   double PotentialEnergy() {
     if (stepped_) return stepped_->potential_energy();
-    if (floating_) return model_.effects().terms().gravity ? floating_->ComputePotentialEnergy(*fdata_, fq_) : 0.0;
-    return energies_cached_ ? potential_ : model_.PotentialEnergy(q_);
+    if (energies_cached_) return potential_;
+    return floating_ ? FloatingPotentialEnergy() : model_.PotentialEnergy(q_);
   }
   // MuJoCo steps the plant (the scene's plant: {type: mujoco}); model() is then the controllers' model only.
   // Null for every other plant.
@@ -222,14 +232,23 @@ class Instance {
   // start or Reset: each step adds its tick, a held command's work exactly
   // (tau·Δq) and the rest's by the trapezoid rule (a continuous law's too). Kept when `accounting` (the
   // scene's telemetry, or its energy_balance bound) is on; it then costs one ComputeEffectForces without
-  // gravity and Coriolis terms per step. An external plant keeps none.
+  // gravity and Coriolis terms per step. An external plant keeps none, nor a floating base MuJoCo steps.
+  // A floating base (lagrange's): E = T + V of the whole robot (floating model); every joint force, the
+  // command and the rest alike, is held over each sub-step, so W adds its work exactly (HeldWork: Σ over the
+  // sub-steps of Δqᵀ (tau_applied + disturbance + damping + friction + limits − limit_springs); the base's
+  // force is zero) and nothing goes through the trapezoid rule (quadrature_bound() stays 0): ε is the
+  // integrator's, plus a stop spring's hold error while a joint is past a stop.
   bool accounting() const { return accounting_; }
   const EnergyBalance& energy_balance() const { return balance_; }
   double power() const { return power_end_; }  // W, at the last step's end under its command
   // Every effect's force at the current state under the last step's command
   // (what <NAME>_FORCES carries); `out` sized for this plant. No allocation.
   // A stepped (mujoco) plant's are its simulator's own terms, constraint
-  // forces and contacts (SteppedPlantData::ComputeForces).
+  // forces and contacts (SteppedPlantData::ComputeForces). A floating base's
+  // are the joints' rows (n) of its nv: gravity and coriolis the floating
+  // model's G(q) and C(q, v) v (each only when its effect is on), so that
+  //   [M(q) floating_a()]_joints = NetForce = tau_applied + ... − coriolis − gravity,
+  // while the base's rows, unactuated, are M_b(q) v̇ + (C v)_b + G_b = 0.
   void ComputeForces(EffectForces& out);
 
  private:
@@ -260,6 +279,14 @@ class Instance {
   StepFailure StepPlant(double dt);
   // Puts a stepped plant's simulator at the current state (the full q, v of a floating base).
   void SetSteppedState();
+  // A floating base's tick: its forces' work over the tick (`held_work`, J) to the balance.
+  void AccountHeld(double dt, double held_work);
+  // (q, v) => kinetic_, potential_ afresh (a floating base's: the whole robot's); returns T + V, J.
+  double ComputeEnergies();
+  // A floating base's V at fq_: gravity's potential when on, plus the stops' springs, J.
+  double FloatingPotentialEnergy();
+  // (q, v) => out's gravity and coriolis rows: the floating model's G and C v, joints' rows, each when on.
+  void ComputeFloatingBiasRows(EffectForces& out);
   // After SetState or SetBaseState: the simulator there, q̈ under the last command, the balance re-based.
   void SettleAtNewState();
   // SetState's and SetBaseState's placing, before SettleAtNewState.
@@ -285,6 +312,7 @@ class Instance {
   FloatingIntegrator* fintegrator_ = nullptr;
   int fsubsteps_ = 1;
   VectorXd fq_, fv_, ftau_, fa_;
+  VectorXd fzero_, fbias_;  // (nv) a zero acceleration; G or C v (ComputeFloatingBiasRows' scratch)
   MatrixXd fjc_;  // (3 x nv) the centre of mass's Jacobian (ComputeBaseMotion's scratch)
   std::unique_ptr<EffectForces> fforces_;                 // a floating stepped plant's forces, nv rows (null otherwise)
   Integrator* integrator_;                                // the one in use, one of integrators_

@@ -613,8 +613,8 @@ void CheckFloatingIntegrator(const YamlReader& node, const IntegratorConfig& int
 
 // What a floating base's controllers and keys must be (FloatingBaseRefusal),
 // checked before the controllers are read: a refused type is named as such,
-// not by its own missing keys.
-void CheckFloatingControl(const YamlReader& node) {
+// not by its own missing keys. One MuJoCo steps keeps no energy balance.
+void CheckFloatingControl(const YamlReader& node, bool mujoco) {
   for (const YamlReader& c : ControllerNodes(node)) {
     const YamlReader type = c.Required("type");
     const std::optional<ControllerType> t = ParseControllerType(type.Text());
@@ -624,8 +624,8 @@ void CheckFloatingControl(const YamlReader& node) {
       k->Fail("a floating base's controller runs once per tick (its force is held over the step)");
     }
   }
-  if (auto e = node.Optional("energy_balance")) {
-    e->Fail("expected no energy_balance for a floating base (it keeps no energy balance yet)");
+  if (auto e = node.Optional("energy_balance"); e && mujoco) {
+    e->Fail("expected no energy_balance for a floating base MuJoCo steps (it keeps no energy balance yet)");
   }
 }
 
@@ -723,7 +723,7 @@ InstanceConfig ReadInstance(const YamlReader& node, double period, UrdfFiles& ur
   if (auto t = node.Optional("telemetry")) inst.telemetry = t->Bool();
   if (auto f = node.Optional("forces")) inst.forces = f->Bool();
   if (auto e = node.Optional("energy_balance")) inst.energy_balance = ReadEnergyBalanceBound(*e, inst.external.has_value());
-  if (inst.floating) CheckFloatingControl(node);
+  if (inst.floating) CheckFloatingControl(node, inst.mujoco.has_value());
   ReadControl(node, period, inst, urdf);
   CheckExternalControl(node, inst);
   if (!inst.floating) CheckNoStance(node, inst);

@@ -150,6 +150,17 @@ TEST(MujocoStand, AStanceOnTheA1WithItsBaseFixedIsRefused) {
       << error;
 }
 
+// lagrange's own floating base keeps an energy balance (FloatingBalance.*); one MuJoCo steps does not yet.
+TEST(MujocoStand, AnEnergyBalanceOnAFloatingBaseMujocoStepsIsRefused) {
+  const std::string error = StandSceneError(
+      StandScene("{type: mujoco, file: robots/a1.xml, floating_base: true, model: {type: urdf, file: robots/a1.urdf}}",
+                 kStance) +
+      "    energy_balance: {bound: 1}\n");
+  EXPECT_NE(error.find("instances[0].energy_balance: expected no energy_balance for a floating base MuJoCo steps"),
+            std::string::npos)
+      << error;
+}
+
 TEST(MujocoStand, AnUnknownFootIsRefusedNamingTheFrames) {
   const std::string error = StandSceneError(
       StandScene("{type: mujoco, file: robots/a1.xml, floating_base: true, model: {type: urdf, file: robots/a1.urdf}}",
