@@ -10,7 +10,7 @@ constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Meth
 
 bool IsFloatingIntegrator(IntegratorType type) {
   return type == IntegratorType::kExplicitEuler || type == IntegratorType::kSemiImplicitEuler ||
-         type == IntegratorType::kRk4;
+         type == IntegratorType::kRk4 || type == IntegratorType::kVariational;
 }
 
 }  // namespace
@@ -57,7 +57,9 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
     floating_ = im.floating.get();
     fdata_ = floating_->MakeData();
     for (const IntegratorType type : kAllIntegrators) {
-      fintegrators_.push_back(IsFloatingIntegrator(type) ? std::make_unique<FloatingIntegrator>(type, *floating_)
+      IntegratorConfig c = config.integrator;
+      c.type = type;
+      fintegrators_.push_back(IsFloatingIntegrator(type) ? std::make_unique<FloatingIntegrator>(c, *floating_)
                                                          : nullptr);
     }
     fintegrator_ = fintegrators_[static_cast<std::size_t>(config.integrator.type)].get();
@@ -118,16 +120,17 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
   const int n = num_dofs();
   const double h = dt / fsubsteps_;
   ftau_.head<kFreeFlyerNv>().setZero();
+  bool ok = true;
   for (int k = 0; k < fsubsteps_; ++k) {
     // The joints' force, the command through every effect, held over the sub-step.
     model_.effects().ComputeGeneralizedForce(t_ + k * h, q_, qd_, tau_cmd, ftau_.tail(n));
-    fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_);
+    ok = fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_) && ok;
     q_ = fq_.tail(n);
     qd_ = fv_.tail(n);
   }
   t_ = static_cast<double>(++steps_) * dt;
   ComputeAcceleration(t_, tau_cmd);
-  return fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
+  return ok && fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
 }
 
 Instance::BaseMotion Instance::ComputeBaseMotion() {
@@ -232,6 +235,7 @@ const char* Instance::SetIntegrator(const IntegratorConfig& config) {
   integrator_ = &target;
   if (floating_) {
     fintegrator_ = fintegrators_[static_cast<std::size_t>(config.type)].get();
+    fintegrator_->Reconfigure(config);
     fsubsteps_ = config.substeps;
   }
   return nullptr;
