@@ -46,7 +46,9 @@ struct IntegratorConfig {
   double rtol = 1e-8;         // Dormand–Prince relative tolerance
   double atol = 1e-10;        // Dormand–Prince absolute tolerance
   int max_steps = 100000;     // Dormand–Prince internal steps per Step call
-  double newton_tol = 1e-13;  // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞)
+  // variational: Newton stops when |Δq|∞ <= tol·(1 + |q|∞); on a floating base a step fails when its
+  // residual stops decreasing above tol times the step's momenta (plant/floating_integrator.hpp)
+  double newton_tol = 1e-13;
   int newton_max_iterations = 30;
 };
 

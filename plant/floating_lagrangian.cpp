@@ -128,6 +128,20 @@ void FloatingLagrangian::ComputeBias(FloatingLagrangianData& d, ConstVecRef q, C
   }
 }
 
+void FloatingLagrangian::ComputeKineticEnergyGradient(FloatingLagrangianData& d, ConstVecRef q, ConstVecRef v,
+                                                      VecRef grad) const {
+  CheckSizes(d, q);
+  LAGRANGE_CHECK_NV(v);
+  eigen_assert(grad.size() == n_ && "grad: expected num_dofs() entries");
+  for (int k = 0; k < n_; ++k) d.r1[k] = Dual1(q[kFreeFlyerNq + k]);
+  for (int k = 0; k < num_v(); ++k) d.v1[k] = Dual1(v[k]);
+  for (int j = 0; j < n_; ++j) {
+    d.r1[j].d = 1.0;
+    grad[j] = Kinetic(d.r1, d.v1).d;
+    d.r1[j].d = 0.0;
+  }
+}
+
 void FloatingLagrangian::ComputeInverseDynamics(FloatingLagrangianData& d, ConstVecRef q, ConstVecRef v,
                                                 ConstVecRef a, DynamicsTerms terms, VecRef tau) const {
   LAGRANGE_CHECK_NV(a);

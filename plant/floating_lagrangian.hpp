@@ -69,6 +69,10 @@ class FloatingLagrangian {
   // (q, v, tau) => a = M⁻¹ (tau − [C v] − [G]) (nv).
   void ComputeForwardDynamics(FloatingLagrangianData& data, ConstVecRef q, ConstVecRef v, ConstVecRef tau,
                               DynamicsTerms terms, VecRef a) const;
+  // (q, v) (nq, nv) => ∂T/∂r (num_dofs()): the kinetic energy's gradient in the
+  // joints' degrees of freedom at v held, N·m or N (exact, by dual numbers; the
+  // variational floating integrator's joint force, plant/floating_integrator.hpp).
+  void ComputeKineticEnergyGradient(FloatingLagrangianData& data, ConstVecRef q, ConstVecRef v, VecRef grad) const;
   // (q, v) => T, J; q => V, J (as FloatingDynamics').
   double ComputeKineticEnergy(FloatingLagrangianData& data, ConstVecRef q, ConstVecRef v) const;
   double ComputePotentialEnergy(FloatingLagrangianData& data, ConstVecRef q) const;

@@ -86,4 +86,50 @@ void TwistRate(ConstVecRef xi, ConstVecRef v, VecRef rate) {
   rate.tail(n) = v.tail(n);
 }
 
+// cay([φ]×) as a unit quaternion, ∝ (φ/2, 1).
+Quaterniond CayleyRotation(const Vector3d& phi) {
+  return Quaterniond(1.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z()).normalized();
+}
+
+// The base's displacement in its own axes: (1 − [φ]×/2)⁻¹ ρ = 4 / (4 + ‖φ‖²) (ρ + ½ φ × ρ + ¼ φ (φ · ρ)).
+Vector3d CayleyTranslation(const Vector3d& rho, const Vector3d& phi) {
+  return (4.0 / (4.0 + phi.squaredNorm())) * (rho + 0.5 * phi.cross(rho) + 0.25 * phi.dot(rho) * phi);
+}
+
+void IntegrateCayley(ConstVecRef q, ConstVecRef xi, VecRef out) {
+  eigen_assert(q.size() == xi.size() + 1 && out.size() == q.size() && "q, out: nq = nv + 1 entries; xi: nv");
+  const Vector3d rho = xi.head<3>(), phi = xi.segment<3>(3);
+  const Quaterniond quat = QuaternionOf(q);
+  const Quaterniond step = CayleyRotation(phi);
+  const Vector3d dp = quat.toRotationMatrix() * CayleyTranslation(rho, phi);
+  const Quaterniond next = (quat * step).normalized();
+  out.head<3>() = q.head<3>() + dp;
+  out.segment<4>(3) = next.coeffs();  // x y z w
+  const Eigen::Index n = xi.size() - 6;
+  out.tail(n) = q.tail(n) + xi.tail(n);
+}
+
+Eigen::Matrix<double, 6, 1> CayleyMomentum(const Eigen::Matrix<double, 6, 1>& xi,
+                                           const Eigen::Matrix<double, 6, 1>& mu) {
+  // dcay⁻¹_ξ = [[P, −½ P [ρ]×], [0, P + ¼ φ φᵀ]], P = 1 − ½ [φ]×, rows (linear, angular); its transpose on (f, n).
+  const Vector3d rho = xi.head<3>(), phi = xi.tail<3>(), f = mu.head<3>(), n = mu.tail<3>();
+  const Vector3d a = f + 0.5 * phi.cross(f);
+  Eigen::Matrix<double, 6, 1> out;
+  out.head<3>() = a;
+  out.tail<3>() = n + 0.5 * phi.cross(n) + 0.25 * phi.dot(n) * phi + 0.5 * rho.cross(a);
+  return out;
+}
+
+Eigen::Matrix<double, 6, 1> CayleyTransport(const Eigen::Matrix<double, 6, 1>& xi,
+                                            const Eigen::Matrix<double, 6, 1>& mu) {
+  const Vector3d rho = xi.head<3>(), phi = xi.tail<3>(), f = mu.head<3>(), n = mu.tail<3>();
+  // cay([φ]×)ᵀ = 1 + 4 / (4 + ‖φ‖²) (−[φ]× + ½ [φ]×²).
+  const Matrix3d K = Skew(phi);
+  const Matrix3d Ct = Matrix3d::Identity() + (4.0 / (4.0 + phi.squaredNorm())) * (0.5 * K * K - K);
+  Eigen::Matrix<double, 6, 1> out;
+  out.head<3>() = Ct * f;
+  out.tail<3>() = Ct * (n - CayleyTranslation(rho, phi).cross(f));
+  return out;
+}
+
 }  // namespace lagrange

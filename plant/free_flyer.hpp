@@ -17,6 +17,22 @@
 //               base's six entries; the joints' part is v): the rate of the
 //               local coordinates ξ of q = q0 ⊕ ξ moving with velocity v, which a
 //               Runge–Kutta–Munthe-Kaas step of order <= 4 needs.
+//   IntegrateCayley  q ⊕ ξ by SE(3)'s Cayley map instead of exp, the variational
+//               integrator's retraction: (R, p)⁺ = (R, p) · cay(ξ_b), cay(X) =
+//               (1 − X/2)⁻¹ (1 + X/2) on the 4 x 4 twist matrix, i.e.
+//               R⁺ = R cay([φ]×) (the rotation by 2 atan(‖φ‖/2) about φ: the
+//               quaternion ∝ (φ/2, 1)), p⁺ = p + R (1 − [φ]×/2)⁻¹ ρ, ξ_b = (ρ, φ);
+//               the joints q + ξ. The quaternion is renormalised.
+//   CayleyMomentum  (dcay⁻¹_ξ)ᵀ μ: the dual of the inverse right-trivialised
+//               tangent dcay⁻¹_ξ(z) = (1 − ξ/2) z (1 + ξ/2), exact (no series),
+//               on a base momentum μ = (linear, angular) (6). With −ξ it is the
+//               left-trivialised one. The variational step's discrete momenta are
+//               μ0 = (dcay⁻¹_ξ)ᵀ μ and μ1 = (dcay⁻¹_−ξ)ᵀ μ; they are the same
+//               momentum in the world: μ1 = CayleyTransport(ξ, μ0)
+//               (tests/plant/free_flyer_test.cpp).
+//   CayleyTransport  a base momentum μ = (f, n) in the axes of g, re-expressed
+//               in those of g cay(ξ_b) (Ad*): (Cᵀ f, Cᵀ (n − d × f)) with
+//               C = cay([φ]×), d = (1 − [φ]×/2)⁻¹ ρ; the world's momentum is unchanged.
 // Sizes are checked by eigen_assert (q and its result nq, v nq − 1).
 
 #include "plant/types.hpp"
@@ -29,5 +45,13 @@ void Integrate(ConstVecRef q, ConstVecRef v, double h, VecRef out);
 void Difference(ConstVecRef q0, ConstVecRef q1, VecRef v);
 // (ξ, v) (nv each) => the local coordinates' rate (nv), above.
 void TwistRate(ConstVecRef xi, ConstVecRef v, VecRef rate);
+// (q (nq), ξ (nv)) => q ⊕ ξ by the Cayley map (nq). `out` may alias `q`.
+void IntegrateCayley(ConstVecRef q, ConstVecRef xi, VecRef out);
+// (ξ_b, μ) (6 each) => (dcay⁻¹_ξ)ᵀ μ (6), above.
+Eigen::Matrix<double, 6, 1> CayleyMomentum(const Eigen::Matrix<double, 6, 1>& xi,
+                                           const Eigen::Matrix<double, 6, 1>& mu);
+// (ξ_b, μ) (6 each) => μ in the axes of the base moved by cay(ξ_b) (6), above.
+Eigen::Matrix<double, 6, 1> CayleyTransport(const Eigen::Matrix<double, 6, 1>& xi,
+                                            const Eigen::Matrix<double, 6, 1>& mu);
 
 }  // namespace lagrange

@@ -10,7 +10,7 @@ constexpr Method kAllMethods[] = {Method::kClosedForm, Method::kLagrangian, Meth
 
 bool IsFloatingIntegrator(IntegratorType type) {
   return type == IntegratorType::kExplicitEuler || type == IntegratorType::kSemiImplicitEuler ||
-         type == IntegratorType::kRk4;
+         type == IntegratorType::kRk4 || type == IntegratorType::kVariational;
 }
 
 }  // namespace
@@ -57,7 +57,9 @@ Instance::Instance(std::shared_ptr<const InstanceModel> model)
     floating_ = im.floating.get();
     fdata_ = floating_->MakeData();
     for (const IntegratorType type : kAllIntegrators) {
-      fintegrators_.push_back(IsFloatingIntegrator(type) ? std::make_unique<FloatingIntegrator>(type, *floating_)
+      IntegratorConfig c = config.integrator;
+      c.type = type;
+      fintegrators_.push_back(IsFloatingIntegrator(type) ? std::make_unique<FloatingIntegrator>(c, *floating_)
                                                          : nullptr);
     }
     fintegrator_ = fintegrators_[static_cast<std::size_t>(config.integrator.type)].get();
@@ -121,12 +123,13 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
   const double h = dt / fsubsteps_;
   ftau_.head<kFreeFlyerNv>().setZero();
   double work = 0.0;  // J: of the joints' forces but the stops' springs (their energy is in V)
+  bool ok = true;
   for (int k = 0; k < fsubsteps_; ++k) {
     // The joints' force, the command through every effect, held over the sub-step: its work is Δqᵀ of it.
     model_.ComputeEffectForces(nullptr, t_ + k * h, q_, qd_, tau_cmd, forces_, /*conservative=*/false);
     forces_.NetForce(ftau_.tail(n));
     q_start_ = q_;
-    fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_);
+    ok = fintegrator_->Step(h, ftau_, model_.effects().terms(), fq_, fv_) && ok;
     q_ = fq_.tail(n);
     qd_ = fv_.tail(n);
     work += HeldWork(q_start_, q_, forces_);
@@ -134,7 +137,7 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
   t_ = static_cast<double>(++steps_) * dt;
   ComputeAcceleration(t_, tau_cmd);
   AccountHeld(dt, work);
-  return fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
+  return ok && fq_.allFinite() && fv_.allFinite() ? nullptr : kIntegratorFailed;
 }
 
 Instance::BaseMotion Instance::ComputeBaseMotion() {
@@ -278,6 +281,7 @@ const char* Instance::SetIntegrator(const IntegratorConfig& config) {
   integrator_ = &target;
   if (floating_) {
     fintegrator_ = fintegrators_[static_cast<std::size_t>(config.type)].get();
+    fintegrator_->Reconfigure(config);
     fsubsteps_ = config.substeps;
   }
   return nullptr;

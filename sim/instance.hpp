@@ -9,7 +9,7 @@
 //
 // A floating base (InstanceModel::floating): the instance steps the full
 // state q (nq), v (nv) on its manifold (FloatingIntegrator, the scene's
-// explicit-euler, semi-implicit-euler or rk4), the joints' force (the
+// explicit-euler, semi-implicit-euler, rk4 or variational), the joints' force (the
 // command through every effect: saturation, damping, friction, limits, pushes)
 // held over each sub-step, the base's zero; q(), qd(), qdd() are the joints'
 // part of it (n), floating_q() and floating_v() the whole. Its energies are

@@ -604,7 +604,8 @@ void ReadInitialBase(const YamlReader& init, std::optional<FloatingBaseConfig>& 
 // A floating base steps on its manifold (plant/floating_integrator.hpp).
 void CheckFloatingIntegrator(const YamlReader& node, const IntegratorConfig& integrator) {
   const IntegratorType t = integrator.type;
-  if (t == IntegratorType::kExplicitEuler || t == IntegratorType::kSemiImplicitEuler || t == IntegratorType::kRk4) {
+  if (t == IntegratorType::kExplicitEuler || t == IntegratorType::kSemiImplicitEuler || t == IntegratorType::kRk4 ||
+      t == IntegratorType::kVariational) {
     return;
   }
   node.Required("integrator").Required("type").Fail(std::string(kFloatingIntegrators) + ", got " +

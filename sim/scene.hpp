@@ -94,7 +94,7 @@ inline constexpr double kQuaternionNormTolerance = 1e-6;
 bool NormaliseBaseQuaternion(VecRef base_q);
 
 inline constexpr char kFloatingIntegrators[] =
-    "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler or rk4 only";
+    "a floating base is integrated on its manifold by explicit-euler, semi-implicit-euler, rk4 or variational only";
 inline constexpr char kFloatingMethod[] =
     "a floating base steps by the recursive algorithms only (its Lagrangian path, FloatingLagrangian, is the "
     "O(nv²) reference, not a stepper)";

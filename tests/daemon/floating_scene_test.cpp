@@ -79,7 +79,7 @@ TEST(FloatingScene, TheCentreOfMassFollowsTheParabolaUnderEveryIntegrator) {
   const struct {
     const char* integrator;
     double tolerance;  // m over 1 s at 1 kHz
-  } cases[] = {{"rk4", 1e-9}, {"explicit-euler", 1e-2}, {"semi-implicit-euler", 1e-2}};
+  } cases[] = {{"rk4", 1e-9}, {"variational", 1e-4}, {"explicit-euler", 1e-2}, {"semi-implicit-euler", 1e-2}};
   for (const auto& k : cases) {
     const Scene scene = FloatingVariant(k.integrator, "[0, 0, -9.81]");
     Instance inst(scene.instances[0]);
@@ -237,6 +237,11 @@ TEST(FloatingScene, TheRunTimeSwitchesRefuseWhatAFloatingBaseCannotRun) {
   euler.substeps = 2;
   EXPECT_EQ(inst.SetIntegrator(euler), nullptr);
   EXPECT_EQ(inst.Step(1e-3), nullptr);
+  IntegratorConfig variational;
+  variational.type = IntegratorType::kVariational;
+  EXPECT_EQ(inst.SetIntegrator(variational), nullptr);
+  EXPECT_EQ(inst.Step(1e-3), nullptr);
+  EXPECT_STREQ(inst.SetEffect(EffectKind::kCoriolis, false), kVariationalNeedsCoriolis);
   EXPECT_EQ(inst.SetEffect(EffectKind::kGravity, false), nullptr);
   EXPECT_DOUBLE_EQ(inst.PotentialEnergy(), 0.0);
 }

@@ -11,8 +11,10 @@
 #include <vector>
 
 #include "plant/energy_balance.hpp"
+#include "plant/floating_integrator.hpp"
 #include "plant/integrators.hpp"
 #include "plant/plant_factory.hpp"
+#include "plant/random_tree.hpp"
 #include "plant/urdf.hpp"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/plant_cases.hpp"
@@ -191,6 +193,34 @@ TEST(NoAllocation, ComputingDerivativesAllocatesNothing) {
       EXPECT_TRUE(A.allFinite() && B.allFinite());
     }
   }
+}
+
+// A floating base's variational step (Newton, its Jacobian built, kept and
+// rebuilt), under gravity and joint torques, every sub-step after construction.
+TEST(NoAllocation, SteppingAFloatingBaseVariationallyAllocatesNothing) {
+  std::mt19937 rng{42};
+  RandomTreeOptions options;
+  options.bodies = 5;
+  const FloatingDynamics model(RandomFloatingTree(options, rng));
+  IntegratorConfig config;
+  config.type = IntegratorType::kVariational;
+  FloatingIntegrator integrator(config, model);
+  VectorXd q = VectorXd::Zero(model.num_q()), v = VectorXd::Constant(model.num_v(), 0.3);
+  q[6] = 1.0;
+  VectorXd tau = VectorXd::Constant(model.num_v(), 0.2);
+  tau.head<kFreeFlyerNv>().setZero();
+  std::int64_t allocations = 0;
+  {
+    testing::AllocationCounter counter;
+    for (int k = 0; k < 50; ++k) {
+      integrator.Step(k < 25 ? 1e-3 : 5e-4, tau, {}, q, v);  // a new h rebuilds the Jacobian
+      if (k == 40) integrator.Reconfigure(config);           // and so does a reconfiguration
+    }
+    allocations = counter.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(integrator.stats().failures, 0);
+  EXPECT_TRUE(q.allFinite() && v.allFinite());
 }
 
 TEST(NoAllocation, TheCounterSeesEigenAndStandardAllocations) {
