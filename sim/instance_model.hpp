@@ -86,6 +86,9 @@ struct InstanceModel {
   std::array<double, kNumMethods> evaluation_s{};
   double tick_overhead_s = 0.0;  // the rest of its tick beyond the evaluations, s (MeasureTickOverheadSeconds)
   double forces_s = 0.0;         // computing its per-effect forces, s, while SET_FORCES is on (MeasureForcesSeconds)
+  // A floating base lagrange integrates: evaluation_s is then its floating model's forward dynamics (nv), and
+  // this one residual of the variational step on the manifold, s (MeasureFloatingResidualSeconds); 0 otherwise.
+  double floating_residual_s = 0.0;
   // Its mpc controller's optimiser, off the tick: one DDP iteration of its plan, s (MeasureMpcIterationSeconds);
   // 0: no mpc controller, or not measured.
   double mpc_iteration_s = 0.0;

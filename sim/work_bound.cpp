@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 
+#include "plant/floating_integrator.hpp"
 #include "plant/plant_model.hpp"
 #include "protocol/status.hpp"
 #include "sim/instance.hpp"
@@ -278,10 +279,66 @@ std::optional<std::string> MpcBoundRefusal(const DaemonModel& model) {
   return std::nullopt;
 }
 
+namespace {
+
+// A floating base lagrange integrates (not one MuJoCo steps): its state, (q0, v0) of nq and nv.
+std::pair<VectorXd, VectorXd> FloatingStart(const InstanceModel& m) {
+  const InstanceConfig& c = m.config;
+  VectorXd q(m.floating->num_q()), v(m.floating->num_v());
+  q << c.floating->q0, c.q0;
+  v << c.floating->v0, c.qd0;
+  return {q, v};
+}
+
+double MeasureFloatingEvaluationSeconds(const InstanceModel& m) {
+  const auto [q, v] = FloatingStart(m);
+  const std::unique_ptr<FloatingData> data = m.floating->MakeData();
+  const VectorXd tau = VectorXd::Zero(v.size());
+  VectorXd a(v.size());
+  const double fastest = FastestSample(kMeasureBudget, [&] {
+    const Steady::time_point start = Steady::now();
+    m.floating->ComputeForwardDynamics(*data, q, v, tau, DynamicsTerms{}, a);
+    return SecondsSince(start);
+  });
+  return std::isfinite(fastest) ? fastest : 0.0;
+}
+
+double MeasureFloatingResidualSeconds(const InstanceModel& m) {
+  IntegratorConfig config = m.config.integrator;
+  config.type = IntegratorType::kVariational;
+  FloatingIntegrator integrator(config, *m.floating);
+  const auto [q0, v0] = FloatingStart(m);
+  VectorXd q = q0, v = v0;
+  const VectorXd tau = VectorXd::Zero(v0.size());
+  const double h = 1e-3 / std::max(1, config.substeps);  // a step's length barely changes its work
+  const double fastest = FastestSample(kMeasureBudget, [&] {
+    integrator.Reconfigure(config);  // forgets the kept Jacobian: the step rebuilds it, as its worst case does
+    q = q0;
+    v = v0;
+    const std::int64_t before = integrator.stats().evaluations;
+    const Steady::time_point start = Steady::now();
+    integrator.Step(h, tau, DynamicsTerms{}, q, v);
+    const double step = SecondsSince(start);
+    return step / static_cast<double>(std::max<std::int64_t>(1, integrator.stats().evaluations - before));
+  });
+  return std::isfinite(fastest) ? fastest : 0.0;
+}
+
+}  // namespace
+
 void MeasureCosts(InstanceModel& m) {
   Instance instance(OverheadConfig(m.config));  // one private Instance for the tick's rest and the plan
   m.mpc_iteration_s = MeasureMpcIterationSeconds(instance);
   m.evaluation_s = MeasureEvaluationCosts(m.config);
+  if (m.floating_base() && !m.config.mujoco) {
+    // Every method steps the floating model (plant/floating_integrator.hpp): its forward dynamics is the
+    // evaluation, whichever method the joints' model uses.
+    const double floating = MeasureFloatingEvaluationSeconds(m);
+    for (double& cost : m.evaluation_s) {
+      if (cost > 0.0) cost = floating;
+    }
+    m.floating_residual_s = MeasureFloatingResidualSeconds(m);
+  }
   m.tick_overhead_s = MeasureTickOverheadSeconds(instance, m.evaluation_s[static_cast<std::size_t>(m.config.method)]);
   m.forces_s = m.external_plant() ? 0.0 : MeasureForcesSeconds(m.config);
 }
@@ -295,6 +352,11 @@ WorkBound WorkBoundOf(const InstanceModel& m, const IntegratorConfig& config, Me
   const double overhead = m.tick_overhead_s + (forces ? m.forces_s : 0.0);
   if (m.external_plant()) return {m.name(), 0, cost, overhead};  // nothing is integrated
   if (m.config.mujoco) return {m.name(), 1, cost, overhead};     // the cost is one tick of MuJoCo's steps
+  if (m.floating_base()) {  // integrated on the manifold, over nv; a variational step's evaluation is a residual
+    const double each =
+        config.type == IntegratorType::kVariational && m.floating_residual_s > 0.0 ? m.floating_residual_s : cost;
+    return {m.name(), WorstCaseEvaluations(config, m.num_dofs + kFreeFlyerNv), each, overhead};
+  }
   return {m.name(), WorstCaseEvaluations(config, m.num_dofs), cost, overhead};
 }
 

@@ -97,7 +97,9 @@ TEST(FloatingScene, TheCentreOfMassFollowsTheParabolaUnderEveryIntegrator) {
     }
     EXPECT_LT(worst, k.tolerance) << k.integrator;
     // Gravity acts at the centre of mass: the momentum about it stays.
-    if (std::string(k.integrator) == "rk4") EXPECT_LT(worst_angular, 1e-9);
+    if (std::string(k.integrator) == "rk4") {
+      EXPECT_LT(worst_angular, 1e-9);
+    }
     EXPECT_GT((inst.q() - scene.instances[0].q0).norm(), 0.1) << k.integrator;  // the joints moved meanwhile
   }
 }
