@@ -291,7 +291,9 @@ std::pair<VectorXd, VectorXd> FloatingStart(const InstanceModel& m) {
 }
 
 double MeasureFloatingEvaluationSeconds(const InstanceModel& m) {
-  const auto [q, v] = FloatingStart(m);
+  // No structured binding: the lambda below captures these, which clang 14 (scripts/fuzz's compiler) refuses.
+  const std::pair<VectorXd, VectorXd> state = FloatingStart(m);
+  const VectorXd &q = state.first, &v = state.second;
   const std::unique_ptr<FloatingData> data = m.floating->MakeData();
   const VectorXd tau = VectorXd::Zero(v.size());
   VectorXd a(v.size());
@@ -307,7 +309,8 @@ double MeasureFloatingResidualSeconds(const InstanceModel& m) {
   IntegratorConfig config = m.config.integrator;
   config.type = IntegratorType::kVariational;
   FloatingIntegrator integrator(config, *m.floating);
-  const auto [q0, v0] = FloatingStart(m);
+  const std::pair<VectorXd, VectorXd> state = FloatingStart(m);  // (no structured binding: as above)
+  const VectorXd &q0 = state.first, &v0 = state.second;
   VectorXd q = q0, v = v0;
   const VectorXd tau = VectorXd::Zero(v0.size());
   const double h = 1e-3 / std::max(1, config.substeps);  // a step's length barely changes its work
