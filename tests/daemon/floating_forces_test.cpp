@@ -327,7 +327,7 @@ TEST(FloatingBalance, ASceneBoundOnTheResidualFaultsAFloatingBaseThatLeavesIt) {
 }
 
 TEST(FloatingForces, StepsForcesAndTheBalanceAllocateNothing) {
-  for (const char* integrator : {"rk4", "semi-implicit-euler"}) {
+  for (const char* integrator : {"rk4", "semi-implicit-euler", "variational"}) {
     const Scene scene = FloatingTree(integrator, kEveryEffect, kPd);
     Instance inst(scene.instances[0]);
     ASSERT_TRUE(inst.accounting());

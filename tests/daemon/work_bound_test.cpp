@@ -106,8 +106,8 @@ instances:
 // A floating base lagrange integrates on its manifold (plant/floating_integrator.hpp): its worst case counts over
 // nv = n + 6, each evaluation is the floating model's (its forward dynamics; a variational step's, one residual
 // of its discrete equations), not the joints' fixed-base model's. Before, the A1 in free fall under variational
-// was admitted at 1 ms by the joints' count and cost (about 0.4 ms) and overran 3 % of its ticks in lagranged; it
-// is now refused at load (its worst case 72 residuals of 20 µs, measured here once).
+// was admitted at 1 ms by the joints' count and cost and overran 3 % of its ticks in lagranged (README, "worst
+// case": `lagrangectl simulate` on that scene now refuses it; a timing, so not asserted here).
 TEST(WorkBound, AFloatingBaseCountsOverItsNvAndAVariationalStepByItsResiduals) {
   const std::shared_ptr<DaemonModel> model =
       BuildDaemonModel(LoadScene(std::string(LAGRANGE_SOURCE_DIR) + "/tests/fixtures/scenes/floating_fall.yaml"));
@@ -127,8 +127,7 @@ TEST(WorkBound, AFloatingBaseCountsOverItsNvAndAVariationalStepByItsResiduals) {
 
   IntegratorConfig variational{.type = IntegratorType::kVariational};
   const WorkBound implicit_bound = WorkBoundOf(m, variational, m.config.method);
-  EXPECT_EQ(implicit_bound.evaluations, 3 + 2 * (nv + 1) + variational.newton_max_iterations + 1);
-  EXPECT_GT(implicit_bound.evaluations, WorstCaseEvaluations(variational, static_cast<int>(n)));
+  EXPECT_EQ(implicit_bound.evaluations, 3 + 2 * (nv + 1) + variational.newton_max_iterations + 1) << "over nv, not n";
   EXPECT_EQ(implicit_bound.evaluation_s, m.floating_residual_s);
 }
 
