@@ -691,7 +691,7 @@ void Runtime::Record(Slot& s, InstanceRecord& r) {
   r.work = balance.work();
   r.power = inst.power();
   r.integrated = s.integrated && s.mode.mode != Mode::kFault;  // a faulted step's work is of the step undone
-  r.integrator_work = r.integrated ? inst.integrator().work() : IntegratorWork{};
+  r.integrator_work = r.integrated ? inst.integrator_work() : IntegratorWork{};
   r.integrator = inst.integrator().config();
   r.external_plant = inst.external_plant();
   r.mujoco_integrator = s.m.config.mujoco ? std::optional(s.m.config.mujoco->integrator) : std::nullopt;

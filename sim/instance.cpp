@@ -124,6 +124,7 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
   ftau_.head<kFreeFlyerNv>().setZero();
   double work = 0.0;  // J: of the joints' forces but the stops' springs (their energy is in V)
   bool ok = true;
+  const IntegratorStats before = fintegrator_->stats();
   for (int k = 0; k < fsubsteps_; ++k) {
     // The joints' force, the command through every effect, held over the sub-step: its work is Δqᵀ of it.
     model_.ComputeEffectForces(nullptr, t_ + k * h, q_, qd_, tau_cmd, forces_, /*conservative=*/false);
@@ -134,6 +135,14 @@ Instance::StepFailure Instance::StepFloating(double dt, ConstVecRef tau_cmd) {
     qd_ = fv_.tail(n);
     work += HeldWork(q_start_, q_, forces_);
   }
+  const IntegratorStats& after = fintegrator_->stats();
+  fwork_ = IntegratorWork{.steps = after.steps - before.steps,
+                          .evaluations = after.evaluations - before.evaluations,
+                          .accepted = after.accepted - before.accepted,
+                          .rejected = after.rejected - before.rejected,
+                          .newton_iterations = after.newton_iterations - before.newton_iterations,
+                          .failures = after.failures - before.failures,
+                          .step = h};
   t_ = static_cast<double>(++steps_) * dt;
   ComputeAcceleration(t_, tau_cmd);
   AccountHeld(dt, work);

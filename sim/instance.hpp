@@ -203,6 +203,9 @@ class Instance {
 
   PlantModel& model() { return model_; }
   const Integrator& integrator() const { return *integrator_; }
+  // What the last step's integration did (Integrator::work): on a floating base, the floating integrator's
+  // sub-steps over the tick (integrator() is then the joints' and never steps).
+  const IntegratorWork& integrator_work() const { return floating_ ? fwork_ : integrator_->work(); }
 
   // Run-time switching, between steps. Every integrator type and every method
   // the plant has were built in the constructor, so none of these allocates.
@@ -310,6 +313,7 @@ class Instance {
   std::unique_ptr<FloatingData> fdata_;
   std::vector<std::unique_ptr<FloatingIntegrator>> fintegrators_;
   FloatingIntegrator* fintegrator_ = nullptr;
+  IntegratorWork fwork_;  // the floating integrator's work over the last tick (integrator_work)
   int fsubsteps_ = 1;
   VectorXd fq_, fv_, ftau_, fa_;
   VectorXd fzero_, fbias_;  // (nv) a zero acceleration; G or C v (ComputeFloatingBiasRows' scratch)

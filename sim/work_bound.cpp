@@ -218,7 +218,7 @@ double MeasureTickOverheadSeconds(Instance& instance, double evaluation_s) {
                            instance.Step(period);
                            if (mpc_work) mpc_work->Run(instance, *mpc);
                            const double step = SecondsSince(start);
-                           const auto evaluations = static_cast<double>(instance.integrator().work().evaluations + 1);
+                           const auto evaluations = static_cast<double>(instance.integrator_work().evaluations + 1);
                            instance.Reset();  // every step from the initial state
                            give_plan();
                            return step - evaluations * evaluation_s;

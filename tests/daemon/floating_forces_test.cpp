@@ -326,6 +326,22 @@ TEST(FloatingBalance, ASceneBoundOnTheResidualFaultsAFloatingBaseThatLeavesIt) {
   EXPECT_GT(std::abs(inst.energy_balance().residual()), 1e-3);
 }
 
+// What a tick's integration did, as telemetry publishes it (integrator_work): on a floating base the floating
+// integrator's sub-steps, not the joints' integrator's, which never steps there (it read zeros before).
+TEST(FloatingForces, ATicksIntegratorWorkIsTheFloatingIntegrators) {
+  Instance rk4(FloatingTree("rk4", "", kPd).instances[0]);
+  rk4.Step(1e-3);
+  EXPECT_EQ(rk4.integrator_work().steps, 1);
+  EXPECT_EQ(rk4.integrator_work().evaluations, 4);
+  EXPECT_EQ(rk4.integrator().work().evaluations, 0) << "the joints' integrator did not step";
+  Instance variational(FloatingTree("variational", "", kPd).instances[0]);
+  variational.Step(1e-3);
+  EXPECT_EQ(variational.integrator_work().steps, 1);
+  EXPECT_GT(variational.integrator_work().newton_iterations, 0);
+  EXPECT_GT(variational.integrator_work().evaluations, variational.integrator_work().newton_iterations);
+  EXPECT_EQ(variational.integrator_work().failures, 0);
+}
+
 TEST(FloatingForces, StepsForcesAndTheBalanceAllocateNothing) {
   for (const char* integrator : {"rk4", "semi-implicit-euler", "variational"}) {
     const Scene scene = FloatingTree(integrator, kEveryEffect, kPd);
