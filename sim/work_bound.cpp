@@ -35,6 +35,17 @@ double FastestSample(double budget, const std::function<double()>& sample) {
   return FastestOfSamples(sample, budget, [&] { return SecondsSince(begin); });
 }
 
+// The instance's initial state (q0, qd0): on a floating base the whole state, the base's pose and twist
+// leading it (nq and nv), whether MuJoCo or lagrange integrates it. Its callers bind references to the pair's
+// members, not a structured binding: their lambdas capture them, which clang 14 (scripts/fuzz's) refuses.
+std::pair<VectorXd, VectorXd> InitialState(const InstanceConfig& config) {
+  if (!config.floating) return {config.q0, config.qd0};
+  VectorXd q(kFreeFlyerNq + config.q0.size()), qd(kFreeFlyerNv + config.qd0.size());
+  q << config.floating->q0, config.q0;
+  qd << config.floating->v0, config.qd0;
+  return {q, qd};
+}
+
 std::int64_t SaturatingMul(std::int64_t a, std::int64_t b) {
   if (a != 0 && b > std::numeric_limits<std::int64_t>::max() / a) return std::numeric_limits<std::int64_t>::max();
   return a * b;
@@ -113,14 +124,8 @@ double MeasureEvaluationSeconds(const InstanceConfig& config) {
 
 double MeasureSteppedSeconds(const InstanceConfig& config) {
   const std::unique_ptr<SteppedPlantData> data = config.mujoco->model->MakeData();
-  // The initial state, the base's pose and twist leading it on a floating base.
-  VectorXd q0 = config.q0, qd0 = config.qd0;
-  if (config.floating) {
-    q0.resize(kFreeFlyerNq + config.q0.size());
-    q0 << config.floating->q0, config.q0;
-    qd0.resize(kFreeFlyerNv + config.qd0.size());
-    qd0 << config.floating->v0, config.qd0;
-  }
+  const std::pair<VectorXd, VectorXd> state = InitialState(config);
+  const VectorXd &q0 = state.first, &qd0 = state.second;
   VectorXd q = q0, qd = qd0, qdd(qd0.size());
   const VectorXd tau = VectorXd::Zero(qd0.size());
   const double fastest = FastestSample(kMeasureBudget, [&] {
@@ -281,18 +286,8 @@ std::optional<std::string> MpcBoundRefusal(const DaemonModel& model) {
 
 namespace {
 
-// A floating base lagrange integrates (not one MuJoCo steps): its state, (q0, v0) of nq and nv.
-std::pair<VectorXd, VectorXd> FloatingStart(const InstanceModel& m) {
-  const InstanceConfig& c = m.config;
-  VectorXd q(m.floating->num_q()), v(m.floating->num_v());
-  q << c.floating->q0, c.q0;
-  v << c.floating->v0, c.qd0;
-  return {q, v};
-}
-
 double MeasureFloatingEvaluationSeconds(const InstanceModel& m) {
-  // No structured binding: the lambda below captures these, which clang 14 (scripts/fuzz's compiler) refuses.
-  const std::pair<VectorXd, VectorXd> state = FloatingStart(m);
+  const std::pair<VectorXd, VectorXd> state = InitialState(m.config);
   const VectorXd &q = state.first, &v = state.second;
   const std::unique_ptr<FloatingData> data = m.floating->MakeData();
   const VectorXd tau = VectorXd::Zero(v.size());
@@ -309,7 +304,7 @@ double MeasureFloatingResidualSeconds(const InstanceModel& m) {
   IntegratorConfig config = m.config.integrator;
   config.type = IntegratorType::kVariational;
   FloatingIntegrator integrator(config, *m.floating);
-  const std::pair<VectorXd, VectorXd> state = FloatingStart(m);  // (no structured binding: as above)
+  const std::pair<VectorXd, VectorXd> state = InitialState(m.config);
   const VectorXd &q0 = state.first, &v0 = state.second;
   VectorXd q = q0, v = v0;
   const VectorXd tau = VectorXd::Zero(v0.size());
